@@ -1,0 +1,115 @@
+//! File formats tmlut writes and reads back: DDS textures, OpenEXR images, the original
+//! transfer-matrix `.bin` layout, and the `manifest.json` that states every convention.
+//!
+//! Every writer goes through [`write_atomically`]: the bytes land in a temporary file beside the
+//! target and are renamed over it only once complete, so a failed or interrupted build never
+//! leaves a half-written table where a renderer would load it.
+
+pub mod bin;
+pub mod dds;
+#[cfg(feature = "exr")]
+pub mod exr;
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Precision a table's values are stored in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// IEEE binary16, rounded to nearest even (steps of about 4.9e-4 near 1).
+    F16,
+    /// IEEE binary32, exactly the generator's values.
+    F32,
+}
+
+impl Precision {
+    pub fn bytes(self) -> usize {
+        match self {
+            Precision::F16 => 2,
+            Precision::F32 => 4,
+        }
+    }
+
+    /// The value a reader gets back after storing `v` in this precision.
+    pub fn round(self, v: f32) -> f32 {
+        match self {
+            Precision::F16 => half::f16::from_f32(v).to_f32(),
+            Precision::F32 => v,
+        }
+    }
+}
+
+/// A file format tmlut writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FileFormat {
+    /// DirectDraw Surface with the DX10 header: 2D or volume texture.
+    Dds,
+    /// OpenEXR: 2D image with named channels, or an atlas of 2D slices.
+    Exr,
+    /// The original transfer-matrix layout (single channel, node-aligned).
+    Bin,
+}
+
+impl FileFormat {
+    pub fn extension(self) -> &'static str {
+        match self {
+            FileFormat::Dds => "dds",
+            FileFormat::Exr => "exr",
+            FileFormat::Bin => "bin",
+        }
+    }
+
+    pub fn from_extension(extension: &str) -> Option<Self> {
+        match extension.to_ascii_lowercase().as_str() {
+            "dds" => Some(FileFormat::Dds),
+            "exr" => Some(FileFormat::Exr),
+            "bin" => Some(FileFormat::Bin),
+            _ => None,
+        }
+    }
+}
+
+/// Write a file through a temporary sibling and an atomic rename. The temporary file is removed
+/// if writing fails.
+pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| Error::invalid("output path", format!("{} names no file", path.display())))?;
+    let temporary = dir.join(format!(".{}.tmp-{}", file_name.to_string_lossy(), std::process::id()));
+    let result = (|| {
+        let file = File::create(&temporary)?;
+        let mut writer = BufWriter::new(file);
+        write(&mut writer)?;
+        let file = writer.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()
+    })();
+    if let Err(source) = result {
+        let _ = std::fs::remove_file(&temporary);
+        return Err(Error::io(path, source));
+    }
+    std::fs::rename(&temporary, path).map_err(|source| {
+        let _ = std::fs::remove_file(&temporary);
+        Error::io(path, source)
+    })
+}
+
+/// Write a byte buffer atomically.
+pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomically(path, |w| w.write_all(bytes))
+}
+
+/// Read a whole file, naming it in the error.
+pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| Error::io(path, source))
+}

@@ -1,0 +1,36 @@
+//! tmlut: lookup tables for transfer-matrix layered materials (Randrianandrasana et al. 2021), as
+//! brought to real-time rendering — integrated, checked, written with their conventions, and
+//! loaded back.
+//!
+//! The modules follow the path of a table:
+//! - [`physics`]: the optics every table integrates (GGX, Smith, Fresnel, Henyey–Greenstein);
+//! - [`sampling`]: point sets and the visible-normal warp;
+//! - [`integrate`]: Monte Carlo estimators over the visible-normal measure (generator);
+//! - [`table`]: axes, grids and multilinear interpolation;
+//! - [`recipes`]: one file per table, each the integral it computes (generator);
+//! - [`formats`]: DDS, OpenEXR, the original `.bin` layout and the manifest;
+//! - [`pipeline`]: a configuration in, files and a manifest out (generator);
+//! - [`loader`]: what a renderer needs to read and sample the files.
+//!
+//! Build a renderer against the loader alone with `default-features = false`: that leaves out the
+//! generator's dependencies (rayon, sobol_burley, clap, indicatif, toml, sha2; exr unless its own
+//! `exr` feature is enabled).
+
+pub mod error;
+pub mod formats;
+pub mod loader;
+pub mod physics;
+pub mod sampling;
+pub mod table;
+
+#[cfg(feature = "generator")]
+pub mod config;
+#[cfg(feature = "generator")]
+pub mod integrate;
+#[cfg(feature = "generator")]
+pub mod pipeline;
+#[cfg(feature = "generator")]
+pub mod recipes;
+
+pub use error::{Error, Result};
+pub use table::{Axis, Channel, Mapping, Placement, Table};

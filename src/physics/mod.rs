@@ -1,0 +1,14 @@
+//! The optics every table integrates: the GGX microfacet distribution with its Smith terms,
+//! Fresnel reflectance, and the Henyey–Greenstein roughness mapping of the transfer-matrix model.
+//! All in f64; each function is named by the quantity it returns and cites its source.
+
+pub mod fresnel;
+pub mod henyey_greenstein;
+pub mod microfacet;
+
+pub use fresnel::{critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance, schlick_weight};
+pub use henyey_greenstein::{ggx_to_hg, hg_to_ggx};
+pub use microfacet::{
+    MaskingShadowing, direction_from_cosine, ggx_distribution, reflect, schlick_smith_g1, smith_g1,
+    smith_g2_height_correlated, smith_g2_separable, smith_lambda, visible_normal_density,
+};

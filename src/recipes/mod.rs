@@ -1,0 +1,115 @@
+//! Table recipes: one file per table, each readable as the integral it computes.
+//!
+//! A recipe turns its settings into a [`TableBuild`]: the table itself and the record of how it
+//! was made (integrand, masking-shadowing model, sampler, samples, seed, wall time, error
+//! estimates) that the manifest publishes beside every file.
+
+pub mod karis;
+
+use serde::{Deserialize, Serialize};
+
+use crate::integrate::ErrorSummary;
+use crate::physics::MaskingShadowing;
+use crate::table::Table;
+
+/// Every table tmlut knows, with a one-line description, in build order.
+pub const TABLES: &[(&str, &str)] = &[(
+    karis::NAME,
+    "Karis split-sum environment BRDF (UE4): scale and bias of F0 under Schlick Fresnel, 2D (n.v, roughness)",
+)];
+
+/// How a table was integrated.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SamplingRecord {
+    /// The estimator, e.g. "visible-normal Monte Carlo, per cell".
+    pub method: String,
+    /// The point set, e.g. "Owen-scrambled Sobol (sobol_burley), 4 replicates x 256 points".
+    pub sampler: String,
+    pub samples_per_cell: u64,
+    pub replicates: u32,
+    pub seed: u64,
+}
+
+/// The error of a table, estimated two independent ways.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorRecord {
+    /// RMS and maximum over all cells and channels of the standard error from the spread of the
+    /// independently scrambled replicates.
+    pub replicate_standard_error: ErrorSummary,
+    /// Difference of the stored f32 values to per-cell estimates with far more samples and
+    /// independent scrambles, at a random subset of cells.
+    pub reference: Option<ReferenceComparison>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceComparison {
+    pub samples_per_cell: u64,
+    pub difference: ErrorSummary,
+}
+
+/// A table and the record of how it was made.
+#[derive(Debug, Clone)]
+pub struct TableBuild {
+    pub table: Table,
+    /// The integral, in words and symbols, as the manifest states it.
+    pub integrand: String,
+    pub masking: Option<MaskingShadowing>,
+    /// Conventions a user must know to read the table right.
+    pub notes: Vec<String>,
+    pub sampling: SamplingRecord,
+    pub error: ErrorRecord,
+    pub wall_time_s: f64,
+}
+
+/// RMS and maximum, over all cells and channels, of the replicate standard errors.
+pub(crate) fn replicate_error(estimates: &[crate::integrate::Estimate]) -> ErrorSummary {
+    ErrorSummary::of_differences(estimates.iter().flat_map(|e| e.standard_error.iter().copied()))
+}
+
+/// Seeds of reference estimates are offset from the table's so that their scrambles are
+/// independent of the ones the table was built with.
+const REFERENCE_SEED_OFFSET: u64 = 0x5EED_0F_2EF5;
+
+/// Compare a built table, at `reference.cells` cells drawn at random (reproducibly from `seed`),
+/// to per-cell estimates with `reference.samples` samples and independent scrambles.
+/// `estimate_cell(cell, plan, seed)` computes one cell's channels.
+pub(crate) fn compare_to_reference(
+    table: &Table,
+    reference: &crate::config::ReferenceConfig,
+    seed: u64,
+    progress: &dyn crate::integrate::Progress,
+    estimate_cell: impl Fn(u64, crate::sampling::sequence::SamplePlan, u64) -> crate::integrate::Estimate + Sync,
+) -> crate::error::Result<Option<ReferenceComparison>> {
+    if reference.cells == 0 {
+        return Ok(None);
+    }
+    let plan = crate::sampling::sequence::SamplePlan::new(reference.samples, 1)?;
+    let cells = random_cells(table.node_count(), reference.cells, seed);
+    let reference_seed = seed.wrapping_add(REFERENCE_SEED_OFFSET);
+    let label = format!("{} reference", table.name);
+    let estimates = crate::integrate::estimate_cells(&cells, &label, progress, |cell| {
+        estimate_cell(cell, plan, reference_seed)
+    });
+    let differences = cells.iter().zip(&estimates).flat_map(|(&cell, estimate)| {
+        let stored = table.node(&table.node_index(cell as usize));
+        stored.iter().zip(&estimate.mean).map(|(&s, &r)| s as f64 - r).collect::<Vec<f64>>()
+    });
+    Ok(Some(ReferenceComparison { samples_per_cell: plan.total(), difference: ErrorSummary::of_differences(differences) }))
+}
+
+/// `count` distinct cell numbers below `node_count` (all of them if `count >= node_count`), drawn
+/// reproducibly from `seed`, in increasing order.
+pub fn random_cells(node_count: usize, count: usize, seed: u64) -> Vec<u64> {
+    if count >= node_count {
+        return (0..node_count as u64).collect();
+    }
+    let mut chosen = std::collections::BTreeSet::new();
+    let mut draw = 0u32;
+    while chosen.len() < count {
+        let hash = crate::sampling::sequence::scramble_seed(seed, 0xCE11, draw) as u64;
+        let hash = hash << 32 | crate::sampling::sequence::scramble_seed(seed, 0xCE12, draw) as u64;
+        chosen.insert(hash % node_count as u64);
+        draw += 1;
+    }
+    chosen.into_iter().collect()
+}

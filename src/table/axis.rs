@@ -1,0 +1,306 @@
+//! One axis of a table: which quantity it samples, over which range, at how many nodes, where
+//! those nodes sit, and through which mapping the nodes are spaced.
+//!
+//! Two coordinates matter and are kept apart:
+//! - the *axis coordinate* `u` in [0, 1], linear in the mapped quantity:
+//!   `u = (m(x) - m(start)) / (m(end) - m(start))`;
+//! - the *texture coordinate* a shader hands to a GPU sampler, which depends on the placement.
+//!
+//! A node-aligned axis (the original transfer-matrix tables) has node `k` at `u = k / (N - 1)`; a
+//! cell-centred axis (a GPU texture) has texel `k` at `u = (k + 0.5) / N`. Sampling a node-aligned
+//! table through a texture unit therefore needs `tex = (u * (N - 1) + 0.5) / N`, the half-texel
+//! correction the thesis renderer lacked (`notes/pitfalls.md`).
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Where the nodes of an axis sit relative to its range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Placement {
+    /// Node `k` of `N` at `u = k / (N - 1)`: the first and last nodes lie on the range ends.
+    NodeAligned,
+    /// Texel `k` of `N` at `u = (k + 0.5) / N`, as a GPU texture places its texels.
+    CellCentred,
+}
+
+/// How an axis spaces its nodes: uniformly in `m(x)` rather than in `x`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mapping {
+    /// `m(x) = x`.
+    #[default]
+    Identity,
+    /// `m(x) = sqrt(x)`; for a GGX alpha axis this is the perceptual roughness.
+    Sqrt,
+    /// `m(x) = sqrt(1 - x)`; for a cosine axis this packs nodes toward grazing angles.
+    SqrtOneMinus,
+}
+
+impl Mapping {
+    pub fn forward(self, x: f64) -> f64 {
+        match self {
+            Mapping::Identity => x,
+            Mapping::Sqrt => x.max(0.0).sqrt(),
+            Mapping::SqrtOneMinus => (1.0 - x).max(0.0).sqrt(),
+        }
+    }
+
+    pub fn inverse(self, m: f64) -> f64 {
+        match self {
+            Mapping::Identity => m,
+            Mapping::Sqrt => m * m,
+            Mapping::SqrtOneMinus => 1.0 - m * m,
+        }
+    }
+
+    /// The values of `x` the mapping is defined on, as `(lo, hi)`.
+    pub fn domain(self) -> (f64, f64) {
+        match self {
+            Mapping::Identity => (f64::NEG_INFINITY, f64::INFINITY),
+            Mapping::Sqrt => (0.0, f64::INFINITY),
+            Mapping::SqrtOneMinus => (f64::NEG_INFINITY, 1.0),
+        }
+    }
+
+    /// `m(x)` written out for a shader or a manifest, with `x` named.
+    pub fn formula(self, x: &str) -> String {
+        match self {
+            Mapping::Identity => x.to_string(),
+            Mapping::Sqrt => format!("sqrt({x})"),
+            Mapping::SqrtOneMinus => format!("sqrt(1 - {x})"),
+        }
+    }
+}
+
+/// One axis of a table. `start` is the value at axis coordinate 0 and `end` the value at 1; `end`
+/// may be below `start` (the Karis table runs its roughness axis from 1 at row 0 down to 0).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Axis {
+    /// The quantity sampled, e.g. `mu` (cosine of the incident angle), `alpha`, `eta`, `kappa`.
+    pub name: String,
+    pub start: f64,
+    pub end: f64,
+    pub count: usize,
+    pub placement: Placement,
+    #[serde(default)]
+    pub mapping: Mapping,
+}
+
+impl Axis {
+    /// A validated axis: at least two nodes, finite distinct ends inside the mapping's domain.
+    pub fn new(
+        name: impl Into<String>,
+        start: f64,
+        end: f64,
+        count: usize,
+        placement: Placement,
+        mapping: Mapping,
+    ) -> Result<Self> {
+        let axis = Axis { name: name.into(), start, end, count, placement, mapping };
+        axis.validate()?;
+        Ok(axis)
+    }
+
+    pub fn node_aligned(name: impl Into<String>, start: f64, end: f64, count: usize) -> Result<Self> {
+        Self::new(name, start, end, count, Placement::NodeAligned, Mapping::Identity)
+    }
+
+    pub fn cell_centred(name: impl Into<String>, start: f64, end: f64, count: usize) -> Result<Self> {
+        Self::new(name, start, end, count, Placement::CellCentred, Mapping::Identity)
+    }
+
+    pub fn with_mapping(mut self, mapping: Mapping) -> Result<Self> {
+        self.mapping = mapping;
+        self.validate()?;
+        Ok(self)
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        let key = format!("axis `{}`", self.name);
+        if self.count < 2 {
+            return Err(Error::invalid(
+                key,
+                format!("{} nodes; an axis needs at least 2 to interpolate", self.count),
+            ));
+        }
+        if !self.start.is_finite() || !self.end.is_finite() {
+            return Err(Error::invalid(key, format!("range [{}, {}] is not finite", self.start, self.end)));
+        }
+        let (lo, hi) = self.mapping.domain();
+        for x in [self.start, self.end] {
+            if x < lo || x > hi {
+                return Err(Error::invalid(
+                    key,
+                    format!(
+                        "{x} lies outside the domain [{lo}, {hi}] of the mapping {}",
+                        self.mapping.formula(&self.name)
+                    ),
+                ));
+            }
+        }
+        if self.mapping.forward(self.start) == self.mapping.forward(self.end) {
+            return Err(Error::invalid(key, format!("range [{}, {}] is empty", self.start, self.end)));
+        }
+        Ok(())
+    }
+
+    /// Axis coordinate `u` of a value, linear in the mapped quantity; not clamped.
+    pub fn coordinate(&self, x: f64) -> f64 {
+        let m0 = self.mapping.forward(self.start);
+        let m1 = self.mapping.forward(self.end);
+        (self.mapping.forward(x) - m0) / (m1 - m0)
+    }
+
+    /// The value at axis coordinate `u`; the inverse of [`Axis::coordinate`].
+    pub fn value_at(&self, u: f64) -> f64 {
+        let m0 = self.mapping.forward(self.start);
+        let m1 = self.mapping.forward(self.end);
+        self.mapping.inverse(m0 + u * (m1 - m0))
+    }
+
+    /// Axis coordinate of node `k`.
+    pub fn node_coordinate(&self, k: usize) -> f64 {
+        let n = self.count as f64;
+        match self.placement {
+            Placement::NodeAligned => k as f64 / (n - 1.0),
+            Placement::CellCentred => (k as f64 + 0.5) / n,
+        }
+    }
+
+    /// The value of the quantity at node `k`. The range ends of a node-aligned axis are returned
+    /// exactly, so that edge nodes sit exactly on `start` and `end`.
+    pub fn node_value(&self, k: usize) -> f64 {
+        match (self.placement, k) {
+            (Placement::NodeAligned, 0) => self.start,
+            (Placement::NodeAligned, k) if k + 1 == self.count => self.end,
+            _ => self.value_at(self.node_coordinate(k)),
+        }
+    }
+
+    /// All node values, in storage order.
+    pub fn node_values(&self) -> Vec<f64> {
+        (0..self.count).map(|k| self.node_value(k)).collect()
+    }
+
+    /// The continuous node index of a value, clamped to `[0, N - 1]` (clamp addressing).
+    pub fn continuous_index(&self, x: f64) -> f64 {
+        let u = self.coordinate(x);
+        let n = self.count as f64;
+        let i = match self.placement {
+            Placement::NodeAligned => u * (n - 1.0),
+            Placement::CellCentred => u * n - 0.5,
+        };
+        // NaN compares false both ways and would survive `clamp`: send it to node 0 explicitly.
+        if i.is_nan() { 0.0 } else { i.clamp(0.0, n - 1.0) }
+    }
+
+    /// The two nodes around a value and the weight of the upper one.
+    pub fn bracket(&self, x: f64) -> (usize, usize, f64) {
+        let i = self.continuous_index(x);
+        let lower = (i.floor() as usize).min(self.count - 2);
+        (lower, lower + 1, i - lower as f64)
+    }
+
+    /// The texture coordinate a GPU sampler (cell-centred, clamp addressing) must be given so that
+    /// hardware filtering reproduces this axis's interpolation.
+    pub fn texture_coordinate(&self, x: f64) -> f64 {
+        let u = self.coordinate(x);
+        let n = self.count as f64;
+        match self.placement {
+            Placement::NodeAligned => (u * (n - 1.0) + 0.5) / n,
+            Placement::CellCentred => u,
+        }
+    }
+
+    /// [`Axis::texture_coordinate`] written as a formula, with every constant spelled out.
+    pub fn texture_coordinate_formula(&self) -> String {
+        let m0 = self.mapping.forward(self.start);
+        let m1 = self.mapping.forward(self.end);
+        let mapped = self.mapping.formula(&self.name);
+        let u = if m0 == 0.0 && m1 == 1.0 {
+            mapped
+        } else if m0 == 0.0 {
+            format!("{mapped} / {m1}")
+        } else {
+            format!("({mapped} - {m0}) / ({m1} - {m0})")
+        };
+        match self.placement {
+            Placement::NodeAligned => {
+                format!("({u}) * {} / {} + 0.5 / {}", self.count - 1, self.count, self.count)
+            }
+            Placement::CellCentred => u,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn node_aligned_ends_sit_on_the_range() {
+        let axis = Axis::node_aligned("mu", 0.0, 1.0, 64).unwrap();
+        assert_eq!(axis.node_value(0), 0.0);
+        assert_eq!(axis.node_value(63), 1.0);
+        assert!((axis.node_value(21) - 21.0 / 63.0).abs() < 1e-15);
+        assert_eq!(axis.continuous_index(1.0), 63.0);
+    }
+
+    #[test]
+    fn cell_centred_nodes_sit_at_texel_centres() {
+        let axis = Axis::cell_centred("mu", 0.0, 1.0, 512).unwrap();
+        assert!((axis.node_value(0) - 0.5 / 512.0).abs() < 1e-15);
+        assert!((axis.continuous_index(0.5 / 512.0)).abs() < 1e-12);
+        // Outside the first texel centre the index clamps, as clamp addressing does.
+        assert_eq!(axis.continuous_index(0.0), 0.0);
+    }
+
+    #[test]
+    fn texture_coordinate_of_a_node_is_its_texel_centre() {
+        for placement in [Placement::NodeAligned, Placement::CellCentred] {
+            let axis = Axis::new("alpha", 0.0, 1.0, 17, placement, Mapping::Sqrt).unwrap();
+            for k in 0..axis.count {
+                let tex = axis.texture_coordinate(axis.node_value(k));
+                assert!((tex - (k as f64 + 0.5) / 17.0).abs() < 1e-12, "{placement:?} node {k}: {tex}");
+            }
+        }
+    }
+
+    #[test]
+    fn descending_axis_runs_from_start_to_end() {
+        let axis = Axis::cell_centred("alpha", 1.0, 0.0, 4).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+        let roughness: Vec<f64> = axis.node_values().iter().map(|a| a.sqrt()).collect();
+        let expected = [0.875, 0.625, 0.375, 0.125];
+        for (r, e) in roughness.iter().zip(expected) {
+            assert!((r - e).abs() < 1e-12, "{roughness:?}");
+        }
+    }
+
+    #[test]
+    fn mapped_axis_round_trips_values() {
+        let axis = Axis::node_aligned("mu", 0.0, 1.0, 33).unwrap().with_mapping(Mapping::SqrtOneMinus).unwrap();
+        for x in [0.0, 0.1, 0.5, 0.99, 1.0] {
+            let back = axis.value_at(axis.coordinate(x));
+            assert!((back - x).abs() < 1e-12, "{x} -> {back}");
+        }
+    }
+
+    #[test]
+    fn invalid_axes_are_refused_with_the_axis_named() {
+        let one = Axis::node_aligned("mu", 0.0, 1.0, 1).unwrap_err().to_string();
+        assert!(one.contains("axis `mu`") && one.contains("at least 2"), "{one}");
+        let empty = Axis::node_aligned("eta", 2.0, 2.0, 8).unwrap_err().to_string();
+        assert!(empty.contains("empty"), "{empty}");
+        let domain = Axis::node_aligned("alpha", -1.0, 1.0, 8).unwrap().with_mapping(Mapping::Sqrt);
+        assert!(domain.unwrap_err().to_string().contains("domain"));
+        assert!(Axis::node_aligned("x", 0.0, f64::NAN, 8).is_err());
+    }
+
+    #[test]
+    fn formula_spells_out_the_half_texel_correction() {
+        let axis = Axis::node_aligned("eta", 0.0, 4.0, 64).unwrap();
+        assert_eq!(axis.texture_coordinate_formula(), "(eta / 4) * 63 / 64 + 0.5 / 64");
+    }
+}

@@ -1,0 +1,234 @@
+//! The table model: axes, channels and f32 data, with multilinear interpolation exactly as each
+//! axis's placement says.
+//!
+//! Storage order is the order of the original transfer-matrix tables and of GPU textures: channels
+//! interleaved per texel, then axis 0 fastest, then axis 1, and so on.
+
+mod axis;
+
+pub use axis::{Axis, Mapping, Placement};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// One stored channel and what its value means.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Channel {
+    pub name: String,
+    pub meaning: String,
+}
+
+impl Channel {
+    pub fn new(name: impl Into<String>, meaning: impl Into<String>) -> Self {
+        Channel { name: name.into(), meaning: meaning.into() }
+    }
+}
+
+/// A tabulated function of one to four parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    pub name: String,
+    pub axes: Vec<Axis>,
+    pub channels: Vec<Channel>,
+    pub data: Vec<f32>,
+}
+
+/// Minimum, maximum and the count of non-finite values of a table's data.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ValueStats {
+    pub min: f32,
+    pub max: f32,
+    pub nan_count: usize,
+    pub infinite_count: usize,
+}
+
+impl Table {
+    /// A table whose data length matches its axes and channels.
+    pub fn new(name: impl Into<String>, axes: Vec<Axis>, channels: Vec<Channel>, data: Vec<f32>) -> Result<Self> {
+        let name = name.into();
+        if axes.is_empty() || channels.is_empty() {
+            return Err(Error::invalid(&name, "a table needs at least one axis and one channel"));
+        }
+        for axis in &axes {
+            axis.validate()?;
+        }
+        let expected = axes.iter().map(|a| a.count).product::<usize>() * channels.len();
+        if data.len() != expected {
+            return Err(Error::invalid(
+                &name,
+                format!("{} values given, the axes and channels need {expected}", data.len()),
+            ));
+        }
+        Ok(Table { name, axes, channels, data })
+    }
+
+    /// A table of zeros, to be filled node by node.
+    pub fn zeros(name: impl Into<String>, axes: Vec<Axis>, channels: Vec<Channel>) -> Result<Self> {
+        let len = axes.iter().map(|a| a.count).product::<usize>() * channels.len();
+        Self::new(name, axes, channels, vec![0.0; len])
+    }
+
+    pub fn dimension(&self) -> usize {
+        self.axes.len()
+    }
+
+    pub fn channel_count(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// Node counts, axis 0 first.
+    pub fn shape(&self) -> Vec<usize> {
+        self.axes.iter().map(|a| a.count).collect()
+    }
+
+    /// Number of nodes (texels), all channels of a node counting once.
+    pub fn node_count(&self) -> usize {
+        self.axes.iter().map(|a| a.count).product()
+    }
+
+    pub fn axis(&self, name: &str) -> Option<&Axis> {
+        self.axes.iter().find(|a| a.name == name)
+    }
+
+    /// Linear node number of a multi-index (axis 0 fastest).
+    pub fn node_number(&self, index: &[usize]) -> usize {
+        debug_assert_eq!(index.len(), self.axes.len());
+        index.iter().zip(&self.axes).rev().fold(0, |acc, (&i, axis)| acc * axis.count + i)
+    }
+
+    /// Multi-index of a linear node number; the inverse of [`Table::node_number`].
+    pub fn node_index(&self, mut number: usize) -> Vec<usize> {
+        self.axes
+            .iter()
+            .map(|axis| {
+                let i = number % axis.count;
+                number /= axis.count;
+                i
+            })
+            .collect()
+    }
+
+    /// Parameter values at a node, one per axis.
+    pub fn node_position(&self, index: &[usize]) -> Vec<f64> {
+        index.iter().zip(&self.axes).map(|(&i, axis)| axis.node_value(i)).collect()
+    }
+
+    /// The stored values of all channels at a node.
+    pub fn node(&self, index: &[usize]) -> &[f32] {
+        let c = self.channels.len();
+        let start = self.node_number(index) * c;
+        &self.data[start..start + c]
+    }
+
+    /// Multilinear interpolation at a point given in the axes' own quantities (one per axis),
+    /// with clamp addressing outside the range; one value per channel, computed in f64.
+    pub fn interpolate(&self, point: &[f64]) -> Vec<f64> {
+        assert_eq!(point.len(), self.axes.len(), "{}: one coordinate per axis", self.name);
+        let brackets: Vec<(usize, usize, f64)> =
+            self.axes.iter().zip(point).map(|(axis, &x)| axis.bracket(x)).collect();
+        let channels = self.channels.len();
+        let mut result = vec![0.0; channels];
+        let mut index = vec![0usize; self.axes.len()];
+        for corner in 0..(1usize << self.axes.len()) {
+            let mut weight = 1.0;
+            for (d, &(lower, upper, t)) in brackets.iter().enumerate() {
+                let take_upper = corner >> d & 1 == 1;
+                index[d] = if take_upper { upper } else { lower };
+                weight *= if take_upper { t } else { 1.0 - t };
+            }
+            if weight == 0.0 {
+                continue;
+            }
+            for (r, &v) in result.iter_mut().zip(self.node(&index)) {
+                *r += weight * v as f64;
+            }
+        }
+        result
+    }
+
+    pub fn stats(&self) -> ValueStats {
+        let mut stats = ValueStats { min: f32::INFINITY, max: f32::NEG_INFINITY, nan_count: 0, infinite_count: 0 };
+        for &v in &self.data {
+            if v.is_nan() {
+                stats.nan_count += 1;
+            } else if v.is_infinite() {
+                stats.infinite_count += 1;
+            } else {
+                stats.min = stats.min.min(v);
+                stats.max = stats.max.max(v);
+            }
+        }
+        stats
+    }
+
+    /// The values of one channel, in node order.
+    pub fn channel_values(&self, channel: usize) -> impl Iterator<Item = f32> + '_ {
+        self.data.iter().skip(channel).step_by(self.channels.len()).copied()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp_table(placement: Placement) -> Table {
+        // f(x, y) = x + 10 y, exactly representable by multilinear interpolation.
+        let ax = Axis::new("x", 0.0, 1.0, 5, placement, Mapping::Identity).unwrap();
+        let ay = Axis::new("y", 2.0, 0.0, 3, placement, Mapping::Identity).unwrap();
+        let mut data = Vec::new();
+        for j in 0..3 {
+            for i in 0..5 {
+                data.push((ax.node_value(i) + 10.0 * ay.node_value(j)) as f32);
+            }
+        }
+        Table::new("ramp", vec![ax, ay], vec![Channel::new("v", "x + 10 y")], data).unwrap()
+    }
+
+    #[test]
+    fn interpolation_reproduces_a_bilinear_function_inside_the_nodes() {
+        for placement in [Placement::NodeAligned, Placement::CellCentred] {
+            let table = ramp_table(placement);
+            let (x0, x1) = (table.axes[0].node_value(0), table.axes[0].node_value(4));
+            let (y0, y1) = (table.axes[1].node_value(0), table.axes[1].node_value(2));
+            for (s, t) in [(0.0, 0.0), (0.3, 0.7), (1.0, 1.0), (0.55, 0.12)] {
+                let x = x0 + s * (x1 - x0);
+                let y = y0 + t * (y1 - y0);
+                let v = table.interpolate(&[x, y])[0];
+                assert!((v - (x + 10.0 * y)).abs() < 1e-5, "{placement:?} at ({x}, {y}): {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn interpolation_clamps_outside_the_range() {
+        let table = ramp_table(Placement::NodeAligned);
+        assert_eq!(table.interpolate(&[-3.0, 0.0])[0], table.interpolate(&[0.0, 0.0])[0]);
+        assert_eq!(table.interpolate(&[0.5, 9.0])[0], table.interpolate(&[0.5, 2.0])[0]);
+    }
+
+    #[test]
+    fn node_number_and_index_are_inverse() {
+        let table = ramp_table(Placement::NodeAligned);
+        for n in 0..table.node_count() {
+            assert_eq!(table.node_number(&table.node_index(n)), n);
+        }
+        assert_eq!(table.node(&[4, 2])[0], table.data[14]);
+    }
+
+    #[test]
+    fn wrong_data_length_is_refused() {
+        let ax = Axis::node_aligned("x", 0.0, 1.0, 4).unwrap();
+        let err = Table::new("t", vec![ax], vec![Channel::new("v", "")], vec![0.0; 3]).unwrap_err();
+        assert!(err.to_string().contains("need 4"), "{err}");
+    }
+
+    #[test]
+    fn stats_count_non_finite_values() {
+        let ax = Axis::node_aligned("x", 0.0, 1.0, 4).unwrap();
+        let t = Table::new("t", vec![ax], vec![Channel::new("v", "")], vec![0.5, f32::NAN, f32::INFINITY, -1.0])
+            .unwrap();
+        let s = t.stats();
+        assert_eq!((s.min, s.max, s.nan_count, s.infinite_count), (-1.0, 0.5, 1, 1));
+    }
+}
