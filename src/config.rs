@@ -216,3 +216,14 @@ mod tests {
         assert!(e.contains("beckmann") && e.contains("smith-separable"), "{e}");
     }
 }
+
+#[cfg(test)]
+mod default_file_tests {
+    use super::*;
+
+    #[test]
+    fn the_committed_default_configuration_is_the_built_in_default() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/default.toml");
+        assert_eq!(Config::from_file(&path).unwrap(), Config::default());
+    }
+}

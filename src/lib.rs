@@ -20,7 +20,10 @@ pub mod error;
 pub mod formats;
 pub mod loader;
 pub mod physics;
+#[cfg(feature = "generator")]
+pub mod report;
 pub mod sampling;
+pub mod stats;
 pub mod table;
 
 #[cfg(feature = "generator")]

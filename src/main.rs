@@ -1,1 +1,156 @@
-fn main() {}
+//! The `tmlut` command: a thin layer over the library. Parsing arguments, progress bars and exit
+//! codes live here; everything else is in `tmlut::*`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Mutex;
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use tmlut::config::Config;
+use tmlut::integrate::Progress;
+use tmlut::pipeline::{self, BuildRequest};
+use tmlut::recipes::TABLES;
+
+#[derive(Parser)]
+#[command(name = "tmlut", version, about = "Integrate, write, check and inspect the lookup tables of transfer-matrix layered materials")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+    /// Print no progress bars, only results and errors.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Integrate tables and write them, with a manifest.json, into a folder.
+    Build {
+        /// TOML configuration (every key optional; see luts/default.toml).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Comma-separated tables to build (default: all). See `tmlut list`.
+        #[arg(long, value_delimiter = ',')]
+        only: Option<Vec<String>>,
+        /// Output folder.
+        #[arg(long, default_value = "luts")]
+        out: PathBuf,
+        /// Worker threads (default: one per core). Results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Seed of the Monte Carlo estimates, overriding the configuration's.
+        #[arg(long)]
+        seed: Option<u64>,
+    },
+    /// List the tables tmlut knows.
+    List,
+    /// Describe a table file: axes, channels, value range, NaN count, conventions.
+    Inspect {
+        file: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> tmlut::Result<()> {
+    match cli.command {
+        Command::Build { config, only, out, threads, seed } => {
+            let mut config = match &config {
+                Some(path) => Config::from_file(path)?,
+                None => Config::default(),
+            };
+            if let Some(seed) = seed {
+                config.seed = seed;
+            }
+            set_threads(threads)?;
+            let request = BuildRequest { config, only, out };
+            let progress = ProgressBars::new(cli.quiet);
+            let written = pipeline::build(&request, &progress)?;
+            for file in written {
+                let e = &file.entry;
+                let reference = e.error.integration.reference.as_ref().map_or(String::new(), |r| {
+                    format!(", reference max |diff| {:.2e} ({} cells)", r.difference.max, r.difference.count)
+                });
+                println!(
+                    "{}  {} bytes  built in {:.2} s, replicate s.e. max {:.2e}{reference}",
+                    file.path.display(),
+                    e.bytes,
+                    e.wall_time_s,
+                    e.error.integration.replicate_standard_error.max,
+                );
+            }
+            Ok(())
+        }
+        Command::List => {
+            for (name, description) in TABLES {
+                println!("{name:<8} {description}");
+            }
+            Ok(())
+        }
+        Command::Inspect { file } => {
+            print!("{}", tmlut::report::inspect(&file)?);
+            Ok(())
+        }
+    }
+}
+
+fn set_threads(threads: Option<usize>) -> tmlut::Result<()> {
+    let Some(threads) = threads else { return Ok(()) };
+    if threads == 0 {
+        return Err(tmlut::Error::invalid("--threads", "0; allowed: 1 or more"));
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .map_err(|e| tmlut::Error::invalid("--threads", e.to_string()))
+}
+
+/// One progress bar per long step, on standard error; nothing with `--quiet` or when standard
+/// error is not a terminal (indicatif hides itself there).
+struct ProgressBars {
+    quiet: bool,
+    bar: Mutex<Option<ProgressBar>>,
+}
+
+impl ProgressBars {
+    fn new(quiet: bool) -> Self {
+        ProgressBars { quiet, bar: Mutex::new(None) }
+    }
+}
+
+impl Progress for ProgressBars {
+    fn start(&self, label: &str, total: u64) {
+        if self.quiet {
+            return;
+        }
+        let bar = ProgressBar::new(total).with_message(label.to_string());
+        bar.set_style(
+            ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} cells, {elapsed} (eta {eta})")
+                .expect("the template is valid")
+                .progress_chars("=> "),
+        );
+        *self.bar.lock().expect("progress lock") = Some(bar);
+    }
+
+    fn advance(&self, done: u64) {
+        if let Some(bar) = &*self.bar.lock().expect("progress lock") {
+            bar.inc(done);
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = self.bar.lock().expect("progress lock").take() {
+            bar.finish_and_clear();
+        }
+    }
+}

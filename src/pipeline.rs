@@ -1,1 +1,179 @@
-//! pipeline
+//! A build: configuration in, table files and their manifest out.
+//!
+//! Each selected table is integrated, written in every configured format (each file atomically),
+//! hashed, and described in the folder's `manifest.json`, which keeps the entries of files this
+//! build did not touch. A build that fails part-way leaves every earlier file and the previous
+//! manifest as they were.
+
+use std::path::{Path, PathBuf};
+
+use sha2::{Digest, Sha256};
+
+use crate::config::Config;
+use crate::error::{Error, Result};
+use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest};
+use crate::formats::{self, FileFormat, Precision};
+use crate::integrate::Progress;
+use crate::recipes::{self, TableBuild};
+use crate::table::Table;
+
+/// What to build and where.
+#[derive(Debug, Clone)]
+pub struct BuildRequest {
+    pub config: Config,
+    /// Table names to build; `None` builds every table.
+    pub only: Option<Vec<String>>,
+    pub out: PathBuf,
+}
+
+/// One file a build wrote.
+#[derive(Debug, Clone)]
+pub struct WrittenFile {
+    pub path: PathBuf,
+    pub entry: FileEntry,
+}
+
+/// Check table names against the tables tmlut knows.
+pub fn resolve_tables(only: Option<&[String]>) -> Result<Vec<&'static str>> {
+    let known: Vec<&'static str> = recipes::TABLES.iter().map(|(name, _)| *name).collect();
+    let Some(only) = only else { return Ok(known) };
+    let mut selected = Vec::new();
+    for name in only {
+        let name = name.trim();
+        match known.iter().find(|k| **k == name) {
+            Some(k) if !selected.contains(k) => selected.push(*k),
+            Some(_) => {}
+            None => {
+                return Err(Error::invalid(
+                    "--only",
+                    format!("unknown table `{name}`; known tables: {}", known.join(", ")),
+                ));
+            }
+        }
+    }
+    if selected.is_empty() {
+        return Err(Error::invalid("--only", format!("no table named; known tables: {}", known.join(", "))));
+    }
+    Ok(selected)
+}
+
+/// Integrate, write and describe every requested table.
+pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<WrittenFile>> {
+    request.config.validate()?;
+    let tables = resolve_tables(request.only.as_deref())?;
+    std::fs::create_dir_all(&request.out).map_err(|source| Error::io(&request.out, source))?;
+    // Read the old manifest before integrating, so that a foreign or damaged one stops the build
+    // before minutes of work rather than after.
+    let mut manifest = Manifest::read_or_default(&request.out)?;
+    manifest.generator = generator_name();
+
+    let mut written = Vec::new();
+    for name in tables {
+        let build = build_table(name, &request.config, progress)?;
+        let (formats, precision) = output_of(name, &request.config);
+        for &format in formats {
+            let file = write_table_file(&request.out, &build, format, precision)?;
+            manifest.files.insert(file_name(&file.path), file.entry.clone());
+            written.push(file);
+        }
+    }
+    manifest.write(&request.out)?;
+    Ok(written)
+}
+
+pub fn generator_name() -> String {
+    format!("tmlut {}", env!("CARGO_PKG_VERSION"))
+}
+
+fn build_table(name: &str, config: &Config, progress: &dyn Progress) -> Result<TableBuild> {
+    match name {
+        recipes::karis::NAME => recipes::karis::build(&config.karis, config.seed, progress),
+        other => unreachable!("resolve_tables admitted unknown table {other}"),
+    }
+}
+
+fn output_of<'c>(name: &str, config: &'c Config) -> (&'c [FileFormat], Precision) {
+    let output = match name {
+        recipes::karis::NAME => &config.karis.output,
+        other => unreachable!("resolve_tables admitted unknown table {other}"),
+    };
+    (&output.formats, output.precision)
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+/// Write one table in one format and describe the file.
+pub fn write_table_file(dir: &Path, build: &TableBuild, format: FileFormat, precision: Precision) -> Result<WrittenFile> {
+    let table = &build.table;
+    let path = dir.join(format!("{}.{}", table.name, format.extension()));
+    // `.bin` has no precision field: it is f32 by definition.
+    let precision = if format == FileFormat::Bin { Precision::F32 } else { precision };
+    formats::write_table(&path, table, format, precision)?;
+    let bytes = formats::read_bytes(&path)?;
+    let stats = table.stats();
+    let entry = FileEntry {
+        table: table.name.clone(),
+        format,
+        precision,
+        dxgi_format: (format == FileFormat::Dds)
+            .then(|| formats::dds::dxgi_format_name(table.channel_count(), precision)),
+        axes: table.axes.iter().zip(stored_along(table, format)).map(|(a, s)| AxisEntry::new(a, s)).collect(),
+        channels: table.channels.clone(),
+        integrand: build.integrand.clone(),
+        masking: build.masking.map(|m| m.name().to_string()),
+        notes: build.notes.clone(),
+        method: build.sampling.method.clone(),
+        sampler: build.sampling.sampler.clone(),
+        samples_per_cell: build.sampling.samples_per_cell,
+        seed: build.sampling.seed,
+        wall_time_s: build.wall_time_s,
+        value_range: [stats.min, stats.max],
+        nan_count: stats.nan_count + stats.infinite_count,
+        error: ErrorEntry { integration: build.error.clone(), storage_rounding_max: storage_rounding(table, precision) },
+        sha256: sha256_hex(&bytes),
+        bytes: bytes.len() as u64,
+    };
+    Ok(WrittenFile { path, entry })
+}
+
+/// Which dimension of the file each axis runs along.
+fn stored_along(table: &Table, format: FileFormat) -> Vec<String> {
+    (0..table.dimension())
+        .map(|d| match (format, d) {
+            (FileFormat::Bin, d) => format!("axis {d}"),
+            (FileFormat::Dds, d) => ["x", "y", "z"][d].to_string(),
+            (FileFormat::Exr, d) if table.dimension() <= 2 => ["x", "y"][d].to_string(),
+            (FileFormat::Exr, 0) => "x within a tile".into(),
+            (FileFormat::Exr, 1) => "y within a tile".into(),
+            (FileFormat::Exr, d) => format!("tile number (digit {} of the slice index, fastest first)", d - 2),
+        })
+        .collect()
+}
+
+/// The largest change of a value by storing it in `precision`.
+pub fn storage_rounding(table: &Table, precision: Precision) -> f64 {
+    table.data.iter().map(|&v| (precision.round(v) as f64 - v as f64).abs()).fold(0.0, f64::max)
+}
+
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_tables_are_named_with_the_known_ones() {
+        let err = resolve_tables(Some(&["karis".into(), "fdg".into()])).unwrap_err().to_string();
+        assert!(err.contains("unknown table `fdg`") && err.contains("karis"), "{err}");
+        assert_eq!(resolve_tables(Some(&["karis".into(), "karis".into()])).unwrap(), vec!["karis"]);
+    }
+
+    #[test]
+    fn sha256_of_a_known_string() {
+        assert_eq!(sha256_hex(b"abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+    }
+}

@@ -6,6 +6,7 @@
 //! leaves a half-written table where a renderer would load it.
 
 pub mod bin;
+pub mod manifest;
 pub mod dds;
 #[cfg(feature = "exr")]
 pub mod exr;
@@ -17,6 +18,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::table::Table;
 
 /// Precision a table's values are stored in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -76,6 +78,24 @@ impl FileFormat {
     }
 }
 
+/// Write a table in a format. DDS takes 2- and 3-axis tables with 1, 2 or 4 channels; `.bin`
+/// takes single-channel node-aligned tables; EXR takes any table.
+pub fn write_table(path: &Path, table: &Table, format: FileFormat, precision: Precision) -> Result<()> {
+    match format {
+        FileFormat::Dds => dds::write_dds(path, table, precision),
+        FileFormat::Bin => bin::write_bin(path, table),
+        #[cfg(feature = "exr")]
+        FileFormat::Exr => exr::write_exr(path, table, precision),
+        #[cfg(not(feature = "exr"))]
+        FileFormat::Exr => Err(no_exr_support(path)),
+    }
+}
+
+#[cfg(not(feature = "exr"))]
+pub(crate) fn no_exr_support(path: &Path) -> Error {
+    Error::format(path, "this build of tmlut reads no OpenEXR; enable the `exr` feature of the tmlut crate")
+}
+
 /// Write a file through a temporary sibling and an atomic rename. The temporary file is removed
 /// if writing fails.
 pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
@@ -112,4 +132,39 @@ pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
 /// Read a whole file, naming it in the error.
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).map_err(|source| Error::io(path, source))
+}
+
+/// Refuse a table whose stored values a reader would not get back as finite numbers.
+///
+/// A NaN or an infinity in a lookup table is a generator bug, and a shader sampling it spreads
+/// the bad value over every filtered neighbour; such a table is never written. For f16 storage,
+/// finite values beyond the f16 range are refused too, since rounding would turn them into
+/// infinities.
+pub(crate) fn check_storable_values(table: &Table, precision: Precision) -> Result<()> {
+    let stats = table.stats();
+    if stats.nan_count > 0 || stats.infinite_count > 0 {
+        return Err(Error::invalid(
+            format!("table `{}`", table.name),
+            format!(
+                "{} NaN and {} infinite values out of {}; a table with non-finite values is never written",
+                stats.nan_count,
+                stats.infinite_count,
+                table.data.len()
+            ),
+        ));
+    }
+    if precision == Precision::F16 {
+        let overflowing = table.data.iter().filter(|&&v| precision.round(v).is_infinite()).count();
+        if overflowing > 0 {
+            return Err(Error::invalid(
+                format!("table `{}`", table.name),
+                format!(
+                    "{overflowing} values lie beyond the f16 range (largest finite {}) and would be stored as \
+                     infinities; store this table as f32",
+                    half::f16::MAX
+                ),
+            ));
+        }
+    }
+    Ok(())
 }

@@ -7,16 +7,15 @@
 //! ([`crate::recipes`]) say what is accumulated. Integrands stay out of here, as pbrt keeps
 //! integrators apart from BxDFs.
 //!
-//! Determinism: a cell's points depend only on the run's seed, the cell's number and the replicate
-//! ([`scramble_seed`]), and each cell's sums run in a fixed order, so the result is bit-identical
-//! whatever the thread count.
+//! Determinism: every cell uses the same [`PointSet`], which depends only on the seed, and each
+//! cell's sums run in a fixed order, so the result is bit-identical whatever the thread count.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::physics::{direction_from_cosine, reflect};
-use crate::sampling::sample_visible_normal;
-use crate::sampling::sequence::{SamplePlan, scramble_seed, sobol_point_2d};
+use crate::sampling::VisibleNormalSampler;
+use crate::sampling::sequence::PointSet;
 
 /// The grazing node `mu = 0` is evaluated as the limit `mu -> 0+`, taken at this cosine: at exactly
 /// 0 the incident direction lies in the surface and, for a smooth surface, so does its mirror
@@ -50,24 +49,22 @@ pub struct Estimate {
 pub fn estimate_visible_normal_integral(
     mu: f64,
     alpha: f64,
-    plan: SamplePlan,
-    seed: u64,
-    cell: u64,
+    points: &PointSet,
     channels: usize,
     accumulate: impl Fn(&MicrofacetSample, &mut [f64]),
 ) -> Estimate {
     let wi = direction_from_cosine(mu.max(GRAZING_COSINE));
-    let mut replicate_means = Vec::with_capacity(plan.replicates as usize);
+    let sampler = VisibleNormalSampler::new(wi, alpha);
+    let mut replicate_means = Vec::with_capacity(points.plan().replicates as usize);
     let mut sums = vec![0.0; channels];
-    for replicate in 0..plan.replicates {
+    for replicate in points.replicates() {
         sums.iter_mut().for_each(|s| *s = 0.0);
-        let scramble = scramble_seed(seed, cell, replicate);
-        for index in 0..plan.points {
-            let h = sample_visible_normal(wi, alpha, sobol_point_2d(index, scramble));
+        for point in replicate {
+            let h = sampler.sample(point);
             let sample = MicrofacetSample { wi, h, wo: reflect(wi, h), cos_wi_h: wi.dot(h).clamp(0.0, 1.0) };
             accumulate(&sample, &mut sums);
         }
-        replicate_means.push(sums.iter().map(|s| s / plan.points as f64).collect::<Vec<f64>>());
+        replicate_means.push(sums.iter().map(|s| s / replicate.len() as f64).collect::<Vec<f64>>());
     }
     combine_replicates(&replicate_means, channels)
 }
@@ -120,37 +117,16 @@ pub fn estimate_cells<T: Send>(
     results
 }
 
-/// Summary of how far a set of estimates is from a set of references.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct ErrorSummary {
-    /// Number of values compared.
-    pub count: usize,
-    pub rms: f64,
-    pub max: f64,
-}
-
-impl ErrorSummary {
-    /// RMS and maximum of absolute differences.
-    pub fn of_differences(differences: impl IntoIterator<Item = f64>) -> Self {
-        let (mut count, mut sum2, mut max) = (0usize, 0.0f64, 0.0f64);
-        for d in differences {
-            count += 1;
-            sum2 += d * d;
-            max = max.max(d.abs());
-        }
-        ErrorSummary { count, rms: if count == 0 { 0.0 } else { (sum2 / count as f64).sqrt() }, max }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::physics::MaskingShadowing;
+    use crate::sampling::sequence::SamplePlan;
 
     #[test]
     fn smooth_surface_reflects_into_the_mirror_direction() {
-        let plan = SamplePlan::new(64, 2).unwrap();
-        let estimate = estimate_visible_normal_integral(0.6, 0.0, plan, 1, 0, 2, |s, sums| {
+        let points = PointSet::new(SamplePlan::new(64, 2).unwrap(), 1);
+        let estimate = estimate_visible_normal_integral(0.6, 0.0, &points, 2, |s, sums| {
             sums[0] += s.cos_wi_h;
             sums[1] += MaskingShadowing::SmithSeparable.visible_normal_weight(s.wi, s.wo, 0.0);
         });
@@ -166,8 +142,10 @@ mod tests {
         let weight = |s: &MicrofacetSample, sums: &mut [f64]| {
             sums[0] += MaskingShadowing::SmithSeparable.visible_normal_weight(s.wi, s.wo, 0.7)
         };
-        let small = estimate_visible_normal_integral(0.3, 0.7, SamplePlan::new(1 << 12, 16).unwrap(), 3, 5, 1, weight);
-        let large = estimate_visible_normal_integral(0.3, 0.7, SamplePlan::new(1 << 18, 16).unwrap(), 4, 5, 1, weight);
+        let small_points = PointSet::new(SamplePlan::new(1 << 12, 16).unwrap(), 3);
+        let large_points = PointSet::new(SamplePlan::new(1 << 18, 16).unwrap(), 4);
+        let small = estimate_visible_normal_integral(0.3, 0.7, &small_points, 1, weight);
+        let large = estimate_visible_normal_integral(0.3, 0.7, &large_points, 1, weight);
         let se = small.standard_error[0];
         assert!(se > 0.0 && se < 1e-3, "{se}");
         assert!((small.mean[0] - large.mean[0]).abs() < 5.0 * se, "{small:?} vs {large:?}");
@@ -176,12 +154,13 @@ mod tests {
     #[test]
     fn cell_results_do_not_depend_on_the_thread_count() {
         let cells: Vec<u64> = (0..200).collect();
+        let points = PointSet::new(SamplePlan::new(256, 4).unwrap(), 9);
         let run = |threads| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| {
                 estimate_cells(&cells, "test", &(), |c| {
                     let mu = (c % 20) as f64 / 19.0;
-                    estimate_visible_normal_integral(mu, 0.5, SamplePlan::new(256, 4).unwrap(), 9, c, 1, |s, sums| {
+                    estimate_visible_normal_integral(mu, 0.5, &points, 1, |s, sums| {
                         sums[0] += s.cos_wi_h
                     })
                     .mean[0]
@@ -191,13 +170,5 @@ mod tests {
         let one: Vec<u64> = run(1).iter().map(|v| v.to_bits()).collect();
         let three: Vec<u64> = run(3).iter().map(|v| v.to_bits()).collect();
         assert_eq!(one, three);
-    }
-
-    #[test]
-    fn error_summary_of_differences() {
-        let e = ErrorSummary::of_differences([3.0, -4.0]);
-        assert_eq!(e.count, 2);
-        assert!((e.rms - (12.5f64).sqrt()).abs() < 1e-15);
-        assert_eq!(e.max, 4.0);
     }
 }

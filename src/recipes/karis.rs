@@ -22,7 +22,7 @@ use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::{Estimate, MicrofacetSample, Progress, estimate_cells, estimate_visible_normal_integral};
 use crate::physics::{MaskingShadowing, schlick_weight};
-use crate::sampling::sequence::SamplePlan;
+use crate::sampling::sequence::{PointSet, SamplePlan};
 use crate::table::{Axis, Channel, Mapping, Table};
 
 pub const NAME: &str = "karis";
@@ -120,10 +120,10 @@ fn accumulate_split_sum(masking: MaskingShadowing, alpha: f64) -> impl Fn(&Micro
 }
 
 /// Both terms at one cell of the table.
-fn estimate_cell(table: &Table, masking: MaskingShadowing, plan: SamplePlan, seed: u64, cell: u64) -> Estimate {
+fn estimate_cell(table: &Table, masking: MaskingShadowing, points: &PointSet, cell: u64) -> Estimate {
     let position = table.node_position(&table.node_index(cell as usize));
     let (mu, alpha) = (position[0], position[1]);
-    estimate_visible_normal_integral(mu, alpha, plan, seed, cell, 2, accumulate_split_sum(masking, alpha))
+    estimate_visible_normal_integral(mu, alpha, points, 2, accumulate_split_sum(masking, alpha))
 }
 
 pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
@@ -136,14 +136,15 @@ pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Re
     ];
     let mut table = Table::zeros(NAME, settings.axes()?, channels)?;
     let cells: Vec<u64> = (0..table.node_count() as u64).collect();
+    let points = PointSet::new(plan, seed);
     let estimates =
-        estimate_cells(&cells, "karis", progress, |cell| estimate_cell(&table, settings.masking, plan, seed, cell));
+        estimate_cells(&cells, "karis", progress, |cell| estimate_cell(&table, settings.masking, &points, cell));
     for (value, estimate) in table.data.chunks_mut(2).zip(&estimates) {
         value[0] = estimate.mean[0] as f32;
         value[1] = estimate.mean[1] as f32;
     }
-    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_plan, seed| {
-        estimate_cell(&table, settings.masking, reference_plan, seed, cell)
+    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
+        estimate_cell(&table, settings.masking, reference_points, cell)
     })?;
     let wall_time_s = started.elapsed().as_secs_f64();
 

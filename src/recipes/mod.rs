@@ -8,8 +8,9 @@ pub mod karis;
 
 use serde::{Deserialize, Serialize};
 
-use crate::integrate::ErrorSummary;
+pub use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
 use crate::physics::MaskingShadowing;
+use crate::sampling::sequence::PointSet;
 use crate::table::Table;
 
 /// Every table tmlut knows, with a one-line description, in build order.
@@ -28,23 +29,6 @@ pub struct SamplingRecord {
     pub samples_per_cell: u64,
     pub replicates: u32,
     pub seed: u64,
-}
-
-/// The error of a table, estimated two independent ways.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ErrorRecord {
-    /// RMS and maximum over all cells and channels of the standard error from the spread of the
-    /// independently scrambled replicates.
-    pub replicate_standard_error: ErrorSummary,
-    /// Difference of the stored f32 values to per-cell estimates with far more samples and
-    /// independent scrambles, at a random subset of cells.
-    pub reference: Option<ReferenceComparison>,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ReferenceComparison {
-    pub samples_per_cell: u64,
-    pub difference: ErrorSummary,
 }
 
 /// A table and the record of how it was made.
@@ -68,28 +52,26 @@ pub(crate) fn replicate_error(estimates: &[crate::integrate::Estimate]) -> Error
 
 /// Seeds of reference estimates are offset from the table's so that their scrambles are
 /// independent of the ones the table was built with.
-const REFERENCE_SEED_OFFSET: u64 = 0x5EED_0F_2EF5;
+const REFERENCE_SEED_OFFSET: u64 = 0x005E_ED0F_2EF5;
 
 /// Compare a built table, at `reference.cells` cells drawn at random (reproducibly from `seed`),
 /// to per-cell estimates with `reference.samples` samples and independent scrambles.
-/// `estimate_cell(cell, plan, seed)` computes one cell's channels.
+/// `estimate_cell(cell, points)` computes one cell's channels.
 pub(crate) fn compare_to_reference(
     table: &Table,
     reference: &crate::config::ReferenceConfig,
     seed: u64,
     progress: &dyn crate::integrate::Progress,
-    estimate_cell: impl Fn(u64, crate::sampling::sequence::SamplePlan, u64) -> crate::integrate::Estimate + Sync,
+    estimate_cell: impl Fn(u64, &PointSet) -> crate::integrate::Estimate + Sync,
 ) -> crate::error::Result<Option<ReferenceComparison>> {
     if reference.cells == 0 {
         return Ok(None);
     }
     let plan = crate::sampling::sequence::SamplePlan::new(reference.samples, 1)?;
     let cells = random_cells(table.node_count(), reference.cells, seed);
-    let reference_seed = seed.wrapping_add(REFERENCE_SEED_OFFSET);
+    let points = PointSet::new(plan, seed.wrapping_add(REFERENCE_SEED_OFFSET));
     let label = format!("{} reference", table.name);
-    let estimates = crate::integrate::estimate_cells(&cells, &label, progress, |cell| {
-        estimate_cell(cell, plan, reference_seed)
-    });
+    let estimates = crate::integrate::estimate_cells(&cells, &label, progress, |cell| estimate_cell(cell, &points));
     let differences = cells.iter().zip(&estimates).flat_map(|(&cell, estimate)| {
         let stored = table.node(&table.node_index(cell as usize));
         stored.iter().zip(&estimate.mean).map(|(&s, &r)| s as f64 - r).collect::<Vec<f64>>()

@@ -5,4 +5,4 @@ pub mod vndf;
 #[cfg(feature = "generator")]
 pub mod sequence;
 
-pub use vndf::sample_visible_normal;
+pub use vndf::{DiskPoint, VisibleNormalSampler, sample_visible_normal};

@@ -1,9 +1,15 @@
 //! Sample points: Owen-scrambled Sobol points (Burley 2020, "Practical hash-based Owen
 //! scrambling", JCGT 9(4), through the `sobol_burley` crate) split into independently scrambled
-//! replicates, and the seed derivation that makes every cell's points depend on the cell alone,
-//! never on which thread computed it.
+//! replicates.
+//!
+//! Every cell of a table uses the same point set. Each cell's estimate is still an unbiased
+//! randomised quasi-Monte Carlo estimate, the replicates still give honest error bars, the error
+//! varies smoothly across the table instead of as cell-to-cell noise, and the points (and their
+//! trigonometry) are computed once rather than once per cell. The points depend on the seed alone,
+//! never on which thread uses them.
 
 use crate::error::{Error, Result};
+use crate::sampling::DiskPoint;
 
 /// `sobol_burley` yields at most 2^16 points per scramble; past that a release build returns
 /// unspecified values. Larger counts use several independently seeded scrambles (replicates).
@@ -40,13 +46,13 @@ impl SamplePlan {
     }
 }
 
-/// A 32-bit scramble seed for replicate `replicate` of cell `cell` in a run seeded with `seed`:
-/// a SplitMix64 finaliser (Steele, Lea, Flood 2014) over the three, so that neighbouring cells and
-/// replicates get unrelated scrambles.
-pub fn scramble_seed(seed: u64, cell: u64, replicate: u32) -> u32 {
+/// A 32-bit scramble seed for replicate `replicate` of stream `stream` in a run seeded with
+/// `seed`: a SplitMix64 finaliser (Steele, Lea, Flood 2014) over the three, so that neighbouring
+/// streams and replicates get unrelated scrambles.
+pub fn scramble_seed(seed: u64, stream: u64, replicate: u32) -> u32 {
     let mut z = seed
         .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        .wrapping_add(cell.wrapping_mul(0xBF58_476D_1CE4_E5B9))
+        .wrapping_add(stream.wrapping_mul(0xBF58_476D_1CE4_E5B9))
         .wrapping_add((replicate as u64).wrapping_mul(0x94D0_49BB_1331_11EB))
         .wrapping_add(0x2545_F491_4F6C_DD1D);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -60,6 +66,39 @@ pub fn scramble_seed(seed: u64, cell: u64, replicate: u32) -> u32 {
 pub fn sobol_point_2d(index: u32, scramble: u32) -> [f64; 2] {
     debug_assert!(index < MAX_POINTS_PER_REPLICATE);
     [sobol_burley::sample(index, 0, scramble) as f64, sobol_burley::sample(index, 1, scramble) as f64]
+}
+
+/// The disk points of a sample plan, replicate after replicate, drawn for one seed.
+#[derive(Debug, Clone)]
+pub struct PointSet {
+    plan: SamplePlan,
+    seed: u64,
+    points: Vec<DiskPoint>,
+}
+
+impl PointSet {
+    pub fn new(plan: SamplePlan, seed: u64) -> Self {
+        let points = (0..plan.replicates)
+            .flat_map(|replicate| {
+                let scramble = scramble_seed(seed, 0, replicate);
+                (0..plan.points).map(move |index| DiskPoint::from_unit_square(sobol_point_2d(index, scramble)))
+            })
+            .collect();
+        PointSet { plan, seed, points }
+    }
+
+    pub fn plan(&self) -> SamplePlan {
+        self.plan
+    }
+
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// The points of each replicate in turn.
+    pub fn replicates(&self) -> impl Iterator<Item = &[DiskPoint]> {
+        self.points.chunks(self.plan.points as usize)
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,172 @@
+//! `manifest.json`: one per output folder, one entry per file, stating every convention a reader
+//! needs — axes with their placement, mapping and the exact texture-coordinate formula, channels and
+//! their meaning, the integrand and masking-shadowing model, how it was sampled, its error, and the
+//! file's SHA-256. Users of other LUT tools trip over exactly these unstated conventions (flipped
+//! roughness, sRGB loading, half-texel shifts).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::{FileFormat, Precision, read_bytes, write_bytes_atomically};
+use crate::error::{Error, Result};
+use crate::stats::ErrorRecord;
+use crate::table::{Axis, Channel};
+
+pub const MANIFEST_FILE: &str = "manifest.json";
+
+/// The manifest of an output folder.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// The tool and version that last wrote the folder.
+    pub generator: String,
+    /// One entry per file, keyed by file name (sorted, so the manifest itself is deterministic).
+    pub files: BTreeMap<String, FileEntry>,
+}
+
+/// One axis as a file stores it, with the formula a shader uses to address it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AxisEntry {
+    #[serde(flatten)]
+    pub axis: Axis,
+    /// Which dimension of the file the axis runs along: `x`, `y`, `z` of a texture or image, `tile`
+    /// for the slices of an EXR atlas, `axis N` of a `.bin` file.
+    pub stored_along: String,
+    /// The texture coordinate a cell-centred GPU sampler must be given for a value of the quantity.
+    pub texture_coordinate: String,
+}
+
+impl AxisEntry {
+    pub fn new(axis: &Axis, stored_along: impl Into<String>) -> Self {
+        AxisEntry { axis: axis.clone(), stored_along: stored_along.into(), texture_coordinate: axis.texture_coordinate_formula() }
+    }
+}
+
+/// Everything known about one file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FileEntry {
+    pub table: String,
+    pub format: FileFormat,
+    /// Storage precision (`.bin` files are always f32).
+    pub precision: Precision,
+    /// The DXGI format of a DDS file, e.g. `R16G16_FLOAT`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dxgi_format: Option<String>,
+    /// Axis 0 varies fastest in storage.
+    pub axes: Vec<AxisEntry>,
+    pub channels: Vec<Channel>,
+    pub integrand: String,
+    /// Masking-shadowing model (`smith-separable`, `smith-height-correlated`, `schlick-smith`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub masking: Option<String>,
+    pub notes: Vec<String>,
+    pub method: String,
+    pub sampler: String,
+    pub samples_per_cell: u64,
+    pub seed: u64,
+    /// Wall time of the table's integration (not of writing the file), in seconds.
+    pub wall_time_s: f64,
+    pub value_range: [f32; 2],
+    pub nan_count: usize,
+    /// Error of the f32 values; see [`ErrorEntry`].
+    pub error: ErrorEntry,
+    pub sha256: String,
+    pub bytes: u64,
+}
+
+/// The error of a file's values: the integration error of the f32 table, and what storing it in
+/// the file's precision adds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorEntry {
+    #[serde(flatten)]
+    pub integration: ErrorRecord,
+    /// The largest change of a value by rounding to the file's precision.
+    pub storage_rounding_max: f64,
+}
+
+impl Manifest {
+    /// The manifest of `dir`, or an empty one if the folder has none yet.
+    pub fn read_or_default(dir: &Path) -> Result<Self> {
+        let path = dir.join(MANIFEST_FILE);
+        if !path.exists() {
+            return Ok(Manifest::default());
+        }
+        Self::read(&path)
+    }
+
+    pub fn read(path: &Path) -> Result<Self> {
+        let bytes = read_bytes(path)?;
+        serde_json::from_slice(&bytes)
+            .map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
+    }
+
+    /// Write the manifest of `dir` atomically.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let mut text = serde_json::to_string_pretty(self).expect("a manifest is plain data and always serialises");
+        text.push('\n');
+        write_bytes_atomically(&dir.join(MANIFEST_FILE), text.as_bytes())
+    }
+
+    pub fn entry(&self, file: &str) -> Option<&FileEntry> {
+        self.files.get(file)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::{ErrorSummary, ReferenceComparison};
+
+    #[test]
+    fn manifest_round_trips_through_json() {
+        let axis = Axis::node_aligned("mu", 0.0, 1.0, 64).unwrap();
+        let entry = FileEntry {
+            table: "gd".into(),
+            format: FileFormat::Bin,
+            precision: Precision::F32,
+            dxgi_format: None,
+            axes: vec![AxisEntry::new(&axis, "axis 0")],
+            channels: vec![Channel::new("value", "albedo")],
+            integrand: "E[G1(wo)]".into(),
+            masking: Some("smith-separable".into()),
+            notes: vec![],
+            method: "m".into(),
+            sampler: "s".into(),
+            samples_per_cell: 1024,
+            seed: 1,
+            wall_time_s: 0.5,
+            value_range: [0.3, 1.0],
+            nan_count: 0,
+            error: ErrorEntry {
+                integration: ErrorRecord {
+                    replicate_standard_error: ErrorSummary { count: 4096, rms: 1e-5, max: 1e-4 },
+                    reference: Some(ReferenceComparison {
+                        samples_per_cell: 1 << 20,
+                        difference: ErrorSummary { count: 10, rms: 1e-5, max: 2e-5 },
+                    }),
+                },
+                storage_rounding_max: 0.0,
+            },
+            sha256: "00".into(),
+            bytes: 16408,
+        };
+        let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new() };
+        manifest.files.insert("gd.bin".into(), entry);
+        let dir = tempfile::tempdir().unwrap();
+        manifest.write(dir.path()).unwrap();
+        let back = Manifest::read_or_default(dir.path()).unwrap();
+        assert_eq!(back, manifest);
+        let text = std::fs::read_to_string(dir.path().join(MANIFEST_FILE)).unwrap();
+        assert!(text.contains("\"texture_coordinate\": \"(mu) * 63 / 64 + 0.5 / 64\""), "{text}");
+        assert!(text.contains("\"placement\": \"node-aligned\""), "{text}");
+    }
+
+    #[test]
+    fn a_foreign_file_is_not_a_manifest() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join(MANIFEST_FILE), b"{\"hello\": 1}").unwrap();
+        let err = Manifest::read_or_default(dir.path()).unwrap_err().to_string();
+        assert!(err.contains("not a tmlut manifest"), "{err}");
+    }
+}

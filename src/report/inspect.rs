@@ -1,0 +1,155 @@
+//! `tmlut inspect FILE`: what a table file holds (format, dimensions, channels, value range,
+//! non-finite values) and, from the manifest beside it, every convention needed to read it right.
+
+use std::fmt::Write;
+use std::path::Path;
+
+use crate::error::Result;
+use crate::formats::manifest::{FileEntry, MANIFEST_FILE, Manifest};
+use crate::formats::{FileFormat, bin, dds};
+use crate::pipeline::sha256_hex;
+use crate::table::{Axis, Placement, Table};
+
+/// A readable description of a table file.
+pub fn inspect(path: &Path) -> Result<String> {
+    let format = crate::loader::format_of(path)?;
+    let bytes = crate::formats::read_bytes(path)?;
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let manifest_path = dir.join(MANIFEST_FILE);
+    let manifest = if manifest_path.exists() { Some(Manifest::read(&manifest_path)?) } else { None };
+    let entry = manifest.as_ref().and_then(|m| m.entry(&file));
+
+    let mut out = String::new();
+    let w = &mut out;
+    let _ = writeln!(w, "file:     {} ({} bytes)", path.display(), bytes.len());
+    let data: Vec<f32> = match format {
+        FileFormat::Dds => {
+            let texture = dds::decode_dds(&bytes, path)?;
+            let kind = if texture.volume { "volume texture" } else { "2D texture" };
+            let size = if texture.volume {
+                format!("{} x {} x {}", texture.width, texture.height, texture.depth)
+            } else {
+                format!("{} x {}", texture.width, texture.height)
+            };
+            let _ = writeln!(
+                w,
+                "format:   DDS with DX10 header, {}, {kind} {size}, 1 mip level",
+                dds::dxgi_format_name(texture.channels, texture.precision)
+            );
+            texture.data
+        }
+        FileFormat::Bin => {
+            let table = bin::decode_bin(&bytes, path, None)?;
+            let _ = writeln!(w, "format:   transfer-matrix .bin (int32 sizes, float32 ranges, float32 data), f32");
+            if entry.is_none() {
+                write_axes(w, &table.axes);
+            }
+            table.data
+        }
+        #[cfg(feature = "exr")]
+        FileFormat::Exr => {
+            let table = crate::formats::exr::read_exr(path)?;
+            let _ = writeln!(w, "format:   OpenEXR, table `{}` described in the file's attributes", table.name);
+            if entry.is_none() {
+                write_axes(w, &table.axes);
+                write_channels(w, &table);
+            }
+            table.data
+        }
+        #[cfg(not(feature = "exr"))]
+        FileFormat::Exr => return Err(crate::formats::no_exr_support(path)),
+    };
+    write_values(w, &data);
+
+    match entry {
+        Some(entry) => write_entry(w, entry, &bytes),
+        None if manifest.is_some() => {
+            let _ = writeln!(w, "manifest: {} lists no entry for this file: conventions unknown", manifest_path.display());
+        }
+        None => {
+            let _ = writeln!(w, "manifest: no {MANIFEST_FILE} beside the file: conventions unknown");
+        }
+    }
+    Ok(out)
+}
+
+fn write_values(w: &mut String, data: &[f32]) {
+    let (mut min, mut max, mut nan, mut inf) = (f32::INFINITY, f32::NEG_INFINITY, 0usize, 0usize);
+    for &v in data {
+        if v.is_nan() {
+            nan += 1;
+        } else if v.is_infinite() {
+            inf += 1;
+        } else {
+            min = min.min(v);
+            max = max.max(v);
+        }
+    }
+    let _ = writeln!(w, "values:   {} stored, min {min}, max {max}, NaN {nan}, infinite {inf}", data.len());
+}
+
+fn write_axes(w: &mut String, axes: &[Axis]) {
+    let _ = writeln!(w, "axes (axis 0 varies fastest):");
+    for (d, axis) in axes.iter().enumerate() {
+        let placement = match axis.placement {
+            Placement::NodeAligned => "node-aligned",
+            Placement::CellCentred => "cell-centred",
+        };
+        let _ = writeln!(
+            w,
+            "  {d}: {:<6} {:>5} nodes over [{}, {}], {placement}, spaced in {}",
+            axis.name,
+            axis.count,
+            axis.start,
+            axis.end,
+            axis.mapping.formula(&axis.name)
+        );
+        let _ = writeln!(w, "     texture coordinate = {}", axis.texture_coordinate_formula());
+    }
+}
+
+fn write_channels(w: &mut String, table: &Table) {
+    let _ = writeln!(w, "channels:");
+    for channel in &table.channels {
+        let _ = writeln!(w, "  {}: {}", channel.name, channel.meaning);
+    }
+}
+
+fn write_entry(w: &mut String, entry: &FileEntry, bytes: &[u8]) {
+    let _ = writeln!(w, "table:    {}", entry.table);
+    write_axes(w, &entry.axes.iter().map(|a| a.axis.clone()).collect::<Vec<_>>());
+    let _ = writeln!(w, "channels:");
+    for channel in &entry.channels {
+        let _ = writeln!(w, "  {}: {}", channel.name, channel.meaning);
+    }
+    let _ = writeln!(w, "integral: {}", entry.integrand);
+    if let Some(masking) = &entry.masking {
+        let _ = writeln!(w, "masking:  {masking}");
+    }
+    for note in &entry.notes {
+        let _ = writeln!(w, "note:     {note}");
+    }
+    let _ = writeln!(
+        w,
+        "sampling: {}; {}; {} samples per cell; seed {}; {:.2} s",
+        entry.method, entry.sampler, entry.samples_per_cell, entry.seed, entry.wall_time_s
+    );
+    let error = &entry.error;
+    let _ = write!(
+        w,
+        "error:    replicate standard error RMS {:.2e}, max {:.2e}",
+        error.integration.replicate_standard_error.rms, error.integration.replicate_standard_error.max
+    );
+    if let Some(reference) = &error.integration.reference {
+        let _ = write!(
+            w,
+            "; against {}-sample references at {} values: RMS {:.2e}, max {:.2e}",
+            reference.samples_per_cell, reference.difference.count, reference.difference.rms, reference.difference.max
+        );
+    }
+    let _ = writeln!(w, "; storage rounding max {:.2e}", error.storage_rounding_max);
+    let actual = sha256_hex(bytes);
+    let verdict = if actual == entry.sha256 { "matches the manifest" } else { "DOES NOT match the manifest" };
+    let _ = writeln!(w, "sha256:   {actual} ({verdict})");
+}

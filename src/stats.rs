@@ -1,0 +1,59 @@
+//! Error statistics shared by the generator, which computes them, and the manifest, which
+//! publishes them.
+
+use serde::{Deserialize, Serialize};
+
+/// RMS and maximum of a set of absolute differences or standard errors.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ErrorSummary {
+    /// Number of values summarised.
+    pub count: usize,
+    pub rms: f64,
+    pub max: f64,
+}
+
+impl ErrorSummary {
+    /// RMS and maximum of the absolute values.
+    pub fn of_differences(differences: impl IntoIterator<Item = f64>) -> Self {
+        let (mut count, mut sum2, mut max) = (0usize, 0.0f64, 0.0f64);
+        for d in differences {
+            count += 1;
+            sum2 += d * d;
+            max = max.max(d.abs());
+        }
+        ErrorSummary { count, rms: if count == 0 { 0.0 } else { (sum2 / count as f64).sqrt() }, max }
+    }
+}
+
+/// A table compared, at a subset of cells, to estimates with many more samples.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceComparison {
+    pub samples_per_cell: u64,
+    /// Stored f32 value minus reference, over the compared cells and all channels.
+    pub difference: ErrorSummary,
+}
+
+/// The integration error of a table, estimated two independent ways.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorRecord {
+    /// Standard error of each cell's mean from the spread of its independently scrambled
+    /// replicates, summarised over all cells and channels.
+    pub replicate_standard_error: ErrorSummary,
+    /// Difference to per-cell estimates with far more samples and independent scrambles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<ReferenceComparison>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn summary_of_differences() {
+        let e = ErrorSummary::of_differences([3.0, -4.0]);
+        assert_eq!(e.count, 2);
+        assert!((e.rms - (12.5f64).sqrt()).abs() < 1e-15);
+        assert_eq!(e.max, 4.0);
+        assert_eq!(ErrorSummary::of_differences([]).rms, 0.0);
+    }
+}
