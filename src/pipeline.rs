@@ -1,9 +1,12 @@
 //! A build: configuration in, table files and their manifest out.
 //!
-//! Each selected table is integrated, written in every configured format (each file atomically),
-//! hashed, and described in the folder's `manifest.json`, which keeps the entries of files this
-//! build did not touch. A build that fails part-way leaves every earlier file and the previous
-//! manifest as they were.
+//! Each selected table is integrated, written in every configured format, hashed, and described
+//! in the folder's `manifest.json`, which keeps the entries of files this build did not touch.
+//!
+//! Files are first written into a staging folder inside the output folder and moved into place
+//! only once every table of the build has been integrated and written; the manifest comes last.
+//! A build that fails or is interrupted before that point leaves every earlier file and the
+//! previous manifest as they were.
 
 use std::path::{Path, PathBuf};
 
@@ -61,24 +64,71 @@ pub fn resolve_tables(only: Option<&[String]>) -> Result<Vec<&'static str>> {
 pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<WrittenFile>> {
     request.config.validate()?;
     let tables = resolve_tables(request.only.as_deref())?;
-    std::fs::create_dir_all(&request.out).map_err(|source| Error::io(&request.out, source))?;
+    let out = &request.out;
+    std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
     // Read the old manifest before integrating, so that a foreign or damaged one stops the build
     // before minutes of work rather than after.
-    let mut manifest = Manifest::read_or_default(&request.out)?;
+    let mut manifest = Manifest::read_or_default(out)?;
     manifest.generator = generator_name();
 
-    let mut written = Vec::new();
+    let staging = Staging::create(out)?;
+    let mut staged = Vec::new();
     for name in tables {
         let build = build_table(name, &request.config, progress)?;
         let (formats, precision) = output_of(name, &request.config);
         for &format in formats {
-            let file = write_table_file(&request.out, &build, format, precision)?;
-            manifest.files.insert(file_name(&file.path), file.entry.clone());
-            written.push(file);
+            staged.push(write_table_file(&staging.dir, &build, format, precision)?);
         }
     }
-    manifest.write(&request.out)?;
+    let mut written = Vec::new();
+    for file in staged {
+        let name = file_name(&file.path);
+        let destination = out.join(&name);
+        std::fs::rename(&file.path, &destination).map_err(|source| Error::io(&destination, source))?;
+        manifest.files.insert(name, file.entry.clone());
+        written.push(WrittenFile { path: destination, entry: file.entry });
+    }
+    manifest.write(out)?;
     Ok(written)
+}
+
+/// A hidden folder inside the output folder (so that moving out of it is a rename on the same
+/// file system), removed with whatever is left in it when the build ends, however it ends.
+struct Staging {
+    dir: PathBuf,
+}
+
+const STAGING_PREFIX: &str = ".tmlut-staging-";
+
+impl Staging {
+    fn create(out: &Path) -> Result<Self> {
+        remove_abandoned_staging(out);
+        let dir = out.join(format!("{STAGING_PREFIX}{}", std::process::id()));
+        std::fs::create_dir_all(&dir).map_err(|source| Error::io(&dir, source))?;
+        Ok(Staging { dir })
+    }
+}
+
+/// Remove staging folders left by builds that were killed (a signal skips `Drop`), recognised by
+/// their process no longer running. Only where `/proc` tells; elsewhere they stay, harmless.
+fn remove_abandoned_staging(out: &Path) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(out) else { return };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name.strip_prefix(STAGING_PREFIX).and_then(|p| p.parse::<u32>().ok()) else { continue };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
 }
 
 pub fn generator_name() -> String {

@@ -6,10 +6,12 @@
 //! fastest), tiles laid out row by row in a near-square grid so that the image stays viewable.
 //! Row 0 of a tile is axis-1 node 0, as in DDS. A 1-axis table is a one-row image.
 //!
-//! An EXR file has no place for axes, so the table's description travels in custom text
-//! attributes (`tmlut.table`, `tmlut.axes`, `tmlut.channels`, `tmlut.layout`, all JSON but the
-//! name); [`read_exr`] needs them to rebuild the table and refuses images that lack them. Text
-//! attributes are stored as UTF-8 bytes, as OpenEXR itself does.
+//! An EXR file has no place for axes, so the table's description travels in one custom text
+//! attribute, `tmlut`, holding JSON: `{"table": name, "axes": [...], "channels": [...],
+//! "layout": {...}}`. [`read_exr`] needs it to rebuild the table and refuses images that lack it.
+//! One attribute rather than several because the exr crate writes custom attributes in hash-map
+//! order, which changes from run to run: with several, the same table would not give the same
+//! bytes twice. Text attributes are stored as UTF-8 bytes, as OpenEXR itself does.
 //!
 //! Pixels are stored uncompressed in scan lines: the float values of smooth tables barely compress
 //! losslessly, while compression would dominate the time to write a large table (uncompressed, a
@@ -29,10 +31,17 @@ use crate::error::{Error, Result};
 use crate::formats::{Precision, check_storable_values, read_bytes, write_atomically};
 use crate::table::{Axis, Channel, Table};
 
-const TABLE_ATTRIBUTE: &str = "tmlut.table";
-const AXES_ATTRIBUTE: &str = "tmlut.axes";
-const CHANNELS_ATTRIBUTE: &str = "tmlut.channels";
-const LAYOUT_ATTRIBUTE: &str = "tmlut.layout";
+/// The attribute holding the table's [`Description`].
+const DESCRIPTION_ATTRIBUTE: &str = "tmlut";
+
+/// What an EXR file must say about its table for the table to be rebuilt.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Description {
+    table: String,
+    axes: Vec<Axis>,
+    channels: Vec<Channel>,
+    layout: AtlasLayout,
+}
 
 /// The first four bytes of every OpenEXR file.
 const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
@@ -134,15 +143,13 @@ fn exr_image(table: &Table, precision: Precision) -> Result<Image<Layer<AnyChann
         .collect();
 
     let mut attributes = LayerAttributes { software_name: Some(utf8_text("tmlut")), ..LayerAttributes::default() };
-    let description = [
-        (TABLE_ATTRIBUTE, table.name.clone()),
-        (AXES_ATTRIBUTE, to_json(&table.axes)?),
-        (CHANNELS_ATTRIBUTE, to_json(&table.channels)?),
-        (LAYOUT_ATTRIBUTE, to_json(&layout)?),
-    ];
-    for (name, value) in description {
-        attributes.other.insert(utf8_text(name), AttributeValue::Text(utf8_text(&value)));
-    }
+    let description = Description {
+        table: table.name.clone(),
+        axes: table.axes.clone(),
+        channels: table.channels.clone(),
+        layout,
+    };
+    attributes.other.insert(utf8_text(DESCRIPTION_ATTRIBUTE), AttributeValue::Text(utf8_text(&to_json(&description)?)));
 
     let layer = Layer::new((width, height), attributes, Encoding::UNCOMPRESSED, AnyChannels::sort(channels));
     Ok(Image::from_layer(layer))
@@ -219,23 +226,14 @@ pub fn read_exr(path: &Path) -> Result<Table> {
     let refuse = |reason: String| Error::format(path, reason);
 
     let attributes = &layer.attributes.other;
-    let axes_json = text_attribute(attributes, AXES_ATTRIBUTE, path)?.ok_or_else(|| {
+    let description_json = text_attribute(attributes, DESCRIPTION_ATTRIBUTE, path)?.ok_or_else(|| {
         refuse(format!(
-            "the image lacks tmlut's `{AXES_ATTRIBUTE}` attribute, so it was not written by tmlut and its axes are \
-             unknown; only EXR files written by tmlut can be read back as tables"
+            "the image lacks tmlut's `{DESCRIPTION_ATTRIBUTE}` attribute, so it was not written by tmlut and its axes \
+             are unknown; only EXR files written by tmlut can be read back as tables"
         ))
     })?;
-    let require = |name: &str| {
-        text_attribute(attributes, name, path)?
-            .ok_or_else(|| refuse(format!("the image has `{AXES_ATTRIBUTE}` but lacks tmlut's `{name}` attribute")))
-    };
-    let name = require(TABLE_ATTRIBUTE)?;
-    let channels_json = require(CHANNELS_ATTRIBUTE)?;
-    let layout_json = require(LAYOUT_ATTRIBUTE)?;
-
-    let axes: Vec<Axis> = from_json(&axes_json, AXES_ATTRIBUTE, path)?;
-    let channels: Vec<Channel> = from_json(&channels_json, CHANNELS_ATTRIBUTE, path)?;
-    let stored_layout: AtlasLayout = from_json(&layout_json, LAYOUT_ATTRIBUTE, path)?;
+    let Description { table: name, axes, channels, layout: stored_layout } =
+        from_json(&description_json, DESCRIPTION_ATTRIBUTE, path)?;
     if axes.is_empty() || channels.is_empty() {
         return Err(refuse("the tmlut attributes list no axes or no channels".into()));
     }
@@ -249,20 +247,23 @@ pub fn read_exr(path: &Path) -> Result<Table> {
         .ok_or_else(|| refuse(format!("axes of shape {shape:?} are too large for any image")))?;
     if stored_layout != layout {
         return Err(refuse(format!(
-            "`{LAYOUT_ATTRIBUTE}` says {layout_json} but axes of shape {shape:?} are laid out as {}",
+            "`{DESCRIPTION_ATTRIBUTE}` gives the layout {} but axes of shape {shape:?} are laid out as {}",
+            to_json(&stored_layout)?,
             to_json(&layout)?
         )));
     }
     let (width, height) = (layout.columns * layout.tile_width, layout.rows * layout.tile_height);
     if (layer.size.0, layer.size.1) != (width, height) {
         return Err(refuse(format!(
-            "the image is {} × {} pixels; the layout {layout_json} needs {width} × {height}",
-            layer.size.0, layer.size.1
+            "the image is {} × {} pixels; the layout {} needs {width} × {height}",
+            layer.size.0,
+            layer.size.1,
+            to_json(&layout)?
         )));
     }
 
     if let Some(twice) = channels.iter().enumerate().find(|(i, c)| channels[..*i].iter().any(|d| d.name == c.name)) {
-        return Err(refuse(format!("`{CHANNELS_ATTRIBUTE}` names the channel `{}` twice", twice.1.name)));
+        return Err(refuse(format!("`{DESCRIPTION_ATTRIBUTE}` names the channel `{}` twice", twice.1.name)));
     }
     let mut stored = layer.channel_data.list;
     let planes = channels
@@ -485,11 +486,16 @@ mod tests {
         let t = Table::zeros("desc", axes, vec![Channel::new("v", "")]).unwrap();
         let image = exr_image(&t, Precision::F16).unwrap();
         let attributes = &image.layer_data.attributes.other;
-        let text = |name: &str| text_attribute(attributes, name, Path::new("x")).unwrap().unwrap();
-        assert_eq!(text(TABLE_ATTRIBUTE), "desc");
-        assert_eq!(text(AXES_ATTRIBUTE), serde_json::to_string(&t.axes).unwrap());
-        assert_eq!(text(CHANNELS_ATTRIBUTE), serde_json::to_string(&t.channels).unwrap());
-        assert_eq!(text(LAYOUT_ATTRIBUTE), r#"{"tile_width":64,"tile_height":64,"columns":8,"rows":8,"slices":64}"#);
+        assert_eq!(attributes.len(), 1, "one attribute, so that its order cannot vary");
+        let text = text_attribute(attributes, DESCRIPTION_ATTRIBUTE, Path::new("x")).unwrap().unwrap();
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(json["table"], "desc");
+        assert_eq!(json["axes"], serde_json::to_value(&t.axes).unwrap());
+        assert_eq!(json["channels"], serde_json::to_value(&t.channels).unwrap());
+        assert_eq!(
+            json["layout"].to_string(),
+            r#"{"columns":8,"rows":8,"slices":64,"tile_height":64,"tile_width":64}"#
+        );
     }
 
     #[test]
@@ -515,7 +521,7 @@ mod tests {
         image.write().to_file(&path).unwrap();
         let err = read_exr(&path).unwrap_err();
         assert!(matches!(err, Error::Format { .. }));
-        assert!(err.to_string().contains("lacks tmlut's `tmlut.axes` attribute"), "{err}");
+        assert!(err.to_string().contains("lacks tmlut's `tmlut` attribute"), "{err}");
     }
 
     #[test]
@@ -542,12 +548,15 @@ mod tests {
     fn edited_layout_is_refused() {
         let t = table(vec![Axis::node_aligned("x", 0.0, 1.0, 3).unwrap(); 3], &["v"]);
         let mut image = exr_image(&t, Precision::F32).unwrap();
-        let wrong = r#"{"tile_width":3,"tile_height":3,"columns":3,"rows":1,"slices":3}"#;
-        image.layer_data.attributes.other.insert(utf8_text(LAYOUT_ATTRIBUTE), AttributeValue::Text(utf8_text(wrong)));
+        let key = utf8_text(DESCRIPTION_ATTRIBUTE);
+        let Some(AttributeValue::Text(text)) = image.layer_data.attributes.other.get(&key) else { panic!() };
+        let mut description: serde_json::Value = serde_json::from_slice(text.as_slice()).unwrap();
+        description["layout"] = serde_json::json!({"tile_width":3,"tile_height":3,"columns":3,"rows":1,"slices":3});
+        image.layer_data.attributes.other.insert(key, AttributeValue::Text(utf8_text(&description.to_string())));
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("edited.exr");
         image.write().to_file(&path).unwrap();
         let err = read_exr(&path).unwrap_err().to_string();
-        assert!(err.contains("tmlut.layout"), "{err}");
+        assert!(err.contains("gives the layout"), "{err}");
     }
 }

@@ -1,0 +1,269 @@
+//! End-to-end tests of the `tmlut` command: what a user runs, what lands on disk, and how bad
+//! input is refused.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use tmlut::formats::manifest::{MANIFEST_FILE, Manifest};
+use tmlut::loader::LutFolder;
+
+fn tmlut(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tmlut")).args(args).output().expect("the tmlut binary runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+fn stdout(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// A Karis table small enough to build in a fraction of a second.
+const SMALL_KARIS: &str = "
+[karis]
+mu_count = 32
+roughness_count = 24
+[karis.sampling]
+samples = 256
+replicates = 4
+[karis.reference]
+cells = 6
+samples = 16384
+";
+
+fn write_config(dir: &Path, text: &str) -> PathBuf {
+    let path = dir.join("config.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn build(config: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["build", "--quiet", "--config", config.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    tmlut(&args)
+}
+
+/// Every file of a folder with its bytes, sorted by name.
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).unwrap_or_default()))
+        .collect();
+    files.sort();
+    files
+}
+
+fn assert_clean_failure(output: &Output, expected: &[&str]) {
+    let err = stderr(output);
+    assert_eq!(output.status.code(), Some(1), "exit status {:?}; stderr: {err}", output.status);
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for e in expected {
+        assert!(err.contains(e), "expected `{e}` in: {err}");
+    }
+}
+
+#[test]
+fn build_writes_dds_exr_and_a_manifest_that_a_renderer_can_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_KARIS);
+    let out = dir.path().join("luts");
+    let output = build(&config, &out, &["--only", "karis"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stdout(&output).contains("karis.dds"), "{}", stdout(&output));
+
+    let manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
+    let dds = manifest.entry("karis.dds").expect("karis.dds in the manifest");
+    assert_eq!(dds.dxgi_format.as_deref(), Some("R16G16_FLOAT"));
+    assert_eq!(dds.masking.as_deref(), Some("schlick-smith"));
+    assert_eq!(dds.axes.len(), 2);
+    assert_eq!((dds.axes[0].axis.name.as_str(), dds.axes[0].stored_along.as_str()), ("mu", "x"));
+    assert_eq!((dds.axes[1].axis.start, dds.axes[1].axis.end), (1.0, 0.0), "row 0 = roughness 1");
+    assert_eq!(dds.samples_per_cell, 256);
+    assert_eq!(dds.nan_count, 0);
+    let reference = dds.error.integration.reference.as_ref().expect("a reference comparison");
+    assert_eq!(reference.difference.count, 12, "6 cells x 2 channels");
+    let bytes = std::fs::read(out.join("karis.dds")).unwrap();
+    assert_eq!(dds.sha256, tmlut::pipeline::sha256_hex(&bytes));
+    assert_eq!(dds.bytes, bytes.len() as u64);
+    assert!(manifest.entry("karis.exr").is_some());
+
+    // The loader reads both files back to the same f16 values, with the manifest's axes.
+    let folder = LutFolder::open(&out).unwrap();
+    let from_dds = folder.load("karis.dds").unwrap();
+    let from_exr = folder.load("karis.exr").unwrap();
+    assert_eq!(from_dds.data, from_exr.data);
+    assert_eq!(from_dds.axes, from_exr.axes);
+    assert_eq!(from_dds.shape(), vec![32, 24]);
+    let node = from_dds.node_position(&[5, 7]);
+    let interpolated = from_dds.interpolate(&node);
+    assert!((interpolated[0] - from_dds.node(&[5, 7])[0] as f64).abs() < 1e-6);
+    // And no staging folder is left behind.
+    assert!(snapshot(&out).iter().all(|(name, _)| !name.starts_with('.')), "{:?}", snapshot(&out).iter().map(|f| &f.0).collect::<Vec<_>>());
+}
+
+#[test]
+fn inspect_prints_the_conventions_of_each_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_KARIS);
+    let out = dir.path().join("luts");
+    assert!(build(&config, &out, &[]).status.success());
+    for file in ["karis.dds", "karis.exr"] {
+        let output = tmlut(&["inspect", out.join(file).to_str().unwrap()]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        let text = stdout(&output);
+        for expected in [
+            "table:    karis",
+            "mu",
+            "cell-centred",
+            "spaced in sqrt(alpha)",
+            "texture coordinate = (sqrt(alpha) - 1) / (0 - 1)",
+            "Row 0 = roughness 1",
+            "not sRGB",
+            "masking:  schlick-smith",
+            "NaN 0",
+            "matches the manifest",
+        ] {
+            assert!(text.contains(expected), "{file}: expected `{expected}` in:\n{text}");
+        }
+    }
+    let dds = stdout(&tmlut(&["inspect", out.join("karis.dds").to_str().unwrap()]));
+    assert!(dds.contains("R16G16_FLOAT, 2D texture 32 x 24, 1 mip level"), "{dds}");
+}
+
+#[test]
+fn the_shipped_original_tables_inspect_cleanly() {
+    let gd = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_GD.bin");
+    let output = tmlut(&["inspect", gd]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = stdout(&output);
+    assert!(text.contains("64 nodes over [0, 1], node-aligned"), "{text}");
+    assert!(text.contains("NaN 0"), "{text}");
+    assert!(text.contains("(x0) * 63 / 64 + 0.5 / 64"), "{text}");
+}
+
+#[test]
+fn same_seed_gives_identical_files_whatever_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_KARIS);
+    let one = dir.path().join("one");
+    let two = dir.path().join("two");
+    assert!(build(&config, &one, &["--threads", "1"]).status.success());
+    assert!(build(&config, &two, &["--threads", "2"]).status.success());
+    let (a, b) = (snapshot(&one), snapshot(&two));
+    for ((name_a, bytes_a), (name_b, bytes_b)) in a.iter().zip(&b) {
+        assert_eq!(name_a, name_b);
+        if name_a != MANIFEST_FILE {
+            assert!(bytes_a == bytes_b, "{name_a} differs between 1 and 2 threads");
+        }
+    }
+    let three = dir.path().join("three");
+    assert!(build(&config, &three, &["--seed", "99"]).status.success());
+    assert_ne!(std::fs::read(one.join("karis.dds")).unwrap(), std::fs::read(three.join("karis.dds")).unwrap());
+}
+
+#[test]
+fn list_names_every_table() {
+    let output = tmlut(&["list"]);
+    assert!(output.status.success());
+    assert!(stdout(&output).contains("karis"), "{}", stdout(&output));
+}
+
+#[test]
+fn bad_configurations_are_refused_naming_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("luts");
+    let cases: &[(&str, &[&str])] = &[
+        ("[karis]\nroughness_cuont = 3\n", &["config.toml", "roughness_cuont"]),
+        ("[karis]\nalpha_range = [-0.5, 1.0]\n", &["karis.alpha_range", "allowed"]),
+        ("[karis]\nalpha_range = [1.0, 0.0]\n", &["karis.alpha_range", "inverted"]),
+        ("[karis]\nroughness_count = 1\n", &["karis.roughness_count", "allowed: 2 to"]),
+        ("[karis]\nmu_count = 0\n", &["karis.mu_count"]),
+        ("[karis.sampling]\nsamples = 100\nreplicates = 4\n", &["karis.sampling.samples", "power of two"]),
+        ("seed = -1\n", &["config.toml", "seed"]),
+        ("[karis\n", &["config.toml"]),
+    ];
+    for (text, expected) in cases {
+        let config = write_config(dir.path(), text);
+        let output = build(&config, &out, &[]);
+        assert_clean_failure(&output, expected);
+    }
+    assert!(!out.exists(), "a refused configuration must not create the output folder");
+    let missing = tmlut(&["build", "--config", dir.path().join("nope.toml").to_str().unwrap()]);
+    assert_clean_failure(&missing, &["nope.toml"]);
+}
+
+#[test]
+fn bad_arguments_are_refused_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_KARIS);
+    let output = build(&config, &dir.path().join("luts"), &["--only", "karis,fgdd"]);
+    assert_clean_failure(&output, &["--only", "unknown table `fgdd`", "known tables: karis"]);
+    let output = build(&config, &dir.path().join("luts"), &["--threads", "0"]);
+    assert_clean_failure(&output, &["--threads"]);
+
+    // An output folder that cannot be created: a file stands where a parent folder should be.
+    let blocker = dir.path().join("a-file");
+    std::fs::write(&blocker, b"x").unwrap();
+    let output = build(&config, &blocker.join("luts"), &[]);
+    assert_clean_failure(&output, &["a-file"]);
+}
+
+#[test]
+fn inspect_refuses_truncated_foreign_and_missing_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_KARIS);
+    let out = dir.path().join("luts");
+    assert!(build(&config, &out, &[]).status.success());
+
+    let dds = std::fs::read(out.join("karis.dds")).unwrap();
+    let truncated = dir.path().join("truncated.dds");
+    std::fs::write(&truncated, &dds[..dds.len() / 2]).unwrap();
+    assert_clean_failure(&tmlut(&["inspect", truncated.to_str().unwrap()]), &["truncated.dds", "truncated"]);
+
+    let exr = std::fs::read(out.join("karis.exr")).unwrap();
+    let truncated = dir.path().join("truncated.exr");
+    std::fs::write(&truncated, &exr[..exr.len() / 3]).unwrap();
+    assert_clean_failure(&tmlut(&["inspect", truncated.to_str().unwrap()]), &["truncated.exr"]);
+
+    let foreign = dir.path().join("notes.txt");
+    std::fs::write(&foreign, b"hello, not a table").unwrap();
+    assert_clean_failure(&tmlut(&["inspect", foreign.to_str().unwrap()]), &["notes.txt", "not a table"]);
+
+    let foreign_bin = dir.path().join("random.bin");
+    std::fs::write(&foreign_bin, vec![7u8; 1000]).unwrap();
+    assert_clean_failure(&tmlut(&["inspect", foreign_bin.to_str().unwrap()]), &["random.bin"]);
+
+    assert_clean_failure(&tmlut(&["inspect", dir.path().join("absent.dds").to_str().unwrap()]), &["absent.dds"]);
+}
+
+#[test]
+fn an_interrupted_build_leaves_earlier_outputs_intact() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("luts");
+    let small = write_config(dir.path(), SMALL_KARIS);
+    assert!(build(&small, &out, &[]).status.success());
+    let before = snapshot(&out);
+
+    // A build that takes several seconds, killed while it integrates.
+    let slow = dir.path().join("slow.toml");
+    std::fs::write(&slow, "[karis]\nmu_count = 1024\nroughness_count = 1024\n[karis.sampling]\nsamples = 4096\nreplicates = 4\n")
+        .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tmlut"))
+        .args(["build", "--quiet", "--config", slow.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(600));
+    assert!(child.try_wait().unwrap().is_none(), "the slow build finished before it could be interrupted");
+    child.kill().unwrap();
+    child.wait().unwrap();
+
+    let after: Vec<(String, Vec<u8>)> = snapshot(&out).into_iter().filter(|(name, _)| !name.starts_with('.')).collect();
+    assert_eq!(before, after, "files changed under an interrupted build");
+
+    // The next build removes what the killed one left in its staging folder.
+    assert!(build(&small, &out, &[]).status.success());
+    assert!(snapshot(&out).iter().all(|(name, _)| !name.starts_with('.')));
+}
