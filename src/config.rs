@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
-use crate::recipes::karis::KarisSettings;
+use crate::recipes::{belcour::BelcourSettings, fgd::FgdSettings, gd::GdSettings, karis::KarisSettings, tir::TirSettings};
 
 /// Nodes per axis above which a table would not fit a GPU texture dimension (Direct3D 12 allows
 /// 16384 for 2D textures, 2048 for volumes) nor memory.
@@ -38,12 +38,23 @@ pub const MAX_NODES_PER_AXIS: usize = 16384;
 pub struct Config {
     /// Seed of every Monte Carlo estimate: the same configuration and seed give bit-identical files.
     pub seed: u64,
+    pub fgd: FgdSettings,
+    pub gd: GdSettings,
+    pub tir: TirSettings,
+    pub belcour: BelcourSettings,
     pub karis: KarisSettings,
 }
 
 impl Default for Config {
     fn default() -> Self {
-        Config { seed: 2021, karis: KarisSettings::default() }
+        Config {
+            seed: 2021,
+            fgd: FgdSettings::default(),
+            gd: GdSettings::default(),
+            tir: TirSettings::default(),
+            belcour: BelcourSettings::default(),
+            karis: KarisSettings::default(),
+        }
     }
 }
 
@@ -60,7 +71,20 @@ impl Config {
         Self::from_toml(&text, &path.display().to_string())
     }
 
+    /// Use `method` for every table.
+    pub fn set_method(&mut self, method: crate::integrate::Method) {
+        self.fgd.method = method;
+        self.gd.method = method;
+        self.tir.method = method;
+        self.belcour.method = method;
+        self.karis.method = method;
+    }
+
     pub fn validate(&self) -> Result<()> {
+        self.fgd.validate()?;
+        self.gd.validate()?;
+        self.tir.validate()?;
+        self.belcour.validate()?;
         self.karis.validate()
     }
 }

@@ -9,7 +9,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use tmlut::config::Config;
-use tmlut::integrate::Progress;
+use tmlut::integrate::{Method, Progress};
 use tmlut::pipeline::{self, BuildRequest};
 use tmlut::recipes::TABLES;
 
@@ -42,6 +42,10 @@ enum Command {
         /// Seed of the Monte Carlo estimates, overriding the configuration's.
         #[arg(long)]
         seed: Option<u64>,
+        /// Integration method of every table, overriding the configuration's: `fast` (one
+        /// measure per (mu, alpha)) or `per-cell` (every cell on its own; slow, for cross-checks).
+        #[arg(long, value_parser = parse_method)]
+        method: Option<Method>,
     },
     /// List the tables tmlut knows.
     List,
@@ -64,13 +68,16 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> tmlut::Result<()> {
     match cli.command {
-        Command::Build { config, only, out, threads, seed } => {
+        Command::Build { config, only, out, threads, seed, method } => {
             let mut config = match &config {
                 Some(path) => Config::from_file(path)?,
                 None => Config::default(),
             };
             if let Some(seed) = seed {
                 config.seed = seed;
+            }
+            if let Some(method) = method {
+                config.set_method(method);
             }
             set_threads(threads)?;
             let request = BuildRequest { config, only, out };
@@ -101,6 +108,14 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             print!("{}", tmlut::report::inspect(&file)?);
             Ok(())
         }
+    }
+}
+
+fn parse_method(text: &str) -> Result<Method, String> {
+    match text {
+        "fast" => Ok(Method::Fast),
+        "per-cell" => Ok(Method::PerCell),
+        other => Err(format!("`{other}`; allowed: fast, per-cell")),
     }
 }
 

@@ -136,14 +136,23 @@ pub fn generator_name() -> String {
 }
 
 fn build_table(name: &str, config: &Config, progress: &dyn Progress) -> Result<TableBuild> {
+    let seed = config.seed;
     match name {
-        recipes::karis::NAME => recipes::karis::build(&config.karis, config.seed, progress),
+        recipes::fgd::NAME => recipes::fgd::build(&config.fgd, seed, progress),
+        recipes::gd::NAME => recipes::gd::build(&config.gd, seed, progress),
+        recipes::tir::NAME => recipes::tir::build(&config.tir, seed, progress),
+        recipes::belcour::NAME => recipes::belcour::build(&config.belcour, seed, progress),
+        recipes::karis::NAME => recipes::karis::build(&config.karis, seed, progress),
         other => unreachable!("resolve_tables admitted unknown table {other}"),
     }
 }
 
 fn output_of<'c>(name: &str, config: &'c Config) -> (&'c [FileFormat], Precision) {
     let output = match name {
+        recipes::fgd::NAME => &config.fgd.output,
+        recipes::gd::NAME => &config.gd.output,
+        recipes::tir::NAME => &config.tir.output,
+        recipes::belcour::NAME => &config.belcour.output,
         recipes::karis::NAME => &config.karis.output,
         other => unreachable!("resolve_tables admitted unknown table {other}"),
     };
@@ -182,6 +191,8 @@ pub fn write_table_file(dir: &Path, build: &TableBuild, format: FileFormat, prec
         value_range: [stats.min, stats.max],
         nan_count: stats.nan_count + stats.infinite_count,
         error: ErrorEntry { integration: build.error.clone(), storage_rounding_max: storage_rounding(table, precision) },
+        fresnel_basis: build.fresnel_basis.clone(),
+        accuracy: build.accuracy.clone(),
         sha256: sha256_hex(&bytes),
         bytes: bytes.len() as u64,
     };

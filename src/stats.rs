@@ -44,6 +44,17 @@ pub struct ErrorRecord {
     pub reference: Option<ReferenceComparison>,
 }
 
+/// A measured accuracy figure beyond the integration error: for instance how well a split-sum
+/// table with its coefficients reproduces the full FGD integral over a parameter domain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AccuracyReport {
+    /// What was compared with what, and over which domain.
+    pub what: String,
+    pub error: ErrorSummary,
+    /// Where the largest error occurred, in the parameters' own words.
+    pub worst_at: String,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

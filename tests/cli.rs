@@ -19,8 +19,47 @@ fn stdout(output: &Output) -> String {
     String::from_utf8_lossy(&output.stdout).into_owned()
 }
 
-/// A Karis table small enough to build in a fraction of a second.
-const SMALL_KARIS: &str = "
+/// Every table, small enough for the whole set to build in about a second.
+const SMALL_SET: &str = "
+[fgd]
+mu_count = 8
+alpha_count = 7
+eta_count = 6
+kappa_count = 5
+[fgd.sampling]
+samples = 1024
+replicates = 4
+[fgd.reference]
+cells = 4
+samples = 16384
+[gd]
+mu_count = 8
+alpha_count = 8
+[gd.sampling]
+samples = 1024
+replicates = 4
+[gd.reference]
+cells = 4
+samples = 16384
+[tir]
+mu_count = 8
+alpha_count = 8
+eta_count = 8
+[tir.sampling]
+samples = 1024
+replicates = 4
+[tir.reference]
+cells = 4
+samples = 16384
+[belcour]
+mu_count = 16
+roughness_count = 16
+[belcour.sampling]
+samples = 1024
+replicates = 4
+[belcour.reference]
+cells = 4
+samples = 16384
 [karis]
 mu_count = 32
 roughness_count = 24
@@ -68,7 +107,7 @@ fn assert_clean_failure(output: &Output, expected: &[&str]) {
 #[test]
 fn build_writes_dds_exr_and_a_manifest_that_a_renderer_can_load() {
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), SMALL_KARIS);
+    let config = write_config(dir.path(), SMALL_SET);
     let out = dir.path().join("luts");
     let output = build(&config, &out, &["--only", "karis"]);
     assert!(output.status.success(), "{}", stderr(&output));
@@ -89,6 +128,7 @@ fn build_writes_dds_exr_and_a_manifest_that_a_renderer_can_load() {
     assert_eq!(dds.sha256, tmlut::pipeline::sha256_hex(&bytes));
     assert_eq!(dds.bytes, bytes.len() as u64);
     assert!(manifest.entry("karis.exr").is_some());
+    assert!(manifest.entry("fgd.bin").is_none(), "--only karis built only karis");
 
     // The loader reads both files back to the same f16 values, with the manifest's axes.
     let folder = LutFolder::open(&out).unwrap();
@@ -107,7 +147,7 @@ fn build_writes_dds_exr_and_a_manifest_that_a_renderer_can_load() {
 #[test]
 fn inspect_prints_the_conventions_of_each_file() {
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), SMALL_KARIS);
+    let config = write_config(dir.path(), SMALL_SET);
     let out = dir.path().join("luts");
     assert!(build(&config, &out, &[]).status.success());
     for file in ["karis.dds", "karis.exr"] {
@@ -147,11 +187,15 @@ fn the_shipped_original_tables_inspect_cleanly() {
 #[test]
 fn same_seed_gives_identical_files_whatever_the_thread_count() {
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), SMALL_KARIS);
+    let config = write_config(dir.path(), SMALL_SET);
     let one = dir.path().join("one");
     let two = dir.path().join("two");
     assert!(build(&config, &one, &["--threads", "1"]).status.success());
     assert!(build(&config, &two, &["--threads", "2"]).status.success());
+    assert_eq!(
+        snapshot(&one).iter().map(|f| f.0.as_str()).collect::<Vec<_>>(),
+        ["belcour.dds", "belcour.exr", "fgd.bin", "gd.bin", "karis.dds", "karis.exr", "manifest.json", "tir.bin"]
+    );
     let (a, b) = (snapshot(&one), snapshot(&two));
     for ((name_a, bytes_a), (name_b, bytes_b)) in a.iter().zip(&b) {
         assert_eq!(name_a, name_b);
@@ -160,7 +204,7 @@ fn same_seed_gives_identical_files_whatever_the_thread_count() {
         }
     }
     let three = dir.path().join("three");
-    assert!(build(&config, &three, &["--seed", "99"]).status.success());
+    assert!(build(&config, &three, &["--seed", "99", "--only", "karis"]).status.success());
     assert_ne!(std::fs::read(one.join("karis.dds")).unwrap(), std::fs::read(three.join("karis.dds")).unwrap());
 }
 
@@ -168,7 +212,9 @@ fn same_seed_gives_identical_files_whatever_the_thread_count() {
 fn list_names_every_table() {
     let output = tmlut(&["list"]);
     assert!(output.status.success());
-    assert!(stdout(&output).contains("karis"), "{}", stdout(&output));
+    for table in ["fgd", "gd", "tir", "belcour", "karis"] {
+        assert!(stdout(&output).contains(table), "{}", stdout(&output));
+    }
 }
 
 #[test]
@@ -198,9 +244,11 @@ fn bad_configurations_are_refused_naming_the_key() {
 #[test]
 fn bad_arguments_are_refused_clearly() {
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), SMALL_KARIS);
+    let config = write_config(dir.path(), SMALL_SET);
     let output = build(&config, &dir.path().join("luts"), &["--only", "karis,fgdd"]);
-    assert_clean_failure(&output, &["--only", "unknown table `fgdd`", "known tables: karis"]);
+    assert_clean_failure(&output, &["--only", "unknown table `fgdd`", "known tables: fgd, gd, tir, belcour, karis"]);
+    let output = build(&config, &dir.path().join("luts"), &["--method", "slow"]);
+    assert!(!output.status.success() && stderr(&output).contains("allowed: fast, per-cell"), "{}", stderr(&output));
     let output = build(&config, &dir.path().join("luts"), &["--threads", "0"]);
     assert_clean_failure(&output, &["--threads"]);
 
@@ -214,7 +262,7 @@ fn bad_arguments_are_refused_clearly() {
 #[test]
 fn inspect_refuses_truncated_foreign_and_missing_files() {
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), SMALL_KARIS);
+    let config = write_config(dir.path(), SMALL_SET);
     let out = dir.path().join("luts");
     assert!(build(&config, &out, &[]).status.success());
 
@@ -243,7 +291,7 @@ fn inspect_refuses_truncated_foreign_and_missing_files() {
 fn an_interrupted_build_leaves_earlier_outputs_intact() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("luts");
-    let small = write_config(dir.path(), SMALL_KARIS);
+    let small = write_config(dir.path(), SMALL_SET);
     assert!(build(&small, &out, &[]).status.success());
     let before = snapshot(&out);
 

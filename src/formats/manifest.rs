@@ -11,7 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use super::{FileFormat, Precision, read_bytes, write_bytes_atomically};
 use crate::error::{Error, Result};
-use crate::stats::ErrorRecord;
+use crate::physics::FresnelBasis;
+use crate::stats::{AccuracyReport, ErrorRecord};
 use crate::table::{Axis, Channel};
 
 pub const MANIFEST_FILE: &str = "manifest.json";
@@ -71,6 +72,12 @@ pub struct FileEntry {
     pub nan_count: usize,
     /// Error of the f32 values; see [`ErrorEntry`].
     pub error: ErrorEntry,
+    /// The Fresnel basis a shader needs to use a Belcour table: curves and probe cosines.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fresnel_basis: Option<FresnelBasis>,
+    /// Further measured accuracy figures.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub accuracy: Vec<AccuracyReport>,
     pub sha256: String,
     pub bytes: u64,
 }
@@ -148,6 +155,8 @@ mod tests {
                 },
                 storage_rounding_max: 0.0,
             },
+            fresnel_basis: None,
+            accuracy: vec![],
             sha256: "00".into(),
             bytes: 16408,
         };

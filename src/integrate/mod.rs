@@ -10,10 +10,13 @@
 //! Determinism: every cell uses the same [`PointSet`], which depends only on the seed, and each
 //! cell's sums run in a fixed order, so the result is bit-identical whatever the thread count.
 
+pub mod batch;
+pub mod measure;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::physics::{direction_from_cosine, reflect};
+use crate::physics::{MaskingShadowing, direction_from_cosine, reflect};
 use crate::sampling::VisibleNormalSampler;
 use crate::sampling::sequence::PointSet;
 
@@ -22,6 +25,28 @@ use crate::sampling::sequence::PointSet;
 /// direction, where the integrand is `0 / 0`. For `alpha > 0` the difference to `mu = 0` is below
 /// the tables' Monte Carlo noise.
 pub const GRAZING_COSINE: f64 = 1e-6;
+
+/// How a table's cells are integrated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// One visible-normal measure per `(mu, alpha)`, shared by every other parameter, in f32
+    /// vectorised batches (`notes/fast-integration.md`).
+    #[default]
+    Fast,
+    /// Every cell on its own, in scalar f64: the way other generators work, kept as an independent
+    /// cross-check of the fast path.
+    PerCell,
+}
+
+impl Method {
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Fast => "fast",
+            Method::PerCell => "per-cell",
+        }
+    }
+}
 
 /// One visible-normal sample of a cell.
 #[derive(Debug, Clone, Copy)]
@@ -51,22 +76,79 @@ pub fn estimate_visible_normal_integral(
     alpha: f64,
     points: &PointSet,
     channels: usize,
-    accumulate: impl Fn(&MicrofacetSample, &mut [f64]),
+    accumulate: impl FnMut(&MicrofacetSample, &mut [f64]),
 ) -> Estimate {
+    combine_replicates(&visible_normal_replicate_means(mu, alpha, points, channels, accumulate), channels)
+}
+
+/// The per-replicate means behind [`estimate_visible_normal_integral`], for estimators that are
+/// not plain means (a ratio of two means, say) and combine the replicates themselves.
+pub fn visible_normal_replicate_means(
+    mu: f64,
+    alpha: f64,
+    points: &PointSet,
+    channels: usize,
+    mut accumulate: impl FnMut(&MicrofacetSample, &mut [f64]),
+) -> Vec<Vec<f64>> {
     let wi = direction_from_cosine(mu.max(GRAZING_COSINE));
     let sampler = VisibleNormalSampler::new(wi, alpha);
-    let mut replicate_means = Vec::with_capacity(points.plan().replicates as usize);
-    let mut sums = vec![0.0; channels];
+    let mut means = Vec::with_capacity(points.plan().replicates as usize);
     for replicate in points.replicates() {
-        sums.iter_mut().for_each(|s| *s = 0.0);
+        let mut sums = vec![0.0; channels];
         for point in replicate {
             let h = sampler.sample(point);
             let sample = MicrofacetSample { wi, h, wo: reflect(wi, h), cos_wi_h: wi.dot(h).clamp(0.0, 1.0) };
             accumulate(&sample, &mut sums);
         }
-        replicate_means.push(sums.iter().map(|s| s / replicate.len() as f64).collect::<Vec<f64>>());
+        means.push(sums.iter().map(|s| s / replicate.len() as f64).collect());
     }
-    combine_replicates(&replicate_means, channels)
+    means
+}
+
+/// Estimate `E[f_j(wi.h) W]` for the `N` channel functions `f` with `W = G2 / G1(wi)` of
+/// `masking`, by either method. The fast method runs the f32 batch kernel; the per-cell method the
+/// scalar f64 sampler. Both see the same points.
+pub fn estimate_cosine_functions<const N: usize>(
+    mu: f64,
+    alpha: f64,
+    masking: MaskingShadowing,
+    method: Method,
+    points: &PointSet,
+    f: impl Fn(f64) -> [f64; N],
+) -> Estimate {
+    match method {
+        Method::PerCell => estimate_visible_normal_integral(mu, alpha, points, N, |sample, sums| {
+            let weight = masking.visible_normal_weight(sample.wi, sample.wo, alpha);
+            for (s, v) in sums.iter_mut().zip(f(sample.cos_wi_h)) {
+                *s += weight * v;
+            }
+        }),
+        Method::Fast => {
+            let warp = batch::CellWarp::new(mu.max(GRAZING_COSINE), alpha);
+            let replicate_means: Vec<Vec<f64>> = points
+                .replicates_f32()
+                .iter()
+                .map(|replicate| {
+                    // Eight interleaved partial sums, added up in a fixed order at the end: the
+                    // compiler can vectorise them, and the result does not depend on the CPU.
+                    const LANES: usize = 8;
+                    let mut lanes = [[0.0f64; N]; LANES];
+                    batch::for_each_block(&warp, masking, replicate, |cos_wi_h, _, weight| {
+                        for (chunk_c, chunk_w) in cos_wi_h.chunks(LANES).zip(weight.chunks(LANES)) {
+                            for (lane, (&c, &w)) in chunk_c.iter().zip(chunk_w).enumerate() {
+                                let values = f(c as f64);
+                                for j in 0..N {
+                                    lanes[lane][j] += w as f64 * values[j];
+                                }
+                            }
+                        }
+                    });
+                    (0..N).map(|j| lanes.iter().map(|l| l[j]).sum::<f64>() / replicate.len() as f64).collect()
+                })
+                .collect();
+            combine_replicates(&replicate_means, N)
+        }
+    }
 }
 
 /// Mean and standard error over replicate means.
@@ -104,9 +186,11 @@ pub fn estimate_cells<T: Send>(
     estimate_cell: impl Fn(u64) -> T + Sync,
 ) -> Vec<T> {
     progress.start(label, cells.len() as u64);
-    // Chunks keep progress updates cheap next to the per-cell work.
+    // Chunks keep progress updates cheap next to the per-cell work, yet are small enough that a
+    // short list (a few dozen reference cells) still spreads over every thread.
+    let chunk = (cells.len() / (8 * rayon::current_num_threads())).clamp(1, 64);
     let results: Vec<T> = cells
-        .par_chunks(64)
+        .par_chunks(chunk)
         .flat_map_iter(|chunk| {
             let out: Vec<T> = chunk.iter().map(|&c| estimate_cell(c)).collect();
             progress.advance(chunk.len() as u64);
@@ -120,7 +204,6 @@ pub fn estimate_cells<T: Send>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::MaskingShadowing;
     use crate::sampling::sequence::SamplePlan;
 
     #[test]

@@ -3,10 +3,12 @@
 //! All in f64; each function is named by the quantity it returns and cites its source.
 
 pub mod fresnel;
+pub mod fresnel_basis;
 pub mod henyey_greenstein;
 pub mod microfacet;
 
 pub use fresnel::{critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance, schlick_weight};
+pub use fresnel_basis::FresnelBasis;
 pub use henyey_greenstein::{ggx_to_hg, hg_to_ggx};
 pub use microfacet::{
     MaskingShadowing, direction_from_cosine, ggx_distribution, reflect, schlick_smith_g1, smith_g1,

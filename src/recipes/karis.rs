@@ -16,36 +16,18 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::{ErrorRecord, SamplingRecord, TableBuild, compare_to_reference, replicate_error};
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
+use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
+use super::{TableBuild, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points};
+use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
-use crate::integrate::{Estimate, MicrofacetSample, Progress, estimate_cells, estimate_visible_normal_integral};
+use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::{MaskingShadowing, schlick_weight};
-use crate::sampling::sequence::{PointSet, SamplePlan};
-use crate::table::{Axis, Channel, Mapping, Table};
+use crate::sampling::sequence::PointSet;
+use crate::stats::ErrorRecord;
+use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "karis";
-
-/// How the texture's second coordinate follows roughness.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum RoughnessAxis {
-    /// Texels evenly spaced in perceptual roughness `r = sqrt(alpha)` (Unreal Engine 4).
-    Perceptual,
-    /// Texels evenly spaced in GGX alpha.
-    Alpha,
-}
-
-/// Which end of the roughness axis is row 0.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Orientation {
-    /// Row 0 is the roughest texel (Unreal Engine 4's shipped table: `v = 1 - roughness`).
-    RoughFirst,
-    /// Row 0 is the smoothest texel (`v = roughness`).
-    SmoothFirst,
-}
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -59,6 +41,7 @@ pub struct KarisSettings {
     pub roughness_axis: RoughnessAxis,
     pub orientation: Orientation,
     pub masking: MaskingShadowing,
+    pub method: Method,
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
     pub output: OutputConfig,
@@ -73,110 +56,73 @@ impl Default for KarisSettings {
             roughness_axis: RoughnessAxis::Perceptual,
             orientation: Orientation::RoughFirst,
             masking: MaskingShadowing::SchlickSmith,
-            sampling: SamplingConfig { samples: 1024, replicates: 4 },
-            reference: ReferenceConfig { cells: 64, samples: 1 << 20 },
+            method: Method::Fast,
+            sampling: SamplingConfig { samples: 4096, replicates: 4 },
+            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
         }
     }
 }
 
 impl KarisSettings {
+    pub fn layout(&self) -> SplitSumLayout {
+        SplitSumLayout {
+            mu_count: self.mu_count,
+            roughness_count: self.roughness_count,
+            alpha_range: self.alpha_range,
+            roughness_axis: self.roughness_axis,
+            orientation: self.orientation,
+        }
+    }
+
     pub fn validate(&self) -> Result<()> {
-        check_count("karis.mu_count", self.mu_count)?;
-        check_count("karis.roughness_count", self.roughness_count)?;
-        check_unit_range("karis.alpha_range", self.alpha_range)?;
+        self.layout().validate(NAME)?;
         self.sampling.validate("karis.sampling")?;
         self.reference.validate("karis.reference")?;
         self.output.validate("karis.output", &[FileFormat::Dds, FileFormat::Exr])
     }
 
-    /// The table's axes: `mu` cell-centred over [0, 1]; `alpha` cell-centred, spaced and ordered as
-    /// configured.
     pub fn axes(&self) -> Result<Vec<Axis>> {
-        let mu = Axis::cell_centred("mu", 0.0, 1.0, self.mu_count)?;
-        let [smooth, rough] = self.alpha_range;
-        let (start, end) = match self.orientation {
-            Orientation::RoughFirst => (rough, smooth),
-            Orientation::SmoothFirst => (smooth, rough),
-        };
-        let mapping = match self.roughness_axis {
-            RoughnessAxis::Perceptual => Mapping::Sqrt,
-            RoughnessAxis::Alpha => Mapping::Identity,
-        };
-        let alpha = Axis::cell_centred("alpha", start, end, self.roughness_count)?.with_mapping(mapping)?;
-        Ok(vec![mu, alpha])
+        self.layout().axes()
     }
 }
 
-/// The two split-sum terms at one visible-normal sample: `(1 - Fc) W` and `Fc W`, with
-/// `W = G2 / G1(v)`.
-fn accumulate_split_sum(masking: MaskingShadowing, alpha: f64) -> impl Fn(&MicrofacetSample, &mut [f64]) {
-    move |sample, sums| {
-        let weight = masking.visible_normal_weight(sample.wi, sample.wo, alpha);
-        let fc = schlick_weight(sample.cos_wi_h);
-        sums[0] += (1.0 - fc) * weight;
-        sums[1] += fc * weight;
-    }
-}
-
-/// Both terms at one cell of the table.
-fn estimate_cell(table: &Table, masking: MaskingShadowing, points: &PointSet, cell: u64) -> Estimate {
-    let position = table.node_position(&table.node_index(cell as usize));
-    let (mu, alpha) = (position[0], position[1]);
-    estimate_visible_normal_integral(mu, alpha, points, 2, accumulate_split_sum(masking, alpha))
+/// Both terms at one `(mu, alpha)`: `E[(1 - Fc) W]` and `E[Fc W]` with `Fc = (1 - wi.h)^5`.
+fn split_sum_terms(masking: MaskingShadowing, method: Method, points: &PointSet, mu: f64, alpha: f64) -> Estimate {
+    estimate_cosine_functions(mu, alpha, masking, method, points, |c| {
+        let fc = schlick_weight(c);
+        [1.0 - fc, fc]
+    })
 }
 
 pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
     settings.validate()?;
     let started = Instant::now();
-    let plan = SamplePlan::new(settings.sampling.samples, settings.sampling.replicates)?;
+    let points = table_points(&settings.sampling, seed)?;
     let channels = vec![
         Channel::new("scale", "multiplies F0: ∫ (1 - (1 - v.h)^5) D G2 / (4 n.v) dl"),
         Channel::new("bias", "added: ∫ (1 - v.h)^5 D G2 / (4 n.v) dl"),
     ];
     let mut table = Table::zeros(NAME, settings.axes()?, channels)?;
-    let cells: Vec<u64> = (0..table.node_count() as u64).collect();
-    let points = PointSet::new(plan, seed);
-    let estimates =
-        estimate_cells(&cells, "karis", progress, |cell| estimate_cell(&table, settings.masking, &points, cell));
-    for (value, estimate) in table.data.chunks_mut(2).zip(&estimates) {
-        value[0] = estimate.mean[0] as f32;
-        value[1] = estimate.mean[1] as f32;
-    }
-    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
-        estimate_cell(&table, settings.masking, reference_points, cell)
-    })?;
-    let wall_time_s = started.elapsed().as_secs_f64();
-
-    let mut notes = vec![
-        "Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string(),
-        "Texture coordinate x = n.v at texel centres (cell-centred); sample with clamp addressing, linear data (not sRGB).".to_string(),
-    ];
-    notes.push(match (settings.roughness_axis, settings.orientation) {
-        (RoughnessAxis::Perceptual, Orientation::RoughFirst) => {
-            "Row 0 = roughness 1: v = 1 - roughness, roughness = sqrt(alpha) (Unreal Engine 4 convention).".into()
-        }
-        (RoughnessAxis::Perceptual, Orientation::SmoothFirst) => "v = roughness = sqrt(alpha).".into(),
-        (RoughnessAxis::Alpha, Orientation::RoughFirst) => "Row 0 = alpha 1: v = 1 - alpha (linear in GGX alpha).".into(),
-        (RoughnessAxis::Alpha, Orientation::SmoothFirst) => "v = alpha (linear in GGX alpha).".into(),
+    let estimates = fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| {
+        split_sum_terms(settings.masking, settings.method, &points, mu, alpha)
     });
+    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
+        let position = table.node_position(&table.node_index(cell as usize));
+        split_sum_terms(settings.masking, Method::PerCell, reference_points, position[0], position[1])
+    })?;
+    let mut notes = vec!["Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string()];
+    notes.extend(settings.layout().notes());
     Ok(TableBuild {
-        table,
         integrand: "scale = E_{h~VNDF(v)}[(1 - (1 - v.h)^5) G2(v,l) / G1(v)], bias = E_{h~VNDF(v)}[(1 - v.h)^5 G2(v,l) / G1(v)], l = reflect(v, h)".into(),
         masking: Some(settings.masking),
         notes,
-        sampling: SamplingRecord {
-            method: "visible-normal Monte Carlo, per cell".into(),
-            sampler: format!(
-                "Owen-scrambled Sobol (sobol_burley), {} replicates x {} points",
-                plan.replicates, plan.points
-            ),
-            samples_per_cell: plan.total(),
-            replicates: plan.replicates,
-            seed,
-        },
+        sampling: sampling_record(settings.method, "visible-normal samples per texel", &points),
         error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
-        wall_time_s,
+        wall_time_s: started.elapsed().as_secs_f64(),
+        fresnel_basis: None,
+        accuracy: Vec::new(),
+        table,
     })
 }
 

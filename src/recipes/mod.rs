@@ -4,20 +4,33 @@
 //! was made (integrand, masking-shadowing model, sampler, samples, seed, wall time, error
 //! estimates) that the manifest publishes beside every file.
 
+pub mod belcour;
+pub mod fgd;
+pub mod gd;
 pub mod karis;
+pub mod split_sum;
+pub mod tir;
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
-use crate::physics::MaskingShadowing;
-use crate::sampling::sequence::PointSet;
+pub use crate::integrate::Method;
+use crate::integrate::{Estimate, Progress};
+use crate::physics::{FresnelBasis, MaskingShadowing};
+use crate::sampling::sequence::{PointSet, SamplePlan};
+pub use crate::stats::{AccuracyReport, ErrorRecord, ErrorSummary, ReferenceComparison};
 use crate::table::Table;
 
 /// Every table tmlut knows, with a one-line description, in build order.
-pub const TABLES: &[(&str, &str)] = &[(
-    karis::NAME,
-    "Karis split-sum environment BRDF (UE4): scale and bias of F0 under Schlick Fresnel, 2D (n.v, roughness)",
-)];
+pub const TABLES: &[(&str, &str)] = &[
+    (fgd::NAME, "directional albedo with exact Fresnel, 4D (mu, alpha, eta, kappa)"),
+    (gd::NAME, "microfacet albedo without Fresnel (separable Smith), 2D (mu, alpha)"),
+    (tir::NAME, "share of a lobe lost to total internal reflection, 3D (mu, alpha, eta < 1)"),
+    (belcour::NAME, "Belcour-Bati-Barla 2020 split-sum with a Fresnel basis, 2D (n.v, roughness), 4 channels"),
+    (
+        karis::NAME,
+        "Karis split-sum environment BRDF (UE4): scale and bias of F0 under Schlick Fresnel, 2D (n.v, roughness)",
+    ),
+];
 
 /// How a table was integrated.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -43,6 +56,49 @@ pub struct TableBuild {
     pub sampling: SamplingRecord,
     pub error: ErrorRecord,
     pub wall_time_s: f64,
+    /// The tabulated Fresnel basis a shader needs to use the table (Belcour only).
+    pub fresnel_basis: Option<FresnelBasis>,
+    /// Further measured accuracy figures (for instance, how well a split-sum reproduces FGD).
+    pub accuracy: Vec<AccuracyReport>,
+}
+
+/// The record of a table integrated with `method` from the points of `points`.
+pub(crate) fn sampling_record(method: Method, description: &str, points: &PointSet) -> SamplingRecord {
+    let plan = points.plan();
+    SamplingRecord {
+        method: format!("{} ({description})", method.name()),
+        sampler: format!("Owen-scrambled Sobol (sobol_burley), {} replicates x {} points", plan.replicates, plan.points),
+        samples_per_cell: plan.total(),
+        replicates: plan.replicates,
+        seed: points.seed(),
+    }
+}
+
+/// The point set of a table's own samples.
+pub(crate) fn table_points(sampling: &crate::config::SamplingConfig, seed: u64) -> crate::error::Result<PointSet> {
+    Ok(PointSet::new(SamplePlan::new(sampling.samples, sampling.replicates)?, seed))
+}
+
+/// Estimate every node of a 2D table whose axes are `mu` and `alpha`, store the means, and
+/// return the estimates in node order. `estimate(node, mu, alpha)` computes one node.
+pub(crate) fn fill_mu_alpha_nodes(
+    table: &mut Table,
+    progress: &dyn Progress,
+    estimate: impl Fn(usize, f64, f64) -> Estimate + Sync,
+) -> Vec<Estimate> {
+    let (mu_axis, alpha_axis) = (&table.axes[0], &table.axes[1]);
+    let cells: Vec<u64> = (0..(mu_axis.count * alpha_axis.count) as u64).collect();
+    let estimates = crate::integrate::estimate_cells(&cells, &table.name, progress, |cell| {
+        let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
+        estimate(cell as usize, mu_axis.node_value(i), alpha_axis.node_value(j))
+    });
+    let channels = table.channel_count();
+    for (values, estimate) in table.data.chunks_mut(channels).zip(&estimates) {
+        for (v, m) in values.iter_mut().zip(&estimate.mean) {
+            *v = *m as f32;
+        }
+    }
+    estimates
 }
 
 /// RMS and maximum, over all cells and channels, of the replicate standard errors.
@@ -67,7 +123,7 @@ pub(crate) fn compare_to_reference(
     if reference.cells == 0 {
         return Ok(None);
     }
-    let plan = crate::sampling::sequence::SamplePlan::new(reference.samples, 1)?;
+    let plan = SamplePlan::new(reference.samples, 1)?;
     let cells = random_cells(table.node_count(), reference.cells, seed);
     let points = PointSet::new(plan, seed.wrapping_add(REFERENCE_SEED_OFFSET));
     let label = format!("{} reference", table.name);

@@ -9,6 +9,7 @@
 //! never on which thread uses them.
 
 use crate::error::{Error, Result};
+use crate::integrate::batch::DiskPointsF32;
 use crate::sampling::DiskPoint;
 
 /// `sobol_burley` yields at most 2^16 points per scramble; past that a release build returns
@@ -74,6 +75,8 @@ pub struct PointSet {
     plan: SamplePlan,
     seed: u64,
     points: Vec<DiskPoint>,
+    /// The same points in f32 structure-of-arrays form, one entry per replicate, for the fast path.
+    points_f32: Vec<DiskPointsF32>,
 }
 
 impl PointSet {
@@ -83,8 +86,21 @@ impl PointSet {
                 let scramble = scramble_seed(seed, 0, replicate);
                 (0..plan.points).map(move |index| DiskPoint::from_unit_square(sobol_point_2d(index, scramble)))
             })
+            .collect::<Vec<DiskPoint>>();
+        let points_f32 = points
+            .chunks(plan.points as usize)
+            .map(|replicate| DiskPointsF32 {
+                x: replicate.iter().map(|p| p.x as f32).collect(),
+                y: replicate.iter().map(|p| p.y as f32).collect(),
+                half_chord: replicate.iter().map(|p| p.half_chord as f32).collect(),
+            })
             .collect();
-        PointSet { plan, seed, points }
+        PointSet { plan, seed, points, points_f32 }
+    }
+
+    /// The points of each replicate in turn, in f32 structure-of-arrays form.
+    pub fn replicates_f32(&self) -> &[DiskPointsF32] {
+        &self.points_f32
     }
 
     pub fn plan(&self) -> SamplePlan {

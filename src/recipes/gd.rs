@@ -1,0 +1,171 @@
+//! GD: the albedo of a GGX microfacet surface without Fresnel, which the 6-flux transfer-matrix
+//! model uses to normalise its internal lobes (`notes/tables.md`, GD):
+//!
+//! ```text
+//! GD(mu, alpha) = ∫ D G2 / (4 mu) dwo = E_{h ~ D_wi}[ G2 / G1(wi) ] = E_{h ~ D_wi}[ G1(wo) ]
+//! ```
+//!
+//! with separable Smith `G2 = G1(wi) G1(wo)`, the form that reproduces the shipped `tm_GD.bin`
+//! (height-correlated Smith does not). Defaults follow that file: 64 x 64 node-aligned nodes,
+//! `mu` and `alpha` over [0, 1], f32 `.bin`.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::{TableBuild, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points};
+use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
+use crate::error::Result;
+use crate::formats::{FileFormat, Precision};
+use crate::integrate::{Method, Progress, estimate_cosine_functions};
+use crate::physics::MaskingShadowing;
+use crate::stats::ErrorRecord;
+use crate::table::{Axis, Channel, Table};
+
+pub const NAME: &str = "gd";
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GdSettings {
+    pub mu_count: usize,
+    pub alpha_count: usize,
+    pub masking: MaskingShadowing,
+    pub method: Method,
+    pub sampling: SamplingConfig,
+    pub reference: ReferenceConfig,
+    pub output: OutputConfig,
+}
+
+impl Default for GdSettings {
+    fn default() -> Self {
+        GdSettings {
+            mu_count: 64,
+            alpha_count: 64,
+            masking: MaskingShadowing::SmithSeparable,
+            method: Method::Fast,
+            sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
+            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
+            output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
+        }
+    }
+}
+
+impl GdSettings {
+    pub fn validate(&self) -> Result<()> {
+        check_count("gd.mu_count", self.mu_count)?;
+        check_count("gd.alpha_count", self.alpha_count)?;
+        self.sampling.validate("gd.sampling")?;
+        self.reference.validate("gd.reference")?;
+        self.output.validate("gd.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr])
+    }
+
+    pub fn axes(&self) -> Result<Vec<Axis>> {
+        Ok(vec![Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?, Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?])
+    }
+}
+
+/// `E[G2 / G1(wi)]` at one `(mu, alpha)`.
+fn albedo(settings: &GdSettings, method: Method, points: &crate::sampling::sequence::PointSet, mu: f64, alpha: f64) -> crate::integrate::Estimate {
+    estimate_cosine_functions(mu, alpha, settings.masking, method, points, |_| [1.0])
+}
+
+pub fn build(settings: &GdSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+    settings.validate()?;
+    let started = Instant::now();
+    let points = table_points(&settings.sampling, seed)?;
+    let channel = Channel::new("gd", "∫ D G2 / (4 mu) dwo: the albedo of the microfacet lobe without Fresnel");
+    let mut table = Table::zeros(NAME, settings.axes()?, vec![channel])?;
+    let estimates =
+        fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| albedo(settings, settings.method, &points, mu, alpha));
+    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
+        let position = table.node_position(&table.node_index(cell as usize));
+        albedo(settings, Method::PerCell, reference_points, position[0], position[1])
+    })?;
+    Ok(TableBuild {
+        integrand: "GD = E_{h~VNDF(wi)}[G2(wi,wo) / G1(wi)], wo = reflect(wi, h); with separable Smith, E[G1(wo)]".into(),
+        masking: Some(settings.masking),
+        notes: vec![
+            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.".into(),
+            format!(
+                "The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.",
+                crate::integrate::GRAZING_COSINE
+            ),
+        ],
+        sampling: sampling_record(settings.method, "visible-normal measure per (mu, alpha)", &points),
+        error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
+        wall_time_s: started.elapsed().as_secs_f64(),
+        fresnel_basis: None,
+        accuracy: Vec::new(),
+        table,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::bin::read_bin;
+
+    fn original() -> Table {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_GD.bin");
+        read_bin(std::path::Path::new(path), Some(&["mu", "alpha"])).unwrap()
+    }
+
+    #[test]
+    fn reproduces_the_original_table() {
+        // Full resolution, fewer samples than the default: the original's own noise is ~1.3e-3.
+        let settings = GdSettings {
+            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
+            reference: ReferenceConfig { cells: 0, samples: 2 },
+            ..GdSettings::default()
+        };
+        let ours = build(&settings, 1, &()).unwrap().table;
+        let original = original();
+        assert_eq!(ours.axes, original.axes);
+        let differences = (0..ours.node_count())
+            .filter(|&n| n != 0) // the degenerate (mu 0, alpha 0) corner
+            .map(|n| (ours.data[n] - original.data[n]) as f64);
+        let error = crate::stats::ErrorSummary::of_differences(differences);
+        assert!(error.rms <= 2.5e-3, "RMSE {error:?}");
+    }
+
+    #[test]
+    fn edges_are_finite_and_physical() {
+        let settings = GdSettings {
+            mu_count: 9,
+            alpha_count: 9,
+            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
+            reference: ReferenceConfig { cells: 81, samples: 1 << 16 },
+            ..GdSettings::default()
+        };
+        let build = build(&settings, 2, &()).unwrap();
+        let table = &build.table;
+        let stats = table.stats();
+        assert_eq!(stats.nan_count + stats.infinite_count, 0);
+        assert!(stats.min > 0.3 && stats.max <= 1.0, "{stats:?}");
+        // A smooth surface loses nothing to masking: GD = 1 along alpha = 0, grazing included.
+        for i in 0..9 {
+            assert!((table.node(&[i, 0])[0] - 1.0).abs() < 1e-6, "mu node {i}: {}", table.node(&[i, 0])[0]);
+        }
+        // The fast path agrees at every node with 2^16-sample f64 per-cell estimates, within the
+        // Monte Carlo error of its own 2^12 samples.
+        let reference = build.error.reference.unwrap();
+        let spread = build.error.replicate_standard_error.max;
+        assert!(reference.difference.max < 5.0 * spread && spread < 1e-3, "{reference:?}, spread {spread}");
+    }
+
+    #[test]
+    fn both_methods_agree() {
+        let base = GdSettings {
+            mu_count: 6,
+            alpha_count: 5,
+            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
+            reference: ReferenceConfig { cells: 0, samples: 2 },
+            ..GdSettings::default()
+        };
+        let fast = build(&base, 3, &()).unwrap().table;
+        let per_cell = build(&GdSettings { method: Method::PerCell, ..base }, 3, &()).unwrap().table;
+        for (a, b) in fast.data.iter().zip(&per_cell.data) {
+            assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+        }
+    }
+}

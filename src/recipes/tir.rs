@@ -1,0 +1,215 @@
+//! TIR: the share of the energy transmitted through a smooth interface with relative index
+//! `eta < 1` that arrives past the critical angle and is reflected back instead
+//! (`notes/tables.md`, TIR; the transfer-matrix model applies it as `r += TIR t, t -= TIR t`):
+//!
+//! ```text
+//! TIR(mu, alpha, eta) = ∫ rho(w) [1 - w.z^2 > eta^2] dw / ∫ rho(w) dw
+//! ```
+//!
+//! where `rho` is a Fresnel-free GGX reflection lobe of roughness `alpha` around the direction of
+//! cosine `mu`: `h ~ D_v`, `w = reflect(v, h)`, weight `G1(w)` (separable Smith). Recovered by
+//! matching the shipped `tm_TIR.bin`; `alpha` is the roughness of the incoming lobe.
+//!
+//! Fast path: per `(mu, alpha)` the weighted samples of `w.z` answer every `eta` at once. Sample
+//! `w` is past the critical angle of exactly the `eta` nodes below `sqrt(1 - w.z^2)`, so its weight
+//! goes to the bucket of the number of such nodes, and the table is a cumulative sum of buckets:
+//! the indicator is evaluated exactly, with no binning error.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::{TableBuild, compare_to_reference, replicate_error, sampling_record, table_points};
+use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
+use crate::error::{Error, Result};
+use crate::formats::{FileFormat, Precision};
+use crate::integrate::batch::{CellWarp, for_each_block};
+use crate::integrate::{
+    Estimate, GRAZING_COSINE, Method, Progress, combine_replicates, estimate_cells, visible_normal_replicate_means,
+};
+use crate::physics::MaskingShadowing;
+use crate::sampling::sequence::PointSet;
+use crate::stats::ErrorRecord;
+use crate::table::{Axis, Channel, Table};
+
+pub const NAME: &str = "tir";
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TirSettings {
+    pub mu_count: usize,
+    pub alpha_count: usize,
+    pub eta_count: usize,
+    /// The relative index the last `eta` node (eta = 1) is evaluated at. 1 gives the exact value
+    /// there, 0 (no critical angle); the original `tm_TIR.bin` behaves as if it were 0.999.
+    pub top_eta: f64,
+    pub method: Method,
+    pub sampling: SamplingConfig,
+    pub reference: ReferenceConfig,
+    pub output: OutputConfig,
+}
+
+impl Default for TirSettings {
+    fn default() -> Self {
+        TirSettings {
+            mu_count: 64,
+            alpha_count: 64,
+            eta_count: 64,
+            top_eta: 1.0,
+            method: Method::Fast,
+            sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
+            reference: ReferenceConfig { cells: 64, samples: 1 << 20 },
+            output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
+        }
+    }
+}
+
+impl TirSettings {
+    pub fn validate(&self) -> Result<()> {
+        check_count("tir.mu_count", self.mu_count)?;
+        check_count("tir.alpha_count", self.alpha_count)?;
+        check_count("tir.eta_count", self.eta_count)?;
+        let below_top = Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?.node_value(self.eta_count - 2);
+        if !(self.top_eta > below_top && self.top_eta <= 1.0) {
+            return Err(Error::invalid(
+                "tir.top_eta",
+                format!("{}; allowed: above the next node ({below_top}) and at most 1", self.top_eta),
+            ));
+        }
+        self.sampling.validate("tir.sampling")?;
+        self.reference.validate("tir.reference")?;
+        self.output.validate("tir.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr])
+    }
+
+    pub fn axes(&self) -> Result<Vec<Axis>> {
+        Ok(vec![
+            Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?,
+            Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?,
+            Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?,
+        ])
+    }
+
+    /// The relative index each `eta` node is evaluated at.
+    fn evaluated_etas(&self, eta_axis: &Axis) -> Vec<f64> {
+        let mut etas = eta_axis.node_values();
+        *etas.last_mut().expect("at least two nodes") = self.top_eta;
+        etas
+    }
+}
+
+/// `[1 - w.z^2 > eta^2]` for `w` above the horizon: `w` is past the critical angle of `eta`.
+fn past_critical_angle(wo_z: f64, eta: f64) -> bool {
+    1.0 - wo_z * wo_z > eta * eta
+}
+
+/// TIR at every `eta` of one `(mu, alpha)` from one pass over the samples (see the module docs).
+fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
+    let warp = CellWarp::new(mu.max(GRAZING_COSINE), alpha);
+    let replicate_means: Vec<Vec<f64>> = points
+        .replicates_f32()
+        .iter()
+        .map(|replicate| {
+            // buckets[j]: weight of the samples past the critical angle of exactly etas[..j].
+            let mut buckets = vec![0.0; etas.len() + 1];
+            let mut total = 0.0;
+            for_each_block(&warp, MaskingShadowing::SmithSeparable, replicate, |_, wo_z, weight| {
+                for (&z, &w) in wo_z.iter().zip(weight) {
+                    if w == 0.0 {
+                        continue;
+                    }
+                    let z = z as f64;
+                    let j = etas.partition_point(|&eta| past_critical_angle(z, eta));
+                    buckets[j] += w as f64;
+                    total += w as f64;
+                }
+            });
+            // TIR(eta_i) = weight of samples with j > i, over the total.
+            let mut above = 0.0;
+            let mut column = vec![0.0; etas.len()];
+            for i in (0..etas.len()).rev() {
+                above += buckets[i + 1];
+                column[i] = if total > 0.0 { above / total } else { 0.0 };
+            }
+            column
+        })
+        .collect();
+    combine_replicates(&replicate_means, etas.len())
+}
+
+/// TIR at one `(mu, alpha, eta)` on its own, in f64: the ratio estimator `Σ G1 [..] / Σ G1`.
+fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
+    let sums = visible_normal_replicate_means(mu, alpha, points, 2, |sample, sums| {
+        let weight = MaskingShadowing::SmithSeparable.visible_normal_weight(sample.wi, sample.wo, alpha);
+        if past_critical_angle(sample.wo.z, eta) {
+            sums[0] += weight;
+        }
+        sums[1] += weight;
+    });
+    let ratios: Vec<Vec<f64>> =
+        sums.iter().map(|s| vec![if s[1] > 0.0 { s[0] / s[1] } else { 0.0 }]).collect();
+    combine_replicates(&ratios, 1)
+}
+
+pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+    settings.validate()?;
+    let started = Instant::now();
+    let points = table_points(&settings.sampling, seed)?;
+    let channel = Channel::new(
+        "tir",
+        "share of the energy transmitted through the interface that arrives past the critical angle and is reflected back",
+    );
+    let mut table = Table::zeros(NAME, settings.axes()?, vec![channel])?;
+    let etas = settings.evaluated_etas(&table.axes[2]);
+    let (mu_axis, alpha_axis) = (table.axes[0].clone(), table.axes[1].clone());
+    let plane = mu_axis.count * alpha_axis.count;
+
+    let estimates: Vec<Estimate> = match settings.method {
+        Method::Fast => {
+            let columns: Vec<u64> = (0..plane as u64).collect();
+            let columns = estimate_cells(&columns, NAME, progress, |cell| {
+                let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
+                tir_column(mu_axis.node_value(i), alpha_axis.node_value(j), &etas, &points)
+            });
+            // Reorder from (mu, alpha) columns of eta values to the table's node order.
+            (0..table.node_count())
+                .map(|n| {
+                    let column = &columns[n % plane];
+                    let k = n / plane;
+                    Estimate { mean: vec![column.mean[k]], standard_error: vec![column.standard_error[k]] }
+                })
+                .collect()
+        }
+        Method::PerCell => {
+            let cells: Vec<u64> = (0..table.node_count() as u64).collect();
+            estimate_cells(&cells, NAME, progress, |cell| {
+                let index = table.node_index(cell as usize);
+                let position = table.node_position(&index);
+                tir_cell(position[0], position[1], etas[index[2]], &points)
+            })
+        }
+    };
+    for (value, estimate) in table.data.iter_mut().zip(&estimates) {
+        *value = estimate.mean[0] as f32;
+    }
+    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
+        let index = table.node_index(cell as usize);
+        let position = table.node_position(&index);
+        tir_cell(position[0], position[1], etas[index[2]], reference_points)
+    })?;
+    Ok(TableBuild {
+        integrand: "TIR = Σ G1(w) [1 - w.z^2 > eta^2] / Σ G1(w), h ~ VNDF(v), w = reflect(v, h), w.z > 0 (separable Smith)".into(),
+        masking: Some(MaskingShadowing::SmithSeparable),
+        notes: vec![
+            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.".into(),
+            "alpha is the roughness of the incoming lobe (from hg_to_ggx in the model), not of the interface.".into(),
+            format!("The eta = 1 node is evaluated at eta = {} (1: exact, no total internal reflection; the original behaves as 0.999).", settings.top_eta),
+            format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {GRAZING_COSINE}."),
+        ],
+        sampling: sampling_record(settings.method, "weighted distribution of w.z per (mu, alpha)", &points),
+        error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
+        wall_time_s: started.elapsed().as_secs_f64(),
+        fresnel_basis: None,
+        accuracy: Vec::new(),
+        table,
+    })
+}
