@@ -71,6 +71,16 @@ impl Config {
         Self::from_toml(&text, &path.display().to_string())
     }
 
+    /// Every table's settings, in build order (the order of [`crate::recipes::TABLES`]).
+    pub fn recipes(&self) -> [&dyn crate::recipes::TableRecipe; 5] {
+        [&self.fgd, &self.gd, &self.tir, &self.belcour, &self.karis]
+    }
+
+    /// The settings of the table called `name`.
+    pub fn recipe(&self, name: &str) -> Option<&dyn crate::recipes::TableRecipe> {
+        self.recipes().into_iter().find(|r| r.name() == name)
+    }
+
     /// Use `method` for every table.
     pub fn set_method(&mut self, method: crate::integrate::Method) {
         self.fgd.method = method;

@@ -74,10 +74,11 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
     let staging = Staging::create(out)?;
     let mut staged = Vec::new();
     for name in tables {
-        let build = build_table(name, &request.config, progress)?;
-        let (formats, precision) = output_of(name, &request.config);
-        for &format in formats {
-            staged.push(write_table_file(&staging.dir, &build, format, precision)?);
+        let recipe = request.config.recipe(name).expect("resolve_tables admits known tables only");
+        let build = recipe.build(request.config.seed, progress)?;
+        let output = recipe.output();
+        for &format in &output.formats {
+            staged.push(write_table_file(&staging.dir, &build, format, output.precision)?);
         }
     }
     let mut written = Vec::new();
@@ -133,30 +134,6 @@ impl Drop for Staging {
 
 pub fn generator_name() -> String {
     format!("tmlut {}", env!("CARGO_PKG_VERSION"))
-}
-
-fn build_table(name: &str, config: &Config, progress: &dyn Progress) -> Result<TableBuild> {
-    let seed = config.seed;
-    match name {
-        recipes::fgd::NAME => recipes::fgd::build(&config.fgd, seed, progress),
-        recipes::gd::NAME => recipes::gd::build(&config.gd, seed, progress),
-        recipes::tir::NAME => recipes::tir::build(&config.tir, seed, progress),
-        recipes::belcour::NAME => recipes::belcour::build(&config.belcour, seed, progress),
-        recipes::karis::NAME => recipes::karis::build(&config.karis, seed, progress),
-        other => unreachable!("resolve_tables admitted unknown table {other}"),
-    }
-}
-
-fn output_of<'c>(name: &str, config: &'c Config) -> (&'c [FileFormat], Precision) {
-    let output = match name {
-        recipes::fgd::NAME => &config.fgd.output,
-        recipes::gd::NAME => &config.gd.output,
-        recipes::tir::NAME => &config.tir.output,
-        recipes::belcour::NAME => &config.belcour.output,
-        recipes::karis::NAME => &config.karis.output,
-        other => unreachable!("resolve_tables admitted unknown table {other}"),
-    };
-    (&output.formats, output.precision)
 }
 
 fn file_name(path: &Path) -> String {

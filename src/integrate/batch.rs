@@ -59,29 +59,33 @@ impl CellWarp {
         }
     }
 
-    /// `wi.h` and `wo.z` of each point, `wo = reflect(wi, h)`. All slices have the same length.
-    pub fn warp(&self, x: &[f32], y: &[f32], half_chord: &[f32], cos_wi_h: &mut [f32], wo_z: &mut [f32]) {
+    /// `wi.h`, `wo.z` and `sin^2(theta_o) = wo.x^2 + wo.y^2` of each point, `wo = reflect(wi, h)`.
+    /// The sine comes from the tangential components rather than as `1 - wo.z^2`, which cancels to
+    /// nothing near the normal (in f32, a mirror reflection straight up would come out at 1e-7
+    /// from the normal and count as past every critical angle of `eta = 0`).
+    pub fn warp(&self, points: &DiskPointsF32, range: std::ops::Range<usize>, out: &mut SampleArrays) {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { self.warp_avx2(x, y, half_chord, cos_wi_h, wo_z) };
+                unsafe { self.warp_avx2(points, range, out) };
                 return;
             }
         }
-        self.warp_portable(x, y, half_chord, cos_wi_h, wo_z);
+        self.warp_portable(points, range, out);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn warp_avx2(&self, x: &[f32], y: &[f32], half_chord: &[f32], cos_wi_h: &mut [f32], wo_z: &mut [f32]) {
-        self.warp_portable(x, y, half_chord, cos_wi_h, wo_z);
+    unsafe fn warp_avx2(&self, points: &DiskPointsF32, range: std::ops::Range<usize>, out: &mut SampleArrays) {
+        self.warp_portable(points, range, out);
     }
 
     #[inline(always)]
-    fn warp_portable(&self, x: &[f32], y: &[f32], half_chord: &[f32], cos_wi_h: &mut [f32], wo_z: &mut [f32]) {
-        let n = x.len();
-        let (y, half_chord, cos_wi_h, wo_z) = (&y[..n], &half_chord[..n], &mut cos_wi_h[..n], &mut wo_z[..n]);
+    fn warp_portable(&self, points: &DiskPointsF32, range: std::ops::Range<usize>, out: &mut SampleArrays) {
+        let n = range.len();
+        let (x, y, half_chord) = (&points.x[range.clone()], &points.y[range.clone()], &points.half_chord[range]);
+        let (cos_wi_h, wo_z, wo_sin2) = (&mut out.cos_wi_h[..n], &mut out.wo_z[..n], &mut out.wo_sin2[..n]);
         let one_minus_s = 1.0 - self.s;
         for i in 0..n {
             let p2 = one_minus_s * half_chord[i] + self.s * y[i];
@@ -91,10 +95,13 @@ impl CellWarp {
             let hz = (p2 * self.vx + n3 * self.vz).max(0.0);
             // A zero-length h (measure zero, at the disk's rim) scores below the horizon.
             let inverse_length = 1.0 / (hx * hx + hy * hy + hz * hz).max(1e-30).sqrt();
-            let hz = hz * inverse_length;
-            let c = (self.wi_x * hx * inverse_length + self.wi_z * hz).clamp(0.0, 1.0);
+            let (hx, hy, hz) = (hx * inverse_length, hy * inverse_length, hz * inverse_length);
+            let c = (self.wi_x * hx + self.wi_z * hz).clamp(0.0, 1.0);
+            let (ox, oy) = (2.0 * c * hx - self.wi_x, 2.0 * c * hy);
             cos_wi_h[i] = c;
             wo_z[i] = 2.0 * c * hz - self.wi_z;
+            // |wo| is 1 up to f32 rounding; keep sin^2 in its range so that eta = 1 stays exact.
+            wo_sin2[i] = (ox * ox + oy * oy).min(1.0);
         }
     }
 
@@ -173,30 +180,45 @@ impl DiskPointsF32 {
     }
 }
 
-/// Walk a cell's samples block by block: for each block, `visit(cos_wi_h, wo_z, weight)` with
-/// equal-length slices. `masking` chooses the weight.
-pub fn for_each_block(
-    warp: &CellWarp,
-    masking: MaskingShadowing,
-    points: &DiskPointsF32,
-    mut visit: impl FnMut(&[f32], &[f32], &[f32]),
-) {
-    let mut cos_wi_h = [0.0f32; BLOCK];
-    let mut wo_z = [0.0f32; BLOCK];
-    let mut weight = [0.0f32; BLOCK];
+/// The samples of one block, one array per quantity.
+#[derive(Debug, Clone)]
+pub struct SampleArrays {
+    /// `wi.h`, the cosine Fresnel is evaluated at.
+    pub cos_wi_h: [f32; BLOCK],
+    /// `wo.z` of the reflected direction (may be negative).
+    pub wo_z: [f32; BLOCK],
+    /// `sin^2` of the reflected direction's polar angle, `wo.x^2 + wo.y^2`.
+    pub wo_sin2: [f32; BLOCK],
+    /// `G2 / G1(wi)` of the chosen masking-shadowing model; 0 below the horizon.
+    pub weight: [f32; BLOCK],
+}
+
+/// A view of the first `len` samples of a block.
+#[derive(Debug, Clone, Copy)]
+pub struct SampleBlock<'a> {
+    pub cos_wi_h: &'a [f32],
+    pub wo_z: &'a [f32],
+    pub wo_sin2: &'a [f32],
+    pub weight: &'a [f32],
+}
+
+/// Walk a cell's samples block by block, calling `visit` with each block. `masking` chooses the
+/// weight.
+pub fn for_each_block(warp: &CellWarp, masking: MaskingShadowing, points: &DiskPointsF32, mut visit: impl FnMut(SampleBlock)) {
+    let mut arrays =
+        SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
     let mut start = 0;
     while start < points.len() {
         let end = (start + BLOCK).min(points.len());
         let n = end - start;
-        warp.warp(
-            &points.x[start..end],
-            &points.y[start..end],
-            &points.half_chord[start..end],
-            &mut cos_wi_h[..n],
-            &mut wo_z[..n],
-        );
-        warp.weights(masking, &wo_z[..n], &mut weight[..n]);
-        visit(&cos_wi_h[..n], &wo_z[..n], &weight[..n]);
+        warp.warp(points, start..end, &mut arrays);
+        warp.weights(masking, &arrays.wo_z[..n], &mut arrays.weight[..n]);
+        visit(SampleBlock {
+            cos_wi_h: &arrays.cos_wi_h[..n],
+            wo_z: &arrays.wo_z[..n],
+            wo_sin2: &arrays.wo_sin2[..n],
+            weight: &arrays.weight[..n],
+        });
         start = end;
     }
 }
@@ -240,10 +262,10 @@ mod tests {
                     sum_c64 += w * wi.dot(h);
                 }
                 let (mut sum32, mut sum_c32) = (0.0f64, 0.0f64);
-                for_each_block(&CellWarp::new(mu, alpha), masking, &soa, |c, _, w| {
-                    for i in 0..c.len() {
-                        sum32 += w[i] as f64;
-                        sum_c32 += (w[i] * c[i]) as f64;
+                for_each_block(&CellWarp::new(mu, alpha), masking, &soa, |block| {
+                    for (&c, &w) in block.cos_wi_h.iter().zip(block.weight) {
+                        sum32 += w as f64;
+                        sum_c32 += (w * c) as f64;
                     }
                 });
                 let n = f64_points.len() as f64;
@@ -260,14 +282,28 @@ mod tests {
         let (mu, alpha) = (0.6, 0.4);
         let wi = direction_from_cosine(mu);
         let sampler = VisibleNormalSampler::new(wi, alpha);
-        let mut cos = vec![0.0; 1000];
-        let mut woz = vec![0.0; 1000];
-        CellWarp::new(mu, alpha).warp(&soa.x, &soa.y, &soa.half_chord, &mut cos, &mut woz);
-        for (i, p) in f64_points.iter().enumerate() {
-            let h = sampler.sample(p);
-            assert!((wi.dot(h) - cos[i] as f64).abs() < 1e-5, "sample {i}");
-            assert!((reflect(wi, h).z - woz[i] as f64).abs() < 1e-5, "sample {i}");
+        let mut out = SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
+        let warp = CellWarp::new(mu, alpha);
+        for start in (0..1000).step_by(BLOCK) {
+            let end = (start + BLOCK).min(1000);
+            warp.warp(&soa, start..end, &mut out);
+            for (i, point) in f64_points.iter().enumerate().take(end).skip(start) {
+                let h = sampler.sample(point);
+                let wo = reflect(wi, h);
+                assert!((wi.dot(h) - out.cos_wi_h[i - start] as f64).abs() < 1e-5, "sample {i}");
+                assert!((wo.z - out.wo_z[i - start] as f64).abs() < 1e-5, "sample {i}");
+                assert!((wo.x * wo.x + wo.y * wo.y - out.wo_sin2[i - start] as f64).abs() < 1e-5, "sample {i}");
+            }
         }
+    }
+
+    #[test]
+    fn a_mirror_straight_up_has_no_tangential_component() {
+        // alpha = 0, mu = 1: wo = n exactly, so sin^2 must be 0, not the 1e-7 of 1 - z^2 in f32.
+        let (_, soa) = points(64);
+        let mut out = SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
+        CellWarp::new(1.0, 0.0).warp(&soa, 0..64, &mut out);
+        assert!(out.wo_sin2[..64].iter().all(|&s| s == 0.0), "{:?}", &out.wo_sin2[..8]);
     }
 
     #[test]

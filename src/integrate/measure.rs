@@ -126,8 +126,8 @@ pub fn cosine_measure(mu: f64, alpha: f64, masking: MaskingShadowing, points: &P
         .iter()
         .map(|replicate| {
             let mut measure = vec![0.0; basis.node_count()];
-            for_each_block(&warp, masking, replicate, |cos_wi_h, _, weight| {
-                for (&c, &w) in cos_wi_h.iter().zip(weight) {
+            for_each_block(&warp, masking, replicate, |block| {
+                for (&c, &w) in block.cos_wi_h.iter().zip(block.weight) {
                     basis.deposit(&mut measure, c, w);
                 }
             });

@@ -125,30 +125,40 @@ pub fn estimate_cosine_functions<const N: usize>(
         }),
         Method::Fast => {
             let warp = batch::CellWarp::new(mu.max(GRAZING_COSINE), alpha);
-            let replicate_means: Vec<Vec<f64>> = points
-                .replicates_f32()
-                .iter()
-                .map(|replicate| {
-                    // Eight interleaved partial sums, added up in a fixed order at the end: the
-                    // compiler can vectorise them, and the result does not depend on the CPU.
-                    const LANES: usize = 8;
-                    let mut lanes = [[0.0f64; N]; LANES];
-                    batch::for_each_block(&warp, masking, replicate, |cos_wi_h, _, weight| {
-                        for (chunk_c, chunk_w) in cos_wi_h.chunks(LANES).zip(weight.chunks(LANES)) {
-                            for (lane, (&c, &w)) in chunk_c.iter().zip(chunk_w).enumerate() {
-                                let values = f(c as f64);
-                                for j in 0..N {
-                                    lanes[lane][j] += w as f64 * values[j];
-                                }
-                            }
-                        }
-                    });
-                    (0..N).map(|j| lanes.iter().map(|l| l[j]).sum::<f64>() / replicate.len() as f64).collect()
-                })
-                .collect();
-            combine_replicates(&replicate_means, N)
+            fast_cosine_functions(&warp, masking, points, &f)
         }
     }
+}
+
+/// The fast method of [`estimate_cosine_functions`].
+fn fast_cosine_functions<const N: usize>(
+    warp: &batch::CellWarp,
+    masking: MaskingShadowing,
+    points: &PointSet,
+    f: &impl Fn(f64) -> [f64; N],
+) -> Estimate {
+    let replicate_means: Vec<Vec<f64>> = points
+        .replicates_f32()
+        .iter()
+        .map(|replicate| {
+            // Eight interleaved partial sums, added up in a fixed order at the end: the compiler can
+            // vectorise them, and the result does not depend on the CPU.
+            const LANES: usize = 8;
+            let mut lanes = [[0.0f64; N]; LANES];
+            batch::for_each_block(warp, masking, replicate, |block| {
+                for (chunk_c, chunk_w) in block.cos_wi_h.chunks(LANES).zip(block.weight.chunks(LANES)) {
+                    for (lane, (&c, &w)) in chunk_c.iter().zip(chunk_w).enumerate() {
+                        let values = f(c as f64);
+                        for j in 0..N {
+                            lanes[lane][j] += w as f64 * values[j];
+                        }
+                    }
+                }
+            });
+            (0..N).map(|j| lanes.iter().map(|l| l[j]).sum::<f64>() / replicate.len() as f64).collect()
+        })
+        .collect();
+    combine_replicates(&replicate_means, N)
 }
 
 /// Mean and standard error over replicate means.

@@ -16,7 +16,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
-use super::{TableBuild, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points};
+use super::{
+    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points,
+};
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -227,10 +229,42 @@ fn projected_basis(basis: &FresnelBasis, hats: HatBasis) -> Vec<Vec<f64>> {
     (0..4).map(|k| hats.project(|c| basis.evaluate(k, c), &kinks)).collect()
 }
 
+/// The basis, built once per process: it depends on nothing but the construction itself.
+pub fn basis() -> &'static FresnelBasis {
+    static BASIS: std::sync::OnceLock<FresnelBasis> = std::sync::OnceLock::new();
+    BASIS.get_or_init(build_basis)
+}
+
+impl TableRecipe for BelcourSettings {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn axes(&self) -> Result<Vec<Axis>> {
+        BelcourSettings::axes(self)
+    }
+
+    fn sampling(&self) -> SamplingConfig {
+        self.sampling
+    }
+
+    fn output(&self) -> &OutputConfig {
+        &self.output
+    }
+
+    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+        build(self, seed, progress)
+    }
+
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        basis_integrals(basis(), self.masking, Method::PerCell, points, position[0], position[1])
+    }
+}
+
 pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
     settings.validate()?;
     let started = Instant::now();
-    let basis = build_basis();
+    let basis = basis().clone();
     let points = table_points(&settings.sampling, seed)?;
     let channels = (0..4)
         .map(|k| {
@@ -254,10 +288,7 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
         }
         Method::PerCell => basis_integrals(&basis, settings.masking, Method::PerCell, &points, mu, alpha),
     });
-    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
-        let position = table.node_position(&table.node_index(cell as usize));
-        basis_integrals(&basis, settings.masking, Method::PerCell, reference_points, position[0], position[1])
-    })?;
+    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
     let mut measures = measures.into_inner().expect("measure store");
     if settings.method == Method::PerCell {
         let cells: Vec<u64> = (0..table.node_count() as u64).collect();

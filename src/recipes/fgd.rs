@@ -18,7 +18,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{TableBuild, compare_to_reference, random_cells, sampling_record, table_points};
+use super::{TableBuild, TableRecipe, compare_to_reference, random_cells, sampling_record, table_points};
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -65,7 +65,7 @@ impl Default for FgdSettings {
             method: Method::Fast,
             cosine_intervals: 256,
             replicate_error_columns: 256,
-            sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
+            sampling: SamplingConfig { samples: 1 << 16, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
         }
@@ -119,6 +119,32 @@ fn fgd_cell(masking: MaskingShadowing, points: &PointSet, position: &[f64]) -> E
     estimate_cosine_functions(mu, alpha, masking, Method::PerCell, points, |c| [fresnel_reflectance(c, eta, kappa)])
 }
 
+impl TableRecipe for FgdSettings {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn axes(&self) -> Result<Vec<Axis>> {
+        FgdSettings::axes(self)
+    }
+
+    fn sampling(&self) -> SamplingConfig {
+        self.sampling
+    }
+
+    fn output(&self) -> &OutputConfig {
+        &self.output
+    }
+
+    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+        build(self, seed, progress)
+    }
+
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        fgd_cell(self.masking, points, position)
+    }
+}
+
 pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
     settings.validate()?;
     let started = Instant::now();
@@ -139,9 +165,7 @@ pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Resu
             super::replicate_error(&estimates)
         }
     };
-    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
-        fgd_cell(settings.masking, reference_points, &table.node_position(&table.node_index(cell as usize)))
-    })?;
+    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
     Ok(TableBuild {
         integrand: "FGD = E_{h~VNDF(wi)}[F(wi.h; eta, kappa) G2(wi,wo) / G1(wi)], wo = reflect(wi, h)".into(),
         masking: Some(settings.masking),

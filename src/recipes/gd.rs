@@ -13,12 +13,15 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::{TableBuild, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points};
+use super::{
+    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points,
+};
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
-use crate::integrate::{Method, Progress, estimate_cosine_functions};
+use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
+use crate::sampling::sequence::PointSet;
 use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
@@ -43,7 +46,7 @@ impl Default for GdSettings {
             alpha_count: 64,
             masking: MaskingShadowing::SmithSeparable,
             method: Method::Fast,
-            sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
+            sampling: SamplingConfig { samples: 1 << 16, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
         }
@@ -65,8 +68,34 @@ impl GdSettings {
 }
 
 /// `E[G2 / G1(wi)]` at one `(mu, alpha)`.
-fn albedo(settings: &GdSettings, method: Method, points: &crate::sampling::sequence::PointSet, mu: f64, alpha: f64) -> crate::integrate::Estimate {
+fn albedo(settings: &GdSettings, method: Method, points: &PointSet, mu: f64, alpha: f64) -> Estimate {
     estimate_cosine_functions(mu, alpha, settings.masking, method, points, |_| [1.0])
+}
+
+impl TableRecipe for GdSettings {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn axes(&self) -> Result<Vec<Axis>> {
+        GdSettings::axes(self)
+    }
+
+    fn sampling(&self) -> SamplingConfig {
+        self.sampling
+    }
+
+    fn output(&self) -> &OutputConfig {
+        &self.output
+    }
+
+    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+        build(self, seed, progress)
+    }
+
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        albedo(self, Method::PerCell, points, position[0], position[1])
+    }
 }
 
 pub fn build(settings: &GdSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
@@ -77,10 +106,7 @@ pub fn build(settings: &GdSettings, seed: u64, progress: &dyn Progress) -> Resul
     let mut table = Table::zeros(NAME, settings.axes()?, vec![channel])?;
     let estimates =
         fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| albedo(settings, settings.method, &points, mu, alpha));
-    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
-        let position = table.node_position(&table.node_index(cell as usize));
-        albedo(settings, Method::PerCell, reference_points, position[0], position[1])
-    })?;
+    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
     Ok(TableBuild {
         integrand: "GD = E_{h~VNDF(wi)}[G2(wi,wo) / G1(wi)], wo = reflect(wi, h); with separable Smith, E[G1(wo)]".into(),
         masking: Some(settings.masking),

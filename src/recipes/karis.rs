@@ -17,7 +17,9 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
-use super::{TableBuild, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points};
+use super::{
+    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points,
+};
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
@@ -95,6 +97,32 @@ fn split_sum_terms(masking: MaskingShadowing, method: Method, points: &PointSet,
     })
 }
 
+impl TableRecipe for KarisSettings {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn axes(&self) -> Result<Vec<Axis>> {
+        KarisSettings::axes(self)
+    }
+
+    fn sampling(&self) -> SamplingConfig {
+        self.sampling
+    }
+
+    fn output(&self) -> &OutputConfig {
+        &self.output
+    }
+
+    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+        build(self, seed, progress)
+    }
+
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        split_sum_terms(self.masking, Method::PerCell, points, position[0], position[1])
+    }
+}
+
 pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
     settings.validate()?;
     let started = Instant::now();
@@ -107,10 +135,7 @@ pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Re
     let estimates = fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| {
         split_sum_terms(settings.masking, settings.method, &points, mu, alpha)
     });
-    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
-        let position = table.node_position(&table.node_index(cell as usize));
-        split_sum_terms(settings.masking, Method::PerCell, reference_points, position[0], position[1])
-    })?;
+    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
     let mut notes = vec!["Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string()];
     notes.extend(settings.layout().notes());
     Ok(TableBuild {

@@ -32,6 +32,21 @@ pub const TABLES: &[(&str, &str)] = &[
     ),
 ];
 
+/// What the pipeline, the benchmark and the checks need of every table. Each table's settings
+/// implement it.
+pub trait TableRecipe: Sync {
+    fn name(&self) -> &'static str;
+    /// The axes of the table these settings describe.
+    fn axes(&self) -> crate::error::Result<Vec<crate::table::Axis>>;
+    fn sampling(&self) -> crate::config::SamplingConfig;
+    fn output(&self) -> &crate::config::OutputConfig;
+    /// Integrate the whole table.
+    fn build(&self, seed: u64, progress: &dyn Progress) -> crate::error::Result<TableBuild>;
+    /// One node on its own, by the per-cell method (scalar f64), at a position given in the
+    /// axes' quantities: the independent cross-check of whatever [`TableRecipe::build`] did.
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate;
+}
+
 /// How a table was integrated.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SamplingRecord {
@@ -110,29 +125,39 @@ pub(crate) fn replicate_error(estimates: &[crate::integrate::Estimate]) -> Error
 /// independent of the ones the table was built with.
 const REFERENCE_SEED_OFFSET: u64 = 0x005E_ED0F_2EF5;
 
+/// The points of reference estimates for a run seeded with `seed`: `samples` per cell, scrambles
+/// independent of the table's own.
+pub fn reference_points(samples: u64, seed: u64) -> crate::error::Result<PointSet> {
+    Ok(PointSet::new(SamplePlan::new(samples, 1)?, seed.wrapping_add(REFERENCE_SEED_OFFSET)))
+}
+
 /// Compare a built table, at `reference.cells` cells drawn at random (reproducibly from `seed`),
-/// to per-cell estimates with `reference.samples` samples and independent scrambles.
-/// `estimate_cell(cell, points)` computes one cell's channels.
+/// to per-cell estimates ([`TableRecipe::estimate_node`]) with `reference.samples` samples and
+/// independent scrambles.
 pub(crate) fn compare_to_reference(
+    recipe: &dyn TableRecipe,
     table: &Table,
     reference: &crate::config::ReferenceConfig,
     seed: u64,
-    progress: &dyn crate::integrate::Progress,
-    estimate_cell: impl Fn(u64, &PointSet) -> crate::integrate::Estimate + Sync,
+    progress: &dyn Progress,
 ) -> crate::error::Result<Option<ReferenceComparison>> {
     if reference.cells == 0 {
         return Ok(None);
     }
-    let plan = SamplePlan::new(reference.samples, 1)?;
     let cells = random_cells(table.node_count(), reference.cells, seed);
-    let points = PointSet::new(plan, seed.wrapping_add(REFERENCE_SEED_OFFSET));
+    let points = reference_points(reference.samples, seed)?;
     let label = format!("{} reference", table.name);
-    let estimates = crate::integrate::estimate_cells(&cells, &label, progress, |cell| estimate_cell(cell, &points));
+    let estimates = crate::integrate::estimate_cells(&cells, &label, progress, |cell| {
+        recipe.estimate_node(&points, &table.node_position(&table.node_index(cell as usize)))
+    });
     let differences = cells.iter().zip(&estimates).flat_map(|(&cell, estimate)| {
         let stored = table.node(&table.node_index(cell as usize));
         stored.iter().zip(&estimate.mean).map(|(&s, &r)| s as f64 - r).collect::<Vec<f64>>()
     });
-    Ok(Some(ReferenceComparison { samples_per_cell: plan.total(), difference: ErrorSummary::of_differences(differences) }))
+    Ok(Some(ReferenceComparison {
+        samples_per_cell: points.plan().total(),
+        difference: ErrorSummary::of_differences(differences),
+    }))
 }
 
 /// `count` distinct cell numbers below `node_count` (all of them if `count >= node_count`), drawn

@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::{TableBuild, compare_to_reference, replicate_error, sampling_record, table_points};
+use super::{TableBuild, TableRecipe, compare_to_reference, replicate_error, sampling_record, table_points};
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -57,7 +57,7 @@ impl Default for TirSettings {
             eta_count: 64,
             top_eta: 1.0,
             method: Method::Fast,
-            sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
+            sampling: SamplingConfig { samples: 1 << 15, replicates: 4 },
             reference: ReferenceConfig { cells: 64, samples: 1 << 20 },
             output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
         }
@@ -97,9 +97,10 @@ impl TirSettings {
     }
 }
 
-/// `[1 - w.z^2 > eta^2]` for `w` above the horizon: `w` is past the critical angle of `eta`.
-fn past_critical_angle(wo_z: f64, eta: f64) -> bool {
-    1.0 - wo_z * wo_z > eta * eta
+/// `[sin^2(theta_w) > eta^2]` (that is, `1 - w.z^2 > eta^2`) for `w` above the horizon: `w` is past
+/// the critical angle of `eta`. Taking `sin^2 = w.x^2 + w.y^2` avoids the cancellation of `1 - w.z^2`.
+fn past_critical_angle(sin2: f64, eta: f64) -> bool {
+    sin2 > eta * eta
 }
 
 /// TIR at every `eta` of one `(mu, alpha)` from one pass over the samples (see the module docs).
@@ -112,13 +113,12 @@ fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate 
             // buckets[j]: weight of the samples past the critical angle of exactly etas[..j].
             let mut buckets = vec![0.0; etas.len() + 1];
             let mut total = 0.0;
-            for_each_block(&warp, MaskingShadowing::SmithSeparable, replicate, |_, wo_z, weight| {
-                for (&z, &w) in wo_z.iter().zip(weight) {
+            for_each_block(&warp, MaskingShadowing::SmithSeparable, replicate, |block| {
+                for (&sin2, &w) in block.wo_sin2.iter().zip(block.weight) {
                     if w == 0.0 {
                         continue;
                     }
-                    let z = z as f64;
-                    let j = etas.partition_point(|&eta| past_critical_angle(z, eta));
+                    let j = etas.partition_point(|&eta| past_critical_angle(sin2 as f64, eta));
                     buckets[j] += w as f64;
                     total += w as f64;
                 }
@@ -140,7 +140,7 @@ fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate 
 fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
     let sums = visible_normal_replicate_means(mu, alpha, points, 2, |sample, sums| {
         let weight = MaskingShadowing::SmithSeparable.visible_normal_weight(sample.wi, sample.wo, alpha);
-        if past_critical_angle(sample.wo.z, eta) {
+        if past_critical_angle(sample.wo.x * sample.wo.x + sample.wo.y * sample.wo.y, eta) {
             sums[0] += weight;
         }
         sums[1] += weight;
@@ -148,6 +148,34 @@ fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
     let ratios: Vec<Vec<f64>> =
         sums.iter().map(|s| vec![if s[1] > 0.0 { s[0] / s[1] } else { 0.0 }]).collect();
     combine_replicates(&ratios, 1)
+}
+
+impl TableRecipe for TirSettings {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn axes(&self) -> Result<Vec<Axis>> {
+        TirSettings::axes(self)
+    }
+
+    fn sampling(&self) -> SamplingConfig {
+        self.sampling
+    }
+
+    fn output(&self) -> &OutputConfig {
+        &self.output
+    }
+
+    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+        build(self, seed, progress)
+    }
+
+    /// The top node (eta = 1) is evaluated at `top_eta`, as in the table.
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        let eta = if position[2] >= 1.0 { self.top_eta } else { position[2] };
+        tir_cell(position[0], position[1], eta, points)
+    }
 }
 
 pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
@@ -191,11 +219,7 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
     for (value, estimate) in table.data.iter_mut().zip(&estimates) {
         *value = estimate.mean[0] as f32;
     }
-    let reference = compare_to_reference(&table, &settings.reference, seed, progress, |cell, reference_points| {
-        let index = table.node_index(cell as usize);
-        let position = table.node_position(&index);
-        tir_cell(position[0], position[1], etas[index[2]], reference_points)
-    })?;
+    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
     Ok(TableBuild {
         integrand: "TIR = Σ G1(w) [1 - w.z^2 > eta^2] / Σ G1(w), h ~ VNDF(v), w = reflect(v, h), w.z > 0 (separable Smith)".into(),
         masking: Some(MaskingShadowing::SmithSeparable),
@@ -212,4 +236,79 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
         accuracy: Vec::new(),
         table,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::bin::read_bin;
+    use crate::stats::ErrorSummary;
+
+    fn original() -> Table {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_TIR.bin");
+        read_bin(std::path::Path::new(path), Some(&["mu", "alpha", "eta"])).unwrap()
+    }
+
+    fn quick(settings: TirSettings) -> TirSettings {
+        TirSettings {
+            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
+            reference: ReferenceConfig { cells: 0, samples: 2 },
+            ..settings
+        }
+    }
+
+    #[test]
+    fn reproduces_the_original_table() {
+        let original = original();
+        let as_original = build(&quick(TirSettings { top_eta: 0.999, ..TirSettings::default() }), 1, &()).unwrap().table;
+        assert_eq!(as_original.axes, original.axes);
+        let rmse = |t: &Table, skip_top: bool| {
+            let plane = 64 * 64;
+            let limit = if skip_top { 63 * plane } else { 64 * plane };
+            ErrorSummary::of_differences((0..limit).map(|n| (t.data[n] - original.data[n]) as f64)).rms
+        };
+        let with_option = rmse(&as_original, false);
+        assert!(with_option <= 4e-3, "RMSE {with_option}");
+        // The exact default differs from the original only on its top eta slice.
+        let exact = build(&quick(TirSettings::default()), 1, &()).unwrap().table;
+        assert!(rmse(&exact, true) <= 4e-3);
+        let top_slice = &exact.data[63 * 64 * 64..];
+        assert!(top_slice.iter().all(|&v| v == 0.0), "eta = 1 has no critical angle");
+    }
+
+    #[test]
+    fn smooth_lobe_is_a_step_at_the_critical_cosine() {
+        let table = build(&quick(TirSettings { mu_count: 33, alpha_count: 3, eta_count: 17, ..TirSettings::default() }), 2, &())
+            .unwrap()
+            .table;
+        for i in 0..33 {
+            for k in 0..17 {
+                let position = table.node_position(&[i, 0, k]);
+                let (mu, eta) = (position[0].max(GRAZING_COSINE), position[2]);
+                let expected = if 1.0 - mu * mu > eta * eta { 1.0 } else { 0.0 };
+                assert_eq!(table.node(&[i, 0, k])[0], expected, "mu {mu} eta {eta}");
+            }
+        }
+    }
+
+    #[test]
+    fn both_methods_agree_and_stay_in_range() {
+        let base = quick(TirSettings { mu_count: 5, alpha_count: 4, eta_count: 6, ..TirSettings::default() });
+        let fast = build(&base, 3, &()).unwrap().table;
+        let per_cell = build(&TirSettings { method: Method::PerCell, ..base }, 3, &()).unwrap().table;
+        for (n, (a, b)) in fast.data.iter().zip(&per_cell.data).enumerate() {
+            assert!((0.0..=1.0).contains(a), "{a}");
+            // Same points; the two differ by f32 rounding of samples right at a threshold, and by
+            // the frame of the disk at mu = 1 (rotated, same distribution).
+            assert!((a - b).abs() < 2e-2, "node {:?}: {a} vs {b}", fast.node_index(n));
+        }
+    }
+
+    #[test]
+    fn top_eta_outside_its_range_is_refused() {
+        for bad in [0.5, 1.5, f64::NAN] {
+            let err = build(&TirSettings { top_eta: bad, ..TirSettings::default() }, 1, &()).unwrap_err().to_string();
+            assert!(err.contains("tir.top_eta") && err.contains("allowed"), "{err}");
+        }
+    }
 }
