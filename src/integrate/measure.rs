@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::batch::{CellWarp, for_each_block};
 use super::{Estimate, GRAZING_COSINE, combine_replicates};
-use crate::physics::MaskingShadowing;
+use crate::physics::{MaskingShadowing, direction_from_cosine, reflect};
 use crate::sampling::sequence::PointSet;
 
 /// Hat functions on `intervals + 1` uniform nodes `c_k = k / intervals` over [0, 1].
@@ -116,12 +116,68 @@ fn solve_hat_gram(n: usize, mut b: Vec<f64>) -> Vec<f64> {
     b
 }
 
-/// The measure `M_{mu,alpha}` of one cell on a hat basis, one vector per replicate: entry `k` is
-/// `E[W hat_k(wi.h)]` with `W = G2 / G1(wi)` of the chosen masking-shadowing model, so that
-/// `E[f(wi.h) W] ≈ Σ_k f(c_k) M_k`, exactly for `f` linear between nodes.
-pub fn cosine_measure(mu: f64, alpha: f64, masking: MaskingShadowing, points: &PointSet, basis: HatBasis) -> Vec<Vec<f64>> {
-    let warp = CellWarp::new(mu.max(GRAZING_COSINE), alpha);
-    points
+/// The measure `M_{mu,alpha}` of `c = wi.h` weighted by `W = G2 / G1(wi)`, for one cell.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CosineMeasure {
+    /// A rough surface: the measure on a hat basis, one vector per replicate, entry `k` being
+    /// `E[W hat_k(wi.h)]`, so that `E[f(wi.h) W] ≈ Σ_k f~_k M_k` with `f~` from
+    /// [`HatBasis::project`].
+    Spread { replicates: Vec<Vec<f64>> },
+    /// A smooth surface (`alpha = 0`): every visible normal is the normal itself, so the measure is
+    /// a point mass at `c = mu`. No finite basis represents it exactly, and near a critical angle
+    /// the difference is of order 1e-2, so it is kept as what it is.
+    PointMass { cosine: f64, weight: f64 },
+}
+
+impl CosineMeasure {
+    /// Mean hat moments; all zero for a point mass (whose contribution is
+    /// [`CosineMeasure::point_mass_integral`]).
+    pub fn mean_moments(&self, basis: HatBasis) -> Vec<f64> {
+        match self {
+            CosineMeasure::Spread { replicates } => mean_measure(replicates),
+            CosineMeasure::PointMass { .. } => vec![0.0; basis.node_count()],
+        }
+    }
+
+    /// The same measure with its replicates averaged into one (to keep fewer numbers around).
+    pub fn averaged(&self) -> CosineMeasure {
+        match self {
+            CosineMeasure::Spread { replicates } => CosineMeasure::Spread { replicates: vec![mean_measure(replicates)] },
+            point => point.clone(),
+        }
+    }
+
+    /// `∫ f dM` of the point-mass part: `weight * f(cosine)`, or 0 for a spread measure.
+    pub fn point_mass_integral(&self, f: impl Fn(f64) -> f64) -> f64 {
+        match self {
+            CosineMeasure::Spread { .. } => 0.0,
+            CosineMeasure::PointMass { cosine, weight } => weight * f(*cosine),
+        }
+    }
+
+    /// `∫ f_j dM` for several functions, each given both projected on the hat basis (`projected`)
+    /// and as a function (`exact`, returning one value per function), with replicate error bars.
+    pub fn integrate(&self, projected: &[&[f64]], exact: impl Fn(f64) -> Vec<f64>) -> Estimate {
+        match self {
+            CosineMeasure::Spread { replicates } => integrate_against(replicates, projected),
+            CosineMeasure::PointMass { cosine, weight } => Estimate {
+                mean: exact(*cosine).iter().map(|v| weight * v).collect(),
+                standard_error: vec![0.0; projected.len()],
+            },
+        }
+    }
+}
+
+/// The measure of one cell (see [`CosineMeasure`]).
+pub fn cosine_measure(mu: f64, alpha: f64, masking: MaskingShadowing, points: &PointSet, basis: HatBasis) -> CosineMeasure {
+    let mu = mu.max(GRAZING_COSINE);
+    if alpha == 0.0 {
+        let wi = direction_from_cosine(mu);
+        let weight = masking.visible_normal_weight(wi, reflect(wi, glam::DVec3::Z), 0.0);
+        return CosineMeasure::PointMass { cosine: mu, weight };
+    }
+    let warp = CellWarp::new(mu, alpha);
+    let replicates = points
         .replicates_f32()
         .iter()
         .map(|replicate| {
@@ -135,7 +191,8 @@ pub fn cosine_measure(mu: f64, alpha: f64, masking: MaskingShadowing, points: &P
             measure.iter_mut().for_each(|m| *m /= n);
             measure
         })
-        .collect()
+        .collect();
+    CosineMeasure::Spread { replicates }
 }
 
 /// Mean over replicates of per-replicate measures.
@@ -144,8 +201,8 @@ pub fn mean_measure(replicates: &[Vec<f64>]) -> Vec<f64> {
     (0..replicates[0].len()).map(|k| replicates.iter().map(|m| m[k]).sum::<f64>() / r).collect()
 }
 
-/// The estimate of `∫ f dM` for several functions given by their node values, with replicate
-/// error bars.
+/// The estimate of `∫ f dM` for several functions given by their projected node values, with
+/// replicate error bars.
 pub fn integrate_against(replicates: &[Vec<f64>], functions: &[&[f64]]) -> Estimate {
     let per_replicate: Vec<Vec<f64>> =
         replicates.iter().map(|m| functions.iter().map(|f| dot(f, m)).collect()).collect();
@@ -235,7 +292,11 @@ mod tests {
         let reference_points = PointSet::new(SamplePlan::new(1 << 20, 16).unwrap(), 12);
         let basis = HatBasis { intervals: 256 };
         for (mu, alpha) in [(0.8, 0.2), (0.1, 0.6), (0.5, 0.05)] {
-            let measure = cosine_measure(mu, alpha, MaskingShadowing::SmithSeparable, &points, basis);
+            let CosineMeasure::Spread { replicates: measure } =
+                cosine_measure(mu, alpha, MaskingShadowing::SmithSeparable, &points, basis)
+            else {
+                panic!("a rough surface has a spread measure")
+            };
             for (eta, kappa) in [(1.5, 0.0), (0.7, 0.0), (0.2, 3.0), (2.5, 1.0)] {
                 let kinks: Vec<f64> = crate::physics::critical_cosine(eta).into_iter().collect();
                 let fresnel = basis.project(|c| fresnel_reflectance(c, eta, kappa), &kinks);
@@ -253,6 +314,16 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_smooth_surface_has_a_point_mass_at_the_view_cosine() {
+        let points = PointSet::new(SamplePlan::new(64, 2).unwrap(), 1);
+        let measure = cosine_measure(0.875, 0.0, MaskingShadowing::SmithSeparable, &points, HatBasis { intervals: 8 });
+        assert_eq!(measure, CosineMeasure::PointMass { cosine: 0.875, weight: 1.0 });
+        let f = |c: f64| fresnel_reflectance(c, 0.5, 0.0);
+        let estimate = measure.integrate(&[&[0.0; 9]], |c| vec![f(c)]);
+        assert_eq!(estimate.mean[0], f(0.875));
     }
 
     #[test]

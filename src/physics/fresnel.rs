@@ -20,7 +20,8 @@
 /// round below zero, so it is clamped before the square root; past the critical angle of a
 /// dielectric with `eta < 1` it is exactly zero and both ratios become 1 (total internal
 /// reflection); `eta = 1, kappa = 0` is no interface at all and reflects nothing, where the
-/// formula alone would give `0 / 0` at grazing incidence.
+/// formula alone would give `0 / 0` at grazing incidence; at normal incidence `Rp = Rs`, where the
+/// formula alone would give `0 / 0` for `eta = kappa = 0`.
 pub fn fresnel_reflectance(cos_theta: f64, eta: f64, kappa: f64) -> f64 {
     if eta == 1.0 && kappa == 0.0 {
         return 0.0;
@@ -38,7 +39,9 @@ pub fn fresnel_reflectance(cos_theta: f64, eta: f64, kappa: f64) -> f64 {
     let rs = (t1 - t2) / (t1 + t2);
     let t3 = c2 * a2_plus_b2 + s2 * s2;
     let t4 = t2 * s2;
-    let rp = rs * (t3 - t4) / (t3 + t4);
+    // At normal incidence the two polarisations are the same wave; the ratio is 0 / 0 there when
+    // eta = kappa = 0.
+    let rp = if s2 == 0.0 { rs } else { rs * (t3 - t4) / (t3 + t4) };
     (0.5 * (rs + rp)).clamp(0.0, 1.0)
 }
 
@@ -70,7 +73,7 @@ mod tests {
 
     #[test]
     fn normal_incidence_matches_the_closed_form() {
-        for (eta, kappa) in [(1.5, 0.0), (0.2, 3.0), (1.0, 1.0), (4.0, 4.0), (0.5, 0.0), (2.0, 100.0)] {
+        for (eta, kappa) in [(1.5, 0.0), (0.2, 3.0), (1.0, 1.0), (4.0, 4.0), (0.5, 0.0), (2.0, 100.0), (0.0, 0.0)] {
             let f = fresnel_reflectance(1.0, eta, kappa);
             let expected = normal_incidence_reflectance(eta, kappa);
             assert!((f - expected).abs() < 1e-14, "eta {eta} kappa {kappa}: {f} vs {expected}");

@@ -22,7 +22,7 @@ use super::{
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
-use crate::integrate::measure::{HatBasis, cosine_measure, dot, integrate_against, mean_measure};
+use crate::integrate::measure::{CosineMeasure, HatBasis, cosine_measure, dot};
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
 use crate::physics::{FresnelBasis, MaskingShadowing, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
@@ -278,23 +278,23 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
     let projected_refs: Vec<&[f64]> = projected.iter().map(Vec::as_slice).collect();
 
     // The fast path keeps each texel's mean measure: the accuracy report needs it too.
-    let measures = std::sync::Mutex::new(vec![Vec::new(); table.node_count()]);
+    let measures = std::sync::Mutex::new(vec![None; table.node_count()]);
     let estimates = fill_mu_alpha_nodes(&mut table, progress, |texel, mu, alpha| match settings.method {
         Method::Fast => {
             let measure = cosine_measure(mu, alpha, settings.masking, &points, hats);
-            let estimate = integrate_against(&measure, &projected_refs);
-            measures.lock().expect("measure store")[texel] = mean_measure(&measure);
+            let estimate = measure.integrate(&projected_refs, |c| (0..4).map(|k| basis.evaluate(k, c)).collect());
+            measures.lock().expect("measure store")[texel] = Some(measure.averaged());
             estimate
         }
         Method::PerCell => basis_integrals(&basis, settings.masking, Method::PerCell, &points, mu, alpha),
     });
     let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
-    let mut measures = measures.into_inner().expect("measure store");
+    let mut measures: Vec<CosineMeasure> = measures.into_inner().expect("measure store").into_iter().flatten().collect();
     if settings.method == Method::PerCell {
         let cells: Vec<u64> = (0..table.node_count() as u64).collect();
         measures = estimate_cells(&cells, "belcour accuracy", progress, |cell| {
             let position = table.node_position(&table.node_index(cell as usize));
-            mean_measure(&cosine_measure(position[0], position[1], settings.masking, &points, hats))
+            cosine_measure(position[0], position[1], settings.masking, &points, hats).averaged()
         });
     }
     let accuracy = split_sum_accuracy(&table, &basis, &measures, hats);
@@ -323,7 +323,7 @@ fn basis_integrals(basis: &FresnelBasis, masking: MaskingShadowing, method: Meth
 
 /// How well `Σ c_k LUT_k` reproduces FGD (same masking, same measures, so the difference is the
 /// basis's own error), over three parts of the `(eta, kappa)` domain, at every texel.
-fn split_sum_accuracy(table: &Table, basis: &FresnelBasis, measures: &[Vec<f64>], hats: HatBasis) -> Vec<AccuracyReport> {
+fn split_sum_accuracy(table: &Table, basis: &FresnelBasis, measures: &[CosineMeasure], hats: HatBasis) -> Vec<AccuracyReport> {
     let domains: [(&str, Vec<(f64, f64)>); 3] = [
         (
             "dielectrics, eta in [1.01, 3], kappa = 0 (the basis's own domain)",
@@ -350,7 +350,8 @@ fn split_sum_accuracy(table: &Table, basis: &FresnelBasis, measures: &[Vec<f64>]
                     measures.iter().enumerate().map(move |(texel, measure)| {
                         let lut = table.node(&table.node_index(texel));
                         let approximate: f64 = (0..4).map(|k| coefficients[k] * lut[k] as f64).sum();
-                        (approximate - dot(&fresnel, measure), eta, kappa, texel)
+                        let exact = measure.integrate(&[&fresnel], |c| vec![fresnel_reflectance(c, eta, kappa)]).mean[0];
+                        (approximate - exact, eta, kappa, texel)
                     })
                 })
                 .collect();
