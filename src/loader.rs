@@ -68,7 +68,9 @@ fn load_with_entry(path: &Path, entry: Option<&FileEntry>) -> Result<Table> {
             let entry = entry.ok_or_else(|| {
                 Error::format(
                     path,
-                    format!("a DDS file stores no axes; expected {MANIFEST_FILE} beside it with an entry for this file"),
+                    format!(
+                        "a DDS file stores no axes; expected {MANIFEST_FILE} beside it with an entry for this file"
+                    ),
                 )
             })?;
             let axes = entry.axes.iter().map(|a| a.axis.clone()).collect();

@@ -12,9 +12,14 @@ use tmlut::config::Config;
 use tmlut::integrate::{Method, Progress};
 use tmlut::pipeline::{self, BuildRequest};
 use tmlut::recipes::TABLES;
+use tmlut::report::bench::{self, BenchSettings};
 
 #[derive(Parser)]
-#[command(name = "tmlut", version, about = "Integrate, write, check and inspect the lookup tables of transfer-matrix layered materials")]
+#[command(
+    name = "tmlut",
+    version,
+    about = "Integrate, write, check and inspect the lookup tables of transfer-matrix layered materials"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -47,12 +52,35 @@ enum Command {
         #[arg(long, value_parser = parse_method)]
         method: Option<Method>,
     },
+    /// Time each table's build and measure its error against per-cell references, beside the
+    /// per-cell method on the same nodes. Prints a Markdown table.
+    Bench {
+        /// TOML configuration of the tables (default: the built-in defaults).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Comma-separated tables (default: all).
+        #[arg(long, value_delimiter = ',')]
+        only: Option<Vec<String>>,
+        /// Builds per table; the median is reported.
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// Random nodes compared with references.
+        #[arg(long, default_value_t = 300)]
+        nodes: usize,
+        /// Samples per reference node (a power of two).
+        #[arg(long, default_value_t = 1 << 22)]
+        reference_samples: u64,
+        /// Nodes the per-cell method runs on (the first of the compared nodes).
+        #[arg(long, default_value_t = 300)]
+        per_cell_nodes: usize,
+        /// Worker threads (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// List the tables tmlut knows.
     List,
     /// Describe a table file: axes, channels, value range, NaN count, conventions.
-    Inspect {
-        file: PathBuf,
-    },
+    Inspect { file: PathBuf },
 }
 
 fn main() -> ExitCode {
@@ -95,6 +123,25 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                     e.wall_time_s,
                     e.error.integration.replicate_standard_error.max,
                 );
+            }
+            Ok(())
+        }
+        Command::Bench { config, only, repeats, nodes, reference_samples, per_cell_nodes, threads } => {
+            let config = match &config {
+                Some(path) => Config::from_file(path)?,
+                None => Config::default(),
+            };
+            set_threads(threads)?;
+            tmlut::sampling::sequence::SamplePlan::new(reference_samples, 1)
+                .map_err(|e| tmlut::Error::invalid("--reference-samples", e.to_string()))?;
+            let tables = pipeline::resolve_tables(only.as_deref())?;
+            let settings =
+                BenchSettings { repeats, nodes, reference_samples, per_cell_nodes, ..BenchSettings::default() };
+            let progress = ProgressBars::new(cli.quiet);
+            let rows = bench::bench(&config, &tables, &settings, &progress)?;
+            print!("{}", bench::markdown(&rows, &settings, rayon::current_num_threads()));
+            if let Some(bytes) = bench::peak_memory_bytes() {
+                println!("Peak resident memory of the run: {:.0} MiB.", bytes as f64 / (1 << 20) as f64);
             }
             Ok(())
         }

@@ -141,7 +141,12 @@ fn file_name(path: &Path) -> String {
 }
 
 /// Write one table in one format and describe the file.
-pub fn write_table_file(dir: &Path, build: &TableBuild, format: FileFormat, precision: Precision) -> Result<WrittenFile> {
+pub fn write_table_file(
+    dir: &Path,
+    build: &TableBuild,
+    format: FileFormat,
+    precision: Precision,
+) -> Result<WrittenFile> {
     let table = &build.table;
     let path = dir.join(format!("{}.{}", table.name, format.extension()));
     // `.bin` has no precision field: it is f32 by definition.
@@ -167,7 +172,10 @@ pub fn write_table_file(dir: &Path, build: &TableBuild, format: FileFormat, prec
         wall_time_s: build.wall_time_s,
         value_range: [stats.min, stats.max],
         nan_count: stats.nan_count + stats.infinite_count,
-        error: ErrorEntry { integration: build.error.clone(), storage_rounding_max: storage_rounding(table, precision) },
+        error: ErrorEntry {
+            integration: build.error.clone(),
+            storage_rounding_max: storage_rounding(table, precision),
+        },
         fresnel_basis: build.fresnel_basis.clone(),
         accuracy: build.accuracy.clone(),
         sha256: sha256_hex(&bytes),

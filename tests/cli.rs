@@ -141,7 +141,11 @@ fn build_writes_dds_exr_and_a_manifest_that_a_renderer_can_load() {
     let interpolated = from_dds.interpolate(&node);
     assert!((interpolated[0] - from_dds.node(&[5, 7])[0] as f64).abs() < 1e-6);
     // And no staging folder is left behind.
-    assert!(snapshot(&out).iter().all(|(name, _)| !name.starts_with('.')), "{:?}", snapshot(&out).iter().map(|f| &f.0).collect::<Vec<_>>());
+    assert!(
+        snapshot(&out).iter().all(|(name, _)| !name.starts_with('.')),
+        "{:?}",
+        snapshot(&out).iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
 }
 
 #[test]
@@ -297,8 +301,11 @@ fn an_interrupted_build_leaves_earlier_outputs_intact() {
 
     // A build that takes several seconds, killed while it integrates.
     let slow = dir.path().join("slow.toml");
-    std::fs::write(&slow, "[karis]\nmu_count = 1024\nroughness_count = 1024\n[karis.sampling]\nsamples = 4096\nreplicates = 4\n")
-        .unwrap();
+    std::fs::write(
+        &slow,
+        "[karis]\nmu_count = 1024\nroughness_count = 1024\n[karis.sampling]\nsamples = 4096\nreplicates = 4\n",
+    )
+    .unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_tmlut"))
         .args(["build", "--quiet", "--config", slow.to_str().unwrap(), "--out", out.to_str().unwrap()])
         .spawn()

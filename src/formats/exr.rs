@@ -143,12 +143,8 @@ fn exr_image(table: &Table, precision: Precision) -> Result<Image<Layer<AnyChann
         .collect();
 
     let mut attributes = LayerAttributes { software_name: Some(utf8_text("tmlut")), ..LayerAttributes::default() };
-    let description = Description {
-        table: table.name.clone(),
-        axes: table.axes.clone(),
-        channels: table.channels.clone(),
-        layout,
-    };
+    let description =
+        Description { table: table.name.clone(), axes: table.axes.clone(), channels: table.channels.clone(), layout };
     attributes.other.insert(utf8_text(DESCRIPTION_ATTRIBUTE), AttributeValue::Text(utf8_text(&to_json(&description)?)));
 
     let layer = Layer::new((width, height), attributes, Encoding::UNCOMPRESSED, AnyChannels::sort(channels));

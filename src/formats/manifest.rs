@@ -40,7 +40,11 @@ pub struct AxisEntry {
 
 impl AxisEntry {
     pub fn new(axis: &Axis, stored_along: impl Into<String>) -> Self {
-        AxisEntry { axis: axis.clone(), stored_along: stored_along.into(), texture_coordinate: axis.texture_coordinate_formula() }
+        AxisEntry {
+            axis: axis.clone(),
+            stored_along: stored_along.into(),
+            texture_coordinate: axis.texture_coordinate_formula(),
+        }
     }
 }
 
@@ -104,8 +108,7 @@ impl Manifest {
 
     pub fn read(path: &Path) -> Result<Self> {
         let bytes = read_bytes(path)?;
-        serde_json::from_slice(&bytes)
-            .map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
+        serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
     }
 
     /// Write the manifest of `dir` atomically.

@@ -6,10 +6,10 @@
 //! leaves a half-written table where a renderer would load it.
 
 pub mod bin;
-pub mod manifest;
 pub mod dds;
 #[cfg(feature = "exr")]
 pub mod exr;
+pub mod manifest;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -103,9 +103,8 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| Error::invalid("output path", format!("{} names no file", path.display())))?;
+    let file_name =
+        path.file_name().ok_or_else(|| Error::invalid("output path", format!("{} names no file", path.display())))?;
     let temporary = dir.join(format!(".{}.tmp-{}", file_name.to_string_lossy(), std::process::id()));
     let result = (|| {
         let file = File::create(&temporary)?;

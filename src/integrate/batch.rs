@@ -204,7 +204,12 @@ pub struct SampleBlock<'a> {
 
 /// Walk a cell's samples block by block, calling `visit` with each block. `masking` chooses the
 /// weight.
-pub fn for_each_block(warp: &CellWarp, masking: MaskingShadowing, points: &DiskPointsF32, mut visit: impl FnMut(SampleBlock)) {
+pub fn for_each_block(
+    warp: &CellWarp,
+    masking: MaskingShadowing,
+    points: &DiskPointsF32,
+    mut visit: impl FnMut(SampleBlock),
+) {
     let mut arrays =
         SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
     let mut start = 0;
@@ -269,7 +274,12 @@ mod tests {
                     }
                 });
                 let n = f64_points.len() as f64;
-                assert!((sum64 / n - sum32 / n).abs() < 2e-4, "{masking:?} mu {mu} alpha {alpha}: {} vs {}", sum64 / n, sum32 / n);
+                assert!(
+                    (sum64 / n - sum32 / n).abs() < 2e-4,
+                    "{masking:?} mu {mu} alpha {alpha}: {} vs {}",
+                    sum64 / n,
+                    sum32 / n
+                );
                 assert!((sum_c64 / n - sum_c32 / n).abs() < 2e-4, "{masking:?} mu {mu} alpha {alpha}");
             }
         }
@@ -282,7 +292,8 @@ mod tests {
         let (mu, alpha) = (0.6, 0.4);
         let wi = direction_from_cosine(mu);
         let sampler = VisibleNormalSampler::new(wi, alpha);
-        let mut out = SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
+        let mut out =
+            SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
         let warp = CellWarp::new(mu, alpha);
         for start in (0..1000).step_by(BLOCK) {
             let end = (start + BLOCK).min(1000);
@@ -301,7 +312,8 @@ mod tests {
     fn a_mirror_straight_up_has_no_tangential_component() {
         // alpha = 0, mu = 1: wo = n exactly, so sin^2 must be 0, not the 1e-7 of 1 - z^2 in f32.
         let (_, soa) = points(64);
-        let mut out = SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
+        let mut out =
+            SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
         CellWarp::new(1.0, 0.0).warp(&soa, 0..64, &mut out);
         assert!(out.wo_sin2[..64].iter().all(|&s| s == 0.0), "{:?}", &out.wo_sin2[..8]);
     }
@@ -314,7 +326,10 @@ mod tests {
                 let mut w = [0.0f32; 8];
                 CellWarp::new(mu, alpha).weights(masking, &wo_z, &mut w);
                 for (z, w) in wo_z.iter().zip(w) {
-                    assert!(w.is_finite() && (0.0..=1.0 + 1e-6).contains(&w), "{masking:?} mu {mu} alpha {alpha} z {z}: {w}");
+                    assert!(
+                        w.is_finite() && (0.0..=1.0 + 1e-6).contains(&w),
+                        "{masking:?} mu {mu} alpha {alpha} z {z}: {w}"
+                    );
                     if *z <= 0.0 {
                         assert_eq!(w, 0.0);
                     }

@@ -142,7 +142,9 @@ impl CosineMeasure {
     /// The same measure with its replicates averaged into one (to keep fewer numbers around).
     pub fn averaged(&self) -> CosineMeasure {
         match self {
-            CosineMeasure::Spread { replicates } => CosineMeasure::Spread { replicates: vec![mean_measure(replicates)] },
+            CosineMeasure::Spread { replicates } => {
+                CosineMeasure::Spread { replicates: vec![mean_measure(replicates)] }
+            }
             point => point.clone(),
         }
     }
@@ -169,7 +171,13 @@ impl CosineMeasure {
 }
 
 /// The measure of one cell (see [`CosineMeasure`]).
-pub fn cosine_measure(mu: f64, alpha: f64, masking: MaskingShadowing, points: &PointSet, basis: HatBasis) -> CosineMeasure {
+pub fn cosine_measure(
+    mu: f64,
+    alpha: f64,
+    masking: MaskingShadowing,
+    points: &PointSet,
+    basis: HatBasis,
+) -> CosineMeasure {
     let mu = mu.max(GRAZING_COSINE);
     if alpha == 0.0 {
         let wi = direction_from_cosine(mu);

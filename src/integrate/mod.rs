@@ -253,10 +253,7 @@ mod tests {
             pool.install(|| {
                 estimate_cells(&cells, "test", &(), |c| {
                     let mu = (c % 20) as f64 / 19.0;
-                    estimate_visible_normal_integral(mu, 0.5, &points, 1, |s, sums| {
-                        sums[0] += s.cos_wi_h
-                    })
-                    .mean[0]
+                    estimate_visible_normal_integral(mu, 0.5, &points, 1, |s, sums| sums[0] += s.cos_wi_h).mean[0]
                 })
             })
         };

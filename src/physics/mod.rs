@@ -7,7 +7,9 @@ pub mod fresnel_basis;
 pub mod henyey_greenstein;
 pub mod microfacet;
 
-pub use fresnel::{critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance, schlick_weight};
+pub use fresnel::{
+    critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance, schlick_weight,
+};
 pub use fresnel_basis::FresnelBasis;
 pub use henyey_greenstein::{ggx_to_hg, hg_to_ggx};
 pub use microfacet::{

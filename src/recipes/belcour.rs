@@ -131,8 +131,9 @@ fn construction_curve(index: usize) -> (f64, f64) {
 fn leading_right_singular_vectors(a: &[f64], rows: usize, cols: usize, count: usize) -> Vec<Vec<f64>> {
     let block = count + 4;
     // A fixed, full-rank start, so that the result is deterministic.
-    let mut v: Vec<Vec<f64>> =
-        (0..block).map(|j| (0..cols).map(|i| ((i * (j + 1)) as f64 * 0.618_034 + j as f64).sin() + 1.5).collect()).collect();
+    let mut v: Vec<Vec<f64>> = (0..block)
+        .map(|j| (0..cols).map(|i| ((i * (j + 1)) as f64 * 0.618_034 + j as f64).sin() + 1.5).collect())
+        .collect();
     orthonormalise(&mut v);
     // Converges at the rate (sigma_{block+1} / sigma_count)^2 per step; for the construction's
     // matrices (singular values 274, 26, 7.4 and 39, 9.7, 2.0, 0.42, ...) a few dozen steps.
@@ -289,7 +290,8 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
         Method::PerCell => basis_integrals(&basis, settings.masking, Method::PerCell, &points, mu, alpha),
     });
     let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
-    let mut measures: Vec<CosineMeasure> = measures.into_inner().expect("measure store").into_iter().flatten().collect();
+    let mut measures: Vec<CosineMeasure> =
+        measures.into_inner().expect("measure store").into_iter().flatten().collect();
     if settings.method == Method::PerCell {
         let cells: Vec<u64> = (0..table.node_count() as u64).collect();
         measures = estimate_cells(&cells, "belcour accuracy", progress, |cell| {
@@ -307,7 +309,11 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
         integrand: "LUT_k = E_{h~VNDF(wi)}[b_k(wi.h) G2(wi,wo) / G1(wi)], b0 = 1, b1..b3 the tabulated basis".into(),
         masking: Some(settings.masking),
         notes,
-        sampling: sampling_record(settings.method, "visible-normal measure per texel, times the projected basis", &points),
+        sampling: sampling_record(
+            settings.method,
+            "visible-normal measure per texel, times the projected basis",
+            &points,
+        ),
         error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
         wall_time_s: started.elapsed().as_secs_f64(),
         fresnel_basis: Some(basis),
@@ -317,13 +323,27 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
 }
 
 /// The four integrals at one `(mu, alpha)`, each cell on its own.
-fn basis_integrals(basis: &FresnelBasis, masking: MaskingShadowing, method: Method, points: &PointSet, mu: f64, alpha: f64) -> Estimate {
-    estimate_cosine_functions::<4>(mu, alpha, masking, method, points, |c| std::array::from_fn(|k| basis.evaluate(k, c)))
+fn basis_integrals(
+    basis: &FresnelBasis,
+    masking: MaskingShadowing,
+    method: Method,
+    points: &PointSet,
+    mu: f64,
+    alpha: f64,
+) -> Estimate {
+    estimate_cosine_functions::<4>(mu, alpha, masking, method, points, |c| {
+        std::array::from_fn(|k| basis.evaluate(k, c))
+    })
 }
 
 /// How well `Σ c_k LUT_k` reproduces FGD (same masking, same measures, so the difference is the
 /// basis's own error), over three parts of the `(eta, kappa)` domain, at every texel.
-fn split_sum_accuracy(table: &Table, basis: &FresnelBasis, measures: &[CosineMeasure], hats: HatBasis) -> Vec<AccuracyReport> {
+fn split_sum_accuracy(
+    table: &Table,
+    basis: &FresnelBasis,
+    measures: &[CosineMeasure],
+    hats: HatBasis,
+) -> Vec<AccuracyReport> {
     let domains: [(&str, Vec<(f64, f64)>); 3] = [
         (
             "dielectrics, eta in [1.01, 3], kappa = 0 (the basis's own domain)",
@@ -331,7 +351,9 @@ fn split_sum_accuracy(table: &Table, basis: &FresnelBasis, measures: &[CosineMea
         ),
         (
             "conductors, eta in [0.05, 4], kappa in [0.5, 10]",
-            (0..10).flat_map(|i| (0..6).map(move |j| (0.05 + 3.95 * i as f64 / 9.0, 0.5 + 9.5 * j as f64 / 5.0))).collect(),
+            (0..10)
+                .flat_map(|i| (0..6).map(move |j| (0.05 + 3.95 * i as f64 / 9.0, 0.5 + 9.5 * j as f64 / 5.0)))
+                .collect(),
         ),
         (
             "dielectrics with eta in [0.3, 0.99] (total internal reflection, outside the basis)",
@@ -350,7 +372,8 @@ fn split_sum_accuracy(table: &Table, basis: &FresnelBasis, measures: &[CosineMea
                     measures.iter().enumerate().map(move |(texel, measure)| {
                         let lut = table.node(&table.node_index(texel));
                         let approximate: f64 = (0..4).map(|k| coefficients[k] * lut[k] as f64).sum();
-                        let exact = measure.integrate(&[&fresnel], |c| vec![fresnel_reflectance(c, eta, kappa)]).mean[0];
+                        let exact =
+                            measure.integrate(&[&fresnel], |c| vec![fresnel_reflectance(c, eta, kappa)]).mean[0];
                         (approximate - exact, eta, kappa, texel)
                     })
                 })
@@ -386,7 +409,9 @@ mod tests {
         let basis = build_basis();
         assert_eq!(basis.b1.len(), BASIS_SAMPLES);
         // b1 is the magnitude of the first singular vector, scaled to a unit peak.
-        assert!(basis.b1.iter().all(|&x| x >= 0.0) && (basis.b1.iter().cloned().fold(0.0, f64::max) - 1.0).abs() < 1e-12);
+        assert!(
+            basis.b1.iter().all(|&x| x >= 0.0) && (basis.b1.iter().cloned().fold(0.0, f64::max) - 1.0).abs() < 1e-12
+        );
         let [p, q] = basis.probe_cosines;
         assert!(basis.evaluate(2, p) > 0.0 && basis.evaluate(3, p) > 0.0, "signs at the first probe");
         assert!(p > 0.0 && p < 1.0 && q > 0.0 && q < 1.0 && p != q, "{p} {q}");

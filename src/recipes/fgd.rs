@@ -89,7 +89,10 @@ impl FgdSettings {
         check_index_range("fgd.eta_range", self.eta_range)?;
         check_index_range("fgd.kappa_range", self.kappa_range)?;
         if !(8..=4096).contains(&self.cosine_intervals) {
-            return Err(Error::invalid("fgd.cosine_intervals", format!("{}; allowed: 8 to 4096", self.cosine_intervals)));
+            return Err(Error::invalid(
+                "fgd.cosine_intervals",
+                format!("{}; allowed: 8 to 4096", self.cosine_intervals),
+            ));
         }
         self.sampling.validate("fgd.sampling")?;
         self.reference.validate("fgd.reference")?;
@@ -189,7 +192,13 @@ pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Resu
 
 /// The fast path: measures, projected Fresnel, one matrix product. Returns the replicate spread
 /// over `settings.replicate_error_columns` random `(eta, kappa)` columns.
-fn build_fast(settings: &FgdSettings, points: &PointSet, table: &mut Table, seed: u64, progress: &dyn Progress) -> ErrorSummary {
+fn build_fast(
+    settings: &FgdSettings,
+    points: &PointSet,
+    table: &mut Table,
+    seed: u64,
+    progress: &dyn Progress,
+) -> ErrorSummary {
     let basis = HatBasis { intervals: settings.cosine_intervals };
     let k = basis.node_count();
     let (mu_axis, alpha_axis) = (table.axes[0].clone(), table.axes[1].clone());
@@ -264,7 +273,13 @@ mod tests {
         // A reduced grid at the default 2^16 samples, against 2^20-sample per-cell f64 references
         // with independent scrambles, at nodes with mu and alpha away from 0 (the bench runs the
         // full 300-node, 2^22-sample version).
-        let settings = small(FgdSettings { mu_count: 12, alpha_count: 12, eta_count: 9, kappa_count: 7, ..FgdSettings::default() });
+        let settings = small(FgdSettings {
+            mu_count: 12,
+            alpha_count: 12,
+            eta_count: 9,
+            kappa_count: 7,
+            ..FgdSettings::default()
+        });
         let table = build(&settings, 5, &()).unwrap().table;
         let points = reference_points(1 << 20, 5).unwrap();
         let differences: Vec<f64> = random_cells(table.node_count(), 400, 9)
@@ -273,7 +288,12 @@ mod tests {
             .filter(|p| p[0] >= 0.05 && p[1] >= 0.05)
             .take(40)
             .map(|p| {
-                let n = table.node_number(&p.iter().zip(&table.axes).map(|(&x, a)| a.continuous_index(x).round() as usize).collect::<Vec<_>>());
+                let n = table.node_number(
+                    &p.iter()
+                        .zip(&table.axes)
+                        .map(|(&x, a)| a.continuous_index(x).round() as usize)
+                        .collect::<Vec<_>>(),
+                );
                 table.data[n] as f64 - settings.estimate_node(&points, &p).mean[0]
             })
             .collect();

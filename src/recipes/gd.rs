@@ -63,7 +63,10 @@ impl GdSettings {
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
-        Ok(vec![Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?, Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?])
+        Ok(vec![
+            Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?,
+            Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?,
+        ])
     }
 }
 
@@ -108,14 +111,13 @@ pub fn build(settings: &GdSettings, seed: u64, progress: &dyn Progress) -> Resul
         fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| albedo(settings, settings.method, &points, mu, alpha));
     let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
     Ok(TableBuild {
-        integrand: "GD = E_{h~VNDF(wi)}[G2(wi,wo) / G1(wi)], wo = reflect(wi, h); with separable Smith, E[G1(wo)]".into(),
+        integrand: "GD = E_{h~VNDF(wi)}[G2(wi,wo) / G1(wi)], wo = reflect(wi, h); with separable Smith, E[G1(wo)]"
+            .into(),
         masking: Some(settings.masking),
         notes: vec![
-            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.".into(),
-            format!(
-                "The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.",
-                crate::integrate::GRAZING_COSINE
-            ),
+            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis."
+                .into(),
+            format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.", crate::integrate::GRAZING_COSINE),
         ],
         sampling: sampling_record(settings.method, "visible-normal measure per (mu, alpha)", &points),
         error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },

@@ -82,7 +82,10 @@ pub(crate) fn sampling_record(method: Method, description: &str, points: &PointS
     let plan = points.plan();
     SamplingRecord {
         method: format!("{} ({description})", method.name()),
-        sampler: format!("Owen-scrambled Sobol (sobol_burley), {} replicates x {} points", plan.replicates, plan.points),
+        sampler: format!(
+            "Owen-scrambled Sobol (sobol_burley), {} replicates x {} points",
+            plan.replicates, plan.points
+        ),
         samples_per_cell: plan.total(),
         replicates: plan.replicates,
         seed: points.seed(),

@@ -73,7 +73,9 @@ impl SplitSumLayout {
             (RoughnessAxis::Perceptual, Orientation::RoughFirst) => {
                 "Row 0 = roughness 1: v = 1 - roughness, roughness = sqrt(alpha) (Unreal Engine 4 convention)."
             }
-            (RoughnessAxis::Perceptual, Orientation::SmoothFirst) => "Row 0 = roughness 0: v = roughness = sqrt(alpha).",
+            (RoughnessAxis::Perceptual, Orientation::SmoothFirst) => {
+                "Row 0 = roughness 0: v = roughness = sqrt(alpha)."
+            }
             (RoughnessAxis::Alpha, Orientation::RoughFirst) => "Row 0 = alpha 1: v = 1 - alpha (linear in GGX alpha).",
             (RoughnessAxis::Alpha, Orientation::SmoothFirst) => "Row 0 = alpha 0: v = alpha (linear in GGX alpha).",
         };

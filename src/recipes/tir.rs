@@ -58,7 +58,7 @@ impl Default for TirSettings {
             top_eta: 1.0,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 1 << 15, replicates: 4 },
-            reference: ReferenceConfig { cells: 64, samples: 1 << 20 },
+            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
         }
     }
@@ -145,8 +145,7 @@ fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
         }
         sums[1] += weight;
     });
-    let ratios: Vec<Vec<f64>> =
-        sums.iter().map(|s| vec![if s[1] > 0.0 { s[0] / s[1] } else { 0.0 }]).collect();
+    let ratios: Vec<Vec<f64>> = sums.iter().map(|s| vec![if s[1] > 0.0 { s[0] / s[1] } else { 0.0 }]).collect();
     combine_replicates(&ratios, 1)
 }
 
@@ -221,12 +220,18 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
     }
     let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
     Ok(TableBuild {
-        integrand: "TIR = Σ G1(w) [1 - w.z^2 > eta^2] / Σ G1(w), h ~ VNDF(v), w = reflect(v, h), w.z > 0 (separable Smith)".into(),
+        integrand:
+            "TIR = Σ G1(w) [1 - w.z^2 > eta^2] / Σ G1(w), h ~ VNDF(v), w = reflect(v, h), w.z > 0 (separable Smith)"
+                .into(),
         masking: Some(MaskingShadowing::SmithSeparable),
         notes: vec![
-            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.".into(),
+            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis."
+                .into(),
             "alpha is the roughness of the incoming lobe (from hg_to_ggx in the model), not of the interface.".into(),
-            format!("The eta = 1 node is evaluated at eta = {} (1: exact, no total internal reflection; the original behaves as 0.999).", settings.top_eta),
+            format!(
+                "The eta = 1 node is evaluated at eta = {} (1: exact, no total internal reflection; the original behaves as 0.999).",
+                settings.top_eta
+            ),
             format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {GRAZING_COSINE}."),
         ],
         sampling: sampling_record(settings.method, "weighted distribution of w.z per (mu, alpha)", &points),
@@ -260,7 +265,8 @@ mod tests {
     #[test]
     fn reproduces_the_original_table() {
         let original = original();
-        let as_original = build(&quick(TirSettings { top_eta: 0.999, ..TirSettings::default() }), 1, &()).unwrap().table;
+        let as_original =
+            build(&quick(TirSettings { top_eta: 0.999, ..TirSettings::default() }), 1, &()).unwrap().table;
         assert_eq!(as_original.axes, original.axes);
         let rmse = |t: &Table, skip_top: bool| {
             let plane = 64 * 64;
@@ -278,9 +284,13 @@ mod tests {
 
     #[test]
     fn smooth_lobe_is_a_step_at_the_critical_cosine() {
-        let table = build(&quick(TirSettings { mu_count: 33, alpha_count: 3, eta_count: 17, ..TirSettings::default() }), 2, &())
-            .unwrap()
-            .table;
+        let table = build(
+            &quick(TirSettings { mu_count: 33, alpha_count: 3, eta_count: 17, ..TirSettings::default() }),
+            2,
+            &(),
+        )
+        .unwrap()
+        .table;
         for i in 0..33 {
             for k in 0..17 {
                 let position = table.node_position(&[i, 0, k]);

@@ -65,7 +65,8 @@ pub fn inspect(path: &Path) -> Result<String> {
     match entry {
         Some(entry) => write_entry(w, entry, &bytes),
         None if manifest.is_some() => {
-            let _ = writeln!(w, "manifest: {} lists no entry for this file: conventions unknown", manifest_path.display());
+            let _ =
+                writeln!(w, "manifest: {} lists no entry for this file: conventions unknown", manifest_path.display());
         }
         None => {
             let _ = writeln!(w, "manifest: no {MANIFEST_FILE} beside the file: conventions unknown");

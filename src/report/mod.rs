@@ -1,5 +1,6 @@
 //! Reports a person reads: what a table file holds and under which conventions.
 
+pub mod bench;
 mod inspect;
 
 pub use inspect::inspect;

@@ -1,8 +1,8 @@
 //! Sampling: the sequences that drive the Monte Carlo estimates and the warps that turn points of
 //! the unit square into microfacet normals. Estimators live in [`crate::integrate`].
 
-pub mod vndf;
 #[cfg(feature = "generator")]
 pub mod sequence;
+pub mod vndf;
 
 pub use vndf::{DiskPoint, VisibleNormalSampler, sample_visible_normal};

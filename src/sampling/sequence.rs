@@ -31,7 +31,9 @@ impl SamplePlan {
         if total < 2 || !total.is_power_of_two() {
             return Err(Error::invalid(
                 "samples",
-                format!("{total} samples; use a power of two from 2 to 2^32 (Sobol points balance in power-of-two prefixes)"),
+                format!(
+                    "{total} samples; use a power of two from 2 to 2^32 (Sobol points balance in power-of-two prefixes)"
+                ),
             ));
         }
         if total > 1 << 32 {

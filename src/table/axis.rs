@@ -120,10 +120,7 @@ impl Axis {
     pub fn validate(&self) -> Result<()> {
         let key = format!("axis `{}`", self.name);
         if self.count < 2 {
-            return Err(Error::invalid(
-                key,
-                format!("{} nodes; an axis needs at least 2 to interpolate", self.count),
-            ));
+            return Err(Error::invalid(key, format!("{} nodes; an axis needs at least 2 to interpolate", self.count)));
         }
         if !self.start.is_finite() || !self.end.is_finite() {
             return Err(Error::invalid(key, format!("range [{}, {}] is not finite", self.start, self.end)));

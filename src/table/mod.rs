@@ -226,8 +226,8 @@ mod tests {
     #[test]
     fn stats_count_non_finite_values() {
         let ax = Axis::node_aligned("x", 0.0, 1.0, 4).unwrap();
-        let t = Table::new("t", vec![ax], vec![Channel::new("v", "")], vec![0.5, f32::NAN, f32::INFINITY, -1.0])
-            .unwrap();
+        let t =
+            Table::new("t", vec![ax], vec![Channel::new("v", "")], vec![0.5, f32::NAN, f32::INFINITY, -1.0]).unwrap();
         let s = t.stats();
         assert_eq!((s.min, s.max, s.nan_count, s.infinite_count), (-1.0, 0.5, 1, 1));
     }
