@@ -114,7 +114,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             for file in written {
                 let e = &file.entry;
                 let reference = e.error.integration.reference.as_ref().map_or(String::new(), |r| {
-                    format!(", reference max |diff| {:.2e} ({} cells)", r.difference.max, r.difference.count)
+                    format!(", reference max |diff| {:.2e} ({} values)", r.difference.max, r.difference.count)
                 });
                 println!(
                     "{}  {} bytes  built in {:.2} s, replicate s.e. max {:.2e}{reference}",

@@ -430,6 +430,32 @@ mod tests {
     }
 
     #[test]
+    fn table_matches_per_cell_estimates_and_reports_its_accuracy() {
+        let settings = BelcourSettings {
+            mu_count: 8,
+            roughness_count: 8,
+            sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
+            reference: ReferenceConfig { cells: 64, samples: 1 << 18 },
+            ..BelcourSettings::default()
+        };
+        let build = build(&settings, 4, &()).unwrap();
+        let stats = build.table.stats();
+        assert_eq!(stats.nan_count + stats.infinite_count, 0);
+        // b0 = 1: the channel is the height-correlated albedo, within [0, 1].
+        assert!(build.table.channel_values(0).all(|v| (0.0..=1.0).contains(&v)));
+        // Every texel against 2^18-sample per-cell f64 estimates of all four channels.
+        let reference = build.error.reference.as_ref().unwrap();
+        assert_eq!(reference.difference.count, 256);
+        assert!(reference.difference.max < 1e-3 && reference.difference.rms < 2e-4, "{reference:?}");
+        // The accuracy report covers the three domains, and the basis's own domain does best.
+        assert_eq!(build.accuracy.len(), 3);
+        let [dielectrics, conductors, total_internal_reflection] = [0, 1, 2].map(|i| build.accuracy[i].error.rms);
+        assert!(dielectrics < 0.01 && conductors < 0.01, "{:?}", build.accuracy);
+        assert!(total_internal_reflection > 10.0 * dielectrics, "{:?}", build.accuracy);
+        assert_eq!(build.fresnel_basis.as_ref(), Some(basis()));
+    }
+
+    #[test]
     fn basis_matches_an_independent_full_svd() {
         // Values from numpy.linalg.svd of the same construction (notebooks/belcour_basis.py).
         let basis = build_basis();
