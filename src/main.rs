@@ -13,6 +13,7 @@ use tmlut::integrate::{Method, Progress};
 use tmlut::pipeline::{self, BuildRequest};
 use tmlut::recipes::TABLES;
 use tmlut::report::bench::{self, BenchSettings};
+use tmlut::report::check;
 
 #[derive(Parser)]
 #[command(
@@ -76,6 +77,18 @@ enum Command {
         /// Worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+    },
+    /// Check an output folder against error budgets: SHA-256 of every file, NaN count, value
+    /// range, error and build time. Exits non-zero naming every budget exceeded.
+    Check {
+        /// The output folder (with its manifest.json).
+        dir: PathBuf,
+        /// Budgets file (default: the committed budgets.toml, for the default LUT set).
+        #[arg(long)]
+        budgets: Option<PathBuf>,
+        /// Print the findings as JSON instead of lines.
+        #[arg(long)]
+        json: bool,
     },
     /// List the tables tmlut knows.
     List,
@@ -142,6 +155,26 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             print!("{}", bench::markdown(&rows, &settings, rayon::current_num_threads()));
             if let Some(bytes) = bench::peak_memory_bytes() {
                 println!("Peak resident memory of the run: {:.0} MiB.", bytes as f64 / (1 << 20) as f64);
+            }
+            Ok(())
+        }
+        Command::Check { dir, budgets, json } => {
+            let budgets = match &budgets {
+                Some(path) => check::Budgets::from_file(path)?,
+                None => check::Budgets::from_toml(check::DEFAULT_BUDGETS, "budgets.toml (built in)")?,
+            };
+            let findings = check::check_folder(&dir, &budgets)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&findings).expect("findings are plain data"));
+            } else {
+                print!("{}", check::render(&findings));
+            }
+            let failed = findings.iter().filter(|f| !f.pass).count();
+            if failed > 0 {
+                return Err(tmlut::Error::invalid(
+                    dir.display().to_string(),
+                    format!("{failed} budget(s) exceeded (see above)"),
+                ));
             }
             Ok(())
         }

@@ -1,0 +1,191 @@
+//! `tmlut check DIR`: hold an output folder to an error budget. Every file in the folder's manifest
+//! must still match its SHA-256, hold no more non-finite values than allowed, keep its values in
+//! the allowed range, and stay within its table's error and build-time budgets. Every exceeded
+//! budget is reported with its figure and its limit, so CI fails on a table that got worse and says
+//! why.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::formats::manifest::{FileEntry, MANIFEST_FILE, Manifest};
+use crate::pipeline::sha256_hex;
+
+/// The budgets committed with the project, for the default LUT set (`luts/default.toml`).
+pub const DEFAULT_BUDGETS: &str = include_str!("../../budgets.toml");
+
+/// The budget of one table; a missing key sets no limit.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableBudget {
+    /// Most NaN and infinite values allowed (0 unless stated).
+    #[serde(default)]
+    pub max_nan: usize,
+    /// Every stored value must lie in `[lo, hi]`.
+    pub value_range: Option<[f32; 2]>,
+    /// RMS and maximum of the difference to per-cell references.
+    pub max_reference_rms: Option<f64>,
+    pub max_reference_max: Option<f64>,
+    /// RMS and maximum of the replicate standard error.
+    pub max_replicate_rms: Option<f64>,
+    pub max_replicate_max: Option<f64>,
+    /// Integration wall time of the table, in seconds.
+    pub max_build_s: Option<f64>,
+}
+
+/// Budgets per table name.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Budgets {
+    pub tables: BTreeMap<String, TableBudget>,
+}
+
+impl Budgets {
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self> {
+        let budgets: Budgets = toml::from_str(text).map_err(|e| {
+            Error::invalid(
+                origin,
+                e.to_string().lines().filter(|l| !l.trim().is_empty()).collect::<Vec<_>>().join(" | "),
+            )
+        })?;
+        for (table, budget) in &budgets.tables {
+            if let Some([lo, hi]) = budget.value_range
+                && !(lo <= hi)
+            {
+                return Err(Error::invalid(
+                    format!("{origin}: {table}.value_range"),
+                    format!("[{lo}, {hi}]; allowed: lo <= hi"),
+                ));
+            }
+        }
+        Ok(budgets)
+    }
+
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::io(path, source))?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+}
+
+/// One verified property of one file.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Finding {
+    pub file: String,
+    /// What was checked, e.g. `sha256`, `nan_count`, `reference_rms`.
+    pub check: String,
+    /// The measured figure, in words when it is not a number.
+    pub value: String,
+    /// The limit it was held to.
+    pub limit: String,
+    pub pass: bool,
+}
+
+/// Check every file of an output folder against `budgets`.
+pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
+    let manifest = Manifest::read(&dir.join(MANIFEST_FILE))?;
+    let mut findings = Vec::new();
+    for (file, entry) in &manifest.files {
+        check_file(dir, file, entry, budgets, &mut findings);
+    }
+    for table in budgets.tables.keys() {
+        if !manifest.files.values().any(|e| &e.table == table) {
+            findings.push(Finding {
+                file: "-".into(),
+                check: format!("{table} present"),
+                value: "no file of this table in the manifest".into(),
+                limit: "a budgeted table must be built".into(),
+                pass: false,
+            });
+        }
+    }
+    Ok(findings)
+}
+
+fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, findings: &mut Vec<Finding>) {
+    let mut record = |check: &str, value: String, limit: String, pass: bool| {
+        findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass })
+    };
+    let path = dir.join(file);
+    let bytes = match std::fs::read(&path) {
+        Ok(bytes) => bytes,
+        Err(e) => {
+            record("file", format!("unreadable: {e}"), "present and readable".into(), false);
+            return;
+        }
+    };
+    let actual = sha256_hex(&bytes);
+    record("sha256", actual.clone(), entry.sha256.clone(), actual == entry.sha256);
+
+    let budget = budgets.tables.get(&entry.table).cloned().unwrap_or_default();
+    // Values are read back from the file itself, not taken from the manifest.
+    match crate::loader::load_table(&path) {
+        Ok(table) => {
+            let stats = table.stats();
+            let non_finite = stats.nan_count + stats.infinite_count;
+            record("nan_count", non_finite.to_string(), format!("<= {}", budget.max_nan), non_finite <= budget.max_nan);
+            if let Some([lo, hi]) = budget.value_range {
+                let inside = stats.min >= lo && stats.max <= hi;
+                record(
+                    "value_range",
+                    format!("[{}, {}]", stats.min, stats.max),
+                    format!("within [{lo}, {hi}]"),
+                    inside,
+                );
+            }
+        }
+        Err(e) => record("readable", format!("{e}"), "a table tmlut reads".into(), false),
+    }
+    let mut at_most = |check: &str, value: Option<f64>, limit: Option<f64>| {
+        if let Some(limit) = limit {
+            match value {
+                Some(v) => record(check, format!("{v:.3e}"), format!("<= {limit:.3e}"), v <= limit),
+                None => record(check, "not in the manifest".into(), format!("<= {limit:.3e}"), false),
+            }
+        }
+    };
+    let integration = &entry.error.integration;
+    let reference = integration.reference.as_ref().map(|r| r.difference);
+    at_most("reference_rms", reference.map(|d| d.rms), budget.max_reference_rms);
+    at_most("reference_max", reference.map(|d| d.max), budget.max_reference_max);
+    at_most("replicate_rms", Some(integration.replicate_standard_error.rms), budget.max_replicate_rms);
+    at_most("replicate_max", Some(integration.replicate_standard_error.max), budget.max_replicate_max);
+    at_most("build_s", Some(entry.wall_time_s), budget.max_build_s);
+}
+
+/// The findings as lines a person reads: failures first, then a count.
+pub fn render(findings: &[Finding]) -> String {
+    let mut lines: Vec<String> = findings
+        .iter()
+        .filter(|f| !f.pass)
+        .map(|f| format!("FAIL {}: {} is {}, budget {}", f.file, f.check, f.value, f.limit))
+        .collect();
+    let failed = lines.len();
+    lines.extend(
+        findings.iter().filter(|f| f.pass).map(|f| format!("ok   {}: {} {} ({})", f.file, f.check, f.value, f.limit)),
+    );
+    lines.push(format!("{} passed, {} failed", findings.len() - failed, failed));
+    lines.join("\n") + "\n"
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn committed_budgets_parse_and_cover_every_table() {
+        let budgets = Budgets::from_toml(DEFAULT_BUDGETS, "budgets.toml").unwrap();
+        for (name, _) in crate::recipes::TABLES {
+            assert!(budgets.tables.contains_key(*name), "no budget for {name}");
+        }
+    }
+
+    #[test]
+    fn unknown_budget_keys_and_inverted_ranges_are_refused() {
+        let err = Budgets::from_toml("[fgd]\nmax_rsm = 1.0\n", "b.toml").unwrap_err().to_string();
+        assert!(err.contains("b.toml") && err.contains("max_rsm"), "{err}");
+        let err = Budgets::from_toml("[fgd]\nvalue_range = [1.0, 0.0]\n", "b.toml").unwrap_err().to_string();
+        assert!(err.contains("fgd.value_range"), "{err}");
+    }
+}
