@@ -52,7 +52,7 @@ impl Budgets {
         })?;
         for (table, budget) in &budgets.tables {
             if let Some([lo, hi]) = budget.value_range
-                && !(lo <= hi)
+                && (lo.is_nan() || hi.is_nan() || lo > hi)
             {
                 return Err(Error::invalid(
                     format!("{origin}: {table}.value_range"),
