@@ -52,6 +52,10 @@ enum Command {
         /// measure per (mu, alpha)) or `per-cell` (every cell on its own; slow, for cross-checks).
         #[arg(long, value_parser = parse_method)]
         method: Option<Method>,
+        /// Also write each table's error map: maps/<table>_error.exr (every node's replicate
+        /// standard error) and maps/<table>_error.png (heatmaps with a colour bar).
+        #[arg(long)]
+        error_maps: bool,
     },
     /// Time each table's build and measure its error against per-cell references, beside the
     /// per-cell method on the same nodes. Prints a Markdown table.
@@ -109,7 +113,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> tmlut::Result<()> {
     match cli.command {
-        Command::Build { config, only, out, threads, seed, method } => {
+        Command::Build { config, only, out, threads, seed, method, error_maps } => {
             let mut config = match &config {
                 Some(path) => Config::from_file(path)?,
                 None => Config::default(),
@@ -121,7 +125,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                 config.set_method(method);
             }
             set_threads(threads)?;
-            let request = BuildRequest { config, only, out };
+            let request = BuildRequest { config, only, out, error_maps };
             let progress = ProgressBars::new(cli.quiet);
             let written = pipeline::build(&request, &progress)?;
             for file in written {

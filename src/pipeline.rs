@@ -27,7 +27,12 @@ pub struct BuildRequest {
     /// Table names to build; `None` builds every table.
     pub only: Option<Vec<String>>,
     pub out: PathBuf,
+    /// Also write each table's error map (`maps/<table>_error.exr` and `.png`).
+    pub error_maps: bool,
 }
+
+/// The subfolder of an output folder that holds error maps.
+pub const MAPS_FOLDER: &str = "maps";
 
 /// One file a build wrote.
 #[derive(Debug, Clone)]
@@ -71,14 +76,33 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
     let mut manifest = Manifest::read_or_default(out)?;
     manifest.generator = generator_name();
 
+    let mut config = request.config.clone();
+    if request.error_maps {
+        // A map needs every node's replicate spread; FGD computes it for a subset by default.
+        config.fgd.replicate_error_columns = usize::MAX;
+    }
     let staging = Staging::create(out)?;
+    let staged_maps = staging.dir.join(MAPS_FOLDER);
     let mut staged = Vec::new();
+    let mut maps = Vec::new();
     for name in tables {
-        let recipe = request.config.recipe(name).expect("resolve_tables admits known tables only");
-        let build = recipe.build(request.config.seed, progress)?;
+        let recipe = config.recipe(name).expect("resolve_tables admits known tables only");
+        let build = recipe.build(config.seed, progress)?;
         let output = recipe.output();
         for &format in &output.formats {
             staged.push(write_table_file(&staging.dir, &build, format, output.precision)?);
+        }
+        if request.error_maps {
+            std::fs::create_dir_all(&staged_maps).map_err(|source| Error::io(&staged_maps, source))?;
+            maps.extend(crate::report::error_map::write_error_maps(&staged_maps, &build)?);
+        }
+    }
+    if !maps.is_empty() {
+        let maps_dir = out.join(MAPS_FOLDER);
+        std::fs::create_dir_all(&maps_dir).map_err(|source| Error::io(&maps_dir, source))?;
+        for map in maps {
+            let destination = maps_dir.join(file_name(&map));
+            std::fs::rename(&map, &destination).map_err(|source| Error::io(&destination, source))?;
         }
     }
     let mut written = Vec::new();

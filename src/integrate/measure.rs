@@ -139,6 +139,15 @@ impl CosineMeasure {
         }
     }
 
+    /// Hat moments of replicate `r`; all zero for a point mass (which is the same in every
+    /// replicate).
+    pub fn replicate_moments(&self, r: usize, basis: HatBasis) -> Vec<f64> {
+        match self {
+            CosineMeasure::Spread { replicates } => replicates[r].clone(),
+            CosineMeasure::PointMass { .. } => vec![0.0; basis.node_count()],
+        }
+    }
+
     /// The same measure with its replicates averaged into one (to keep fewer numbers around).
     pub fn averaged(&self) -> CosineMeasure {
         match self {

@@ -155,7 +155,7 @@ pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Resu
     let channel = Channel::new("fgd", "∫ F(wi.h; eta, kappa) D G2 / (4 mu) dwo: directional albedo with exact Fresnel");
     let mut table = Table::zeros(NAME, settings.axes()?, vec![channel])?;
 
-    let replicate_standard_error = match settings.method {
+    let (replicate_standard_error, standard_error) = match settings.method {
         Method::Fast => build_fast(settings, &points, &mut table, seed, progress),
         Method::PerCell => {
             let cells: Vec<u64> = (0..table.node_count() as u64).collect();
@@ -165,7 +165,7 @@ pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Resu
             for (value, estimate) in table.data.iter_mut().zip(&estimates) {
                 *value = estimate.mean[0] as f32;
             }
-            super::replicate_error(&estimates)
+            (super::replicate_error(&estimates), Some(super::standard_error_map(&estimates)))
         }
     };
     let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
@@ -186,19 +186,21 @@ pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Resu
         wall_time_s: started.elapsed().as_secs_f64(),
         fresnel_basis: None,
         accuracy: Vec::new(),
+        standard_error,
         table,
     })
 }
 
 /// The fast path: measures, projected Fresnel, one matrix product. Returns the replicate spread
-/// over `settings.replicate_error_columns` random `(eta, kappa)` columns.
+/// over `settings.replicate_error_columns` random `(eta, kappa)` columns, and, when that is all of
+/// them, the standard error of every node (one more matrix product per replicate).
 fn build_fast(
     settings: &FgdSettings,
     points: &PointSet,
     table: &mut Table,
     seed: u64,
     progress: &dyn Progress,
-) -> ErrorSummary {
+) -> (ErrorSummary, Option<Vec<f32>>) {
     let basis = HatBasis { intervals: settings.cosine_intervals };
     let k = basis.node_count();
     let (mu_axis, alpha_axis) = (table.axes[0].clone(), table.axes[1].clone());
@@ -244,6 +246,11 @@ fn build_fast(
         *value = p.clamp(0.0, 1.0) as f32;
     }
 
+    if settings.replicate_error_columns >= columns {
+        let map = standard_error_of_every_node(&fresnel, &measures, basis, points.plan().replicates as usize, columns);
+        return (ErrorSummary::of_differences(map.iter().map(|&s| s as f64)), Some(map));
+    }
+
     // Replicate spread at a random subset of (eta, kappa) columns, every (mu, alpha).
     let sampled_columns = random_cells(columns, settings.replicate_error_columns, seed ^ 0xC011);
     let standard_errors: Vec<f64> = sampled_columns
@@ -256,7 +263,36 @@ fn build_fast(
             })
         })
         .collect();
-    ErrorSummary::of_differences(standard_errors)
+    (ErrorSummary::of_differences(standard_errors), None)
+}
+
+/// The replicate standard error of every node: one product per replicate, combined with Welford's
+/// running mean and sum of squares (so only one replicate's product is held at a time).
+fn standard_error_of_every_node(
+    fresnel: &[f64],
+    measures: &[CosineMeasure],
+    basis: HatBasis,
+    replicates: usize,
+    columns: usize,
+) -> Vec<f32> {
+    let k = basis.node_count();
+    let plane = measures.len();
+    let mut mean = vec![0.0f64; columns * plane];
+    let mut sum_of_squares = vec![0.0f64; columns * plane];
+    let mut product = vec![0.0f64; columns * plane];
+    for r in 0..replicates {
+        let moments: Vec<f64> = measures.iter().flat_map(|m| m.replicate_moments(r, basis)).collect();
+        multiply_transposed(MatrixRef::new(fresnel, columns, k), MatrixRef::new(&moments, plane, k), &mut product);
+        let count = (r + 1) as f64;
+        mean.par_iter_mut().zip(sum_of_squares.par_iter_mut()).zip(&product).for_each(|((m, s), &x)| {
+            let delta = x - *m;
+            *m += delta / count;
+            *s += delta * (x - *m);
+        });
+    }
+    let r = replicates as f64;
+    // Point masses are exact: their rows are zero in every replicate, so their spread is 0.
+    sum_of_squares.iter().map(|&s| if replicates < 2 { 0.0 } else { (s / (r - 1.0) / r).sqrt() as f32 }).collect()
 }
 
 #[cfg(test)]

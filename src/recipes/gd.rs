@@ -14,7 +14,8 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points,
+    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
+    standard_error_map, table_points,
 };
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
 use crate::error::Result;
@@ -124,6 +125,7 @@ pub fn build(settings: &GdSettings, seed: u64, progress: &dyn Progress) -> Resul
         wall_time_s: started.elapsed().as_secs_f64(),
         fresnel_basis: None,
         accuracy: Vec::new(),
+        standard_error: Some(standard_error_map(&estimates)),
         table,
     })
 }

@@ -18,7 +18,8 @@ use serde::{Deserialize, Serialize};
 
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
 use super::{
-    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, table_points,
+    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
+    standard_error_map, table_points,
 };
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::Result;
@@ -147,6 +148,7 @@ pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Re
         wall_time_s: started.elapsed().as_secs_f64(),
         fresnel_basis: None,
         accuracy: Vec::new(),
+        standard_error: Some(standard_error_map(&estimates)),
         table,
     })
 }

@@ -75,6 +75,9 @@ pub struct TableBuild {
     pub fresnel_basis: Option<FresnelBasis>,
     /// Further measured accuracy figures (for instance, how well a split-sum reproduces FGD).
     pub accuracy: Vec<AccuracyReport>,
+    /// The replicate standard error of every stored value, in the table's layout, where it was
+    /// computed for every node (the error maps draw it).
+    pub standard_error: Option<Vec<f32>>,
 }
 
 /// The record of a table integrated with `method` from the points of `points`.
@@ -117,6 +120,11 @@ pub(crate) fn fill_mu_alpha_nodes(
         }
     }
     estimates
+}
+
+/// The standard error of every value of `estimates`, in node order: a table's error map.
+pub(crate) fn standard_error_map(estimates: &[Estimate]) -> Vec<f32> {
+    estimates.iter().flat_map(|e| e.standard_error.iter().map(|&s| s as f32)).collect()
 }
 
 /// RMS and maximum, over all cells and channels, of the replicate standard errors.

@@ -19,7 +19,9 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::{TableBuild, TableRecipe, compare_to_reference, replicate_error, sampling_record, table_points};
+use super::{
+    TableBuild, TableRecipe, compare_to_reference, replicate_error, sampling_record, standard_error_map, table_points,
+};
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -239,6 +241,7 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
         wall_time_s: started.elapsed().as_secs_f64(),
         fresnel_basis: None,
         accuracy: Vec::new(),
+        standard_error: Some(standard_error_map(&estimates)),
         table,
     })
 }

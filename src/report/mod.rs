@@ -2,6 +2,8 @@
 
 pub mod bench;
 pub mod check;
+pub mod error_map;
 mod inspect;
+pub mod plot;
 
 pub use inspect::inspect;

@@ -1,0 +1,155 @@
+//! Error maps: the replicate standard error of every node of a table, as an OpenEXR table at full
+//! resolution (same axes, readable by `tmlut inspect` and any EXR viewer) and as PNG heatmaps.
+//! The heatmaps are drawn in axis coordinates (cell k of N spans `[k/N, (k+1)/N)`), so that the
+//! grazing column `mu = 0` and the smooth row `alpha = 0`, where the field's tables are worst, are
+//! the edges of every panel.
+
+use std::path::{Path, PathBuf};
+
+use super::plot::{Panel, heatmaps_png};
+use crate::error::Result;
+use crate::formats::{Precision, exr::write_exr};
+use crate::recipes::TableBuild;
+use crate::table::{Axis, Channel, Table};
+
+/// The standard-error table of a build, if the build computed one for every node.
+pub fn error_table(build: &TableBuild) -> Option<Table> {
+    let errors = build.standard_error.as_ref()?;
+    let channels = build
+        .table
+        .channels
+        .iter()
+        .map(|c| Channel::new(c.name.clone(), format!("replicate standard error of `{}`", c.name)))
+        .collect();
+    Table::new(format!("{}_error", build.table.name), build.table.axes.clone(), channels, errors.clone()).ok()
+}
+
+/// Write `<table>_error.exr` and `<table>_error.png` into `dir`; nothing when the build has no
+/// per-node error.
+pub fn write_error_maps(dir: &Path, build: &TableBuild) -> Result<Vec<PathBuf>> {
+    let Some(table) = error_table(build) else { return Ok(Vec::new()) };
+    let exr = dir.join(format!("{}.exr", table.name));
+    write_exr(&exr, &table, Precision::F32)?;
+    let png = dir.join(format!("{}.png", table.name));
+    let (panels, columns) = panels(&table);
+
+    let mut title = format!(
+        "{}: replicate standard error ({} samples per cell, {} replicates)",
+        build.table.name, build.sampling.samples_per_cell, build.sampling.replicates
+    );
+    if panels.len() > 16 {
+        let (ax, ay) = (&table.axes[0], &table.axes[1]);
+        title.push_str(&format!("; each panel: x = {}, y = {}", axis_label(ax), axis_label(ay)));
+    }
+    heatmaps_png(&png, &title, "standard error", &panels, columns)?;
+    Ok(vec![exr, png])
+}
+
+/// How an axis reads on a plot: its quantity, direction and spacing.
+fn axis_label(axis: &Axis) -> String {
+    let spacing = match axis.mapping {
+        crate::table::Mapping::Identity => String::new(),
+        mapping => format!(", spaced in {}", mapping.formula(&axis.name)),
+    };
+    format!("{} ({} to {}{spacing})", axis.name, axis.start, axis.end)
+}
+
+/// Up to `count` node indices spread evenly over an axis, first and last included.
+fn spread_nodes(axis: &Axis, count: usize) -> Vec<usize> {
+    let n = axis.count;
+    let count = count.min(n).max(1);
+    if count == 1 {
+        return vec![0];
+    }
+    let mut nodes: Vec<usize> = (0..count).map(|i| (i * (n - 1) + (count - 1) / 2) / (count - 1)).collect();
+    nodes.dedup();
+    nodes
+}
+
+/// The heatmap panels of a table and the number of columns to lay them out in: a 2D table gives one
+/// panel per channel; a 3D table eight slices along axis 2; a 4D table an 8 x 8 grid over axes 2
+/// and 3 (first channel).
+fn panels(table: &Table) -> (Vec<Panel>, usize) {
+    let (ax, ay) = (&table.axes[0], &table.axes[1]);
+    let slice = |fixed: &[usize], channel: usize, title: String| {
+        let mut values = Vec::with_capacity(ax.count * ay.count);
+        for j in 0..ay.count {
+            for i in 0..ax.count {
+                let mut index = vec![i, j];
+                index.extend_from_slice(fixed);
+                values.push(table.node(&index)[channel] as f64);
+            }
+        }
+        Panel {
+            title,
+            x: (axis_label(ax), 0.0, 1.0),
+            y: (axis_label(ay), 0.0, 1.0),
+            nx: ax.count,
+            ny: ay.count,
+            values,
+        }
+    };
+    let value_of = |axis: &Axis, k: usize| format!("{} {:.3}", axis.name, axis.node_value(k));
+    match table.dimension() {
+        2 => {
+            let panels: Vec<Panel> =
+                table.channels.iter().enumerate().map(|(c, ch)| slice(&[], c, ch.name.clone())).collect();
+            let columns = panels.len().min(4);
+            (panels, columns)
+        }
+        3 => {
+            let az = &table.axes[2];
+            let panels: Vec<Panel> = spread_nodes(az, 8).into_iter().map(|k| slice(&[k], 0, value_of(az, k))).collect();
+            (panels, 4)
+        }
+        _ => {
+            let (a2, a3) = (&table.axes[2], &table.axes[3]);
+            let (n2, n3) = (spread_nodes(a2, 8), spread_nodes(a3, 8));
+            let columns = n2.len();
+            let mut panels = Vec::new();
+            for &q in n3.iter().rev() {
+                for &e in &n2 {
+                    panels.push(slice(&[e, q], 0, format!("{}, {}", value_of(a2, e), value_of(a3, q))));
+                }
+            }
+            (panels, columns)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spread_nodes_include_both_ends() {
+        let axis = Axis::node_aligned("eta", 0.0, 4.0, 64).unwrap();
+        let nodes = spread_nodes(&axis, 8);
+        assert_eq!(nodes.len(), 8);
+        assert_eq!((nodes[0], nodes[7]), (0, 63));
+        assert_eq!(spread_nodes(&Axis::node_aligned("x", 0.0, 1.0, 3).unwrap(), 8), vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn maps_of_a_small_build_are_written_and_read_back() {
+        use crate::config::{ReferenceConfig, SamplingConfig};
+        let settings = crate::recipes::tir::TirSettings {
+            mu_count: 6,
+            alpha_count: 5,
+            eta_count: 9,
+            sampling: SamplingConfig { samples: 1024, replicates: 4 },
+            reference: ReferenceConfig { cells: 0, samples: 2 },
+            ..Default::default()
+        };
+        let build = crate::recipes::tir::build(&settings, 1, &()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let written = write_error_maps(dir.path(), &build).unwrap();
+        assert_eq!(written.len(), 2);
+        let map = crate::formats::exr::read_exr(&written[0]).unwrap();
+        assert_eq!(map.name, "tir_error");
+        assert_eq!(map.axes, build.table.axes);
+        assert_eq!(&map.data, build.standard_error.as_ref().unwrap());
+        assert!(map.data.iter().any(|&s| s > 0.0) && map.data.iter().all(|s| s.is_finite() && *s >= 0.0));
+        assert!(image::open(&written[1]).unwrap().width() > 0);
+    }
+}

@@ -1,0 +1,248 @@
+//! PNG plots a person reads at a glance: heatmaps of tables (error maps) with a logarithmic colour
+//! bar, and log-log line charts (error against run time). Drawn with plotters into memory and
+//! written atomically; text uses the embedded DejaVu Sans, so nothing depends on installed fonts.
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use crate::error::{Error, Result};
+use crate::formats::write_bytes_atomically;
+
+const FONT: &str = "sans-serif";
+
+/// Register the embedded font once per process (plotters keeps a global font table).
+fn ensure_font() {
+    static REGISTERED: Once = Once::new();
+    REGISTERED.call_once(|| {
+        plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
+            .unwrap_or_else(|_| panic!("the embedded DejaVu Sans is a valid font"));
+    });
+}
+
+/// One heatmap: `values[i + nx * j]` at column `i` (x) and row `j` (y, drawn upwards).
+#[derive(Debug, Clone)]
+pub struct Panel {
+    pub title: String,
+    pub x: (String, f64, f64),
+    pub y: (String, f64, f64),
+    pub nx: usize,
+    pub ny: usize,
+    pub values: Vec<f64>,
+}
+
+/// A named line of `(x, y)` points.
+#[derive(Debug, Clone)]
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+}
+
+fn plot_error(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::format(path, format!("could not draw the plot: {e}"))
+}
+
+/// Encode an RGB buffer as PNG and write it atomically.
+fn write_png(path: &Path, rgb: Vec<u8>, (width, height): (u32, u32)) -> Result<()> {
+    let image = image::RgbImage::from_raw(width, height, rgb).expect("the buffer matches the size");
+    let mut bytes = Vec::new();
+    image.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png).map_err(|e| plot_error(path, e))?;
+    write_bytes_atomically(path, &bytes)
+}
+
+/// The colour of `log10(v)` on `[lo, hi]` (viridis); zero and negative values are grey.
+fn colour_of(v: f64, lo: f64, hi: f64) -> RGBColor {
+    if !(v > 0.0) {
+        return RGBColor(150, 150, 150);
+    }
+    let t = if hi > lo { ((v.log10() - lo) / (hi - lo)).clamp(0.0, 1.0) } else { 0.5 };
+    ViridisRGB::get_color(t)
+}
+
+/// Heatmaps side by side in a grid of `columns`, sharing one logarithmic colour bar labelled
+/// `quantity` (at most six decades, down from the largest value). Values of 0 (exact cells) are
+/// drawn grey. Grids of more than 16 panels draw them small, without axes: say in `title` what
+/// the axes are.
+pub fn heatmaps_png(path: &Path, title: &str, quantity: &str, panels: &[Panel], columns: usize) -> Result<()> {
+    ensure_font();
+    let columns = columns.clamp(1, panels.len().max(1));
+    let rows = panels.len().div_ceil(columns);
+    let panel_size = if panels.len() > 16 { 150 } else { 330 };
+    let (width, height) = ((columns * panel_size + 150) as u32, (rows * panel_size + 60) as u32);
+    let positive: Vec<f64> = panels.iter().flat_map(|p| p.values.iter().copied()).filter(|v| *v > 0.0).collect();
+    let lo = positive.iter().copied().fold(f64::INFINITY, f64::min).log10();
+    let hi = positive.iter().copied().fold(f64::NEG_INFINITY, f64::max).log10();
+    // Six decades below the largest value: a few near-exact cells would otherwise stretch the
+    // scale until everything else is one colour. Smaller values take the bottom colour.
+    let lo = lo.max(hi - 6.0);
+    let (lo, hi) = if positive.is_empty() { (0.0, 0.0) } else { (lo.floor(), hi.ceil().max(lo.floor() + 1.0)) };
+
+    let mut rgb = vec![255u8; (width * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+        let (header, body) = root.split_vertically(40);
+        header.titled(title, (FONT, 20)).map_err(|e| plot_error(path, e))?;
+        let (grid, bar) = body.split_horizontally((columns * panel_size) as u32);
+        let cells = grid.split_evenly((rows, columns));
+        let small = panels.len() > 16;
+        for (area, panel) in cells.iter().zip(panels) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(&panel.title, (FONT, if small { 11 } else { 15 }))
+                .margin(if small { 2 } else { 6 })
+                .x_label_area_size(if small { 0 } else { 32 })
+                .y_label_area_size(if small { 0 } else { 44 })
+                .build_cartesian_2d(panel.x.1..panel.x.2, panel.y.1..panel.y.2)
+                .map_err(|e| plot_error(path, e))?;
+            if !small {
+                chart
+                    .configure_mesh()
+                    .disable_mesh()
+                    .x_desc(&panel.x.0)
+                    .y_desc(&panel.y.0)
+                    .label_style((FONT, 12))
+                    .draw()
+                    .map_err(|e| plot_error(path, e))?;
+            }
+            let dx = (panel.x.2 - panel.x.1) / panel.nx as f64;
+            let dy = (panel.y.2 - panel.y.1) / panel.ny as f64;
+            chart
+                .draw_series((0..panel.ny).flat_map(|j| (0..panel.nx).map(move |i| (i, j))).map(|(i, j)| {
+                    let x0 = panel.x.1 + i as f64 * dx;
+                    let y0 = panel.y.1 + j as f64 * dy;
+                    let colour = colour_of(panel.values[i + panel.nx * j], lo, hi);
+                    Rectangle::new([(x0, y0), (x0 + dx, y0 + dy)], colour.filled())
+                }))
+                .map_err(|e| plot_error(path, e))?;
+        }
+        // The colour bar: log10 of the quantity.
+        let mut chart = ChartBuilder::on(&bar)
+            .margin_top(10)
+            .margin_bottom(40)
+            .margin_right(10)
+            .y_label_area_size(60)
+            .caption(format!("log10 {quantity}"), (FONT, 12))
+            .build_cartesian_2d(0.0..1.0, lo..hi.max(lo + 1.0))
+            .map_err(|e| plot_error(path, e))?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .disable_x_axis()
+            .label_style((FONT, 12))
+            .draw()
+            .map_err(|e| plot_error(path, e))?;
+        let steps = 100;
+        chart
+            .draw_series((0..steps).map(|k| {
+                let a = lo + (hi - lo) * k as f64 / steps as f64;
+                let b = lo + (hi - lo) * (k + 1) as f64 / steps as f64;
+                Rectangle::new([(0.0, a), (1.0, b)], colour_of(10f64.powf(0.5 * (a + b)), lo, hi).filled())
+            }))
+            .map_err(|e| plot_error(path, e))?;
+        bar.draw(&Text::new("grey: 0 (exact)", (5, (height - 70) as i32), (FONT, 11)))
+            .map_err(|e| plot_error(path, e))?;
+        root.present().map_err(|e| plot_error(path, e))?;
+    }
+    write_png(path, rgb, (width, height))
+}
+
+/// A log-log chart of several series with a legend.
+pub fn loglog_png(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<()> {
+    ensure_font();
+    let points: Vec<(f64, f64)> =
+        series.iter().flat_map(|s| s.points.iter().copied()).filter(|(x, y)| *x > 0.0 && *y > 0.0).collect();
+    if points.is_empty() {
+        return Err(plot_error(path, "no positive points to draw on logarithmic axes"));
+    }
+    let range = |values: Vec<f64>| {
+        let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (lo / 2.0)..(hi * 2.0)
+    };
+    let x_range = range(points.iter().map(|p| p.0).collect());
+    let y_range = range(points.iter().map(|p| p.1).collect());
+    let (width, height) = (900u32, 600u32);
+    let mut rgb = vec![255u8; (width * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, (FONT, 20))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x_range.log_scale(), y_range.log_scale())
+            .map_err(|e| plot_error(path, e))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .label_style((FONT, 13))
+            .x_label_formatter(&|v| format!("{v:.0e}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(|e| plot_error(path, e))?;
+        for (k, s) in series.iter().enumerate() {
+            let colour = Palette99::pick(k).to_rgba();
+            let line: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| *x > 0.0 && *y > 0.0).collect();
+            chart
+                .draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))
+                .map_err(|e| plot_error(path, e))?
+                .label(&s.name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+            chart
+                .draw_series(line.into_iter().map(|p| Circle::new(p, 4, colour.filled())))
+                .map_err(|e| plot_error(path, e))?;
+        }
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 14))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| plot_error(path, e))?;
+        root.present().map_err(|e| plot_error(path, e))?;
+    }
+    write_png(path, rgb, (width, height))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn decoded(path: &Path) -> image::RgbImage {
+        image::open(path).unwrap().to_rgb8()
+    }
+
+    #[test]
+    fn heatmap_and_chart_are_valid_pngs_with_colour() {
+        let dir = tempfile::tempdir().unwrap();
+        let panel = Panel {
+            title: "test".into(),
+            x: ("mu".into(), 0.0, 1.0),
+            y: ("alpha".into(), 0.0, 1.0),
+            nx: 4,
+            ny: 3,
+            values: (0..12).map(|i| if i == 0 { 0.0 } else { 10f64.powi(-(i % 5) - 2) }).collect(),
+        };
+        let heatmap = dir.path().join("map.png");
+        heatmaps_png(&heatmap, "standard error", "s.e.", &[panel.clone(), panel], 2).unwrap();
+        let image = decoded(&heatmap);
+        assert!(image.width() > 600 && image.height() > 300);
+        // Not a blank canvas: viridis colours and the grey of exact cells are there.
+        let colours: std::collections::HashSet<[u8; 3]> = image.pixels().map(|p| p.0).collect();
+        assert!(colours.len() > 20 && colours.contains(&[150, 150, 150]), "{} colours", colours.len());
+
+        let chart = dir.path().join("chart.png");
+        let series = vec![
+            Series { name: "fast".into(), points: vec![(0.1, 1e-3), (0.2, 5e-4), (0.4, 2e-4)] },
+            Series { name: "per-cell".into(), points: vec![(10.0, 1e-3), (20.0, 5e-4)] },
+        ];
+        loglog_png(&chart, "error against time", "wall time (s)", "RMS error", &series).unwrap();
+        assert_eq!(decoded(&chart).dimensions(), (900, 600));
+        let err = loglog_png(&chart, "t", "x", "y", &[]).unwrap_err().to_string();
+        assert!(err.contains("no positive points"), "{err}");
+    }
+}
