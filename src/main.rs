@@ -161,7 +161,10 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             if report.passed() {
                 Ok(())
             } else {
-                Err(tmlut::Error::invalid("stability", format!("{} checks failed", report.count(tmlut::stability::Outcome::Fail))))
+                Err(tmlut::Error::invalid(
+                    "stability",
+                    format!("{} checks failed", report.count(tmlut::stability::Outcome::Fail)),
+                ))
             }
         }
         Command::List => {

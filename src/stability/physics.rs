@@ -116,7 +116,7 @@ fn fresnel(report: &mut Report) {
                 let mut case = Case::new("fresnel_reflectance", &at, format!("{f:e}"))
                     .with(p::finite(f))
                     .with(p::unit_interval(f, 0.0))
-                    .with(p::close_relative("matches the textbook complex form", f, reference, 1e-12, 1e-300))
+                    .with(p::close_relative("matches the textbook complex form", f, reference, 1e-10, 1e-300))
                     .with(p::close_relative(
                         "1 - F matches the textbook transmittance",
                         1.0 - f,
@@ -132,7 +132,11 @@ fn fresnel(report: &mut Report) {
                     case = case.with(p::close_relative("normal incidence closed form", f, closed, 1e-12, 1e-300));
                 }
                 if kappa == 100.0 {
-                    case = case.with(p::within("kappa -> inf: total reflection (F >= 0.99)", f, 0.99, 1.0));
+                    // 1 - Rs ~ 4 eta c / kappa^2 and, through the pseudo-Brewster dip of Rp near
+                    // grazing, 1 - Rp ~ 4 eta / (kappa^2 c): the limit is not uniform in c.
+                    let bound = if c == 0.0 { f64::INFINITY } else { 6.0 * eta * (c + 1.0 / c) / (kappa * kappa) };
+                    case =
+                        case.with(p::at_most("kappa -> inf: 1 - F <= 6 eta (c + 1/c) / kappa^2", 1.0 - f, bound, 0.0));
                 }
                 if critical_cosine(eta).is_some_and(|critical| kappa == 0.0 && c < critical) {
                     case = case.with(p::exact("total internal reflection past the critical angle", f, 1.0));
@@ -171,10 +175,28 @@ fn fresnel_critical_angle(report: &mut Report) {
         let critical = critical_cosine(eta).expect("eta < 1 has a critical angle");
         let f = fresnel_reflectance(critical, eta, 0.0);
         let jump = |delta: f64| {
-            (fresnel_reflectance((critical + delta).min(1.0), eta, 0.0) - fresnel_reflectance(critical - delta, eta, 0.0))
-                .abs()
+            (fresnel_reflectance((critical + delta).min(1.0), eta, 0.0)
+                - fresnel_reflectance(critical - delta, eta, 0.0))
+            .abs()
         };
+        // The kink is ill-conditioned: 1 - F ~ (4 / eta^2) sqrt(2 c* dc), and the input c* itself is
+        // only known to a rounding step, so "reaches 1" holds to what that step allows. The square-root
+        // regime spans dc ~ eta^4; below eta ~ 1e-2 it is narrower than double precision resolves.
+        let rounding = 4.0 / (eta * eta * critical) * (2.0 * f64::EPSILON).sqrt();
         let [large, small] = CRITICAL_OFFSETS;
+        let large = large.min(1e-2 * eta.powi(4));
+        let small = large * (CRITICAL_OFFSETS[1] / CRITICAL_OFFSETS[0]);
+        let continuity = if small < 1e-15 {
+            Check::limitation(
+                "continuous across the kink",
+                format!(
+                    "the square-root regime of the kink spans ~eta^4 = {:.0e} in c, below what f64 resolves near c = {critical}",
+                    eta.powi(4)
+                ),
+            )
+        } else {
+            p::square_root_continuity(jump(large), large, jump(small), small)
+        };
         report.cases.push(
             Case::new(
                 "fresnel_reflectance at the critical angle",
@@ -182,8 +204,8 @@ fn fresnel_critical_angle(report: &mut Report) {
                 format!("{f:e}"),
             )
             .with(p::finite(f))
-            .with(p::close("reaches total reflection at c*", f, 1.0, 1e-6))
-            .with(p::square_root_continuity(jump(large), large, jump(small), small)),
+            .with(p::close("reaches total reflection at c* (to its conditioning)", f, 1.0, rounding.max(1e-6)))
+            .with(continuity),
         );
     }
 }
@@ -224,8 +246,11 @@ fn microfacet(report: &mut Report) {
             // D: a density, so +inf at the Dirac (alpha = 0, h = n) is its value; NaN never is.
             let d = ggx_distribution(w, alpha);
             let dirac = alpha == 0.0 && mu == 1.0;
-            let mut case = Case::new("ggx_distribution", &at, format!("{d:e}"))
-                .with(Check::new("not NaN, >= 0", d >= 0.0, format!("{d:e}")));
+            let mut case = Case::new("ggx_distribution", &at, format!("{d:e}")).with(Check::new(
+                "not NaN, >= 0",
+                d >= 0.0,
+                format!("{d:e}"),
+            ));
             if dirac {
                 case = case.with(p::exact("the Dirac at alpha = 0, h = n", d, f64::INFINITY));
             } else {
@@ -258,8 +283,11 @@ fn microfacet(report: &mut Report) {
 
             let density = visible_normal_density(w, DVec3::Z, alpha);
             report.cases.push(
-                Case::new("visible_normal_density at h = n", &at, format!("{density:e}"))
-                    .with(Check::new("not NaN, >= 0", density >= 0.0, format!("{density:e}"))),
+                Case::new("visible_normal_density at h = n", &at, format!("{density:e}")).with(Check::new(
+                    "not NaN, >= 0",
+                    density >= 0.0,
+                    format!("{density:e}"),
+                )),
             );
 
             for &mu_o in &COSINES {
@@ -278,9 +306,11 @@ fn microfacet(report: &mut Report) {
                     // approximations and may exceed 1 slightly; the Smith ones may not.
                     let slack = if masking == MaskingShadowing::SchlickSmith { 0.05 } else { 1e-15 };
                     checks.push(p::unit_interval(weight, slack));
-                    if mu == 0.0 {
-                        let near = masking.visible_normal_weight(direction_from_cosine(1e-9), wo, alpha);
-                        checks.push(p::close("weight continuous at grazing wi", weight, near, 1e-6));
+                    // The limit mu -> 0 is reached once alpha tan(theta_i) is large: at mu << alpha.
+                    if mu == 0.0 && alpha > 0.0 {
+                        let near = masking.visible_normal_weight(direction_from_cosine(1e-12 * alpha), wo, alpha);
+                        // It converges like Lambda_o / Lambda_i: 1e-4 at these points.
+                        checks.push(p::close("weight continuous at grazing wi", weight, near, 1e-4));
                     }
                 }
                 let mut case = Case::new(
@@ -330,15 +360,18 @@ fn visible_normal_sampling(report: &mut Report) {
 fn henyey_greenstein(report: &mut Report) {
     // The largest asymmetry the clamped inverse can return: that of the smallest roughness.
     let g_max = ggx_to_hg(MIN_ROUGHNESS);
+    // And the smallest: every g below that of alpha = 1 (0.228, above the model's 0.2 floor) maps
+    // to alpha = 1.
+    let g_min = ggx_to_hg(MAX_ROUGHNESS).max(MIN_ASYMMETRY);
     for &g in &ASYMMETRIES {
         let alpha = hg_to_ggx(g);
         let back = ggx_to_hg(alpha);
-        let expected = g.clamp(MIN_ASYMMETRY, g_max);
+        let expected = g.clamp(g_min, g_max);
         report.cases.push(
             Case::new("hg_to_ggx", format!("g={}", label(g)), format!("alpha {alpha:e}, back to g {back:.9}"))
                 .with(p::finite(alpha))
                 .with(p::within("alpha in [1e-4, 1]", alpha, MIN_ROUGHNESS, MAX_ROUGHNESS))
-                .with(p::close("round trip to g clamped to [0.2, g(1e-4)]", back, expected, 1e-9)),
+                .with(p::close("round trip to g clamped to [g(1), g(1e-4)]", back, expected, 1e-9)),
         );
     }
     for &alpha in &ALPHAS {
@@ -366,7 +399,12 @@ fn fresnel_basis(report: &mut Report) {
                     format!("c = {coefficients:.4?}, approximation at the cosines {values:.4?}"),
                 )
                 .with(Check::new("finite", all_finite, String::new()))
-                .with(p::close("exact at normal incidence", at_normal, fresnel_reflectance(1.0, eta, kappa), 1e-6)),
+                .with(p::close(
+                    "exact at normal incidence",
+                    at_normal,
+                    fresnel_reflectance(1.0, eta, kappa),
+                    1e-6,
+                )),
             );
         }
     }

