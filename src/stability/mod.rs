@@ -89,11 +89,11 @@ impl PrecisionDifference {
         let absolute = (value - reference).abs();
         let relative = absolute / reference.abs().max(self.relative_floor);
         // NaN compares false: count it as the worst possible.
-        if !(absolute <= self.worst_absolute) {
+        if absolute.is_nan() || absolute > self.worst_absolute {
             self.worst_absolute = if absolute.is_nan() { f64::INFINITY } else { absolute };
             self.worst_absolute_at = at.to_string();
         }
-        if !(relative <= self.worst_relative) {
+        if relative.is_nan() || relative > self.worst_relative {
             self.worst_relative = if relative.is_nan() { f64::INFINITY } else { relative };
             self.worst_relative_at = at.to_string();
         }

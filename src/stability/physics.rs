@@ -183,7 +183,7 @@ fn fresnel_critical_angle(report: &mut Report) {
         // only known to a rounding step, so "reaches 1" holds to what that step allows. The square-root
         // regime spans dc ~ eta^4; below eta ~ 1e-2 it is narrower than double precision resolves.
         let rounding = 4.0 / (eta * eta * critical) * (2.0 * f64::EPSILON).sqrt();
-        let [large, small] = CRITICAL_OFFSETS;
+        let [large, _] = CRITICAL_OFFSETS;
         let large = large.min(1e-2 * eta.powi(4));
         let small = large * (CRITICAL_OFFSETS[1] / CRITICAL_OFFSETS[0]);
         let continuity = if small < 1e-15 {
