@@ -10,7 +10,8 @@
 //! - [`recipes`]: one file per table, each the integral it computes (generator);
 //! - [`formats`]: DDS, OpenEXR, the original `.bin` layout and the manifest;
 //! - [`pipeline`]: a configuration in, files and a manifest out (generator);
-//! - [`loader`]: what a renderer needs to read and sample the files.
+//! - [`loader`]: what a renderer needs to read and sample the files;
+//! - [`stability`]: the stiff-case matrix over every physics function and table (generator).
 //!
 //! Build a renderer against the loader alone with `default-features = false`: that leaves out the
 //! generator's dependencies (rayon, sobol_burley, clap, indicatif, toml, sha2; exr unless its own
@@ -34,6 +35,8 @@ pub mod integrate;
 pub mod pipeline;
 #[cfg(feature = "generator")]
 pub mod recipes;
+#[cfg(feature = "generator")]
+pub mod stability;
 
 pub use error::{Error, Result};
 pub use table::{Axis, Channel, Mapping, Placement, Table};

@@ -94,6 +94,15 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Evaluate every physics function and table at the stiff cases of its domain (alpha, mu, eta,
+    /// kappa at and next to their edges, the critical angle, the horizon) and check finiteness,
+    /// range, limits, continuity, f32 against f64 and half-float storage. Exits non-zero on any
+    /// failure.
+    Stability {
+        /// One part of the matrix: physics, fgd, gd, tir, belcour, karis or f16 (default: all).
+        #[arg(long)]
+        table: Option<String>,
+    },
     /// List the tables tmlut knows.
     List,
     /// Describe a table file: axes, channels, value range, NaN count, conventions.
@@ -181,6 +190,19 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                 ));
             }
             Ok(())
+        }
+        Command::Stability { table } => {
+            let report = tmlut::stability::run(table.as_deref())?;
+            // --quiet lists only failures and stated limitations; otherwise every case.
+            print!("{}", report.render(!cli.quiet));
+            if report.passed() {
+                Ok(())
+            } else {
+                Err(tmlut::Error::invalid(
+                    "stability",
+                    format!("{} checks failed", report.count(tmlut::stability::Outcome::Fail)),
+                ))
+            }
         }
         Command::List => {
             for (name, description) in TABLES {

@@ -10,39 +10,45 @@
 /// Unpolarised reflectance at incident cosine `cos_theta` (clamped to [0, 1]) of an interface with
 /// relative complex index `eta + i kappa`.
 ///
-/// With `s^2 = 1 - c^2`, `t0 = eta^2 - kappa^2 - s^2`, `a^2 + b^2 = sqrt(t0^2 + 4 eta^2 kappa^2)`
-/// and `a = sqrt((a^2 + b^2 + t0) / 2)`:
-/// `Rs = (a^2 + b^2 + c^2 - 2ac) / (a^2 + b^2 + c^2 + 2ac)`,
-/// `Rp = Rs (c^2 (a^2 + b^2) + s^4 - 2acs^2) / (c^2 (a^2 + b^2) + s^4 + 2acs^2)`,
-/// `F = (Rs + Rp) / 2`.
+/// With `s^2 = 1 - c^2`, `t0 = eta^2 - kappa^2 - s^2`, `a^2 + b^2 = sqrt(t0^2 + 4 eta^2 kappa^2)`,
+/// `a^2 = (a^2 + b^2 + t0) / 2` and `b^2 = (a^2 + b^2 - t0) / 2` (so that `a + ib = n cos theta_t`):
+/// `Rs = ((a - c)^2 + b^2) / ((a + c)^2 + b^2)`,
+/// `Rp = Rs ((ac - s^2)^2 + (bc)^2) / ((ac + s^2)^2 + (bc)^2)`, `F = (Rs + Rp) / 2` — the
+/// `a^2 + b^2` form of Heavens 1965 (as collected by Lagarde 2013) with its numerators multiplied
+/// out as sums of squares, which is what keeps them non-negative and exact near `F = 0`.
 ///
-/// Guards, each at the root of a known failure (`notes/pitfalls.md`): `(a^2 + b^2 + t0) / 2` can
-/// round below zero, so it is clamped before the square root; past the critical angle of a
-/// dielectric with `eta < 1` it is exactly zero and both ratios become 1 (total internal
-/// reflection); `eta = 1, kappa = 0` is no interface at all and reflects nothing, where the
-/// formula alone would give `0 / 0` at grazing incidence; at normal incidence `Rp = Rs`, where the
-/// formula alone would give `0 / 0` for `eta = kappa = 0`.
+/// Every difference that could cancel is taken in exact form (the stability matrix found each,
+/// `docs/stability.md`): `t0 = (eta - 1)(eta + 1) - kappa^2 + c^2` and `s^2 = (1 - c)(1 + c)`
+/// (`1 - c^2` loses every digit near the normal, which moved the critical angle of `eta = 1e-3`);
+/// of `a^2` and `b^2` the one that would cancel is `2 eta^2 kappa^2` over the other
+/// (`(a^2 + b^2)^2 - t0^2 = 4 eta^2 kappa^2`), where `(a^2 + b^2 + t0) / 2` lost the absorption of a
+/// barely absorbing medium past its critical angle. Past the critical angle of a dielectric with
+/// `eta < 1`, `a = 0` and both ratios are exactly 1 (total internal reflection). `eta = 1,
+/// kappa = 0` is no interface at all and reflects nothing (the ratios alone are `0 / 0` at grazing
+/// incidence); at normal incidence with `eta = kappa = 0` the `Rp` ratio is `0 / 0` and its limit,
+/// 1, is taken.
 pub fn fresnel_reflectance(cos_theta: f64, eta: f64, kappa: f64) -> f64 {
     if eta == 1.0 && kappa == 0.0 {
         return 0.0;
     }
     let c = cos_theta.clamp(0.0, 1.0);
     let c2 = c * c;
-    let s2 = 1.0 - c2;
-    let eta2 = eta * eta;
-    let kappa2 = kappa * kappa;
-    let t0 = eta2 - kappa2 - s2;
-    let a2_plus_b2 = (t0 * t0 + 4.0 * eta2 * kappa2).sqrt();
-    let a = (0.5 * (a2_plus_b2 + t0)).max(0.0).sqrt();
-    let t1 = a2_plus_b2 + c2;
-    let t2 = 2.0 * a * c;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = c2 * a2_plus_b2 + s2 * s2;
-    let t4 = t2 * s2;
-    // At normal incidence the two polarisations are the same wave; the ratio is 0 / 0 there when
-    // eta = kappa = 0.
-    let rp = if s2 == 0.0 { rs } else { rs * (t3 - t4) / (t3 + t4) };
-    (0.5 * (rs + rp)).clamp(0.0, 1.0)
+    let s2 = (1.0 - c) * (1.0 + c);
+    let t0 = (eta - 1.0) * (eta + 1.0) - kappa * kappa + c2;
+    let two_eta_kappa = 2.0 * eta * kappa;
+    let a2_plus_b2 = t0.hypot(two_eta_kappa);
+    let (a2, b2) = if t0 >= 0.0 {
+        let a2 = 0.5 * (a2_plus_b2 + t0);
+        (a2, if a2 > 0.0 { 0.25 * two_eta_kappa * two_eta_kappa / a2 } else { 0.0 })
+    } else {
+        let b2 = 0.5 * (a2_plus_b2 - t0);
+        (0.25 * two_eta_kappa * two_eta_kappa / b2, b2)
+    };
+    let (a, b) = (a2.sqrt(), b2.sqrt());
+    let rs = ((a - c).powi(2) + b2) / ((a + c).powi(2) + b2);
+    let rp_denominator = (a * c + s2).powi(2) + (b * c).powi(2);
+    let rp_ratio = if rp_denominator == 0.0 { 1.0 } else { ((a * c - s2).powi(2) + (b * c).powi(2)) / rp_denominator };
+    (0.5 * rs * (1.0 + rp_ratio)).clamp(0.0, 1.0)
 }
 
 /// Reflectance at normal incidence, `((eta - 1)^2 + kappa^2) / ((eta + 1)^2 + kappa^2)`.
@@ -127,6 +133,23 @@ mod tests {
             let f = fresnel_reflectance(c, 1.0, 1e4);
             assert!(f.is_finite() && f > 0.9999 && f <= 1.0, "c {c}: {f}");
         }
+    }
+
+    #[test]
+    fn no_cancellation_near_the_normal_or_with_faint_absorption() {
+        // Found by the stability matrix. The critical cosine of eta = 1e-3 is 1 - 5e-7, where
+        // 1 - c^2 kept 9 digits and put F(c*) at 0.982; the textbook amplitudes give 0.9710663 (not
+        // 1: the kink is so steep that the rounding of c* itself moves F by 3e-2).
+        let critical = critical_cosine(1e-3).unwrap();
+        assert!((fresnel_reflectance(critical, 1e-3, 0.0) - 0.971_066_347_069_6).abs() < 1e-9);
+        // Past the critical angle, kappa = 1e-6 absorbs 3.5e-9 of the light at c = 0.5 (the
+        // textbook complex amplitudes); (a^2 + b^2 + t0) / 2 cancelled to 0 and gave F = 1.
+        let f = fresnel_reflectance(0.5, 1e-3, 1e-6);
+        assert!((1.0 - f - 3.4641066e-9).abs() < 1e-15, "{f}");
+        // Just above 1: ((eta - 1) / (eta + 1))^2 to 12 digits, not 4.
+        let eta = 1.0 + 1e-6;
+        let expected = normal_incidence_reflectance(eta, 0.0);
+        assert!((fresnel_reflectance(1.0 - 1e-7, eta, 0.0) - expected).abs() < 1e-3 * expected);
     }
 
     #[test]

@@ -224,6 +224,19 @@ fn argmax(v: &[f64]) -> usize {
     (0..v.len()).max_by(|&i, &j| v[i].total_cmp(&v[j])).unwrap_or(0)
 }
 
+impl BelcourSettings {
+    /// One node by the fast method, as [`build`] computes it: the f32 measure of `(mu, alpha)`
+    /// times the basis curves projected on the hat basis.
+    pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        let basis = basis();
+        let hats = HatBasis { intervals: self.cosine_intervals };
+        let projected = projected_basis(basis, hats);
+        let projected: Vec<&[f64]> = projected.iter().map(Vec::as_slice).collect();
+        let measure = cosine_measure(position[0], position[1], self.masking, points, hats);
+        measure.integrate(&projected, |c| (0..4).map(|k| basis.evaluate(k, c)).collect())
+    }
+}
+
 /// The four basis curves projected on the hat basis (`b0 = 1` included).
 fn projected_basis(basis: &FresnelBasis, hats: HatBasis) -> Vec<Vec<f64>> {
     // The tabulated curves are piecewise linear: their kinks are at the tabulation cosines.

@@ -116,6 +116,19 @@ pub fn projected_fresnel(basis: HatBasis, eta: f64, kappa: f64) -> Vec<f64> {
     basis.project(|c| fresnel_reflectance(c, eta, kappa), &kinks)
 }
 
+impl FgdSettings {
+    /// One node by the fast method, as [`build`] computes it (the f32 measure of `(mu, alpha)`
+    /// times Fresnel projected on the hat basis), at a position in the axes' quantities: what the
+    /// stability checks hold against [`TableRecipe::estimate_node`].
+    pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);
+        let basis = HatBasis { intervals: self.cosine_intervals };
+        let measure = cosine_measure(mu, alpha, self.masking, points, basis);
+        let fresnel = projected_fresnel(basis, eta, kappa);
+        measure.integrate(&[&fresnel], |c| vec![fresnel_reflectance(c, eta, kappa)])
+    }
+}
+
 /// FGD at one cell on its own, in f64 (the per-cell method and the references).
 fn fgd_cell(masking: MaskingShadowing, points: &PointSet, position: &[f64]) -> Estimate {
     let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);

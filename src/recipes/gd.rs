@@ -71,6 +71,13 @@ impl GdSettings {
     }
 }
 
+impl GdSettings {
+    /// One node by the fast method (the f32 kernel), as [`build`] computes it.
+    pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        albedo(self, Method::Fast, points, position[0], position[1])
+    }
+}
+
 /// `E[G2 / G1(wi)]` at one `(mu, alpha)`.
 fn albedo(settings: &GdSettings, method: Method, points: &PointSet, mu: f64, alpha: f64) -> Estimate {
     estimate_cosine_functions(mu, alpha, settings.masking, method, points, |_| [1.0])

@@ -90,6 +90,13 @@ impl KarisSettings {
     }
 }
 
+impl KarisSettings {
+    /// One node by the fast method (the f32 kernel), as [`build`] computes it.
+    pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        split_sum_terms(self.masking, Method::Fast, points, position[0], position[1])
+    }
+}
+
 /// Both terms at one `(mu, alpha)`: `E[(1 - Fc) W]` and `E[Fc W]` with `Fc = (1 - wi.h)^5`.
 fn split_sum_terms(masking: MaskingShadowing, method: Method, points: &PointSet, mu: f64, alpha: f64) -> Estimate {
     estimate_cosine_functions(mu, alpha, masking, method, points, |c| {

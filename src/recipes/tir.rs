@@ -138,6 +138,15 @@ fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate 
     combine_replicates(&replicate_means, etas.len())
 }
 
+impl TirSettings {
+    /// One node by the fast method (the f32 kernel's `sin^2` of each reflected direction, bucketed
+    /// by eta), as [`build`] computes it; the top node (eta = 1) at `top_eta`.
+    pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        let eta = if position[2] >= 1.0 { self.top_eta } else { position[2] };
+        tir_column(position[0], position[1], &[eta], points)
+    }
+}
+
 /// TIR at one `(mu, alpha, eta)` on its own, in f64: the ratio estimator `Σ G1 [..] / Σ G1`.
 fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
     let sums = visible_normal_replicate_means(mu, alpha, points, 2, |sample, sums| {
