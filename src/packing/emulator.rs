@@ -89,8 +89,7 @@ mod tests {
     fn ramp() -> Texture3D {
         // T(x, y, z) = x + 10 y + 100 z: trilinear filtering reproduces it exactly between centres.
         let (w, h, d) = (4, 3, 2);
-        let texels =
-            (0..w * h * d).map(|i| ((i % w) + 10 * ((i / w) % h) + 100 * (i / (w * h))) as f32).collect();
+        let texels = (0..w * h * d).map(|i| ((i % w) + 10 * ((i / w) % h) + 100 * (i / (w * h))) as f32).collect();
         Texture3D { width: w, height: h, depth: d, texels }
     }
 

@@ -221,8 +221,7 @@ impl PackedFgd {
                     let column = program
                         .local(&format!("column{suffix}"), k.clone().sub(row.clone().mul(Expr::c(columns as f32))));
                     let x = column.mul(Expr::c(n_mu as f32)).add(i_mu.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_w));
-                    let y =
-                        row.mul(Expr::c(n_alpha as f32)).add(i_alpha.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_h));
+                    let y = row.mul(Expr::c(n_alpha as f32)).add(i_alpha.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_h));
                     (program.local(&format!("x{suffix}"), x), program.local(&format!("y{suffix}"), y))
                 };
                 let (x0, y0) = tile(&mut program, &k0, "0");
@@ -243,12 +242,18 @@ impl PackedFgd {
                     AxisEntry {
                         axis: axes[0].clone(),
                         stored_along: format!("x within a kappa tile ({n_mu} texels)"),
-                        texture_coordinate: format!("{}; x = (column * {n_mu} + i_mu + 0.5) / {width}", index_formula(&axes[0])),
+                        texture_coordinate: format!(
+                            "{}; x = (column * {n_mu} + i_mu + 0.5) / {width}",
+                            index_formula(&axes[0])
+                        ),
                     },
                     AxisEntry {
                         axis: axes[1].clone(),
                         stored_along: format!("y within a kappa tile ({n_alpha} texels)"),
-                        texture_coordinate: format!("{}; y = (row * {n_alpha} + i_alpha + 0.5) / {height}", index_formula(&axes[1])),
+                        texture_coordinate: format!(
+                            "{}; y = (row * {n_alpha} + i_alpha + 0.5) / {height}",
+                            index_formula(&axes[1])
+                        ),
                     },
                     AxisEntry {
                         axis: axes[2].clone(),
@@ -258,7 +263,11 @@ impl PackedFgd {
                     AxisEntry {
                         axis: axes[3].clone(),
                         stored_along: format!("tile: column k mod {columns} along x, row floor(k / {columns}) along y"),
-                        texture_coordinate: format!("{}; k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0", index_formula(&axes[3]), n_kappa - 2),
+                        texture_coordinate: format!(
+                            "{}; k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0",
+                            index_formula(&axes[3]),
+                            n_kappa - 2
+                        ),
                     },
                 ];
             }
@@ -280,15 +289,11 @@ impl PackedFgd {
                 let t_eta = program.local("t_eta", i_eta.sub(e0.clone()));
                 let e1 = program.local("e1", e0.clone().add(Expr::c(1.0)));
                 // The mean of nodes 2h and 2h + 1 sits halfway between them, at full index 2h + 0.5.
-                let h = program.local(
-                    "h",
-                    i_kappa.sub(Expr::c(0.5)).mul(Expr::c(0.5)).clamp(0.0, (n_half - 1) as f32),
-                );
+                let h = program.local("h", i_kappa.sub(Expr::c(0.5)).mul(Expr::c(0.5)).clamp(0.0, (n_half - 1) as f32));
                 let x = program.local("x", i_mu.add(Expr::c(0.5)).mul(Expr::c(inv_w)));
                 let y = program.local("y", i_alpha.add(Expr::c(0.5)).mul(Expr::c(inv_h)));
-                let slice = |e: Expr| {
-                    e.mul(Expr::c(n_half as f32)).add(h.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_d))
-                };
+                let slice =
+                    |e: Expr| e.mul(Expr::c(n_half as f32)).add(h.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_d));
                 let z0 = program.local("z0", slice(e0));
                 let z1 = program.local("z1", slice(e1));
                 let v0 = program.fetch("v0", [&x, &y, &z0]);
@@ -302,17 +307,33 @@ impl PackedFgd {
                     "The hardware interpolates mu, alpha and kappa (inside the eta block, h clamped to its first and last slice centres); two fetches, at the eta nodes around eta, lerped by hand.".into(),
                 ];
                 axis_entries = vec![
-                    AxisEntry { axis: axes[0].clone(), stored_along: "x".into(), texture_coordinate: format!("{}; x = (i_mu + 0.5) / {width}", index_formula(&axes[0])) },
-                    AxisEntry { axis: axes[1].clone(), stored_along: "y".into(), texture_coordinate: format!("{}; y = (i_alpha + 0.5) / {height}", index_formula(&axes[1])) },
+                    AxisEntry {
+                        axis: axes[0].clone(),
+                        stored_along: "x".into(),
+                        texture_coordinate: format!("{}; x = (i_mu + 0.5) / {width}", index_formula(&axes[0])),
+                    },
+                    AxisEntry {
+                        axis: axes[1].clone(),
+                        stored_along: "y".into(),
+                        texture_coordinate: format!("{}; y = (i_alpha + 0.5) / {height}", index_formula(&axes[1])),
+                    },
                     AxisEntry {
                         axis: axes[2].clone(),
                         stored_along: format!("z, block of {n_half} slices per eta node"),
-                        texture_coordinate: format!("{}; e0 = min(floor(i_eta), {}), e1 = e0 + 1, lerp by i_eta - e0", index_formula(&axes[2]), n_eta - 2),
+                        texture_coordinate: format!(
+                            "{}; e0 = min(floor(i_eta), {}), e1 = e0 + 1, lerp by i_eta - e0",
+                            index_formula(&axes[2]),
+                            n_eta - 2
+                        ),
                     },
                     AxisEntry {
                         axis: axes[3].clone(),
                         stored_along: format!("z within an eta block ({n_half} averaged pairs)"),
-                        texture_coordinate: format!("{}; h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}", index_formula(&axes[3]), n_half - 1),
+                        texture_coordinate: format!(
+                            "{}; h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}",
+                            index_formula(&axes[3]),
+                            n_half - 1
+                        ),
                     },
                 ];
             }

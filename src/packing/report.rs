@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use super::{Filter, Packing, PackedFgd, Program, Texture3D};
+use super::{Filter, PackedFgd, Packing, Program, Texture3D};
 use crate::error::Result;
 use crate::formats::Precision;
 use crate::integrate::Progress;
@@ -28,7 +28,13 @@ pub struct ReportSettings {
 
 impl Default for ReportSettings {
     fn default() -> Self {
-        ReportSettings { points: 100_000, reference_points: 1000, reference_samples: 1 << 16, seed: 2021, weight_bits: 8 }
+        ReportSettings {
+            points: 100_000,
+            reference_points: 1000,
+            reference_samples: 1 << 16,
+            seed: 2021,
+            weight_bits: 8,
+        }
     }
 }
 
@@ -176,9 +182,9 @@ pub fn report(
         let against = |values: &[f64]| {
             ErrorStats::of(points.iter().zip(values.iter().zip(&interpolated)).map(|(&p, (v, i))| (widen(p), v - i)))
         };
-        let vs_integral = references.as_ref().map(|r| {
-            ErrorStats::of(points.iter().zip(exact.iter().zip(r)).map(|(&p, (v, i))| (widen(p), v - i)))
-        });
+        let vs_integral = references
+            .as_ref()
+            .map(|r| ErrorStats::of(points.iter().zip(exact.iter().zip(r)).map(|(&p, (v, i))| (widen(p), v - i))));
         PackingReport {
             name,
             extent: [texture.width, texture.height, texture.depth],
@@ -211,9 +217,9 @@ pub fn report(
             ));
         }
     }
-    let interpolation_vs_integral = references.as_ref().map(|r| {
-        ErrorStats::of(points.iter().zip(interpolated.iter().zip(r)).map(|(&p, (v, i))| (widen(p), v - i)))
-    });
+    let interpolation_vs_integral = references
+        .as_ref()
+        .map(|r| ErrorStats::of(points.iter().zip(interpolated.iter().zip(r)).map(|(&p, (v, i))| (widen(p), v - i))));
     Ok(Report { settings: settings.clone(), rows, interpolation_vs_integral, table_shape: table.shape() })
 }
 

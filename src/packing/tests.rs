@@ -76,7 +76,9 @@ fn lossless_matches_4d_interpolation_at_random_points() {
 fn lossless_matches_4d_interpolation_of_a_smooth_function_to_1e6() {
     // FGD-like smoothness (neighbouring nodes differ by a few hundredths): the coordinate rounding
     // above is then far below 1e-6, the target for f32 storage.
-    let f = |p: [f64; 4]| 0.04 + 0.9 * (1.0 - p[0]).powi(5) * (1.0 - 0.5 * p[1]) + 0.1 * (p[2] * 0.7).sin() * (0.2 * p[3]).cos();
+    let f = |p: [f64; 4]| {
+        0.04 + 0.9 * (1.0 - p[0]).powi(5) * (1.0 - 0.5 * p[1]) + 0.1 * (p[2] * 0.7).sin() * (0.2 * p[3]).cos()
+    };
     for counts in [[64, 64, 8, 8], [8, 7, 6, 5]] {
         let t = table(counts, |p, _| f(p));
         let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
