@@ -24,6 +24,8 @@ pub mod emulator;
 pub mod report;
 pub mod shader;
 
+use std::ops::{Add, Mul, Sub};
+
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};

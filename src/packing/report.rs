@@ -2,6 +2,8 @@
 //! (not only nodes) against true 4D multilinear interpolation of the full-precision table, and, at
 //! a subset, against the integral itself (per-cell f64 estimates with many samples).
 
+use std::ops::{Add, Mul};
+
 use rayon::prelude::*;
 
 use super::{Filter, PackedFgd, Packing, Program, Texture3D};

@@ -11,6 +11,27 @@ use std::fmt::Write as _;
 
 use super::emulator::{Filter, Texture3D};
 
+impl std::ops::Add for Expr {
+    type Output = Expr;
+    fn add(self, o: Expr) -> Expr {
+        Expr::Add(Box::new(self), Box::new(o))
+    }
+}
+
+impl std::ops::Sub for Expr {
+    type Output = Expr;
+    fn sub(self, o: Expr) -> Expr {
+        Expr::Sub(Box::new(self), Box::new(o))
+    }
+}
+
+impl std::ops::Mul for Expr {
+    type Output = Expr;
+    fn mul(self, o: Expr) -> Expr {
+        Expr::Mul(Box::new(self), Box::new(o))
+    }
+}
+
 /// An f32 expression over the inputs and earlier locals of a [`Program`].
 #[derive(Debug, Clone, PartialEq)]
 pub enum Expr {
@@ -28,15 +49,6 @@ pub enum Expr {
 impl Expr {
     pub fn c(v: f32) -> Expr {
         Expr::Const(v)
-    }
-    pub fn add(self, o: Expr) -> Expr {
-        Expr::Add(Box::new(self), Box::new(o))
-    }
-    pub fn sub(self, o: Expr) -> Expr {
-        Expr::Sub(Box::new(self), Box::new(o))
-    }
-    pub fn mul(self, o: Expr) -> Expr {
-        Expr::Mul(Box::new(self), Box::new(o))
     }
     pub fn floor(self) -> Expr {
         Expr::Floor(Box::new(self))
@@ -247,6 +259,8 @@ fn comment_block(prefix: &str, text: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+    use std::ops::{Mul, Sub};
+
     use super::*;
 
     #[test]
