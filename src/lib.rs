@@ -10,6 +10,8 @@
 //! - [`recipes`]: one file per table, each the integral it computes (generator);
 //! - [`formats`]: DDS, OpenEXR, the original `.bin` layout and the manifest;
 //! - [`pipeline`]: a configuration in, files and a manifest out (generator);
+//! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and a
+//!   GPU sampling emulator to measure it;
 //! - [`loader`]: what a renderer needs to read and sample the files;
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator).
 //!
@@ -20,6 +22,7 @@
 pub mod error;
 pub mod formats;
 pub mod loader;
+pub mod packing;
 pub mod physics;
 #[cfg(feature = "generator")]
 pub mod report;

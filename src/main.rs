@@ -10,6 +10,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use tmlut::config::Config;
 use tmlut::integrate::{Method, Progress};
+use tmlut::packing::Packing;
+use tmlut::packing::report::ReportSettings;
 use tmlut::pipeline::{self, BuildRequest};
 use tmlut::recipes::TABLES;
 use tmlut::report::bench::{self, BenchSettings};
@@ -102,6 +104,39 @@ enum Command {
         /// One part of the matrix: physics, fgd, gd, tir, belcour, karis or f16 (default: all).
         #[arg(long)]
         table: Option<String>,
+    },
+    /// Measure FGD packings: the emulated shader lookup at random points against 4D multilinear
+    /// interpolation of the table and against the integral. Prints a Markdown table.
+    PackReport {
+        /// The 4D FGD table (`tmlut build --only fgd` writes it).
+        #[arg(long, default_value = "luts/fgd.bin")]
+        table: PathBuf,
+        /// TOML configuration whose [fgd] masking the integral is computed with (default: built-in).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Comma-separated packings (default: all). Known: thesis, lossless.
+        #[arg(long, value_delimiter = ',')]
+        packing: Option<Vec<String>>,
+        /// Storage precision of the packed textures: f32 or f16.
+        #[arg(long, default_value = "f32", value_parser = parse_precision)]
+        precision: tmlut::formats::Precision,
+        /// Random query points.
+        #[arg(long, default_value_t = 100_000)]
+        points: usize,
+        /// Query points also compared with the integral (per-cell f64 estimates).
+        #[arg(long, default_value_t = 1000)]
+        reference_points: usize,
+        /// Samples per integral estimate (a power of two).
+        #[arg(long, default_value_t = 1 << 16)]
+        reference_samples: u64,
+        #[arg(long, default_value_t = 2021)]
+        seed: u64,
+        /// Fractional bits of the hardware filter weights for the quantised column.
+        #[arg(long, default_value_t = 8)]
+        weight_bits: u32,
+        /// Worker threads (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
     },
     /// List the tables tmlut knows.
     List,
@@ -204,6 +239,47 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                 ))
             }
         }
+        Command::PackReport {
+            table,
+            config,
+            packing,
+            precision,
+            points,
+            reference_points,
+            reference_samples,
+            seed,
+            weight_bits,
+            threads,
+        } => {
+            let config = match &config {
+                Some(path) => Config::from_file(path)?,
+                None => Config::default(),
+            };
+            set_threads(threads)?;
+            if reference_points > 0 {
+                tmlut::sampling::sequence::SamplePlan::new(reference_samples, 1)
+                    .map_err(|e| tmlut::Error::invalid("--reference-samples", e.to_string()))?;
+            }
+            if !(1..=23).contains(&weight_bits) {
+                return Err(tmlut::Error::invalid("--weight-bits", format!("{weight_bits}; allowed: 1 to 23")));
+            }
+            let packings = match packing {
+                Some(names) => names.iter().map(|n| Packing::parse(n)).collect::<tmlut::Result<Vec<_>>>()?,
+                None => Packing::ALL.to_vec(),
+            };
+            // A `.bin` file names no axes; the FGD table's are (mu, alpha, eta, kappa).
+            let fgd = if table.extension().is_some_and(|e| e == "bin") {
+                tmlut::formats::bin::read_bin(&table, Some(&tmlut::packing::FGD_INPUTS))?
+            } else {
+                tmlut::loader::load_table(&table)?
+            };
+            let settings = ReportSettings { points, reference_points, reference_samples, seed, weight_bits };
+            let progress = ProgressBars::new(cli.quiet);
+            let report =
+                tmlut::packing::report::report(&fgd, &config.fgd, &packings, precision, true, &settings, &progress)?;
+            print!("{}", tmlut::packing::report::markdown(&report));
+            Ok(())
+        }
         Command::List => {
             for (name, description) in TABLES {
                 println!("{name:<8} {description}");
@@ -222,6 +298,14 @@ fn parse_method(text: &str) -> Result<Method, String> {
         "fast" => Ok(Method::Fast),
         "per-cell" => Ok(Method::PerCell),
         other => Err(format!("`{other}`; allowed: fast, per-cell")),
+    }
+}
+
+fn parse_precision(text: &str) -> Result<tmlut::formats::Precision, String> {
+    match text {
+        "f32" => Ok(tmlut::formats::Precision::F32),
+        "f16" => Ok(tmlut::formats::Precision::F16),
+        other => Err(format!("`{other}`; allowed: f32, f16")),
     }
 }
 

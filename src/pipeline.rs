@@ -14,9 +14,10 @@ use sha2::{Digest, Sha256};
 
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest};
+use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, ShaderFile};
 use crate::formats::{self, FileFormat, Precision};
 use crate::integrate::Progress;
+use crate::packing::{PackedFgd, Packing};
 use crate::recipes::{self, TableBuild};
 use crate::table::Table;
 
@@ -85,6 +86,9 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
     let staged_maps = staging.dir.join(MAPS_FOLDER);
     let mut staged = Vec::new();
     let mut maps = Vec::new();
+    // Files without a manifest entry of their own (the shader files of a packing, listed in the
+    // packed texture's entry); moved into place with the rest.
+    let mut staged_companions = Vec::new();
     for name in tables {
         let recipe = config.recipe(name).expect("resolve_tables admits known tables only");
         let build = recipe.build(config.seed, progress)?;
@@ -92,10 +96,21 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
         for &format in &output.formats {
             staged.push(write_table_file(&staging.dir, &build, format, output.precision)?);
         }
+        if name == recipes::fgd::NAME {
+            for &packing in &config.fgd.packings {
+                let (texture, shaders) = write_packing_files(&staging.dir, &build, packing, output.precision)?;
+                staged.push(texture);
+                staged_companions.extend(shaders);
+            }
+        }
         if request.error_maps {
             std::fs::create_dir_all(&staged_maps).map_err(|source| Error::io(&staged_maps, source))?;
             maps.extend(crate::report::error_map::write_error_maps(&staged_maps, &build)?);
         }
+    }
+    for path in staged_companions {
+        let destination = out.join(file_name(&path));
+        std::fs::rename(&path, &destination).map_err(|source| Error::io(&destination, source))?;
     }
     if !maps.is_empty() {
         let maps_dir = out.join(MAPS_FOLDER);
@@ -171,8 +186,72 @@ pub fn write_table_file(
     format: FileFormat,
     precision: Precision,
 ) -> Result<WrittenFile> {
+    let file = format!("{}.{}", build.table.name, format.extension());
+    write_table_file_named(&dir.join(file), build, format, precision)
+}
+
+/// Pack the FGD table of `build`, write `fgd_<packing>.dds` and the `.hlsl` and `.wgsl` lookups
+/// into `dir`, and describe the texture (the shader files are listed in its entry). Returns the
+/// texture and the paths of the shader files.
+pub fn write_packing_files(
+    dir: &Path,
+    build: &TableBuild,
+    packing: Packing,
+    precision: Precision,
+) -> Result<(WrittenFile, Vec<PathBuf>)> {
+    let packed = PackedFgd::pack(&build.table, packing, precision)?;
+    let stem = packing.file_stem();
+    let texture = TableBuild {
+        table: packed.texture_table()?,
+        integrand: build.integrand.clone(),
+        masking: build.masking,
+        notes: build.notes.clone(),
+        sampling: build.sampling.clone(),
+        error: build.error.clone(),
+        wall_time_s: build.wall_time_s,
+        fresnel_basis: None,
+        accuracy: Vec::new(),
+        standard_error: None,
+    };
+    let mut written = write_table_file_named(&dir.join(format!("{stem}.dds")), &texture, FileFormat::Dds, precision)?;
+    // The texels were rounded when packed; state what rounding did to the source values.
+    written.entry.error.storage_rounding_max = storage_rounding(&build.table, precision);
+    let mut shaders = Vec::new();
+    let mut paths = Vec::new();
+    for (language, text) in [("hlsl", packed.hlsl()), ("wgsl", packed.wgsl())] {
+        let file = format!("{stem}.{language}");
+        let path = dir.join(&file);
+        formats::write_bytes_atomically(&path, text.as_bytes())?;
+        shaders.push(ShaderFile {
+            language: language.into(),
+            file,
+            function: packed.program.function.clone(),
+            sha256: sha256_hex(text.as_bytes()),
+        });
+        paths.push(path);
+    }
+    written.entry.packing = Some(PackingEntry {
+        name: packing.name().into(),
+        lossless: packed.lossless,
+        texture_extent: [packed.texture.width, packed.texture.height, packed.texture.depth],
+        source_axes: packed.axis_entries.clone(),
+        layout: packed.layout.clone(),
+        lookup: packed.program.statements(),
+        fetches_per_lookup: packed.fetches_per_lookup(),
+        shaders,
+    });
+    Ok((written, paths))
+}
+
+/// Write one table in one format to `path` and describe the file.
+fn write_table_file_named(
+    path: &Path,
+    build: &TableBuild,
+    format: FileFormat,
+    precision: Precision,
+) -> Result<WrittenFile> {
     let table = &build.table;
-    let path = dir.join(format!("{}.{}", table.name, format.extension()));
+    let path = path.to_path_buf();
     // `.bin` has no precision field: it is f32 by definition.
     let precision = if format == FileFormat::Bin { Precision::F32 } else { precision };
     formats::write_table(&path, table, format, precision)?;
@@ -204,6 +283,7 @@ pub fn write_table_file(
         accuracy: build.accuracy.clone(),
         sha256: sha256_hex(&bytes),
         bytes: bytes.len() as u64,
+        packing: None,
     };
     Ok(WrittenFile { path, entry })
 }

@@ -198,7 +198,19 @@ fn same_seed_gives_identical_files_whatever_the_thread_count() {
     assert!(build(&config, &two, &["--threads", "2"]).status.success());
     assert_eq!(
         snapshot(&one).iter().map(|f| f.0.as_str()).collect::<Vec<_>>(),
-        ["belcour.dds", "belcour.exr", "fgd.bin", "gd.bin", "karis.dds", "karis.exr", "manifest.json", "tir.bin"]
+        [
+            "belcour.dds",
+            "belcour.exr",
+            "fgd.bin",
+            "fgd_lossless.dds",
+            "fgd_lossless.hlsl",
+            "fgd_lossless.wgsl",
+            "gd.bin",
+            "karis.dds",
+            "karis.exr",
+            "manifest.json",
+            "tir.bin"
+        ]
     );
     let (a, b) = (snapshot(&one), snapshot(&two));
     for ((name_a, bytes_a), (name_b, bytes_b)) in a.iter().zip(&b) {

@@ -84,6 +84,40 @@ pub struct FileEntry {
     pub accuracy: Vec<AccuracyReport>,
     pub sha256: String,
     pub bytes: u64,
+    /// For a packed texture (e.g. `fgd_lossless.dds`): how the source table is laid out in it and
+    /// the exact lookup. The entry's `axes` are then the texture's own texel axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub packing: Option<PackingEntry>,
+}
+
+/// How a table of more axes than a texture has is packed into one, and how to read it back.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PackingEntry {
+    /// The packing's name (`lossless`, `thesis`).
+    pub name: String,
+    /// Whether every node of the source table is stored unchanged (up to the file's precision).
+    pub lossless: bool,
+    /// `[width, height, depth]` in texels.
+    pub texture_extent: [usize; 3],
+    /// The source table's axes: where each is stored and how the lookup addresses it.
+    pub source_axes: Vec<AxisEntry>,
+    /// The layout in words.
+    pub layout: Vec<String>,
+    /// The lookup, statement by statement, in f32: exactly what the shader files compute.
+    pub lookup: Vec<String>,
+    pub fetches_per_lookup: usize,
+    /// The shader functions written beside the texture.
+    pub shaders: Vec<ShaderFile>,
+}
+
+/// A shader source file holding a lookup function.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShaderFile {
+    /// `hlsl` or `wgsl`.
+    pub language: String,
+    pub file: String,
+    pub function: String,
+    pub sha256: String,
 }
 
 /// The error of a file's values: the integration error of the f32 table, and what storing it in
@@ -162,6 +196,7 @@ mod tests {
             accuracy: vec![],
             sha256: "00".into(),
             bytes: 16408,
+            packing: None,
         };
         let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new() };
         manifest.files.insert("gd.bin".into(), entry);

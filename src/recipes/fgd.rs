@@ -24,6 +24,7 @@ use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, cosine_measure, multiply_transposed};
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
+use crate::packing::Packing;
 use crate::physics::{MaskingShadowing, critical_cosine, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
 use crate::stats::{ErrorRecord, ErrorSummary};
@@ -50,6 +51,9 @@ pub struct FgdSettings {
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
     pub output: OutputConfig,
+    /// Volume-texture packings written beside the 4D table (`fgd_<packing>.dds` with its HLSL and
+    /// WGSL lookup), in the precision of `output.precision`; see `docs/packing.md`.
+    pub packings: Vec<Packing>,
 }
 
 impl Default for FgdSettings {
@@ -68,7 +72,16 @@ impl Default for FgdSettings {
             sampling: SamplingConfig { samples: 1 << 16, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
+            packings: vec![Packing::Lossless],
         }
+    }
+}
+
+/// An error's message without its key, to be reported under another key.
+fn strip_error_key(error: &Error) -> String {
+    match error {
+        Error::Invalid { key, reason } => format!("{key} {reason}"),
+        other => other.to_string(),
     }
 }
 
@@ -96,7 +109,15 @@ impl FgdSettings {
         }
         self.sampling.validate("fgd.sampling")?;
         self.reference.validate("fgd.reference")?;
-        self.output.validate("fgd.output", &[FileFormat::Bin, FileFormat::Exr])
+        self.output.validate("fgd.output", &[FileFormat::Bin, FileFormat::Exr])?;
+        let counts = [self.mu_count, self.alpha_count, self.eta_count, self.kappa_count];
+        for (k, packing) in self.packings.iter().enumerate() {
+            if self.packings[..k].contains(packing) {
+                return Err(Error::invalid("fgd.packings", format!("`{}` is listed twice", packing.name())));
+            }
+            packing.extent(counts).map_err(|e| Error::invalid("fgd.packings", strip_error_key(&e)))?;
+        }
+        Ok(())
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {

@@ -1,0 +1,119 @@
+//! A GPU texture sampler in software: cell-centred linear filtering with clamp addressing, in f32,
+//! reading texels as stored (f16 values widened exactly to f32), as Direct3D 11/12 and Vulkan
+//! define it (D3D11 functional spec §7.18.8 "Linear Sample Addressing"; Vulkan spec, "Texel
+//! Filtering"):
+//!
+//! ```text
+//! a = u * N - 0.5,   i0 = floor(a),   f = a - i0,
+//! value = (1 - f) * T[clamp(i0)] + f * T[clamp(i0 + 1)]     (per axis, x first, then y, then z)
+//! ```
+//!
+//! Real hardware does not filter in f32: both APIs only require the fractional position `f` to
+//! carry 8 bits (D3D: "at least 8 bits of subtexel precision"; Vulkan: `subTexelPrecisionBits`,
+//! 8 on every desktop GPU). [`Filter::Exact`] computes `f` in f32 as written above; it is the mode
+//! the packings are designed and tested against, since it isolates the packing's own error.
+//! [`Filter::QuantisedWeights`] rounds `f` to `bits` fractional bits, the error a real GPU adds on
+//! top, reported separately.
+
+/// How the filter weight `f` is computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Filter {
+    /// `f` in full f32.
+    Exact,
+    /// `f` rounded to this many fractional bits (8 on current hardware).
+    QuantisedWeights { bits: u32 },
+}
+
+impl Filter {
+    fn weight(self, f: f32) -> f32 {
+        match self {
+            Filter::Exact => f,
+            Filter::QuantisedWeights { bits } => {
+                let scale = (1u32 << bits.min(23)) as f32;
+                (f * scale).round() / scale
+            }
+        }
+    }
+}
+
+/// A single-channel volume texture as a shader reads it: `width * height * depth` texels, x
+/// fastest, values already rounded to the storage precision.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Texture3D {
+    pub width: usize,
+    pub height: usize,
+    pub depth: usize,
+    pub texels: Vec<f32>,
+}
+
+/// Texel-space position along one axis of `n` texels: the two texels clamp addressing reads and
+/// the weight of the second.
+fn linear_taps(u: f32, n: usize, filter: Filter) -> (usize, usize, f32) {
+    let a = u * n as f32 - 0.5;
+    // A NaN coordinate reads texel 0 (clamp of an undefined address); never a NaN weight.
+    let a = if a.is_nan() { 0.0 } else { a };
+    let i0 = a.floor();
+    let f = filter.weight(a - i0);
+    let last = (n - 1) as f32;
+    let lower = i0.clamp(0.0, last) as usize;
+    let upper = (i0 + 1.0).clamp(0.0, last) as usize;
+    (lower, upper, f)
+}
+
+fn lerp(a: f32, b: f32, f: f32) -> f32 {
+    (1.0 - f) * a + f * b
+}
+
+impl Texture3D {
+    pub fn texel(&self, x: usize, y: usize, z: usize) -> f32 {
+        self.texels[x + self.width * (y + self.height * z)]
+    }
+
+    /// `SampleLevel(sampler, float3(u, v, w), 0)` with a linear, clamp-addressed sampler.
+    pub fn sample_trilinear(&self, u: f32, v: f32, w: f32, filter: Filter) -> f32 {
+        let (x0, x1, fx) = linear_taps(u, self.width, filter);
+        let (y0, y1, fy) = linear_taps(v, self.height, filter);
+        let (z0, z1, fz) = linear_taps(w, self.depth, filter);
+        let plane = |z| {
+            let row = |y| lerp(self.texel(x0, y, z), self.texel(x1, y, z), fx);
+            lerp(row(y0), row(y1), fy)
+        };
+        lerp(plane(z0), plane(z1), fz)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp() -> Texture3D {
+        // T(x, y, z) = x + 10 y + 100 z: trilinear filtering reproduces it exactly between centres.
+        let (w, h, d) = (4, 3, 2);
+        let texels = (0..w * h * d).map(|i| ((i % w) + 10 * ((i / w) % h) + 100 * (i / (w * h))) as f32).collect();
+        Texture3D { width: w, height: h, depth: d, texels }
+    }
+
+    #[test]
+    fn texel_centres_read_their_texel_and_filtering_is_linear_between_them() {
+        let t = ramp();
+        assert_eq!(t.sample_trilinear(2.5 / 4.0, 1.5 / 3.0, 0.5 / 2.0, Filter::Exact), 12.0);
+        let v = t.sample_trilinear(1.25 / 4.0, 1.0 / 3.0, 1.0 / 2.0, Filter::Exact);
+        assert!((v - (0.75 + 5.0 + 50.0)).abs() < 1e-5, "{v}");
+    }
+
+    #[test]
+    fn clamp_addressing_holds_the_edge_texels() {
+        let t = ramp();
+        assert_eq!(t.sample_trilinear(0.0, 0.0, 0.0, Filter::Exact), 0.0);
+        assert_eq!(t.sample_trilinear(-3.0, 7.0, 2.0, Filter::Exact), 120.0);
+        assert_eq!(t.sample_trilinear(f32::NAN, 0.0, 0.0, Filter::Exact), 0.0);
+    }
+
+    #[test]
+    fn quantised_weights_round_to_the_given_bits() {
+        let t = ramp();
+        // x at a third of the way between texels 0 and 1: 8-bit weight 85/256 instead of 1/3.
+        let v = t.sample_trilinear((0.5 + 1.0 / 3.0) / 4.0, 0.5 / 3.0, 0.5 / 2.0, Filter::QuantisedWeights { bits: 8 });
+        assert!((v - 85.0 / 256.0).abs() < 1e-6, "{v}");
+    }
+}

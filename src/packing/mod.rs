@@ -1,0 +1,416 @@
+//! Packings of the 4D FGD table into volume textures a GPU can bind, each with the exact lookup a
+//! shader runs (`notes/tables.md`, "From 4D to 3D for the GPU").
+//!
+//! A 64^4 table has no 4D texture to live in, and a volume texture holds at most 2048 texels per
+//! dimension (Direct3D 12, `D3D12_REQ_TEXTURE3D_U_V_OR_W_DIMENSION`). Every packing here is a
+//! [`PackedFgd`]: the texels as stored, and one [`Program`] that is at once the HLSL and WGSL
+//! lookup written beside the texture and the code the [`emulator`] runs to measure it, so the
+//! error figures are those of the shader a renderer pastes.
+//!
+//! - [`Packing::Lossless`]: every node kept. Each kappa node is one `mu x alpha` tile, tiles in a
+//!   near-square grid in x and y, eta along z. A lookup does two trilinear fetches (the kappa tiles
+//!   around kappa; the hardware interpolates mu, alpha and eta) and lerps them by hand. The x and y
+//!   coordinates are clamped to the tile's first and last texel centres, where linear filtering
+//!   gives the neighbouring tile weight zero, so filtering never blends across tiles.
+//! - [`Packing::Thesis`]: the thesis renderer's 64 x 64 x 2048 volume, kappa halved by averaging
+//!   node pairs and depth slice `eta_index * 32 + kappa_half_index`, read with the correct
+//!   coordinates (kappa clamped inside its eta block, two fetches along eta, a manual lerp), so that
+//!   its error is the packing's own and not its shader's.
+//!
+//! Generator-independent: a renderer uses this module with `default-features = false`.
+
+pub mod emulator;
+#[cfg(feature = "generator")]
+pub mod report;
+pub mod shader;
+
+use std::ops::{Add, Mul, Sub};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::formats::Precision;
+use crate::formats::manifest::AxisEntry;
+use crate::table::{Axis, Channel, Mapping, Placement, Table};
+pub use emulator::{Filter, Texture3D};
+pub use shader::{Expr, Program};
+
+/// Texels per dimension a volume texture may have (Direct3D 12; Vulkan guarantees at least 256,
+/// desktop GPUs 2048).
+pub const MAX_VOLUME_EXTENT: usize = 2048;
+
+/// The quantities of the FGD table, in its axis order, as the lookup's parameters.
+pub const FGD_INPUTS: [&str; 4] = ["mu", "alpha", "eta", "kappa"];
+
+/// A way to pack the 4D FGD table into one volume texture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Packing {
+    /// The thesis renderer's layout: kappa halved by averaging pairs, `z = eta * Nk/2 + kappa/2`.
+    Thesis,
+    /// Every node; kappa tiles in x and y, eta along z; two fetches and a lerp over kappa.
+    Lossless,
+}
+
+impl Packing {
+    pub const ALL: [Packing; 2] = [Packing::Thesis, Packing::Lossless];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Packing::Thesis => "thesis",
+            Packing::Lossless => "lossless",
+        }
+    }
+
+    pub fn parse(text: &str) -> Result<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == text.trim()).ok_or_else(|| {
+            Error::invalid("packing", format!("unknown packing `{}`; allowed: {}", text.trim(), Self::names()))
+        })
+    }
+
+    pub fn names() -> String {
+        Self::ALL.map(|p| p.name()).join(", ")
+    }
+
+    /// The file stem of the texture and shaders, e.g. `fgd_lossless`.
+    pub fn file_stem(self) -> String {
+        format!("fgd_{}", self.name())
+    }
+
+    /// The texture extent `[width, height, depth]` for an FGD table of node counts
+    /// `[mu, alpha, eta, kappa]`, or why the packing cannot hold it.
+    pub fn extent(self, [n_mu, n_alpha, n_eta, n_kappa]: [usize; 4]) -> Result<[usize; 3]> {
+        let key = format!("packing `{}`", self.name());
+        let extent = match self {
+            Packing::Lossless => {
+                // Width and height are rounded up to powers of two: then a tile's first and last
+                // texel centres, `(t + 0.5) / W`, are exact in f32 and filtering there gives the
+                // next tile weight exactly 0, not a rounding residue (512 x 512 for 64^4 as is).
+                let (columns, rows) = tile_grid(n_kappa);
+                [(columns * n_mu).next_power_of_two(), (rows * n_alpha).next_power_of_two(), n_eta]
+            }
+            Packing::Thesis => {
+                if n_kappa % 2 != 0 || n_kappa < 4 {
+                    return Err(Error::invalid(
+                        key,
+                        format!(
+                            "halves kappa by averaging node pairs; {n_kappa} kappa nodes given, it needs an even \
+                             count of at least 4"
+                        ),
+                    ));
+                }
+                [n_mu, n_alpha, n_eta * (n_kappa / 2)]
+            }
+        };
+        if let Some(too_big) = extent.iter().find(|&&e| e > MAX_VOLUME_EXTENT) {
+            return Err(Error::invalid(
+                key,
+                format!(
+                    "needs a {} x {} x {} volume for {n_mu} x {n_alpha} x {n_eta} x {n_kappa} nodes; {too_big} exceeds \
+                     the {MAX_VOLUME_EXTENT} texels a volume texture may have per dimension",
+                    extent[0], extent[1], extent[2]
+                ),
+            ));
+        }
+        Ok(extent)
+    }
+}
+
+/// Columns and rows of the kappa tile grid: near-square, `columns = ceil(sqrt(n))` (8 x 8 for 64).
+pub fn tile_grid(n_kappa: usize) -> (usize, usize) {
+    let mut columns = (n_kappa as f64).sqrt().ceil() as usize;
+    while columns * columns < n_kappa {
+        columns += 1;
+    }
+    (columns, n_kappa.div_ceil(columns))
+}
+
+/// A packed FGD texture and its lookup.
+#[derive(Debug, Clone)]
+pub struct PackedFgd {
+    pub packing: Packing,
+    pub precision: Precision,
+    /// The texels as a shader reads them (already rounded to `precision`).
+    pub texture: Texture3D,
+    pub program: Program,
+    /// The source table's axes.
+    pub source_axes: Vec<Axis>,
+    /// Where each source axis is stored and how the lookup addresses it.
+    pub axis_entries: Vec<AxisEntry>,
+    /// The layout in words, one line per fact.
+    pub layout: Vec<String>,
+    /// Whether every node of the source table is stored unchanged (up to `precision`).
+    pub lossless: bool,
+}
+
+/// Check that `table` is an FGD table the packings understand; return its node counts.
+fn fgd_counts(table: &Table) -> Result<[usize; 4]> {
+    let key = format!("table `{}`", table.name);
+    let names: Vec<&str> = table.axes.iter().map(|a| a.name.as_str()).collect();
+    if names != FGD_INPUTS || table.channel_count() != 1 {
+        return Err(Error::invalid(
+            key,
+            format!(
+                "has axes ({}) and {} channel(s); a packing takes the FGD table: axes (mu, alpha, eta, kappa), one \
+                 channel",
+                names.join(", "),
+                table.channel_count()
+            ),
+        ));
+    }
+    for axis in &table.axes {
+        if axis.placement != Placement::NodeAligned || axis.mapping != Mapping::Identity {
+            return Err(Error::invalid(
+                key,
+                format!("axis `{}` must be node-aligned with the identity mapping, as FGD's are", axis.name),
+            ));
+        }
+    }
+    let shape = table.shape();
+    Ok([shape[0], shape[1], shape[2], shape[3]])
+}
+
+/// `i = clamp((x - start) / (end - start), 0, 1) * (N - 1)`: the continuous node index of a
+/// node-aligned axis, in f32, as a local named `i_<axis>`.
+fn node_index(program: &mut Program, axis: &Axis) -> Expr {
+    let x = program.input(&axis.name);
+    let inverse_range = (1.0 / (axis.end - axis.start)) as f32;
+    let u = x.sub(Expr::c(axis.start as f32)).mul(Expr::c(inverse_range)).clamp(0.0, 1.0);
+    program.local(&format!("i_{}", axis.name), u.mul(Expr::c((axis.count - 1) as f32)))
+}
+
+fn index_formula(axis: &Axis) -> String {
+    format!("i_{0} = clamp(({0} - {1}) / ({2} - {1}), 0, 1) * {3}", axis.name, axis.start, axis.end, axis.count - 1)
+}
+
+impl PackedFgd {
+    /// Pack an FGD table (axes mu, alpha, eta, kappa; node-aligned) for storage in `precision`.
+    pub fn pack(table: &Table, packing: Packing, precision: Precision) -> Result<Self> {
+        let counts = fgd_counts(table)?;
+        let [width, height, depth] = packing.extent(counts)?;
+        let [n_mu, n_alpha, n_eta, n_kappa] = counts;
+        let value = |i: usize, j: usize, e: usize, k: usize| table.data[i + n_mu * (j + n_alpha * (e + n_eta * k))];
+        let mut texels = vec![0.0f32; width * height * depth];
+        let axes = &table.axes;
+        let mut program = Program::new(packing.file_stem(), FGD_INPUTS.to_vec());
+        let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(&mut program, &axes[d]));
+        let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
+        let layout;
+        let axis_entries;
+        match packing {
+            Packing::Lossless => {
+                let (columns, _) = tile_grid(n_kappa);
+                for k in 0..n_kappa {
+                    let (column, row) = (k % columns, k / columns);
+                    for e in 0..n_eta {
+                        for j in 0..n_alpha {
+                            let start = column * n_mu + width * (row * n_alpha + j + height * e);
+                            for i in 0..n_mu {
+                                texels[start + i] = value(i, j, e, k);
+                            }
+                        }
+                    }
+                }
+                // The two kappa nodes around kappa and the weight of the upper one.
+                let k0 = program.local("k0", i_kappa.clone().floor().min(Expr::c((n_kappa - 2) as f32)));
+                let t_kappa = program.local("t_kappa", i_kappa.sub(k0.clone()));
+                let k1 = program.local("k1", k0.clone().add(Expr::c(1.0)));
+                // Tile row and column of a kappa node; `+ 0.5` keeps floor away from a rounding edge.
+                let inv_columns = 1.0 / columns as f32;
+                let tile = |program: &mut Program, k: &Expr, suffix: &str| {
+                    let row = program
+                        .local(&format!("row{suffix}"), k.clone().add(Expr::c(0.5)).mul(Expr::c(inv_columns)).floor());
+                    let column = program
+                        .local(&format!("column{suffix}"), k.clone().sub(row.clone().mul(Expr::c(columns as f32))));
+                    let x = column.mul(Expr::c(n_mu as f32)).add(i_mu.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_w));
+                    let y = row.mul(Expr::c(n_alpha as f32)).add(i_alpha.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_h));
+                    (program.local(&format!("x{suffix}"), x), program.local(&format!("y{suffix}"), y))
+                };
+                let (x0, y0) = tile(&mut program, &k0, "0");
+                let (x1, y1) = tile(&mut program, &k1, "1");
+                let z = program.local("z", i_eta.add(Expr::c(0.5)).mul(Expr::c(inv_d)));
+                let v0 = program.fetch("v0", [&x0, &y0, &z]);
+                let v1 = program.fetch("v1", [&x1, &y1, &z]);
+                let Expr::Local(t) = t_kappa else { unreachable!("locals are Local") };
+                program.blend = (v0, v1, t);
+                layout = vec![
+                    format!("{width} x {height} x {depth} volume, one channel, every node of the {n_mu} x {n_alpha} x {n_eta} x {n_kappa} table kept."),
+                    format!("kappa node k is a {n_mu} x {n_alpha} (mu x alpha) tile at tile column k mod {columns} (along x) and tile row floor(k / {columns}) (along y); unused tiles and the padding to {width} x {height} hold 0."),
+                    "eta node e is depth slice e: the hardware interpolates mu, alpha and eta inside a tile.".into(),
+                    "Two trilinear fetches, one in each kappa tile around kappa, lerped by hand with the kappa weight.".into(),
+                    "x and y are clamped to the first and last texel centres of the tile, where linear filtering gives the neighbouring tile weight 0: filtering never blends across tiles.".into(),
+                ];
+                axis_entries = vec![
+                    AxisEntry {
+                        axis: axes[0].clone(),
+                        stored_along: format!("x within a kappa tile ({n_mu} texels)"),
+                        texture_coordinate: format!(
+                            "{}; x = (column * {n_mu} + i_mu + 0.5) / {width}",
+                            index_formula(&axes[0])
+                        ),
+                    },
+                    AxisEntry {
+                        axis: axes[1].clone(),
+                        stored_along: format!("y within a kappa tile ({n_alpha} texels)"),
+                        texture_coordinate: format!(
+                            "{}; y = (row * {n_alpha} + i_alpha + 0.5) / {height}",
+                            index_formula(&axes[1])
+                        ),
+                    },
+                    AxisEntry {
+                        axis: axes[2].clone(),
+                        stored_along: "z".into(),
+                        texture_coordinate: format!("{}; z = (i_eta + 0.5) / {depth}", index_formula(&axes[2])),
+                    },
+                    AxisEntry {
+                        axis: axes[3].clone(),
+                        stored_along: format!("tile: column k mod {columns} along x, row floor(k / {columns}) along y"),
+                        texture_coordinate: format!(
+                            "{}; k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0",
+                            index_formula(&axes[3]),
+                            n_kappa - 2
+                        ),
+                    },
+                ];
+            }
+            Packing::Thesis => {
+                let n_half = n_kappa / 2;
+                for e in 0..n_eta {
+                    for h in 0..n_half {
+                        let slice = e * n_half + h;
+                        for j in 0..n_alpha {
+                            for i in 0..n_mu {
+                                // The thesis's box filter: the mean of kappa nodes 2h and 2h + 1.
+                                let mean = 0.5 * (value(i, j, e, 2 * h) as f64 + value(i, j, e, 2 * h + 1) as f64);
+                                texels[i + width * (j + height * slice)] = mean as f32;
+                            }
+                        }
+                    }
+                }
+                let e0 = program.local("e0", i_eta.clone().floor().min(Expr::c((n_eta - 2) as f32)));
+                let t_eta = program.local("t_eta", i_eta.sub(e0.clone()));
+                let e1 = program.local("e1", e0.clone().add(Expr::c(1.0)));
+                // The mean of nodes 2h and 2h + 1 sits halfway between them, at full index 2h + 0.5.
+                let h = program.local("h", i_kappa.sub(Expr::c(0.5)).mul(Expr::c(0.5)).clamp(0.0, (n_half - 1) as f32));
+                let x = program.local("x", i_mu.add(Expr::c(0.5)).mul(Expr::c(inv_w)));
+                let y = program.local("y", i_alpha.add(Expr::c(0.5)).mul(Expr::c(inv_h)));
+                let slice =
+                    |e: Expr| e.mul(Expr::c(n_half as f32)).add(h.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_d));
+                let z0 = program.local("z0", slice(e0));
+                let z1 = program.local("z1", slice(e1));
+                let v0 = program.fetch("v0", [&x, &y, &z0]);
+                let v1 = program.fetch("v1", [&x, &y, &z1]);
+                let Expr::Local(t) = t_eta else { unreachable!("locals are Local") };
+                program.blend = (v0, v1, t);
+                layout = vec![
+                    format!("{width} x {height} x {depth} volume, one channel: the thesis renderer's packing of the {n_mu} x {n_alpha} x {n_eta} x {n_kappa} table."),
+                    format!("kappa halved to {n_half} nodes by averaging node pairs (2h, 2h + 1); the mean sits at kappa node index 2h + 0.5."),
+                    format!("depth slice = eta_index * {n_half} + h: each eta node is a block of {n_half} slices."),
+                    "The hardware interpolates mu, alpha and kappa (inside the eta block, h clamped to its first and last slice centres); two fetches, at the eta nodes around eta, lerped by hand.".into(),
+                ];
+                axis_entries = vec![
+                    AxisEntry {
+                        axis: axes[0].clone(),
+                        stored_along: "x".into(),
+                        texture_coordinate: format!("{}; x = (i_mu + 0.5) / {width}", index_formula(&axes[0])),
+                    },
+                    AxisEntry {
+                        axis: axes[1].clone(),
+                        stored_along: "y".into(),
+                        texture_coordinate: format!("{}; y = (i_alpha + 0.5) / {height}", index_formula(&axes[1])),
+                    },
+                    AxisEntry {
+                        axis: axes[2].clone(),
+                        stored_along: format!("z, block of {n_half} slices per eta node"),
+                        texture_coordinate: format!(
+                            "{}; e0 = min(floor(i_eta), {}), e1 = e0 + 1, lerp by i_eta - e0",
+                            index_formula(&axes[2]),
+                            n_eta - 2
+                        ),
+                    },
+                    AxisEntry {
+                        axis: axes[3].clone(),
+                        stored_along: format!("z within an eta block ({n_half} averaged pairs)"),
+                        texture_coordinate: format!(
+                            "{}; h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}",
+                            index_formula(&axes[3]),
+                            n_half - 1
+                        ),
+                    },
+                ];
+            }
+        }
+        for t in &mut texels {
+            *t = precision.round(*t);
+        }
+        Ok(PackedFgd {
+            packing,
+            precision,
+            texture: Texture3D { width, height, depth, texels },
+            program,
+            source_axes: table.axes.clone(),
+            axis_entries,
+            layout,
+            lossless: packing == Packing::Lossless,
+        })
+    }
+
+    /// The shader's lookup at `(mu, alpha, eta, kappa)`, through the emulator.
+    pub fn lookup(&self, [mu, alpha, eta, kappa]: [f32; 4], filter: Filter) -> f32 {
+        self.program.evaluate(&[mu, alpha, eta, kappa], &self.texture, filter)
+    }
+
+    pub fn fetches_per_lookup(&self) -> usize {
+        self.program.fetches.len()
+    }
+
+    /// Bytes of the texels on the GPU (and of the DDS file, less its 148-byte header).
+    pub fn texel_bytes(&self) -> usize {
+        self.texture.texels.len() * self.precision.bytes()
+    }
+
+    /// The texture as a 3-axis table of cell-centred texels, the form the DDS writer takes.
+    pub fn texture_table(&self) -> Result<Table> {
+        let t = &self.texture;
+        let axes = vec![
+            Axis::cell_centred("x", 0.0, 1.0, t.width)?,
+            Axis::cell_centred("y", 0.0, 1.0, t.height)?,
+            Axis::cell_centred("z", 0.0, 1.0, t.depth)?,
+        ];
+        let channel = Channel::new(
+            "fgd",
+            format!("FGD packed by `{}`; address it with the lookup of the manifest's `packing`", self.packing.name()),
+        );
+        Table::new("fgd", axes, vec![channel], t.texels.clone())
+    }
+
+    fn shader_header(&self) -> String {
+        let mut h = format!(
+            "{}: generated by tmlut {} for {} ({:?} texels).\n",
+            self.program.function,
+            env!("CARGO_PKG_VERSION"),
+            self.packing.file_stem() + ".dds",
+            self.precision
+        );
+        h.push_str("Bind the texture as linear data with a sampler: linear min/mag/mip filter, clamp addressing, mip level 0.\n");
+        h.push_str("Returns FGD(mu, alpha, eta, kappa), interpolated as the 4D table is.\n\n");
+        for line in &self.layout {
+            h.push_str(line);
+            h.push('\n');
+        }
+        h
+    }
+
+    pub fn hlsl(&self) -> String {
+        self.program.hlsl(&self.shader_header())
+    }
+
+    /// WGSL: `r32float` is not filterable without the `float32-filterable` feature; store the
+    /// packing as f16 (`r16float`) for WebGPU.
+    pub fn wgsl(&self) -> String {
+        self.program.wgsl(&self.shader_header())
+    }
+}
+
+#[cfg(test)]
+mod tests;
