@@ -54,7 +54,7 @@ fn write_png(path: &Path, rgb: Vec<u8>, (width, height): (u32, u32)) -> Result<(
 
 /// The colour of `log10(v)` on `[lo, hi]` (viridis); zero and negative values are grey.
 fn colour_of(v: f64, lo: f64, hi: f64) -> RGBColor {
-    if !(v > 0.0) {
+    if v.is_nan() || v <= 0.0 {
         return RGBColor(150, 150, 150);
     }
     let t = if hi > lo { ((v.log10() - lo) / (hi - lo)).clamp(0.0, 1.0) } else { 0.5 };

@@ -211,16 +211,3 @@ pub fn run(section: Option<&str>) -> Result<Report> {
     report.wall_time_s = started.elapsed().as_secs_f64();
     Ok(report)
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The whole matrix, printed: `cargo test --lib stability::tests::print_the_matrix -- --ignored --nocapture`.
-    #[test]
-    #[ignore]
-    fn print_the_matrix() {
-        let report = run(None).unwrap();
-        println!("{}", report.render(false));
-    }
-}
