@@ -15,7 +15,7 @@ use tmlut::packing::report::ReportSettings;
 use tmlut::pipeline::{self, BuildRequest};
 use tmlut::recipes::TABLES;
 use tmlut::report::bench::{self, BenchSettings};
-use tmlut::report::check;
+use tmlut::report::{check, converge};
 
 #[derive(Parser)]
 #[command(
@@ -134,6 +134,33 @@ enum Command {
         /// Fractional bits of the hardware filter weights for the quantised column.
         #[arg(long, default_value_t = 8)]
         weight_bits: u32,
+        /// Worker threads (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+    /// Error against run time: sweep the samples per cell (powers of two) for the fast build and
+    /// the per-cell method, measure error on a fixed random subset against high-sample references,
+    /// and write converge_TABLE.csv and converge_TABLE.png (log-log, one line per method).
+    Converge {
+        /// The table to sweep.
+        table: String,
+        /// TOML configuration (default: the built-in defaults).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Output folder of the CSV and the plot.
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+        /// Smallest and largest samples per cell (powers of two).
+        #[arg(long, default_value_t = 256)]
+        samples_from: u64,
+        #[arg(long, default_value_t = 65536)]
+        samples_to: u64,
+        /// Cells of the fixed random subset the error is measured on.
+        #[arg(long, default_value_t = 64)]
+        cells: usize,
+        /// Samples per reference cell (a power of two).
+        #[arg(long, default_value_t = 1 << 20)]
+        reference_samples: u64,
         /// Worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
@@ -278,6 +305,36 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             let report =
                 tmlut::packing::report::report(&fgd, &config.fgd, &packings, precision, true, &settings, &progress)?;
             print!("{}", tmlut::packing::report::markdown(&report));
+            Ok(())
+        }
+        Command::Converge { table, config, out, samples_from, samples_to, cells, reference_samples, threads } => {
+            let config = match &config {
+                Some(path) => Config::from_file(path)?,
+                None => Config::default(),
+            };
+            set_threads(threads)?;
+            for (key, n) in [
+                ("--samples-from", samples_from),
+                ("--samples-to", samples_to),
+                ("--reference-samples", reference_samples),
+            ] {
+                tmlut::sampling::sequence::SamplePlan::new(n, 1)
+                    .map_err(|e| tmlut::Error::invalid(key, e.to_string()))?;
+            }
+            if samples_from > samples_to || cells == 0 {
+                return Err(tmlut::Error::invalid(
+                    "--samples-from/--samples-to/--cells",
+                    "allowed: samples-from <= samples-to, at least one cell",
+                ));
+            }
+            let samples = (samples_from.trailing_zeros()..=samples_to.trailing_zeros()).map(|k| 1u64 << k).collect();
+            let settings = converge::ConvergeSettings { samples, cells, reference_samples };
+            let progress = ProgressBars::new(cli.quiet);
+            let points = converge::converge(&config, &table, &settings, &progress)?;
+            print!("{}", converge::csv(&points));
+            for path in converge::write(&out, &table, &points, &settings)? {
+                println!("wrote {}", path.display());
+            }
             Ok(())
         }
         Command::List => {

@@ -184,8 +184,11 @@ pub fn loglog_png(path: &Path, title: &str, x_label: &str, y_label: &str, series
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
             .map_err(|e| plot_error(path, e))?;
+        // Dark, distinct colours that read on white (the first four of Tableau 10).
+        const COLOURS: [RGBColor; 4] =
+            [RGBColor(31, 119, 180), RGBColor(23, 190, 207), RGBColor(214, 39, 40), RGBColor(255, 127, 14)];
         for (k, s) in series.iter().enumerate() {
-            let colour = Palette99::pick(k).to_rgba();
+            let colour = COLOURS.get(k).copied().map_or_else(|| Palette99::pick(k).to_rgba(), |c| c.to_rgba());
             let line: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| *x > 0.0 && *y > 0.0).collect();
             chart
                 .draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))
