@@ -8,9 +8,14 @@
 //!   lobe's own mirror direction `(sqrt(1 - mu^2), 0, mu)`. Both are baselines (no parameters).
 //! - Step forms: the table is a hard step at the critical cosine `c = sqrt(1 - eta^2)` when
 //!   `alpha -> 0` (`notes/tables.md`, TIR), smeared by the lobe's width as `alpha` grows. Each is
-//!   `S(t)` with `t = (mu - c - shift) / width`, a decreasing step `S` (1 past the critical angle,
-//!   `mu < c`), and a width and shift that depend on roughness and angle:
-//!   `width = alpha (p0 + p1 alpha + p2 mu) + WIDTH_FLOOR`, `shift = alpha (p3 + p4 alpha + p5 mu)`.
+//!   `S(t)` with `t = (mu^2 - c^2 - shift) / width`, a decreasing step `S` (1 past the critical
+//!   angle, `mu < c`), and a width and shift that depend on roughness and angle:
+//!   `width = alpha (p0 + p1 alpha + p2 mu) + WIDTH_FLOOR`, `shift = alpha (p3 + p4 alpha + p5 mu^2)`.
+//!   The step is in squared cosines because a direction is past the critical angle when
+//!   `w.z^2 < 1 - eta^2 = c^2`, and because at `alpha = 1` the table is close to `c^2` whatever `mu`
+//!   (a cosine-like lobe has `P(w.z^2 < c^2) = c^2`): a step of width about 1 whose `mu^2` is
+//!   cancelled by the shift's `alpha mu^2` term. A first version stepped in `mu - c` with a shift in
+//!   `alpha mu`; it could not lose its `mu` dependence at high roughness (RMSE 0.090 on `tm_TIR.bin`).
 //!   `S` is the logistic `1 / (1 + e^t)`, the smoothstep `1 - smoothstep(-1, 1, t)`, the
 //!   error-function-like algebraic sigmoid `(1 - t / sqrt(1 + t^2)) / 2`, or the rational
 //!   `(1 - t / (1 + |t|)) / 2`.
@@ -105,7 +110,7 @@ pub const ALL_FORMS: [Form; 6] =
 
 /// Names of the step forms' parameters (see the module docs).
 pub const STEP_PARAMETERS: [&str; 6] =
-    ["width_alpha", "width_alpha2", "width_alpha_mu", "shift_alpha", "shift_alpha2", "shift_alpha_mu"];
+    ["width_alpha", "width_alpha2", "width_alpha_mu", "shift_alpha", "shift_alpha2", "shift_alpha_mu2"];
 
 impl Form {
     pub fn name(self) -> &'static str {
@@ -139,10 +144,10 @@ impl Form {
             Form::Eq56Corrected => {
                 "thesis eq. 5.6 with the step kept where w_s.z > 0 and w_o = (sqrt(1 - mu^2), 0, mu)"
             }
-            Form::Logistic => "1 / (1 + exp(t)), t = (mu - sqrt(1 - eta^2) - shift) / width",
-            Form::Smoothstep => "1 - smoothstep(-1, 1, t), t = (mu - sqrt(1 - eta^2) - shift) / width",
-            Form::Algebraic => "(1 - t / sqrt(1 + t^2)) / 2, t = (mu - sqrt(1 - eta^2) - shift) / width",
-            Form::Rational => "(1 - t / (1 + |t|)) / 2, t = (mu - sqrt(1 - eta^2) - shift) / width",
+            Form::Logistic => "1 / (1 + exp(t)), t = (mu^2 + eta^2 - 1 - shift) / width",
+            Form::Smoothstep => "1 - smoothstep(-1, 1, t), t = (mu^2 + eta^2 - 1 - shift) / width",
+            Form::Algebraic => "(1 - t / sqrt(1 + t^2)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width",
+            Form::Rational => "(1 - t / (1 + |t|)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width",
         }
     }
 
@@ -150,9 +155,11 @@ impl Form {
     pub fn start_and_bounds(self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         match self {
             Form::Eq56 | Form::Eq56Corrected => (vec![], vec![], vec![]),
-            _ => (vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0], vec![0.0, -2.0, -2.0, -2.0, -2.0, -2.0], vec![
-                3.0, 2.0, 2.0, 2.0, 2.0, 2.0,
-            ]),
+            _ => (
+                vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0],
+                vec![0.0, -2.0, -2.0, -2.0, -2.0, -2.0],
+                vec![3.0, 2.0, 2.0, 2.0, 2.0, 2.0],
+            ),
         }
     }
 
@@ -207,11 +214,12 @@ impl Form {
         }
         let (t, width, clamped) = step_argument(p, mu, alpha, eta);
         let dv_dt = self.step_derivative(t);
-        // t = (mu - c - shift) / width: dt/dwidth = -t / width, dt/dshift = -1 / width.
-        let basis = [alpha, alpha * alpha, alpha * mu];
+        // t = (mu^2 - c^2 - shift) / width: dt/dwidth = -t / width, dt/dshift = -1 / width.
+        let width_basis = [alpha, alpha * alpha, alpha * mu];
+        let shift_basis = [alpha, alpha * alpha, alpha * mu * mu];
         for k in 0..3 {
-            gradient[k] = if clamped { 0.0 } else { dv_dt * (-t / width) * basis[k] };
-            gradient[k + 3] = dv_dt * (-1.0 / width) * basis[k];
+            gradient[k] = if clamped { 0.0 } else { dv_dt * (-t / width) * width_basis[k] };
+            gradient[k + 3] = dv_dt * (-1.0 / width) * shift_basis[k];
         }
         Some(self.step(t))
     }
@@ -219,13 +227,13 @@ impl Form {
 
 /// `(t, width, width clamped to its floor)` of the step forms.
 fn step_argument<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> (R, R, bool) {
-    let one = R::of(1.0);
-    let critical_cosine = (one - eta.mul(eta)).max(R::of(0.0)).sqrt();
+    // mu^2 - c^2 = mu^2 + eta^2 - 1: no square root, and exact at the step.
+    let squared_cosine_gap = mu.mul(mu) + eta.mul(eta) - R::of(1.0);
     let raw_width = alpha.mul(p[0] + p[1].mul(alpha) + p[2].mul(mu));
     let clamped = raw_width < R::of(0.0);
     let width = raw_width.max(R::of(0.0)) + R::of(WIDTH_FLOOR);
-    let shift = alpha.mul(p[3] + p[4].mul(alpha) + p[5].mul(mu));
-    ((mu - critical_cosine - shift).div(width), width, clamped)
+    let shift = alpha.mul(p[3] + p[4].mul(alpha) + p[5].mul(mu.mul(mu)));
+    ((squared_cosine_gap - shift).div(width), width, clamped)
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric interface of relative index `eta` at incident
@@ -303,12 +311,11 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
     };
     Some(format!(
         "// tmlut fit tir: form '{name}', {formula}\n\
-         // width = alpha (c0 + c1 alpha + c2 mu) + {floor:?}, shift = alpha (c3 + c4 alpha + c5 mu); coefficients as in fit.json.\n\
+         // width = alpha (c0 + c1 alpha + c2 mu) + {floor:?}, shift = alpha (c3 + c4 alpha + c5 mu^2); coefficients as in fit.json.\n\
          {signature} {{\n\
-         \x20   {binding} critical_cosine = sqrt(max(1.0 - eta * eta, 0.0));\n\
          \x20   {binding} width = alpha * max({c0} + {c1} * alpha + {c2} * mu, 0.0) + {floor:?};\n\
-         \x20   {binding} shift = alpha * ({c3} + {c4} * alpha + {c5} * mu);\n\
-         \x20   {binding} t = (mu - critical_cosine - shift) / width;\n\
+         \x20   {binding} shift = alpha * ({c3} + {c4} * alpha + {c5} * mu * mu);\n\
+         \x20   {binding} t = (mu * mu + eta * eta - 1.0 - shift) / width;\n\
          \x20   return {step};\n\
          }}\n",
         name = form.name(),

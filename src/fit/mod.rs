@@ -38,7 +38,11 @@ impl FitData {
         if table.dimension() != 3 || table.channel_count() != 1 {
             return Err(Error::invalid(
                 "fit table",
-                format!("{} axes and {} channels; allowed: a TIR table (mu, alpha, eta), one channel", table.dimension(), table.channel_count()),
+                format!(
+                    "{} axes and {} channels; allowed: a TIR table (mu, alpha, eta), one channel",
+                    table.dimension(),
+                    table.channel_count()
+                ),
             ));
         }
         let mut points = Vec::with_capacity(table.node_count());
@@ -453,7 +457,13 @@ fn plot(path: &Path, manifest: &FitManifest) -> Result<()> {
         name: "table fetch (emulated; RMSE 0 at nodes, drawn low)".into(),
         points: vec![(manifest.table_fetch_cost_ns_f32, reference)],
     });
-    loglog_png(path, "TIR approximations: error against cost", "ns per f32 evaluation (CPU)", "RMSE over the table's nodes", &series)
+    loglog_png(
+        path,
+        "TIR approximations: error against cost",
+        "ns per f32 evaluation (CPU)",
+        "RMSE over the table's nodes",
+        &series,
+    )
 }
 
 #[cfg(test)]

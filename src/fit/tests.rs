@@ -126,9 +126,7 @@ fn baked_coefficients(text: &str) -> Vec<f32> {
     let width = text.lines().find(|l| l.contains("width = alpha * max(")).unwrap();
     let shift = text.lines().find(|l| l.contains("shift = alpha * (")).unwrap();
     let numbers = |line: &str| -> Vec<f32> {
-        line.split(['(', ')', '*', '+', ','])
-            .filter_map(|s| s.trim().parse::<f32>().ok())
-            .collect::<Vec<_>>()
+        line.split(['(', ')', '*', '+', ',']).filter_map(|s| s.trim().parse::<f32>().ok()).collect::<Vec<_>>()
     };
     let w = numbers(width); // c0, c1, c2, 0.0 (max), floor
     let s = numbers(shift); // c3, c4, c5
@@ -148,8 +146,7 @@ fn shader_coefficients_match_the_manifest() {
         timing_queries: 256,
     };
     let manifest = fit_tir(&table, &request).unwrap();
-    let read: FitManifest =
-        serde_json::from_slice(&std::fs::read(dir.path().join("fit.json")).unwrap()).unwrap();
+    let read: FitManifest = serde_json::from_slice(&std::fs::read(dir.path().join("fit.json")).unwrap()).unwrap();
     assert_eq!(read, manifest);
     assert!(dir.path().join("error_vs_cost.png").is_file());
     assert!(read.table_fetch_cost_ns_f32 > 0.0);
