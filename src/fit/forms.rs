@@ -20,6 +20,8 @@
 //!   error-function-like algebraic sigmoid `(1 - t / sqrt(1 + t^2)) / 2`, or the rational
 //!   `(1 - t / (1 + |t|)) / 2`.
 
+use std::cmp::Ordering;
+
 use serde::{Deserialize, Serialize};
 
 /// The narrowest step a step form can take, so that `t` stays finite at `alpha = 0`
@@ -242,7 +244,7 @@ fn fresnel_dielectric<R: Real>(c: R, eta: R) -> R {
     let (zero, one) = (R::of(0.0), R::of(1.0));
     let c = c.abs().min(one);
     let sin2_t = (one - c.mul(c)).div(eta.mul(eta).max(R::of(1e-12)));
-    if !(sin2_t < one) {
+    if sin2_t.partial_cmp(&one) != Some(Ordering::Less) {
         return one;
     }
     let cos_t = (one - sin2_t).max(zero).sqrt();
@@ -254,7 +256,7 @@ fn fresnel_dielectric<R: Real>(c: R, eta: R) -> R {
 /// Separable Smith G1 of GGX at direction cosine `z`: `2 / (1 + sqrt(1 + alpha^2 tan^2))`.
 fn smith_g1<R: Real>(z: R, alpha: R) -> R {
     let one = R::of(1.0);
-    if !(z > R::of(0.0)) {
+    if z.partial_cmp(&R::of(0.0)) != Some(Ordering::Greater) {
         return R::of(0.0);
     }
     let z2 = z.mul(z);
@@ -283,7 +285,7 @@ fn eq56<R: Real>(mu: R, alpha: R, eta: R, corrected: bool) -> R {
     let o_dot_s = ox.mul(sx) + oz.mul(sz);
     // w_s = -reflect(w_o, s) = 2 (w_o.s) s - w_o.
     let ws_z = R::of(2.0).mul(o_dot_s).mul(sz) - oz;
-    let kept = if corrected { ws_z > zero } else { !(ws_z > zero) };
+    let kept = if corrected { ws_z > zero } else { ws_z.partial_cmp(&zero) != Some(Ordering::Greater) };
     if !kept {
         return zero;
     }

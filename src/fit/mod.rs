@@ -11,6 +11,7 @@
 
 pub mod forms;
 
+use std::cmp::Ordering;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -129,7 +130,11 @@ pub fn minimise(
     settings: &FitSettings,
 ) -> Result<Minimum> {
     let n = start.len();
-    if n == 0 || lower.len() != n || upper.len() != n || lower.iter().zip(upper).any(|(l, u)| !(l < u)) {
+    if n == 0
+        || lower.len() != n
+        || upper.len() != n
+        || lower.iter().zip(upper).any(|(l, u)| l.partial_cmp(u) != Some(Ordering::Less))
+    {
         return Err(Error::invalid("fit bounds", format!("{n} parameters, bounds {lower:?} .. {upper:?}")));
     }
     if settings.starts == 0 {
@@ -222,7 +227,7 @@ pub fn fit_form(form: Form, data: &FitData, settings: &FitSettings) -> Result<Fi
         return Ok(FittedForm { form, parameters: Vec::new(), search: None });
     }
     let total_weight: f64 = (0..data.values.len()).map(|n| data.weight(n)).sum();
-    if !(total_weight > 0.0) {
+    if total_weight.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return Err(Error::invalid("fit weights", format!("sum {total_weight}; allowed: positive")));
     }
     let objective = |p: &[f64], gradient: Option<&mut [f64]>| -> f64 {
@@ -393,6 +398,7 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
         let fitted = fit_form(form, &data, &request.settings)?;
         let figures = figures(&fitted, &data);
         let cost = form_cost_ns(&fitted, &queries, request.timing_runs);
+        error_maps(&request.out, form, table, &fitted, &data)?;
         let mut shaders = Vec::new();
         for (language, extension) in [(ShaderLanguage::Hlsl, "hlsl"), (ShaderLanguage::Wgsl, "wgsl")] {
             if let Some(text) = forms::shader(form, &fitted.parameters, language) {
@@ -437,6 +443,41 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
     crate::formats::write_bytes_atomically(&request.out.join("fit.json"), json.as_bytes())?;
     plot(&request.out.join("error_vs_cost.png"), &manifest)?;
     Ok(manifest)
+}
+
+/// `|form - table|` at every node, as an EXR table (`tir_error_<form>.exr`, same axes) and PNG
+/// heatmaps over `(mu, alpha)` at four `eta` slices (`tir_error_<form>.png`).
+fn error_maps(out: &Path, form: Form, table: &Table, fitted: &FittedForm, data: &FitData) -> Result<()> {
+    use crate::report::plot::{Panel, heatmaps_png};
+    let errors: Vec<f32> =
+        values_f32(fitted, data).iter().zip(&data.values).map(|(&v, &t)| (v as f64 - t).abs() as f32).collect();
+    let channel = crate::table::Channel::new("abs_error", format!("|{} - table| at each node", form.name()));
+    let map = Table::new(format!("tir_error_{}", form.name()), table.axes.clone(), vec![channel], errors)?;
+    crate::formats::exr::write_exr(
+        &out.join(format!("tir_error_{}.exr", form.name())),
+        &map,
+        crate::formats::Precision::F32,
+    )?;
+    let shape = table.shape();
+    let (nx, ny, nz) = (shape[0], shape[1], shape[2]);
+    let panels: Vec<Panel> = [0, nz / 3, (2 * nz) / 3, nz - 1]
+        .iter()
+        .map(|&k| Panel {
+            title: format!("eta = {:.3}", table.axes[2].node_value(k)),
+            x: ("mu".into(), 0.0, 1.0),
+            y: ("alpha".into(), 0.0, 1.0),
+            nx,
+            ny,
+            values: map.data[k * nx * ny..(k + 1) * nx * ny].iter().map(|&v| v as f64).collect(),
+        })
+        .collect();
+    heatmaps_png(
+        &out.join(format!("tir_error_{}.png", form.name())),
+        &format!("TIR: |{} - table|", form.name()),
+        "abs error",
+        &panels,
+        2,
+    )
 }
 
 /// RMSE against cost, one point per form, the table fetch as a reference at the table's own

@@ -149,6 +149,13 @@ fn shader_coefficients_match_the_manifest() {
     let read: FitManifest = serde_json::from_slice(&std::fs::read(dir.path().join("fit.json")).unwrap()).unwrap();
     assert_eq!(read, manifest);
     assert!(dir.path().join("error_vs_cost.png").is_file());
+    for form in ["eq56", "logistic", "algebraic"] {
+        assert!(dir.path().join(format!("tir_error_{form}.png")).is_file());
+        let map = crate::formats::exr::read_exr(&dir.path().join(format!("tir_error_{form}.exr"))).unwrap();
+        let reported = read.forms.iter().find(|f| f.name == form).unwrap().figures.max_abs_error;
+        let max = map.data.iter().fold(0.0f32, |m, &v| m.max(v));
+        assert_eq!(max, reported as f32, "{form}: the map and the manifest agree");
+    }
     assert!(read.table_fetch_cost_ns_f32 > 0.0);
     for form in &read.forms {
         assert!(form.cost_ns_per_evaluation_f32 > 0.0);
