@@ -111,8 +111,11 @@ pub const ALL_FORMS: [Form; 6] =
     [Form::Eq56, Form::Eq56Corrected, Form::Logistic, Form::Smoothstep, Form::Algebraic, Form::Rational];
 
 /// Names of the step forms' parameters (see the module docs).
-pub const STEP_PARAMETERS: [&str; 6] =
-    ["width_alpha", "width_alpha2", "width_alpha_mu", "shift_alpha", "shift_alpha2", "shift_alpha_mu2"];
+pub const STEP_PARAMETERS: [&str; 7] =
+    ["width_alpha", "width_alpha2", "width_alpha_mu", "shift_alpha", "shift_alpha2", "shift_alpha_mu2", "edge_logit"];
+
+/// `logit(eta^2)` is clamped to this magnitude so that it stays finite at `eta = 0` and `eta = 1`.
+pub const EDGE_LOGIT_LIMIT: f64 = 40.0;
 
 impl Form {
     pub fn name(self) -> &'static str {
@@ -146,10 +149,10 @@ impl Form {
             Form::Eq56Corrected => {
                 "thesis eq. 5.6 with the step kept where w_s.z > 0 and w_o = (sqrt(1 - mu^2), 0, mu)"
             }
-            Form::Logistic => "1 / (1 + exp(t)), t = (mu^2 + eta^2 - 1 - shift) / width",
-            Form::Smoothstep => "1 - smoothstep(-1, 1, t), t = (mu^2 + eta^2 - 1 - shift) / width",
-            Form::Algebraic => "(1 - t / sqrt(1 + t^2)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width",
-            Form::Rational => "(1 - t / (1 + |t|)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width",
+            Form::Logistic => "1 / (1 + exp(t)), t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
+            Form::Smoothstep => "1 - smoothstep(-1, 1, t), t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
+            Form::Algebraic => "(1 - t / sqrt(1 + t^2)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
+            Form::Rational => "(1 - t / (1 + |t|)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
         }
     }
 
@@ -158,9 +161,9 @@ impl Form {
         match self {
             Form::Eq56 | Form::Eq56Corrected => (vec![], vec![], vec![]),
             _ => (
-                vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0],
-                vec![0.0, -2.0, -2.0, -2.0, -2.0, -2.0],
-                vec![3.0, 2.0, 2.0, 2.0, 2.0, 2.0],
+                vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                vec![0.0, -2.0, -2.0, -2.0, -2.0, -2.0, 0.0],
+                vec![3.0, 2.0, 2.0, 2.0, 2.0, 2.0, 1.0],
             ),
         }
     }
@@ -216,13 +219,17 @@ impl Form {
         }
         let (t, width, clamped) = step_argument(p, mu, alpha, eta);
         let dv_dt = self.step_derivative(t);
-        // t = (mu^2 - c^2 - shift) / width: dt/dwidth = -t / width, dt/dshift = -1 / width.
+        // t = (mu^2 - c^2 - shift) / width + c6 logit: dt/dwidth = -(t - c6 logit) / width,
+        // dt/dshift = -1 / width, dt/dc6 = logit.
+        let logit = edge_logit(eta);
+        let step_part = t - p[6] * logit;
         let width_basis = [alpha, alpha * alpha, alpha * mu];
         let shift_basis = [alpha, alpha * alpha, alpha * mu * mu];
         for k in 0..3 {
-            gradient[k] = if clamped { 0.0 } else { dv_dt * (-t / width) * width_basis[k] };
+            gradient[k] = if clamped { 0.0 } else { dv_dt * (-step_part / width) * width_basis[k] };
             gradient[k + 3] = dv_dt * (-1.0 / width) * shift_basis[k];
         }
+        gradient[6] = dv_dt * logit;
         Some(self.step(t))
     }
 }
@@ -235,7 +242,18 @@ fn step_argument<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> (R, R, bool) {
     let clamped = raw_width < R::of(0.0);
     let width = raw_width.max(R::of(0.0)) + R::of(WIDTH_FLOOR);
     let shift = alpha.mul(p[3] + p[4].mul(alpha) + p[5].mul(mu.mul(mu)));
-    ((squared_cosine_gap - shift).div(width), width, clamped)
+    ((squared_cosine_gap - shift).div(width) + p[6].mul(edge_logit(eta)), width, clamped)
+}
+
+/// `logit(eta^2) = ln(eta^2 / (1 - eta^2))`, clamped to `±EDGE_LOGIT_LIMIT`: with a non-negative
+/// weight it drives `t` to `-inf` at `eta = 0` (TIR = 1: every direction off the normal is past the
+/// critical angle) and to `+inf` at `eta = 1` (TIR = 0: no critical angle), the table's two exact
+/// edges, which a step in `mu^2 + eta^2 - 1` alone misses at high roughness.
+fn edge_logit<R: Real>(eta: R) -> R {
+    let eta2 = eta.mul(eta);
+    let tiny = R::of(1e-30);
+    let logit = eta2.max(tiny).ln() - (R::of(1.0) - eta2).max(tiny).ln();
+    logit.max(R::of(-EDGE_LOGIT_LIMIT)).min(R::of(EDGE_LOGIT_LIMIT))
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric interface of relative index `eta` at incident
@@ -295,7 +313,7 @@ fn eq56<R: Real>(mu: R, alpha: R, eta: R, corrected: bool) -> R {
 /// Shader source of a step form with its coefficients baked in (`None` for the baselines, whose
 /// shader is the thesis's own).
 pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Option<String> {
-    if parameters.len() != 6 {
+    if parameters.len() != STEP_PARAMETERS.len() {
         return None;
     }
     // `{:?}` of an f32 is the shortest text that reads back to the same f32.
@@ -313,11 +331,14 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
     };
     Some(format!(
         "// tmlut fit tir: form '{name}', {formula}\n\
-         // width = alpha (c0 + c1 alpha + c2 mu) + {floor:?}, shift = alpha (c3 + c4 alpha + c5 mu^2); coefficients as in fit.json.\n\
+         // width = alpha (c0 + c1 alpha + c2 mu) + {floor:?}, shift = alpha (c3 + c4 alpha + c5 mu^2),\n\
+         // plus c6 logit(eta^2) clamped to +-{limit:?}; coefficients as in fit.json.\n\
          {signature} {{\n\
          \x20   {binding} width = alpha * max({c0} + {c1} * alpha + {c2} * mu, 0.0) + {floor:?};\n\
          \x20   {binding} shift = alpha * ({c3} + {c4} * alpha + {c5} * mu * mu);\n\
-         \x20   {binding} t = (mu * mu + eta * eta - 1.0 - shift) / width;\n\
+         \x20   {binding} eta2 = eta * eta;\n\
+         \x20   {binding} edge_logit = clamp(log(max(eta2, 1e-30)) - log(max(1.0 - eta2, 1e-30)), -{limit:?}, {limit:?});\n\
+         \x20   {binding} t = (mu * mu + eta2 - 1.0 - shift) / width + {c6} * edge_logit;\n\
          \x20   return {step};\n\
          }}\n",
         name = form.name(),
@@ -329,6 +350,8 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
         c3 = c[3],
         c4 = c[4],
         c5 = c[5],
+        c6 = c[6],
+        limit = EDGE_LOGIT_LIMIT as f32,
     ))
 }
 

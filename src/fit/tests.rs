@@ -16,7 +16,7 @@ fn synthetic(form: Form, parameters: &[f64]) -> Table {
     table
 }
 
-const KNOWN: [f64; 6] = [0.4, 0.2, -0.1, 0.05, 0.1, -0.05];
+const KNOWN: [f64; 7] = [0.4, 0.2, -0.1, 0.05, 0.1, -0.05, 0.02];
 
 #[test]
 fn fit_recovers_known_parameters_from_a_synthetic_table() {
@@ -52,10 +52,10 @@ fn derivative_free_search_solves_a_bounded_least_squares_problem() {
 #[test]
 fn analytic_gradient_matches_finite_differences() {
     for form in [Form::Logistic, Form::Smoothstep, Form::Algebraic, Form::Rational] {
-        let mut gradient = [0.0; 6];
+        let mut gradient = [0.0; 7];
         let (mu, alpha, eta) = (0.55, 0.4, 0.8);
         form.value_and_gradient(&KNOWN, mu, alpha, eta, &mut gradient).unwrap();
-        for k in 0..6 {
+        for k in 0..7 {
             let h = 1e-6;
             let (mut up, mut down) = (KNOWN, KNOWN);
             up[k] += h;
@@ -70,10 +70,11 @@ fn analytic_gradient_matches_finite_differences() {
 fn reported_errors_match_an_independent_evaluation() {
     let table = synthetic(Form::Logistic, &KNOWN);
     let data = FitData::from_table(&table).unwrap();
-    let fitted = FittedForm { form: Form::Rational, parameters: vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0], search: None };
+    let fitted =
+        FittedForm { form: Form::Rational, parameters: vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.01], search: None };
     let reported = figures(&fitted, &data);
     // Independently: walk the table by index, evaluate in f32, accumulate in f64.
-    let p = [0.3f32, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let p = [0.3f32, 0.0, 0.0, 0.0, 0.0, 0.0, 0.01];
     let (mut sum, mut max, mut count) = (0.0f64, 0.0f64, 0usize);
     for k in 0..17 {
         for j in 0..9 {
@@ -130,7 +131,9 @@ fn baked_coefficients(text: &str) -> Vec<f32> {
     };
     let w = numbers(width); // c0, c1, c2, 0.0 (max), floor
     let s = numbers(shift); // c3, c4, c5
-    vec![w[0], w[1], w[2], s[0], s[1], s[2]]
+    let t_line = text.lines().find(|l| l.contains(" t = (mu * mu")).unwrap();
+    let e = numbers(t_line.rsplit_once("width").unwrap().1); // c6 ("edge_logit" is not a number)
+    vec![w[0], w[1], w[2], s[0], s[1], s[2], e[0]]
 }
 
 #[test]
