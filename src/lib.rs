@@ -13,7 +13,8 @@
 //! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and a
 //!   GPU sampling emulator to measure it;
 //! - [`loader`]: what a renderer needs to read and sample the files;
-//! - [`stability`]: the stiff-case matrix over every physics function and table (generator).
+//! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
+//! - [`fit`]: least-squares fits of analytic TIR forms with NLopt, error and cost side by side (generator).
 //!
 //! Build a renderer against the loader alone with `default-features = false`: that leaves out the
 //! generator's dependencies (rayon, sobol_burley, clap, indicatif, toml, sha2; exr unless its own
@@ -32,6 +33,8 @@ pub mod table;
 
 #[cfg(feature = "generator")]
 pub mod config;
+#[cfg(feature = "generator")]
+pub mod fit;
 #[cfg(feature = "generator")]
 pub mod integrate;
 #[cfg(feature = "generator")]

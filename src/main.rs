@@ -165,6 +165,30 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+    /// Fit analytic approximations to a table by least squares (NLopt) and report error against
+    /// cost: `tmlut fit tir`. Writes fit.json, HLSL/WGSL per fitted form and error_vs_cost.png.
+    Fit {
+        /// The table to fit; only `tir` today.
+        target: String,
+        /// Comma-separated forms (default: all). Known: eq56, eq56-corrected, logistic, smoothstep,
+        /// algebraic, rational.
+        #[arg(long, value_delimiter = ',')]
+        forms: Option<Vec<String>>,
+        /// The TIR table: the original `.bin` layout or an `.exr` written by `tmlut build`.
+        #[arg(long, default_value = "luts/tir.bin")]
+        table: PathBuf,
+        #[arg(long, default_value = "fit")]
+        out: PathBuf,
+        /// Seed of the multi-start points (same table and seed: same coefficients).
+        #[arg(long, default_value_t = 2021)]
+        seed: u64,
+        /// Starts per fitted form.
+        #[arg(long, default_value_t = 6)]
+        starts: usize,
+        /// Timed runs per form (the median is reported).
+        #[arg(long, default_value_t = 21)]
+        timing_runs: usize,
+    },
     /// List the tables tmlut knows.
     List,
     /// Describe a table file: axes, channels, value range, NaN count, conventions.
@@ -212,6 +236,74 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                     e.error.integration.replicate_standard_error.max,
                 );
             }
+            Ok(())
+        }
+        Command::Fit { target, forms, table, out, seed, starts, timing_runs } => {
+            if target != "tir" {
+                return Err(tmlut::Error::invalid("fit target", format!("{target}; allowed: tir")));
+            }
+            let forms = match forms {
+                None => tmlut::fit::ALL_FORMS.to_vec(),
+                Some(names) => names
+                    .iter()
+                    .map(|n| {
+                        tmlut::fit::Form::from_name(n).ok_or_else(|| {
+                            let known: Vec<&str> = tmlut::fit::ALL_FORMS.iter().map(|f| f.name()).collect();
+                            tmlut::Error::invalid("--forms", format!("{n}; allowed: {}", known.join(", ")))
+                        })
+                    })
+                    .collect::<tmlut::Result<Vec<_>>>()?,
+            };
+            let loaded = match table.extension().and_then(|e| e.to_str()) {
+                Some("exr") => tmlut::formats::exr::read_exr(&table)?,
+                _ => tmlut::formats::bin::read_bin(&table, Some(&["mu", "alpha", "eta"]))?,
+            };
+            let settings = tmlut::fit::FitSettings { starts, seed, ..tmlut::fit::FitSettings::default() };
+            let request = tmlut::fit::FitRequest {
+                table_path: table,
+                forms,
+                out,
+                settings,
+                timing_runs,
+                timing_queries: 1 << 14,
+            };
+            let manifest = tmlut::fit::fit_tir(&loaded, &request)?;
+            println!(
+                "| form | parameters | RMSE | MSE | max error | at (mu, alpha, eta) | ns/eval (f32) | status (best start) |"
+            );
+            println!("|---|---|---|---|---|---|---|---|");
+            for f in &manifest.forms {
+                let at = f.figures.max_at;
+                let status = f.search.as_ref().map_or("-".to_string(), |s| {
+                    format!(
+                        "{} ({}/{} starts succeeded)",
+                        s.starts[s.best_start].status,
+                        s.starts.iter().filter(|x| x.succeeded).count(),
+                        s.starts.len()
+                    )
+                });
+                println!(
+                    "| {} | {} | {:.4} | {:.5} | {:.3} | ({:.3}, {:.3}, {:.3}) | {:.2} | {status} |",
+                    f.name,
+                    f.parameters.len(),
+                    f.figures.rmse,
+                    f.figures.mse,
+                    f.figures.max_abs_error,
+                    at[0],
+                    at[1],
+                    at[2],
+                    f.cost_ns_per_evaluation_f32,
+                );
+            }
+            println!(
+                "| table fetch (GPU emulator, trilinear) | - | 0 at nodes | - | - | - | {:.2} | - |",
+                manifest.table_fetch_cost_ns_f32
+            );
+            println!(
+                "best form costing no more than eq56: {}",
+                manifest.best_under_eq56_cost.as_deref().unwrap_or("none (eq56 not requested, or none cheaper)")
+            );
+            println!("wrote {}", request.out.join("fit.json").display());
             Ok(())
         }
         Command::Bench { config, only, repeats, nodes, reference_samples, per_cell_nodes, threads } => {

@@ -1,0 +1,178 @@
+use super::*;
+use crate::table::{Axis, Channel};
+
+/// A small TIR-shaped table built from a form with known parameters.
+fn synthetic(form: Form, parameters: &[f64]) -> Table {
+    let axes = vec![
+        Axis::node_aligned("mu", 0.0, 1.0, 17).unwrap(),
+        Axis::node_aligned("alpha", 0.0, 1.0, 9).unwrap(),
+        Axis::node_aligned("eta", 0.0, 1.0, 17).unwrap(),
+    ];
+    let mut table = Table::zeros("tir", axes, vec![Channel::new("tir", "synthetic")]).unwrap();
+    for n in 0..table.node_count() {
+        let p = table.node_position(&table.node_index(n));
+        table.data[n] = form.eval(parameters, p[0], p[1], p[2]) as f32;
+    }
+    table
+}
+
+const KNOWN: [f64; 7] = [0.4, 0.2, -0.1, 0.05, 0.1, -0.05, 0.02];
+
+#[test]
+fn fit_recovers_known_parameters_from_a_synthetic_table() {
+    let table = synthetic(Form::Logistic, &KNOWN);
+    let data = FitData::from_table(&table).unwrap();
+    let settings = FitSettings { starts: 3, ..FitSettings::default() };
+    let fitted = fit_form(Form::Logistic, &data, &settings).unwrap();
+    for (got, want) in fitted.parameters.iter().zip(KNOWN) {
+        assert!((got - want).abs() < 1e-3, "{:?} vs {KNOWN:?}", fitted.parameters);
+    }
+    let search = fitted.search.as_ref().unwrap();
+    assert_eq!(search.starts.len(), 3);
+    assert!(search.starts.iter().all(|s| !s.status.is_empty() && s.evaluations > 0));
+    assert!(figures(&fitted, &data).rmse < 1e-5);
+    // Reproducible: same table and seed, same coefficients, bit for bit.
+    assert_eq!(fit_form(Form::Logistic, &data, &settings).unwrap().parameters, fitted.parameters);
+}
+
+#[test]
+fn derivative_free_search_solves_a_bounded_least_squares_problem() {
+    // (x - 0.3)^2 + (y + 0.2)^2 with the bound y >= 0: minimum at (0.3, 0).
+    let objective = |x: &[f64], _: Option<&mut [f64]>| (x[0] - 0.3).powi(2) + (x[1] + 0.2).powi(2);
+    let m = minimise(&objective, false, &[0.9, 0.9], &[-1.0, 0.0], &[1.0, 1.0], &FitSettings::default()).unwrap();
+    assert_eq!(m.algorithm, "Bobyqa");
+    assert!((m.parameters[0] - 0.3).abs() < 1e-5 && m.parameters[1].abs() < 1e-9, "{:?}", m.parameters);
+    // A NaN objective is reported as a failed start, not hidden.
+    let nan = |_: &[f64], _: Option<&mut [f64]>| f64::NAN;
+    let err = minimise(&nan, false, &[0.5], &[0.0], &[1.0], &FitSettings { starts: 2, ..FitSettings::default() });
+    assert!(err.is_err());
+    assert!(minimise(&objective, false, &[0.0], &[1.0], &[0.0], &FitSettings::default()).is_err(), "bad bounds");
+}
+
+#[test]
+fn analytic_gradient_matches_finite_differences() {
+    for form in [Form::Logistic, Form::Smoothstep, Form::Algebraic, Form::Rational] {
+        let mut gradient = [0.0; 7];
+        let (mu, alpha, eta) = (0.55, 0.4, 0.8);
+        form.value_and_gradient(&KNOWN, mu, alpha, eta, &mut gradient).unwrap();
+        for k in 0..7 {
+            let h = 1e-6;
+            let (mut up, mut down) = (KNOWN, KNOWN);
+            up[k] += h;
+            down[k] -= h;
+            let numeric = (form.eval(&up, mu, alpha, eta) - form.eval(&down, mu, alpha, eta)) / (2.0 * h);
+            assert!((numeric - gradient[k]).abs() < 1e-6, "{form:?} {k}: {numeric} vs {}", gradient[k]);
+        }
+    }
+}
+
+#[test]
+fn reported_errors_match_an_independent_evaluation() {
+    let table = synthetic(Form::Logistic, &KNOWN);
+    let data = FitData::from_table(&table).unwrap();
+    let fitted =
+        FittedForm { form: Form::Rational, parameters: vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.01], search: None };
+    let reported = figures(&fitted, &data);
+    // Independently: walk the table by index, evaluate in f32, accumulate in f64.
+    let p = [0.3f32, 0.0, 0.0, 0.0, 0.0, 0.0, 0.01];
+    let (mut sum, mut max, mut count) = (0.0f64, 0.0f64, 0usize);
+    for k in 0..17 {
+        for j in 0..9 {
+            for i in 0..17 {
+                let (mu, alpha, eta) = (i as f32 / 16.0, j as f32 / 8.0, k as f32 / 16.0);
+                let v = Form::Rational.eval(&p, mu, alpha, eta) as f64;
+                let e = v - table.node(&[i, j, k])[0] as f64;
+                sum += e * e;
+                max = max.max(e.abs());
+                count += 1;
+            }
+        }
+    }
+    assert_eq!(reported.nodes, count);
+    assert!((reported.mse - sum / count as f64).abs() < 1e-12);
+    assert!((reported.rmse - (sum / count as f64).sqrt()).abs() < 1e-12);
+    assert_eq!(reported.max_abs_error, max);
+    let at = reported.max_at;
+    let v = Form::Rational.eval(&p, at[0] as f32, at[1] as f32, at[2] as f32) as f64;
+    assert!((v - table.interpolate(&at)[0]).abs() == max, "max at {at:?}");
+}
+
+#[test]
+fn eq56_as_published_is_mostly_zero_and_the_baselines_have_no_parameters() {
+    // The published step keeps only w_s.z <= 0, and 1 - F(w_o.z; 1/1.5) vanishes for
+    // theta_o = pi/4 (1 + mu) >= 45 degrees, past the 41.8 degree critical angle.
+    let mut non_zero = 0;
+    for i in 0..=20 {
+        for k in 0..=20 {
+            let v = Form::Eq56.eval::<f64>(&[], i as f64 / 20.0, 0.5, k as f64 / 20.0);
+            assert!(v.is_finite());
+            non_zero += (v != 0.0) as usize;
+        }
+    }
+    assert_eq!(non_zero, 0);
+    assert!(Form::Eq56Corrected.parameter_names().is_empty());
+    for form in ALL_FORMS {
+        assert_eq!(Form::from_name(form.name()), Some(form));
+        // Finite everywhere on the domain, edges included.
+        for &(mu, alpha, eta) in &[(0.0f32, 0.0f32, 0.0f32), (1.0, 1.0, 1.0), (0.0, 1.0, 1.0), (1.0, 0.0, 0.0)] {
+            let (p, _, _) = form.start_and_bounds();
+            let p: Vec<f32> = p.iter().map(|&v| v as f32).collect();
+            assert!(form.eval(&p, mu, alpha, eta).is_finite(), "{form:?} at {mu} {alpha} {eta}");
+        }
+    }
+}
+
+/// Every number after `c0 =`-style placement: the coefficients in the text, in order.
+fn baked_coefficients(text: &str) -> Vec<f32> {
+    let width = text.lines().find(|l| l.contains("width = alpha * max(")).unwrap();
+    let shift = text.lines().find(|l| l.contains("shift = alpha * (")).unwrap();
+    let numbers = |line: &str| -> Vec<f32> {
+        line.split(['(', ')', '*', '+', ',']).filter_map(|s| s.trim().parse::<f32>().ok()).collect::<Vec<_>>()
+    };
+    let w = numbers(width); // c0, c1, c2, 0.0 (max), floor
+    let s = numbers(shift); // c3, c4, c5
+    let t_line = text.lines().find(|l| l.contains(" t = (mu * mu")).unwrap();
+    let e = numbers(t_line.rsplit_once("width").unwrap().1); // c6 ("edge_logit" is not a number)
+    vec![w[0], w[1], w[2], s[0], s[1], s[2], e[0]]
+}
+
+#[test]
+fn shader_coefficients_match_the_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = synthetic(Form::Algebraic, &KNOWN);
+    let request = FitRequest {
+        table_path: "synthetic".into(),
+        forms: vec![Form::Eq56, Form::Logistic, Form::Algebraic],
+        out: dir.path().to_path_buf(),
+        settings: FitSettings { starts: 2, ..FitSettings::default() },
+        timing_runs: 3,
+        timing_queries: 256,
+    };
+    let manifest = fit_tir(&table, &request).unwrap();
+    let read: FitManifest = serde_json::from_slice(&std::fs::read(dir.path().join("fit.json")).unwrap()).unwrap();
+    assert_eq!(read, manifest);
+    assert!(dir.path().join("error_vs_cost.png").is_file());
+    for form in ["eq56", "logistic", "algebraic"] {
+        assert!(dir.path().join(format!("tir_error_{form}.png")).is_file());
+        let map = crate::formats::exr::read_exr(&dir.path().join(format!("tir_error_{form}.exr"))).unwrap();
+        let reported = read.forms.iter().find(|f| f.name == form).unwrap().figures.max_abs_error;
+        let max = map.data.iter().fold(0.0f32, |m, &v| m.max(v));
+        assert_eq!(max, reported as f32, "{form}: the map and the manifest agree");
+    }
+    assert!(read.table_fetch_cost_ns_f32 > 0.0);
+    for form in &read.forms {
+        assert!(form.cost_ns_per_evaluation_f32 > 0.0);
+        if form.parameters.is_empty() {
+            assert!(form.shaders.is_empty());
+            continue;
+        }
+        assert_eq!(form.shaders.len(), 2);
+        for shader in &form.shaders {
+            let text = std::fs::read_to_string(dir.path().join(shader)).unwrap();
+            let manifest_f32: Vec<f32> = form.parameters.iter().map(|&v| v as f32).collect();
+            assert_eq!(baked_coefficients(&text), manifest_f32, "{shader}");
+        }
+    }
+    let algebraic = read.forms.iter().find(|f| f.name == "algebraic").unwrap();
+    assert!(algebraic.figures.rmse < 1e-4, "{:?}", algebraic.figures);
+}
