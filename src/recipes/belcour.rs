@@ -251,25 +251,7 @@ pub fn basis() -> &'static FresnelBasis {
 }
 
 impl TableRecipe for BelcourSettings {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn axes(&self) -> Result<Vec<Axis>> {
-        BelcourSettings::axes(self)
-    }
-
-    fn sampling(&self) -> SamplingConfig {
-        self.sampling
-    }
-
-    fn output(&self) -> &OutputConfig {
-        &self.output
-    }
-
-    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-        build(self, seed, progress)
-    }
+    table_recipe_accessors!();
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         basis_integrals(basis(), self.masking, Method::PerCell, points, position[0], position[1])

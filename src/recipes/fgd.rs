@@ -157,25 +157,7 @@ fn fgd_cell(masking: MaskingShadowing, points: &PointSet, position: &[f64]) -> E
 }
 
 impl TableRecipe for FgdSettings {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn axes(&self) -> Result<Vec<Axis>> {
-        FgdSettings::axes(self)
-    }
-
-    fn sampling(&self) -> SamplingConfig {
-        self.sampling
-    }
-
-    fn output(&self) -> &OutputConfig {
-        &self.output
-    }
-
-    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-        build(self, seed, progress)
-    }
+    table_recipe_accessors!();
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         fgd_cell(self.masking, points, position)

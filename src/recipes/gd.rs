@@ -84,25 +84,7 @@ fn albedo(settings: &GdSettings, method: Method, points: &PointSet, mu: f64, alp
 }
 
 impl TableRecipe for GdSettings {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn axes(&self) -> Result<Vec<Axis>> {
-        GdSettings::axes(self)
-    }
-
-    fn sampling(&self) -> SamplingConfig {
-        self.sampling
-    }
-
-    fn output(&self) -> &OutputConfig {
-        &self.output
-    }
-
-    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-        build(self, seed, progress)
-    }
+    table_recipe_accessors!();
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         albedo(self, Method::PerCell, points, position[0], position[1])

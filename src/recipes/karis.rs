@@ -106,25 +106,7 @@ fn split_sum_terms(masking: MaskingShadowing, method: Method, points: &PointSet,
 }
 
 impl TableRecipe for KarisSettings {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn axes(&self) -> Result<Vec<Axis>> {
-        KarisSettings::axes(self)
-    }
-
-    fn sampling(&self) -> SamplingConfig {
-        self.sampling
-    }
-
-    fn output(&self) -> &OutputConfig {
-        &self.output
-    }
-
-    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-        build(self, seed, progress)
-    }
+    table_recipe_accessors!();
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         split_sum_terms(self.masking, Method::PerCell, points, position[0], position[1])

@@ -4,6 +4,34 @@
 //! was made (integrand, masking-shadowing model, sampler, samples, seed, wall time, error
 //! estimates) that the manifest publishes beside every file.
 
+/// The part of a [`TableRecipe`] impl that every table's settings share: the name constant, the
+/// inherent `axes`, the `sampling` and `output` fields, and the module's `build` function. Used
+/// inside `impl TableRecipe for ...Settings`, so that each impl states only what differs
+/// (`estimate_node`).
+macro_rules! table_recipe_accessors {
+    () => {
+        fn name(&self) -> &'static str {
+            NAME
+        }
+
+        fn axes(&self) -> Result<Vec<Axis>> {
+            Self::axes(self)
+        }
+
+        fn sampling(&self) -> SamplingConfig {
+            self.sampling
+        }
+
+        fn output(&self) -> &OutputConfig {
+            &self.output
+        }
+
+        fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+            build(self, seed, progress)
+        }
+    };
+}
+
 pub mod belcour;
 pub mod fgd;
 pub mod gd;

@@ -161,25 +161,7 @@ fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
 }
 
 impl TableRecipe for TirSettings {
-    fn name(&self) -> &'static str {
-        NAME
-    }
-
-    fn axes(&self) -> Result<Vec<Axis>> {
-        TirSettings::axes(self)
-    }
-
-    fn sampling(&self) -> SamplingConfig {
-        self.sampling
-    }
-
-    fn output(&self) -> &OutputConfig {
-        &self.output
-    }
-
-    fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-        build(self, seed, progress)
-    }
+    table_recipe_accessors!();
 
     /// The top node (eta = 1) is evaluated at `top_eta`, as in the table.
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
