@@ -18,7 +18,7 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::formats::{Precision, check_storable_values, read_bytes, write_bytes_atomically};
+use crate::formats::{Precision, as_format_error, check_storable_values, read_bytes, write_bytes_atomically};
 use crate::table::{Axis, Channel, Mapping, Placement, Table};
 
 /// The original code release handled tables of one to four parameters.
@@ -272,14 +272,6 @@ fn read_header(bytes: &[u8], d: usize) -> Reading {
 
 fn shape_text(sizes: &[usize]) -> String {
     sizes.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(" × ")
-}
-
-/// A table or axis refused while reading means the file, not an argument, is wrong.
-fn as_format_error(error: Error, path: &Path) -> Error {
-    match error {
-        Error::Invalid { key, reason } => Error::format(path, format!("{key}: {reason}")),
-        other => other,
-    }
 }
 
 #[cfg(test)]

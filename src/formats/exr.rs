@@ -28,7 +28,7 @@ use ::exr::prelude::{
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::formats::{Precision, check_storable_values, read_bytes, write_atomically};
+use crate::formats::{Precision, as_format_error, check_storable_values, read_bytes, write_atomically};
 use crate::table::{Axis, Channel, Table};
 
 /// The attribute holding the table's [`Description`].
@@ -348,14 +348,6 @@ fn to_json<T: Serialize + ?Sized>(value: &T) -> Result<String> {
 
 fn from_json<T: for<'de> Deserialize<'de>>(json: &str, attribute: &str, path: &Path) -> Result<T> {
     serde_json::from_str(json).map_err(|e| Error::format(path, format!("attribute `{attribute}` is not valid: {e}")))
-}
-
-/// A table or axis refused while reading means the file, not an argument, is wrong.
-fn as_format_error(error: Error, path: &Path) -> Error {
-    match error {
-        Error::Invalid { key, reason } => Error::format(path, format!("{key}: {reason}")),
-        other => other,
-    }
 }
 
 #[cfg(test)]

@@ -96,6 +96,15 @@ pub(crate) fn no_exr_support(path: &Path) -> Error {
     Error::format(path, "this build of tmlut reads no OpenEXR; enable the `exr` feature of the tmlut crate")
 }
 
+/// A table or axis refused while reading means the file, not an argument, is wrong: re-raise an
+/// `Invalid` error as a `Format` error of `path`, keeping what was invalid and why.
+pub(crate) fn as_format_error(error: Error, path: &Path) -> Error {
+    match error {
+        Error::Invalid { key, reason } => Error::format(path, format!("{key}: {reason}")),
+        other => other,
+    }
+}
+
 /// Write a file through a temporary sibling and an atomic rename. The temporary file is removed
 /// if writing fails.
 pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
