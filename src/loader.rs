@@ -53,11 +53,31 @@ impl LutFolder {
 
 /// Load a table file, taking its description from the `manifest.json` beside it when there is one.
 pub fn load_table(path: &Path) -> Result<Table> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let manifest_path = dir.join(MANIFEST_FILE);
-    let manifest = if manifest_path.exists() { Some(Manifest::read(&manifest_path)?) } else { None };
-    load_with_entry(path, manifest.as_ref().and_then(|m| m.entry(&file)))
+    let beside = ManifestBeside::of(path)?;
+    load_with_entry(path, beside.entry())
+}
+
+/// The `manifest.json` of the folder a file sits in, if there is one, and the file's name there.
+#[derive(Debug, Clone)]
+pub struct ManifestBeside {
+    pub manifest_path: PathBuf,
+    pub manifest: Option<Manifest>,
+    pub file: String,
+}
+
+impl ManifestBeside {
+    pub fn of(path: &Path) -> Result<Self> {
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let manifest_path = dir.join(MANIFEST_FILE);
+        let manifest = if manifest_path.exists() { Some(Manifest::read(&manifest_path)?) } else { None };
+        Ok(ManifestBeside { manifest_path, manifest, file })
+    }
+
+    /// The file's entry, if the manifest lists it.
+    pub fn entry(&self) -> Option<&FileEntry> {
+        self.manifest.as_ref().and_then(|m| m.entry(&self.file))
+    }
 }
 
 fn load_with_entry(path: &Path, entry: Option<&FileEntry>) -> Result<Table> {

@@ -5,7 +5,7 @@ use std::fmt::Write;
 use std::path::Path;
 
 use crate::error::Result;
-use crate::formats::manifest::{FileEntry, MANIFEST_FILE, Manifest};
+use crate::formats::manifest::{FileEntry, MANIFEST_FILE};
 use crate::formats::{FileFormat, bin, dds};
 use crate::pipeline::sha256_hex;
 use crate::table::{Axis, Placement, Table};
@@ -14,11 +14,8 @@ use crate::table::{Axis, Placement, Table};
 pub fn inspect(path: &Path) -> Result<String> {
     let format = crate::loader::format_of(path)?;
     let bytes = crate::formats::read_bytes(path)?;
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let manifest_path = dir.join(MANIFEST_FILE);
-    let manifest = if manifest_path.exists() { Some(Manifest::read(&manifest_path)?) } else { None };
-    let entry = manifest.as_ref().and_then(|m| m.entry(&file));
+    let beside = crate::loader::ManifestBeside::of(path)?;
+    let (manifest_path, entry) = (&beside.manifest_path, beside.entry());
 
     let mut out = String::new();
     let w = &mut out;
@@ -64,7 +61,7 @@ pub fn inspect(path: &Path) -> Result<String> {
 
     match entry {
         Some(entry) => write_entry(w, entry, &bytes),
-        None if manifest.is_some() => {
+        None if beside.manifest.is_some() => {
             let _ =
                 writeln!(w, "manifest: {} lists no entry for this file: conventions unknown", manifest_path.display());
         }
