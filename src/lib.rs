@@ -14,6 +14,7 @@
 //!   GPU sampling emulator to measure it;
 //! - [`loader`]: what a renderer needs to read and sample the files;
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
+//! - [`scene`]: scene files of layer stacks and the plan of the tables they need (generator);
 //! - [`fit`]: least-squares fits of analytic TIR forms with NLopt, error and cost side by side (generator).
 //!
 //! Build a renderer against the loader alone with `default-features = false`: that leaves out the
@@ -41,6 +42,8 @@ pub mod integrate;
 pub mod pipeline;
 #[cfg(feature = "generator")]
 pub mod recipes;
+#[cfg(feature = "generator")]
+pub mod scene;
 #[cfg(feature = "generator")]
 pub mod stability;
 

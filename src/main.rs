@@ -16,6 +16,9 @@ use tmlut::pipeline::{self, BuildRequest};
 use tmlut::recipes::TABLES;
 use tmlut::report::bench::{self, BenchSettings};
 use tmlut::report::{check, converge};
+use tmlut::scene::Scene;
+use tmlut::scene::build::{SceneBuildRequest, build_scene};
+use tmlut::scene::plan::{human_bytes, plan};
 
 #[derive(Parser)]
 #[command(
@@ -58,6 +61,20 @@ enum Command {
         /// standard error) and maps/<table>_error.png (heatmaps with a colour bar).
         #[arg(long)]
         error_maps: bool,
+        /// Build only what this scene's materials need (see `tmlut plan`); the configuration
+        /// still sets samples, masking and precision. Records the scene and plan in the manifest.
+        #[arg(long, conflicts_with = "only")]
+        scene: Option<PathBuf>,
+    },
+    /// Print the build plan of a scene: the lookups its materials make, each table built with its
+    /// size and reason, each table or range left out with its reason, and the total bytes against
+    /// the default set. Integrates nothing.
+    Plan {
+        /// Scene file (TOML; see luts/scenes/ and docs/scenes.md).
+        scene: PathBuf,
+        /// TOML configuration of the tables (default: the built-in defaults).
+        #[arg(long)]
+        config: Option<PathBuf>,
     },
     /// Time each table's build and measure its error against per-cell references, beside the
     /// per-cell method on the same nodes. Prints a Markdown table.
@@ -208,7 +225,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> tmlut::Result<()> {
     match cli.command {
-        Command::Build { config, only, out, threads, seed, method, error_maps } => {
+        Command::Build { config, only, out, threads, seed, method, error_maps, scene } => {
             let mut config = match &config {
                 Some(path) => Config::from_file(path)?,
                 None => Config::default(),
@@ -220,9 +237,26 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                 config.set_method(method);
             }
             set_threads(threads)?;
-            let request = BuildRequest { config, only, out, error_maps };
             let progress = ProgressBars::new(cli.quiet);
-            let written = pipeline::build(&request, &progress)?;
+            let written = match scene {
+                Some(path) => {
+                    let (scene, text) = Scene::read(&path)?;
+                    let request = SceneBuildRequest { scene, source: path, text, config, out, error_maps };
+                    let (plan, written) = build_scene(&request, &progress)?;
+                    println!(
+                        "scene `{}`: {} table(s), {} of texels against {} for the default set",
+                        plan.scene,
+                        plan.tables.len(),
+                        human_bytes(plan.bytes),
+                        human_bytes(plan.default_set_bytes)
+                    );
+                    for warning in &plan.warnings {
+                        eprintln!("warning: {warning}");
+                    }
+                    written
+                }
+                None => pipeline::build(&BuildRequest { config, only, out, error_maps }, &progress)?,
+            };
             for file in written {
                 let e = &file.entry;
                 let reference = e.error.integration.reference.as_ref().map_or(String::new(), |r| {
@@ -235,7 +269,20 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                     e.wall_time_s,
                     e.error.integration.replicate_standard_error.max,
                 );
+                for accuracy in &e.accuracy {
+                    let what = accuracy.what.split(';').next().unwrap_or_default();
+                    println!("    {what}: RMS {:.2e}, max {:.2e}", accuracy.error.rms, accuracy.error.max);
+                }
             }
+            Ok(())
+        }
+        Command::Plan { scene, config } => {
+            let config = match &config {
+                Some(path) => Config::from_file(path)?,
+                None => Config::default(),
+            };
+            let (scene, _) = Scene::read(&scene)?;
+            print!("{}", plan(&scene, &config)?);
             Ok(())
         }
         Command::Fit { target, forms, table, out, seed, starts, timing_runs } => {

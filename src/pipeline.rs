@@ -12,9 +12,9 @@ use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};
 
-use crate::config::Config;
+use crate::config::{Config, OutputConfig};
 use crate::error::{Error, Result};
-use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, ShaderFile};
+use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile};
 use crate::formats::{self, FileFormat, Precision};
 use crate::integrate::Progress;
 use crate::packing::{PackedFgd, Packing};
@@ -66,22 +66,54 @@ pub fn resolve_tables(only: Option<&[String]>) -> Result<Vec<&'static str>> {
     Ok(selected)
 }
 
+/// One table to integrate and how to write it.
+pub struct Job<'a> {
+    /// Integrates the table.
+    pub run: Box<dyn Fn(&dyn Progress) -> Result<TableBuild> + 'a>,
+    pub output: OutputConfig,
+    /// Volume-texture packings written beside it (FGD only).
+    pub packings: Vec<Packing>,
+}
+
 /// Integrate, write and describe every requested table.
 pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<WrittenFile>> {
     request.config.validate()?;
     let tables = resolve_tables(request.only.as_deref())?;
-    let out = &request.out;
+    let mut config = request.config.clone();
+    if request.error_maps {
+        // A map needs every node's replicate spread; FGD computes it for a subset by default.
+        config.fgd.replicate_error_columns = usize::MAX;
+    }
+    let seed = config.seed;
+    let jobs = tables
+        .into_iter()
+        .map(|name| {
+            let recipe = config.recipe(name).expect("resolve_tables admits known tables only");
+            Job {
+                run: Box::new(move |progress| recipe.build(seed, progress)),
+                output: recipe.output().clone(),
+                packings: if name == recipes::fgd::NAME { config.fgd.packings.clone() } else { Vec::new() },
+            }
+        })
+        .collect();
+    write_jobs(&request.out, jobs, request.error_maps, None, progress)
+}
+
+/// Run every job, write its files into `out` (through a staging folder, see the module docs) and
+/// describe them in the folder's manifest, with `scene` recorded there when given.
+pub fn write_jobs(
+    out: &Path,
+    jobs: Vec<Job>,
+    error_maps: bool,
+    scene: Option<SceneRecord>,
+    progress: &dyn Progress,
+) -> Result<Vec<WrittenFile>> {
     std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
     // Read the old manifest before integrating, so that a foreign or damaged one stops the build
     // before minutes of work rather than after.
     let mut manifest = Manifest::read_or_default(out)?;
     manifest.generator = generator_name();
 
-    let mut config = request.config.clone();
-    if request.error_maps {
-        // A map needs every node's replicate spread; FGD computes it for a subset by default.
-        config.fgd.replicate_error_columns = usize::MAX;
-    }
     let staging = Staging::create(out)?;
     let staged_maps = staging.dir.join(MAPS_FOLDER);
     let mut staged = Vec::new();
@@ -89,21 +121,17 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
     // Files without a manifest entry of their own (the shader files of a packing, listed in the
     // packed texture's entry); moved into place with the rest.
     let mut staged_companions = Vec::new();
-    for name in tables {
-        let recipe = config.recipe(name).expect("resolve_tables admits known tables only");
-        let build = recipe.build(config.seed, progress)?;
-        let output = recipe.output();
-        for &format in &output.formats {
-            staged.push(write_table_file(&staging.dir, &build, format, output.precision)?);
+    for job in jobs {
+        let build = (job.run)(progress)?;
+        for &format in &job.output.formats {
+            staged.push(write_table_file(&staging.dir, &build, format, job.output.precision)?);
         }
-        if name == recipes::fgd::NAME {
-            for &packing in &config.fgd.packings {
-                let (texture, shaders) = write_packing_files(&staging.dir, &build, packing, output.precision)?;
-                staged.push(texture);
-                staged_companions.extend(shaders);
-            }
+        for &packing in &job.packings {
+            let (texture, shaders) = write_packing_files(&staging.dir, &build, packing, job.output.precision)?;
+            staged.push(texture);
+            staged_companions.extend(shaders);
         }
-        if request.error_maps {
+        if error_maps {
             std::fs::create_dir_all(&staged_maps).map_err(|source| Error::io(&staged_maps, source))?;
             maps.extend(crate::report::error_map::write_error_maps(&staged_maps, &build)?);
         }
@@ -127,6 +155,9 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
         std::fs::rename(&file.path, &destination).map_err(|source| Error::io(&destination, source))?;
         manifest.files.insert(name, file.entry.clone());
         written.push(WrittenFile { path: destination, entry: file.entry });
+    }
+    if scene.is_some() {
+        manifest.scene = scene;
     }
     manifest.write(out)?;
     Ok(written)

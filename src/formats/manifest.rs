@@ -24,6 +24,51 @@ pub struct Manifest {
     pub generator: String,
     /// One entry per file, keyed by file name (sorted, so the manifest itself is deterministic).
     pub files: BTreeMap<String, FileEntry>,
+    /// The scene and plan of the last `tmlut build --scene` into this folder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<SceneRecord>,
+}
+
+/// A scene a folder was built for, and the plan that was built.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneRecord {
+    pub name: String,
+    /// Where the scene file was read from.
+    pub source: String,
+    /// SHA-256 of the scene file's bytes.
+    pub sha256: String,
+    /// The scene file itself.
+    pub text: String,
+    pub plan: PlanRecord,
+}
+
+/// What a scene's plan builds, what it leaves out, and why.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanRecord {
+    pub tables: Vec<PlannedTableRecord>,
+    pub left_out: Vec<LeftOutRecord>,
+    pub warnings: Vec<String>,
+    /// Texel bytes of the planned tables.
+    pub bytes: u64,
+    /// Texel bytes of the default set, counted the same way.
+    pub default_set_bytes: u64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlannedTableRecord {
+    pub name: String,
+    pub kind: String,
+    /// Node counts and ranges of the axes, and channels.
+    pub shape: String,
+    pub bytes: u64,
+    /// The lookups it answers.
+    pub reasons: Vec<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LeftOutRecord {
+    pub what: String,
+    pub reason: String,
 }
 
 /// One axis as a file stores it, with the formula a shader uses to address it.
@@ -198,7 +243,7 @@ mod tests {
             bytes: 16408,
             packing: None,
         };
-        let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new() };
+        let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), scene: None };
         manifest.files.insert("gd.bin".into(), entry);
         let dir = tempfile::tempdir().unwrap();
         manifest.write(dir.path()).unwrap();

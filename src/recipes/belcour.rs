@@ -33,6 +33,8 @@ use crate::table::{Axis, Channel, Table};
 use super::fgd::projected_fresnel;
 
 pub const NAME: &str = "belcour";
+/// Channels of the table.
+pub const CHANNEL_COUNT: usize = 4;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{TableBuild, TableRecipe, compare_to_reference, random_cells, sampling_record, table_points};
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
+use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, cosine_measure, multiply_transposed};
@@ -31,6 +31,8 @@ use crate::stats::{ErrorRecord, ErrorSummary};
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "fgd";
+/// Channels of the table.
+pub const CHANNEL_COUNT: usize = 1;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -39,6 +41,9 @@ pub struct FgdSettings {
     pub alpha_count: usize,
     pub eta_count: usize,
     pub kappa_count: usize,
+    /// Sub-ranges of the unit axes (a scene's plan narrows them to what its lookups reach).
+    pub mu_range: [f64; 2],
+    pub alpha_range: [f64; 2],
     pub eta_range: [f64; 2],
     pub kappa_range: [f64; 2],
     pub masking: MaskingShadowing,
@@ -63,6 +68,8 @@ impl Default for FgdSettings {
             alpha_count: 64,
             eta_count: 64,
             kappa_count: 64,
+            mu_range: [0.0, 1.0],
+            alpha_range: [0.0, 1.0],
             eta_range: [0.0, 4.0],
             kappa_range: [0.0, 4.0],
             masking: MaskingShadowing::SmithSeparable,
@@ -99,6 +106,8 @@ impl FgdSettings {
         check_count("fgd.alpha_count", self.alpha_count)?;
         check_count("fgd.eta_count", self.eta_count)?;
         check_count("fgd.kappa_count", self.kappa_count)?;
+        check_unit_range("fgd.mu_range", self.mu_range)?;
+        check_unit_range("fgd.alpha_range", self.alpha_range)?;
         check_index_range("fgd.eta_range", self.eta_range)?;
         check_index_range("fgd.kappa_range", self.kappa_range)?;
         if !(8..=4096).contains(&self.cosine_intervals) {
@@ -122,8 +131,8 @@ impl FgdSettings {
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
         Ok(vec![
-            Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?,
-            Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?,
+            Axis::node_aligned("mu", self.mu_range[0], self.mu_range[1], self.mu_count)?,
+            Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?,
             Axis::node_aligned("eta", self.eta_range[0], self.eta_range[1], self.eta_count)?,
             Axis::node_aligned("kappa", self.kappa_range[0], self.kappa_range[1], self.kappa_count)?,
         ])
@@ -143,15 +152,34 @@ impl FgdSettings {
     /// stability checks hold against [`TableRecipe::estimate_node`].
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);
-        let basis = HatBasis { intervals: self.cosine_intervals };
-        let measure = cosine_measure(mu, alpha, self.masking, points, basis);
-        let fresnel = projected_fresnel(basis, eta, kappa);
-        measure.integrate(&[&fresnel], |c| vec![fresnel_reflectance(c, eta, kappa)])
+        let projections = [projected_fresnel(self.cosine_basis(), eta, kappa)];
+        self.estimate_pairs_fast(points, mu, alpha, &[(eta, kappa)], &projections)
+    }
+
+    /// The hat basis in `c = wi.h` of the fast method.
+    pub fn cosine_basis(&self) -> HatBasis {
+        HatBasis { intervals: self.cosine_intervals }
+    }
+
+    /// FGD at one `(mu, alpha)` for several `(eta, kappa)` pairs by the fast method: one measure,
+    /// integrated against each pair's projected Fresnel (`projections[k]` from [`projected_fresnel`]
+    /// on [`FgdSettings::cosine_basis`] for `pairs[k]`). One channel per pair.
+    pub fn estimate_pairs_fast(
+        &self,
+        points: &PointSet,
+        mu: f64,
+        alpha: f64,
+        pairs: &[(f64, f64)],
+        projections: &[Vec<f64>],
+    ) -> Estimate {
+        let measure = cosine_measure(mu, alpha, self.masking, points, self.cosine_basis());
+        let projected: Vec<&[f64]> = projections.iter().map(Vec::as_slice).collect();
+        measure.integrate(&projected, |c| pairs.iter().map(|&(eta, kappa)| fresnel_reflectance(c, eta, kappa)).collect())
     }
 }
 
 /// FGD at one cell on its own, in f64 (the per-cell method and the references).
-fn fgd_cell(masking: MaskingShadowing, points: &PointSet, position: &[f64]) -> Estimate {
+pub fn fgd_cell(masking: MaskingShadowing, points: &PointSet, position: &[f64]) -> Estimate {
     let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);
     estimate_cosine_functions(mu, alpha, masking, Method::PerCell, points, |c| [fresnel_reflectance(c, eta, kappa)])
 }

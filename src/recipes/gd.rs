@@ -27,6 +27,8 @@ use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "gd";
+/// Channels of the table.
+pub const CHANNEL_COUNT: usize = 1;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -31,6 +31,8 @@ use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "karis";
+/// Channels of the table.
+pub const CHANNEL_COUNT: usize = 2;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -5,7 +5,7 @@
 //! estimates) that the manifest publishes beside every file.
 
 /// The part of a [`TableRecipe`] impl that every table's settings share: the name constant, the
-/// inherent `axes`, the `sampling` and `output` fields, and the module's `build` function. Used
+/// inherent `axes`, the `sampling` and `output` fields, and the module's `CHANNEL_COUNT` and `build`. Used
 /// inside `impl TableRecipe for ...Settings`, so that each impl states only what differs
 /// (`estimate_node`).
 macro_rules! table_recipe_accessors {
@@ -26,6 +26,10 @@ macro_rules! table_recipe_accessors {
             &self.output
         }
 
+        fn channel_count(&self) -> usize {
+            CHANNEL_COUNT
+        }
+
         fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
             build(self, seed, progress)
         }
@@ -36,6 +40,7 @@ pub mod belcour;
 pub mod fgd;
 pub mod gd;
 pub mod karis;
+pub mod slices;
 pub mod split_sum;
 pub mod tir;
 
@@ -68,6 +73,8 @@ pub trait TableRecipe: Sync {
     fn axes(&self) -> crate::error::Result<Vec<crate::table::Axis>>;
     fn sampling(&self) -> crate::config::SamplingConfig;
     fn output(&self) -> &crate::config::OutputConfig;
+    /// Channels of the table.
+    fn channel_count(&self) -> usize;
     /// Integrate the whole table.
     fn build(&self, seed: u64, progress: &dyn Progress) -> crate::error::Result<TableBuild>;
     /// One node on its own, by the per-cell method (scalar f64), at a position given in the
@@ -180,6 +187,17 @@ pub(crate) fn compare_to_reference(
     seed: u64,
     progress: &dyn Progress,
 ) -> crate::error::Result<Option<ReferenceComparison>> {
+    compare_nodes_to_reference(|points, position| recipe.estimate_node(points, position), table, reference, seed, progress)
+}
+
+/// [`compare_to_reference`] for a table whose per-cell estimate is `estimate_node(points, position)`.
+pub(crate) fn compare_nodes_to_reference(
+    estimate_node: impl Fn(&PointSet, &[f64]) -> Estimate + Sync,
+    table: &Table,
+    reference: &crate::config::ReferenceConfig,
+    seed: u64,
+    progress: &dyn Progress,
+) -> crate::error::Result<Option<ReferenceComparison>> {
     if reference.cells == 0 {
         return Ok(None);
     }
@@ -187,7 +205,7 @@ pub(crate) fn compare_to_reference(
     let points = reference_points(reference.samples, seed)?;
     let label = format!("{} reference", table.name);
     let estimates = crate::integrate::estimate_cells(&cells, &label, progress, |cell| {
-        recipe.estimate_node(&points, &table.node_position(&table.node_index(cell as usize)))
+        estimate_node(&points, &table.node_position(&table.node_index(cell as usize)))
     });
     let differences = cells.iter().zip(&estimates).flat_map(|(&cell, estimate)| {
         let stored = table.node(&table.node_index(cell as usize));

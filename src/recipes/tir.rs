@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use super::{
     TableBuild, TableRecipe, compare_to_reference, replicate_error, sampling_record, standard_error_map, table_points,
 };
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
+use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::batch::{CellWarp, for_each_block};
@@ -35,6 +35,8 @@ use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "tir";
+/// Channels of the table.
+pub const CHANNEL_COUNT: usize = 1;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -42,6 +44,9 @@ pub struct TirSettings {
     pub mu_count: usize,
     pub alpha_count: usize,
     pub eta_count: usize,
+    /// Sub-ranges of `mu` and `alpha` (a scene's plan narrows them to what its lookups reach).
+    pub mu_range: [f64; 2],
+    pub alpha_range: [f64; 2],
     /// The relative index the last `eta` node (eta = 1) is evaluated at. 1 gives the exact value
     /// there, 0 (no critical angle); the original `tm_TIR.bin` behaves as if it were 0.999.
     pub top_eta: f64,
@@ -57,6 +62,8 @@ impl Default for TirSettings {
             mu_count: 64,
             alpha_count: 64,
             eta_count: 64,
+            mu_range: [0.0, 1.0],
+            alpha_range: [0.0, 1.0],
             top_eta: 1.0,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 1 << 15, replicates: 4 },
@@ -71,6 +78,8 @@ impl TirSettings {
         check_count("tir.mu_count", self.mu_count)?;
         check_count("tir.alpha_count", self.alpha_count)?;
         check_count("tir.eta_count", self.eta_count)?;
+        check_unit_range("tir.mu_range", self.mu_range)?;
+        check_unit_range("tir.alpha_range", self.alpha_range)?;
         let below_top = Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?.node_value(self.eta_count - 2);
         if !(self.top_eta > below_top && self.top_eta <= 1.0) {
             return Err(Error::invalid(
@@ -85,8 +94,8 @@ impl TirSettings {
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
         Ok(vec![
-            Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?,
-            Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?,
+            Axis::node_aligned("mu", self.mu_range[0], self.mu_range[1], self.mu_count)?,
+            Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?,
             Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?,
         ])
     }
@@ -106,7 +115,7 @@ fn past_critical_angle(sin2: f64, eta: f64) -> bool {
 }
 
 /// TIR at every `eta` of one `(mu, alpha)` from one pass over the samples (see the module docs).
-fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
+pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
     let warp = CellWarp::new(mu.max(GRAZING_COSINE), alpha);
     let replicate_means: Vec<Vec<f64>> = points
         .replicates_f32()
@@ -148,7 +157,7 @@ impl TirSettings {
 }
 
 /// TIR at one `(mu, alpha, eta)` on its own, in f64: the ratio estimator `Σ G1 [..] / Σ G1`.
-fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
+pub(crate) fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
     let sums = visible_normal_replicate_means(mu, alpha, points, 2, |sample, sums| {
         let weight = MaskingShadowing::SmithSeparable.visible_normal_weight(sample.wi, sample.wo, alpha);
         if past_critical_angle(sample.wo.x * sample.wo.x + sample.wo.y * sample.wo.y, eta) {

@@ -1,0 +1,259 @@
+//! Specialised slices: FGD or TIR at a few fixed relative indices, as 2D `(mu, alpha)` tables with
+//! one channel per index. Where a scene's materials use only a handful of discrete `(eta, kappa)`
+//! pairs, these replace the 4D FGD and 3D TIR tables (`docs/scenes.md`): the same integrals, with
+//! no interpolation across `eta` and `kappa`, in a few kilobytes.
+//!
+//! ```text
+//! FGD slice, channel k:  FGD(mu, alpha; eta_k, kappa_k) = E_{h ~ VNDF(wi)}[ F(wi.h; eta_k, kappa_k) G2 / G1(wi) ]
+//! TIR slice, channel k:  TIR(mu, alpha; eta_k)          = ∫ rho(w) [1 - w.z^2 > eta_k^2] dw / ∫ rho(w) dw
+//! ```
+//!
+//! Each is computed exactly as its full table computes a node ([`FgdSettings::estimate_pairs_fast`],
+//! [`super::tir::tir_column`]), with the full table's settings, so that a slice node equals the full
+//! table's node at the same parameters up to rounding. The `mu` and `alpha` axes are sub-ranges of
+//! the full table's grid (the planner picks them), so the nodes coincide.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::fgd::{FgdSettings, projected_fresnel};
+use super::tir::{TirSettings, tir_cell, tir_column};
+use super::{
+    TableBuild, compare_nodes_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, standard_error_map,
+    table_points,
+};
+use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
+use crate::error::{Error, Result};
+use crate::formats::FileFormat;
+use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
+use crate::physics::fresnel_reflectance;
+use crate::physics::MaskingShadowing;
+use crate::sampling::sequence::PointSet;
+use crate::stats::ErrorRecord;
+use crate::table::{Axis, Channel, Table};
+
+/// The integral a slice tabulates, with the settings of the full table it specialises.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SliceOf {
+    Fgd(FgdSettings),
+    Tir(TirSettings),
+}
+
+/// One channel of a slice: the relative index it is evaluated at (kappa is 0 for TIR) and which
+/// colour channels of which lookups read it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SliceChannel {
+    pub eta: f64,
+    pub kappa: f64,
+    pub used_by: String,
+}
+
+/// A DDS texture holds 1, 2 or 4 channels: a slice of three indices gets a fourth, zero channel.
+pub const PADDING_CHANNEL: &str = "padding";
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Slices {
+    pub name: String,
+    pub of: SliceOf,
+    pub mu: Axis,
+    pub alpha: Axis,
+    /// The `mu` and `alpha` ranges the lookups reach (inside the axes, which add a margin): the
+    /// accuracy check samples these.
+    pub lookup_mu: [f64; 2],
+    pub lookup_alpha: [f64; 2],
+    pub channels: Vec<SliceChannel>,
+}
+
+impl Slices {
+    pub fn validate(&self) -> Result<()> {
+        let key = format!("slices `{}`", self.name);
+        if self.channels.is_empty() || self.channels.len() > 4 {
+            return Err(Error::invalid(key, format!("{} channels; allowed: 1 to 4", self.channels.len())));
+        }
+        for axis in [&self.mu, &self.alpha] {
+            axis.validate()?;
+            if axis.start < 0.0 || axis.end > 1.0 {
+                return Err(Error::invalid(&key, format!("axis `{}` leaves [0, 1]", axis.name)));
+            }
+        }
+        match &self.of {
+            SliceOf::Fgd(settings) => settings.validate(),
+            SliceOf::Tir(settings) => settings.validate(),
+        }
+    }
+
+    /// Channels as stored: one per index, plus a zero padding channel after three.
+    pub fn stored_channel_count(&self) -> usize {
+        if self.channels.len() == 3 { 4 } else { self.channels.len() }
+    }
+
+    /// Bytes of the stored texels.
+    pub fn texel_bytes(&self) -> u64 {
+        (self.mu.count * self.alpha.count * self.stored_channel_count() * self.output().precision.bytes()) as u64
+    }
+
+    pub fn sampling(&self) -> SamplingConfig {
+        match &self.of {
+            SliceOf::Fgd(s) => s.sampling,
+            SliceOf::Tir(s) => s.sampling,
+        }
+    }
+
+    fn reference(&self) -> ReferenceConfig {
+        match &self.of {
+            SliceOf::Fgd(s) => s.reference,
+            SliceOf::Tir(s) => s.reference,
+        }
+    }
+
+    /// Slices are written as DDS textures in the precision of the full table's output.
+    pub fn output(&self) -> OutputConfig {
+        let precision = match &self.of {
+            SliceOf::Fgd(s) => s.output.precision,
+            SliceOf::Tir(s) => s.output.precision,
+        };
+        OutputConfig { formats: vec![FileFormat::Dds], precision }
+    }
+
+    fn table_name(&self) -> &'static str {
+        match self.of {
+            SliceOf::Fgd(_) => "FGD",
+            SliceOf::Tir(_) => "TIR",
+        }
+    }
+
+    fn channel_list(&self) -> Vec<Channel> {
+        let mut channels: Vec<Channel> = self
+            .channels
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let index = match self.of {
+                    SliceOf::Fgd(_) => format!("eta {}, kappa {}", c.eta, c.kappa),
+                    SliceOf::Tir(_) => format!("eta {}", c.eta),
+                };
+                Channel::new(format!("{}{k}", self.table_name().to_lowercase()), format!("{} at {index}; read by {}", self.table_name(), c.used_by))
+            })
+            .collect();
+        if channels.len() == 3 {
+            channels.push(Channel::new(PADDING_CHANNEL, "zero: pads three channels to RGBA (DDS holds 1, 2 or 4)"));
+        }
+        channels
+    }
+
+    fn pairs(&self) -> Vec<(f64, f64)> {
+        self.channels.iter().map(|c| (c.eta, c.kappa)).collect()
+    }
+
+    /// Every channel at one `(mu, alpha)` by the full table's fast method (padding included).
+    fn estimate_fast(&self, points: &PointSet, mu: f64, alpha: f64, projections: &[Vec<f64>]) -> Estimate {
+        let mut estimate = match &self.of {
+            SliceOf::Fgd(settings) => settings.estimate_pairs_fast(points, mu, alpha, &self.pairs(), projections),
+            SliceOf::Tir(settings) => {
+                let etas: Vec<f64> = self.channels.iter().map(|c| c.eta.min(settings.top_eta)).collect();
+                tir_column(mu, alpha, &etas, points)
+            }
+        };
+        pad(&mut estimate, self.stored_channel_count());
+        estimate
+    }
+
+    /// Every channel at one `(mu, alpha)` on its own, in f64 (padding included): the references.
+    pub fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        let (mu, alpha) = (position[0], position[1]);
+        let mut estimate = match &self.of {
+            // One pass over the samples serves every channel.
+            SliceOf::Fgd(settings) => {
+                let f = |c: f64, k: usize| fresnel_reflectance(c, self.channels[k].eta, self.channels[k].kappa);
+                let cell = |n| estimate_cosine_functions::<1>(mu, alpha, settings.masking, Method::PerCell, points, move |c| [f(c, n)]);
+                match self.channels.len() {
+                    2 => estimate_cosine_functions(mu, alpha, settings.masking, Method::PerCell, points, |c| [f(c, 0), f(c, 1)]),
+                    3 => estimate_cosine_functions(mu, alpha, settings.masking, Method::PerCell, points, |c| {
+                        [f(c, 0), f(c, 1), f(c, 2)]
+                    }),
+                    _ => merge((0..self.channels.len()).map(cell).collect()),
+                }
+            }
+            SliceOf::Tir(settings) => {
+                merge(self.channels.iter().map(|c| tir_cell(mu, alpha, c.eta.min(settings.top_eta), points)).collect())
+            }
+        };
+        pad(&mut estimate, self.stored_channel_count());
+        estimate
+    }
+
+    fn masking(&self) -> MaskingShadowing {
+        match &self.of {
+            SliceOf::Fgd(s) => s.masking,
+            SliceOf::Tir(_) => MaskingShadowing::SmithSeparable,
+        }
+    }
+}
+
+/// One estimate of several single-channel estimates.
+fn merge(per_channel: Vec<Estimate>) -> Estimate {
+    Estimate {
+        mean: per_channel.iter().map(|e| e.mean[0]).collect(),
+        standard_error: per_channel.iter().map(|e| e.standard_error[0]).collect(),
+    }
+}
+
+fn pad(estimate: &mut Estimate, channels: usize) {
+    estimate.mean.resize(channels, 0.0);
+    estimate.standard_error.resize(channels, 0.0);
+}
+
+pub fn build(slices: &Slices, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+    slices.validate()?;
+    let started = Instant::now();
+    let points = table_points(&slices.sampling(), seed)?;
+    let mut table = Table::zeros(&slices.name, vec![slices.mu.clone(), slices.alpha.clone()], slices.channel_list())?;
+    let projections: Vec<Vec<f64>> = match &slices.of {
+        SliceOf::Fgd(settings) => {
+            slices.channels.iter().map(|c| projected_fresnel(settings.cosine_basis(), c.eta, c.kappa)).collect()
+        }
+        SliceOf::Tir(_) => Vec::new(),
+    };
+    let estimates =
+        fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| slices.estimate_fast(&points, mu, alpha, &projections));
+    let reference = compare_nodes_to_reference(
+        |points, position| slices.estimate_node(points, position),
+        &table,
+        &slices.reference(),
+        seed,
+        progress,
+    )?;
+    let (integrand, description) = match slices.of {
+        SliceOf::Fgd(ref settings) => (
+            "FGD(mu, alpha; eta_k, kappa_k) = E_{h~VNDF(wi)}[F(wi.h; eta_k, kappa_k) G2(wi,wo) / G1(wi)], one channel per (eta_k, kappa_k)",
+            format!(
+                "visible-normal measure per (mu, alpha) on {} hat intervals in wi.h, times projected Fresnel",
+                settings.cosine_intervals
+            ),
+        ),
+        SliceOf::Tir(_) => (
+            "TIR(mu, alpha; eta_k) = Σ G1(w) [1 - w.z^2 > eta_k^2] / Σ G1(w), w = reflect(wi, h), h ~ VNDF(wi), one channel per eta_k",
+            "ratio estimator over visible normals, f32 kernel".to_string(),
+        ),
+    };
+    Ok(TableBuild {
+        integrand: integrand.into(),
+        masking: Some(slices.masking()),
+        notes: vec![
+            format!(
+                "A specialised slice of the {} table: fixed relative indices, one per channel; mu and alpha are sub-ranges of the full table's node-aligned grid, lookups outside them clamp.",
+                slices.table_name()
+            ),
+            "Node-aligned: a GPU sampler needs the half-texel correction given per axis.".into(),
+        ],
+        sampling: sampling_record(Method::Fast, &description, &points),
+        error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
+        wall_time_s: started.elapsed().as_secs_f64(),
+        fresnel_basis: None,
+        accuracy: Vec::new(),
+        standard_error: Some(standard_error_map(&estimates)),
+        table,
+    })
+}

@@ -1,0 +1,515 @@
+//! Scenes: the materials a shader author ships, as layer stacks in the transfer-matrix model's
+//! terms (Randrianandrasana et al. 2021; the thesis's section 5.1), read from a TOML file so that
+//! [`plan`] can derive the tables those materials look up and nothing else.
+//!
+//! ```toml
+//! name = "varnished-copper"      # optional; default: the file's stem
+//! model = "2-flux"               # every material's default: "2-flux" or "6-flux"
+//! albedo = "fgd"                 # "fgd" (4D table), "belcour" or "karis" (split-sum tables)
+//! tir = "table"                  # "table", "fit" (analytic form) or "off"
+//! margin_nodes = 1               # nodes kept beyond each needed sub-range
+//!
+//! [[material]]
+//! name = "pot"
+//! [[material.layer]]             # top first; the medium above the stack is air (eta 1)
+//! type = "interface"
+//! eta = 1.1                      # absolute index of the medium below: one value or [r, g, b]
+//! kappa = 0.0                    # default 0
+//! alpha = 0.01                   # GGX roughness
+//! [[material.layer]]
+//! type = "interface"
+//! eta = [0.1, 0.4, 1.6]
+//! kappa = [4.0, 2.4, 1.6]
+//! alpha = 0.01
+//! vary = { alpha = [0.005, 0.05] }   # a texture varies alpha over this range
+//! ```
+//!
+//! A medium layer (`type = "medium"`, 6-flux model) has `sigma_s`, `sigma_k` (RGB), `depth` and
+//! the phase asymmetry `g`. Every error names the material and layer it is about.
+
+pub mod build;
+pub mod plan;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// The transfer-matrix model a material is evaluated with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FluxModel {
+    /// Reflection and transmission of each interface (2 × 2 matrices); media only absorb.
+    #[serde(rename = "2-flux")]
+    TwoFlux,
+    /// Adds scattering inside media: backscattering, forward scattering and re-emission.
+    #[serde(rename = "6-flux")]
+    SixFlux,
+}
+
+/// Which lookup gives an interface's directional albedo.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AlbedoPath {
+    /// The 4D FGD table (or its specialised slices).
+    Fgd,
+    /// The Belcour–Bati–Barla 2020 split-sum table with a Fresnel basis.
+    Belcour,
+    /// The Karis split-sum table (Schlick Fresnel).
+    Karis,
+}
+
+/// How total internal reflection is corrected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TirPath {
+    /// The TIR table (or its specialised slices).
+    Table,
+    /// A fitted analytic form (`tmlut fit tir`): no table.
+    Fit,
+    /// No correction.
+    Off,
+}
+
+/// A closed range `[lo, hi]` of a parameter; a fixed value has `lo == hi`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Interval {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl Interval {
+    pub fn point(x: f64) -> Self {
+        Interval { lo: x, hi: x }
+    }
+
+    pub fn new(lo: f64, hi: f64) -> Self {
+        Interval { lo, hi }
+    }
+
+    pub fn is_point(&self) -> bool {
+        self.lo == self.hi
+    }
+
+    pub fn hull(self, other: Interval) -> Interval {
+        Interval { lo: self.lo.min(other.lo), hi: self.hi.max(other.hi) }
+    }
+
+    /// `self / other` for positive intervals.
+    pub fn divide(self, other: Interval) -> Interval {
+        Interval { lo: self.lo / other.hi, hi: self.hi / other.lo }
+    }
+
+    /// `1 / self` for a positive interval.
+    pub fn reciprocal(self) -> Interval {
+        Interval { lo: 1.0 / self.hi, hi: 1.0 / self.lo }
+    }
+}
+
+impl std::fmt::Display for Interval {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.is_point() { write!(f, "{}", short(self.lo)) } else { write!(f, "[{}, {}]", short(self.lo), short(self.hi)) }
+    }
+}
+
+/// A number with at most four significant decimals, for plans and messages.
+pub fn short(x: f64) -> String {
+    let text = format!("{x:.4}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" { "0".into() } else { text.into() }
+}
+
+/// One value per colour channel (R, G, B).
+pub type Rgb<T> = [T; 3];
+
+/// A rough boundary between two media.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Interface {
+    /// Absolute real index of the medium below, per channel (a range where a texture varies it).
+    pub eta: Rgb<Interval>,
+    /// Absolute extinction index of the medium below, per channel; any channel above 0 makes the
+    /// interface an opaque conductor.
+    pub kappa: Rgb<Interval>,
+    /// GGX roughness.
+    pub alpha: Interval,
+}
+
+impl Interface {
+    /// Whether light goes no further: the model evaluates nothing below a conductor.
+    pub fn is_conductor(&self) -> bool {
+        self.kappa.iter().any(|k| k.hi > 0.0)
+    }
+}
+
+/// A participating medium between two interfaces (6-flux model; the 2-flux model only absorbs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Medium {
+    pub sigma_s: Rgb<f64>,
+    pub sigma_k: Rgb<f64>,
+    pub depth: f64,
+    /// Henyey–Greenstein asymmetry of the phase function.
+    pub g: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Layer {
+    Interface(Interface),
+    Medium(Medium),
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    pub name: String,
+    pub model: FluxModel,
+    pub albedo: AlbedoPath,
+    pub tir: TirPath,
+    /// Top first.
+    pub layers: Vec<Layer>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Scene {
+    pub name: String,
+    pub materials: Vec<Material>,
+    /// Nodes of the default grid kept beyond each needed sub-range, so that the lookup at the edge
+    /// of the range interpolates inside the table.
+    pub margin_nodes: usize,
+    /// What the scene says that the model will not evaluate (layers below a conductor, scattering
+    /// in a 2-flux material): said, not refused.
+    pub warnings: Vec<String>,
+}
+
+pub const DEFAULT_MARGIN_NODES: usize = 1;
+
+impl Scene {
+    /// Read a scene file; returns the scene and the file's text (which a build records).
+    pub fn read(path: &Path) -> Result<(Self, String)> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::io(path, source))?;
+        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+        let scene = Self::from_toml(&text, &path.display().to_string(), &stem)?;
+        Ok((scene, text))
+    }
+
+    /// Parse a scene; `origin` names it in errors, `default_name` is its name when it gives none.
+    pub fn from_toml(text: &str, origin: &str, default_name: &str) -> Result<Self> {
+        let document: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+            Error::invalid(origin, e.to_string().lines().map(str::trim_end).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" | "))
+        })?;
+        parse_scene(&document, origin, default_name)
+    }
+}
+
+const SCENE_KEYS: &[&str] = &["name", "model", "albedo", "tir", "margin_nodes", "material"];
+const MATERIAL_KEYS: &[&str] = &["name", "model", "albedo", "tir", "layer"];
+const INTERFACE_KEYS: &[&str] = &["type", "eta", "kappa", "alpha", "vary"];
+const INTERFACE_VARY_KEYS: &[&str] = &["eta", "kappa", "alpha"];
+const MEDIUM_KEYS: &[&str] = &["type", "sigma_s", "sigma_k", "depth", "g"];
+
+/// The scene-wide choices a material inherits unless it states its own.
+#[derive(Clone, Copy)]
+struct Paths {
+    model: FluxModel,
+    albedo: AlbedoPath,
+    tir: TirPath,
+}
+
+fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Result<Scene> {
+    check_keys(document, SCENE_KEYS, origin)?;
+    let name = match document.get("name") {
+        Some(value) => string(value, &format!("{origin}: name"))?.to_string(),
+        None => default_name.to_string(),
+    };
+    let defaults = Paths {
+        model: choice(document, "model", origin)?.unwrap_or(FluxModel::TwoFlux),
+        albedo: choice(document, "albedo", origin)?.unwrap_or(AlbedoPath::Fgd),
+        tir: choice(document, "tir", origin)?.unwrap_or(TirPath::Table),
+    };
+    let margin_nodes = match document.get("margin_nodes") {
+        None => DEFAULT_MARGIN_NODES,
+        Some(value) => match value.as_integer() {
+            Some(n @ 0..=8) => n as usize,
+            _ => return Err(Error::invalid(format!("{origin}: margin_nodes"), format!("{value}; allowed: 0 to 8"))),
+        },
+    };
+    let Some(materials) = document.get("material") else {
+        return Err(Error::invalid(origin, "no [[material]]; a scene needs at least one material"));
+    };
+    let Some(materials) = materials.as_array() else {
+        return Err(Error::invalid(format!("{origin}: material"), "must be an array of tables ([[material]])"));
+    };
+    if materials.is_empty() {
+        return Err(Error::invalid(origin, "no [[material]]; a scene needs at least one material"));
+    }
+    let mut scene = Scene { name, materials: Vec::new(), margin_nodes, warnings: Vec::new() };
+    for (index, value) in materials.iter().enumerate() {
+        let where_ = format!("{origin}: material {}", index + 1);
+        let table = value.as_table().ok_or_else(|| Error::invalid(&where_, "must be a table ([[material]])"))?;
+        let material = parse_material(table, &where_, index, defaults, &mut scene.warnings)?;
+        if scene.materials.iter().any(|m: &Material| m.name == material.name) {
+            return Err(Error::invalid(where_, format!("the name `{}` is used twice; names must differ", material.name)));
+        }
+        scene.materials.push(material);
+    }
+    Ok(scene)
+}
+
+fn parse_material(
+    table: &toml::Table,
+    where_: &str,
+    index: usize,
+    defaults: Paths,
+    warnings: &mut Vec<String>,
+) -> Result<Material> {
+    check_keys(table, MATERIAL_KEYS, where_)?;
+    let name = match table.get("name") {
+        Some(value) => string(value, &format!("{where_}: name"))?.to_string(),
+        None => format!("material-{}", index + 1),
+    };
+    if name.is_empty() {
+        return Err(Error::invalid(format!("{where_}: name"), "is empty"));
+    }
+    let where_ = format!("{where_} (`{name}`)");
+    let model = choice(table, "model", &where_)?.unwrap_or(defaults.model);
+    let albedo = choice(table, "albedo", &where_)?.unwrap_or(defaults.albedo);
+    let tir = choice(table, "tir", &where_)?.unwrap_or(defaults.tir);
+    let layers = match table.get("layer") {
+        None => Vec::new(),
+        Some(value) => value
+            .as_array()
+            .ok_or_else(|| Error::invalid(format!("{where_}: layer"), "must be an array of tables ([[material.layer]])"))?
+            .clone(),
+    };
+    if layers.is_empty() {
+        return Err(Error::invalid(
+            &where_,
+            "has an empty layer stack; a material needs at least one interface ([[material.layer]] with type = \"interface\")",
+        ));
+    }
+    let mut parsed = Vec::new();
+    for (k, value) in layers.iter().enumerate() {
+        let layer_where = format!("{where_}, layer {}", k + 1);
+        let table = value.as_table().ok_or_else(|| Error::invalid(&layer_where, "must be a table"))?;
+        parsed.push(parse_layer(table, &layer_where)?);
+    }
+    if !parsed.iter().any(|l| matches!(l, Layer::Interface(_))) {
+        return Err(Error::invalid(&where_, "has no interface layer; a material needs at least one interface"));
+    }
+    // The model stops at the first conductor: what lies below is never evaluated.
+    if let Some(conductor) = parsed.iter().position(|l| matches!(l, Layer::Interface(i) if i.is_conductor())) {
+        let below = parsed.len() - conductor - 1;
+        if below > 0 {
+            warnings.push(format!(
+                "{where_}: layer{} {} below the opaque conductor of layer {} (kappa > 0); the model never evaluates \
+                 {}: ignored",
+                if below > 1 { "s" } else { "" },
+                ((conductor + 2)..=parsed.len()).map(|k| k.to_string()).collect::<Vec<_>>().join(", "),
+                conductor + 1,
+                if below > 1 { "them" } else { "it" },
+            ));
+        }
+    }
+    if model == FluxModel::TwoFlux {
+        for (k, layer) in parsed.iter().enumerate() {
+            if let Layer::Medium(m) = layer
+                && m.sigma_s.iter().any(|&s| s > 0.0)
+            {
+                warnings.push(format!(
+                    "{where_}, layer {}: sigma_s > 0 but the material uses the 2-flux model, which does not scatter: \
+                     sigma_s is ignored (model = \"6-flux\" evaluates it)",
+                    k + 1
+                ));
+            }
+        }
+    }
+    Ok(Material { name, model, albedo, tir, layers: parsed })
+}
+
+fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
+    let kind = match table.get("type") {
+        Some(value) => string(value, &format!("{where_}: type"))?,
+        None => return Err(Error::invalid(where_, "has no `type`; allowed: \"interface\", \"medium\"")),
+    };
+    match kind {
+        "interface" => {
+            check_keys(table, INTERFACE_KEYS, where_)?;
+            let vary = match table.get("vary") {
+                None => toml::Table::new(),
+                Some(value) => {
+                    let vary = value
+                        .as_table()
+                        .ok_or_else(|| Error::invalid(format!("{where_}: vary"), "must be a table, e.g. vary = { alpha = [0.1, 0.4] }"))?
+                        .clone();
+                    check_keys(&vary, INTERFACE_VARY_KEYS, &format!("{where_}: vary"))?;
+                    vary
+                }
+            };
+            let eta = rgb_or_range(table, &vary, "eta", None, where_, Bound::Positive)?;
+            let kappa = rgb_or_range(table, &vary, "kappa", Some(0.0), where_, Bound::NonNegative)?;
+            let alpha = scalar_or_range(table, &vary, "alpha", where_)?;
+            Ok(Layer::Interface(Interface { eta, kappa, alpha }))
+        }
+        "medium" => {
+            check_keys(table, MEDIUM_KEYS, where_)?;
+            let sigma_s = rgb(table, "sigma_s", where_)?.unwrap_or([0.0; 3]);
+            let sigma_k = rgb(table, "sigma_k", where_)?.unwrap_or([0.0; 3]);
+            let Some(depth) = table.get("depth") else {
+                return Err(Error::invalid(where_, "a medium without `depth`; give its thickness, a finite number > 0"));
+            };
+            let depth = number(depth, &format!("{where_}: depth"))?;
+            if !(depth.is_finite() && depth > 0.0) {
+                return Err(Error::invalid(format!("{where_}: depth"), format!("{depth}; allowed: finite and > 0")));
+            }
+            let g = match table.get("g") {
+                None => 0.0,
+                Some(value) => number(value, &format!("{where_}: g"))?,
+            };
+            if !(-1.0..=1.0).contains(&g) {
+                return Err(Error::invalid(format!("{where_}: g"), format!("{g}; allowed: -1 to 1")));
+            }
+            Ok(Layer::Medium(Medium { sigma_s, sigma_k, depth, g }))
+        }
+        other => Err(Error::invalid(format!("{where_}: type"), format!("`{other}`; allowed: \"interface\", \"medium\""))),
+    }
+}
+
+/// What values a parameter admits.
+#[derive(Clone, Copy)]
+enum Bound {
+    Positive,
+    NonNegative,
+    Unit,
+}
+
+impl Bound {
+    fn admits(self, x: f64) -> bool {
+        x.is_finite()
+            && match self {
+                Bound::Positive => x > 0.0,
+                Bound::NonNegative => x >= 0.0,
+                Bound::Unit => (0.0..=1.0).contains(&x),
+            }
+    }
+
+    fn allowed(self) -> &'static str {
+        match self {
+            Bound::Positive => "finite and > 0",
+            Bound::NonNegative => "finite and >= 0",
+            Bound::Unit => "0 to 1",
+        }
+    }
+}
+
+fn check_keys(table: &toml::Table, allowed: &[&str], where_: &str) -> Result<()> {
+    for key in table.keys() {
+        if !allowed.contains(&key.as_str()) {
+            return Err(Error::invalid(where_, format!("unknown key `{key}`; allowed: {}", allowed.join(", "))));
+        }
+    }
+    Ok(())
+}
+
+fn string<'a>(value: &'a toml::Value, key: &str) -> Result<&'a str> {
+    value.as_str().ok_or_else(|| Error::invalid(key, format!("{value}; must be a string")))
+}
+
+fn number(value: &toml::Value, key: &str) -> Result<f64> {
+    match value {
+        toml::Value::Float(x) => Ok(*x),
+        toml::Value::Integer(n) => Ok(*n as f64),
+        other => Err(Error::invalid(key, format!("{other}; must be a number"))),
+    }
+}
+
+/// A kebab-case choice (`model`, `albedo`, `tir`), read through its serde names.
+fn choice<T: serde::de::DeserializeOwned>(table: &toml::Table, key: &str, where_: &str) -> Result<Option<T>> {
+    let Some(value) = table.get(key) else { return Ok(None) };
+    let allowed = match key {
+        "model" => "\"2-flux\", \"6-flux\"",
+        "albedo" => "\"fgd\", \"belcour\", \"karis\"",
+        _ => "\"table\", \"fit\", \"off\"",
+    };
+    T::deserialize(value.clone()).map(Some).map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
+}
+
+/// One number for all channels, or `[r, g, b]`, each admitted by `bound`.
+fn rgb_values(value: &toml::Value, key: &str, bound: Bound) -> Result<Rgb<f64>> {
+    let values = match value {
+        toml::Value::Array(items) if items.len() == 3 => {
+            let mut v = [0.0; 3];
+            for (slot, item) in v.iter_mut().zip(items) {
+                *slot = number(item, key)?;
+            }
+            v
+        }
+        toml::Value::Array(items) => {
+            return Err(Error::invalid(key, format!("has {} values; give one number or [r, g, b]", items.len())));
+        }
+        other => [number(other, key)?; 3],
+    };
+    if let Some(bad) = values.iter().find(|x| !bound.admits(**x)) {
+        return Err(Error::invalid(key, format!("{bad}; allowed: {}", bound.allowed())));
+    }
+    Ok(values)
+}
+
+fn rgb(table: &toml::Table, key: &str, where_: &str) -> Result<Option<Rgb<f64>>> {
+    table.get(key).map(|v| rgb_values(v, &format!("{where_}: {key}"), Bound::NonNegative)).transpose()
+}
+
+/// A `vary` range `[lo, hi]`, admitted by `bound`.
+fn range(vary: &toml::Table, key: &str, where_: &str, bound: Bound) -> Result<Option<Interval>> {
+    let Some(value) = vary.get(key) else { return Ok(None) };
+    let key = format!("{where_}: vary.{key}");
+    let items = value.as_array().filter(|a| a.len() == 2).ok_or_else(|| Error::invalid(&key, format!("{value}; give a range [lo, hi]")))?;
+    let (lo, hi) = (number(&items[0], &key)?, number(&items[1], &key)?);
+    for x in [lo, hi] {
+        if !bound.admits(x) {
+            return Err(Error::invalid(&key, format!("{x}; allowed: {}", bound.allowed())));
+        }
+    }
+    if lo > hi {
+        return Err(Error::invalid(&key, format!("[{lo}, {hi}] is inverted; allowed: lo <= hi")));
+    }
+    Ok(Some(Interval::new(lo, hi)))
+}
+
+/// An RGB parameter, or the range a texture varies it over (the same for every channel).
+fn rgb_or_range(
+    table: &toml::Table,
+    vary: &toml::Table,
+    key: &str,
+    default: Option<f64>,
+    where_: &str,
+    bound: Bound,
+) -> Result<Rgb<Interval>> {
+    if let Some(range) = range(vary, key, where_, bound)? {
+        return Ok([range; 3]);
+    }
+    match (table.get(key), default) {
+        (Some(value), _) => Ok(rgb_values(value, &format!("{where_}: {key}"), bound)?.map(Interval::point)),
+        (None, Some(default)) => Ok([Interval::point(default); 3]),
+        (None, None) => Err(Error::invalid(
+            where_,
+            format!("an interface without `{key}`; give one number or [r, g, b] ({}), or vary.{key} = [lo, hi]", bound.allowed()),
+        )),
+    }
+}
+
+/// A scalar parameter in [0, 1] (roughness), or the range a texture varies it over.
+fn scalar_or_range(table: &toml::Table, vary: &toml::Table, key: &str, where_: &str) -> Result<Interval> {
+    if let Some(range) = range(vary, key, where_, Bound::Unit)? {
+        return Ok(range);
+    }
+    let Some(value) = table.get(key) else {
+        return Err(Error::invalid(where_, format!("an interface without `{key}`; give a number from 0 to 1, or vary.{key} = [lo, hi]")));
+    };
+    let key = format!("{where_}: {key}");
+    let x = number(value, &key)?;
+    if !Bound::Unit.admits(x) {
+        return Err(Error::invalid(&key, format!("{x}; allowed: {}", Bound::Unit.allowed())));
+    }
+    Ok(Interval::point(x))
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,326 @@
+use super::plan::{Plan, PlannedBuild, plan};
+use super::*;
+use crate::config::Config;
+use crate::recipes::slices::{SliceOf, Slices};
+
+fn parse(text: &str) -> Result<Scene> {
+    Scene::from_toml(text, "test.toml", "test")
+}
+
+fn example(name: &str) -> Scene {
+    let text = match name {
+        "copper-pot" => include_str!("../../luts/scenes/copper-pot.toml"),
+        "profiling" => include_str!("../../luts/scenes/profiling.toml"),
+        "scattering" => include_str!("../../luts/scenes/scattering.toml"),
+        "textured" => include_str!("../../luts/scenes/textured.toml"),
+        other => panic!("no example scene {other}"),
+    };
+    Scene::from_toml(text, name, name).unwrap()
+}
+
+fn error(text: &str) -> String {
+    parse(text).unwrap_err().to_string()
+}
+
+const ONE_LAYER: &str = "[[material]]\nname = \"m\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
+
+#[test]
+fn a_minimal_scene_takes_the_defaults() {
+    let scene = parse(ONE_LAYER).unwrap();
+    assert_eq!(scene.name, "test");
+    assert_eq!(scene.margin_nodes, DEFAULT_MARGIN_NODES);
+    let material = &scene.materials[0];
+    assert_eq!((material.model, material.albedo, material.tir), (FluxModel::TwoFlux, AlbedoPath::Fgd, TirPath::Table));
+    let Layer::Interface(interface) = &material.layers[0] else { panic!("an interface") };
+    assert_eq!(interface.eta, [Interval::point(1.5); 3]);
+    assert_eq!(interface.kappa, [Interval::point(0.0); 3]);
+    assert!(!interface.is_conductor());
+}
+
+#[test]
+fn bad_input_names_the_material_the_layer_and_what_is_allowed() {
+    let e = error(&ONE_LAYER.replace("alpha = 0.1", "alpha = 0.1\nroughness = 0.2"));
+    assert!(e.contains("material 1 (`m`), layer 1") && e.contains("unknown key `roughness`") && e.contains("allowed:"), "{e}");
+    let e = error(&ONE_LAYER.replace("eta = 1.5", "eta = -1.5"));
+    assert!(e.contains("layer 1: eta") && e.contains("-1.5") && e.contains("> 0"), "{e}");
+    let e = error(&ONE_LAYER.replace("eta = 1.5", "eta = [1.5, nan, 1.5]"));
+    assert!(e.contains("layer 1: eta") && e.contains("NaN") && e.contains("finite"), "{e}");
+    let e = error(&ONE_LAYER.replace("eta = 1.5", "eta = [1.5, 1.5]"));
+    assert!(e.contains("2 values") && e.contains("[r, g, b]"), "{e}");
+    let e = error(&ONE_LAYER.replace("alpha = 0.1", "alpha = 1.5"));
+    assert!(e.contains("layer 1: alpha") && e.contains("0 to 1"), "{e}");
+    let e = error(&ONE_LAYER.replace("alpha = 0.1", "alpha = 0.1\nvary = { alpha = [0.4, 0.1] }"));
+    assert!(e.contains("vary.alpha") && e.contains("inverted"), "{e}");
+    let medium = format!("{ONE_LAYER}[[material.layer]]\ntype = \"medium\"\nsigma_s = 0.5\n");
+    let e = error(&medium);
+    assert!(e.contains("material 1 (`m`), layer 2") && e.contains("without `depth`"), "{e}");
+    let e = error(&format!("{ONE_LAYER}[[material.layer]]\ntype = \"medium\"\ndepth = inf\n"));
+    assert!(e.contains("layer 2: depth") && e.contains("finite"), "{e}");
+    let e = error("[[material]]\nname = \"empty\"\n");
+    assert!(e.contains("`empty`") && e.contains("empty layer stack"), "{e}");
+    let e = error(&ONE_LAYER.replace("type = \"interface\"", "type = \"coat\""));
+    assert!(e.contains("layer 1: type") && e.contains("\"interface\", \"medium\""), "{e}");
+    let e = error(&ONE_LAYER.replace("name = \"m\"", "name = \"m\"\nmodel = \"4-flux\""));
+    assert!(e.contains("model") && e.contains("\"2-flux\", \"6-flux\""), "{e}");
+    let e = error(&format!("{ONE_LAYER}{ONE_LAYER}"));
+    assert!(e.contains("material 2") && e.contains("`m` is used twice"), "{e}");
+    let e = error("name = \"x\"\n");
+    assert!(e.contains("at least one material"), "{e}");
+    let e = error(&format!("colour = 1\n{ONE_LAYER}"));
+    assert!(e.contains("unknown key `colour`"), "{e}");
+}
+
+#[test]
+fn layers_below_a_conductor_are_ignored_with_a_warning() {
+    let text = "[[material]]\nname = \"metal\"\n\
+        [[material.layer]]\ntype = \"interface\"\neta = 0.2\nkappa = 3.0\nalpha = 0.1\n\
+        [[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
+    let scene = parse(text).unwrap();
+    assert_eq!(scene.warnings.len(), 1);
+    let warning = &scene.warnings[0];
+    assert!(warning.contains("`metal`") && warning.contains("layer 2") && warning.contains("ignored"), "{warning}");
+    // And the plan makes no lookup below it.
+    let plan = plan(&scene, &Config::default()).unwrap();
+    assert!(plan.lookups.iter().all(|l| l.layer == 1), "{:?}", plan.lookups);
+    assert_eq!(plan.warnings, scene.warnings);
+}
+
+fn table_names(plan: &Plan) -> Vec<&str> {
+    plan.tables.iter().map(|t| t.record.name.as_str()).collect()
+}
+
+fn slices<'a>(plan: &'a Plan, name: &str) -> &'a Slices {
+    match plan.tables.iter().find(|t| t.record.name == name).map(|t| &t.build) {
+        Some(PlannedBuild::Slices(s)) => s,
+        other => panic!("{name}: {other:?}"),
+    }
+}
+
+fn left_out<'a>(plan: &'a Plan, what: &str) -> &'a str {
+    &plan.left_out.iter().find(|l| l.what.starts_with(what)).unwrap_or_else(|| panic!("{what} not left out")).reason
+}
+
+#[test]
+fn copper_pot_gets_three_fgd_slices_and_one_tir_slice() {
+    let plan = plan(&example("copper-pot"), &Config::default()).unwrap();
+    assert_eq!(
+        table_names(&plan),
+        [
+            "fgd_varnished-copper_l1_from-above",
+            "fgd_varnished-copper_l1_from-below",
+            "fgd_varnished-copper_l2_from-above",
+            "tir_varnished-copper_l1_up"
+        ]
+    );
+    // From above the varnish: the whole cosine range; one channel, since R, G and B share eta 1.1.
+    let top = slices(&plan, "fgd_varnished-copper_l1_from-above");
+    assert_eq!((top.mu.start, top.mu.end, top.mu.count), (0.0, 1.0, 64));
+    assert_eq!(top.channels.len(), 1);
+    assert_eq!((top.channels[0].eta, top.channels[0].kappa), (1.1, 0.0));
+    // Roughness 0.01 lies between the first two nodes (spacing 1/63); one node of margin above.
+    assert_eq!((top.alpha.start, top.alpha.count), (0.0, 3));
+    // Below the varnish, cosines start at the refraction of grazing light: sqrt(1 - 1/1.1^2).
+    let critical = (1.0 - 1.0 / (1.1f64 * 1.1)).sqrt();
+    let below = slices(&plan, "fgd_varnished-copper_l1_from-below");
+    assert!(below.mu.start <= critical && below.mu.start > critical - 2.0 / 63.0, "{:?}", below.mu);
+    assert!((below.channels[0].eta - 1.0 / 1.1).abs() < 1e-15);
+    // The copper: one channel per colour, indices relative to the varnish, padded to RGBA.
+    let copper = slices(&plan, "fgd_varnished-copper_l2_from-above");
+    let pairs: Vec<(f64, f64)> = copper.channels.iter().map(|c| (c.eta, c.kappa)).collect();
+    assert_eq!(pairs, [(0.1 / 1.1, 4.0 / 1.1), (0.4 / 1.1, 2.4 / 1.1), (1.6 / 1.1, 1.6 / 1.1)]);
+    assert_eq!(copper.stored_channel_count(), 4);
+    // TIR on the way up through the varnish, for a lobe at least as rough as the varnish.
+    let tir = slices(&plan, "tir_varnished-copper_l1_up");
+    assert!(matches!(tir.of, SliceOf::Tir(_)));
+    assert_eq!((tir.alpha.start, tir.alpha.end), (0.0, 1.0));
+    assert!(left_out(&plan, "fgd (4D").contains("3 slice tables replace it"));
+    assert!(left_out(&plan, "tir (3D").contains("1 slice table replaces it"));
+    assert!(left_out(&plan, "gd").contains("6-flux"));
+    assert!(left_out(&plan, "belcour").contains("belcour path"));
+    assert_eq!(plan.bytes, plan.tables.iter().map(|t| t.record.bytes).sum::<u64>());
+    assert_eq!(plan.default_set_bytes, (64usize.pow(4) * 4 + 64 * 64 * 4 + 64usize.pow(3) * 4 + 128 * 128 * 4 * 2 + 512 * 512 * 2 * 2) as u64);
+    assert!(plan.bytes < 16 * 1024, "{}", plan.bytes);
+}
+
+#[test]
+fn profiling_scene_merges_equal_colour_channels() {
+    let plan = plan(&example("profiling"), &Config::default()).unwrap();
+    // kappa (1.0, 0.1, 0.1) under a coat of 1.5: G and B share one channel.
+    let conductor = slices(&plan, "fgd_coated-conductor_l2_from-above");
+    assert_eq!(conductor.channels.len(), 2);
+    assert!(conductor.channels[1].used_by.ends_with("G, B"), "{}", conductor.channels[1].used_by);
+    assert!((conductor.channels[0].eta - 1.0 / 1.5).abs() < 1e-15);
+    assert!((conductor.channels[0].kappa - 1.0 / 1.5).abs() < 1e-15);
+    // The coat's roughness 0.1 needs only the nodes around it.
+    let coat = slices(&plan, "fgd_coated-conductor_l1_from-above");
+    assert!(coat.alpha.start < 0.1 && coat.alpha.end > 0.1 && coat.alpha.count == 4, "{:?}", coat.alpha);
+    // TIR through the coat for lobes at least as rough as the coat.
+    let tir = slices(&plan, "tir_coated-conductor_l1_up");
+    assert!(tir.alpha.start <= 0.1 && tir.alpha.start > 0.05 && tir.alpha.end == 1.0, "{:?}", tir.alpha);
+}
+
+#[test]
+fn scattering_stack_needs_gd_and_every_cosine_below_the_medium() {
+    let plan = plan(&example("scattering"), &Config::default()).unwrap();
+    assert!(table_names(&plan).contains(&"gd"), "{:?}", table_names(&plan));
+    // Below a scattering medium light arrives from every direction.
+    let conductor = slices(&plan, "fgd_scattering-stack_l3_from-above");
+    assert_eq!((conductor.mu.start, conductor.mu.end), (0.0, 1.0));
+    assert!((conductor.channels[0].eta - 0.1 / 1.5).abs() < 1e-15);
+    // The coat's roughness 0.4 bounds the lobe's below.
+    let tir = slices(&plan, "tir_scattering-stack_l1_up");
+    assert!(tir.alpha.start > 0.35 && tir.alpha.start <= 0.4, "{:?}", tir.alpha);
+    // The same stack in the 2-flux model: no GD, the medium only absorbs, and a warning says so.
+    let two_flux = include_str!("../../luts/scenes/scattering.toml").replace("model = \"6-flux\"", "model = \"2-flux\"");
+    let scene = parse(&two_flux).unwrap();
+    assert!(scene.warnings.iter().any(|w| w.contains("sigma_s is ignored")), "{:?}", scene.warnings);
+    let plan = super::plan::plan(&scene, &Config::default()).unwrap();
+    assert!(!table_names(&plan).contains(&"gd"));
+    let conductor = slices(&plan, "fgd_scattering-stack_l3_from-above");
+    assert!(conductor.mu.start > 0.7, "{:?}", conductor.mu);
+}
+
+#[test]
+fn textured_ranges_give_sub_ranges_and_a_varying_index_the_4d_table() {
+    let plan = plan(&example("textured"), &Config::default()).unwrap();
+    let coat = slices(&plan, "fgd_worn-gold_l1_from-above");
+    assert!(coat.alpha.start <= 0.1 && coat.alpha.end >= 0.4 && coat.alpha.end < 0.45, "{:?}", coat.alpha);
+    let Some(PlannedBuild::Fgd(fgd)) = plan.tables.iter().find(|t| t.record.name == "fgd").map(|t| &t.build) else {
+        panic!("the glaze's varying index needs the 4D table: {:?}", table_names(&plan));
+    };
+    // eta over [1.4, 1.7] and kappa 0 only, on the default grid's spacing (4/63).
+    let spacing = 4.0 / 63.0;
+    assert!(fgd.eta_range[0] <= 1.4 && fgd.eta_range[0] > 1.4 - 2.0 * spacing - 1e-12, "{:?}", fgd.eta_range);
+    assert!(fgd.eta_range[1] >= 1.7 && fgd.eta_range[1] < 1.7 + 2.0 * spacing + 1e-12, "{:?}", fgd.eta_range);
+    assert_eq!(fgd.kappa_range[0], 0.0);
+    assert_eq!(fgd.kappa_count, 2);
+    assert!((fgd.alpha_range[0]..=fgd.alpha_range[1]).contains(&0.2));
+    let full = Config::default().fgd;
+    assert!(fgd.eta_count * fgd.kappa_count * fgd.alpha_count < full.eta_count * full.kappa_count * full.alpha_count / 100);
+}
+
+#[test]
+fn tir_off_and_fit_leave_the_tir_lookups_out() {
+    let text = include_str!("../../luts/scenes/copper-pot.toml");
+    for (path, says) in [("off", "tir = \"off\""), ("fit", "fitted analytic form")] {
+        let scene = parse(&text.replace("tir = \"table\"", &format!("tir = \"{path}\""))).unwrap();
+        let plan = plan(&scene, &Config::default()).unwrap();
+        assert!(table_names(&plan).iter().all(|n| !n.starts_with("tir")), "{:?}", table_names(&plan));
+        assert!(left_out(&plan, "TIR lookups of varnished-copper, layer 1 up").contains(says));
+    }
+}
+
+#[test]
+fn split_sum_paths_replace_the_fgd_lookups() {
+    let text = include_str!("../../luts/scenes/copper-pot.toml").replace("albedo = \"fgd\"", "albedo = \"belcour\"");
+    let plan = plan(&parse(&text).unwrap(), &Config::default()).unwrap();
+    assert_eq!(table_names(&plan), ["belcour", "tir_varnished-copper_l1_up"]);
+    let belcour = &plan.tables[0].record;
+    assert!(belcour.reasons.iter().any(|r| r.contains("outside the basis's fitted domain")), "{:?}", belcour.reasons);
+    assert!(left_out(&plan, "fgd (4D").contains("no material reads albedo on the FGD path"));
+}
+
+#[test]
+fn an_index_matched_interface_needs_no_lookup() {
+    let text = "[[material]]\nname = \"m\"\n\
+        [[material.layer]]\ntype = \"interface\"\neta = 1.0\nalpha = 0.3\n\
+        [[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
+    let plan = plan(&parse(text).unwrap(), &Config::default()).unwrap();
+    assert!(plan.lookups.iter().all(|l| l.layer == 2));
+    assert!(left_out(&plan, "m, layer 1").contains("index-matched"));
+}
+
+/// The configuration of the build tests: small tables whose grids hold the examples' indices
+/// (eta spacing 0.5 over [0, 4], kappa spacing 1 over [0, 4], TIR eta spacing 1/6).
+fn small_config() -> Config {
+    let mut config = Config::default();
+    config.fgd.mu_count = 9;
+    config.fgd.alpha_count = 9;
+    config.fgd.eta_count = 9;
+    config.fgd.kappa_count = 5;
+    config.fgd.sampling.samples = 1 << 12;
+    config.fgd.reference.cells = 8;
+    config.fgd.reference.samples = 1 << 14;
+    config.fgd.packings = Vec::new();
+    config.tir.mu_count = 9;
+    config.tir.alpha_count = 9;
+    config.tir.eta_count = 7;
+    config.tir.sampling.samples = 1 << 12;
+    config.tir.reference.cells = 8;
+    config.tir.reference.samples = 1 << 14;
+    config.seed = 11;
+    config
+}
+
+#[test]
+fn slices_equal_the_full_tables_at_their_common_nodes() {
+    // A coat of 2 over a conductor (1, 2): relative indices 2 (from above), 0.5 (from below and
+    // TIR) and (0.5, 1) are nodes of the small grids, so every slice node is a full-table node.
+    let text = "[[material]]\nname = \"m\"\n\
+        [[material.layer]]\ntype = \"interface\"\neta = 2.0\nalpha = 0.25\n\
+        [[material.layer]]\ntype = \"interface\"\neta = 1.0\nkappa = 2.0\nalpha = 0.5\n";
+    let config = small_config();
+    let plan = plan(&parse(text).unwrap(), &config).unwrap();
+    let progress = ();
+    let full_fgd = crate::recipes::fgd::build(&config.fgd, config.seed, &progress).unwrap();
+    let full_tir = crate::recipes::tir::build(&config.tir, config.seed, &progress).unwrap();
+    let kinds: Vec<&str> = plan.tables.iter().map(|t| t.record.kind.as_str()).collect();
+    assert_eq!(kinds, ["FGD slice", "FGD slice", "FGD slice", "TIR slice"]);
+    let mut compared = 0;
+    for planned in &plan.tables {
+        let PlannedBuild::Slices(slices) = &planned.build else { panic!("{}: not a slice", planned.record.name) };
+        let build = crate::recipes::slices::build(slices, config.seed, &progress).unwrap();
+        let full = match slices.of {
+            SliceOf::Fgd(_) => &full_fgd,
+            SliceOf::Tir(_) => &full_tir,
+        };
+        let standard_error = build.standard_error.as_ref().unwrap();
+        let stored = build.table.channel_count();
+        for n in 0..build.table.node_count() {
+            let position = build.table.node_position(&build.table.node_index(n));
+            for (k, channel) in slices.channels.iter().enumerate() {
+                let mut at = position.clone();
+                at.push(channel.eta);
+                if matches!(slices.of, SliceOf::Fgd(_)) {
+                    at.push(channel.kappa);
+                }
+                // The full table's node there, read through interpolation (exact at a node).
+                let expected = full.table.interpolate(&at)[0];
+                let value = build.table.data[n * stored + k] as f64;
+                let tolerance = 1e-6 + 3.0 * standard_error[n * stored + k] as f64;
+                assert!((value - expected).abs() <= tolerance, "{} at {at:?}: {value} vs {expected}", slices.name);
+                compared += 1;
+            }
+        }
+    }
+    let expected: usize = plan
+        .tables
+        .iter()
+        .map(|t| match &t.build {
+            PlannedBuild::Slices(s) => s.mu.count * s.alpha.count * s.channels.len(),
+            _ => 0,
+        })
+        .sum();
+    assert_eq!(compared, expected);
+    assert!(compared >= 50, "{compared}");
+}
+
+#[test]
+fn a_slice_beats_the_4d_table_between_its_eta_nodes() {
+    // From below a varnish of 1.1 (eta 0.909, just under 1): Fresnel changes fast with eta there,
+    // and the full table interpolates between nodes 0.875 and 1.0 of the small grid.
+    let mut config = small_config();
+    // Fine in mu and alpha, so that the slice's own interpolation error is small.
+    config.fgd.mu_count = 64;
+    config.fgd.alpha_count = 64;
+    let plan = plan(&example("copper-pot"), &config).unwrap();
+    let slices = slices(&plan, "fgd_varnished-copper_l1_from-below");
+    let progress = ();
+    let build = crate::recipes::slices::build(slices, config.seed, &progress).unwrap();
+    let full = crate::recipes::fgd::build(&config.fgd, config.seed, &progress).unwrap().table;
+    let reports = super::build::slice_accuracy(slices, &build, &full, config.seed, &progress).unwrap();
+    let (slice, full) = (&reports[0].error, &reports[1].error);
+    assert!(reports[0].what.starts_with("slice") && reports[1].what.starts_with("full 64 x 64 x 9 x 5"));
+    assert!(slice.count >= 16 && slice.count == full.count);
+    assert!(slice.rms * 5.0 < full.rms, "slice {slice:?} vs full {full:?}");
+}
