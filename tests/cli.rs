@@ -334,3 +334,83 @@ fn an_interrupted_build_leaves_earlier_outputs_intact() {
     assert!(build(&small, &out, &[]).status.success());
     assert!(snapshot(&out).iter().all(|(name, _)| !name.starts_with('.')));
 }
+
+fn scene_path(name: &str) -> String {
+    format!("{}/luts/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn plan_prints_the_tables_what_is_left_out_and_the_saving() {
+    let output = tmlut(&["plan", &scene_path("profiling")]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = stdout(&output);
+    for expected in [
+        "Lookups the transfer-matrix model makes:",
+        "coated-conductor, layer 2 from above",
+        "fgd_coated-conductor_l1_from-above",
+        "tir_coated-conductor_l1_up",
+        "Left out:",
+        "fgd (4D, 64.0 MiB): every FGD lookup is at fixed (eta, kappa)",
+        "against 66.1 MiB (69353472 bytes) for the default set",
+    ] {
+        assert!(text.contains(expected), "expected `{expected}` in:\n{text}");
+    }
+}
+
+#[test]
+fn build_with_a_scene_writes_its_plan_and_records_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let out = dir.path().join("luts");
+    let scene = scene_path("copper-pot");
+    let output = build(&config, &out, &["--scene", &scene]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stdout(&output).contains("slice interpolated vs the exact integral"), "{}", stdout(&output));
+
+    let manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
+    let record = manifest.scene.as_ref().expect("the scene is recorded");
+    assert_eq!(record.name, "copper-pot");
+    assert_eq!(record.text, std::fs::read_to_string(&scene).unwrap());
+    let planned: Vec<&str> = record.plan.tables.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(planned.len(), 4, "{planned:?}");
+    // Exactly the plan: one DDS per planned table, nothing of the default set.
+    let mut files: Vec<&String> = manifest.files.keys().collect();
+    files.sort();
+    let mut expected: Vec<String> = planned.iter().map(|n| format!("{n}.dds")).collect();
+    expected.sort();
+    assert_eq!(files, expected.iter().collect::<Vec<_>>());
+    assert!(record.plan.left_out.iter().any(|l| l.what.starts_with("fgd (4D")));
+
+    // A renderer loads a slice through the manifest: four channels (three indices and padding).
+    let folder = LutFolder::open(&out).unwrap();
+    let copper = folder.load("fgd_varnished-copper_l2_from-above.dds").unwrap();
+    assert_eq!(copper.channel_count(), 4);
+    assert_eq!(copper.channels[3].name, "padding");
+    let entry = manifest.entry("fgd_varnished-copper_l2_from-above.dds").unwrap();
+    assert_eq!(entry.accuracy.len(), 2, "against the exact integral and against the full table");
+    assert_eq!(entry.nan_count, 0);
+    let values = copper.interpolate(&[0.8, 0.01]);
+    assert!(values[..3].iter().all(|v| (0.0..=1.0).contains(v)) && values[3] == 0.0, "{values:?}");
+}
+
+#[test]
+fn bad_scenes_are_refused_naming_material_and_layer() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("bad.toml");
+    std::fs::write(
+        &scene,
+        "[[material]]\nname = \"pot\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n\
+         [[material.layer]]\ntype = \"medium\"\nsigma_k = 0.2\n",
+    )
+    .unwrap();
+    let output = tmlut(&["plan", scene.to_str().unwrap()]);
+    assert_clean_failure(&output, &["material 1 (`pot`), layer 2", "without `depth`"]);
+    let out = dir.path().join("out");
+    let output = tmlut(&["build", "-q", "--scene", scene.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_clean_failure(&output, &["material 1 (`pot`), layer 2"]);
+    assert!(!out.join(MANIFEST_FILE).exists(), "nothing written for a bad scene");
+    let output = tmlut(&["plan", dir.path().join("missing.toml").to_str().unwrap()]);
+    assert_clean_failure(&output, &["missing.toml"]);
+    let output = tmlut(&["build", "--scene", &scene_path("copper-pot"), "--only", "fgd"]);
+    assert!(!output.status.success() && stderr(&output).contains("--only"), "{}", stderr(&output));
+}

@@ -174,7 +174,8 @@ impl FgdSettings {
     ) -> Estimate {
         let measure = cosine_measure(mu, alpha, self.masking, points, self.cosine_basis());
         let projected: Vec<&[f64]> = projections.iter().map(Vec::as_slice).collect();
-        measure.integrate(&projected, |c| pairs.iter().map(|&(eta, kappa)| fresnel_reflectance(c, eta, kappa)).collect())
+        measure
+            .integrate(&projected, |c| pairs.iter().map(|&(eta, kappa)| fresnel_reflectance(c, eta, kappa)).collect())
     }
 }
 

@@ -187,7 +187,13 @@ pub(crate) fn compare_to_reference(
     seed: u64,
     progress: &dyn Progress,
 ) -> crate::error::Result<Option<ReferenceComparison>> {
-    compare_nodes_to_reference(|points, position| recipe.estimate_node(points, position), table, reference, seed, progress)
+    compare_nodes_to_reference(
+        |points, position| recipe.estimate_node(points, position),
+        table,
+        reference,
+        seed,
+        progress,
+    )
 }
 
 /// [`compare_to_reference`] for a table whose per-cell estimate is `estimate_node(points, position)`.

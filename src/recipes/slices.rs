@@ -27,8 +27,8 @@ use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
-use crate::physics::fresnel_reflectance;
 use crate::physics::MaskingShadowing;
+use crate::physics::fresnel_reflectance;
 use crate::sampling::sequence::PointSet;
 use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
@@ -134,7 +134,10 @@ impl Slices {
                     SliceOf::Fgd(_) => format!("eta {}, kappa {}", c.eta, c.kappa),
                     SliceOf::Tir(_) => format!("eta {}", c.eta),
                 };
-                Channel::new(format!("{}{k}", self.table_name().to_lowercase()), format!("{} at {index}; read by {}", self.table_name(), c.used_by))
+                Channel::new(
+                    format!("{}{k}", self.table_name().to_lowercase()),
+                    format!("{} at {index}; read by {}", self.table_name(), c.used_by),
+                )
             })
             .collect();
         if channels.len() == 3 {
@@ -167,9 +170,15 @@ impl Slices {
             // One pass over the samples serves every channel.
             SliceOf::Fgd(settings) => {
                 let f = |c: f64, k: usize| fresnel_reflectance(c, self.channels[k].eta, self.channels[k].kappa);
-                let cell = |n| estimate_cosine_functions::<1>(mu, alpha, settings.masking, Method::PerCell, points, move |c| [f(c, n)]);
+                let cell = |n| {
+                    estimate_cosine_functions::<1>(mu, alpha, settings.masking, Method::PerCell, points, move |c| {
+                        [f(c, n)]
+                    })
+                };
                 match self.channels.len() {
-                    2 => estimate_cosine_functions(mu, alpha, settings.masking, Method::PerCell, points, |c| [f(c, 0), f(c, 1)]),
+                    2 => estimate_cosine_functions(mu, alpha, settings.masking, Method::PerCell, points, |c| {
+                        [f(c, 0), f(c, 1)]
+                    }),
                     3 => estimate_cosine_functions(mu, alpha, settings.masking, Method::PerCell, points, |c| {
                         [f(c, 0), f(c, 1), f(c, 2)]
                     }),
@@ -216,8 +225,9 @@ pub fn build(slices: &Slices, seed: u64, progress: &dyn Progress) -> Result<Tabl
         }
         SliceOf::Tir(_) => Vec::new(),
     };
-    let estimates =
-        fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| slices.estimate_fast(&points, mu, alpha, &projections));
+    let estimates = fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| {
+        slices.estimate_fast(&points, mu, alpha, &projections)
+    });
     let reference = compare_nodes_to_reference(
         |points, position| slices.estimate_node(points, position),
         &table,

@@ -43,7 +43,9 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     // The full tables the slices are compared with, built once, without their own reference checks.
     let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(seed, progress)?.table) };
     let has_slices_of = |fgd: bool| {
-        plan.tables.iter().any(|t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd))
+        plan.tables
+            .iter()
+            .any(|t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd))
     };
     let full_fgd = if has_slices_of(true) {
         let mut settings = config.fgd.clone();
@@ -87,7 +89,11 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                     PlannedBuild::Fgd(settings) => settings.packings.clone(),
                     _ => Vec::new(),
                 };
-                Job { run: Box::new(move |progress| recipe.build(seed, progress)), output: recipe.output().clone(), packings }
+                Job {
+                    run: Box::new(move |progress| recipe.build(seed, progress)),
+                    output: recipe.output().clone(),
+                    packings,
+                }
             }
         })
         .collect();
@@ -108,7 +114,9 @@ fn query_points(slices: &Slices, count: usize, seed: u64) -> Vec<[f64; 2]> {
     let uniform = |stream: u64, k: usize| scramble_seed(seed, stream, k as u32) as f64 / 4_294_967_296.0;
     let ([mu_lo, mu_hi], [alpha_lo, alpha_hi]) = (slices.lookup_mu, slices.lookup_alpha);
     (0..count)
-        .map(|k| [mu_lo + uniform(0x5_11CE, k) * (mu_hi - mu_lo), alpha_lo + uniform(0x5_11CF, k) * (alpha_hi - alpha_lo)])
+        .map(|k| {
+            [mu_lo + uniform(0x5_11CE, k) * (mu_hi - mu_lo), alpha_lo + uniform(0x5_11CF, k) * (alpha_hi - alpha_lo)]
+        })
         .collect()
 }
 
@@ -143,7 +151,10 @@ pub fn slice_accuracy(
                 SliceOf::Tir(_) => vec![query[0], query[1], channel.eta],
             };
             let full_value = full.interpolate(&full_point)[0];
-            let at = format!("mu {:.4}, alpha {:.4}, eta {:.4}, kappa {:.4}", query[0], query[1], channel.eta, channel.kappa);
+            let at = format!(
+                "mu {:.4}, alpha {:.4}, eta {:.4}, kappa {:.4}",
+                query[0], query[1], channel.eta, channel.kappa
+            );
             let (slice_error, full_error) = (stored[k] - exact.mean[k], full_value - exact.mean[k]);
             if slice_error.abs() >= worst_slice.0 {
                 worst_slice = (slice_error.abs(), at.clone());

@@ -108,7 +108,11 @@ impl Interval {
 
 impl std::fmt::Display for Interval {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.is_point() { write!(f, "{}", short(self.lo)) } else { write!(f, "[{}, {}]", short(self.lo), short(self.hi)) }
+        if self.is_point() {
+            write!(f, "{}", short(self.lo))
+        } else {
+            write!(f, "[{}, {}]", short(self.lo), short(self.hi))
+        }
     }
 }
 
@@ -193,7 +197,10 @@ impl Scene {
     /// Parse a scene; `origin` names it in errors, `default_name` is its name when it gives none.
     pub fn from_toml(text: &str, origin: &str, default_name: &str) -> Result<Self> {
         let document: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-            Error::invalid(origin, e.to_string().lines().map(str::trim_end).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" | "))
+            Error::invalid(
+                origin,
+                e.to_string().lines().map(str::trim_end).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" | "),
+            )
         })?;
         parse_scene(&document, origin, default_name)
     }
@@ -246,7 +253,10 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Resu
         let table = value.as_table().ok_or_else(|| Error::invalid(&where_, "must be a table ([[material]])"))?;
         let material = parse_material(table, &where_, index, defaults, &mut scene.warnings)?;
         if scene.materials.iter().any(|m: &Material| m.name == material.name) {
-            return Err(Error::invalid(where_, format!("the name `{}` is used twice; names must differ", material.name)));
+            return Err(Error::invalid(
+                where_,
+                format!("the name `{}` is used twice; names must differ", material.name),
+            ));
         }
         scene.materials.push(material);
     }
@@ -276,7 +286,9 @@ fn parse_material(
         None => Vec::new(),
         Some(value) => value
             .as_array()
-            .ok_or_else(|| Error::invalid(format!("{where_}: layer"), "must be an array of tables ([[material.layer]])"))?
+            .ok_or_else(|| {
+                Error::invalid(format!("{where_}: layer"), "must be an array of tables ([[material.layer]])")
+            })?
             .clone(),
     };
     if layers.is_empty() {
@@ -337,7 +349,12 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
                 Some(value) => {
                     let vary = value
                         .as_table()
-                        .ok_or_else(|| Error::invalid(format!("{where_}: vary"), "must be a table, e.g. vary = { alpha = [0.1, 0.4] }"))?
+                        .ok_or_else(|| {
+                            Error::invalid(
+                                format!("{where_}: vary"),
+                                "must be a table, e.g. vary = { alpha = [0.1, 0.4] }",
+                            )
+                        })?
                         .clone();
                     check_keys(&vary, INTERFACE_VARY_KEYS, &format!("{where_}: vary"))?;
                     vary
@@ -353,7 +370,10 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
             let sigma_s = rgb(table, "sigma_s", where_)?.unwrap_or([0.0; 3]);
             let sigma_k = rgb(table, "sigma_k", where_)?.unwrap_or([0.0; 3]);
             let Some(depth) = table.get("depth") else {
-                return Err(Error::invalid(where_, "a medium without `depth`; give its thickness, a finite number > 0"));
+                return Err(Error::invalid(
+                    where_,
+                    "a medium without `depth`; give its thickness, a finite number > 0",
+                ));
             };
             let depth = number(depth, &format!("{where_}: depth"))?;
             if !(depth.is_finite() && depth > 0.0) {
@@ -368,7 +388,9 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
             }
             Ok(Layer::Medium(Medium { sigma_s, sigma_k, depth, g }))
         }
-        other => Err(Error::invalid(format!("{where_}: type"), format!("`{other}`; allowed: \"interface\", \"medium\""))),
+        other => {
+            Err(Error::invalid(format!("{where_}: type"), format!("`{other}`; allowed: \"interface\", \"medium\"")))
+        }
     }
 }
 
@@ -428,7 +450,9 @@ fn choice<T: serde::de::DeserializeOwned>(table: &toml::Table, key: &str, where_
         "albedo" => "\"fgd\", \"belcour\", \"karis\"",
         _ => "\"table\", \"fit\", \"off\"",
     };
-    T::deserialize(value.clone()).map(Some).map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
+    T::deserialize(value.clone())
+        .map(Some)
+        .map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
 }
 
 /// One number for all channels, or `[r, g, b]`, each admitted by `bound`.
@@ -460,7 +484,10 @@ fn rgb(table: &toml::Table, key: &str, where_: &str) -> Result<Option<Rgb<f64>>>
 fn range(vary: &toml::Table, key: &str, where_: &str, bound: Bound) -> Result<Option<Interval>> {
     let Some(value) = vary.get(key) else { return Ok(None) };
     let key = format!("{where_}: vary.{key}");
-    let items = value.as_array().filter(|a| a.len() == 2).ok_or_else(|| Error::invalid(&key, format!("{value}; give a range [lo, hi]")))?;
+    let items = value
+        .as_array()
+        .filter(|a| a.len() == 2)
+        .ok_or_else(|| Error::invalid(&key, format!("{value}; give a range [lo, hi]")))?;
     let (lo, hi) = (number(&items[0], &key)?, number(&items[1], &key)?);
     for x in [lo, hi] {
         if !bound.admits(x) {
@@ -490,7 +517,10 @@ fn rgb_or_range(
         (None, Some(default)) => Ok([Interval::point(default); 3]),
         (None, None) => Err(Error::invalid(
             where_,
-            format!("an interface without `{key}`; give one number or [r, g, b] ({}), or vary.{key} = [lo, hi]", bound.allowed()),
+            format!(
+                "an interface without `{key}`; give one number or [r, g, b] ({}), or vary.{key} = [lo, hi]",
+                bound.allowed()
+            ),
         )),
     }
 }
@@ -501,7 +531,10 @@ fn scalar_or_range(table: &toml::Table, vary: &toml::Table, key: &str, where_: &
         return Ok(range);
     }
     let Some(value) = table.get(key) else {
-        return Err(Error::invalid(where_, format!("an interface without `{key}`; give a number from 0 to 1, or vary.{key} = [lo, hi]")));
+        return Err(Error::invalid(
+            where_,
+            format!("an interface without `{key}`; give a number from 0 to 1, or vary.{key} = [lo, hi]"),
+        ));
     };
     let key = format!("{where_}: {key}");
     let x = number(value, &key)?;

@@ -20,7 +20,8 @@
 //! specialised `(mu, alpha)` slice per site with one channel per distinct index
 //! ([`crate::recipes::slices`]); where a texture varies an index, the full table over the sub-range
 //! the lookups reach. Sub-ranges are whole nodes of the full table's grid plus `margin_nodes` on
-//! each side, so slice nodes coincide with full-table nodes.
+//! each side, so slice nodes coincide with full-table nodes; a roughness that never varies gets a
+//! node exactly at its value instead, so that it is read with no interpolation in alpha.
 
 use std::fmt;
 
@@ -30,16 +31,16 @@ use super::{AlbedoPath, FluxModel, Interval, Layer, Scene, TirPath, short};
 use crate::config::Config;
 use crate::error::Result;
 use crate::formats::FileFormat;
-use crate::packing::Packing;
 use crate::formats::manifest::{LeftOutRecord, PlanRecord, PlannedTableRecord};
+use crate::packing::Packing;
 use crate::physics::{ggx_to_hg, hg_to_ggx};
+use crate::recipes::TableRecipe;
 use crate::recipes::belcour::BelcourSettings;
 use crate::recipes::fgd::FgdSettings;
 use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
 use crate::recipes::slices::{SliceChannel, SliceOf, Slices};
 use crate::recipes::tir::TirSettings;
-use crate::recipes::TableRecipe;
 use crate::table::Axis;
 
 /// What a lookup reads.
@@ -139,10 +140,8 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
                 break;
             }
             // Cosines of the transmitted mean direction: a ray refracting at the smallest index.
-            let mu_below = Interval::new(
-                (0..3).map(|c| refracted_cosine(mu_down.lo, eta[c].lo)).fold(1.0, f64::min),
-                1.0,
-            );
+            let mu_below =
+                Interval::new((0..3).map(|c| refracted_cosine(mu_down.lo, eta[c].lo)).fold(1.0, f64::min), 1.0);
             let lobe_alpha_below = lobe_alpha_lo.max(lobe_roughness(interface.alpha.lo));
             // Light that crosses comes back up only if something lies below.
             let has_below = k + 1 < material.layers.len();
@@ -151,18 +150,42 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
                     if eta[c].lo < 1.0 {
                         let eta_down = Interval::new(eta[c].lo, eta[c].hi.min(1.0));
                         let tir = LookupKind::Tir(material.tir);
-                        lookups.push(site(tir, "down", c, mu_down, Interval::new(lobe_alpha_lo, 1.0), eta_down, Interval::point(0.0)));
+                        lookups.push(site(
+                            tir,
+                            "down",
+                            c,
+                            mu_down,
+                            Interval::new(lobe_alpha_lo, 1.0),
+                            eta_down,
+                            Interval::point(0.0),
+                        ));
                     }
                 }
                 if has_below {
                     for c in 0..3 {
                         let eta_up = eta[c].reciprocal();
                         let albedo = LookupKind::Albedo(material.albedo);
-                        lookups.push(site(albedo, "from below", c, mu_below, interface.alpha, eta_up, Interval::point(0.0)));
+                        lookups.push(site(
+                            albedo,
+                            "from below",
+                            c,
+                            mu_below,
+                            interface.alpha,
+                            eta_up,
+                            Interval::point(0.0),
+                        ));
                         if eta_up.lo < 1.0 {
                             let eta_up = Interval::new(eta_up.lo, eta_up.hi.min(1.0));
                             let tir = LookupKind::Tir(material.tir);
-                            lookups.push(site(tir, "up", c, mu_below, Interval::new(lobe_alpha_below, 1.0), eta_up, Interval::point(0.0)));
+                            lookups.push(site(
+                                tir,
+                                "up",
+                                c,
+                                mu_below,
+                                Interval::new(lobe_alpha_below, 1.0),
+                                eta_up,
+                                Interval::point(0.0),
+                            ));
                         }
                     }
                 }
@@ -263,8 +286,7 @@ impl Plan {
 pub fn recipe_texel_bytes(recipe: &dyn TableRecipe) -> Result<u64> {
     let nodes: usize = recipe.axes()?.iter().map(|a| a.count).product();
     let output = recipe.output();
-    let value_bytes =
-        if output.formats.iter().all(|&f| f == FileFormat::Bin) { 4 } else { output.precision.bytes() };
+    let value_bytes = if output.formats.iter().all(|&f| f == FileFormat::Bin) { 4 } else { output.precision.bytes() };
     Ok((nodes * recipe.channel_count() * value_bytes) as u64)
 }
 
@@ -278,9 +300,9 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let full_tir_axes = config.tir.axes()?;
 
     // Albedo on the FGD path: a slice per site of fixed indices, the 4D table over the hull of the rest.
-    let fgd_lookups: Vec<&Lookup> =
-        lookups.iter().filter(|l| l.kind == LookupKind::Albedo(AlbedoPath::Fgd)).collect();
-    let (fixed, varying): (Vec<&Lookup>, Vec<&Lookup>) = fgd_lookups.iter().partition(|l| site_is_fixed(l, &fgd_lookups));
+    let fgd_lookups: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Albedo(AlbedoPath::Fgd)).collect();
+    let (fixed, varying): (Vec<&Lookup>, Vec<&Lookup>) =
+        fgd_lookups.iter().partition(|l| site_is_fixed(l, &fgd_lookups));
     for site in sites(&fixed) {
         let slices = slice_of(
             "fgd",
@@ -322,7 +344,8 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             .iter()
             .map(|site| format!("{}: an index varies, {}", site_label(site), ranges_label(site)))
             .collect();
-        let record = record_of(&settings, "FGD 4D over the sub-range the lookups reach, on the full table's grid", reasons)?;
+        let record =
+            record_of(&settings, "FGD 4D over the sub-range the lookups reach, on the full table's grid", reasons)?;
         tables.push(PlannedTable { record, build: PlannedBuild::Fgd(settings) });
     } else {
         let bytes = recipe_texel_bytes(&config.fgd)?;
@@ -355,7 +378,12 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         }
         let mut reasons: Vec<String> = materials_of(&users)
             .into_iter()
-            .map(|m| format!("{m}: albedo = \"{}\"; 2D, the coefficients of every (eta, kappa) are computed in the shader", settings.name()))
+            .map(|m| {
+                format!(
+                    "{m}: albedo = \"{}\"; 2D, the coefficients of every (eta, kappa) are computed in the shader",
+                    settings.name()
+                )
+            })
             .collect();
         if path == AlbedoPath::Belcour && users.iter().any(|l| l.eta.lo < 1.0 && l.kappa.hi == 0.0) {
             reasons.push(
@@ -368,18 +396,29 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
 
     // TIR.
     let tir_lookups: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(TirPath::Table)).collect();
-    for (path, why) in [(TirPath::Fit, "tir = \"fit\": the fitted analytic form replaces the table (`tmlut fit tir`)"), (TirPath::Off, "tir = \"off\"")] {
+    for (path, why) in [
+        (TirPath::Fit, "tir = \"fit\": the fitted analytic form replaces the table (`tmlut fit tir`)"),
+        (TirPath::Off, "tir = \"off\""),
+    ] {
         let skipped: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(path)).collect();
         for site in sites(&skipped) {
             left_out.push(LeftOutRecord { what: format!("TIR lookups of {}", site_label(&site)), reason: why.into() });
         }
     }
-    let (fixed, varying): (Vec<&Lookup>, Vec<&Lookup>) = tir_lookups.iter().partition(|l| site_is_fixed(l, &tir_lookups));
+    let (fixed, varying): (Vec<&Lookup>, Vec<&Lookup>) =
+        tir_lookups.iter().partition(|l| site_is_fixed(l, &tir_lookups));
     let slices_before = tables.len();
     for site in sites(&fixed) {
         let alpha_needed = Interval::new(site.iter().map(|l| l.alpha.lo).fold(1.0, f64::min), 1.0);
-        let slices =
-            slice_of("tir", SliceOf::Tir(config.tir.clone()), &site, &full_tir_axes[0], &full_tir_axes[1], alpha_needed, margin)?;
+        let slices = slice_of(
+            "tir",
+            SliceOf::Tir(config.tir.clone()),
+            &site,
+            &full_tir_axes[0],
+            &full_tir_axes[1],
+            alpha_needed,
+            margin,
+        )?;
         add_slices(&mut tables, slices, &site, "TIR");
     }
     let tir_slices = tables.len() - slices_before;
@@ -470,11 +509,16 @@ fn materials_of(lookups: &[&Lookup]) -> Vec<String> {
 
 fn site_label(site: &[&Lookup]) -> String {
     let l = site[0];
-    if l.layer == 0 { format!("{}, {}", l.material, l.direction) } else { format!("{}, layer {} {}", l.material, l.layer, l.direction) }
+    if l.layer == 0 {
+        format!("{}, {}", l.material, l.direction)
+    } else {
+        format!("{}, layer {} {}", l.material, l.layer, l.direction)
+    }
 }
 
 fn ranges_label(site: &[&Lookup]) -> String {
-    let hull = |f: fn(&Lookup) -> Interval| site.iter().map(|l| f(l)).reduce(Interval::hull).expect("a site has lookups");
+    let hull =
+        |f: fn(&Lookup) -> Interval| site.iter().map(|l| f(l)).reduce(Interval::hull).expect("a site has lookups");
     format!("mu {}, alpha {}, eta {}, kappa {}", hull(|l| l.mu), hull(|l| l.alpha), hull(|l| l.eta), hull(|l| l.kappa))
 }
 
@@ -495,7 +539,11 @@ fn slice_of(
         let (eta, kappa) = (l.eta.lo, l.kappa.lo);
         match channels.iter_mut().find(|c| c.eta == eta && c.kappa == kappa) {
             Some(channel) => channel.used_by.push_str(&format!(", {}", CHANNEL_NAMES[l.channel])),
-            None => channels.push(SliceChannel { eta, kappa, used_by: format!("{}: {}", site_label(site), CHANNEL_NAMES[l.channel]) }),
+            None => channels.push(SliceChannel {
+                eta,
+                kappa,
+                used_by: format!("{}: {}", site_label(site), CHANNEL_NAMES[l.channel]),
+            }),
         }
     }
     let direction = first.direction.replace(' ', "-");
@@ -503,7 +551,11 @@ fn slice_of(
         name: format!("{prefix}_{}_l{}_{direction}", file_safe(&first.material), first.layer),
         of,
         mu: covering_axis(full_mu, mu_needed, margin, false)?,
-        alpha: covering_axis(full_alpha, alpha_needed, margin, false)?,
+        alpha: if alpha_needed.is_point() {
+            exact_node_axis(full_alpha, alpha_needed.lo)?
+        } else {
+            covering_axis(full_alpha, alpha_needed, margin, false)?
+        },
         lookup_mu: [mu_needed.lo, mu_needed.hi],
         lookup_alpha: [alpha_needed.lo, alpha_needed.hi],
         channels,
@@ -600,6 +652,14 @@ pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool)
     Axis::node_aligned(full.name.clone(), node(first), node(last), last - first + 1)
 }
 
+/// Two nodes of `full`'s spacing, the first exactly at `value` (the last, at the end of the axis):
+/// a parameter that never varies is then read at a node, with no interpolation error.
+fn exact_node_axis(full: &Axis, value: f64) -> Result<Axis> {
+    let spacing = (full.end - full.start) / (full.count - 1) as f64;
+    let (start, end) = if value + spacing <= full.end { (value, value + spacing) } else { (value - spacing, value) };
+    Axis::node_aligned(full.name.clone(), start, end, 2)
+}
+
 /// A material name as it may appear in a file name.
 fn file_safe(name: &str) -> String {
     name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c.to_ascii_lowercase() } else { '-' }).collect()
@@ -631,15 +691,20 @@ impl fmt::Display for Plan {
                 LookupKind::Tir(TirPath::Off) => "TIR (off)".to_string(),
                 LookupKind::Gd => "GD".to_string(),
             };
-            let channels: Vec<String> = site
-                .iter()
-                .map(|l| format!("{} eta {} kappa {}", CHANNEL_NAMES[l.channel], l.eta, l.kappa))
-                .collect();
+            let channels: Vec<String> =
+                site.iter().map(|l| format!("{} eta {} kappa {}", CHANNEL_NAMES[l.channel], l.eta, l.kappa)).collect();
             let l = site[0];
             if l.kind == LookupKind::Gd {
                 writeln!(f, "  {:<34} {kind}: mu {}, alpha {}", site_label(&site), l.mu, l.alpha)?;
             } else {
-                writeln!(f, "  {:<34} {kind}: mu {}, alpha {}; {}", site_label(&site), l.mu, l.alpha, channels.join("; "))?;
+                writeln!(
+                    f,
+                    "  {:<34} {kind}: mu {}, alpha {}; {}",
+                    site_label(&site),
+                    l.mu,
+                    l.alpha,
+                    channels.join("; ")
+                )?;
             }
         }
         writeln!(f, "\nTables built:")?;

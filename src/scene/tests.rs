@@ -22,7 +22,8 @@ fn error(text: &str) -> String {
     parse(text).unwrap_err().to_string()
 }
 
-const ONE_LAYER: &str = "[[material]]\nname = \"m\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
+const ONE_LAYER: &str =
+    "[[material]]\nname = \"m\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
 
 #[test]
 fn a_minimal_scene_takes_the_defaults() {
@@ -40,7 +41,10 @@ fn a_minimal_scene_takes_the_defaults() {
 #[test]
 fn bad_input_names_the_material_the_layer_and_what_is_allowed() {
     let e = error(&ONE_LAYER.replace("alpha = 0.1", "alpha = 0.1\nroughness = 0.2"));
-    assert!(e.contains("material 1 (`m`), layer 1") && e.contains("unknown key `roughness`") && e.contains("allowed:"), "{e}");
+    assert!(
+        e.contains("material 1 (`m`), layer 1") && e.contains("unknown key `roughness`") && e.contains("allowed:"),
+        "{e}"
+    );
     let e = error(&ONE_LAYER.replace("eta = 1.5", "eta = -1.5"));
     assert!(e.contains("layer 1: eta") && e.contains("-1.5") && e.contains("> 0"), "{e}");
     let e = error(&ONE_LAYER.replace("eta = 1.5", "eta = [1.5, nan, 1.5]"));
@@ -117,8 +121,9 @@ fn copper_pot_gets_three_fgd_slices_and_one_tir_slice() {
     assert_eq!((top.mu.start, top.mu.end, top.mu.count), (0.0, 1.0, 64));
     assert_eq!(top.channels.len(), 1);
     assert_eq!((top.channels[0].eta, top.channels[0].kappa), (1.1, 0.0));
-    // Roughness 0.01 lies between the first two nodes (spacing 1/63); one node of margin above.
-    assert_eq!((top.alpha.start, top.alpha.count), (0.0, 3));
+    // A roughness that never varies gets a node of its own: 0.01 and 0.01 + 1/63.
+    assert_eq!((top.alpha.start, top.alpha.count), (0.01, 2));
+    assert!((top.alpha.end - (0.01 + 1.0 / 63.0)).abs() < 1e-15);
     // Below the varnish, cosines start at the refraction of grazing light: sqrt(1 - 1/1.1^2).
     let critical = (1.0 - 1.0 / (1.1f64 * 1.1)).sqrt();
     let below = slices(&plan, "fgd_varnished-copper_l1_from-below");
@@ -138,7 +143,10 @@ fn copper_pot_gets_three_fgd_slices_and_one_tir_slice() {
     assert!(left_out(&plan, "gd").contains("6-flux"));
     assert!(left_out(&plan, "belcour").contains("belcour path"));
     assert_eq!(plan.bytes, plan.tables.iter().map(|t| t.record.bytes).sum::<u64>());
-    assert_eq!(plan.default_set_bytes, (64usize.pow(4) * 4 + 64 * 64 * 4 + 64usize.pow(3) * 4 + 128 * 128 * 4 * 2 + 512 * 512 * 2 * 2) as u64);
+    assert_eq!(
+        plan.default_set_bytes,
+        (64usize.pow(4) * 4 + 64 * 64 * 4 + 64usize.pow(3) * 4 + 128 * 128 * 4 * 2 + 512 * 512 * 2 * 2) as u64
+    );
     assert!(plan.bytes < 16 * 1024, "{}", plan.bytes);
 }
 
@@ -151,9 +159,9 @@ fn profiling_scene_merges_equal_colour_channels() {
     assert!(conductor.channels[1].used_by.ends_with("G, B"), "{}", conductor.channels[1].used_by);
     assert!((conductor.channels[0].eta - 1.0 / 1.5).abs() < 1e-15);
     assert!((conductor.channels[0].kappa - 1.0 / 1.5).abs() < 1e-15);
-    // The coat's roughness 0.1 needs only the nodes around it.
+    // The coat's roughness 0.1 is read at a node of its own.
     let coat = slices(&plan, "fgd_coated-conductor_l1_from-above");
-    assert!(coat.alpha.start < 0.1 && coat.alpha.end > 0.1 && coat.alpha.count == 4, "{:?}", coat.alpha);
+    assert_eq!((coat.alpha.start, coat.alpha.count), (0.1, 2));
     // TIR through the coat for lobes at least as rough as the coat.
     let tir = slices(&plan, "tir_coated-conductor_l1_up");
     assert!(tir.alpha.start <= 0.1 && tir.alpha.start > 0.05 && tir.alpha.end == 1.0, "{:?}", tir.alpha);
@@ -171,7 +179,8 @@ fn scattering_stack_needs_gd_and_every_cosine_below_the_medium() {
     let tir = slices(&plan, "tir_scattering-stack_l1_up");
     assert!(tir.alpha.start > 0.35 && tir.alpha.start <= 0.4, "{:?}", tir.alpha);
     // The same stack in the 2-flux model: no GD, the medium only absorbs, and a warning says so.
-    let two_flux = include_str!("../../luts/scenes/scattering.toml").replace("model = \"6-flux\"", "model = \"2-flux\"");
+    let two_flux =
+        include_str!("../../luts/scenes/scattering.toml").replace("model = \"6-flux\"", "model = \"2-flux\"");
     let scene = parse(&two_flux).unwrap();
     assert!(scene.warnings.iter().any(|w| w.contains("sigma_s is ignored")), "{:?}", scene.warnings);
     let plan = super::plan::plan(&scene, &Config::default()).unwrap();
@@ -196,7 +205,9 @@ fn textured_ranges_give_sub_ranges_and_a_varying_index_the_4d_table() {
     assert_eq!(fgd.kappa_count, 2);
     assert!((fgd.alpha_range[0]..=fgd.alpha_range[1]).contains(&0.2));
     let full = Config::default().fgd;
-    assert!(fgd.eta_count * fgd.kappa_count * fgd.alpha_count < full.eta_count * full.kappa_count * full.alpha_count / 100);
+    assert!(
+        fgd.eta_count * fgd.kappa_count * fgd.alpha_count < full.eta_count * full.kappa_count * full.alpha_count / 100
+    );
 }
 
 #[test]
