@@ -66,10 +66,12 @@ pub fn resolve_tables(only: Option<&[String]>) -> Result<Vec<&'static str>> {
     Ok(selected)
 }
 
+/// Integrates one table.
+pub type Integration<'a> = Box<dyn Fn(&dyn Progress) -> Result<TableBuild> + 'a>;
+
 /// One table to integrate and how to write it.
 pub struct Job<'a> {
-    /// Integrates the table.
-    pub run: Box<dyn Fn(&dyn Progress) -> Result<TableBuild> + 'a>,
+    pub run: Integration<'a>,
     pub output: OutputConfig,
     /// Volume-texture packings written beside it (FGD only).
     pub packings: Vec<Packing>,

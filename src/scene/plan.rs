@@ -146,9 +146,9 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
             // Light that crosses comes back up only if something lies below.
             let has_below = k + 1 < material.layers.len();
             if !matched {
-                for c in 0..3 {
-                    if eta[c].lo < 1.0 {
-                        let eta_down = Interval::new(eta[c].lo, eta[c].hi.min(1.0));
+                for (c, eta) in eta.iter().enumerate() {
+                    if eta.lo < 1.0 {
+                        let eta_down = Interval::new(eta.lo, eta.hi.min(1.0));
                         let tir = LookupKind::Tir(material.tir);
                         lookups.push(site(
                             tir,
@@ -162,8 +162,8 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
                     }
                 }
                 if has_below {
-                    for c in 0..3 {
-                        let eta_up = eta[c].reciprocal();
+                    for (c, eta) in eta.iter().enumerate() {
+                        let eta_up = eta.reciprocal();
                         let albedo = LookupKind::Albedo(material.albedo);
                         lookups.push(site(
                             albedo,
