@@ -69,6 +69,20 @@ impl Texture3D {
         self.texels[x + self.width * (y + self.height * z)]
     }
 
+    /// `Load(int4(int(x), int(y), int(z), 0))`: the texel at integer indices given as f32 (converted
+    /// toward zero, as HLSL `int()` and WGSL `i32()` do; NaN as 0). Out of range reads 0, as
+    /// Direct3D specifies for `Load`; the lookups here never read out of range.
+    pub fn load(&self, x: f32, y: f32, z: f32) -> f32 {
+        let index = |v: f32, n: usize| {
+            let i = v as i64; // saturating, toward zero, NaN -> 0
+            (0..n as i64).contains(&i).then_some(i as usize)
+        };
+        match (index(x, self.width), index(y, self.height), index(z, self.depth)) {
+            (Some(x), Some(y), Some(z)) => self.texel(x, y, z),
+            _ => 0.0,
+        }
+    }
+
     /// `SampleLevel(sampler, float3(u, v, w), 0)` with a linear, clamp-addressed sampler.
     pub fn sample_trilinear(&self, u: f32, v: f32, w: f32, filter: Filter) -> f32 {
         let (x0, x1, fx) = linear_taps(u, self.width, filter);
@@ -107,6 +121,15 @@ mod tests {
         assert_eq!(t.sample_trilinear(0.0, 0.0, 0.0, Filter::Exact), 0.0);
         assert_eq!(t.sample_trilinear(-3.0, 7.0, 2.0, Filter::Exact), 120.0);
         assert_eq!(t.sample_trilinear(f32::NAN, 0.0, 0.0, Filter::Exact), 0.0);
+    }
+
+    #[test]
+    fn load_reads_one_texel_as_stored_and_zero_out_of_range() {
+        let t = ramp();
+        assert_eq!(t.load(3.0, 2.0, 1.0), 123.0);
+        assert_eq!(t.load(1.9, 0.0, 0.0), 1.0);
+        assert_eq!(t.load(4.0, 0.0, 0.0), 0.0);
+        assert_eq!(t.load(-1.0, 0.0, 1.0), 0.0);
     }
 
     #[test]
