@@ -320,3 +320,42 @@ fn shader_text_is_the_evaluated_program() {
     assert!(wgsl.contains("textureSampleLevel(tex, linear_clamp, vec3<f32>(x1, y1, z), 0.0).r"), "{wgsl}");
     assert!(hlsl.contains("return (v0 + (t_kappa * (v1 - v0)));"), "{hlsl}");
 }
+
+#[test]
+fn node_bracket_is_the_tables_bracket_with_exact_weights() {
+    // The lower node and weight the lossless lookup computes, against `Axis::bracket` in f64 at
+    // the same f32 input, at and around every node and at rough points in between. For N = 32 the
+    // rounded product `fl(u * 31)` lands on the node above the true bracket at the f32 node
+    // positions themselves; the correction must move it back.
+    for n in [5, 32, 64, 128] {
+        let axis = Axis::node_aligned("mu", 0.0, 1.0, n).unwrap();
+        let mut program = Program::new("bracket", vec!["mu"]);
+        let (k, t) = node_bracket(&mut program, &axis);
+        let mut inputs: Vec<f32> = (0..n)
+            .flat_map(|node| {
+                let at = (node as f64 / (n - 1) as f64) as f32;
+                (-3i32..=3).map(move |step| f32::from_bits((at.to_bits() as i32 + step).max(0) as u32).min(1.0))
+            })
+            .collect();
+        inputs.extend((0..2000).map(|j| hash01(j) as f32));
+        let texture = Texture3D { width: 1, height: 1, depth: 1, texels: vec![0.0] };
+        let (mut crossings, mut worst_weight) = (0, 0.0f64);
+        for &mu in &inputs {
+            let (lower, _, weight) = axis.bracket(mu as f64);
+            program.result = k.clone();
+            assert_eq!(program.evaluate(&[mu], &texture, Filter::Exact), lower as f32, "N {n}, mu {mu:e}");
+            program.result = t.clone();
+            let shader_weight = program.evaluate(&[mu], &texture, Filter::Exact) as f64;
+            worst_weight = worst_weight.max((shader_weight - weight).abs());
+            let rounded_floor = ((mu * (n - 1) as f32).floor() as usize).min(n - 2);
+            crossings += usize::from(rounded_floor != lower);
+        }
+        // Power-of-two counts: only the last subtraction rounds (2^-25 for weights below 1);
+        // otherwise the product's rounding, half an ulp of a node index below 8.
+        let bound = if n.is_power_of_two() { 2f64.powi(-25) } else { 2f64.powi(-22) };
+        assert!(worst_weight <= bound, "N {n}: weight off by {worst_weight:e}");
+        if n == 32 {
+            assert!(crossings > 0, "the test must reach the corrected case");
+        }
+    }
+}
