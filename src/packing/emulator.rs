@@ -8,12 +8,14 @@
 //! value = (1 - f) * T[clamp(i0)] + f * T[clamp(i0 + 1)]     (per axis, x first, then y, then z)
 //! ```
 //!
-//! Real hardware does not filter in f32: both APIs only require the fractional position `f` to
-//! carry 8 bits (D3D: "at least 8 bits of subtexel precision"; Vulkan: `subTexelPrecisionBits`,
-//! 8 on every desktop GPU). [`Filter::Exact`] computes `f` in f32 as written above; it is the mode
-//! the packings are designed and tested against, since it isolates the packing's own error.
-//! [`Filter::QuantisedWeights`] rounds `f` to `bits` fractional bits, the error a real GPU adds on
-//! top, reported separately.
+//! Real hardware does not filter in f32: the fractional position `f` need only carry a few bits
+//! (Direct3D 11 and 12: `D3D12_SUBTEXEL_FRACTIONAL_BIT_COUNT` = 8, Direct3D 10: 6; Vulkan:
+//! `subTexelPrecisionBits`, required at least 4, commonly 8 on desktop GPUs). [`Filter::Exact`]
+//! computes `f` in f32 as written above, the best a GPU could do; it isolates a lookup's own
+//! error (its f32 coordinate arithmetic). [`Filter::QuantisedWeights`] rounds `f` to `bits`
+//! fractional bits, the error a real GPU adds on top, reported separately. Neither touches
+//! [`Texture3D::load`]: a lookup that loads texels and computes its weights itself gets the same
+//! result on any GPU.
 
 /// How the filter weight `f` is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -558,7 +558,11 @@ impl PackedFgd {
             self.packing.file_stem() + ".dds",
             self.precision
         );
-        h.push_str("Bind the texture as linear data with a sampler: linear min/mag/mip filter, clamp addressing, mip level 0.\n");
+        if self.program.uses_sampler() {
+            h.push_str("Bind the texture as linear data with a sampler: linear min/mag/mip filter, clamp addressing, mip level 0.\n");
+        } else {
+            h.push_str("Bind the texture as linear data; no sampler: the lookup loads texels of mip level 0 (in WebGPU, sample type unfilterable-float serves).\n");
+        }
         h.push_str("Returns FGD(mu, alpha, eta, kappa), interpolated as the 4D table is.\n\n");
         for line in &self.layout {
             h.push_str(line);
