@@ -271,6 +271,57 @@ fn tile_of(program: &mut Program, k: &Expr, columns: usize, suffix: &str) -> (Ex
     (row, column)
 }
 
+/// The `lossless` lookup: the bracket and exact weight of every axis ([`node_bracket`]), texel
+/// indices of the cell's 16 corners in the kappa tiles `k_kappa` and `k_kappa + 1` of a grid of
+/// `columns`, 16 `Load`s, and 15 lerps (mu, alpha, eta, then kappa), as `Table::interpolate`.
+fn load_lookup(program: &mut Program, axes: &[Axis], columns: usize) {
+    let (n_mu, n_alpha) = (axes[0].count, axes[1].count);
+    let [(k_mu, t_mu), (k_alpha, t_alpha), (k_eta, t_eta), (k_kappa, t_kappa)] =
+        [0, 1, 2, 3].map(|d| node_bracket(program, &axes[d]));
+    let one = || Expr::c(1.0);
+    // Texel indices of the cell's corners: integers, exact in f32.
+    let z = [k_eta.clone(), program.local("z1", k_eta.add(one()))];
+    let mut x = Vec::new();
+    let mut y = Vec::new();
+    for (j, k) in [k_kappa.clone(), program.local("kappa1", k_kappa.add(one()))].iter().enumerate() {
+        let (row, column) = tile_of(program, k, columns, &j.to_string());
+        let x0 = program.local(&format!("x{j}0"), column.mul(Expr::c(n_mu as f32)).add(k_mu.clone()));
+        let x1 = program.local(&format!("x{j}1"), x0.clone().add(one()));
+        let y0 = program.local(&format!("y{j}0"), row.mul(Expr::c(n_alpha as f32)).add(k_alpha.clone()));
+        let y1 = program.local(&format!("y{j}1"), y0.clone().add(one()));
+        x.push([x0, x1]);
+        y.push([y0, y1]);
+    }
+    // v<mu><alpha><eta><kappa>: the 16 corners, each one texel as stored.
+    let mut v = std::collections::BTreeMap::new();
+    for (alpha, eta, kappa) in corners3() {
+        for (mu, x_mu) in x[kappa].iter().enumerate() {
+            let name = format!("v{mu}{alpha}{eta}{kappa}");
+            let fetched = program.load(&name, [x_mu, &y[kappa][alpha], &z[eta]]);
+            v.insert((mu, alpha, eta, kappa), fetched);
+        }
+    }
+    // Lerp away one axis at a time, mu, alpha, eta, then kappa (15 lerps); a local's
+    // digits are the corner's remaining indices.
+    let mut m = std::collections::BTreeMap::new();
+    for (alpha, eta, kappa) in corners3() {
+        let (a, b) = (v[&(0, alpha, eta, kappa)].clone(), v[&(1, alpha, eta, kappa)].clone());
+        m.insert((alpha, eta, kappa), program.local(&format!("m{alpha}{eta}{kappa}"), lerp(a, b, t_mu.clone())));
+    }
+    let mut ma = std::collections::BTreeMap::new();
+    for (eta, kappa) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let (a, b) = (m[&(0, eta, kappa)].clone(), m[&(1, eta, kappa)].clone());
+        ma.insert((eta, kappa), program.local(&format!("ma{eta}{kappa}"), lerp(a, b, t_alpha.clone())));
+    }
+    let along_eta: Vec<Expr> = (0..2)
+        .map(|kappa| {
+            let (a, b) = (ma[&(0, kappa)].clone(), ma[&(1, kappa)].clone());
+            program.local(&format!("mae{kappa}"), lerp(a, b, t_eta.clone()))
+        })
+        .collect();
+    program.result = lerp(along_eta[0].clone(), along_eta[1].clone(), t_kappa);
+}
+
 impl PackedFgd {
     /// Pack an FGD table (axes mu, alpha, eta, kappa; node-aligned) for storage in `precision`.
     pub fn pack(table: &Table, packing: Packing, precision: Precision) -> Result<Self> {
@@ -309,54 +360,7 @@ impl PackedFgd {
                 ];
                 let tile_text = format!("tile: column k mod {columns} along x, row floor(k / {columns}) along y");
                 if packing == Packing::Lossless {
-                    let [(k_mu, t_mu), (k_alpha, t_alpha), (k_eta, t_eta), (k_kappa, t_kappa)] =
-                        [0, 1, 2, 3].map(|d| node_bracket(&mut program, &axes[d]));
-                    let one = || Expr::c(1.0);
-                    // Texel indices of the cell's corners: integers, exact in f32.
-                    let z = [k_eta.clone(), program.local("z1", k_eta.add(one()))];
-                    let mut x = Vec::new();
-                    let mut y = Vec::new();
-                    for (j, k) in [k_kappa.clone(), program.local("kappa1", k_kappa.add(one()))].iter().enumerate() {
-                        let (row, column) = tile_of(&mut program, k, columns, &j.to_string());
-                        let x0 = program.local(&format!("x{j}0"), column.mul(Expr::c(n_mu as f32)).add(k_mu.clone()));
-                        let x1 = program.local(&format!("x{j}1"), x0.clone().add(one()));
-                        let y0 =
-                            program.local(&format!("y{j}0"), row.mul(Expr::c(n_alpha as f32)).add(k_alpha.clone()));
-                        let y1 = program.local(&format!("y{j}1"), y0.clone().add(one()));
-                        x.push([x0, x1]);
-                        y.push([y0, y1]);
-                    }
-                    // v<mu><alpha><eta><kappa>: the 16 corners, each one texel as stored.
-                    let mut v = std::collections::BTreeMap::new();
-                    for (alpha, eta, kappa) in corners3() {
-                        for mu in 0..2 {
-                            let name = format!("v{mu}{alpha}{eta}{kappa}");
-                            let fetched = program.load(&name, [&x[kappa][mu], &y[kappa][alpha], &z[eta]]);
-                            v.insert((mu, alpha, eta, kappa), fetched);
-                        }
-                    }
-                    // Lerp away one axis at a time, mu, alpha, eta, then kappa (15 lerps); a local's
-                    // digits are the corner's remaining indices.
-                    let mut m = std::collections::BTreeMap::new();
-                    for (alpha, eta, kappa) in corners3() {
-                        let (a, b) = (v[&(0, alpha, eta, kappa)].clone(), v[&(1, alpha, eta, kappa)].clone());
-                        m.insert(
-                            (alpha, eta, kappa),
-                            program.local(&format!("m{alpha}{eta}{kappa}"), lerp(a, b, t_mu.clone())),
-                        );
-                    }
-                    let mut ma = std::collections::BTreeMap::new();
-                    for (eta, kappa) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                        let (a, b) = (m[&(0, eta, kappa)].clone(), m[&(1, eta, kappa)].clone());
-                        ma.insert((eta, kappa), program.local(&format!("ma{eta}{kappa}"), lerp(a, b, t_alpha.clone())));
-                    }
-                    let along_eta: Vec<Expr> = (0..2)
-                        .map(|kappa| {
-                            let (a, b) = (ma[&(0, kappa)].clone(), ma[&(1, kappa)].clone());
-                            program.local(&format!("mae{kappa}"), lerp(a, b, t_eta.clone()))
-                        })
-                        .collect();
-                    program.result = lerp(along_eta[0].clone(), along_eta[1].clone(), t_kappa);
+                    load_lookup(&mut program, axes, columns);
                     layout.extend([
                         "No hardware filtering: the lookup computes the 4D interpolation weights in f32 (exact to 2^-25 for power-of-two node counts), loads the 16 texels of the cell and lerps them, mu, alpha, eta, then kappa.".to_string(),
                         "So it reproduces 4D multilinear interpolation to f32 rounding on any GPU (no 8-bit filter weights, no coordinate rounding), and needs no sampler; r32float needs no float32-filterable feature in WebGPU.".into(),
