@@ -131,7 +131,7 @@ enum Command {
         /// TOML configuration whose [fgd] masking the integral is computed with (default: built-in).
         #[arg(long)]
         config: Option<PathBuf>,
-        /// Comma-separated packings (default: all). Known: thesis, lossless.
+        /// Comma-separated packings (default: all). Known: thesis, lossless-filtered, lossless.
         #[arg(long, value_delimiter = ',')]
         packing: Option<Vec<String>>,
         /// Storage precision of the packed textures: f32 or f16.

@@ -138,7 +138,7 @@ pub struct FileEntry {
 /// How a table of more axes than a texture has is packed into one, and how to read it back.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PackingEntry {
-    /// The packing's name (`lossless`, `thesis`).
+    /// The packing's name (`lossless`, `lossless-filtered`, `thesis`).
     pub name: String,
     /// Whether every node of the source table is stored unchanged (up to the file's precision).
     pub lossless: bool,

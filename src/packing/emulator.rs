@@ -8,12 +8,14 @@
 //! value = (1 - f) * T[clamp(i0)] + f * T[clamp(i0 + 1)]     (per axis, x first, then y, then z)
 //! ```
 //!
-//! Real hardware does not filter in f32: both APIs only require the fractional position `f` to
-//! carry 8 bits (D3D: "at least 8 bits of subtexel precision"; Vulkan: `subTexelPrecisionBits`,
-//! 8 on every desktop GPU). [`Filter::Exact`] computes `f` in f32 as written above; it is the mode
-//! the packings are designed and tested against, since it isolates the packing's own error.
-//! [`Filter::QuantisedWeights`] rounds `f` to `bits` fractional bits, the error a real GPU adds on
-//! top, reported separately.
+//! Real hardware does not filter in f32: the fractional position `f` need only carry a few bits
+//! (Direct3D 11 and 12: `D3D12_SUBTEXEL_FRACTIONAL_BIT_COUNT` = 8, Direct3D 10: 6; Vulkan:
+//! `subTexelPrecisionBits`, required at least 4, commonly 8 on desktop GPUs). [`Filter::Exact`]
+//! computes `f` in f32 as written above, the best a GPU could do; it isolates a lookup's own
+//! error (its f32 coordinate arithmetic). [`Filter::QuantisedWeights`] rounds `f` to `bits`
+//! fractional bits, the error a real GPU adds on top, reported separately. Neither touches
+//! [`Texture3D::load`]: a lookup that loads texels and computes its weights itself gets the same
+//! result on any GPU.
 
 /// How the filter weight `f` is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -69,6 +71,20 @@ impl Texture3D {
         self.texels[x + self.width * (y + self.height * z)]
     }
 
+    /// `Load(int4(int(x), int(y), int(z), 0))`: the texel at integer indices given as f32 (converted
+    /// toward zero, as HLSL `int()` and WGSL `i32()` do; NaN as 0). Out of range reads 0, as
+    /// Direct3D specifies for `Load`; the lookups here never read out of range.
+    pub fn load(&self, x: f32, y: f32, z: f32) -> f32 {
+        let index = |v: f32, n: usize| {
+            let i = v as i64; // saturating, toward zero, NaN -> 0
+            (0..n as i64).contains(&i).then_some(i as usize)
+        };
+        match (index(x, self.width), index(y, self.height), index(z, self.depth)) {
+            (Some(x), Some(y), Some(z)) => self.texel(x, y, z),
+            _ => 0.0,
+        }
+    }
+
     /// `SampleLevel(sampler, float3(u, v, w), 0)` with a linear, clamp-addressed sampler.
     pub fn sample_trilinear(&self, u: f32, v: f32, w: f32, filter: Filter) -> f32 {
         let (x0, x1, fx) = linear_taps(u, self.width, filter);
@@ -107,6 +123,15 @@ mod tests {
         assert_eq!(t.sample_trilinear(0.0, 0.0, 0.0, Filter::Exact), 0.0);
         assert_eq!(t.sample_trilinear(-3.0, 7.0, 2.0, Filter::Exact), 120.0);
         assert_eq!(t.sample_trilinear(f32::NAN, 0.0, 0.0, Filter::Exact), 0.0);
+    }
+
+    #[test]
+    fn load_reads_one_texel_as_stored_and_zero_out_of_range() {
+        let t = ramp();
+        assert_eq!(t.load(3.0, 2.0, 1.0), 123.0);
+        assert_eq!(t.load(1.9, 0.0, 0.0), 1.0);
+        assert_eq!(t.load(4.0, 0.0, 0.0), 0.0);
+        assert_eq!(t.load(-1.0, 0.0, 1.0), 0.0);
     }
 
     #[test]

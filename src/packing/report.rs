@@ -139,10 +139,7 @@ pub fn thesis_as_shipped(thesis: &PackedFgd) -> Program {
     let eta = p.input("eta").mul(super::Expr::c(1.0 / eta_axis.end as f32)).mul(super::Expr::c(depth - 1.0));
     let kappa = p.input("kappa").mul(super::Expr::c(1.0 / kappa_axis.end as f32)).mul(super::Expr::c(halves - 1.0));
     let z = p.local("z", eta.add(kappa).mul(super::Expr::c(1.0 / (depth - 1.0))));
-    let zero = p.local("zero", super::Expr::c(0.0));
-    p.fetch("v0", [&x, &y, &z]);
-    let super::Expr::Local(t) = zero else { unreachable!() };
-    p.blend = (0, 0, t);
+    p.result = p.sample("v0", [&x, &y, &z]);
     p
 }
 
@@ -192,7 +189,7 @@ pub fn report(
             extent: [texture.width, texture.height, texture.depth],
             precision,
             bytes,
-            fetches: program.fetches.len(),
+            fetches: program.fetch_count(),
             vs_interpolation: against(&exact),
             vs_interpolation_quantised: against(&quantised),
             vs_integral,

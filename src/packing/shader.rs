@@ -1,11 +1,12 @@
-//! The lookup of a packed texture as one small program: f32 coordinate arithmetic, texture
-//! fetches, one final lerp. The same program is printed as HLSL and WGSL and evaluated in Rust
-//! through the [`emulator`](super::emulator), so the shader text a renderer pastes is, operation
-//! for operation, the code the tests and the error report run.
+//! The lookup of a packed texture as one small program: f32 arithmetic, texture reads (filtered
+//! samples or texel loads), a returned value. The same program is printed as HLSL and WGSL and
+//! evaluated in Rust through the [`emulator`](super::emulator), so the shader text a renderer
+//! pastes is, operation for operation, the code the tests and the error report run.
 //!
 //! Only operations that HLSL, WGSL and Rust's f32 define identically are used: `+ - *` (no
 //! division: a compiler may turn `x / c` into `x * (1 / c)`, so the program multiplies by
 //! reciprocal constants itself), `floor`, `min`, `max`, and `clamp` written as `min(max(x, lo), hi)`.
+//! Texel indices for loads are integers held exactly in f32 and converted with `int()`/`i32()`.
 
 use std::fmt::Write as _;
 
@@ -117,140 +118,189 @@ fn literal(v: f32) -> String {
     if text.contains('.') || text.contains('e') { text } else { format!("{text}.0") }
 }
 
-/// One `SampleLevel` of the packed texture at three locals `(u, v, w)`.
+/// One statement of a [`Program`]: an f32 value, or a read of the packed texture.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Fetch {
-    pub name: String,
-    pub coordinates: [usize; 3],
+pub enum Step {
+    /// An f32 value computed from inputs and earlier locals.
+    Value(Expr),
+    /// `SampleLevel` with the linear clamp sampler at three locals holding normalised
+    /// coordinates: the hardware filters (trilinear).
+    Sample([usize; 3]),
+    /// `Load` of one texel at three locals holding integer texel indices (exact in f32): no
+    /// sampler, no filtering, the texel as stored.
+    Load([usize; 3]),
 }
 
-/// The lookup: locals in order, then fetches, then `result = a + t * (b - a)` of two fetches.
+/// The lookup: named locals in order (values and texture reads), then the result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Program {
     /// Name of the shader function, e.g. `fgd_lossless`.
     pub function: String,
     pub inputs: Vec<&'static str>,
-    pub locals: Vec<(String, Expr)>,
-    pub fetches: Vec<Fetch>,
-    /// `(first fetch, second fetch, weight local)` of the final manual lerp.
-    pub blend: (usize, usize, usize),
+    pub locals: Vec<(String, Step)>,
+    /// The returned value.
+    pub result: Expr,
 }
 
 impl Program {
     pub fn new(function: impl Into<String>, inputs: Vec<&'static str>) -> Self {
-        Program { function: function.into(), inputs, locals: Vec::new(), fetches: Vec::new(), blend: (0, 0, 0) }
+        Program { function: function.into(), inputs, locals: Vec::new(), result: Expr::c(0.0) }
     }
 
     pub fn input(&self, name: &str) -> Expr {
         Expr::Input(self.inputs.iter().position(|i| *i == name).expect("the program declares this input"))
     }
 
-    /// Add a local; returns the expression that reads it.
-    pub fn local(&mut self, name: &str, value: Expr) -> Expr {
-        self.locals.push((name.to_string(), value));
+    fn push(&mut self, name: &str, step: Step) -> Expr {
+        self.locals.push((name.to_string(), step));
         Expr::Local(self.locals.len() - 1)
     }
 
-    pub fn fetch(&mut self, name: &str, [u, v, w]: [&Expr; 3]) -> usize {
-        let index = |e: &Expr| match e {
-            Expr::Local(i) => *i,
-            _ => panic!("a fetch reads locals"),
-        };
-        self.fetches.push(Fetch { name: name.to_string(), coordinates: [index(u), index(v), index(w)] });
-        self.fetches.len() - 1
+    /// Add a value local; returns the expression that reads it.
+    pub fn local(&mut self, name: &str, value: Expr) -> Expr {
+        self.push(name, Step::Value(value))
+    }
+
+    /// A trilinear `SampleLevel` at three locals (normalised coordinates).
+    pub fn sample(&mut self, name: &str, coordinates: [&Expr; 3]) -> Expr {
+        self.push(name, Step::Sample(coordinates.map(local_index)))
+    }
+
+    /// A texel `Load` at three locals (integer texel indices).
+    pub fn load(&mut self, name: &str, coordinates: [&Expr; 3]) -> Expr {
+        self.push(name, Step::Load(coordinates.map(local_index)))
+    }
+
+    /// Texture reads per lookup (samples and loads alike: each is one texture instruction).
+    pub fn fetch_count(&self) -> usize {
+        self.locals.iter().filter(|(_, s)| !matches!(s, Step::Value(_))).count()
+    }
+
+    /// Whether the lookup filters in hardware (and so takes a sampler).
+    pub fn uses_sampler(&self) -> bool {
+        self.locals.iter().any(|(_, s)| matches!(s, Step::Sample(_)))
     }
 
     /// Run the lookup through the emulator.
     pub fn evaluate(&self, inputs: &[f32], texture: &Texture3D, filter: Filter) -> f32 {
-        let mut locals = Vec::with_capacity(self.locals.len());
-        for (_, e) in &self.locals {
-            let v = e.eval(inputs, &locals);
+        let mut locals: Vec<f32> = Vec::with_capacity(self.locals.len());
+        for (_, step) in &self.locals {
+            let v = match step {
+                Step::Value(e) => e.eval(inputs, &locals),
+                Step::Sample(c) => {
+                    let [u, v, w] = c.map(|i| locals[i]);
+                    texture.sample_trilinear(u, v, w, filter)
+                }
+                Step::Load(c) => {
+                    let [x, y, z] = c.map(|i| locals[i]);
+                    texture.load(x, y, z)
+                }
+            };
             locals.push(v);
         }
-        let fetched: Vec<f32> = self
-            .fetches
-            .iter()
-            .map(|f| {
-                let [u, v, w] = f.coordinates.map(|i| locals[i]);
-                texture.sample_trilinear(u, v, w, filter)
-            })
-            .collect();
-        let (a, b, t) = self.blend;
-        // HLSL `lerp(a, b, t)` is specified as `a + t * (b - a)`; WGSL's `mix` is printed the same way.
-        fetched[a] + locals[t] * (fetched[b] - fetched[a])
+        self.result.eval(inputs, &locals)
+    }
+
+    fn text(&self, e: &Expr) -> String {
+        let mut text = String::new();
+        e.print(self, &mut text);
+        text
+    }
+
+    fn names(&self, c: &[usize; 3]) -> [&str; 3] {
+        c.map(|i| self.locals[i].0.as_str())
     }
 
     /// The lookup's statements without language syntax, for the manifest and the docs.
     pub fn statements(&self) -> Vec<String> {
-        let mut lines = Vec::new();
-        for (name, e) in &self.locals {
-            let mut text = String::new();
-            e.print(self, &mut text);
-            lines.push(format!("{name} = {text}"));
-        }
-        for f in &self.fetches {
-            let [u, v, w] = f.coordinates.map(|i| self.locals[i].0.as_str());
-            lines.push(format!("{} = sample_linear_clamp({u}, {v}, {w})", f.name));
-        }
-        let (a, b, t) = self.blend;
-        let (a, b, t) = (&self.fetches[a].name, &self.fetches[b].name, &self.locals[t].0);
-        lines.push(format!("result = {a} + {t} * ({b} - {a})"));
+        let mut lines: Vec<String> = self
+            .locals
+            .iter()
+            .map(|(name, step)| match step {
+                Step::Value(e) => format!("{name} = {}", self.text(e)),
+                Step::Sample(c) => {
+                    let [u, v, w] = self.names(c);
+                    format!("{name} = sample_linear_clamp({u}, {v}, {w})")
+                }
+                Step::Load(c) => {
+                    let [x, y, z] = self.names(c);
+                    format!("{name} = load_texel({x}, {y}, {z})")
+                }
+            })
+            .collect();
+        lines.push(format!("result = {}", self.text(&self.result)));
         lines
     }
 
-    /// An HLSL function `float NAME(Texture3D<float> tex, SamplerState linear_clamp, float mu, ...)`.
+    /// An HLSL function `float NAME(Texture3D<float> tex[, SamplerState linear_clamp], float mu, ...)`.
+    /// Value locals are `precise`: the compiler must evaluate them as written (no reassociation),
+    /// which the exact interpolation weights rely on.
     pub fn hlsl(&self, header: &str) -> String {
         let mut s = comment_block("//", header);
-        let params: Vec<String> = self.inputs.iter().map(|i| format!("float {i}")).collect();
-        let _ = writeln!(
-            s,
-            "float {}(Texture3D<float> tex, SamplerState linear_clamp, {})\n{{",
-            self.function,
-            params.join(", ")
-        );
-        for (name, e) in &self.locals {
-            let mut text = String::new();
-            e.print(self, &mut text);
-            let _ = writeln!(s, "    float {name} = {text};");
+        let mut params = vec!["Texture3D<float> tex".to_string()];
+        if self.uses_sampler() {
+            params.push("SamplerState linear_clamp".into());
         }
-        for f in &self.fetches {
-            let [u, v, w] = f.coordinates.map(|i| self.locals[i].0.as_str());
-            let _ = writeln!(s, "    float {} = tex.SampleLevel(linear_clamp, float3({u}, {v}, {w}), 0);", f.name);
+        params.extend(self.inputs.iter().map(|i| format!("float {i}")));
+        let _ = writeln!(s, "float {}({})\n{{", self.function, params.join(", "));
+        for (name, step) in &self.locals {
+            let _ = match step {
+                Step::Value(e) => writeln!(s, "    precise float {name} = {};", self.text(e)),
+                Step::Sample(c) => {
+                    let [u, v, w] = self.names(c);
+                    writeln!(s, "    float {name} = tex.SampleLevel(linear_clamp, float3({u}, {v}, {w}), 0);")
+                }
+                Step::Load(c) => {
+                    let [x, y, z] = self.names(c);
+                    writeln!(s, "    float {name} = tex.Load(int4(int({x}), int({y}), int({z}), 0));")
+                }
+            };
         }
-        let (a, b, t) = self.blend;
-        let (a, b, t) = (&self.fetches[a].name, &self.fetches[b].name, &self.locals[t].0);
-        let _ = writeln!(s, "    return {a} + {t} * ({b} - {a});\n}}");
+        let _ = writeln!(s, "    return {};\n}}", self.text(&self.result));
         s
     }
 
-    /// A WGSL function `fn NAME(tex: texture_3d<f32>, linear_clamp: sampler, mu: f32, ...) -> f32`.
+    /// A WGSL function `fn NAME(tex: texture_3d<f32>[, linear_clamp: sampler], mu: f32, ...) -> f32`.
     pub fn wgsl(&self, header: &str) -> String {
         let mut s = comment_block("//", header);
-        let params: Vec<String> = self.inputs.iter().map(|i| format!("{i}: f32")).collect();
-        let _ = writeln!(
-            s,
-            "fn {}(tex: texture_3d<f32>, linear_clamp: sampler, {}) -> f32 {{",
-            self.function,
-            params.join(", ")
-        );
-        for (name, e) in &self.locals {
-            let mut text = String::new();
-            e.print(self, &mut text);
-            let _ = writeln!(s, "    let {name}: f32 = {text};");
+        let mut params = vec!["tex: texture_3d<f32>".to_string()];
+        if self.uses_sampler() {
+            params.push("linear_clamp: sampler".into());
         }
-        for f in &self.fetches {
-            let [u, v, w] = f.coordinates.map(|i| self.locals[i].0.as_str());
-            let _ = writeln!(
-                s,
-                "    let {}: f32 = textureSampleLevel(tex, linear_clamp, vec3<f32>({u}, {v}, {w}), 0.0).r;",
-                f.name
-            );
+        params.extend(self.inputs.iter().map(|i| format!("{i}: f32")));
+        let _ = writeln!(s, "fn {}({}) -> f32 {{", self.function, params.join(", "));
+        for (name, step) in &self.locals {
+            let _ = match step {
+                Step::Value(e) => writeln!(s, "    let {name}: f32 = {};", self.text(e)),
+                Step::Sample(c) => {
+                    let [u, v, w] = self.names(c);
+                    writeln!(
+                        s,
+                        "    let {name}: f32 = textureSampleLevel(tex, linear_clamp, vec3<f32>({u}, {v}, {w}), 0.0).r;"
+                    )
+                }
+                Step::Load(c) => {
+                    let [x, y, z] = self.names(c);
+                    writeln!(s, "    let {name}: f32 = textureLoad(tex, vec3<i32>(i32({x}), i32({y}), i32({z})), 0).r;")
+                }
+            };
         }
-        let (a, b, t) = self.blend;
-        let (a, b, t) = (&self.fetches[a].name, &self.fetches[b].name, &self.locals[t].0);
-        let _ = writeln!(s, "    return {a} + {t} * ({b} - {a});\n}}");
+        let _ = writeln!(s, "    return {};\n}}", self.text(&self.result));
         s
     }
+}
+
+fn local_index(e: &Expr) -> usize {
+    match e {
+        Expr::Local(i) => *i,
+        _ => panic!("a texture read takes locals as coordinates"),
+    }
+}
+
+/// `a + t * (b - a)`: HLSL's `lerp` as its documentation writes it, spelled out so that both
+/// languages and the emulator compute the same operations.
+pub fn lerp(a: Expr, b: Expr, t: Expr) -> Expr {
+    a.clone() + t * (b - a)
 }
 
 fn comment_block(prefix: &str, text: &str) -> String {
@@ -278,18 +328,38 @@ mod tests {
         let x = p.input("x");
         let a = p.local("a", x.clamp(0.0, 1.0).mul(Expr::c(63.0)));
         let b = p.local("b", a.clone().floor().min(Expr::c(62.0)));
-        let _t = p.local("t", a.sub(b));
-        let texture = Texture3D { width: 1, height: 1, depth: 1, texels: vec![0.0] };
-        let mut q = p.clone();
-        let zero = q.local("zero", Expr::c(0.5));
-        q.fetch("v0", [&zero, &zero, &zero]);
-        q.fetch("v1", [&zero, &zero, &zero]);
-        q.blend = (0, 1, 2);
-        assert_eq!(q.evaluate(&[0.5], &texture, Filter::Exact), 0.0);
-        let lines = q.statements();
+        let t = p.local("t", a.sub(b));
+        let texture = Texture3D { width: 2, height: 1, depth: 1, texels: vec![1.0, 3.0] };
+        let (one, half, quarter) =
+            (p.local("one", Expr::c(1.0)), p.local("half", Expr::c(0.5)), p.local("q", Expr::c(0.25)));
+        let v0 = p.load("v0", [&one, &half, &half]);
+        let v1 = p.sample("v1", [&quarter, &half, &half]);
+        p.result = lerp(v0, v1, t);
+        // x = 0.5: a = 31.5, b = 31, t = 0.5; v0 = texel 1 (0.5 truncates to 0) = 3; v1 = texel 0 = 1.
+        assert_eq!(p.evaluate(&[0.5], &texture, Filter::Exact), 2.0);
+        assert_eq!(p.fetch_count(), 2);
+        let lines = p.statements();
         assert_eq!(lines[0], "a = (min(max(x, 0.0), 1.0) * 63.0)");
         assert_eq!(lines[1], "b = min(floor(a), 62.0)");
-        assert!(q.hlsl("h").contains("float t = (a - b);"));
-        assert!(q.wgsl("h").contains("let t: f32 = (a - b);"));
+        assert_eq!(lines[6], "v0 = load_texel(one, half, half)");
+        assert_eq!(lines[8], "result = (v0 + (t * (v1 - v0)))");
+        let hlsl = p.hlsl("h");
+        assert!(hlsl.contains("precise float t = (a - b);"), "{hlsl}");
+        assert!(hlsl.contains("float f(Texture3D<float> tex, SamplerState linear_clamp, float x)"), "{hlsl}");
+        assert!(hlsl.contains("float v0 = tex.Load(int4(int(one), int(half), int(half), 0));"), "{hlsl}");
+        assert!(hlsl.contains("return (v0 + (t * (v1 - v0)));"), "{hlsl}");
+        let wgsl = p.wgsl("h");
+        assert!(wgsl.contains("let t: f32 = (a - b);"), "{wgsl}");
+        assert!(wgsl.contains("textureLoad(tex, vec3<i32>(i32(one), i32(half), i32(half)), 0).r;"), "{wgsl}");
+    }
+
+    #[test]
+    fn a_lookup_without_samples_takes_no_sampler() {
+        let mut p = Program::new("g", vec!["x"]);
+        let zero = p.local("zero", Expr::c(0.0));
+        p.result = p.load("v", [&zero, &zero, &zero]);
+        assert!(!p.uses_sampler());
+        assert!(p.hlsl("h").contains("float g(Texture3D<float> tex, float x)"));
+        assert!(p.wgsl("h").contains("fn g(tex: texture_3d<f32>, x: f32) -> f32 {"));
     }
 }

@@ -55,48 +55,102 @@ fn max_error_vs_interpolation(packed: &PackedFgd, t: &Table, pts: &[[f32; 4]]) -
         .fold(0.0, f64::max)
 }
 
+const LOSSLESS_PACKINGS: [Packing; 2] = [Packing::Lossless, Packing::LosslessFiltered];
+
 #[test]
-fn lossless_matches_4d_interpolation_at_random_points() {
-    // 64 x 64 tiles as in the default table (power-of-two extents), with fewer eta and kappa
-    // nodes, and an odd shape whose extents are not powers of two.
+fn lossless_matches_4d_interpolation_to_1e6_at_random_points_even_for_rough_tables() {
+    // Rough node values in [0, 1) (neighbours differ by up to 1: the hardest case), with 64 x 64
+    // tiles and power-of-two counts as in the default table, and an odd shape whose counts and
+    // extents are not powers of two (plain index formula there).
     for counts in [[64, 64, 8, 8], [8, 7, 6, 5]] {
         let t = noise(counts);
         let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
         assert!(packed.lossless);
-        let pts = points(&t, 4000, 7);
-        let max = max_error_vs_interpolation(&packed, &t, &pts);
-        // f32 coordinate arithmetic places a texel-space position of magnitude up to the width
-        // (256 here) to within width * 2^-24 = 1.5e-5 texel; node values here jump by up to 1
-        // between neighbours, which is the worst case of that rounding.
-        assert!(max < 1.6e-5, "{counts:?}: max {max:e}");
-    }
-}
-
-#[test]
-fn lossless_matches_4d_interpolation_of_a_smooth_function_to_1e6() {
-    // FGD-like smoothness (neighbouring nodes differ by a few hundredths): the coordinate rounding
-    // above is then far below 1e-6, the issue's target for f32 storage.
-    let f = |p: [f64; 4]| {
-        0.04 + 0.9 * (1.0 - p[0]).powi(5) * (1.0 - 0.5 * p[1]) + 0.1 * (p[2] * 0.7).sin() * (0.2 * p[3]).cos()
-    };
-    for counts in [[64, 64, 8, 8], [8, 7, 6, 5]] {
-        let t = table(counts, |p, _| f(p));
-        let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
-        let max = max_error_vs_interpolation(&packed, &t, &points(&t, 4000, 9));
+        let max = max_error_vs_interpolation(&packed, &t, &points(&t, 4000, 7));
+        // Weights exact to 2^-25 (2^-22 for the odd counts), 15 f32 lerps of values below 1.
         assert!(max < 1e-6, "{counts:?}: max {max:e}");
     }
 }
 
 #[test]
-fn lossless_reproduces_every_node() {
-    let counts = [8, 7, 6, 5];
-    let t = noise(counts);
+fn lossless_weights_carry_no_rounding_of_the_node_index() {
+    // A step of 1 between mu nodes 58 and 59 (of 64), like FGD's at the critical angle: at
+    // `i_mu = mu * 63` in [58, 59), f32 rounds the product by up to 2^-19 node, which a lookup
+    // using `fl(mu * 63) - k` as its weight turns into errors up to 1.9e-6. `lossless` must stay at
+    // f32 rounding of the lerps; the plain weight on the same points shows the test can fail.
+    let counts = [64, 4, 4, 4];
+    let t = table(counts, |p, _| if p[0] > 58.5 / 63.0 { 1.0 } else { 0.0 });
     let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
-    for n in 0..t.node_count() {
-        let p = t.node_position(&t.node_index(n)).iter().map(|&v| v as f32).collect::<Vec<_>>();
-        let v = packed.lookup([p[0], p[1], p[2], p[3]], Filter::Exact);
-        // Node values as f32 inputs land within a few 1e-7 of an index, next to neighbours up to 1 away.
-        assert!((v - t.data[n]).abs() < 1e-6, "node {n}: {v} vs {}", t.data[n]);
+    let (mut max, mut max_plain) = (0.0f64, 0.0f64);
+    let mut mu = 58.0f32 / 63.0;
+    while mu < 59.0 / 63.0 {
+        let p = [mu, 0.3, 1.7, 2.9];
+        let truth = t.interpolate(&p.map(|v| v as f64))[0];
+        max = max.max((packed.lookup(p, Filter::Exact) as f64 - truth).abs());
+        let plain_weight = mu * 63.0 - 58.0;
+        max_plain = max_plain.max((plain_weight as f64 - truth).abs());
+        mu = f32::from_bits(mu.to_bits() + 97);
+    }
+    assert!(max < 1e-7, "lossless: max {max:e}");
+    assert!(max_plain > 1e-6, "plain weight: max {max_plain:e}");
+    // Around every node, where the rounded product may fall on the wrong side of the node and the
+    // bracket must be corrected: rough node values along mu, 41 consecutive f32 values per node.
+    let t = table(counts, |_, n| hash01(n as u64));
+    let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
+    let mut max = 0.0f64;
+    for k in 0..counts[0] {
+        let node = (k as f64 / 63.0) as f32;
+        for step in -20i32..=20 {
+            let mu = f32::from_bits((node.to_bits() as i32 + step).max(0) as u32);
+            let p = [mu, 0.3, 1.7, 2.9];
+            let truth = t.interpolate(&p.map(|v| v as f64))[0];
+            max = max.max((packed.lookup(p, Filter::Exact) as f64 - truth).abs());
+        }
+    }
+    // Four levels of f32 lerps of values below 1, each rounding by at most ~3 * 2^-25: 3.6e-7;
+    // a bracket off by one node would cost up to a node step (1), the plain weight 1.9e-6.
+    assert!(max < 3.6e-7, "around nodes: max {max:e}");
+}
+
+#[test]
+fn lossless_filtered_meets_1e6_only_for_smooth_tables() {
+    // f32 coordinate arithmetic places a texel-space position of magnitude up to the width
+    // (256 here) to within width * 2^-24 = 1.5e-5 texel; node values jumping by up to 1 between
+    // neighbours turn that into errors of 1e-5.
+    for counts in [[64, 64, 8, 8], [8, 7, 6, 5]] {
+        let t = noise(counts);
+        let packed = PackedFgd::pack(&t, Packing::LosslessFiltered, Precision::F32).unwrap();
+        assert!(packed.lossless);
+        let max = max_error_vs_interpolation(&packed, &t, &points(&t, 4000, 7));
+        assert!(max < 1.6e-5, "{counts:?}: max {max:e}");
+    }
+    // Smooth (neighbouring nodes differ by a few hundredths): the rounding is then below 1e-6.
+    let f = |p: [f64; 4]| {
+        0.04 + 0.9 * (1.0 - p[0]).powi(5) * (1.0 - 0.5 * p[1]) + 0.1 * (p[2] * 0.7).sin() * (0.2 * p[3]).cos()
+    };
+    for counts in [[64, 64, 8, 8], [8, 7, 6, 5]] {
+        let t = table(counts, |p, _| f(p));
+        for packing in LOSSLESS_PACKINGS {
+            let packed = PackedFgd::pack(&t, packing, Precision::F32).unwrap();
+            let max = max_error_vs_interpolation(&packed, &t, &points(&t, 4000, 9));
+            assert!(max < 1e-6, "{packing:?} {counts:?}: max {max:e}");
+        }
+    }
+}
+
+#[test]
+fn lossless_reproduces_every_node() {
+    for counts in [[8, 7, 6, 5], [16, 8, 4, 4]] {
+        let t = noise(counts);
+        for packing in LOSSLESS_PACKINGS {
+            let packed = PackedFgd::pack(&t, packing, Precision::F32).unwrap();
+            for n in 0..t.node_count() {
+                let p = t.node_position(&t.node_index(n)).iter().map(|&v| v as f32).collect::<Vec<_>>();
+                let v = packed.lookup([p[0], p[1], p[2], p[3]], Filter::Exact);
+                // Node values as f32 inputs land within a few 1e-7 of an index, next to neighbours up to 1 away.
+                assert!((v - t.data[n]).abs() < 1e-6, "{packing:?} node {n}: {v} vs {}", t.data[n]);
+            }
+        }
     }
 }
 
@@ -106,38 +160,66 @@ fn lossless_lookups_never_read_another_tile() {
     // must not change by a single bit.
     let counts = [16, 16, 4, 9];
     let t = noise(counts);
-    let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
     let (columns, _) = tile_grid(counts[3]);
     let kappa = &t.axes[3];
-    for p in points(&t, 600, 11) {
-        let k0 = kappa.bracket(p[3] as f64).0;
-        let mut dirty = packed.clone();
-        let tex = &mut dirty.texture;
-        for z in 0..tex.depth {
-            for y in 0..tex.height {
-                for x in 0..tex.width {
-                    let k = (y / counts[1]) * columns + x / counts[0];
-                    if k != k0 && k != k0 + 1 {
-                        tex.texels[x + tex.width * (y + tex.height * z)] = 1.0e6;
+    for packing in LOSSLESS_PACKINGS {
+        let packed = PackedFgd::pack(&t, packing, Precision::F32).unwrap();
+        for p in points(&t, 300, 11) {
+            let k0 = kappa.bracket(p[3] as f64).0;
+            let mut dirty = packed.clone();
+            let tex = &mut dirty.texture;
+            for z in 0..tex.depth {
+                for y in 0..tex.height {
+                    for x in 0..tex.width {
+                        let k = (y / counts[1]) * columns + x / counts[0];
+                        if k != k0 && k != k0 + 1 {
+                            tex.texels[x + tex.width * (y + tex.height * z)] = 1.0e6;
+                        }
                     }
                 }
             }
-        }
-        for filter in [Filter::Exact, Filter::QuantisedWeights { bits: 8 }] {
-            assert_eq!(packed.lookup(p, filter).to_bits(), dirty.lookup(p, filter).to_bits(), "at {p:?}");
+            for filter in [Filter::Exact, Filter::QuantisedWeights { bits: 8 }] {
+                assert_eq!(
+                    packed.lookup(p, filter).to_bits(),
+                    dirty.lookup(p, filter).to_bits(),
+                    "{packing:?} at {p:?}"
+                );
+            }
         }
     }
+}
+
+#[test]
+fn lossless_does_not_depend_on_the_hardware_filter() {
+    // Texel loads only: 8-bit filter weights, as real GPUs use, change nothing.
+    let counts = [16, 8, 6, 5];
+    let t = noise(counts);
+    let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
+    assert_eq!(packed.fetches_per_lookup(), 16);
+    assert!(!packed.program.uses_sampler());
+    for p in points(&t, 500, 13) {
+        let exact = packed.lookup(p, Filter::Exact);
+        assert_eq!(exact.to_bits(), packed.lookup(p, Filter::QuantisedWeights { bits: 8 }).to_bits());
+    }
+    // The filtered lookup does depend on it (by up to 2^-9 of a node step).
+    let filtered = PackedFgd::pack(&t, Packing::LosslessFiltered, Precision::F32).unwrap();
+    let largest_change = points(&t, 500, 13)
+        .into_iter()
+        .map(|p| (filtered.lookup(p, Filter::Exact) - filtered.lookup(p, Filter::QuantisedWeights { bits: 8 })).abs())
+        .fold(0.0f32, f32::max);
+    assert!(largest_change > 1e-4, "{largest_change:e}");
 }
 
 #[test]
 fn lossless_in_f16_is_within_half_float_rounding() {
     let counts = [8, 8, 6, 4];
     let t = noise(counts);
-    let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F16).unwrap();
-    let pts = points(&t, 3000, 3);
-    let max = max_error_vs_interpolation(&packed, &t, &pts);
-    // Half-float steps are 2^-11 relative; values are below 1, so rounding is at most 2^-12.
-    assert!(max <= 2f64.powi(-12) + 4e-6, "max {max:e}");
+    for packing in LOSSLESS_PACKINGS {
+        let packed = PackedFgd::pack(&t, packing, Precision::F16).unwrap();
+        let max = max_error_vs_interpolation(&packed, &t, &points(&t, 3000, 3));
+        // Half-float steps are 2^-11 relative; values are below 1, so rounding is at most 2^-12.
+        assert!(max <= 2f64.powi(-12) + 4e-6, "{packing:?}: max {max:e}");
+    }
 }
 
 #[test]
@@ -192,6 +274,7 @@ fn packings_refuse_tables_they_cannot_hold_with_reasons() {
     let e = Packing::Lossless.extent([64, 64, 4096, 4]).unwrap_err().to_string();
     assert!(e.contains("2048"), "{e}");
     assert_eq!(Packing::Lossless.extent([64; 4]).unwrap(), [512, 512, 64]);
+    assert_eq!(Packing::LosslessFiltered.extent([64; 4]).unwrap(), [512, 512, 64]);
     assert_eq!(Packing::Thesis.extent([64; 4]).unwrap(), [64, 64, 2048]);
     let t = table([4, 4, 4, 4], |_, _| 0.0);
     let mut wrong = t.clone();
@@ -205,20 +288,74 @@ fn packings_refuse_tables_they_cannot_hold_with_reasons() {
 #[test]
 fn shader_text_is_the_evaluated_program() {
     let t = noise([64, 64, 4, 64]);
-    let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
-    let hlsl = packed.hlsl();
-    let wgsl = packed.wgsl();
-    // Every statement the emulator evaluates appears, with its constants, in both languages.
-    for line in packed.program.statements() {
-        let (name, expression) = line.split_once(" = ").unwrap();
-        if line.starts_with("result") || expression.starts_with("sample_linear_clamp") {
-            continue;
+    for packing in Packing::ALL {
+        let packed = PackedFgd::pack(&t, packing, Precision::F32).unwrap();
+        let hlsl = packed.hlsl();
+        let wgsl = packed.wgsl();
+        // Every value the emulator computes appears, with its constants, in both languages.
+        for (name, step) in &packed.program.locals {
+            let Step::Value(_) = step else { continue };
+            let line = packed.program.statements().into_iter().find(|l| l.starts_with(&format!("{name} = "))).unwrap();
+            let expression = line.split_once(" = ").unwrap().1;
+            assert!(hlsl.contains(&format!("precise float {name} = {expression};")), "HLSL lacks {line}");
+            assert!(wgsl.contains(&format!("let {name}: f32 = {expression};")), "WGSL lacks {line}");
         }
-        assert!(hlsl.contains(&format!("float {name} = {expression};")), "HLSL lacks {line}");
-        assert!(wgsl.contains(&format!("let {name}: f32 = {expression};")), "WGSL lacks {line}");
     }
+    let lossless = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
+    let (hlsl, wgsl) = (lossless.hlsl(), lossless.wgsl());
+    assert!(
+        hlsl.contains("float fgd_lossless(Texture3D<float> tex, float mu, float alpha, float eta, float kappa)"),
+        "{hlsl}"
+    );
+    assert!(hlsl.contains("precise float r_mu = (((u_mu * 64.0) - guess_mu) - u_mu);"), "{hlsl}");
+    assert!(hlsl.contains("precise float x01 = (x00 + 1.0);"), "{hlsl}");
+    assert!(hlsl.contains("float v1011 = tex.Load(int4(int(x11), int(y10), int(z1), 0));"), "{hlsl}");
+    assert!(wgsl.contains("let v1011: f32 = textureLoad(tex, vec3<i32>(i32(x11), i32(y10), i32(z1)), 0).r;"), "{wgsl}");
+    assert!(hlsl.contains("return (mae0 + (t_kappa * (mae1 - mae0)));"), "{hlsl}");
+    assert_eq!(hlsl.matches("tex.Load(").count(), 16);
+    let filtered = PackedFgd::pack(&t, Packing::LosslessFiltered, Precision::F32).unwrap();
+    let (hlsl, wgsl) = (filtered.hlsl(), filtered.wgsl());
     assert!(hlsl.contains("x0 = ((((column0 * 64.0) + i_mu) + 0.5) * 0.001953125)"), "{hlsl}");
     assert!(hlsl.contains("tex.SampleLevel(linear_clamp, float3(x0, y0, z), 0)"), "{hlsl}");
     assert!(wgsl.contains("textureSampleLevel(tex, linear_clamp, vec3<f32>(x1, y1, z), 0.0).r"), "{wgsl}");
-    assert!(hlsl.contains("return v0 + t_kappa * (v1 - v0);"), "{hlsl}");
+    assert!(hlsl.contains("return (v0 + (t_kappa * (v1 - v0)));"), "{hlsl}");
+}
+
+#[test]
+fn node_bracket_is_the_tables_bracket_with_exact_weights() {
+    // The lower node and weight the lossless lookup computes, against `Axis::bracket` in f64 at
+    // the same f32 input, at and around every node and at rough points in between. For N = 32 the
+    // rounded product `fl(u * 31)` lands on the node above the true bracket at the f32 node
+    // positions themselves; the correction must move it back.
+    for n in [5, 32, 64, 128] {
+        let axis = Axis::node_aligned("mu", 0.0, 1.0, n).unwrap();
+        let mut program = Program::new("bracket", vec!["mu"]);
+        let (k, t) = node_bracket(&mut program, &axis);
+        let mut inputs: Vec<f32> = (0..n)
+            .flat_map(|node| {
+                let at = (node as f64 / (n - 1) as f64) as f32;
+                (-3i32..=3).map(move |step| f32::from_bits((at.to_bits() as i32 + step).max(0) as u32).min(1.0))
+            })
+            .collect();
+        inputs.extend((0..2000).map(|j| hash01(j) as f32));
+        let texture = Texture3D { width: 1, height: 1, depth: 1, texels: vec![0.0] };
+        let (mut crossings, mut worst_weight) = (0, 0.0f64);
+        for &mu in &inputs {
+            let (lower, _, weight) = axis.bracket(mu as f64);
+            program.result = k.clone();
+            assert_eq!(program.evaluate(&[mu], &texture, Filter::Exact), lower as f32, "N {n}, mu {mu:e}");
+            program.result = t.clone();
+            let shader_weight = program.evaluate(&[mu], &texture, Filter::Exact) as f64;
+            worst_weight = worst_weight.max((shader_weight - weight).abs());
+            let rounded_floor = ((mu * (n - 1) as f32).floor() as usize).min(n - 2);
+            crossings += usize::from(rounded_floor != lower);
+        }
+        // Power-of-two counts: only the last subtraction rounds (2^-25 for weights below 1);
+        // otherwise the product's rounding, half an ulp of a node index below 8.
+        let bound = if n.is_power_of_two() { 2f64.powi(-25) } else { 2f64.powi(-22) };
+        assert!(worst_weight <= bound, "N {n}: weight off by {worst_weight:e}");
+        if n == 32 {
+            assert!(crossings > 0, "the test must reach the corrected case");
+        }
+    }
 }
