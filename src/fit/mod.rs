@@ -9,6 +9,7 @@
 //! - [`cost`]: ns per f32 evaluation (median of repeated runs), and the table fetch through the
 //!   GPU texture emulator timed the same way.
 
+pub mod dual;
 pub mod forms;
 
 use std::cmp::Ordering;
