@@ -93,8 +93,16 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
         let recipe = config.recipe(name).expect("resolve_tables admits known tables only");
         let build = recipe.build(config.seed, progress)?;
         let output = recipe.output();
+        let first_file = staged.len();
         for &format in &output.formats {
             staged.push(write_table_file(&staging.dir, &build, format, output.precision)?);
+        }
+        if name == recipes::tir::NAME && config.tir.fit == recipes::tir::TirFit::Best {
+            let (fit, shaders) = crate::fit::fit_for_build(&build.table, config.seed, &staging.dir)?;
+            for file in &mut staged[first_file..] {
+                file.entry.fit = Some(fit.clone());
+            }
+            staged_companions.extend(shaders);
         }
         if name == recipes::fgd::NAME {
             for &packing in &config.fgd.packings {
@@ -284,6 +292,7 @@ fn write_table_file_named(
         sha256: sha256_hex(&bytes),
         bytes: bytes.len() as u64,
         packing: None,
+        fit: None,
     };
     Ok(WrittenFile { path, entry })
 }

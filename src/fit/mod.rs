@@ -21,6 +21,7 @@ use nlopt::{Algorithm, Nlopt, Target};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+pub use crate::formats::manifest::{ErrorFigures, Minimum, StartRecord};
 use crate::packing::emulator::{Filter, Texture3D};
 use crate::report::bench::median;
 use crate::table::Table;
@@ -82,28 +83,6 @@ impl Default for FitSettings {
     fn default() -> Self {
         FitSettings { starts: 6, seed: 2021, max_evaluations: 2000, ftol_rel: 1e-10 }
     }
-}
-
-/// One start of a search: where it began, where it ended, and what NLopt said.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct StartRecord {
-    pub start: Vec<f64>,
-    pub parameters: Vec<f64>,
-    pub objective: f64,
-    /// NLopt's status, e.g. `Success`, `FtolReached`, `MaxEvalReached`, `RoundoffLimited`.
-    pub status: String,
-    pub succeeded: bool,
-    pub evaluations: u64,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Minimum {
-    pub algorithm: String,
-    pub parameters: Vec<f64>,
-    pub objective: f64,
-    /// Index into `starts` of the best start.
-    pub best_start: usize,
-    pub starts: Vec<StartRecord>,
 }
 
 /// splitmix64: deterministic start points from the seed, independent of any library's RNG.
@@ -266,18 +245,6 @@ pub fn fit_form(form: Form, data: &FitData, settings: &FitSettings) -> Result<Fi
     Ok(FittedForm { form, parameters: minimum.parameters.clone(), search: Some(minimum) })
 }
 
-/// Error of a form over the table's nodes, evaluated in f32 (what a shader computes).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ErrorFigures {
-    pub rmse: f64,
-    /// Mean squared error (the thesis reports MSE 0.0724 for eq. 5.6, against a naive estimator).
-    pub mse: f64,
-    pub max_abs_error: f64,
-    /// `(mu, alpha, eta)` of the largest error.
-    pub max_at: [f64; 3],
-    pub nodes: usize,
-}
-
 /// The form's f32 value at every node.
 pub fn values_f32(fitted: &FittedForm, data: &FitData) -> Vec<f32> {
     let p: Vec<f32> = fitted.parameters.iter().map(|&v| v as f32).collect();
@@ -352,6 +319,55 @@ pub fn fetch_cost_ns(texture: &Texture3D, queries: &[[f32; 3]], runs: usize) -> 
     time_per_evaluation(queries, runs, |mu, alpha, eta| {
         texture.sample_trilinear(mu * sx + ox, alpha * sy + oy, eta * sz + oz, Filter::Exact)
     })
+}
+
+/// The form a build fits to its TIR table: the most accurate fitted form whose CPU cost was
+/// measured no higher than thesis eq. 5.6's, side by side (docs/fit.md). Fixed here rather than
+/// timed during the build, so that a build's files depend on its configuration and seed only.
+pub const BUILD_FORM: Form = Form::CauchyCap;
+
+/// Starts of the build's fit (`FitSettings::starts` for `tmlut fit tir`): on the default table every
+/// start of `tmlut fit tir` ends at the same objective (docs/fit.md), so two keep the build fast.
+pub const BUILD_STARTS: usize = 2;
+
+/// Fit [`BUILD_FORM`] to a built TIR table and write its shaders into `dir` as `tir_fit.hlsl` and
+/// `tir_fit.wgsl`. Returns the manifest entry and the shader paths.
+pub fn fit_for_build(
+    table: &Table,
+    seed: u64,
+    dir: &Path,
+) -> Result<(crate::formats::manifest::FitEntry, Vec<PathBuf>)> {
+    let data = FitData::from_table(table)?;
+    let settings = FitSettings { starts: BUILD_STARTS, seed, ..FitSettings::default() };
+    let fitted = fit_form(BUILD_FORM, &data, &settings)?;
+    let mut shaders = Vec::new();
+    let mut paths = Vec::new();
+    for (language, extension) in [(ShaderLanguage::Hlsl, "hlsl"), (ShaderLanguage::Wgsl, "wgsl")] {
+        let text = forms::shader(BUILD_FORM, &fitted.parameters, language)
+            .ok_or_else(|| Error::invalid("fit", format!("form {} has no shader", BUILD_FORM.name())))?;
+        let file = format!("tir_fit.{extension}");
+        let path = dir.join(&file);
+        crate::formats::write_bytes_atomically(&path, text.as_bytes())?;
+        shaders.push(crate::formats::manifest::ShaderFile {
+            language: extension.into(),
+            file,
+            function: "tmlut_tir".into(),
+            sha256: crate::pipeline::sha256_hex(text.as_bytes()),
+        });
+        paths.push(path);
+    }
+    let entry = crate::formats::manifest::FitEntry {
+        form: BUILD_FORM.name().into(),
+        formula: BUILD_FORM.formula().into(),
+        chosen_by: "tir.fit = \"best\": the most accurate form measured no costlier than thesis eq. 5.6 (docs/fit.md)"
+            .into(),
+        parameter_names: BUILD_FORM.parameter_names().iter().map(|s| s.to_string()).collect(),
+        parameters: fitted.parameters.clone(),
+        figures: figures(&fitted, &data),
+        search: fitted.search,
+        shaders,
+    };
+    Ok((entry, paths))
 }
 
 /// One form's entry in `fit.json`.

@@ -1,4 +1,6 @@
 use super::*;
+use std::path::Path;
+
 use crate::table::{Axis, Channel};
 
 /// A small TIR-shaped table built from a form with known parameters.
@@ -250,4 +252,53 @@ fn shader_coefficients_match_the_manifest() {
     }
     let algebraic = read.forms.iter().find(|f| f.name == "algebraic").unwrap();
     assert!(algebraic.figures.rmse < 1e-4, "{:?}", algebraic.figures);
+}
+
+/// A small TIR build with `tir.fit` as given, into `out`.
+fn build_small_tir(out: &Path, fit: crate::recipes::tir::TirFit) -> crate::formats::manifest::Manifest {
+    let mut config = crate::config::Config::default();
+    config.tir.mu_count = 17;
+    config.tir.alpha_count = 9;
+    config.tir.eta_count = 17;
+    config.tir.sampling.samples = 1024;
+    config.tir.reference.cells = 0;
+    config.tir.fit = fit;
+    let request =
+        crate::pipeline::BuildRequest { config, only: Some(vec!["tir".into()]), out: out.into(), error_maps: false };
+    crate::pipeline::build(&request, &()).unwrap();
+    crate::formats::manifest::Manifest::read_or_default(out).unwrap()
+}
+
+#[test]
+fn the_build_writes_the_best_form_reproducibly_and_only_when_asked() {
+    use crate::recipes::tir::TirFit;
+    let (first, second, off) =
+        (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let manifest = build_small_tir(first.path(), TirFit::Best);
+    let fit = manifest.files["tir.bin"].fit.clone().expect("tir.fit = \"best\" records the fit");
+    assert_eq!(fit.form, BUILD_FORM.name());
+    assert_eq!(fit.parameters.len(), fit.parameter_names.len());
+    let search = fit.search.as_ref().unwrap();
+    assert_eq!(search.starts.len(), BUILD_STARTS);
+    assert!(search.starts.iter().all(|s| !s.status.is_empty()));
+    // The recorded figures are those of the recorded coefficients on the built table.
+    let table = crate::formats::bin::read_bin(&first.path().join("tir.bin"), None).unwrap();
+    let data = FitData::from_table(&table).unwrap();
+    let refitted = FittedForm { form: BUILD_FORM, parameters: fit.parameters.clone(), search: None };
+    assert_eq!(figures(&refitted, &data), fit.figures);
+    let manifest_f32: Vec<f32> = fit.parameters.iter().map(|&v| v as f32).collect();
+    for shader in &fit.shaders {
+        let text = std::fs::read_to_string(first.path().join(&shader.file)).unwrap();
+        assert_eq!(baked_constants(&text), manifest_f32, "{}", shader.file);
+        assert_eq!(crate::pipeline::sha256_hex(text.as_bytes()), shader.sha256);
+    }
+    // Same table and seed: same coefficients and shader bytes.
+    let again = build_small_tir(second.path(), TirFit::Best);
+    assert_eq!(again.files["tir.bin"].fit.as_ref().unwrap().parameters, fit.parameters);
+    for name in ["tir_fit.hlsl", "tir_fit.wgsl"] {
+        assert_eq!(std::fs::read(first.path().join(name)).unwrap(), std::fs::read(second.path().join(name)).unwrap());
+    }
+    let none = build_small_tir(off.path(), TirFit::Off);
+    assert!(none.files["tir.bin"].fit.is_none());
+    assert!(!off.path().join("tir_fit.hlsl").exists());
 }
