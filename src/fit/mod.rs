@@ -200,6 +200,9 @@ pub struct FittedForm {
     pub search: Option<Minimum>,
 }
 
+/// Nodes per parallel work item of the objective (fixed, so that sums do not depend on threads).
+const OBJECTIVE_CHUNK: usize = 4096;
+
 /// Least squares of one form over the data: minimise the (weighted) mean squared residual.
 pub fn fit_form(form: Form, data: &FitData, settings: &FitSettings) -> Result<FittedForm> {
     let (start, lower, upper) = form.start_and_bounds();
@@ -210,27 +213,45 @@ pub fn fit_form(form: Form, data: &FitData, settings: &FitSettings) -> Result<Fi
     if total_weight.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return Err(Error::invalid("fit weights", format!("sum {total_weight}; allowed: positive")));
     }
-    let objective = |p: &[f64], gradient: Option<&mut [f64]>| -> f64 {
+    // Sum of squared residuals (and its gradient) over one chunk of nodes; NaN if the form has no
+    // gradient where one is asked for.
+    let chunk_sums = |p: &[f64], want_gradient: bool, chunk: usize| -> (f64, Vec<f64>) {
         let mut sum = 0.0;
         let mut g_point = vec![0.0; p.len()];
-        let mut g_sum = vec![0.0; p.len()];
-        let want_gradient = gradient.is_some();
-        for (n, (point, &target)) in data.points.iter().zip(&data.values).enumerate() {
+        let mut g_sum = vec![0.0; if want_gradient { p.len() } else { 0 }];
+        let nodes = chunk * OBJECTIVE_CHUNK..((chunk + 1) * OBJECTIVE_CHUNK).min(data.values.len());
+        for n in nodes {
+            let (point, target) = (&data.points[n], data.values[n]);
             let w = data.weight(n);
             let value = if want_gradient {
                 match form.value_and_gradient(p, point[0], point[1], point[2], &mut g_point) {
                     Some(v) => v,
-                    None => return f64::NAN,
+                    None => return (f64::NAN, g_sum),
                 }
             } else {
                 form.eval(p, point[0], point[1], point[2])
             };
             let residual = value - target;
             sum += w * residual * residual;
-            if want_gradient {
-                for (g, &d) in g_sum.iter_mut().zip(&g_point) {
-                    *g += 2.0 * w * residual * d;
-                }
+            for (g, &d) in g_sum.iter_mut().zip(&g_point) {
+                *g += 2.0 * w * residual * d;
+            }
+        }
+        (sum, g_sum)
+    };
+    let chunks = data.values.len().div_ceil(OBJECTIVE_CHUNK);
+    let objective = |p: &[f64], gradient: Option<&mut [f64]>| -> f64 {
+        use rayon::prelude::*;
+        let want_gradient = gradient.is_some();
+        // Chunks in parallel, their sums added in chunk order: the same bits for any thread count.
+        let per_chunk: Vec<(f64, Vec<f64>)> =
+            (0..chunks).into_par_iter().map(|chunk| chunk_sums(p, want_gradient, chunk)).collect();
+        let mut sum = 0.0;
+        let mut g_sum = vec![0.0; p.len()];
+        for (chunk_sum, chunk_gradient) in &per_chunk {
+            sum += chunk_sum;
+            for (g, d) in g_sum.iter_mut().zip(chunk_gradient) {
+                *g += d;
             }
         }
         if let Some(gradient) = gradient {

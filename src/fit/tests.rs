@@ -5,10 +5,14 @@ use crate::table::{Axis, Channel};
 
 /// A small TIR-shaped table built from a form with known parameters.
 fn synthetic(form: Form, parameters: &[f64]) -> Table {
+    synthetic_sized(form, parameters, [17, 9, 17])
+}
+
+fn synthetic_sized(form: Form, parameters: &[f64], [mu, alpha, eta]: [usize; 3]) -> Table {
     let axes = vec![
-        Axis::node_aligned("mu", 0.0, 1.0, 17).unwrap(),
-        Axis::node_aligned("alpha", 0.0, 1.0, 9).unwrap(),
-        Axis::node_aligned("eta", 0.0, 1.0, 17).unwrap(),
+        Axis::node_aligned("mu", 0.0, 1.0, mu).unwrap(),
+        Axis::node_aligned("alpha", 0.0, 1.0, alpha).unwrap(),
+        Axis::node_aligned("eta", 0.0, 1.0, eta).unwrap(),
     ];
     let mut table = Table::zeros("tir", axes, vec![Channel::new("tir", "synthetic")]).unwrap();
     for n in 0..table.node_count() {
@@ -80,6 +84,20 @@ fn cap_share_matches_sampled_spherical_cauchy() {
         let closed = forms::cap_share(u, 2.0 * scale * cap_sine);
         assert!((sampled - closed).abs() < 4e-3, "{centre_cosine} {scale} {cap_cosine}: {sampled} vs {closed}");
     }
+}
+
+#[test]
+fn fitted_coefficients_do_not_depend_on_the_thread_count() {
+    // Several objective chunks, so that the threads really split the sum.
+    let table = synthetic_sized(Form::Logistic, &KNOWN, [33, 17, 33]);
+    let data = FitData::from_table(&table).unwrap();
+    assert!(data.values.len() > 3 * OBJECTIVE_CHUNK);
+    let settings = FitSettings { starts: 1, ..FitSettings::default() };
+    let with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| fit_form(Form::Rational, &data, &settings).unwrap().parameters)
+    };
+    assert_eq!(with(1), with(3));
 }
 
 #[test]
