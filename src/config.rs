@@ -257,6 +257,8 @@ mod tests {
         assert!(e.contains("karis.sampling.samples") && e.contains("power of two"), "{e}");
         let e = error_of("[karis.output]\nformats = [\"bin\"]\nprecision = \"f16\"\n");
         assert!(e.contains("karis.output.formats") && e.contains("allowed: dds, exr"), "{e}");
+        let e = error_of("[tir]\nfit = \"always\"\n");
+        assert!(e.contains("always") && e.contains("best") && e.contains("off"), "{e}");
         let e = error_of("[karis]\nmasking = \"beckmann\"\n");
         assert!(e.contains("beckmann") && e.contains("smith-separable"), "{e}");
     }

@@ -75,6 +75,9 @@ pub struct Job<'a> {
     pub output: OutputConfig,
     /// Volume-texture packings written beside it (FGD only).
     pub packings: Vec<Packing>,
+    /// Fit the analytic TIR form to the table with this seed, record it in the table's entries and
+    /// write its shader files (TIR with `fit = "best"` only; `docs/fit.md`).
+    pub fit_seed: Option<u64>,
 }
 
 /// Integrate, write and describe every requested table.
@@ -95,6 +98,7 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
                 run: Box::new(move |progress| recipe.build(seed, progress)),
                 output: recipe.output().clone(),
                 packings: if name == recipes::fgd::NAME { config.fgd.packings.clone() } else { Vec::new() },
+                fit_seed: (name == recipes::tir::NAME && config.tir.fit == recipes::tir::TirFit::Best).then_some(seed),
             }
         })
         .collect();
@@ -125,8 +129,16 @@ pub fn write_jobs(
     let mut staged_companions = Vec::new();
     for job in jobs {
         let build = (job.run)(progress)?;
+        let first_file = staged.len();
         for &format in &job.output.formats {
             staged.push(write_table_file(&staging.dir, &build, format, job.output.precision)?);
+        }
+        if let Some(seed) = job.fit_seed {
+            let (fit, shaders) = crate::fit::fit_for_build(&build.table, seed, &staging.dir)?;
+            for file in &mut staged[first_file..] {
+                file.entry.fit = Some(fit.clone());
+            }
+            staged_companions.extend(shaders);
         }
         for &packing in &job.packings {
             let (texture, shaders) = write_packing_files(&staging.dir, &build, packing, job.output.precision)?;
@@ -317,6 +329,7 @@ fn write_table_file_named(
         sha256: sha256_hex(&bytes),
         bytes: bytes.len() as u64,
         packing: None,
+        fit: None,
     };
     Ok(WrittenFile { path, entry })
 }

@@ -19,10 +19,14 @@
 //!   `S` is the logistic `1 / (1 + e^t)`, the smoothstep `1 - smoothstep(-1, 1, t)`, the
 //!   error-function-like algebraic sigmoid `(1 - t / sqrt(1 + t^2)) / 2`, or the rational
 //!   `(1 - t / (1 + |t|)) / 2`.
+//! - [`Form::CauchyCap`]: the lobe as a spherical Cauchy distribution and TIR as the share of it
+//!   outside the critical cone, in closed form (see [`cauchy_cap`]).
 
 use std::cmp::Ordering;
 
 use serde::{Deserialize, Serialize};
+
+use super::dual::Dual;
 
 /// The narrowest step a step form can take, so that `t` stays finite at `alpha = 0`
 /// (a hard step at the table's resolution).
@@ -105,14 +109,36 @@ pub enum Form {
     Smoothstep,
     Algebraic,
     Rational,
+    CauchyCap,
 }
 
-pub const ALL_FORMS: [Form; 6] =
-    [Form::Eq56, Form::Eq56Corrected, Form::Logistic, Form::Smoothstep, Form::Algebraic, Form::Rational];
+pub const ALL_FORMS: [Form; 7] = [
+    Form::Eq56,
+    Form::Eq56Corrected,
+    Form::Logistic,
+    Form::Smoothstep,
+    Form::Algebraic,
+    Form::Rational,
+    Form::CauchyCap,
+];
 
 /// Names of the step forms' parameters (see the module docs).
 pub const STEP_PARAMETERS: [&str; 7] =
     ["width_alpha", "width_alpha2", "width_alpha_mu", "shift_alpha", "shift_alpha2", "shift_alpha_mu2", "edge_logit"];
+
+/// Names of [`Form::CauchyCap`]'s parameters (see [`cauchy_cap`]).
+pub const CAUCHY_CAP_PARAMETERS: [&str; 10] = [
+    "scale_alpha",
+    "scale_alpha2",
+    "scale_alpha_mu",
+    "horizon_alpha",
+    "horizon_alpha2",
+    "rough_exponent",
+    "rough_blend",
+    "rough_blend_exponent",
+    "centre_alpha",
+    "scale_grazing",
+];
 
 /// `logit(eta^2)` is clamped to this magnitude so that it stays finite at `eta = 0` and `eta = 1`.
 pub const EDGE_LOGIT_LIMIT: f64 = 40.0;
@@ -126,6 +152,7 @@ impl Form {
             Form::Smoothstep => "smoothstep",
             Form::Algebraic => "algebraic",
             Form::Rational => "rational",
+            Form::CauchyCap => "cauchy-cap",
         }
     }
 
@@ -136,6 +163,7 @@ impl Form {
     pub fn parameter_names(self) -> &'static [&'static str] {
         match self {
             Form::Eq56 | Form::Eq56Corrected => &[],
+            Form::CauchyCap => &CAUCHY_CAP_PARAMETERS,
             _ => &STEP_PARAMETERS,
         }
     }
@@ -153,6 +181,7 @@ impl Form {
             Form::Smoothstep => "1 - smoothstep(-1, 1, t), t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
             Form::Algebraic => "(1 - t / sqrt(1 + t^2)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
             Form::Rational => "(1 - t / (1 + |t|)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
+            Form::CauchyCap => CAUCHY_CAP_FORMULA,
         }
     }
 
@@ -160,6 +189,13 @@ impl Form {
     pub fn start_and_bounds(self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         match self {
             Form::Eq56 | Form::Eq56Corrected => (vec![], vec![], vec![]),
+            // The start is the plain model: scale alpha (exact at mu = 1 without G1), the true
+            // horizon, a cosine-like rough limit 1 - eta^2 reached linearly, no grazing terms.
+            Form::CauchyCap => (
+                vec![1.0, 0.0, 0.0, 0.0, 0.0, 2.0, 1.0, 1.0, 0.0, 0.0],
+                vec![0.0, -2.0, -2.0, 0.0, -2.0, 0.5, 0.0, 0.5, -1.0, 0.0],
+                vec![4.0, 2.0, 2.0, 2.0, 2.0, 4.0, 4.0, 4.0, 2.0, 2.0],
+            ),
             _ => (
                 vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
                 vec![0.0, -2.0, -2.0, -2.0, -2.0, -2.0, 0.0],
@@ -173,6 +209,7 @@ impl Form {
         match self {
             Form::Eq56 => eq56(mu, alpha, eta, false),
             Form::Eq56Corrected => eq56(mu, alpha, eta, true),
+            Form::CauchyCap => cauchy_cap(p, mu, alpha, eta),
             _ => {
                 let t = step_argument(p, mu, alpha, eta).0;
                 self.step(t)
@@ -191,7 +228,7 @@ impl Form {
             }
             Form::Algebraic => half - half.mul(t).div((one + t.mul(t)).sqrt()),
             Form::Rational => half - half.mul(t).div(one + t.abs()),
-            Form::Eq56 | Form::Eq56Corrected => R::of(0.0),
+            Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap => R::of(0.0),
         }
     }
 
@@ -207,7 +244,7 @@ impl Form {
             }
             Form::Algebraic => -0.5 / (1.0 + t * t).powf(1.5),
             Form::Rational => -0.5 / ((1.0 + t.abs()) * (1.0 + t.abs())),
-            Form::Eq56 | Form::Eq56Corrected => 0.0,
+            Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap => 0.0,
         }
     }
 
@@ -216,6 +253,13 @@ impl Form {
     pub fn value_and_gradient(self, p: &[f64], mu: f64, alpha: f64, eta: f64, gradient: &mut [f64]) -> Option<f64> {
         if p.is_empty() {
             return None;
+        }
+        if self == Form::CauchyCap {
+            // Exact gradient by forward-mode dual numbers through the same generic code.
+            let dual: Vec<Dual> = p.iter().enumerate().map(|(k, &v)| Dual::parameter(v, k)).collect();
+            let value = cauchy_cap(&dual, Dual::of(mu), Dual::of(alpha), Dual::of(eta));
+            gradient.copy_from_slice(&value.gradient[..p.len()]);
+            return Some(value.value);
         }
         let (t, width, clamped) = step_argument(p, mu, alpha, eta);
         let dv_dt = self.step_derivative(t);
@@ -254,6 +298,84 @@ fn edge_logit<R: Real>(eta: R) -> R {
     let tiny = R::of(1e-30);
     let logit = eta2.max(tiny).ln() - (R::of(1.0) - eta2).max(tiny).ln();
     logit.max(R::of(-EDGE_LOGIT_LIMIT)).min(R::of(EDGE_LOGIT_LIMIT))
+}
+
+/// The floor of the lobe's stereographic scale, so that the cap shares stay defined at `alpha = 0`
+/// (a hard step there).
+pub const CAUCHY_SCALE_FLOOR: f64 = 1e-4;
+
+pub const CAUCHY_CAP_FORMULA: &str = "C + h (A - C): C = 1 - P(critical cone) / P(horizon cap) of a spherical Cauchy lobe \
+     at cosine m = clamp(mu + c8 alpha (1 - mu), 0, 1), stereographic scale \
+     l = alpha (c0 + c1 alpha + c2 mu) + c9 sqrt(alpha) (1 - mu)^16 + 1e-4; P(cap of cosine cb, sine sb) = \
+     (1 - u / sqrt(u^2 + w^2)) / 2, u = l^2 (m + cb) + cb - m, w = 2 l sb; critical cone cb = sqrt(1 - eta^2), \
+     sb = eta; horizon cap cb = clamp(alpha (c3 + c4 alpha), 0, 1); A = sqrt(1 - eta^2)^c5, h = min(c6 alpha^c7, 1)";
+
+/// The share `(1 - u / sqrt(u^2 + w^2)) / 2` of a cap, written without cancellation when `u > 0`
+/// (a cap far from the lobe): `1 - u / s = w^2 / (s (s + u))`.
+pub fn cap_share<R: Real>(u: R, w: R) -> R {
+    // `u = w = 0` only for an empty cap on a zero-width lobe, which the scale floor excludes;
+    // the floor on `s` keeps even that finite (share 1/2).
+    let s = (u.mul(u) + w.mul(w)).sqrt().max(R::of(1e-30));
+    let half = R::of(0.5);
+    if u > R::of(0.0) { half.mul(w.mul(w)).div(s.mul(s + u)) } else { half - half.mul(u).div(s) }
+}
+
+/// TIR as the share of a spherical Cauchy lobe lying outside the critical cone.
+///
+/// Why this shape: GGX slopes have the density `1 / (pi l^2 (1 + r^2 / l^2)^2)`, which is the
+/// stereographic image of the uniform distribution on the sphere scaled by `l`. At normal
+/// incidence a half vector of slope `r` reflects the normal into a direction whose stereographic
+/// radius `tan(theta_w / 2)` is `r` again, so the reflected lobe is exactly a spherical Cauchy
+/// distribution (Kato & McCullagh 2020) of scale `l = alpha` (before the G1 weight). A stereographic
+/// projection maps caps to disks, so the share of such a lobe in any cap is a closed form: for a
+/// lobe centred at cosine `m` and a cap around the normal of cosine `cb` and sine `sb`, it is
+/// `(1 - u / sqrt(u^2 + w^2)) / 2` with `u = l^2 (m + cb) + cb - m`, `w = 2 l sb` (the image cap's
+/// angular radius `atan(r2 / l) - atan(r1 / l)`, with `r1,2 = tan((theta_m -+ theta_b) / 2)`,
+/// after clearing denominators). TIR is `1 - P(critical cone) / P(upper cap)`, the critical cone
+/// having `cb = sqrt(1 - eta^2)`, `sb = eta`. At `alpha = 0` this is the table's hard step; at
+/// `eta = 0` the cone is empty (TIR = 1) and at `eta = 1` it is the upper cap (TIR = 0), the
+/// table's exact edges, without a logit term.
+///
+/// Fitted corrections, each for a measured departure from the plain model (docs/fit.md):
+/// - the scale grows with roughness and angle (`c0..c2`), and as `sqrt(alpha)` at grazing
+///   incidence (`c9 (1 - mu)^16`): there the visible normals face the viewer and the reflected
+///   lobe's tail toward the normal is one-dimensional (`~ alpha / r`), heavier than the model's;
+/// - the lobe's centre moves toward the normal (`c8`): reflected directions below the horizon
+///   have no weight, and visible normals tilt toward the viewer;
+/// - the upper cap shrinks to cosine `alpha (c3 + c4 alpha)`: the G1 weight removes grazing
+///   directions, as a horizon raised by roughness would;
+/// - rough lobes blend into the rough limit `(1 - eta^2)^(c5 / 2)`, independent of `mu` in the
+///   table at `alpha = 1`, with weight `min(c6 alpha^c7, 1)`.
+pub fn cauchy_cap<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
+    let (zero, one) = (R::of(0.0), R::of(1.0));
+    let grazing = {
+        let g = one - mu;
+        let g = g.mul(g);
+        let g = g.mul(g);
+        let g = g.mul(g);
+        g.mul(g)
+    };
+    let sqrt_alpha = alpha.max(zero).sqrt();
+    let scale = alpha.mul(p[0] + p[1].mul(alpha) + p[2].mul(mu)).max(zero)
+        + p[9].mul(sqrt_alpha).mul(grazing)
+        + R::of(CAUCHY_SCALE_FLOOR);
+    let centre = (mu + p[8].mul(alpha).mul(one - mu)).max(zero).min(one);
+    let critical_cosine = (one - eta.mul(eta)).max(zero).sqrt();
+    let horizon_cosine = alpha.mul(p[3] + p[4].mul(alpha)).max(zero).min(one);
+    let horizon_sine = (one - horizon_cosine.mul(horizon_cosine)).max(zero).sqrt();
+    let scale2 = scale.mul(scale);
+    let two_scale = R::of(2.0).mul(scale);
+    let share = |cap_cosine: R, cap_sine: R| {
+        // `cap_cosine - centre` first: it is exact where the two are equal, where adding the tiny
+        // `scale2` term first would round it away in f32 and leave `u = w = 0`.
+        cap_share(scale2.mul(centre + cap_cosine) + (cap_cosine - centre), two_scale.mul(cap_sine))
+    };
+    let inside = share(critical_cosine, eta);
+    let upper = share(horizon_cosine, horizon_sine);
+    let narrow = (one - inside.div(upper.max(R::of(1e-30)))).max(zero).min(one);
+    let rough = critical_cosine.powf(p[5]);
+    let blend = p[6].mul(alpha.powf(p[7])).min(one);
+    narrow + blend.mul(rough - narrow)
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric interface of relative index `eta` at incident
@@ -310,14 +432,17 @@ fn eq56<R: Real>(mu: R, alpha: R, eta: R, corrected: bool) -> R {
     fresnel_dielectric(o_dot_s, eta).mul(smith_g1(ws_z, alpha)).mul(one - fresnel_dielectric(oz, R::of(ETA10)))
 }
 
-/// Shader source of a step form with its coefficients baked in (`None` for the baselines, whose
+/// Shader source of a fitted form with its coefficients baked in (`None` for the baselines, whose
 /// shader is the thesis's own).
 pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Option<String> {
-    if parameters.len() != STEP_PARAMETERS.len() {
+    if parameters.is_empty() || parameters.len() != form.parameter_names().len() {
         return None;
     }
     // `{:?}` of an f32 is the shortest text that reads back to the same f32.
     let c: Vec<String> = parameters.iter().map(|&v| format!("{:?}", v as f32)).collect();
+    if form == Form::CauchyCap {
+        return Some(cauchy_cap_shader(&c, language));
+    }
     let (signature, binding) = match language {
         ShaderLanguage::Hlsl => ("float tmlut_tir(float mu, float alpha, float eta)", "float"),
         ShaderLanguage::Wgsl => ("fn tmlut_tir(mu: f32, alpha: f32, eta: f32) -> f32", "let"),
@@ -327,7 +452,7 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
         Form::Smoothstep => "1.0 - smoothstep(-1.0, 1.0, t)",
         Form::Algebraic => "0.5 - 0.5 * t / sqrt(1.0 + t * t)",
         Form::Rational => "0.5 - 0.5 * t / (1.0 + abs(t))",
-        Form::Eq56 | Form::Eq56Corrected => return None,
+        Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap => return None,
     };
     Some(format!(
         "// tmlut fit tir: form '{name}', {formula}\n\
@@ -353,6 +478,57 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
         c6 = c[6],
         limit = EDGE_LOGIT_LIMIT as f32,
     ))
+}
+
+/// [`cauchy_cap`] as shader text, statement for statement, with coefficients `c` (f32 text) baked in
+/// as named constants `c0..c9`.
+fn cauchy_cap_shader(c: &[String], language: ShaderLanguage) -> String {
+    let (helper, signature, binding, share_u_positive) = match language {
+        ShaderLanguage::Hlsl => (
+            "float tmlut_cap_share(float u, float w)",
+            "float tmlut_tir(float mu, float alpha, float eta)",
+            "float",
+            "return u > 0.0 ? 0.5 * w * w / (s * (s + u)) : 0.5 - 0.5 * u / s;",
+        ),
+        ShaderLanguage::Wgsl => (
+            "fn tmlut_cap_share(u: f32, w: f32) -> f32",
+            "fn tmlut_tir(mu: f32, alpha: f32, eta: f32) -> f32",
+            "let",
+            "return select(0.5 - 0.5 * u / s, 0.5 * w * w / (s * (s + u)), u > 0.0);",
+        ),
+    };
+    let constant_type = if language == ShaderLanguage::Wgsl { ": f32" } else { "" };
+    let constants: String =
+        c.iter().enumerate().map(|(k, v)| format!("    {binding} c{k}{constant_type} = {v};\n")).collect();
+    format!(
+        "// tmlut fit tir: form 'cauchy-cap', {formula}\n\
+         // Coefficients as in fit.json (f32).\n\
+         // Share of a spherical Cauchy lobe in a cap; 1 - u / s written without cancellation for u > 0.\n\
+         {helper} {{\n\
+         \x20   {binding} s = max(sqrt(u * u + w * w), 1e-30);\n\
+         \x20   {share_u_positive}\n\
+         }}\n\
+         {signature} {{\n\
+         {constants}\
+         \x20   {binding} g2 = (1.0 - mu) * (1.0 - mu);\n\
+         \x20   {binding} g4 = g2 * g2;\n\
+         \x20   {binding} g8 = g4 * g4;\n\
+         \x20   {binding} scale = max(alpha * (c0 + c1 * alpha + c2 * mu), 0.0) + c9 * sqrt(alpha) * (g8 * g8) + {floor:?};\n\
+         \x20   {binding} centre = clamp(mu + c8 * alpha * (1.0 - mu), 0.0, 1.0);\n\
+         \x20   {binding} critical_cosine = sqrt(max(1.0 - eta * eta, 0.0));\n\
+         \x20   {binding} horizon_cosine = clamp(alpha * (c3 + c4 * alpha), 0.0, 1.0);\n\
+         \x20   {binding} horizon_sine = sqrt(max(1.0 - horizon_cosine * horizon_cosine, 0.0));\n\
+         \x20   {binding} scale2 = scale * scale;\n\
+         \x20   {binding} inside = tmlut_cap_share(scale2 * (centre + critical_cosine) + (critical_cosine - centre), 2.0 * scale * eta);\n\
+         \x20   {binding} upper = tmlut_cap_share(scale2 * (centre + horizon_cosine) + (horizon_cosine - centre), 2.0 * scale * horizon_sine);\n\
+         \x20   {binding} narrow = clamp(1.0 - inside / max(upper, 1e-30), 0.0, 1.0);\n\
+         \x20   {binding} rough = pow(critical_cosine, c5);\n\
+         \x20   {binding} blend = min(c6 * pow(alpha, c7), 1.0);\n\
+         \x20   return narrow + blend * (rough - narrow);\n\
+         }}\n",
+        formula = CAUCHY_CAP_FORMULA,
+        floor = CAUCHY_SCALE_FLOOR as f32,
+    )
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -9,6 +9,7 @@
 //! - [`cost`]: ns per f32 evaluation (median of repeated runs), and the table fetch through the
 //!   GPU texture emulator timed the same way.
 
+pub mod dual;
 pub mod forms;
 
 use std::cmp::Ordering;
@@ -20,6 +21,7 @@ use nlopt::{Algorithm, Nlopt, Target};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+pub use crate::formats::manifest::{ErrorFigures, Minimum, StartRecord};
 use crate::packing::emulator::{Filter, Texture3D};
 use crate::report::bench::median;
 use crate::table::Table;
@@ -81,28 +83,6 @@ impl Default for FitSettings {
     fn default() -> Self {
         FitSettings { starts: 6, seed: 2021, max_evaluations: 2000, ftol_rel: 1e-10 }
     }
-}
-
-/// One start of a search: where it began, where it ended, and what NLopt said.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct StartRecord {
-    pub start: Vec<f64>,
-    pub parameters: Vec<f64>,
-    pub objective: f64,
-    /// NLopt's status, e.g. `Success`, `FtolReached`, `MaxEvalReached`, `RoundoffLimited`.
-    pub status: String,
-    pub succeeded: bool,
-    pub evaluations: u64,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Minimum {
-    pub algorithm: String,
-    pub parameters: Vec<f64>,
-    pub objective: f64,
-    /// Index into `starts` of the best start.
-    pub best_start: usize,
-    pub starts: Vec<StartRecord>,
 }
 
 /// splitmix64: deterministic start points from the seed, independent of any library's RNG.
@@ -220,6 +200,9 @@ pub struct FittedForm {
     pub search: Option<Minimum>,
 }
 
+/// Nodes per parallel work item of the objective (fixed, so that sums do not depend on threads).
+const OBJECTIVE_CHUNK: usize = 4096;
+
 /// Least squares of one form over the data: minimise the (weighted) mean squared residual.
 pub fn fit_form(form: Form, data: &FitData, settings: &FitSettings) -> Result<FittedForm> {
     let (start, lower, upper) = form.start_and_bounds();
@@ -230,27 +213,45 @@ pub fn fit_form(form: Form, data: &FitData, settings: &FitSettings) -> Result<Fi
     if total_weight.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return Err(Error::invalid("fit weights", format!("sum {total_weight}; allowed: positive")));
     }
-    let objective = |p: &[f64], gradient: Option<&mut [f64]>| -> f64 {
+    // Sum of squared residuals (and its gradient) over one chunk of nodes; NaN if the form has no
+    // gradient where one is asked for.
+    let chunk_sums = |p: &[f64], want_gradient: bool, chunk: usize| -> (f64, Vec<f64>) {
         let mut sum = 0.0;
         let mut g_point = vec![0.0; p.len()];
-        let mut g_sum = vec![0.0; p.len()];
-        let want_gradient = gradient.is_some();
-        for (n, (point, &target)) in data.points.iter().zip(&data.values).enumerate() {
+        let mut g_sum = vec![0.0; if want_gradient { p.len() } else { 0 }];
+        let nodes = chunk * OBJECTIVE_CHUNK..((chunk + 1) * OBJECTIVE_CHUNK).min(data.values.len());
+        for n in nodes {
+            let (point, target) = (&data.points[n], data.values[n]);
             let w = data.weight(n);
             let value = if want_gradient {
                 match form.value_and_gradient(p, point[0], point[1], point[2], &mut g_point) {
                     Some(v) => v,
-                    None => return f64::NAN,
+                    None => return (f64::NAN, g_sum),
                 }
             } else {
                 form.eval(p, point[0], point[1], point[2])
             };
             let residual = value - target;
             sum += w * residual * residual;
-            if want_gradient {
-                for (g, &d) in g_sum.iter_mut().zip(&g_point) {
-                    *g += 2.0 * w * residual * d;
-                }
+            for (g, &d) in g_sum.iter_mut().zip(&g_point) {
+                *g += 2.0 * w * residual * d;
+            }
+        }
+        (sum, g_sum)
+    };
+    let chunks = data.values.len().div_ceil(OBJECTIVE_CHUNK);
+    let objective = |p: &[f64], gradient: Option<&mut [f64]>| -> f64 {
+        use rayon::prelude::*;
+        let want_gradient = gradient.is_some();
+        // Chunks in parallel, their sums added in chunk order: the same bits for any thread count.
+        let per_chunk: Vec<(f64, Vec<f64>)> =
+            (0..chunks).into_par_iter().map(|chunk| chunk_sums(p, want_gradient, chunk)).collect();
+        let mut sum = 0.0;
+        let mut g_sum = vec![0.0; p.len()];
+        for (chunk_sum, chunk_gradient) in &per_chunk {
+            sum += chunk_sum;
+            for (g, d) in g_sum.iter_mut().zip(chunk_gradient) {
+                *g += d;
             }
         }
         if let Some(gradient) = gradient {
@@ -263,18 +264,6 @@ pub fn fit_form(form: Form, data: &FitData, settings: &FitSettings) -> Result<Fi
     };
     let minimum = minimise(&objective, true, &start, &lower, &upper, settings)?;
     Ok(FittedForm { form, parameters: minimum.parameters.clone(), search: Some(minimum) })
-}
-
-/// Error of a form over the table's nodes, evaluated in f32 (what a shader computes).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ErrorFigures {
-    pub rmse: f64,
-    /// Mean squared error (the thesis reports MSE 0.0724 for eq. 5.6, against a naive estimator).
-    pub mse: f64,
-    pub max_abs_error: f64,
-    /// `(mu, alpha, eta)` of the largest error.
-    pub max_at: [f64; 3],
-    pub nodes: usize,
 }
 
 /// The form's f32 value at every node.
@@ -351,6 +340,56 @@ pub fn fetch_cost_ns(texture: &Texture3D, queries: &[[f32; 3]], runs: usize) -> 
     time_per_evaluation(queries, runs, |mu, alpha, eta| {
         texture.sample_trilinear(mu * sx + ox, alpha * sy + oy, eta * sz + oz, Filter::Exact)
     })
+}
+
+/// The form a build fits to its TIR table: the most accurate fitted form whose CPU cost was
+/// measured no higher than thesis eq. 5.6's, side by side (docs/fit.md). Fixed here rather than
+/// timed during the build, so that a build's files depend on its configuration and seed only.
+pub const BUILD_FORM: Form = Form::CauchyCap;
+
+/// Starts of the build's fit: the form's own start only. On the default table every start of
+/// `tmlut fit tir` ended at the same objective to 1e-3 relative (docs/fit.md), and each start
+/// costs about 10 s of CPU in the build.
+pub const BUILD_STARTS: usize = 1;
+
+/// Fit [`BUILD_FORM`] to a built TIR table and write its shaders into `dir` as `tir_fit.hlsl` and
+/// `tir_fit.wgsl`. Returns the manifest entry and the shader paths.
+pub fn fit_for_build(
+    table: &Table,
+    seed: u64,
+    dir: &Path,
+) -> Result<(crate::formats::manifest::FitEntry, Vec<PathBuf>)> {
+    let data = FitData::from_table(table)?;
+    let settings = FitSettings { starts: BUILD_STARTS, seed, ..FitSettings::default() };
+    let fitted = fit_form(BUILD_FORM, &data, &settings)?;
+    let mut shaders = Vec::new();
+    let mut paths = Vec::new();
+    for (language, extension) in [(ShaderLanguage::Hlsl, "hlsl"), (ShaderLanguage::Wgsl, "wgsl")] {
+        let text = forms::shader(BUILD_FORM, &fitted.parameters, language)
+            .ok_or_else(|| Error::invalid("fit", format!("form {} has no shader", BUILD_FORM.name())))?;
+        let file = format!("tir_fit.{extension}");
+        let path = dir.join(&file);
+        crate::formats::write_bytes_atomically(&path, text.as_bytes())?;
+        shaders.push(crate::formats::manifest::ShaderFile {
+            language: extension.into(),
+            file,
+            function: "tmlut_tir".into(),
+            sha256: crate::pipeline::sha256_hex(text.as_bytes()),
+        });
+        paths.push(path);
+    }
+    let entry = crate::formats::manifest::FitEntry {
+        form: BUILD_FORM.name().into(),
+        formula: BUILD_FORM.formula().into(),
+        chosen_by: "tir.fit = \"best\": the most accurate form measured no costlier than thesis eq. 5.6 (docs/fit.md)"
+            .into(),
+        parameter_names: BUILD_FORM.parameter_names().iter().map(|s| s.to_string()).collect(),
+        parameters: fitted.parameters.clone(),
+        figures: figures(&fitted, &data),
+        search: fitted.search,
+        shaders,
+    };
+    Ok((entry, paths))
 }
 
 /// One form's entry in `fit.json`.

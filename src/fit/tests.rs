@@ -1,12 +1,18 @@
 use super::*;
+use std::path::Path;
+
 use crate::table::{Axis, Channel};
 
 /// A small TIR-shaped table built from a form with known parameters.
 fn synthetic(form: Form, parameters: &[f64]) -> Table {
+    synthetic_sized(form, parameters, [17, 9, 17])
+}
+
+fn synthetic_sized(form: Form, parameters: &[f64], [mu, alpha, eta]: [usize; 3]) -> Table {
     let axes = vec![
-        Axis::node_aligned("mu", 0.0, 1.0, 17).unwrap(),
-        Axis::node_aligned("alpha", 0.0, 1.0, 9).unwrap(),
-        Axis::node_aligned("eta", 0.0, 1.0, 17).unwrap(),
+        Axis::node_aligned("mu", 0.0, 1.0, mu).unwrap(),
+        Axis::node_aligned("alpha", 0.0, 1.0, alpha).unwrap(),
+        Axis::node_aligned("eta", 0.0, 1.0, eta).unwrap(),
     ];
     let mut table = Table::zeros("tir", axes, vec![Channel::new("tir", "synthetic")]).unwrap();
     for n in 0..table.node_count() {
@@ -33,6 +39,65 @@ fn fit_recovers_known_parameters_from_a_synthetic_table() {
     assert!(figures(&fitted, &data).rmse < 1e-5);
     // Reproducible: same table and seed, same coefficients, bit for bit.
     assert_eq!(fit_form(Form::Logistic, &data, &settings).unwrap().parameters, fitted.parameters);
+}
+
+/// Cauchy-cap parameters near the fit to the built table (docs/fit.md).
+const KNOWN_CAUCHY: [f64; 10] = [1.3, -0.35, -0.45, 0.7, -0.35, 1.75, 1.3, 1.35, 0.6, 0.4];
+
+#[test]
+fn cauchy_cap_fit_recovers_known_parameters_reproducibly() {
+    let table = synthetic(Form::CauchyCap, &KNOWN_CAUCHY);
+    let data = FitData::from_table(&table).unwrap();
+    let settings = FitSettings { starts: 2, ..FitSettings::default() };
+    let fitted = fit_form(Form::CauchyCap, &data, &settings).unwrap();
+    for (got, want) in fitted.parameters.iter().zip(KNOWN_CAUCHY) {
+        assert!((got - want).abs() < 1e-2, "{:?} vs {KNOWN_CAUCHY:?}", fitted.parameters);
+    }
+    assert!(figures(&fitted, &data).rmse < 1e-5);
+    assert_eq!(fit_form(Form::CauchyCap, &data, &settings).unwrap().parameters, fitted.parameters);
+}
+
+/// The cap share in closed form against sampling: GGX slopes of scale `l` (density
+/// `1 / (pi l^2 (1 + r^2 / l^2)^2)`, inverse CDF `r^2 = l^2 U / (1 - U)`) lifted to the sphere by
+/// the inverse stereographic projection `tan(theta / 2) = r` around the lobe's centre.
+#[test]
+fn cap_share_matches_sampled_spherical_cauchy() {
+    let mut state = 7u64;
+    let mut uniform = || (splitmix64(&mut state) >> 11) as f64 / (1u64 << 53) as f64;
+    for &(centre_cosine, scale, cap_cosine) in &[(0.9, 0.1, 0.95), (0.3, 0.4, 0.6), (1.0, 0.05, 0.99), (0.0, 1.0, 0.0)]
+    {
+        let samples = 200_000;
+        let centre_sine = (1.0f64 - centre_cosine * centre_cosine).sqrt();
+        let mut inside = 0usize;
+        for _ in 0..samples {
+            let u = uniform();
+            let r = scale * (u / (1.0 - u)).sqrt();
+            let theta = 2.0 * r.atan();
+            let phi = 2.0 * std::f64::consts::PI * uniform();
+            // Cosine to the normal of a direction at angle theta, azimuth phi from the centre.
+            let z = centre_cosine * theta.cos() - centre_sine * theta.sin() * phi.cos();
+            inside += (z > cap_cosine) as usize;
+        }
+        let sampled = inside as f64 / samples as f64;
+        let cap_sine = (1.0f64 - cap_cosine * cap_cosine).sqrt();
+        let u = scale * scale * (centre_cosine + cap_cosine) + (cap_cosine - centre_cosine);
+        let closed = forms::cap_share(u, 2.0 * scale * cap_sine);
+        assert!((sampled - closed).abs() < 4e-3, "{centre_cosine} {scale} {cap_cosine}: {sampled} vs {closed}");
+    }
+}
+
+#[test]
+fn fitted_coefficients_do_not_depend_on_the_thread_count() {
+    // Several objective chunks, so that the threads really split the sum.
+    let table = synthetic_sized(Form::Logistic, &KNOWN, [33, 17, 33]);
+    let data = FitData::from_table(&table).unwrap();
+    assert!(data.values.len() > 3 * OBJECTIVE_CHUNK);
+    let settings = FitSettings { starts: 1, ..FitSettings::default() };
+    let with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| fit_form(Form::Rational, &data, &settings).unwrap().parameters)
+    };
+    assert_eq!(with(1), with(3));
 }
 
 #[test]
@@ -62,6 +127,24 @@ fn analytic_gradient_matches_finite_differences() {
             down[k] -= h;
             let numeric = (form.eval(&up, mu, alpha, eta) - form.eval(&down, mu, alpha, eta)) / (2.0 * h);
             assert!((numeric - gradient[k]).abs() < 1e-6, "{form:?} {k}: {numeric} vs {}", gradient[k]);
+        }
+    }
+    // The dual-number gradient of the cauchy-cap form, at points on each side of its branches.
+    for &(mu, alpha, eta) in &[(0.55, 0.4, 0.8), (0.05, 0.1, 0.97), (0.98, 0.03, 0.1), (0.3, 0.9, 0.5)] {
+        let mut gradient = [0.0; 10];
+        Form::CauchyCap.value_and_gradient(&KNOWN_CAUCHY, mu, alpha, eta, &mut gradient).unwrap();
+        for k in 0..10 {
+            let h = 1e-6;
+            let (mut up, mut down) = (KNOWN_CAUCHY, KNOWN_CAUCHY);
+            up[k] += h;
+            down[k] -= h;
+            let f = |p: &[f64]| Form::CauchyCap.eval(p, mu, alpha, eta);
+            let numeric = (f(&up) - f(&down)) / (2.0 * h);
+            assert!(
+                (numeric - gradient[k]).abs() < 1e-6,
+                "cauchy-cap {k} at {mu} {alpha} {eta}: {numeric} vs {}",
+                gradient[k]
+            );
         }
     }
 }
@@ -136,13 +219,24 @@ fn baked_coefficients(text: &str) -> Vec<f32> {
     vec![w[0], w[1], w[2], s[0], s[1], s[2], e[0]]
 }
 
+/// The cauchy-cap shader's named constants `c0..c9` (`float c3 = ...;` or `let c3: f32 = ...;`).
+fn baked_constants(text: &str) -> Vec<f32> {
+    (0..10)
+        .map(|k| {
+            let declares = |l: &&str| l.contains(&format!(" c{k} = ")) || l.contains(&format!(" c{k}: f32 = "));
+            let line = text.lines().find(declares).unwrap_or_else(|| panic!("no c{k} in\n{text}"));
+            line.rsplit_once('=').unwrap().1.trim().trim_end_matches(';').parse::<f32>().unwrap()
+        })
+        .collect()
+}
+
 #[test]
 fn shader_coefficients_match_the_manifest() {
     let dir = tempfile::tempdir().unwrap();
     let table = synthetic(Form::Algebraic, &KNOWN);
     let request = FitRequest {
         table_path: "synthetic".into(),
-        forms: vec![Form::Eq56, Form::Logistic, Form::Algebraic],
+        forms: vec![Form::Eq56, Form::Logistic, Form::Algebraic, Form::CauchyCap],
         out: dir.path().to_path_buf(),
         settings: FitSettings { starts: 2, ..FitSettings::default() },
         timing_runs: 3,
@@ -152,7 +246,7 @@ fn shader_coefficients_match_the_manifest() {
     let read: FitManifest = serde_json::from_slice(&std::fs::read(dir.path().join("fit.json")).unwrap()).unwrap();
     assert_eq!(read, manifest);
     assert!(dir.path().join("error_vs_cost.png").is_file());
-    for form in ["eq56", "logistic", "algebraic"] {
+    for form in ["eq56", "logistic", "algebraic", "cauchy-cap"] {
         assert!(dir.path().join(format!("tir_error_{form}.png")).is_file());
         let map = crate::formats::exr::read_exr(&dir.path().join(format!("tir_error_{form}.exr"))).unwrap();
         let reported = read.forms.iter().find(|f| f.name == form).unwrap().figures.max_abs_error;
@@ -170,9 +264,59 @@ fn shader_coefficients_match_the_manifest() {
         for shader in &form.shaders {
             let text = std::fs::read_to_string(dir.path().join(shader)).unwrap();
             let manifest_f32: Vec<f32> = form.parameters.iter().map(|&v| v as f32).collect();
-            assert_eq!(baked_coefficients(&text), manifest_f32, "{shader}");
+            let baked = if form.name == "cauchy-cap" { baked_constants(&text) } else { baked_coefficients(&text) };
+            assert_eq!(baked, manifest_f32, "{shader}");
         }
     }
     let algebraic = read.forms.iter().find(|f| f.name == "algebraic").unwrap();
     assert!(algebraic.figures.rmse < 1e-4, "{:?}", algebraic.figures);
+}
+
+/// A small TIR build with `tir.fit` as given, into `out`.
+fn build_small_tir(out: &Path, fit: crate::recipes::tir::TirFit) -> crate::formats::manifest::Manifest {
+    let mut config = crate::config::Config::default();
+    config.tir.mu_count = 17;
+    config.tir.alpha_count = 9;
+    config.tir.eta_count = 17;
+    config.tir.sampling.samples = 1024;
+    config.tir.reference.cells = 0;
+    config.tir.fit = fit;
+    let request =
+        crate::pipeline::BuildRequest { config, only: Some(vec!["tir".into()]), out: out.into(), error_maps: false };
+    crate::pipeline::build(&request, &()).unwrap();
+    crate::formats::manifest::Manifest::read_or_default(out).unwrap()
+}
+
+#[test]
+fn the_build_writes_the_best_form_reproducibly_and_only_when_asked() {
+    use crate::recipes::tir::TirFit;
+    let (first, second, off) =
+        (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let manifest = build_small_tir(first.path(), TirFit::Best);
+    let fit = manifest.files["tir.bin"].fit.clone().expect("tir.fit = \"best\" records the fit");
+    assert_eq!(fit.form, BUILD_FORM.name());
+    assert_eq!(fit.parameters.len(), fit.parameter_names.len());
+    let search = fit.search.as_ref().unwrap();
+    assert_eq!(search.starts.len(), BUILD_STARTS);
+    assert!(search.starts.iter().all(|s| !s.status.is_empty()));
+    // The recorded figures are those of the recorded coefficients on the built table.
+    let table = crate::formats::bin::read_bin(&first.path().join("tir.bin"), None).unwrap();
+    let data = FitData::from_table(&table).unwrap();
+    let refitted = FittedForm { form: BUILD_FORM, parameters: fit.parameters.clone(), search: None };
+    assert_eq!(figures(&refitted, &data), fit.figures);
+    let manifest_f32: Vec<f32> = fit.parameters.iter().map(|&v| v as f32).collect();
+    for shader in &fit.shaders {
+        let text = std::fs::read_to_string(first.path().join(&shader.file)).unwrap();
+        assert_eq!(baked_constants(&text), manifest_f32, "{}", shader.file);
+        assert_eq!(crate::pipeline::sha256_hex(text.as_bytes()), shader.sha256);
+    }
+    // Same table and seed: same coefficients and shader bytes.
+    let again = build_small_tir(second.path(), TirFit::Best);
+    assert_eq!(again.files["tir.bin"].fit.as_ref().unwrap().parameters, fit.parameters);
+    for name in ["tir_fit.hlsl", "tir_fit.wgsl"] {
+        assert_eq!(std::fs::read(first.path().join(name)).unwrap(), std::fs::read(second.path().join(name)).unwrap());
+    }
+    let none = build_small_tir(off.path(), TirFit::Off);
+    assert!(none.files["tir.bin"].fit.is_none());
+    assert!(!off.path().join("tir_fit.hlsl").exists());
 }

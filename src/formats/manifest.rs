@@ -133,6 +133,60 @@ pub struct FileEntry {
     /// the exact lookup. The entry's `axes` are then the texture's own texel axes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub packing: Option<PackingEntry>,
+    /// The analytic approximation fitted to this table by the build (TIR with `tir.fit = "best"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<FitEntry>,
+}
+
+/// One start of a least-squares search (`tmlut fit`, the build's fit): where it began, where it ended, and what NLopt said.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StartRecord {
+    pub start: Vec<f64>,
+    pub parameters: Vec<f64>,
+    pub objective: f64,
+    /// NLopt's status, e.g. `Success`, `FtolReached`, `MaxEvalReached`, `RoundoffLimited`.
+    pub status: String,
+    pub succeeded: bool,
+    pub evaluations: u64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Minimum {
+    pub algorithm: String,
+    pub parameters: Vec<f64>,
+    pub objective: f64,
+    /// Index into `starts` of the best start.
+    pub best_start: usize,
+    pub starts: Vec<StartRecord>,
+}
+
+/// Error of a form over the table's nodes, evaluated in f32 (what a shader computes).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorFigures {
+    pub rmse: f64,
+    /// Mean squared error (the thesis reports MSE 0.0724 for eq. 5.6, against a naive estimator).
+    pub mse: f64,
+    pub max_abs_error: f64,
+    /// `(mu, alpha, eta)` of the largest error.
+    pub max_at: [f64; 3],
+    pub nodes: usize,
+}
+
+/// A form fitted to a table by least squares (`crate::fit`), with its shaders.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FitEntry {
+    pub form: String,
+    pub formula: String,
+    /// Why this form: the rule that chose it.
+    pub chosen_by: String,
+    pub parameter_names: Vec<String>,
+    pub parameters: Vec<f64>,
+    /// Against this table's nodes, the form evaluated in f32.
+    pub figures: ErrorFigures,
+    /// The search: algorithm, every start with NLopt's own status.
+    pub search: Option<Minimum>,
+    /// `tmlut_tir(mu, alpha, eta)` with the coefficients baked in.
+    pub shaders: Vec<ShaderFile>,
 }
 
 /// How a table of more axes than a texture has is packed into one, and how to read it back.
@@ -242,6 +296,7 @@ mod tests {
             sha256: "00".into(),
             bytes: 16408,
             packing: None,
+            fit: None,
         };
         let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), scene: None };
         manifest.files.insert("gd.bin".into(), entry);

@@ -54,6 +54,18 @@ pub struct TirSettings {
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
     pub output: OutputConfig,
+    /// Fit an analytic approximation to the built table and write it beside the table.
+    pub fit: TirFit,
+}
+
+/// What the build fits to the TIR table (`crate::fit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TirFit {
+    /// [`crate::fit::BUILD_FORM`]: the most accurate form measured no costlier than thesis eq. 5.6,
+    /// written as `tir_fit.hlsl`, `tir_fit.wgsl` and the table's manifest entry.
+    Best,
+    Off,
 }
 
 impl Default for TirSettings {
@@ -69,6 +81,7 @@ impl Default for TirSettings {
             sampling: SamplingConfig { samples: 1 << 15, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
+            fit: TirFit::Best,
         }
     }
 }

@@ -81,6 +81,7 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                     }),
                     output: slices.output(),
                     packings: Vec::new(),
+                    fit_seed: None,
                 }
             }
             other => {
@@ -89,10 +90,12 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                     PlannedBuild::Fgd(settings) => settings.packings.clone(),
                     _ => Vec::new(),
                 };
+                // A TIR table over a sub-range is not what the analytic forms are fitted to.
                 Job {
                     run: Box::new(move |progress| recipe.build(seed, progress)),
                     output: recipe.output().clone(),
                     packings,
+                    fit_seed: None,
                 }
             }
         })
