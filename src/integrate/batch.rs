@@ -38,6 +38,8 @@ pub struct CellWarp {
     alpha32: f32,
     wi_x: f32,
     wi_z: f32,
+    /// Whether [`SampleArrays::cos_offset`] is wanted (narrow lobes only; it costs a division).
+    offsets: bool,
 }
 
 impl CellWarp {
@@ -56,7 +58,13 @@ impl CellWarp {
             alpha32: alpha as f32,
             wi_x: wi.x as f32,
             wi_z: wi.z as f32,
+            offsets: false,
         }
+    }
+
+    /// [`CellWarp::new`], also filling [`SampleArrays::cos_offset`].
+    pub fn with_offsets(mu: f64, alpha: f64) -> Self {
+        CellWarp { offsets: true, ..Self::new(mu, alpha) }
     }
 
     /// `wi.h`, `wo.z` and `sin^2(theta_o) = wo.x^2 + wo.y^2` of each point, `wo = reflect(wi, h)`.
@@ -100,8 +108,10 @@ impl CellWarp {
             // wi.h - mu without forming wi.h: with wi.z = mu, wi.h - mu = (wi.x hx + mu (hz - |h|)) / |h|
             // and hz - |h| = -(hx^2 + hy^2) / (hz + |h|). Every term keeps its relative precision,
             // so a lobe narrower than the f32 spacing of c (6e-8 near 1) keeps its shape.
-            let tangential2 = hx * hx + hy * hy;
-            cos_offset[i] = (self.wi_x * hx - self.wi_z * tangential2 / (hz + length)) * inverse_length;
+            if self.offsets {
+                let tangential2 = hx * hx + hy * hy;
+                cos_offset[i] = (self.wi_x * hx - self.wi_z * tangential2 / (hz + length)) * inverse_length;
+            }
             let (hx, hy, hz) = (hx * inverse_length, hy * inverse_length, hz * inverse_length);
             let c = (self.wi_x * hx + self.wi_z * hz).clamp(0.0, 1.0);
             let (ox, oy) = (2.0 * c * hx - self.wi_x, 2.0 * c * hy);
@@ -193,7 +203,7 @@ pub struct SampleArrays {
     /// `wi.h`, the cosine Fresnel is evaluated at.
     pub cos_wi_h: [f32; BLOCK],
     /// `wi.h - mu`, computed without cancellation (for lobes narrower than the f32 spacing of
-    /// `wi.h`; see [`CellWarp::warp`]).
+    /// `wi.h`; see [`CellWarp::warp`]); only from a [`CellWarp::with_offsets`].
     pub cos_offset: [f32; BLOCK],
     /// `wo.z` of the reflected direction (may be negative).
     pub wo_z: [f32; BLOCK],
@@ -346,7 +356,7 @@ mod tests {
             let wi = direction_from_cosine(mu);
             let sampler = VisibleNormalSampler::new(wi, alpha);
             let mut out = SampleArrays::new();
-            CellWarp::new(mu, alpha).warp(&soa, 0..256, &mut out);
+            CellWarp::with_offsets(mu, alpha).warp(&soa, 0..256, &mut out);
             let (mut f64_offsets, mut f32_offsets): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
             for (i, point) in f64_points.iter().enumerate() {
                 f64_offsets.push(wi.dot(sampler.sample(point)) - mu);

@@ -99,8 +99,8 @@ fn project_on_nodes(
     let mut moments = vec![0.0; n + 1];
     let mut pieces = Vec::with_capacity(kinks.len() + 2);
     // (interval, c, f(c)) of every point f was evaluated at, when the error is wanted.
-    let mut evaluated = Vec::new();
     let keep = interval_error.is_some();
+    let mut evaluated = Vec::with_capacity(if keep { n * 8 + kinks.len() } else { 0 });
     for k in 0..n {
         let (a, b) = (nodes[k], nodes[k + 1]);
         let width = b - a;
@@ -386,9 +386,9 @@ pub fn cosine_measure(
         let weight = masking.visible_normal_weight(wi, reflect(wi, glam::DVec3::Z), 0.0);
         return CosineMeasure::PointMass { cosine: mu, weight };
     }
-    let warp = CellWarp::new(mu, alpha);
     let width = lobe_width(mu, alpha);
     if width >= LOCAL_LOBE_INTERVALS / basis.intervals as f64 {
+        let warp = CellWarp::new(mu, alpha);
         let replicates = points
             .replicates_f32()
             .iter()
@@ -408,6 +408,7 @@ pub fn cosine_measure(
     }
     // A narrow lobe: the cosine as mu + (wi.h - mu), the offset from the kernel, so that a lobe
     // narrower than the f32 spacing of c keeps its shape.
+    let warp = CellWarp::with_offsets(mu, alpha);
     let window = LocalHats::around(mu, width, basis);
     let (mut core, mut core_hats, mut replicates) = (Vec::new(), Vec::new(), Vec::new());
     for replicate in points.replicates_f32() {
@@ -636,6 +637,7 @@ mod tests {
     fn a_local_window_is_whole_global_intervals_graded_down_to_the_lobe() {
         let basis = HatBasis { intervals: 256 };
         for (mu, width) in [(0.5, 1e-7), (1e-6, 1e-7), (1.0, 1e-8), (0.3, 0.01)] {
+            let warp = CellWarp::with_offsets(mu, alpha);
             let window = LocalHats::around(mu, width, basis);
             let nodes = &window.nodes;
             assert_eq!(nodes[0], basis.node(window.intervals.start), "mu {mu}");

@@ -251,12 +251,12 @@ fn build_fast(
         })
         .collect();
     let fresnel: Vec<f64> = projections.iter().flat_map(|p| p.coefficients.iter().copied()).collect();
-    // What the product with the hat moments misses, per replicate: point masses, and narrow lobes
-    // where the projection does not resolve Fresnel ([`CosineMeasure::correction`]); as
-    // (column, cell, per-replicate values).
+    // What the product with the hat moments misses on narrow lobes where the projection does not
+    // resolve Fresnel ([`CosineMeasure::correction`]), per replicate; as (column, cell, values).
+    // (Point masses, the same in every replicate, are added below.)
     let replicates = points.plan().replicates as usize;
     let off_basis: Vec<usize> =
-        (0..plane).filter(|&cell| !matches!(measures[cell], CosineMeasure::Spread { .. })).collect();
+        (0..plane).filter(|&cell| matches!(measures[cell], CosineMeasure::Local { .. })).collect();
     let corrections: Vec<(usize, usize, Vec<f64>)> = (0..columns)
         .into_par_iter()
         .flat_map_iter(|column| {
@@ -277,6 +277,14 @@ fn build_fast(
     let mut product = vec![0.0f64; columns * plane];
     multiply_transposed(MatrixRef::new(&fresnel, columns, k), MatrixRef::new(&mean, plane, k), &mut product);
     // Smooth-surface cells hold a point mass instead (their rows of `mean` are zero).
+    product.par_chunks_mut(plane).enumerate().for_each(|(column, row)| {
+        let (eta, kappa) = fresnel_of_column(column);
+        for (value, measure) in row.iter_mut().zip(&measures) {
+            if let CosineMeasure::PointMass { cosine, weight } = measure {
+                *value += weight * fresnel_reflectance(*cosine, eta, kappa);
+            }
+        }
+    });
     for (column, cell, values) in &corrections {
         product[column * plane + cell] += values.iter().sum::<f64>() / values.len() as f64;
     }
@@ -336,7 +344,7 @@ fn standard_error_of_every_node(
         });
     }
     let r = replicates as f64;
-    // Point masses are exact: the same in every replicate, so their spread is 0.
+    // Point masses are exact: their rows are zero in every replicate, so their spread is 0.
     sum_of_squares.iter().map(|&s| if replicates < 2 { 0.0 } else { (s / (r - 1.0) / r).sqrt() as f32 }).collect()
 }
 
