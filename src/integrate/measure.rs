@@ -637,7 +637,6 @@ mod tests {
     fn a_local_window_is_whole_global_intervals_graded_down_to_the_lobe() {
         let basis = HatBasis { intervals: 256 };
         for (mu, width) in [(0.5, 1e-7), (1e-6, 1e-7), (1.0, 1e-8), (0.3, 0.01)] {
-            let warp = CellWarp::with_offsets(mu, alpha);
             let window = LocalHats::around(mu, width, basis);
             let nodes = &window.nodes;
             assert_eq!(nodes[0], basis.node(window.intervals.start), "mu {mu}");
