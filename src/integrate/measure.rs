@@ -145,13 +145,13 @@ fn project_on_nodes(
         for (k, c, fc) in evaluated {
             record(k, c, fc);
         }
-        for k in 0..=n {
-            let fc = f(nodes[k]);
+        for (k, &node) in nodes.iter().enumerate() {
+            let fc = f(node);
             if k > 0 {
-                record(k - 1, nodes[k], fc);
+                record(k - 1, node, fc);
             }
             if k < n {
-                record(k, nodes[k], fc);
+                record(k, node, fc);
             }
         }
     }
