@@ -38,6 +38,8 @@ pub struct CellWarp {
     alpha32: f32,
     wi_x: f32,
     wi_z: f32,
+    /// Whether [`SampleArrays::cos_offset`] is wanted (narrow lobes only; it costs a division).
+    offsets: bool,
 }
 
 impl CellWarp {
@@ -56,7 +58,13 @@ impl CellWarp {
             alpha32: alpha as f32,
             wi_x: wi.x as f32,
             wi_z: wi.z as f32,
+            offsets: false,
         }
+    }
+
+    /// [`CellWarp::new`], also filling [`SampleArrays::cos_offset`].
+    pub fn with_offsets(mu: f64, alpha: f64) -> Self {
+        CellWarp { offsets: true, ..Self::new(mu, alpha) }
     }
 
     /// `wi.h`, `wo.z` and `sin^2(theta_o) = wo.x^2 + wo.y^2` of each point, `wo = reflect(wi, h)`.
@@ -86,6 +94,7 @@ impl CellWarp {
         let n = range.len();
         let (x, y, half_chord) = (&points.x[range.clone()], &points.y[range.clone()], &points.half_chord[range]);
         let (cos_wi_h, wo_z, wo_sin2) = (&mut out.cos_wi_h[..n], &mut out.wo_z[..n], &mut out.wo_sin2[..n]);
+        let cos_offset = &mut out.cos_offset[..n];
         let one_minus_s = 1.0 - self.s;
         for i in 0..n {
             let p2 = one_minus_s * half_chord[i] + self.s * y[i];
@@ -94,7 +103,15 @@ impl CellWarp {
             let hy = self.alpha32 * x[i];
             let hz = (p2 * self.vx + n3 * self.vz).max(0.0);
             // A zero-length h (measure zero, at the disk's rim) scores below the horizon.
-            let inverse_length = 1.0 / (hx * hx + hy * hy + hz * hz).max(1e-30).sqrt();
+            let length = (hx * hx + hy * hy + hz * hz).max(1e-30).sqrt();
+            let inverse_length = 1.0 / length;
+            // wi.h - mu without forming wi.h: with wi.z = mu, wi.h - mu = (wi.x hx + mu (hz - |h|)) / |h|
+            // and hz - |h| = -(hx^2 + hy^2) / (hz + |h|). Every term keeps its relative precision,
+            // so a lobe narrower than the f32 spacing of c (6e-8 near 1) keeps its shape.
+            if self.offsets {
+                let tangential2 = hx * hx + hy * hy;
+                cos_offset[i] = (self.wi_x * hx - self.wi_z * tangential2 / (hz + length)) * inverse_length;
+            }
             let (hx, hy, hz) = (hx * inverse_length, hy * inverse_length, hz * inverse_length);
             let c = (self.wi_x * hx + self.wi_z * hz).clamp(0.0, 1.0);
             let (ox, oy) = (2.0 * c * hx - self.wi_x, 2.0 * c * hy);
@@ -185,6 +202,9 @@ impl DiskPointsF32 {
 pub struct SampleArrays {
     /// `wi.h`, the cosine Fresnel is evaluated at.
     pub cos_wi_h: [f32; BLOCK],
+    /// `wi.h - mu`, computed without cancellation (for lobes narrower than the f32 spacing of
+    /// `wi.h`; see [`CellWarp::warp`]); only from a [`CellWarp::with_offsets`].
+    pub cos_offset: [f32; BLOCK],
     /// `wo.z` of the reflected direction (may be negative).
     pub wo_z: [f32; BLOCK],
     /// `sin^2` of the reflected direction's polar angle, `wo.x^2 + wo.y^2`.
@@ -193,10 +213,29 @@ pub struct SampleArrays {
     pub weight: [f32; BLOCK],
 }
 
+impl SampleArrays {
+    pub fn new() -> Self {
+        SampleArrays {
+            cos_wi_h: [0.0; BLOCK],
+            cos_offset: [0.0; BLOCK],
+            wo_z: [0.0; BLOCK],
+            wo_sin2: [0.0; BLOCK],
+            weight: [0.0; BLOCK],
+        }
+    }
+}
+
+impl Default for SampleArrays {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// A view of the first `len` samples of a block.
 #[derive(Debug, Clone, Copy)]
 pub struct SampleBlock<'a> {
     pub cos_wi_h: &'a [f32],
+    pub cos_offset: &'a [f32],
     pub wo_z: &'a [f32],
     pub wo_sin2: &'a [f32],
     pub weight: &'a [f32],
@@ -210,8 +249,7 @@ pub fn for_each_block(
     points: &DiskPointsF32,
     mut visit: impl FnMut(SampleBlock),
 ) {
-    let mut arrays =
-        SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
+    let mut arrays = SampleArrays::new();
     let mut start = 0;
     while start < points.len() {
         let end = (start + BLOCK).min(points.len());
@@ -220,6 +258,7 @@ pub fn for_each_block(
         warp.weights(masking, &arrays.wo_z[..n], &mut arrays.weight[..n]);
         visit(SampleBlock {
             cos_wi_h: &arrays.cos_wi_h[..n],
+            cos_offset: &arrays.cos_offset[..n],
             wo_z: &arrays.wo_z[..n],
             wo_sin2: &arrays.wo_sin2[..n],
             weight: &arrays.weight[..n],
@@ -292,8 +331,7 @@ mod tests {
         let (mu, alpha) = (0.6, 0.4);
         let wi = direction_from_cosine(mu);
         let sampler = VisibleNormalSampler::new(wi, alpha);
-        let mut out =
-            SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
+        let mut out = SampleArrays::new();
         let warp = CellWarp::new(mu, alpha);
         for start in (0..1000).step_by(BLOCK) {
             let end = (start + BLOCK).min(1000);
@@ -309,11 +347,37 @@ mod tests {
     }
 
     #[test]
+    fn the_cosine_offset_keeps_its_precision_in_a_narrow_lobe() {
+        // alpha = 1e-7: wi.h - mu is of order 1e-7, below the f32 spacing of wi.h near 1; the
+        // offset must still match the f64 sampler's to a small fraction of itself.
+        let (f64_points, soa) = points(256);
+        for mu in [0.5, 1.0 - 5e-7, 1e-6] {
+            let alpha = 1e-7;
+            let wi = direction_from_cosine(mu);
+            let sampler = VisibleNormalSampler::new(wi, alpha);
+            let mut out = SampleArrays::new();
+            CellWarp::with_offsets(mu, alpha).warp(&soa, 0..256, &mut out);
+            let (mut f64_offsets, mut f32_offsets): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+            for (i, point) in f64_points.iter().enumerate() {
+                f64_offsets.push(wi.dot(sampler.sample(point)) - mu);
+                f32_offsets.push(out.cos_offset[i] as f64);
+            }
+            // The f32 frame is a rotation of the f64 one when vh = n, so compare the spread.
+            let spread = |v: &[f64]| {
+                let mean = v.iter().sum::<f64>() / v.len() as f64;
+                (mean, (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt())
+            };
+            let ((m64, s64), (m32, s32)) = (spread(&f64_offsets), spread(&f32_offsets));
+            assert!(s64 > 0.0 && (s32 - s64).abs() < 0.05 * s64, "mu {mu}: spread {s32:e} vs {s64:e}");
+            assert!((m32 - m64).abs() < 0.05 * s64, "mu {mu}: mean {m32:e} vs {m64:e}");
+        }
+    }
+
+    #[test]
     fn a_mirror_straight_up_has_no_tangential_component() {
         // alpha = 0, mu = 1: wo = n exactly, so sin^2 must be 0, not the 1e-7 of 1 - z^2 in f32.
         let (_, soa) = points(64);
-        let mut out =
-            SampleArrays { cos_wi_h: [0.0; BLOCK], wo_z: [0.0; BLOCK], wo_sin2: [0.0; BLOCK], weight: [0.0; BLOCK] };
+        let mut out = SampleArrays::new();
         CellWarp::new(1.0, 0.0).warp(&soa, 0..64, &mut out);
         assert!(out.wo_sin2[..64].iter().all(|&s| s == 0.0), "{:?}", &out.wo_sin2[..8]);
     }

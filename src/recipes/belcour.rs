@@ -23,14 +23,14 @@ use super::{
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
-use crate::integrate::measure::{CosineMeasure, HatBasis, cosine_measure, dot};
+use crate::integrate::measure::{CosineMeasure, HatBasis, Projection, cosine_measure, dot};
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
 use crate::physics::{FresnelBasis, MaskingShadowing, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
 use crate::stats::{AccuracyReport, ErrorRecord, ErrorSummary};
 use crate::table::{Axis, Channel, Table};
 
-use super::fgd::projected_fresnel;
+use super::fgd::{fresnel_kinks, projected_fresnel};
 
 pub const NAME: &str = "belcour";
 /// Channels of the table.
@@ -233,17 +233,21 @@ impl BelcourSettings {
         let basis = basis();
         let hats = HatBasis { intervals: self.cosine_intervals };
         let projected = projected_basis(basis, hats);
-        let projected: Vec<&[f64]> = projected.iter().map(Vec::as_slice).collect();
+        let projected: Vec<&Projection> = projected.iter().collect();
         let measure = cosine_measure(position[0], position[1], self.masking, points, hats);
-        measure.integrate(&projected, |c| (0..4).map(|k| basis.evaluate(k, c)).collect())
+        measure.integrate(&projected, |k, c| basis.evaluate(k, c), &basis_kinks(basis))
     }
 }
 
+/// The tabulated curves are piecewise linear: their kinks are at the tabulation cosines.
+fn basis_kinks(basis: &FresnelBasis) -> Vec<f64> {
+    (0..basis.samples).map(|i| i as f64 / (basis.samples - 1) as f64).collect()
+}
+
 /// The four basis curves projected on the hat basis (`b0 = 1` included).
-fn projected_basis(basis: &FresnelBasis, hats: HatBasis) -> Vec<Vec<f64>> {
-    // The tabulated curves are piecewise linear: their kinks are at the tabulation cosines.
-    let kinks: Vec<f64> = (0..basis.samples).map(|i| i as f64 / (basis.samples - 1) as f64).collect();
-    (0..4).map(|k| hats.project(|c| basis.evaluate(k, c), &kinks)).collect()
+fn projected_basis(basis: &FresnelBasis, hats: HatBasis) -> Vec<Projection> {
+    let kinks = basis_kinks(basis);
+    (0..4).map(|k| hats.project_with_error(|c| basis.evaluate(k, c), &kinks)).collect()
 }
 
 /// The basis, built once per process: it depends on nothing but the construction itself.
@@ -274,14 +278,15 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
     let mut table = Table::zeros(NAME, settings.axes()?, channels)?;
     let hats = HatBasis { intervals: settings.cosine_intervals };
     let projected = projected_basis(&basis, hats);
-    let projected_refs: Vec<&[f64]> = projected.iter().map(Vec::as_slice).collect();
+    let projected_refs: Vec<&Projection> = projected.iter().collect();
+    let kinks = basis_kinks(&basis);
 
     // The fast path keeps each texel's mean measure: the accuracy report needs it too.
     let measures = std::sync::Mutex::new(vec![None; table.node_count()]);
     let estimates = fill_mu_alpha_nodes(&mut table, progress, |texel, mu, alpha| match settings.method {
         Method::Fast => {
             let measure = cosine_measure(mu, alpha, settings.masking, &points, hats);
-            let estimate = measure.integrate(&projected_refs, |c| (0..4).map(|k| basis.evaluate(k, c)).collect());
+            let estimate = measure.integrate(&projected_refs, |k, c| basis.evaluate(k, c), &kinks);
             measures.lock().expect("measure store")[texel] = Some(measure.averaged());
             estimate
         }
@@ -367,12 +372,13 @@ fn split_sum_accuracy(
                 .par_iter()
                 .flat_map_iter(|&(eta, kappa)| {
                     let fresnel = projected_fresnel(hats, eta, kappa);
+                    let kinks = fresnel_kinks(eta);
                     let coefficients = basis.coefficients(eta, kappa);
                     measures.iter().enumerate().map(move |(texel, measure)| {
                         let lut = table.node(&table.node_index(texel));
                         let approximate: f64 = (0..4).map(|k| coefficients[k] * lut[k] as f64).sum();
                         let exact =
-                            measure.integrate(&[&fresnel], |c| vec![fresnel_reflectance(c, eta, kappa)]).mean[0];
+                            measure.integrate(&[&fresnel], |_, c| fresnel_reflectance(c, eta, kappa), &kinks).mean[0];
                         (approximate - exact, eta, kappa, texel)
                     })
                 })

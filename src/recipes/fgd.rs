@@ -22,7 +22,7 @@ use super::{TableBuild, TableRecipe, compare_to_reference, random_cells, samplin
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
-use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, cosine_measure, multiply_transposed};
+use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, multiply_transposed};
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
 use crate::packing::Packing;
 use crate::physics::{MaskingShadowing, critical_cosine, fresnel_reflectance};
@@ -139,16 +139,22 @@ impl FgdSettings {
     }
 }
 
+/// Where the quadrature of Fresnel of `(eta, kappa)` splits: at the critical cosine of `eta < 1`,
+/// a kink for a dielectric and, with faint absorption, a bend as sharp as `kappa` is small (F is
+/// smooth there, and the split costs nothing in accuracy when it is not needed).
+pub fn fresnel_kinks(eta: f64) -> Vec<f64> {
+    critical_cosine(eta).into_iter().collect()
+}
+
 /// Fresnel of one `(eta, kappa)` projected on the hat basis.
-pub fn projected_fresnel(basis: HatBasis, eta: f64, kappa: f64) -> Vec<f64> {
-    // Only a dielectric has a kink: with absorption, F is smooth through the would-be critical angle.
-    let kinks: Vec<f64> = if kappa == 0.0 { critical_cosine(eta).into_iter().collect() } else { Vec::new() };
-    basis.project(|c| fresnel_reflectance(c, eta, kappa), &kinks)
+pub fn projected_fresnel(basis: HatBasis, eta: f64, kappa: f64) -> Projection {
+    basis.project_with_error(|c| fresnel_reflectance(c, eta, kappa), &fresnel_kinks(eta))
 }
 
 impl FgdSettings {
     /// One node by the fast method, as [`build`] computes it (the f32 measure of `(mu, alpha)`
-    /// times Fresnel projected on the hat basis), at a position in the axes' quantities: what the
+    /// times Fresnel projected on the hat basis, narrow lobes on their own hats where that
+    /// projection does not resolve Fresnel), at a position in the axes' quantities: what the
     /// stability checks hold against [`TableRecipe::estimate_node`].
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);
@@ -170,12 +176,21 @@ impl FgdSettings {
         mu: f64,
         alpha: f64,
         pairs: &[(f64, f64)],
-        projections: &[Vec<f64>],
+        projections: &[Projection],
     ) -> Estimate {
         let measure = cosine_measure(mu, alpha, self.masking, points, self.cosine_basis());
-        let projected: Vec<&[f64]> = projections.iter().map(Vec::as_slice).collect();
-        measure
-            .integrate(&projected, |c| pairs.iter().map(|&(eta, kappa)| fresnel_reflectance(c, eta, kappa)).collect())
+        // One pair at a time: each has its own kinks.
+        let per_pair: Vec<Estimate> = pairs
+            .iter()
+            .zip(projections)
+            .map(|(&(eta, kappa), projection)| {
+                measure.integrate(&[projection], |_, c| fresnel_reflectance(c, eta, kappa), &fresnel_kinks(eta))
+            })
+            .collect();
+        Estimate {
+            mean: per_pair.iter().map(|e| e.mean[0]).collect(),
+            standard_error: per_pair.iter().map(|e| e.standard_error[0]).collect(),
+        }
     }
 }
 
@@ -265,12 +280,33 @@ fn build_fast(
         (eta_axis.node_value(e), kappa_axis.node_value(q))
     };
 
-    // Fresnel, one projected vector per (eta, kappa).
-    let fresnel: Vec<f64> = (0..columns)
+    // Fresnel, one projection per (eta, kappa).
+    let projections: Vec<Projection> = (0..columns)
+        .into_par_iter()
+        .map(|column| {
+            let (eta, kappa) = fresnel_of_column(column);
+            projected_fresnel(basis, eta, kappa)
+        })
+        .collect();
+    let fresnel: Vec<f64> = projections.iter().flat_map(|p| p.coefficients.iter().copied()).collect();
+    // What the product with the hat moments misses on narrow lobes where the projection does not
+    // resolve Fresnel ([`CosineMeasure::correction`]), per replicate; as (column, cell, values).
+    // (Point masses, the same in every replicate, are added below.)
+    let replicates = points.plan().replicates as usize;
+    let off_basis: Vec<usize> =
+        (0..plane).filter(|&cell| matches!(measures[cell], CosineMeasure::Local { .. })).collect();
+    let corrections: Vec<(usize, usize, Vec<f64>)> = (0..columns)
         .into_par_iter()
         .flat_map_iter(|column| {
             let (eta, kappa) = fresnel_of_column(column);
-            projected_fresnel(basis, eta, kappa)
+            let kinks = fresnel_kinks(eta);
+            let projection = &projections[column];
+            let measures = &measures;
+            off_basis.iter().filter_map(move |&cell| {
+                measures[cell]
+                    .correction(projection, |c| fresnel_reflectance(c, eta, kappa), &kinks, replicates)
+                    .map(|values| (column, cell, values))
+            })
         })
         .collect();
 
@@ -282,9 +318,14 @@ fn build_fast(
     product.par_chunks_mut(plane).enumerate().for_each(|(column, row)| {
         let (eta, kappa) = fresnel_of_column(column);
         for (value, measure) in row.iter_mut().zip(&measures) {
-            *value += measure.point_mass_integral(|c| fresnel_reflectance(c, eta, kappa));
+            if let CosineMeasure::PointMass { cosine, weight } = measure {
+                *value += weight * fresnel_reflectance(*cosine, eta, kappa);
+            }
         }
     });
+    for (column, cell, values) in &corrections {
+        product[column * plane + cell] += values.iter().sum::<f64>() / values.len() as f64;
+    }
     // Next to a critical angle the projected Fresnel may overshoot its range by a few 1e-6 (an L2
     // projection of a kink); the albedo itself cannot leave [0, 1].
     for (value, p) in table.data.iter_mut().zip(&product) {
@@ -292,7 +333,7 @@ fn build_fast(
     }
 
     if settings.replicate_error_columns >= columns {
-        let map = standard_error_of_every_node(&fresnel, &measures, basis, points.plan().replicates as usize, columns);
+        let map = standard_error_of_every_node(&fresnel, &measures, &corrections, basis, replicates, columns);
         return (ErrorSummary::of_differences(map.iter().map(|&s| s as f64)), Some(map));
     }
 
@@ -301,10 +342,11 @@ fn build_fast(
     let standard_errors: Vec<f64> = sampled_columns
         .par_iter()
         .flat_map_iter(|&column| {
-            let f = &fresnel[column as usize * k..(column as usize + 1) * k];
+            let projection = &projections[column as usize];
             let (eta, kappa) = fresnel_of_column(column as usize);
+            let kinks = fresnel_kinks(eta);
             measures.iter().map(move |measure| {
-                measure.integrate(&[f], |c| vec![fresnel_reflectance(c, eta, kappa)]).standard_error[0]
+                measure.integrate(&[projection], |_, c| fresnel_reflectance(c, eta, kappa), &kinks).standard_error[0]
             })
         })
         .collect();
@@ -316,6 +358,7 @@ fn build_fast(
 fn standard_error_of_every_node(
     fresnel: &[f64],
     measures: &[CosineMeasure],
+    corrections: &[(usize, usize, Vec<f64>)],
     basis: HatBasis,
     replicates: usize,
     columns: usize,
@@ -328,6 +371,9 @@ fn standard_error_of_every_node(
     for r in 0..replicates {
         let moments: Vec<f64> = measures.iter().flat_map(|m| m.replicate_moments(r, basis)).collect();
         multiply_transposed(MatrixRef::new(fresnel, columns, k), MatrixRef::new(&moments, plane, k), &mut product);
+        for (column, cell, values) in corrections {
+            product[column * plane + cell] += values[r];
+        }
         let count = (r + 1) as f64;
         mean.par_iter_mut().zip(sum_of_squares.par_iter_mut()).zip(&product).for_each(|((m, s), &x)| {
             let delta = x - *m;

@@ -26,6 +26,7 @@ use super::{
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
+use crate::integrate::measure::Projection;
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
 use crate::physics::fresnel_reflectance;
@@ -151,7 +152,7 @@ impl Slices {
     }
 
     /// Every channel at one `(mu, alpha)` by the full table's fast method (padding included).
-    fn estimate_fast(&self, points: &PointSet, mu: f64, alpha: f64, projections: &[Vec<f64>]) -> Estimate {
+    fn estimate_fast(&self, points: &PointSet, mu: f64, alpha: f64, projections: &[Projection]) -> Estimate {
         let mut estimate = match &self.of {
             SliceOf::Fgd(settings) => settings.estimate_pairs_fast(points, mu, alpha, &self.pairs(), projections),
             SliceOf::Tir(settings) => {
@@ -219,7 +220,7 @@ pub fn build(slices: &Slices, seed: u64, progress: &dyn Progress) -> Result<Tabl
     let started = Instant::now();
     let points = table_points(&slices.sampling(), seed)?;
     let mut table = Table::zeros(&slices.name, vec![slices.mu.clone(), slices.alpha.clone()], slices.channel_list())?;
-    let projections: Vec<Vec<f64>> = match &slices.of {
+    let projections: Vec<Projection> = match &slices.of {
         SliceOf::Fgd(settings) => {
             slices.channels.iter().map(|c| projected_fresnel(settings.cosine_basis(), c.eta, c.kappa)).collect()
         }
