@@ -13,7 +13,8 @@
 //! - the 6-flux model normalises its internal lobes by GD;
 //! - a lobe's mean direction refracts as a ray (Belcour 2018's transmission operator): below an
 //!   interface of relative index `eta`, cosines start at `sqrt(1 - (1 - mu_lo^2) / eta^2)`; a
-//!   scattering medium (6-flux) sends light in every direction, so below it cosines start at 0;
+//!   scattering medium (6-flux) sends light in every direction, so below it, and on the way back
+//!   up from it, cosines start at 0;
 //! - the model evaluates nothing below an opaque conductor.
 //!
 //! Tables follow from the lookups: where every lookup of a site is at fixed relative indices, a
@@ -143,8 +144,13 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
             let mu_below =
                 Interval::new((0..3).map(|c| refracted_cosine(mu_down.lo, eta[c].lo)).fold(1.0, f64::min), 1.0);
             let lobe_alpha_below = lobe_alpha_lo.max(lobe_roughness(interface.alpha.lo));
-            // Light that crosses comes back up only if something lies below.
-            let has_below = k + 1 < material.layers.len();
+            // Light that crosses comes back up only from an interface below, or, in the 6-flux
+            // model, from a medium that scatters; scattered light comes back at every cosine.
+            let below = &material.layers[k + 1..];
+            let scatters_below = material.model == FluxModel::SixFlux
+                && below.iter().any(|l| matches!(l, Layer::Medium(m) if m.sigma_s.iter().any(|&s| s > 0.0)));
+            let has_below = scatters_below || below.iter().any(|l| matches!(l, Layer::Interface(_)));
+            let mu_up = if scatters_below { Interval::new(0.0, 1.0) } else { mu_below };
             if !matched {
                 for (c, eta) in eta.iter().enumerate() {
                     if eta.lo < 1.0 {
@@ -169,7 +175,7 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
                             albedo,
                             "from below",
                             c,
-                            mu_below,
+                            mu_up,
                             interface.alpha,
                             eta_up,
                             Interval::point(0.0),
@@ -181,7 +187,7 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
                                 tir,
                                 "up",
                                 c,
-                                mu_below,
+                                mu_up,
                                 Interval::new(lobe_alpha_below, 1.0),
                                 eta_up,
                                 Interval::point(0.0),

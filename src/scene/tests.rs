@@ -175,6 +175,9 @@ fn scattering_stack_needs_gd_and_every_cosine_below_the_medium() {
     let conductor = slices(&plan, "fgd_scattering-stack_l3_from-above");
     assert_eq!((conductor.mu.start, conductor.mu.end), (0.0, 1.0));
     assert!((conductor.channels[0].eta - 0.1 / 1.5).abs() < 1e-15);
+    // Scattered light comes back up through the coat at every cosine.
+    let up = slices(&plan, "fgd_scattering-stack_l1_from-below");
+    assert_eq!((up.mu.start, up.mu.end), (0.0, 1.0));
     // The coat's roughness 0.4 bounds the lobe's below.
     let tir = slices(&plan, "tir_scattering-stack_l1_up");
     assert!(tir.alpha.start > 0.35 && tir.alpha.start <= 0.4, "{:?}", tir.alpha);
@@ -187,6 +190,21 @@ fn scattering_stack_needs_gd_and_every_cosine_below_the_medium() {
     assert!(!table_names(&plan).contains(&"gd"));
     let conductor = slices(&plan, "fgd_scattering-stack_l3_from-above");
     assert!(conductor.mu.start > 0.7, "{:?}", conductor.mu);
+    assert!(slices(&plan, "fgd_scattering-stack_l1_from-below").mu.start > 0.7);
+}
+
+#[test]
+fn nothing_comes_back_up_from_a_medium_that_only_absorbs() {
+    let text = format!("{ONE_LAYER}[[material.layer]]\ntype = \"medium\"\nsigma_k = 0.5\ndepth = 1.0\n");
+    let absorbing = plan(&parse(&text).unwrap(), &Config::default()).unwrap();
+    assert!(absorbing.lookups.iter().all(|l| l.direction == "from above"), "{:?}", absorbing.lookups);
+    // The same medium scattering in a 6-flux material sends light back at every cosine.
+    let text =
+        text.replace("sigma_k = 0.5", "sigma_s = 0.5").replace("name = \"m\"", "name = \"m\"\nmodel = \"6-flux\"");
+    let plan = plan(&parse(&text).unwrap(), &Config::default()).unwrap();
+    let up: Vec<&super::plan::Lookup> = plan.lookups.iter().filter(|l| l.direction == "from below").collect();
+    assert_eq!(up.len(), 3);
+    assert!(up.iter().all(|l| l.mu == Interval::new(0.0, 1.0)));
 }
 
 #[test]
