@@ -111,7 +111,7 @@ pub fn write_jobs(
     out: &Path,
     jobs: Vec<Job>,
     error_maps: bool,
-    scene: Option<SceneRecord>,
+    mut scene: Option<SceneRecord>,
     progress: &dyn Progress,
 ) -> Result<Vec<WrittenFile>> {
     std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
@@ -135,6 +135,12 @@ pub fn write_jobs(
         }
         if let Some(seed) = job.fit_seed {
             let (fit, shaders) = crate::fit::fit_for_build(&build.table, seed, &staging.dir)?;
+            // A fit whose table is not written (a scene's `tir = "fit"`) is recorded with the plan.
+            if staged.len() == first_file
+                && let Some(scene) = scene.as_mut()
+            {
+                scene.plan.tir_fit = Some(fit.clone());
+            }
             for file in &mut staged[first_file..] {
                 file.entry.fit = Some(fit.clone());
             }

@@ -397,6 +397,28 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
 }
 
 #[test]
+fn a_scene_with_the_fitted_tir_form_writes_its_shaders_and_no_tir_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let scene = dir.path().join("fit.toml");
+    let text = std::fs::read_to_string(scene_path("copper-pot")).unwrap().replace("tir = \"table\"", "tir = \"fit\"");
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.path().join("luts");
+    let output = build(&config, &out, &["--scene", scene.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
+    let plan = &manifest.scene.as_ref().expect("the scene is recorded").plan;
+    let fit = plan.tir_fit.as_ref().expect("the fit is recorded with the plan");
+    assert!(manifest.files.keys().all(|f| !f.starts_with("tir")), "{:?}", manifest.files.keys());
+    for shader in &fit.shaders {
+        let bytes = std::fs::read(out.join(&shader.file)).unwrap();
+        assert_eq!(shader.sha256, tmlut::pipeline::sha256_hex(&bytes));
+    }
+    assert_eq!(fit.shaders.len(), 2);
+    assert!(fit.figures.rmse.is_finite());
+}
+
+#[test]
 fn bad_scenes_are_refused_naming_material_and_layer() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("bad.toml");

@@ -52,6 +52,10 @@ pub struct PlanRecord {
     pub bytes: u64,
     /// Texel bytes of the default set, counted the same way.
     pub default_set_bytes: u64,
+    /// The analytic TIR form fitted for the scene's `tir = "fit"` materials (its shaders are
+    /// `tir_fit.hlsl` and `.wgsl`; no TIR table is written for them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tir_fit: Option<FitEntry>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use super::Scene;
 use super::plan::{Plan, PlannedBuild, plan};
-use crate::config::Config;
+use crate::config::{Config, OutputConfig};
 use crate::error::Result;
 use crate::formats::manifest::SceneRecord;
 use crate::integrate::{Progress, estimate_cells};
@@ -90,13 +90,15 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                     PlannedBuild::Fgd(settings) => settings.packings.clone(),
                     _ => Vec::new(),
                 };
-                // A TIR table over a sub-range is not what the analytic forms are fitted to.
-                Job {
-                    run: Box::new(move |progress| recipe.build(seed, progress)),
-                    output: recipe.output().clone(),
-                    packings,
-                    fit_seed: None,
-                }
+                // A TIR table over a sub-range is not what the analytic forms are fitted to: only
+                // the full table of the fitted-form item is, and that table is not written.
+                let (output, fit_seed) = match other {
+                    PlannedBuild::TirFit(settings) => {
+                        (OutputConfig { formats: Vec::new(), precision: settings.output.precision }, Some(seed))
+                    }
+                    _ => (recipe.output().clone(), None),
+                };
+                Job { run: Box::new(move |progress| recipe.build(seed, progress)), output, packings, fit_seed }
             }
         })
         .collect();

@@ -239,10 +239,14 @@ pub enum PlannedBuild {
     Belcour(BelcourSettings),
     Karis(KarisSettings),
     Slices(Slices),
+    /// The analytic TIR form fitted to the full TIR table of these settings; only its shaders
+    /// and coefficients are written.
+    TirFit(TirSettings),
 }
 
 impl PlannedBuild {
-    /// The recipe of a full (or sub-range) table; `None` for slices.
+    /// The recipe of a full (or sub-range) table (for the fitted form, the table it is fitted to);
+    /// `None` for slices.
     pub fn recipe(&self) -> Option<&dyn TableRecipe> {
         match self {
             PlannedBuild::Fgd(s) => Some(s),
@@ -250,6 +254,7 @@ impl PlannedBuild {
             PlannedBuild::Tir(s) => Some(s),
             PlannedBuild::Belcour(s) => Some(s),
             PlannedBuild::Karis(s) => Some(s),
+            PlannedBuild::TirFit(s) => Some(s),
             PlannedBuild::Slices(_) => None,
         }
     }
@@ -283,6 +288,7 @@ impl Plan {
             warnings: self.warnings.clone(),
             bytes: self.bytes,
             default_set_bytes: self.default_set_bytes,
+            tir_fit: None,
         }
     }
 }
@@ -402,8 +408,28 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
 
     // TIR.
     let tir_lookups: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(TirPath::Table)).collect();
+    // The fitted form: fitted to the full TIR table, which is integrated but not written.
+    let fit_users: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(TirPath::Fit)).collect();
+    if !fit_users.is_empty() {
+        let reasons = sites(&fit_users)
+            .iter()
+            .map(|site| format!("{}: TIR by the fitted form, {}", site_label(site), ranges_label(site)))
+            .collect();
+        let record = PlannedTableRecord {
+            name: "tir_fit".into(),
+            kind: format!("TIR fitted form `{}` (tir_fit.hlsl, .wgsl; no table)", crate::fit::BUILD_FORM.name()),
+            shape: format!(
+                "{} coefficients, fitted to the full {} TIR table",
+                crate::fit::BUILD_FORM.parameter_names().len(),
+                full_tir_axes.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x ")
+            ),
+            bytes: 0,
+            reasons,
+        };
+        tables.push(PlannedTable { record, build: PlannedBuild::TirFit(config.tir.clone()) });
+    }
     for (path, why) in [
-        (TirPath::Fit, "tir = \"fit\": the fitted analytic form replaces the table (`tmlut fit tir`)"),
+        (TirPath::Fit, "tir = \"fit\": the fitted analytic form (tir_fit) replaces the table"),
         (TirPath::Off, "tir = \"off\""),
     ] {
         let skipped: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(path)).collect();
