@@ -156,8 +156,17 @@ impl Slices {
         let mut estimate = match &self.of {
             SliceOf::Fgd(settings) => settings.estimate_pairs_fast(points, mu, alpha, &self.pairs(), projections),
             SliceOf::Tir(settings) => {
-                let etas: Vec<f64> = self.channels.iter().map(|c| c.eta.min(settings.top_eta)).collect();
-                tir_column(mu, alpha, &etas, points)
+                // tir_column buckets by ascending eta: evaluate in sorted order, store in channel order.
+                let mut order: Vec<usize> = (0..self.channels.len()).collect();
+                order.sort_by(|&a, &b| self.channels[a].eta.total_cmp(&self.channels[b].eta));
+                let etas: Vec<f64> = order.iter().map(|&k| self.channels[k].eta.min(settings.top_eta)).collect();
+                let sorted = tir_column(mu, alpha, &etas, points);
+                let mut estimate = Estimate { mean: vec![0.0; order.len()], standard_error: vec![0.0; order.len()] };
+                for (position, &k) in order.iter().enumerate() {
+                    estimate.mean[k] = sorted.mean[position];
+                    estimate.standard_error[k] = sorted.standard_error[position];
+                }
+                estimate
             }
         };
         pad(&mut estimate, self.stored_channel_count());
@@ -267,4 +276,33 @@ pub fn build(slices: &Slices, seed: u64, progress: &dyn Progress) -> Result<Tabl
         standard_error: Some(standard_error_map(&estimates)),
         table,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::recipes::table_points;
+
+    #[test]
+    fn tir_channels_in_any_order_equal_their_single_channel_values() {
+        let settings = TirSettings::default();
+        let axis = |name: &str| Axis::node_aligned(name, 0.25, 0.75, 3).unwrap();
+        let slices = |etas: &[f64]| Slices {
+            name: "tir_test".into(),
+            of: SliceOf::Tir(settings.clone()),
+            mu: axis("mu"),
+            alpha: axis("alpha"),
+            lookup_mu: [0.25, 0.75],
+            lookup_alpha: [0.25, 0.75],
+            channels: etas.iter().map(|&eta| SliceChannel { eta, kappa: 0.0, used_by: "test".into() }).collect(),
+        };
+        let points = table_points(&SamplingConfig { samples: 1 << 12, replicates: 4 }, 3).unwrap();
+        // Descending, as R, G, B of a coat whose index falls with wavelength.
+        let both = slices(&[0.9, 0.6]).estimate_fast(&points, 0.5, 0.5, &[]);
+        for (k, eta) in [0.9, 0.6].into_iter().enumerate() {
+            let alone = slices(&[eta]).estimate_fast(&points, 0.5, 0.5, &[]);
+            assert_eq!(both.mean[k], alone.mean[0], "eta {eta}");
+        }
+        assert!(both.mean[0] < both.mean[1], "a higher index loses less: {:?}", both.mean);
+    }
 }
