@@ -111,7 +111,7 @@ impl Config {
 }
 
 /// toml's messages span several lines with a source excerpt; keep them, but on one line each.
-fn clean_toml_error(error: &toml::de::Error) -> String {
+pub(crate) fn clean_toml_error(error: &toml::de::Error) -> String {
     error.to_string().lines().map(str::trim_end).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" | ")
 }
 

@@ -69,6 +69,16 @@ pub struct Estimate {
     pub standard_error: Vec<f64>,
 }
 
+impl Estimate {
+    /// One estimate whose channels are the first channels of `per_channel`, in order.
+    pub fn from_channels(per_channel: &[Estimate]) -> Estimate {
+        Estimate {
+            mean: per_channel.iter().map(|e| e.mean[0]).collect(),
+            standard_error: per_channel.iter().map(|e| e.standard_error[0]).collect(),
+        }
+    }
+}
+
 /// Estimate `E[f]` over the visible normals of the direction with cosine `mu` on a GGX surface of
 /// roughness `alpha`. `accumulate` adds the sample's contribution to each of `channels` sums.
 pub fn estimate_visible_normal_integral(

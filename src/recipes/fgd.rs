@@ -187,10 +187,7 @@ impl FgdSettings {
                 measure.integrate(&[projection], |_, c| fresnel_reflectance(c, eta, kappa), &fresnel_kinks(eta))
             })
             .collect();
-        Estimate {
-            mean: per_pair.iter().map(|e| e.mean[0]).collect(),
-            standard_error: per_pair.iter().map(|e| e.standard_error[0]).collect(),
-        }
+        Estimate::from_channels(&per_pair)
     }
 }
 

@@ -192,12 +192,16 @@ impl Slices {
                     3 => estimate_cosine_functions(mu, alpha, settings.masking, Method::PerCell, points, |c| {
                         [f(c, 0), f(c, 1), f(c, 2)]
                     }),
-                    _ => merge((0..self.channels.len()).map(cell).collect()),
+                    _ => Estimate::from_channels(&(0..self.channels.len()).map(cell).collect::<Vec<_>>()),
                 }
             }
-            SliceOf::Tir(settings) => {
-                merge(self.channels.iter().map(|c| tir_cell(mu, alpha, c.eta.min(settings.top_eta), points)).collect())
-            }
+            SliceOf::Tir(settings) => Estimate::from_channels(
+                &self
+                    .channels
+                    .iter()
+                    .map(|c| tir_cell(mu, alpha, c.eta.min(settings.top_eta), points))
+                    .collect::<Vec<_>>(),
+            ),
         };
         pad(&mut estimate, self.stored_channel_count());
         estimate
@@ -208,14 +212,6 @@ impl Slices {
             SliceOf::Fgd(s) => s.masking,
             SliceOf::Tir(_) => MaskingShadowing::SmithSeparable,
         }
-    }
-}
-
-/// One estimate of several single-channel estimates.
-fn merge(per_channel: Vec<Estimate>) -> Estimate {
-    Estimate {
-        mean: per_channel.iter().map(|e| e.mean[0]).collect(),
-        standard_error: per_channel.iter().map(|e| e.standard_error[0]).collect(),
     }
 }
 

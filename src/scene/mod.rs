@@ -196,12 +196,8 @@ impl Scene {
 
     /// Parse a scene; `origin` names it in errors, `default_name` is its name when it gives none.
     pub fn from_toml(text: &str, origin: &str, default_name: &str) -> Result<Self> {
-        let document: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-            Error::invalid(
-                origin,
-                e.to_string().lines().map(str::trim_end).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" | "),
-            )
-        })?;
+        let document: toml::Table =
+            text.parse().map_err(|e: toml::de::Error| Error::invalid(origin, crate::config::clean_toml_error(&e)))?;
         parse_scene(&document, origin, default_name)
     }
 }

@@ -153,19 +153,10 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
             let mu_up = if scatters_below { Interval::new(0.0, 1.0) } else { mu_below };
             if !matched {
                 for (c, eta) in eta.iter().enumerate() {
-                    if eta.lo < 1.0 {
-                        let eta_down = Interval::new(eta.lo, eta.hi.min(1.0));
-                        let tir = LookupKind::Tir(material.tir);
-                        lookups.push(site(
-                            tir,
-                            "down",
-                            c,
-                            mu_down,
-                            Interval::new(lobe_alpha_lo, 1.0),
-                            eta_down,
-                            Interval::point(0.0),
-                        ));
-                    }
+                    let tir = LookupKind::Tir(material.tir);
+                    let down =
+                        site(tir, "down", c, mu_down, Interval::new(lobe_alpha_lo, 1.0), *eta, Interval::point(0.0));
+                    push_tir_crossing(&mut lookups, down);
                 }
                 if has_below {
                     for (c, eta) in eta.iter().enumerate() {
@@ -180,19 +171,17 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
                             eta_up,
                             Interval::point(0.0),
                         ));
-                        if eta_up.lo < 1.0 {
-                            let eta_up = Interval::new(eta_up.lo, eta_up.hi.min(1.0));
-                            let tir = LookupKind::Tir(material.tir);
-                            lookups.push(site(
-                                tir,
-                                "up",
-                                c,
-                                mu_up,
-                                Interval::new(lobe_alpha_below, 1.0),
-                                eta_up,
-                                Interval::point(0.0),
-                            ));
-                        }
+                        let tir = LookupKind::Tir(material.tir);
+                        let up = site(
+                            tir,
+                            "up",
+                            c,
+                            mu_up,
+                            Interval::new(lobe_alpha_below, 1.0),
+                            eta_up,
+                            Interval::point(0.0),
+                        );
+                        push_tir_crossing(&mut lookups, up);
                     }
                 }
             }
@@ -216,6 +205,15 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
         }
     }
     (lookups, left_out)
+}
+
+/// Add the TIR lookup of a crossing if it goes towards a lower index, made at the part of its
+/// eta below 1 (where there is a critical angle).
+fn push_tir_crossing(lookups: &mut Vec<Lookup>, lookup: Lookup) {
+    if lookup.eta.lo < 1.0 {
+        let eta = Interval::new(lookup.eta.lo, lookup.eta.hi.min(1.0));
+        lookups.push(Lookup { eta, ..lookup });
+    }
 }
 
 /// The cosine of a ray of cosine `mu` refracted into a medium of relative index `eta` (Snell's
@@ -322,17 +320,16 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             &site,
             &full_fgd_axes[0],
             &full_fgd_axes[1],
-            Interval::new(site[0].alpha.lo, site[0].alpha.hi),
+            site[0].alpha,
             margin,
         )?;
         add_slices(&mut tables, slices, &site, "FGD");
     }
     if !varying.is_empty() {
-        let hull = |f: fn(&Lookup) -> Interval| varying.iter().map(|l| f(l)).reduce(Interval::hull).expect("not empty");
-        let mu = covering_axis(&full_fgd_axes[0], hull(|l| l.mu), margin, false)?;
-        let alpha = covering_axis(&full_fgd_axes[1], hull(|l| l.alpha), margin, false)?;
-        let eta = covering_axis(&full_fgd_axes[2], hull(|l| l.eta), margin, true)?;
-        let kappa = covering_axis(&full_fgd_axes[3], hull(|l| l.kappa), margin, true)?;
+        let mu = covering_axis(&full_fgd_axes[0], hull(&varying, |l| l.mu), margin, false)?;
+        let alpha = covering_axis(&full_fgd_axes[1], hull(&varying, |l| l.alpha), margin, false)?;
+        let eta = covering_axis(&full_fgd_axes[2], hull(&varying, |l| l.eta), margin, true)?;
+        let kappa = covering_axis(&full_fgd_axes[3], hull(&varying, |l| l.kappa), margin, true)?;
         let mut settings = config.fgd.clone();
         settings.mu_range = [mu.start, mu.end];
         settings.alpha_range = [alpha.start, alpha.end];
@@ -364,12 +361,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         let reason = if fgd_lookups.is_empty() {
             "no material reads albedo on the FGD path".to_string()
         } else {
-            format!(
-                "every FGD lookup is at fixed (eta, kappa): {} slice table{} replace{} it",
-                tables.len(),
-                if tables.len() == 1 { "" } else { "s" },
-                if tables.len() == 1 { "s" } else { "" }
-            )
+            format!("every FGD lookup is at fixed (eta, kappa): {}", replaced_by_slices(tables.len()))
         };
         left_out.push(LeftOutRecord { what: format!("fgd (4D, {})", human_bytes(bytes)), reason });
     }
@@ -455,9 +447,8 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     }
     let tir_slices = tables.len() - slices_before;
     if !varying.is_empty() {
-        let hull = |f: fn(&Lookup) -> Interval| varying.iter().map(|l| f(l)).reduce(Interval::hull).expect("not empty");
-        let mu = covering_axis(&full_tir_axes[0], hull(|l| l.mu), margin, false)?;
-        let alpha = covering_axis(&full_tir_axes[1], hull(|l| l.alpha), margin, false)?;
+        let mu = covering_axis(&full_tir_axes[0], hull(&varying, |l| l.mu), margin, false)?;
+        let alpha = covering_axis(&full_tir_axes[1], hull(&varying, |l| l.alpha), margin, false)?;
         let mut settings = config.tir.clone();
         settings.mu_range = [mu.start, mu.end];
         settings.alpha_range = [alpha.start, alpha.end];
@@ -474,11 +465,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         let reason = if tir_lookups.is_empty() {
             "no lookup reads the TIR table (no crossing towards a lower index, or tir = \"fit\" / \"off\")".to_string()
         } else {
-            format!(
-                "every TIR lookup is at a fixed eta: {tir_slices} slice table{} replace{} it",
-                if tir_slices == 1 { "" } else { "s" },
-                if tir_slices == 1 { "s" } else { "" }
-            )
+            format!("every TIR lookup is at a fixed eta: {}", replaced_by_slices(tir_slices))
         };
         left_out.push(LeftOutRecord { what: format!("tir (3D, {})", human_bytes(bytes)), reason });
     }
@@ -510,6 +497,11 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         bytes,
         default_set_bytes,
     })
+}
+
+/// "N slice table(s) replace(s) it".
+fn replaced_by_slices(count: usize) -> String {
+    if count == 1 { "1 slice table replaces it".into() } else { format!("{count} slice tables replace it") }
 }
 
 /// Whether every lookup at `lookup`'s site has fixed indices.
@@ -548,10 +540,14 @@ fn site_label(site: &[&Lookup]) -> String {
     }
 }
 
+/// The smallest interval holding `parameter` of every lookup (not empty).
+fn hull(lookups: &[&Lookup], parameter: fn(&Lookup) -> Interval) -> Interval {
+    lookups.iter().map(|l| parameter(l)).reduce(Interval::hull).expect("at least one lookup")
+}
+
 fn ranges_label(site: &[&Lookup]) -> String {
-    let hull =
-        |f: fn(&Lookup) -> Interval| site.iter().map(|l| f(l)).reduce(Interval::hull).expect("a site has lookups");
-    format!("mu {}, alpha {}, eta {}, kappa {}", hull(|l| l.mu), hull(|l| l.alpha), hull(|l| l.eta), hull(|l| l.kappa))
+    let h = |parameter| hull(site, parameter);
+    format!("mu {}, alpha {}, eta {}, kappa {}", h(|l| l.mu), h(|l| l.alpha), h(|l| l.eta), h(|l| l.kappa))
 }
 
 /// The slice table of one site of fixed indices: one channel per distinct index.
@@ -565,7 +561,7 @@ fn slice_of(
     margin: usize,
 ) -> Result<Slices> {
     let first = site[0];
-    let mu_needed = site.iter().map(|l| l.mu).reduce(Interval::hull).expect("a site has lookups");
+    let mu_needed = hull(site, |l| l.mu);
     let mut channels: Vec<SliceChannel> = Vec::new();
     for l in site {
         let (eta, kappa) = (l.eta.lo, l.kappa.lo);
