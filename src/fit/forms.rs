@@ -21,6 +21,9 @@
 //!   `(1 - t / (1 + |t|)) / 2`.
 //! - [`Form::CauchyCap`]: the lobe as a spherical Cauchy distribution and TIR as the share of it
 //!   outside the critical cone, in closed form (see [`cauchy_cap`]).
+//! - [`Form::CauchySlope`]: the same lobe, blended toward grazing incidence with the in-plane
+//!   lobe of visible slopes, whose share above a cosine is also closed-form (see [`cauchy_slope`]);
+//!   no `pow`, no `exp`.
 
 use std::cmp::Ordering;
 
@@ -110,9 +113,10 @@ pub enum Form {
     Algebraic,
     Rational,
     CauchyCap,
+    CauchySlope,
 }
 
-pub const ALL_FORMS: [Form; 7] = [
+pub const ALL_FORMS: [Form; 8] = [
     Form::Eq56,
     Form::Eq56Corrected,
     Form::Logistic,
@@ -120,6 +124,7 @@ pub const ALL_FORMS: [Form; 7] = [
     Form::Algebraic,
     Form::Rational,
     Form::CauchyCap,
+    Form::CauchySlope,
 ];
 
 /// Names of the step forms' parameters (see the module docs).
@@ -140,6 +145,20 @@ pub const CAUCHY_CAP_PARAMETERS: [&str; 10] = [
     "scale_grazing",
 ];
 
+/// Names of [`Form::CauchySlope`]'s parameters (see [`cauchy_slope`]).
+pub const CAUCHY_SLOPE_PARAMETERS: [&str; 10] = [
+    "scale_alpha",
+    "scale_alpha2",
+    "scale_alpha_mu",
+    "horizon_alpha",
+    "horizon_alpha2",
+    "rough_blend",
+    "centre_alpha",
+    "scale_grazing",
+    "slope_scale",
+    "slope_fade_alpha",
+];
+
 /// `logit(eta^2)` is clamped to this magnitude so that it stays finite at `eta = 0` and `eta = 1`.
 pub const EDGE_LOGIT_LIMIT: f64 = 40.0;
 
@@ -153,6 +172,7 @@ impl Form {
             Form::Algebraic => "algebraic",
             Form::Rational => "rational",
             Form::CauchyCap => "cauchy-cap",
+            Form::CauchySlope => "cauchy-slope",
         }
     }
 
@@ -164,6 +184,7 @@ impl Form {
         match self {
             Form::Eq56 | Form::Eq56Corrected => &[],
             Form::CauchyCap => &CAUCHY_CAP_PARAMETERS,
+            Form::CauchySlope => &CAUCHY_SLOPE_PARAMETERS,
             _ => &STEP_PARAMETERS,
         }
     }
@@ -182,6 +203,7 @@ impl Form {
             Form::Algebraic => "(1 - t / sqrt(1 + t^2)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
             Form::Rational => "(1 - t / (1 + |t|)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
             Form::CauchyCap => CAUCHY_CAP_FORMULA,
+            Form::CauchySlope => CAUCHY_SLOPE_FORMULA,
         }
     }
 
@@ -195,6 +217,13 @@ impl Form {
                 vec![1.0, 0.0, 0.0, 0.0, 0.0, 2.0, 1.0, 1.0, 0.0, 0.0],
                 vec![0.0, -2.0, -2.0, 0.0, -2.0, 0.5, 0.0, 0.5, -1.0, 0.0],
                 vec![4.0, 2.0, 2.0, 2.0, 2.0, 4.0, 4.0, 4.0, 2.0, 2.0],
+            ),
+            // The plain model again, with the slope lobe at its derived scale `alpha` fading out
+            // by `alpha = 0.3`.
+            Form::CauchySlope => (
+                vec![1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 10.0],
+                vec![0.0, -2.0, -2.0, 0.0, -2.0, 0.0, -1.0, 0.0, 0.1, 0.0],
+                vec![4.0, 2.0, 2.0, 2.0, 2.0, 4.0, 2.0, 2.0, 4.0, 200.0],
             ),
             _ => (
                 vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
@@ -210,6 +239,7 @@ impl Form {
             Form::Eq56 => eq56(mu, alpha, eta, false),
             Form::Eq56Corrected => eq56(mu, alpha, eta, true),
             Form::CauchyCap => cauchy_cap(p, mu, alpha, eta),
+            Form::CauchySlope => cauchy_slope(p, mu, alpha, eta),
             _ => {
                 let t = step_argument(p, mu, alpha, eta).0;
                 self.step(t)
@@ -228,7 +258,7 @@ impl Form {
             }
             Form::Algebraic => half - half.mul(t).div((one + t.mul(t)).sqrt()),
             Form::Rational => half - half.mul(t).div(one + t.abs()),
-            Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap => R::of(0.0),
+            Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap | Form::CauchySlope => R::of(0.0),
         }
     }
 
@@ -244,7 +274,7 @@ impl Form {
             }
             Form::Algebraic => -0.5 / (1.0 + t * t).powf(1.5),
             Form::Rational => -0.5 / ((1.0 + t.abs()) * (1.0 + t.abs())),
-            Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap => 0.0,
+            Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap | Form::CauchySlope => 0.0,
         }
     }
 
@@ -254,10 +284,10 @@ impl Form {
         if p.is_empty() {
             return None;
         }
-        if self == Form::CauchyCap {
+        if matches!(self, Form::CauchyCap | Form::CauchySlope) {
             // Exact gradient by forward-mode dual numbers through the same generic code.
             let dual: Vec<Dual> = p.iter().enumerate().map(|(k, &v)| Dual::parameter(v, k)).collect();
-            let value = cauchy_cap(&dual, Dual::of(mu), Dual::of(alpha), Dual::of(eta));
+            let value = self.eval(&dual, Dual::of(mu), Dual::of(alpha), Dual::of(eta));
             gradient.copy_from_slice(&value.gradient[..p.len()]);
             return Some(value.value);
         }
@@ -302,11 +332,11 @@ fn edge_logit<R: Real>(eta: R) -> R {
 
 /// The floor of the lobe's stereographic scale, so that the cap shares stay defined at `alpha = 0`
 /// (a hard step there).
-pub const CAUCHY_SCALE_FLOOR: f64 = 1e-4;
+pub const CAUCHY_SCALE_FLOOR: f64 = 1e-6;
 
 pub const CAUCHY_CAP_FORMULA: &str = "C + h (A - C): C = 1 - P(critical cone) / P(horizon cap) of a spherical Cauchy lobe \
      at cosine m = clamp(mu + c8 alpha (1 - mu), 0, 1), stereographic scale \
-     l = alpha (c0 + c1 alpha + c2 mu) + c9 sqrt(alpha) (1 - mu)^16 + 1e-4; P(cap of cosine cb, sine sb) = \
+     l = alpha (c0 + c1 alpha + c2 mu) + c9 sqrt(alpha) (1 - mu)^16 + 1e-6; P(cap of cosine cb, sine sb) = \
      (1 - u / sqrt(u^2 + w^2)) / 2, u = l^2 (m + cb) + cb - m, w = 2 l sb; critical cone cb = sqrt(1 - eta^2), \
      sb = eta; horizon cap cb = clamp(alpha (c3 + c4 alpha), 0, 1); A = sqrt(1 - eta^2)^c5, h = min(c6 alpha^c7, 1)";
 
@@ -348,33 +378,124 @@ pub fn cap_share<R: Real>(u: R, w: R) -> R {
 ///   table at `alpha = 1`, with weight `min(c6 alpha^c7, 1)`.
 pub fn cauchy_cap<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
     let (zero, one) = (R::of(0.0), R::of(1.0));
-    let grazing = {
-        let g = one - mu;
-        let g = g.mul(g);
-        let g = g.mul(g);
-        let g = g.mul(g);
-        g.mul(g)
-    };
     let sqrt_alpha = alpha.max(zero).sqrt();
-    let scale = alpha.mul(p[0] + p[1].mul(alpha) + p[2].mul(mu)).max(zero)
-        + p[9].mul(sqrt_alpha).mul(grazing)
-        + R::of(CAUCHY_SCALE_FLOOR);
-    let centre = (mu + p[8].mul(alpha).mul(one - mu)).max(zero).min(one);
+    let lobe = CauchyLobe::new([p[0], p[1], p[2], p[3], p[4], p[8], p[9]], mu, alpha, sqrt_alpha);
     let critical_cosine = (one - eta.mul(eta)).max(zero).sqrt();
-    let horizon_cosine = alpha.mul(p[3] + p[4].mul(alpha)).max(zero).min(one);
-    let horizon_sine = (one - horizon_cosine.mul(horizon_cosine)).max(zero).sqrt();
-    let scale2 = scale.mul(scale);
-    let two_scale = R::of(2.0).mul(scale);
-    let share = |cap_cosine: R, cap_sine: R| {
-        // `cap_cosine - centre` first: it is exact where the two are equal, where adding the tiny
-        // `scale2` term first would round it away in f32 and leave `u = w = 0`.
-        cap_share(scale2.mul(centre + cap_cosine) + (cap_cosine - centre), two_scale.mul(cap_sine))
-    };
-    let inside = share(critical_cosine, eta);
-    let upper = share(horizon_cosine, horizon_sine);
-    let narrow = (one - inside.div(upper.max(R::of(1e-30)))).max(zero).min(one);
+    let narrow = (one - lobe.inside_share(critical_cosine, eta)).max(zero).min(one);
     let rough = critical_cosine.powf(p[5]);
     let blend = p[6].mul(alpha.powf(p[7])).min(one);
+    narrow + blend.mul(rough - narrow)
+}
+
+/// The spherical Cauchy lobe of [`cauchy_cap`] and [`cauchy_slope`] at one `(mu, alpha)`, from its
+/// coefficients `[scale_alpha, scale_alpha2, scale_alpha_mu, horizon_alpha, horizon_alpha2,
+/// centre_alpha, scale_grazing]`.
+struct CauchyLobe<R> {
+    scale: R,
+    centre: R,
+    horizon_cosine: R,
+    horizon_sine: R,
+}
+
+impl<R: Real> CauchyLobe<R> {
+    fn new(c: [R; 7], mu: R, alpha: R, sqrt_alpha: R) -> Self {
+        let (zero, one) = (R::of(0.0), R::of(1.0));
+        let grazing = {
+            let g = one - mu;
+            let g = g.mul(g);
+            let g = g.mul(g);
+            let g = g.mul(g);
+            g.mul(g)
+        };
+        let scale = alpha.mul(c[0] + c[1].mul(alpha) + c[2].mul(mu)).max(zero)
+            + c[6].mul(sqrt_alpha).mul(grazing)
+            + R::of(CAUCHY_SCALE_FLOOR);
+        let centre = (mu + c[5].mul(alpha).mul(one - mu)).max(zero).min(one);
+        let horizon_cosine = alpha.mul(c[3] + c[4].mul(alpha)).max(zero).min(one);
+        let horizon_sine = (one - horizon_cosine.mul(horizon_cosine)).max(zero).sqrt();
+        CauchyLobe { scale, centre, horizon_cosine, horizon_sine }
+    }
+
+    /// The lobe's share in a cap around the normal of cosine `cap_cosine` and sine `cap_sine`.
+    fn share(&self, cap_cosine: R, cap_sine: R) -> R {
+        // `cap_cosine - centre` first: it is exact where the two are equal, where adding the tiny
+        // `scale^2` term first would round it away in f32 and leave `u = w = 0`.
+        let u = self.scale.mul(self.scale).mul(self.centre + cap_cosine) + (cap_cosine - self.centre);
+        cap_share(u, R::of(2.0).mul(self.scale).mul(cap_sine))
+    }
+
+    /// `P(critical cone) / P(upper cap)`: the share of the lobe's weight that is not past the
+    /// critical angle.
+    fn inside_share(&self, critical_cosine: R, eta: R) -> R {
+        let upper = self.share(self.horizon_cosine, self.horizon_sine);
+        self.share(critical_cosine, eta).div(upper.max(R::of(1e-30)))
+    }
+}
+
+pub const CAUCHY_SLOPE_FORMULA: &str = "C + h (A - C): C = 1 - ((1 - f) Pc + f Ps), the shares inside the critical cone \
+     (cosine cb = sqrt(1 - eta^2), sine eta) of a spherical Cauchy lobe (Pc, as in cauchy-cap with c0..c4, \
+     centre c6, scale_grazing c7, no fitted exponents) and of the in-plane visible-slope lobe (Ps = S(cb) / S(0), \
+     S(c) = (mu (r - t) + s^2) / r, t = (c - mu) / 2, r = sqrt(s^2 + t^2), s = c8 alpha sqrt(1 - mu^2) + 1e-6); \
+     f = (1 - mu) / (1 + c9 alpha)^2; A = cb^(7/4), h = min(c5 alpha^(3/2), 1)";
+
+/// The share of the in-plane lobe of visible slopes reflected above the cosine `cosine`, up to a
+/// factor that does not depend on `cosine` (it cancels in [`cauchy_slope`]'s ratio).
+///
+/// At grazing incidence the microfacets seen are those tilted toward the viewer, and a facet
+/// tilted by the in-plane slope `t` reflects the view to cosine `mu + 2 t` (small angles). GGX's
+/// in-plane slope marginal is `p(t) = s^2 / (2 (s^2 + t^2)^(3/2))` (a Student t with two degrees
+/// of freedom, the marginal of the slope density of Walter et al. 2007, eq. 33), and a facet is
+/// seen in proportion to its projected area, `mu + t` in slope units (Heitz 2014, eq. 13,
+/// visible normals). So the weight reflected above `c` is `∫_{t0}^∞ (mu + t) p(t) dt =
+/// (mu (r - t0) + s^2) / (2 r)`, with `t0 = (c - mu) / 2` and `r = sqrt(s^2 + t0^2)`: a tail
+/// `~ s / (c - mu)`, heavier than the spherical Cauchy lobe's `~ s^2 / (c - mu)^2`, which is what
+/// the table shows at grazing incidence just below `eta = 1`. Scaling `mu`, `t` and `s` by
+/// `sin(theta_i)` turns the exact-angle version into this one with `s = alpha sin(theta_i)`.
+pub fn slope_lobe_above<R: Real>(cosine: R, mu: R, scale: R) -> R {
+    let half = R::of(0.5);
+    let t = (cosine - mu).mul(half);
+    let s2 = scale.mul(scale);
+    let r = (s2 + t.mul(t)).sqrt();
+    if t > R::of(0.0) {
+        // r - t = s^2 / (r + t), without the cancellation of a far tail.
+        s2.mul(mu.div(r + t) + R::of(1.0)).div(r)
+    } else {
+        (mu.mul(r - t) + s2).div(r)
+    }
+}
+
+/// The floor of the slope lobe's scale, so that its shares stay defined at `alpha = 0`.
+pub const SLOPE_SCALE_FLOOR: f64 = 1e-6;
+
+/// TIR as the share of the reflected lobe past the critical angle, the lobe being the spherical
+/// Cauchy lobe of [`cauchy_cap`] blended, toward grazing incidence and low roughness, with the
+/// in-plane lobe of visible slopes ([`slope_lobe_above`]).
+///
+/// Why: [`cauchy_cap`]'s worst nodes (max error 0.13) were all at grazing views just below
+/// `eta = 1` (critical cosines 0.1-0.4) with `alpha <= 0.05`, where the table exceeds the model by
+/// up to 0.13: the reflected weight above the critical cosine falls off like `alpha / (c - mu)`
+/// there, as the visible-slope lobe does, with no fitted shape. Each lobe's share is normalised by
+/// its share above its horizon, so TIR stays exactly 0 at `eta = 1`. The rough limit and blend of
+/// [`cauchy_cap`] keep their fitted values' shape with fixed exponents (`A = cb^(7/4)`,
+/// `h = c5 alpha^(3/2)`, both from square roots): its fitted exponents were 1.74 and 1.35, and
+/// without `pow` and `exp` the form costs less than eq. 5.6 with the slope lobe added.
+pub fn cauchy_slope<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
+    let (zero, one) = (R::of(0.0), R::of(1.0));
+    let sqrt_alpha = alpha.max(zero).sqrt();
+    let lobe = CauchyLobe::new([p[0], p[1], p[2], p[3], p[4], p[6], p[7]], mu, alpha, sqrt_alpha);
+    let critical_cosine = (one - eta.mul(eta)).max(zero).sqrt();
+    let cauchy_inside = lobe.inside_share(critical_cosine, eta);
+    let view_sine = (one - mu.mul(mu)).max(zero).sqrt();
+    let slope_scale = p[8].mul(alpha).mul(view_sine) + R::of(SLOPE_SCALE_FLOOR);
+    let slope_inside = slope_lobe_above(critical_cosine, mu, slope_scale).div(slope_lobe_above(zero, mu, slope_scale));
+    let fade = {
+        let d = one + p[9].mul(alpha);
+        (one - mu).div(d.mul(d))
+    };
+    let inside = cauchy_inside + fade.mul(slope_inside - cauchy_inside);
+    let narrow = (one - inside).max(zero).min(one);
+    let rough = critical_cosine.mul((critical_cosine.mul(critical_cosine.sqrt())).sqrt());
+    let blend = p[5].mul(alpha).mul(sqrt_alpha).min(one);
     narrow + blend.mul(rough - narrow)
 }
 
@@ -440,8 +561,8 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
     }
     // `{:?}` of an f32 is the shortest text that reads back to the same f32.
     let c: Vec<String> = parameters.iter().map(|&v| format!("{:?}", v as f32)).collect();
-    if form == Form::CauchyCap {
-        return Some(cauchy_cap_shader(&c, language));
+    if matches!(form, Form::CauchyCap | Form::CauchySlope) {
+        return Some(cauchy_shader(form, &c, language));
     }
     let (signature, binding) = match language {
         ShaderLanguage::Hlsl => ("float tmlut_tir(float mu, float alpha, float eta)", "float"),
@@ -452,7 +573,7 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
         Form::Smoothstep => "1.0 - smoothstep(-1.0, 1.0, t)",
         Form::Algebraic => "0.5 - 0.5 * t / sqrt(1.0 + t * t)",
         Form::Rational => "0.5 - 0.5 * t / (1.0 + abs(t))",
-        Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap => return None,
+        Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap | Form::CauchySlope => return None,
     };
     Some(format!(
         "// tmlut fit tir: form '{name}', {formula}\n\
@@ -480,55 +601,97 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
     ))
 }
 
-/// [`cauchy_cap`] as shader text, statement for statement, with coefficients `c` (f32 text) baked in
-/// as named constants `c0..c9`.
-fn cauchy_cap_shader(c: &[String], language: ShaderLanguage) -> String {
-    let (helper, signature, binding, share_u_positive) = match language {
-        ShaderLanguage::Hlsl => (
-            "float tmlut_cap_share(float u, float w)",
-            "float tmlut_tir(float mu, float alpha, float eta)",
-            "float",
-            "return u > 0.0 ? 0.5 * w * w / (s * (s + u)) : 0.5 - 0.5 * u / s;",
-        ),
-        ShaderLanguage::Wgsl => (
-            "fn tmlut_cap_share(u: f32, w: f32) -> f32",
-            "fn tmlut_tir(mu: f32, alpha: f32, eta: f32) -> f32",
-            "let",
-            "return select(0.5 - 0.5 * u / s, 0.5 * w * w / (s * (s + u)), u > 0.0);",
-        ),
+/// [`cauchy_cap`] or [`cauchy_slope`] as shader text, statement for statement, with coefficients
+/// `c` (f32 text) baked in as named constants `c0..c9`.
+fn cauchy_shader(form: Form, c: &[String], language: ShaderLanguage) -> String {
+    let hlsl = language == ShaderLanguage::Hlsl;
+    let (binding, constant_type) = if hlsl { ("float", "") } else { ("let", ": f32") };
+    let function = |name: &str, arguments: &[&str]| -> String {
+        if hlsl {
+            let list: Vec<String> = arguments.iter().map(|a| format!("float {a}")).collect();
+            format!("float {name}({})", list.join(", "))
+        } else {
+            let list: Vec<String> = arguments.iter().map(|a| format!("{a}: f32")).collect();
+            format!("fn {name}({}) -> f32", list.join(", "))
+        }
     };
-    let constant_type = if language == ShaderLanguage::Wgsl { ": f32" } else { "" };
-    let constants: String =
-        c.iter().enumerate().map(|(k, v)| format!("    {binding} c{k}{constant_type} = {v};\n")).collect();
-    format!(
-        "// tmlut fit tir: form 'cauchy-cap', {formula}\n\
+    let choose = |condition: &str, then: &str, otherwise: &str| {
+        if hlsl {
+            format!("{condition} ? {then} : {otherwise}")
+        } else {
+            format!("select({otherwise}, {then}, {condition})")
+        }
+    };
+    let mut text = format!(
+        "// tmlut fit tir: form '{name}', {formula}\n\
          // Coefficients as in fit.json (f32).\n\
          // Share of a spherical Cauchy lobe in a cap; 1 - u / s written without cancellation for u > 0.\n\
-         {helper} {{\n\
-         \x20   {binding} s = max(sqrt(u * u + w * w), 1e-30);\n\
-         \x20   {share_u_positive}\n\
-         }}\n\
          {signature} {{\n\
+         \x20   {binding} s = max(sqrt(u * u + w * w), 1e-30);\n\
+         \x20   return {share};\n\
+         }}\n",
+        name = form.name(),
+        formula = form.formula(),
+        signature = function("tmlut_cap_share", &["u", "w"]),
+        share = choose("u > 0.0", "0.5 * w * w / (s * (s + u))", "0.5 - 0.5 * u / s"),
+    );
+    if form == Form::CauchySlope {
+        text += &format!(
+            "// Weight of the in-plane visible-slope lobe reflected above cosine c (up to a common factor);\n\
+             // r - t written as s^2 / (r + t) for t > 0.\n\
+             {signature} {{\n\
+             \x20   {binding} t = 0.5 * (c - mu);\n\
+             \x20   {binding} s2 = s * s;\n\
+             \x20   {binding} r = sqrt(s2 + t * t);\n\
+             \x20   return {above};\n\
+             }}\n",
+            signature = function("tmlut_slope_above", &["c", "mu", "s"]),
+            above = choose("t > 0.0", "s2 * (mu / (r + t) + 1.0) / r", "(mu * (r - t) + s2) / r"),
+        );
+    }
+    let (centre, grazing) = if form == Form::CauchySlope { ("c6", "c7") } else { ("c8", "c9") };
+    let constants: String =
+        c.iter().enumerate().map(|(k, v)| format!("    {binding} c{k}{constant_type} = {v};\n")).collect();
+    text += &format!(
+        "{signature} {{\n\
          {constants}\
+         \x20   {binding} sqrt_alpha = sqrt(alpha);\n\
          \x20   {binding} g2 = (1.0 - mu) * (1.0 - mu);\n\
          \x20   {binding} g4 = g2 * g2;\n\
          \x20   {binding} g8 = g4 * g4;\n\
-         \x20   {binding} scale = max(alpha * (c0 + c1 * alpha + c2 * mu), 0.0) + c9 * sqrt(alpha) * (g8 * g8) + {floor:?};\n\
-         \x20   {binding} centre = clamp(mu + c8 * alpha * (1.0 - mu), 0.0, 1.0);\n\
+         \x20   {binding} scale = max(alpha * (c0 + c1 * alpha + c2 * mu), 0.0) + {grazing} * sqrt_alpha * (g8 * g8) + {floor:?};\n\
+         \x20   {binding} centre = clamp(mu + {centre} * alpha * (1.0 - mu), 0.0, 1.0);\n\
          \x20   {binding} critical_cosine = sqrt(max(1.0 - eta * eta, 0.0));\n\
          \x20   {binding} horizon_cosine = clamp(alpha * (c3 + c4 * alpha), 0.0, 1.0);\n\
          \x20   {binding} horizon_sine = sqrt(max(1.0 - horizon_cosine * horizon_cosine, 0.0));\n\
          \x20   {binding} scale2 = scale * scale;\n\
-         \x20   {binding} inside = tmlut_cap_share(scale2 * (centre + critical_cosine) + (critical_cosine - centre), 2.0 * scale * eta);\n\
+         \x20   {binding} cone = tmlut_cap_share(scale2 * (centre + critical_cosine) + (critical_cosine - centre), 2.0 * scale * eta);\n\
          \x20   {binding} upper = tmlut_cap_share(scale2 * (centre + horizon_cosine) + (horizon_cosine - centre), 2.0 * scale * horizon_sine);\n\
-         \x20   {binding} narrow = clamp(1.0 - inside / max(upper, 1e-30), 0.0, 1.0);\n\
-         \x20   {binding} rough = pow(critical_cosine, c5);\n\
-         \x20   {binding} blend = min(c6 * pow(alpha, c7), 1.0);\n\
-         \x20   return narrow + blend * (rough - narrow);\n\
-         }}\n",
-        formula = CAUCHY_CAP_FORMULA,
+         \x20   {binding} cauchy_inside = cone / max(upper, 1e-30);\n",
+        signature = function("tmlut_tir", &["mu", "alpha", "eta"]),
         floor = CAUCHY_SCALE_FLOOR as f32,
-    )
+    );
+    text += &if form == Form::CauchySlope {
+        format!(
+            "\x20   {binding} view_sine = sqrt(max(1.0 - mu * mu, 0.0));\n\
+             \x20   {binding} slope_scale = c8 * alpha * view_sine + {floor:?};\n\
+             \x20   {binding} slope_inside = tmlut_slope_above(critical_cosine, mu, slope_scale) / tmlut_slope_above(0.0, mu, slope_scale);\n\
+             \x20   {binding} fade_denominator = 1.0 + c9 * alpha;\n\
+             \x20   {binding} fade = (1.0 - mu) / (fade_denominator * fade_denominator);\n\
+             \x20   {binding} narrow = clamp(1.0 - (cauchy_inside + fade * (slope_inside - cauchy_inside)), 0.0, 1.0);\n\
+             \x20   {binding} rough = critical_cosine * sqrt(critical_cosine * sqrt(critical_cosine));\n\
+             \x20   {binding} blend = min(c5 * alpha * sqrt_alpha, 1.0);\n",
+            floor = SLOPE_SCALE_FLOOR as f32,
+        )
+    } else {
+        format!(
+            "\x20   {binding} narrow = clamp(1.0 - cauchy_inside, 0.0, 1.0);\n\
+             \x20   {binding} rough = pow(critical_cosine, c5);\n\
+             \x20   {binding} blend = min(c6 * pow(alpha, c7), 1.0);\n"
+        )
+    };
+    text += "    return narrow + blend * (rough - narrow);\n}\n";
+    text
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

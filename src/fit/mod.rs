@@ -356,7 +356,7 @@ pub fn fetch_cost_ns(texture: &Texture3D, queries: &[[f32; 3]], runs: usize) -> 
 /// The form a build fits to its TIR table: the most accurate fitted form whose CPU cost was
 /// measured no higher than thesis eq. 5.6's, side by side (docs/fit.md). Fixed here rather than
 /// timed during the build, so that a build's files depend on its configuration and seed only.
-pub const BUILD_FORM: Form = Form::CauchyCap;
+pub const BUILD_FORM: Form = Form::CauchySlope;
 
 /// Starts of the build's fit: the form's own start only. On the default table every start of
 /// `tmlut fit tir` ended at the same objective to 1e-3 relative (docs/fit.md), and each start

@@ -57,6 +57,49 @@ fn cauchy_cap_fit_recovers_known_parameters_reproducibly() {
     assert_eq!(fit_form(Form::CauchyCap, &data, &settings).unwrap().parameters, fitted.parameters);
 }
 
+/// Cauchy-slope parameters near the fit to the built table (docs/fit.md).
+const KNOWN_CAUCHY_SLOPE: [f64; 10] = [1.45, -0.5, -0.5, 0.7, -0.4, 1.4, 0.65, 0.55, 0.4, 15.0];
+
+#[test]
+fn cauchy_slope_fit_recovers_known_parameters_reproducibly() {
+    let table = synthetic_sized(Form::CauchySlope, &KNOWN_CAUCHY_SLOPE, [33, 17, 33]);
+    let data = FitData::from_table(&table).unwrap();
+    let settings = FitSettings { starts: 1, ..FitSettings::default() };
+    let fitted = fit_form(Form::CauchySlope, &data, &settings).unwrap();
+    for (got, want) in fitted.parameters.iter().zip(KNOWN_CAUCHY_SLOPE) {
+        assert!((got - want).abs() < 2e-2 * want.abs().max(1.0), "{:?} vs {KNOWN_CAUCHY_SLOPE:?}", fitted.parameters);
+    }
+    assert!(figures(&fitted, &data).rmse < 1e-5);
+    assert_eq!(fit_form(Form::CauchySlope, &data, &settings).unwrap().parameters, fitted.parameters);
+}
+
+/// The slope lobe's share above a cosine against sampling: in-plane GGX slopes of scale `s`
+/// (a Student t with two degrees of freedom, inverse CDF `t = s x / sqrt(1 - x^2)`, `x = 2U - 1`),
+/// each weighted by its projected area `mu + t` where positive, reflected to cosine `mu + 2 t`.
+#[test]
+fn slope_lobe_share_matches_sampled_visible_slopes() {
+    let mut state = 11u64;
+    let mut uniform = || (splitmix64(&mut state) >> 11) as f64 / (1u64 << 53) as f64;
+    for &(mu, scale, cosine) in &[(0.03, 0.03, 0.18), (0.0, 0.05, 0.1), (0.2, 0.02, 0.15), (0.1, 0.1, 0.5)] {
+        let samples = 400_000;
+        let (mut above, mut total) = (0.0, 0.0);
+        for _ in 0..samples {
+            let x = 2.0 * uniform() - 1.0;
+            let t = scale * x / (1.0 - x * x).sqrt();
+            let weight = (mu + t).max(0.0);
+            total += weight;
+            if mu + 2.0 * t > cosine {
+                above += weight;
+            }
+        }
+        let sampled = above / total;
+        // The closed form up to a common factor: normalise by its value at the lowest cosine a
+        // seen facet reflects to, `mu - 2 mu = -mu`, where the whole lobe is above.
+        let closed = forms::slope_lobe_above(cosine, mu, scale) / forms::slope_lobe_above(-mu, mu, scale);
+        assert!((sampled - closed).abs() < 3e-3, "{mu} {scale} {cosine}: {sampled} vs {closed}");
+    }
+}
+
 /// The cap share in closed form against sampling: GGX slopes of scale `l` (density
 /// `1 / (pi l^2 (1 + r^2 / l^2)^2)`, inverse CDF `r^2 = l^2 U / (1 - U)`) lifted to the sphere by
 /// the inverse stereographic projection `tan(theta / 2) = r` around the lobe's centre.
@@ -129,22 +172,24 @@ fn analytic_gradient_matches_finite_differences() {
             assert!((numeric - gradient[k]).abs() < 1e-6, "{form:?} {k}: {numeric} vs {}", gradient[k]);
         }
     }
-    // The dual-number gradient of the cauchy-cap form, at points on each side of its branches.
-    for &(mu, alpha, eta) in &[(0.55, 0.4, 0.8), (0.05, 0.1, 0.97), (0.98, 0.03, 0.1), (0.3, 0.9, 0.5)] {
-        let mut gradient = [0.0; 10];
-        Form::CauchyCap.value_and_gradient(&KNOWN_CAUCHY, mu, alpha, eta, &mut gradient).unwrap();
-        for k in 0..10 {
-            let h = 1e-6;
-            let (mut up, mut down) = (KNOWN_CAUCHY, KNOWN_CAUCHY);
-            up[k] += h;
-            down[k] -= h;
-            let f = |p: &[f64]| Form::CauchyCap.eval(p, mu, alpha, eta);
-            let numeric = (f(&up) - f(&down)) / (2.0 * h);
-            assert!(
-                (numeric - gradient[k]).abs() < 1e-6,
-                "cauchy-cap {k} at {mu} {alpha} {eta}: {numeric} vs {}",
-                gradient[k]
-            );
+    // The dual-number gradients of the Cauchy forms, at points on each side of their branches.
+    for (form, known) in [(Form::CauchyCap, KNOWN_CAUCHY), (Form::CauchySlope, KNOWN_CAUCHY_SLOPE)] {
+        for &(mu, alpha, eta) in &[(0.55, 0.4, 0.8), (0.05, 0.1, 0.97), (0.98, 0.03, 0.1), (0.3, 0.9, 0.5)] {
+            let mut gradient = [0.0; 10];
+            form.value_and_gradient(&known, mu, alpha, eta, &mut gradient).unwrap();
+            for k in 0..10 {
+                let h = 1e-6;
+                let (mut up, mut down) = (known, known);
+                up[k] += h;
+                down[k] -= h;
+                let f = |p: &[f64]| form.eval(p, mu, alpha, eta);
+                let numeric = (f(&up) - f(&down)) / (2.0 * h);
+                assert!(
+                    (numeric - gradient[k]).abs() < 1e-6,
+                    "{form:?} {k} at {mu} {alpha} {eta}: {numeric} vs {}",
+                    gradient[k]
+                );
+            }
         }
     }
 }
@@ -219,7 +264,7 @@ fn baked_coefficients(text: &str) -> Vec<f32> {
     vec![w[0], w[1], w[2], s[0], s[1], s[2], e[0]]
 }
 
-/// The cauchy-cap shader's named constants `c0..c9` (`float c3 = ...;` or `let c3: f32 = ...;`).
+/// The Cauchy forms' shaders' named constants `c0..c9` (`float c3 = ...;` or `let c3: f32 = ...;`).
 fn baked_constants(text: &str) -> Vec<f32> {
     (0..10)
         .map(|k| {
@@ -236,7 +281,7 @@ fn shader_coefficients_match_the_manifest() {
     let table = synthetic(Form::Algebraic, &KNOWN);
     let request = FitRequest {
         table_path: "synthetic".into(),
-        forms: vec![Form::Eq56, Form::Logistic, Form::Algebraic, Form::CauchyCap],
+        forms: vec![Form::Eq56, Form::Logistic, Form::Algebraic, Form::CauchyCap, Form::CauchySlope],
         out: dir.path().to_path_buf(),
         settings: FitSettings { starts: 2, ..FitSettings::default() },
         timing_runs: 3,
@@ -246,7 +291,7 @@ fn shader_coefficients_match_the_manifest() {
     let read: FitManifest = serde_json::from_slice(&std::fs::read(dir.path().join("fit.json")).unwrap()).unwrap();
     assert_eq!(read, manifest);
     assert!(dir.path().join("error_vs_cost.png").is_file());
-    for form in ["eq56", "logistic", "algebraic", "cauchy-cap"] {
+    for form in ["eq56", "logistic", "algebraic", "cauchy-cap", "cauchy-slope"] {
         assert!(dir.path().join(format!("tir_error_{form}.png")).is_file());
         let map = crate::formats::exr::read_exr(&dir.path().join(format!("tir_error_{form}.exr"))).unwrap();
         let reported = read.forms.iter().find(|f| f.name == form).unwrap().figures.max_abs_error;
@@ -264,7 +309,8 @@ fn shader_coefficients_match_the_manifest() {
         for shader in &form.shaders {
             let text = std::fs::read_to_string(dir.path().join(shader)).unwrap();
             let manifest_f32: Vec<f32> = form.parameters.iter().map(|&v| v as f32).collect();
-            let baked = if form.name == "cauchy-cap" { baked_constants(&text) } else { baked_coefficients(&text) };
+            let baked =
+                if form.name.starts_with("cauchy") { baked_constants(&text) } else { baked_coefficients(&text) };
             assert_eq!(baked, manifest_f32, "{shader}");
         }
     }
