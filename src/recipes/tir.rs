@@ -13,7 +13,11 @@
 //! Fast path: per `(mu, alpha)` the weighted samples of `w.z` answer every `eta` at once. Sample
 //! `w` is past the critical angle of exactly the `eta` nodes below `sqrt(1 - w.z^2)`, so its weight
 //! goes to the bucket of the number of such nodes, and the table is a cumulative sum of buckets:
-//! the indicator is evaluated exactly, with no binning error.
+//! the indicator is evaluated exactly, with no binning error. Near the view's own angle the test
+//! `sin^2(theta_w) > eta^2` is made as `sin^2(theta_w) - sin^2(theta_v) > eta^2 - sin^2(theta_v)`,
+//! the left side from the f32 kernel without cancellation (`SampleArrays::wo_sin2_offset`), the
+//! right in f64: a lobe seen at a critical angle and narrower than the f32 spacing of `sin^2`
+//! itself (6e-8, alpha <= 1e-4) is still split where its half past the angle begins.
 
 use std::time::Instant;
 
@@ -29,7 +33,7 @@ use crate::integrate::batch::{CellWarp, for_each_block};
 use crate::integrate::{
     Estimate, GRAZING_COSINE, Method, Progress, combine_replicates, estimate_cells, visible_normal_replicate_means,
 };
-use crate::physics::MaskingShadowing;
+use crate::physics::{MaskingShadowing, direction_from_cosine};
 use crate::sampling::sequence::PointSet;
 use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
@@ -128,8 +132,22 @@ fn past_critical_angle(sin2: f64, eta: f64) -> bool {
 }
 
 /// TIR at every `eta` of one `(mu, alpha)` from one pass over the samples (see the module docs).
+/// `etas` must be ascending.
 pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
-    let warp = CellWarp::new(mu.max(GRAZING_COSINE), alpha);
+    let mu = mu.max(GRAZING_COSINE);
+    let warp = CellWarp::with_sin2_offsets(mu, alpha);
+    // sin^2(theta_v) as the per-cell path has it (the mirror direction's wo.x^2), so that at
+    // alpha = 0, where every offset is 0, both paths take the same side of a critical view.
+    let view_x = direction_from_cosine(mu).x;
+    let view_sin2 = view_x * view_x;
+    // Each sample's sin^2(theta_w) is taken in the form that is precise for it: near the normal the
+    // f32 sin^2 itself (error ~ 4 eps sin(theta_w) sin(theta_v); exactly 0 only straight up, so
+    // eta = 0 stays exact), elsewhere sin^2(theta_v) + the f32 offset, summed in f64 (error
+    // ~ eps |offset|, so a lobe at the view's own angle keeps its shape). The two errors cross
+    // near sin(theta_w) = sin(theta_v) / 4; the switch is at half.
+    let near_normal = view_sin2 / 4.0;
+    // Past the critical angle of etas[k] when sin^2(theta_w) > eta_squared[k] (ascending).
+    let eta_squared: Vec<f64> = etas.iter().map(|eta| eta * eta).collect();
     let replicate_means: Vec<Vec<f64>> = points
         .replicates_f32()
         .iter()
@@ -138,11 +156,14 @@ pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -
             let mut buckets = vec![0.0; etas.len() + 1];
             let mut total = 0.0;
             for_each_block(&warp, MaskingShadowing::SmithSeparable, replicate, |block| {
-                for (&sin2, &w) in block.wo_sin2.iter().zip(block.weight) {
+                for ((&sin2, &sin2_offset), &w) in block.wo_sin2.iter().zip(block.wo_sin2_offset).zip(block.weight) {
                     if w == 0.0 {
                         continue;
                     }
-                    let j = etas.partition_point(|&eta| past_critical_angle(sin2 as f64, eta));
+                    let sin2 = sin2 as f64;
+                    // A weighted sample has w.z > 0, so sin^2 <= 1: the cap keeps eta = 1 exact.
+                    let sin2 = if sin2 < near_normal { sin2 } else { (view_sin2 + sin2_offset as f64).min(1.0) };
+                    let j = eta_squared.partition_point(|&threshold| sin2 > threshold);
                     buckets[j] += w as f64;
                     total += w as f64;
                 }
@@ -161,8 +182,9 @@ pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -
 }
 
 impl TirSettings {
-    /// One node by the fast method (the f32 kernel's `sin^2` of each reflected direction, bucketed
-    /// by eta), as [`build`] computes it; the top node (eta = 1) at `top_eta`.
+    /// One node by the fast method (the f32 kernel's `sin^2` of each reflected direction, or its
+    /// offset from the view's, bucketed by eta), as [`build`] computes it; the top node (eta = 1)
+    /// at `top_eta`.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let eta = if position[2] >= 1.0 { self.top_eta } else { position[2] };
         tir_column(position[0], position[1], &[eta], points)
@@ -263,6 +285,7 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
 mod tests {
     use super::*;
     use crate::formats::bin::read_bin;
+    use crate::sampling::sequence::SamplePlan;
     use crate::stats::ErrorSummary;
 
     fn original() -> Table {
@@ -327,6 +350,44 @@ mod tests {
             // Same points; the two differ by f32 rounding of samples right at a threshold, and by
             // the frame of the disk at mu = 1 (rotated, same distribution).
             assert!((a - b).abs() < 2e-2, "node {:?}: {a} vs {b}", fast.node_index(n));
+        }
+    }
+
+    #[test]
+    fn a_narrow_lobe_at_a_critical_view_splits_as_in_f64() {
+        // Seen exactly at the critical angle, half of a narrow lobe is past it: TIR = 0.5 (1/2 - O(alpha)).
+        // At alpha <= 1e-4 the lobe is narrower than the f32 spacing of sin^2 (6e-8), and the old
+        // kernel, testing the f32 sin^2 itself, gave 0.416 at eta = 0.5, alpha = 1e-7 here (0 at
+        // eta = 1 - 1e-6 in the stability matrix). Same points for both paths, so they agree
+        // within their standard errors.
+        let points = PointSet::new(SamplePlan::new(1 << 12, 4).unwrap(), 7);
+        let etas = [0.0, 1e-3, 0.5, 1.0 - 1e-6, 1.0];
+        for critical_eta in [0.5f64, 1e-3, 1.0 - 1e-6] {
+            let mu = ((1.0 - critical_eta) * (1.0 + critical_eta)).sqrt();
+            for alpha in [1e-4, 1e-5, 1e-7] {
+                let column = tir_column(mu, alpha, &etas, &points);
+                for (k, &eta) in etas.iter().enumerate() {
+                    let (fast, standard_error) = (column.mean[k], column.standard_error[k]);
+                    let per_cell = tir_cell(mu, alpha, eta, &points);
+                    let tolerance = 4.0 * standard_error.hypot(per_cell.standard_error[0]) + 2e-4;
+                    assert!(
+                        (fast - per_cell.mean[0]).abs() <= tolerance,
+                        "mu {mu} alpha {alpha} eta {eta}: fast {fast} vs per-cell {} (tolerance {tolerance:.1e})",
+                        per_cell.mean[0]
+                    );
+                    // Half, where the lobe is narrow against sin(theta_v) = eta and cos(theta_v)
+                    // (wider, its spread across the plane of incidence adds sin^2: 0.55 at
+                    // eta = 1e-3, alpha = 1e-4; and masking cuts it near the horizon).
+                    if eta == critical_eta && alpha <= 1e-2 * critical_eta.min(mu) {
+                        assert!((fast - 0.5).abs() < 0.01, "mu {mu} alpha {alpha}: half the lobe is past: {fast}");
+                    }
+                }
+            }
+            // alpha = 0: the step itself; both paths take the same side of it.
+            let column = tir_column(mu, 0.0, &etas, &points);
+            for (k, &eta) in etas.iter().enumerate() {
+                assert_eq!(column.mean[k], tir_cell(mu, 0.0, eta, &points).mean[0], "mu {mu} alpha 0 eta {eta}");
+            }
         }
     }
 

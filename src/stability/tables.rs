@@ -101,7 +101,6 @@ fn common_checks(
     in_unit_interval: &[bool],
     paths: &mut PrecisionDifference,
     at: &str,
-    fast_path_limit: Option<&str>,
 ) -> Vec<Check> {
     let mut checks = Vec::new();
     for (j, name) in channel_names.iter().enumerate() {
@@ -110,36 +109,15 @@ fn common_checks(
         checks.push(named(p::finite(v32), name, "f32"));
         if in_unit_interval[j] {
             checks.push(named(p::unit_interval(v64, RANGE_SLACK), name, "f64"));
-            checks.push(fast_path(named(p::unit_interval(v32, RANGE_SLACK), name, "f32"), fast_path_limit));
+            checks.push(named(p::unit_interval(v32, RANGE_SLACK), name, "f32"));
         }
         let combined = node.per_cell.standard_error[j].hypot(node.fast.standard_error[j]);
         let tolerance = PATH_STANDARD_ERRORS * combined + PATH_ABSOLUTE_TOLERANCE;
         let agreement = named(p::close("f32 fast path agrees with f64 per-cell", v32, v64, tolerance), name, "");
-        checks.push(fast_path(agreement, fast_path_limit));
+        checks.push(agreement);
         paths.record(v32, v64, &format!("{at} {name}"));
     }
     checks
-}
-
-/// Where the fast path cannot resolve the integrand, a failed f32 check is a stated limitation of
-/// the method (with its numbers), not a pass and not hidden.
-fn fast_path(check: Check, limit: Option<&str>) -> Check {
-    match limit {
-        Some(reason) if !check.passed() => Check::limitation(check.property, format!("{} -- {reason}", check.detail)),
-        _ => check,
-    }
-}
-
-/// The one place the fast path is excused: TIR's f32 kernel decides "past the critical angle" from
-/// the f32 `sin^2` of each reflected direction, whose spacing (6e-8) is wider than a lobe of
-/// `alpha <= 1e-4` seen exactly at the critical angle, where half the lobe is past it. (FGD and
-/// Belcour keep narrow lobes on their own hats, with the cosine as `mu + (wi.h - mu)`, and are
-/// held to the tolerance everywhere.)
-const TIR_AT_CRITICAL_VIEW: &str = "TIR's f32 kernel tests sin^2(theta_o) > eta^2 in f32, whose spacing is wider than this lobe at the critical angle (see docs/stability.md)";
-
-/// Whether the TIR case at `alpha` is excused ([`TIR_AT_CRITICAL_VIEW`]).
-fn tir_fast_path_limit(alpha: f64, at_critical_view: bool) -> Option<&'static str> {
-    (at_critical_view && alpha <= 1e-4).then_some(TIR_AT_CRITICAL_VIEW)
 }
 
 /// Prefix a check's detail with the channel and path it is about.
@@ -194,7 +172,7 @@ fn fgd(evaluation: &Evaluation, report: &mut Report) {
                         label(kappa)
                     );
                     let mut case = Case::new("fgd", &at, values(&node));
-                    case.checks = common_checks(&node, &["fgd"], &[true], &mut paths, &at, None);
+                    case.checks = common_checks(&node, &["fgd"], &[true], &mut paths, &at);
                     let (v64, v32) = (node.per_cell.mean[0], node.fast.mean[0]);
                     case.checks.push(p::at_most("FGD <= GD (F <= 1), same points", v64, gd, 1e-12));
                     let mirror = fresnel_reflectance(evaluated_cosine(mu), eta, kappa);
@@ -264,7 +242,7 @@ fn gd(evaluation: &Evaluation, report: &mut Report) {
             let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
             let at = format!("mu={} alpha={}", label(mu), label(alpha));
             let mut case = Case::new("gd", &at, values(&node));
-            case.checks = common_checks(&node, &["gd"], &[true], &mut paths, &at, None);
+            case.checks = common_checks(&node, &["gd"], &[true], &mut paths, &at);
             if alpha == 0.0 {
                 case.checks.push(named(
                     p::exact("alpha = 0: a mirror loses nothing", node.per_cell.mean[0], 1.0),
@@ -306,37 +284,24 @@ fn tir(evaluation: &Evaluation, report: &mut Report) {
                     label(eta)
                 );
                 let mut case = Case::new("tir", &at, values(&node));
-                case.checks = common_checks(
-                    &node,
-                    &["tir"],
-                    &[true],
-                    &mut paths,
-                    &at,
-                    tir_fast_path_limit(alpha, critical_of.is_some()),
-                );
+                case.checks = common_checks(&node, &["tir"], &[true], &mut paths, &at);
                 let (v64, v32) = (node.per_cell.mean[0], node.fast.mean[0]);
                 if eta == 1.0 {
                     case.checks.push(named(p::exact("eta = 1: no critical angle, TIR = 0", v64, 0.0), "tir", "f64"));
                     case.checks.push(named(p::exact("eta = 1: no critical angle, TIR = 0", v32, 0.0), "tir", "f32"));
                 }
                 if alpha == 0.0 {
-                    // The mirror direction, its sin^2 from the tangential components as both paths.
+                    // The mirror direction, its sin^2 from the tangential components as both paths
+                    // (the fast one compares a zero offset with eta^2 - sin^2 in f64), so that both
+                    // take the same side of the step at a critical view too.
                     let wi = direction_from_cosine(evaluated_cosine(mu));
                     let wo = reflect(wi, DVec3::Z);
                     let step = if wo.x * wo.x + wo.y * wo.y > eta * eta { 1.0 } else { 0.0 };
-                    case.checks.push(named(p::exact("alpha = 0: the hard step [mu < mu*]", v64, step), "tir", "f64"));
-                    if critical_of.is_some() {
-                        case.checks.push(Check::limitation(
-                            "alpha = 0: the hard step [mu < mu*]",
-                            format!(
-                                "[tir, f32] exactly at the critical angle the step is decided by the f32 rounding of sin^2 (f32 gives {v32}, f64 {v64}); a set of measure zero"
-                            ),
-                        ));
-                    } else {
+                    for (path, value) in [("f64", v64), ("f32", v32)] {
                         case.checks.push(named(
-                            p::exact("alpha = 0: the hard step [mu < mu*]", v32, step),
+                            p::exact("alpha = 0: the hard step [mu < mu*]", value, step),
                             "tir",
-                            "f32",
+                            path,
                         ));
                     }
                 }
@@ -360,7 +325,7 @@ fn belcour(evaluation: &Evaluation, report: &mut Report) {
             let at = format!("mu={} alpha={}", label(mu), label(alpha));
             let mut case = Case::new("belcour", &at, values(&node));
             let names = ["b0", "b1", "b2", "b3"];
-            case.checks = common_checks(&node, &names, &[true, true, false, false], &mut paths, &at, None);
+            case.checks = common_checks(&node, &names, &[true, true, false, false], &mut paths, &at);
             let b0 = node.per_cell.mean[0];
             for (k, name) in names.iter().enumerate().skip(1) {
                 // |b_k| <= 1 pointwise, so each channel is bounded by the albedo b0.
@@ -408,7 +373,7 @@ fn karis(evaluation: &Evaluation, report: &mut Report) {
             let names = ["scale", "bias"];
             // Schlick–Smith is an approximation of Smith, and its albedo scale + bias may exceed 1
             // slightly; each term on its own is in [0, 1] only up to that.
-            case.checks = common_checks(&node, &names, &[false, true], &mut paths, &at, None);
+            case.checks = common_checks(&node, &names, &[false, true], &mut paths, &at);
             let total = node.per_cell.mean[0] + node.per_cell.mean[1];
             case.checks.push(p::within("scale + bias in [0, 1.05] (Schlick–Smith albedo)", total, 0.0, 1.05));
             if alpha == 0.0 {
