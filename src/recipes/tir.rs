@@ -125,6 +125,16 @@ impl TirSettings {
     }
 }
 
+/// The `alpha = 0` nodes are the limit `alpha -> 0+`, evaluated at this roughness, as the `mu = 0`
+/// nodes are the limit `mu -> 0+`. At `alpha = 0` itself the lobe is the single mirror direction,
+/// and where that direction is exactly at the critical angle the value depends on the side it is
+/// approached from: at `(mu = 1, alpha = 0, eta = 0)` the mirror direction is the normal, the
+/// critical cone of `eta = 0` is the normal alone, and the point value 0 sits between neighbours
+/// of 1 along `mu` and `alpha`, so that the table interpolated 0.5 at `alpha = 1/126` where TIR is 1.
+/// The limit is 1 there (every direction of a narrow lobe around the normal is past it) and 1/2 at
+/// any other critical view; elsewhere the narrowest lobe's value is the mirror step itself.
+pub const LIMIT_ROUGHNESS: f64 = 1e-7;
+
 /// `[sin^2(theta_w) > eta^2]` (that is, `1 - w.z^2 > eta^2`) for `w` above the horizon: `w` is past
 /// the critical angle of `eta`. Taking `sin^2 = w.x^2 + w.y^2` avoids the cancellation of `1 - w.z^2`.
 fn past_critical_angle(sin2: f64, eta: f64) -> bool {
@@ -134,7 +144,7 @@ fn past_critical_angle(sin2: f64, eta: f64) -> bool {
 /// TIR at every `eta` of one `(mu, alpha)` from one pass over the samples (see the module docs).
 /// `etas` must be ascending.
 pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
-    let mu = mu.max(GRAZING_COSINE);
+    let (mu, alpha) = (mu.max(GRAZING_COSINE), alpha.max(LIMIT_ROUGHNESS));
     let warp = CellWarp::with_sin2_offsets(mu, alpha);
     // sin^2(theta_v) as the per-cell path has it (the mirror direction's wo.x^2), so that at
     // alpha = 0, where every offset is 0, both paths take the same side of a critical view.
@@ -193,6 +203,7 @@ impl TirSettings {
 
 /// TIR at one `(mu, alpha, eta)` on its own, in f64: the ratio estimator `Σ G1 [..] / Σ G1`.
 pub(crate) fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
+    let alpha = alpha.max(LIMIT_ROUGHNESS);
     let sums = visible_normal_replicate_means(mu, alpha, points, 2, |sample, sums| {
         let weight = MaskingShadowing::SmithSeparable.visible_normal_weight(sample.wi, sample.wo, alpha);
         if past_critical_angle(sample.wo.x * sample.wo.x + sample.wo.y * sample.wo.y, eta) {
@@ -270,6 +281,9 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
                 settings.top_eta
             ),
             format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {GRAZING_COSINE}."),
+            format!(
+                "The alpha = 0 nodes are the limit alpha -> 0+, evaluated at alpha = {LIMIT_ROUGHNESS}: the mirror step, 1 at (mu = 1, eta = 0)."
+            ),
         ],
         sampling: sampling_record(settings.method, "weighted distribution of w.z per (mu, alpha)", &points),
         error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
@@ -334,7 +348,10 @@ mod tests {
             for k in 0..17 {
                 let position = table.node_position(&[i, 0, k]);
                 let (mu, eta) = (position[0].max(GRAZING_COSINE), position[2]);
-                let expected = if 1.0 - mu * mu > eta * eta { 1.0 } else { 0.0 };
+                // The limit alpha -> 0+: the mirror step, and 1 at the normal for eta = 0, whose
+                // critical cone is the normal alone (no other node of this grid is at a critical view).
+                let at_the_pole = mu == 1.0 && eta == 0.0;
+                let expected = if 1.0 - mu * mu > eta * eta || at_the_pole { 1.0 } else { 0.0 };
                 assert_eq!(table.node(&[i, 0, k])[0], expected, "mu {mu} eta {eta}");
             }
         }
@@ -383,11 +400,25 @@ mod tests {
                     }
                 }
             }
-            // alpha = 0: the step itself; both paths take the same side of it.
+            // alpha = 0 is the limit alpha -> 0+ on both paths: half the lobe past a critical view.
             let column = tir_column(mu, 0.0, &etas, &points);
-            for (k, &eta) in etas.iter().enumerate() {
-                assert_eq!(column.mean[k], tir_cell(mu, 0.0, eta, &points).mean[0], "mu {mu} alpha 0 eta {eta}");
-            }
+            assert_eq!(column.mean, tir_column(mu, LIMIT_ROUGHNESS, &etas, &points).mean);
+            let k = etas.iter().position(|&eta| eta == critical_eta).unwrap();
+            assert!((column.mean[k] - 0.5).abs() < 0.01, "mu {mu} alpha 0: {}", column.mean[k]);
+            assert!((tir_cell(mu, 0.0, critical_eta, &points).mean[0] - 0.5).abs() < 0.01);
+        }
+    }
+
+    #[test]
+    fn the_alpha_zero_corner_is_the_limit_of_narrow_lobes() {
+        // At (mu = 1, alpha = 0, eta = 0) the mirror direction is the normal, which is the whole
+        // critical cone of eta = 0: the point value would be 0 between neighbours of 1 along mu
+        // and alpha. The limit of narrow lobes is 1: all their directions are off the normal.
+        let points = PointSet::new(SamplePlan::new(1 << 10, 4).unwrap(), 5);
+        for alpha in [0.0, LIMIT_ROUGHNESS, 1e-3] {
+            let column = tir_column(1.0, alpha, &[0.0, 0.3], &points);
+            assert_eq!(column.mean, vec![1.0, 0.0], "alpha {alpha}");
+            assert_eq!(tir_cell(1.0, alpha, 0.0, &points).mean[0], 1.0, "alpha {alpha}");
         }
     }
 
