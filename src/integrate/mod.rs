@@ -174,10 +174,70 @@ fn cosines_and_weights(
     cos_wi_h: &mut [f64],
     weight: &mut [f64],
 ) {
-    for ((point, c), w) in points.iter().zip(cos_wi_h.iter_mut()).zip(weight.iter_mut()) {
-        let sample = MicrofacetSample::new(wi, sampler, point);
-        *c = sample.cos_wi_h;
-        *w = masking.visible_normal_weight(wi, sample.wo, alpha);
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { cosines_and_weights_avx2(wi, sampler, alpha, masking, points, cos_wi_h, weight) };
+            return;
+        }
+    }
+    cosines_and_weights_portable(wi, sampler, alpha, masking, points, cos_wi_h, weight);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn cosines_and_weights_avx2(
+    wi: DVec3,
+    sampler: &VisibleNormalSampler,
+    alpha: f64,
+    masking: MaskingShadowing,
+    points: &[DiskPoint],
+    cos_wi_h: &mut [f64],
+    weight: &mut [f64],
+) {
+    cosines_and_weights_portable(wi, sampler, alpha, masking, points, cos_wi_h, weight);
+}
+
+/// [`cosines_and_weights`] with the masking model fixed outside the loop, so that the loop body
+/// has no branch left the compiler cannot turn into a select (and vectorises). The arithmetic is
+/// that of the scalar functions, element by element: the same bits.
+#[inline(always)]
+fn cosines_and_weights_portable(
+    wi: DVec3,
+    sampler: &VisibleNormalSampler,
+    alpha: f64,
+    masking: MaskingShadowing,
+    points: &[DiskPoint],
+    cos_wi_h: &mut [f64],
+    weight: &mut [f64],
+) {
+    #[inline(always)]
+    fn fill(
+        wi: DVec3,
+        sampler: &VisibleNormalSampler,
+        points: &[DiskPoint],
+        cos_wi_h: &mut [f64],
+        weight: &mut [f64],
+        weight_of: impl Fn(DVec3) -> f64,
+    ) {
+        for ((point, c), w) in points.iter().zip(cos_wi_h.iter_mut()).zip(weight.iter_mut()) {
+            let sample = MicrofacetSample::new(wi, sampler, point);
+            *c = sample.cos_wi_h;
+            *w = weight_of(sample.wo);
+        }
+    }
+    use MaskingShadowing::*;
+    match masking {
+        SmithSeparable => {
+            fill(wi, sampler, points, cos_wi_h, weight, |wo| SmithSeparable.visible_normal_weight(wi, wo, alpha))
+        }
+        SmithHeightCorrelated => {
+            fill(wi, sampler, points, cos_wi_h, weight, |wo| SmithHeightCorrelated.visible_normal_weight(wi, wo, alpha))
+        }
+        SchlickSmith => {
+            fill(wi, sampler, points, cos_wi_h, weight, |wo| SchlickSmith.visible_normal_weight(wi, wo, alpha))
+        }
     }
 }
 
