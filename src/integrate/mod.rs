@@ -17,8 +17,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::physics::{MaskingShadowing, direction_from_cosine, reflect};
-use crate::sampling::VisibleNormalSampler;
 use crate::sampling::sequence::PointSet;
+use crate::sampling::{DiskPoint, VisibleNormalSampler};
 
 /// The grazing node `mu = 0` is evaluated as the limit `mu -> 0+`, taken at this cosine: at exactly
 /// 0 the incident direction lies in the surface and, for a smooth surface, so does its mirror
@@ -77,6 +77,15 @@ impl Estimate {
             standard_error: per_channel.iter().map(|e| e.standard_error[0]).collect(),
         }
     }
+
+    /// One single-channel estimate per channel: the inverse of [`Estimate::from_channels`].
+    pub fn into_channels(self) -> Vec<Estimate> {
+        self.mean
+            .into_iter()
+            .zip(self.standard_error)
+            .map(|(mean, standard_error)| Estimate { mean: vec![mean], standard_error: vec![standard_error] })
+            .collect()
+    }
 }
 
 /// Estimate `E[f]` over the visible normals of the direction with cosine `mu` on a GGX surface of
@@ -106,13 +115,130 @@ pub fn visible_normal_replicate_means(
     for replicate in points.replicates() {
         let mut sums = vec![0.0; channels];
         for point in replicate {
-            let h = sampler.sample(point);
-            let sample = MicrofacetSample { wi, h, wo: reflect(wi, h), cos_wi_h: wi.dot(h).clamp(0.0, 1.0) };
-            accumulate(&sample, &mut sums);
+            accumulate(&MicrofacetSample::new(wi, &sampler, point), &mut sums);
         }
         means.push(sums.iter().map(|s| s / replicate.len() as f64).collect());
     }
     means
+}
+
+impl MicrofacetSample {
+    /// The sample of `wi` (with `sampler` built for it) at a disk point.
+    #[inline(always)]
+    fn new(wi: DVec3, sampler: &VisibleNormalSampler, point: &DiskPoint) -> Self {
+        let h = sampler.sample(point);
+        MicrofacetSample { wi, h, wo: reflect(wi, h), cos_wi_h: wi.dot(h).clamp(0.0, 1.0) }
+    }
+}
+
+/// Samples per block of the per-cell path: the block's cosines and weights stay in the L1 cache.
+const PER_CELL_BLOCK: usize = 256;
+
+/// The per-cell (scalar f64) estimate of `channels` integrals `E[f_j(wi.h) W]`, `W = G2 / G1(wi)`
+/// of `masking`, a block of samples at a time: `accumulate(cos_wi_h, weight, sums)` adds a block's
+/// contributions. The samples and weights are those of [`estimate_visible_normal_integral`] with
+/// [`MaskingShadowing::visible_normal_weight`], in the same order, so a plain sum per channel gives
+/// the same bits; splitting the sampling from the integrand lets several integrands share one pass
+/// (and keeps each loop short enough for the CPU to overlap its iterations).
+pub fn estimate_per_cell_blocks(
+    mu: f64,
+    alpha: f64,
+    masking: MaskingShadowing,
+    points: &PointSet,
+    channels: usize,
+    mut accumulate: impl FnMut(&[f64], &[f64], &mut [f64]),
+) -> Estimate {
+    let wi = direction_from_cosine(mu.max(GRAZING_COSINE));
+    let sampler = VisibleNormalSampler::new(wi, alpha);
+    let (mut cos_wi_h, mut weight) = ([0.0; PER_CELL_BLOCK], [0.0; PER_CELL_BLOCK]);
+    let mut means = Vec::with_capacity(points.plan().replicates as usize);
+    for replicate in points.replicates() {
+        let mut sums = vec![0.0; channels];
+        for block in replicate.chunks(PER_CELL_BLOCK) {
+            let n = block.len();
+            cosines_and_weights(wi, &sampler, alpha, masking, block, &mut cos_wi_h[..n], &mut weight[..n]);
+            accumulate(&cos_wi_h[..n], &weight[..n], &mut sums);
+        }
+        means.push(sums.iter().map(|s| s / replicate.len() as f64).collect());
+    }
+    combine_replicates(&means, channels)
+}
+
+/// `wi.h` and `G2 / G1(wi)` of each point of a block, by the scalar sampler.
+fn cosines_and_weights(
+    wi: DVec3,
+    sampler: &VisibleNormalSampler,
+    alpha: f64,
+    masking: MaskingShadowing,
+    points: &[DiskPoint],
+    cos_wi_h: &mut [f64],
+    weight: &mut [f64],
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { cosines_and_weights_avx2(wi, sampler, alpha, masking, points, cos_wi_h, weight) };
+            return;
+        }
+    }
+    cosines_and_weights_portable(wi, sampler, alpha, masking, points, cos_wi_h, weight);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn cosines_and_weights_avx2(
+    wi: DVec3,
+    sampler: &VisibleNormalSampler,
+    alpha: f64,
+    masking: MaskingShadowing,
+    points: &[DiskPoint],
+    cos_wi_h: &mut [f64],
+    weight: &mut [f64],
+) {
+    cosines_and_weights_portable(wi, sampler, alpha, masking, points, cos_wi_h, weight);
+}
+
+/// [`cosines_and_weights`] with the masking model fixed outside the loop, so that the loop body
+/// has no branch left the compiler cannot turn into a select (and vectorises). The arithmetic is
+/// that of the scalar functions, element by element: the same bits.
+#[inline(always)]
+fn cosines_and_weights_portable(
+    wi: DVec3,
+    sampler: &VisibleNormalSampler,
+    alpha: f64,
+    masking: MaskingShadowing,
+    points: &[DiskPoint],
+    cos_wi_h: &mut [f64],
+    weight: &mut [f64],
+) {
+    #[inline(always)]
+    fn fill(
+        wi: DVec3,
+        sampler: &VisibleNormalSampler,
+        points: &[DiskPoint],
+        cos_wi_h: &mut [f64],
+        weight: &mut [f64],
+        weight_of: impl Fn(DVec3) -> f64,
+    ) {
+        for ((point, c), w) in points.iter().zip(cos_wi_h.iter_mut()).zip(weight.iter_mut()) {
+            let sample = MicrofacetSample::new(wi, sampler, point);
+            *c = sample.cos_wi_h;
+            *w = weight_of(sample.wo);
+        }
+    }
+    use MaskingShadowing::*;
+    match masking {
+        SmithSeparable => {
+            fill(wi, sampler, points, cos_wi_h, weight, |wo| SmithSeparable.visible_normal_weight(wi, wo, alpha))
+        }
+        SmithHeightCorrelated => {
+            fill(wi, sampler, points, cos_wi_h, weight, |wo| SmithHeightCorrelated.visible_normal_weight(wi, wo, alpha))
+        }
+        SchlickSmith => {
+            fill(wi, sampler, points, cos_wi_h, weight, |wo| SchlickSmith.visible_normal_weight(wi, wo, alpha))
+        }
+    }
 }
 
 /// Estimate `E[f_j(wi.h) W]` for the `N` channel functions `f` with `W = G2 / G1(wi)` of
@@ -127,10 +253,11 @@ pub fn estimate_cosine_functions<const N: usize>(
     f: impl Fn(f64) -> [f64; N],
 ) -> Estimate {
     match method {
-        Method::PerCell => estimate_visible_normal_integral(mu, alpha, points, N, |sample, sums| {
-            let weight = masking.visible_normal_weight(sample.wi, sample.wo, alpha);
-            for (s, v) in sums.iter_mut().zip(f(sample.cos_wi_h)) {
-                *s += weight * v;
+        Method::PerCell => estimate_per_cell_blocks(mu, alpha, masking, points, N, |cos_wi_h, weight, sums| {
+            for (&c, &w) in cos_wi_h.iter().zip(weight) {
+                for (s, v) in sums.iter_mut().zip(f(c)) {
+                    *s += w * v;
+                }
             }
         }),
         Method::Fast => {

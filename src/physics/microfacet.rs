@@ -18,6 +18,7 @@ use std::f64::consts::PI;
 
 /// `alpha^2 tan^2(theta)` of a direction, the argument of Lambda. `+inf` at the horizon for a
 /// rough surface, 0 for a smooth one.
+#[inline]
 fn alpha_squared_tan_squared(w: DVec3, alpha: f64) -> f64 {
     let cos2 = w.z * w.z;
     let sin2 = (1.0 - cos2).max(0.0);
@@ -53,6 +54,7 @@ pub fn ggx_distribution(h: DVec3, alpha: f64) -> f64 {
 /// Smith's `Lambda(w) = (-1 + sqrt(1 + alpha^2 tan^2)) / 2` for GGX (Heitz 2014, eq. 72),
 /// evaluated as `x / (2 (1 + sqrt(1 + x)))` with `x = alpha^2 tan^2`, which is the same quantity
 /// without the cancellation that loses all digits for small `x`.
+#[inline]
 pub fn smith_lambda(w: DVec3, alpha: f64) -> f64 {
     let x = alpha_squared_tan_squared(w, alpha);
     if x.is_infinite() {
@@ -63,6 +65,7 @@ pub fn smith_lambda(w: DVec3, alpha: f64) -> f64 {
 
 /// Smith masking `G1(w) = 1 / (1 + Lambda(w))` (Heitz 2014, eq. 43); 0 at and below the horizon
 /// of a rough surface.
+#[inline]
 pub fn smith_g1(w: DVec3, alpha: f64) -> f64 {
     if w.z <= 0.0 && !(w.z == 0.0 && alpha == 0.0) {
         return 0.0;
@@ -87,6 +90,7 @@ pub fn smith_g2_height_correlated(wi: DVec3, wo: DVec3, alpha: f64) -> f64 {
 
 /// The Schlick approximation of Smith's G1 as Unreal Engine 4 uses it for image-based lighting:
 /// `G1(w) = w.z / (w.z (1 - k) + k)` with `k = alpha / 2` (Karis 2013, eq. 4).
+#[inline]
 pub fn schlick_smith_g1(w: DVec3, alpha: f64) -> f64 {
     let k = alpha / 2.0;
     let cos = w.z.max(0.0);
@@ -133,6 +137,7 @@ impl MaskingShadowing {
     /// from the visible normals of `wi`, for which `∫ f(wi.h) D G2 / (4 wi.z) dwo = E[f(wi.h) *
     /// weight]` (Heitz 2018, eq. 1 and §2). Zero when `wo` is below the horizon. Written so that
     /// it keeps its finite limit at grazing `wi`, where both `G2` and `G1(wi)` vanish.
+    #[inline]
     pub fn visible_normal_weight(self, wi: DVec3, wo: DVec3, alpha: f64) -> f64 {
         if wo.z <= 0.0 {
             return 0.0;
@@ -170,6 +175,7 @@ pub fn visible_normal_density(wi: DVec3, h: DVec3, alpha: f64) -> f64 {
 }
 
 /// Mirror `w` about the normal `h`: `2 (w.h) h - w`.
+#[inline]
 pub fn reflect(w: DVec3, h: DVec3) -> DVec3 {
     2.0 * w.dot(h) * h - w
 }

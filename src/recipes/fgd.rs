@@ -18,12 +18,15 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{TableBuild, TableRecipe, compare_to_reference, random_cells, sampling_record, table_points};
+use super::{
+    ReferenceComparison, TableBuild, TableRecipe, compare_mu_alpha_groups_to_reference, random_cells, sampling_record,
+    table_points,
+};
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, multiply_transposed};
-use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
+use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_per_cell_blocks};
 use crate::packing::Packing;
 use crate::physics::{MaskingShadowing, critical_cosine, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
@@ -194,7 +197,49 @@ impl FgdSettings {
 /// FGD at one cell on its own, in f64 (the per-cell method and the references).
 pub fn fgd_cell(masking: MaskingShadowing, points: &PointSet, position: &[f64]) -> Estimate {
     let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);
-    estimate_cosine_functions(mu, alpha, masking, Method::PerCell, points, |c| [fresnel_reflectance(c, eta, kappa)])
+    fgd_cells_at_mu_alpha(masking, points, mu, alpha, &[(eta, kappa)]).remove(0)
+}
+
+/// FGD at the cells `(mu, alpha, eta, kappa)` for each of `pairs`, in f64 by the per-cell method,
+/// from one pass over the samples: the sampling, the warp and the weight depend on `(mu, alpha)`
+/// alone, only Fresnel on the pair. Each estimate has the bits of [`fgd_cell`] at its cell.
+pub fn fgd_cells_at_mu_alpha(
+    masking: MaskingShadowing,
+    points: &PointSet,
+    mu: f64,
+    alpha: f64,
+    pairs: &[(f64, f64)],
+) -> Vec<Estimate> {
+    estimate_per_cell_blocks(mu, alpha, masking, points, pairs.len(), |cos_wi_h, weight, sums| {
+        for (sum, &(eta, kappa)) in sums.iter_mut().zip(pairs) {
+            for (&c, &w) in cos_wi_h.iter().zip(weight) {
+                *sum += w * fresnel_reflectance(c, eta, kappa);
+            }
+        }
+    })
+    .into_channels()
+}
+
+/// The reference check of [`build`]: the per-cell f64 estimates at random cells, drawn in groups
+/// that share their `(mu, alpha)` ([`compare_mu_alpha_groups_to_reference`]) so that each group
+/// takes one pass over the reference samples.
+fn reference_check(
+    settings: &FgdSettings,
+    table: &Table,
+    seed: u64,
+    progress: &dyn Progress,
+) -> Result<Option<ReferenceComparison>> {
+    compare_mu_alpha_groups_to_reference(
+        |points, positions| {
+            let (mu, alpha) = (positions[0][0], positions[0][1]);
+            let pairs: Vec<(f64, f64)> = positions.iter().map(|p| (p[2], p[3])).collect();
+            fgd_cells_at_mu_alpha(settings.masking, points, mu, alpha, &pairs)
+        },
+        table,
+        &settings.reference,
+        seed,
+        progress,
+    )
 }
 
 impl TableRecipe for FgdSettings {
@@ -225,7 +270,7 @@ pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Resu
             (super::replicate_error(&estimates), Some(super::standard_error_map(&estimates)))
         }
     };
-    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
+    let reference = reference_check(settings, &table, seed, progress)?;
     Ok(TableBuild {
         integrand: "FGD = E_{h~VNDF(wi)}[F(wi.h; eta, kappa) G2(wi,wo) / G1(wi)], wo = reflect(wi, h)".into(),
         masking: Some(settings.masking),
@@ -424,6 +469,31 @@ mod tests {
         assert_eq!(differences.len(), 40);
         let error = ErrorSummary::of_differences(differences);
         assert!(error.rms <= 1e-5 && error.max <= 1e-4, "{error:?}");
+    }
+
+    #[test]
+    fn cells_sharing_mu_alpha_get_the_bits_of_each_cell_alone() {
+        let points = reference_points(1 << 12, 8).unwrap();
+        let pairs = [(1.5, 0.0), (0.6, 0.0), (2.5, 3.0), (1.0, 0.0)];
+        for (mu, alpha) in [(0.4, 0.3), (0.0, 0.8), (1.0, 0.0)] {
+            for masking in MaskingShadowing::ALL {
+                let grouped = fgd_cells_at_mu_alpha(masking, &points, mu, alpha, &pairs);
+                assert_eq!(grouped.len(), pairs.len());
+                for (estimate, &(eta, kappa)) in grouped.iter().zip(&pairs) {
+                    // The cell alone, through the generic per-cell path.
+                    let alone = crate::integrate::estimate_cosine_functions(
+                        mu,
+                        alpha,
+                        masking,
+                        Method::PerCell,
+                        &points,
+                        |c| [fresnel_reflectance(c, eta, kappa)],
+                    );
+                    assert_eq!(estimate.mean[0].to_bits(), alone.mean[0].to_bits(), "{masking:?} {mu} {alpha} {eta}");
+                    assert_eq!(estimate.standard_error[0].to_bits(), alone.standard_error[0].to_bits());
+                }
+            }
+        }
     }
 
     #[test]

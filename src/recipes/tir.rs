@@ -24,7 +24,8 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    TableBuild, TableRecipe, compare_to_reference, replicate_error, sampling_record, standard_error_map, table_points,
+    TableBuild, TableRecipe, compare_mu_alpha_groups_to_reference, replicate_error, sampling_record,
+    standard_error_map, table_points,
 };
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use crate::error::{Error, Result};
@@ -196,23 +197,42 @@ impl TirSettings {
     /// offset from the view's, bucketed by eta), as [`build`] computes it; the top node (eta = 1)
     /// at `top_eta`.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        let eta = if position[2] >= 1.0 { self.top_eta } else { position[2] };
-        tir_column(position[0], position[1], &[eta], points)
+        tir_column(position[0], position[1], &[self.evaluated_eta(position[2])], points)
+    }
+
+    /// The relative index a node at `eta` is evaluated at: the top node (eta = 1) at `top_eta`.
+    fn evaluated_eta(&self, eta: f64) -> f64 {
+        if eta >= 1.0 { self.top_eta } else { eta }
     }
 }
 
 /// TIR at one `(mu, alpha, eta)` on its own, in f64: the ratio estimator `Σ G1 [..] / Σ G1`.
 pub(crate) fn tir_cell(mu: f64, alpha: f64, eta: f64, points: &PointSet) -> Estimate {
+    tir_cells_at_mu_alpha(mu, alpha, &[eta], points).remove(0)
+}
+
+/// TIR at `(mu, alpha, eta)` for each of `etas`, in f64 by the per-cell method, from one pass over
+/// the samples (the sampling and the weight depend on `(mu, alpha)` alone). Each estimate has the
+/// bits of [`tir_cell`] at its cell.
+pub(crate) fn tir_cells_at_mu_alpha(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Vec<Estimate> {
     let alpha = alpha.max(LIMIT_ROUGHNESS);
-    let sums = visible_normal_replicate_means(mu, alpha, points, 2, |sample, sums| {
+    // sums[k]: weight past the critical angle of etas[k]; sums[etas.len()]: all the weight.
+    let total = etas.len();
+    let sums = visible_normal_replicate_means(mu, alpha, points, total + 1, |sample, sums| {
         let weight = MaskingShadowing::SmithSeparable.visible_normal_weight(sample.wi, sample.wo, alpha);
-        if past_critical_angle(sample.wo.x * sample.wo.x + sample.wo.y * sample.wo.y, eta) {
-            sums[0] += weight;
+        let sin2 = sample.wo.x * sample.wo.x + sample.wo.y * sample.wo.y;
+        for (sum, &eta) in sums.iter_mut().zip(etas) {
+            if past_critical_angle(sin2, eta) {
+                *sum += weight;
+            }
         }
-        sums[1] += weight;
+        sums[total] += weight;
     });
-    let ratios: Vec<Vec<f64>> = sums.iter().map(|s| vec![if s[1] > 0.0 { s[0] / s[1] } else { 0.0 }]).collect();
-    combine_replicates(&ratios, 1)
+    let ratios: Vec<Vec<f64>> = sums
+        .iter()
+        .map(|s| s[..total].iter().map(|&past| if s[total] > 0.0 { past / s[total] } else { 0.0 }).collect())
+        .collect();
+    combine_replicates(&ratios, total).into_channels()
 }
 
 impl TableRecipe for TirSettings {
@@ -220,8 +240,7 @@ impl TableRecipe for TirSettings {
 
     /// The top node (eta = 1) is evaluated at `top_eta`, as in the table.
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        let eta = if position[2] >= 1.0 { self.top_eta } else { position[2] };
-        tir_cell(position[0], position[1], eta, points)
+        tir_cell(position[0], position[1], self.evaluated_eta(position[2]), points)
     }
 }
 
@@ -266,7 +285,17 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
     for (value, estimate) in table.data.iter_mut().zip(&estimates) {
         *value = estimate.mean[0] as f32;
     }
-    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
+    // The reference cells in groups sharing their (mu, alpha): one pass over the samples each.
+    let reference = compare_mu_alpha_groups_to_reference(
+        |points, positions| {
+            let etas: Vec<f64> = positions.iter().map(|p| settings.evaluated_eta(p[2])).collect();
+            tir_cells_at_mu_alpha(positions[0][0], positions[0][1], &etas, points)
+        },
+        &table,
+        &settings.reference,
+        seed,
+        progress,
+    )?;
     Ok(TableBuild {
         integrand:
             "TIR = Σ G1(w) [1 - w.z^2 > eta^2] / Σ G1(w), h ~ VNDF(v), w = reflect(v, h), w.z > 0 (separable Smith)"
@@ -301,6 +330,30 @@ mod tests {
     use crate::formats::bin::read_bin;
     use crate::sampling::sequence::SamplePlan;
     use crate::stats::ErrorSummary;
+
+    #[test]
+    fn cells_sharing_mu_alpha_get_the_bits_of_each_cell_alone() {
+        let points = crate::recipes::reference_points(1 << 12, 8).unwrap();
+        let etas = [0.2, 0.65, 0.9, 0.999];
+        for (mu, alpha) in [(0.4, 0.3), (0.0, 0.8), (1.0, 0.0), (0.9, 1.0)] {
+            let grouped = tir_cells_at_mu_alpha(mu, alpha, &etas, &points);
+            for (estimate, &eta) in grouped.iter().zip(&etas) {
+                // The cell alone: the ratio of two sums over its own pass.
+                let sums = visible_normal_replicate_means(mu, alpha, &points, 2, |sample, sums| {
+                    let weight = MaskingShadowing::SmithSeparable.visible_normal_weight(sample.wi, sample.wo, alpha);
+                    if past_critical_angle(sample.wo.x * sample.wo.x + sample.wo.y * sample.wo.y, eta) {
+                        sums[0] += weight;
+                    }
+                    sums[1] += weight;
+                });
+                let ratios: Vec<Vec<f64>> =
+                    sums.iter().map(|s| vec![if s[1] > 0.0 { s[0] / s[1] } else { 0.0 }]).collect();
+                let alone = combine_replicates(&ratios, 1);
+                assert_eq!(estimate.mean[0].to_bits(), alone.mean[0].to_bits(), "{mu} {alpha} {eta}");
+                assert_eq!(estimate.standard_error[0].to_bits(), alone.standard_error[0].to_bits());
+            }
+        }
+    }
 
     fn original() -> Table {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_TIR.bin");
