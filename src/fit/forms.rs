@@ -53,11 +53,19 @@ pub trait Real: Copy + PartialOrd + std::ops::Add<Output = Self> + std::ops::Sub
     fn abs(self) -> Self;
     fn max(self, o: Self) -> Self;
     fn min(self, o: Self) -> Self;
+    /// `if condition { if_true } else { if_false }`, without a branch where the type allows: the
+    /// forms' two-sided formulas select on data that a timing loop cannot predict.
+    fn select(condition: bool, if_true: Self, if_false: Self) -> Self {
+        if condition { if_true } else { if_false }
+    }
 }
 
 macro_rules! real {
-    ($t:ty) => {
+    ($t:ty, $select:expr) => {
         impl Real for $t {
+            fn select(condition: bool, if_true: Self, if_false: Self) -> Self {
+                $select(condition, if_true, if_false)
+            }
             fn of(v: f64) -> Self {
                 v as $t
             }
@@ -100,8 +108,15 @@ macro_rules! real {
         }
     };
 }
-real!(f32);
-real!(f64);
+real!(f32, select_f32);
+real!(f64, |condition: bool, if_true: f64, if_false: f64| if condition { if_true } else { if_false });
+
+/// A bit-mask select for f32, the type a shader evaluates (and the CPU cost is timed in): both
+/// sides are computed anyway, and a mispredicted branch costs more than the select.
+fn select_f32(condition: bool, if_true: f32, if_false: f32) -> f32 {
+    let mask = (condition as u32).wrapping_neg();
+    f32::from_bits((if_true.to_bits() & mask) | (if_false.to_bits() & !mask))
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -340,14 +355,38 @@ pub const CAUCHY_CAP_FORMULA: &str = "C + h (A - C): C = 1 - P(critical cone) / 
      (1 - u / sqrt(u^2 + w^2)) / 2, u = l^2 (m + cb) + cb - m, w = 2 l sb; critical cone cb = sqrt(1 - eta^2), \
      sb = eta; horizon cap cb = clamp(alpha (c3 + c4 alpha), 0, 1); A = sqrt(1 - eta^2)^c5, h = min(c6 alpha^c7, 1)";
 
-/// The share `(1 - u / sqrt(u^2 + w^2)) / 2` of a cap, written without cancellation when `u > 0`
-/// (a cap far from the lobe): `1 - u / s = w^2 / (s (s + u))`.
+/// A share kept as `numerator / denominator`, so that the ratio of two shares costs one division.
+#[derive(Clone, Copy)]
+struct Fraction<R> {
+    numerator: R,
+    denominator: R,
+}
+
+impl<R: Real> Fraction<R> {
+    fn value(self) -> R {
+        self.numerator.div(self.denominator)
+    }
+
+    /// `self / other`; a vanishing `other` (an empty cap) gives a finite value, never 0/0.
+    fn over(self, other: Fraction<R>) -> R {
+        self.numerator.mul(other.denominator).div(self.denominator.mul(other.numerator).max(R::of(1e-37)))
+    }
+}
+
+/// The share `(1 - u / sqrt(u^2 + w^2)) / 2` of a cap.
 pub fn cap_share<R: Real>(u: R, w: R) -> R {
+    cap_share_fraction(u, w).value()
+}
+
+/// [`cap_share`] as a fraction, without cancellation when `u > 0` (a cap far from the lobe) and
+/// without a branch: with `s = sqrt(u^2 + w^2)` and `d = s + |u|`, `1 - u / s` is `d / s` for
+/// `u <= 0` and `w^2 / (s d)` for `u > 0`, so the share is `(u > 0 ? w^2 : d^2) / (2 s d)`.
+fn cap_share_fraction<R: Real>(u: R, w: R) -> Fraction<R> {
     // `u = w = 0` only for an empty cap on a zero-width lobe, which the scale floor excludes;
     // the floor on `s` keeps even that finite (share 1/2).
     let s = (u.mul(u) + w.mul(w)).sqrt().max(R::of(1e-30));
-    let half = R::of(0.5);
-    if u > R::of(0.0) { half.mul(w.mul(w)).div(s.mul(s + u)) } else { half - half.mul(u).div(s) }
+    let d = s + u.abs();
+    Fraction { numerator: R::select(u > R::of(0.0), w.mul(w), d.mul(d)), denominator: R::of(2.0).mul(s).mul(d) }
 }
 
 /// TIR as the share of a spherical Cauchy lobe lying outside the critical cone.
@@ -417,18 +456,17 @@ impl<R: Real> CauchyLobe<R> {
     }
 
     /// The lobe's share in a cap around the normal of cosine `cap_cosine` and sine `cap_sine`.
-    fn share(&self, cap_cosine: R, cap_sine: R) -> R {
+    fn share(&self, cap_cosine: R, cap_sine: R) -> Fraction<R> {
         // `cap_cosine - centre` first: it is exact where the two are equal, where adding the tiny
         // `scale^2` term first would round it away in f32 and leave `u = w = 0`.
         let u = self.scale.mul(self.scale).mul(self.centre + cap_cosine) + (cap_cosine - self.centre);
-        cap_share(u, R::of(2.0).mul(self.scale).mul(cap_sine))
+        cap_share_fraction(u, R::of(2.0).mul(self.scale).mul(cap_sine))
     }
 
     /// `P(critical cone) / P(upper cap)`: the share of the lobe's weight that is not past the
     /// critical angle.
     fn inside_share(&self, critical_cosine: R, eta: R) -> R {
-        let upper = self.share(self.horizon_cosine, self.horizon_sine);
-        self.share(critical_cosine, eta).div(upper.max(R::of(1e-30)))
+        self.share(critical_cosine, eta).over(self.share(self.horizon_cosine, self.horizon_sine))
     }
 }
 
@@ -436,7 +474,7 @@ pub const CAUCHY_SLOPE_FORMULA: &str = "C + h (A - C): C = 1 - ((1 - f) Pc + f P
      (cosine cb = sqrt(1 - eta^2), sine eta) of a spherical Cauchy lobe (Pc, as in cauchy-cap with c0..c4, \
      centre c6, scale_grazing c7, no fitted exponents) and of the in-plane visible-slope lobe (Ps = S(cb) / S(0), \
      S(c) = (mu (r - t) + s^2) / r, t = (c - mu) / 2, r = sqrt(s^2 + t^2), s = c8 alpha sqrt(1 - mu^2) + 1e-6); \
-     f = (1 - mu) / (1 + c9 alpha)^2; A = cb^(7/4), h = min(c5 alpha^(3/2), 1)";
+     f = (1 - mu) / (1 + c9 alpha)^2; A = cb^2 = 1 - eta^2, h = min(c5 alpha^(3/2), 1)";
 
 /// The share of the in-plane lobe of visible slopes reflected above the cosine `cosine`, up to a
 /// factor that does not depend on `cosine` (it cancels in [`cauchy_slope`]'s ratio).
@@ -452,16 +490,19 @@ pub const CAUCHY_SLOPE_FORMULA: &str = "C + h (A - C): C = 1 - ((1 - f) Pc + f P
 /// the table shows at grazing incidence just below `eta = 1`. Scaling `mu`, `t` and `s` by
 /// `sin(theta_i)` turns the exact-angle version into this one with `s = alpha sin(theta_i)`.
 pub fn slope_lobe_above<R: Real>(cosine: R, mu: R, scale: R) -> R {
-    let half = R::of(0.5);
-    let t = (cosine - mu).mul(half);
+    slope_lobe_above_fraction(cosine, mu, scale).value()
+}
+
+/// [`slope_lobe_above`] as a fraction, without cancellation in a far tail (`t > 0`) and without a
+/// branch: with `e = r + |t|`, `r - t` is `e` for `t <= 0` and `s^2 / e` for `t > 0`, so the value is
+/// `(t > 0 ? s^2 (mu + e) : (mu e + s^2) e) / (e r)`.
+fn slope_lobe_above_fraction<R: Real>(cosine: R, mu: R, scale: R) -> Fraction<R> {
+    let t = (cosine - mu).mul(R::of(0.5));
     let s2 = scale.mul(scale);
     let r = (s2 + t.mul(t)).sqrt();
-    if t > R::of(0.0) {
-        // r - t = s^2 / (r + t), without the cancellation of a far tail.
-        s2.mul(mu.div(r + t) + R::of(1.0)).div(r)
-    } else {
-        (mu.mul(r - t) + s2).div(r)
-    }
+    let e = r + t.abs();
+    let numerator = R::select(t > R::of(0.0), s2.mul(mu + e), (mu.mul(e) + s2).mul(e));
+    Fraction { numerator, denominator: e.mul(r) }
 }
 
 /// The floor of the slope lobe's scale, so that its shares stay defined at `alpha = 0`.
@@ -475,15 +516,18 @@ pub const SLOPE_SCALE_FLOOR: f64 = 1e-6;
 /// `eta = 1` (critical cosines 0.1-0.4) with `alpha <= 0.05`, where the table exceeds the model by
 /// up to 0.13: the reflected weight above the critical cosine falls off like `alpha / (c - mu)`
 /// there, as the visible-slope lobe does, with no fitted shape. Each lobe's share is normalised by
-/// its share above its horizon, so TIR stays exactly 0 at `eta = 1`. The rough limit and blend of
-/// [`cauchy_cap`] keep their fitted values' shape with fixed exponents (`A = cb^(7/4)`,
-/// `h = c5 alpha^(3/2)`, both from square roots): its fitted exponents were 1.74 and 1.35, and
-/// without `pow` and `exp` the form costs less than eq. 5.6 with the slope lobe added.
+/// its share above its horizon, so TIR stays exactly 0 at `eta = 1`. Rough lobes blend into the
+/// limit of a cosine-like lobe, `P(w.z^2 < cb^2) = cb^2 = 1 - eta^2`, with weight
+/// `h = c5 alpha^(3/2)`, where [`cauchy_cap`] fits both exponents (1.74 on `cb`, 1.35 on `alpha`):
+/// fixed, they cost no `pow`, and the max error is lower (0.058 against 0.082 with `cb^(7/4)`, at
+/// RMSE 0.0084 against 0.0063, SciPy prototype), which is what keeps the form cheaper than eq. 5.6
+/// with the slope lobe added.
 pub fn cauchy_slope<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
     let (zero, one) = (R::of(0.0), R::of(1.0));
     let sqrt_alpha = alpha.max(zero).sqrt();
     let lobe = CauchyLobe::new([p[0], p[1], p[2], p[3], p[4], p[6], p[7]], mu, alpha, sqrt_alpha);
-    let critical_cosine = (one - eta.mul(eta)).max(zero).sqrt();
+    let critical_cosine_squared = (one - eta.mul(eta)).max(zero);
+    let critical_cosine = critical_cosine_squared.sqrt();
     let cauchy_inside = lobe.inside_share(critical_cosine, eta);
     let view_sine = (one - mu.mul(mu)).max(zero).sqrt();
     let slope_scale = p[8].mul(alpha).mul(view_sine) + R::of(SLOPE_SCALE_FLOOR);
@@ -494,7 +538,7 @@ pub fn cauchy_slope<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
     };
     let inside = cauchy_inside + fade.mul(slope_inside - cauchy_inside);
     let narrow = (one - inside).max(zero).min(one);
-    let rough = critical_cosine.mul((critical_cosine.mul(critical_cosine.sqrt())).sqrt());
+    let rough = critical_cosine_squared;
     let blend = p[5].mul(alpha).mul(sqrt_alpha).min(one);
     narrow + blend.mul(rough - narrow)
 }
@@ -605,16 +649,17 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
 /// `c` (f32 text) baked in as named constants `c0..c9`.
 fn cauchy_shader(form: Form, c: &[String], language: ShaderLanguage) -> String {
     let hlsl = language == ShaderLanguage::Hlsl;
-    let (binding, constant_type) = if hlsl { ("float", "") } else { ("let", ": f32") };
-    let function = |name: &str, arguments: &[&str]| -> String {
+    let (binding, constant_type, pair) = if hlsl { ("float", "", "float2") } else { ("let", ": f32", "vec2<f32>") };
+    let function = |name: &str, arguments: &[(&str, &str)], returns: &str| -> String {
         if hlsl {
-            let list: Vec<String> = arguments.iter().map(|a| format!("float {a}")).collect();
-            format!("float {name}({})", list.join(", "))
+            let list: Vec<String> = arguments.iter().map(|(a, ty)| format!("{ty} {a}")).collect();
+            format!("{returns} {name}({})", list.join(", "))
         } else {
-            let list: Vec<String> = arguments.iter().map(|a| format!("{a}: f32")).collect();
-            format!("fn {name}({}) -> f32", list.join(", "))
+            let list: Vec<String> = arguments.iter().map(|(a, ty)| format!("{a}: {ty}")).collect();
+            format!("fn {name}({}) -> {returns}", list.join(", "))
         }
     };
+    let scalar = if hlsl { "float" } else { "f32" };
     let choose = |condition: &str, then: &str, otherwise: &str| {
         if hlsl {
             format!("{condition} ? {then} : {otherwise}")
@@ -624,29 +669,37 @@ fn cauchy_shader(form: Form, c: &[String], language: ShaderLanguage) -> String {
     };
     let mut text = format!(
         "// tmlut fit tir: form '{name}', {formula}\n\
-         // Coefficients as in fit.json (f32).\n\
-         // Share of a spherical Cauchy lobe in a cap; 1 - u / s written without cancellation for u > 0.\n\
-         {signature} {{\n\
+         // Coefficients as in fit.json (f32). Shares are (numerator, denominator) pairs, so that a\n\
+         // ratio of two shares costs one division.\n\
+         {ratio_signature} {{\n\
+         \x20   return a.x * b.y / max(a.y * b.x, 1e-37);\n\
+         }}\n\
+         // Share of a spherical Cauchy lobe in a cap: (1 - u / s) / 2, written without cancellation\n\
+         // for u > 0 as w^2 / (2 s d), d = s + |u|, and as d^2 / (2 s d) otherwise.\n\
+         {share_signature} {{\n\
          \x20   {binding} s = max(sqrt(u * u + w * w), 1e-30);\n\
-         \x20   return {share};\n\
+         \x20   {binding} d = s + abs(u);\n\
+         \x20   return {pair}({share}, 2.0 * s * d);\n\
          }}\n",
         name = form.name(),
         formula = form.formula(),
-        signature = function("tmlut_cap_share", &["u", "w"]),
-        share = choose("u > 0.0", "0.5 * w * w / (s * (s + u))", "0.5 - 0.5 * u / s"),
+        ratio_signature = function("tmlut_ratio", &[("a", pair), ("b", pair)], scalar),
+        share_signature = function("tmlut_cap_share", &[("u", scalar), ("w", scalar)], pair),
+        share = choose("u > 0.0", "w * w", "d * d"),
     );
     if form == Form::CauchySlope {
         text += &format!(
-            "// Weight of the in-plane visible-slope lobe reflected above cosine c (up to a common factor);\n\
-             // r - t written as s^2 / (r + t) for t > 0.\n\
+            "// Weight of the in-plane visible-slope lobe reflected above cosine c (up to a common factor):\n\
+             // (mu (r - t) + s^2) / r, with r - t written as s^2 / e for t > 0, e = r + |t|.\n\
              {signature} {{\n\
              \x20   {binding} t = 0.5 * (c - mu);\n\
              \x20   {binding} s2 = s * s;\n\
              \x20   {binding} r = sqrt(s2 + t * t);\n\
-             \x20   return {above};\n\
+             \x20   {binding} e = r + abs(t);\n\
+             \x20   return {pair}({above}, e * r);\n\
              }}\n",
-            signature = function("tmlut_slope_above", &["c", "mu", "s"]),
-            above = choose("t > 0.0", "s2 * (mu / (r + t) + 1.0) / r", "(mu * (r - t) + s2) / r"),
+            signature = function("tmlut_slope_above", &[("c", scalar), ("mu", scalar), ("s", scalar)], pair),
+            above = choose("t > 0.0", "s2 * (mu + e)", "(mu * e + s2) * e"),
         );
     }
     let (centre, grazing) = if form == Form::CauchySlope { ("c6", "c7") } else { ("c8", "c9") };
@@ -661,25 +714,27 @@ fn cauchy_shader(form: Form, c: &[String], language: ShaderLanguage) -> String {
          \x20   {binding} g8 = g4 * g4;\n\
          \x20   {binding} scale = max(alpha * (c0 + c1 * alpha + c2 * mu), 0.0) + {grazing} * sqrt_alpha * (g8 * g8) + {floor:?};\n\
          \x20   {binding} centre = clamp(mu + {centre} * alpha * (1.0 - mu), 0.0, 1.0);\n\
-         \x20   {binding} critical_cosine = sqrt(max(1.0 - eta * eta, 0.0));\n\
+         \x20   {binding} critical_cosine_squared = max(1.0 - eta * eta, 0.0);\n\
+         \x20   {binding} critical_cosine = sqrt(critical_cosine_squared);\n\
          \x20   {binding} horizon_cosine = clamp(alpha * (c3 + c4 * alpha), 0.0, 1.0);\n\
          \x20   {binding} horizon_sine = sqrt(max(1.0 - horizon_cosine * horizon_cosine, 0.0));\n\
          \x20   {binding} scale2 = scale * scale;\n\
-         \x20   {binding} cone = tmlut_cap_share(scale2 * (centre + critical_cosine) + (critical_cosine - centre), 2.0 * scale * eta);\n\
-         \x20   {binding} upper = tmlut_cap_share(scale2 * (centre + horizon_cosine) + (horizon_cosine - centre), 2.0 * scale * horizon_sine);\n\
-         \x20   {binding} cauchy_inside = cone / max(upper, 1e-30);\n",
-        signature = function("tmlut_tir", &["mu", "alpha", "eta"]),
+         \x20   {pair_binding} cone = tmlut_cap_share(scale2 * (centre + critical_cosine) + (critical_cosine - centre), 2.0 * scale * eta);\n\
+         \x20   {pair_binding} upper = tmlut_cap_share(scale2 * (centre + horizon_cosine) + (horizon_cosine - centre), 2.0 * scale * horizon_sine);\n\
+         \x20   {binding} cauchy_inside = tmlut_ratio(cone, upper);\n",
+        signature = function("tmlut_tir", &[("mu", scalar), ("alpha", scalar), ("eta", scalar)], scalar),
+        pair_binding = if hlsl { pair } else { "let" },
         floor = CAUCHY_SCALE_FLOOR as f32,
     );
     text += &if form == Form::CauchySlope {
         format!(
             "\x20   {binding} view_sine = sqrt(max(1.0 - mu * mu, 0.0));\n\
              \x20   {binding} slope_scale = c8 * alpha * view_sine + {floor:?};\n\
-             \x20   {binding} slope_inside = tmlut_slope_above(critical_cosine, mu, slope_scale) / tmlut_slope_above(0.0, mu, slope_scale);\n\
+             \x20   {binding} slope_inside = tmlut_ratio(tmlut_slope_above(critical_cosine, mu, slope_scale), tmlut_slope_above(0.0, mu, slope_scale));\n\
              \x20   {binding} fade_denominator = 1.0 + c9 * alpha;\n\
              \x20   {binding} fade = (1.0 - mu) / (fade_denominator * fade_denominator);\n\
              \x20   {binding} narrow = clamp(1.0 - (cauchy_inside + fade * (slope_inside - cauchy_inside)), 0.0, 1.0);\n\
-             \x20   {binding} rough = critical_cosine * sqrt(critical_cosine * sqrt(critical_cosine));\n\
+             \x20   {binding} rough = critical_cosine_squared;\n\
              \x20   {binding} blend = min(c5 * alpha * sqrt_alpha, 1.0);\n",
             floor = SLOPE_SCALE_FLOOR as f32,
         )

@@ -300,20 +300,33 @@ pub fn figures(fitted: &FittedForm, data: &FitData) -> ErrorFigures {
     ErrorFigures { rmse: mse.sqrt(), mse, max_abs_error: max.max(0.0), max_at, nodes: values.len() }
 }
 
-/// Median ns per evaluation over `runs` timed passes over `queries`.
-fn time_per_evaluation(queries: &[[f32; 3]], runs: usize, evaluate: impl Fn(f32, f32, f32) -> f32) -> f64 {
-    let mut per_run = Vec::with_capacity(runs);
-    for _ in 0..runs.max(1) {
-        let started = Instant::now();
-        let mut sum = 0.0f32;
-        for q in queries {
-            let q = black_box(q);
-            sum += evaluate(q[0], q[1], q[2]);
-        }
-        black_box(sum);
-        per_run.push(started.elapsed().as_secs_f64() * 1e9 / queries.len().max(1) as f64);
+/// One timing run: ns per evaluation of `evaluate` over `queries`, inputs and result through
+/// `black_box`. Generic, so that each form's loop is compiled for that form alone.
+fn time_one_run(queries: &[[f32; 3]], evaluate: impl Fn(f32, f32, f32) -> f32) -> f64 {
+    let started = Instant::now();
+    let mut sum = 0.0f32;
+    for q in queries {
+        let q = black_box(q);
+        sum += evaluate(q[0], q[1], q[2]);
     }
-    median(&per_run)
+    black_box(sum);
+    started.elapsed().as_secs_f64() * 1e9 / queries.len().max(1) as f64
+}
+
+/// A timed evaluator: one run over the queries, returning ns per evaluation.
+pub type TimedRun<'a> = Box<dyn Fn(&[[f32; 3]]) -> f64 + 'a>;
+
+/// Median ns per evaluation of each evaluator, timed side by side: run `r` of every evaluator
+/// comes before run `r + 1` of any, so that the machine's load drifts over all of them alike
+/// rather than over whichever was timed last.
+pub fn time_side_by_side(queries: &[[f32; 3]], runs: usize, evaluators: &[TimedRun<'_>]) -> Vec<f64> {
+    let mut per_run = vec![Vec::with_capacity(runs); evaluators.len()];
+    for _ in 0..runs.max(1) {
+        for (times, run) in per_run.iter_mut().zip(evaluators) {
+            times.push(run(queries));
+        }
+    }
+    per_run.iter().map(|times| median(times)).collect()
 }
 
 /// Query points for timing: the data's nodes in a fixed scrambled order, so that branches and
@@ -328,11 +341,11 @@ pub fn timing_queries(data: &FitData, count: usize, seed: u64) -> Vec<[f32; 3]> 
         .collect()
 }
 
-/// ns per f32 evaluation of a form (median of `runs`).
-pub fn form_cost_ns(fitted: &FittedForm, queries: &[[f32; 3]], runs: usize) -> f64 {
+/// One timing run of a form in f32, for [`time_side_by_side`].
+pub fn form_timing(fitted: &FittedForm) -> TimedRun<'static> {
     let p: Vec<f32> = fitted.parameters.iter().map(|&v| v as f32).collect();
     let form = fitted.form;
-    time_per_evaluation(queries, runs, |mu, alpha, eta| form.eval(black_box(&p[..]), mu, alpha, eta))
+    Box::new(move |queries| time_one_run(queries, |mu, alpha, eta| form.eval(black_box(&p[..]), mu, alpha, eta)))
 }
 
 /// The table as a cell-centred f32 volume texture (x = mu, y = alpha, z = eta) and the
@@ -342,14 +355,17 @@ pub fn table_texture(table: &Table) -> Texture3D {
     Texture3D { width: shape[0], height: shape[1], depth: shape[2], texels: table.data.clone() }
 }
 
-/// ns per f32 table fetch through the GPU emulator (trilinear, exact weights), median of `runs`.
-pub fn fetch_cost_ns(texture: &Texture3D, queries: &[[f32; 3]], runs: usize) -> f64 {
+/// One timing run of the f32 table fetch through the GPU emulator (trilinear, exact weights), for
+/// [`time_side_by_side`].
+pub fn fetch_timing(texture: &Texture3D) -> TimedRun<'_> {
     let scale = |n: usize| ((n - 1) as f32 / n as f32, 0.5 / n as f32);
     let (sx, ox) = scale(texture.width);
     let (sy, oy) = scale(texture.height);
     let (sz, oz) = scale(texture.depth);
-    time_per_evaluation(queries, runs, |mu, alpha, eta| {
-        texture.sample_trilinear(mu * sx + ox, alpha * sy + oy, eta * sz + oz, Filter::Exact)
+    Box::new(move |queries| {
+        time_one_run(queries, |mu, alpha, eta| {
+            texture.sample_trilinear(mu * sx + ox, alpha * sy + oy, eta * sz + oz, Filter::Exact)
+        })
     })
 }
 
@@ -449,10 +465,10 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
     let queries = timing_queries(&data, request.timing_queries, request.settings.seed);
     let texture = table_texture(table);
     let mut forms = Vec::new();
+    let mut timings = Vec::new();
     for &form in &request.forms {
         let fitted = fit_form(form, &data, &request.settings)?;
         let figures = figures(&fitted, &data);
-        let cost = form_cost_ns(&fitted, &queries, request.timing_runs);
         error_maps(&request.out, form, table, &fitted, &data)?;
         let mut shaders = Vec::new();
         for (language, extension) in [(ShaderLanguage::Hlsl, "hlsl"), (ShaderLanguage::Wgsl, "wgsl")] {
@@ -462,19 +478,25 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
                 shaders.push(name);
             }
         }
+        timings.push(form_timing(&fitted));
         forms.push(FormReport {
             name: form.name().into(),
             formula: form.formula().into(),
             parameter_names: form.parameter_names().iter().map(|s| s.to_string()).collect(),
             parameters: fitted.parameters.clone(),
             figures,
-            cost_ns_per_evaluation_f32: cost,
+            cost_ns_per_evaluation_f32: f64::NAN,
             search: fitted.search,
             shaders,
         });
     }
-    // The fetch is timed after the forms, and once more as the reference, the same way.
-    let fetch = fetch_cost_ns(&texture, &queries, request.timing_runs);
+    // Every form and the table fetch are timed side by side, after all the fits.
+    timings.push(fetch_timing(&texture));
+    let mut costs = time_side_by_side(&queries, request.timing_runs, &timings);
+    let fetch = costs.pop().expect("the fetch was timed");
+    for (form, cost) in forms.iter_mut().zip(costs) {
+        form.cost_ns_per_evaluation_f32 = cost;
+    }
     let eq56_cost = forms.iter().find(|f| f.name == Form::Eq56.name()).map(|f| f.cost_ns_per_evaluation_f32);
     let best_under_eq56_cost = eq56_cost.and_then(|limit| {
         forms
@@ -487,7 +509,7 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
         table: request.table_path.display().to_string(),
         settings: request.settings,
         timing: format!(
-            "ns per f32 evaluation on the CPU: median of {} runs over {} scrambled table nodes; table fetch = GPU emulator trilinear (exact weights)",
+            "ns per f32 evaluation on the CPU: median of {} runs over {} scrambled table nodes, every form and the table fetch timed side by side (run r of each before run r + 1 of any); table fetch = GPU emulator trilinear (exact weights)",
             request.timing_runs, request.timing_queries
         ),
         table_fetch_cost_ns_f32: fetch,
