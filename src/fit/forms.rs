@@ -349,11 +349,12 @@ fn edge_logit<R: Real>(eta: R) -> R {
 /// (a hard step there).
 pub const CAUCHY_SCALE_FLOOR: f64 = 1e-6;
 
-pub const CAUCHY_CAP_FORMULA: &str = "C + h (A - C): C = 1 - P(critical cone) / P(horizon cap) of a spherical Cauchy lobe \
+pub const CAUCHY_CAP_FORMULA: &str = "C + h (A - C): C = 1 - P(critical cone) / P(upper cap) of a spherical Cauchy lobe \
      at cosine m = clamp(mu + c8 alpha (1 - mu), 0, 1), stereographic scale \
      l = alpha (c0 + c1 alpha + c2 mu) + c9 sqrt(alpha) (1 - mu)^16 + 1e-6; P(cap of cosine cb, sine sb) = \
      (1 - u / sqrt(u^2 + w^2)) / 2, u = l^2 (m + cb) + cb - m, w = 2 l sb; critical cone cb = sqrt(1 - eta^2), \
-     sb = eta; horizon cap cb = clamp(alpha (c3 + c4 alpha), 0, 1); A = sqrt(1 - eta^2)^c5, h = min(c6 alpha^c7, 1)";
+     sb = eta; upper cap of half-angle tangent k = clamp(1 - alpha (c3 + c4 alpha), 0, 1): cb = (1 - k^2) / (1 + k^2), \
+     sb = 2 k / (1 + k^2), u and w scaled by 1 + k^2; A = sqrt(1 - eta^2)^c5, h = min(c6 alpha^c7, 1)";
 
 /// A share kept as `numerator / denominator`, so that the ratio of two shares costs one division.
 #[derive(Clone, Copy)]
@@ -411,8 +412,9 @@ fn cap_share_fraction<R: Real>(u: R, w: R) -> Fraction<R> {
 ///   lobe's tail toward the normal is one-dimensional (`~ alpha / r`), heavier than the model's;
 /// - the lobe's centre moves toward the normal (`c8`): reflected directions below the horizon
 ///   have no weight, and visible normals tilt toward the viewer;
-/// - the upper cap shrinks to cosine `alpha (c3 + c4 alpha)`: the G1 weight removes grazing
-///   directions, as a horizon raised by roughness would;
+/// - the upper cap shrinks from the horizon, to the half-angle tangent `k = 1 - alpha (c3 + c4 alpha)`
+///   of its angle to the normal (cosine `(1 - k^2) / (1 + k^2)`, sine `2 k / (1 + k^2)`): the G1
+///   weight removes grazing directions, as a horizon raised by roughness would;
 /// - rough lobes blend into the rough limit `(1 - eta^2)^(c5 / 2)`, independent of `mu` in the
 ///   table at `alpha = 1`, with weight `min(c6 alpha^c7, 1)`.
 pub fn cauchy_cap<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
@@ -432,8 +434,8 @@ pub fn cauchy_cap<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
 struct CauchyLobe<R> {
     scale: R,
     centre: R,
-    horizon_cosine: R,
-    horizon_sine: R,
+    /// Half-angle tangent of the upper cap's angle to the normal (1 at the horizon).
+    upper_cap_tangent: R,
 }
 
 impl<R: Real> CauchyLobe<R> {
@@ -450,30 +452,35 @@ impl<R: Real> CauchyLobe<R> {
             + c[6].mul(sqrt_alpha).mul(grazing)
             + R::of(CAUCHY_SCALE_FLOOR);
         let centre = (mu + c[5].mul(alpha).mul(one - mu)).max(zero).min(one);
-        let horizon_cosine = alpha.mul(c[3] + c[4].mul(alpha)).max(zero).min(one);
-        let horizon_sine = (one - horizon_cosine.mul(horizon_cosine)).max(zero).sqrt();
-        CauchyLobe { scale, centre, horizon_cosine, horizon_sine }
+        let upper_cap_tangent = (one - alpha.mul(c[3] + c[4].mul(alpha))).max(zero).min(one);
+        CauchyLobe { scale, centre, upper_cap_tangent }
     }
 
-    /// The lobe's share in a cap around the normal of cosine `cap_cosine` and sine `cap_sine`.
-    fn share(&self, cap_cosine: R, cap_sine: R) -> Fraction<R> {
-        // `cap_cosine - centre` first: it is exact where the two are equal, where adding the tiny
+    /// The lobe's share in a cap around the normal of cosine `cosine / norm` and sine
+    /// `sine / norm`. [`cap_share`] depends on `u` and `w` only through their ratio, so a cap given
+    /// this way (by its half-angle tangent, say) needs no square root and no division.
+    fn share(&self, cosine: R, sine: R, norm: R) -> Fraction<R> {
+        // `cosine - centre` first: it is exact where the two are equal, where adding the tiny
         // `scale^2` term first would round it away in f32 and leave `u = w = 0`.
-        let u = self.scale.mul(self.scale).mul(self.centre + cap_cosine) + (cap_cosine - self.centre);
-        cap_share_fraction(u, R::of(2.0).mul(self.scale).mul(cap_sine))
+        let centre = self.centre.mul(norm);
+        let u = self.scale.mul(self.scale).mul(centre + cosine) + (cosine - centre);
+        cap_share_fraction(u, R::of(2.0).mul(self.scale).mul(sine))
     }
 
     /// `P(critical cone) / P(upper cap)`: the share of the lobe's weight that is not past the
     /// critical angle.
     fn inside_share(&self, critical_cosine: R, eta: R) -> R {
-        self.share(critical_cosine, eta).over(self.share(self.horizon_cosine, self.horizon_sine))
+        let (one, k) = (R::of(1.0), self.upper_cap_tangent);
+        let k2 = k.mul(k);
+        let upper = self.share(one - k2, R::of(2.0).mul(k), one + k2);
+        self.share(critical_cosine, eta, one).over(upper)
     }
 }
 
 pub const CAUCHY_SLOPE_FORMULA: &str = "C + h (A - C): C = 1 - ((1 - f) Pc + f Ps), the shares inside the critical cone \
      (cosine cb = sqrt(1 - eta^2), sine eta) of a spherical Cauchy lobe (Pc, as in cauchy-cap with c0..c4, \
      centre c6, scale_grazing c7, no fitted exponents) and of the in-plane visible-slope lobe (Ps = S(cb) / S(0), \
-     S(c) = (mu (r - t) + s^2) / r, t = (c - mu) / 2, r = sqrt(s^2 + t^2), s = c8 alpha sqrt(1 - mu^2) + 1e-6); \
+     S(c) = (mu (r - t) + s^2) / r, t = (c - mu) / 2, r = sqrt(s^2 + t^2), s = c8 alpha + 1e-6); \
      f = (1 - mu) / (1 + c9 alpha)^2; A = cb^2 = 1 - eta^2, h = min(c5 alpha^(3/2), 1)";
 
 /// The share of the in-plane lobe of visible slopes reflected above the cosine `cosine`, up to a
@@ -521,7 +528,10 @@ pub const SLOPE_SCALE_FLOOR: f64 = 1e-6;
 /// `h = c5 alpha^(3/2)`, where [`cauchy_cap`] fits both exponents (1.74 on `cb`, 1.35 on `alpha`):
 /// fixed, they cost no `pow`, and the max error is lower (0.058 against 0.082 with `cb^(7/4)`, at
 /// RMSE 0.0084 against 0.0063, SciPy prototype), which is what keeps the form cheaper than eq. 5.6
-/// with the slope lobe added.
+/// with the slope lobe added. For the same reason the slope scale is `c8 alpha` without the
+/// `sin(theta_i)` of the exact-angle version (the fade leaves that lobe to grazing views, where
+/// `sin(theta_i)` is near 1; max error 0.0588 without it against 0.0578 with it, SciPy), and the upper
+/// cap is given by its half-angle tangent (no square root).
 pub fn cauchy_slope<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
     let (zero, one) = (R::of(0.0), R::of(1.0));
     let sqrt_alpha = alpha.max(zero).sqrt();
@@ -529,8 +539,7 @@ pub fn cauchy_slope<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> R {
     let critical_cosine_squared = (one - eta.mul(eta)).max(zero);
     let critical_cosine = critical_cosine_squared.sqrt();
     let cauchy_inside = lobe.inside_share(critical_cosine, eta);
-    let view_sine = (one - mu.mul(mu)).max(zero).sqrt();
-    let slope_scale = p[8].mul(alpha).mul(view_sine) + R::of(SLOPE_SCALE_FLOOR);
+    let slope_scale = p[8].mul(alpha) + R::of(SLOPE_SCALE_FLOOR);
     let slope_inside = slope_lobe_above(critical_cosine, mu, slope_scale).div(slope_lobe_above(zero, mu, slope_scale));
     let fade = {
         let d = one + p[9].mul(alpha);
@@ -716,11 +725,12 @@ fn cauchy_shader(form: Form, c: &[String], language: ShaderLanguage) -> String {
          \x20   {binding} centre = clamp(mu + {centre} * alpha * (1.0 - mu), 0.0, 1.0);\n\
          \x20   {binding} critical_cosine_squared = max(1.0 - eta * eta, 0.0);\n\
          \x20   {binding} critical_cosine = sqrt(critical_cosine_squared);\n\
-         \x20   {binding} horizon_cosine = clamp(alpha * (c3 + c4 * alpha), 0.0, 1.0);\n\
-         \x20   {binding} horizon_sine = sqrt(max(1.0 - horizon_cosine * horizon_cosine, 0.0));\n\
+         \x20   {binding} k = clamp(1.0 - alpha * (c3 + c4 * alpha), 0.0, 1.0);\n\
+         \x20   {binding} k2 = k * k;\n\
+         \x20   {binding} upper_centre = centre * (1.0 + k2);\n\
          \x20   {binding} scale2 = scale * scale;\n\
          \x20   {pair_binding} cone = tmlut_cap_share(scale2 * (centre + critical_cosine) + (critical_cosine - centre), 2.0 * scale * eta);\n\
-         \x20   {pair_binding} upper = tmlut_cap_share(scale2 * (centre + horizon_cosine) + (horizon_cosine - centre), 2.0 * scale * horizon_sine);\n\
+         \x20   {pair_binding} upper = tmlut_cap_share(scale2 * (upper_centre + (1.0 - k2)) + ((1.0 - k2) - upper_centre), 2.0 * scale * (2.0 * k));\n\
          \x20   {binding} cauchy_inside = tmlut_ratio(cone, upper);\n",
         signature = function("tmlut_tir", &[("mu", scalar), ("alpha", scalar), ("eta", scalar)], scalar),
         pair_binding = if hlsl { pair } else { "let" },
@@ -728,8 +738,7 @@ fn cauchy_shader(form: Form, c: &[String], language: ShaderLanguage) -> String {
     );
     text += &if form == Form::CauchySlope {
         format!(
-            "\x20   {binding} view_sine = sqrt(max(1.0 - mu * mu, 0.0));\n\
-             \x20   {binding} slope_scale = c8 * alpha * view_sine + {floor:?};\n\
+            "\x20   {binding} slope_scale = c8 * alpha + {floor:?};\n\
              \x20   {binding} slope_inside = tmlut_ratio(tmlut_slope_above(critical_cosine, mu, slope_scale), tmlut_slope_above(0.0, mu, slope_scale));\n\
              \x20   {binding} fade_denominator = 1.0 + c9 * alpha;\n\
              \x20   {binding} fade = (1.0 - mu) / (fade_denominator * fade_denominator);\n\

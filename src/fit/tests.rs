@@ -318,6 +318,31 @@ fn shader_coefficients_match_the_manifest() {
     assert!(algebraic.figures.rmse < 1e-4, "{:?}", algebraic.figures);
 }
 
+#[test]
+fn the_most_accurate_form_is_chosen_by_its_worst_node_within_the_cost() {
+    let report = |name: &str, rmse: f64, max_abs_error: f64, cost: f64, parameters: usize| FormReport {
+        name: name.into(),
+        formula: String::new(),
+        parameter_names: vec![],
+        parameters: vec![0.0; parameters],
+        figures: ErrorFigures { rmse, mse: rmse * rmse, max_abs_error, max_at: [0.0; 3], nodes: 1 },
+        cost_ns_per_evaluation_f32: cost,
+        search: None,
+        shaders: vec![],
+    };
+    let forms = [
+        report("baseline", 0.5, 1.0, 10.0, 0),
+        report("low-rmse", 0.007, 0.13, 50.0, 10),
+        report("low-max", 0.008, 0.06, 42.0, 10),
+        report("costly", 0.001, 0.01, 60.0, 10),
+        report("tie-worse-rmse", 0.009, 0.06, 40.0, 7),
+    ];
+    assert_eq!(most_accurate_within(&forms, 54.0).as_deref(), Some("low-max"));
+    assert_eq!(most_accurate_within(&forms, 61.0).as_deref(), Some("costly"));
+    assert_eq!(most_accurate_within(&forms, 41.0).as_deref(), Some("tie-worse-rmse"));
+    assert_eq!(most_accurate_within(&forms, 5.0), None, "the parameter-free baseline is never chosen");
+}
+
 /// A small TIR build with `tir.fit` as given, into `out`.
 fn build_small_tir(out: &Path, fit: crate::recipes::tir::TirFit) -> crate::formats::manifest::Manifest {
     let mut config = crate::config::Config::default();
