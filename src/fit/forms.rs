@@ -490,8 +490,8 @@ pub const CAUCHY_SLOPE_FORMULA: &str = "C + h (A - C): C = 1 - ((1 - f) Pc + f P
 /// tilted by the in-plane slope `t` reflects the view to cosine `mu + 2 t` (small angles). GGX's
 /// in-plane slope marginal is `p(t) = s^2 / (2 (s^2 + t^2)^(3/2))` (a Student t with two degrees
 /// of freedom, the marginal of the slope density of Walter et al. 2007, eq. 33), and a facet is
-/// seen in proportion to its projected area, `mu + t` in slope units (Heitz 2014, eq. 13,
-/// visible normals). So the weight reflected above `c` is `∫_{t0}^∞ (mu + t) p(t) dt =
+/// seen in proportion to its projected area, `mu + t` in slope units (the distribution of visible
+/// normals, Heitz 2014). So the weight reflected above `c` is `∫_{t0}^∞ (mu + t) p(t) dt =
 /// (mu (r - t0) + s^2) / (2 r)`, with `t0 = (c - mu) / 2` and `r = sqrt(s^2 + t0^2)`: a tail
 /// `~ s / (c - mu)`, heavier than the spherical Cauchy lobe's `~ s^2 / (c - mu)^2`, which is what
 /// the table shows at grazing incidence just below `eta = 1`. Scaling `mu`, `t` and `s` by
