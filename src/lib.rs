@@ -13,6 +13,7 @@
 //! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and a
 //!   GPU sampling emulator to measure it;
 //! - [`loader`]: what a renderer needs to read and sample the files;
+//! - [`model`]: the transfer-matrix model itself: layer stacks, their lobes and directional albedo;
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
 //! - [`scene`]: scene files of layer stacks and the plan of the tables they need (generator);
 //! - [`fit`]: least-squares fits of analytic TIR forms with NLopt, error and cost side by side (generator).
@@ -24,6 +25,7 @@
 pub mod error;
 pub mod formats;
 pub mod loader;
+pub mod model;
 pub mod packing;
 pub mod physics;
 #[cfg(feature = "generator")]

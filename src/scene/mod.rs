@@ -35,17 +35,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-
-/// The transfer-matrix model a material is evaluated with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum FluxModel {
-    /// Reflection and transmission of each interface (2 × 2 matrices); media only absorb.
-    #[serde(rename = "2-flux")]
-    TwoFlux,
-    /// Adds scattering inside media: backscattering, forward scattering and re-emission.
-    #[serde(rename = "6-flux")]
-    SixFlux,
-}
+pub use crate::model::{FluxModel, Medium};
 
 /// Which lookup gives an interface's directional albedo.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -136,6 +126,9 @@ pub struct Interface {
     pub kappa: Rgb<Interval>,
     /// GGX roughness.
     pub alpha: Interval,
+    /// The values a material is evaluated at (the furnace, the model): those the scene gives, or
+    /// the middle of a `vary` range given without one.
+    pub nominal: crate::model::Interface,
 }
 
 impl Interface {
@@ -143,16 +136,6 @@ impl Interface {
     pub fn is_conductor(&self) -> bool {
         self.kappa.iter().any(|k| k.hi > 0.0)
     }
-}
-
-/// A participating medium between two interfaces (6-flux model; the 2-flux model only absorbs).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Medium {
-    pub sigma_s: Rgb<f64>,
-    pub sigma_k: Rgb<f64>,
-    pub depth: f64,
-    /// Henyey–Greenstein asymmetry of the phase function.
-    pub g: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -169,6 +152,21 @@ pub struct Material {
     pub tir: TirPath,
     /// Top first.
     pub layers: Vec<Layer>,
+}
+
+impl Material {
+    /// The layer stack at the material's nominal values, as the model and the random walk take it.
+    pub fn stack(&self) -> Result<crate::model::Stack> {
+        let layers = self
+            .layers
+            .iter()
+            .map(|layer| match layer {
+                Layer::Interface(interface) => crate::model::Layer::Interface(interface.nominal),
+                Layer::Medium(medium) => crate::model::Layer::Medium(*medium),
+            })
+            .collect();
+        crate::model::Stack::new(layers).map_err(|e| Error::invalid(format!("material `{}`", self.name), e.to_string()))
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -302,6 +300,12 @@ fn parse_material(
     if !parsed.iter().any(|l| matches!(l, Layer::Interface(_))) {
         return Err(Error::invalid(&where_, "has no interface layer; a material needs at least one interface"));
     }
+    if matches!(parsed[0], Layer::Medium(_)) {
+        return Err(Error::invalid(
+            format!("{where_}, layer 1"),
+            "is a medium; the top layer must be an interface (a medium lies below the interface above it)",
+        ));
+    }
     // The model stops at the first conductor: what lies below is never evaluated.
     if let Some(conductor) = parsed.iter().position(|l| matches!(l, Layer::Interface(i) if i.is_conductor())) {
         let below = parsed.len() - conductor - 1;
@@ -356,10 +360,11 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
                     vary
                 }
             };
-            let eta = rgb_or_range(table, &vary, "eta", None, where_, Bound::Positive)?;
-            let kappa = rgb_or_range(table, &vary, "kappa", Some(0.0), where_, Bound::NonNegative)?;
-            let alpha = scalar_or_range(table, &vary, "alpha", where_)?;
-            Ok(Layer::Interface(Interface { eta, kappa, alpha }))
+            let (eta, eta_nominal) = rgb_or_range(table, &vary, "eta", None, where_, Bound::Positive)?;
+            let (kappa, kappa_nominal) = rgb_or_range(table, &vary, "kappa", Some(0.0), where_, Bound::NonNegative)?;
+            let (alpha, alpha_nominal) = scalar_or_range(table, &vary, "alpha", where_)?;
+            let nominal = crate::model::Interface { eta: eta_nominal, kappa: kappa_nominal, alpha: alpha_nominal };
+            Ok(Layer::Interface(Interface { eta, kappa, alpha, nominal }))
         }
         "medium" => {
             check_keys(table, MEDIUM_KEYS, where_)?;
@@ -496,7 +501,8 @@ fn range(vary: &toml::Table, key: &str, where_: &str, bound: Bound) -> Result<Op
     Ok(Some(Interval::new(lo, hi)))
 }
 
-/// An RGB parameter, or the range a texture varies it over (the same for every channel).
+/// An RGB parameter, or the range a texture varies it over (the same for every channel), with its
+/// nominal value: the one given beside the range (which must lie inside it), or the range's middle.
 fn rgb_or_range(
     table: &toml::Table,
     vary: &toml::Table,
@@ -504,13 +510,24 @@ fn rgb_or_range(
     default: Option<f64>,
     where_: &str,
     bound: Bound,
-) -> Result<Rgb<Interval>> {
+) -> Result<(Rgb<Interval>, Rgb<f64>)> {
+    let given = match table.get(key) {
+        Some(value) => Some(rgb_values(value, &format!("{where_}: {key}"), bound)?),
+        None => None,
+    };
     if let Some(range) = range(vary, key, where_, bound)? {
-        return Ok([range; 3]);
+        let nominal = match given {
+            Some(values) => {
+                nominal_inside(&values, range, key, where_)?;
+                values
+            }
+            None => [0.5 * (range.lo + range.hi); 3],
+        };
+        return Ok(([range; 3], nominal));
     }
-    match (table.get(key), default) {
-        (Some(value), _) => Ok(rgb_values(value, &format!("{where_}: {key}"), bound)?.map(Interval::point)),
-        (None, Some(default)) => Ok([Interval::point(default); 3]),
+    match (given, default) {
+        (Some(values), _) => Ok((values.map(Interval::point), values)),
+        (None, Some(default)) => Ok(([Interval::point(default); 3], [default; 3])),
         (None, None) => Err(Error::invalid(
             where_,
             format!(
@@ -521,23 +538,51 @@ fn rgb_or_range(
     }
 }
 
-/// A scalar parameter in [0, 1] (roughness), or the range a texture varies it over.
-fn scalar_or_range(table: &toml::Table, vary: &toml::Table, key: &str, where_: &str) -> Result<Interval> {
-    if let Some(range) = range(vary, key, where_, Bound::Unit)? {
-        return Ok(range);
+/// Refuse a nominal value outside the `vary` range given beside it.
+fn nominal_inside(values: &[f64], range: Interval, key: &str, where_: &str) -> Result<()> {
+    match values.iter().find(|&&v| v < range.lo || v > range.hi) {
+        Some(bad) => Err(Error::invalid(
+            format!("{where_}: {key}"),
+            format!(
+                "{bad} lies outside vary.{key} = [{}, {}]; the value evaluated must lie in the range a texture varies",
+                range.lo, range.hi
+            ),
+        )),
+        None => Ok(()),
     }
-    let Some(value) = table.get(key) else {
-        return Err(Error::invalid(
+}
+
+/// A scalar parameter in [0, 1] (roughness), or the range a texture varies it over, with its nominal
+/// value as in [`rgb_or_range`].
+fn scalar_or_range(table: &toml::Table, vary: &toml::Table, key: &str, where_: &str) -> Result<(Interval, f64)> {
+    let given = match table.get(key) {
+        Some(value) => {
+            let key = format!("{where_}: {key}");
+            let x = number(value, &key)?;
+            if !Bound::Unit.admits(x) {
+                return Err(Error::invalid(&key, format!("{x}; allowed: {}", Bound::Unit.allowed())));
+            }
+            Some(x)
+        }
+        None => None,
+    };
+    if let Some(range) = range(vary, key, where_, Bound::Unit)? {
+        let nominal = match given {
+            Some(x) => {
+                nominal_inside(&[x], range, key, where_)?;
+                x
+            }
+            None => 0.5 * (range.lo + range.hi),
+        };
+        return Ok((range, nominal));
+    }
+    match given {
+        Some(x) => Ok((Interval::point(x), x)),
+        None => Err(Error::invalid(
             where_,
             format!("an interface without `{key}`; give a number from 0 to 1, or vary.{key} = [lo, hi]"),
-        ));
-    };
-    let key = format!("{where_}: {key}");
-    let x = number(value, &key)?;
-    if !Bound::Unit.admits(x) {
-        return Err(Error::invalid(&key, format!("{x}; allowed: {}", Bound::Unit.allowed())));
+        )),
     }
-    Ok(Interval::point(x))
 }
 
 #[cfg(test)]

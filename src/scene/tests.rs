@@ -357,3 +357,31 @@ fn a_slice_beats_the_4d_table_between_its_eta_nodes() {
     assert!(slice.count >= 16 && slice.count == full.count);
     assert!(slice.rms * 5.0 < full.rms, "slice {slice:?} vs full {full:?}");
 }
+
+#[test]
+fn a_material_is_evaluated_at_its_nominal_values() {
+    let scene = example("textured");
+    let gold = scene.materials[0].stack().unwrap();
+    let crate::model::Layer::Interface(coat) = gold.layers()[0] else { panic!("an interface") };
+    // Given beside the range: that value; the range itself is what the plan covers.
+    assert_eq!(coat.alpha, 0.25);
+    let ceramic = scene.materials[1].stack().unwrap();
+    let crate::model::Layer::Interface(glaze) = ceramic.layers()[0] else { panic!("an interface") };
+    assert_eq!((glaze.eta, glaze.alpha), ([1.5; 3], 0.2));
+    // A range alone: its middle.
+    let text =
+        ONE_LAYER.replace("alpha = 0.1", "vary = { alpha = [0.1, 0.3], eta = [1.2, 1.6] }").replace("eta = 1.5\n", "");
+    let stack = parse(&text).unwrap().materials[0].stack().unwrap();
+    let crate::model::Layer::Interface(i) = stack.layers()[0] else { panic!("an interface") };
+    assert!((i.alpha - 0.2).abs() < 1e-15 && (i.eta[0] - 1.4).abs() < 1e-15, "{i:?}");
+    let e = error(&ONE_LAYER.replace("alpha = 0.1", "alpha = 0.5\nvary = { alpha = [0.1, 0.3] }"));
+    assert!(e.contains("layer 1: alpha") && e.contains("outside vary.alpha"), "{e}");
+}
+
+#[test]
+fn a_medium_on_top_is_refused() {
+    let text = "[[material]]\nname = \"m\"\n[[material.layer]]\ntype = \"medium\"\ndepth = 1.0\n\
+        [[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
+    let e = error(text);
+    assert!(e.contains("layer 1") && e.contains("top layer must be an interface"), "{e}");
+}
