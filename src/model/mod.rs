@@ -1,9 +1,254 @@
-//! The transfer-matrix layered material model (Randrianandrasana, Callet & Lucas 2021), as a
-//! renderer evaluates it: a layer stack in, the outgoing lobes and the directional albedo out.
+//! The transfer-matrix layered material model (Randrianandrasana, Callet & Lucas 2021, "Transfer
+//! matrix based layered materials rendering", ACM TOG 40(4)), as a renderer evaluates it: a layer
+//! stack and a view cosine in; the outgoing lobes (energy per channel, roughness, direction) and
+//! the directional albedo `A(mu)` out.
+//!
+//! The evaluation follows the authors' reference code (`tm.h`, `tm2.cpp`, `tm6.cpp`): transfer
+//! factors per component ([`factors`]), first-order transmission asymmetries and the TIR
+//! correction, energy and asymmetry matrices multiplied down the stack ([`tm2`], [`tm6`]), and
+//! lobes as the increments of the cumulative reflectance. Its tables reach it through one
+//! interface, [`Tables`] (see [`lookup`]).
+//!
+//! Where this differs from the reference, it is on purpose (`docs/furnace.md` lists each):
+//! - hazards are guarded at their limit instead of producing infinities or NaN: a transmission of
+//!   0 (TIR = 1) or an asymmetry of 0 in `1 / t`, a mean direction past the critical angle, a
+//!   non-absorbing medium (`gamma = 0`, where the reference forces `sigma_k >= 1e-7`), thick media
+//!   (products renormalised, so they never overflow);
+//! - an index-matched interface or an empty medium is skipped as if absent (the reference reads
+//!   an unset asymmetry of 0 from it for the interface above, which makes every lobe returning
+//!   through it fully rough); the bottom interface of a stack without a conductor reads the
+//!   asymmetry of "nothing below" as 1, as the reference's transmissive variant does;
+//! - the 2-flux model lets media absorb (`diag(1 / t, t)`), which the reference's 2-flux code has
+//!   no media for.
 //!
 //! Loader side: built with `default-features = false`, so that a renderer crate can evaluate the
 //! materials it loads tables for.
 
+pub mod factors;
+pub mod lookup;
 pub mod stack;
+pub mod tm2;
+pub mod tm6;
 
+use serde::{Deserialize, Serialize};
+
+use factors::{Component, Flux, components};
+pub use lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 pub use stack::{FluxModel, Interface, Layer, MAX_LAYERS, Medium, Rgb, Stack};
+
+use crate::physics::hg_to_ggx;
+
+/// Which flux an outgoing lobe comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LobeKind {
+    /// Reflected without scattering in a medium (every lobe of the 2-flux model).
+    Primary,
+    /// Scattered forward in a medium, then reflected (6-flux).
+    Forward,
+    /// Scattered backward in a medium (6-flux): centred on the view direction itself.
+    Backward,
+}
+
+/// A lobe as the matrices give it: its energy per channel and Henyey–Greenstein asymmetry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RawLobe {
+    pub layer: usize,
+    pub kind: LobeKind,
+    pub energy: Rgb,
+    pub g: f64,
+}
+
+/// One outgoing lobe of a material.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Lobe {
+    /// 1-based layer whose component produced it.
+    pub layer: usize,
+    pub kind: LobeKind,
+    /// Energy per channel (the increment of the cumulative reflectance it stands for).
+    pub energy: Rgb,
+    /// Henyey–Greenstein asymmetry.
+    pub asymmetry: f64,
+    /// GGX roughness of the lobe, `alpha(g)` clamped to [1e-4, 1].
+    pub roughness: f64,
+    /// The direction its microfacet distribution is evaluated from (`tm6.cpp`, `lobes_wi`): the
+    /// view direction, or its mirror image about the normal for a backward lobe.
+    pub incident: [f64; 3],
+    /// Its mean outgoing direction: the mirror direction of `incident`.
+    pub mean_direction: [f64; 3],
+    /// Whether it is the top interface's own reflection, which the BSDF replaces with the exact
+    /// Fresnel-weighted microfacet term of that interface (Bati et al. 2019's top correction).
+    pub is_top: bool,
+    /// `GD(mu, roughness)`: in the 2-flux model the lobe's albedo is `energy * gd`; the 6-flux
+    /// model normalises its lobes by it, so their albedo is `energy` (0 for the top lobe, whose
+    /// albedo is the interface's own FGD, and for lobes without energy, which read nothing).
+    pub gd: f64,
+}
+
+/// The model's result at one view cosine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Evaluation {
+    pub mu: f64,
+    pub lobes: Vec<Lobe>,
+    /// `FGD(mu, alpha_1, eta_01, kappa_01)` per channel: the albedo of the top term (0 where it is
+    /// absent: an index-matched top interface, or a 6-flux top lobe without energy).
+    pub top_albedo: Rgb,
+    /// The directional albedo `A(mu)` per channel: the top term plus every other lobe's albedo.
+    pub albedo: Rgb,
+}
+
+/// A material: a layer stack evaluated with a flux model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    pub model: FluxModel,
+    pub stack: Stack,
+}
+
+impl Material {
+    pub fn new(model: FluxModel, stack: Stack) -> Self {
+        Material { model, stack }
+    }
+
+    /// The lobes and directional albedo at view cosine `mu` (clamped to [0, 1]; NaN reads as 0,
+    /// grazing), every integral read from `tables`.
+    pub fn evaluate(&self, mu: f64, tables: &dyn Tables) -> Evaluation {
+        let mu = if mu.is_nan() { 0.0 } else { mu.clamp(0.0, 1.0) };
+        let scattering = self.model == FluxModel::SixFlux;
+        let components = components(&self.stack, mu, scattering, tables);
+        let raw = match self.model {
+            FluxModel::TwoFlux => tm2::lobes(&components, tables),
+            FluxModel::SixFlux => tm6::lobes(&components, tables),
+        };
+        let top_flux = components.first().and_then(|(_, c)| top_reflection(c));
+        let incident = [(1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu];
+        let mirror = |w: [f64; 3]| [-w[0], -w[1], w[2]];
+        let mut top_albedo = [0.0; 3];
+        let mut albedo = [0.0; 3];
+        let mut lobes = Vec::with_capacity(raw.len());
+        for lobe in raw {
+            let is_top = lobe.layer == 1 && lobe.kind == LobeKind::Primary;
+            let has_energy = lobe.energy.iter().any(|&e| e != 0.0);
+            let roughness = hg_to_ggx(lobe.g);
+            let mut gd = 0.0;
+            if is_top {
+                // The 2-flux BSDF always adds the top term; the 6-flux one only where the top lobe
+                // carries energy (`tm6.cpp`, `eval`).
+                if let Some(r) = top_flux
+                    && (self.model == FluxModel::TwoFlux || has_energy)
+                {
+                    top_albedo = r.energy;
+                }
+            } else if has_energy {
+                gd = gd_lookup(lobe.layer, mu, roughness, tables);
+                for c in 0..3 {
+                    albedo[c] += match self.model {
+                        FluxModel::TwoFlux => lobe.energy[c] * gd,
+                        FluxModel::SixFlux => lobe.energy[c],
+                    };
+                }
+            }
+            let incident = if lobe.kind == LobeKind::Backward { mirror(incident) } else { incident };
+            lobes.push(Lobe {
+                layer: lobe.layer,
+                kind: lobe.kind,
+                energy: lobe.energy,
+                asymmetry: lobe.g,
+                roughness,
+                incident,
+                mean_direction: mirror(incident),
+                is_top,
+                gd,
+            });
+        }
+        for c in 0..3 {
+            albedo[c] += top_albedo[c];
+        }
+        Evaluation { mu, lobes, top_albedo, albedo }
+    }
+
+    /// The directional albedo `A(mu)` per channel.
+    pub fn albedo(&self, mu: f64, tables: &dyn Tables) -> Rgb {
+        self.evaluate(mu, tables).albedo
+    }
+}
+
+/// The top interface's reflection before any TIR correction: its FGD at the view cosine.
+fn top_reflection(component: &Component) -> Option<Flux> {
+    match component {
+        Component::Dielectric(f) => Some(f.r),
+        Component::Conductor { r } => Some(*r),
+        Component::Pass | Component::Medium(_) => None,
+    }
+}
+
+/// The GD lookup of lobe `layer`.
+fn gd_lookup(layer: usize, mu: f64, alpha: f64, tables: &dyn Tables) -> f64 {
+    tables.value(&Lookup {
+        quantity: Quantity::Gd,
+        site: Site::Lobe,
+        layer,
+        channel: None,
+        mu,
+        alpha,
+        eta: 1.0,
+        kappa: 0.0,
+    })
+}
+
+/// What a dielectric's first-order terms need of the stack below it: the asymmetry of the next
+/// interface's reflection (1 where nothing below reflects), and the product of the forward
+/// asymmetries of the media crossed to reach it (6-flux secondary flux).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Below {
+    pub reflection_g: f64,
+    pub media_forward_g: f64,
+}
+
+/// [`Below`] for the components under a dielectric; index-matched interfaces and empty media are
+/// skipped as absent.
+pub fn below(components: &[(usize, Component)]) -> Below {
+    let mut media_forward_g = 1.0;
+    for (_, component) in components {
+        match component {
+            Component::Pass => {}
+            Component::Medium(m) => media_forward_g *= m.t_ff.g,
+            Component::Dielectric(f) => return Below { reflection_g: f.r.g, media_forward_g },
+            Component::Conductor { r } => return Below { reflection_g: r.g, media_forward_g },
+        }
+    }
+    Below { reflection_g: 1.0, media_forward_g }
+}
+
+/// The TIR correction of one crossing (`tm2.cpp`, `outgoing_lobes`): the share of the transmitted
+/// lobe (roughness `alpha(g_lobe)`, mean cosine `mu`) past the critical angle of relative index
+/// `eta < 1` is reflected instead: `tir = TIR(mu, alpha(g), eta) t; r += tir; t -= tir`.
+#[allow(clippy::too_many_arguments)]
+pub fn first_order_tir(
+    r: &mut Flux,
+    t: &mut Flux,
+    layer: usize,
+    site: Site,
+    mu: f64,
+    g_lobe: f64,
+    eta: f64,
+    tables: &dyn Tables,
+) {
+    let share = tables.value(&Lookup {
+        quantity: Quantity::Tir,
+        site,
+        layer,
+        channel: None,
+        mu,
+        alpha: hg_to_ggx(g_lobe),
+        eta,
+        kappa: 0.0,
+    });
+    for c in 0..3 {
+        let moved = share * t.energy[c];
+        r.energy[c] += moved;
+        t.energy[c] -= moved;
+    }
+}
+
+#[cfg(test)]
+mod tests;

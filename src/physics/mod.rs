@@ -11,7 +11,7 @@ pub use fresnel::{
     critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance, schlick_weight,
 };
 pub use fresnel_basis::FresnelBasis;
-pub use henyey_greenstein::{ggx_to_hg, hg_to_ggx};
+pub use henyey_greenstein::{ggx_to_hg, hg_backward_share, hg_refract, hg_to_ggx};
 pub use microfacet::{
     MaskingShadowing, direction_from_cosine, ggx_distribution, reflect, schlick_smith_g1, smith_g1,
     smith_g2_height_correlated, smith_g2_separable, smith_lambda, visible_normal_density,

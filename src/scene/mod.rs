@@ -35,31 +35,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-pub use crate::model::{FluxModel, Medium};
-
-/// Which lookup gives an interface's directional albedo.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum AlbedoPath {
-    /// The 4D FGD table (or its specialised slices).
-    Fgd,
-    /// The Belcour–Bati–Barla 2020 split-sum table with a Fresnel basis.
-    Belcour,
-    /// The Karis split-sum table (Schlick Fresnel).
-    Karis,
-}
-
-/// How total internal reflection is corrected.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum TirPath {
-    /// The TIR table (or its specialised slices).
-    Table,
-    /// A fitted analytic form (`tmlut fit tir`): no table.
-    Fit,
-    /// No correction.
-    Off,
-}
+pub use crate::model::{AlbedoPath, FluxModel, Medium, TirPath};
 
 /// A closed range `[lo, hi]` of a parameter; a fixed value has `lo == hi`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
