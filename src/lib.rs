@@ -23,6 +23,7 @@
 //! `exr` feature is enabled).
 
 pub mod error;
+pub mod fit;
 pub mod formats;
 pub mod loader;
 pub mod model;
@@ -36,8 +37,6 @@ pub mod table;
 
 #[cfg(feature = "generator")]
 pub mod config;
-#[cfg(feature = "generator")]
-pub mod fit;
 #[cfg(feature = "generator")]
 pub mod integrate;
 #[cfg(feature = "generator")]
