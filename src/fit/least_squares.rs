@@ -588,3 +588,7 @@ fn plot(path: &Path, manifest: &FitManifest) -> Result<()> {
         &series,
     )
 }
+
+#[cfg(test)]
+#[path = "tests.rs"]
+mod tests;

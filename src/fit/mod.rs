@@ -13,6 +13,3 @@ pub mod least_squares;
 pub use forms::{ALL_FORMS, Form, ShaderLanguage};
 #[cfg(feature = "generator")]
 pub use least_squares::*;
-
-#[cfg(all(test, feature = "generator"))]
-mod tests;

@@ -1,4 +1,5 @@
 use super::*;
+use crate::fit::ALL_FORMS;
 use std::path::Path;
 
 use crate::table::{Axis, Channel};

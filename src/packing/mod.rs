@@ -159,22 +159,23 @@ pub struct PackedFgd {
     pub lossless: bool,
 }
 
-/// Check that `table` is an FGD table the packings understand; return its node counts.
-fn fgd_counts(table: &Table) -> Result<[usize; 4]> {
-    let key = format!("table `{}`", table.name);
-    let names: Vec<&str> = table.axes.iter().map(|a| a.name.as_str()).collect();
-    if names != FGD_INPUTS || table.channel_count() != 1 {
+/// Check that a table named `name` with `axes` and `channel_count` channels is an FGD table the
+/// packings understand; return its node counts.
+fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize; 4]> {
+    let key = format!("table `{name}`");
+    let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
+    if names != FGD_INPUTS || channel_count != 1 {
         return Err(Error::invalid(
             key,
             format!(
                 "has axes ({}) and {} channel(s); a packing takes the FGD table: axes (mu, alpha, eta, kappa), one \
                  channel",
                 names.join(", "),
-                table.channel_count()
+                channel_count
             ),
         ));
     }
-    for axis in &table.axes {
+    for axis in axes {
         if axis.placement != Placement::NodeAligned || axis.mapping != Mapping::Identity {
             return Err(Error::invalid(
                 key,
@@ -182,8 +183,7 @@ fn fgd_counts(table: &Table) -> Result<[usize; 4]> {
             ));
         }
     }
-    let shape = table.shape();
-    Ok([shape[0], shape[1], shape[2], shape[3]])
+    Ok([axes[0].count, axes[1].count, axes[2].count, axes[3].count])
 }
 
 /// `u = clamp((x - start) * (1 / (end - start)), 0, 1)`: the axis coordinate in [0, 1], in f32, as
@@ -325,16 +325,11 @@ fn load_lookup(program: &mut Program, axes: &[Axis], columns: usize) {
 impl PackedFgd {
     /// Pack an FGD table (axes mu, alpha, eta, kappa; node-aligned) for storage in `precision`.
     pub fn pack(table: &Table, packing: Packing, precision: Precision) -> Result<Self> {
-        let counts = fgd_counts(table)?;
+        let counts = fgd_counts(&table.name, &table.axes, table.channel_count())?;
         let [width, height, depth] = packing.extent(counts)?;
         let [n_mu, n_alpha, n_eta, n_kappa] = counts;
         let value = |i: usize, j: usize, e: usize, k: usize| table.data[i + n_mu * (j + n_alpha * (e + n_eta * k))];
         let mut texels = vec![0.0f32; width * height * depth];
-        let axes = &table.axes;
-        let mut program = Program::new(packing.file_stem(), FGD_INPUTS.to_vec());
-        let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
-        let mut layout;
-        let axis_entries;
         match packing {
             Packing::Lossless | Packing::LosslessFiltered => {
                 let (columns, _) = tile_grid(n_kappa);
@@ -349,6 +344,58 @@ impl PackedFgd {
                         }
                     }
                 }
+            }
+            Packing::Thesis => {
+                let n_half = n_kappa / 2;
+                for e in 0..n_eta {
+                    for h in 0..n_half {
+                        let slice = e * n_half + h;
+                        for j in 0..n_alpha {
+                            for i in 0..n_mu {
+                                // The thesis's box filter: the mean of kappa nodes 2h and 2h + 1.
+                                let mean = 0.5 * (value(i, j, e, 2 * h) as f64 + value(i, j, e, 2 * h + 1) as f64);
+                                texels[i + width * (j + height * slice)] = mean as f32;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for t in &mut texels {
+            *t = precision.round(*t);
+        }
+        Self::with_texture(Texture3D { width, height, depth, texels }, packing, precision, &table.axes)
+    }
+
+    /// The lookup of `packing` over a texture packed from an FGD table with `source_axes` (read
+    /// back from a file, say): the same program, and so the same values, as [`PackedFgd::pack`]
+    /// gives. The texture's extent must be the packing's for those axes.
+    pub fn with_texture(
+        texture: Texture3D,
+        packing: Packing,
+        precision: Precision,
+        source_axes: &[Axis],
+    ) -> Result<Self> {
+        let counts = fgd_counts("fgd", source_axes, 1)?;
+        let [width, height, depth] = packing.extent(counts)?;
+        if [texture.width, texture.height, texture.depth] != [width, height, depth] {
+            return Err(Error::invalid(
+                format!("packing `{}`", packing.name()),
+                format!(
+                    "the texture is {} x {} x {}; the packing of a {counts:?} table is {width} x {height} x {depth}",
+                    texture.width, texture.height, texture.depth
+                ),
+            ));
+        }
+        let [n_mu, n_alpha, n_eta, n_kappa] = counts;
+        let axes = source_axes;
+        let mut program = Program::new(packing.file_stem(), FGD_INPUTS.to_vec());
+        let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
+        let mut layout;
+        let axis_entries;
+        match packing {
+            Packing::Lossless | Packing::LosslessFiltered => {
+                let (columns, _) = tile_grid(n_kappa);
                 layout = vec![
                     format!(
                         "{width} x {height} x {depth} volume, one channel, every node of the {n_mu} x {n_alpha} x {n_eta} x {n_kappa} table kept."
@@ -446,18 +493,6 @@ impl PackedFgd {
             Packing::Thesis => {
                 let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(&mut program, &axes[d]));
                 let n_half = n_kappa / 2;
-                for e in 0..n_eta {
-                    for h in 0..n_half {
-                        let slice = e * n_half + h;
-                        for j in 0..n_alpha {
-                            for i in 0..n_mu {
-                                // The thesis's box filter: the mean of kappa nodes 2h and 2h + 1.
-                                let mean = 0.5 * (value(i, j, e, 2 * h) as f64 + value(i, j, e, 2 * h + 1) as f64);
-                                texels[i + width * (j + height * slice)] = mean as f32;
-                            }
-                        }
-                    }
-                }
                 let e0 = program.local("e0", i_eta.clone().floor().min(Expr::c((n_eta - 2) as f32)));
                 let t_eta = program.local("t_eta", i_eta.sub(e0.clone()));
                 let e1 = program.local("e1", e0.clone().add(Expr::c(1.0)));
@@ -510,15 +545,12 @@ impl PackedFgd {
                 ];
             }
         }
-        for t in &mut texels {
-            *t = precision.round(*t);
-        }
         Ok(PackedFgd {
             packing,
             precision,
-            texture: Texture3D { width, height, depth, texels },
+            texture,
             program,
-            source_axes: table.axes.clone(),
+            source_axes: source_axes.to_vec(),
             axis_entries,
             layout,
             lossless: packing.keeps_every_node(),

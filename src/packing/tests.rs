@@ -359,3 +359,22 @@ fn node_bracket_is_the_tables_bracket_with_exact_weights() {
         }
     }
 }
+
+#[test]
+fn a_texture_read_back_gets_the_packing_it_was_written_with() {
+    for packing in Packing::ALL {
+        let t = noise([8, 6, 5, 4]);
+        let packed = PackedFgd::pack(&t, packing, Precision::F16).unwrap();
+        let again = PackedFgd::with_texture(packed.texture.clone(), packing, Precision::F16, &t.axes).unwrap();
+        assert_eq!(again.program.statements(), packed.program.statements(), "{packing:?}");
+        for p in points(&t, 200, 3) {
+            assert_eq!(again.lookup(p, Filter::Exact).to_bits(), packed.lookup(p, Filter::Exact).to_bits());
+        }
+        // A texture of another extent is refused, naming both.
+        let mut wrong = packed.texture.clone();
+        wrong.depth += 1;
+        wrong.texels.resize(wrong.width * wrong.height * wrong.depth, 0.0);
+        let e = PackedFgd::with_texture(wrong, packing, Precision::F16, &t.axes).unwrap_err().to_string();
+        assert!(e.contains("the texture is") && e.contains("the packing of"), "{e}");
+    }
+}

@@ -135,10 +135,15 @@ impl Slices {
                     SliceOf::Fgd(_) => format!("eta {}, kappa {}", c.eta, c.kappa),
                     SliceOf::Tir(_) => format!("eta {}", c.eta),
                 };
-                Channel::new(
+                let channel = Channel::new(
                     format!("{}{k}", self.table_name().to_lowercase()),
                     format!("{} at {index}; read by {}", self.table_name(), c.used_by),
                 )
+                .with_fixed("eta", c.eta);
+                match self.of {
+                    SliceOf::Fgd(_) => channel.with_fixed("kappa", c.kappa),
+                    SliceOf::Tir(_) => channel,
+                }
             })
             .collect();
         if channels.len() == 3 {

@@ -17,11 +17,21 @@ use crate::error::{Error, Result};
 pub struct Channel {
     pub name: String,
     pub meaning: String,
+    /// Parameters of the integral that this channel holds fixed, by name (a slice's `eta` and
+    /// `kappa`): what a reader matches a lookup against.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub fixed: std::collections::BTreeMap<String, f64>,
 }
 
 impl Channel {
     pub fn new(name: impl Into<String>, meaning: impl Into<String>) -> Self {
-        Channel { name: name.into(), meaning: meaning.into() }
+        Channel { name: name.into(), meaning: meaning.into(), fixed: Default::default() }
+    }
+
+    /// The channel with parameter `name` held at `value`.
+    pub fn with_fixed(mut self, name: &str, value: f64) -> Self {
+        self.fixed.insert(name.into(), value);
+        self
     }
 }
 
