@@ -25,6 +25,7 @@
 //! materials it loads tables for.
 
 pub mod factors;
+pub mod folder;
 pub mod lookup;
 pub mod stack;
 pub mod tm2;
@@ -196,27 +197,33 @@ fn gd_lookup(layer: usize, mu: f64, alpha: f64, tables: &dyn Tables) -> f64 {
 }
 
 /// What a dielectric's first-order terms need of the stack below it: the asymmetry of the next
-/// interface's reflection (1 where nothing below reflects), and the product of the forward
-/// asymmetries of the media crossed to reach it (6-flux secondary flux).
+/// interface's reflection (1 where nothing below reflects), the product of the forward
+/// asymmetries of the media crossed to reach it (6-flux secondary flux), and whether anything
+/// below sends light back up at all.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Below {
     pub reflection_g: f64,
     pub media_forward_g: f64,
+    pub returns_light: bool,
 }
 
 /// [`Below`] for the components under a dielectric; index-matched interfaces and empty media are
 /// skipped as absent.
 pub fn below(components: &[(usize, Component)]) -> Below {
     let mut media_forward_g = 1.0;
+    let mut scatters = false;
     for (_, component) in components {
         match component {
             Component::Pass => {}
-            Component::Medium(m) => media_forward_g *= m.t_ff.g,
-            Component::Dielectric(f) => return Below { reflection_g: f.r.g, media_forward_g },
-            Component::Conductor { r } => return Below { reflection_g: r.g, media_forward_g },
+            Component::Medium(m) => {
+                media_forward_g *= m.t_ff.g;
+                scatters |= m.r_fb.energy.iter().any(|&r| r > 0.0);
+            }
+            Component::Dielectric(f) => return Below { reflection_g: f.r.g, media_forward_g, returns_light: true },
+            Component::Conductor { r } => return Below { reflection_g: r.g, media_forward_g, returns_light: true },
         }
     }
-    Below { reflection_g: 1.0, media_forward_g }
+    Below { reflection_g: 1.0, media_forward_g, returns_light: scatters }
 }
 
 /// The TIR correction of one crossing (`tm2.cpp`, `outgoing_lobes`): the share of the transmitted

@@ -78,8 +78,15 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
         let (r_total, g_total): (Rgb, f64) = match component {
             Component::Pass => continue,
             Component::Dielectric(mut f) => {
-                let g_next = below(&components[index + 1..]).reflection_g;
-                g_transmitted = transmission_asymmetries(&mut f, g_transmitted, g_next, layer, tables);
+                let below = below(&components[index + 1..]);
+                g_transmitted = transmission_asymmetries(
+                    &mut f,
+                    g_transmitted,
+                    below.reflection_g,
+                    below.returns_light,
+                    layer,
+                    tables,
+                );
                 for (c, m) in energy_matrix.iter_mut().enumerate() {
                     *m = m.then(&Matrix2::interface(f.r.energy[c], f.t.energy[c], f.rp.energy[c], f.tp.energy[c]));
                 }
@@ -92,11 +99,12 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
                 (energy_matrix.map(|m| m.reflectance()), asymmetry_matrix.reflectance())
             }
             Component::Medium(m) => {
+                // An attenuator leaves the reflectance above it as it is: no lobe of its own.
                 for (c, matrix) in energy_matrix.iter_mut().enumerate() {
                     *matrix = matrix.then(&Matrix2::attenuation(m.t.energy[c]));
                 }
                 asymmetry_matrix = asymmetry_matrix.then(&Matrix2::attenuation(m.t.weighted_g()));
-                (energy_matrix.map(|m| m.reflectance()), asymmetry_matrix.reflectance())
+                continue;
             }
             Component::Conductor { r } => (
                 std::array::from_fn(|c| energy_matrix[c].reflectance_over(r.energy[c])),
@@ -123,10 +131,16 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
 /// crossing to the one it had before, and the share of the transmitted lobe past the critical
 /// angle moves from transmission to reflection on the side toward the lower index. Returns the
 /// asymmetry of the lobe transmitted below, for the next interface.
+///
+/// `g_next_reflection` is the asymmetry a lobe keeps when reflected below (the next interface's,
+/// times the media's crossed on the way for the 6-flux secondary flux). The upward correction is
+/// made only where something below sends light back up: otherwise nothing crosses upward, and the
+/// reflectances do not depend on it.
 pub fn transmission_asymmetries(
     f: &mut DielectricFactors,
     g_arriving: f64,
     g_next_reflection: f64,
+    light_returns: bool,
     layer: usize,
     tables: &dyn Tables,
 ) -> f64 {
@@ -138,7 +152,7 @@ pub fn transmission_asymmetries(
     f.tp.g = if g_reflected_below != 0.0 { g_back_up / g_reflected_below } else { 0.0 };
     if eta_down < 1.0 {
         first_order_tir(&mut f.r, &mut f.t, layer, Site::Down, f.cos_in, g_arriving, eta_down, tables);
-    } else {
+    } else if light_returns {
         first_order_tir(&mut f.rp, &mut f.tp, layer, Site::Up, f.cos_below, g_reflected_below, eta_up, tables);
     }
     g_below

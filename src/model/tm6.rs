@@ -312,10 +312,12 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
                 // own first-order asymmetries and TIR.
                 let mut secondary = primary;
                 let below = below(&components[index + 1..]);
-                g_primary = transmission_asymmetries(&mut primary, g_primary, below.reflection_g, layer, tables);
+                let returns = below.returns_light;
+                g_primary =
+                    transmission_asymmetries(&mut primary, g_primary, below.reflection_g, returns, layer, tables);
                 // A scattered lobe reflected below crosses the media between twice.
                 let g_next = below.media_forward_g * below.reflection_g * below.media_forward_g;
-                g_secondary = transmission_asymmetries(&mut secondary, g_secondary, g_next, layer, tables);
+                g_secondary = transmission_asymmetries(&mut secondary, g_secondary, g_next, returns, layer, tables);
                 requested.add_interface();
                 for c in 0..3 {
                     energy[c] = energy[c].then_interface(&interface_matrix(&primary, &secondary, c, false));

@@ -1,0 +1,451 @@
+//! The files of a built folder answering the model's lookups exactly as a renderer reads them.
+//!
+//! - Textures (`.dds`, and the `.bin` tables of up to three axes, which a shader binds as textures)
+//!   are sampled the way a GPU samples them: the manifest's texture coordinate computed in f32,
+//!   cell-centred linear filtering with clamp addressing in f32, texels as stored (f16 widened
+//!   exactly), through [`crate::packing::emulator`].
+//! - The 4D FGD table has no texture: its GPU packing (`fgd_lossless.dds`) is read through the very
+//!   lookup program its shader files print ([`crate::packing::PackedFgd`]), or `fgd.bin` is
+//!   interpolated on the CPU in 4D as the reference plugin does.
+//! - A scene folder's slices are found by the indices their channels hold fixed, and the slice
+//!   whose `(mu, alpha)` range holds the lookup answers it.
+//! - The split-sum paths compute their Fresnel coefficients as a shader does: Belcour's from the
+//!   basis in the manifest, Karis's `F0` from the relative index at normal incidence.
+//! - The fitted TIR form is evaluated in f32 with the manifest's coefficients, as its shader.
+//!
+//! A lookup no file of the folder can answer reads 0 and is recorded: [`FolderTables::misses`]
+//! says what was asked that the folder does not hold, so a caller can refuse the result.
+
+use std::sync::Mutex;
+
+use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
+use crate::error::{Error, Result};
+use crate::fit::Form;
+use crate::formats::manifest::{FileEntry, FitEntry};
+use crate::formats::{FileFormat, dds};
+use crate::loader::LutFolder;
+use crate::packing::{Filter, PackedFgd, Packing, Texture3D};
+use crate::physics::{FresnelBasis, normal_incidence_reflectance};
+use crate::table::{Axis, Placement, Table};
+
+/// A table of one to three axes bound as a texture: one single-channel volume per channel.
+#[derive(Debug, Clone)]
+pub struct SampledTable {
+    pub name: String,
+    pub axes: Vec<Axis>,
+    channels: Vec<Texture3D>,
+}
+
+impl SampledTable {
+    /// The texture of `table` (at most three axes), its values as stored.
+    pub fn new(table: &Table) -> Result<Self> {
+        if table.dimension() > 3 {
+            return Err(Error::invalid(
+                format!("table `{}`", table.name),
+                format!("has {} axes; a texture has at most 3", table.dimension()),
+            ));
+        }
+        let count = |d: usize| table.axes.get(d).map_or(1, |a| a.count);
+        let channels = (0..table.channel_count())
+            .map(|c| Texture3D {
+                width: count(0),
+                height: count(1),
+                depth: count(2),
+                texels: table.channel_values(c).collect(),
+            })
+            .collect();
+        Ok(SampledTable { name: table.name.clone(), axes: table.axes.clone(), channels })
+    }
+
+    pub fn channel_count(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// Channel `channel` at `point` (one value per axis), filtered as a GPU does.
+    pub fn sample(&self, channel: usize, point: &[f64]) -> f32 {
+        let mut uvw = [0.5f32; 3];
+        for (d, axis) in self.axes.iter().enumerate() {
+            uvw[d] = texture_coordinate_f32(axis, point[d]);
+        }
+        self.channels[channel].sample_trilinear(uvw[0], uvw[1], uvw[2], Filter::Exact)
+    }
+
+    /// Whether `point` lies in the range of every axis (within rounding).
+    pub fn covers(&self, point: &[f64]) -> bool {
+        self.axes.iter().zip(point).all(|(axis, &x)| {
+            let (lo, hi) = if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
+            let slack = 1e-9 * (hi - lo);
+            x >= lo - slack && x <= hi + slack
+        })
+    }
+
+    /// How far outside the axes' ranges `point` lies, in units of each axis's range.
+    fn distance_outside(&self, point: &[f64]) -> f64 {
+        self.axes
+            .iter()
+            .zip(point)
+            .map(|(axis, &x)| {
+                let (lo, hi) = if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
+                ((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo)
+            })
+            .sum()
+    }
+}
+
+/// The texture coordinate of value `x` along `axis`, in f32 as a shader computes the manifest's
+/// formula: `u = (m(x) - m(start)) / (m(end) - m(start))`, then `(u (N - 1) + 0.5) / N` for a
+/// node-aligned axis.
+pub fn texture_coordinate_f32(axis: &Axis, x: f64) -> f32 {
+    let m = |v: f32| axis.mapping.forward(v as f64) as f32;
+    let (m0, m1) = (m(axis.start as f32), m(axis.end as f32));
+    let u = (m(x as f32) - m0) / (m1 - m0);
+    let n = axis.count as f32;
+    match axis.placement {
+        Placement::NodeAligned => (u * (n - 1.0) + 0.5) / n,
+        Placement::CellCentred => u,
+    }
+}
+
+/// A scene's slice: a 2D `(mu, alpha)` table with one channel per fixed relative index.
+#[derive(Debug, Clone)]
+struct Slice {
+    quantity: Quantity,
+    /// `(eta, kappa)` of each channel (kappa 0 for TIR).
+    indices: Vec<(f64, f64)>,
+    texture: SampledTable,
+}
+
+/// Where the FGD path reads a full table.
+#[derive(Debug, Clone)]
+enum FullFgd {
+    /// `fgd.bin`, interpolated in 4D on the CPU.
+    Table(Table),
+    /// A GPU packing read through its shader's lookup program.
+    Packed(Box<PackedFgd>),
+}
+
+/// Which full FGD table the FGD path reads, where a folder holds both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FgdSource {
+    /// The lossless GPU packing where the folder has it, else `fgd.bin`.
+    #[default]
+    Packing,
+    /// `fgd.bin`, interpolated in 4D on the CPU.
+    Table,
+}
+
+#[derive(Debug, Clone)]
+enum Albedo {
+    Fgd { slices: Vec<Slice>, full: Option<FullFgd> },
+    Belcour { texture: SampledTable, basis: Box<FresnelBasis> },
+    Karis { texture: SampledTable },
+}
+
+#[derive(Debug, Clone)]
+enum Tir {
+    Table { slices: Vec<Slice>, full: Option<SampledTable> },
+    Fit { form: Form, parameters: Vec<f32> },
+    Off,
+}
+
+/// What a folder could not answer.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Misses {
+    pub count: u64,
+    /// The first lookup missed, in words.
+    pub first: Option<String>,
+}
+
+/// A built folder answering the lookups of materials with one albedo path and one TIR path.
+#[derive(Debug)]
+pub struct FolderTables {
+    albedo: Albedo,
+    tir: Tir,
+    gd: Option<SampledTable>,
+    misses: Mutex<Misses>,
+    /// Lookups answered by a table whose range did not hold them (read clamped).
+    clamped: Mutex<Misses>,
+}
+
+impl FolderTables {
+    /// The tables of `folder` for materials reading albedo by `albedo` and TIR by `tir`; `fgd`
+    /// picks the full FGD table where there are two. Fails, naming the files, when the folder holds
+    /// nothing for a path.
+    pub fn open(folder: &LutFolder, albedo: AlbedoPath, tir: TirPath, fgd: FgdSource) -> Result<Self> {
+        let entries = &folder.manifest.files;
+        let missing = |what: &str| {
+            Error::format(
+                folder.dir.join(crate::formats::manifest::MANIFEST_FILE),
+                format!(
+                    "lists no {what}; build the tables of the scene (tmlut build --scene) or the default set first"
+                ),
+            )
+        };
+        let slices_of = |prefix: &str, quantity: Quantity| -> Result<Vec<Slice>> {
+            let mut slices = Vec::new();
+            for (file, entry) in entries {
+                if entry.format != FileFormat::Dds || !is_slice(entry, prefix) {
+                    continue;
+                }
+                let table = folder.load(file)?;
+                let indices = entry
+                    .channels
+                    .iter()
+                    .filter(|c| !c.fixed.is_empty())
+                    .map(|c| {
+                        (c.fixed.get("eta").copied().unwrap_or(f64::NAN), c.fixed.get("kappa").copied().unwrap_or(0.0))
+                    })
+                    .collect();
+                slices.push(Slice { quantity, indices, texture: SampledTable::new(&table)? });
+            }
+            Ok(slices)
+        };
+        let find = |table: &str, format: FileFormat| {
+            entries.iter().find(|(_, e)| e.table == table && e.format == format && e.packing.is_none())
+        };
+        let albedo = match albedo {
+            AlbedoPath::Fgd => {
+                let slices = slices_of("fgd", Quantity::Albedo)?;
+                let packed = entries
+                    .iter()
+                    .find(|(_, e)| e.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()));
+                let full = match (fgd, packed, find("fgd", FileFormat::Bin)) {
+                    (FgdSource::Packing, Some((file, entry)), _) => {
+                        Some(FullFgd::Packed(Box::new(packed_fgd(folder, file, entry)?)))
+                    }
+                    (_, _, Some((file, _))) => Some(FullFgd::Table(folder.load(file)?)),
+                    (FgdSource::Table, Some((file, entry)), None) => {
+                        Some(FullFgd::Packed(Box::new(packed_fgd(folder, file, entry)?)))
+                    }
+                    (_, None, None) => None,
+                };
+                if slices.is_empty() && full.is_none() {
+                    return Err(missing("FGD table (fgd.bin, fgd_lossless.dds or FGD slices)"));
+                }
+                Albedo::Fgd { slices, full }
+            }
+            AlbedoPath::Belcour => {
+                let (file, entry) = find("belcour", FileFormat::Dds).ok_or_else(|| missing("belcour.dds"))?;
+                let basis = entry.fresnel_basis.clone().ok_or_else(|| missing("Fresnel basis beside belcour.dds"))?;
+                Albedo::Belcour { texture: SampledTable::new(&folder.load(file)?)?, basis: Box::new(basis) }
+            }
+            AlbedoPath::Karis => {
+                let (file, _) = find("karis", FileFormat::Dds).ok_or_else(|| missing("karis.dds"))?;
+                Albedo::Karis { texture: SampledTable::new(&folder.load(file)?)? }
+            }
+        };
+        let tir = match tir {
+            TirPath::Table => {
+                let slices = slices_of("tir", Quantity::Tir)?;
+                let full = match find("tir", FileFormat::Bin).or_else(|| find("tir", FileFormat::Dds)) {
+                    Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
+                    None => None,
+                };
+                if slices.is_empty() && full.is_none() {
+                    return Err(missing("TIR table (tir.bin or TIR slices)"));
+                }
+                Tir::Table { slices, full }
+            }
+            TirPath::Fit => {
+                let fit = entries
+                    .values()
+                    .find_map(|e| e.fit.clone())
+                    .or_else(|| folder.manifest.scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
+                    .ok_or_else(|| {
+                        missing("fitted TIR form (a `fit` entry beside tir.bin, or the scene plan's `tir_fit`)")
+                    })?;
+                fitted_form(folder, &fit)?
+            }
+            TirPath::Off => Tir::Off,
+        };
+        let gd = match find("gd", FileFormat::Bin).or_else(|| find("gd", FileFormat::Dds)) {
+            Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
+            None => None,
+        };
+        Ok(FolderTables { albedo, tir, gd, misses: Mutex::default(), clamped: Mutex::default() })
+    }
+
+    /// Lookups the folder holds no table for (each read 0).
+    pub fn misses(&self) -> Misses {
+        self.misses.lock().map(|m| m.clone()).unwrap_or_default()
+    }
+
+    /// Lookups answered by a table whose range does not hold them (read at its edge, as clamp
+    /// addressing does).
+    pub fn clamped(&self) -> Misses {
+        self.clamped.lock().map(|m| m.clone()).unwrap_or_default()
+    }
+
+    fn note(record: &Mutex<Misses>, lookup: &Lookup) {
+        if let Ok(mut m) = record.lock() {
+            m.count += 1;
+            if m.first.is_none() {
+                m.first = Some(describe(lookup));
+            }
+        }
+    }
+
+    fn miss(&self, lookup: &Lookup) -> f64 {
+        Self::note(&self.misses, lookup);
+        0.0
+    }
+
+    /// The slice answering `lookup`: a channel at its indices, the slice whose range holds
+    /// `(mu, alpha)`, else the nearest.
+    fn from_slices(&self, slices: &[Slice], lookup: &Lookup) -> Option<f64> {
+        let point = [lookup.mu, lookup.alpha];
+        let same = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+        let candidates = slices.iter().filter(|s| s.quantity == lookup.quantity).filter_map(|s| {
+            s.indices
+                .iter()
+                .position(|&(eta, kappa)| same(eta, lookup.eta) && same(kappa, lookup.kappa))
+                .map(|c| (s, c))
+        });
+        let (slice, channel) = candidates.min_by(|(a, _), (b, _)| {
+            a.texture.distance_outside(&point).total_cmp(&b.texture.distance_outside(&point))
+        })?;
+        if !slice.texture.covers(&point) {
+            Self::note(&self.clamped, lookup);
+        }
+        Some(slice.texture.sample(channel, &point) as f64)
+    }
+
+    fn full(&self, texture: &SampledTable, point: &[f64], lookup: &Lookup) -> f64 {
+        if !texture.covers(point) {
+            Self::note(&self.clamped, lookup);
+        }
+        texture.sample(0, point) as f64
+    }
+
+    fn albedo(&self, lookup: &Lookup) -> f64 {
+        match &self.albedo {
+            Albedo::Fgd { slices, full } => {
+                if let Some(value) = self.from_slices(slices, lookup) {
+                    return value;
+                }
+                let point = [lookup.mu, lookup.alpha, lookup.eta, lookup.kappa];
+                match full {
+                    Some(FullFgd::Table(table)) => {
+                        if !table
+                            .axes
+                            .iter()
+                            .zip(&point)
+                            .all(|(a, &x)| x >= a.start.min(a.end) - 1e-12 && x <= a.start.max(a.end) + 1e-12)
+                        {
+                            Self::note(&self.clamped, lookup);
+                        }
+                        table.interpolate(&point)[0]
+                    }
+                    Some(FullFgd::Packed(packed)) => {
+                        if !packed
+                            .source_axes
+                            .iter()
+                            .zip(&point)
+                            .all(|(a, &x)| x >= a.start - 1e-12 && x <= a.end + 1e-12)
+                        {
+                            Self::note(&self.clamped, lookup);
+                        }
+                        packed.lookup(point.map(|v| v as f32), Filter::Exact) as f64
+                    }
+                    None => self.miss(lookup),
+                }
+            }
+            Albedo::Belcour { texture, basis } => {
+                let c = basis.coefficients(lookup.eta, lookup.kappa);
+                let point = [lookup.mu, lookup.alpha];
+                (0..4).map(|k| c[k] * texture.sample(k, &point) as f64).sum()
+            }
+            Albedo::Karis { texture } => {
+                let f0 = normal_incidence_reflectance(lookup.eta, lookup.kappa);
+                let point = [lookup.mu, lookup.alpha];
+                f0 * texture.sample(0, &point) as f64 + texture.sample(1, &point) as f64
+            }
+        }
+    }
+
+    fn tir(&self, lookup: &Lookup) -> f64 {
+        match &self.tir {
+            Tir::Table { slices, full } => {
+                if let Some(value) = self.from_slices(slices, lookup) {
+                    return value;
+                }
+                match full {
+                    Some(texture) => self.full(texture, &[lookup.mu, lookup.alpha, lookup.eta], lookup),
+                    None => self.miss(lookup),
+                }
+            }
+            Tir::Fit { form, parameters } => {
+                form.eval::<f32>(parameters, lookup.mu as f32, lookup.alpha as f32, lookup.eta as f32) as f64
+            }
+            Tir::Off => 0.0,
+        }
+    }
+}
+
+impl Tables for FolderTables {
+    fn value(&self, lookup: &Lookup) -> f64 {
+        match lookup.quantity {
+            Quantity::Albedo => self.albedo(lookup),
+            Quantity::Tir => self.tir(lookup),
+            Quantity::Gd => match &self.gd {
+                Some(texture) => self.full(texture, &[lookup.mu, lookup.alpha], lookup),
+                None => self.miss(lookup),
+            },
+        }
+    }
+}
+
+/// A lookup in words, for messages.
+pub fn describe(lookup: &Lookup) -> String {
+    let what = match lookup.quantity {
+        Quantity::Albedo => "FGD",
+        Quantity::Tir => "TIR",
+        Quantity::Gd => "GD",
+    };
+    let channel = lookup.channel.map(|c| format!(", channel {}", ["R", "G", "B"][c])).unwrap_or_default();
+    let site = if lookup.site == Site::Lobe { "lobe".to_string() } else { lookup.site.name().to_string() };
+    format!(
+        "{what} of layer {} ({site}{channel}) at mu {:.6}, alpha {:.6}, eta {:.6}, kappa {:.6}",
+        lookup.layer, lookup.mu, lookup.alpha, lookup.eta, lookup.kappa
+    )
+}
+
+/// Whether a file is a scene slice of `prefix` (`fgd` or `tir`): two axes, and channels that state
+/// the indices they hold fixed.
+fn is_slice(entry: &FileEntry, prefix: &str) -> bool {
+    entry.axes.len() == 2
+        && entry.table.starts_with(&format!("{prefix}_"))
+        && entry.channels.iter().any(|c| !c.fixed.is_empty())
+}
+
+/// The packed FGD texture of `file` with the lookup of its packing.
+fn packed_fgd(folder: &LutFolder, file: &str, entry: &FileEntry) -> Result<PackedFgd> {
+    let packing_entry = entry.packing.as_ref().expect("chosen for its packing");
+    let packing = Packing::parse(&packing_entry.name)?;
+    let path = folder.dir.join(file);
+    let texture = dds::read_dds(&path)?;
+    let table =
+        texture.into_table("fgd", entry.axes.iter().map(|a| a.axis.clone()).collect(), entry.channels.clone())?;
+    let sampled = SampledTable::new(&table)?;
+    let texels = sampled.channels.into_iter().next().ok_or_else(|| Error::format(&path, "has no channel"))?;
+    let axes: Vec<Axis> = packing_entry.source_axes.iter().map(|a| a.axis.clone()).collect();
+    PackedFgd::with_texture(texels, packing, entry.precision, &axes).map_err(|e| Error::format(&path, e.to_string()))
+}
+
+fn fitted_form(folder: &LutFolder, fit: &FitEntry) -> Result<Tir> {
+    let where_ = folder.dir.join(crate::formats::manifest::MANIFEST_FILE);
+    let form = Form::from_name(&fit.form)
+        .ok_or_else(|| Error::format(&where_, format!("names an unknown TIR form `{}`", fit.form)))?;
+    if fit.parameters.len() != form.parameter_names().len() {
+        return Err(Error::format(
+            &where_,
+            format!(
+                "gives {} parameters for the form `{}`, which takes {}",
+                fit.parameters.len(),
+                fit.form,
+                form.parameter_names().len()
+            ),
+        ));
+    }
+    Ok(Tir::Fit { form, parameters: fit.parameters.iter().map(|&p| p as f32).collect() })
+}
