@@ -16,6 +16,7 @@
 //! - [`model`]: the transfer-matrix model itself: layer stacks, their lobes and directional albedo;
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
 //! - [`scene`]: scene files of layer stacks and the plan of the tables they need (generator);
+//! - [`furnace`]: the furnace test: the model with tables, with exact integrals, and a random walk (generator);
 //! - [`fit`]: least-squares fits of analytic TIR forms with NLopt, error and cost side by side (generator).
 //!
 //! Build a renderer against the loader alone with `default-features = false`: that leaves out the
@@ -37,6 +38,8 @@ pub mod table;
 
 #[cfg(feature = "generator")]
 pub mod config;
+#[cfg(feature = "generator")]
+pub mod furnace;
 #[cfg(feature = "generator")]
 pub mod integrate;
 #[cfg(feature = "generator")]

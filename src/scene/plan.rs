@@ -1,40 +1,34 @@
 //! The build plan of a scene: the lookups the transfer-matrix model makes for its materials, then
 //! the fewest tables that answer them.
 //!
-//! Lookups follow the model's layer evaluation (Randrianandrasana et al. 2021, §4; the thesis's
-//! listing 5.1 and `notes/tables.md`, "Where the tables enter the transfer-matrix model"):
-//! - every interface reads its directional albedo from above at the relative index
-//!   `(eta, kappa) / eta_above` (per colour channel), the incident cosine and its own roughness; a
-//!   dielectric with anything below it also reads it from below at `1 / eta` (kappa 0);
-//! - every crossing of a dielectric interface towards the optically thinner side (relative index
-//!   below 1) reads TIR at the lobe's mean cosine and the lobe's roughness, which is at least the
-//!   roughest interface the lobe has crossed (Henyey–Greenstein asymmetries multiply, so roughness
-//!   only grows) and at most 1;
-//! - the 6-flux model normalises its internal lobes by GD;
-//! - a lobe's mean direction refracts as a ray (Belcour 2018's transmission operator): below an
-//!   interface of relative index `eta`, cosines start at `sqrt(1 - (1 - mu_lo^2) / eta^2)`; a
-//!   scattering medium (6-flux) sends light in every direction, so below it, and on the way back
-//!   up from it, cosines start at 0;
-//! - the model evaluates nothing below an opaque conductor.
+//! Lookups are recorded from the model itself ([`lookups`]): each material is evaluated over the
+//! whole hemisphere of views and over samples of the ranges its textures vary, and every lookup
+//! it makes (an interface's albedo from above at the relative index `(eta, kappa) / eta_above`,
+//! a TIR correction at a crossing toward the lower index, a lobe's GD) is kept with the hull of
+//! the parameters it was made at, per site and colour channel. Nothing is looked up below an
+//! opaque conductor or at an index-matched interface.
 //!
 //! Tables follow from the lookups: where every lookup of a site is at fixed relative indices, a
 //! specialised `(mu, alpha)` slice per site with one channel per distinct index
 //! ([`crate::recipes::slices`]); where a texture varies an index, the full table over the sub-range
 //! the lookups reach. Sub-ranges are whole nodes of the full table's grid plus `margin_nodes` on
 //! each side, so slice nodes coincide with full-table nodes; a roughness that never varies gets a
-//! node exactly at its value instead, so that it is read with no interpolation in alpha.
+//! node exactly at its value instead, so that it is read with no interpolation in alpha. GD, read
+//! at every lobe roughness, is kept whole.
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use super::{AlbedoPath, FluxModel, Interval, Layer, Scene, TirPath, short};
+use super::{AlbedoPath, Interval, Layer, Scene, TirPath, short};
 use crate::config::Config;
 use crate::error::Result;
 use crate::formats::FileFormat;
 use crate::formats::manifest::{LeftOutRecord, PlanRecord, PlannedTableRecord};
+use crate::integrate::GRAZING_COSINE;
+use crate::model::{Lookup as ModelLookup, Quantity};
 use crate::packing::Packing;
-use crate::physics::{ggx_to_hg, hg_to_ggx};
+use crate::physics::fresnel_reflectance;
 use crate::recipes::TableRecipe;
 use crate::recipes::belcour::BelcourSettings;
 use crate::recipes::fgd::FgdSettings;
@@ -42,7 +36,7 @@ use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
 use crate::recipes::slices::{SliceChannel, SliceOf, Slices};
 use crate::recipes::tir::TirSettings;
-use crate::table::Axis;
+use crate::table::{Axis, Mapping};
 
 /// What a lookup reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -85,147 +79,102 @@ const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 
 /// The lookups of every material of a scene, with what was noticed on the way (index-matched
 /// interfaces, which need no lookup).
+///
+/// They are the lookups the model itself makes ([`crate::model::Material::evaluate`]), recorded
+/// while it evaluates each material at [`PLANNING_VIEWS`] view cosines over the whole hemisphere,
+/// for every sample of the ranges its textures vary ([`Material::variants`]); each site's and
+/// channel's parameters are the hull of what was recorded. The lookups' parameters depend on the
+/// stack's geometry and roughness alone, not on the tables' values, except the roughness of a
+/// 2-flux lobe's GD, and GD is kept whole.
 pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
-    let mut lookups = Vec::new();
+    let mut lookups: Vec<Lookup> = Vec::new();
     let mut left_out = Vec::new();
     for material in &scene.materials {
-        let name = &material.name;
-        let mut eta_above = [Interval::point(1.0); 3];
-        let mut mu_down = Interval::new(0.0, 1.0);
-        // Lower bound of the roughness of a lobe that has come this far down.
-        let mut lobe_alpha_lo = lobe_roughness(0.0);
-        for (k, layer) in material.layers.iter().enumerate() {
-            let layer_number = k + 1;
-            let interface = match layer {
-                Layer::Medium(medium) => {
-                    if material.model == FluxModel::SixFlux && medium.sigma_s.iter().any(|&s| s > 0.0) {
-                        mu_down = Interval::new(0.0, 1.0);
-                    }
-                    continue;
-                }
-                Layer::Interface(interface) => interface,
-            };
-            let eta: [Interval; 3] = std::array::from_fn(|c| interface.eta[c].divide(eta_above[c]));
-            let kappa: [Interval; 3] = std::array::from_fn(|c| interface.kappa[c].divide(eta_above[c]));
-            let site = |kind, direction, channel: usize, mu, alpha, eta, kappa| Lookup {
-                material: name.clone(),
-                layer: layer_number,
-                kind,
-                direction,
-                channel,
-                mu,
-                alpha,
-                eta,
-                kappa,
-            };
-            let matched = (0..3).all(|c| eta[c] == Interval::point(1.0) && kappa[c] == Interval::point(0.0));
-            if matched {
-                left_out.push(LeftOutRecord {
-                    what: format!("{name}, layer {layer_number}: albedo and TIR lookups"),
-                    reason: "index-matched (relative eta 1, kappa 0): the interface reflects nothing, the model needs no lookup".into(),
-                });
-            } else {
-                for c in 0..3 {
-                    lookups.push(site(
-                        LookupKind::Albedo(material.albedo),
-                        "from above",
-                        c,
-                        mu_down,
-                        interface.alpha,
-                        eta[c],
-                        kappa[c],
-                    ));
-                }
+        note_index_matched(material, &mut left_out);
+        let recorded = std::cell::RefCell::new(Vec::new());
+        // Stand-ins for the tables: which lookups are made, and where, does not depend on them.
+        let recorder = |lookup: &ModelLookup| {
+            recorded.borrow_mut().push(*lookup);
+            match lookup.quantity {
+                Quantity::Albedo => fresnel_reflectance(lookup.mu, lookup.eta, lookup.kappa),
+                Quantity::Tir => 0.0,
+                Quantity::Gd => 1.0,
             }
-            if interface.is_conductor() {
-                break;
+        };
+        for stack in material.variants() {
+            let model = crate::model::Material::new(material.model, stack);
+            for k in 0..PLANNING_VIEWS {
+                let theta = std::f64::consts::FRAC_PI_2 * k as f64 / (PLANNING_VIEWS - 1) as f64;
+                let mu = if k + 1 == PLANNING_VIEWS { GRAZING_COSINE } else { theta.cos() };
+                model.evaluate(mu, &recorder);
             }
-            // Cosines of the transmitted mean direction: a ray refracting at the smallest index.
-            let mu_below =
-                Interval::new((0..3).map(|c| refracted_cosine(mu_down.lo, eta[c].lo)).fold(1.0, f64::min), 1.0);
-            let lobe_alpha_below = lobe_alpha_lo.max(lobe_roughness(interface.alpha.lo));
-            // Light that crosses comes back up only from an interface below, or, in the 6-flux
-            // model, from a medium that scatters; scattered light comes back at every cosine.
-            let below = &material.layers[k + 1..];
-            let scatters_below = material.model == FluxModel::SixFlux
-                && below.iter().any(|l| matches!(l, Layer::Medium(m) if m.sigma_s.iter().any(|&s| s > 0.0)));
-            let has_below = scatters_below || below.iter().any(|l| matches!(l, Layer::Interface(_)));
-            let mu_up = if scatters_below { Interval::new(0.0, 1.0) } else { mu_below };
-            if !matched {
-                for (c, eta) in eta.iter().enumerate() {
-                    let tir = LookupKind::Tir(material.tir);
-                    let down =
-                        site(tir, "down", c, mu_down, Interval::new(lobe_alpha_lo, 1.0), *eta, Interval::point(0.0));
-                    push_tir_crossing(&mut lookups, down);
-                }
-                if has_below {
-                    for (c, eta) in eta.iter().enumerate() {
-                        let eta_up = eta.reciprocal();
-                        let albedo = LookupKind::Albedo(material.albedo);
-                        lookups.push(site(
-                            albedo,
-                            "from below",
-                            c,
-                            mu_up,
-                            interface.alpha,
-                            eta_up,
-                            Interval::point(0.0),
-                        ));
-                        let tir = LookupKind::Tir(material.tir);
-                        let up = site(
-                            tir,
-                            "up",
-                            c,
-                            mu_up,
-                            Interval::new(lobe_alpha_below, 1.0),
-                            eta_up,
-                            Interval::point(0.0),
-                        );
-                        push_tir_crossing(&mut lookups, up);
-                    }
-                }
-            }
-            eta_above = interface.eta;
-            mu_down = mu_below;
-            lobe_alpha_lo = lobe_alpha_below;
         }
-        if material.model == FluxModel::SixFlux {
-            // The 6-flux model normalises every internal lobe by GD, whatever the stack holds.
-            lookups.push(Lookup {
-                material: name.clone(),
-                layer: 0,
-                kind: LookupKind::Gd,
-                direction: "internal lobes",
-                channel: 0,
-                mu: Interval::new(0.0, 1.0),
-                alpha: Interval::new(lobe_roughness(0.0), 1.0),
-                eta: Interval::point(1.0),
-                kappa: Interval::point(0.0),
-            });
+        for recorded in recorded.into_inner() {
+            let (kind, direction, layer) = match recorded.quantity {
+                Quantity::Albedo => (LookupKind::Albedo(material.albedo), recorded.site.name(), recorded.layer),
+                Quantity::Tir => (LookupKind::Tir(material.tir), recorded.site.name(), recorded.layer),
+                // One site for every lobe's GD: the table is kept whole anyway.
+                Quantity::Gd => (LookupKind::Gd, "internal lobes", 0),
+            };
+            // A value that serves every channel is a lookup of each, except GD, which has none.
+            let channels = match (recorded.channel, recorded.quantity) {
+                (Some(c), _) => c..c + 1,
+                (None, Quantity::Gd) => 0..1,
+                (None, _) => 0..3,
+            };
+            for channel in channels {
+                let point = Lookup {
+                    material: material.name.clone(),
+                    layer,
+                    kind,
+                    direction,
+                    channel,
+                    mu: Interval::point(recorded.mu),
+                    alpha: Interval::point(recorded.alpha),
+                    eta: Interval::point(recorded.eta),
+                    kappa: Interval::point(recorded.kappa),
+                };
+                match lookups.iter_mut().find(|l| l.site() == point.site() && l.kind == kind && l.channel == channel) {
+                    Some(l) => {
+                        l.mu = l.mu.hull(point.mu);
+                        l.alpha = l.alpha.hull(point.alpha);
+                        l.eta = l.eta.hull(point.eta);
+                        l.kappa = l.kappa.hull(point.kappa);
+                    }
+                    None => lookups.push(point),
+                }
+            }
         }
     }
     (lookups, left_out)
 }
 
-/// Add the TIR lookup of a crossing if it goes towards a lower index, made at the part of its
-/// eta below 1 (where there is a critical angle).
-fn push_tir_crossing(lookups: &mut Vec<Lookup>, lookup: Lookup) {
-    if lookup.eta.lo < 1.0 {
-        let eta = Interval::new(lookup.eta.lo, lookup.eta.hi.min(1.0));
-        lookups.push(Lookup { eta, ..lookup });
+/// View cosines the planner evaluates each material at, uniform in angle from the normal to
+/// grazing (both included): 0.35 degrees apart.
+pub const PLANNING_VIEWS: usize = 257;
+
+/// Record each interface of `material` whose indices match the medium above in every channel:
+/// the model skips it and looks nothing up there.
+fn note_index_matched(material: &super::Material, left_out: &mut Vec<LeftOutRecord>) {
+    let mut eta_above = [Interval::point(1.0); 3];
+    for (k, layer) in material.layers.iter().enumerate() {
+        let Layer::Interface(interface) = layer else { continue };
+        let matched = (0..3).all(|c| {
+            interface.eta[c].divide(eta_above[c]) == Interval::point(1.0) && interface.kappa[c] == Interval::point(0.0)
+        });
+        if matched {
+            left_out.push(LeftOutRecord {
+                what: format!("{}, layer {}: albedo and TIR lookups", material.name, k + 1),
+                reason:
+                    "index-matched (relative eta 1, kappa 0): the interface reflects nothing, the model needs no lookup"
+                        .into(),
+            });
+        }
+        if interface.is_conductor() {
+            break;
+        }
+        eta_above = interface.eta;
     }
-}
-
-/// The cosine of a ray of cosine `mu` refracted into a medium of relative index `eta` (Snell's
-/// law); 0 where it would be totally reflected.
-fn refracted_cosine(mu: f64, eta: f64) -> f64 {
-    (1.0 - (1.0 - mu * mu) / (eta * eta)).max(0.0).sqrt()
-}
-
-/// The roughness the model reads for a lobe of GGX roughness `alpha` after its Henyey–Greenstein
-/// round trip (clamped to [1e-4, 1]).
-fn lobe_roughness(alpha: f64) -> f64 {
-    hg_to_ggx(ggx_to_hg(alpha))
 }
 
 /// What a planned table is built from.
@@ -314,15 +263,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let (fixed, varying): (Vec<&Lookup>, Vec<&Lookup>) =
         fgd_lookups.iter().partition(|l| site_is_fixed(l, &fgd_lookups));
     for site in sites(&fixed) {
-        let slices = slice_of(
-            "fgd",
-            SliceOf::Fgd(config.fgd.clone()),
-            &site,
-            &full_fgd_axes[0],
-            &full_fgd_axes[1],
-            site[0].alpha,
-            margin,
-        )?;
+        let slices = slice_of("fgd", SliceOf::Fgd(config.fgd.clone()), &site)?;
         add_slices(&mut tables, slices, &site, "FGD");
     }
     if !varying.is_empty() {
@@ -433,16 +374,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         tir_lookups.iter().partition(|l| site_is_fixed(l, &tir_lookups));
     let slices_before = tables.len();
     for site in sites(&fixed) {
-        let alpha_needed = Interval::new(site.iter().map(|l| l.alpha.lo).fold(1.0, f64::min), 1.0);
-        let slices = slice_of(
-            "tir",
-            SliceOf::Tir(config.tir.clone()),
-            &site,
-            &full_tir_axes[0],
-            &full_tir_axes[1],
-            alpha_needed,
-            margin,
-        )?;
+        let slices = slice_of("tir", SliceOf::Tir(config.tir.clone()), &site)?;
         add_slices(&mut tables, slices, &site, "TIR");
     }
     let tir_slices = tables.len() - slices_before;
@@ -480,7 +412,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     } else {
         let reasons = materials_of(&gd_users)
             .into_iter()
-            .map(|m| format!("{m}: 6-flux normalises its internal lobes by GD, at any cosine and any lobe roughness up to 1; kept whole"))
+            .map(|m| format!("{m}: every internal lobe reads GD at its own roughness (2-flux: the lobe's albedo is its energy times GD; 6-flux: lobes are normalised by it); kept whole"))
             .collect();
         let record = record_of(&config.gd, "GD 2D, whole", reasons)?;
         tables.push(PlannedTable { record, build: PlannedBuild::Gd(config.gd.clone()) });
@@ -551,17 +483,10 @@ fn ranges_label(site: &[&Lookup]) -> String {
 }
 
 /// The slice table of one site of fixed indices: one channel per distinct index.
-fn slice_of(
-    prefix: &str,
-    of: SliceOf,
-    site: &[&Lookup],
-    full_mu: &Axis,
-    full_alpha: &Axis,
-    alpha_needed: Interval,
-    margin: usize,
-) -> Result<Slices> {
+fn slice_of(prefix: &str, of: SliceOf, site: &[&Lookup]) -> Result<Slices> {
     let first = site[0];
     let mu_needed = hull(site, |l| l.mu);
+    let alpha_needed = hull(site, |l| l.alpha);
     let mut channels: Vec<SliceChannel> = Vec::new();
     for l in site {
         let (eta, kappa) = (l.eta.lo, l.kappa.lo);
@@ -578,12 +503,8 @@ fn slice_of(
     Ok(Slices {
         name: format!("{prefix}_{}_l{}_{direction}", file_safe(&first.material), first.layer),
         of,
-        mu: covering_axis(full_mu, mu_needed, margin, false)?,
-        alpha: if alpha_needed.is_point() {
-            exact_node_axis(full_alpha, alpha_needed.lo)?
-        } else {
-            covering_axis(full_alpha, alpha_needed, margin, false)?
-        },
+        mu: slice_mu_axis(mu_needed)?,
+        alpha: slice_alpha_axis(alpha_needed)?,
         lookup_mu: [mu_needed.lo, mu_needed.hi],
         lookup_alpha: [alpha_needed.lo, alpha_needed.hi],
         channels,
@@ -680,12 +601,46 @@ pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool)
     Axis::node_aligned(full.name.clone(), node(first), node(last), last - first + 1)
 }
 
-/// Two nodes of `full`'s spacing, the first exactly at `value` (the last, at the end of the axis):
-/// a parameter that never varies is then read at a node, with no interpolation error.
-fn exact_node_axis(full: &Axis, value: f64) -> Result<Axis> {
-    let spacing = (full.end - full.start) / (full.count - 1) as f64;
-    let (start, end) = if value + spacing <= full.end { (value, value + spacing) } else { (value - spacing, value) };
-    Axis::node_aligned(full.name.clone(), start, end, 2)
+/// Nodes per unit of `mu` (or of `sqrt(alpha)`) of a slice's own grid: four times the default
+/// table's 63, since a slice is small and is read where lookups bunch up (grazing views, the
+/// critical angle of a TIR crossing, lobes a little rougher than their interface).
+pub const SLICE_NODES_PER_UNIT: f64 = 255.0;
+
+/// A slice's `mu` axis: its own node-aligned grid over exactly the cosines its lookups reach, so
+/// that the extreme lookups (the grazing view, the critical cosine) fall on nodes. From grazing
+/// (`mu = 0`, the limit at [`GRAZING_COSINE`]) it is spaced in `sqrt(mu)`, dense where the albedo of
+/// smooth interfaces turns fastest.
+fn slice_mu_axis(needed: Interval) -> Result<Axis> {
+    let (lo, hi) = (needed.lo, needed.hi);
+    if lo <= GRAZING_COSINE {
+        let count = (hi.sqrt() * SLICE_NODES_PER_UNIT / 2.0).ceil().max(1.0) as usize + 1;
+        return Axis::node_aligned("mu", 0.0, hi, count)?.with_mapping(Mapping::Sqrt);
+    }
+    two_or_more_nodes("mu", lo, hi, 1.0, |x| x, Mapping::Identity)
+}
+
+/// A slice's `alpha` axis: a roughness that never varies gets a node of its own (read with no
+/// interpolation in alpha); a range gets its own grid over exactly that range, spaced in
+/// `sqrt(alpha)`.
+fn slice_alpha_axis(needed: Interval) -> Result<Axis> {
+    two_or_more_nodes("alpha", needed.lo, needed.hi, 1.0, f64::sqrt, Mapping::Sqrt)
+}
+
+/// A node-aligned axis over `[lo, hi]` within `[0, top]`, spaced uniformly in `m(x)` at about
+/// [`SLICE_NODES_PER_UNIT`] nodes per unit of `m`; a point gets a second node one spacing beyond
+/// it (or before it, at the top).
+fn two_or_more_nodes(name: &str, lo: f64, hi: f64, top: f64, m: fn(f64) -> f64, mapping: Mapping) -> Result<Axis> {
+    let spacing = 1.0 / SLICE_NODES_PER_UNIT;
+    if lo == hi {
+        let (start, end) = if m(lo) + spacing <= m(top) {
+            (lo, mapping.inverse(m(lo) + spacing))
+        } else {
+            (mapping.inverse(m(lo) - spacing), lo)
+        };
+        return Axis::node_aligned(name, start, end, 2)?.with_mapping(mapping);
+    }
+    let count = ((m(hi) - m(lo)) * SLICE_NODES_PER_UNIT).ceil().max(1.0) as usize + 1;
+    Axis::node_aligned(name, lo, hi, count)?.with_mapping(mapping)
 }
 
 /// A material name as it may appear in a file name.
