@@ -206,6 +206,57 @@ enum Command {
         #[arg(long, default_value_t = 21)]
         timing_runs: usize,
     },
+    /// The furnace test of a scene's materials: the directional albedo A(mu) of the transfer-matrix
+    /// model with the scene's tables, with exact integrals, and from a random walk through the
+    /// explicit stack, so that the tables' error and the model's are measured apart. Writes
+    /// <out>/<scene>/furnace.json and per material a furnace sphere (.exr, .png) and an A(mu)
+    /// plot; prints a Markdown summary.
+    Furnace {
+        /// Scene files (default: every scene of luts/scenes/).
+        scenes: Vec<PathBuf>,
+        /// A folder built for the scene (tmlut build --scene), or the default set; default: build
+        /// the scene's plan into <out>/<scene>/luts first.
+        #[arg(long)]
+        luts: Option<PathBuf>,
+        /// Output folder; each scene writes into a subfolder named after it.
+        #[arg(long, default_value = "furnace")]
+        out: PathBuf,
+        /// TOML configuration the scene's tables are built with (default: the built-in defaults).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// View cosines per material, uniform in angle, grazing included.
+        #[arg(long, default_value_t = 64)]
+        views: usize,
+        /// Samples of each exact integral (a power of two).
+        #[arg(long, default_value_t = 1 << 18)]
+        exact_samples: u64,
+        /// The random walk stops at this standard error of A in every channel ...
+        #[arg(long, default_value_t = tmlut::random_walk::WalkSettings::default().target_standard_error)]
+        walk_standard_error: f64,
+        /// ... after at least this many paths per view ...
+        #[arg(long, default_value_t = tmlut::random_walk::WalkSettings::default().min_paths)]
+        walk_min_paths: u64,
+        /// ... and at most this many.
+        #[arg(long, default_value_t = tmlut::random_walk::WalkSettings::default().max_paths)]
+        walk_max_paths: u64,
+        /// Masking of the random walk's interfaces: smith-separable (as the tables) or
+        /// smith-height-correlated.
+        #[arg(long, default_value = "smith-separable", value_parser = parse_walk_masking)]
+        walk_masking: tmlut::random_walk::Masking,
+        /// The full FGD table read where a folder has both: packing (fgd_lossless.dds through its
+        /// shader) or table (fgd.bin, 4D CPU interpolation).
+        #[arg(long, default_value = "packing", value_parser = parse_fgd_source)]
+        fgd_source: tmlut::model::folder::FgdSource,
+        /// Seed of the random walk (the exact integrals use the configuration's seed).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Sphere size of the pictures, in pixels.
+        #[arg(long, default_value_t = 256)]
+        picture_size: usize,
+        /// Worker threads (default: one per core). Results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// List the tables tmlut knows.
     List,
     /// Describe a table file: axes, channels, value range, NaN count, conventions.
@@ -241,7 +292,8 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             let written = match scene {
                 Some(path) => {
                     let (scene, text) = Scene::read(&path)?;
-                    let request = SceneBuildRequest { scene, source: path, text, config, out, error_maps };
+                    let request =
+                        SceneBuildRequest { scene, source: path, text, config, out, error_maps, accuracy_reports: true };
                     let (plan, written) = build_scene(&request, &progress)?;
                     println!(
                         "scene `{}`: {} table(s), {} of texels against {} for the default set",
@@ -476,6 +528,73 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             }
             Ok(())
         }
+        Command::Furnace {
+            scenes,
+            luts,
+            out,
+            config,
+            views,
+            exact_samples,
+            walk_standard_error,
+            walk_min_paths,
+            walk_max_paths,
+            walk_masking,
+            fgd_source,
+            seed,
+            picture_size,
+            threads,
+        } => {
+            let config = match &config {
+                Some(path) => Config::from_file(path)?,
+                None => Config::default(),
+            };
+            set_threads(threads)?;
+            let scenes = if scenes.is_empty() { tmlut::furnace::scene_files("luts/scenes".as_ref())? } else { scenes };
+            if luts.is_some() && scenes.len() > 1 {
+                return Err(tmlut::Error::invalid(
+                    "--luts",
+                    format!("given with {} scenes; a folder of tables serves one scene", scenes.len()),
+                ));
+            }
+            let settings = tmlut::furnace::FurnaceSettings {
+                views,
+                exact_samples,
+                walk: tmlut::random_walk::WalkSettings {
+                    seed,
+                    target_standard_error: walk_standard_error,
+                    min_paths: walk_min_paths,
+                    max_paths: walk_max_paths,
+                    masking: walk_masking,
+                    ..Default::default()
+                },
+                fgd_source,
+                picture_size,
+                ..Default::default()
+            };
+            settings.validate()?;
+            let progress = ProgressBars::new(cli.quiet);
+            let mut summary = String::from(tmlut::furnace::report::MARKDOWN_HEADER);
+            for path in scenes {
+                let (scene, text) = Scene::read(&path)?;
+                for warning in &scene.warnings {
+                    eprintln!("warning: {warning}");
+                }
+                let request = tmlut::furnace::FurnaceRequest {
+                    out: out.join(tmlut::furnace::report::file_stem(&scene.name)),
+                    scene,
+                    source: path.display().to_string(),
+                    text,
+                    luts: luts.clone(),
+                    config: config.clone(),
+                    settings: settings.clone(),
+                };
+                let report = tmlut::furnace::run(&request, &progress)?;
+                summary.push_str(&tmlut::furnace::report::markdown_rows(&report));
+                eprintln!("wrote {}", request.out.join(tmlut::furnace::report::FURNACE_FILE).display());
+            }
+            print!("{summary}");
+            Ok(())
+        }
         Command::List => {
             for (name, description) in TABLES {
                 println!("{name:<8} {description}");
@@ -502,6 +621,23 @@ fn parse_precision(text: &str) -> Result<tmlut::formats::Precision, String> {
         "f32" => Ok(tmlut::formats::Precision::F32),
         "f16" => Ok(tmlut::formats::Precision::F16),
         other => Err(format!("`{other}`; allowed: f32, f16")),
+    }
+}
+
+fn parse_walk_masking(text: &str) -> Result<tmlut::random_walk::Masking, String> {
+    use tmlut::random_walk::Masking;
+    [Masking::Separable, Masking::HeightCorrelated]
+        .into_iter()
+        .find(|m| m.name() == text)
+        .ok_or_else(|| format!("`{text}`; allowed: smith-separable, smith-height-correlated"))
+}
+
+fn parse_fgd_source(text: &str) -> Result<tmlut::model::folder::FgdSource, String> {
+    use tmlut::model::folder::FgdSource;
+    match text {
+        "packing" => Ok(FgdSource::Packing),
+        "table" => Ok(FgdSource::Table),
+        other => Err(format!("`{other}`; allowed: packing, table")),
     }
 }
 

@@ -20,7 +20,7 @@ use super::forms::{self, Form, ShaderLanguage};
 use crate::error::{Error, Result};
 pub use crate::formats::manifest::{ErrorFigures, Minimum, StartRecord};
 use crate::packing::emulator::{Filter, Texture3D};
-use crate::report::bench::median;
+use crate::stats::median;
 use crate::table::Table;
 
 /// The table's nodes as fitting data: `(mu, alpha, eta)` and the value, with an optional weight.

@@ -75,12 +75,7 @@ impl BenchRow {
     }
 }
 
-pub fn median(values: &[f64]) -> f64 {
-    let mut sorted = values.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    let n = sorted.len();
-    if n % 2 == 1 { sorted[n / 2] } else { 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]) }
-}
+pub use crate::stats::median;
 
 /// Benchmark one table. The recipe's own reference checks run as part of each timed build, so the
 /// caller normally disables them ([`Config::disable_reference_checks`]).

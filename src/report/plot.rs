@@ -211,6 +211,166 @@ pub fn loglog_png(path: &Path, title: &str, x_label: &str, y_label: &str, series
     write_png(path, rgb, (width, height))
 }
 
+/// An RGB picture (8 bits per channel, rows top first) with a title, for [`images_png`].
+#[derive(Debug, Clone)]
+pub struct Picture {
+    pub title: String,
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<u8>,
+}
+
+/// A linear colour bar from 0 to `max` (viridis), labelled `label`.
+#[derive(Debug, Clone)]
+pub struct ColourBar {
+    pub label: String,
+    pub max: f64,
+}
+
+/// The viridis colour of `t` in [0, 1].
+pub fn viridis(t: f64) -> [u8; 3] {
+    let c = ViridisRGB::get_color(t.clamp(0.0, 1.0));
+    [c.0, c.1, c.2]
+}
+
+/// Pictures side by side under a title, each captioned, with an optional colour bar at the right.
+pub fn images_png(path: &Path, title: &str, pictures: &[Picture], bar: Option<&ColourBar>) -> Result<()> {
+    ensure_font();
+    let gap = 12u32;
+    let picture_width: u32 = pictures.iter().map(|p| p.width + gap).sum::<u32>() + gap;
+    let bar_width = if bar.is_some() { 110 } else { 0 };
+    let tallest = pictures.iter().map(|p| p.height).max().unwrap_or(0);
+    let (width, height) = (picture_width + bar_width, tallest + 80);
+    let mut rgb = vec![255u8; (width * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+        root.draw(&Text::new(title.to_string(), (gap as i32, 8), (FONT, 17))).map_err(|e| plot_error(path, e))?;
+        let mut x = gap;
+        for picture in pictures {
+            root.draw(&Text::new(picture.title.clone(), (x as i32, 36), (FONT, 14)))
+                .map_err(|e| plot_error(path, e))?;
+            for j in 0..picture.height {
+                for i in 0..picture.width {
+                    let k = 3 * (i + picture.width * j) as usize;
+                    let colour = RGBColor(picture.rgb[k], picture.rgb[k + 1], picture.rgb[k + 2]);
+                    root.draw_pixel(((x + i) as i32, (60 + j) as i32), &colour).map_err(|e| plot_error(path, e))?;
+                }
+            }
+            x += picture.width + gap;
+        }
+        if let Some(bar) = bar {
+            let area = root.margin(60, 20, picture_width as i32, 10);
+            let mut chart = ChartBuilder::on(&area)
+                .y_label_area_size(62)
+                .caption(&bar.label, (FONT, 12))
+                .build_cartesian_2d(0.0..1.0, 0.0..bar.max)
+                .map_err(|e| plot_error(path, e))?;
+            chart
+                .configure_mesh()
+                .disable_x_mesh()
+                .disable_x_axis()
+                .label_style((FONT, 12))
+                .y_label_formatter(&|v| format!("{v:.1e}"))
+                .draw()
+                .map_err(|e| plot_error(path, e))?;
+            let steps = 100;
+            chart
+                .draw_series((0..steps).map(|k| {
+                    let (a, b) = (bar.max * k as f64 / steps as f64, bar.max * (k + 1) as f64 / steps as f64);
+                    let [r, g, bl] = viridis((k as f64 + 0.5) / steps as f64);
+                    Rectangle::new([(0.0, a), (1.0, b)], RGBColor(r, g, bl).filled())
+                }))
+                .map_err(|e| plot_error(path, e))?;
+        }
+        root.present().map_err(|e| plot_error(path, e))?;
+    }
+    write_png(path, rgb, (width, height))
+}
+
+/// A line of a linear chart: a colour, and whether it is drawn dashed or as markers only.
+#[derive(Debug, Clone)]
+pub struct Line {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    pub colour: [u8; 3],
+    pub style: LineStyle,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LineStyle {
+    Solid,
+    Dashed,
+    Markers,
+}
+
+/// A chart with linear axes over `x_range` and `y_range` and a legend.
+pub fn lines_png(
+    path: &Path,
+    title: &str,
+    (x_label, x_range): (&str, std::ops::Range<f64>),
+    (y_label, y_range): (&str, std::ops::Range<f64>),
+    lines: &[Line],
+) -> Result<()> {
+    ensure_font();
+    let (width, height) = (900u32, 600u32);
+    let mut rgb = vec![255u8; (width * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, (FONT, 18))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x_range, y_range)
+            .map_err(|e| plot_error(path, e))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .label_style((FONT, 13))
+            .draw()
+            .map_err(|e| plot_error(path, e))?;
+        for line in lines {
+            let colour = RGBColor(line.colour[0], line.colour[1], line.colour[2]);
+            let style = colour.stroke_width(2);
+            let drawn = match line.style {
+                LineStyle::Solid => chart.draw_series(LineSeries::new(line.points.clone(), style)),
+                LineStyle::Dashed => {
+                    // Every other segment: a dashed line plotters' bitmap backend draws everywhere.
+                    let segments: Vec<PathElement<(f64, f64)>> = line
+                        .points
+                        .windows(2)
+                        .step_by(2)
+                        .map(|w| PathElement::new(vec![w[0], w[1]], style))
+                        .collect();
+                    chart.draw_series(segments)
+                }
+                LineStyle::Markers => {
+                    chart.draw_series(line.points.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                }
+            }
+            .map_err(|e| plot_error(path, e))?;
+            let legend_style = line.style;
+            drawn.label(&line.name).legend(move |(x, y)| match legend_style {
+                LineStyle::Markers => PathElement::new(vec![(x + 8, y), (x + 10, y)], colour.stroke_width(5)),
+                _ => PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)),
+            });
+        }
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::LowerLeft)
+            .draw()
+            .map_err(|e| plot_error(path, e))?;
+        root.present().map_err(|e| plot_error(path, e))?;
+    }
+    write_png(path, rgb, (width, height))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -30,6 +30,10 @@ pub struct SceneBuildRequest {
     pub config: Config,
     pub out: PathBuf,
     pub error_maps: bool,
+    /// Measure every slice against the exact integral and the full table (each full table the
+    /// slices specialise is integrated once for it); the furnace, which measures the tables in
+    /// the material itself, leaves this out.
+    pub accuracy_reports: bool,
 }
 
 /// Build the plan of `request.scene`; returns the plan and the files written.
@@ -43,9 +47,10 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     // The full tables the slices are compared with, built once, without their own reference checks.
     let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(seed, progress)?.table) };
     let has_slices_of = |fgd: bool| {
-        plan.tables
-            .iter()
-            .any(|t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd))
+        request.accuracy_reports
+            && plan.tables.iter().any(
+                |t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd),
+            )
     };
     let full_fgd = if has_slices_of(true) {
         let mut settings = config.fgd.clone();
@@ -68,15 +73,17 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
         .iter()
         .map(|planned| match &planned.build {
             PlannedBuild::Slices(slices) => {
+                // Built above for every kind of slice planned, where accuracy is reported.
                 let full = match slices.of {
                     SliceOf::Fgd(_) => full_fgd.as_ref(),
                     SliceOf::Tir(_) => full_tir.as_ref(),
-                }
-                .expect("built above for every kind of slice planned");
+                };
                 Job {
                     run: Box::new(move |progress| {
                         let mut build = slices::build(slices, seed, progress)?;
-                        build.accuracy.extend(slice_accuracy(slices, &build, full, seed, progress)?);
+                        if let Some(full) = full {
+                            build.accuracy.extend(slice_accuracy(slices, &build, full, seed, progress)?);
+                        }
                         Ok(build)
                     }),
                     output: slices.output(),

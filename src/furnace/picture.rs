@@ -1,0 +1,178 @@
+//! The furnace pictures of a material, as the thesis draws them (its §5.2): a sphere under a
+//! uniform environment of radiance 0.42, seen orthographically, for the model with the scene's
+//! tables, the random walk, and their absolute difference; and the `A(mu)` curves.
+//!
+//! A point of the sphere whose normal makes the angle `theta` with the view returns
+//! `0.42 A(cos theta)`; each picture draws its curve, interpolated linearly in `theta` between
+//! the views (which are uniform in `theta`). The background is the environment itself, so a
+//! material that returns all light vanishes into it.
+
+use std::path::Path;
+
+use super::ENVIRONMENT_RADIANCE;
+use super::report::{MaterialReport, file_stem};
+use crate::error::Result;
+use crate::formats::{Precision, exr::write_exr};
+use crate::model::Rgb;
+use crate::report::plot::{ColourBar, Line, LineStyle, Picture, images_png, lines_png, viridis};
+use crate::table::{Axis, Channel, Table};
+
+/// `A` at view cosine `mu` from a curve sampled at `mus` (uniform in angle, normal first),
+/// interpolated linearly in angle.
+pub fn albedo_at(mus: &[f64], curve: &[Rgb], mu: f64) -> Rgb {
+    let n = mus.len();
+    let theta = mu.clamp(0.0, 1.0).acos();
+    let position = (theta / std::f64::consts::FRAC_PI_2 * (n - 1) as f64).clamp(0.0, (n - 1) as f64);
+    let k = (position.floor() as usize).min(n - 2);
+    let t = position - k as f64;
+    std::array::from_fn(|c| (1.0 - t) * curve[k][c] + t * curve[k + 1][c])
+}
+
+/// The radiance of each pixel of a `size` x `size` sphere, rows top first: `0.42 A(mu)` inside,
+/// the environment outside.
+fn sphere(mus: &[f64], curve: &[Rgb], size: usize) -> Vec<Rgb> {
+    let mut pixels = Vec::with_capacity(size * size);
+    for j in 0..size {
+        for i in 0..size {
+            let x = 2.0 * (i as f64 + 0.5) / size as f64 - 1.0;
+            let y = 1.0 - 2.0 * (j as f64 + 0.5) / size as f64;
+            let r2 = x * x + y * y;
+            pixels.push(if r2 <= 1.0 {
+                albedo_at(mus, curve, (1.0 - r2).sqrt()).map(|a| ENVIRONMENT_RADIANCE * a)
+            } else {
+                [ENVIRONMENT_RADIANCE; 3]
+            });
+        }
+    }
+    pixels
+}
+
+/// Linear radiance to 8-bit sRGB (IEC 61966-2-1 transfer function), clamped to [0, 1].
+fn srgb8(linear: f64) -> u8 {
+    let v = linear.clamp(0.0, 1.0);
+    let encoded = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    (encoded * 255.0).round() as u8
+}
+
+/// The upper end of a colour bar for differences up to `max`: 1, 2 or 5 times a power of ten.
+fn nice_ceiling(max: f64) -> f64 {
+    if !(max > 0.0) {
+        return 1e-6;
+    }
+    let decade = 10f64.powf(max.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * decade).find(|&v| v >= max).unwrap_or(10.0 * decade)
+}
+
+/// Write `<material>_furnace.exr` (linear radiance, three spheres side by side: model with tables,
+/// random walk, their absolute difference per channel), `<material>_furnace.png` (the same for
+/// people, the difference as the mean over channels on a colour bar) and `<material>_albedo.png`
+/// (the three `A(mu)` curves per channel against the view angle).
+pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize) -> Result<()> {
+    let stem = file_stem(&report.name);
+    let model = sphere(&report.mu, &report.albedo_tables, size);
+    let walk = sphere(&report.mu, &report.albedo_walk, size);
+    let difference: Vec<Rgb> = model.iter().zip(&walk).map(|(a, b)| std::array::from_fn(|c| (a[c] - b[c]).abs())).collect();
+
+    // EXR: the numbers, three panels along x.
+    let mut data = Vec::with_capacity(3 * size * size * 3);
+    for j in 0..size {
+        for panel in [&model, &walk, &difference] {
+            for i in 0..size {
+                data.extend(panel[i + size * j].map(|v| v as f32));
+            }
+        }
+    }
+    let axes = vec![
+        Axis::cell_centred("x", 0.0, 3.0, 3 * size)?,
+        Axis::cell_centred("y", 1.0, -1.0, size)?,
+    ];
+    let channels = ["R", "G", "B"]
+        .map(|c| Channel::new(c, format!("linear radiance under a uniform environment of {ENVIRONMENT_RADIANCE}; panels: model with tables, random walk, |difference|")))
+        .to_vec();
+    let table = Table::new(format!("{}_furnace", report.name), axes, channels, data)?;
+    write_exr(&dir.join(format!("{stem}_furnace.exr")), &table, Precision::F32)?;
+
+    // PNG: sRGB spheres and the difference on a colour bar.
+    let to_picture = |title: &str, pixels: &[Rgb]| Picture {
+        title: title.to_string(),
+        width: size as u32,
+        height: size as u32,
+        rgb: pixels.iter().flat_map(|p| p.map(srgb8)).collect(),
+    };
+    let mean_difference: Vec<f64> = difference.iter().map(|d| (d[0] + d[1] + d[2]) / 3.0).collect();
+    let bar = ColourBar {
+        label: "|difference|".into(),
+        max: nice_ceiling(mean_difference.iter().copied().fold(0.0, f64::max)),
+    };
+    let heat = Picture {
+        title: "|model - random walk|, mean of R, G, B".into(),
+        width: size as u32,
+        height: size as u32,
+        rgb: mean_difference.iter().flat_map(|&d| viridis(d / bar.max)).collect(),
+    };
+    let title = format!(
+        "{}: furnace of radiance {ENVIRONMENT_RADIANCE} ({}, albedo {}, TIR {})",
+        report.name,
+        report.model.name(),
+        report.albedo_path.name(),
+        report.tir_path.name()
+    );
+    images_png(
+        &dir.join(format!("{stem}_furnace.png")),
+        &title,
+        &[to_picture("model, scene's tables", &model), to_picture("random walk", &walk), heat],
+        Some(&bar),
+    )?;
+
+    // The curves against the view angle.
+    let degrees: Vec<f64> = report.mu.iter().map(|mu| mu.clamp(0.0, 1.0).acos().to_degrees()).collect();
+    const COLOURS: [[u8; 3]; 3] = [[214, 39, 40], [44, 160, 44], [31, 119, 180]];
+    let mut lines = Vec::new();
+    let mut highest: f64 = 0.0;
+    for (c, name) in ["R", "G", "B"].into_iter().enumerate() {
+        for (curve, what, style) in [
+            (&report.albedo_tables, "model, tables", LineStyle::Solid),
+            (&report.albedo_exact, "model, exact", LineStyle::Dashed),
+            (&report.albedo_walk, "random walk", LineStyle::Markers),
+        ] {
+            let points: Vec<(f64, f64)> = degrees.iter().zip(curve.iter()).map(|(&d, a)| (d, a[c])).collect();
+            highest = points.iter().map(|p| p.1).fold(highest, f64::max);
+            lines.push(Line { name: format!("{name}: {what}"), points, colour: COLOURS[c], style });
+        }
+    }
+    lines_png(
+        &dir.join(format!("{stem}_albedo.png")),
+        &format!("{}: directional albedo A(mu)", report.name),
+        ("view angle (degrees from the normal)", 0.0..90.0),
+        ("A(mu)", 0.0..(highest * 1.05).max(0.1)),
+        &lines,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn curves_interpolate_in_angle_and_hit_their_samples() {
+        let mus: Vec<f64> = (0..5).map(|k| (std::f64::consts::FRAC_PI_2 * k as f64 / 4.0).cos()).collect();
+        let curve: Vec<Rgb> = (0..5).map(|k| [k as f64; 3]).collect();
+        for (k, &mu) in mus.iter().enumerate() {
+            assert!((albedo_at(&mus, &curve, mu)[0] - k as f64).abs() < 1e-9);
+        }
+        // Half-way in angle between the first two views.
+        let mid = (std::f64::consts::FRAC_PI_2 / 8.0).cos();
+        assert!((albedo_at(&mus, &curve, mid)[1] - 0.5).abs() < 1e-9);
+        assert_eq!(albedo_at(&mus, &curve, 0.0)[2], 4.0);
+    }
+
+    #[test]
+    fn srgb_and_colour_bar_ends() {
+        assert_eq!(srgb8(0.0), 0);
+        assert_eq!(srgb8(1.0), 255);
+        assert_eq!(srgb8(0.42), 173);
+        assert_eq!(nice_ceiling(3.1e-3), 5e-3);
+        assert_eq!(nice_ceiling(1e-3), 1e-3);
+        assert_eq!(nice_ceiling(0.0), 1e-6);
+    }
+}
