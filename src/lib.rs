@@ -14,6 +14,8 @@
 //!   GPU sampling emulator to measure it;
 //! - [`loader`]: what a renderer needs to read and sample the files;
 //! - [`model`]: the transfer-matrix model itself: layer stacks, their lobes and directional albedo;
+//! - [`random_walk`]: the furnace test's ground truth, a random walk through an explicit layer stack
+//!   (generator);
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
 //! - [`scene`]: scene files of layer stacks and the plan of the tables they need (generator);
 //! - [`fit`]: least-squares fits of analytic TIR forms with NLopt, error and cost side by side (generator).
@@ -42,6 +44,8 @@ pub mod fit;
 pub mod integrate;
 #[cfg(feature = "generator")]
 pub mod pipeline;
+#[cfg(feature = "generator")]
+pub mod random_walk;
 #[cfg(feature = "generator")]
 pub mod recipes;
 #[cfg(feature = "generator")]
