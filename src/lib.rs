@@ -14,6 +14,8 @@
 //!   GPU sampling emulator to measure it;
 //! - [`loader`]: what a renderer needs to read and sample the files;
 //! - [`model`]: the transfer-matrix model itself: layer stacks, their lobes and directional albedo;
+//! - [`random_walk`]: the furnace test's ground truth, a random walk through an explicit layer stack
+//!   (generator);
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
 //! - [`scene`]: scene files of layer stacks and the plan of the tables they need (generator);
 //! - [`furnace`]: the furnace test: the model with tables, with exact integrals, and a random walk (generator);
@@ -44,6 +46,8 @@ pub mod furnace;
 pub mod integrate;
 #[cfg(feature = "generator")]
 pub mod pipeline;
+#[cfg(feature = "generator")]
+pub mod random_walk;
 #[cfg(feature = "generator")]
 pub mod recipes;
 #[cfg(feature = "generator")]

@@ -292,8 +292,15 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             let written = match scene {
                 Some(path) => {
                     let (scene, text) = Scene::read(&path)?;
-                    let request =
-                        SceneBuildRequest { scene, source: path, text, config, out, error_maps, accuracy_reports: true };
+                    let request = SceneBuildRequest {
+                        scene,
+                        source: path,
+                        text,
+                        config,
+                        out,
+                        error_maps,
+                        accuracy_reports: true,
+                    };
                     let (plan, written) = build_scene(&request, &progress)?;
                     println!(
                         "scene `{}`: {} table(s), {} of texels against {} for the default set",

@@ -81,10 +81,7 @@ impl FurnaceSettings {
         if self.walk.min_paths == 0 || self.walk.min_paths > self.walk.max_paths {
             return Err(Error::invalid(
                 "walk paths",
-                format!(
-                    "min {} and max {}; allowed: 1 <= min <= max",
-                    self.walk.min_paths, self.walk.max_paths
-                ),
+                format!("min {} and max {}; allowed: 1 <= min <= max", self.walk.min_paths, self.walk.max_paths),
             ));
         }
         if !(16..=4096).contains(&self.picture_size) {
@@ -176,18 +173,11 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
             })
             .collect();
         progress.finish();
-        let walk_settings = WalkSettings { seed: walk_seed(request.settings.walk.seed, index), ..request.settings.walk };
+        let walk_settings =
+            WalkSettings { seed: walk_seed(request.settings.walk.seed, index), ..request.settings.walk };
         let walk = random_walk::directional_albedo_curve(&model.stack, &mus, &walk_settings, progress);
         let cost_ns = time_model(&model, &tables, &mus, request.settings.timing_rounds);
-        let report = MaterialReport::new(
-            material,
-            &mus,
-            with_tables,
-            with_exact,
-            &walk,
-            cost_ns,
-            tables.clamped(),
-        );
+        let report = MaterialReport::new(material, &mus, with_tables, with_exact, &walk, cost_ns, tables.clamped());
         picture::write_material_pictures(&request.out, &report, request.settings.picture_size)?;
         materials.push(report);
     }

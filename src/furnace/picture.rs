@@ -71,7 +71,8 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
     let stem = file_stem(&report.name);
     let model = sphere(&report.mu, &report.albedo_tables, size);
     let walk = sphere(&report.mu, &report.albedo_walk, size);
-    let difference: Vec<Rgb> = model.iter().zip(&walk).map(|(a, b)| std::array::from_fn(|c| (a[c] - b[c]).abs())).collect();
+    let difference: Vec<Rgb> =
+        model.iter().zip(&walk).map(|(a, b)| std::array::from_fn(|c| (a[c] - b[c]).abs())).collect();
 
     // EXR: the numbers, three panels along x.
     let mut data = Vec::with_capacity(3 * size * size * 3);
@@ -82,10 +83,7 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
             }
         }
     }
-    let axes = vec![
-        Axis::cell_centred("x", 0.0, 3.0, 3 * size)?,
-        Axis::cell_centred("y", 1.0, -1.0, size)?,
-    ];
+    let axes = vec![Axis::cell_centred("x", 0.0, 3.0, 3 * size)?, Axis::cell_centred("y", 1.0, -1.0, size)?];
     let channels = ["R", "G", "B"]
         .map(|c| Channel::new(c, format!("linear radiance under a uniform environment of {ENVIRONMENT_RADIANCE}; panels: model with tables, random walk, |difference|")))
         .to_vec();

@@ -5,7 +5,8 @@
 //! - Walter, Marschner, Li, Torrance 2007, "Microfacet models for refraction through rough
 //!   surfaces", eq. 33 (D) and eq. 34 (G1 of GGX);
 //! - Heitz 2014, "Understanding the masking-shadowing function in microfacet-based BRDFs",
-//!   eq. 72 (Lambda of GGX), eq. 98 (separable G2) and eq. 99 (height-correlated G2);
+//!   eq. 72 (Lambda of GGX), eq. 98 (separable G2) and eq. 99 (height-correlated G2), and §6 for
+//!   transmission (the height-correlated G2 of a pair on opposite sides is a Beta function);
 //! - Karis 2013, "Real shading in Unreal Engine 4", p. 3 (Schlick–Smith with k = alpha / 2);
 //! - Heitz 2018, "Sampling the GGX distribution of visible normals", eq. 1 (the VNDF).
 //!
@@ -163,6 +164,80 @@ impl MaskingShadowing {
             }
         }
     }
+
+    /// The weight of a *transmission* sample drawn from the visible normals of `wi` (above the
+    /// macrosurface, `wi.z > 0`) whose refracted direction `wt` must lie below it: `G2 / G1(wi)`
+    /// for a pair on opposite sides, or 0 when `wt.z >= 0`. Separable: `G1(wt)` (masking does not
+    /// depend on the side, Lambda only on `tan^2`); height-correlated: `(1 + Lambda(wi))
+    /// B(1 + Lambda(wi), 1 + Lambda(wt))`, the Beta-function form of Heitz 2014, §6 (light enters
+    /// at a height visible from above, `C^Lambda(wi)`, and leaves at one visible from below,
+    /// `(1 - C)^Lambda(wt)`, integrated over the height's distribution `C`); Schlick–Smith:
+    /// separable, as its reflection weight.
+    pub fn visible_normal_transmission_weight(self, wi: DVec3, wt: DVec3, alpha: f64) -> f64 {
+        if wt.z >= 0.0 {
+            return 0.0;
+        }
+        let below = DVec3::new(wt.x, wt.y, -wt.z);
+        match self {
+            MaskingShadowing::SmithSeparable => smith_g1(below, alpha),
+            MaskingShadowing::SmithHeightCorrelated => {
+                height_correlated_transmission_ratio(smith_lambda(wi, alpha), smith_lambda(below, alpha))
+            }
+            // The reflection weight with wt mirrored above: the same G1(wt) and wi ratio.
+            MaskingShadowing::SchlickSmith => MaskingShadowing::SchlickSmith.visible_normal_weight(wi, below, alpha),
+        }
+    }
+}
+
+/// Height-correlated Smith masking-shadowing of a transmission pair, `wi` above and `wt` below the
+/// macrosurface: `G2 = B(1 + Lambda(wi), 1 + Lambda(wt))` (Heitz 2014, §6), 0 unless they lie on
+/// opposite sides. Never larger than the separable `G1(wi) G1(wt)` (Chebyshev's integral
+/// inequality: `C^a` rises and `(1 - C)^b` falls with the height).
+pub fn smith_g2_height_correlated_transmission(wi: DVec3, wt: DVec3, alpha: f64) -> f64 {
+    if wi.z <= 0.0 || wt.z >= 0.0 {
+        return 0.0;
+    }
+    smith_g1(wi, alpha) * MaskingShadowing::SmithHeightCorrelated.visible_normal_transmission_weight(wi, wt, alpha)
+}
+
+/// `(1 + a) B(1 + a, 1 + b) = Gamma(2 + a) Gamma(1 + b) / Gamma(2 + a + b)` for `a = Lambda(wi)`,
+/// `b = Lambda(wt)`, through log-Gamma. Its limits are exact: 1 for `b = 0` (a smooth or normal
+/// `wt`), `1 / (1 + b) = G1(wt)` for `a = 0`, and 0 when either direction is at the horizon of a
+/// rough surface (`Lambda = inf`).
+fn height_correlated_transmission_ratio(a: f64, b: f64) -> f64 {
+    if b == 0.0 {
+        1.0
+    } else if a == 0.0 {
+        1.0 / (1.0 + b)
+    } else if a.is_infinite() || b.is_infinite() {
+        0.0
+    } else {
+        (ln_gamma(2.0 + a) + ln_gamma(1.0 + b) - ln_gamma(2.0 + a + b)).exp().min(1.0)
+    }
+}
+
+/// `ln Gamma(x)` for `x >= 1/2` by the Lanczos approximation with `g = 7` and nine coefficients
+/// (Lanczos 1964, "A precision approximation of the gamma function"; the coefficients of Godfrey
+/// 2001), relative error about 1e-15.
+fn ln_gamma(x: f64) -> f64 {
+    const G: f64 = 7.0;
+    const COEFFICIENTS: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    debug_assert!(x >= 0.5, "ln_gamma is written for x >= 1/2, got {x}");
+    let x = x - 1.0;
+    let series =
+        COEFFICIENTS[1..].iter().enumerate().fold(COEFFICIENTS[0], |sum, (k, c)| sum + c / (x + k as f64 + 1.0));
+    let t = x + G + 0.5;
+    0.5 * (2.0 * PI).ln() + (x + 0.5) * t.ln() - t + series.ln()
 }
 
 /// Density of the visible normals of `wi`, `D_wi(h) = G1(wi) max(0, wi.h) D(h) / wi.z`
@@ -178,6 +253,22 @@ pub fn visible_normal_density(wi: DVec3, h: DVec3, alpha: f64) -> f64 {
 #[inline]
 pub fn reflect(w: DVec3, h: DVec3) -> DVec3 {
     2.0 * w.dot(h) * h - w
+}
+
+/// The direction refracted from `wi` through a surface of normal `h` into a medium of index `eta`
+/// relative to the side of `wi` (`eta = n_far / n_near`): with `c = wi.h > 0`,
+/// `wt = -wi / eta + (c / eta - cos_t) h` and `cos_t = sqrt(1 - (1 - c^2) / eta^2)` (Snell's law
+/// in vector form). Both directions point away from the surface, so `wt.h = -cos_t`. `None` past
+/// the critical angle (total internal reflection); `1 - c^2` is taken as `(1 - c)(1 + c)`.
+#[inline]
+pub fn refract(wi: DVec3, h: DVec3, eta: f64) -> Option<DVec3> {
+    let c = wi.dot(h);
+    let sin2_t = (1.0 - c) * (1.0 + c) / (eta * eta);
+    if sin2_t > 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some(-wi / eta + (c / eta - cos_t) * h)
 }
 
 /// The direction with cosine `mu` to the normal, in the xz plane (the tables' convention). The sine
@@ -292,5 +383,91 @@ mod tests {
         let w = direction_from_cosine(0.5);
         assert!((schlick_smith_g1(w, 0.6) - 0.5 / (0.5 * 0.7 + 0.3)).abs() < 1e-15);
         assert_eq!(schlick_smith_g1(w, 0.0), 1.0);
+    }
+    #[test]
+    fn refraction_follows_snell_and_reverses() {
+        let h = DVec3::new(0.2, -0.1, 0.9).normalize();
+        let wi = DVec3::new(-0.5, 0.3, 0.6).normalize();
+        for eta in [1.5, 0.9, 1.0, 1.0 / 1.1] {
+            let Some(wt) = refract(wi, h, eta) else { panic!("eta {eta}: no refraction") };
+            assert!((wt.length() - 1.0).abs() < 1e-14, "eta {eta}");
+            // Tangential components obey n_i sin_i = n_t sin_t, in the plane of wi and h.
+            let sin_i = wi.cross(h).length();
+            let sin_t = wt.cross(h).length();
+            assert!((sin_i - eta * sin_t).abs() < 1e-14, "eta {eta}");
+            assert!(wt.dot(h) < 0.0 && wi.cross(h).dot(wt.cross(h)) < 0.0, "eta {eta}: wrong side");
+            // Back through the same surface seen from the other side gives wi again.
+            let back = refract(wt, -h, 1.0 / eta).unwrap();
+            assert!((back - wi).length() < 1e-13, "eta {eta}: {back}");
+        }
+        assert_eq!(refract(wi, DVec3::Z, 1.0).map(|wt| (wt + wi).length() < 1e-15), Some(true));
+        // Past the critical angle of eta = 1 / 1.5 (cos 0.745).
+        assert_eq!(refract(direction_from_cosine(0.7), DVec3::Z, 1.0 / 1.5), None);
+        assert!(refract(direction_from_cosine(0.75), DVec3::Z, 1.0 / 1.5).is_some());
+    }
+
+    #[test]
+    fn log_gamma_matches_known_values() {
+        let cases = [
+            (0.5, 0.5 * PI.ln()),
+            (1.0, 0.0),
+            (2.0, 0.0),
+            (5.0, 24f64.ln()),
+            (10.5, 1_133_278.388_948_441_f64.ln()),
+            (171.0, 7.257_415_615_307_999e306_f64.ln()),
+        ];
+        for (x, expected) in cases {
+            assert!((ln_gamma(x) - expected).abs() < 1e-13 * expected.abs().max(1.0), "x {x}: {}", ln_gamma(x));
+        }
+        // Stirling's series for a large argument.
+        let x: f64 = 1e7;
+        let stirling = (x - 0.5) * x.ln() - x + 0.5 * (2.0 * PI).ln() + 1.0 / (12.0 * x);
+        assert!((ln_gamma(x) - stirling).abs() < 1e-14 * stirling, "{}", ln_gamma(x) - stirling);
+    }
+
+    #[test]
+    fn height_correlated_transmission_is_the_beta_integral() {
+        // (1 + a) B(1 + a, 1 + b) = (1 + a) * integral of C^a (1 - C)^b dC, midpoint rule.
+        for (a, b) in [(0.3, 0.7), (2.0, 0.05), (1e-3, 4.0), (10.0, 10.0), (0.0, 2.0), (3.0, 0.0)] {
+            let n = 400_000;
+            let integral: f64 = (0..n)
+                .map(|i| {
+                    let c = (i as f64 + 0.5) / n as f64;
+                    c.powf(a) * (1.0 - c).powf(b) / n as f64
+                })
+                .sum();
+            let ratio = height_correlated_transmission_ratio(a, b);
+            assert!((ratio - (1.0 + a) * integral).abs() < 1e-7, "a {a} b {b}: {ratio} vs {}", (1.0 + a) * integral);
+        }
+        assert_eq!(height_correlated_transmission_ratio(f64::INFINITY, 0.5), 0.0);
+        assert_eq!(height_correlated_transmission_ratio(0.5, f64::INFINITY), 0.0);
+        assert_eq!(height_correlated_transmission_ratio(f64::INFINITY, 0.0), 1.0);
+    }
+
+    #[test]
+    fn transmission_weights_agree_in_their_limits() {
+        let wi = direction_from_cosine(0.4);
+        let wt = DVec3::new(0.3, -0.2, -0.6).normalize();
+        let below = DVec3::new(wt.x, wt.y, -wt.z);
+        for alpha in [0.05, 0.4, 1.0] {
+            let separable = MaskingShadowing::SmithSeparable.visible_normal_transmission_weight(wi, wt, alpha);
+            assert_eq!(separable, smith_g1(below, alpha));
+            let correlated = MaskingShadowing::SmithHeightCorrelated.visible_normal_transmission_weight(wi, wt, alpha);
+            assert!(correlated > 0.0 && correlated <= separable, "alpha {alpha}: {correlated} vs {separable}");
+            let g2 = smith_g2_height_correlated_transmission(wi, wt, alpha);
+            assert!((g2 - correlated * smith_g1(wi, alpha)).abs() < 1e-15);
+            assert!(g2 <= smith_g2_separable(wi, below, alpha));
+        }
+        for masking in MaskingShadowing::ALL {
+            // A smooth surface masks nothing; a direction on the wrong side gets nothing.
+            assert_eq!(masking.visible_normal_transmission_weight(wi, wt, 0.0), 1.0, "{masking:?}");
+            assert_eq!(masking.visible_normal_transmission_weight(wi, below, 0.5), 0.0, "{masking:?}");
+        }
+        // Normal incidence: Lambda(wi) = 0, so the correlated weight is G1(wt) as well.
+        let normal = MaskingShadowing::SmithHeightCorrelated.visible_normal_transmission_weight(DVec3::Z, wt, 0.6);
+        assert!((normal - smith_g1(below, 0.6)).abs() < 1e-15);
+        // Grazing incidence on a rough surface: the correlated form keeps nothing, finitely.
+        let grazing = MaskingShadowing::SmithHeightCorrelated.visible_normal_transmission_weight(DVec3::X, wt, 0.6);
+        assert_eq!(grazing, 0.0);
     }
 }

@@ -1,5 +1,6 @@
 //! The optics every table integrates: the GGX microfacet distribution with its Smith terms,
-//! Fresnel reflectance, and the Henyey–Greenstein roughness mapping of the transfer-matrix model.
+//! reflection and refraction about a normal, Fresnel reflectance, and the Henyey–Greenstein phase
+//! function with the roughness mapping of the transfer-matrix model.
 //! All in f64; each function is named by the quantity it returns and cites its source.
 
 pub mod fresnel;
@@ -11,8 +12,12 @@ pub use fresnel::{
     critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance, schlick_weight,
 };
 pub use fresnel_basis::FresnelBasis;
-pub use henyey_greenstein::{ggx_to_hg, hg_backward_share, hg_refract, hg_to_ggx};
+pub use henyey_greenstein::{
+    ggx_to_hg, henyey_greenstein_phase, hg_backward_share, hg_refract, hg_to_ggx, sample_henyey_greenstein,
+    sample_henyey_greenstein_cosine,
+};
 pub use microfacet::{
-    MaskingShadowing, direction_from_cosine, ggx_distribution, reflect, schlick_smith_g1, smith_g1,
-    smith_g2_height_correlated, smith_g2_separable, smith_lambda, visible_normal_density,
+    MaskingShadowing, direction_from_cosine, ggx_distribution, reflect, refract, schlick_smith_g1, smith_g1,
+    smith_g2_height_correlated, smith_g2_height_correlated_transmission, smith_g2_separable, smith_lambda,
+    visible_normal_density,
 };

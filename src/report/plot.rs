@@ -339,12 +339,8 @@ pub fn lines_png(
                 LineStyle::Solid => chart.draw_series(LineSeries::new(line.points.clone(), style)),
                 LineStyle::Dashed => {
                     // Every other segment: a dashed line plotters' bitmap backend draws everywhere.
-                    let segments: Vec<PathElement<(f64, f64)>> = line
-                        .points
-                        .windows(2)
-                        .step_by(2)
-                        .map(|w| PathElement::new(vec![w[0], w[1]], style))
-                        .collect();
+                    let segments: Vec<PathElement<(f64, f64)>> =
+                        line.points.windows(2).step_by(2).map(|w| PathElement::new(vec![w[0], w[1]], style)).collect();
                     chart.draw_series(segments)
                 }
                 LineStyle::Markers => {

@@ -48,9 +48,10 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(seed, progress)?.table) };
     let has_slices_of = |fgd: bool| {
         request.accuracy_reports
-            && plan.tables.iter().any(
-                |t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd),
-            )
+            && plan
+                .tables
+                .iter()
+                .any(|t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd))
     };
     let full_fgd = if has_slices_of(true) {
         let mut settings = config.fgd.clone();
