@@ -228,7 +228,7 @@ enum Command {
         #[arg(long, default_value_t = 64)]
         views: usize,
         /// Samples of each exact integral (a power of two).
-        #[arg(long, default_value_t = 1 << 18)]
+        #[arg(long, default_value_t = 1 << 16)]
         exact_samples: u64,
         /// The random walk stops at this standard error of A in every channel ...
         #[arg(long, default_value_t = tmlut::random_walk::WalkSettings::default().target_standard_error)]

@@ -56,7 +56,7 @@ impl Default for FurnaceSettings {
     fn default() -> Self {
         FurnaceSettings {
             views: 64,
-            exact_samples: 1 << 18,
+            exact_samples: 1 << 16,
             walk: WalkSettings::default(),
             fgd_source: FgdSource::default(),
             timing_rounds: 21,
@@ -130,11 +130,15 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         Some(dir) => dir.clone(),
         None => {
             let dir = request.out.join("luts");
+            // The furnace measures the tables in the material itself: the tables' own reference
+            // checks and the slices' accuracy reports would only repeat it, slower.
+            let mut config = request.config.clone();
+            config.disable_reference_checks();
             let build = SceneBuildRequest {
                 scene: request.scene.clone(),
                 source: PathBuf::from(&request.source),
                 text: request.text.clone(),
-                config: request.config.clone(),
+                config,
                 out: dir.clone(),
                 error_maps: false,
                 accuracy_reports: false,
@@ -163,6 +167,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
                 ),
             ));
         }
+        let started = Instant::now();
         progress.start(&format!("{} exact", material.name), mus.len() as u64);
         let with_exact: Vec<Rgb> = mus
             .par_iter()
@@ -173,11 +178,15 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
             })
             .collect();
         progress.finish();
+        let exact_s = started.elapsed().as_secs_f64();
         let walk_settings =
             WalkSettings { seed: walk_seed(request.settings.walk.seed, index), ..request.settings.walk };
+        let started = Instant::now();
         let walk = random_walk::directional_albedo_curve(&model.stack, &mus, &walk_settings, progress);
+        let walk_s = started.elapsed().as_secs_f64();
         let cost_ns = time_model(&model, &tables, &mus, request.settings.timing_rounds);
-        let report = MaterialReport::new(material, &mus, with_tables, with_exact, &walk, cost_ns, tables.clamped());
+        let mut report = MaterialReport::new(material, &mus, with_tables, with_exact, &walk, cost_ns, tables.clamped());
+        report.wall_time_s = report::WallTimes { exact: exact_s, walk: walk_s };
         picture::write_material_pictures(&request.out, &report, request.settings.picture_size)?;
         materials.push(report);
     }

@@ -110,6 +110,15 @@ pub struct MaterialReport {
     pub first_clamped_lookup: Option<String>,
     /// Files written for the material, relative to the scene's output folder.
     pub files: Vec<String>,
+    /// Wall time of the exact integrals and of the random walk, in seconds (all threads).
+    pub wall_time_s: WallTimes,
+}
+
+/// Where a material's furnace time goes.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct WallTimes {
+    pub exact: f64,
+    pub walk: f64,
 }
 
 impl MaterialReport {
@@ -161,6 +170,7 @@ impl MaterialReport {
             clamped_lookups: clamped.count,
             first_clamped_lookup: clamped.first,
             files: vec![format!("{stem}_furnace.exr"), format!("{stem}_furnace.png"), format!("{stem}_albedo.png")],
+            wall_time_s: WallTimes::default(),
         }
     }
 

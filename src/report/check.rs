@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::formats::manifest::{FileEntry, MANIFEST_FILE, Manifest};
+use crate::furnace::report::{FURNACE_FILE, FurnaceReport};
 use crate::pipeline::sha256_hex;
 
 /// The budgets committed with the project, for the default LUT set (`luts/default.toml`).
@@ -35,21 +36,58 @@ pub struct TableBudget {
     pub max_build_s: Option<f64>,
 }
 
-/// Budgets per table name.
+/// The furnace budget of one scene (`[furnace.<scene>]`), over every material of it; a missing key
+/// sets no limit.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(transparent)]
+#[serde(deny_unknown_fields)]
+pub struct FurnaceBudget {
+    /// Largest `|A(tables) - A(exact)|` over views and channels.
+    pub max_table_error: Option<f64>,
+    /// Largest `|A(exact) - A(walk)|`: what the model costs, held so that a change that makes the
+    /// model worse is seen.
+    pub max_model_error: Option<f64>,
+    /// Largest standard error of the random walk.
+    pub max_walk_standard_error: Option<f64>,
+    /// Lookups read clamped outside their table's range (0 unless stated).
+    #[serde(default)]
+    pub max_clamped_lookups: u64,
+}
+
+/// Budgets per table name, and per furnace scene under `[furnace.<scene>]`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Budgets {
     pub tables: BTreeMap<String, TableBudget>,
+    pub furnace: BTreeMap<String, FurnaceBudget>,
 }
 
 impl Budgets {
     pub fn from_toml(text: &str, origin: &str) -> Result<Self> {
-        let budgets: Budgets = toml::from_str(text).map_err(|e| {
+        let clean = |e: toml::de::Error| {
             Error::invalid(
                 origin,
                 e.to_string().lines().filter(|l| !l.trim().is_empty()).collect::<Vec<_>>().join(" | "),
             )
-        })?;
+        };
+        let mut document: toml::Table = text.parse().map_err(clean)?;
+        let furnace = match document.remove("furnace") {
+            Some(value) => value.try_into().map_err(clean)?,
+            None => BTreeMap::new(),
+        };
+        let budgets = Budgets { tables: toml::Value::Table(document).try_into().map_err(clean)?, furnace };
+        for (scene, budget) in &budgets.furnace {
+            for (key, value) in [
+                ("max_table_error", budget.max_table_error),
+                ("max_model_error", budget.max_model_error),
+                ("max_walk_standard_error", budget.max_walk_standard_error),
+            ] {
+                if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+                    return Err(Error::invalid(
+                        format!("{origin}: furnace.{scene}.{key}"),
+                        format!("{v}; allowed: finite and >= 0"),
+                    ));
+                }
+            }
+        }
         for (table, budget) in &budgets.tables {
             if let Some([lo, hi]) = budget.value_range
                 && (lo.is_nan() || hi.is_nan() || lo > hi)
@@ -82,25 +120,128 @@ pub struct Finding {
     pub pass: bool,
 }
 
-/// Check every file of an output folder against `budgets`.
+/// Check an output folder against `budgets`: every file of its manifest, and every furnace report
+/// in it or in its subfolders (`tmlut furnace --out DIR`). A folder with neither is an error.
 pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
-    let manifest = Manifest::read(&dir.join(MANIFEST_FILE))?;
-    let mut findings = Vec::new();
-    for (file, entry) in &manifest.files {
-        check_file(dir, file, entry, budgets, &mut findings);
+    let manifest_path = dir.join(MANIFEST_FILE);
+    let reports = furnace_reports(dir)?;
+    if !manifest_path.exists() && reports.is_empty() {
+        return Err(Error::invalid(
+            dir.display().to_string(),
+            format!("holds neither a {MANIFEST_FILE} nor a {FURNACE_FILE}; nothing to check"),
+        ));
     }
-    for table in budgets.tables.keys() {
-        if !manifest.files.values().any(|e| &e.table == table) {
+    let mut findings = Vec::new();
+    if manifest_path.exists() {
+        let manifest = Manifest::read(&manifest_path)?;
+        for (file, entry) in &manifest.files {
+            check_file(dir, file, entry, budgets, &mut findings);
+        }
+        for table in budgets.tables.keys() {
+            if !manifest.files.values().any(|e| &e.table == table) {
+                findings.push(Finding {
+                    file: "-".into(),
+                    check: format!("{table} present"),
+                    value: "no file of this table in the manifest".into(),
+                    limit: "a budgeted table must be built".into(),
+                    pass: false,
+                });
+            }
+        }
+    }
+    if !reports.is_empty() {
+        check_furnace(dir, &reports, budgets, &mut findings);
+    }
+    Ok(findings)
+}
+
+/// The furnace reports in `dir` and its immediate subfolders, sorted by path.
+fn furnace_reports(dir: &Path) -> Result<Vec<std::path::PathBuf>> {
+    let mut reports = Vec::new();
+    if dir.join(FURNACE_FILE).is_file() {
+        reports.push(dir.join(FURNACE_FILE));
+    }
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for entry in entries.flatten() {
+            let candidate = entry.path().join(FURNACE_FILE);
+            if candidate.is_file() {
+                reports.push(candidate);
+            }
+        }
+    }
+    reports.sort();
+    Ok(reports)
+}
+
+/// Hold every material of every furnace report to its scene's budget; every budgeted scene must
+/// have a report.
+fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, findings: &mut Vec<Finding>) {
+    let mut seen = Vec::new();
+    for path in reports {
+        let file = path.strip_prefix(dir).unwrap_or(path).display().to_string();
+        let report = match FurnaceReport::read(path) {
+            Ok(report) => report,
+            Err(e) => {
+                findings.push(Finding {
+                    file,
+                    check: "readable".into(),
+                    value: e.to_string(),
+                    limit: "a tmlut furnace report".into(),
+                    pass: false,
+                });
+                continue;
+            }
+        };
+        seen.push(report.scene.clone());
+        let Some(budget) = budgets.furnace.get(&report.scene) else {
+            findings.push(Finding {
+                file,
+                check: "furnace budget".into(),
+                value: format!("scene `{}` has none", report.scene),
+                limit: "none set: figures reported in furnace.json only".into(),
+                pass: true,
+            });
+            continue;
+        };
+        for material in &report.materials {
+            let file = format!("{file}: {}", material.name);
+            let mut at_most = |check: &str, value: f64, limit: Option<f64>| {
+                if let Some(limit) = limit {
+                    findings.push(Finding {
+                        file: file.clone(),
+                        check: check.into(),
+                        value: format!("{value:.3e}"),
+                        limit: format!("<= {limit:.3e}"),
+                        pass: value <= limit,
+                    });
+                }
+            };
+            at_most("table_error_max", material.errors.table.max_all, budget.max_table_error);
+            at_most("model_error_max", material.errors.model.max_all, budget.max_model_error);
+            at_most("walk_standard_error_max", material.walk_standard_error_max(), budget.max_walk_standard_error);
+            findings.push(Finding {
+                file: file.clone(),
+                check: "clamped_lookups".into(),
+                value: match &material.first_clamped_lookup {
+                    Some(first) => format!("{} (first: {first})", material.clamped_lookups),
+                    None => material.clamped_lookups.to_string(),
+                },
+                limit: format!("<= {}", budget.max_clamped_lookups),
+                pass: material.clamped_lookups <= budget.max_clamped_lookups,
+            });
+        }
+    }
+    for scene in budgets.furnace.keys() {
+        if !seen.contains(scene) {
             findings.push(Finding {
                 file: "-".into(),
-                check: format!("{table} present"),
-                value: "no file of this table in the manifest".into(),
-                limit: "a budgeted table must be built".into(),
+                check: format!("furnace {scene} present"),
+                value: "no furnace report of this scene in the folder".into(),
+                limit: "a budgeted scene must be run".into(),
                 pass: false,
             });
         }
     }
-    Ok(findings)
 }
 
 fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, findings: &mut Vec<Finding>) {

@@ -1,0 +1,162 @@
+//! `tmlut furnace` end to end on the reduced CI scene set: the outputs, the budgets `tmlut check`
+//! holds them to, determinism across thread counts, and bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+fn tmlut(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tmlut")).args(args).output().expect("the tmlut binary runs")
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn text(output: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr))
+}
+
+/// The CI scenes at 16 views: a 2-flux coat over a conductor, and the 6-flux scattering stack.
+const VIEWS: &str = "16";
+
+fn furnace(out: &Path, threads: &str) -> Output {
+    tmlut(&[
+        "furnace",
+        &repo("luts/scenes/copper-pot.toml"),
+        &repo("luts/scenes/scattering.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--views",
+        VIEWS,
+        "--threads",
+        threads,
+        "--quiet",
+    ])
+}
+
+/// One run of the CI scenes, shared by the tests of this file.
+fn ci_run() -> &'static Path {
+    static RUN: OnceLock<(tempfile::TempDir, PathBuf, String)> = OnceLock::new();
+    let (_, out, _) = RUN.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("furnace");
+        let output = furnace(&out, "2");
+        assert!(output.status.success(), "{}", text(&output));
+        let printed = text(&output);
+        (dir, out, printed)
+    });
+    out
+}
+
+fn report(out: &Path, scene: &str) -> serde_json::Value {
+    let bytes = std::fs::read(out.join(scene).join("furnace.json")).unwrap();
+    serde_json::from_slice(&bytes).unwrap()
+}
+
+#[test]
+fn every_material_gets_its_curves_errors_and_pictures() {
+    let out = ci_run();
+    for (scene, material) in [("copper-pot", "varnished-copper"), ("scattering", "scattering-stack")] {
+        let r = report(out, scene);
+        let m = &r["materials"][0];
+        assert_eq!(m["name"], material);
+        for curve in ["mu", "albedo_tables", "albedo_exact", "albedo_walk", "walk_standard_error", "walk_paths"] {
+            assert_eq!(m[curve].as_array().unwrap().len(), 16, "{scene}: {curve}");
+        }
+        // Grazing included, at the limit the tables take for mu = 0.
+        assert_eq!(m["mu"][0].as_f64(), Some(1.0));
+        assert_eq!(m["mu"][15].as_f64(), Some(1e-6));
+        for key in ["table", "model", "total"] {
+            let max = m["errors"][key]["max_all"].as_f64().unwrap();
+            assert!(max.is_finite() && max >= 0.0, "{scene}: {key} {max}");
+        }
+        assert!(m["model_cost_ns"].as_f64().unwrap() > 0.0);
+        assert!(!r["random_walk"].as_array().unwrap().is_empty());
+        for file in m["files"].as_array().unwrap() {
+            let path = out.join(scene).join(file.as_str().unwrap());
+            assert!(std::fs::metadata(&path).unwrap().len() > 1000, "{}", path.display());
+        }
+        // The tables were built for the scene, with a manifest that records it.
+        assert!(out.join(scene).join("luts/manifest.json").is_file());
+    }
+    let copper = report(out, "copper-pot");
+    let png = image::open(out.join("copper-pot/varnished-copper_furnace.png")).unwrap();
+    assert!(png.width() > 3 * 256 && png.height() > 256);
+    // The model with the scene's tables against exact integrals: the tables' own error is small.
+    assert!(copper["materials"][0]["errors"]["table"]["max_all"].as_f64().unwrap() < 1e-3);
+}
+
+#[test]
+fn the_ci_budgets_hold_and_a_tightened_one_fails_naming_figure_and_limit() {
+    let out = ci_run();
+    let output = tmlut(&["check", out.to_str().unwrap(), "--budgets", &repo("luts/ci-budgets.toml")]);
+    assert!(output.status.success(), "{}", text(&output));
+    assert!(text(&output).contains("copper-pot/furnace.json: varnished-copper: table_error_max"), "{}", text(&output));
+
+    let dir = tempfile::tempdir().unwrap();
+    let tight = dir.path().join("tight.toml");
+    std::fs::write(&tight, "[furnace.copper-pot]\nmax_table_error = 1e-9\n[furnace.scattering]\n").unwrap();
+    let output = tmlut(&["check", out.to_str().unwrap(), "--budgets", tight.to_str().unwrap()]);
+    assert!(!output.status.success());
+    let said = text(&output);
+    assert!(
+        said.contains("FAIL copper-pot/furnace.json: varnished-copper: table_error_max")
+            && said.contains("<= 1.000e-9"),
+        "{said}"
+    );
+
+    // A budgeted scene that was not run fails too.
+    std::fs::write(&tight, "[furnace.textured]\nmax_table_error = 1.0\n").unwrap();
+    let output = tmlut(&["check", out.to_str().unwrap(), "--budgets", tight.to_str().unwrap()]);
+    assert!(!output.status.success());
+    assert!(text(&output).contains("furnace textured present"), "{}", text(&output));
+}
+
+#[test]
+fn curves_do_not_depend_on_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one");
+    let output = furnace(&one, "1");
+    assert!(output.status.success(), "{}", text(&output));
+    for scene in ["copper-pot", "scattering"] {
+        let (a, b) = (report(ci_run(), scene), report(&one, scene));
+        for curve in ["albedo_tables", "albedo_exact", "albedo_walk", "walk_standard_error", "walk_paths"] {
+            assert_eq!(a["materials"][0][curve], b["materials"][0][curve], "{scene}: {curve}");
+        }
+    }
+}
+
+#[test]
+fn bad_input_is_refused_with_what_is_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x");
+    let scene = repo("luts/scenes/copper-pot.toml");
+    let cases: [(&[&str], &str); 4] = [
+        (&["--views", "1"], "views: 1; allowed: 2 to 4096"),
+        (&["--exact-samples", "1000"], "power of two"),
+        (&["--walk-masking", "ggx"], "allowed: smith-separable, smith-height-correlated"),
+        (&["--luts", "/nonexistent", &repo("luts/scenes/profiling.toml")], "a folder of tables serves one scene"),
+    ];
+    for (extra, says) in cases {
+        let mut args = vec!["furnace", &scene, "--out", out.to_str().unwrap(), "--quiet"];
+        args.extend_from_slice(extra);
+        let output = tmlut(&args);
+        assert!(!output.status.success(), "{extra:?}");
+        assert!(text(&output).contains(says), "{extra:?}: {}", text(&output));
+        assert!(!text(&output).contains("panicked"));
+    }
+    // A folder built for another scene has no table for these lookups: refused, naming one.
+    let output = tmlut(&[
+        "furnace",
+        &repo("luts/scenes/profiling.toml"),
+        "--luts",
+        ci_run().join("copper-pot/luts").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!output.status.success());
+    let said = text(&output);
+    assert!(said.contains("has no table for") && said.contains("FGD of layer 1"), "{said}");
+}
