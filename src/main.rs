@@ -118,7 +118,7 @@ enum Command {
     /// range, limits, continuity, f32 against f64 and half-float storage. Exits non-zero on any
     /// failure.
     Stability {
-        /// One part of the matrix: physics, fgd, gd, tir, belcour, karis or f16 (default: all).
+        /// One part of the matrix: physics, fgd, gd, tir, belcour, karis, f16 or model (default: all).
         #[arg(long)]
         table: Option<String>,
     },

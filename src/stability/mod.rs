@@ -13,6 +13,7 @@
 //! ([`properties`]), the cases in [`physics`] and [`tables`], and the whole run in [`run`].
 
 pub mod matrix;
+pub mod model;
 pub mod physics;
 pub mod properties;
 pub mod tables;
@@ -185,8 +186,9 @@ impl Report {
     }
 }
 
-/// The parts of the matrix `--table` can select: the physics functions, or one table.
-pub const SECTIONS: &[&str] = &["physics", "fgd", "gd", "tir", "belcour", "karis", "f16"];
+/// The parts of the matrix `--table` can select: the physics functions, one table, half-float
+/// storage, or the transfer-matrix model with its random walk.
+pub const SECTIONS: &[&str] = &["physics", "fgd", "gd", "tir", "belcour", "karis", "f16", "model"];
 
 /// Run the matrix: everything, or one section of [`SECTIONS`].
 pub fn run(section: Option<&str>) -> Result<Report> {
@@ -207,6 +209,9 @@ pub fn run(section: Option<&str>) -> Result<Report> {
     }
     if wanted("f16") {
         tables::half_float(&mut report);
+    }
+    if wanted("model") {
+        model::run(&mut report)?;
     }
     report.wall_time_s = started.elapsed().as_secs_f64();
     Ok(report)
