@@ -184,15 +184,16 @@ pub fn modelling_choices(settings: &WalkSettings) -> Vec<String> {
             .to_string(),
     };
     vec![
-        "Position-free random walk through the explicit stack (Guo et al. 2018); light enters from air at the view \
-         cosine, A(mu) is the mean weight leaving the top into air; mu is clamped below at 1e-6"
-            .to_string(),
+        format!(
+            "Position-free random walk through the explicit stack (Guo et al. 2018); light enters from air at the view \
+             cosine, A(mu) is the mean weight leaving the top into air; mu is clamped below at {GRAZING_COSINE:e}"
+        ),
         "Interfaces are single-scattering GGX microfacet boundaries: a normal from the visible normals of the arrival \
          direction (Heitz 2018), reflection with probability equal to the exact unpolarised Fresnel reflectance at \
          that normal, else refraction about it; total internal reflection where refraction is impossible"
             .to_string(),
         masking,
-        "At the first event (light from air meeting the top interface) both branches are taken: the reflected \
+        "At the first event (light from air meeting a dielectric top interface) both branches are taken: the reflected \
          branch leaves into air at once, so its expected weight F * G2/G1 is added to the albedo and the path goes \
          on refracted with weight (1 - F) * G2/G1 (an expected value over the Fresnel choice: the same mean, less \
          variance); every later interface event chooses one branch with probability F"
