@@ -8,9 +8,9 @@ tests/data/adding_doubling.json. `--write` produces that file; `--check` recompu
 non-zero when the committed file no longer matches what iadpython computes (scripts/test runs it
 through scripts/adding-doubling, which installs the packages), so the data's provenance is checked.
 
-Run: python notebooks/adding_doubling.py --write tests/data/adding_doubling.json
-     python notebooks/adding_doubling.py --check tests/data/adding_doubling.json
-(needs iadpython, numpy, scipy: iadpython imports scipy without declaring it)
+Run: scripts/adding-doubling --write   (or --check), which installs iadpython, numpy and scipy
+(iadpython imports scipy without declaring it) into target/adding-doubling-env and runs
+     python notebooks/adding_doubling.py --write tests/data/adding_doubling.json
 
 How the values are read:
 - Normal incidence: iadpython's own `Sample(a, b, g, n=1, quad_pts=N).rt()`, whose first two results
@@ -112,7 +112,8 @@ def compute():
         "description": "Total reflectance and transmittance (unscattered light included) of a plane-parallel "
         "slab with Henyey-Greenstein scattering, index 1 on both sides, for collimated light at cosine mu, "
         "by adding-doubling (iadpython). Read by random_walk::tests::index_matched_slabs_match_adding_doubling.",
-        "command": "python notebooks/adding_doubling.py --write tests/data/adding_doubling.json",
+        "command": "scripts/adding-doubling --write (in its environment: python notebooks/adding_doubling.py "
+        "--write tests/data/adding_doubling.json)",
         "generator": "notebooks/adding_doubling.py",
         "iadpython_version": iad.__version__,
         "numpy_version": np.__version__,

@@ -87,7 +87,11 @@ impl Comparisons {
         let failures: Vec<String> = self
             .rows
             .iter()
-            .filter(|(_, value, reference, se, tolerance)| !((value - reference).abs() <= z * se + tolerance))
+            // Written so that a NaN fails.
+            .filter(|(_, value, reference, se, tolerance)| {
+                let within = (value - reference).abs() <= z * se + tolerance;
+                !within
+            })
             .map(|(what, value, reference, se, tolerance)| {
                 format!(
                     "{what}: {value} vs {reference}, off by {:.2} s.e. (s.e. {se:.2e}, tolerance {tolerance:.1e})",
@@ -179,15 +183,29 @@ fn rough_interfaces_reflect_the_fgd_integral() {
     ];
     let mut comparisons = Comparisons::default();
     for (mu, alpha, eta, kappa, masking) in cases {
-        let stack = stack(vec![conductor(eta, kappa, alpha)]);
-        let estimate = directional_albedo(&stack, mu, &WalkSettings { masking, ..settings(1e-3) });
+        let interface = conductor(eta, kappa, alpha);
         let (reference, reference_se) = fgd_reference(mu, alpha, masking, eta, kappa);
-        let channels = if kappa[0] > 0.0 { 3 } else { 1 };
-        for c in 0..channels {
-            let se = estimate.reflected_standard_error[c].hypot(reference_se[c]);
-            let what = format!("mu {mu} alpha {alpha} eta {} kappa {} {masking:?}", eta[c], kappa[c]);
-            comparisons.check(&what, estimate.reflected[c], reference[c], se, 0.0);
-            assert!(estimate.lost[c] > 0.0, "{what}: a rough interface loses energy");
+        let is_dielectric = kappa[0] == 0.0;
+        // A dielectric on top takes both branches of its first event; behind a clear slab of index
+        // 1 (no interface: the slab is in air) the same interface chooses one with probability F.
+        let clear = medium([0.0; 3], [0.0; 3], 1.0, 0.0);
+        let stacks = if is_dielectric {
+            vec![
+                ("on top", stack(vec![interface])),
+                ("behind a clear slab", stack(vec![dielectric(1.0, 0.5), clear, interface])),
+            ]
+        } else {
+            vec![("on top", stack(vec![interface]))]
+        };
+        for (place, stack) in stacks {
+            let estimate = directional_albedo(&stack, mu, &WalkSettings { masking, ..settings(1e-3) });
+            // Grey dielectrics walk the three channels on one path: channel 0 says it all.
+            for c in 0..(if is_dielectric { 1 } else { 3 }) {
+                let se = estimate.reflected_standard_error[c].hypot(reference_se[c]);
+                let what = format!("mu {mu} alpha {alpha} eta {} kappa {} {masking:?} {place}", eta[c], kappa[c]);
+                comparisons.check(&what, estimate.reflected[c], reference[c], se, 0.0);
+                assert!(estimate.lost[c] > 0.0, "{what}: a rough interface loses energy");
+            }
         }
     }
     comparisons.assert_all();
@@ -564,4 +582,45 @@ fn nanoseconds_per_path() {
             }
         }
     }
+}
+
+/// The furnace's workload: six materials (the example scenes' five and a two-coat stack) at 64 view
+/// cosines with the default settings, timed on two threads (printed, not asserted). Run with
+/// `cargo test --release --lib random_walk::tests::furnace_workload -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn furnace_workload() {
+    let materials = [
+        ("varnished-copper", varnished_conductor()),
+        ("coated-conductor", stack(vec![dielectric(1.5, 0.1), conductor([1.0; 3], [1.0, 0.1, 0.1], 0.01)])),
+        ("scattering-stack", scattering_coat()),
+        ("worn-gold", stack(vec![dielectric(1.5, 0.25), conductor([0.18, 0.42, 1.37], [3.42, 2.35, 1.77], 0.1)])),
+        ("glazed-ceramic", stack(vec![dielectric(1.5, 0.2)])),
+        (
+            "two coats over a medium",
+            stack(vec![
+                dielectric(1.3, 0.05),
+                dielectric(1.6, 0.3),
+                medium([2.0; 3], [0.1, 0.3, 0.6], 0.5, 0.5),
+                conductor([0.18, 0.42, 1.37], [3.42, 2.35, 1.77], 0.2),
+            ]),
+        ),
+    ];
+    let mus: Vec<f64> = (0..64).map(|k| k as f64 / 63.0).collect();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let start = std::time::Instant::now();
+    for (name, stack) in &materials {
+        let material_start = std::time::Instant::now();
+        let curve = pool.install(|| directional_albedo_curve(stack, &mus, &WalkSettings::default(), &()));
+        let worst = curve.iter().flat_map(|e| e.reflected_standard_error).fold(0.0f64, f64::max);
+        let paths: u64 = curve.iter().map(|e| e.paths).sum();
+        let most = curve.iter().max_by_key(|e| e.paths).unwrap();
+        println!(
+            "{name}: {:.2} s, {paths} paths, largest s.e. {worst:.2e}, most paths {} at mu {:.3}",
+            material_start.elapsed().as_secs_f64(),
+            most.paths,
+            most.mu
+        );
+    }
+    println!("all: {:.2} s", start.elapsed().as_secs_f64());
 }
