@@ -376,10 +376,11 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
     assert_eq!(record.text, std::fs::read_to_string(&scene).unwrap());
     let planned: Vec<&str> = record.plan.tables.iter().map(|t| t.name.as_str()).collect();
     assert_eq!(planned.len(), 4, "{planned:?}");
-    // Exactly the plan: one DDS per planned table, nothing of the default set.
+    // Exactly the plan: a DDS per slice and GD in its configured format, nothing of the default set.
     let mut files: Vec<&String> = manifest.files.keys().collect();
     files.sort();
-    let mut expected: Vec<String> = planned.iter().map(|n| format!("{n}.dds")).collect();
+    let mut expected: Vec<String> =
+        planned.iter().map(|n| if *n == "gd" { "gd.bin".to_string() } else { format!("{n}.dds") }).collect();
     expected.sort();
     assert_eq!(files, expected.iter().collect::<Vec<_>>());
     assert!(record.plan.left_out.iter().any(|l| l.what.starts_with("fgd (4D")));
