@@ -22,7 +22,45 @@
 //!   no media for.
 //!
 //! Loader side: built with `default-features = false`, so that a renderer crate can evaluate the
-//! materials it loads tables for.
+//! materials it loads tables for:
+//!
+//! ```no_run
+//! use tmlut::model::folder::{FgdSource, FolderTables};
+//! use tmlut::model::{AlbedoPath, FluxModel, Interface, Layer, Material, Stack, TirPath};
+//!
+//! let luts = tmlut::loader::LutFolder::open("luts/copper-pot".as_ref())?; // tmlut build --scene
+//! let tables = FolderTables::open(&luts, AlbedoPath::Fgd, TirPath::Table, FgdSource::Packing)?;
+//! let varnished_copper = Material::new(
+//!     FluxModel::TwoFlux,
+//!     Stack::new(vec![
+//!         Layer::Interface(Interface { eta: [1.1; 3], kappa: [0.0; 3], alpha: 0.01 }),
+//!         Layer::Interface(Interface { eta: [0.1, 0.4, 1.6], kappa: [4.0, 2.4, 1.6], alpha: 0.01 }),
+//!     ])?,
+//! );
+//! let evaluation = varnished_copper.evaluate(0.5, &tables); // lobes: energy, roughness, direction
+//! let [r, g, b] = evaluation.albedo; // A(mu) per channel
+//! # Ok::<(), tmlut::Error>(())
+//! ```
+//!
+//! Any closure answers lookups too, for experiments: here smooth interfaces, whose albedo is
+//! Fresnel's, with no TIR loss and lobes that keep all their energy.
+//!
+//! ```
+//! use tmlut::model::{FluxModel, Interface, Layer, Lookup, Material, Quantity, Stack};
+//! use tmlut::physics::fresnel_reflectance;
+//!
+//! let smooth = |l: &Lookup| match l.quantity {
+//!     Quantity::Albedo => fresnel_reflectance(l.mu, l.eta, l.kappa),
+//!     Quantity::Tir => 0.0,
+//!     Quantity::Gd => 1.0,
+//! };
+//! let glass = Material::new(
+//!     FluxModel::TwoFlux,
+//!     Stack::new(vec![Layer::Interface(Interface { eta: [1.5; 3], kappa: [0.0; 3], alpha: 0.0 })])?,
+//! );
+//! assert!((glass.albedo(1.0, &smooth)[0] - 0.04).abs() < 1e-12);
+//! # Ok::<(), tmlut::Error>(())
+//! ```
 
 pub mod factors;
 pub mod folder;
