@@ -56,7 +56,7 @@ fn srgb8(linear: f64) -> u8 {
 
 /// The upper end of a colour bar for differences up to `max`: 1, 2 or 5 times a power of ten.
 fn nice_ceiling(max: f64) -> f64 {
-    if !(max > 0.0) {
+    if max.is_nan() || max <= 0.0 {
         return 1e-6;
     }
     let decade = 10f64.powf(max.log10().floor());

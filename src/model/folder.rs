@@ -292,7 +292,7 @@ impl FolderTables {
 
     /// The slice answering `lookup`: a channel at its indices, the slice whose range holds
     /// `(mu, alpha)`, else the nearest.
-    fn from_slices(&self, slices: &[Slice], lookup: &Lookup) -> Option<f64> {
+    fn slice_value(&self, slices: &[Slice], lookup: &Lookup) -> Option<f64> {
         let point = [lookup.mu, lookup.alpha];
         let same = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
         let candidates = slices.iter().filter(|s| s.quantity == lookup.quantity).filter_map(|s| {
@@ -320,7 +320,7 @@ impl FolderTables {
     fn albedo(&self, lookup: &Lookup) -> f64 {
         match &self.albedo {
             Albedo::Fgd { slices, full } => {
-                if let Some(value) = self.from_slices(slices, lookup) {
+                if let Some(value) = self.slice_value(slices, lookup) {
                     return value;
                 }
                 let point = [lookup.mu, lookup.alpha, lookup.eta, lookup.kappa];
@@ -366,7 +366,7 @@ impl FolderTables {
     fn tir(&self, lookup: &Lookup) -> f64 {
         match &self.tir {
             Tir::Table { slices, full } => {
-                if let Some(value) = self.from_slices(slices, lookup) {
+                if let Some(value) = self.slice_value(slices, lookup) {
                     return value;
                 }
                 match full {

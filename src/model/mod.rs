@@ -179,10 +179,10 @@ impl Material {
                 }
             } else if has_energy {
                 gd = gd_lookup(lobe.layer, mu, roughness, tables);
-                for c in 0..3 {
-                    albedo[c] += match self.model {
-                        FluxModel::TwoFlux => lobe.energy[c] * gd,
-                        FluxModel::SixFlux => lobe.energy[c],
+                for (a, e) in albedo.iter_mut().zip(lobe.energy) {
+                    *a += match self.model {
+                        FluxModel::TwoFlux => e * gd,
+                        FluxModel::SixFlux => e,
                     };
                 }
             }

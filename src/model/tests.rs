@@ -217,7 +217,7 @@ fn stiff_stacks_give_finite_lobes_and_albedos() {
         vec![dielectric(1.5, 0.4), medium(0.0, [0.0, 1e3, 0.0], 1.0, 1.0), medium(5.0, [1e-9; 3], 1e9, -1.0)],
         vec![dielectric(4.0, 0.0); 8],
     ];
-    let tables: Vec<Box<dyn Fn(&Lookup) -> f64>> = vec![
+    let tables: Vec<Box<dyn Tables>> = vec![
         Box::new(smooth_tables),
         Box::new(stiff_tables(1.0, 1.0, 0.0)),
         Box::new(stiff_tables(0.0, 1.0, 1.0)),
@@ -229,7 +229,7 @@ fn stiff_stacks_give_finite_lobes_and_albedos() {
             let m = material(model, layers.clone());
             for t in &tables {
                 for mu in [0.0, 1e-7, 0.3, 1.0] {
-                    let e = m.evaluate(mu, &t.as_ref());
+                    let e = m.evaluate(mu, t.as_ref());
                     let finite = e.albedo.iter().all(|a| a.is_finite())
                         && e.lobes.iter().all(|l| l.energy.iter().all(|x| x.is_finite()) && l.asymmetry.is_finite());
                     assert!(finite, "{model:?} {layers:?} mu {mu}: {e:?}");

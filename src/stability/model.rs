@@ -8,7 +8,7 @@
 use super::properties::{Check, at_most, finite, within};
 use super::{Case, Report};
 use crate::furnace::exact::ExactTables;
-use crate::model::{FluxModel, Interface, Layer, Lookup, Material, Medium, Quantity, Stack};
+use crate::model::{FluxModel, Interface, Layer, Lookup, Material, Medium, Quantity, Stack, Tables};
 use crate::random_walk::{WalkSettings, directional_albedo};
 
 /// View cosines: the horizon, a rounding step above it, grazing, middle, the normal.
@@ -68,7 +68,7 @@ fn stiff_tables(albedo: f64, tir: f64, gd: f64) -> impl Fn(&Lookup) -> f64 {
 /// tables at their edges; and the random walk (with few paths) at every stack and view.
 pub fn run(report: &mut Report) -> crate::error::Result<()> {
     let exact = ExactTables::new(&crate::config::Config::default(), 1 << 12, 8)?;
-    let edges: [(&str, Box<dyn Fn(&Lookup) -> f64>); 3] = [
+    let edges: [(&str, Box<dyn Tables>); 3] = [
         ("TIR = 1, FGD = 1, GD = 0", Box::new(stiff_tables(1.0, 1.0, 0.0))),
         ("TIR = 1, FGD = 0, GD = 1", Box::new(stiff_tables(0.0, 1.0, 1.0))),
         ("TIR = 0, FGD = 1, GD = 1", Box::new(stiff_tables(1.0, 0.0, 1.0))),
@@ -92,7 +92,7 @@ pub fn run(report: &mut Report) -> crate::error::Result<()> {
                 }
                 report.cases.push(case);
                 for (tables, answers) in &edges {
-                    let evaluation = material.evaluate(mu, &answers.as_ref());
+                    let evaluation = material.evaluate(mu, answers.as_ref());
                     let case = Case::new(
                         format!("model {} ({tables})", model.name()),
                         parameters.clone(),
