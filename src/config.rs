@@ -73,6 +73,14 @@ impl Config {
         Self::from_toml(&text, &path.display().to_string())
     }
 
+    /// The configuration of `path`, or the built-in defaults without one.
+    pub fn load(path: Option<&Path>) -> Result<Self> {
+        match path {
+            Some(path) => Self::from_file(path),
+            None => Ok(Config::default()),
+        }
+    }
+
     /// Every table's settings, in build order (the order of [`crate::recipes::TABLES`]).
     pub fn recipes(&self) -> [&dyn crate::recipes::TableRecipe; 5] {
         [&self.fgd, &self.gd, &self.tir, &self.belcour, &self.karis]

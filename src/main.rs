@@ -277,10 +277,7 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> tmlut::Result<()> {
     match cli.command {
         Command::Build { config, only, out, threads, seed, method, error_maps, scene } => {
-            let mut config = match &config {
-                Some(path) => Config::from_file(path)?,
-                None => Config::default(),
-            };
+            let mut config = Config::load(config.as_deref())?;
             if let Some(seed) = seed {
                 config.seed = seed;
             }
@@ -336,10 +333,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             Ok(())
         }
         Command::Plan { scene, config } => {
-            let config = match &config {
-                Some(path) => Config::from_file(path)?,
-                None => Config::default(),
-            };
+            let config = Config::load(config.as_deref())?;
             let (scene, _) = Scene::read(&scene)?;
             print!("{}", plan(&scene, &config)?);
             Ok(())
@@ -413,10 +407,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             Ok(())
         }
         Command::Bench { config, only, repeats, nodes, reference_samples, per_cell_nodes, threads } => {
-            let config = match &config {
-                Some(path) => Config::from_file(path)?,
-                None => Config::default(),
-            };
+            let config = Config::load(config.as_deref())?;
             set_threads(threads)?;
             tmlut::sampling::sequence::SamplePlan::new(reference_samples, 1)
                 .map_err(|e| tmlut::Error::invalid("--reference-samples", e.to_string()))?;
@@ -476,10 +467,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             weight_bits,
             threads,
         } => {
-            let config = match &config {
-                Some(path) => Config::from_file(path)?,
-                None => Config::default(),
-            };
+            let config = Config::load(config.as_deref())?;
             set_threads(threads)?;
             if reference_points > 0 {
                 tmlut::sampling::sequence::SamplePlan::new(reference_samples, 1)
@@ -506,10 +494,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             Ok(())
         }
         Command::Converge { table, config, out, samples_from, samples_to, cells, reference_samples, threads } => {
-            let config = match &config {
-                Some(path) => Config::from_file(path)?,
-                None => Config::default(),
-            };
+            let config = Config::load(config.as_deref())?;
             set_threads(threads)?;
             for (key, n) in [
                 ("--samples-from", samples_from),
@@ -551,10 +536,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             picture_size,
             threads,
         } => {
-            let config = match &config {
-                Some(path) => Config::from_file(path)?,
-                None => Config::default(),
-            };
+            let config = Config::load(config.as_deref())?;
             set_threads(threads)?;
             let scenes = if scenes.is_empty() { tmlut::furnace::scene_files("luts/scenes".as_ref())? } else { scenes };
             if luts.is_some() && scenes.len() > 1 {

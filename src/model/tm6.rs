@@ -175,46 +175,46 @@ impl Matrix6 {
         .normalised()
     }
 
-    fn entries(&self) -> [f64; 20] {
+    /// Every entry through `f`.
+    fn map(self, mut f: impl FnMut(f64) -> f64) -> Self {
         let m = self;
-        [
-            m.m11, m.m12, m.m21, m.m22, m.m31, m.m32, m.m33, m.m34, m.m35, m.m36, m.m41, m.m42, m.m43, m.m44, m.m45,
-            m.m46, m.m51, m.m52, m.m61, m.m62,
-        ]
+        Matrix6 {
+            m11: f(m.m11),
+            m12: f(m.m12),
+            m21: f(m.m21),
+            m22: f(m.m22),
+            m31: f(m.m31),
+            m32: f(m.m32),
+            m33: f(m.m33),
+            m34: f(m.m34),
+            m35: f(m.m35),
+            m36: f(m.m36),
+            m41: f(m.m41),
+            m42: f(m.m42),
+            m43: f(m.m43),
+            m44: f(m.m44),
+            m45: f(m.m45),
+            m46: f(m.m46),
+            m51: f(m.m51),
+            m52: f(m.m52),
+            m61: f(m.m61),
+            m62: f(m.m62),
+        }
     }
 
     /// The matrix divided by its largest entry. Every reflectance below is invariant under a
     /// common scale (each is a ratio of products of equal degree in the entries), so this changes
     /// none, and keeps the product of many strongly attenuating layers finite.
     fn normalised(self) -> Self {
-        let largest = self.entries().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let mut largest = 0.0f64;
+        self.map(|v| {
+            largest = largest.max(v.abs());
+            v
+        });
         if !(largest > 0.0 && largest.is_finite()) {
             return self;
         }
-        let s = 1.0 / largest;
-        let m = self;
-        Matrix6 {
-            m11: m.m11 * s,
-            m12: m.m12 * s,
-            m21: m.m21 * s,
-            m22: m.m22 * s,
-            m31: m.m31 * s,
-            m32: m.m32 * s,
-            m33: m.m33 * s,
-            m34: m.m34 * s,
-            m35: m.m35 * s,
-            m36: m.m36 * s,
-            m41: m.m41 * s,
-            m42: m.m42 * s,
-            m43: m.m43 * s,
-            m44: m.m44 * s,
-            m45: m.m45 * s,
-            m46: m.m46 * s,
-            m51: m.m51 * s,
-            m52: m.m52 * s,
-            m61: m.m61 * s,
-            m62: m.m62 * s,
-        }
+        self.map(|v| v / largest)
     }
 
     /// The requested reflectances of the stack, over a conductor of reflectance `base` or over
