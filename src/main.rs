@@ -538,7 +538,18 @@ fn run(cli: Cli) -> tmlut::Result<()> {
         } => {
             let config = Config::load(config.as_deref())?;
             set_threads(threads)?;
-            let scenes = if scenes.is_empty() { tmlut::furnace::scene_files("luts/scenes".as_ref())? } else { scenes };
+            let scenes = if scenes.is_empty() {
+                let examples = std::path::Path::new("luts/scenes");
+                if !examples.is_dir() {
+                    return Err(tmlut::Error::invalid(
+                        "furnace",
+                        "no scene given, and no luts/scenes/ here to take the example scenes from; give scene files, or run from the repository's root",
+                    ));
+                }
+                tmlut::furnace::scene_files(examples)?
+            } else {
+                scenes
+            };
             if luts.is_some() && scenes.len() > 1 {
                 return Err(tmlut::Error::invalid(
                     "--luts",
