@@ -26,7 +26,7 @@ use crate::integrate::{GRAZING_COSINE, Progress};
 use crate::loader::LutFolder;
 use crate::model::folder::{FgdSource, FolderTables};
 use crate::model::{Material, Rgb, Tables};
-use crate::random_walk::{self, WalkEstimate, WalkSettings};
+use crate::random_walk::{self, WalkSettings};
 use crate::scene::Scene;
 use crate::scene::build::{SceneBuildRequest, build_scene};
 use exact::ExactTables;
@@ -229,9 +229,4 @@ pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>> {
         return Err(Error::invalid(dir.display().to_string(), "holds no scene (*.toml)"));
     }
     Ok(files)
-}
-
-/// The per-view estimates of a walk, as the report keeps them.
-pub fn walk_albedo(walk: &[WalkEstimate]) -> Vec<Rgb> {
-    walk.iter().map(|w| w.reflected).collect()
 }
