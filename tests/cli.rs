@@ -179,7 +179,7 @@ fn inspect_prints_the_conventions_of_each_file() {
 
 #[test]
 fn the_shipped_original_tables_inspect_cleanly() {
-    let gd = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_GD.bin");
+    let gd = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_GD.bin");
     let output = tmlut(&["inspect", gd]);
     assert!(output.status.success(), "{}", stderr(&output));
     let text = stdout(&output);

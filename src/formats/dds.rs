@@ -3,7 +3,8 @@
 //!
 //! Written by hand rather than through a crate: the fields are few, and the one crate that
 //! writes them sets a stray `DDPF_RGB` flag next to the `DX10` fourCC that makes other readers
-//! misread the file (`notes/crates.md`). The reader accepts exactly what the writer produces:
+//! misread the file (Microsoft's `DDS_PIXELFORMAT` reference: with a `DX10` fourCC, `DDPF_FOURCC`
+//! is the only flag). The reader accepts exactly what the writer produces:
 //! uncompressed float formats of 1, 2 or 4 channels, 2D or volume textures, one mip level. It
 //! exists because no common Linux tool decodes float DDS, so our own files need a checker.
 //!

@@ -1,5 +1,5 @@
 //! FGD: the directional albedo of a GGX interface with exact Fresnel for a complex relative index
-//! (`notes/tables.md`, FGD), read by the transfer-matrix model once per colour channel per
+//! (`docs/tables.md`, FGD), read by the transfer-matrix model once per colour channel per
 //! interface:
 //!
 //! ```text
@@ -7,7 +7,7 @@
 //!                            = E_{h ~ D_wi}[ F(wi.h; eta, kappa) G2 / G1(wi) ]
 //! ```
 //!
-//! Fast path (`notes/fast-integration.md`): per `(mu, alpha)` the visible-normal measure of
+//! Fast path (`docs/integration.md`): per `(mu, alpha)` the visible-normal measure of
 //! `c = wi.h` on a hat basis ([`cosine_measure`]); per `(eta, kappa)` Fresnel projected on the same
 //! basis ([`HatBasis::project`], exact across the kink at the critical angle); the table is one
 //! matrix product of the two. Defaults follow the original table: 64^4 node-aligned nodes,

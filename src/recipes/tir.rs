@@ -1,6 +1,6 @@
 //! TIR: the share of the energy transmitted through a smooth interface with relative index
 //! `eta < 1` that arrives past the critical angle and is reflected back instead
-//! (`notes/tables.md`, TIR; the transfer-matrix model applies it as `r += TIR t, t -= TIR t`):
+//! (`docs/tables.md`, TIR; the transfer-matrix model applies it as `r += TIR t, t -= TIR t`):
 //!
 //! ```text
 //! TIR(mu, alpha, eta) = ∫ rho(w) [1 - w.z^2 > eta^2] dw / ∫ rho(w) dw
@@ -356,7 +356,7 @@ mod tests {
     }
 
     fn original() -> Table {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_TIR.bin");
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_TIR.bin");
         read_bin(std::path::Path::new(path), Some(&["mu", "alpha", "eta"])).unwrap()
     }
 
