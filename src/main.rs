@@ -602,8 +602,19 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             Ok(())
         }
         Command::Inspect { file } => {
-            print!("{}", tmlut::report::inspect(&file)?);
-            Ok(())
+            let inspection = tmlut::report::inspect(&file)?;
+            print!("{}", inspection.text);
+            if inspection.disagreements.is_empty() {
+                Ok(())
+            } else {
+                Err(tmlut::Error::format(
+                    &file,
+                    format!(
+                        "differs from its entry in manifest.json in {} way(s) (see DIFFERS above)",
+                        inspection.disagreements.len()
+                    ),
+                ))
+            }
         }
     }
 }

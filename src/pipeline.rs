@@ -10,8 +10,6 @@
 
 use std::path::{Path, PathBuf};
 
-use sha2::{Digest, Sha256};
-
 use crate::config::{Config, OutputConfig};
 use crate::error::{Error, Result};
 use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile};
@@ -359,9 +357,7 @@ pub fn storage_rounding(table: &Table, precision: Precision) -> f64 {
     table.data.iter().map(|&v| (precision.round(v) as f64 - v as f64).abs()).fold(0.0, f64::max)
 }
 
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
-}
+pub use crate::loader::sha256_hex;
 
 #[cfg(test)]
 mod tests {

@@ -187,6 +187,13 @@ pub fn encode_dds(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// Channels and precision of the DXGI format a DDS file's DX10 header names, if it is one tmlut
+/// writes.
+pub fn stored_format(bytes: &[u8]) -> Option<(usize, Precision)> {
+    let format = u32::from_le_bytes(bytes.get(128..132)?.try_into().ok()?);
+    FORMATS.iter().find(|&&(f, _, _)| f == format).map(|&(_, c, p)| (c, p))
+}
+
 /// Read a DDS texture written by [`write_dds`].
 pub fn read_dds(path: &Path) -> Result<DdsTexture> {
     let bytes = read_bytes(path)?;

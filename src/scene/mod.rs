@@ -224,7 +224,7 @@ pub const DEFAULT_MARGIN_NODES: usize = 1;
 impl Scene {
     /// Read a scene file; returns the scene and the file's text (which a build records).
     pub fn read(path: &Path) -> Result<(Self, String)> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::io(path, source))?;
+        let text = crate::formats::read_text_at_most(path, crate::formats::MAX_TEXT_INPUT_BYTES, "a scene file")?;
         let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
         let scene = Self::from_toml(&text, &path.display().to_string(), &stem)?;
         Ok((scene, text))
