@@ -27,6 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
+use crate::recipes::TableRecipe;
 use crate::recipes::{
     belcour::BelcourSettings, fgd::FgdSettings, gd::GdSettings, karis::KarisSettings, tir::TirSettings,
 };
@@ -114,7 +115,26 @@ impl Config {
         self.gd.validate()?;
         self.tir.validate()?;
         self.belcour.validate()?;
-        self.karis.validate()
+        self.karis.validate()?;
+        // A table with no format writes nothing, unless it has other outputs: FGD's packed
+        // textures, TIR's fitted form.
+        let tir_fit = self.tir.fit == crate::recipes::tir::TirFit::Best;
+        for (name, output, other_outputs) in [
+            (self.fgd.name(), &self.fgd.output, !self.fgd.packings.is_empty()),
+            (self.gd.name(), &self.gd.output, false),
+            (self.tir.name(), &self.tir.output, tir_fit),
+            (self.belcour.name(), &self.belcour.output, false),
+            (self.karis.name(), &self.karis.output, false),
+        ] {
+            if output.formats.is_empty() && !other_outputs {
+                return Err(Error::invalid(
+                    format!("{name}.output.formats"),
+                    "[] writes no file of this table; give at least one format, or leave the table out of the \
+                     build with --only",
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -178,7 +198,13 @@ pub struct OutputConfig {
 
 impl OutputConfig {
     pub fn validate(&self, key: &str, allowed: &[FileFormat]) -> Result<()> {
-        for format in &self.formats {
+        for (k, format) in self.formats.iter().enumerate() {
+            if self.formats[..k].contains(format) {
+                return Err(Error::invalid(
+                    format!("{key}.formats"),
+                    format!("`{}` is listed twice; each format is written once", format.extension()),
+                ));
+            }
             if !allowed.contains(format) {
                 let names: Vec<&str> = allowed.iter().map(|f| f.extension()).collect();
                 return Err(Error::invalid(
@@ -269,6 +295,20 @@ mod tests {
         assert!(e.contains("always") && e.contains("best") && e.contains("off"), "{e}");
         let e = error_of("[karis]\nmasking = \"beckmann\"\n");
         assert!(e.contains("beckmann") && e.contains("smith-separable"), "{e}");
+    }
+
+    #[test]
+    fn a_format_listed_twice_or_no_format_at_all_is_refused() {
+        let e = error_of("[karis.output]\nformats = [\"dds\", \"exr\", \"dds\"]\nprecision = \"f16\"\n");
+        assert!(e.contains("karis.output.formats") && e.contains("`dds` is listed twice"), "{e}");
+        let e = error_of("[karis.output]\nformats = []\nprecision = \"f16\"\n");
+        assert!(e.contains("karis.output.formats") && e.contains("writes no file") && e.contains("--only"), "{e}");
+        // FGD's packed texture and TIR's fitted form are files of their own.
+        let packed_only =
+            "[fgd.output]\nformats = []\nprecision = \"f32\"\n[tir.output]\nformats = []\nprecision = \"f32\"\n";
+        assert!(Config::from_toml(packed_only, "t").is_ok());
+        let e = error_of(&format!("{packed_only}[tir]\nfit = \"off\"\n"));
+        assert!(e.contains("tir.output.formats"), "{e}");
     }
 }
 

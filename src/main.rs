@@ -701,4 +701,8 @@ impl Progress for ProgressBars {
             bar.finish_and_clear();
         }
     }
+
+    fn note(&self, message: &str) {
+        eprintln!("note: {message}");
+    }
 }

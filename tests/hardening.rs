@@ -78,3 +78,122 @@ fn inputs_that_never_end_or_are_not_files_are_refused() {
     let run = run_limited(&["inspect", built.join("gd.bin").to_str().unwrap()], QUICK);
     assert_clean_error(&run, &["manifest.json", "folder"]);
 }
+
+/// `tmlut check DIR` with no budgets: every file against its manifest entry, nothing else.
+fn check_consistency(dir: &std::path::Path, no_budgets: &std::path::Path) -> common::Run {
+    run_limited(&["check", dir.to_str().unwrap(), "--budgets", no_budgets.to_str().unwrap()], QUICK)
+}
+
+/// A build of Karis and GD that takes about a second, so that two of them overlap.
+const SLOW_KARIS_AND_GD: &str = "[karis]\nmu_count = 256\nroughness_count = 256\n[karis.sampling]\nsamples = 4096\n\
+    replicates = 4\n[gd]\nmu_count = 64\nalpha_count = 64\n[gd.sampling]\nsamples = 1024\nreplicates = 4\n";
+
+#[test]
+fn concurrent_builds_into_one_folder_take_turns_and_keep_both_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("slow.toml");
+    std::fs::write(&config, SLOW_KARIS_AND_GD).unwrap();
+    let out = dir.path().join("luts");
+    let start = |only: &str| {
+        std::process::Command::new(common::binary())
+            .args(["build", "-q", "--config", config.to_str().unwrap(), "--out", out.to_str().unwrap()])
+            .args(["--only", only])
+            .stderr(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let first = start("karis");
+    std::thread::sleep(Duration::from_millis(100));
+    let second = start("gd");
+    let (first, second) = (first.wait_with_output().unwrap(), second.wait_with_output().unwrap());
+    assert!(first.status.success() && second.status.success());
+    let waited = String::from_utf8_lossy(&second.stderr);
+    assert!(waited.contains("waiting for the build that holds"), "{waited}");
+
+    let manifest = tmlut::loader::LutFolder::open(&out).unwrap().manifest;
+    let files: Vec<&str> = manifest.files.keys().map(String::as_str).collect();
+    assert_eq!(files, ["gd.bin", "karis.dds", "karis.exr"]);
+    let no_budgets = dir.path().join("none.toml");
+    std::fs::write(&no_budgets, "").unwrap();
+    let check = check_consistency(&out, &no_budgets);
+    assert_eq!(check.ending, Ending::Success, "{}{}", check.stdout, check.stderr);
+    let hidden: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(hidden.is_empty(), "{hidden:?}");
+}
+
+#[test]
+fn a_staging_folder_is_removed_only_when_no_build_holds_the_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("luts");
+    // A build elsewhere (another PID namespace or host: its process id means nothing here) holds
+    // the folder and stages into it.
+    let holder = tmlut::commit::OutputFolder::take(&out, |_| {}).unwrap();
+    let foreign = out.join(".tmlut-staging-4000000");
+    std::fs::create_dir(&foreign).unwrap();
+    std::fs::write(foreign.join("karis.dds"), b"staged").unwrap();
+
+    let config = dir.path().join("small.toml");
+    std::fs::write(&config, common::SMALL_SET).unwrap();
+    let build = std::process::Command::new(common::binary())
+        .args(["build", "-q", "--only", "gd", "--config", config.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(foreign.join("karis.dds").exists(), "a live build's staging folder was removed");
+    assert!(!out.join("manifest.json").exists(), "a second build wrote while the folder was held");
+    drop(holder);
+    let output = build.wait_with_output().unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("waiting"));
+    // Once the holder let go, its staging folder was provably abandoned, and removed.
+    assert!(!foreign.exists());
+}
+
+#[test]
+fn a_build_killed_at_any_moment_leaves_a_folder_that_check_trusts_or_refuses_and_the_next_build_repairs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = small_build(dir.path(), &[]);
+    let no_budgets = dir.path().join("none.toml");
+    std::fs::write(&no_budgets, "").unwrap();
+    // The new build flips Karis's orientation and changes every seed: every file differs.
+    let flipped = dir.path().join("flipped.toml");
+    std::fs::write(
+        &flipped,
+        format!("seed = 99\n{}", common::SMALL_SET).replace("[karis]\n", "[karis]\norientation = \"smooth-first\"\n"),
+    )
+    .unwrap();
+    let build_args = ["build", "-q", "--config", flipped.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let mut outcomes = std::collections::BTreeMap::new();
+    for delay_ms in (0..125).step_by(5) {
+        let mut child = std::process::Command::new(common::binary())
+            .args(build_args)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        let killed = child.try_wait().unwrap().is_none();
+        let _ = child.kill(); // SIGKILL: no destructor runs
+        child.wait().unwrap();
+        let check = check_consistency(&out, &no_budgets);
+        let state = match check.ending {
+            Ending::Success => "consistent",
+            Ending::CleanError if check.stdout.contains("FAIL .tmlut-commit.json: commit") => "journal",
+            _ => panic!("killed after {delay_ms} ms: {}{}", check.stdout, check.stderr),
+        };
+        *outcomes.entry((killed, state)).or_insert(0) += 1;
+        // The next build completes or discards what the killed one left.
+        let output = std::process::Command::new(common::binary()).args(build_args).output().unwrap();
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        assert_eq!(check_consistency(&out, &no_budgets).ending, Ending::Success);
+    }
+    assert!(outcomes.keys().any(|(killed, _)| *killed), "{outcomes:?}");
+    eprintln!("(killed, folder state) after each kill: {outcomes:?}");
+}

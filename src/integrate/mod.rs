@@ -320,6 +320,8 @@ pub trait Progress: Sync {
     fn start(&self, _label: &str, _total: u64) {}
     fn advance(&self, _done: u64) {}
     fn finish(&self) {}
+    /// Something the person waiting should know, such as a lock being waited for.
+    fn note(&self, _message: &str) {}
 }
 
 impl Progress for () {}
