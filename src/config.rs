@@ -116,6 +116,9 @@ impl Config {
         self.tir.validate()?;
         self.belcour.validate()?;
         self.karis.validate()?;
+        for recipe in self.recipes() {
+            crate::recipes::check_demand(recipe)?;
+        }
         // A table with no format writes nothing, unless it has other outputs: FGD's packed
         // textures, TIR's fitted form.
         let tir_fit = self.tir.fit == crate::recipes::tir::TirFit::Best;
@@ -157,10 +160,16 @@ impl SamplingConfig {
     pub fn validate(&self, key: &str) -> Result<()> {
         crate::sampling::sequence::SamplePlan::new(self.samples, self.replicates)
             .map_err(|e| Error::invalid(format!("{key}.samples"), strip_key(&e)))?;
-        if self.replicates == 0 || self.replicates as u64 > self.samples {
+        // Replicates split the samples into equal power-of-two prefixes of the Sobol sequence; a
+        // count that is not a power of two would silently become the next one.
+        if !self.replicates.is_power_of_two() || self.replicates as u64 > self.samples {
             return Err(Error::invalid(
                 format!("{key}.replicates"),
-                format!("{}; allowed: 1 to the number of samples ({})", self.replicates, self.samples),
+                format!(
+                    "{}; allowed: a power of two from 1 to the number of samples ({}); more are used where a \
+                     replicate would exceed 2^16 points",
+                    self.replicates, self.samples
+                ),
             ));
         }
         Ok(())
@@ -295,6 +304,37 @@ mod tests {
         assert!(e.contains("always") && e.contains("best") && e.contains("off"), "{e}");
         let e = error_of("[karis]\nmasking = \"beckmann\"\n");
         assert!(e.contains("beckmann") && e.contains("smith-separable"), "{e}");
+    }
+
+    #[test]
+    fn a_build_that_would_not_fit_in_memory_or_time_is_refused_naming_its_keys() {
+        // Every FGD count at its maximum: 2^56 values.
+        let e = error_of(
+            "[fgd]\nmu_count = 16384\nalpha_count = 16384\neta_count = 16384\nkappa_count = 16384\npackings = []\n",
+        );
+        assert!(
+            e.starts_with("fgd: ") && e.contains("fgd.mu_count, fgd.alpha_count, fgd.eta_count, fgd.kappa_count"),
+            "{e}"
+        );
+        assert!(e.contains("allowed: at most 16.0 GiB"), "{e}");
+        // 2^32 samples: 144 GiB of points.
+        let e = error_of("[karis.sampling]\nsamples = 4294967296\nreplicates = 4\n");
+        assert!(e.starts_with("karis: ") && e.contains("karis.sampling.samples"), "{e}");
+        // The per-cell method over the default FGD table with 2^20 samples: 2^44 evaluations and more.
+        let e = error_of("[fgd]\nmethod = \"per-cell\"\n[fgd.sampling]\nsamples = 2097152\nreplicates = 4\n");
+        assert!(e.contains("fgd.sampling.samples = 2097152") && e.contains("per-cell") && e.contains("2^44"), "{e}");
+        // The default set needs far less.
+        let config = Config::default();
+        for recipe in config.recipes() {
+            let demand = crate::recipes::demand(recipe).unwrap();
+            assert!(demand.bytes < 1 << 30, "{}: {demand:?}", recipe.name());
+        }
+    }
+
+    #[test]
+    fn replicates_that_are_not_a_power_of_two_are_refused() {
+        let e = error_of("[karis.sampling]\nsamples = 1024\nreplicates = 3\n");
+        assert!(e.contains("karis.sampling.replicates") && e.contains("3; allowed: a power of two"), "{e}");
     }
 
     #[test]

@@ -652,10 +652,14 @@ fn parse_fgd_source(text: &str) -> Result<tmlut::model::folder::FgdSource, Strin
     }
 }
 
+/// The most worker threads `--threads` starts: results do not depend on the count, and far more
+/// threads than cores only cost (each is started at once, with its own stack).
+const MAX_THREADS: usize = 1024;
+
 fn set_threads(threads: Option<usize>) -> tmlut::Result<()> {
     let Some(threads) = threads else { return Ok(()) };
-    if threads == 0 {
-        return Err(tmlut::Error::invalid("--threads", "0; allowed: 1 or more"));
+    if !(1..=MAX_THREADS).contains(&threads) {
+        return Err(tmlut::Error::invalid("--threads", format!("{threads}; allowed: 1 to {MAX_THREADS}")));
     }
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

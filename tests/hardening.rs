@@ -197,3 +197,37 @@ fn a_build_killed_at_any_moment_leaves_a_folder_that_check_trusts_or_refuses_and
     assert!(outcomes.keys().any(|(killed, _)| *killed), "{outcomes:?}");
     eprintln!("(killed, folder state) after each kill: {outcomes:?}");
 }
+
+#[test]
+fn configurations_and_scenes_beyond_any_machine_are_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("luts");
+    let out = out.to_str().unwrap();
+    let cases: [(&str, &[&str]); 3] = [
+        (
+            "[fgd]\nmu_count = 16384\nalpha_count = 16384\neta_count = 16384\nkappa_count = 16384\npackings = []\n",
+            &["fgd.mu_count, fgd.alpha_count, fgd.eta_count, fgd.kappa_count", "allowed: at most"],
+        ),
+        ("[gd.sampling]\nsamples = 4294967296\nreplicates = 4\n", &["gd.sampling.samples", "allowed: at most"]),
+        ("[gd.sampling]\nsamples = 1024\nreplicates = 3\n", &["gd.sampling.replicates", "power of two"]),
+    ];
+    for (text, expected) in cases {
+        let config = dir.path().join("config.toml");
+        std::fs::write(&config, text).unwrap();
+        let run =
+            run_limited(&["build", "-q", "--only", "gd", "--config", config.to_str().unwrap(), "--out", out], QUICK);
+        assert_clean_error(&run, expected);
+    }
+    let run = run_limited(&["build", "-q", "--only", "gd", "--threads", "100000", "--out", out], QUICK);
+    assert_clean_error(&run, &["--threads", "100000", "allowed: 1 to 1024"]);
+    assert!(!std::path::Path::new(out).exists(), "nothing is created for a refused build");
+
+    let scene = dir.path().join("glaze.toml");
+    std::fs::write(
+        &scene,
+        "[[material]]\nname = \"glaze\"\n[[material.layer]]\ntype = \"interface\"\nvary = { eta = [1.4, 1e20] }\nalpha = 0.1\n",
+    )
+    .unwrap();
+    let run = run_limited(&["plan", scene.to_str().unwrap()], QUICK);
+    assert_clean_error(&run, &["`glaze`", "layer 1: vary.eta", "1e20", "allowed: 0.01 to 100"]);
+}

@@ -35,6 +35,8 @@ use super::fgd::{fresnel_kinks, projected_fresnel};
 pub const NAME: &str = "belcour";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 4;
+/// The configuration keys of the node counts, axis 0 first.
+pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -259,6 +261,10 @@ pub fn basis() -> &'static FresnelBasis {
 
 impl TableRecipe for BelcourSettings {
     table_recipe_accessors!();
+
+    fn kept_measure_intervals(&self) -> Option<usize> {
+        Some(self.cosine_intervals)
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         basis_integrals(basis(), self.masking, Method::PerCell, points, position[0], position[1])

@@ -36,6 +36,8 @@ use crate::table::{Axis, Channel, Table};
 pub const NAME: &str = "fgd";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 1;
+/// The configuration keys of the node counts, axis 0 first.
+pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count", "kappa_count"];
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -244,6 +246,10 @@ fn reference_check(
 
 impl TableRecipe for FgdSettings {
     table_recipe_accessors!();
+
+    fn kept_measure_intervals(&self) -> Option<usize> {
+        (self.method == Method::Fast).then_some(self.cosine_intervals)
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         fgd_cell(self.masking, points, position)
