@@ -64,7 +64,12 @@ impl Default for Config {
 impl Config {
     /// Parse a TOML configuration; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self> {
-        let config: Config = toml::from_str(text).map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
+        // Parsed to a TOML table first and deserialised from it: that path refuses an array longer
+        // than its field (`alpha_range = [0.1, 0.5, 0.9]`), which deserialising from the text
+        // directly accepts, dropping the third value.
+        let table: toml::Table = text.parse().map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
+        let config: Config =
+            toml::Value::Table(table).try_into().map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
         config.validate()?;
         Ok(config)
     }
@@ -329,6 +334,12 @@ mod tests {
             let demand = crate::recipes::demand(recipe).unwrap();
             assert!(demand.bytes < 1 << 30, "{}: {demand:?}", recipe.name());
         }
+    }
+
+    #[test]
+    fn a_range_of_three_values_is_refused() {
+        let e = error_of("[karis]\nalpha_range = [0.1, 0.5, 0.9]\n");
+        assert!(e.contains("invalid length 3") && e.contains("karis.alpha_range"), "{e}");
     }
 
     #[test]

@@ -92,6 +92,21 @@ impl Budgets {
             }
         }
         for (table, budget) in &budgets.tables {
+            for (key, value) in [
+                ("max_reference_rms", budget.max_reference_rms),
+                ("max_reference_max", budget.max_reference_max),
+                ("max_replicate_rms", budget.max_replicate_rms),
+                ("max_replicate_max", budget.max_replicate_max),
+                ("max_build_s", budget.max_build_s),
+            ] {
+                // A NaN limit would pass or fail every figure silently (every comparison is false).
+                if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+                    return Err(Error::invalid(
+                        format!("{origin}: {table}.{key}"),
+                        format!("{v}; allowed: finite and >= 0"),
+                    ));
+                }
+            }
             if let Some([lo, hi]) = budget.value_range
                 && (lo.is_nan() || hi.is_nan() || lo > hi)
             {
@@ -395,5 +410,9 @@ mod tests {
         assert!(err.contains("b.toml") && err.contains("max_rsm"), "{err}");
         let err = Budgets::from_toml("[fgd]\nvalue_range = [1.0, 0.0]\n", "b.toml").unwrap_err().to_string();
         assert!(err.contains("fgd.value_range"), "{err}");
+        let err = Budgets::from_toml("[fgd]\nmax_reference_rms = nan\n", "b.toml").unwrap_err().to_string();
+        assert!(err.contains("fgd.max_reference_rms") && err.contains("NaN; allowed: finite"), "{err}");
+        let err = Budgets::from_toml("[karis]\nvalue_range = [0.0, 1.0, 2.0]\n", "b.toml").unwrap_err().to_string();
+        assert!(err.contains("invalid length 3") && err.contains("karis.value_range"), "{err}");
     }
 }
