@@ -141,6 +141,15 @@ pub fn decode(path: &Path, bytes: &[u8], format: FileFormat, entry: Option<&File
             let names: Option<Vec<&str>> = entry.map(|e| e.axes.iter().map(|a| a.axis.name.as_str()).collect());
             let mut table = bin::decode_bin(bytes, path, names.as_deref())?;
             if let Some(entry) = entry {
+                if entry.channels.len() != 1 {
+                    return Err(Error::format(
+                        path,
+                        format!(
+                            "{MANIFEST_FILE} states {} channels; a .bin file holds exactly one",
+                            entry.channels.len()
+                        ),
+                    ));
+                }
                 table.name = name;
                 table.channels = entry.channels.clone();
             }

@@ -172,7 +172,7 @@ fn tampered_emptied_and_deleted_shaders_fail() {
 fn a_manifest_that_misstates_a_file_fails() {
     // Each lie in the manifest's description of karis.dds or tir.bin, with the SHA-256 left right.
     type Lie = fn(&mut serde_json::Value);
-    let lies: [(&str, &str, Lie); 5] = [
+    let lies: [(&str, &str, Lie); 6] = [
         ("karis.dds", "NaN count", |e| e["nan_count"] = 3.into()),
         ("karis.dds", "value range", |e| e["value_range"][1] = 0.5.into()),
         ("karis.dds", "axis count", |e| e["axes"][0]["count"] = (1u64 << 40).into()),
@@ -184,6 +184,11 @@ fn a_manifest_that_misstates_a_file_fails() {
         }),
         ("karis.exr", "channel count", |e| {
             e["channels"].as_array_mut().unwrap().pop();
+        }),
+        // A .bin file has no channel names: the manifest's are taken, but only one of them.
+        ("gd.bin", "channel count", |e| {
+            let extra = serde_json::json!({"name": "extra", "meaning": "a lie"});
+            e["channels"].as_array_mut().unwrap().push(extra);
         }),
     ];
     for (file, lie, edit) in lies {
