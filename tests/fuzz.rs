@@ -411,6 +411,22 @@ fn run_case(case: &Case, work: &Path, folder: &Path, budgets: &Path) -> (Vec<com
     }
 }
 
+/// One row of the report's table.
+fn row(reader: &str, tally: &Tally) -> String {
+    let n = |e| tally.runs.get(&e).copied().unwrap_or(0);
+    format!(
+        "| {reader} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+        tally.cases,
+        tally.runs.values().sum::<usize>(),
+        n(Ending::Success),
+        n(Ending::CleanError),
+        n(Ending::Panic),
+        n(Ending::Abort),
+        n(Ending::Hang),
+        tally.data_lost
+    )
+}
+
 fn copy_folder(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for entry in std::fs::read_dir(from).unwrap().flatten() {
@@ -472,18 +488,7 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
     );
     let mut total = Tally::default();
     for (reader, tally) in &tallies {
-        let n = |e| tally.runs.get(&e).copied().unwrap_or(0);
-        report.push_str(&format!(
-            "| {reader:?} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-            tally.cases,
-            tally.runs.values().sum::<usize>(),
-            n(Ending::Success),
-            n(Ending::CleanError),
-            n(Ending::Panic),
-            n(Ending::Abort),
-            n(Ending::Hang),
-            tally.data_lost
-        ));
+        report.push_str(&row(&format!("{reader:?}"), tally));
         total.cases += tally.cases;
         total.data_lost += tally.data_lost;
         for (ending, k) in &tally.runs {
@@ -491,18 +496,8 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
         }
         total.examples.extend(tally.examples.iter().cloned());
     }
+    report.push_str(&row("all", &total));
     let n = |e| total.runs.get(&e).copied().unwrap_or(0);
-    report.push_str(&format!(
-        "| all | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-        total.cases,
-        total.runs.values().sum::<usize>(),
-        n(Ending::Success),
-        n(Ending::CleanError),
-        n(Ending::Panic),
-        n(Ending::Abort),
-        n(Ending::Hang),
-        total.data_lost
-    ));
     eprintln!("fuzz, seed {seed}:\n{report}");
     assert!(total.cases >= 2000.min(count), "{report}");
     assert!(

@@ -78,35 +78,26 @@ impl Budgets {
         };
         let budgets = Budgets { tables: toml::Value::Table(document).try_into().map_err(clean)?, furnace };
         for (scene, budget) in &budgets.furnace {
-            for (key, value) in [
-                ("max_table_error", budget.max_table_error),
-                ("max_model_error", budget.max_model_error),
-                ("max_walk_standard_error", budget.max_walk_standard_error),
-            ] {
-                if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err(Error::invalid(
-                        format!("{origin}: furnace.{scene}.{key}"),
-                        format!("{v}; allowed: finite and >= 0"),
-                    ));
-                }
-            }
+            check_limits(
+                &format!("{origin}: furnace.{scene}"),
+                &[
+                    ("max_table_error", budget.max_table_error),
+                    ("max_model_error", budget.max_model_error),
+                    ("max_walk_standard_error", budget.max_walk_standard_error),
+                ],
+            )?;
         }
         for (table, budget) in &budgets.tables {
-            for (key, value) in [
-                ("max_reference_rms", budget.max_reference_rms),
-                ("max_reference_max", budget.max_reference_max),
-                ("max_replicate_rms", budget.max_replicate_rms),
-                ("max_replicate_max", budget.max_replicate_max),
-                ("max_build_s", budget.max_build_s),
-            ] {
-                // A NaN limit would pass or fail every figure silently (every comparison is false).
-                if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err(Error::invalid(
-                        format!("{origin}: {table}.{key}"),
-                        format!("{v}; allowed: finite and >= 0"),
-                    ));
-                }
-            }
+            check_limits(
+                &format!("{origin}: {table}"),
+                &[
+                    ("max_reference_rms", budget.max_reference_rms),
+                    ("max_reference_max", budget.max_reference_max),
+                    ("max_replicate_rms", budget.max_replicate_rms),
+                    ("max_replicate_max", budget.max_replicate_max),
+                    ("max_build_s", budget.max_build_s),
+                ],
+            )?;
             if let Some([lo, hi]) = budget.value_range
                 && (lo.is_nan() || hi.is_nan() || lo > hi)
             {
@@ -123,6 +114,17 @@ impl Budgets {
         let text = crate::formats::read_text_at_most(path, crate::formats::MAX_TEXT_INPUT_BYTES, "a budgets file")?;
         Self::from_toml(&text, &path.display().to_string())
     }
+}
+
+/// Refuse a limit that is not a finite number >= 0: a NaN limit would pass or fail every figure
+/// silently (every comparison with it is false).
+fn check_limits(section: &str, limits: &[(&str, Option<f64>)]) -> Result<()> {
+    for &(key, value) in limits {
+        if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(Error::invalid(format!("{section}.{key}"), format!("{v}; allowed: finite and >= 0")));
+        }
+    }
+    Ok(())
 }
 
 /// One verified property of one file.
