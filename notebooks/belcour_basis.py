@@ -1,6 +1,6 @@
 """Independent check of tmlut's Belcour-Bati-Barla Fresnel basis.
 
-Builds the same construction as `src/recipes/belcour.rs` (see ../shared/notes/tables.md) with
+Builds the same construction as `src/recipes/belcour.rs` (see docs/tables.md) with
 NumPy's full SVD instead of tmlut's orthogonal iteration, and prints the singular values, a few
 basis values and the probe cosines. The values asserted in the test
 `recipes::belcour::tests::basis_matches_an_independent_full_svd` come from this script.

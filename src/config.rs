@@ -27,6 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
+use crate::recipes::TableRecipe;
 use crate::recipes::{
     belcour::BelcourSettings, fgd::FgdSettings, gd::GdSettings, karis::KarisSettings, tir::TirSettings,
 };
@@ -63,13 +64,18 @@ impl Default for Config {
 impl Config {
     /// Parse a TOML configuration; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self> {
-        let config: Config = toml::from_str(text).map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
+        // Parsed to a TOML table first and deserialised from it: that path refuses an array longer
+        // than its field (`alpha_range = [0.1, 0.5, 0.9]`), which deserialising from the text
+        // directly accepts, dropping the third value.
+        let table: toml::Table = text.parse().map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
+        let config: Config =
+            toml::Value::Table(table).try_into().map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
         config.validate()?;
         Ok(config)
     }
 
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::io(path, source))?;
+        let text = crate::formats::read_text_at_most(path, crate::formats::MAX_TEXT_INPUT_BYTES, "a configuration")?;
         Self::from_toml(&text, &path.display().to_string())
     }
 
@@ -114,7 +120,29 @@ impl Config {
         self.gd.validate()?;
         self.tir.validate()?;
         self.belcour.validate()?;
-        self.karis.validate()
+        self.karis.validate()?;
+        for recipe in self.recipes() {
+            crate::recipes::check_demand(recipe)?;
+        }
+        // A table with no format writes nothing, unless it has other outputs: FGD's packed
+        // textures, TIR's fitted form.
+        let tir_fit = self.tir.fit == crate::recipes::tir::TirFit::Best;
+        for (name, output, other_outputs) in [
+            (self.fgd.name(), &self.fgd.output, !self.fgd.packings.is_empty()),
+            (self.gd.name(), &self.gd.output, false),
+            (self.tir.name(), &self.tir.output, tir_fit),
+            (self.belcour.name(), &self.belcour.output, false),
+            (self.karis.name(), &self.karis.output, false),
+        ] {
+            if output.formats.is_empty() && !other_outputs {
+                return Err(Error::invalid(
+                    format!("{name}.output.formats"),
+                    "[] writes no file of this table; give at least one format, or leave the table out of the \
+                     build with --only",
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -137,10 +165,16 @@ impl SamplingConfig {
     pub fn validate(&self, key: &str) -> Result<()> {
         crate::sampling::sequence::SamplePlan::new(self.samples, self.replicates)
             .map_err(|e| Error::invalid(format!("{key}.samples"), strip_key(&e)))?;
-        if self.replicates == 0 || self.replicates as u64 > self.samples {
+        // Replicates split the samples into equal power-of-two prefixes of the Sobol sequence; a
+        // count that is not a power of two would silently become the next one.
+        if !self.replicates.is_power_of_two() || self.replicates as u64 > self.samples {
             return Err(Error::invalid(
                 format!("{key}.replicates"),
-                format!("{}; allowed: 1 to the number of samples ({})", self.replicates, self.samples),
+                format!(
+                    "{}; allowed: a power of two from 1 to the number of samples ({}); more are used where a \
+                     replicate would exceed 2^16 points",
+                    self.replicates, self.samples
+                ),
             ));
         }
         Ok(())
@@ -178,7 +212,13 @@ pub struct OutputConfig {
 
 impl OutputConfig {
     pub fn validate(&self, key: &str, allowed: &[FileFormat]) -> Result<()> {
-        for format in &self.formats {
+        for (k, format) in self.formats.iter().enumerate() {
+            if self.formats[..k].contains(format) {
+                return Err(Error::invalid(
+                    format!("{key}.formats"),
+                    format!("`{}` is listed twice; each format is written once", format.extension()),
+                ));
+            }
             if !allowed.contains(format) {
                 let names: Vec<&str> = allowed.iter().map(|f| f.extension()).collect();
                 return Err(Error::invalid(
@@ -269,6 +309,57 @@ mod tests {
         assert!(e.contains("always") && e.contains("best") && e.contains("off"), "{e}");
         let e = error_of("[karis]\nmasking = \"beckmann\"\n");
         assert!(e.contains("beckmann") && e.contains("smith-separable"), "{e}");
+    }
+
+    #[test]
+    fn a_build_that_would_not_fit_in_memory_or_time_is_refused_naming_its_keys() {
+        // Every FGD count at its maximum: 2^56 values.
+        let e = error_of(
+            "[fgd]\nmu_count = 16384\nalpha_count = 16384\neta_count = 16384\nkappa_count = 16384\npackings = []\n",
+        );
+        assert!(
+            e.starts_with("fgd: ") && e.contains("fgd.mu_count, fgd.alpha_count, fgd.eta_count, fgd.kappa_count"),
+            "{e}"
+        );
+        assert!(e.contains("allowed: at most 16.0 GiB"), "{e}");
+        // 2^32 samples: 144 GiB of points.
+        let e = error_of("[karis.sampling]\nsamples = 4294967296\nreplicates = 4\n");
+        assert!(e.starts_with("karis: ") && e.contains("karis.sampling.samples"), "{e}");
+        // The per-cell method over the default FGD table with 2^20 samples: 2^44 evaluations and more.
+        let e = error_of("[fgd]\nmethod = \"per-cell\"\n[fgd.sampling]\nsamples = 2097152\nreplicates = 4\n");
+        assert!(e.contains("fgd.sampling.samples = 2097152") && e.contains("per-cell") && e.contains("2^44"), "{e}");
+        // The default set needs far less.
+        let config = Config::default();
+        for recipe in config.recipes() {
+            let demand = crate::recipes::demand(recipe).unwrap();
+            assert!(demand.bytes < 1 << 30, "{}: {demand:?}", recipe.name());
+        }
+    }
+
+    #[test]
+    fn a_range_of_three_values_is_refused() {
+        let e = error_of("[karis]\nalpha_range = [0.1, 0.5, 0.9]\n");
+        assert!(e.contains("invalid length 3") && e.contains("karis.alpha_range"), "{e}");
+    }
+
+    #[test]
+    fn replicates_that_are_not_a_power_of_two_are_refused() {
+        let e = error_of("[karis.sampling]\nsamples = 1024\nreplicates = 3\n");
+        assert!(e.contains("karis.sampling.replicates") && e.contains("3; allowed: a power of two"), "{e}");
+    }
+
+    #[test]
+    fn a_format_listed_twice_or_no_format_at_all_is_refused() {
+        let e = error_of("[karis.output]\nformats = [\"dds\", \"exr\", \"dds\"]\nprecision = \"f16\"\n");
+        assert!(e.contains("karis.output.formats") && e.contains("`dds` is listed twice"), "{e}");
+        let e = error_of("[karis.output]\nformats = []\nprecision = \"f16\"\n");
+        assert!(e.contains("karis.output.formats") && e.contains("writes no file") && e.contains("--only"), "{e}");
+        // FGD's packed texture and TIR's fitted form are files of their own.
+        let packed_only =
+            "[fgd.output]\nformats = []\nprecision = \"f32\"\n[tir.output]\nformats = []\nprecision = \"f32\"\n";
+        assert!(Config::from_toml(packed_only, "t").is_ok());
+        let e = error_of(&format!("{packed_only}[tir]\nfit = \"off\"\n"));
+        assert!(e.contains("tir.output.formats"), "{e}");
     }
 }
 

@@ -9,7 +9,8 @@
 //! - [`table`]: axes, grids and multilinear interpolation;
 //! - [`recipes`]: one file per table, each the integral it computes (generator);
 //! - [`formats`]: DDS, OpenEXR, the original `.bin` layout and the manifest;
-//! - [`pipeline`]: a configuration in, files and a manifest out (generator);
+//! - [`pipeline`]: a configuration in, files and a manifest out (generator), committed into a locked
+//!   folder by [`commit`];
 //! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and a
 //!   GPU sampling emulator to measure it;
 //! - [`loader`]: what a renderer needs to read and sample the files;
@@ -22,7 +23,7 @@
 //! - [`fit`]: least-squares fits of analytic TIR forms with NLopt, error and cost side by side (generator).
 //!
 //! Build a renderer against the loader alone with `default-features = false`: that leaves out the
-//! generator's dependencies (rayon, sobol_burley, clap, indicatif, toml, sha2; exr unless its own
+//! generator's dependencies (rayon, sobol_burley, clap, indicatif, toml, fs4; exr unless its own
 //! `exr` feature is enabled).
 
 pub mod error;
@@ -38,6 +39,8 @@ pub mod sampling;
 pub mod stats;
 pub mod table;
 
+#[cfg(feature = "generator")]
+pub mod commit;
 #[cfg(feature = "generator")]
 pub mod config;
 #[cfg(feature = "generator")]

@@ -16,8 +16,10 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::formats::manifest::{FileEntry, MANIFEST_FILE, Manifest};
-use crate::formats::{FileFormat, bin, dds};
+use crate::formats::manifest::{
+    FileEntry, MANIFEST_FILE, Manifest, check_file_name, pending_commit, pending_commit_error,
+};
+use crate::formats::{FileFormat, Precision, bin, dds, read_bytes};
 use crate::table::Table;
 
 /// An output folder of tmlut and its manifest.
@@ -28,7 +30,11 @@ pub struct LutFolder {
 }
 
 impl LutFolder {
+    /// Open a folder: its manifest, refused if a build was interrupted while committing into it.
     pub fn open(dir: &Path) -> Result<Self> {
+        if let Some(journal) = pending_commit(dir) {
+            return Err(pending_commit_error(&journal));
+        }
         let manifest = Manifest::read(&dir.join(MANIFEST_FILE))?;
         Ok(LutFolder { dir: dir.to_path_buf(), manifest })
     }
@@ -44,17 +50,47 @@ impl LutFolder {
         })
     }
 
-    /// Load a file of this folder as a table with the manifest's axes and channels.
+    /// Load a file of this folder as a table with the manifest's axes and channels, verified
+    /// against its entry ([`load_verified`]).
     pub fn load(&self, file: &str) -> Result<Table> {
-        let entry = self.entry(file)?;
-        load_with_entry(&self.dir.join(file), Some(entry))
+        check_file_name(file).map_err(|reason| Error::format(self.dir.join(MANIFEST_FILE), reason))?;
+        load_verified(&self.dir.join(file), self.entry(file)?)
     }
 }
 
-/// Load a table file, taking its description from the `manifest.json` beside it when there is one.
+/// Load a file listed in a manifest and verify it against its entry: the bytes must have the
+/// entry's length and SHA-256, and what the file states about itself (axes, orientation,
+/// channels, value range, non-finite values) must be what the entry states. A file replaced or
+/// damaged after the build that described it is refused, naming what differs.
+///
+/// Hashing 64 MiB (the FGD table) takes 34 ms on the project's 2-core machine (`docs/formats.md`);
+/// it is done on every load, since a table that is not what its manifest says is read wrong
+/// without any other sign.
+pub fn load_verified(path: &Path, entry: &FileEntry) -> Result<Table> {
+    let bytes = read_bytes(path)?;
+    let format = format_of_bytes(path, &bytes)?;
+    let mut disagreements = byte_disagreements(entry, &bytes);
+    if disagreements.is_empty() {
+        let table = decode(path, &bytes, format, Some(entry))?;
+        disagreements = table_disagreements(entry, format, &bytes, &table);
+        if disagreements.is_empty() {
+            return Ok(table);
+        }
+    }
+    Err(Error::format(path, format!("differs from its entry in {MANIFEST_FILE}: {}", disagreements.join("; "))))
+}
+
+/// Load a table file, taking its description from the `manifest.json` beside it when there is one
+/// (and then verified against it, as [`load_verified`]).
 pub fn load_table(path: &Path) -> Result<Table> {
     let beside = ManifestBeside::of(path)?;
-    load_with_entry(path, beside.entry())
+    match beside.entry() {
+        Some(entry) => load_verified(path, entry),
+        None => {
+            let bytes = read_bytes(path)?;
+            decode(path, &bytes, format_of_bytes(path, &bytes)?, None)
+        }
+    }
 }
 
 /// The `manifest.json` of the folder a file sits in, if there is one, and the file's name there.
@@ -69,6 +105,9 @@ impl ManifestBeside {
     pub fn of(path: &Path) -> Result<Self> {
         let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        if let Some(journal) = pending_commit(dir) {
+            return Err(pending_commit_error(&journal));
+        }
         let manifest_path = dir.join(MANIFEST_FILE);
         let manifest = if manifest_path.exists() { Some(Manifest::read(&manifest_path)?) } else { None };
         Ok(ManifestBeside { manifest_path, manifest, file })
@@ -80,8 +119,8 @@ impl ManifestBeside {
     }
 }
 
-fn load_with_entry(path: &Path, entry: Option<&FileEntry>) -> Result<Table> {
-    let format = format_of(path)?;
+/// Decode a table file's bytes; a DDS file needs its manifest entry for axes and channels.
+pub fn decode(path: &Path, bytes: &[u8], format: FileFormat, entry: Option<&FileEntry>) -> Result<Table> {
     let name = entry.map(|e| e.table.clone()).unwrap_or_else(|| file_stem(path));
     match format {
         FileFormat::Dds => {
@@ -94,22 +133,133 @@ fn load_with_entry(path: &Path, entry: Option<&FileEntry>) -> Result<Table> {
                 )
             })?;
             let axes = entry.axes.iter().map(|a| a.axis.clone()).collect();
-            dds::read_dds(path)?.into_table(&name, axes, entry.channels.clone())
+            dds::decode_dds(bytes, path)?
+                .into_table(&name, axes, entry.channels.clone())
+                .map_err(|e| crate::formats::as_format_error(e, path))
         }
         FileFormat::Bin => {
             let names: Option<Vec<&str>> = entry.map(|e| e.axes.iter().map(|a| a.axis.name.as_str()).collect());
-            let mut table = bin::read_bin(path, names.as_deref())?;
+            let mut table = bin::decode_bin(bytes, path, names.as_deref())?;
             if let Some(entry) = entry {
+                if entry.channels.len() != 1 {
+                    return Err(Error::format(
+                        path,
+                        format!(
+                            "{MANIFEST_FILE} states {} channels; a .bin file holds exactly one",
+                            entry.channels.len()
+                        ),
+                    ));
+                }
                 table.name = name;
                 table.channels = entry.channels.clone();
             }
             Ok(table)
         }
         #[cfg(feature = "exr")]
-        FileFormat::Exr => crate::formats::exr::read_exr(path),
+        FileFormat::Exr => crate::formats::exr::decode_exr(bytes, path),
         #[cfg(not(feature = "exr"))]
         FileFormat::Exr => Err(crate::formats::no_exr_support(path)),
     }
+}
+
+/// Where a file's bytes disagree with its entry: length and SHA-256.
+pub fn byte_disagreements(entry: &FileEntry, bytes: &[u8]) -> Vec<String> {
+    let mut found = Vec::new();
+    if entry.bytes != bytes.len() as u64 {
+        found.push(format!("the file has {} bytes, the manifest states {}", bytes.len(), entry.bytes));
+    }
+    let sha256 = sha256_hex(bytes);
+    if sha256 != entry.sha256 {
+        found.push(format!("its SHA-256 is {sha256}, the manifest states {}", entry.sha256));
+    }
+    found
+}
+
+/// Where the table a file holds disagrees with what its entry states: format, axes (node counts
+/// and, where the file stores them, ranges and orientation), channels, non-finite values and the
+/// value range (the manifest's range, rounded to the file's precision, must be the stored one).
+pub fn table_disagreements(entry: &FileEntry, format: FileFormat, bytes: &[u8], table: &Table) -> Vec<String> {
+    let mut found = Vec::new();
+    if entry.format != format {
+        found.push(format!("the file is {format:?}, the manifest states {:?}", entry.format));
+    }
+    if format == FileFormat::Dds
+        && let Some((channels, precision)) = dds::stored_format(bytes)
+    {
+        let stored = dds::dxgi_format_name(channels, precision);
+        if entry.dxgi_format.as_deref() != Some(stored.as_str()) || entry.precision != precision {
+            found.push(format!(
+                "the texture is {stored}, the manifest states {} ({:?})",
+                entry.dxgi_format.as_deref().unwrap_or("no DXGI format"),
+                entry.precision
+            ));
+        }
+    }
+    let stated: Vec<&crate::table::Axis> = entry.axes.iter().map(|a| &a.axis).collect();
+    if stated.len() != table.axes.len() {
+        found.push(format!("the file has {} axes, the manifest states {}", table.axes.len(), stated.len()));
+    } else {
+        for (stored, stated) in table.axes.iter().zip(stated) {
+            let same = match format {
+                // A DDS file stores node counts only; its axes are the manifest's own.
+                FileFormat::Dds => stored.count == stated.count,
+                // `.bin` stores the range ends as float32.
+                FileFormat::Bin => {
+                    stored.count == stated.count
+                        && stored.start as f32 == stated.start as f32
+                        && stored.end as f32 == stated.end as f32
+                }
+                FileFormat::Exr => stored == stated,
+            };
+            if !same {
+                found.push(format!(
+                    "axis `{}`: the file has {} nodes over [{}, {}], the manifest states {} nodes over [{}, {}]",
+                    stated.name, stored.count, stored.start, stored.end, stated.count, stated.start, stated.end
+                ));
+            }
+        }
+    }
+    if table.channels.len() != entry.channels.len()
+        || (format == FileFormat::Exr && table.channels.iter().zip(&entry.channels).any(|(a, b)| a.name != b.name))
+    {
+        let names = |c: &[crate::table::Channel]| c.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ");
+        found.push(format!(
+            "the file has the channels [{}], the manifest states [{}]",
+            names(&table.channels),
+            names(&entry.channels)
+        ));
+    }
+    let stats = table.stats();
+    let non_finite = stats.nan_count + stats.infinite_count;
+    if non_finite != entry.nan_count {
+        found.push(format!(
+            "the file holds {non_finite} NaN or infinite values, the manifest states {}",
+            entry.nan_count
+        ));
+    }
+    // Rounding is monotonic, so the stored extremes are the rounded extremes of the f32 table.
+    let precision = if format == FileFormat::Bin { Precision::F32 } else { entry.precision };
+    let [lo, hi] = entry.value_range.map(|v| precision.round(v));
+    let values_present = stats.min <= stats.max;
+    if values_present && (stats.min.to_bits() != lo.to_bits() || stats.max.to_bits() != hi.to_bits()) {
+        found.push(format!(
+            "its values span [{}, {}], the manifest states [{}, {}] ({:?})",
+            stats.min, stats.max, entry.value_range[0], entry.value_range[1], precision
+        ));
+    }
+    found
+}
+
+/// SHA-256 of `bytes` in lowercase hexadecimal, as the manifest states it.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The format of a file, from its first bytes (see [`format_of`]).
+pub fn format_of_bytes(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
+    let magic: [u8; 4] = bytes.get(..4).and_then(|m| m.try_into().ok()).unwrap_or_default();
+    format_of_magic(path, magic, bytes.len() >= 4)
 }
 
 /// The format of a file, from its first bytes (DDS and OpenEXR have magic numbers) or, for the
@@ -119,10 +269,14 @@ pub fn format_of(path: &Path) -> Result<FileFormat> {
     let read = std::fs::File::open(path)
         .and_then(|mut f| std::io::Read::read(&mut f, &mut magic))
         .map_err(|source| Error::io(path, source))?;
-    if read == 4 && &magic == b"DDS " {
+    format_of_magic(path, magic, read == 4)
+}
+
+fn format_of_magic(path: &Path, magic: [u8; 4], complete: bool) -> Result<FileFormat> {
+    if complete && &magic == b"DDS " {
         return Ok(FileFormat::Dds);
     }
-    if read == 4 && magic == [0x76, 0x2f, 0x31, 0x01] {
+    if complete && magic == [0x76, 0x2f, 0x31, 0x01] {
         return Ok(FileFormat::Exr);
     }
     match path.extension().and_then(|e| e.to_str()).and_then(FileFormat::from_extension) {

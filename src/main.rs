@@ -602,8 +602,19 @@ fn run(cli: Cli) -> tmlut::Result<()> {
             Ok(())
         }
         Command::Inspect { file } => {
-            print!("{}", tmlut::report::inspect(&file)?);
-            Ok(())
+            let inspection = tmlut::report::inspect(&file)?;
+            print!("{}", inspection.text);
+            if inspection.disagreements.is_empty() {
+                Ok(())
+            } else {
+                Err(tmlut::Error::format(
+                    &file,
+                    format!(
+                        "differs from its entry in manifest.json in {} way(s) (see DIFFERS above)",
+                        inspection.disagreements.len()
+                    ),
+                ))
+            }
         }
     }
 }
@@ -641,10 +652,14 @@ fn parse_fgd_source(text: &str) -> Result<tmlut::model::folder::FgdSource, Strin
     }
 }
 
+/// The most worker threads `--threads` starts: results do not depend on the count, and far more
+/// threads than cores only cost (each is started at once, with its own stack).
+const MAX_THREADS: usize = 1024;
+
 fn set_threads(threads: Option<usize>) -> tmlut::Result<()> {
     let Some(threads) = threads else { return Ok(()) };
-    if threads == 0 {
-        return Err(tmlut::Error::invalid("--threads", "0; allowed: 1 or more"));
+    if !(1..=MAX_THREADS).contains(&threads) {
+        return Err(tmlut::Error::invalid("--threads", format!("{threads}; allowed: 1 to {MAX_THREADS}")));
     }
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -689,5 +704,9 @@ impl Progress for ProgressBars {
         if let Some(bar) = self.bar.lock().expect("progress lock").take() {
             bar.finish_and_clear();
         }
+    }
+
+    fn note(&self, message: &str) {
+        eprintln!("note: {message}");
     }
 }

@@ -3,15 +3,13 @@
 //! Each selected table is integrated, written in every configured format, hashed, and described
 //! in the folder's `manifest.json`, which keeps the entries of files this build did not touch.
 //!
-//! Files are first written into a staging folder inside the output folder and moved into place
-//! only once every table of the build has been integrated and written; the manifest comes last.
-//! A build that fails or is interrupted before that point leaves every earlier file and the
-//! previous manifest as they were.
+//! Files are first written into a staging folder inside the locked output folder and moved into
+//! place by one commit once every table of the build has been integrated and written
+//! ([`crate::commit`]).
 
 use std::path::{Path, PathBuf};
 
-use sha2::{Digest, Sha256};
-
+use crate::commit::{Move, OutputFolder};
 use crate::config::{Config, OutputConfig};
 use crate::error::{Error, Result};
 use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile};
@@ -105,8 +103,10 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
     write_jobs(&request.out, jobs, request.error_maps, None, progress)
 }
 
-/// Run every job, write its files into `out` (through a staging folder, see the module docs) and
-/// describe them in the folder's manifest, with `scene` recorded there when given.
+/// Run every job, write its files into `out` and describe them in the folder's manifest, with
+/// `scene` recorded there when given. The folder is locked for the whole build and the files move
+/// into place by one commit (see [`crate::commit`]): a build that fails or dies leaves the
+/// folder's earlier files and manifest, or a journal that the next build completes.
 pub fn write_jobs(
     out: &Path,
     jobs: Vec<Job>,
@@ -114,19 +114,16 @@ pub fn write_jobs(
     mut scene: Option<SceneRecord>,
     progress: &dyn Progress,
 ) -> Result<Vec<WrittenFile>> {
-    std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
+    let folder = OutputFolder::take(out, |message| progress.note(message))?;
     // Read the old manifest before integrating, so that a foreign or damaged one stops the build
     // before minutes of work rather than after.
     let mut manifest = Manifest::read_or_default(out)?;
     manifest.generator = generator_name();
 
-    let staging = Staging::create(out)?;
+    let mut staging = folder.staging()?;
     let staged_maps = staging.dir.join(MAPS_FOLDER);
     let mut staged = Vec::new();
-    let mut maps = Vec::new();
-    // Files without a manifest entry of their own (the shader files of a packing, listed in the
-    // packed texture's entry); moved into place with the rest.
-    let mut staged_companions = Vec::new();
+    let mut moves = Vec::new();
     for job in jobs {
         let build = (job.run)(progress)?;
         let first_file = staged.len();
@@ -144,81 +141,41 @@ pub fn write_jobs(
             for file in &mut staged[first_file..] {
                 file.entry.fit = Some(fit.clone());
             }
-            staged_companions.extend(shaders);
+            // Files without a manifest entry of their own (listed in the table's entry).
+            moves.extend(shaders.iter().map(|path| same_name(path, None)));
         }
         for &packing in &job.packings {
             let (texture, shaders) = write_packing_files(&staging.dir, &build, packing, job.output.precision)?;
             staged.push(texture);
-            staged_companions.extend(shaders);
+            moves.extend(shaders.iter().map(|path| same_name(path, None)));
         }
         if error_maps {
             std::fs::create_dir_all(&staged_maps).map_err(|source| Error::io(&staged_maps, source))?;
-            maps.extend(crate::report::error_map::write_error_maps(&staged_maps, &build)?);
-        }
-    }
-    for path in staged_companions {
-        let destination = out.join(file_name(&path));
-        std::fs::rename(&path, &destination).map_err(|source| Error::io(&destination, source))?;
-    }
-    if !maps.is_empty() {
-        let maps_dir = out.join(MAPS_FOLDER);
-        std::fs::create_dir_all(&maps_dir).map_err(|source| Error::io(&maps_dir, source))?;
-        for map in maps {
-            let destination = maps_dir.join(file_name(&map));
-            std::fs::rename(&map, &destination).map_err(|source| Error::io(&destination, source))?;
+            let maps = crate::report::error_map::write_error_maps(&staged_maps, &build)?;
+            moves.extend(maps.iter().map(|path| same_name(path, Some(MAPS_FOLDER))));
         }
     }
     let mut written = Vec::new();
     for file in staged {
         let name = file_name(&file.path);
-        let destination = out.join(&name);
-        std::fs::rename(&file.path, &destination).map_err(|source| Error::io(&destination, source))?;
-        manifest.files.insert(name, file.entry.clone());
-        written.push(WrittenFile { path: destination, entry: file.entry });
+        moves.push(same_name(&file.path, None));
+        manifest.files.insert(name.clone(), file.entry.clone());
+        written.push(WrittenFile { path: out.join(&name), entry: file.entry });
     }
     if scene.is_some() {
         manifest.scene = scene;
     }
-    manifest.write(out)?;
+    manifest.write(&staging.dir)?;
+    crate::commit::commit(&folder, &mut staging, moves)?;
     Ok(written)
 }
 
-/// A hidden folder inside the output folder (so that moving out of it is a rename on the same
-/// file system), removed with whatever is left in it when the build ends, however it ends.
-struct Staging {
-    dir: PathBuf,
-}
-
-const STAGING_PREFIX: &str = ".tmlut-staging-";
-
-impl Staging {
-    fn create(out: &Path) -> Result<Self> {
-        remove_abandoned_staging(out);
-        let dir = out.join(format!("{STAGING_PREFIX}{}", std::process::id()));
-        std::fs::create_dir_all(&dir).map_err(|source| Error::io(&dir, source))?;
-        Ok(Staging { dir })
-    }
-}
-
-/// Remove staging folders left by builds that were killed (a signal skips `Drop`), recognised by
-/// their process no longer running. Only where `/proc` tells; elsewhere they stay, harmless.
-fn remove_abandoned_staging(out: &Path) {
-    if !Path::new("/proc/self").exists() {
-        return;
-    }
-    let Ok(entries) = std::fs::read_dir(out) else { return };
-    for entry in entries.flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        let Some(pid) = name.strip_prefix(STAGING_PREFIX).and_then(|p| p.parse::<u32>().ok()) else { continue };
-        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
-            let _ = std::fs::remove_dir_all(entry.path());
-        }
-    }
-}
-
-impl Drop for Staging {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
+/// The move of a staged file to the same name in the output folder (under `subfolder`).
+fn same_name(staged: &Path, subfolder: Option<&str>) -> Move {
+    let name = file_name(staged);
+    match subfolder {
+        Some(folder) => Move { staged: format!("{folder}/{name}"), destination: format!("{folder}/{name}") },
+        None => Move { staged: name.clone(), destination: name },
     }
 }
 
@@ -359,9 +316,7 @@ pub fn storage_rounding(table: &Table, precision: Precision) -> f64 {
     table.data.iter().map(|&v| (precision.round(v) as f64 - v as f64).abs()).fold(0.0, f64::max)
 }
 
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
-}
+pub use crate::loader::sha256_hex;
 
 #[cfg(test)]
 mod tests {

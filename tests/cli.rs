@@ -4,6 +4,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
+use common::SMALL_SET;
 use tmlut::formats::manifest::{MANIFEST_FILE, Manifest};
 use tmlut::loader::LutFolder;
 
@@ -18,58 +21,6 @@ fn stderr(output: &Output) -> String {
 fn stdout(output: &Output) -> String {
     String::from_utf8_lossy(&output.stdout).into_owned()
 }
-
-/// Every table, small enough for the whole set to build in about a second.
-const SMALL_SET: &str = "
-[fgd]
-mu_count = 8
-alpha_count = 7
-eta_count = 6
-kappa_count = 5
-[fgd.sampling]
-samples = 1024
-replicates = 4
-[fgd.reference]
-cells = 4
-samples = 16384
-[gd]
-mu_count = 8
-alpha_count = 8
-[gd.sampling]
-samples = 1024
-replicates = 4
-[gd.reference]
-cells = 4
-samples = 16384
-[tir]
-mu_count = 8
-alpha_count = 8
-eta_count = 8
-[tir.sampling]
-samples = 1024
-replicates = 4
-[tir.reference]
-cells = 4
-samples = 16384
-[belcour]
-mu_count = 16
-roughness_count = 16
-[belcour.sampling]
-samples = 1024
-replicates = 4
-[belcour.reference]
-cells = 4
-samples = 16384
-[karis]
-mu_count = 32
-roughness_count = 24
-[karis.sampling]
-samples = 256
-replicates = 4
-[karis.reference]
-cells = 6
-samples = 16384
-";
 
 fn write_config(dir: &Path, text: &str) -> PathBuf {
     let path = dir.join("config.toml");
@@ -179,7 +130,7 @@ fn inspect_prints_the_conventions_of_each_file() {
 
 #[test]
 fn the_shipped_original_tables_inspect_cleanly() {
-    let gd = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_GD.bin");
+    let gd = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_GD.bin");
     let output = tmlut(&["inspect", gd]);
     assert!(output.status.success(), "{}", stderr(&output));
     let text = stdout(&output);

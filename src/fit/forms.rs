@@ -1,13 +1,12 @@
 //! Candidate analytic forms for the TIR table, each a small function of `(mu, alpha, eta)` and a
 //! parameter vector, evaluated in f64 (fitting) or f32 (what a shader runs, and what is timed).
 //!
-//! - [`Form::Eq56`]: the thesis's equation 5.6 as published (`notes/tables.md`, "The analytic TIR
-//!   approximation"): no fitted parameters, a `step()` of inverted polarity and a mean direction
-//!   `theta_o = pi/4 (1 + mu)`.
+//! - [`Form::Eq56`]: the thesis's equation 5.6 as published (`docs/fit.md`, "Forms"): no fitted
+//!   parameters, a `step()` of inverted polarity and a mean direction `theta_o = pi/4 (1 + mu)`.
 //! - [`Form::Eq56Corrected`]: the same with the step kept where `w_s.z > 0` and the mean direction the
 //!   lobe's own mirror direction `(sqrt(1 - mu^2), 0, mu)`. Both are baselines (no parameters).
 //! - Step forms: the table is a hard step at the critical cosine `c = sqrt(1 - eta^2)` when
-//!   `alpha -> 0` (`notes/tables.md`, TIR), smeared by the lobe's width as `alpha` grows. Each is
+//!   `alpha -> 0` (`docs/tables.md`, TIR), smeared by the lobe's width as `alpha` grows. Each is
 //!   `S(t)` with `t = (mu^2 - c^2 - shift) / width`, a decreasing step `S` (1 past the critical
 //!   angle, `mu < c`), and a width and shift that depend on roughness and angle:
 //!   `width = alpha (p0 + p1 alpha + p2 mu) + WIDTH_FLOOR`, `shift = alpha (p3 + p4 alpha + p5 mu^2)`.
@@ -578,7 +577,7 @@ fn smith_g1<R: Real>(z: R, alpha: R) -> R {
     R::of(2.0).div(one + (one + alpha.mul(alpha).mul(tan2)).sqrt())
 }
 
-/// Thesis equation 5.6 (`notes/tables.md`), published or with its step and mean direction corrected.
+/// Thesis equation 5.6 (`docs/fit.md`), published or with its step and mean direction corrected.
 /// The dominant direction `s` is Frostbite's "specular dominant direction" (Lagarde & de Rousiers
 /// 2014), normalised here because `reflect` needs a unit normal.
 fn eq56<R: Real>(mu: R, alpha: R, eta: R, corrected: bool) -> R {

@@ -345,7 +345,7 @@ pub fn form_timing(fitted: &FittedForm) -> TimedRun<'static> {
 }
 
 /// The table as a cell-centred f32 volume texture (x = mu, y = alpha, z = eta) and the
-/// node-aligned coordinate map `u = (x (N - 1) + 0.5) / N` (`notes/tables.md`, conventions).
+/// node-aligned coordinate map `u = (x (N - 1) + 0.5) / N` (`docs/formats.md`, "Axis placement").
 pub fn table_texture(table: &Table) -> Texture3D {
     let shape = table.shape();
     Texture3D { width: shape[0], height: shape[1], depth: shape[2], texels: table.data.clone() }

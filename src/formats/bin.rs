@@ -278,8 +278,8 @@ fn shape_text(sizes: &[usize]) -> String {
 mod tests {
     use super::*;
 
-    const GD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_GD.bin");
-    const TIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_TIR.bin");
+    const GD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_GD.bin");
+    const TIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_TIR.bin");
 
     fn sample_table(shape: &[usize]) -> Table {
         let axes = shape

@@ -3,7 +3,8 @@
 //!
 //! Written by hand rather than through a crate: the fields are few, and the one crate that
 //! writes them sets a stray `DDPF_RGB` flag next to the `DX10` fourCC that makes other readers
-//! misread the file (`notes/crates.md`). The reader accepts exactly what the writer produces:
+//! misread the file (Microsoft's `DDS_PIXELFORMAT` reference: with a `DX10` fourCC, `DDPF_FOURCC`
+//! is the only flag). The reader accepts exactly what the writer produces:
 //! uncompressed float formats of 1, 2 or 4 channels, 2D or volume textures, one mip level. It
 //! exists because no common Linux tool decodes float DDS, so our own files need a checker.
 //!
@@ -184,6 +185,13 @@ pub fn encode_dds(table: &Table, precision: Precision) -> Result<Vec<u8>> {
         }
     }
     Ok(bytes)
+}
+
+/// Channels and precision of the DXGI format a DDS file's DX10 header names, if it is one tmlut
+/// writes.
+pub fn stored_format(bytes: &[u8]) -> Option<(usize, Precision)> {
+    let format = u32::from_le_bytes(bytes.get(128..132)?.try_into().ok()?);
+    FORMATS.iter().find(|&&(f, _, _)| f == format).map(|&(_, c, p)| (c, p))
 }
 
 /// Read a DDS texture written by [`write_dds`].

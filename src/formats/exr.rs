@@ -21,9 +21,11 @@ use std::collections::HashMap;
 use std::io::Cursor;
 use std::path::Path;
 
+use ::exr::meta::MetaData;
+use ::exr::meta::header::Header;
 use ::exr::prelude::{
-    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, Layer, LayerAttributes, ReadChannels,
-    ReadLayers, SmallVec, Text, WritableImage, f16,
+    AnyChannel, AnyChannels, AttributeValue, Compression, Encoding, FlatSamples, Image, Layer, LayerAttributes,
+    ReadChannels, ReadLayers, SmallVec, Text, WritableImage, f16,
 };
 use serde::{Deserialize, Serialize};
 
@@ -200,8 +202,17 @@ fn atlas_planes(table: &Table, layout: &AtlasLayout) -> Vec<Vec<f32>> {
 }
 
 /// Read a table written by [`write_exr`].
+///
+/// The header is read and checked before any pixel is decoded: the description's layout must give
+/// the image's size, and the pixels that size implies must fit in the file (uncompressed, as tmlut
+/// writes them) or, compressed, in [`MAX_COMPRESSION_RATIO`] times it. A damaged size field is
+/// refused, never allocated.
 pub fn read_exr(path: &Path) -> Result<Table> {
-    let bytes = read_bytes(path)?;
+    decode_exr(&read_bytes(path)?, path)
+}
+
+/// [`read_exr`] on bytes already in memory; `path` names the file in errors.
+pub fn decode_exr(bytes: &[u8], path: &Path) -> Result<Table> {
     // Checked here so that a foreign file is called foreign, not "missing bytes" by the decoder.
     if !bytes.starts_with(&EXR_MAGIC) {
         return Err(Error::format(
@@ -209,20 +220,18 @@ pub fn read_exr(path: &Path) -> Result<Table> {
             "not an OpenEXR file: it does not start with the EXR magic number 76 2f 31 01",
         ));
     }
-    let image = ::exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .non_parallel()
-        .from_buffered(Cursor::new(bytes.as_slice()))
-        .map_err(|e| Error::format(path, format!("unreadable OpenEXR file (truncated or damaged?): {e}")))?;
-    let layer = image.layer_data;
     let refuse = |reason: String| Error::format(path, reason);
+    let unreadable = |e: ::exr::error::Error| refuse(format!("unreadable OpenEXR file (truncated or damaged?): {e}"));
 
-    let attributes = &layer.attributes.other;
-    let description_json = text_attribute(attributes, DESCRIPTION_ATTRIBUTE, path)?.ok_or_else(|| {
+    // The header alone: the exr crate reads it in bounded steps, whatever its fields claim.
+    let meta = MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(unreadable)?;
+    let [header] = meta.headers.as_slice() else {
+        return Err(refuse(format!("{} parts; tmlut writes single-part images", meta.headers.len())));
+    };
+    if header.deep {
+        return Err(refuse("a deep image; tmlut writes flat images".into()));
+    }
+    let description_json = text_attribute(&header.own_attributes.other, DESCRIPTION_ATTRIBUTE, path)?.ok_or_else(|| {
         refuse(format!(
             "the image lacks tmlut's `{DESCRIPTION_ATTRIBUTE}` attribute, so it was not written by tmlut and its axes \
              are unknown; only EXR files written by tmlut can be read back as tables"
@@ -249,12 +258,30 @@ pub fn read_exr(path: &Path) -> Result<Table> {
         )));
     }
     let (width, height) = (layout.columns * layout.tile_width, layout.rows * layout.tile_height);
-    if (layer.size.0, layer.size.1) != (width, height) {
+    if (header.layer_size.0, header.layer_size.1) != (width, height) {
         return Err(refuse(format!(
             "the image is {} × {} pixels; the layout {} needs {width} × {height}",
-            layer.size.0,
-            layer.size.1,
+            header.layer_size.0,
+            header.layer_size.1,
             to_json(&layout)?
+        )));
+    }
+    check_pixel_bytes(header, bytes.len(), path)?;
+
+    let image = ::exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(unreadable)?;
+    let layer = image.layer_data;
+    if (layer.size.0, layer.size.1) != (width, height) {
+        return Err(refuse(format!(
+            "the decoded image is {} × {} pixels, its header says {width} × {height}",
+            layer.size.0, layer.size.1
         )));
     }
 
@@ -317,6 +344,37 @@ fn untile(planes: &[Vec<f32>], layout: &AtlasLayout) -> Vec<f32> {
         }
     }
     data
+}
+
+/// How many times its compressed size an EXR image's pixels may claim to be. tmlut writes
+/// uncompressed images; one re-saved by another tool with lossless compression stays far below
+/// this (float data of smooth tables barely compresses), while a damaged size field claims
+/// millions of times the file.
+pub const MAX_COMPRESSION_RATIO: u64 = 256;
+
+/// Refuse an image whose header claims more pixel bytes than the file can hold: uncompressed, the
+/// file's own length; compressed, [`MAX_COMPRESSION_RATIO`] times it (and never more than the
+/// largest table file).
+fn check_pixel_bytes(header: &Header, file_bytes: usize, path: &Path) -> Result<()> {
+    let pixels = header.layer_size.0 as u128 * header.layer_size.1 as u128;
+    let claimed = pixels * header.channels.bytes_per_pixel as u128;
+    let (limit, why) = if header.compression == Compression::Uncompressed {
+        (file_bytes as u128, "the file's length (uncompressed)".to_string())
+    } else {
+        let limit = (file_bytes as u128 * MAX_COMPRESSION_RATIO as u128).min(super::MAX_TABLE_FILE_BYTES as u128);
+        (limit, format!("{MAX_COMPRESSION_RATIO} times the file's length ({:?} compression)", header.compression))
+    };
+    if claimed > limit {
+        return Err(Error::format(
+            path,
+            format!(
+                "truncated or damaged: the header claims {} × {} pixels of {} bytes ({claimed} bytes), more than \
+                 {why} allows ({limit} bytes)",
+                header.layer_size.0, header.layer_size.1, header.channels.bytes_per_pixel
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// A text attribute as UTF-8; `None` if absent.
@@ -529,7 +587,7 @@ mod tests {
         assert!(err.contains("not an OpenEXR file"), "{err}");
         std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
         let err = read_exr(&path).unwrap_err().to_string();
-        assert!(err.contains("unreadable OpenEXR file"), "{err}");
+        assert!(err.contains("truncated or damaged"), "{err}");
     }
 
     #[test]

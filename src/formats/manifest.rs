@@ -9,13 +9,51 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{FileFormat, Precision, read_bytes, write_bytes_atomically};
+use super::{FileFormat, MAX_MANIFEST_BYTES, Precision, read_bytes_at_most, write_bytes_atomically};
 use crate::error::{Error, Result};
 use crate::physics::FresnelBasis;
 use crate::stats::{AccuracyReport, ErrorRecord};
 use crate::table::{Axis, Channel};
 
 pub const MANIFEST_FILE: &str = "manifest.json";
+
+/// The journal of a build's commit: it exists only while a build moves its files into place, from
+/// the first rename to the last (`docs/formats.md`, "How a build commits"). A folder holding one
+/// is between two builds, and its files and manifest may disagree until a build completes it.
+pub const COMMIT_JOURNAL: &str = ".tmlut-commit.json";
+
+/// The journal of `dir` if a build was interrupted while committing into it (or is committing now).
+pub fn pending_commit(dir: &Path) -> Option<std::path::PathBuf> {
+    let journal = dir.join(COMMIT_JOURNAL);
+    journal.symlink_metadata().is_ok().then_some(journal)
+}
+
+/// The error a reader gives for a folder with a pending commit.
+pub fn pending_commit_error(journal: &Path) -> Error {
+    Error::format(
+        journal,
+        "a build was interrupted while moving its files into this folder, so its files and manifest.json may \
+         disagree; run `tmlut build` into the folder again (any build completes the interrupted one first)",
+    )
+}
+
+/// Whether `name` names a file directly inside the folder: one ordinary path component, no folder,
+/// no `..`, not absolute. A manifest naming anything else is refused rather than followed.
+pub fn check_file_name(name: &str) -> std::result::Result<(), String> {
+    let ordinary = !name.is_empty()
+        && name != "."
+        && name != ".."
+        && !name.contains(['/', '\\', '\0'])
+        && !(name.len() >= 2 && name.as_bytes()[1] == b':');
+    if ordinary {
+        Ok(())
+    } else {
+        Err(format!(
+            "`{}` is not a file name inside the folder; a manifest lists its own files only",
+            name.escape_debug()
+        ))
+    }
+}
 
 /// The manifest of an output folder.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -244,7 +282,7 @@ impl Manifest {
     }
 
     pub fn read(path: &Path) -> Result<Self> {
-        let bytes = read_bytes(path)?;
+        let bytes = read_bytes_at_most(path, MAX_MANIFEST_BYTES, "a manifest")?;
         serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
     }
 

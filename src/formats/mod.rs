@@ -137,9 +137,57 @@ pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomically(path, |w| w.write_all(bytes))
 }
 
-/// Read a whole file, naming it in the error.
+/// The largest table file tmlut reads: 4 GiB, above the largest table a build may make
+/// ([`crate::config::MAX_BUILD_BYTES`] bounds what one table needs in memory, well below it).
+pub const MAX_TABLE_FILE_BYTES: u64 = 1 << 32;
+
+/// The largest `manifest.json` or furnace report tmlut reads: 64 MiB (the default set's manifest is
+/// about 1 MiB; a scene's carries its text and plan).
+pub const MAX_MANIFEST_BYTES: u64 = 64 << 20;
+
+/// The largest configuration, scene or budgets file tmlut reads: 16 MiB.
+pub const MAX_TEXT_INPUT_BYTES: u64 = 16 << 20;
+
+/// Read a table file, naming it in the error. See [`read_bytes_at_most`].
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| Error::io(path, source))
+    read_bytes_at_most(path, MAX_TABLE_FILE_BYTES, "a table file")
+}
+
+/// Read a whole regular file of at most `limit` bytes; `what` names the kind of file in the error.
+///
+/// A device, a pipe or a folder is refused before reading (`/dev/urandom` would never end), and so
+/// is a file longer than `limit`; a file that grows while it is read stops at `limit + 1` bytes
+/// and is refused too, so that no input makes tmlut allocate more than its limit.
+pub fn read_bytes_at_most(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let file = File::open(path).map_err(|source| Error::io(path, source))?;
+    let metadata = file.metadata().map_err(|source| Error::io(path, source))?;
+    if !metadata.is_file() {
+        let kind = if metadata.is_dir() { "a folder" } else { "not a regular file (a device, pipe or socket)" };
+        return Err(Error::format(path, format!("is {kind}; {what} must be a regular file")));
+    }
+    let too_long =
+        |length: u64| Error::format(path, format!("is {length} bytes long; {what} may be at most {limit} bytes"));
+    if metadata.len() > limit {
+        return Err(too_long(metadata.len()));
+    }
+    let mut bytes = Vec::with_capacity(metadata.len() as usize);
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(|source| Error::io(path, source))?;
+    if bytes.len() as u64 > limit {
+        return Err(too_long(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+/// Read a UTF-8 text file of at most `limit` bytes (see [`read_bytes_at_most`]).
+pub fn read_text_at_most(path: &Path, limit: u64, what: &str) -> Result<String> {
+    let bytes = read_bytes_at_most(path, limit, what)?;
+    String::from_utf8(bytes).map_err(|e| {
+        Error::format(
+            path,
+            format!("is not UTF-8 text (invalid byte at offset {}); {what} is text", e.utf8_error().valid_up_to()),
+        )
+    })
 }
 
 /// Refuse a table whose stored values a reader would not get back as finite numbers.

@@ -259,7 +259,7 @@ impl FurnaceReport {
     }
 
     pub fn read(path: &Path) -> Result<Self> {
-        let bytes = crate::formats::read_bytes(path)?;
+        let bytes = crate::formats::read_bytes_at_most(path, crate::formats::MAX_MANIFEST_BYTES, "a furnace report")?;
         serde_json::from_slice(&bytes)
             .map_err(|e| crate::error::Error::format(path, format!("not a tmlut furnace report: {e}")))
     }

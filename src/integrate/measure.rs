@@ -1,4 +1,4 @@
-//! The fast path (`notes/fast-integration.md`): with visible-normal sampling every albedo-type
+//! The fast path (`docs/integration.md`): with visible-normal sampling every albedo-type
 //! table is `∫ f(c) dM_{mu,alpha}(c)` for one weighted distribution `M` of `c = wi.h` per
 //! `(mu, alpha)`. Estimate `M` once, projected onto hat functions of `c`, and every function of
 //! `c` — Fresnel for any `(eta, kappa)`, Schlick's weight, a basis curve — is a dot product with

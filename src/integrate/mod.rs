@@ -31,7 +31,7 @@ pub const GRAZING_COSINE: f64 = 1e-6;
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// One visible-normal measure per `(mu, alpha)`, shared by every other parameter, in f32
-    /// vectorised batches (`notes/fast-integration.md`).
+    /// vectorised batches (`docs/integration.md`).
     #[default]
     Fast,
     /// Every cell on its own, in scalar f64: the way other generators work, kept as an independent
@@ -320,6 +320,8 @@ pub trait Progress: Sync {
     fn start(&self, _label: &str, _total: u64) {}
     fn advance(&self, _done: u64) {}
     fn finish(&self) {}
+    /// Something the person waiting should know, such as a lock being waited for.
+    fn note(&self, _message: &str) {}
 }
 
 impl Progress for () {}

@@ -1,5 +1,5 @@
 //! Packings of the 4D FGD table into volume textures a GPU can bind, each with the exact lookup a
-//! shader runs (`notes/tables.md`, "From 4D to 3D for the GPU").
+//! shader runs (`docs/packing.md`).
 //!
 //! A 64^4 table has no 4D texture to live in, and a volume texture holds at most 2048 texels per
 //! dimension (Direct3D 12, `D3D12_REQ_TEXTURE3D_U_V_OR_W_DIMENSION`). Every packing here is a

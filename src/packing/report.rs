@@ -126,7 +126,7 @@ fn widen(p: [f32; 4]) -> [f64; 4] {
     p.map(|v| v as f64)
 }
 
-/// The thesis renderer's shader as shipped (`notes/tables.md`): one trilinear fetch of the thesis
+/// The thesis renderer's shader as shipped (`docs/packing.md`, `thesis`): one trilinear fetch of the thesis
 /// texture at `(mu, alpha, (eta / 4 * 2047 + kappa / 4 * 31) / 2047)`, no half-texel correction.
 /// Measured beside the packings to separate the shader's error from the packing's.
 pub fn thesis_as_shipped(thesis: &PackedFgd) -> Program {

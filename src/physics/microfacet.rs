@@ -11,7 +11,7 @@
 //! - Heitz 2018, "Sampling the GGX distribution of visible normals", eq. 1 (the VNDF).
 //!
 //! Grazing directions (`z = 0`) and `alpha = 0` are limits, not errors: every function here
-//! returns the limit there instead of `0 * inf` (`notes/pitfalls.md`).
+//! returns the limit there instead of `0 * inf` (`docs/stability.md`, "What it found").
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};

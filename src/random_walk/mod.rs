@@ -1,6 +1,6 @@
 //! The ground truth of the furnace test: the directional albedo `A(mu)` of an explicit layer stack
 //! by a position-free random walk (Guo, Hašan, Yan & Zhao 2018, "Position-free Monte Carlo
-//! simulation for arbitrary layered BSDFs"; `notes/tm-model.md` §7), sharing none of the
+//! simulation for arbitrary layered BSDFs"; `docs/random-walk.md`), sharing none of the
 //! transfer-matrix model's approximations.
 //!
 //! One path is one light path entering from air against the view direction (cosine `mu`, in the
@@ -20,7 +20,7 @@
 //!   absorption applied as the weight `exp(-sigma_k s)`, Henyey–Greenstein scattering; only the
 //!   depth is tracked.
 //!
-//! [`modelling_choices`] states every choice in words; `notes/tm-model.md` §7 lists the ones two
+//! [`modelling_choices`] states every choice in words; `docs/random-walk.md` lists the ones two
 //! random walks must share to agree.
 //!
 //! Determinism: path `i` at view cosine `mu` draws from its own PCG stream, seeded from
@@ -52,7 +52,7 @@ pub const BATCH_PATHS: u64 = 1024;
 #[serde(rename_all = "kebab-case")]
 pub enum Masking {
     /// `G2 = G1(wi) G1(wo)` (Heitz 2014, eq. 98): the weight of a visible-normal sample is
-    /// `G1(wo)`, for reflection and transmission alike. The choice `notes/tm-model.md` §7 asks two
+    /// `G1(wo)`, for reflection and transmission alike. The choice `docs/random-walk.md` asks two
     /// random walks to share.
     #[default]
     Separable,

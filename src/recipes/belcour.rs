@@ -1,4 +1,4 @@
-//! The split-sum table of Belcour, Bati & Barla 2020 with a Fresnel basis (`notes/tables.md`):
+//! The split-sum table of Belcour, Bati & Barla 2020 with a Fresnel basis (`docs/tables.md`):
 //! Fresnel for any `(eta, kappa)` is `F ≈ Σ c_k b_k(c)` with `b0 = 1` and three curves built by
 //! singular value decomposition of many Fresnel curves, and the table stores
 //!
@@ -35,6 +35,8 @@ use super::fgd::{fresnel_kinks, projected_fresnel};
 pub const NAME: &str = "belcour";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 4;
+/// The configuration keys of the node counts, axis 0 first.
+pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -112,7 +114,8 @@ pub fn gulbrandsen_index(r: f64, g: f64) -> (f64, f64) {
     (n, k2.max(0.0).sqrt())
 }
 
-/// The `(eta, kappa)` of curve `index` of the basis construction (`notes/tables.md`, step 2).
+/// The `(eta, kappa)` of curve `index` of the basis construction (Belcour, Bati & Barla 2020, the
+/// curves their basis is fitted to; `docs/tables.md`).
 /// Gulbrandsen's reflectivity `r' = (r / 0.01) / (1 - 1e-5) + 1e-5` reaches 1.00002 at `r = 0.01`,
 /// where the mapping has no real index; it is capped at `1 - 1e-5`.
 fn construction_curve(index: usize) -> (f64, f64) {
@@ -176,7 +179,7 @@ fn orthonormalise(vectors: &mut [Vec<f64>]) {
     }
 }
 
-/// Build the basis by the SVD construction of `notes/tables.md`, with the sign conventions fixed:
+/// Build the basis by the SVD construction of Belcour, Bati & Barla 2020 (`docs/tables.md`), with the sign conventions fixed:
 /// `b1 = |v0|`, `b2` positive at its largest magnitude, `b3` positive at the first probe cosine.
 pub fn build_basis() -> FresnelBasis {
     let n = BASIS_SAMPLES;
@@ -258,6 +261,10 @@ pub fn basis() -> &'static FresnelBasis {
 
 impl TableRecipe for BelcourSettings {
     table_recipe_accessors!();
+
+    fn kept_measure_intervals(&self) -> Option<usize> {
+        Some(self.cosine_intervals)
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         basis_integrals(basis(), self.masking, Method::PerCell, points, position[0], position[1])

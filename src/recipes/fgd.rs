@@ -1,5 +1,5 @@
 //! FGD: the directional albedo of a GGX interface with exact Fresnel for a complex relative index
-//! (`notes/tables.md`, FGD), read by the transfer-matrix model once per colour channel per
+//! (`docs/tables.md`, FGD), read by the transfer-matrix model once per colour channel per
 //! interface:
 //!
 //! ```text
@@ -7,7 +7,7 @@
 //!                            = E_{h ~ D_wi}[ F(wi.h; eta, kappa) G2 / G1(wi) ]
 //! ```
 //!
-//! Fast path (`notes/fast-integration.md`): per `(mu, alpha)` the visible-normal measure of
+//! Fast path (`docs/integration.md`): per `(mu, alpha)` the visible-normal measure of
 //! `c = wi.h` on a hat basis ([`cosine_measure`]); per `(eta, kappa)` Fresnel projected on the same
 //! basis ([`HatBasis::project`], exact across the kink at the critical angle); the table is one
 //! matrix product of the two. Defaults follow the original table: 64^4 node-aligned nodes,
@@ -36,6 +36,8 @@ use crate::table::{Axis, Channel, Table};
 pub const NAME: &str = "fgd";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 1;
+/// The configuration keys of the node counts, axis 0 first.
+pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count", "kappa_count"];
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -244,6 +246,10 @@ fn reference_check(
 
 impl TableRecipe for FgdSettings {
     table_recipe_accessors!();
+
+    fn kept_measure_intervals(&self) -> Option<usize> {
+        (self.method == Method::Fast).then_some(self.cosine_intervals)
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         fgd_cell(self.masking, points, position)

@@ -1,5 +1,5 @@
 //! GD: the albedo of a GGX microfacet surface without Fresnel, which the 6-flux transfer-matrix
-//! model uses to normalise its internal lobes (`notes/tables.md`, GD):
+//! model uses to normalise its internal lobes (`docs/tables.md`, GD):
 //!
 //! ```text
 //! GD(mu, alpha) = ∫ D G2 / (4 mu) dwo = E_{h ~ D_wi}[ G2 / G1(wi) ] = E_{h ~ D_wi}[ G1(wo) ]
@@ -29,6 +29,8 @@ use crate::table::{Axis, Channel, Table};
 pub const NAME: &str = "gd";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 1;
+/// The configuration keys of the node counts, axis 0 first.
+pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count"];
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -127,7 +129,7 @@ mod tests {
     use crate::formats::bin::read_bin;
 
     fn original() -> Table {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_GD.bin");
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_GD.bin");
         read_bin(std::path::Path::new(path), Some(&["mu", "alpha"])).unwrap()
     }
 

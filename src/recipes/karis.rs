@@ -33,6 +33,8 @@ use crate::table::{Axis, Channel, Table};
 pub const NAME: &str = "karis";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 2;
+/// The configuration keys of the node counts, axis 0 first.
+pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -22,12 +22,24 @@ macro_rules! table_recipe_accessors {
             self.sampling
         }
 
+        fn reference(&self) -> ReferenceConfig {
+            self.reference
+        }
+
         fn output(&self) -> &OutputConfig {
             &self.output
         }
 
         fn channel_count(&self) -> usize {
             CHANNEL_COUNT
+        }
+
+        fn count_keys(&self) -> &'static [&'static str] {
+            COUNT_KEYS
+        }
+
+        fn method(&self) -> Method {
+            self.method
         }
 
         fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
@@ -72,14 +84,139 @@ pub trait TableRecipe: Sync {
     /// The axes of the table these settings describe.
     fn axes(&self) -> crate::error::Result<Vec<crate::table::Axis>>;
     fn sampling(&self) -> crate::config::SamplingConfig;
+    fn reference(&self) -> crate::config::ReferenceConfig;
     fn output(&self) -> &crate::config::OutputConfig;
     /// Channels of the table.
     fn channel_count(&self) -> usize;
+    /// The configuration keys of the node counts, axis 0 first (`mu_count`, ...).
+    fn count_keys(&self) -> &'static [&'static str];
+    fn method(&self) -> Method;
+    /// Hat intervals of the visible-normal measure the build keeps for every `(mu, alpha)` node and
+    /// replicate at once, if it keeps one (FGD's fast path, Belcour's accuracy report).
+    fn kept_measure_intervals(&self) -> Option<usize> {
+        None
+    }
     /// Integrate the whole table.
     fn build(&self, seed: u64, progress: &dyn Progress) -> crate::error::Result<TableBuild>;
     /// One node on its own, by the per-cell method (scalar f64), at a position given in the
     /// axes' quantities: the independent cross-check of whatever [`TableRecipe::build`] did.
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate;
+}
+
+/// The most memory the build of one table may ask for: 16 GiB, two thirds of the project's
+/// machines (`docs/benchmark.md`). Above it a build would be killed or swap for hours.
+pub const MAX_BUILD_BYTES: u64 = 16 << 30;
+
+/// The most sample evaluations (one visible normal, weighted) one table's build may make: 2^44,
+/// about five and a half days on a 2-core machine at the per-cell method's rate (`tmlut bench`,
+/// `docs/benchmark.md`: 2^40 for the whole FGD table in an extrapolated 29,761 s).
+pub const MAX_SAMPLE_EVALUATIONS: u64 = 1 << 44;
+
+/// Bytes per stored value while a table is built: the f32 value, up to four f64 beside it (FGD's
+/// product, and with error maps its running mean, sum of squares and replicate product) and the f32
+/// error map.
+const BUILD_BYTES_PER_VALUE: u128 = 48;
+/// What the process holds besides a table's build: the program, its threads, the manifest.
+const BUILD_BYTES_BASE: u128 = 64 << 20;
+/// Bytes per cell estimated on its own: an [`Estimate`] (two vectors of a few f64 each, with their
+/// allocations).
+const BUILD_BYTES_PER_ESTIMATE: u128 = 160;
+/// Bytes per sample point: a [`crate::sampling::DiskPoint`] in f64 and its f32 copy.
+const BYTES_PER_SAMPLE_POINT: u128 = 36;
+
+/// What building one table asks of the machine, estimated from its settings alone.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Demand {
+    pub bytes: u128,
+    pub sample_evaluations: u128,
+    /// Each part of `bytes` with the configuration keys it grows with, largest first.
+    pub parts: Vec<(u128, String)>,
+}
+
+/// Estimate what building `recipe`'s table needs, before anything is allocated. The estimate is an
+/// upper bound of the peak resident memory measured (`docs/benchmark.md`, "Memory"): 911 MiB
+/// against 726 MiB for the default FGD table with error maps, 114 MiB against 74 MiB for TIR.
+pub fn demand(recipe: &dyn TableRecipe) -> crate::error::Result<Demand> {
+    let name = recipe.name();
+    let axes = recipe.axes()?;
+    let counts: Vec<u128> = axes.iter().map(|a| a.count as u128).collect();
+    let nodes: u128 = counts.iter().product();
+    let plane = counts[0] * counts.get(1).copied().unwrap_or(1);
+    let sampling = recipe.sampling();
+    let samples = sampling.samples as u128;
+    let reference = recipe.reference();
+    let reference_samples = if reference.cells > 0 { reference.samples as u128 } else { 0 };
+    let estimated_cells = if recipe.method() == Method::PerCell { nodes } else { plane };
+    let shape = counts.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(" x ");
+    let count_keys = recipe.count_keys().iter().map(|k| format!("{name}.{k}")).collect::<Vec<_>>().join(", ");
+
+    let mut parts = vec![
+        (
+            nodes * recipe.channel_count() as u128 * BUILD_BYTES_PER_VALUE + estimated_cells * BUILD_BYTES_PER_ESTIMATE,
+            format!("{shape} nodes of {} channel(s) ({count_keys})", recipe.channel_count()),
+        ),
+        (
+            (samples + reference_samples) * BYTES_PER_SAMPLE_POINT,
+            format!(
+                "{samples} sample points and {reference_samples} reference points ({name}.sampling.samples, \
+                 {name}.reference.samples)"
+            ),
+        ),
+    ];
+    if let Some(intervals) = recipe.kept_measure_intervals() {
+        let replicates = crate::sampling::sequence::SamplePlan::new(sampling.samples, sampling.replicates)?.replicates;
+        parts.push((
+            plane * (replicates as u128 + 1) * (intervals as u128 + 1) * 8,
+            format!(
+                "a measure on {intervals} hat intervals per (mu, alpha) node and replicate ({name}.cosine_intervals, \
+                 the mu and alpha counts, {name}.sampling.replicates)"
+            ),
+        ));
+    }
+    parts.push((BUILD_BYTES_BASE, "the program itself".into()));
+    parts.sort_by_key(|part| std::cmp::Reverse(part.0));
+    let bytes = parts.iter().map(|p| p.0).sum();
+    let sample_evaluations = estimated_cells * samples + reference.cells as u128 * reference_samples;
+    Ok(Demand { bytes, sample_evaluations, parts })
+}
+
+/// Refuse a table whose build would need more than [`MAX_BUILD_BYTES`] of memory or
+/// [`MAX_SAMPLE_EVALUATIONS`] samples, naming the keys that make it so.
+pub fn check_demand(recipe: &dyn TableRecipe) -> crate::error::Result<()> {
+    let name = recipe.name();
+    let demand = demand(recipe)?;
+    let gib = |b: u128| {
+        let gib = b as f64 / (1u64 << 30) as f64;
+        if gib < 1e4 { format!("{gib:.1} GiB") } else { format!("{gib:.2e} GiB") }
+    };
+    if demand.bytes > MAX_BUILD_BYTES as u128 {
+        let (largest, keys) = &demand.parts[0];
+        return Err(crate::error::Error::invalid(
+            name,
+            format!(
+                "building this table needs about {} of memory, {} of it for {keys}; allowed: at most {} per table: \
+                 lower those keys",
+                gib(demand.bytes),
+                gib(*largest),
+                gib(MAX_BUILD_BYTES as u128)
+            ),
+        ));
+    }
+    if demand.sample_evaluations > MAX_SAMPLE_EVALUATIONS as u128 {
+        let cells =
+            if recipe.method() == Method::PerCell { "every node (method per-cell)" } else { "every (mu, alpha) node" };
+        return Err(crate::error::Error::invalid(
+            name,
+            format!(
+                "building this table evaluates {:.3e} samples ({name}.sampling.samples = {} at {cells}, and the \
+                 reference check); allowed: at most 2^44 = {:.3e}: lower the samples, the counts or the method",
+                demand.sample_evaluations as f64,
+                recipe.sampling().samples,
+                MAX_SAMPLE_EVALUATIONS as f64
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// How a table was integrated.

@@ -1,6 +1,6 @@
 //! TIR: the share of the energy transmitted through a smooth interface with relative index
 //! `eta < 1` that arrives past the critical angle and is reflected back instead
-//! (`notes/tables.md`, TIR; the transfer-matrix model applies it as `r += TIR t, t -= TIR t`):
+//! (`docs/tables.md`, TIR; the transfer-matrix model applies it as `r += TIR t, t -= TIR t`):
 //!
 //! ```text
 //! TIR(mu, alpha, eta) = ∫ rho(w) [1 - w.z^2 > eta^2] dw / ∫ rho(w) dw
@@ -42,6 +42,8 @@ use crate::table::{Axis, Channel, Table};
 pub const NAME: &str = "tir";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 1;
+/// The configuration keys of the node counts, axis 0 first.
+pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count"];
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -356,7 +358,7 @@ mod tests {
     }
 
     fn original() -> Table {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/tmblm/tm_TIR.bin");
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_TIR.bin");
         read_bin(std::path::Path::new(path), Some(&["mu", "alpha", "eta"])).unwrap()
     }
 

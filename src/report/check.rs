@@ -10,9 +10,12 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::formats::manifest::{FileEntry, MANIFEST_FILE, Manifest};
+use crate::formats::manifest::{
+    COMMIT_JOURNAL, FileEntry, MANIFEST_FILE, Manifest, check_file_name, pending_commit, pending_commit_error,
+};
+use crate::formats::{MAX_MANIFEST_BYTES, read_bytes};
 use crate::furnace::report::{FURNACE_FILE, FurnaceReport};
-use crate::pipeline::sha256_hex;
+use crate::loader::{sha256_hex, table_disagreements};
 
 /// The budgets committed with the project, for the default LUT set (`luts/default.toml`).
 pub const DEFAULT_BUDGETS: &str = include_str!("../../budgets.toml");
@@ -75,20 +78,26 @@ impl Budgets {
         };
         let budgets = Budgets { tables: toml::Value::Table(document).try_into().map_err(clean)?, furnace };
         for (scene, budget) in &budgets.furnace {
-            for (key, value) in [
-                ("max_table_error", budget.max_table_error),
-                ("max_model_error", budget.max_model_error),
-                ("max_walk_standard_error", budget.max_walk_standard_error),
-            ] {
-                if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err(Error::invalid(
-                        format!("{origin}: furnace.{scene}.{key}"),
-                        format!("{v}; allowed: finite and >= 0"),
-                    ));
-                }
-            }
+            check_limits(
+                &format!("{origin}: furnace.{scene}"),
+                &[
+                    ("max_table_error", budget.max_table_error),
+                    ("max_model_error", budget.max_model_error),
+                    ("max_walk_standard_error", budget.max_walk_standard_error),
+                ],
+            )?;
         }
         for (table, budget) in &budgets.tables {
+            check_limits(
+                &format!("{origin}: {table}"),
+                &[
+                    ("max_reference_rms", budget.max_reference_rms),
+                    ("max_reference_max", budget.max_reference_max),
+                    ("max_replicate_rms", budget.max_replicate_rms),
+                    ("max_replicate_max", budget.max_replicate_max),
+                    ("max_build_s", budget.max_build_s),
+                ],
+            )?;
             if let Some([lo, hi]) = budget.value_range
                 && (lo.is_nan() || hi.is_nan() || lo > hi)
             {
@@ -102,9 +111,20 @@ impl Budgets {
     }
 
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::io(path, source))?;
+        let text = crate::formats::read_text_at_most(path, crate::formats::MAX_TEXT_INPUT_BYTES, "a budgets file")?;
         Self::from_toml(&text, &path.display().to_string())
     }
+}
+
+/// Refuse a limit that is not a finite number >= 0: a NaN limit would pass or fail every figure
+/// silently (every comparison with it is false).
+fn check_limits(section: &str, limits: &[(&str, Option<f64>)]) -> Result<()> {
+    for &(key, value) in limits {
+        if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(Error::invalid(format!("{section}.{key}"), format!("{v}; allowed: finite and >= 0")));
+        }
+    }
+    Ok(())
 }
 
 /// One verified property of one file.
@@ -132,11 +152,21 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
         ));
     }
     let mut findings = Vec::new();
+    if let Some(journal) = pending_commit(dir) {
+        findings.push(Finding {
+            file: COMMIT_JOURNAL.into(),
+            check: "commit".into(),
+            value: pending_commit_error(&journal).to_string(),
+            limit: "no build interrupted while committing".into(),
+            pass: false,
+        });
+    }
     if manifest_path.exists() {
         let manifest = Manifest::read(&manifest_path)?;
         for (file, entry) in &manifest.files {
             check_file(dir, file, entry, budgets, &mut findings);
         }
+        check_shaders(dir, &manifest, &mut findings);
         for table in budgets.tables.keys() {
             if !manifest.files.values().any(|e| &e.table == table) {
                 findings.push(Finding {
@@ -248,8 +278,12 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
     let mut record = |check: &str, value: String, limit: String, pass: bool| {
         findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass })
     };
+    if let Err(reason) = check_file_name(file) {
+        record("path", reason, "a file name inside the folder".into(), false);
+        return;
+    }
     let path = dir.join(file);
-    let bytes = match std::fs::read(&path) {
+    let bytes = match read_bytes(&path) {
         Ok(bytes) => bytes,
         Err(e) => {
             record("file", format!("unreadable: {e}"), "present and readable".into(), false);
@@ -258,11 +292,22 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
     };
     let actual = sha256_hex(&bytes);
     record("sha256", actual.clone(), entry.sha256.clone(), actual == entry.sha256);
+    record("bytes", bytes.len().to_string(), entry.bytes.to_string(), bytes.len() as u64 == entry.bytes);
 
     let budget = budgets.tables.get(&entry.table).cloned().unwrap_or_default();
-    // Values are read back from the file itself, not taken from the manifest.
-    match crate::loader::load_table(&path) {
-        Ok(table) => {
+    // Values are read back from the file itself, not taken from the manifest; the manifest's own
+    // figures are held to them.
+    let table = crate::loader::format_of_bytes(&path, &bytes)
+        .and_then(|format| Ok((format, crate::loader::decode(&path, &bytes, format, Some(entry))?)));
+    match table {
+        Ok((format, table)) => {
+            let disagreements = table_disagreements(entry, format, &bytes, &table);
+            record(
+                "manifest",
+                if disagreements.is_empty() { "agrees with the file".into() } else { disagreements.join("; ") },
+                "format, axes, channels, value range and NaN count as the file holds them".into(),
+                disagreements.is_empty(),
+            );
             let stats = table.stats();
             let non_finite = stats.nan_count + stats.infinite_count;
             record("nan_count", non_finite.to_string(), format!("<= {}", budget.max_nan), non_finite <= budget.max_nan);
@@ -293,6 +338,45 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
     at_most("replicate_rms", Some(integration.replicate_standard_error.rms), budget.max_replicate_rms);
     at_most("replicate_max", Some(integration.replicate_standard_error.max), budget.max_replicate_max);
     at_most("build_s", Some(entry.wall_time_s), budget.max_build_s);
+}
+
+/// Every shader file the manifest lists (a packing's lookups, a fitted form's functions), once
+/// each: inside the folder, present, and with the SHA-256 stated.
+fn check_shaders(dir: &Path, manifest: &Manifest, findings: &mut Vec<Finding>) {
+    let entries = manifest.files.values();
+    let listed = entries
+        .flat_map(|e| {
+            let packing = e.packing.iter().flat_map(|p| &p.shaders);
+            packing.chain(e.fit.iter().flat_map(|f| &f.shaders))
+        })
+        .chain(manifest.scene.iter().flat_map(|s| s.plan.tir_fit.iter().flat_map(|f| &f.shaders)));
+    let mut seen = std::collections::BTreeMap::new();
+    for shader in listed {
+        seen.entry(shader.file.as_str()).or_insert(shader.sha256.as_str());
+    }
+    for (file, stated) in seen {
+        let mut record = |value: String, pass: bool| {
+            findings.push(Finding {
+                file: file.into(),
+                check: "shader sha256".into(),
+                value,
+                limit: stated.into(),
+                pass,
+            })
+        };
+        if let Err(reason) = check_file_name(file) {
+            record(reason, false);
+            continue;
+        }
+        match crate::formats::read_bytes_at_most(&dir.join(file), MAX_MANIFEST_BYTES, "a shader file") {
+            Ok(bytes) => {
+                let actual = sha256_hex(&bytes);
+                let pass = actual == stated;
+                record(actual, pass);
+            }
+            Err(e) => record(format!("unreadable: {e}"), false),
+        }
+    }
 }
 
 /// The findings as lines a person reads: failures first, then a count.
@@ -328,5 +412,9 @@ mod tests {
         assert!(err.contains("b.toml") && err.contains("max_rsm"), "{err}");
         let err = Budgets::from_toml("[fgd]\nvalue_range = [1.0, 0.0]\n", "b.toml").unwrap_err().to_string();
         assert!(err.contains("fgd.value_range"), "{err}");
+        let err = Budgets::from_toml("[fgd]\nmax_reference_rms = nan\n", "b.toml").unwrap_err().to_string();
+        assert!(err.contains("fgd.max_reference_rms") && err.contains("NaN; allowed: finite"), "{err}");
+        let err = Budgets::from_toml("[karis]\nvalue_range = [0.0, 1.0, 2.0]\n", "b.toml").unwrap_err().to_string();
+        assert!(err.contains("invalid length 3") && err.contains("karis.value_range"), "{err}");
     }
 }

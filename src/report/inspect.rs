@@ -6,21 +6,31 @@ use std::path::Path;
 
 use crate::error::Result;
 use crate::formats::manifest::{FileEntry, MANIFEST_FILE};
-use crate::formats::{FileFormat, bin, dds};
-use crate::pipeline::sha256_hex;
+use crate::formats::{FileFormat, as_format_error, bin, dds};
+use crate::loader::{byte_disagreements, sha256_hex, table_disagreements};
 use crate::table::{Axis, Placement, Table};
 
-/// A readable description of a table file.
-pub fn inspect(path: &Path) -> Result<String> {
-    let format = crate::loader::format_of(path)?;
+/// What `tmlut inspect` found: the description, and where the file and its manifest entry
+/// disagree (empty when they agree or there is no entry).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Inspection {
+    pub text: String,
+    pub disagreements: Vec<String>,
+}
+
+/// A readable description of a table file, checked against its manifest entry.
+pub fn inspect(path: &Path) -> Result<Inspection> {
     let bytes = crate::formats::read_bytes(path)?;
+    let format = crate::loader::format_of_bytes(path, &bytes)?;
     let beside = crate::loader::ManifestBeside::of(path)?;
     let (manifest_path, entry) = (&beside.manifest_path, beside.entry());
 
     let mut out = String::new();
+    let mut disagreements = Vec::new();
     let w = &mut out;
     let _ = writeln!(w, "file:     {} ({} bytes)", path.display(), bytes.len());
-    let data: Vec<f32> = match format {
+    // The table the file holds, as far as the file alone (and, for DDS, the entry's axes) says.
+    let (data, table): (Vec<f32>, Option<Table>) = match format {
         FileFormat::Dds => {
             let texture = dds::decode_dds(&bytes, path)?;
             let kind = if texture.volume { "volume texture" } else { "2D texture" };
@@ -34,7 +44,17 @@ pub fn inspect(path: &Path) -> Result<String> {
                 "format:   DDS with DX10 header, {}, {kind} {size}, 1 mip level",
                 dds::dxgi_format_name(texture.channels, texture.precision)
             );
-            texture.data
+            let table = entry.and_then(|entry| {
+                let axes = entry.axes.iter().map(|a| a.axis.clone()).collect();
+                match texture.clone().into_table(&entry.table, axes, entry.channels.clone()) {
+                    Ok(table) => Some(table),
+                    Err(e) => {
+                        disagreements.push(as_format_error(e, path).to_string());
+                        None
+                    }
+                }
+            });
+            (texture.data, table)
         }
         FileFormat::Bin => {
             let table = bin::decode_bin(&bytes, path, None)?;
@@ -42,17 +62,17 @@ pub fn inspect(path: &Path) -> Result<String> {
             if entry.is_none() {
                 write_axes(w, &table.axes);
             }
-            table.data
+            (table.data.clone(), Some(table))
         }
         #[cfg(feature = "exr")]
         FileFormat::Exr => {
-            let table = crate::formats::exr::read_exr(path)?;
+            let table = crate::formats::exr::decode_exr(&bytes, path)?;
             let _ = writeln!(w, "format:   OpenEXR, table `{}` described in the file's attributes", table.name);
             if entry.is_none() {
                 write_axes(w, &table.axes);
                 write_channels(w, &table);
             }
-            table.data
+            (table.data.clone(), Some(table))
         }
         #[cfg(not(feature = "exr"))]
         FileFormat::Exr => return Err(crate::formats::no_exr_support(path)),
@@ -60,7 +80,19 @@ pub fn inspect(path: &Path) -> Result<String> {
     write_values(w, &data);
 
     match entry {
-        Some(entry) => write_entry(w, entry, &bytes),
+        Some(entry) => {
+            write_entry(w, entry, &bytes);
+            disagreements.extend(byte_disagreements(entry, &bytes));
+            if let Some(table) = &table {
+                disagreements.extend(table_disagreements(entry, format, &bytes, table));
+            }
+            if disagreements.is_empty() {
+                let _ = writeln!(w, "manifest: {} agrees with the file", manifest_path.display());
+            }
+            for disagreement in &disagreements {
+                let _ = writeln!(w, "DIFFERS:  {disagreement}");
+            }
+        }
         None if beside.manifest.is_some() => {
             let _ =
                 writeln!(w, "manifest: {} lists no entry for this file: conventions unknown", manifest_path.display());
@@ -69,7 +101,7 @@ pub fn inspect(path: &Path) -> Result<String> {
             let _ = writeln!(w, "manifest: no {MANIFEST_FILE} beside the file: conventions unknown");
         }
     }
-    Ok(out)
+    Ok(Inspection { text: out, disagreements })
 }
 
 fn write_values(w: &mut String, data: &[f32]) {

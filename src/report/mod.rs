@@ -7,4 +7,4 @@ pub mod error_map;
 mod inspect;
 pub mod plot;
 
-pub use inspect::inspect;
+pub use inspect::{Inspection, inspect};

@@ -154,25 +154,15 @@ impl Material {
     /// combination of each varying parameter at its range's ends and middle (at most
     /// [`MAX_VARIANTS`]; beyond, a deterministic spread of them), the nominal values elsewhere. The
     /// planner evaluates the model over these to find where its lookups are made.
-    pub fn variants(&self) -> Vec<crate::model::Stack> {
-        // (layer index, parameter 0 eta / 1 kappa / 2 alpha, range) of each varying parameter.
-        let mut varying = Vec::new();
-        for (k, layer) in self.layers.iter().enumerate() {
-            if let Layer::Interface(i) = layer {
-                for (parameter, range) in [(0, i.eta[0]), (1, i.kappa[0]), (2, i.alpha)] {
-                    if !range.is_point() {
-                        varying.push((k, parameter, range));
-                    }
-                }
-            }
-        }
+    pub fn variants(&self) -> Result<Vec<crate::model::Stack>> {
+        let varying = self.varying();
         let combinations = 3usize.saturating_pow(varying.len() as u32);
         let chosen: Vec<usize> = if combinations <= MAX_VARIANTS {
             (0..combinations).collect()
         } else {
             (0..MAX_VARIANTS as u64).map(|n| (spread(n) % combinations as u64) as usize).collect()
         };
-        let mut stacks: Vec<crate::model::Stack> = self.stack().into_iter().collect();
+        let mut stacks = vec![self.stack()?];
         for combination in chosen {
             let level = |which: usize| (combination / 3usize.pow(which as u32)) % 3;
             let stack = self.stack_with(|k, interface| {
@@ -190,9 +180,31 @@ impl Material {
                 }
                 values
             });
-            stacks.extend(stack);
+            stacks.push(stack?);
         }
-        stacks
+        Ok(stacks)
+    }
+}
+
+impl Material {
+    /// (layer index, parameter 0 eta / 1 kappa / 2 alpha, range) of each parameter a texture varies.
+    fn varying(&self) -> Vec<(usize, usize, Interval)> {
+        let mut varying = Vec::new();
+        for (k, layer) in self.layers.iter().enumerate() {
+            if let Layer::Interface(i) = layer {
+                for (parameter, range) in [(0, i.eta[0]), (1, i.kappa[0]), (2, i.alpha)] {
+                    if !range.is_point() {
+                        varying.push((k, parameter, range));
+                    }
+                }
+            }
+        }
+        varying
+    }
+
+    /// How many stacks [`Material::variants`] gives, without building them.
+    pub fn variant_count(&self) -> usize {
+        1 + 3usize.saturating_pow(self.varying().len() as u32).min(MAX_VARIANTS)
     }
 }
 
@@ -224,7 +236,7 @@ pub const DEFAULT_MARGIN_NODES: usize = 1;
 impl Scene {
     /// Read a scene file; returns the scene and the file's text (which a build records).
     pub fn read(path: &Path) -> Result<(Self, String)> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::io(path, source))?;
+        let text = crate::formats::read_text_at_most(path, crate::formats::MAX_TEXT_INPUT_BYTES, "a scene file")?;
         let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
         let scene = Self::from_toml(&text, &path.display().to_string(), &stem)?;
         Ok((scene, text))
@@ -279,12 +291,19 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Resu
     if materials.is_empty() {
         return Err(Error::invalid(origin, "no [[material]]; a scene needs at least one material"));
     }
+    if materials.len() > MAX_MATERIALS {
+        return Err(Error::invalid(
+            origin,
+            format!("{} materials; allowed: at most {MAX_MATERIALS} in one scene", materials.len()),
+        ));
+    }
     let mut scene = Scene { name, materials: Vec::new(), margin_nodes, warnings: Vec::new() };
+    let mut names = std::collections::HashSet::new();
     for (index, value) in materials.iter().enumerate() {
         let where_ = format!("{origin}: material {}", index + 1);
         let table = value.as_table().ok_or_else(|| Error::invalid(&where_, "must be a table ([[material]])"))?;
         let material = parse_material(table, &where_, index, defaults, &mut scene.warnings)?;
-        if scene.materials.iter().any(|m: &Material| m.name == material.name) {
+        if !names.insert(material.name.clone()) {
             return Err(Error::invalid(
                 where_,
                 format!("the name `{}` is used twice; names must differ", material.name),
@@ -327,6 +346,16 @@ fn parse_material(
         return Err(Error::invalid(
             &where_,
             "has an empty layer stack; a material needs at least one interface ([[material.layer]] with type = \"interface\")",
+        ));
+    }
+    if layers.len() > crate::model::MAX_LAYERS {
+        return Err(Error::invalid(
+            &where_,
+            format!(
+                "has {} layers; allowed: at most {} (the transfer-matrix model's limit)",
+                layers.len(),
+                crate::model::MAX_LAYERS
+            ),
         ));
     }
     let mut parsed = Vec::new();
@@ -398,8 +427,8 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
                     vary
                 }
             };
-            let (eta, eta_nominal) = rgb_or_range(table, &vary, "eta", None, where_, Bound::Positive)?;
-            let (kappa, kappa_nominal) = rgb_or_range(table, &vary, "kappa", Some(0.0), where_, Bound::NonNegative)?;
+            let (eta, eta_nominal) = rgb_or_range(table, &vary, "eta", None, where_, Bound::Index)?;
+            let (kappa, kappa_nominal) = rgb_or_range(table, &vary, "kappa", Some(0.0), where_, Bound::Extinction)?;
             let (alpha, alpha_nominal) = scalar_or_range(table, &vary, "alpha", where_)?;
             let nominal = crate::model::Interface { eta: eta_nominal, kappa: kappa_nominal, alpha: alpha_nominal };
             Ok(Layer::Interface(Interface { eta, kappa, alpha, nominal }))
@@ -433,10 +462,23 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
     }
 }
 
+/// The smallest real index an interface's medium may have: below every real medium (silver's is
+/// about 0.05 in the visible), and above 0, where relative indices grow without bound.
+pub const MIN_INDEX: f64 = 0.01;
+/// The largest real index or extinction index: far above every real medium in the visible (about 4
+/// for the real part, 11 for aluminium's extinction) and far beyond what a table covers (4 by
+/// default), so that a value past it is a slip, not a material.
+pub const MAX_INDEX: f64 = 100.0;
+/// The most materials a scene holds.
+pub const MAX_MATERIALS: usize = 256;
+
 /// What values a parameter admits.
 #[derive(Clone, Copy)]
 enum Bound {
-    Positive,
+    /// A real index of refraction.
+    Index,
+    /// An extinction index.
+    Extinction,
     NonNegative,
     Unit,
 }
@@ -445,17 +487,19 @@ impl Bound {
     fn admits(self, x: f64) -> bool {
         x.is_finite()
             && match self {
-                Bound::Positive => x > 0.0,
+                Bound::Index => (MIN_INDEX..=MAX_INDEX).contains(&x),
+                Bound::Extinction => (0.0..=MAX_INDEX).contains(&x),
                 Bound::NonNegative => x >= 0.0,
                 Bound::Unit => (0.0..=1.0).contains(&x),
             }
     }
 
-    fn allowed(self) -> &'static str {
+    fn allowed(self) -> String {
         match self {
-            Bound::Positive => "finite and > 0",
-            Bound::NonNegative => "finite and >= 0",
-            Bound::Unit => "0 to 1",
+            Bound::Index => format!("{MIN_INDEX} to {MAX_INDEX} (a real medium's index)"),
+            Bound::Extinction => format!("0 to {MAX_INDEX} (a real medium's extinction index)"),
+            Bound::NonNegative => "finite and >= 0".into(),
+            Bound::Unit => "0 to 1".into(),
         }
     }
 }
@@ -494,6 +538,11 @@ fn choice<T: serde::de::DeserializeOwned>(table: &toml::Table, key: &str, where_
         .map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
 }
 
+/// A number as a person wrote it: `1e20` rather than its 21 digits.
+fn number_text(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) { format!("{x:e}") } else { format!("{x}") }
+}
+
 /// One number for all channels, or `[r, g, b]`, each admitted by `bound`.
 fn rgb_values(value: &toml::Value, key: &str, bound: Bound) -> Result<Rgb<f64>> {
     let values = match value {
@@ -510,7 +559,7 @@ fn rgb_values(value: &toml::Value, key: &str, bound: Bound) -> Result<Rgb<f64>> 
         other => [number(other, key)?; 3],
     };
     if let Some(bad) = values.iter().find(|x| !bound.admits(**x)) {
-        return Err(Error::invalid(key, format!("{bad}; allowed: {}", bound.allowed())));
+        return Err(Error::invalid(key, format!("{}; allowed: {}", number_text(*bad), bound.allowed())));
     }
     Ok(values)
 }
@@ -530,7 +579,7 @@ fn range(vary: &toml::Table, key: &str, where_: &str, bound: Bound) -> Result<Op
     let (lo, hi) = (number(&items[0], &key)?, number(&items[1], &key)?);
     for x in [lo, hi] {
         if !bound.admits(x) {
-            return Err(Error::invalid(&key, format!("{x}; allowed: {}", bound.allowed())));
+            return Err(Error::invalid(&key, format!("{}; allowed: {}", number_text(x), bound.allowed())));
         }
     }
     if lo > hi {
@@ -598,7 +647,7 @@ fn scalar_or_range(table: &toml::Table, vary: &toml::Table, key: &str, where_: &
             let key = format!("{where_}: {key}");
             let x = number(value, &key)?;
             if !Bound::Unit.admits(x) {
-                return Err(Error::invalid(&key, format!("{x}; allowed: {}", Bound::Unit.allowed())));
+                return Err(Error::invalid(&key, format!("{}; allowed: {}", number_text(x), Bound::Unit.allowed())));
             }
             Some(x)
         }

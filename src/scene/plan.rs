@@ -21,8 +21,8 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use super::{AlbedoPath, Interval, Layer, Scene, TirPath, short};
-use crate::config::Config;
-use crate::error::Result;
+use crate::config::{Config, MAX_NODES_PER_AXIS};
+use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{LeftOutRecord, PlanRecord, PlannedTableRecord};
 use crate::integrate::GRAZING_COSINE;
@@ -39,7 +39,7 @@ use crate::recipes::tir::TirSettings;
 use crate::table::{Axis, Mapping};
 
 /// What a lookup reads.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum LookupKind {
     /// Directional albedo (FGD, or a split-sum table on the Belcour and Karis paths).
     Albedo(AlbedoPath),
@@ -86,11 +86,16 @@ const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 /// channel's parameters are the hull of what was recorded. The lookups' parameters depend on the
 /// stack's geometry and roughness alone, not on the tables' values, except the roughness of a
 /// 2-flux lobe's GD, and GD is kept whole.
-pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
+pub fn lookups(scene: &Scene) -> Result<(Vec<Lookup>, Vec<LeftOutRecord>)> {
+    check_planning_work(scene)?;
     let mut lookups: Vec<Lookup> = Vec::new();
     let mut left_out = Vec::new();
     for material in &scene.materials {
         note_index_matched(material, &mut left_out);
+        // Where each (layer, direction, kind, channel) of this material is in `lookups`: one hash
+        // look-up per recorded lookup, so that planning stays linear in layers and materials.
+        let mut index: std::collections::HashMap<(usize, &'static str, LookupKind, usize), usize> =
+            std::collections::HashMap::new();
         let recorded = std::cell::RefCell::new(Vec::new());
         // Stand-ins for the tables: which lookups are made, and where, does not depend on them.
         let recorder = |lookup: &ModelLookup| {
@@ -101,29 +106,53 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
                 Quantity::Gd => 1.0,
             }
         };
-        for stack in material.variants() {
+        for stack in material.variants()? {
             let model = crate::model::Material::new(material.model, stack);
             for k in 0..PLANNING_VIEWS {
                 let theta = std::f64::consts::FRAC_PI_2 * k as f64 / (PLANNING_VIEWS - 1) as f64;
                 let mu = if k + 1 == PLANNING_VIEWS { GRAZING_COSINE } else { theta.cos() };
                 model.evaluate(mu, &recorder);
+                // Merged after every evaluation, so that memory does not grow with the variants.
+                for recorded in recorded.borrow_mut().drain(..) {
+                    merge_lookup(material, &recorded, &mut lookups, &mut index);
+                }
             }
         }
-        for recorded in recorded.into_inner() {
-            let (kind, direction, layer) = match recorded.quantity {
-                Quantity::Albedo => (LookupKind::Albedo(material.albedo), recorded.site.name(), recorded.layer),
-                Quantity::Tir => (LookupKind::Tir(material.tir), recorded.site.name(), recorded.layer),
-                // One site for every lobe's GD: the table is kept whole anyway.
-                Quantity::Gd => (LookupKind::Gd, "internal lobes", 0),
-            };
-            // A value that serves every channel is a lookup of each, except GD, which has none.
-            let channels = match (recorded.channel, recorded.quantity) {
-                (Some(c), _) => c..c + 1,
-                (None, Quantity::Gd) => 0..1,
-                (None, _) => 0..3,
-            };
-            for channel in channels {
-                let point = Lookup {
+    }
+    Ok((lookups, left_out))
+}
+
+/// Add one lookup the model made to the hull of its site and channel.
+fn merge_lookup(
+    material: &super::Material,
+    recorded: &ModelLookup,
+    lookups: &mut Vec<Lookup>,
+    index: &mut std::collections::HashMap<(usize, &'static str, LookupKind, usize), usize>,
+) {
+    let (kind, direction, layer) = match recorded.quantity {
+        Quantity::Albedo => (LookupKind::Albedo(material.albedo), recorded.site.name(), recorded.layer),
+        Quantity::Tir => (LookupKind::Tir(material.tir), recorded.site.name(), recorded.layer),
+        // One site for every lobe's GD: the table is kept whole anyway.
+        Quantity::Gd => (LookupKind::Gd, "internal lobes", 0),
+    };
+    // A value that serves every channel is a lookup of each, except GD, which has none.
+    let channels = match (recorded.channel, recorded.quantity) {
+        (Some(c), _) => c..c + 1,
+        (None, Quantity::Gd) => 0..1,
+        (None, _) => 0..3,
+    };
+    for channel in channels {
+        match index.get(&(layer, direction, kind, channel)) {
+            Some(&at) => {
+                let l = &mut lookups[at];
+                l.mu = l.mu.hull(Interval::point(recorded.mu));
+                l.alpha = l.alpha.hull(Interval::point(recorded.alpha));
+                l.eta = l.eta.hull(Interval::point(recorded.eta));
+                l.kappa = l.kappa.hull(Interval::point(recorded.kappa));
+            }
+            None => {
+                index.insert((layer, direction, kind, channel), lookups.len());
+                lookups.push(Lookup {
                     material: material.name.clone(),
                     layer,
                     kind,
@@ -133,20 +162,43 @@ pub fn lookups(scene: &Scene) -> (Vec<Lookup>, Vec<LeftOutRecord>) {
                     alpha: Interval::point(recorded.alpha),
                     eta: Interval::point(recorded.eta),
                     kappa: Interval::point(recorded.kappa),
-                };
-                match lookups.iter_mut().find(|l| l.site() == point.site() && l.kind == kind && l.channel == channel) {
-                    Some(l) => {
-                        l.mu = l.mu.hull(point.mu);
-                        l.alpha = l.alpha.hull(point.alpha);
-                        l.eta = l.eta.hull(point.eta);
-                        l.kappa = l.kappa.hull(point.kappa);
-                    }
-                    None => lookups.push(point),
-                }
+                });
             }
         }
     }
-    (lookups, left_out)
+}
+
+/// Layer evaluations a plan may make ([`PLANNING_VIEWS`] views of every variant of every material,
+/// each as many layers deep as the material): 2^25, about 15 s. On the project's 2-core machine
+/// `tmlut plan` takes 3.8 s for 256 materials of 64 layers (8.4 million) and 4.6 s for one
+/// 64-layer material whose textures vary six roughnesses (12 million; `docs/scenes.md`).
+pub const MAX_PLANNING_WORK: u64 = 1 << 25;
+
+/// Refuse a scene whose plan would evaluate the model more than [`MAX_PLANNING_WORK`] layers,
+/// naming the materials that cost most.
+fn check_planning_work(scene: &Scene) -> Result<()> {
+    let cost = |m: &super::Material| (m.variant_count() * PLANNING_VIEWS * m.layers.len()) as u64;
+    let work: u64 = scene.materials.iter().map(cost).sum();
+    if work <= MAX_PLANNING_WORK {
+        return Ok(());
+    }
+    let mut costly: Vec<&super::Material> = scene.materials.iter().collect();
+    costly.sort_by_key(|m| std::cmp::Reverse(cost(m)));
+    let named: Vec<String> = costly
+        .iter()
+        .take(3)
+        .map(|m| {
+            format!("`{}` ({} layers, {} stacks over its `vary` ranges)", m.name, m.layers.len(), m.variant_count())
+        })
+        .collect();
+    Err(Error::invalid(
+        format!("scene `{}`", scene.name),
+        format!(
+            "planning it evaluates {work} layers ({PLANNING_VIEWS} views of every stack of every material); allowed: \
+             at most {MAX_PLANNING_WORK}. Most of it: {}. Vary fewer parameters per material, or split the scene",
+            named.join(", ")
+        ),
+    ))
 }
 
 /// View cosines the planner evaluates each material at, uniform in angle from the normal to
@@ -252,25 +304,26 @@ pub fn recipe_texel_bytes(recipe: &dyn TableRecipe) -> Result<u64> {
 /// The plan of `scene`, with the table settings (samples, masking, precision) of `config`.
 pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     config.validate()?;
-    let (lookups, mut left_out) = lookups(scene);
+    let (lookups, mut left_out) = lookups(scene)?;
     let margin = scene.margin_nodes;
     let mut tables: Vec<PlannedTable> = Vec::new();
+    let mut planned_slices = std::collections::HashMap::new();
     let full_fgd_axes = config.fgd.axes()?;
     let full_tir_axes = config.tir.axes()?;
 
     // Albedo on the FGD path: a slice per site of fixed indices, the 4D table over the hull of the rest.
     let fgd_lookups: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Albedo(AlbedoPath::Fgd)).collect();
-    let (fixed, varying): (Vec<&Lookup>, Vec<&Lookup>) =
-        fgd_lookups.iter().partition(|l| site_is_fixed(l, &fgd_lookups));
+    let (fixed, varying) = split_by_fixed_sites(&fgd_lookups);
     for site in sites(&fixed) {
         let slices = slice_of("fgd", SliceOf::Fgd(config.fgd.clone()), &site)?;
-        add_slices(&mut tables, slices, &site, "FGD");
+        add_slices(&mut tables, &mut planned_slices, slices, &site, "FGD");
     }
     if !varying.is_empty() {
-        let mu = covering_axis(&full_fgd_axes[0], hull(&varying, |l| l.mu), margin, false)?;
-        let alpha = covering_axis(&full_fgd_axes[1], hull(&varying, |l| l.alpha), margin, false)?;
-        let eta = covering_axis(&full_fgd_axes[2], hull(&varying, |l| l.eta), margin, true)?;
-        let kappa = covering_axis(&full_fgd_axes[3], hull(&varying, |l| l.kappa), margin, true)?;
+        let who = sites_label(&scene.name, &varying, "FGD");
+        let mu = covering_axis(&full_fgd_axes[0], hull(&varying, |l| l.mu), margin, false, &who)?;
+        let alpha = covering_axis(&full_fgd_axes[1], hull(&varying, |l| l.alpha), margin, false, &who)?;
+        let eta = covering_axis(&full_fgd_axes[2], hull(&varying, |l| l.eta), margin, true, &who)?;
+        let kappa = covering_axis(&full_fgd_axes[3], hull(&varying, |l| l.kappa), margin, true, &who)?;
         let mut settings = config.fgd.clone();
         settings.mu_range = [mu.start, mu.end];
         settings.alpha_range = [alpha.start, alpha.end];
@@ -370,17 +423,17 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             left_out.push(LeftOutRecord { what: format!("TIR lookups of {}", site_label(&site)), reason: why.into() });
         }
     }
-    let (fixed, varying): (Vec<&Lookup>, Vec<&Lookup>) =
-        tir_lookups.iter().partition(|l| site_is_fixed(l, &tir_lookups));
+    let (fixed, varying) = split_by_fixed_sites(&tir_lookups);
     let slices_before = tables.len();
     for site in sites(&fixed) {
         let slices = slice_of("tir", SliceOf::Tir(config.tir.clone()), &site)?;
-        add_slices(&mut tables, slices, &site, "TIR");
+        add_slices(&mut tables, &mut planned_slices, slices, &site, "TIR");
     }
     let tir_slices = tables.len() - slices_before;
     if !varying.is_empty() {
-        let mu = covering_axis(&full_tir_axes[0], hull(&varying, |l| l.mu), margin, false)?;
-        let alpha = covering_axis(&full_tir_axes[1], hull(&varying, |l| l.alpha), margin, false)?;
+        let who = sites_label(&scene.name, &varying, "TIR");
+        let mu = covering_axis(&full_tir_axes[0], hull(&varying, |l| l.mu), margin, false, &who)?;
+        let alpha = covering_axis(&full_tir_axes[1], hull(&varying, |l| l.alpha), margin, false, &who)?;
         let mut settings = config.tir.clone();
         settings.mu_range = [mu.start, mu.end];
         settings.alpha_range = [alpha.start, alpha.end];
@@ -436,18 +489,24 @@ fn replaced_by_slices(count: usize) -> String {
     if count == 1 { "1 slice table replaces it".into() } else { format!("{count} slice tables replace it") }
 }
 
-/// Whether every lookup at `lookup`'s site has fixed indices.
-fn site_is_fixed(lookup: &Lookup, all: &[&Lookup]) -> bool {
-    all.iter().filter(|l| l.site() == lookup.site()).all(|l| l.fixed_index())
+/// `lookups` split into those whose site has fixed indices in every lookup, and the others.
+fn split_by_fixed_sites<'a>(lookups: &[&'a Lookup]) -> (Vec<&'a Lookup>, Vec<&'a Lookup>) {
+    let varying_sites: std::collections::HashSet<_> =
+        lookups.iter().filter(|l| !l.fixed_index()).map(|l| l.site()).collect();
+    lookups.iter().partition(|l| !varying_sites.contains(&l.site()))
 }
 
 /// Lookups grouped by site, in the order the sites first appear.
 fn sites<'a>(lookups: &[&'a Lookup]) -> Vec<Vec<&'a Lookup>> {
     let mut groups: Vec<Vec<&Lookup>> = Vec::new();
+    let mut index: std::collections::HashMap<_, usize> = std::collections::HashMap::new();
     for &lookup in lookups {
-        match groups.iter_mut().find(|g| g[0].site() == lookup.site()) {
-            Some(group) => group.push(lookup),
-            None => groups.push(vec![lookup]),
+        match index.get(&lookup.site()) {
+            Some(&at) => groups[at].push(lookup),
+            None => {
+                index.insert(lookup.site(), groups.len());
+                groups.push(vec![lookup]);
+            }
         }
     }
     groups
@@ -470,6 +529,12 @@ fn site_label(site: &[&Lookup]) -> String {
     } else {
         format!("{}, layer {} {}", l.material, l.layer, l.direction)
     }
+}
+
+/// The sites of `lookups`, for an error: `scene `s`, FGD lookups of m, layer 2 from above; ...`.
+fn sites_label(scene: &str, lookups: &[&Lookup], what: &str) -> String {
+    let labels: Vec<String> = sites(lookups).iter().map(|site| site_label(site)).collect();
+    format!("scene `{scene}`, {what} lookups of {}", labels.join("; "))
 }
 
 /// The smallest interval holding `parameter` of every lookup (not empty).
@@ -513,7 +578,13 @@ fn slice_of(prefix: &str, of: SliceOf, site: &[&Lookup]) -> Result<Slices> {
 
 /// Add a slice table, or, where an identical one is planned already (another material with the
 /// same layer), add this site to its reasons.
-fn add_slices(tables: &mut Vec<PlannedTable>, slices: Slices, site: &[&Lookup], what: &str) {
+fn add_slices(
+    tables: &mut Vec<PlannedTable>,
+    planned_slices: &mut std::collections::HashMap<String, usize>,
+    slices: Slices,
+    site: &[&Lookup],
+    what: &str,
+) {
     let indices = slices.channels.iter().map(|c| format!("({}, {})", short(c.eta), short(c.kappa))).collect::<Vec<_>>();
     let reason = match what {
         "TIR" => format!(
@@ -523,19 +594,16 @@ fn add_slices(tables: &mut Vec<PlannedTable>, slices: Slices, site: &[&Lookup], 
         ),
         _ => format!("{}: FGD at (eta, kappa) = {}", site_label(site), indices.join(", ")),
     };
-    let same = |t: &PlannedTable| match &t.build {
-        PlannedBuild::Slices(s) => {
-            s.of == slices.of
-                && s.mu == slices.mu
-                && s.alpha == slices.alpha
-                && s.channels.iter().map(|c| (c.eta, c.kappa)).eq(slices.channels.iter().map(|c| (c.eta, c.kappa)))
-        }
-        _ => false,
-    };
-    if let Some(existing) = tables.iter_mut().find(|t| same(t)) {
-        existing.record.reasons.push(format!("{reason} (same slice)"));
+    // Identical slices (same table, grid and indices) are one table; found by a key of their exact
+    // values, in constant time, so that the plan stays linear in the number of sites.
+    let channel_indices: Vec<(u64, u64)> =
+        slices.channels.iter().map(|c| (c.eta.to_bits(), c.kappa.to_bits())).collect();
+    let key = format!("{what}|{:?}|{:?}|{channel_indices:?}", slices.mu, slices.alpha);
+    if let Some(&existing) = planned_slices.get(&key) {
+        tables[existing].record.reasons.push(format!("{reason} (same slice)"));
         return;
     }
+    planned_slices.insert(key, tables.len());
     let channel_count = slices.stored_channel_count();
     let record = PlannedTableRecord {
         name: slices.name.clone(),
@@ -557,6 +625,7 @@ fn add_slices(tables: &mut Vec<PlannedTable>, slices: Slices, site: &[&Lookup], 
 }
 
 fn record_of(recipe: &dyn TableRecipe, kind: &str, reasons: Vec<String>) -> Result<PlannedTableRecord> {
+    crate::recipes::check_demand(recipe)?;
     let axes = recipe.axes()?;
     Ok(PlannedTableRecord {
         name: recipe.name().into(),
@@ -580,16 +649,34 @@ fn range_label(axis: &Axis) -> String {
 
 /// The nodes of the node-aligned, uniform axis `full` that cover `needed`, with `margin` more on
 /// each side; with `extend`, the range may run past `full`'s end on the same spacing (an index
-/// above the full table's range: the full table would clamp there).
-pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool) -> Result<Axis> {
+/// above the full table's range: the full table would clamp there). `who` names the lookups in
+/// the error when the range needs more than [`MAX_NODES_PER_AXIS`] nodes.
+pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool, who: &str) -> Result<Axis> {
     let spacing = (full.end - full.start) / (full.count - 1) as f64;
-    // A value within rounding of a node counts as that node.
+    // A value within rounding of a node counts as that node. Node numbers stay in f64 until they
+    // are known to be small: a far index would saturate a conversion and wrap the sums after it.
     let position = |x: f64| (x - full.start) / spacing;
+    let first = (position(needed.lo) + 1e-9).floor().max(0.0);
+    let last = (position(needed.hi) - 1e-9).ceil().max(0.0).max(first);
+    let (first, last) = (first - (margin as f64).min(first), last + margin as f64);
+    // NaN positions (an infinite range) fail this too.
+    let within = last - first < MAX_NODES_PER_AXIS as f64;
+    if !within {
+        return Err(Error::invalid(
+            who,
+            format!(
+                "its lookups reach {} {} to {}, which the table's grid ({} apart) covers with {} nodes; allowed: at \
+                 most {MAX_NODES_PER_AXIS} nodes per axis (narrow the range a texture varies)",
+                full.name,
+                short(needed.lo),
+                short(needed.hi),
+                short(spacing),
+                last - first + 1.0
+            ),
+        ));
+    }
     let last_node = full.count - 1;
-    let mut first = (position(needed.lo) + 1e-9).floor().max(0.0) as usize;
-    let mut last = ((position(needed.hi) - 1e-9).ceil().max(0.0) as usize).max(first);
-    first = first.saturating_sub(margin);
-    last += margin;
+    let (mut first, mut last) = (first as usize, last as usize);
     if !extend {
         last = last.min(last_node);
         first = first.min(last);

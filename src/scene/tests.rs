@@ -46,9 +46,9 @@ fn bad_input_names_the_material_the_layer_and_what_is_allowed() {
         "{e}"
     );
     let e = error(&ONE_LAYER.replace("eta = 1.5", "eta = -1.5"));
-    assert!(e.contains("layer 1: eta") && e.contains("-1.5") && e.contains("> 0"), "{e}");
+    assert!(e.contains("layer 1: eta") && e.contains("-1.5") && e.contains("allowed: 0.01 to 100"), "{e}");
     let e = error(&ONE_LAYER.replace("eta = 1.5", "eta = [1.5, nan, 1.5]"));
-    assert!(e.contains("layer 1: eta") && e.contains("NaN") && e.contains("finite"), "{e}");
+    assert!(e.contains("layer 1: eta") && e.contains("NaN") && e.contains("0.01 to 100"), "{e}");
     let e = error(&ONE_LAYER.replace("eta = 1.5", "eta = [1.5, 1.5]"));
     assert!(e.contains("2 values") && e.contains("[r, g, b]"), "{e}");
     let e = error(&ONE_LAYER.replace("alpha = 0.1", "alpha = 1.5"));
@@ -378,4 +378,54 @@ fn a_medium_on_top_is_refused() {
         [[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
     let e = error(text);
     assert!(e.contains("layer 1") && e.contains("top layer must be an interface"), "{e}");
+}
+
+#[test]
+fn impossible_values_and_sizes_are_refused_in_the_scenes_own_words() {
+    // An index no medium has, in a vary range or given: refused before anything is planned.
+    for (text, key, value) in [
+        (ONE_LAYER.replace("eta = 1.5", "vary = { eta = [1.4, 1e20] }"), "vary.eta", "1e20"),
+        (ONE_LAYER.replace("eta = 1.5", "vary = { eta = [1.4, 1e10] }"), "vary.eta", "1e10"),
+        (ONE_LAYER.replace("eta = 1.5", "eta = 1e300"), "eta", "1e300"),
+        (ONE_LAYER.replace("eta = 1.5", "eta = 1.5\nkappa = 1e5"), "kappa", "100000"),
+    ] {
+        let e = error(&text);
+        assert!(e.contains(&format!("layer 1: {key}")) && e.contains(value) && e.contains("to 100"), "{e}");
+    }
+    // More layers than the model evaluates, more materials than a scene holds.
+    let layer = "[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
+    let deep = format!("[[material]]\nname = \"deep\"\n{}", layer.repeat(crate::model::MAX_LAYERS + 1));
+    let e = error(&deep);
+    assert!(e.contains("`deep`") && e.contains("65 layers") && e.contains("at most 64"), "{e}");
+    let many: String = (0..=MAX_MATERIALS).map(|k| format!("[[material]]\nname = \"m{k}\"\n{layer}")).collect();
+    let e = error(&many);
+    assert!(e.contains("257 materials") && e.contains("at most 256"), "{e}");
+
+    // A relative index whose sub-range the grid cannot cover: the lookups' site is named.
+    let text = "[[material]]\nname = \"thin-over-dense\"\n\
+        [[material.layer]]\ntype = \"interface\"\neta = 0.01\nalpha = 0.1\n\
+        [[material.layer]]\ntype = \"interface\"\nvary = { eta = [1.0, 100.0] }\nalpha = 0.1\n";
+    let scene = Scene::from_toml(text, "t.toml", "t").unwrap();
+    let e = plan(&scene, &Config::default()).unwrap_err().to_string();
+    assert!(e.contains("thin-over-dense, layer 2 from above") && e.contains("reach eta 100 to 10000"), "{e}");
+    assert!(e.contains("allowed: at most 16384 nodes"), "{e}");
+}
+
+#[test]
+fn planning_work_is_bounded() {
+    // Twelve roughness maps: 1 + 729 stacks, 257 views, 64 layers = 12 million layer evaluations, within
+    // the bound; five such materials are not.
+    let mut material = String::from("[[material]]\nname = \"NAME\"\n");
+    for k in 0..crate::model::MAX_LAYERS {
+        let eta = if k % 2 == 0 { 1.5 } else { 1.3 };
+        let alpha = if k < 12 { "vary = { alpha = [0.1, 0.4] }" } else { "alpha = 0.1" };
+        material.push_str(&format!("[[material.layer]]\ntype = \"interface\"\neta = {eta}\n{alpha}\n"));
+    }
+    let five: String = (0..5).map(|k| material.replace("NAME", &format!("m{k}"))).collect();
+    let scene = Scene::from_toml(&five, "five.toml", "five").unwrap();
+    let e = plan(&scene, &Config::default()).unwrap_err().to_string();
+    assert!(
+        e.contains("scene `five`") && e.contains("at most 33554432") && e.contains("`m0` (64 layers, 730 stacks"),
+        "{e}"
+    );
 }

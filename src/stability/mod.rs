@@ -3,7 +3,7 @@
 //! continuous where physics is, the f32 path agreeing with the f64 one, surviving half-float
 //! storage), and a readable report of all of it.
 //!
-//! The original implementations failed exactly here (`notes/pitfalls.md`: NaN from unguarded square
+//! The original implementations failed exactly here (`docs/stability.md`: NaN from unguarded square
 //! roots, `1 / 0` at total internal reflection, half-float subnormals) and hid it behind
 //! `saturate(NaN) = 0`. The report hides nothing: a property that cannot hold at a point (Fresnel
 //! at grazing incidence jumps from 0 at `eta = 1` to 1 at `eta = 1 ± 1e-6`) is listed as a

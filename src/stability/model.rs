@@ -44,7 +44,10 @@ pub fn stacks() -> Vec<(&'static str, Vec<Layer>)> {
         ("a medium that only scatters", vec![dielectric(1.5, 0.1), medium(2.0, 0.0, 1.0, 0.3), copper]),
         ("g = 0.999", vec![dielectric(1.5, 0.2), medium(1.0, 0.1, 1.0, 0.999), copper]),
         ("g = -0.999", vec![dielectric(1.5, 0.2), medium(1.0, 0.1, 1.0, -0.999), copper]),
-        ("no conductor (light leaves below)", vec![dielectric(1.5, 0.3), medium(0.5, 0.1, 1.0, 0.5), dielectric(1.2, 0.1)]),
+        (
+            "no conductor (light leaves below)",
+            vec![dielectric(1.5, 0.3), medium(0.5, 0.1, 1.0, 0.5), dielectric(1.2, 0.1)],
+        ),
         ("8 layers", {
             let mut layers: Vec<Layer> =
                 (0..7).map(|k| dielectric(if k % 2 == 0 { 1.5 } else { 1.2 }, 0.02 * k as f64)).collect();
@@ -107,7 +110,10 @@ pub fn run(report: &mut Report) -> crate::error::Result<()> {
             let mut case = Case::new(
                 "random walk",
                 format!("{name}, mu={mu}"),
-                format!("A = {:?} ± {:?} ({} paths)", estimate.reflected, estimate.reflected_standard_error, estimate.paths),
+                format!(
+                    "A = {:?} ± {:?} ({} paths)",
+                    estimate.reflected, estimate.reflected_standard_error, estimate.paths
+                ),
             );
             for (a, se) in estimate.reflected.iter().zip(estimate.reflected_standard_error) {
                 case = case.with(finite(*a)).with(at_most("no energy created (3 s.e.)", *a, 1.0, 3.0 * se + 1e-12));
@@ -119,11 +125,10 @@ pub fn run(report: &mut Report) -> crate::error::Result<()> {
 }
 
 fn with_finite_lobes(case: Case, evaluation: &crate::model::Evaluation) -> Case {
-    let values = evaluation
-        .albedo
-        .iter()
-        .copied()
-        .chain(evaluation.lobes.iter().flat_map(|l| l.energy.iter().copied().chain([l.asymmetry, l.roughness, l.gd])));
+    let values =
+        evaluation.albedo.iter().copied().chain(
+            evaluation.lobes.iter().flat_map(|l| l.energy.iter().copied().chain([l.asymmetry, l.roughness, l.gd])),
+        );
     let bad = values.clone().filter(|v| !v.is_finite()).count();
     let count = values.count();
     case.with(Check::new("finite", bad == 0, format!("{bad} of {count} lobe and albedo values not finite")))

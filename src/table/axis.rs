@@ -9,7 +9,7 @@
 //! A node-aligned axis (the original transfer-matrix tables) has node `k` at `u = k / (N - 1)`; a
 //! cell-centred axis (a GPU texture) has texel `k` at `u = (k + 0.5) / N`. Sampling a node-aligned
 //! table through a texture unit therefore needs `tex = (u * (N - 1) + 0.5) / N`, the half-texel
-//! correction the thesis renderer lacked (`notes/pitfalls.md`).
+//! correction the thesis renderer lacked (`docs/formats.md`, "Axis placement").
 
 use serde::{Deserialize, Serialize};
 

@@ -35,6 +35,15 @@ impl Channel {
     }
 }
 
+/// Values of a table with these axes and `channels` channels; `None` if the count overflows.
+pub fn value_count(axes: &[Axis], channels: usize) -> Option<usize> {
+    axes.iter().try_fold(channels, |acc, a| acc.checked_mul(a.count))
+}
+
+fn shape_of(axes: &[Axis]) -> Vec<usize> {
+    axes.iter().map(|a| a.count).collect()
+}
+
 /// A tabulated function of one to four parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
@@ -63,7 +72,12 @@ impl Table {
         for axis in &axes {
             axis.validate()?;
         }
-        let expected = axes.iter().map(|a| a.count).product::<usize>() * channels.len();
+        let expected = value_count(&axes, channels.len()).ok_or_else(|| {
+            Error::invalid(
+                &name,
+                format!("axes of shape {:?} hold more values than memory can address", shape_of(&axes)),
+            )
+        })?;
         if data.len() != expected {
             return Err(Error::invalid(
                 &name,
@@ -75,7 +89,13 @@ impl Table {
 
     /// A table of zeros, to be filled node by node.
     pub fn zeros(name: impl Into<String>, axes: Vec<Axis>, channels: Vec<Channel>) -> Result<Self> {
-        let len = axes.iter().map(|a| a.count).product::<usize>() * channels.len();
+        let name = name.into();
+        let len = value_count(&axes, channels.len()).ok_or_else(|| {
+            Error::invalid(
+                &name,
+                format!("axes of shape {:?} hold more values than memory can address", shape_of(&axes)),
+            )
+        })?;
         Self::new(name, axes, channels, vec![0.0; len])
     }
 
