@@ -26,7 +26,7 @@ pub enum Placement {
 }
 
 /// How an axis spaces its nodes: uniformly in `m(x)` rather than in `x`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Mapping {
     /// `m(x) = x`.
@@ -34,8 +34,16 @@ pub enum Mapping {
     Identity,
     /// `m(x) = sqrt(x)`; for a GGX alpha axis this is the perceptual roughness.
     Sqrt,
-    /// `m(x) = sqrt(1 - x)`; for a cosine axis this packs nodes toward grazing angles.
+    /// `m(x) = sqrt(1 - x)`; for a cosine axis this packs nodes toward the normal (`x = 1`).
     SqrtOneMinus,
+    /// `m(x) = (sqrt(x) - sqrt(1 - x) + 1) / 2` on [0, 1]: nodes packed toward both ends, as
+    /// `sqrt(x)` near 0 and `sqrt(1 - x)` near 1. For a cosine axis: dense at grazing views, where
+    /// masking and the horizon reshape a lobe within a few thousandths of `mu`, and near the normal,
+    /// where the view angle `acos(mu)` moves fastest.
+    SqrtEnds,
+    /// `m(x) = asinh(x / scale)`: linear within about `scale` of 0 and logarithmic beyond, so that
+    /// equal steps of `m` resolve a transition at 0 of any width from `scale` up.
+    Asinh { scale: f64 },
 }
 
 impl Mapping {
@@ -44,6 +52,25 @@ impl Mapping {
             Mapping::Identity => x,
             Mapping::Sqrt => x.max(0.0).sqrt(),
             Mapping::SqrtOneMinus => (1.0 - x).max(0.0).sqrt(),
+            Mapping::SqrtEnds => {
+                let x = x.clamp(0.0, 1.0);
+                0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
+            }
+            Mapping::Asinh { scale } => (x / scale).asinh(),
+        }
+    }
+
+    /// [`Mapping::forward`] in f32, as a shader evaluates it.
+    pub fn forward_f32(self, x: f32) -> f32 {
+        match self {
+            Mapping::Identity => x,
+            Mapping::Sqrt => x.max(0.0).sqrt(),
+            Mapping::SqrtOneMinus => (1.0 - x).max(0.0).sqrt(),
+            Mapping::SqrtEnds => {
+                let x = x.clamp(0.0, 1.0);
+                0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
+            }
+            Mapping::Asinh { scale } => (x / scale as f32).asinh(),
         }
     }
 
@@ -52,15 +79,23 @@ impl Mapping {
             Mapping::Identity => m,
             Mapping::Sqrt => m * m,
             Mapping::SqrtOneMinus => 1.0 - m * m,
+            Mapping::SqrtEnds => {
+                // a = sqrt(x), b = sqrt(1 - x): a - b = 2 m - 1 and a^2 + b^2 = 1.
+                let difference = (2.0 * m - 1.0).clamp(-1.0, 1.0);
+                let a = 0.5 * (difference + (2.0 - difference * difference).sqrt());
+                (a * a).clamp(0.0, 1.0)
+            }
+            Mapping::Asinh { scale } => scale * m.sinh(),
         }
     }
 
     /// The values of `x` the mapping is defined on, as `(lo, hi)`.
     pub fn domain(self) -> (f64, f64) {
         match self {
-            Mapping::Identity => (f64::NEG_INFINITY, f64::INFINITY),
+            Mapping::Identity | Mapping::Asinh { .. } => (f64::NEG_INFINITY, f64::INFINITY),
             Mapping::Sqrt => (0.0, f64::INFINITY),
             Mapping::SqrtOneMinus => (f64::NEG_INFINITY, 1.0),
+            Mapping::SqrtEnds => (0.0, 1.0),
         }
     }
 
@@ -70,6 +105,18 @@ impl Mapping {
             Mapping::Identity => x.to_string(),
             Mapping::Sqrt => format!("sqrt({x})"),
             Mapping::SqrtOneMinus => format!("sqrt(1 - {x})"),
+            Mapping::SqrtEnds => format!("(sqrt({x}) - sqrt(1 - {x}) + 1) / 2"),
+            Mapping::Asinh { scale } => format!("asinh({x} / {scale:?})"),
+        }
+    }
+
+    /// Whether the mapping is valid: a finite, positive `asinh` scale.
+    pub fn validate(self) -> Result<()> {
+        match self {
+            Mapping::Asinh { scale } if !(scale.is_finite() && scale > 0.0) => {
+                Err(Error::invalid("mapping", format!("asinh scale {scale}; allowed: finite and > 0")))
+            }
+            _ => Ok(()),
         }
     }
 }
@@ -125,6 +172,7 @@ impl Axis {
         if !self.start.is_finite() || !self.end.is_finite() {
             return Err(Error::invalid(key, format!("range [{}, {}] is not finite", self.start, self.end)));
         }
+        self.mapping.validate().map_err(|e| Error::invalid(&key, e.to_string()))?;
         let (lo, hi) = self.mapping.domain();
         for x in [self.start, self.end] {
             if x < lo || x > hi {
