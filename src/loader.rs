@@ -80,7 +80,8 @@ impl ManifestBeside {
     }
 }
 
-fn load_with_entry(path: &Path, entry: Option<&FileEntry>) -> Result<Table> {
+/// Load a table file described by `entry` (or, without one, by what the file itself holds).
+pub(crate) fn load_with_entry(path: &Path, entry: Option<&FileEntry>) -> Result<Table> {
     let format = format_of(path)?;
     let name = entry.map(|e| e.table.clone()).unwrap_or_else(|| file_stem(path));
     match format {

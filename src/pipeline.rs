@@ -17,8 +17,10 @@ use crate::error::{Error, Result};
 use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile};
 use crate::formats::{self, FileFormat, Precision};
 use crate::integrate::Progress;
-use crate::packing::{PackedFgd, Packing};
-use crate::recipes::{self, TableBuild};
+use crate::model::folder::SampledTable;
+use crate::packing::{Filter, PackedFgd, Packing};
+use crate::recipes::{self, TableBuild, interpolation};
+use crate::stats::InterpolationError;
 use crate::table::Table;
 
 /// What to build and where.
@@ -263,10 +265,27 @@ pub fn write_packing_files(
         fresnel_basis: None,
         accuracy: Vec::new(),
         standard_error: None,
+        interpolation: Vec::new(),
     };
     let mut written = write_table_file_named(&dir.join(format!("{stem}.dds")), &texture, FileFormat::Dds, precision)?;
+    // Its lookup is the shader's (`packing.lookup`), not one sample call.
+    written.entry.binding = None;
     // The texels were rounded when packed; state what rounding did to the source values.
     written.entry.error.storage_rounding_max = storage_rounding(&build.table, precision);
+    // Read as its shader reads it: the lookup program on the texels as stored.
+    let read_as = format!(
+        "the lookup of {stem}.hlsl / .wgsl, statement by statement in f32, on the texels as stored (GPU emulator, exact filter weights)"
+    );
+    let channels = [build.table.channels[0].name.clone()];
+    written.entry.error.interpolation = build
+        .interpolation
+        .iter()
+        .map(|exact| {
+            interpolation::compare(exact, &read_as, &channels, |p| {
+                vec![packed.lookup([p[0] as f32, p[1] as f32, p[2] as f32, p[3] as f32], Filter::Exact) as f64]
+            })
+        })
+        .collect();
     let mut shaders = Vec::new();
     let mut paths = Vec::new();
     for (language, text) in [("hlsl", packed.hlsl()), ("wgsl", packed.wgsl())] {
@@ -329,6 +348,7 @@ fn write_table_file_named(
         error: ErrorEntry {
             integration: build.error.clone(),
             storage_rounding_max: storage_rounding(table, precision),
+            interpolation: Vec::new(),
         },
         fresnel_basis: build.fresnel_basis.clone(),
         accuracy: build.accuracy.clone(),
@@ -336,8 +356,42 @@ fn write_table_file_named(
         bytes: bytes.len() as u64,
         packing: None,
         fit: None,
+        binding: (format == FileFormat::Dds)
+            .then(|| formats::dds::binding(&table.axes, table.channel_count(), precision)),
     };
+    let mut entry = entry;
+    entry.error.interpolation = interpolation_errors(&path, &entry, build)?;
     Ok(WrittenFile { path, entry })
+}
+
+/// The file at `path`, read back as `entry` describes it and sampled as a renderer samples it, at
+/// the random points of every domain of `build`'s interpolation check.
+fn interpolation_errors(path: &Path, entry: &FileEntry, build: &TableBuild) -> Result<Vec<InterpolationError>> {
+    if build.interpolation.is_empty() {
+        return Ok(Vec::new());
+    }
+    let table = crate::loader::load_with_entry(path, Some(entry))?;
+    // A slice's padding channel holds no value to check.
+    let channels: Vec<String> = table
+        .channels
+        .iter()
+        .map(|c| c.name.clone())
+        .filter(|name| name != crate::recipes::slices::PADDING_CHANNEL)
+        .collect();
+    let compare_all = |read_as: &str, read: &dyn Fn(&[f64]) -> Vec<f64>| {
+        build.interpolation.iter().map(|exact| interpolation::compare(exact, read_as, &channels, read)).collect()
+    };
+    if entry.format == FileFormat::Bin || table.dimension() > 3 {
+        let how = if entry.format == FileFormat::Bin {
+            "the .bin table interpolated multilinearly in f64 (Table::interpolate), as the transfer-matrix reference code reads it"
+        } else {
+            "the 4D table interpolated multilinearly in f64 (Table::interpolate): no GPU texture has four axes"
+        };
+        return Ok(compare_all(how, &|p| table.interpolate(p)));
+    }
+    let texture = SampledTable::new(&table)?;
+    let read_as = "a GPU texture: the manifest's texture coordinates in f32, linear filtering with clamp addressing, texels as stored (GPU emulator, exact filter weights)";
+    Ok(compare_all(read_as, &|p| (0..channels.len()).map(|c| texture.sample(c, p) as f64).collect()))
 }
 
 /// Which dimension of the file each axis runs along.

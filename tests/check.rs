@@ -51,7 +51,8 @@ fn a_good_build_meets_the_ci_budgets() {
     let (pass, text) = check(ci_build(), &repo("luts/ci-budgets.toml"), &[]);
     assert!(pass, "{text}");
     assert!(text.contains(" passed, 0 failed"), "{text}");
-    assert!(text.contains("fgd.bin: reference_rms"), "{text}");
+    assert!(text.contains("fgd.exr: reference_rms"), "{text}");
+    assert!(text.contains("tir.dds: interpolation_max (low roughness)"), "{text}");
 }
 
 #[test]
@@ -61,7 +62,7 @@ fn a_tightened_budget_fails_naming_figure_and_limit() {
     std::fs::write(&budgets, "[fgd]\nmax_reference_rms = 1e-9\n[karis]\nmax_replicate_max = 1e-9\n").unwrap();
     let (pass, text) = check(ci_build(), budgets.to_str().unwrap(), &[]);
     assert!(!pass, "{text}");
-    assert!(text.contains("FAIL fgd.bin: reference_rms is ") && text.contains("budget <= 1.000e-9"), "{text}");
+    assert!(text.contains("FAIL fgd.exr: reference_rms is ") && text.contains("budget <= 1.000e-9"), "{text}");
     // The packed FGD texture carries FGD's error, so FGD's budget holds it too.
     assert!(text.contains("FAIL fgd_lossless.dds: reference_rms"), "{text}");
     assert!(text.contains("FAIL karis.dds: replicate_max") && text.contains("FAIL karis.exr: replicate_max"), "{text}");
@@ -72,10 +73,11 @@ fn a_tightened_budget_fails_naming_figure_and_limit() {
 #[test]
 fn an_injected_nan_and_a_changed_file_fail() {
     let (_dir, out) = copy_of_ci_build();
-    // gd.bin: 2 int32 sizes and 4 float32 range ends, then the data; poison the fifth value.
-    let path = out.join("gd.bin");
+    // gd.dds: a 148-byte header (magic, DDS_HEADER, DX10 header), then the R32_FLOAT texels;
+    // poison the fifth value.
+    let path = out.join("gd.dds");
     let mut bytes = std::fs::read(&path).unwrap();
-    let offset = 24 + 4 * 4;
+    let offset = 148 + 4 * 4;
     bytes[offset..offset + 4].copy_from_slice(&f32::NAN.to_le_bytes());
     std::fs::write(&path, bytes).unwrap();
     let (pass, text) = check(&out, &repo("luts/ci-budgets.toml"), &["--json"]);
@@ -89,15 +91,15 @@ fn an_injected_nan_and_a_changed_file_fail() {
         .filter(|f| f["pass"] == false)
         .map(|f| (f["file"].as_str().unwrap().to_string(), f["check"].as_str().unwrap().to_string()))
         .collect();
-    assert_eq!(failed, [("gd.bin".to_string(), "sha256".to_string()), ("gd.bin".to_string(), "nan_count".to_string())]);
+    assert_eq!(failed, [("gd.dds".to_string(), "sha256".to_string()), ("gd.dds".to_string(), "nan_count".to_string())]);
 }
 
 #[test]
 fn a_missing_file_or_table_fails() {
     let (_dir, out) = copy_of_ci_build();
-    std::fs::remove_file(out.join("tir.bin")).unwrap();
+    std::fs::remove_file(out.join("tir.dds")).unwrap();
     let (pass, text) = check(&out, &repo("luts/ci-budgets.toml"), &[]);
-    assert!(!pass && text.contains("FAIL tir.bin: file is unreadable"), "{text}");
+    assert!(!pass && text.contains("FAIL tir.dds: file is unreadable"), "{text}");
 
     let dir = tempfile::tempdir().unwrap();
     let budgets = dir.path().join("extra.toml");
@@ -113,5 +115,5 @@ fn the_default_budgets_are_the_committed_file() {
     let output = tmlut(&["check", ci_build().to_str().unwrap()]);
     let text = String::from_utf8_lossy(&output.stdout);
     assert!(!output.status.success());
-    assert!(text.contains("FAIL fgd.bin: replicate_max"), "{text}");
+    assert!(text.contains("FAIL fgd.exr: replicate_max"), "{text}");
 }

@@ -85,14 +85,23 @@ pub struct AxisEntry {
     pub stored_along: String,
     /// The texture coordinate a cell-centred GPU sampler must be given for a value of the quantity.
     pub texture_coordinate: String,
+    /// How a lookup computes the axis's quantity from its parameters, where the quantity is not
+    /// one of them (`table::derived`), and what a shader language lacks to evaluate the formula.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub definition: Option<String>,
 }
 
 impl AxisEntry {
     pub fn new(axis: &Axis, stored_along: impl Into<String>) -> Self {
+        let derived = crate::table::derived::definition(&axis.name).map(|f| format!("{} = {f}", axis.name));
+        let asinh = matches!(axis.mapping, crate::table::Mapping::Asinh { .. })
+            .then(|| "HLSL has no asinh: asinh(x) = sign(x) * log(abs(x) + sqrt(x * x + 1))".to_string());
+        let definition = [derived, asinh].into_iter().flatten().collect::<Vec<_>>();
         AxisEntry {
             axis: axis.clone(),
             stored_along: stored_along.into(),
             texture_coordinate: axis.texture_coordinate_formula(),
+            definition: (!definition.is_empty()).then(|| definition.join("; ")),
         }
     }
 }
@@ -140,6 +149,24 @@ pub struct FileEntry {
     /// The analytic approximation fitted to this table by the build (TIR with `tir.fit = "best"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<FitEntry>,
+    /// How a renderer binds and samples a DDS texture that its GPU filters (not a packing, whose
+    /// lookup is in `packing`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub binding: Option<Binding>,
+}
+
+/// The texture, the sampler and the call that reproduce the table's interpolation on a GPU.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Binding {
+    /// Texture type in HLSL and WGSL, texel format (DXGI and WebGPU), mips, colour space.
+    pub texture: String,
+    /// The sampler state the call needs.
+    pub sampler: String,
+    /// Each texture coordinate, from the axes' `texture_coordinate`.
+    pub coordinates: Vec<String>,
+    /// The sample call in HLSL and in WGSL, at those coordinates.
+    pub hlsl: String,
+    pub wgsl: String,
 }
 
 /// One start of a least-squares search (`tmlut fit`, the build's fit): where it began, where it ended, and what NLopt said.
@@ -231,6 +258,10 @@ pub struct ErrorEntry {
     pub integration: ErrorRecord,
     /// The largest change of a value by rounding to the file's precision.
     pub storage_rounding_max: f64,
+    /// The file read as a renderer reads it, at random points of each domain, against the exact
+    /// integral there: what interpolation between nodes (and storage) costs a lookup.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub interpolation: Vec<crate::stats::InterpolationError>,
 }
 
 impl Manifest {
@@ -294,6 +325,7 @@ mod tests {
                     }),
                 },
                 storage_rounding_max: 0.0,
+                interpolation: vec![],
             },
             fresnel_basis: None,
             accuracy: vec![],
@@ -301,6 +333,7 @@ mod tests {
             bytes: 16408,
             packing: None,
             fit: None,
+            binding: None,
         };
         let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), scene: None };
         manifest.files.insert("gd.bin".into(), entry);

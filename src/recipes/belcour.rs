@@ -50,6 +50,8 @@ pub struct BelcourSettings {
     pub cosine_intervals: usize,
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
+    /// The check between nodes: random points against the exact integral.
+    pub interpolation: super::interpolation::InterpolationConfig,
     pub output: OutputConfig,
 }
 
@@ -66,6 +68,7 @@ impl Default for BelcourSettings {
             cosine_intervals: 256,
             sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
+            interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
         }
     }
@@ -92,6 +95,7 @@ impl BelcourSettings {
         }
         self.sampling.validate("belcour.sampling")?;
         self.reference.validate("belcour.reference")?;
+        self.interpolation.validate("belcour.interpolation")?;
         self.output.validate("belcour.output", &[FileFormat::Dds, FileFormat::Exr])
     }
 
@@ -322,6 +326,7 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
         fresnel_basis: Some(basis),
         accuracy,
         standard_error: Some(standard_error_map(&estimates)),
+        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
         table,
     })
 }

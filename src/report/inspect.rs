@@ -147,6 +147,20 @@ fn write_entry(w: &mut String, entry: &FileEntry, bytes: &[u8]) {
         );
     }
     let _ = writeln!(w, "; storage rounding max {:.2e}", error.storage_rounding_max);
+    for e in &error.interpolation {
+        let _ = writeln!(
+            w,
+            "between nodes ({}): RMS {:.2e}, max {:.2e} at {}; {}; read as {}; exact: {} samples, standard error up to {:.1e}",
+            e.domain,
+            e.error.rms,
+            e.error.max,
+            e.worst_at,
+            e.points,
+            e.read_as,
+            e.exact_samples,
+            e.exact_standard_error_max
+        );
+    }
     let actual = sha256_hex(bytes);
     let verdict = if actual == entry.sha256 { "matches the manifest" } else { "DOES NOT match the manifest" };
     let _ = writeln!(w, "sha256:   {actual} ({verdict})");

@@ -582,9 +582,9 @@ fn range_label(axis: &Axis) -> String {
 /// each side; with `extend`, the range may run past `full`'s end on the same spacing (an index
 /// above the full table's range: the full table would clamp there).
 pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool) -> Result<Axis> {
-    let spacing = (full.end - full.start) / (full.count - 1) as f64;
-    // A value within rounding of a node counts as that node.
-    let position = |x: f64| (x - full.start) / spacing;
+    // Node positions along the axis, in its mapped quantity (nodes are evenly spaced there); a
+    // value within rounding of a node counts as that node.
+    let position = |x: f64| full.coordinate(x) * (full.count - 1) as f64;
     let last_node = full.count - 1;
     let mut first = (position(needed.lo) + 1e-9).floor().max(0.0) as usize;
     let mut last = ((position(needed.hi) - 1e-9).ceil().max(0.0) as usize).max(first);
@@ -597,8 +597,9 @@ pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool)
     if first == last {
         if last < last_node || extend { last += 1 } else { first -= 1 }
     }
-    let node = |k: usize| if k == last_node { full.end } else { full.start + k as f64 * spacing };
-    Axis::node_aligned(full.name.clone(), node(first), node(last), last - first + 1)
+    // Past the last node (where `extend` allows it) the nodes continue at the same spacing.
+    let node = |k: usize| if k <= last_node { full.node_value(k) } else { full.value_at(k as f64 / last_node as f64) };
+    Axis::node_aligned(full.name.clone(), node(first), node(last), last - first + 1)?.with_mapping(full.mapping)
 }
 
 /// Nodes per unit of `mu` (or of `sqrt(alpha)`) of a slice's own grid: four times the default
