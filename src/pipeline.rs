@@ -14,8 +14,10 @@ use sha2::{Digest, Sha256};
 
 use crate::config::{Config, OutputConfig};
 use crate::error::{Error, Result};
-use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile};
-use crate::formats::{self, FileFormat, Precision};
+use crate::formats::manifest::{
+    AxisEntry, ChannelSumStorage, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile,
+};
+use crate::formats::{self, FileFormat, Precision, SumRounding};
 use crate::integrate::Progress;
 use crate::model::folder::SampledTable;
 use crate::packing::{Filter, PackedFgd, Packing};
@@ -266,6 +268,7 @@ pub fn write_packing_files(
         accuracy: Vec::new(),
         standard_error: None,
         interpolation: Vec::new(),
+        channel_sum: None,
     };
     let mut written = write_table_file_named(&dir.join(format!("{stem}.dds")), &texture, FileFormat::Dds, precision)?;
     // Its lookup is the shader's (`packing.lookup`), not one sample call.
@@ -324,7 +327,10 @@ fn write_table_file_named(
     let path = path.to_path_buf();
     // `.bin` has no precision field: it is f32 by definition.
     let precision = if format == FileFormat::Bin { Precision::F32 } else { precision };
-    formats::write_table(&path, table, format, precision)?;
+    // Channels that add up to an albedo are rounded together; the writers' own rounding then
+    // leaves those values as they are (each is already a value of the precision).
+    let stored = build.channel_sum.map(|rounding| stored_with_sum(table, rounding, precision)).transpose()?;
+    formats::write_table(&path, stored.as_ref().unwrap_or(table), format, precision)?;
     let bytes = formats::read_bytes(&path)?;
     let stats = table.stats();
     let entry = FileEntry {
@@ -347,7 +353,11 @@ fn write_table_file_named(
         nan_count: stats.nan_count + stats.infinite_count,
         error: ErrorEntry {
             integration: build.error.clone(),
-            storage_rounding_max: storage_rounding(table, precision),
+            storage_rounding_max: match &stored {
+                Some(stored) => max_difference(&table.data, &stored.data),
+                None => storage_rounding(table, precision),
+            },
+            storage_channel_sum: build.channel_sum.zip(stored.as_ref()).map(|(r, s)| channel_sum_storage(table, s, r)),
             interpolation: Vec::new(),
         },
         fresnel_basis: build.fresnel_basis.clone(),
@@ -406,6 +416,44 @@ fn stored_along(table: &Table, format: FileFormat) -> Vec<String> {
             (FileFormat::Exr, d) => format!("tile number (digit {} of the slice index, fastest first)", d - 2),
         })
         .collect()
+}
+
+/// `table` with each texel's channels rounded to `precision` by `rounding`.
+fn stored_with_sum(table: &Table, rounding: SumRounding, precision: Precision) -> Result<Table> {
+    let channels = table.channel_count();
+    let data = table.data.chunks(channels).flat_map(|texel| rounding.round(texel, precision)).collect();
+    Table::new(&table.name, table.axes.clone(), table.channels.clone(), data)
+}
+
+fn max_difference(a: &[f32], b: &[f32]) -> f64 {
+    a.iter().zip(b).map(|(&x, &y)| (x as f64 - y as f64).abs()).fold(0.0, f64::max)
+}
+
+/// What storing `table` as `stored` did to the sum of each texel's channels.
+fn channel_sum_storage(table: &Table, stored: &Table, rounding: SumRounding) -> ChannelSumStorage {
+    let channels = table.channel_count();
+    let mut record = ChannelSumStorage {
+        rounding,
+        texels_above_one: 0,
+        max_above_one: 0.0,
+        texels_above_integral: 0,
+        max_above_integral: 0.0,
+        max_sum: 0.0,
+    };
+    for (integrated, kept) in table.data.chunks(channels).zip(stored.data.chunks(channels)) {
+        let sum = |values: &[f32]| values.iter().map(|&v| v as f64).sum::<f64>();
+        let (integrated, kept) = (sum(integrated), sum(kept));
+        record.max_sum = record.max_sum.max(kept);
+        if kept > 1.0 {
+            record.texels_above_one += 1;
+            record.max_above_one = record.max_above_one.max(kept - 1.0);
+        }
+        if kept > integrated {
+            record.texels_above_integral += 1;
+            record.max_above_integral = record.max_above_integral.max(kept - integrated);
+        }
+    }
+    record
 }
 
 /// The largest change of a value by storing it in `precision`.

@@ -258,10 +258,28 @@ pub struct ErrorEntry {
     pub integration: ErrorRecord,
     /// The largest change of a value by rounding to the file's precision.
     pub storage_rounding_max: f64,
+    /// Where the channels add up to an albedo (Karis): what storage did to their sum.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub storage_channel_sum: Option<ChannelSumStorage>,
     /// The file read as a renderer reads it, at random points of each domain, against the exact
     /// integral there: what interpolation between nodes (and storage) costs a lookup.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub interpolation: Vec<crate::stats::InterpolationError>,
+}
+
+/// What rounding to the storage precision did to the sum of a texel's channels, where that sum is
+/// an albedo (Karis: `scale + bias`, the albedo at `F0 = 1`), which must not exceed 1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelSumStorage {
+    pub rounding: super::SumRounding,
+    /// Texels whose stored sum exceeds 1, and the largest excess.
+    pub texels_above_one: usize,
+    pub max_above_one: f64,
+    /// Texels whose stored sum exceeds the integrated (f32) one, and the largest excess.
+    pub texels_above_integral: usize,
+    pub max_above_integral: f64,
+    /// The largest stored sum.
+    pub max_sum: f64,
 }
 
 impl Manifest {
@@ -325,6 +343,7 @@ mod tests {
                     }),
                 },
                 storage_rounding_max: 0.0,
+                storage_channel_sum: None,
                 interpolation: vec![],
             },
             fresnel_basis: None,

@@ -327,6 +327,7 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
         accuracy,
         standard_error: Some(standard_error_map(&estimates)),
         interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: None,
         table,
     })
 }

@@ -335,6 +335,7 @@ pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Resu
         accuracy: Vec::new(),
         standard_error,
         interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: None,
         table,
     })
 }

@@ -24,7 +24,7 @@ use super::{
 };
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::Result;
-use crate::formats::{FileFormat, Precision};
+use crate::formats::{FileFormat, Precision, SumRounding};
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::{MaskingShadowing, schlick_weight};
 use crate::sampling::sequence::PointSet;
@@ -53,6 +53,9 @@ pub struct KarisSettings {
     /// The check between nodes: random points against the exact integral.
     pub interpolation: super::interpolation::InterpolationConfig,
     pub output: OutputConfig,
+    /// How f16 storage rounds `scale` and `bias`: never above the integrated sum
+    /// (`no-energy-gain`), or each to nearest (`nearest`).
+    pub storage_rounding: SumRounding,
 }
 
 impl Default for KarisSettings {
@@ -69,6 +72,7 @@ impl Default for KarisSettings {
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
+            storage_rounding: SumRounding::NoEnergyGain,
         }
     }
 }
@@ -146,6 +150,7 @@ pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Re
         accuracy: Vec::new(),
         standard_error: Some(standard_error_map(&estimates)),
         interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: Some(settings.storage_rounding),
         table,
     })
 }

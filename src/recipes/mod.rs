@@ -137,6 +137,9 @@ pub struct TableBuild {
     /// The exact integral at random points of the table's domains: each written file is read
     /// there as a renderer reads it and compared ([`interpolation::compare`]).
     pub interpolation: Vec<interpolation::ExactValues>,
+    /// For a table whose channels add up to an albedo (Karis): how storage rounds them; the
+    /// manifest then states what storage does to their sum.
+    pub channel_sum: Option<crate::formats::SumRounding>,
 }
 
 /// The record of a table integrated with `method` from the points of `points`.

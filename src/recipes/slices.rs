@@ -276,6 +276,7 @@ pub fn build(slices: &Slices, seed: u64, progress: &dyn Progress) -> Result<Tabl
         accuracy: Vec::new(),
         standard_error: Some(standard_error_map(&estimates)),
         interpolation: Vec::new(),
+        channel_sum: None,
         table,
     })
 }

@@ -404,6 +404,7 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
         accuracy: Vec::new(),
         standard_error: Some(standard_error_map(&estimates)),
         interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: None,
         table,
     })
 }

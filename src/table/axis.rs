@@ -269,7 +269,8 @@ impl Axis {
         } else if m0 == 0.0 {
             format!("{mapped} / {m1}")
         } else {
-            format!("({mapped} - {m0}) / ({m1} - {m0})")
+            let minus_m0 = if m0 < 0.0 { format!("+ {}", -m0) } else { format!("- {m0}") };
+            format!("({mapped} {minus_m0}) / ({m1} {minus_m0})")
         };
         match self.placement {
             Placement::NodeAligned => {
@@ -347,5 +348,40 @@ mod tests {
     fn formula_spells_out_the_half_texel_correction() {
         let axis = Axis::node_aligned("eta", 0.0, 4.0, 64).unwrap();
         assert_eq!(axis.texture_coordinate_formula(), "(eta / 4) * 63 / 64 + 0.5 / 64");
+        let offset =
+            Axis::node_aligned("d", -2.0, 2.0, 5).unwrap().with_mapping(Mapping::Asinh { scale: 0.5 }).unwrap();
+        let m1 = 4.0f64.asinh();
+        assert_eq!(
+            offset.texture_coordinate_formula(),
+            format!("((asinh(d / 0.5) + {m1}) / ({m1} + {m1})) * 4 / 5 + 0.5 / 5")
+        );
+    }
+
+    #[test]
+    fn the_new_spacings_round_trip_and_pack_their_nodes_where_stated() {
+        let ends = Axis::node_aligned("mu", 0.0, 1.0, 64).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
+        let offset =
+            Axis::node_aligned("d", -1.5, 1.5, 129).unwrap().with_mapping(Mapping::Asinh { scale: 1e-3 }).unwrap();
+        for axis in [&ends, &offset] {
+            for k in 0..axis.count {
+                let x = axis.node_value(k);
+                assert!((axis.coordinate(x) - axis.node_coordinate(k)).abs() < 1e-12, "{} node {k}", axis.name);
+                // The f32 mapping a shader evaluates agrees to f32 rounding.
+                let m = axis.mapping.forward(x);
+                assert!((axis.mapping.forward_f32(x as f32) as f64 - m).abs() <= 4e-7 * m.abs().max(1.0), "{x}");
+            }
+        }
+        // sqrt-ends: the first and last cells are a thousandth of mu wide, the middle ones ~0.022.
+        let width = |axis: &Axis, k: usize| axis.node_value(k + 1) - axis.node_value(k);
+        assert!(width(&ends, 0) < 1.1e-3 && width(&ends, 62) < 1.1e-3, "{} {}", width(&ends, 0), width(&ends, 62));
+        assert!((0.02..0.03).contains(&width(&ends, 31)), "{}", width(&ends, 31));
+        // asinh: offset 0 is the middle node of an odd count, its neighbours 1e-3 sinh(asinh(1500) / 64)
+        // = 1.25e-4 away, the spacing growing 13 % a node to the ends at 1.5.
+        assert_eq!(offset.node_value(64), 0.0);
+        assert!((offset.node_value(65) - 1e-3 * (1500f64.asinh() / 64.0).sinh()).abs() < 1e-15);
+        assert!(offset.node_value(65) < 1.3e-4, "{}", offset.node_value(65));
+        assert_eq!((offset.node_value(0), offset.node_value(128)), (-1.5, 1.5));
+        let bad = Axis::node_aligned("d", -1.0, 1.0, 4).unwrap().with_mapping(Mapping::Asinh { scale: 0.0 });
+        assert!(bad.unwrap_err().to_string().contains("asinh scale"));
     }
 }
