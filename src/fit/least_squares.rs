@@ -483,6 +483,7 @@ pub fn fit_for_build(
     let entry = crate::formats::manifest::FitEntry {
         form: BUILD_FORM.name().into(),
         formula: BUILD_FORM.formula().into(),
+        definition: BUILD_FORM.definition(),
         chosen_by: "tir.fit = \"best\": the most accurate form measured no costlier than thesis eq. 5.6 (docs/fit.md)"
             .into(),
         parameter_names: BUILD_FORM.parameter_names().iter().map(|s| s.to_string()).collect(),
@@ -499,6 +500,8 @@ pub fn fit_for_build(
 pub struct FormReport {
     pub name: String,
     pub formula: String,
+    /// Statement by statement ([`Form::definition`]).
+    pub definition: Vec<String>,
     pub parameter_names: Vec<String>,
     pub parameters: Vec<f64>,
     pub figures: ErrorFigures,
@@ -555,6 +558,7 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
         forms.push(FormReport {
             name: form.name().into(),
             formula: form.formula().into(),
+            definition: form.definition(),
             parameter_names: form.parameter_names().iter().map(|s| s.to_string()).collect(),
             parameters: fitted.parameters.clone(),
             figures,

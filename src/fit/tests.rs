@@ -324,6 +324,7 @@ fn the_most_accurate_form_is_chosen_by_its_worst_node_within_the_cost() {
     let report = |name: &str, rmse: f64, max_abs_error: f64, cost: f64, parameters: usize| FormReport {
         name: name.into(),
         formula: String::new(),
+        definition: vec![],
         parameter_names: vec![],
         parameters: vec![0.0; parameters],
         figures: ErrorFigures { rmse, mse: rmse * rmse, max_abs_error, max_at: [0.0; 3], nodes: 1 },
@@ -379,10 +380,23 @@ fn the_build_writes_the_best_form_reproducibly_and_only_when_asked() {
     let refitted = FittedForm { form: BUILD_FORM, parameters: fit.parameters.clone(), search: None };
     assert_eq!(figures(&refitted, &data), fit.figures);
     let manifest_f32: Vec<f32> = fit.parameters.iter().map(|&v| v as f32).collect();
+    // The manifest's definition, with its parameters as the shaders take them (f32), computes what
+    // the shader files written beside it compute.
+    assert_eq!(fit.definition, BUILD_FORM.definition());
+    let as_f32: Vec<f64> = manifest_f32.iter().map(|&v| format!("{v:?}").parse().unwrap()).collect();
     for shader in &fit.shaders {
         let text = std::fs::read_to_string(first.path().join(&shader.file)).unwrap();
         assert_eq!(baked_constants(&text), manifest_f32, "{}", shader.file);
         assert_eq!(crate::pipeline::sha256_hex(text.as_bytes()), shader.sha256);
+        for point in [[0.3, 0.02, 0.9], [0.9, 0.3, 0.2], [0.05, 0.001, 0.99], [1.0, 0.0, 0.0]] {
+            let from_manifest = crate::fit::forms::definition_tests::run_definition(&fit.definition, &as_f32, point);
+            let from_shader = crate::fit::forms::definition_tests::run_shader(&text, point);
+            assert!(
+                (from_manifest - from_shader).abs() <= 1e-9,
+                "{} at {point:?}: {from_manifest} vs {from_shader}",
+                shader.file
+            );
+        }
     }
     // Same table and seed: same coefficients and shader bytes.
     let again = build_small_tir(second.path(), TirFit::Best);

@@ -207,7 +207,12 @@ pub struct ErrorFigures {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitEntry {
     pub form: String,
+    /// The form in words.
     pub formula: String,
+    /// The form statement by statement, complete: `c0, c1, ...` are `parameters` in order
+    /// (`fit::Form::definition`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub definition: Vec<String>,
     /// Why this form: the rule that chose it.
     pub chosen_by: String,
     pub parameter_names: Vec<String>,

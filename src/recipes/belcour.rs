@@ -223,7 +223,7 @@ pub fn build_basis() -> FresnelBasis {
             di.total_cmp(&dj)
         })
         .unwrap_or(n / 2);
-    FresnelBasis { samples: n, b1, b2, b3, probe_cosines: [cosines[first_probe], cosines[second_probe]] }
+    FresnelBasis::new(b1, b2, b3, [cosines[first_probe], cosines[second_probe]])
 }
 
 fn argmax(v: &[f64]) -> usize {
