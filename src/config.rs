@@ -8,7 +8,7 @@
 //! mu_count = 512
 //! roughness_count = 512
 //! roughness_axis = "perceptual"   # or "alpha"
-//! orientation = "rough-first"     # row 0 = roughness 1; or "smooth-first"
+//! orientation = "smooth-first"    # row 0 = roughness 0; or "bottom-up-image"
 //! masking = "schlick-smith"       # or "smith-separable", "smith-height-correlated"
 //! [karis.sampling]
 //! samples = 1024                  # per cell, a power of two
@@ -97,13 +97,23 @@ impl Config {
         self.recipes().into_iter().find(|r| r.name() == name)
     }
 
-    /// Skip every table's reference check (for timing builds on their own).
+    /// Skip every table's reference and interpolation checks (for timing builds on their own).
     pub fn disable_reference_checks(&mut self) {
         self.fgd.reference.cells = 0;
         self.gd.reference.cells = 0;
         self.tir.reference.cells = 0;
         self.belcour.reference.cells = 0;
         self.karis.reference.cells = 0;
+        self.disable_interpolation_checks();
+    }
+
+    /// Skip every table's interpolation check (`recipes::interpolation`).
+    pub fn disable_interpolation_checks(&mut self) {
+        self.fgd.interpolation.points = 0;
+        self.gd.interpolation.points = 0;
+        self.tir.interpolation.points = 0;
+        self.belcour.interpolation.points = 0;
+        self.karis.interpolation.points = 0;
     }
 
     /// Use `method` for every table.

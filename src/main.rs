@@ -125,8 +125,8 @@ enum Command {
     /// Measure FGD packings: the emulated shader lookup at random points against 4D multilinear
     /// interpolation of the table and against the integral. Prints a Markdown table.
     PackReport {
-        /// The 4D FGD table (`tmlut build --only fgd` writes it).
-        #[arg(long, default_value = "luts/fgd.bin")]
+        /// The 4D FGD table (`tmlut build --only fgd` writes it as fgd.exr; the original layout as fgd.bin).
+        #[arg(long, default_value = "luts/fgd.exr")]
         table: PathBuf,
         /// TOML configuration whose [fgd] masking the integral is computed with (default: built-in).
         #[arg(long)]
@@ -191,8 +191,9 @@ enum Command {
         /// algebraic, rational.
         #[arg(long, value_delimiter = ',')]
         forms: Option<Vec<String>>,
-        /// The TIR table: the original `.bin` layout or an `.exr` written by `tmlut build`.
-        #[arg(long, default_value = "luts/tir.bin")]
+        /// The TIR table: a `.dds` or `.exr` written by `tmlut build` (a DDS reads its axes from the
+        /// manifest.json beside it), or the original `.bin` layout.
+        #[arg(long, default_value = "luts/tir.dds")]
         table: PathBuf,
         #[arg(long, default_value = "fit")]
         out: PathBuf,
@@ -325,8 +326,14 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                     e.wall_time_s,
                     e.error.integration.replicate_standard_error.max,
                 );
+                for interpolation in &e.error.interpolation {
+                    println!(
+                        "    interpolated vs the exact integral, {}: RMS {:.2e}, max {:.2e}",
+                        interpolation.domain, interpolation.error.rms, interpolation.error.max
+                    );
+                }
                 for accuracy in &e.accuracy {
-                    let what = accuracy.what.split(';').next().unwrap_or_default();
+                    let what = accuracy.what.split(['(', ';']).next().unwrap_or_default().trim_end();
                     println!("    {what}: RMS {:.2e}, max {:.2e}", accuracy.error.rms, accuracy.error.max);
                 }
             }
@@ -354,9 +361,12 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                     })
                     .collect::<tmlut::Result<Vec<_>>>()?,
             };
-            let loaded = match table.extension().and_then(|e| e.to_str()) {
-                Some("exr") => tmlut::formats::exr::read_exr(&table)?,
-                _ => tmlut::formats::bin::read_bin(&table, Some(&["mu", "alpha", "eta"]))?,
+            // A `.bin` file names no axes; the original layout's are (mu, alpha, eta).
+            let loaded = match tmlut::loader::format_of(&table)? {
+                tmlut::formats::FileFormat::Bin => {
+                    tmlut::formats::bin::read_bin(&table, Some(&["mu", "alpha", "eta"]))?
+                }
+                _ => tmlut::loader::load_table(&table)?,
             };
             let settings = tmlut::fit::FitSettings { starts, seed, ..tmlut::fit::FitSettings::default() };
             let request = tmlut::fit::FitRequest {

@@ -12,11 +12,15 @@ use std::path::{Path, PathBuf};
 use crate::commit::{Move, OutputFolder};
 use crate::config::{Config, OutputConfig};
 use crate::error::{Error, Result};
-use crate::formats::manifest::{AxisEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile};
-use crate::formats::{self, FileFormat, Precision};
+use crate::formats::manifest::{
+    AxisEntry, ChannelSumStorage, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile,
+};
+use crate::formats::{self, FileFormat, Precision, SumRounding};
 use crate::integrate::Progress;
-use crate::packing::{PackedFgd, Packing};
-use crate::recipes::{self, TableBuild};
+use crate::model::folder::SampledTable;
+use crate::packing::{Filter, PackedFgd, Packing};
+use crate::recipes::{self, TableBuild, interpolation};
+use crate::stats::InterpolationError;
 use crate::table::Table;
 
 /// What to build and where.
@@ -220,10 +224,28 @@ pub fn write_packing_files(
         fresnel_basis: None,
         accuracy: Vec::new(),
         standard_error: None,
+        interpolation: Vec::new(),
+        channel_sum: None,
     };
     let mut written = write_table_file_named(&dir.join(format!("{stem}.dds")), &texture, FileFormat::Dds, precision)?;
+    // Its lookup is the shader's (`packing.lookup`), not one sample call.
+    written.entry.binding = None;
     // The texels were rounded when packed; state what rounding did to the source values.
     written.entry.error.storage_rounding_max = storage_rounding(&build.table, precision);
+    // Read as its shader reads it: the lookup program on the texels as stored.
+    let read_as = format!(
+        "the lookup of {stem}.hlsl / .wgsl, statement by statement in f32, on the texels as stored (GPU emulator, exact filter weights)"
+    );
+    let channels = [build.table.channels[0].name.clone()];
+    written.entry.error.interpolation = build
+        .interpolation
+        .iter()
+        .map(|exact| {
+            interpolation::compare(exact, &read_as, &channels, |p| {
+                vec![packed.lookup([p[0] as f32, p[1] as f32, p[2] as f32, p[3] as f32], Filter::Exact) as f64]
+            })
+        })
+        .collect();
     let mut shaders = Vec::new();
     let mut paths = Vec::new();
     for (language, text) in [("hlsl", packed.hlsl()), ("wgsl", packed.wgsl())] {
@@ -262,7 +284,10 @@ fn write_table_file_named(
     let path = path.to_path_buf();
     // `.bin` has no precision field: it is f32 by definition.
     let precision = if format == FileFormat::Bin { Precision::F32 } else { precision };
-    formats::write_table(&path, table, format, precision)?;
+    // Channels that add up to an albedo are rounded together; the writers' own rounding then
+    // leaves those values as they are (each is already a value of the precision).
+    let stored = build.channel_sum.map(|rounding| stored_with_sum(table, rounding, precision)).transpose()?;
+    formats::write_table(&path, stored.as_ref().unwrap_or(table), format, precision)?;
     let bytes = formats::read_bytes(&path)?;
     let stats = table.stats();
     let entry = FileEntry {
@@ -285,7 +310,12 @@ fn write_table_file_named(
         nan_count: stats.nan_count + stats.infinite_count,
         error: ErrorEntry {
             integration: build.error.clone(),
-            storage_rounding_max: storage_rounding(table, precision),
+            storage_rounding_max: match &stored {
+                Some(stored) => max_difference(&table.data, &stored.data),
+                None => storage_rounding(table, precision),
+            },
+            storage_channel_sum: build.channel_sum.zip(stored.as_ref()).map(|(r, s)| channel_sum_storage(table, s, r)),
+            interpolation: Vec::new(),
         },
         fresnel_basis: build.fresnel_basis.clone(),
         accuracy: build.accuracy.clone(),
@@ -293,8 +323,42 @@ fn write_table_file_named(
         bytes: bytes.len() as u64,
         packing: None,
         fit: None,
+        binding: (format == FileFormat::Dds)
+            .then(|| formats::dds::binding(&table.axes, table.channel_count(), precision)),
     };
+    let mut entry = entry;
+    entry.error.interpolation = interpolation_errors(&path, &entry, build)?;
     Ok(WrittenFile { path, entry })
+}
+
+/// The file at `path`, read back as `entry` describes it and sampled as a renderer samples it, at
+/// the random points of every domain of `build`'s interpolation check.
+fn interpolation_errors(path: &Path, entry: &FileEntry, build: &TableBuild) -> Result<Vec<InterpolationError>> {
+    if build.interpolation.is_empty() {
+        return Ok(Vec::new());
+    }
+    let table = crate::loader::load_verified(path, entry)?;
+    // A slice's padding channel holds no value to check.
+    let channels: Vec<String> = table
+        .channels
+        .iter()
+        .map(|c| c.name.clone())
+        .filter(|name| name != crate::recipes::slices::PADDING_CHANNEL)
+        .collect();
+    let compare_all = |read_as: &str, read: &dyn Fn(&[f64]) -> Vec<f64>| {
+        build.interpolation.iter().map(|exact| interpolation::compare(exact, read_as, &channels, read)).collect()
+    };
+    if entry.format == FileFormat::Bin || table.dimension() > 3 {
+        let how = if entry.format == FileFormat::Bin {
+            "the .bin table interpolated multilinearly in f64 (Table::interpolate), as the transfer-matrix reference code reads it"
+        } else {
+            "the 4D table interpolated multilinearly in f64 (Table::interpolate): no GPU texture has four axes"
+        };
+        return Ok(compare_all(how, &|p| table.interpolate(p)));
+    }
+    let texture = SampledTable::new(&table)?;
+    let read_as = "a GPU texture: the manifest's texture coordinates in f32, linear filtering with clamp addressing, texels as stored (GPU emulator, exact filter weights)";
+    Ok(compare_all(read_as, &|p| (0..channels.len()).map(|c| texture.sample(c, p) as f64).collect()))
 }
 
 /// Which dimension of the file each axis runs along.
@@ -309,6 +373,44 @@ fn stored_along(table: &Table, format: FileFormat) -> Vec<String> {
             (FileFormat::Exr, d) => format!("tile number (digit {} of the slice index, fastest first)", d - 2),
         })
         .collect()
+}
+
+/// `table` with each texel's channels rounded to `precision` by `rounding`.
+fn stored_with_sum(table: &Table, rounding: SumRounding, precision: Precision) -> Result<Table> {
+    let channels = table.channel_count();
+    let data = table.data.chunks(channels).flat_map(|texel| rounding.round(texel, precision)).collect();
+    Table::new(&table.name, table.axes.clone(), table.channels.clone(), data)
+}
+
+fn max_difference(a: &[f32], b: &[f32]) -> f64 {
+    a.iter().zip(b).map(|(&x, &y)| (x as f64 - y as f64).abs()).fold(0.0, f64::max)
+}
+
+/// What storing `table` as `stored` did to the sum of each texel's channels.
+fn channel_sum_storage(table: &Table, stored: &Table, rounding: SumRounding) -> ChannelSumStorage {
+    let channels = table.channel_count();
+    let mut record = ChannelSumStorage {
+        rounding,
+        texels_above_one: 0,
+        max_above_one: 0.0,
+        texels_above_integral: 0,
+        max_above_integral: 0.0,
+        max_sum: 0.0,
+    };
+    for (integrated, kept) in table.data.chunks(channels).zip(stored.data.chunks(channels)) {
+        let sum = |values: &[f32]| values.iter().map(|&v| v as f64).sum::<f64>();
+        let (integrated, kept) = (sum(integrated), sum(kept));
+        record.max_sum = record.max_sum.max(kept);
+        if kept > 1.0 {
+            record.texels_above_one += 1;
+            record.max_above_one = record.max_above_one.max(kept - 1.0);
+        }
+        if kept > integrated {
+            record.texels_above_integral += 1;
+            record.max_above_integral = record.max_above_integral.max(kept - integrated);
+        }
+    }
+    record
 }
 
 /// The largest change of a value by storing it in `precision`.

@@ -55,6 +55,26 @@ pub struct AccuracyReport {
     pub worst_at: String,
 }
 
+/// A file (or a table) read at random points of a domain, against the exact integral there.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InterpolationError {
+    /// The domain's name (`whole domain`, `low roughness`, ...): what budgets refer to.
+    pub domain: String,
+    /// How its points were drawn: the box of lookup parameters and their number.
+    pub points: String,
+    /// How the values were read (the renderer's path).
+    pub read_as: String,
+    /// Samples of each exact value (per-cell f64 estimator, independent scrambles).
+    pub exact_samples: u64,
+    /// The largest standard error of an exact value: differences below a few times this are noise.
+    pub exact_standard_error_max: f64,
+    /// Read value minus exact, over points and channels.
+    #[serde(flatten)]
+    pub error: ErrorSummary,
+    /// Where the largest difference is, and both values there.
+    pub worst_at: String,
+}
+
 /// The median of `values` (the mean of the middle two for an even count); NaN for none.
 pub fn median(values: &[f64]) -> f64 {
     let mut sorted = values.to_vec();

@@ -51,7 +51,8 @@ fn a_good_build_meets_the_ci_budgets() {
     let (pass, text) = check(ci_build(), &repo("luts/ci-budgets.toml"), &[]);
     assert!(pass, "{text}");
     assert!(text.contains(" passed, 0 failed"), "{text}");
-    assert!(text.contains("fgd.bin: reference_rms"), "{text}");
+    assert!(text.contains("fgd.exr: reference_rms"), "{text}");
+    assert!(text.contains("tir.dds: interpolation_max (low roughness)"), "{text}");
 }
 
 #[test]
@@ -84,7 +85,7 @@ fn a_tightened_budget_fails_naming_figure_and_limit() {
     std::fs::write(&budgets, "[fgd]\nmax_reference_rms = 1e-9\n[karis]\nmax_replicate_max = 1e-9\n").unwrap();
     let (pass, text) = check(ci_build(), budgets.to_str().unwrap(), &[]);
     assert!(!pass, "{text}");
-    assert!(text.contains("FAIL fgd.bin: reference_rms is ") && text.contains("budget <= 1.000e-9"), "{text}");
+    assert!(text.contains("FAIL fgd.exr: reference_rms is ") && text.contains("budget <= 1.000e-9"), "{text}");
     // The packed FGD texture carries FGD's error, so FGD's budget holds it too.
     assert!(text.contains("FAIL fgd_lossless.dds: reference_rms"), "{text}");
     assert!(text.contains("FAIL karis.dds: replicate_max") && text.contains("FAIL karis.exr: replicate_max"), "{text}");
@@ -95,10 +96,11 @@ fn a_tightened_budget_fails_naming_figure_and_limit() {
 #[test]
 fn an_injected_nan_and_a_changed_file_fail() {
     let (_dir, out) = copy_of_ci_build();
-    // gd.bin: 2 int32 sizes and 4 float32 range ends, then the data; poison the fifth value.
-    let path = out.join("gd.bin");
+    // gd.dds: a 148-byte header (magic, DDS_HEADER, DX10 header), then the R32_FLOAT texels;
+    // poison the fifth value.
+    let path = out.join("gd.dds");
     let mut bytes = std::fs::read(&path).unwrap();
-    let offset = 24 + 4 * 4;
+    let offset = 148 + 4 * 4;
     bytes[offset..offset + 4].copy_from_slice(&f32::NAN.to_le_bytes());
     std::fs::write(&path, bytes).unwrap();
     let (pass, text) = check(&out, &repo("luts/ci-budgets.toml"), &["--json"]);
@@ -114,7 +116,7 @@ fn an_injected_nan_and_a_changed_file_fail() {
         .collect();
     // The changed bytes, the manifest's NaN count and range that no longer describe the file, and
     // the NaN budget.
-    let expected = [("gd.bin", "sha256"), ("gd.bin", "manifest"), ("gd.bin", "nan_count")];
+    let expected = [("gd.dds", "sha256"), ("gd.dds", "manifest"), ("gd.dds", "nan_count")];
     assert_eq!(failed, expected.map(|(f, c)| (f.to_string(), c.to_string())));
 }
 
@@ -170,13 +172,13 @@ fn tampered_emptied_and_deleted_shaders_fail() {
 
 #[test]
 fn a_manifest_that_misstates_a_file_fails() {
-    // Each lie in the manifest's description of karis.dds or tir.bin, with the SHA-256 left right.
+    // Each lie in the manifest's description of a file, with the SHA-256 left right.
     type Lie = fn(&mut serde_json::Value);
     let lies: [(&str, &str, Lie); 6] = [
         ("karis.dds", "NaN count", |e| e["nan_count"] = 3.into()),
         ("karis.dds", "value range", |e| e["value_range"][1] = 0.5.into()),
         ("karis.dds", "axis count", |e| e["axes"][0]["count"] = (1u64 << 40).into()),
-        ("tir.bin", "orientation", |e| {
+        ("fgd.exr", "orientation", |e| {
             let axis = &mut e["axes"][1];
             let (start, end) = (axis["start"].clone(), axis["end"].clone());
             axis["start"] = end;
@@ -185,8 +187,8 @@ fn a_manifest_that_misstates_a_file_fails() {
         ("karis.exr", "channel count", |e| {
             e["channels"].as_array_mut().unwrap().pop();
         }),
-        // A .bin file has no channel names: the manifest's are taken, but only one of them.
-        ("gd.bin", "channel count", |e| {
+        // An R32_FLOAT texture holds one channel.
+        ("gd.dds", "channel count", |e| {
             let extra = serde_json::json!({"name": "extra", "meaning": "a lie"});
             e["channels"].as_array_mut().unwrap().push(extra);
         }),
@@ -209,7 +211,7 @@ fn manifest_paths_outside_the_folder_are_refused_not_followed() {
     std::fs::write(&outside, b"not a table").unwrap();
     for name in ["/etc/hostname", "../../x", "../tmlut-check-outside.bin", outside.to_str().unwrap()] {
         let (_dir, out) = copy_with_manifest(|m| {
-            let entry = m["files"]["gd.bin"].clone();
+            let entry = m["files"]["gd.dds"].clone();
             m["files"].as_object_mut().unwrap().insert(name.to_string(), entry);
         });
         let failed = failures(&out);
@@ -239,9 +241,9 @@ fn inspect_refuses_a_manifest_axis_that_the_texture_does_not_have() {
 #[test]
 fn a_missing_file_or_table_fails() {
     let (_dir, out) = copy_of_ci_build();
-    std::fs::remove_file(out.join("tir.bin")).unwrap();
+    std::fs::remove_file(out.join("tir.dds")).unwrap();
     let (pass, text) = check(&out, &repo("luts/ci-budgets.toml"), &[]);
-    assert!(!pass && text.contains("FAIL tir.bin: file is unreadable"), "{text}");
+    assert!(!pass && text.contains("FAIL tir.dds: file is unreadable"), "{text}");
 
     let dir = tempfile::tempdir().unwrap();
     let budgets = dir.path().join("extra.toml");
@@ -257,5 +259,5 @@ fn the_default_budgets_are_the_committed_file() {
     let output = tmlut(&["check", ci_build().to_str().unwrap()]);
     let text = String::from_utf8_lossy(&output.stdout);
     assert!(!output.status.success());
-    assert!(text.contains("FAIL fgd.bin: replicate_max"), "{text}");
+    assert!(text.contains("FAIL fgd.exr: replicate_max"), "{text}");
 }

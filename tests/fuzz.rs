@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Duration;
 
-use common::{Ending, run_limited, small_build};
+use common::{Ending, run_limited};
 use rand_pcg::Pcg64Mcg;
 use rand_pcg::rand_core::RngCore;
 
@@ -320,7 +320,7 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
     let manifest_bytes = read("manifest.json");
     let manifest: serde_json::Value = serde_json::from_slice(&manifest_bytes).unwrap();
     let tables =
-        ["karis.dds", "belcour.dds", "fgd_lossless.dds", "karis.exr", "belcour.exr", "fgd.bin", "gd.bin", "tir.bin"];
+        ["karis.dds", "belcour.dds", "fgd_lossless.dds", "gd.dds", "tir.dds", "karis.exr", "belcour.exr", "fgd.exr", "gd.exr", "tir.exr", "fgd.bin", "gd.bin", "tir.bin"];
     let shaders = ["fgd_lossless.hlsl", "fgd_lossless.wgsl", "tir_fit.hlsl", "tir_fit.wgsl"];
     let mut all = Vec::with_capacity(count);
     while all.len() < count {
@@ -439,8 +439,8 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
     let seed: u64 = std::env::var("FUZZ_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(2021);
     let count: usize = std::env::var("FUZZ_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(3000);
     let dir = tempfile::tempdir().unwrap();
-    let built = small_build(dir.path(), &[]);
-    let config = common::SMALL_SET.to_string();
+    let config = common::small_set_in_every_format();
+    let built = common::build_config(dir.path(), &config, &[]);
     let scene = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/luts/scenes/textured.toml")).unwrap();
     let cases = cases(seed, count, &built, &config, &scene);
     let budgets = dir.path().join("budgets.toml");
@@ -451,12 +451,12 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
     let tallies: Mutex<BTreeMap<Reader, Tally>> = Mutex::new(BTreeMap::new());
     std::thread::scope(|scope| {
         for worker in 0..workers {
-            let (cases, tallies, budgets, built, scene) = (&cases, &tallies, &budgets, &built, &scene);
+            let (cases, tallies, budgets, built, scene, config) = (&cases, &tallies, &budgets, &built, &scene, &config);
             let work: PathBuf = dir.path().join(format!("worker{worker}"));
             scope.spawn(move || {
                 let folder = work.join("luts");
                 copy_folder(built, &folder);
-                std::fs::write(work.join("config.toml"), common::SMALL_SET).unwrap();
+                std::fs::write(work.join("config.toml"), config).unwrap();
                 std::fs::write(work.join("scene.toml"), scene).unwrap();
                 for case in cases.iter().skip(worker).step_by(workers) {
                     let (runs, lost) = run_case(case, &work, &folder, budgets);

@@ -221,6 +221,62 @@ impl Form {
         }
     }
 
+    /// The form statement by statement, complete (every floor, clamp and guard the shader has),
+    /// for a reader who implements it without the shader: `name = expression` in order, helper
+    /// functions as `name(arguments) = expression`, the result last as `TIR = ...`. `c0, c1, ...`
+    /// are the fitted `parameters` in order; `^` is a power, `a ? b : c` a select, `ln` the natural
+    /// logarithm. Empty for the parameter-free baselines (their definition is the thesis's).
+    pub fn definition(self) -> Vec<String> {
+        let lines: &[&str] = match self {
+            Form::Eq56 | Form::Eq56Corrected => &[],
+            Form::Logistic | Form::Smoothstep | Form::Algebraic | Form::Rational => &STEP_DEFINITION,
+            Form::CauchyCap | Form::CauchySlope => &CAUCHY_DEFINITION,
+        };
+        let mut lines: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        let (width_floor, scale_floor, slope_floor) = (WIDTH_FLOOR, CAUCHY_SCALE_FLOOR, SLOPE_SCALE_FLOOR);
+        for line in &mut lines {
+            *line = line
+                .replace("WIDTH_FLOOR", &format!("{width_floor:?}"))
+                .replace("SCALE_FLOOR", &format!("{scale_floor:?}"))
+                .replace("EDGE_LOGIT_LIMIT", &format!("{EDGE_LOGIT_LIMIT:?}"));
+        }
+        let (centre, grazing) = if self == Form::CauchySlope { ("c6", "c7") } else { ("c8", "c9") };
+        let tail: Vec<String> = match self {
+            Form::Eq56 | Form::Eq56Corrected => vec![],
+            Form::Logistic => vec!["TIR = 1 / (1 + exp(min(t, 80)))".into()],
+            Form::Smoothstep => {
+                vec!["x = clamp((t + 1) / 2, 0, 1)".into(), "TIR = 1 - x^2 * (3 - 2 * x)".into()]
+            }
+            Form::Algebraic => vec!["TIR = 0.5 - 0.5 * t / sqrt(1 + t^2)".into()],
+            Form::Rational => vec!["TIR = 0.5 - 0.5 * t / (1 + abs(t))".into()],
+            Form::CauchyCap => vec![
+                "narrow = clamp(1 - cauchy_inside, 0, 1)".into(),
+                "rough = cb^c5".into(),
+                "blend = min(c6 * alpha^c7, 1)".into(),
+                "TIR = narrow + blend * (rough - narrow)".into(),
+            ],
+            Form::CauchySlope => vec![
+                format!("slope_scale = c8 * alpha + {slope_floor:?}"),
+                "slope_t(c) = 0.5 * (c - mu)".into(),
+                "slope_r(c) = sqrt(slope_scale^2 + slope_t(c)^2)".into(),
+                "slope_e(c) = slope_r(c) + abs(slope_t(c))".into(),
+                "slope_num(c) = slope_t(c) > 0 ? slope_scale^2 * (mu + slope_e(c)) : (mu * slope_e(c) + slope_scale^2) * slope_e(c)".into(),
+                "slope_den(c) = slope_e(c) * slope_r(c)".into(),
+                "slope_inside = slope_num(cb) * slope_den(0) / max(slope_den(cb) * slope_num(0), 1e-37)".into(),
+                "fade = (1 - mu) / (1 + c9 * alpha)^2".into(),
+                "narrow = clamp(1 - (cauchy_inside + fade * (slope_inside - cauchy_inside)), 0, 1)".into(),
+                "rough = cb^2".into(),
+                "blend = min(c5 * alpha * sqrt(alpha), 1)".into(),
+                "TIR = narrow + blend * (rough - narrow)".into(),
+            ],
+        };
+        for line in &mut lines {
+            *line = line.replace("CENTRE", centre).replace("GRAZING", grazing);
+        }
+        lines.extend(tail);
+        lines
+    }
+
     /// A starting point and bounds per parameter.
     pub fn start_and_bounds(self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         match self {
@@ -321,6 +377,35 @@ impl Form {
         Some(self.step(t))
     }
 }
+
+/// The step forms' argument `t`, statement by statement ([`Form::definition`]).
+const STEP_DEFINITION: [&str; 4] = [
+    "width = alpha * max(c0 + c1 * alpha + c2 * mu, 0) + WIDTH_FLOOR",
+    "shift = alpha * (c3 + c4 * alpha + c5 * mu^2)",
+    "edge_logit = clamp(ln(max(eta^2, 1e-30)) - ln(max(1 - eta^2, 1e-30)), -EDGE_LOGIT_LIMIT, EDGE_LOGIT_LIMIT)",
+    "t = (mu^2 + eta^2 - 1 - shift) / width + c6 * edge_logit",
+];
+
+/// The Cauchy forms' spherical Cauchy lobe and its share inside the critical cone, statement by
+/// statement ([`Form::definition`]; `CENTRE` and `GRAZING` name the form's coefficients). A cap's
+/// share `(1 - u / sqrt(u^2 + w^2)) / 2` is kept as a numerator and a denominator without
+/// cancellation (`cap_num / cap_den`), and the ratio of two shares takes one division with a floor:
+/// `cauchy_inside` is the lobe's share inside the critical cone over its share inside the upper cap.
+const CAUCHY_DEFINITION: [&str; 13] = [
+    "scale = max(alpha * (c0 + c1 * alpha + c2 * mu), 0) + GRAZING * sqrt(max(alpha, 0)) * (1 - mu)^16 + SCALE_FLOOR",
+    "centre = clamp(mu + CENTRE * alpha * (1 - mu), 0, 1)",
+    "cb = sqrt(max(1 - eta^2, 0))",
+    "k = clamp(1 - alpha * (c3 + c4 * alpha), 0, 1)",
+    "cap_s(u, w) = max(sqrt(u^2 + w^2), 1e-30)",
+    "cap_num(u, w) = u > 0 ? w^2 : (cap_s(u, w) + abs(u))^2",
+    "cap_den(u, w) = 2 * cap_s(u, w) * (cap_s(u, w) + abs(u))",
+    "cone_u = scale^2 * (centre + cb) + (cb - centre)",
+    "cone_w = 2 * scale * eta",
+    "upper_centre = centre * (1 + k^2)",
+    "upper_u = scale^2 * (upper_centre + (1 - k^2)) + ((1 - k^2) - upper_centre)",
+    "upper_w = 2 * scale * (2 * k)",
+    "cauchy_inside = cap_num(cone_u, cone_w) * cap_den(upper_u, upper_w) / max(cap_den(cone_u, cone_w) * cap_num(upper_u, upper_w), 1e-37)",
+];
 
 /// `(t, width, width clamped to its floor)` of the step forms.
 fn step_argument<R: Real>(p: &[R], mu: R, alpha: R, eta: R) -> (R, R, bool) {
@@ -630,7 +715,8 @@ pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Optio
     Some(format!(
         "// tmlut fit tir: form '{name}', {formula}\n\
          // width = alpha (c0 + c1 alpha + c2 mu) + {floor:?}, shift = alpha (c3 + c4 alpha + c5 mu^2),\n\
-         // plus c6 logit(eta^2) clamped to +-{limit:?}; coefficients as in fit.json.\n\
+         // plus c6 logit(eta^2) clamped to +-{limit:?}. c0..c6: the fit's `parameters`, in order\n\
+         // (manifest.json `fit` of the build; fit.json of `tmlut fit tir`), as f32.\n\
          {signature} {{\n\
          \x20   {binding} width = alpha * max({c0} + {c1} * alpha + {c2} * mu, 0.0) + {floor:?};\n\
          \x20   {binding} shift = alpha * ({c3} + {c4} * alpha + {c5} * mu * mu);\n\
@@ -677,8 +763,9 @@ fn cauchy_shader(form: Form, c: &[String], language: ShaderLanguage) -> String {
     };
     let mut text = format!(
         "// tmlut fit tir: form '{name}', {formula}\n\
-         // Coefficients as in fit.json (f32). Shares are (numerator, denominator) pairs, so that a\n\
-         // ratio of two shares costs one division.\n\
+         // c0..c9: the fit's `parameters`, in order (manifest.json `fit` of the build; fit.json of\n\
+         // `tmlut fit tir`), as f32; the manifest's `definition` states every statement below.\n\
+         // Shares are (numerator, denominator) pairs, so that a ratio of two shares costs one division.\n\
          {ratio_signature} {{\n\
          \x20   return a.x * b.y / max(a.y * b.x, 1e-37);\n\
          }}\n\
@@ -762,3 +849,7 @@ pub enum ShaderLanguage {
     Hlsl,
     Wgsl,
 }
+
+#[cfg(test)]
+#[path = "definition_tests.rs"]
+pub(crate) mod definition_tests;

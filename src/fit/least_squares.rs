@@ -31,6 +31,53 @@ pub struct FitData {
     pub weights: Option<Vec<f64>>,
 }
 
+/// Nodes per axis of the grid the forms are fitted on when the table's own nodes are not a
+/// uniform `(mu, alpha, eta)` grid: the original 64^3 layout.
+pub const FIT_GRID_NODES: usize = 64;
+
+/// The TIR table as a uniform grid of `(mu, alpha, eta)` nodes, the grid the forms are fitted and
+/// judged on: the table itself when it has that layout (the original `tm_TIR.bin`'s), otherwise
+/// the table interpolated (`Table::interpolate`) at the nodes of a [`FIT_GRID_NODES`]^3 grid over
+/// its `mu` and `alpha` ranges and `eta` in [0, 1]. A layout whose nodes crowd where the table is
+/// steep would otherwise weight the fit there.
+pub fn fit_grid(table: &Table) -> Result<Table> {
+    let names: Vec<&str> = table.axes.iter().map(|a| a.name.as_str()).collect();
+    if table.dimension() != 3 || table.channel_count() != 1 || names[..2] != ["mu", "alpha"] {
+        return Err(Error::invalid(
+            "fit table",
+            format!(
+                "axes ({}) and {} channels; allowed: a TIR table (mu, alpha, eta or critical_angle_offset), one channel",
+                names.join(", "),
+                table.channel_count()
+            ),
+        ));
+    }
+    let uniform = |a: &crate::table::Axis| {
+        a.placement == crate::table::Placement::NodeAligned && a.mapping == crate::table::Mapping::Identity
+    };
+    if names[2] == "eta" && table.axes.iter().all(uniform) {
+        return Ok(table.clone());
+    }
+    let n = FIT_GRID_NODES;
+    let (mu, alpha) = (&table.axes[0], &table.axes[1]);
+    let axes = vec![
+        crate::table::Axis::node_aligned("mu", mu.start, mu.end, n)?,
+        crate::table::Axis::node_aligned("alpha", alpha.start, alpha.end, n)?,
+        crate::table::Axis::node_aligned("eta", 0.0, 1.0, n)?,
+    ];
+    let grid = Table::zeros(&table.name, axes, table.channels.clone())?;
+    let data = (0..grid.node_count())
+        .map(|node| {
+            let p = grid.node_position(&grid.node_index(node));
+            let point = crate::table::derived::point_of(&table.axes, p[0], p[1], p[2], 0.0).ok_or_else(|| {
+                Error::invalid("fit table", format!("axis `{}` is not one a TIR lookup addresses", names[2]))
+            })?;
+            Ok(table.interpolate(&point)[0] as f32)
+        })
+        .collect::<Result<Vec<f32>>>()?;
+    Table::new(&table.name, grid.axes, grid.channels, data)
+}
+
 impl FitData {
     /// Every node of a 3-axis, one-channel table (axes in the order mu, alpha, eta).
     pub fn from_table(table: &Table) -> Result<FitData> {
@@ -344,25 +391,51 @@ pub fn form_timing(fitted: &FittedForm) -> TimedRun<'static> {
     Box::new(move |queries| time_one_run(queries, |mu, alpha, eta| form.eval(black_box(&p[..]), mu, alpha, eta)))
 }
 
-/// The table as a cell-centred f32 volume texture (x = mu, y = alpha, z = eta) and the
-/// node-aligned coordinate map `u = (x (N - 1) + 0.5) / N` (`docs/formats.md`, "Axis placement").
-pub fn table_texture(table: &Table) -> Texture3D {
-    let shape = table.shape();
-    Texture3D { width: shape[0], height: shape[1], depth: shape[2], texels: table.data.clone() }
+/// The TIR table bound as a texture and read as a shader reads it, in f32: the third axis's
+/// quantity from `(mu, eta)` (`eta` itself, or `asin(eta) - acos(mu)`), each axis's mapping, the
+/// node-aligned coordinate `u (N - 1) / N + 0.5 / N` (`docs/formats.md`, "Axis placement"), one
+/// trilinear fetch through the GPU emulator (exact weights).
+pub struct TableFetch {
+    texture: Texture3D,
+    /// Per axis: mapping, `m(start)`, `1 / (m(end) - m(start))`, node count.
+    axes: Vec<(crate::table::Mapping, f32, f32, f32)>,
+    critical_angle_offset: bool,
 }
 
-/// One timing run of the f32 table fetch through the GPU emulator (trilinear, exact weights), for
-/// [`time_side_by_side`].
-pub fn fetch_timing(texture: &Texture3D) -> TimedRun<'_> {
-    let scale = |n: usize| ((n - 1) as f32 / n as f32, 0.5 / n as f32);
-    let (sx, ox) = scale(texture.width);
-    let (sy, oy) = scale(texture.height);
-    let (sz, oz) = scale(texture.depth);
-    Box::new(move |queries| {
-        time_one_run(queries, |mu, alpha, eta| {
-            texture.sample_trilinear(mu * sx + ox, alpha * sy + oy, eta * sz + oz, Filter::Exact)
-        })
-    })
+impl TableFetch {
+    pub fn new(table: &Table) -> Self {
+        let shape = table.shape();
+        let axes = table
+            .axes
+            .iter()
+            .map(|a| {
+                let (m0, m1) = (a.mapping.forward_f32(a.start as f32), a.mapping.forward_f32(a.end as f32));
+                (a.mapping, m0, 1.0 / (m1 - m0), a.count as f32)
+            })
+            .collect();
+        TableFetch {
+            texture: Texture3D { width: shape[0], height: shape[1], depth: shape[2], texels: table.data.clone() },
+            axes,
+            critical_angle_offset: table.axes[2].name == crate::table::derived::CRITICAL_ANGLE_OFFSET,
+        }
+    }
+
+    #[inline]
+    pub fn sample(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+        let third =
+            if self.critical_angle_offset { eta.clamp(0.0, 1.0).asin() - mu.clamp(0.0, 1.0).acos() } else { eta };
+        let coordinate = |d: usize, x: f32| {
+            let (mapping, m0, inverse_range, n) = self.axes[d];
+            let u = (mapping.forward_f32(x) - m0) * inverse_range;
+            u * ((n - 1.0) / n) + 0.5 / n
+        };
+        self.texture.sample_trilinear(coordinate(0, mu), coordinate(1, alpha), coordinate(2, third), Filter::Exact)
+    }
+}
+
+/// One timing run of the f32 table fetch, for [`time_side_by_side`].
+pub fn fetch_timing(fetch: &TableFetch) -> TimedRun<'_> {
+    Box::new(move |queries| time_one_run(queries, |mu, alpha, eta| fetch.sample(mu, alpha, eta)))
 }
 
 /// The form a build fits to its TIR table: the most accurate fitted form whose CPU cost was
@@ -386,10 +459,11 @@ pub fn fit_for_build(
     seed: u64,
     dir: &Path,
 ) -> Result<(crate::formats::manifest::FitEntry, Vec<PathBuf>)> {
-    let data = FitData::from_table(table)?;
+    let grid = fit_grid(table)?;
+    let data = FitData::from_table(&grid)?;
     let settings = FitSettings { starts: BUILD_STARTS, seed, ..FitSettings::default() };
     // Fitted on every other node (an eighth of them), judged on all of them.
-    let fitted = fit_form(BUILD_FORM, &FitData::from_table_nodes(table, BUILD_NODE_STRIDE)?, &settings)?;
+    let fitted = fit_form(BUILD_FORM, &FitData::from_table_nodes(&grid, BUILD_NODE_STRIDE)?, &settings)?;
     let mut shaders = Vec::new();
     let mut paths = Vec::new();
     for (language, extension) in [(ShaderLanguage::Hlsl, "hlsl"), (ShaderLanguage::Wgsl, "wgsl")] {
@@ -409,6 +483,7 @@ pub fn fit_for_build(
     let entry = crate::formats::manifest::FitEntry {
         form: BUILD_FORM.name().into(),
         formula: BUILD_FORM.formula().into(),
+        definition: BUILD_FORM.definition(),
         chosen_by: "tir.fit = \"best\": the most accurate form measured no costlier than thesis eq. 5.6 (docs/fit.md)"
             .into(),
         parameter_names: BUILD_FORM.parameter_names().iter().map(|s| s.to_string()).collect(),
@@ -425,6 +500,8 @@ pub fn fit_for_build(
 pub struct FormReport {
     pub name: String,
     pub formula: String,
+    /// Statement by statement ([`Form::definition`]).
+    pub definition: Vec<String>,
     pub parameter_names: Vec<String>,
     pub parameters: Vec<f64>,
     pub figures: ErrorFigures,
@@ -458,16 +535,17 @@ pub struct FitRequest {
 /// Fit every requested form, time them and the table fetch, and write `fit.json`, shaders and the
 /// error-against-cost plot into `out`.
 pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
-    let data = FitData::from_table(table)?;
+    let grid = fit_grid(table)?;
+    let data = FitData::from_table(&grid)?;
     std::fs::create_dir_all(&request.out).map_err(|e| Error::io(&request.out, e))?;
     let queries = timing_queries(&data, request.timing_queries, request.settings.seed);
-    let texture = table_texture(table);
+    let fetch = TableFetch::new(table);
     let mut forms = Vec::new();
     let mut timings = Vec::new();
     for &form in &request.forms {
         let fitted = fit_form(form, &data, &request.settings)?;
         let figures = figures(&fitted, &data);
-        error_maps(&request.out, form, table, &fitted, &data)?;
+        error_maps(&request.out, form, &grid, &fitted, &data)?;
         let mut shaders = Vec::new();
         for (language, extension) in [(ShaderLanguage::Hlsl, "hlsl"), (ShaderLanguage::Wgsl, "wgsl")] {
             if let Some(text) = forms::shader(form, &fitted.parameters, language) {
@@ -480,6 +558,7 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
         forms.push(FormReport {
             name: form.name().into(),
             formula: form.formula().into(),
+            definition: form.definition(),
             parameter_names: form.parameter_names().iter().map(|s| s.to_string()).collect(),
             parameters: fitted.parameters.clone(),
             figures,
@@ -489,7 +568,7 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
         });
     }
     // Every form and the table fetch are timed side by side, after all the fits.
-    timings.push(fetch_timing(&texture));
+    timings.push(fetch_timing(&fetch));
     let mut costs = time_side_by_side(&queries, request.timing_runs, &timings);
     let fetch = costs.pop().expect("the fetch was timed");
     for (form, cost) in forms.iter_mut().zip(costs) {

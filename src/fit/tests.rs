@@ -324,6 +324,7 @@ fn the_most_accurate_form_is_chosen_by_its_worst_node_within_the_cost() {
     let report = |name: &str, rmse: f64, max_abs_error: f64, cost: f64, parameters: usize| FormReport {
         name: name.into(),
         formula: String::new(),
+        definition: vec![],
         parameter_names: vec![],
         parameters: vec![0.0; parameters],
         figures: ErrorFigures { rmse, mse: rmse * rmse, max_abs_error, max_at: [0.0; 3], nodes: 1 },
@@ -352,6 +353,7 @@ fn build_small_tir(out: &Path, fit: crate::recipes::tir::TirFit) -> crate::forma
     config.tir.eta_count = 17;
     config.tir.sampling.samples = 1024;
     config.tir.reference.cells = 0;
+    config.tir.interpolation.points = 0;
     config.tir.fit = fit;
     let request =
         crate::pipeline::BuildRequest { config, only: Some(vec!["tir".into()]), out: out.into(), error_maps: false };
@@ -365,30 +367,44 @@ fn the_build_writes_the_best_form_reproducibly_and_only_when_asked() {
     let (first, second, off) =
         (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     let manifest = build_small_tir(first.path(), TirFit::Best);
-    let fit = manifest.files["tir.bin"].fit.clone().expect("tir.fit = \"best\" records the fit");
+    let fit = manifest.files["tir.dds"].fit.clone().expect("tir.fit = \"best\" records the fit");
     assert_eq!(fit.form, BUILD_FORM.name());
     assert_eq!(fit.parameters.len(), fit.parameter_names.len());
     let search = fit.search.as_ref().unwrap();
     assert_eq!(search.starts.len(), BUILD_STARTS);
     assert!(search.starts.iter().all(|s| !s.status.is_empty()));
-    // The recorded figures are those of the recorded coefficients on the built table.
-    let table = crate::formats::bin::read_bin(&first.path().join("tir.bin"), None).unwrap();
-    let data = FitData::from_table(&table).unwrap();
+    // The recorded figures are those of the recorded coefficients on the built table, read back
+    // and interpolated at the nodes of the uniform fit grid.
+    let table = crate::loader::load_table(&first.path().join("tir.dds")).unwrap();
+    let data = FitData::from_table(&fit_grid(&table).unwrap()).unwrap();
     let refitted = FittedForm { form: BUILD_FORM, parameters: fit.parameters.clone(), search: None };
     assert_eq!(figures(&refitted, &data), fit.figures);
     let manifest_f32: Vec<f32> = fit.parameters.iter().map(|&v| v as f32).collect();
+    // The manifest's definition, with its parameters as the shaders take them (f32), computes what
+    // the shader files written beside it compute.
+    assert_eq!(fit.definition, BUILD_FORM.definition());
+    let as_f32: Vec<f64> = manifest_f32.iter().map(|&v| format!("{v:?}").parse().unwrap()).collect();
     for shader in &fit.shaders {
         let text = std::fs::read_to_string(first.path().join(&shader.file)).unwrap();
         assert_eq!(baked_constants(&text), manifest_f32, "{}", shader.file);
         assert_eq!(crate::pipeline::sha256_hex(text.as_bytes()), shader.sha256);
+        for point in [[0.3, 0.02, 0.9], [0.9, 0.3, 0.2], [0.05, 0.001, 0.99], [1.0, 0.0, 0.0]] {
+            let from_manifest = crate::fit::forms::definition_tests::run_definition(&fit.definition, &as_f32, point);
+            let from_shader = crate::fit::forms::definition_tests::run_shader(&text, point);
+            assert!(
+                (from_manifest - from_shader).abs() <= 1e-9,
+                "{} at {point:?}: {from_manifest} vs {from_shader}",
+                shader.file
+            );
+        }
     }
     // Same table and seed: same coefficients and shader bytes.
     let again = build_small_tir(second.path(), TirFit::Best);
-    assert_eq!(again.files["tir.bin"].fit.as_ref().unwrap().parameters, fit.parameters);
+    assert_eq!(again.files["tir.dds"].fit.as_ref().unwrap().parameters, fit.parameters);
     for name in ["tir_fit.hlsl", "tir_fit.wgsl"] {
         assert_eq!(std::fs::read(first.path().join(name)).unwrap(), std::fs::read(second.path().join(name)).unwrap());
     }
     let none = build_small_tir(off.path(), TirFit::Off);
-    assert!(none.files["tir.bin"].fit.is_none());
+    assert!(none.files["tir.dds"].fit.is_none());
     assert!(!off.path().join("tir_fit.hlsl").exists());
 }

@@ -72,6 +72,48 @@ pub fn dxgi_format_name(channels: usize, precision: Precision) -> String {
     format!("{name}_FLOAT")
 }
 
+/// How a renderer binds a texture of `axes` (2 or 3, with their texture-coordinate formulas) and
+/// `channels` channels in `precision` and samples it with hardware filtering.
+pub fn binding(axes: &[Axis], channels: usize, precision: Precision) -> crate::formats::manifest::Binding {
+    let dimension = axes.len();
+    let (hlsl_texel, swizzle) = match channels {
+        1 => ("float", "r"),
+        2 => ("float2", "rg"),
+        _ => ("float4", "rgba"),
+    };
+    let webgpu = match (channels, precision) {
+        (1, Precision::F16) => "r16float",
+        (2, Precision::F16) => "rg16float",
+        (_, Precision::F16) => "rgba16float",
+        (1, Precision::F32) => "r32float",
+        (2, Precision::F32) => "rg32float",
+        (_, Precision::F32) => "rgba32float",
+    };
+    let filterable = match precision {
+        Precision::F16 => "filterable".to_string(),
+        Precision::F32 => format!(
+            "filterable only with the float32-filterable feature; without it bind as unfilterable-float and filter by \
+             hand ({} textureLoad texels around each coordinate times the texel count, minus 0.5)",
+            1 << dimension
+        ),
+    };
+    let names = ["u", "v", "w"];
+    let coordinates =
+        axes.iter().zip(names).map(|(a, n)| format!("{n} = {}", a.texture_coordinate_formula())).collect();
+    let list = names[..dimension].join(", ");
+    crate::formats::manifest::Binding {
+        texture: format!(
+            "Texture{dimension}D<{hlsl_texel}> (HLSL), texture_{dimension}d<f32> (WGSL); DXGI_FORMAT_{}, WebGPU {webgpu} \
+             ({filterable}); one mip level; linear data (not sRGB)",
+            dxgi_format_name(channels, precision)
+        ),
+        sampler: "linear min and mag filter, clamp-to-edge addressing on every axis, mip level 0".into(),
+        coordinates,
+        hlsl: format!("tex.SampleLevel(linear_clamp, float{dimension}({list}), 0)"),
+        wgsl: format!("textureSampleLevel(tex, linear_clamp, vec{dimension}<f32>({list}), 0.0).{swizzle}"),
+    }
+}
+
 /// A texture as stored in a DDS file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DdsTexture {

@@ -123,14 +123,23 @@ pub struct AxisEntry {
     pub stored_along: String,
     /// The texture coordinate a cell-centred GPU sampler must be given for a value of the quantity.
     pub texture_coordinate: String,
+    /// How a lookup computes the axis's quantity from its parameters, where the quantity is not
+    /// one of them (`table::derived`), and what a shader language lacks to evaluate the formula.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub definition: Option<String>,
 }
 
 impl AxisEntry {
     pub fn new(axis: &Axis, stored_along: impl Into<String>) -> Self {
+        let derived = crate::table::derived::definition(&axis.name).map(|f| format!("{} = {f}", axis.name));
+        let asinh = matches!(axis.mapping, crate::table::Mapping::Asinh { .. })
+            .then(|| "HLSL has no asinh: asinh(x) = sign(x) * log(abs(x) + sqrt(x * x + 1))".to_string());
+        let definition = [derived, asinh].into_iter().flatten().collect::<Vec<_>>();
         AxisEntry {
             axis: axis.clone(),
             stored_along: stored_along.into(),
             texture_coordinate: axis.texture_coordinate_formula(),
+            definition: (!definition.is_empty()).then(|| definition.join("; ")),
         }
     }
 }
@@ -178,6 +187,24 @@ pub struct FileEntry {
     /// The analytic approximation fitted to this table by the build (TIR with `tir.fit = "best"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<FitEntry>,
+    /// How a renderer binds and samples a DDS texture that its GPU filters (not a packing, whose
+    /// lookup is in `packing`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub binding: Option<Binding>,
+}
+
+/// The texture, the sampler and the call that reproduce the table's interpolation on a GPU.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Binding {
+    /// Texture type in HLSL and WGSL, texel format (DXGI and WebGPU), mips, colour space.
+    pub texture: String,
+    /// The sampler state the call needs.
+    pub sampler: String,
+    /// Each texture coordinate, from the axes' `texture_coordinate`.
+    pub coordinates: Vec<String>,
+    /// The sample call in HLSL and in WGSL, at those coordinates.
+    pub hlsl: String,
+    pub wgsl: String,
 }
 
 /// One start of a least-squares search (`tmlut fit`, the build's fit): where it began, where it ended, and what NLopt said.
@@ -218,7 +245,12 @@ pub struct ErrorFigures {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitEntry {
     pub form: String,
+    /// The form in words.
     pub formula: String,
+    /// The form statement by statement, complete: `c0, c1, ...` are `parameters` in order
+    /// (`fit::Form::definition`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub definition: Vec<String>,
     /// Why this form: the rule that chose it.
     pub chosen_by: String,
     pub parameter_names: Vec<String>,
@@ -269,6 +301,28 @@ pub struct ErrorEntry {
     pub integration: ErrorRecord,
     /// The largest change of a value by rounding to the file's precision.
     pub storage_rounding_max: f64,
+    /// Where the channels add up to an albedo (Karis): what storage did to their sum.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub storage_channel_sum: Option<ChannelSumStorage>,
+    /// The file read as a renderer reads it, at random points of each domain, against the exact
+    /// integral there: what interpolation between nodes (and storage) costs a lookup.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub interpolation: Vec<crate::stats::InterpolationError>,
+}
+
+/// What rounding to the storage precision did to the sum of a texel's channels, where that sum is
+/// an albedo (Karis: `scale + bias`, the albedo at `F0 = 1`), which must not exceed 1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelSumStorage {
+    pub rounding: super::SumRounding,
+    /// Texels whose stored sum exceeds 1, and the largest excess.
+    pub texels_above_one: usize,
+    pub max_above_one: f64,
+    /// Texels whose stored sum exceeds the integrated (f32) one, and the largest excess.
+    pub texels_above_integral: usize,
+    pub max_above_integral: f64,
+    /// The largest stored sum.
+    pub max_sum: f64,
 }
 
 impl Manifest {
@@ -332,6 +386,8 @@ mod tests {
                     }),
                 },
                 storage_rounding_max: 0.0,
+                storage_channel_sum: None,
+                interpolation: vec![],
             },
             fresnel_basis: None,
             accuracy: vec![],
@@ -339,6 +395,7 @@ mod tests {
             bytes: 16408,
             packing: None,
             fit: None,
+            binding: None,
         };
         let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), scene: None };
         manifest.files.insert("gd.bin".into(), entry);

@@ -47,6 +47,69 @@ impl Precision {
     }
 }
 
+/// How the values of a table whose channels add up to an albedo (Karis: `scale + bias`, the
+/// albedo for `F0 = 1`, at most 1) are rounded to the storage precision.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SumRounding {
+    /// Each value to nearest even, on its own: the stored sum may exceed 1 by up to an ulp of
+    /// each channel where the integrated sum is just below it.
+    Nearest,
+    /// To nearest, then, where the stored sum exceeds 1, the channels that were rounded up stepped
+    /// down by one ulp of the storage precision, the largest rounding first, until it does not;
+    /// where the integrated (f32) sum itself exceeds 1 (by the f32 rounding of the generator's
+    /// weights, a few 1e-7), the smallest channel is stepped down further. The stored albedo
+    /// never exceeds 1 (never creates energy); a stepped value is off by at most one ulp of its
+    /// own instead of half of one (one and a half where the f32 sum exceeds 1).
+    NoEnergyGain,
+}
+
+impl SumRounding {
+    pub fn name(self) -> &'static str {
+        match self {
+            SumRounding::Nearest => "nearest",
+            SumRounding::NoEnergyGain => "no-energy-gain",
+        }
+    }
+
+    /// The values of one texel as stored in `precision`.
+    pub fn round(self, values: &[f32], precision: Precision) -> Vec<f32> {
+        let mut stored: Vec<f32> = values.iter().map(|&v| precision.round(v)).collect();
+        if self == SumRounding::Nearest {
+            return stored;
+        }
+        while stored.iter().map(|&v| v as f64).sum::<f64>() > 1.0 {
+            let rounded_up = (0..stored.len())
+                .filter(|&k| stored[k] > values[k])
+                .max_by(|&a, &b| (stored[a] - values[a]).total_cmp(&(stored[b] - values[b])));
+            let smallest =
+                || (0..stored.len()).filter(|&k| stored[k] > 0.0).min_by(|&a, &b| stored[a].total_cmp(&stored[b]));
+            match rounded_up.or_else(smallest) {
+                Some(k) => stored[k] = step_toward_zero(stored[k], precision),
+                None => break,
+            }
+        }
+        stored
+    }
+}
+
+/// The value of `precision` next to `v` (a value of it) toward zero; `v` itself at zero.
+fn step_toward_zero(v: f32, precision: Precision) -> f32 {
+    match precision {
+        Precision::F16 => {
+            let bits = half::f16::from_f32(v).to_bits();
+            if bits & 0x7FFF == 0 { v } else { half::f16::from_bits(bits - 1).to_f32() }
+        }
+        Precision::F32 => {
+            if v == 0.0 {
+                v
+            } else {
+                f32::from_bits(v.to_bits() - 1)
+            }
+        }
+    }
+}
+
 /// A file format tmlut writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -223,4 +286,52 @@ pub(crate) fn check_storable_values(table: &Table, precision: Precision) -> Resu
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The f16 spacing at `v`: the gap to the next f16 away from zero.
+    fn f16_ulp(v: f32) -> f32 {
+        let h = half::f16::from_f32(v.abs());
+        half::f16::from_bits(h.to_bits() + 1).to_f32() - h.to_f32()
+    }
+
+    #[test]
+    fn no_energy_gain_keeps_every_sum_at_most_one_within_an_ulp_of_each_value() {
+        // Pairs that add to at most 1, many just below it where nearest rounding goes over, and a
+        // few whose own sum exceeds 1 by f32 rounding of the generator's weights.
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut uniform = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut stepped = 0;
+        for n in 0..200_000 {
+            let scale = uniform() as f32;
+            let total = match n % 3 {
+                0 => 1.0 - 1e-4 * uniform(),
+                1 => uniform(),
+                _ => 1.0 + 4e-7 * uniform(),
+            };
+            let bias = ((total - scale as f64).max(0.0)) as f32;
+            let values = [scale, bias];
+            let nearest = SumRounding::Nearest.round(&values, Precision::F16);
+            assert_eq!(nearest, values.map(|v| Precision::F16.round(v)));
+            let kept = SumRounding::NoEnergyGain.round(&values, Precision::F16);
+            assert!(kept[0] as f64 + kept[1] as f64 <= 1.0, "{values:?} -> {kept:?}");
+            let ulps = if values[0] as f64 + values[1] as f64 <= 1.0 { 1.0 } else { 1.5 };
+            for k in 0..2 {
+                let error = (kept[k] - values[k]).abs();
+                assert!(kept[k] >= 0.0 && error <= ulps * f16_ulp(values[k]), "{values:?} -> {kept:?}");
+                assert_eq!(kept[k], Precision::F16.round(kept[k]), "stored values are f16 values");
+            }
+            if kept != nearest {
+                stepped += 1;
+                assert!(nearest[0] as f64 + nearest[1] as f64 > 1.0, "only sums above 1 change: {values:?}");
+            }
+        }
+        assert!(stepped > 1000, "the case arises: {stepped}");
+    }
 }

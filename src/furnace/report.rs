@@ -215,8 +215,8 @@ impl SettingsRecord {
             walk_max_paths: settings.walk.max_paths,
             walk_masking: settings.walk.masking.name().into(),
             fgd_source: match settings.fgd_source {
-                crate::model::folder::FgdSource::Packing => "the lossless packing where the folder has it, else fgd.bin".into(),
-                crate::model::folder::FgdSource::Table => "fgd.bin (4D, CPU interpolation)".into(),
+                crate::model::folder::FgdSource::Packing => "the lossless packing where the folder has it, else the 4D table (fgd.exr or fgd.bin)".into(),
+                crate::model::folder::FgdSource::Table => "the 4D table (fgd.exr or fgd.bin), interpolated on the CPU".into(),
             },
             timing_rounds: settings.timing_rounds,
             environment_radiance: super::ENVIRONMENT_RADIANCE,

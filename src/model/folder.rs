@@ -5,7 +5,8 @@
 //!   cell-centred linear filtering with clamp addressing in f32, texels as stored (f16 widened
 //!   exactly), through [`crate::packing::emulator`].
 //! - The 4D FGD table has no texture: its GPU packing (`fgd_lossless.dds`) is read through the very
-//!   lookup program its shader files print ([`crate::packing::PackedFgd`]), or `fgd.bin` is
+//!   lookup program its shader files print ([`crate::packing::PackedFgd`]), or the 4D table (`fgd.exr`,
+//!   or `fgd.bin` in the original layout) is
 //!   interpolated on the CPU in 4D as the reference plugin does.
 //! - A scene folder's slices are found by the indices their channels hold fixed, and the slice
 //!   whose `(mu, alpha)` range holds the lookup answers it.
@@ -26,6 +27,7 @@ use crate::formats::{FileFormat, dds};
 use crate::loader::LutFolder;
 use crate::packing::{Filter, PackedFgd, Packing, Texture3D};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
+use crate::table::derived::point_of;
 use crate::table::{Axis, Placement, Table};
 
 /// A table of one to three axes bound as a texture: one single-channel volume per channel.
@@ -96,7 +98,7 @@ impl SampledTable {
 /// formula: `u = (m(x) - m(start)) / (m(end) - m(start))`, then `(u (N - 1) + 0.5) / N` for a
 /// node-aligned axis.
 pub fn texture_coordinate_f32(axis: &Axis, x: f64) -> f32 {
-    let m = |v: f32| axis.mapping.forward(v as f64) as f32;
+    let m = |v: f32| axis.mapping.forward_f32(v);
     let (m0, m1) = (m(axis.start as f32), m(axis.end as f32));
     let u = (m(x as f32) - m0) / (m1 - m0);
     let n = axis.count as f32;
@@ -118,7 +120,7 @@ struct Slice {
 /// Where the FGD path reads a full table.
 #[derive(Debug, Clone)]
 enum FullFgd {
-    /// `fgd.bin`, interpolated in 4D on the CPU.
+    /// The 4D table (`fgd.exr`, or `fgd.bin` in the original layout), interpolated on the CPU.
     Table(Table),
     /// A GPU packing read through its shader's lookup program.
     Packed(Box<PackedFgd>),
@@ -127,10 +129,10 @@ enum FullFgd {
 /// Which full FGD table the FGD path reads, where a folder holds both.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FgdSource {
-    /// The lossless GPU packing where the folder has it, else `fgd.bin`.
+    /// The lossless GPU packing where the folder has it, else the 4D table.
     #[default]
     Packing,
-    /// `fgd.bin`, interpolated in 4D on the CPU.
+    /// The 4D table (`fgd.exr`, or `fgd.bin` in the original layout), interpolated on the CPU.
     Table,
 }
 
@@ -209,7 +211,8 @@ impl FolderTables {
                 let packed = entries
                     .iter()
                     .find(|(_, e)| e.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()));
-                let full = match (fgd, packed, find("fgd", FileFormat::Bin)) {
+                let table = find("fgd", FileFormat::Exr).or_else(|| find("fgd", FileFormat::Bin));
+                let full = match (fgd, packed, table) {
                     (FgdSource::Packing, Some((file, entry)), _) => {
                         Some(FullFgd::Packed(Box::new(packed_fgd(folder, file, entry)?)))
                     }
@@ -220,7 +223,7 @@ impl FolderTables {
                     (_, None, None) => None,
                 };
                 if slices.is_empty() && full.is_none() {
-                    return Err(missing("FGD table (fgd.bin, fgd_lossless.dds or FGD slices)"));
+                    return Err(missing("FGD table (fgd_lossless.dds, fgd.exr, fgd.bin or FGD slices)"));
                 }
                 Albedo::Fgd { slices, full }
             }
@@ -237,12 +240,25 @@ impl FolderTables {
         let tir = match tir {
             TirPath::Table => {
                 let slices = slices_of("tir", Quantity::Tir)?;
-                let full = match find("tir", FileFormat::Bin).or_else(|| find("tir", FileFormat::Dds)) {
-                    Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
+                let full = match find("tir", FileFormat::Dds).or_else(|| find("tir", FileFormat::Bin)) {
+                    Some((file, _)) => {
+                        let texture = SampledTable::new(&folder.load(file)?)?;
+                        if point_of(&texture.axes, 0.5, 0.5, 0.5, 0.0).is_none() {
+                            let names: Vec<&str> = texture.axes.iter().map(|a| a.name.as_str()).collect();
+                            return Err(Error::format(
+                                folder.dir.join(file),
+                                format!(
+                                    "has axes ({}); a TIR lookup addresses mu, alpha and eta or critical_angle_offset",
+                                    names.join(", ")
+                                ),
+                            ));
+                        }
+                        Some(texture)
+                    }
                     None => None,
                 };
                 if slices.is_empty() && full.is_none() {
-                    return Err(missing("TIR table (tir.bin or TIR slices)"));
+                    return Err(missing("TIR table (tir.dds, tir.bin or TIR slices)"));
                 }
                 Tir::Table { slices, full }
             }
@@ -252,13 +268,13 @@ impl FolderTables {
                     .find_map(|e| e.fit.clone())
                     .or_else(|| folder.manifest.scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
                     .ok_or_else(|| {
-                        missing("fitted TIR form (a `fit` entry beside tir.bin, or the scene plan's `tir_fit`)")
+                        missing("fitted TIR form (a `fit` entry beside the TIR table, or the scene plan's `tir_fit`)")
                     })?;
                 fitted_form(folder, &fit)?
             }
             TirPath::Off => Tir::Off,
         };
-        let gd = match find("gd", FileFormat::Bin).or_else(|| find("gd", FileFormat::Dds)) {
+        let gd = match find("gd", FileFormat::Dds).or_else(|| find("gd", FileFormat::Bin)) {
             Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
             None => None,
         };
@@ -369,8 +385,13 @@ impl FolderTables {
                 if let Some(value) = self.slice_value(slices, lookup) {
                     return value;
                 }
+                // The third axis is eta, or the critical-angle offset computed from mu and eta.
                 match full {
-                    Some(texture) => self.full(texture, &[lookup.mu, lookup.alpha, lookup.eta], lookup),
+                    Some(texture) => {
+                        let point = point_of(&texture.axes, lookup.mu, lookup.alpha, lookup.eta, 0.0)
+                            .expect("checked when the folder was opened");
+                        self.full(texture, &point, lookup)
+                    }
                     None => self.miss(lookup),
                 }
             }

@@ -176,22 +176,39 @@ fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize;
         ));
     }
     for axis in axes {
-        if axis.placement != Placement::NodeAligned || axis.mapping != Mapping::Identity {
+        let mapped = matches!(axis.mapping, Mapping::Identity | Mapping::Sqrt | Mapping::SqrtEnds);
+        if axis.placement != Placement::NodeAligned || !mapped {
             return Err(Error::invalid(
                 key,
-                format!("axis `{}` must be node-aligned with the identity mapping, as FGD's are", axis.name),
+                format!(
+                    "axis `{}` is {:?} with mapping {}; a packing takes node-aligned axes spaced in the quantity, its \
+                     square root, or (sqrt(x) - sqrt(1 - x) + 1) / 2",
+                    axis.name,
+                    axis.placement,
+                    axis.mapping.formula(&axis.name)
+                ),
             ));
         }
     }
     Ok([axes[0].count, axes[1].count, axes[2].count, axes[3].count])
 }
 
-/// `u = clamp((x - start) * (1 / (end - start)), 0, 1)`: the axis coordinate in [0, 1], in f32, as
-/// a local named `u_<axis>` (exact when the range is a power of two, as FGD's 1 and 4 are).
+/// `u = clamp((m(x) - m(start)) * (1 / (m(end) - m(start))), 0, 1)`: the axis coordinate in
+/// [0, 1], in f32, as a local named `u_<axis>` (for the identity mapping exact when the range is a
+/// power of two, as FGD's 1 and 4 are). The mapping `m` is written out: `sqrt(max(x, 0))`, or
+/// `(sqrt(c) - sqrt(1 - c) + 1) * 0.5` with `c` clamped to [0, 1].
 fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
     let x = program.input(&axis.name);
-    let inverse_range = (1.0 / (axis.end - axis.start)) as f32;
-    let u = x.sub(Expr::c(axis.start as f32)).mul(Expr::c(inverse_range)).clamp(0.0, 1.0);
+    let mapped = match axis.mapping {
+        Mapping::Sqrt => x.max(Expr::c(0.0)).sqrt(),
+        Mapping::SqrtEnds => {
+            let c = program.local(&format!("c_{}", axis.name), x.clamp(0.0, 1.0));
+            (c.clone().sqrt() - (Expr::c(1.0) - c).sqrt() + Expr::c(1.0)).mul(Expr::c(0.5))
+        }
+        _ => x,
+    };
+    let (m0, m1) = (axis.mapping.forward(axis.start), axis.mapping.forward(axis.end));
+    let u = mapped.sub(Expr::c(m0 as f32)).mul(Expr::c((1.0 / (m1 - m0)) as f32)).clamp(0.0, 1.0);
     program.local(&format!("u_{}", axis.name), u)
 }
 
@@ -234,7 +251,16 @@ fn node_bracket(program: &mut Program, axis: &Axis) -> (Expr, Expr) {
 }
 
 fn unit_formula(axis: &Axis) -> String {
-    format!("u_{0} = clamp(({0} - {1}) / ({2} - {1}), 0, 1)", axis.name, axis.start, axis.end)
+    if axis.mapping == Mapping::Identity {
+        return format!("u_{0} = clamp(({0} - {1}) / ({2} - {1}), 0, 1)", axis.name, axis.start, axis.end);
+    }
+    let (m0, m1) = (axis.mapping.forward(axis.start), axis.mapping.forward(axis.end));
+    let clamped = format!("clamp({}, 0, 1)", axis.name);
+    let mapped = match axis.mapping {
+        Mapping::Sqrt => axis.mapping.formula(&format!("max({}, 0)", axis.name)),
+        _ => axis.mapping.formula(&clamped),
+    };
+    format!("u_{} = clamp(({mapped} - {m0}) / ({m1} - {m0}), 0, 1)", axis.name)
 }
 
 fn index_formula(axis: &Axis) -> String {
@@ -414,6 +440,7 @@ impl PackedFgd {
                     ]);
                     let entry = |d: usize, stored_along: String, address: String| AxisEntry {
                         axis: axes[d].clone(),
+                        definition: None,
                         stored_along,
                         texture_coordinate: format!("{}; {address}", bracket_formula(&axes[d])),
                     };
@@ -459,6 +486,7 @@ impl PackedFgd {
                     axis_entries = vec![
                         AxisEntry {
                             axis: axes[0].clone(),
+                            definition: None,
                             stored_along: format!("x within a kappa tile ({n_mu} texels)"),
                             texture_coordinate: format!(
                                 "{}; x = (column * {n_mu} + i_mu + 0.5) / {width}",
@@ -467,6 +495,7 @@ impl PackedFgd {
                         },
                         AxisEntry {
                             axis: axes[1].clone(),
+                            definition: None,
                             stored_along: format!("y within a kappa tile ({n_alpha} texels)"),
                             texture_coordinate: format!(
                                 "{}; y = (row * {n_alpha} + i_alpha + 0.5) / {height}",
@@ -475,11 +504,13 @@ impl PackedFgd {
                         },
                         AxisEntry {
                             axis: axes[2].clone(),
+                            definition: None,
                             stored_along: "z".into(),
                             texture_coordinate: format!("{}; z = (i_eta + 0.5) / {depth}", index_formula(&axes[2])),
                         },
                         AxisEntry {
                             axis: axes[3].clone(),
+                            definition: None,
                             stored_along: tile_text,
                             texture_coordinate: format!(
                                 "{}; k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0",
@@ -516,16 +547,19 @@ impl PackedFgd {
                 axis_entries = vec![
                     AxisEntry {
                         axis: axes[0].clone(),
+                        definition: None,
                         stored_along: "x".into(),
                         texture_coordinate: format!("{}; x = (i_mu + 0.5) / {width}", index_formula(&axes[0])),
                     },
                     AxisEntry {
                         axis: axes[1].clone(),
+                        definition: None,
                         stored_along: "y".into(),
                         texture_coordinate: format!("{}; y = (i_alpha + 0.5) / {height}", index_formula(&axes[1])),
                     },
                     AxisEntry {
                         axis: axes[2].clone(),
+                        definition: None,
                         stored_along: format!("z, block of {n_half} slices per eta node"),
                         texture_coordinate: format!(
                             "{}; e0 = min(floor(i_eta), {}), e1 = e0 + 1, lerp by i_eta - e0",
@@ -535,6 +569,7 @@ impl PackedFgd {
                     },
                     AxisEntry {
                         axis: axes[3].clone(),
+                        definition: None,
                         stored_along: format!("z within an eta block ({n_half} averaged pairs)"),
                         texture_coordinate: format!(
                             "{}; h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}",

@@ -5,7 +5,9 @@
 //!
 //! Only operations that HLSL, WGSL and Rust's f32 define identically are used: `+ - *` (no
 //! division: a compiler may turn `x / c` into `x * (1 / c)`, so the program multiplies by
-//! reciprocal constants itself), `floor`, `min`, `max`, and `clamp` written as `min(max(x, lo), hi)`.
+//! reciprocal constants itself), `floor`, `min`, `max`, and `clamp` written as `min(max(x, lo), hi)`;
+//! and `sqrt`, for axes spaced in a square root, which IEEE rounds correctly and a GPU to within
+//! an ulp or two.
 //! Texel indices for loads are integers held exactly in f32 and converted with `int()`/`i32()`.
 
 use std::fmt::Write as _;
@@ -45,6 +47,9 @@ pub enum Expr {
     Floor(Box<Expr>),
     Min(Box<Expr>, Box<Expr>),
     Max(Box<Expr>, Box<Expr>),
+    /// IEEE square root, correctly rounded in Rust's f32; a GPU may differ by an ulp (Direct3D
+    /// 11 allows it), which moves a node index by at most `(N - 1)` ulps of the axis coordinate.
+    Sqrt(Box<Expr>),
 }
 
 impl Expr {
@@ -59,6 +64,9 @@ impl Expr {
     }
     pub fn max(self, o: Expr) -> Expr {
         Expr::Max(Box::new(self), Box::new(o))
+    }
+    pub fn sqrt(self) -> Expr {
+        Expr::Sqrt(Box::new(self))
     }
     /// `min(max(x, lo), hi)`; a NaN `x` becomes `lo` in Rust and in HLSL (IEEE maxNum).
     pub fn clamp(self, lo: f32, hi: f32) -> Expr {
@@ -76,6 +84,7 @@ impl Expr {
             Expr::Floor(a) => a.eval(inputs, locals).floor(),
             Expr::Min(a, b) => a.eval(inputs, locals).min(b.eval(inputs, locals)),
             Expr::Max(a, b) => a.eval(inputs, locals).max(b.eval(inputs, locals)),
+            Expr::Sqrt(a) => a.eval(inputs, locals).sqrt(),
         }
     }
 
@@ -107,6 +116,7 @@ impl Expr {
             Expr::Floor(a) => call("floor", &[a], out),
             Expr::Min(a, b) => call("min", &[a, b], out),
             Expr::Max(a, b) => call("max", &[a, b], out),
+            Expr::Sqrt(a) => call("sqrt", &[a], out),
         }
     }
 }

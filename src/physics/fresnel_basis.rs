@@ -17,14 +17,46 @@ use super::fresnel_reflectance;
 pub struct FresnelBasis {
     /// Number of uniform samples `c_i = i / (samples - 1)` of each curve.
     pub samples: usize,
+    /// Where the samples lie, in words: [`SAMPLE_COSINES`].
+    #[serde(default)]
+    pub sample_cosines: String,
     pub b1: Vec<f64>,
     pub b2: Vec<f64>,
     pub b3: Vec<f64>,
     /// `[ct1, ct2]`: the cosine of the maximum of `b2`, and the extremum of `b3` farthest from it.
     pub probe_cosines: [f64; 2],
+    /// How a shader computes `c0..c3` and which Fresnel defines them: [`COEFFICIENTS`].
+    #[serde(default)]
+    pub coefficients: String,
 }
 
+/// [`FresnelBasis::sample_cosines`].
+pub const SAMPLE_COSINES: &str = "sample i of a curve (i = 0 .. samples - 1) is at cosine c_i = i / (samples - 1): c_0 = 0 and \
+     the last at 1; between samples a curve is interpolated linearly in c, and c is clamped to [0, 1]";
+
+/// [`FresnelBasis::coefficients`]: [`FresnelBasis::coefficients`] and [`fresnel_reflectance`] in words.
+pub const COEFFICIENTS: &str = "c0 = F(1), c1 = 1 - c0, and (c2, c3) solve c2 b2(ct_j) + c3 b3(ct_j) = F(ct_j) - c0 - c1 b1(ct_j) \
+     at the two probe cosines ct_1, ct_2 (c2 = c3 = 0 where the 2 x 2 determinant is below 1e-12); b_k(c) as \
+     sample_cosines says. F(c) is the exact unpolarised Fresnel reflectance at incident cosine c of the relative \
+     complex index eta + i kappa: s^2 = 1 - c^2, t0 = eta^2 - kappa^2 - s^2, a^2 + b^2 = sqrt(t0^2 + 4 eta^2 kappa^2), \
+     a^2 = (a^2 + b^2 + t0) / 2, b^2 = (a^2 + b^2 - t0) / 2, Rs = ((a - c)^2 + b^2) / ((a + c)^2 + b^2), \
+     Rp = Rs ((a c - s^2)^2 + (b c)^2) / ((a c + s^2)^2 + (b c)^2), F = (Rs + Rp) / 2; 1 past the critical angle of \
+     a dielectric with eta < 1";
+
 impl FresnelBasis {
+    /// A basis of curves tabulated at `c_i = i / (samples - 1)`.
+    pub fn new(b1: Vec<f64>, b2: Vec<f64>, b3: Vec<f64>, probe_cosines: [f64; 2]) -> Self {
+        FresnelBasis {
+            samples: b1.len(),
+            sample_cosines: SAMPLE_COSINES.into(),
+            b1,
+            b2,
+            b3,
+            probe_cosines,
+            coefficients: COEFFICIENTS.into(),
+        }
+    }
+
     /// Basis curve `k` (0 to 3; `b0 = 1`) at cosine `c`, linearly interpolated between samples.
     pub fn evaluate(&self, k: usize, c: f64) -> f64 {
         let curve = match k {

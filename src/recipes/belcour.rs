@@ -52,6 +52,8 @@ pub struct BelcourSettings {
     pub cosine_intervals: usize,
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
+    /// The check between nodes: random points against the exact integral.
+    pub interpolation: super::interpolation::InterpolationConfig,
     pub output: OutputConfig,
 }
 
@@ -68,6 +70,7 @@ impl Default for BelcourSettings {
             cosine_intervals: 256,
             sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
+            interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
         }
     }
@@ -94,6 +97,7 @@ impl BelcourSettings {
         }
         self.sampling.validate("belcour.sampling")?;
         self.reference.validate("belcour.reference")?;
+        self.interpolation.validate("belcour.interpolation")?;
         self.output.validate("belcour.output", &[FileFormat::Dds, FileFormat::Exr])
     }
 
@@ -222,7 +226,7 @@ pub fn build_basis() -> FresnelBasis {
             di.total_cmp(&dj)
         })
         .unwrap_or(n / 2);
-    FresnelBasis { samples: n, b1, b2, b3, probe_cosines: [cosines[first_probe], cosines[second_probe]] }
+    FresnelBasis::new(b1, b2, b3, [cosines[first_probe], cosines[second_probe]])
 }
 
 fn argmax(v: &[f64]) -> usize {
@@ -329,6 +333,8 @@ pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> 
         fresnel_basis: Some(basis),
         accuracy,
         standard_error: Some(standard_error_map(&estimates)),
+        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: None,
         table,
     })
 }

@@ -18,6 +18,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
     ReferenceComparison, TableBuild, TableRecipe, compare_mu_alpha_groups_to_reference, random_cells, sampling_record,
     table_points,
@@ -49,6 +50,10 @@ pub struct FgdSettings {
     /// Sub-ranges of the unit axes (a scene's plan narrows them to what its lookups reach).
     pub mu_range: [f64; 2],
     pub alpha_range: [f64; 2],
+    /// How the `mu` nodes are spaced.
+    pub mu_axis: CosineAxis,
+    /// How the `alpha` nodes are spaced.
+    pub roughness_axis: RoughnessAxis,
     pub eta_range: [f64; 2],
     pub kappa_range: [f64; 2],
     pub masking: MaskingShadowing,
@@ -60,6 +65,8 @@ pub struct FgdSettings {
     pub replicate_error_columns: usize,
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
+    /// The check between nodes: random points against the exact integral.
+    pub interpolation: super::interpolation::InterpolationConfig,
     pub output: OutputConfig,
     /// Volume-texture packings written beside the 4D table (`fgd_<packing>.dds` with its HLSL and
     /// WGSL lookup), in the precision of `output.precision`; see `docs/packing.md`.
@@ -75,6 +82,8 @@ impl Default for FgdSettings {
             kappa_count: 64,
             mu_range: [0.0, 1.0],
             alpha_range: [0.0, 1.0],
+            mu_axis: CosineAxis::SqrtEnds,
+            roughness_axis: RoughnessAxis::Perceptual,
             eta_range: [0.0, 4.0],
             kappa_range: [0.0, 4.0],
             masking: MaskingShadowing::SmithSeparable,
@@ -83,7 +92,11 @@ impl Default for FgdSettings {
             replicate_error_columns: 256,
             sampling: SamplingConfig { samples: 1 << 16, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
-            output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
+            // Four domains (`interpolation_domains`), each point a per-cell f64 estimate with
+            // exact Fresnel per sample: half the points of the other tables keeps the check at
+            // about 2 s of CPU.
+            interpolation: super::interpolation::InterpolationConfig { points: 1024, samples: 1 << 14 },
+            output: OutputConfig { formats: vec![FileFormat::Exr], precision: Precision::F32 },
             packings: vec![Packing::Lossless],
         }
     }
@@ -123,6 +136,7 @@ impl FgdSettings {
         }
         self.sampling.validate("fgd.sampling")?;
         self.reference.validate("fgd.reference")?;
+        self.interpolation.validate("fgd.interpolation")?;
         self.output.validate("fgd.output", &[FileFormat::Bin, FileFormat::Exr])?;
         let counts = [self.mu_count, self.alpha_count, self.eta_count, self.kappa_count];
         for (k, packing) in self.packings.iter().enumerate() {
@@ -136,8 +150,10 @@ impl FgdSettings {
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
         Ok(vec![
-            Axis::node_aligned("mu", self.mu_range[0], self.mu_range[1], self.mu_count)?,
-            Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?,
+            Axis::node_aligned("mu", self.mu_range[0], self.mu_range[1], self.mu_count)?
+                .with_mapping(self.mu_axis.mapping())?,
+            Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?
+                .with_mapping(self.roughness_axis.mapping())?,
             Axis::node_aligned("eta", self.eta_range[0], self.eta_range[1], self.eta_count)?,
             Axis::node_aligned("kappa", self.kappa_range[0], self.kappa_range[1], self.kappa_count)?,
         ])
@@ -254,6 +270,38 @@ impl TableRecipe for FgdSettings {
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         fgd_cell(self.masking, points, position)
     }
+
+    /// The whole domain and its low-roughness part, and the domain cut at `eta = 1`: below it a
+    /// dielectric (or a faint absorber, `kappa <= 0.1`) has a critical angle, where Fresnel has a
+    /// kink whose cosine `sqrt(1 - eta^2)` moves with `eta` across the cells of the `(mu, eta)`
+    /// grid, so that no spacing of the separate axes follows it; above it the table has no such
+    /// kink.
+    fn interpolation_domains(&self) -> Result<Vec<super::interpolation::Domain>> {
+        let names = ["mu", "alpha", "eta", "kappa"];
+        let ranges = [self.mu_range, self.alpha_range, self.eta_range, self.kappa_range];
+        let mut domains = super::interpolation::standard_domains(&names, &ranges);
+        let [lo, hi] = self.eta_range;
+        for (name, eta, kappa) in [
+            ("no critical angle (eta >= 1)", [lo.max(1.0), hi], self.kappa_range),
+            (
+                "a critical angle (eta < 1, kappa <= 0.1)",
+                [lo, hi.min(1.0)],
+                [self.kappa_range[0], self.kappa_range[1].min(0.1)],
+            ),
+        ] {
+            if eta[0] < eta[1] && kappa[0] < kappa[1] && (eta, kappa) != ([lo, hi], self.kappa_range) {
+                let mut cut = ranges;
+                cut[2] = eta;
+                cut[3] = kappa;
+                domains.push(super::interpolation::Domain {
+                    name: name.into(),
+                    parameters: names.iter().map(|n| n.to_string()).collect(),
+                    ranges: cut.to_vec(),
+                });
+            }
+        }
+        Ok(domains)
+    }
 }
 
 pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
@@ -295,6 +343,8 @@ pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Resu
         fresnel_basis: None,
         accuracy: Vec::new(),
         standard_error,
+        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: None,
         table,
     })
 }

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
     TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
     standard_error_map, table_points,
@@ -37,10 +38,16 @@ pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count"];
 pub struct GdSettings {
     pub mu_count: usize,
     pub alpha_count: usize,
+    /// How the `mu` nodes are spaced.
+    pub mu_axis: CosineAxis,
+    /// How the `alpha` nodes are spaced.
+    pub roughness_axis: RoughnessAxis,
     pub masking: MaskingShadowing,
     pub method: Method,
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
+    /// The check between nodes: random points against the exact integral.
+    pub interpolation: super::interpolation::InterpolationConfig,
     pub output: OutputConfig,
 }
 
@@ -49,11 +56,14 @@ impl Default for GdSettings {
         GdSettings {
             mu_count: 64,
             alpha_count: 64,
+            mu_axis: CosineAxis::SqrtEnds,
+            roughness_axis: RoughnessAxis::Perceptual,
             masking: MaskingShadowing::SmithSeparable,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 1 << 16, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
-            output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
+            interpolation: super::interpolation::InterpolationConfig::default(),
+            output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
         }
     }
 }
@@ -64,13 +74,14 @@ impl GdSettings {
         check_count("gd.alpha_count", self.alpha_count)?;
         self.sampling.validate("gd.sampling")?;
         self.reference.validate("gd.reference")?;
+        self.interpolation.validate("gd.interpolation")?;
         self.output.validate("gd.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr])
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
         Ok(vec![
-            Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?,
-            Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?,
+            Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?.with_mapping(self.mu_axis.mapping())?,
+            Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?.with_mapping(self.roughness_axis.mapping())?,
         ])
     }
 }
@@ -119,6 +130,8 @@ pub fn build(settings: &GdSettings, seed: u64, progress: &dyn Progress) -> Resul
         fresnel_basis: None,
         accuracy: Vec::new(),
         standard_error: Some(standard_error_map(&estimates)),
+        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: None,
         table,
     })
 }
@@ -135,10 +148,14 @@ mod tests {
 
     #[test]
     fn reproduces_the_original_table() {
-        // Full resolution, fewer samples than the default: the original's own noise is ~1.3e-3.
+        // The original layout (luts/original.toml): uniform nodes. Full resolution, fewer samples
+        // than the default: the original's own noise is ~1.3e-3.
         let settings = GdSettings {
+            mu_axis: CosineAxis::Uniform,
+            roughness_axis: RoughnessAxis::Alpha,
             sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
             reference: ReferenceConfig { cells: 0, samples: 2 },
+            interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, samples: 4 },
             ..GdSettings::default()
         };
         let ours = build(&settings, 1, &()).unwrap().table;

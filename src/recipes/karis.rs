@@ -9,8 +9,9 @@
 //!
 //! Karis importance-samples D and accumulates `Fc G (v.h) / ((n.h)(n.v))`; drawing from the visible
 //! normals instead (Heitz 2018) estimates the same integral with less variance. Defaults follow
-//! Unreal Engine 4: 512 x 512 texels, `x = n.v` at texel centres, row 0 = roughness 1,
-//! `alpha = roughness^2`, Schlick–Smith `k = alpha / 2`, stored as R16G16_FLOAT.
+//! Unreal Engine 4: 512 x 512 texels, `x = n.v` at texel centres, row 0 = roughness 0 (its shaders
+//! sample at `float2(NoV, Roughness)`, and Direct3D, Vulkan, Metal and WebGPU address row 0 at
+//! `v = 0`), `alpha = roughness^2`, Schlick–Smith `k = alpha / 2`, stored as R16G16_FLOAT.
 
 use std::time::Instant;
 
@@ -23,7 +24,7 @@ use super::{
 };
 use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::Result;
-use crate::formats::{FileFormat, Precision};
+use crate::formats::{FileFormat, Precision, SumRounding};
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::{MaskingShadowing, schlick_weight};
 use crate::sampling::sequence::PointSet;
@@ -51,7 +52,12 @@ pub struct KarisSettings {
     pub method: Method,
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
+    /// The check between nodes: random points against the exact integral.
+    pub interpolation: super::interpolation::InterpolationConfig,
     pub output: OutputConfig,
+    /// How f16 storage rounds `scale` and `bias`: never above the integrated sum
+    /// (`no-energy-gain`), or each to nearest (`nearest`).
+    pub storage_rounding: SumRounding,
 }
 
 impl Default for KarisSettings {
@@ -61,12 +67,14 @@ impl Default for KarisSettings {
             roughness_count: 512,
             alpha_range: [0.0, 1.0],
             roughness_axis: RoughnessAxis::Perceptual,
-            orientation: Orientation::RoughFirst,
+            orientation: Orientation::SmoothFirst,
             masking: MaskingShadowing::SchlickSmith,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 4096, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
+            interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
+            storage_rounding: SumRounding::NoEnergyGain,
         }
     }
 }
@@ -86,6 +94,7 @@ impl KarisSettings {
         self.layout().validate(NAME)?;
         self.sampling.validate("karis.sampling")?;
         self.reference.validate("karis.reference")?;
+        self.interpolation.validate("karis.interpolation")?;
         self.output.validate("karis.output", &[FileFormat::Dds, FileFormat::Exr])
     }
 
@@ -142,6 +151,8 @@ pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Re
         fresnel_basis: None,
         accuracy: Vec::new(),
         standard_error: Some(standard_error_map(&estimates)),
+        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: Some(settings.storage_rounding),
         table,
     })
 }
@@ -164,10 +175,16 @@ mod tests {
     fn default_axes_follow_unreal_engine_4() {
         let axes = KarisSettings::default().axes().unwrap();
         assert_eq!((axes[0].count, axes[1].count), (512, 512));
-        // Row 0 is the roughest texel centre: roughness 1 - 0.5/512.
+        // Row 0 is the smoothest texel centre: roughness 0.5/512, sampled at v = roughness.
         let roughness0 = axes[1].node_value(0).sqrt();
-        assert!((roughness0 - (1.0 - 0.5 / 512.0)).abs() < 1e-12, "{roughness0}");
+        assert!((roughness0 - 0.5 / 512.0).abs() < 1e-12, "{roughness0}");
+        assert!((axes[1].texture_coordinate(0.3f64.powi(2)) - 0.3).abs() < 1e-12);
         assert!((axes[0].node_value(0) - 0.5 / 512.0).abs() < 1e-15);
+        // The GL-era image order is the same rows reversed, and an old configuration still names it.
+        let bottom_up = KarisSettings { orientation: Orientation::BottomUpImage, ..KarisSettings::default() };
+        assert!((bottom_up.axes().unwrap()[1].node_value(0).sqrt() - (1.0 - 0.5 / 512.0)).abs() < 1e-12);
+        let config = crate::config::Config::from_toml("[karis]\norientation = \"rough-first\"\n", "t").unwrap();
+        assert_eq!(config.karis.orientation, Orientation::BottomUpImage);
     }
 
     #[test]

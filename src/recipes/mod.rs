@@ -30,6 +30,10 @@ macro_rules! table_recipe_accessors {
             &self.output
         }
 
+        fn interpolation(&self) -> super::interpolation::InterpolationConfig {
+            self.interpolation
+        }
+
         fn channel_count(&self) -> usize {
             CHANNEL_COUNT
         }
@@ -51,8 +55,10 @@ macro_rules! table_recipe_accessors {
 pub mod belcour;
 pub mod fgd;
 pub mod gd;
+pub mod interpolation;
 pub mod karis;
 pub mod slices;
+pub mod spacing;
 pub mod split_sum;
 pub mod tir;
 
@@ -101,6 +107,21 @@ pub trait TableRecipe: Sync {
     /// One node on its own, by the per-cell method (scalar f64), at a position given in the
     /// axes' quantities: the independent cross-check of whatever [`TableRecipe::build`] did.
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate;
+    /// How the table is checked between its nodes ([`interpolation`]).
+    fn interpolation(&self) -> interpolation::InterpolationConfig;
+    /// The boxes of lookup parameters the interpolation check draws from: by default each axis's
+    /// quantity over its range, whole and at low roughness ([`interpolation::standard_domains`]).
+    fn interpolation_domains(&self) -> crate::error::Result<Vec<interpolation::Domain>> {
+        let axes = self.axes()?;
+        let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
+        let ranges: Vec<[f64; 2]> = axes.iter().map(|a| [a.start.min(a.end), a.start.max(a.end)]).collect();
+        Ok(interpolation::standard_domains(&names, &ranges))
+    }
+    /// A point of lookup parameters (in the order of [`TableRecipe::interpolation_domains`]) in
+    /// the axes' quantities: the same numbers unless an axis is a quantity derived from them.
+    fn position_of(&self, lookup: &[f64]) -> Vec<f64> {
+        lookup.to_vec()
+    }
 }
 
 /// The most memory the build of one table may ask for: 16 GiB, two thirds of the project's
@@ -250,6 +271,12 @@ pub struct TableBuild {
     /// The replicate standard error of every stored value, in the table's layout, where it was
     /// computed for every node (the error maps draw it).
     pub standard_error: Option<Vec<f32>>,
+    /// The exact integral at random points of the table's domains: each written file is read
+    /// there as a renderer reads it and compared ([`interpolation::compare`]).
+    pub interpolation: Vec<interpolation::ExactValues>,
+    /// For a table whose channels add up to an albedo (Karis): how storage rounds them; the
+    /// manifest then states what storage does to their sum.
+    pub channel_sum: Option<crate::formats::SumRounding>,
 }
 
 /// The record of a table integrated with `method` from the points of `points`.

@@ -275,6 +275,8 @@ pub fn build(slices: &Slices, seed: u64, progress: &dyn Progress) -> Result<Tabl
         fresnel_basis: None,
         accuracy: Vec::new(),
         standard_error: Some(standard_error_map(&estimates)),
+        interpolation: Vec::new(),
+        channel_sum: None,
         table,
     })
 }

@@ -5,28 +5,29 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use super::spacing::RoughnessAxis;
 use crate::config::{check_count, check_unit_range};
 use crate::error::Result;
-use crate::table::{Axis, Mapping};
+use crate::table::Axis;
 
-/// How the texture's second coordinate follows roughness.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum RoughnessAxis {
-    /// Texels evenly spaced in perceptual roughness `r = sqrt(alpha)` (Unreal Engine 4).
-    Perceptual,
-    /// Texels evenly spaced in GGX alpha.
-    Alpha,
-}
-
-/// Which end of the roughness axis is row 0.
+/// Which end of the roughness axis is row 0 (the first row in memory and in the file).
+///
+/// Direct3D, Vulkan, Metal and WebGPU address the first row of a texture at `v = 0`, and so does
+/// OpenGL when the rows are uploaded as stored (`glTexImage2D` puts the first row at `t = 0`).
+/// Unreal Engine 4 and Filament sample their split-sum table at `float2(NoV, roughness)`, so their
+/// table has row 0 = roughness 0; a table with the other order, read by code ported from them, is
+/// read upside down (rough where the surface is smooth).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Orientation {
-    /// Row 0 is the roughest texel (Unreal Engine 4's shipped table: `v = 1 - roughness`).
-    RoughFirst,
-    /// Row 0 is the smoothest texel (`v = roughness`).
+    /// Row 0 is the smoothest texel: `v = roughness`, sampled directly at `float2(NoV, roughness)`.
     SmoothFirst,
+    /// Row 0 is the roughest texel: the rows of an image drawn with roughness 0 at the bottom and
+    /// stored top row first, as GL-era tools wrote it (the thesis's shipped table). Sampled at
+    /// `float2(NoV, 1 - roughness)` as stored, or at `float2(NoV, roughness)` after flipping the
+    /// rows at load (a bottom-up loader, as `stbi_set_flip_vertically_on_load` gives).
+    #[serde(alias = "rough-first")]
+    BottomUpImage,
 }
 
 /// The layout of a split-sum texture.
@@ -56,32 +57,37 @@ impl SplitSumLayout {
         let mu = Axis::cell_centred("mu", 0.0, 1.0, self.mu_count)?;
         let [smooth, rough] = self.alpha_range;
         let (start, end) = match self.orientation {
-            Orientation::RoughFirst => (rough, smooth),
+            Orientation::BottomUpImage => (rough, smooth),
             Orientation::SmoothFirst => (smooth, rough),
         };
-        let mapping = match self.roughness_axis {
-            RoughnessAxis::Perceptual => Mapping::Sqrt,
-            RoughnessAxis::Alpha => Mapping::Identity,
-        };
-        let alpha = Axis::cell_centred("alpha", start, end, self.roughness_count)?.with_mapping(mapping)?;
+        let alpha = Axis::cell_centred("alpha", start, end, self.roughness_count)?
+            .with_mapping(self.roughness_axis.mapping())?;
         Ok(vec![mu, alpha])
     }
 
-    /// The conventions a user must know to sample the texture.
+    /// The conventions a user must know to sample the texture, and the call that samples it.
     pub fn notes(&self) -> Vec<String> {
-        let roughness = match (self.roughness_axis, self.orientation) {
-            (RoughnessAxis::Perceptual, Orientation::RoughFirst) => {
-                "Row 0 = roughness 1: v = 1 - roughness, roughness = sqrt(alpha) (Unreal Engine 4 convention)."
-            }
-            (RoughnessAxis::Perceptual, Orientation::SmoothFirst) => {
-                "Row 0 = roughness 0: v = roughness = sqrt(alpha)."
-            }
-            (RoughnessAxis::Alpha, Orientation::RoughFirst) => "Row 0 = alpha 1: v = 1 - alpha (linear in GGX alpha).",
-            (RoughnessAxis::Alpha, Orientation::SmoothFirst) => "Row 0 = alpha 0: v = alpha (linear in GGX alpha).",
+        let (quantity, of_alpha) = match self.roughness_axis {
+            RoughnessAxis::Perceptual => ("roughness", "roughness = sqrt(alpha)"),
+            RoughnessAxis::Alpha => ("alpha", "spaced linearly in GGX alpha"),
+        };
+        let orientation = match self.orientation {
+            Orientation::SmoothFirst => format!(
+                "Row 0 (the first row in memory) = {quantity} 0: v = {quantity}, {of_alpha}. Direct3D, Vulkan, Metal and WebGPU \
+                 address row 0 at v = 0 (OpenGL too, rows uploaded as stored), so the texture samples as Unreal Engine 4 and \
+                 Filament sample theirs: HLSL lut.SampleLevel(linear_clamp, float2(NoV, {quantity}), 0), WGSL \
+                 textureSampleLevel(lut, linear_clamp, vec2<f32>(n_dot_v, {quantity}), 0.0)."
+            ),
+            Orientation::BottomUpImage => format!(
+                "Row 0 (the first row in memory) = {quantity} 1: v = 1 - {quantity}, {of_alpha}; the image order of GL-era \
+                 tools (roughness 0 at the bottom of the image, stored top row first), as the thesis's shipped table. Sample \
+                 at float2(NoV, 1 - {quantity}) as stored, or flip the rows at load and sample at float2(NoV, {quantity}); \
+                 code ported from Unreal Engine 4 or Filament, which samples at float2(NoV, {quantity}), reads it upside down."
+            ),
         };
         vec![
             "Texture coordinate x = n.v at texel centres (cell-centred); sample with clamp addressing, linear data (not sRGB).".into(),
-            roughness.into(),
+            orientation,
         ]
     }
 }

@@ -23,6 +23,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
     TableBuild, TableRecipe, compare_mu_alpha_groups_to_reference, replicate_error, sampling_record,
     standard_error_map, table_points,
@@ -37,7 +38,7 @@ use crate::integrate::{
 use crate::physics::{MaskingShadowing, direction_from_cosine};
 use crate::sampling::sequence::PointSet;
 use crate::stats::ErrorRecord;
-use crate::table::{Axis, Channel, Table};
+use crate::table::{Axis, Channel, Mapping, Table, derived};
 
 pub const NAME: &str = "tir";
 /// Channels of the table.
@@ -50,20 +51,49 @@ pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count"];
 pub struct TirSettings {
     pub mu_count: usize,
     pub alpha_count: usize,
+    /// Nodes of the third axis: `eta`, or the critical-angle offset that stands for it.
     pub eta_count: usize,
     /// Sub-ranges of `mu` and `alpha` (a scene's plan narrows them to what its lookups reach).
     pub mu_range: [f64; 2],
     pub alpha_range: [f64; 2],
+    /// How the `mu` nodes are spaced.
+    pub mu_axis: CosineAxis,
+    /// How the `alpha` nodes are spaced.
+    pub roughness_axis: RoughnessAxis,
+    /// What the third axis samples.
+    pub eta_axis: EtaAxis,
     /// The relative index the last `eta` node (eta = 1) is evaluated at. 1 gives the exact value
     /// there, 0 (no critical angle); the original `tm_TIR.bin` behaves as if it were 0.999.
     pub top_eta: f64,
     pub method: Method,
     pub sampling: SamplingConfig,
     pub reference: ReferenceConfig,
+    /// The check between nodes: random points against the exact integral.
+    pub interpolation: super::interpolation::InterpolationConfig,
     pub output: OutputConfig,
     /// Fit an analytic approximation to the built table and write it beside the table.
     pub fit: TirFit,
 }
+
+/// What the third axis of the TIR table samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EtaAxis {
+    /// The relative index itself, uniform over [0, 1]: the original `tm_TIR.bin` layout. Its
+    /// `(mu, eta)` cells cannot follow the step at the critical cosine of a narrow lobe.
+    Eta,
+    /// The critical-angle offset `asin(eta) - acos(mu)` over [-pi/2, pi/2], in radians
+    /// (`table::derived`), spaced as `asinh(offset / OFFSET_SCALE)`: the step of a narrow lobe
+    /// lies at offset 0 for every view and index, where the nodes are densest.
+    CriticalAngleOffset,
+}
+
+/// The scale of the critical-angle offset axis's `asinh` spacing, in radians: nodes are about
+/// evenly spaced within it of 0 and geometrically (ratio 1.13 for 129 nodes) beyond, so that the
+/// step of a lobe of roughness `alpha`, about `2 alpha` radians wide, spans several nodes down to
+/// the model's smallest lobe roughness (1e-4). An odd node count puts a node at offset 0 itself,
+/// the centre of every narrow lobe's step (TIR 1/2 there, and the limit 1 at `mu = 1, eta = 0`).
+pub const OFFSET_SCALE: f64 = 1e-3;
 
 /// What the build fits to the TIR table (`crate::fit`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -80,14 +110,18 @@ impl Default for TirSettings {
         TirSettings {
             mu_count: 64,
             alpha_count: 64,
-            eta_count: 64,
+            eta_count: 129,
             mu_range: [0.0, 1.0],
             alpha_range: [0.0, 1.0],
+            mu_axis: CosineAxis::SqrtEnds,
+            roughness_axis: RoughnessAxis::Perceptual,
+            eta_axis: EtaAxis::CriticalAngleOffset,
             top_eta: 1.0,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 1 << 15, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
-            output: OutputConfig { formats: vec![FileFormat::Bin], precision: Precision::F32 },
+            interpolation: super::interpolation::InterpolationConfig::default(),
+            output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
             fit: TirFit::Best,
         }
     }
@@ -100,31 +134,65 @@ impl TirSettings {
         check_count("tir.eta_count", self.eta_count)?;
         check_unit_range("tir.mu_range", self.mu_range)?;
         check_unit_range("tir.alpha_range", self.alpha_range)?;
-        let below_top = Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?.node_value(self.eta_count - 2);
-        if !(self.top_eta > below_top && self.top_eta <= 1.0) {
-            return Err(Error::invalid(
-                "tir.top_eta",
-                format!("{}; allowed: above the next node ({below_top}) and at most 1", self.top_eta),
-            ));
+        match self.eta_axis {
+            EtaAxis::Eta => {
+                let below_top = Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?.node_value(self.eta_count - 2);
+                if !(self.top_eta > below_top && self.top_eta <= 1.0) {
+                    return Err(Error::invalid(
+                        "tir.top_eta",
+                        format!("{}; allowed: above the next node ({below_top}) and at most 1", self.top_eta),
+                    ));
+                }
+            }
+            // Its nodes reach every index up to 1: no node lies a fixed step below the top.
+            EtaAxis::CriticalAngleOffset if self.top_eta != 1.0 => {
+                return Err(Error::invalid(
+                    "tir.top_eta",
+                    format!(
+                        "{}; allowed: 1 with eta_axis = \"critical-angle-offset\" (other values reproduce the original layout, eta_axis = \"eta\")",
+                        self.top_eta
+                    ),
+                ));
+            }
+            EtaAxis::CriticalAngleOffset => {}
         }
         self.sampling.validate("tir.sampling")?;
         self.reference.validate("tir.reference")?;
+        self.interpolation.validate("tir.interpolation")?;
         self.output.validate("tir.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr])
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
+        let third = match self.eta_axis {
+            EtaAxis::Eta => Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?,
+            EtaAxis::CriticalAngleOffset => {
+                let half_pi = std::f64::consts::FRAC_PI_2;
+                Axis::node_aligned(derived::CRITICAL_ANGLE_OFFSET, -half_pi, half_pi, self.eta_count)?
+                    .with_mapping(Mapping::Asinh { scale: OFFSET_SCALE })?
+            }
+        };
         Ok(vec![
-            Axis::node_aligned("mu", self.mu_range[0], self.mu_range[1], self.mu_count)?,
-            Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?,
-            Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?,
+            Axis::node_aligned("mu", self.mu_range[0], self.mu_range[1], self.mu_count)?
+                .with_mapping(self.mu_axis.mapping())?,
+            Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?
+                .with_mapping(self.roughness_axis.mapping())?,
+            third,
         ])
     }
 
-    /// The relative index each `eta` node is evaluated at.
-    fn evaluated_etas(&self, eta_axis: &Axis) -> Vec<f64> {
-        let mut etas = eta_axis.node_values();
-        *etas.last_mut().expect("at least two nodes") = self.top_eta;
-        etas
+    /// The relative index a node of the third axis stands for at view cosine `mu`, before
+    /// [`TirSettings::evaluated_eta`].
+    fn eta_of_node(&self, mu: f64, third: f64) -> f64 {
+        match self.eta_axis {
+            EtaAxis::Eta => third,
+            EtaAxis::CriticalAngleOffset => derived::eta_at_critical_angle_offset(mu, third),
+        }
+    }
+
+    /// The relative index each node of the third axis is evaluated at, for the view cosine `mu`
+    /// (ascending: `tir_column` buckets by it).
+    fn evaluated_etas(&self, mu: f64, third_axis: &Axis) -> Vec<f64> {
+        third_axis.node_values().into_iter().map(|x| self.evaluated_eta(self.eta_of_node(mu, x))).collect()
     }
 }
 
@@ -199,7 +267,8 @@ impl TirSettings {
     /// offset from the view's, bucketed by eta), as [`build`] computes it; the top node (eta = 1)
     /// at `top_eta`.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        tir_column(position[0], position[1], &[self.evaluated_eta(position[2])], points)
+        let eta = self.evaluated_eta(self.eta_of_node(position[0], position[2]));
+        tir_column(position[0], position[1], &[eta], points)
     }
 
     /// The relative index a node at `eta` is evaluated at: the top node (eta = 1) at `top_eta`.
@@ -242,7 +311,21 @@ impl TableRecipe for TirSettings {
 
     /// The top node (eta = 1) is evaluated at `top_eta`, as in the table.
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        tir_cell(position[0], position[1], self.evaluated_eta(position[2]), points)
+        let eta = self.evaluated_eta(self.eta_of_node(position[0], position[2]));
+        tir_cell(position[0], position[1], eta, points)
+    }
+
+    /// A lookup passes `(mu, alpha, eta)` whatever the third axis samples.
+    fn interpolation_domains(&self) -> Result<Vec<super::interpolation::Domain>> {
+        Ok(super::interpolation::standard_domains(
+            &["mu", "alpha", "eta"],
+            &[self.mu_range, self.alpha_range, [0.0, 1.0]],
+        ))
+    }
+
+    fn position_of(&self, lookup: &[f64]) -> Vec<f64> {
+        let axes = self.axes().expect("validated settings have axes");
+        derived::point_of(&axes, lookup[0], lookup[1], lookup[2], 0.0).expect("TIR axes are known quantities")
     }
 }
 
@@ -255,8 +338,7 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
         "share of the energy transmitted through the interface that arrives past the critical angle and is reflected back",
     );
     let mut table = Table::zeros(NAME, settings.axes()?, vec![channel])?;
-    let etas = settings.evaluated_etas(&table.axes[2]);
-    let (mu_axis, alpha_axis) = (table.axes[0].clone(), table.axes[1].clone());
+    let (mu_axis, alpha_axis, third_axis) = (table.axes[0].clone(), table.axes[1].clone(), table.axes[2].clone());
     let plane = mu_axis.count * alpha_axis.count;
 
     let estimates: Vec<Estimate> = match settings.method {
@@ -264,7 +346,8 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
             let columns: Vec<u64> = (0..plane as u64).collect();
             let columns = estimate_cells(&columns, NAME, progress, |cell| {
                 let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
-                tir_column(mu_axis.node_value(i), alpha_axis.node_value(j), &etas, &points)
+                let mu = mu_axis.node_value(i);
+                tir_column(mu, alpha_axis.node_value(j), &settings.evaluated_etas(mu, &third_axis), &points)
             });
             // Reorder from (mu, alpha) columns of eta values to the table's node order.
             (0..table.node_count())
@@ -278,9 +361,8 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
         Method::PerCell => {
             let cells: Vec<u64> = (0..table.node_count() as u64).collect();
             estimate_cells(&cells, NAME, progress, |cell| {
-                let index = table.node_index(cell as usize);
-                let position = table.node_position(&index);
-                tir_cell(position[0], position[1], etas[index[2]], &points)
+                let position = table.node_position(&table.node_index(cell as usize));
+                settings.estimate_node(&points, &position)
             })
         }
     };
@@ -290,7 +372,8 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
     // The reference cells in groups sharing their (mu, alpha): one pass over the samples each.
     let reference = compare_mu_alpha_groups_to_reference(
         |points, positions| {
-            let etas: Vec<f64> = positions.iter().map(|p| settings.evaluated_eta(p[2])).collect();
+            let etas: Vec<f64> =
+                positions.iter().map(|p| settings.evaluated_eta(settings.eta_of_node(p[0], p[2]))).collect();
             tir_cells_at_mu_alpha(positions[0][0], positions[0][1], &etas, points)
         },
         &table,
@@ -322,6 +405,8 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
         fresnel_basis: None,
         accuracy: Vec::new(),
         standard_error: Some(standard_error_map(&estimates)),
+        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
+        channel_sum: None,
         table,
     })
 }
@@ -330,6 +415,7 @@ pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Resu
 mod tests {
     use super::*;
     use crate::formats::bin::read_bin;
+    use crate::recipes::interpolation::InterpolationConfig;
     use crate::sampling::sequence::SamplePlan;
     use crate::stats::ErrorSummary;
 
@@ -366,15 +452,21 @@ mod tests {
         TirSettings {
             sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
             reference: ReferenceConfig { cells: 0, samples: 2 },
+            interpolation: InterpolationConfig { points: 0, samples: 4 },
             ..settings
         }
     }
 
+    /// The original layout, as the committed `luts/original.toml` configures it.
+    fn original_layout() -> TirSettings {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/luts/original.toml");
+        crate::config::Config::from_file(std::path::Path::new(path)).unwrap().tir
+    }
+
     #[test]
-    fn reproduces_the_original_table() {
+    fn the_original_layout_reproduces_the_original_table() {
         let original = original();
-        let as_original =
-            build(&quick(TirSettings { top_eta: 0.999, ..TirSettings::default() }), 1, &()).unwrap().table;
+        let as_original = build(&quick(TirSettings { top_eta: 0.999, ..original_layout() }), 1, &()).unwrap().table;
         assert_eq!(as_original.axes, original.axes);
         let rmse = |t: &Table, skip_top: bool| {
             let plane = 64 * 64;
@@ -383,22 +475,35 @@ mod tests {
         };
         let with_option = rmse(&as_original, false);
         assert!(with_option <= 4e-3, "RMSE {with_option}");
-        // The exact default differs from the original only on its top eta slice.
-        let exact = build(&quick(TirSettings::default()), 1, &()).unwrap().table;
+        // With the exact top node (top_eta = 1) it differs from the original only on its top eta slice.
+        let exact = build(&quick(original_layout()), 1, &()).unwrap().table;
         assert!(rmse(&exact, true) <= 4e-3);
         let top_slice = &exact.data[63 * 64 * 64..];
         assert!(top_slice.iter().all(|&v| v == 0.0), "eta = 1 has no critical angle");
     }
 
     #[test]
+    fn the_default_layout_holds_the_original_values_between_its_nodes() {
+        // The default table read at the original grid's nodes (the fit grid: the table
+        // interpolated there) against tm_TIR.bin, away from its top slice (the original behaves as
+        // eta = 0.999 there) and its alpha = 0 nodes at a critical view, which the original holds
+        // as a point value and the default as the limit 1/2 (no node of the original grid is at
+        // one but a few at mu = 1, eta = 0 and round-off).
+        let original = original();
+        let ours = crate::fit::fit_grid(&build(&quick(TirSettings::default()), 1, &()).unwrap().table).unwrap();
+        assert_eq!(ours.axes, original.axes);
+        let plane = 64 * 64;
+        let error = ErrorSummary::of_differences((0..63 * plane).map(|n| (ours.data[n] - original.data[n]) as f64));
+        assert!(error.rms <= 5e-3, "{error:?}");
+    }
+
+    #[test]
     fn smooth_lobe_is_a_step_at_the_critical_cosine() {
-        let table = build(
-            &quick(TirSettings { mu_count: 33, alpha_count: 3, eta_count: 17, ..TirSettings::default() }),
-            2,
-            &(),
-        )
-        .unwrap()
-        .table;
+        // The original layout's eta axis: the step at the nodes' own critical cosines.
+        let table =
+            build(&quick(TirSettings { mu_count: 33, alpha_count: 3, eta_count: 17, ..original_layout() }), 2, &())
+                .unwrap()
+                .table;
         for i in 0..33 {
             for k in 0..17 {
                 let position = table.node_position(&[i, 0, k]);
@@ -408,6 +513,40 @@ mod tests {
                 let at_the_pole = mu == 1.0 && eta == 0.0;
                 let expected = if 1.0 - mu * mu > eta * eta || at_the_pole { 1.0 } else { 0.0 };
                 assert_eq!(table.node(&[i, 0, k])[0], expected, "mu {mu} eta {eta}");
+            }
+        }
+    }
+
+    #[test]
+    fn over_the_critical_angle_offset_a_smooth_lobe_steps_at_offset_zero() {
+        // Past the critical angle (offset < 0) everything is reflected back, inside it nothing;
+        // at offset 0 half the lobe, for every view but the two ends: at the normal (mu = 1,
+        // where offset 0 is eta = 0, whose critical cone is the normal alone) all of it, at
+        // grazing (mu = 0, where offset 0 is eta = 1: no critical angle) none.
+        let table = build(
+            &quick(TirSettings { mu_count: 17, alpha_count: 3, eta_count: 33, ..TirSettings::default() }),
+            2,
+            &(),
+        )
+        .unwrap()
+        .table;
+        assert_eq!(table.axes[2].name, derived::CRITICAL_ANGLE_OFFSET);
+        assert_eq!(table.axes[2].node_value(16), 0.0, "an odd count has a node at offset 0");
+        for i in 0..17 {
+            let mu = table.axes[0].node_value(i);
+            for k in 0..33 {
+                let offset = table.axes[2].node_value(k);
+                let value = table.node(&[i, 0, k])[0] as f64;
+                let expected = if offset < 0.0 || mu == 1.0 && offset == 0.0 {
+                    1.0
+                } else if offset > 0.0 || mu == 0.0 {
+                    0.0
+                } else {
+                    0.5
+                };
+                // Half a lobe of 2^12 samples: within a few standard errors of the stratified split.
+                let tolerance = if expected == 0.5 { 0.01 } else { 0.0 };
+                assert!((value - expected).abs() <= tolerance, "mu {mu} offset {offset}: {value}");
             }
         }
     }

@@ -37,6 +37,12 @@ pub struct TableBudget {
     pub max_replicate_max: Option<f64>,
     /// Integration wall time of the table, in seconds.
     pub max_build_s: Option<f64>,
+    /// RMS and maximum of the interpolation error (manifest `error.interpolation`), per domain by
+    /// name: `max_interpolation_max = { "whole domain" = 1e-2, "low roughness" = 2e-2 }`.
+    #[serde(default)]
+    pub max_interpolation_rms: BTreeMap<String, f64>,
+    #[serde(default)]
+    pub max_interpolation_max: BTreeMap<String, f64>,
 }
 
 /// The furnace budget of one scene (`[furnace.<scene>]`), over every material of it; a missing key
@@ -98,6 +104,14 @@ impl Budgets {
                     ("max_build_s", budget.max_build_s),
                 ],
             )?;
+            for (key, limits) in [
+                ("max_interpolation_rms", &budget.max_interpolation_rms),
+                ("max_interpolation_max", &budget.max_interpolation_max),
+            ] {
+                for (domain, &limit) in limits {
+                    check_limits(&format!("{origin}: {table}.{key}"), &[(&format!("\"{domain}\""), Some(limit))])?;
+                }
+            }
             if let Some([lo, hi]) = budget.value_range
                 && (lo.is_nan() || hi.is_nan() || lo > hi)
             {
@@ -338,6 +352,13 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
     at_most("replicate_rms", Some(integration.replicate_standard_error.rms), budget.max_replicate_rms);
     at_most("replicate_max", Some(integration.replicate_standard_error.max), budget.max_replicate_max);
     at_most("build_s", Some(entry.wall_time_s), budget.max_build_s);
+    for (figure, limits) in [("rms", &budget.max_interpolation_rms), ("max", &budget.max_interpolation_max)] {
+        for (domain, &limit) in limits {
+            let measured = entry.error.interpolation.iter().find(|e| &e.domain == domain);
+            let value = measured.map(|e| if figure == "rms" { e.error.rms } else { e.error.max });
+            at_most(&format!("interpolation_{figure} ({domain})"), value, Some(limit));
+        }
+    }
 }
 
 /// Every shader file the manifest lists (a packing's lookups, a fitted form's functions), once

@@ -160,6 +160,19 @@ fn write_entry(w: &mut String, entry: &FileEntry, bytes: &[u8]) {
     for note in &entry.notes {
         let _ = writeln!(w, "note:     {note}");
     }
+    for axis in entry.axes.iter().filter(|a| a.definition.is_some()) {
+        let _ = writeln!(w, "quantity: {}", axis.definition.as_deref().unwrap_or_default());
+    }
+    if let Some(binding) = &entry.binding {
+        let _ = writeln!(w, "binding:  {}; sampler: {}", binding.texture, binding.sampler);
+        let _ = writeln!(
+            w,
+            "sample:   HLSL {}, WGSL {}, with {}",
+            binding.hlsl,
+            binding.wgsl,
+            binding.coordinates.join(", ")
+        );
+    }
     let _ = writeln!(
         w,
         "sampling: {}; {}; {} samples per cell; seed {}; {:.2} s",
@@ -179,6 +192,32 @@ fn write_entry(w: &mut String, entry: &FileEntry, bytes: &[u8]) {
         );
     }
     let _ = writeln!(w, "; storage rounding max {:.2e}", error.storage_rounding_max);
+    if let Some(sum) = &error.storage_channel_sum {
+        let _ = writeln!(
+            w,
+            "storage:  channels add up to an albedo, rounded `{}`: stored sum above 1 at {} texels (by up to {:.2e}), largest {}; above the integrated sum at {} texels (by up to {:.2e})",
+            sum.rounding.name(),
+            sum.texels_above_one,
+            sum.max_above_one,
+            sum.max_sum,
+            sum.texels_above_integral,
+            sum.max_above_integral
+        );
+    }
+    for e in &error.interpolation {
+        let _ = writeln!(
+            w,
+            "between nodes ({}): RMS {:.2e}, max {:.2e} at {}; {}; read as {}; exact: {} samples, standard error up to {:.1e}",
+            e.domain,
+            e.error.rms,
+            e.error.max,
+            e.worst_at,
+            e.points,
+            e.read_as,
+            e.exact_samples,
+            e.exact_standard_error_max
+        );
+    }
     let actual = sha256_hex(bytes);
     let verdict = if actual == entry.sha256 { "matches the manifest" } else { "DOES NOT match the manifest" };
     let _ = writeln!(w, "sha256:   {actual} ({verdict})");

@@ -1,10 +1,11 @@
 //! `tmlut build --scene`: build exactly a scene's plan, and measure what specialising cost.
 //!
-//! Every slice table is compared, at random `(mu, alpha)` inside its range and every channel, with
-//! the exact integral (a per-cell estimate with the reference sample count) and with what the full
-//! table of the same configuration would have given there (multilinear interpolation across
-//! `eta` and `kappa` included; its clamp at the range's end too). Both go into the slice's manifest
-//! entry as accuracy reports.
+//! Every slice table is checked as every full table is ([`crate::recipes::interpolation`]), at
+//! random `(mu, alpha)` inside the ranges its lookups reach and every channel, against the exact
+//! integral (a per-cell estimate with the reference sample count): the slice as written, read as a
+//! renderer reads it, goes into its manifest entry's `error.interpolation`; what the full table of
+//! the same configuration would have given at the same points (interpolated across `eta` and
+//! `kappa` too, and clamped at its range's end) into its `accuracy`.
 
 use std::path::PathBuf;
 
@@ -13,13 +14,13 @@ use super::plan::{Plan, PlannedBuild, plan};
 use crate::config::{Config, OutputConfig};
 use crate::error::Result;
 use crate::formats::manifest::SceneRecord;
-use crate::integrate::{Progress, estimate_cells};
+use crate::integrate::Progress;
 use crate::pipeline::{Job, WrittenFile, sha256_hex, write_jobs};
+use crate::recipes::TableRecipe;
+use crate::recipes::interpolation::{self, Domain, ExactValues, InterpolationConfig};
 use crate::recipes::slices::{self, SliceOf, Slices};
-use crate::recipes::{TableBuild, TableRecipe, reference_points};
-use crate::sampling::sequence::scramble_seed;
-use crate::stats::{AccuracyReport, ErrorSummary};
-use crate::table::Table;
+use crate::stats::AccuracyReport;
+use crate::table::{Table, derived};
 
 /// A scene build.
 pub struct SceneBuildRequest {
@@ -42,6 +43,9 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     if request.error_maps {
         config.fgd.replicate_error_columns = usize::MAX;
     }
+    if !request.accuracy_reports {
+        config.disable_interpolation_checks();
+    }
     let plan = plan(&request.scene, &config)?;
     let seed = config.seed;
     // The full tables the slices are compared with, built once, without their own reference checks.
@@ -56,6 +60,7 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     let full_fgd = if has_slices_of(true) {
         let mut settings = config.fgd.clone();
         settings.reference.cells = 0;
+        settings.interpolation.points = 0;
         settings.replicate_error_columns = 0;
         Some(full_table(&settings)?)
     } else {
@@ -64,6 +69,7 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     let full_tir = if has_slices_of(false) {
         let mut settings = config.tir.clone();
         settings.reference.cells = 0;
+        settings.interpolation.points = 0;
         Some(full_table(&settings)?)
     } else {
         None
@@ -83,7 +89,9 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                     run: Box::new(move |progress| {
                         let mut build = slices::build(slices, seed, progress)?;
                         if let Some(full) = full {
-                            build.accuracy.extend(slice_accuracy(slices, &build, full, seed, progress)?);
+                            let (exact, full_accuracy) = slice_accuracy(slices, full, seed, progress)?;
+                            build.interpolation.push(exact);
+                            build.accuracy.push(full_accuracy);
                         }
                         Ok(build)
                     }),
@@ -121,81 +129,58 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     Ok((plan, written))
 }
 
-/// Query points of a slice's accuracy check: `count` `(mu, alpha)` uniform over the ranges its
-/// lookups reach (a fixed roughness is queried at exactly that roughness).
-fn query_points(slices: &Slices, count: usize, seed: u64) -> Vec<[f64; 2]> {
-    let uniform = |stream: u64, k: usize| scramble_seed(seed, stream, k as u32) as f64 / 4_294_967_296.0;
-    let ([mu_lo, mu_hi], [alpha_lo, alpha_hi]) = (slices.lookup_mu, slices.lookup_alpha);
-    (0..count)
-        .map(|k| {
-            [mu_lo + uniform(0x5_11CE, k) * (mu_hi - mu_lo), alpha_lo + uniform(0x5_11CF, k) * (alpha_hi - alpha_lo)]
-        })
-        .collect()
-}
-
-/// The slice, and the full table at the same parameters, against the exact integral at random
-/// points inside the slice's range.
+/// The exact integral at random points where a slice's lookups are made (`(mu, alpha)` uniform
+/// over the ranges they reach; a fixed roughness is queried at exactly that roughness), and the
+/// full table of the same configuration read at the same points against it (`eta` and `kappa` of
+/// each channel; a TIR table's third axis as its manifest states it).
 pub fn slice_accuracy(
     slices: &Slices,
-    build: &TableBuild,
     full: &Table,
     seed: u64,
     progress: &dyn Progress,
-) -> Result<Vec<AccuracyReport>> {
+) -> Result<(ExactValues, AccuracyReport)> {
     let reference = match &slices.of {
         SliceOf::Fgd(s) => s.reference,
         SliceOf::Tir(s) => s.reference,
     };
-    let count = reference.cells.max(16);
-    let queries = query_points(slices, count, seed ^ 0xACC0);
-    let points = reference_points(reference.samples, seed ^ 0xACC1)?;
-    let cells: Vec<u64> = (0..queries.len() as u64).collect();
-    let exact = estimate_cells(&cells, &format!("{} accuracy", slices.name), progress, |k| {
-        slices.estimate_node(&points, &queries[k as usize])
-    });
-    let mut slice_errors = Vec::new();
-    let mut full_errors = Vec::new();
-    let (mut worst_slice, mut worst_full) = ((0.0f64, String::new()), (0.0f64, String::new()));
-    for (query, exact) in queries.iter().zip(&exact) {
-        let stored = build.table.interpolate(query);
-        for (k, channel) in slices.channels.iter().enumerate() {
-            let full_point: Vec<f64> = match slices.of {
-                SliceOf::Fgd(_) => vec![query[0], query[1], channel.eta, channel.kappa],
-                SliceOf::Tir(_) => vec![query[0], query[1], channel.eta],
-            };
-            let full_value = full.interpolate(&full_point)[0];
-            let at = format!(
-                "mu {:.4}, alpha {:.4}, eta {:.4}, kappa {:.4}",
-                query[0], query[1], channel.eta, channel.kappa
-            );
-            let (slice_error, full_error) = (stored[k] - exact.mean[k], full_value - exact.mean[k]);
-            if slice_error.abs() >= worst_slice.0 {
-                worst_slice = (slice_error.abs(), at.clone());
-            }
-            if full_error.abs() >= worst_full.0 {
-                worst_full = (full_error.abs(), at);
-            }
-            slice_errors.push(slice_error);
-            full_errors.push(full_error);
-        }
-    }
+    let domain = Domain {
+        name: "where the slice's lookups are made".into(),
+        parameters: vec!["mu".into(), "alpha".into()],
+        ranges: vec![slices.lookup_mu, slices.lookup_alpha],
+    };
+    // The reference sample count: a slice is checked to its own integration noise.
+    let config = InterpolationConfig { points: reference.cells.max(16), samples: reference.samples };
+    let exact = interpolation::exact_values(
+        &slices.name,
+        vec![domain],
+        &config,
+        seed ^ 0xACC0,
+        progress,
+        |lookup| lookup.to_vec(),
+        |points, position| slices.estimate_node(points, position),
+    )?
+    .remove(0);
+    let channels: Vec<String> =
+        slices.channels.iter().map(|c| format!("eta {:.4}, kappa {:.4}", c.eta, c.kappa)).collect();
     let full_shape = full.axes.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x ");
-    let domain = format!(
-        "{} random (mu, alpha) where its lookups are made x {} channel(s); exact: per-cell estimate, {} samples",
-        queries.len(),
-        slices.channels.len(),
-        points.plan().total()
-    );
-    Ok(vec![
-        AccuracyReport {
-            what: format!("slice interpolated vs the exact integral; {domain}"),
-            error: ErrorSummary::of_differences(slice_errors),
-            worst_at: worst_slice.1,
-        },
-        AccuracyReport {
-            what: format!("full {full_shape} table interpolated at the same points vs the exact integral; {domain}"),
-            error: ErrorSummary::of_differences(full_errors),
-            worst_at: worst_full.1,
-        },
-    ])
+    let compared = interpolation::compare(&exact, "the full table interpolated (Table::interpolate)", &channels, |p| {
+        slices
+            .channels
+            .iter()
+            .map(|c| {
+                let point =
+                    derived::point_of(&full.axes, p[0], p[1], c.eta, c.kappa).expect("full tables of known axes");
+                full.interpolate(&point)[0]
+            })
+            .collect()
+    });
+    let report = AccuracyReport {
+        what: format!(
+            "full {full_shape} table interpolated at the points of error.interpolation vs the exact integral ({}; exact: per-cell estimate, {} samples)",
+            compared.points, compared.exact_samples
+        ),
+        error: compared.error,
+        worst_at: compared.worst_at,
+    };
+    Ok((exact, report))
 }

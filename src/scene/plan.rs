@@ -647,15 +647,15 @@ fn range_label(axis: &Axis) -> String {
     Interval::new(lo, hi).to_string()
 }
 
-/// The nodes of the node-aligned, uniform axis `full` that cover `needed`, with `margin` more on
+/// The nodes of the node-aligned axis `full` (evenly spaced in its mapping) that cover `needed`, with `margin` more on
 /// each side; with `extend`, the range may run past `full`'s end on the same spacing (an index
 /// above the full table's range: the full table would clamp there). `who` names the lookups in
 /// the error when the range needs more than [`MAX_NODES_PER_AXIS`] nodes.
 pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool, who: &str) -> Result<Axis> {
-    let spacing = (full.end - full.start) / (full.count - 1) as f64;
-    // A value within rounding of a node counts as that node. Node numbers stay in f64 until they
+    // Node positions along the axis, in its mapped quantity (nodes are evenly spaced there); a
+    // value within rounding of a node counts as that node. Node numbers stay in f64 until they
     // are known to be small: a far index would saturate a conversion and wrap the sums after it.
-    let position = |x: f64| (x - full.start) / spacing;
+    let position = |x: f64| full.coordinate(x) * (full.count - 1) as f64;
     let first = (position(needed.lo) + 1e-9).floor().max(0.0);
     let last = (position(needed.hi) - 1e-9).ceil().max(0.0).max(first);
     let (first, last) = (first - (margin as f64).min(first), last + margin as f64);
@@ -665,12 +665,14 @@ pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool,
         return Err(Error::invalid(
             who,
             format!(
-                "its lookups reach {} {} to {}, which the table's grid ({} apart) covers with {} nodes; allowed: at \
-                 most {MAX_NODES_PER_AXIS} nodes per axis (narrow the range a texture varies)",
+                "its lookups reach {} {} to {}, which the table's grid ({} nodes over {} to {}) covers with {} \
+                 nodes; allowed: at most {MAX_NODES_PER_AXIS} nodes per axis (narrow the range a texture varies)",
                 full.name,
                 short(needed.lo),
                 short(needed.hi),
-                short(spacing),
+                full.count,
+                short(full.start),
+                short(full.end),
                 last - first + 1.0
             ),
         ));
@@ -684,8 +686,9 @@ pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool,
     if first == last {
         if last < last_node || extend { last += 1 } else { first -= 1 }
     }
-    let node = |k: usize| if k == last_node { full.end } else { full.start + k as f64 * spacing };
-    Axis::node_aligned(full.name.clone(), node(first), node(last), last - first + 1)
+    // Past the last node (where `extend` allows it) the nodes continue at the same spacing.
+    let node = |k: usize| if k <= last_node { full.node_value(k) } else { full.value_at(k as f64 / last_node as f64) };
+    Axis::node_aligned(full.name.clone(), node(first), node(last), last - first + 1)?.with_mapping(full.mapping)
 }
 
 /// Nodes per unit of `mu` (or of `sqrt(alpha)`) of a slice's own grid: four times the default

@@ -54,7 +54,8 @@ impl Evaluation {
             points: PointSet::new(SamplePlan::new(SAMPLES, REPLICATES)?, SEED),
             fgd: FgdSettings::default(),
             gd: GdSettings::default(),
-            tir: TirSettings::default(),
+            // The cases are at (mu, alpha, eta) themselves, whatever axis the table stores.
+            tir: TirSettings { eta_axis: crate::recipes::tir::EtaAxis::Eta, ..TirSettings::default() },
             belcour: BelcourSettings::default(),
             karis: KarisSettings::default(),
         })

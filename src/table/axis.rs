@@ -26,7 +26,7 @@ pub enum Placement {
 }
 
 /// How an axis spaces its nodes: uniformly in `m(x)` rather than in `x`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Mapping {
     /// `m(x) = x`.
@@ -34,8 +34,16 @@ pub enum Mapping {
     Identity,
     /// `m(x) = sqrt(x)`; for a GGX alpha axis this is the perceptual roughness.
     Sqrt,
-    /// `m(x) = sqrt(1 - x)`; for a cosine axis this packs nodes toward grazing angles.
+    /// `m(x) = sqrt(1 - x)`; for a cosine axis this packs nodes toward the normal (`x = 1`).
     SqrtOneMinus,
+    /// `m(x) = (sqrt(x) - sqrt(1 - x) + 1) / 2` on [0, 1]: nodes packed toward both ends, as
+    /// `sqrt(x)` near 0 and `sqrt(1 - x)` near 1. For a cosine axis: dense at grazing views, where
+    /// masking and the horizon reshape a lobe within a few thousandths of `mu`, and near the normal,
+    /// where the view angle `acos(mu)` moves fastest.
+    SqrtEnds,
+    /// `m(x) = asinh(x / scale)`: linear within about `scale` of 0 and logarithmic beyond, so that
+    /// equal steps of `m` resolve a transition at 0 of any width from `scale` up.
+    Asinh { scale: f64 },
 }
 
 impl Mapping {
@@ -44,6 +52,25 @@ impl Mapping {
             Mapping::Identity => x,
             Mapping::Sqrt => x.max(0.0).sqrt(),
             Mapping::SqrtOneMinus => (1.0 - x).max(0.0).sqrt(),
+            Mapping::SqrtEnds => {
+                let x = x.clamp(0.0, 1.0);
+                0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
+            }
+            Mapping::Asinh { scale } => (x / scale).asinh(),
+        }
+    }
+
+    /// [`Mapping::forward`] in f32, as a shader evaluates it.
+    pub fn forward_f32(self, x: f32) -> f32 {
+        match self {
+            Mapping::Identity => x,
+            Mapping::Sqrt => x.max(0.0).sqrt(),
+            Mapping::SqrtOneMinus => (1.0 - x).max(0.0).sqrt(),
+            Mapping::SqrtEnds => {
+                let x = x.clamp(0.0, 1.0);
+                0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
+            }
+            Mapping::Asinh { scale } => (x / scale as f32).asinh(),
         }
     }
 
@@ -52,15 +79,23 @@ impl Mapping {
             Mapping::Identity => m,
             Mapping::Sqrt => m * m,
             Mapping::SqrtOneMinus => 1.0 - m * m,
+            Mapping::SqrtEnds => {
+                // a = sqrt(x), b = sqrt(1 - x): a - b = 2 m - 1 and a^2 + b^2 = 1.
+                let difference = (2.0 * m - 1.0).clamp(-1.0, 1.0);
+                let a = 0.5 * (difference + (2.0 - difference * difference).sqrt());
+                (a * a).clamp(0.0, 1.0)
+            }
+            Mapping::Asinh { scale } => scale * m.sinh(),
         }
     }
 
     /// The values of `x` the mapping is defined on, as `(lo, hi)`.
     pub fn domain(self) -> (f64, f64) {
         match self {
-            Mapping::Identity => (f64::NEG_INFINITY, f64::INFINITY),
+            Mapping::Identity | Mapping::Asinh { .. } => (f64::NEG_INFINITY, f64::INFINITY),
             Mapping::Sqrt => (0.0, f64::INFINITY),
             Mapping::SqrtOneMinus => (f64::NEG_INFINITY, 1.0),
+            Mapping::SqrtEnds => (0.0, 1.0),
         }
     }
 
@@ -70,6 +105,18 @@ impl Mapping {
             Mapping::Identity => x.to_string(),
             Mapping::Sqrt => format!("sqrt({x})"),
             Mapping::SqrtOneMinus => format!("sqrt(1 - {x})"),
+            Mapping::SqrtEnds => format!("(sqrt({x}) - sqrt(1 - {x}) + 1) / 2"),
+            Mapping::Asinh { scale } => format!("asinh({x} / {scale:?})"),
+        }
+    }
+
+    /// Whether the mapping is valid: a finite, positive `asinh` scale.
+    pub fn validate(self) -> Result<()> {
+        match self {
+            Mapping::Asinh { scale } if !(scale.is_finite() && scale > 0.0) => {
+                Err(Error::invalid("mapping", format!("asinh scale {scale}; allowed: finite and > 0")))
+            }
+            _ => Ok(()),
         }
     }
 }
@@ -125,6 +172,7 @@ impl Axis {
         if !self.start.is_finite() || !self.end.is_finite() {
             return Err(Error::invalid(key, format!("range [{}, {}] is not finite", self.start, self.end)));
         }
+        self.mapping.validate().map_err(|e| Error::invalid(&key, e.to_string()))?;
         let (lo, hi) = self.mapping.domain();
         for x in [self.start, self.end] {
             if x < lo || x > hi {
@@ -221,7 +269,8 @@ impl Axis {
         } else if m0 == 0.0 {
             format!("{mapped} / {m1}")
         } else {
-            format!("({mapped} - {m0}) / ({m1} - {m0})")
+            let minus_m0 = if m0 < 0.0 { format!("+ {}", -m0) } else { format!("- {m0}") };
+            format!("({mapped} {minus_m0}) / ({m1} {minus_m0})")
         };
         match self.placement {
             Placement::NodeAligned => {
@@ -299,5 +348,40 @@ mod tests {
     fn formula_spells_out_the_half_texel_correction() {
         let axis = Axis::node_aligned("eta", 0.0, 4.0, 64).unwrap();
         assert_eq!(axis.texture_coordinate_formula(), "(eta / 4) * 63 / 64 + 0.5 / 64");
+        let offset =
+            Axis::node_aligned("d", -2.0, 2.0, 5).unwrap().with_mapping(Mapping::Asinh { scale: 0.5 }).unwrap();
+        let m1 = 4.0f64.asinh();
+        assert_eq!(
+            offset.texture_coordinate_formula(),
+            format!("((asinh(d / 0.5) + {m1}) / ({m1} + {m1})) * 4 / 5 + 0.5 / 5")
+        );
+    }
+
+    #[test]
+    fn the_new_spacings_round_trip_and_pack_their_nodes_where_stated() {
+        let ends = Axis::node_aligned("mu", 0.0, 1.0, 64).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
+        let offset =
+            Axis::node_aligned("d", -1.5, 1.5, 129).unwrap().with_mapping(Mapping::Asinh { scale: 1e-3 }).unwrap();
+        for axis in [&ends, &offset] {
+            for k in 0..axis.count {
+                let x = axis.node_value(k);
+                assert!((axis.coordinate(x) - axis.node_coordinate(k)).abs() < 1e-12, "{} node {k}", axis.name);
+                // The f32 mapping a shader evaluates agrees to f32 rounding.
+                let m = axis.mapping.forward(x);
+                assert!((axis.mapping.forward_f32(x as f32) as f64 - m).abs() <= 4e-7 * m.abs().max(1.0), "{x}");
+            }
+        }
+        // sqrt-ends: the first and last cells are a thousandth of mu wide, the middle ones ~0.022.
+        let width = |axis: &Axis, k: usize| axis.node_value(k + 1) - axis.node_value(k);
+        assert!(width(&ends, 0) < 1.1e-3 && width(&ends, 62) < 1.1e-3, "{} {}", width(&ends, 0), width(&ends, 62));
+        assert!((0.02..0.03).contains(&width(&ends, 31)), "{}", width(&ends, 31));
+        // asinh: offset 0 is the middle node of an odd count, its neighbours 1e-3 sinh(asinh(1500) / 64)
+        // = 1.25e-4 away, the spacing growing 13 % a node to the ends at 1.5.
+        assert_eq!(offset.node_value(64), 0.0);
+        assert!((offset.node_value(65) - 1e-3 * (1500f64.asinh() / 64.0).sinh()).abs() < 1e-15);
+        assert!(offset.node_value(65) < 1.3e-4, "{}", offset.node_value(65));
+        assert_eq!((offset.node_value(0), offset.node_value(128)), (-1.5, 1.5));
+        let bad = Axis::node_aligned("d", -1.0, 1.0, 4).unwrap().with_mapping(Mapping::Asinh { scale: 0.0 });
+        assert!(bad.unwrap_err().to_string().contains("asinh scale"));
     }
 }

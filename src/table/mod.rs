@@ -5,6 +5,7 @@
 //! interleaved per texel, then axis 0 fastest, then axis 1, and so on.
 
 mod axis;
+pub mod derived;
 
 pub use axis::{Axis, Mapping, Placement};
 

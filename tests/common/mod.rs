@@ -100,6 +100,9 @@ replicates = 4
 [fgd.reference]
 cells = 4
 samples = 16384
+[fgd.interpolation]
+points = 32
+samples = 1024
 [gd]
 mu_count = 8
 alpha_count = 8
@@ -109,6 +112,9 @@ replicates = 4
 [gd.reference]
 cells = 4
 samples = 16384
+[gd.interpolation]
+points = 32
+samples = 1024
 [tir]
 mu_count = 8
 alpha_count = 8
@@ -119,6 +125,9 @@ replicates = 4
 [tir.reference]
 cells = 4
 samples = 16384
+[tir.interpolation]
+points = 32
+samples = 1024
 [belcour]
 mu_count = 16
 roughness_count = 16
@@ -128,6 +137,9 @@ replicates = 4
 [belcour.reference]
 cells = 4
 samples = 16384
+[belcour.interpolation]
+points = 32
+samples = 1024
 [karis]
 mu_count = 32
 roughness_count = 24
@@ -137,12 +149,37 @@ replicates = 4
 [karis.reference]
 cells = 6
 samples = 16384
+[karis.interpolation]
+points = 32
+samples = 1024
 ";
+
+/// [`SMALL_SET`] written in every format: FGD, GD and TIR also in the original `.bin` layout
+/// (uniform axes, the only ones that layout can hold) beside their EXR and DDS files.
+pub fn small_set_in_every_format() -> String {
+    let mut config = SMALL_SET.to_string();
+    for (table, formats, more) in [
+        ("fgd", r#"["bin", "exr"]"#, ""),
+        ("gd", r#"["bin", "dds", "exr"]"#, ""),
+        ("tir", r#"["bin", "dds", "exr"]"#, "eta_axis = \"eta\"\n"),
+    ] {
+        let header = format!("[{table}]\n");
+        let uniform = format!("{header}mu_axis = \"uniform\"\nroughness_axis = \"alpha\"\n{more}");
+        config = config.replacen(&header, &uniform, 1);
+        config.push_str(&format!("[{table}.output]\nformats = {formats}\nprecision = \"f32\"\n"));
+    }
+    config
+}
 
 /// Build [`SMALL_SET`] into `dir/luts` (with `extra` arguments) and return the folder.
 pub fn small_build(dir: &Path, extra: &[&str]) -> PathBuf {
+    build_config(dir, SMALL_SET, extra)
+}
+
+/// Build the configuration `text` into `dir/luts` (with `extra` arguments) and return the folder.
+pub fn build_config(dir: &Path, text: &str, extra: &[&str]) -> PathBuf {
     let config = dir.join("small.toml");
-    std::fs::write(&config, SMALL_SET).unwrap();
+    std::fs::write(&config, text).unwrap();
     let out = dir.join("luts");
     let mut args = vec!["build", "--quiet", "--config", config.to_str().unwrap(), "--out", out.to_str().unwrap()];
     args.extend_from_slice(extra);

@@ -1,0 +1,86 @@
+//! Quantities an axis may sample that a lookup does not pass as such but computes from its
+//! parameters `(mu, alpha, eta, kappa)`, so that a table's nodes follow a feature of its integrand
+//! rather than the parameters' own grid.
+//!
+//! The TIR table is a step in `mu` at the critical cosine `sqrt(1 - eta^2)` when the lobe is
+//! narrow. Over a grid of `(mu, eta)` the step runs diagonally through the cells, where no
+//! interpolation between nodes can follow it: the original 64^3 table read 0.771 at
+//! `(mu 0.716, alpha 0.0002, eta 0.70)`, where TIR is 0.005. Over the critical-angle offset
+//! `asin(eta) - acos(mu)` the step lies at offset 0 for every `mu` and every `eta`, and an axis
+//! dense around 0 resolves it at any roughness.
+
+use super::Axis;
+
+/// The angle between the critical angle of total internal reflection and the view, in radians:
+/// `asin(eta) - acos(mu)`. Positive when the view lies inside the critical cone (a narrow lobe
+/// there loses nothing to TIR), negative past it.
+pub const CRITICAL_ANGLE_OFFSET: &str = "critical_angle_offset";
+
+/// [`CRITICAL_ANGLE_OFFSET`] at `(mu, eta)`, both clamped to [0, 1].
+pub fn critical_angle_offset(mu: f64, eta: f64) -> f64 {
+    eta.clamp(0.0, 1.0).asin() - mu.clamp(0.0, 1.0).acos()
+}
+
+/// The relative index whose critical angle lies `offset` radians from the view of cosine `mu`:
+/// `sin(acos(mu) + offset)`, the angle clamped to [0, pi/2] (offsets past those ends have the
+/// values of `eta = 0` and `eta = 1`).
+pub fn eta_at_critical_angle_offset(mu: f64, offset: f64) -> f64 {
+    (mu.clamp(0.0, 1.0).acos() + offset).clamp(0.0, std::f64::consts::FRAC_PI_2).sin()
+}
+
+/// How a shader computes [`CRITICAL_ANGLE_OFFSET`], for the manifest.
+pub const CRITICAL_ANGLE_OFFSET_FORMULA: &str = "asin(clamp(eta, 0, 1)) - acos(clamp(mu, 0, 1))";
+
+/// The point a lookup at `(mu, alpha, eta, kappa)` reads in a table of `axes`: each axis's
+/// quantity, by name. `None` when an axis samples a quantity this module does not know.
+pub fn point_of(axes: &[Axis], mu: f64, alpha: f64, eta: f64, kappa: f64) -> Option<Vec<f64>> {
+    axes.iter()
+        .map(|axis| match axis.name.as_str() {
+            "mu" => Some(mu),
+            "alpha" => Some(alpha),
+            "eta" => Some(eta),
+            "kappa" => Some(kappa),
+            CRITICAL_ANGLE_OFFSET => Some(critical_angle_offset(mu, eta)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The definition of an axis's quantity in the lookup's parameters, where it is derived.
+pub fn definition(name: &str) -> Option<&'static str> {
+    (name == CRITICAL_ANGLE_OFFSET).then_some(CRITICAL_ANGLE_OFFSET_FORMULA)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn offset_and_index_are_inverse_inside_the_quarter_circle() {
+        for mu in [0.0, 0.1, 0.5, 0.716, 0.99, 1.0] {
+            for eta in [0.0, 0.2, 0.7, 0.999, 1.0] {
+                let offset = critical_angle_offset(mu, eta);
+                assert!((eta_at_critical_angle_offset(mu, offset) - eta).abs() < 1e-12, "mu {mu} eta {eta}");
+            }
+        }
+        // The step of a narrow lobe is at offset 0: the view at the critical cosine.
+        let eta: f64 = 0.7;
+        assert!(critical_angle_offset((1.0 - eta * eta).sqrt(), eta).abs() < 1e-12);
+        // Past the ends the index clamps.
+        assert_eq!(eta_at_critical_angle_offset(0.5, 3.0), 1.0);
+        assert_eq!(eta_at_critical_angle_offset(0.5, -3.0), 0.0);
+    }
+
+    #[test]
+    fn points_follow_the_axes_by_name() {
+        let axes = [
+            Axis::node_aligned("mu", 0.0, 1.0, 4).unwrap(),
+            Axis::node_aligned("alpha", 0.0, 1.0, 4).unwrap(),
+            Axis::node_aligned(CRITICAL_ANGLE_OFFSET, -1.5, 1.5, 4).unwrap(),
+        ];
+        let point = point_of(&axes, 0.6, 0.1, 0.8, 0.0).unwrap();
+        assert_eq!(&point[..2], &[0.6, 0.1]);
+        assert!((point[2] - (0.8f64.asin() - 0.6f64.acos())).abs() < 1e-15);
+        assert!(point_of(&[Axis::node_aligned("x", 0.0, 1.0, 2).unwrap()], 0.5, 0.5, 0.5, 0.0).is_none());
+    }
+}
