@@ -157,12 +157,15 @@ pub struct Move {
     pub destination: String,
 }
 
-/// The record of a commit in progress: which staging folder holds the files, and every rename
-/// still to do, the manifest last.
+/// The record of a commit in progress: which staging folder holds the files, every rename still to
+/// do, the manifest last, and the files of the earlier build that the new manifest no longer
+/// lists, removed after it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct Journal {
     staging: String,
     moves: Vec<Move>,
+    #[serde(default)]
+    removals: Vec<String>,
 }
 
 /// A point where a commit touches the file system: a test can make it fail there, as a full disk
@@ -195,19 +198,27 @@ mod faults {
     }
 }
 
-/// Move the staged files (the staged manifest among them, moved last) into the folder.
+/// Move the staged files (the staged manifest among them, moved last) into the folder, then remove
+/// `removals`, files of the folder that the new manifest no longer lists.
 ///
 /// Everything that can be checked is checked before the journal is written: every destination is
 /// named once, a plain file name (or one under a known subfolder), and free or a regular file, not
 /// a folder. A failure before the journal leaves the folder as it was; after it, the journal and
 /// the staging folder stay for the next build to complete.
-pub fn commit(folder: &OutputFolder, staging: &mut Staging, mut moves: Vec<Move>) -> Result<()> {
+pub fn commit(
+    folder: &OutputFolder,
+    staging: &mut Staging,
+    mut moves: Vec<Move>,
+    mut removals: Vec<String>,
+) -> Result<()> {
     let out = &folder.dir;
     check_destinations(out, &moves)?;
+    // A damaged manifest may name paths outside the folder: those are never touched.
+    removals.retain(|file| check_destination_name(file).is_ok());
     moves.push(Move { staged: MANIFEST_FILE.into(), destination: MANIFEST_FILE.into() });
     sync_dir(&staging.dir).map_err(|source| Error::io(&staging.dir, source))?;
     let staging_name = staging.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let journal = Journal { staging: staging_name, moves };
+    let journal = Journal { staging: staging_name, moves, removals };
     let text = serde_json::to_string_pretty(&journal).expect("a journal is plain data");
     let journal_path = out.join(COMMIT_JOURNAL);
     faults::point("writing the journal").map_err(|source| Error::io(&journal_path, source))?;
@@ -295,6 +306,13 @@ fn replay(out: &Path, journal: &Journal) -> std::io::Result<()> {
                     format!("moving {} to {}: {e}", from.display(), to.display()),
                 ));
             }
+        }
+    }
+    for file in &journal.removals {
+        faults::point("a removal")?;
+        match std::fs::remove_file(out.join(file)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+            _ => {}
         }
     }
     faults::point("syncing the folder")?;
@@ -493,7 +511,7 @@ mod tests {
         let folder = OutputFolder::take(dir.path(), |_| {}).unwrap();
         let mut staging = folder.staging().unwrap();
         let same = Move { staged: "a".into(), destination: "x.dds".into() };
-        let error = commit(&folder, &mut staging, vec![same.clone(), same]).unwrap_err().to_string();
+        let error = commit(&folder, &mut staging, vec![same.clone(), same], Vec::new()).unwrap_err().to_string();
         assert!(error.contains("x.dds") && error.contains("two files"), "{error}");
     }
 
@@ -504,5 +522,25 @@ mod tests {
         std::fs::write(&file, b"x").unwrap();
         let error = build_into(&file, "rough-first", &["gd"], false).unwrap_err().to_string();
         assert!(error.contains("luts") && error.contains("is a file"), "{error}");
+    }
+
+    #[test]
+    fn a_table_built_again_leaves_no_file_of_its_earlier_build() {
+        let dir = tempfile::tempdir().unwrap();
+        build_into(dir.path(), "bottom-up-image", &["karis", "gd"], false).unwrap();
+        assert!(dir.path().join("karis.exr").exists());
+        // Karis again, in DDS only: its EXR file is an earlier build's and goes; GD stays.
+        let mut config = config("bottom-up-image");
+        config.karis.output.formats = vec![crate::formats::FileFormat::Dds];
+        let request =
+            BuildRequest { config, only: Some(vec!["karis".into()]), out: dir.path().to_path_buf(), error_maps: false };
+        build(&request, &()).unwrap();
+        let folder = LutFolder::open(dir.path()).unwrap();
+        let listed: Vec<&str> = folder.manifest.files.keys().map(String::as_str).collect();
+        assert_eq!(listed, ["gd.dds", "karis.dds"]);
+        assert!(!dir.path().join("karis.exr").exists());
+        assert!(dir.path().join("gd.dds").exists());
+        let findings = check_folder(dir.path(), &Budgets::default()).unwrap();
+        assert!(findings.iter().all(|f| f.pass), "{findings:?}");
     }
 }

@@ -128,8 +128,10 @@ pub fn write_jobs(
     let staged_maps = staging.dir.join(MAPS_FOLDER);
     let mut staged = Vec::new();
     let mut moves = Vec::new();
+    let mut rebuilt = std::collections::BTreeSet::new();
     for job in jobs {
         let build = (job.run)(progress)?;
+        rebuilt.insert(build.table.name.clone());
         let first_file = staged.len();
         for &format in &job.output.formats {
             staged.push(write_table_file(&staging.dir, &build, format, job.output.precision)?);
@@ -159,6 +161,19 @@ pub fn write_jobs(
             moves.extend(maps.iter().map(|path| same_name(path, Some(MAPS_FOLDER))));
         }
     }
+    // The earlier entries of every table built again describe an earlier build: a file in a
+    // format no longer asked for would stay listed beside the new ones and disagree with them.
+    // They leave the manifest, and their files the folder, in the same commit.
+    let mut removals = Vec::new();
+    manifest.files.retain(|name, entry| {
+        if !rebuilt.contains(&entry.table) {
+            return true;
+        }
+        removals.push(name.clone());
+        let shaders = entry.packing.iter().flat_map(|p| &p.shaders).chain(entry.fit.iter().flat_map(|f| &f.shaders));
+        removals.extend(shaders.map(|shader| shader.file.clone()));
+        false
+    });
     let mut written = Vec::new();
     for file in staged {
         let name = file_name(&file.path);
@@ -170,7 +185,10 @@ pub fn write_jobs(
         manifest.scene = scene;
     }
     manifest.write(&staging.dir)?;
-    crate::commit::commit(&folder, &mut staging, moves)?;
+    removals.retain(|file| !moves.iter().any(|m| &m.destination == file));
+    removals.sort();
+    removals.dedup();
+    crate::commit::commit(&folder, &mut staging, moves, removals)?;
     Ok(written)
 }
 
