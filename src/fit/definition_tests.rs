@@ -270,7 +270,7 @@ fn parse_shader(text: &str) -> HashMap<String, Function> {
     while p.peek().is_some() {
         let first = p.name();
         let wgsl = first == "fn";
-        let name = if wgsl { p.name() } else { p.name() };
+        let name = p.name();
         p.expect("(");
         let mut parameters = Vec::new();
         while !p.eat(")") {

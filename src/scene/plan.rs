@@ -229,7 +229,9 @@ fn note_index_matched(material: &super::Material, left_out: &mut Vec<LeftOutReco
     }
 }
 
-/// What a planned table is built from.
+/// What a planned table is built from. A plan holds a handful of these, so the size of the largest
+/// settings costs nothing worth a box.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum PlannedBuild {
     Fgd(FgdSettings),
