@@ -17,7 +17,7 @@ use crate::table::Table;
 /// What the report measures.
 #[derive(Debug, Clone)]
 pub struct ReportSettings {
-    /// Random query points, uniform over the table's range (at least 10^5 for the figures).
+    /// Random query points, uniform over the table's range.
     pub points: usize,
     /// Of those, how many are also compared with the integral (0: none).
     pub reference_points: usize,

@@ -1,4 +1,4 @@
-//! The stiff points of issue #8, as data. Each list holds both ends of its domain, values a rounding
+//! The stiff points of every domain, as data. Each list holds both ends of its domain, values a rounding
 //! step away from them, and the points where formulas change regime (eta = 1, the critical angle).
 
 /// GGX roughness: smooth (a Dirac), vanishingly rough, the reference's clamp (1e-4), rough.

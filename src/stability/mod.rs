@@ -1,4 +1,4 @@
-//! The stiff-case matrix (issue #8): every physics function and every table recipe evaluated at the
+//! The stiff-case matrix: every physics function and every table recipe evaluated at the
 //! edges of its domain, each result held to named properties (finite, in range, the right limit,
 //! continuous where physics is, the f32 path agreeing with the f64 one, surviving half-float
 //! storage), and a readable report of all of it.
