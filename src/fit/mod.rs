@@ -9,6 +9,8 @@ pub mod dual;
 pub mod forms;
 #[cfg(feature = "generator")]
 pub mod least_squares;
+#[cfg(feature = "generator")]
+pub mod summary;
 
 pub use forms::{ALL_FORMS, Form, ShaderLanguage};
 #[cfg(feature = "generator")]
