@@ -34,8 +34,7 @@ pub struct BuildRequest {
     pub error_maps: bool,
 }
 
-/// The subfolder of an output folder that holds error maps.
-pub const MAPS_FOLDER: &str = "maps";
+pub use crate::commit::MAPS_FOLDER;
 
 /// One file a build wrote.
 #[derive(Debug, Clone)]

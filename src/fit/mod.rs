@@ -9,6 +9,7 @@ pub mod dual;
 pub mod forms;
 #[cfg(feature = "generator")]
 pub mod least_squares;
+pub mod real;
 #[cfg(feature = "generator")]
 pub mod summary;
 
