@@ -38,8 +38,11 @@ const STAGING_PREFIX: &str = ".tmlut-staging-";
 /// The temporary files of [`crate::formats::write_atomically`] are `.<name>.tmp-<pid>`.
 const TEMPORARY_MARKER: &str = ".tmp-";
 
+/// The subfolder of an output folder that holds error maps.
+pub const MAPS_FOLDER: &str = "maps";
+
 /// Subfolders a build may write into (error maps); every other destination is a plain file name.
-const SUBFOLDERS: &[&str] = &[crate::pipeline::MAPS_FOLDER];
+const SUBFOLDERS: &[&str] = &[MAPS_FOLDER];
 
 /// An output folder held by this build: created if needed, locked, and cleared of what earlier
 /// builds left (an interrupted commit completed, abandoned staging folders removed).

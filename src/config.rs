@@ -26,38 +26,95 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::formats::{FileFormat, Precision};
 use crate::recipes::TableRecipe;
-use crate::recipes::{
-    belcour::BelcourSettings, fgd::FgdSettings, gd::GdSettings, karis::KarisSettings, tir::TirSettings,
+pub use crate::recipes::settings::{
+    MAX_NODES_PER_AXIS, OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range,
 };
 
-/// Nodes per axis above which a table would not fit a GPU texture dimension (Direct3D 12 allows
-/// 16384 for 2D textures, 2048 for volumes) nor memory.
-pub const MAX_NODES_PER_AXIS: usize = 16384;
+/// The registry of tables: one line per table, in build order, as `section: Kind => module::Settings`.
+/// The section is the table's name, its TOML section and its recipe module under `recipes/`.
+///
+/// From this list come the [`Config`] fields, [`TableKind`] (whose matches are exhaustive, so a
+/// table added here and forgotten elsewhere does not compile) and the iteration over every
+/// table's recipe that validation, the pipeline, the reports and the CLI use.
+macro_rules! table_registry {
+    ($($section:ident: $kind:ident => $settings:ty),+ $(,)?) => {
+        #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+        #[serde(deny_unknown_fields, default)]
+        pub struct Config {
+            /// Seed of every Monte Carlo estimate: the same configuration and seed give bit-identical files.
+            pub seed: u64,
+            $(pub $section: $settings,)+
+        }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Config {
-    /// Seed of every Monte Carlo estimate: the same configuration and seed give bit-identical files.
-    pub seed: u64,
-    pub fgd: FgdSettings,
-    pub gd: GdSettings,
-    pub tir: TirSettings,
-    pub belcour: BelcourSettings,
-    pub karis: KarisSettings,
+        impl Default for Config {
+            fn default() -> Self {
+                Config { seed: DEFAULT_SEED, $($section: <$settings>::default(),)+ }
+            }
+        }
+
+        /// One table tmlut knows.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum TableKind {
+            $($kind,)+
+        }
+
+        impl TableKind {
+            /// Every table, in build order.
+            pub const ALL: &'static [TableKind] = &[$(TableKind::$kind,)+];
+
+            /// The table's name: its TOML section, its file stem and its `--only` name.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(TableKind::$kind => stringify!($section),)+
+                }
+            }
+        }
+
+        impl Config {
+            /// The settings of one table.
+            pub fn recipe(&self, kind: TableKind) -> &dyn TableRecipe {
+                match kind {
+                    $(TableKind::$kind => &self.$section,)+
+                }
+            }
+
+            /// The settings of one table, to change.
+            pub fn recipe_mut(&mut self, kind: TableKind) -> &mut dyn TableRecipe {
+                match kind {
+                    $(TableKind::$kind => &mut self.$section,)+
+                }
+            }
+        }
+    };
 }
 
-impl Default for Config {
-    fn default() -> Self {
-        Config {
-            seed: 2021,
-            fgd: FgdSettings::default(),
-            gd: GdSettings::default(),
-            tir: TirSettings::default(),
-            belcour: BelcourSettings::default(),
-            karis: KarisSettings::default(),
-        }
+table_registry! {
+    fgd: Fgd => crate::recipes::fgd::FgdSettings,
+    gd: Gd => crate::recipes::gd::GdSettings,
+    tir: Tir => crate::recipes::tir::TirSettings,
+    belcour: Belcour => crate::recipes::belcour::BelcourSettings,
+    karis: Karis => crate::recipes::karis::KarisSettings,
+}
+
+/// The seed of a configuration that names none.
+pub const DEFAULT_SEED: u64 = 2021;
+
+impl TableKind {
+    /// The table called `name`.
+    pub fn named(name: &str) -> Option<TableKind> {
+        TableKind::ALL.iter().copied().find(|kind| kind.name() == name)
+    }
+
+    /// Every table's name, in build order.
+    pub fn names() -> Vec<&'static str> {
+        TableKind::ALL.iter().map(|kind| kind.name()).collect()
+    }
+}
+
+impl std::fmt::Display for TableKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -87,66 +144,51 @@ impl Config {
         }
     }
 
-    /// Every table's settings, in build order (the order of [`crate::recipes::TABLES`]).
-    pub fn recipes(&self) -> [&dyn crate::recipes::TableRecipe; 5] {
-        [&self.fgd, &self.gd, &self.tir, &self.belcour, &self.karis]
+    /// Every table's settings, in build order.
+    pub fn recipes(&self) -> impl Iterator<Item = &dyn TableRecipe> + '_ {
+        TableKind::ALL.iter().map(|&kind| self.recipe(kind))
     }
 
     /// The settings of the table called `name`.
-    pub fn recipe(&self, name: &str) -> Option<&dyn crate::recipes::TableRecipe> {
-        self.recipes().into_iter().find(|r| r.name() == name)
+    pub fn recipe_named(&self, name: &str) -> Option<&dyn TableRecipe> {
+        TableKind::named(name).map(|kind| self.recipe(kind))
     }
 
     /// Skip every table's reference and interpolation checks (for timing builds on their own).
     pub fn disable_reference_checks(&mut self) {
-        self.fgd.reference.cells = 0;
-        self.gd.reference.cells = 0;
-        self.tir.reference.cells = 0;
-        self.belcour.reference.cells = 0;
-        self.karis.reference.cells = 0;
+        for &kind in TableKind::ALL {
+            self.recipe_mut(kind).reference_mut().cells = 0;
+        }
         self.disable_interpolation_checks();
     }
 
     /// Skip every table's interpolation check (`recipes::interpolation`).
     pub fn disable_interpolation_checks(&mut self) {
-        self.fgd.interpolation.points = 0;
-        self.gd.interpolation.points = 0;
-        self.tir.interpolation.points = 0;
-        self.belcour.interpolation.points = 0;
-        self.karis.interpolation.points = 0;
+        for &kind in TableKind::ALL {
+            self.recipe_mut(kind).interpolation_mut().points = 0;
+        }
     }
 
     /// Use `method` for every table.
     pub fn set_method(&mut self, method: crate::integrate::Method) {
-        self.fgd.method = method;
-        self.gd.method = method;
-        self.tir.method = method;
-        self.belcour.method = method;
-        self.karis.method = method;
+        for &kind in TableKind::ALL {
+            *self.recipe_mut(kind).method_mut() = method;
+        }
     }
 
     pub fn validate(&self) -> Result<()> {
-        self.fgd.validate()?;
-        self.gd.validate()?;
-        self.tir.validate()?;
-        self.belcour.validate()?;
-        self.karis.validate()?;
+        for recipe in self.recipes() {
+            recipe.validate()?;
+        }
         for recipe in self.recipes() {
             crate::recipes::check_demand(recipe)?;
         }
         // A table with no format writes nothing, unless it has other outputs: FGD's packed
         // textures, TIR's fitted form.
-        let tir_fit = self.tir.fit == crate::recipes::tir::TirFit::Best;
-        for (name, output, other_outputs) in [
-            (self.fgd.name(), &self.fgd.output, !self.fgd.packings.is_empty()),
-            (self.gd.name(), &self.gd.output, false),
-            (self.tir.name(), &self.tir.output, tir_fit),
-            (self.belcour.name(), &self.belcour.output, false),
-            (self.karis.name(), &self.karis.output, false),
-        ] {
-            if output.formats.is_empty() && !other_outputs {
+        for recipe in self.recipes() {
+            if recipe.output().formats.is_empty() && !recipe.companions().writes_files() {
                 return Err(Error::invalid(
-                    format!("{name}.output.formats"),
+                    format!("{}.output.formats", recipe.name()),
                     "[] writes no file of this table; give at least one format, or leave the table out of the \
                      build with --only",
                 ));
@@ -159,117 +201,6 @@ impl Config {
 /// toml's messages span several lines with a source excerpt; keep them, but on one line each.
 pub(crate) fn clean_toml_error(error: &toml::de::Error) -> String {
     error.to_string().lines().map(str::trim_end).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" | ")
-}
-
-/// How many Monte Carlo samples each cell gets.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SamplingConfig {
-    /// Samples per cell: a power of two.
-    pub samples: u64,
-    /// Independent scrambles the samples are split into (their spread is the error estimate).
-    pub replicates: u32,
-}
-
-impl SamplingConfig {
-    pub fn validate(&self, key: &str) -> Result<()> {
-        crate::sampling::sequence::SamplePlan::new(self.samples, self.replicates)
-            .map_err(|e| Error::invalid(format!("{key}.samples"), strip_key(&e)))?;
-        // Replicates split the samples into equal power-of-two prefixes of the Sobol sequence; a
-        // count that is not a power of two would silently become the next one.
-        if !self.replicates.is_power_of_two() || self.replicates as u64 > self.samples {
-            return Err(Error::invalid(
-                format!("{key}.replicates"),
-                format!(
-                    "{}; allowed: a power of two from 1 to the number of samples ({}); more are used where a \
-                     replicate would exceed 2^16 points",
-                    self.replicates, self.samples
-                ),
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// The independent check of a table: cells re-estimated with many more samples.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ReferenceConfig {
-    /// Cells checked (0 skips the check).
-    pub cells: usize,
-    /// Samples per reference cell: a power of two.
-    pub samples: u64,
-}
-
-impl ReferenceConfig {
-    pub fn validate(&self, key: &str) -> Result<()> {
-        if self.cells > 0 {
-            crate::sampling::sequence::SamplePlan::new(self.samples, 1)
-                .map_err(|e| Error::invalid(format!("{key}.samples"), strip_key(&e)))?;
-        }
-        Ok(())
-    }
-}
-
-/// Which files a table is written to.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OutputConfig {
-    pub formats: Vec<FileFormat>,
-    /// Precision of DDS and EXR files (`.bin` is always f32).
-    pub precision: Precision,
-}
-
-impl OutputConfig {
-    pub fn validate(&self, key: &str, allowed: &[FileFormat]) -> Result<()> {
-        for (k, format) in self.formats.iter().enumerate() {
-            if self.formats[..k].contains(format) {
-                return Err(Error::invalid(
-                    format!("{key}.formats"),
-                    format!("`{}` is listed twice; each format is written once", format.extension()),
-                ));
-            }
-            if !allowed.contains(format) {
-                let names: Vec<&str> = allowed.iter().map(|f| f.extension()).collect();
-                return Err(Error::invalid(
-                    format!("{key}.formats"),
-                    format!("`{}` cannot hold this table; allowed: {}", format.extension(), names.join(", ")),
-                ));
-            }
-        }
-        Ok(())
-    }
-}
-
-/// A node count must be at least 2 (an axis interpolates between nodes) and at most
-/// [`MAX_NODES_PER_AXIS`].
-pub fn check_count(key: &str, count: usize) -> Result<()> {
-    if !(2..=MAX_NODES_PER_AXIS).contains(&count) {
-        return Err(Error::invalid(key, format!("{count}; allowed: 2 to {MAX_NODES_PER_AXIS} nodes")));
-    }
-    Ok(())
-}
-
-/// A `[lo, hi]` range inside [0, 1] with `lo < hi`.
-pub fn check_unit_range(key: &str, [lo, hi]: [f64; 2]) -> Result<()> {
-    if !lo.is_finite() || !hi.is_finite() {
-        return Err(Error::invalid(key, format!("[{lo}, {hi}] is not finite")));
-    }
-    if lo < 0.0 || hi > 1.0 {
-        return Err(Error::invalid(key, format!("[{lo}, {hi}] leaves [0, 1]; allowed: 0 <= lo < hi <= 1")));
-    }
-    if lo >= hi {
-        return Err(Error::invalid(key, format!("[{lo}, {hi}] is inverted or empty; allowed: lo < hi")));
-    }
-    Ok(())
-}
-
-/// The reason of an error without the key it was raised under, to re-raise it under another.
-fn strip_key(error: &Error) -> String {
-    match error {
-        Error::Invalid { reason, .. } => reason.clone(),
-        other => other.to_string(),
-    }
 }
 
 #[cfg(test)]

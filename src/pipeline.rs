@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::commit::{Move, OutputFolder};
-use crate::config::{Config, OutputConfig};
+use crate::config::{Config, OutputConfig, TableKind};
 use crate::error::{Error, Result};
 use crate::formats::manifest::{
     AxisEntry, ChannelSumStorage, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile,
@@ -19,7 +19,7 @@ use crate::formats::{self, FileFormat, Precision, SumRounding};
 use crate::integrate::Progress;
 use crate::model::folder::SampledTable;
 use crate::packing::{Filter, PackedFgd, Packing};
-use crate::recipes::{self, TableBuild, interpolation};
+use crate::recipes::{TableBuild, interpolation};
 use crate::stats::InterpolationError;
 use crate::table::Table;
 
@@ -34,8 +34,7 @@ pub struct BuildRequest {
     pub error_maps: bool,
 }
 
-/// The subfolder of an output folder that holds error maps.
-pub const MAPS_FOLDER: &str = "maps";
+pub use crate::commit::MAPS_FOLDER;
 
 /// One file a build wrote.
 #[derive(Debug, Clone)]
@@ -44,28 +43,59 @@ pub struct WrittenFile {
     pub entry: FileEntry,
 }
 
-/// Check table names against the tables tmlut knows.
-pub fn resolve_tables(only: Option<&[String]>) -> Result<Vec<&'static str>> {
-    let known: Vec<&'static str> = recipes::TABLES.iter().map(|(name, _)| *name).collect();
-    let Some(only) = only else { return Ok(known) };
+/// Check table names against the tables tmlut knows; `None` selects every table.
+pub fn resolve_tables(only: Option<&[String]>) -> Result<Vec<TableKind>> {
+    let known = || TableKind::names().join(", ");
+    let Some(only) = only else { return Ok(TableKind::ALL.to_vec()) };
     let mut selected = Vec::new();
     for name in only {
         let name = name.trim();
-        match known.iter().find(|k| **k == name) {
-            Some(k) if !selected.contains(k) => selected.push(*k),
+        match TableKind::named(name) {
+            Some(kind) if !selected.contains(&kind) => selected.push(kind),
             Some(_) => {}
             None => {
-                return Err(Error::invalid(
-                    "--only",
-                    format!("unknown table `{name}`; known tables: {}", known.join(", ")),
-                ));
+                return Err(Error::invalid("--only", format!("unknown table `{name}`; known tables: {}", known())));
             }
         }
     }
     if selected.is_empty() {
-        return Err(Error::invalid("--only", format!("no table named; known tables: {}", known.join(", "))));
+        return Err(Error::invalid("--only", format!("no table named; known tables: {}", known())));
     }
     Ok(selected)
+}
+
+/// What a build wrote, one line per file with its size, build time and error estimates, then
+/// indented lines for its interpolation errors and accuracy figures: the summary `tmlut build`
+/// prints.
+pub fn summary(written: &[WrittenFile]) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    for file in written {
+        let e = &file.entry;
+        let reference = e.error.integration.reference.as_ref().map_or(String::new(), |r| {
+            format!(", reference max |diff| {:.2e} ({} values)", r.difference.max, r.difference.count)
+        });
+        let _ = writeln!(
+            out,
+            "{}  {} bytes  built in {:.2} s, replicate s.e. max {:.2e}{reference}",
+            file.path.display(),
+            e.bytes,
+            e.wall_time_s,
+            e.error.integration.replicate_standard_error.max,
+        );
+        for interpolation in &e.error.interpolation {
+            let _ = writeln!(
+                out,
+                "    interpolated vs the exact integral, {}: RMS {:.2e}, max {:.2e}",
+                interpolation.domain, interpolation.error.rms, interpolation.error.max
+            );
+        }
+        for accuracy in &e.accuracy {
+            let what = accuracy.what.split(['(', ';']).next().unwrap_or_default().trim_end();
+            let _ = writeln!(out, "    {what}: RMS {:.2e}, max {:.2e}", accuracy.error.rms, accuracy.error.max);
+        }
+    }
+    out
 }
 
 /// Integrates one table.
@@ -94,13 +124,14 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
     let seed = config.seed;
     let jobs = tables
         .into_iter()
-        .map(|name| {
-            let recipe = config.recipe(name).expect("resolve_tables admits known tables only");
+        .map(|kind| {
+            let recipe = config.recipe(kind);
+            let companions = recipe.companions();
             Job {
                 run: Box::new(move |progress| recipe.build(seed, progress)),
                 output: recipe.output().clone(),
-                packings: if name == recipes::fgd::NAME { config.fgd.packings.clone() } else { Vec::new() },
-                fit_seed: (name == recipes::tir::NAME && config.tir.fit == recipes::tir::TirFit::Best).then_some(seed),
+                packings: companions.packings,
+                fit_seed: companions.fitted_form.then_some(seed),
             }
         })
         .collect();
@@ -446,7 +477,7 @@ mod tests {
     fn unknown_tables_are_named_with_the_known_ones() {
         let err = resolve_tables(Some(&["karis".into(), "fdg".into()])).unwrap_err().to_string();
         assert!(err.contains("unknown table `fdg`") && err.contains("karis"), "{err}");
-        assert_eq!(resolve_tables(Some(&["karis".into(), "karis".into()])).unwrap(), vec!["karis"]);
+        assert_eq!(resolve_tables(Some(&["karis".into(), "karis".into()])).unwrap(), vec![TableKind::Karis]);
     }
 
     #[test]

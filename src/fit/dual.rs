@@ -5,7 +5,7 @@
 use std::cmp::Ordering;
 use std::ops::{Add, Sub};
 
-use super::forms::Real;
+use super::real::Real;
 
 /// The most parameters a dual number carries derivatives for.
 pub const MAX_PARAMETERS: usize = 10;

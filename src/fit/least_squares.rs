@@ -476,7 +476,7 @@ pub fn fit_for_build(
             language: extension.into(),
             file,
             function: "tmlut_tir".into(),
-            sha256: crate::pipeline::sha256_hex(text.as_bytes()),
+            sha256: crate::loader::sha256_hex(text.as_bytes()),
         });
         paths.push(path);
     }

@@ -9,6 +9,9 @@ pub mod dual;
 pub mod forms;
 #[cfg(feature = "generator")]
 pub mod least_squares;
+pub mod real;
+#[cfg(feature = "generator")]
+pub mod summary;
 
 pub use forms::{ALL_FORMS, Form, ShaderLanguage};
 #[cfg(feature = "generator")]

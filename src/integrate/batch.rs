@@ -19,13 +19,7 @@ use crate::physics::{MaskingShadowing, direction_from_cosine, smith_lambda};
 /// Points per block: small enough for the block's arrays to stay in the L1 cache.
 pub const BLOCK: usize = 512;
 
-/// The disk points of one replicate in structure-of-arrays form, f32.
-#[derive(Debug, Clone, Default)]
-pub struct DiskPointsF32 {
-    pub x: Vec<f32>,
-    pub y: Vec<f32>,
-    pub half_chord: Vec<f32>,
-}
+pub use crate::sampling::sequence::DiskPointsF32;
 
 /// The per-cell constants of the warp.
 #[derive(Debug, Clone, Copy)]

@@ -21,7 +21,7 @@ use std::sync::Mutex;
 
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use crate::error::{Error, Result};
-use crate::fit::Form;
+use crate::fit::forms::Form;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::formats::{FileFormat, dds};
 use crate::loader::LutFolder;

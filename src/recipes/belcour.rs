@@ -15,12 +15,12 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
 use super::{
     TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
     standard_error_map, table_points,
 };
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, Projection, cosine_measure, dot};
@@ -33,6 +33,8 @@ use crate::table::{Axis, Channel, Table};
 use super::fgd::{fresnel_kinks, projected_fresnel};
 
 pub const NAME: &str = "belcour";
+/// One line for `tmlut list`.
+pub const DESCRIPTION: &str = "Belcour-Bati-Barla 2020 split-sum with a Fresnel basis, 2D (n.v, roughness), 4 channels";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 4;
 /// The configuration keys of the node counts, axis 0 first.
@@ -265,6 +267,11 @@ pub fn basis() -> &'static FresnelBasis {
 
 impl TableRecipe for BelcourSettings {
     table_recipe_accessors!();
+
+    fn companions(&self) -> super::Companions {
+        use super::Companions;
+        Companions::default()
+    }
 
     fn kept_measure_intervals(&self) -> Option<usize> {
         Some(self.cosine_intervals)

@@ -18,12 +18,12 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
     ReferenceComparison, TableBuild, TableRecipe, compare_mu_alpha_groups_to_reference, random_cells, sampling_record,
     table_points,
 };
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, multiply_transposed};
@@ -35,6 +35,8 @@ use crate::stats::{ErrorRecord, ErrorSummary};
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "fgd";
+/// One line for `tmlut list`.
+pub const DESCRIPTION: &str = "directional albedo with exact Fresnel, 4D (mu, alpha, eta, kappa)";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 1;
 /// The configuration keys of the node counts, axis 0 first.
@@ -262,6 +264,11 @@ fn reference_check(
 
 impl TableRecipe for FgdSettings {
     table_recipe_accessors!();
+
+    fn companions(&self) -> super::Companions {
+        use super::Companions;
+        Companions { packings: self.packings.clone(), fitted_form: false }
+    }
 
     fn kept_measure_intervals(&self) -> Option<usize> {
         (self.method == Method::Fast).then_some(self.cosine_intervals)

@@ -13,12 +13,12 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
     TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
     standard_error_map, table_points,
 };
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
@@ -28,6 +28,8 @@ use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "gd";
+/// One line for `tmlut list`.
+pub const DESCRIPTION: &str = "microfacet albedo without Fresnel (separable Smith), 2D (mu, alpha)";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 1;
 /// The configuration keys of the node counts, axis 0 first.
@@ -100,6 +102,11 @@ fn albedo(settings: &GdSettings, method: Method, points: &PointSet, mu: f64, alp
 
 impl TableRecipe for GdSettings {
     table_recipe_accessors!();
+
+    fn companions(&self) -> super::Companions {
+        use super::Companions;
+        Companions::default()
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         albedo(self, Method::PerCell, points, position[0], position[1])

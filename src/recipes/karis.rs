@@ -17,12 +17,12 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
 use super::{
     TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
     standard_error_map, table_points,
 };
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision, SumRounding};
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
@@ -32,6 +32,9 @@ use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "karis";
+/// One line for `tmlut list`.
+pub const DESCRIPTION: &str =
+    "Karis split-sum environment BRDF (UE4): scale and bias of F0 under Schlick Fresnel, 2D (n.v, roughness)";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 2;
 /// The configuration keys of the node counts, axis 0 first.
@@ -120,6 +123,11 @@ fn split_sum_terms(masking: MaskingShadowing, method: Method, points: &PointSet,
 
 impl TableRecipe for KarisSettings {
     table_recipe_accessors!();
+
+    fn companions(&self) -> super::Companions {
+        use super::Companions;
+        Companions::default()
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         split_sum_terms(self.masking, Method::PerCell, points, position[0], position[1])

@@ -4,14 +4,39 @@
 //! was made (integrand, masking-shadowing model, sampler, samples, seed, wall time, error
 //! estimates) that the manifest publishes beside every file.
 
-/// The part of a [`TableRecipe`] impl that every table's settings share: the name constant, the
-/// inherent `axes`, the `sampling` and `output` fields, and the module's `CHANNEL_COUNT` and `build`. Used
-/// inside `impl TableRecipe for ...Settings`, so that each impl states only what differs
-/// (`estimate_node`).
+/// The part of a [`TableRecipe`] impl that every table's settings share: the module's `NAME`,
+/// `DESCRIPTION`, `CHANNEL_COUNT`, `COUNT_KEYS` and `build`, the inherent `axes` and `validate`,
+/// and the `method`, `sampling`, `reference`, `interpolation` and `output` fields. Used inside
+/// `impl TableRecipe for ...Settings`, so that each impl states only what differs
+/// (`estimate_node`, `companions`).
 macro_rules! table_recipe_accessors {
     () => {
         fn name(&self) -> &'static str {
             NAME
+        }
+
+        fn description(&self) -> &'static str {
+            DESCRIPTION
+        }
+
+        fn validate(&self) -> Result<()> {
+            Self::validate(self)
+        }
+
+        fn method_mut(&mut self) -> &mut Method {
+            &mut self.method
+        }
+
+        fn sampling_mut(&mut self) -> &mut SamplingConfig {
+            &mut self.sampling
+        }
+
+        fn reference_mut(&mut self) -> &mut ReferenceConfig {
+            &mut self.reference
+        }
+
+        fn interpolation_mut(&mut self) -> &mut super::interpolation::InterpolationConfig {
+            &mut self.interpolation
         }
 
         fn axes(&self) -> Result<Vec<Axis>> {
@@ -57,6 +82,7 @@ pub mod fgd;
 pub mod gd;
 pub mod interpolation;
 pub mod karis;
+pub mod settings;
 pub mod slices;
 pub mod spacing;
 pub mod split_sum;
@@ -71,32 +97,47 @@ use crate::sampling::sequence::{PointSet, SamplePlan};
 pub use crate::stats::{AccuracyReport, ErrorRecord, ErrorSummary, ReferenceComparison};
 use crate::table::Table;
 
-/// Every table tmlut knows, with a one-line description, in build order.
-pub const TABLES: &[(&str, &str)] = &[
-    (fgd::NAME, "directional albedo with exact Fresnel, 4D (mu, alpha, eta, kappa)"),
-    (gd::NAME, "microfacet albedo without Fresnel (separable Smith), 2D (mu, alpha)"),
-    (tir::NAME, "share of a lobe lost to total internal reflection, 3D (mu, alpha, eta < 1)"),
-    (belcour::NAME, "Belcour-Bati-Barla 2020 split-sum with a Fresnel basis, 2D (n.v, roughness), 4 channels"),
-    (
-        karis::NAME,
-        "Karis split-sum environment BRDF (UE4): scale and bias of F0 under Schlick Fresnel, 2D (n.v, roughness)",
-    ),
-];
+/// Files a table writes beside its own, each from the table as built.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Companions {
+    /// Volume-texture packings of the table with their shader lookups (FGD).
+    pub packings: Vec<crate::packing::Packing>,
+    /// The analytic form fitted to the table, written as shader functions (TIR with `fit = "best"`;
+    /// `docs/fit.md`).
+    pub fitted_form: bool,
+}
 
-/// What the pipeline, the benchmark and the checks need of every table. Each table's settings
-/// implement it.
+impl Companions {
+    /// Whether any companion file is written.
+    pub fn writes_files(&self) -> bool {
+        !self.packings.is_empty() || self.fitted_form
+    }
+}
+
+/// What the configuration, the pipeline, the reports and the CLI need of every table. Each table's
+/// settings implement it; the registry in [`crate::config`] lists them.
 pub trait TableRecipe: Sync {
     fn name(&self) -> &'static str;
+    /// One line for `tmlut list`.
+    fn description(&self) -> &'static str;
+    /// Refuse settings out of range, naming the key and what is allowed.
+    fn validate(&self) -> crate::error::Result<()>;
+    /// Files written beside the table's own.
+    fn companions(&self) -> Companions;
     /// The axes of the table these settings describe.
     fn axes(&self) -> crate::error::Result<Vec<crate::table::Axis>>;
-    fn sampling(&self) -> crate::config::SamplingConfig;
-    fn reference(&self) -> crate::config::ReferenceConfig;
-    fn output(&self) -> &crate::config::OutputConfig;
+    fn sampling(&self) -> settings::SamplingConfig;
+    fn reference(&self) -> settings::ReferenceConfig;
+    fn output(&self) -> &settings::OutputConfig;
     /// Channels of the table.
     fn channel_count(&self) -> usize;
     /// The configuration keys of the node counts, axis 0 first (`mu_count`, ...).
     fn count_keys(&self) -> &'static [&'static str];
     fn method(&self) -> Method;
+    fn method_mut(&mut self) -> &mut Method;
+    fn sampling_mut(&mut self) -> &mut settings::SamplingConfig;
+    fn reference_mut(&mut self) -> &mut settings::ReferenceConfig;
+    fn interpolation_mut(&mut self) -> &mut interpolation::InterpolationConfig;
     /// Hat intervals of the visible-normal measure the build keeps for every `(mu, alpha)` node and
     /// replicate at once, if it keeps one (FGD's fast path, Belcour's accuracy report).
     fn kept_measure_intervals(&self) -> Option<usize> {
@@ -295,7 +336,7 @@ pub(crate) fn sampling_record(method: Method, description: &str, points: &PointS
 }
 
 /// The point set of a table's own samples.
-pub(crate) fn table_points(sampling: &crate::config::SamplingConfig, seed: u64) -> crate::error::Result<PointSet> {
+pub(crate) fn table_points(sampling: &settings::SamplingConfig, seed: u64) -> crate::error::Result<PointSet> {
     Ok(PointSet::new(SamplePlan::new(sampling.samples, sampling.replicates)?, seed))
 }
 
@@ -360,7 +401,7 @@ pub fn reference_points(samples: u64, seed: u64) -> crate::error::Result<std::sy
 pub(crate) fn compare_to_reference(
     recipe: &dyn TableRecipe,
     table: &Table,
-    reference: &crate::config::ReferenceConfig,
+    reference: &settings::ReferenceConfig,
     seed: u64,
     progress: &dyn Progress,
 ) -> crate::error::Result<Option<ReferenceComparison>> {
@@ -377,7 +418,7 @@ pub(crate) fn compare_to_reference(
 pub(crate) fn compare_nodes_to_reference(
     estimate_node: impl Fn(&PointSet, &[f64]) -> Estimate + Sync,
     table: &Table,
-    reference: &crate::config::ReferenceConfig,
+    reference: &settings::ReferenceConfig,
     seed: u64,
     progress: &dyn Progress,
 ) -> crate::error::Result<Option<ReferenceComparison>> {
@@ -408,7 +449,7 @@ pub const REFERENCE_CELLS_PER_MU_ALPHA: usize = 4;
 pub(crate) fn compare_mu_alpha_groups_to_reference(
     estimate_group: impl Fn(&PointSet, &[Vec<f64>]) -> Vec<Estimate> + Sync,
     table: &Table,
-    reference: &crate::config::ReferenceConfig,
+    reference: &settings::ReferenceConfig,
     seed: u64,
     progress: &dyn Progress,
 ) -> crate::error::Result<Option<ReferenceComparison>> {
@@ -428,7 +469,7 @@ fn compare_groups_to_reference(
     estimate_group: impl Fn(&PointSet, &[Vec<f64>]) -> Vec<Estimate> + Sync,
     table: &Table,
     groups: &[Vec<u64>],
-    reference: &crate::config::ReferenceConfig,
+    reference: &settings::ReferenceConfig,
     seed: u64,
     progress: &dyn Progress,
 ) -> crate::error::Result<Option<ReferenceComparison>> {
@@ -529,8 +570,8 @@ mod tests {
             alpha_count: 5,
             eta_count: 4,
             kappa_count: 3,
-            sampling: crate::config::SamplingConfig { samples: 1 << 10, replicates: 4 },
-            reference: crate::config::ReferenceConfig { cells: 13, samples: 1 << 12 },
+            sampling: settings::SamplingConfig { samples: 1 << 10, replicates: 4 },
+            reference: settings::ReferenceConfig { cells: 13, samples: 1 << 12 },
             replicate_error_columns: 4,
             ..fgd::FgdSettings::default()
         };

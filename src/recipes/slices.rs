@@ -18,12 +18,12 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::fgd::{FgdSettings, projected_fresnel};
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::tir::{TirSettings, tir_cell, tir_column};
 use super::{
     TableBuild, compare_nodes_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, standard_error_map,
     table_points,
 };
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::integrate::measure::Projection;

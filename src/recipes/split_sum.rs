@@ -5,8 +5,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::settings::{check_count, check_unit_range};
 pub use super::spacing::RoughnessAxis;
-use crate::config::{check_count, check_unit_range};
 use crate::error::Result;
 use crate::table::Axis;
 

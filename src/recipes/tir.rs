@@ -23,12 +23,12 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
     TableBuild, TableRecipe, compare_mu_alpha_groups_to_reference, replicate_error, sampling_record,
     standard_error_map, table_points,
 };
-use crate::config::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::batch::{CellWarp, for_each_block};
@@ -41,6 +41,8 @@ use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Mapping, Table, derived};
 
 pub const NAME: &str = "tir";
+/// One line for `tmlut list`.
+pub const DESCRIPTION: &str = "share of a lobe lost to total internal reflection, 3D (mu, alpha, eta < 1)";
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 1;
 /// The configuration keys of the node counts, axis 0 first.
@@ -308,6 +310,11 @@ pub(crate) fn tir_cells_at_mu_alpha(mu: f64, alpha: f64, etas: &[f64], points: &
 
 impl TableRecipe for TirSettings {
     table_recipe_accessors!();
+
+    fn companions(&self) -> super::Companions {
+        use super::Companions;
+        Companions { packings: Vec::new(), fitted_form: self.fit == TirFit::Best }
+    }
 
     /// The top node (eta = 1) is evaluated at `top_eta`, as in the table.
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {

@@ -8,7 +8,7 @@
 use std::fmt::Write;
 use std::time::Instant;
 
-use crate::config::Config;
+use crate::config::{Config, TableKind};
 use crate::error::Result;
 use crate::integrate::{Progress, estimate_cells};
 use crate::recipes::{TableRecipe, random_cells, reference_points, table_points};
@@ -157,18 +157,13 @@ pub fn bench_table(
 /// Benchmark the named tables, their builds timed without their own reference checks.
 pub fn bench(
     config: &Config,
-    only: &[&str],
+    only: &[TableKind],
     settings: &BenchSettings,
     progress: &dyn Progress,
 ) -> Result<Vec<BenchRow>> {
     let mut config = config.clone();
     config.disable_reference_checks();
-    only.iter()
-        .map(|name| {
-            let recipe = config.recipe(name).expect("names were resolved");
-            bench_table(recipe, config.seed, settings, progress)
-        })
-        .collect()
+    only.iter().map(|&kind| bench_table(config.recipe(kind), config.seed, settings, progress)).collect()
 }
 
 /// The rows as a Markdown table, with the settings they were measured under.
@@ -239,7 +234,7 @@ mod tests {
         .unwrap();
         let settings =
             BenchSettings { repeats: 1, nodes: 20, reference_samples: 1 << 18, per_cell_nodes: 4, min_mu_alpha: 0.05 };
-        let row = bench(&config, &["gd"], &settings, &()).unwrap().remove(0);
+        let row = bench(&config, &[crate::config::TableKind::Gd], &settings, &()).unwrap().remove(0);
         assert_eq!(row.fast_error.count, 20);
         assert!(row.fast_error.max < 1e-3 && row.per_cell_error.max < 1e-3, "{row:?}");
         assert!(row.per_cell_seconds_per_node > 0.0 && row.fast_median_s() > 0.0);

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::plot::{Series, loglog_png};
-use crate::config::{Config, SamplingConfig};
+use crate::config::{Config, SamplingConfig, TableKind};
 use crate::error::{Error, Result};
 use crate::formats::write_bytes_atomically;
 use crate::integrate::{Progress, estimate_cells};
@@ -56,10 +56,10 @@ pub fn converge(
 ) -> Result<Vec<ConvergencePoint>> {
     let mut config = config.clone();
     config.disable_reference_checks();
-    let recipe = config.recipe(table).ok_or_else(|| {
-        let known: Vec<&str> = crate::recipes::TABLES.iter().map(|(n, _)| *n).collect();
-        Error::invalid("TABLE", format!("unknown table `{table}`; known tables: {}", known.join(", ")))
+    let kind = TableKind::named(table).ok_or_else(|| {
+        Error::invalid("TABLE", format!("unknown table `{table}`; known tables: {}", TableKind::names().join(", ")))
     })?;
+    let recipe = config.recipe(kind);
     let axes = recipe.axes()?;
     let node_count: usize = axes.iter().map(|a| a.count).product();
     let shape = crate::table::Table::zeros("shape", axes, vec![crate::table::Channel::new("v", "")])?;
@@ -76,8 +76,8 @@ pub fn converge(
     for &samples in &settings.samples {
         let mut config = config.clone();
         let sampling = SamplingConfig { samples, replicates: recipe.sampling().replicates.min(samples as u32) };
-        set_sampling(&mut config, table, sampling);
-        let recipe = config.recipe(table).expect("known table");
+        *config.recipe_mut(kind).sampling_mut() = sampling;
+        let recipe = config.recipe(kind);
         sampling.validate(table)?;
 
         // The fast build of the whole table.
@@ -124,17 +124,6 @@ pub fn converge(
         });
     }
     Ok(points)
-}
-
-fn set_sampling(config: &mut Config, table: &str, sampling: SamplingConfig) {
-    match table {
-        crate::recipes::fgd::NAME => config.fgd.sampling = sampling,
-        crate::recipes::gd::NAME => config.gd.sampling = sampling,
-        crate::recipes::tir::NAME => config.tir.sampling = sampling,
-        crate::recipes::belcour::NAME => config.belcour.sampling = sampling,
-        crate::recipes::karis::NAME => config.karis.sampling = sampling,
-        _ => {}
-    }
 }
 
 /// The sweep as CSV, one row per method and sample count.

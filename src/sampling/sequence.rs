@@ -9,7 +9,6 @@
 //! never on which thread uses them.
 
 use crate::error::{Error, Result};
-use crate::integrate::batch::DiskPointsF32;
 use crate::sampling::DiskPoint;
 use rayon::prelude::*;
 
@@ -70,6 +69,14 @@ pub fn scramble_seed(seed: u64, stream: u64, replicate: u32) -> u32 {
 pub fn sobol_point_2d(index: u32, scramble: u32) -> [f64; 2] {
     debug_assert!(index < MAX_POINTS_PER_REPLICATE);
     [sobol_burley::sample(index, 0, scramble) as f64, sobol_burley::sample(index, 1, scramble) as f64]
+}
+
+/// The disk points of one replicate in structure-of-arrays form, f32.
+#[derive(Debug, Clone, Default)]
+pub struct DiskPointsF32 {
+    pub x: Vec<f32>,
+    pub y: Vec<f32>,
+    pub half_chord: Vec<f32>,
 }
 
 /// The disk points of a sample plan, replicate after replicate, drawn for one seed.

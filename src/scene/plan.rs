@@ -282,6 +282,17 @@ pub struct Plan {
 }
 
 impl Plan {
+    /// One line: the tables of the plan and their bytes against the default set's.
+    pub fn summary(&self) -> String {
+        format!(
+            "scene `{}`: {} table(s), {} of texels against {} for the default set",
+            self.scene,
+            self.tables.len(),
+            human_bytes(self.bytes),
+            human_bytes(self.default_set_bytes)
+        )
+    }
+
     pub fn record(&self) -> PlanRecord {
         PlanRecord {
             tables: self.tables.iter().map(|t| t.record.clone()).collect(),
@@ -474,7 +485,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     }
 
     let bytes = tables.iter().map(|t| t.record.bytes).sum();
-    let default_set_bytes = config.recipes().iter().map(|r| recipe_texel_bytes(*r)).sum::<Result<u64>>()?;
+    let default_set_bytes = config.recipes().map(recipe_texel_bytes).sum::<Result<u64>>()?;
     Ok(Plan {
         scene: scene.name.clone(),
         lookups,

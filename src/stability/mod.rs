@@ -23,6 +23,7 @@ mod proptests;
 
 use std::fmt::Write as _;
 
+use crate::config::TableKind;
 use crate::error::{Error, Result};
 pub use properties::{Check, Outcome};
 
@@ -188,12 +189,17 @@ impl Report {
 
 /// The parts of the matrix `--table` can select: the physics functions, one table, half-float
 /// storage, or the transfer-matrix model with its random walk.
-pub const SECTIONS: &[&str] = &["physics", "fgd", "gd", "tir", "belcour", "karis", "f16", "model"];
+pub fn sections() -> Vec<&'static str> {
+    let mut sections = vec!["physics"];
+    sections.extend(TableKind::names());
+    sections.extend(["f16", "model"]);
+    sections
+}
 
-/// Run the matrix: everything, or one section of [`SECTIONS`].
+/// Run the matrix: everything, or one section of [`sections`].
 pub fn run(section: Option<&str>) -> Result<Report> {
-    if let Some(name) = section.filter(|name| !SECTIONS.contains(name)) {
-        return Err(Error::invalid("--table", format!("`{name}`; allowed: {}", SECTIONS.join(", "))));
+    if let Some(name) = section.filter(|name| !sections().contains(name)) {
+        return Err(Error::invalid("--table", format!("`{name}`; allowed: {}", sections().join(", "))));
     }
     let started = std::time::Instant::now();
     let wanted = |name: &str| section.is_none_or(|s| s == name);
@@ -202,9 +208,9 @@ pub fn run(section: Option<&str>) -> Result<Report> {
         physics::run(&mut report);
     }
     let evaluation = tables::Evaluation::new()?;
-    for name in ["fgd", "gd", "tir", "belcour", "karis"] {
-        if wanted(name) {
-            tables::run(name, &evaluation, &mut report);
+    for &kind in TableKind::ALL {
+        if wanted(kind.name()) {
+            tables::run(kind, &evaluation, &mut report);
         }
     }
     if wanted("f16") {

@@ -1,0 +1,53 @@
+//! `tmlut bench`: build time and error of each table beside the per-cell method.
+
+use clap::Args;
+
+use tmlut::pipeline;
+use tmlut::report::bench::{self, BenchSettings};
+
+use super::{ConfigArg, Context, ThreadsArg, check_sample_count};
+
+/// Time each table's build and measure its error against per-cell references, beside the
+/// per-cell method on the same nodes. Prints a Markdown table.
+#[derive(Args)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Comma-separated tables (default: all).
+    #[arg(long, value_delimiter = ',')]
+    only: Option<Vec<String>>,
+    /// Builds per table; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    repeats: usize,
+    /// Random nodes compared with references.
+    #[arg(long, default_value_t = 300)]
+    nodes: usize,
+    /// Samples per reference node (a power of two).
+    #[arg(long, default_value_t = 1 << 22)]
+    reference_samples: u64,
+    /// Nodes the per-cell method runs on (the first of the compared nodes).
+    #[arg(long, default_value_t = 300)]
+    per_cell_nodes: usize,
+    #[command(flatten)]
+    threads: ThreadsArg,
+}
+
+pub fn exec(args: BenchArgs, context: &Context) -> tmlut::Result<()> {
+    let config = args.config.load()?;
+    args.threads.apply()?;
+    check_sample_count("--reference-samples", args.reference_samples)?;
+    let tables = pipeline::resolve_tables(args.only.as_deref())?;
+    let settings = BenchSettings {
+        repeats: args.repeats,
+        nodes: args.nodes,
+        reference_samples: args.reference_samples,
+        per_cell_nodes: args.per_cell_nodes,
+        ..BenchSettings::default()
+    };
+    let rows = bench::bench(&config, &tables, &settings, &context.progress())?;
+    print!("{}", bench::markdown(&rows, &settings, rayon::current_num_threads()));
+    if let Some(bytes) = bench::peak_memory_bytes() {
+        println!("Peak resident memory of the run: {:.0} MiB.", bytes as f64 / (1 << 20) as f64);
+    }
+    Ok(())
+}

@@ -1,0 +1,84 @@
+//! `tmlut build`: integrate tables, or a scene's plan, into a folder with its manifest.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use tmlut::integrate::Method;
+use tmlut::pipeline::{self, BuildRequest};
+use tmlut::scene::Scene;
+use tmlut::scene::build::{SceneBuildRequest, build_scene};
+
+use super::{ConfigArg, Context, ThreadsArg, one_of};
+
+/// Integrate tables and write them, with a manifest.json, into a folder.
+#[derive(Args)]
+pub struct BuildArgs {
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Comma-separated tables to build (default: all). See `tmlut list`.
+    #[arg(long, value_delimiter = ',')]
+    only: Option<Vec<String>>,
+    /// Output folder.
+    #[arg(long, default_value = "luts")]
+    out: PathBuf,
+    #[command(flatten)]
+    threads: ThreadsArg,
+    /// Seed of the Monte Carlo estimates, overriding the configuration's.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Integration method of every table, overriding the configuration's: `fast` (one
+    /// measure per (mu, alpha)) or `per-cell` (every cell on its own; slow, for cross-checks).
+    #[arg(long, value_parser = parse_method)]
+    method: Option<Method>,
+    /// Also write each table's error map: maps/<table>_error.exr (every node's replicate
+    /// standard error) and maps/<table>_error.png (heatmaps with a colour bar).
+    #[arg(long)]
+    error_maps: bool,
+    /// Build only what this scene's materials need (see `tmlut plan`); the configuration
+    /// still sets samples, masking and precision. Records the scene and plan in the manifest.
+    #[arg(long, conflicts_with = "only")]
+    scene: Option<PathBuf>,
+}
+
+fn parse_method(text: &str) -> Result<Method, String> {
+    one_of(text, &[("fast", Method::Fast), ("per-cell", Method::PerCell)])
+}
+
+pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
+    let mut config = args.config.load()?;
+    if let Some(seed) = args.seed {
+        config.seed = seed;
+    }
+    if let Some(method) = args.method {
+        config.set_method(method);
+    }
+    args.threads.apply()?;
+    let progress = context.progress();
+    let written = match args.scene {
+        Some(path) => {
+            let (scene, text) = Scene::read(&path)?;
+            let request = SceneBuildRequest {
+                scene,
+                source: path,
+                text,
+                config,
+                out: args.out,
+                error_maps: args.error_maps,
+                accuracy_reports: true,
+            };
+            let (plan, written) = build_scene(&request, &progress)?;
+            println!("{}", plan.summary());
+            for warning in &plan.warnings {
+                eprintln!("warning: {warning}");
+            }
+            written
+        }
+        None => {
+            let request = BuildRequest { config, only: args.only, out: args.out, error_maps: args.error_maps };
+            pipeline::build(&request, &progress)?
+        }
+    };
+    print!("{}", pipeline::summary(&written));
+    Ok(())
+}

@@ -1,0 +1,63 @@
+//! `tmlut converge`: error against run time for one table.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use tmlut::report::converge;
+
+use super::{ConfigArg, Context, ThreadsArg, check_sample_count};
+
+/// Error against run time: sweep the samples per cell (powers of two) for the fast build and
+/// the per-cell method, measure error on a fixed random subset against high-sample references,
+/// and write converge_TABLE.csv and converge_TABLE.png (log-log, one line per method).
+#[derive(Args)]
+pub struct ConvergeArgs {
+    /// The table to sweep.
+    #[arg(help = format!("The table to sweep: {}", tmlut::config::TableKind::names().join(", ")))]
+    table: String,
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Output folder of the CSV and the plot.
+    #[arg(long, default_value = "reports")]
+    out: PathBuf,
+    /// Smallest and largest samples per cell (powers of two).
+    #[arg(long, default_value_t = 256)]
+    samples_from: u64,
+    #[arg(long, default_value_t = 65536)]
+    samples_to: u64,
+    /// Cells of the fixed random subset the error is measured on.
+    #[arg(long, default_value_t = 64)]
+    cells: usize,
+    /// Samples per reference cell (a power of two).
+    #[arg(long, default_value_t = 1 << 20)]
+    reference_samples: u64,
+    #[command(flatten)]
+    threads: ThreadsArg,
+}
+
+pub fn exec(args: ConvergeArgs, context: &Context) -> tmlut::Result<()> {
+    let config = args.config.load()?;
+    args.threads.apply()?;
+    for (key, n) in [
+        ("--samples-from", args.samples_from),
+        ("--samples-to", args.samples_to),
+        ("--reference-samples", args.reference_samples),
+    ] {
+        check_sample_count(key, n)?;
+    }
+    if args.samples_from > args.samples_to || args.cells == 0 {
+        return Err(tmlut::Error::invalid(
+            "--samples-from/--samples-to/--cells",
+            "allowed: samples-from <= samples-to, at least one cell",
+        ));
+    }
+    let samples = (args.samples_from.trailing_zeros()..=args.samples_to.trailing_zeros()).map(|k| 1u64 << k).collect();
+    let settings = converge::ConvergeSettings { samples, cells: args.cells, reference_samples: args.reference_samples };
+    let points = converge::converge(&config, &args.table, &settings, &context.progress())?;
+    print!("{}", converge::csv(&points));
+    for path in converge::write(&args.out, &args.table, &points, &settings)? {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}

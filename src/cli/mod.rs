@@ -1,0 +1,182 @@
+//! The `tmlut` command line: one file per command, each its arguments (`#[derive(Args)]`) and its
+//! `exec`. The work and the rendering of results live in the library; this layer parses
+//! arguments, draws progress bars and turns errors into exit codes.
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use tmlut::config::Config;
+use tmlut::integrate::Progress;
+
+mod bench;
+mod build;
+mod check;
+mod converge;
+mod fit;
+mod furnace;
+mod inspect;
+mod list;
+mod pack_report;
+mod plan;
+mod stability;
+
+#[derive(Parser)]
+#[command(
+    name = "tmlut",
+    version,
+    about = "Integrate, write, check and inspect the lookup tables of transfer-matrix layered materials"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+    /// Print no progress bars, only results and errors.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Build(build::BuildArgs),
+    Plan(plan::PlanArgs),
+    Bench(bench::BenchArgs),
+    Check(check::CheckArgs),
+    Stability(stability::StabilityArgs),
+    PackReport(pack_report::PackReportArgs),
+    Converge(converge::ConvergeArgs),
+    Fit(fit::FitArgs),
+    Furnace(furnace::FurnaceArgs),
+    List(list::ListArgs),
+    Inspect(inspect::InspectArgs),
+}
+
+/// What every command may use besides its own arguments.
+pub struct Context {
+    /// `--quiet`: no progress bars, and shorter reports where a command has a long form.
+    pub quiet: bool,
+}
+
+impl Context {
+    pub fn progress(&self) -> ProgressBars {
+        ProgressBars::new(self.quiet)
+    }
+}
+
+pub fn run(cli: Cli) -> tmlut::Result<()> {
+    let context = Context { quiet: cli.quiet };
+    match cli.command {
+        Command::Build(args) => build::exec(args, &context),
+        Command::Plan(args) => plan::exec(args, &context),
+        Command::Bench(args) => bench::exec(args, &context),
+        Command::Check(args) => check::exec(args, &context),
+        Command::Stability(args) => stability::exec(args, &context),
+        Command::PackReport(args) => pack_report::exec(args, &context),
+        Command::Converge(args) => converge::exec(args, &context),
+        Command::Fit(args) => fit::exec(args, &context),
+        Command::Furnace(args) => furnace::exec(args, &context),
+        Command::List(args) => list::exec(args, &context),
+        Command::Inspect(args) => inspect::exec(args, &context),
+    }
+}
+
+/// `--config`: the TOML configuration of the tables, read by [`ConfigArg::load`], the one place
+/// every command reads it.
+#[derive(Args)]
+pub struct ConfigArg {
+    /// TOML configuration of the tables (every key optional; default: the built-in defaults, as
+    /// luts/default.toml spells them out).
+    #[arg(long)]
+    config: Option<PathBuf>,
+}
+
+impl ConfigArg {
+    pub fn load(&self) -> tmlut::Result<Config> {
+        Config::load(self.config.as_deref())
+    }
+}
+
+/// The most worker threads `--threads` starts: results do not depend on the count, and far more
+/// threads than cores only cost (each is started at once, with its own stack).
+const MAX_THREADS: usize = 1024;
+
+/// `--threads`: the size of the global worker pool.
+#[derive(Args)]
+pub struct ThreadsArg {
+    /// Worker threads (default: one per core). Results do not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+impl ThreadsArg {
+    pub fn apply(&self) -> tmlut::Result<()> {
+        let Some(threads) = self.threads else { return Ok(()) };
+        if !(1..=MAX_THREADS).contains(&threads) {
+            return Err(tmlut::Error::invalid("--threads", format!("{threads}; allowed: 1 to {MAX_THREADS}")));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build_global()
+            .map_err(|e| tmlut::Error::invalid("--threads", e.to_string()))
+    }
+}
+
+/// A sample count given on the command line must be a power of two.
+pub fn check_sample_count(key: &str, samples: u64) -> tmlut::Result<()> {
+    tmlut::sampling::sequence::SamplePlan::new(samples, 1)
+        .map(|_| ())
+        .map_err(|e| tmlut::Error::invalid(key, e.to_string()))
+}
+
+/// A value named by one of `names`, for clap's `value_parser`: the error lists what is allowed.
+pub fn one_of<T: Copy>(text: &str, choices: &[(&str, T)]) -> Result<T, String> {
+    choices.iter().find(|(name, _)| *name == text).map(|&(_, value)| value).ok_or_else(|| {
+        let names: Vec<&str> = choices.iter().map(|(name, _)| *name).collect();
+        format!("`{text}`; allowed: {}", names.join(", "))
+    })
+}
+
+/// One progress bar per long step, on standard error; nothing with `--quiet` or when standard
+/// error is not a terminal (indicatif hides itself there).
+pub struct ProgressBars {
+    quiet: bool,
+    bar: Mutex<Option<ProgressBar>>,
+}
+
+impl ProgressBars {
+    fn new(quiet: bool) -> Self {
+        ProgressBars { quiet, bar: Mutex::new(None) }
+    }
+}
+
+impl Progress for ProgressBars {
+    fn start(&self, label: &str, total: u64) {
+        if self.quiet {
+            return;
+        }
+        let bar = ProgressBar::new(total).with_message(label.to_string());
+        bar.set_style(
+            ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} cells, {elapsed} (eta {eta})")
+                .expect("the template is valid")
+                .progress_chars("=> "),
+        );
+        *self.bar.lock().expect("progress lock") = Some(bar);
+    }
+
+    fn advance(&self, done: u64) {
+        if let Some(bar) = &*self.bar.lock().expect("progress lock") {
+            bar.inc(done);
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = self.bar.lock().expect("progress lock").take() {
+            bar.finish_and_clear();
+        }
+    }
+
+    fn note(&self, message: &str) {
+        eprintln!("note: {message}");
+    }
+}

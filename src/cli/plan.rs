@@ -1,0 +1,27 @@
+//! `tmlut plan`: the tables a scene needs, and why.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use tmlut::scene::Scene;
+
+use super::{ConfigArg, Context};
+
+/// Print the build plan of a scene: the lookups its materials make, each table built with its
+/// size and reason, each table or range left out with its reason, and the total bytes against
+/// the default set. Integrates nothing.
+#[derive(Args)]
+pub struct PlanArgs {
+    /// Scene file (TOML; see luts/scenes/ and docs/scenes.md).
+    scene: PathBuf,
+    #[command(flatten)]
+    config: ConfigArg,
+}
+
+pub fn exec(args: PlanArgs, _: &Context) -> tmlut::Result<()> {
+    let config = args.config.load()?;
+    let (scene, _) = Scene::read(&args.scene)?;
+    print!("{}", tmlut::scene::plan::plan(&scene, &config)?);
+    Ok(())
+}

@@ -1,0 +1,122 @@
+//! The settings every table shares: its samples, its reference check, its output files, and the
+//! checks of node counts and ranges that every table's validation uses.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::formats::{FileFormat, Precision};
+
+/// Nodes per axis above which a table would not fit a GPU texture dimension (Direct3D 12 allows
+/// 16384 for 2D textures, 2048 for volumes) nor memory.
+pub const MAX_NODES_PER_AXIS: usize = 16384;
+
+/// How many Monte Carlo samples each cell gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SamplingConfig {
+    /// Samples per cell: a power of two.
+    pub samples: u64,
+    /// Independent scrambles the samples are split into (their spread is the error estimate).
+    pub replicates: u32,
+}
+
+impl SamplingConfig {
+    pub fn validate(&self, key: &str) -> Result<()> {
+        crate::sampling::sequence::SamplePlan::new(self.samples, self.replicates)
+            .map_err(|e| Error::invalid(format!("{key}.samples"), strip_key(&e)))?;
+        // Replicates split the samples into equal power-of-two prefixes of the Sobol sequence; a
+        // count that is not a power of two would silently become the next one.
+        if !self.replicates.is_power_of_two() || self.replicates as u64 > self.samples {
+            return Err(Error::invalid(
+                format!("{key}.replicates"),
+                format!(
+                    "{}; allowed: a power of two from 1 to the number of samples ({}); more are used where a \
+                     replicate would exceed 2^16 points",
+                    self.replicates, self.samples
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The independent check of a table: cells re-estimated with many more samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceConfig {
+    /// Cells checked (0 skips the check).
+    pub cells: usize,
+    /// Samples per reference cell: a power of two.
+    pub samples: u64,
+}
+
+impl ReferenceConfig {
+    pub fn validate(&self, key: &str) -> Result<()> {
+        if self.cells > 0 {
+            crate::sampling::sequence::SamplePlan::new(self.samples, 1)
+                .map_err(|e| Error::invalid(format!("{key}.samples"), strip_key(&e)))?;
+        }
+        Ok(())
+    }
+}
+
+/// Which files a table is written to.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputConfig {
+    pub formats: Vec<FileFormat>,
+    /// Precision of DDS and EXR files (`.bin` is always f32).
+    pub precision: Precision,
+}
+
+impl OutputConfig {
+    pub fn validate(&self, key: &str, allowed: &[FileFormat]) -> Result<()> {
+        for (k, format) in self.formats.iter().enumerate() {
+            if self.formats[..k].contains(format) {
+                return Err(Error::invalid(
+                    format!("{key}.formats"),
+                    format!("`{}` is listed twice; each format is written once", format.extension()),
+                ));
+            }
+            if !allowed.contains(format) {
+                let names: Vec<&str> = allowed.iter().map(|f| f.extension()).collect();
+                return Err(Error::invalid(
+                    format!("{key}.formats"),
+                    format!("`{}` cannot hold this table; allowed: {}", format.extension(), names.join(", ")),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A node count must be at least 2 (an axis interpolates between nodes) and at most
+/// [`MAX_NODES_PER_AXIS`].
+pub fn check_count(key: &str, count: usize) -> Result<()> {
+    if !(2..=MAX_NODES_PER_AXIS).contains(&count) {
+        return Err(Error::invalid(key, format!("{count}; allowed: 2 to {MAX_NODES_PER_AXIS} nodes")));
+    }
+    Ok(())
+}
+
+/// A `[lo, hi]` range inside [0, 1] with `lo < hi`.
+pub fn check_unit_range(key: &str, [lo, hi]: [f64; 2]) -> Result<()> {
+    if !lo.is_finite() || !hi.is_finite() {
+        return Err(Error::invalid(key, format!("[{lo}, {hi}] is not finite")));
+    }
+    if lo < 0.0 || hi > 1.0 {
+        return Err(Error::invalid(key, format!("[{lo}, {hi}] leaves [0, 1]; allowed: 0 <= lo < hi <= 1")));
+    }
+    if lo >= hi {
+        return Err(Error::invalid(key, format!("[{lo}, {hi}] is inverted or empty; allowed: lo < hi")));
+    }
+    Ok(())
+}
+
+/// The reason of an error without the key it was raised under, to re-raise it under another.
+fn strip_key(error: &Error) -> String {
+    match error {
+        Error::Invalid { reason, .. } => reason.clone(),
+        other => other.to_string(),
+    }
+}
