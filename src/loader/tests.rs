@@ -324,3 +324,20 @@ fn paths_are_taken_as_any_path_like_value() {
     }
     assert_eq!(load_table(dir.path().join("gd.dds")).unwrap(), load_table(format!("{as_str}/gd.dds")).unwrap());
 }
+
+#[test]
+fn the_loader_uses_only_tables_formats_errors_and_the_gpu_sampler() {
+    // What a renderer links: the model and the generator build on the loader, never the reverse.
+    let allowed = ["error", "formats", "table", "packing"];
+    let sources = [
+        ("mod.rs", include_str!("mod.rs")),
+        ("handles.rs", include_str!("handles.rs")),
+        ("texture.rs", include_str!("texture.rs")),
+    ];
+    for (file, text) in sources {
+        for (at, _) in text.match_indices("crate::") {
+            let module = text[at + 7..].split(|c: char| !(c.is_alphanumeric() || c == '_')).next().unwrap_or_default();
+            assert!(allowed.contains(&module), "src/loader/{file} uses crate::{module}; allowed: {allowed:?}");
+        }
+    }
+}
