@@ -99,7 +99,7 @@ impl LutFolder {
     /// against its entry ([`load_verified`]).
     pub fn load(&self, file: &str) -> Result<Table> {
         check_file_name(file).map_err(|reason| Error::format(self.dir.join(MANIFEST_FILE), reason))?;
-        load_verified(&self.dir.join(file), self.entry(file)?)
+        load_verified(self.dir.join(file), self.entry(file)?)
     }
 }
 

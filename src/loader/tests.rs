@@ -316,7 +316,8 @@ fn paths_are_taken_as_any_path_like_value() {
     let (dir, _) = folder();
     let as_str = dir.path().to_str().unwrap();
     let as_string = as_str.to_string();
-    for folder in [LutFolder::open(as_str), LutFolder::open(&as_string), LutFolder::open(dir.path().to_path_buf())] {
+    let as_path_buf = dir.path().to_path_buf();
+    for folder in [LutFolder::open(as_str), LutFolder::open(&as_string), LutFolder::open(as_path_buf)] {
         assert_eq!(
             folder.unwrap().files().collect::<Vec<_>>(),
             ["belcour.dds", "fgd.bin", "gd.dds", "karis.dds", "tir.dds"]
