@@ -415,14 +415,14 @@ mod tests {
     /// of both Karis files (1 for rough-first), which must agree.
     fn verified_karis_row_0(out: &Path) -> f64 {
         let folder = LutFolder::open(out).unwrap();
-        for file in folder.manifest.files.keys() {
+        for file in folder.manifest().files.keys() {
             folder.load(file).unwrap_or_else(|e| panic!("{file}: {e}"));
         }
         let findings = check_folder(out, &Budgets::default()).unwrap();
         assert!(findings.iter().all(|f| f.pass), "{findings:?}");
         let starts: Vec<f64> = ["karis.dds", "karis.exr"]
             .iter()
-            .map(|file| folder.manifest.entry(file).unwrap().axes[1].axis.start)
+            .map(|file| folder.manifest().entry(file).unwrap().axes[1].axis.start)
             .collect();
         assert_eq!(starts[0], starts[1], "karis.dds and karis.exr come from different builds");
         starts[0]

@@ -111,7 +111,7 @@ fn concurrent_builds_into_one_folder_take_turns_and_keep_both_tables() {
     let waited = String::from_utf8_lossy(&second.stderr);
     assert!(waited.contains("waiting for the build that holds"), "{waited}");
 
-    let manifest = tmlut::loader::LutFolder::open(&out).unwrap().manifest;
+    let manifest = tmlut::loader::LutFolder::open(&out).unwrap().manifest().clone();
     let files: Vec<&str> = manifest.files.keys().map(String::as_str).collect();
     assert_eq!(files, ["gd.dds", "karis.dds", "karis.exr"]);
     let no_budgets = dir.path().join("none.toml");

@@ -375,7 +375,7 @@ fn the_build_writes_the_best_form_reproducibly_and_only_when_asked() {
     assert!(search.starts.iter().all(|s| !s.status.is_empty()));
     // The recorded figures are those of the recorded coefficients on the built table, read back
     // and interpolated at the nodes of the uniform fit grid.
-    let table = crate::loader::load_table(&first.path().join("tir.dds")).unwrap();
+    let table = crate::loader::load_table(first.path().join("tir.dds")).unwrap();
     let data = FitData::from_table(&fit_grid(&table).unwrap()).unwrap();
     let refitted = FittedForm { form: BUILD_FORM, parameters: fit.parameters.clone(), search: None };
     assert_eq!(figures(&refitted, &data), fit.figures);

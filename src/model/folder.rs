@@ -28,7 +28,7 @@ use crate::loader::LutFolder;
 use crate::packing::{Filter, PackedFgd, Packing, Texture3D};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::point_of;
-use crate::table::{Axis, Placement, Table};
+use crate::table::{Axis, Table};
 
 /// A table of one to three axes bound as a texture: one single-channel volume per channel.
 #[derive(Debug, Clone)]
@@ -95,17 +95,9 @@ impl SampledTable {
 }
 
 /// The texture coordinate of value `x` along `axis`, in f32 as a shader computes the manifest's
-/// formula: `u = (m(x) - m(start)) / (m(end) - m(start))`, then `(u (N - 1) + 0.5) / N` for a
-/// node-aligned axis.
+/// formula ([`crate::loader::texture_coordinate`]).
 pub fn texture_coordinate_f32(axis: &Axis, x: f64) -> f32 {
-    let m = |v: f32| axis.mapping.forward_f32(v);
-    let (m0, m1) = (m(axis.start as f32), m(axis.end as f32));
-    let u = (m(x as f32) - m0) / (m1 - m0);
-    let n = axis.count as f32;
-    match axis.placement {
-        Placement::NodeAligned => (u * (n - 1.0) + 0.5) / n,
-        Placement::CellCentred => u,
-    }
+    crate::loader::texture_coordinate(axis, x)
 }
 
 /// A scene's slice: a 2D `(mu, alpha)` table with one channel per fixed relative index.
@@ -174,10 +166,10 @@ impl FolderTables {
     /// picks the full FGD table where there are two. Fails, naming the files, when the folder holds
     /// nothing for a path.
     pub fn open(folder: &LutFolder, albedo: AlbedoPath, tir: TirPath, fgd: FgdSource) -> Result<Self> {
-        let entries = &folder.manifest.files;
+        let entries = &folder.manifest().files;
         let missing = |what: &str| {
             Error::format(
-                folder.dir.join(crate::formats::manifest::MANIFEST_FILE),
+                folder.dir().join(crate::formats::manifest::MANIFEST_FILE),
                 format!(
                     "lists no {what}; build the tables of the scene (tmlut build --scene) or the default set first"
                 ),
@@ -246,7 +238,7 @@ impl FolderTables {
                         if point_of(&texture.axes, 0.5, 0.5, 0.5, 0.0).is_none() {
                             let names: Vec<&str> = texture.axes.iter().map(|a| a.name.as_str()).collect();
                             return Err(Error::format(
-                                folder.dir.join(file),
+                                folder.dir().join(file),
                                 format!(
                                     "has axes ({}); a TIR lookup addresses mu, alpha and eta or critical_angle_offset",
                                     names.join(", ")
@@ -266,7 +258,7 @@ impl FolderTables {
                 let fit = entries
                     .values()
                     .find_map(|e| e.fit.clone())
-                    .or_else(|| folder.manifest.scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
+                    .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
                     .ok_or_else(|| {
                         missing("fitted TIR form (a `fit` entry beside the TIR table, or the scene plan's `tir_fit`)")
                     })?;
@@ -443,7 +435,7 @@ fn is_slice(entry: &FileEntry, prefix: &str) -> bool {
 fn packed_fgd(folder: &LutFolder, file: &str, entry: &FileEntry) -> Result<PackedFgd> {
     let packing_entry = entry.packing.as_ref().expect("chosen for its packing");
     let packing = Packing::parse(&packing_entry.name)?;
-    let path = folder.dir.join(file);
+    let path = folder.dir().join(file);
     let texture = dds::read_dds(&path)?;
     let table =
         texture.into_table("fgd", entry.axes.iter().map(|a| a.axis.clone()).collect(), entry.channels.clone())?;
@@ -454,7 +446,7 @@ fn packed_fgd(folder: &LutFolder, file: &str, entry: &FileEntry) -> Result<Packe
 }
 
 fn fitted_form(folder: &LutFolder, fit: &FitEntry) -> Result<Tir> {
-    let where_ = folder.dir.join(crate::formats::manifest::MANIFEST_FILE);
+    let where_ = folder.dir().join(crate::formats::manifest::MANIFEST_FILE);
     let form = Form::from_name(&fit.form)
         .ok_or_else(|| Error::format(&where_, format!("names an unknown TIR form `{}`", fit.form)))?;
     if fit.parameters.len() != form.parameter_names().len() {

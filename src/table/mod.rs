@@ -45,6 +45,30 @@ fn shape_of(axes: &[Axis]) -> Vec<usize> {
     axes.iter().map(|a| a.count).collect()
 }
 
+/// Most axes [`Table::interpolate_into`] interpolates over (2^8 corners); tmlut writes tables of
+/// one to four.
+pub const MAX_INTERPOLATED_AXES: usize = 8;
+
+/// Why a point could not be interpolated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum InterpolationError {
+    #[error("a point of {given} coordinates given; the table has {axes} axes and needs one coordinate per axis")]
+    AxisCount { axes: usize, given: usize },
+    #[error("room for {given} values given; the table has {channels} channels and needs one per channel")]
+    ChannelCount { channels: usize, given: usize },
+    #[error("the table has {axes} axes; interpolation handles at most {MAX_INTERPOLATED_AXES}")]
+    TooManyAxes { axes: usize },
+    #[error("the table has {axes} axes; a texture has 1 to 3")]
+    NotATexture { axes: usize },
+}
+
+impl From<InterpolationError> for Error {
+    fn from(e: InterpolationError) -> Self {
+        Error::invalid("point", e.to_string())
+    }
+}
+
 /// A tabulated function of one to four parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
@@ -154,28 +178,59 @@ impl Table {
 
     /// Multilinear interpolation at a point given in the axes' own quantities (one per axis),
     /// with clamp addressing outside the range; one value per channel, computed in f64.
+    ///
+    /// Panics when `point` does not hold one coordinate per axis; [`Table::interpolate_into`]
+    /// returns an error instead and allocates nothing.
     pub fn interpolate(&self, point: &[f64]) -> Vec<f64> {
         assert_eq!(point.len(), self.axes.len(), "{}: one coordinate per axis", self.name);
-        let brackets: Vec<(usize, usize, f64)> =
-            self.axes.iter().zip(point).map(|(axis, &x)| axis.bracket(x)).collect();
+        let mut result = vec![0.0; self.channels.len()];
+        if let Err(e) = self.interpolate_into(point, &mut result) {
+            panic!("{}: {e}", self.name);
+        }
+        result
+    }
+
+    /// [`Table::interpolate`] into `out` (one value per channel), without allocating: an error
+    /// when `point` does not hold one coordinate per axis, `out` not one value per channel, or the
+    /// table has more than [`MAX_INTERPOLATED_AXES`] axes.
+    pub fn interpolate_into(&self, point: &[f64], out: &mut [f64]) -> Result<(), InterpolationError> {
+        let dimension = self.axes.len();
+        if point.len() != dimension {
+            return Err(InterpolationError::AxisCount { axes: dimension, given: point.len() });
+        }
+        if out.len() != self.channels.len() {
+            return Err(InterpolationError::ChannelCount { channels: self.channels.len(), given: out.len() });
+        }
+        if dimension > MAX_INTERPOLATED_AXES {
+            return Err(InterpolationError::TooManyAxes { axes: dimension });
+        }
+        let mut brackets = [(0usize, 0usize, 0.0f64); MAX_INTERPOLATED_AXES];
+        for ((bracket, axis), &x) in brackets.iter_mut().zip(&self.axes).zip(point) {
+            *bracket = axis.bracket(x);
+        }
+        let brackets = &brackets[..dimension];
+        out.fill(0.0);
         let channels = self.channels.len();
-        let mut result = vec![0.0; channels];
-        let mut index = vec![0usize; self.axes.len()];
-        for corner in 0..(1usize << self.axes.len()) {
+        for corner in 0..(1usize << dimension) {
             let mut weight = 1.0;
-            for (d, &(lower, upper, t)) in brackets.iter().enumerate() {
+            // The node number is accumulated last axis first, as `node_number` does.
+            let mut number = 0usize;
+            for (d, &(lower, upper, _)) in brackets.iter().enumerate().rev() {
                 let take_upper = corner >> d & 1 == 1;
-                index[d] = if take_upper { upper } else { lower };
-                weight *= if take_upper { t } else { 1.0 - t };
+                number = number * self.axes[d].count + if take_upper { upper } else { lower };
+            }
+            for (d, &(_, _, t)) in brackets.iter().enumerate() {
+                weight *= if corner >> d & 1 == 1 { t } else { 1.0 - t };
             }
             if weight == 0.0 {
                 continue;
             }
-            for (r, &v) in result.iter_mut().zip(self.node(&index)) {
+            let start = number * channels;
+            for (r, &v) in out.iter_mut().zip(&self.data[start..start + channels]) {
                 *r += weight * v as f64;
             }
         }
-        result
+        Ok(())
     }
 
     pub fn stats(&self) -> ValueStats {

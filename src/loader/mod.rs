@@ -1,11 +1,26 @@
-//! Reading what tmlut wrote, for renderer crates. Built without the generator's dependencies
-//! (`default-features = false`; add the `exr` feature to read OpenEXR files).
+//! Reading what tmlut wrote, for renderer crates: built without the generator's dependencies
+//! (`default-features = false`; add the `exr` feature to read OpenEXR files, `bytemuck` to borrow
+//! texel bytes without a copy). `docs/loader.md` walks through it.
+//!
+//! - [`LutFolder`]: an output folder and its read-only manifest; every file is loaded verified
+//!   against its entry (length, SHA-256, axes, channels, value range).
+//! - Typed handles ([`KarisLut`], [`BelcourLut`], [`GdLut`], [`TirLut`], [`FgdLut`]): sampled with
+//!   plain arguments, allocation-free, as the CPU interpolates or as a GPU filters.
+//! - [`TextureData`]: a table's texel bytes with the extent, dimension and format of the texture
+//!   that holds them, named as WebGPU names them.
+//! - [`Table`]: any table, interpolated in its axes' own quantities
+//!   ([`Table::interpolate_into`] returns an error on a wrong number of coordinates).
 //!
 //! ```no_run
-//! let luts = tmlut::loader::LutFolder::open("luts".as_ref())?;
-//! let karis = luts.load("karis.dds")?;
-//! // Interpolated exactly as the file's axes say; arguments in the axes' own quantities (mu, alpha).
-//! let [scale, bias] = karis.interpolate(&[0.5, 0.25])[..] else { unreachable!() };
+//! use tmlut::loader::{KarisLut, LutFolder, TirLut};
+//!
+//! let luts = LutFolder::open("luts")?;
+//! let karis = KarisLut::from_folder(&luts)?; // karis.dds, verified against manifest.json
+//! let [scale, bias] = karis.sample(0.5, 0.3); // (n.v, perceptual roughness)
+//! let tir = TirLut::open(&luts, "tir.dds")?;
+//! let lost = tir.sample(0.7, 0.01, 0.9); // (mu, alpha, eta): the handle computes the axes' quantities
+//! let texture = karis.texture()?; // bytes and descriptor of a `rg16float` 2D texture
+//! assert_eq!(texture.to_bytes().len(), texture.descriptor().byte_len());
 //! # Ok::<(), tmlut::Error>(())
 //! ```
 //!
@@ -13,30 +28,60 @@
 //! files written by tmlut carry their own; `.bin` files carry ranges and node counts but not axis
 //! names, which the manifest adds when present.
 
+pub mod handles;
+#[cfg(test)]
+mod tests;
+pub mod texture;
+
+// The examples of `docs/loader.md` compile with the doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/loader.md")]
+pub struct Guide;
+
+pub use crate::error::{Error, Result};
+pub use crate::formats::manifest::{FileEntry, Manifest};
+pub use crate::formats::{FileFormat, Precision};
+pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Table};
+pub use handles::{BelcourLut, FgdLut, GdLut, KarisLut, TirLut};
+pub use texture::{
+    Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,
+};
+
 use std::path::{Path, PathBuf};
 
-use crate::error::{Error, Result};
-use crate::formats::manifest::{
-    FileEntry, MANIFEST_FILE, Manifest, check_file_name, pending_commit, pending_commit_error,
-};
-use crate::formats::{FileFormat, Precision, bin, dds, read_bytes};
-use crate::table::Table;
+use crate::formats::manifest::{MANIFEST_FILE, check_file_name, pending_commit, pending_commit_error};
+use crate::formats::{bin, dds, read_bytes};
 
-/// An output folder of tmlut and its manifest.
+/// An output folder of tmlut and its manifest, read once and never changed: every file loaded
+/// through it is verified against the entry read here.
 #[derive(Debug, Clone)]
 pub struct LutFolder {
-    pub dir: PathBuf,
-    pub manifest: Manifest,
+    dir: PathBuf,
+    manifest: Manifest,
 }
 
 impl LutFolder {
     /// Open a folder: its manifest, refused if a build was interrupted while committing into it.
-    pub fn open(dir: &Path) -> Result<Self> {
+    pub fn open(dir: impl AsRef<Path>) -> Result<Self> {
+        let dir = dir.as_ref();
         if let Some(journal) = pending_commit(dir) {
             return Err(pending_commit_error(&journal));
         }
         let manifest = Manifest::read(&dir.join(MANIFEST_FILE))?;
         Ok(LutFolder { dir: dir.to_path_buf(), manifest })
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    pub fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    /// The names of the files the manifest lists, sorted.
+    pub fn files(&self) -> impl Iterator<Item = &str> {
+        self.manifest.files.keys().map(String::as_str)
     }
 
     /// The manifest entry of a file in this folder.
@@ -54,7 +99,7 @@ impl LutFolder {
     /// against its entry ([`load_verified`]).
     pub fn load(&self, file: &str) -> Result<Table> {
         check_file_name(file).map_err(|reason| Error::format(self.dir.join(MANIFEST_FILE), reason))?;
-        load_verified(&self.dir.join(file), self.entry(file)?)
+        load_verified(self.dir.join(file), self.entry(file)?)
     }
 }
 
@@ -66,7 +111,8 @@ impl LutFolder {
 /// Hashing 64 MiB (the FGD table) takes 34 ms on the project's 2-core machine (`docs/formats.md`);
 /// it is done on every load, since a table that is not what its manifest says is read wrong
 /// without any other sign.
-pub fn load_verified(path: &Path, entry: &FileEntry) -> Result<Table> {
+pub fn load_verified(path: impl AsRef<Path>, entry: &FileEntry) -> Result<Table> {
+    let path = path.as_ref();
     let bytes = read_bytes(path)?;
     let format = format_of_bytes(path, &bytes)?;
     let mut disagreements = byte_disagreements(entry, &bytes);
@@ -82,7 +128,8 @@ pub fn load_verified(path: &Path, entry: &FileEntry) -> Result<Table> {
 
 /// Load a table file, taking its description from the `manifest.json` beside it when there is one
 /// (and then verified against it, as [`load_verified`]).
-pub fn load_table(path: &Path) -> Result<Table> {
+pub fn load_table(path: impl AsRef<Path>) -> Result<Table> {
+    let path = path.as_ref();
     let beside = ManifestBeside::of(path)?;
     match beside.entry() {
         Some(entry) => load_verified(path, entry),
@@ -102,7 +149,8 @@ pub struct ManifestBeside {
 }
 
 impl ManifestBeside {
-    pub fn of(path: &Path) -> Result<Self> {
+    pub fn of(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
         let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         if let Some(journal) = pending_commit(dir) {
@@ -264,7 +312,8 @@ pub fn format_of_bytes(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
 
 /// The format of a file, from its first bytes (DDS and OpenEXR have magic numbers) or, for the
 /// magic-less `.bin` layout, its extension.
-pub fn format_of(path: &Path) -> Result<FileFormat> {
+pub fn format_of(path: impl AsRef<Path>) -> Result<FileFormat> {
+    let path = path.as_ref();
     let mut magic = [0u8; 4];
     let read = std::fs::File::open(path)
         .and_then(|mut f| std::io::Read::read(&mut f, &mut magic))

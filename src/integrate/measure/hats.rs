@@ -1,0 +1,243 @@
+//! Hat functions of `c = wi.h` and the L2 projection of a function onto them: the quadrature
+//! that turns `∫ f dM` into a dot product of projected node values with a measure's hat moments.
+
+/// Hat functions on `intervals + 1` uniform nodes `c_k = k / intervals` over [0, 1].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HatBasis {
+    pub intervals: usize,
+}
+
+impl HatBasis {
+    pub fn node_count(&self) -> usize {
+        self.intervals + 1
+    }
+
+    pub fn node(&self, k: usize) -> f64 {
+        k as f64 / self.intervals as f64
+    }
+
+    /// Values of `f` at the nodes.
+    pub fn tabulate(&self, f: impl Fn(f64) -> f64) -> Vec<f64> {
+        (0..self.node_count()).map(|k| f(self.node(k))).collect()
+    }
+
+    /// The coefficients `f~` with `Σ_k f~_k M_k ≈ ∫ f dM` for a measure given by its hat moments
+    /// `M_k`: the L2 projection `G^-1 Φ` with `Φ_k = ∫ f hat_k` and `G` the Gram matrix of the hats.
+    ///
+    /// It is exact when the measure's density is piecewise linear, whatever `f` does between nodes,
+    /// where plain node values `f(c_k)` are exact only when `f` is. That matters for Fresnel past
+    /// the critical angle, which rises like a square root from its kink: give the kink's location
+    /// in `kinks` and the quadrature splits there, substituting `c = c* + s^2` on the side where the
+    /// square root starts, so each piece is smooth.
+    pub fn project(&self, f: impl Fn(f64) -> f64, kinks: &[f64]) -> Vec<f64> {
+        project_on_nodes(&self.nodes(), f, kinks, None)
+    }
+
+    /// [`HatBasis::project`], and how far the projection is from `f` on each interval (the largest
+    /// `|f - Σ f~_k hat_k|` at the nodes, the kinks and the quadrature points): where that is not
+    /// small, a narrow measure there needs its own basis ([`super::CosineMeasure::Local`]).
+    pub fn project_with_error(&self, f: impl Fn(f64) -> f64, kinks: &[f64]) -> Projection {
+        let mut interval_error = vec![0.0; self.intervals];
+        let coefficients = project_on_nodes(&self.nodes(), f, kinks, Some(&mut interval_error));
+        Projection { coefficients, interval_error }
+    }
+
+    fn nodes(&self) -> Vec<f64> {
+        (0..self.node_count()).map(|k| self.node(k)).collect()
+    }
+
+    /// Split weight `w` at `c` between the two nodes around it (linear interpolation weights).
+    #[inline]
+    pub fn deposit(&self, measure: &mut [f64], c: f64, w: f64) {
+        let u = c * self.intervals as f64;
+        let k = (u as usize).min(self.intervals - 1);
+        let t = u - k as f64;
+        measure[k] += w * (1.0 - t);
+        measure[k + 1] += w * t;
+    }
+}
+
+/// Gauss–Legendre nodes and weights on [-1, 1], 8 points (exact for polynomials up to degree 15).
+const GAUSS_LEGENDRE_8: [(f64, f64); 8] = [
+    (-0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
+    (-0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
+    (-0.525_532_409_916_329, 0.313_706_645_877_887_3),
+    (-0.183_434_642_495_649_8, 0.362_683_783_378_362),
+    (0.183_434_642_495_649_8, 0.362_683_783_378_362),
+    (0.525_532_409_916_329, 0.313_706_645_877_887_3),
+    (0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
+    (0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
+];
+
+/// A function of `c` projected on a [`HatBasis`] ([`HatBasis::project_with_error`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Projection {
+    pub coefficients: Vec<f64>,
+    /// Per interval, the largest `|f - projection|` seen (see [`HatBasis::project_with_error`]).
+    pub interval_error: Vec<f64>,
+}
+
+/// The L2 projection of `f` on the hats of the sorted `nodes` (see [`HatBasis::project`]); with
+/// `interval_error`, also the largest pointwise difference to `f` on each interval.
+pub(super) fn project_on_nodes(
+    nodes: &[f64],
+    f: impl Fn(f64) -> f64,
+    kinks: &[f64],
+    interval_error: Option<&mut [f64]>,
+) -> Vec<f64> {
+    let n = nodes.len() - 1;
+    let mut moments = vec![0.0; n + 1];
+    let mut pieces = Vec::with_capacity(kinks.len() + 2);
+    // (interval, c, f(c)) of every point f was evaluated at, when the error is wanted.
+    let keep = interval_error.is_some();
+    let mut evaluated = Vec::with_capacity(if keep { n * 8 + kinks.len() } else { 0 });
+    for k in 0..n {
+        let (a, b) = (nodes[k], nodes[k + 1]);
+        let width = b - a;
+        pieces.clear();
+        pieces.push(a);
+        pieces.extend(kinks.iter().copied().filter(|&c| c > a && c < b));
+        pieces.push(b);
+        for piece in pieces.windows(2) {
+            let (lower, upper) = (piece[0], piece[1]);
+            let starts_at_kink = kinks.contains(&lower);
+            for (x, w) in GAUSS_LEGENDRE_8 {
+                // Map the node x in [-1, 1] to [lower, upper], through c = lower + s^2 when the
+                // piece starts at a kink (dc = 2 s ds).
+                let (c, jacobian) = if starts_at_kink {
+                    let span = (upper - lower).sqrt();
+                    let s = 0.5 * span * (x + 1.0);
+                    (lower + s * s, 0.5 * span * 2.0 * s)
+                } else {
+                    (lower + 0.5 * (upper - lower) * (x + 1.0), 0.5 * (upper - lower))
+                };
+                let fc = f(c);
+                if keep {
+                    evaluated.push((k, c, fc));
+                }
+                let value = fc * w * jacobian;
+                let t = (c - a) / width;
+                moments[k] += value * (1.0 - t);
+                moments[k + 1] += value * t;
+            }
+            if keep && piece[1] != b {
+                evaluated.push((k, upper, f(upper)));
+            }
+        }
+    }
+    let coefficients = solve_hat_gram(nodes, moments);
+    if let Some(errors) = interval_error {
+        let mut record = |k: usize, c: f64, fc: f64| {
+            let t = (c - nodes[k]) / (nodes[k + 1] - nodes[k]);
+            let projected = coefficients[k] * (1.0 - t) + coefficients[k + 1] * t;
+            errors[k] = errors[k].max((fc - projected).abs());
+        };
+        for (k, c, fc) in evaluated {
+            record(k, c, fc);
+        }
+        for (k, &node) in nodes.iter().enumerate() {
+            let fc = f(node);
+            if k > 0 {
+                record(k - 1, node, fc);
+            }
+            if k < n {
+                record(k, node, fc);
+            }
+        }
+    }
+    coefficients
+}
+
+/// Solve `G x = b` for the Gram matrix of the hat functions on the sorted `nodes`: tridiagonal,
+/// `(h_{k-1} + h_k) / 3` on the diagonal and `h_k / 6` beside it, `h_k` the interval widths (Thomas
+/// algorithm; the matrix is diagonally dominant, so no pivoting is needed).
+fn solve_hat_gram(nodes: &[f64], mut b: Vec<f64>) -> Vec<f64> {
+    let n = nodes.len() - 1;
+    let width = |k: usize| nodes[k + 1] - nodes[k];
+    let off = |k: usize| width(k) / 6.0;
+    let diagonal = |k: usize| {
+        let left = if k > 0 { width(k - 1) } else { 0.0 };
+        let right = if k < n { width(k) } else { 0.0 };
+        (left + right) / 3.0
+    };
+    let mut c_prime = vec![0.0; n + 1];
+    c_prime[0] = off(0) / diagonal(0);
+    b[0] /= diagonal(0);
+    for k in 1..=n {
+        let denominator = diagonal(k) - off(k - 1) * c_prime[k - 1];
+        c_prime[k] = if k < n { off(k) / denominator } else { 0.0 };
+        b[k] = (b[k] - off(k - 1) * b[k - 1]) / denominator;
+    }
+    for k in (0..n).rev() {
+        b[k] -= c_prime[k] * b[k + 1];
+    }
+    b
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrate::measure::dot;
+
+    #[test]
+    fn hat_deposits_preserve_mass_and_first_moment() {
+        let basis = HatBasis { intervals: 8 };
+        let mut m = vec![0.0; 9];
+        for (c, w) in [(0.0f32, 1.0f32), (0.3, 2.0), (1.0, 0.5), (0.999, 1.0)] {
+            basis.deposit(&mut m, c as f64, w as f64);
+        }
+        let mass: f64 = m.iter().sum();
+        let moment: f64 = m.iter().enumerate().map(|(k, w)| basis.node(k) * w).sum();
+        assert!((mass - 4.5).abs() < 1e-12);
+        assert!((moment - (0.3f32 as f64 * 2.0 + 0.5 + 0.999f32 as f64)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn projection_on_graded_nodes_is_exact_against_piecewise_linear_densities() {
+        let nodes = [0.0, 1e-6, 3e-6, 7e-6, 1.5e-5, 0.5, 1.0];
+        let linear = project_on_nodes(&nodes, |c| 0.3 + 2.0 * c, &[], None);
+        for (v, c) in linear.iter().zip(nodes) {
+            assert!((v - (0.3 + 2.0 * c)).abs() < 1e-12, "{v} at {c}");
+        }
+        // Density 1 on [0, 1]: hat moments are half the neighbouring widths.
+        let moments: Vec<f64> = (0..nodes.len())
+            .map(|k| {
+                let left = if k > 0 { nodes[k] - nodes[k - 1] } else { 0.0 };
+                let right = if k + 1 < nodes.len() { nodes[k + 1] - nodes[k] } else { 0.0 };
+                (left + right) / 2.0
+            })
+            .collect();
+        // A kink inside an interval (Fresnel's at a critical angle between two graded nodes).
+        let a = 2e-6;
+        let projected = project_on_nodes(&nodes, |c| (c - a).abs() + c * c, &[a], None);
+        let exact = a * a / 2.0 + (1.0 - a) * (1.0 - a) / 2.0 + 1.0 / 3.0;
+        assert!((dot(&projected, &moments) - exact).abs() < 1e-9, "{} vs {exact}", dot(&projected, &moments));
+    }
+
+    #[test]
+    fn projection_reproduces_piecewise_linear_functions_and_integrates_smooth_ones() {
+        let basis = HatBasis { intervals: 16 };
+        let linear = basis.project(|c| 0.3 + 2.0 * c, &[]);
+        for (k, v) in linear.iter().enumerate() {
+            assert!((v - (0.3 + 2.0 * basis.node(k))).abs() < 1e-12, "node {k}: {v}");
+        }
+        let kinked = |c: f64| (c - 0.4).abs();
+        let projected = basis.project(kinked, &[0.4]);
+        // Against a piecewise-linear density the projection integrates exactly. Density 1 + c:
+        // its hat moments are h (1 + c_k) inside and h/2 + h^2/6, h - h^2/6 at the ends.
+        let h = 1.0 / 16.0;
+        let moments: Vec<f64> = (0..=16)
+            .map(|k| match k {
+                0 => h / 2.0 + h * h / 6.0,
+                16 => h - h * h / 6.0,
+                _ => h * (1.0 + basis.node(k)),
+            })
+            .collect();
+        let integral = dot(&projected, &moments);
+        // ∫0^1 |c - 0.4| (1 + c) dc, split at 0.4.
+        let left = |c: f64| 0.4 * c + 0.4 * c * c / 2.0 - c * c / 2.0 - c * c * c / 3.0;
+        let right = |c: f64| c * c / 2.0 + c * c * c / 3.0 - 0.4 * c - 0.4 * c * c / 2.0;
+        let exact = (left(0.4) - left(0.0)) + (right(1.0) - right(0.4));
+        assert!((integral - exact).abs() < 1e-12, "{integral} vs {exact}");
+    }
+}

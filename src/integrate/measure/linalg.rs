@@ -1,0 +1,79 @@
+//! The linear algebra of the fast path: dot products of node values with hat moments, and the
+//! matrix product that evaluates a whole table at once.
+
+use rayon::prelude::*;
+
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// A dense row-major matrix view.
+#[derive(Debug, Clone, Copy)]
+pub struct MatrixRef<'a> {
+    pub data: &'a [f64],
+    pub rows: usize,
+    pub cols: usize,
+}
+
+impl<'a> MatrixRef<'a> {
+    pub fn new(data: &'a [f64], rows: usize, cols: usize) -> Self {
+        assert_eq!(data.len(), rows * cols, "matrix of {rows} x {cols} needs {} values", rows * cols);
+        MatrixRef { data, rows, cols }
+    }
+}
+
+/// `C = A B^T` for row-major `A` (m x k) and `B` (n x k), into row-major `C` (m x n), with the
+/// rows of `C` split across threads. Each element is one dot product over `k` computed by the same
+/// kernel whatever the split, so the result does not depend on the thread count.
+pub fn multiply_transposed(a: MatrixRef, b: MatrixRef, c: &mut [f64]) {
+    assert_eq!(a.cols, b.cols, "inner dimensions differ");
+    assert_eq!(c.len(), a.rows * b.rows, "output size");
+    let (k, n) = (a.cols, b.rows);
+    const ROWS_PER_TASK: usize = 64;
+    c.par_chunks_mut(ROWS_PER_TASK * n).enumerate().for_each(|(task, c_rows)| {
+        let first = task * ROWS_PER_TASK;
+        let m = c_rows.len() / n;
+        let a_rows = &a.data[first * k..(first + m) * k];
+        // SAFETY: the pointers and strides describe slices whose lengths were checked above:
+        // A rows m x k (row stride k), B^T as k x n through B's strides (row stride 1, column
+        // stride k), C m x n (row stride n); C does not alias A or B.
+        unsafe {
+            matrixmultiply::dgemm(
+                m,
+                k,
+                n,
+                1.0,
+                a_rows.as_ptr(),
+                k as isize,
+                1,
+                b.data.as_ptr(),
+                1,
+                k as isize,
+                0.0,
+                c_rows.as_mut_ptr(),
+                n as isize,
+                1,
+            );
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn matrix_product_matches_the_definition() {
+        let (m, k, n) = (70, 9, 13);
+        let a: Vec<f64> = (0..m * k).map(|i| (i as f64 * 0.37).sin()).collect();
+        let b: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.11).cos()).collect();
+        let mut c = vec![0.0; m * n];
+        multiply_transposed(MatrixRef::new(&a, m, k), MatrixRef::new(&b, n, k), &mut c);
+        for i in 0..m {
+            for j in 0..n {
+                let expected: f64 = (0..k).map(|l| a[i * k + l] * b[j * k + l]).sum();
+                assert!((c[i * n + j] - expected).abs() < 1e-12);
+            }
+        }
+    }
+}

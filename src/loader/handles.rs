@@ -1,0 +1,306 @@
+//! One typed handle per table kind: opened from a folder (verified against its manifest), checked
+//! once for the axes and channels its lookup needs, then sampled with plain arguments and fixed-size
+//! results, allocating nothing and never failing.
+//!
+//! Each handle samples two ways:
+//! - `sample`: multilinear interpolation in f64, as [`Table::interpolate`] (the reference a CPU
+//!   renderer or a test wants);
+//! - `sample_gpu` (tables a GPU binds as textures: all but FGD's 4D table): the manifest's texture
+//!   coordinates computed in f32 and the texture filtered as a GPU sampler does
+//!   ([`super::texture::sample_texture`]), the values a shader reads; `sample_uv`/`sample_uvw`
+//!   take the texture coordinates themselves.
+//!
+//! Karis and Belcour take perceptual roughness, as Unreal Engine 4 and Filament pass it
+//! (`alpha = roughness^2`); GD, TIR and FGD take GGX `alpha`, the quantity of their axes.
+
+use super::texture::{TextureData, sample_texture, texture_coordinate};
+use super::{FileEntry, LutFolder, Precision, Table};
+use crate::error::{Error, Result};
+use crate::formats::FileFormat;
+use crate::formats::manifest::MANIFEST_FILE;
+use crate::table::derived::{CRITICAL_ANGLE_OFFSET, critical_angle_offset};
+
+/// A verified table with the shape a handle needs.
+#[derive(Debug, Clone)]
+struct Checked {
+    table: Table,
+    precision: Precision,
+    entry: Option<FileEntry>,
+}
+
+/// What a handle requires of a table: axis names (each position allows one of a few) and a
+/// channel count.
+struct Shape {
+    kind: &'static str,
+    axes: &'static [&'static [&'static str]],
+    channels: usize,
+}
+
+const KARIS: Shape = Shape { kind: "karis", axes: &[&["mu"], &["alpha"]], channels: 2 };
+const BELCOUR: Shape = Shape { kind: "belcour", axes: &[&["mu"], &["alpha"]], channels: 4 };
+const GD: Shape = Shape { kind: "gd", axes: &[&["mu"], &["alpha"]], channels: 1 };
+const TIR: Shape = Shape { kind: "tir", axes: &[&["mu"], &["alpha"], &["eta", CRITICAL_ANGLE_OFFSET]], channels: 1 };
+const FGD: Shape = Shape { kind: "fgd", axes: &[&["mu"], &["alpha"], &["eta"], &["kappa"]], channels: 1 };
+
+impl Shape {
+    fn describe(&self) -> String {
+        let axes: Vec<String> = self.axes.iter().map(|names| names.join(" or ")).collect();
+        format!(
+            "a {} table has the axes ({}) and {} channel{}",
+            self.kind,
+            axes.join(", "),
+            self.channels,
+            if self.channels == 1 { "" } else { "s" }
+        )
+    }
+
+    fn fits(&self, table: &Table) -> bool {
+        table.axes.len() == self.axes.len()
+            && table.axes.iter().zip(self.axes).all(|(axis, allowed)| allowed.contains(&axis.name.as_str()))
+            && table.channel_count() == self.channels
+    }
+
+    fn check(&self, table: Table, precision: Precision, entry: Option<FileEntry>, path: &str) -> Result<Checked> {
+        if !self.fits(&table) {
+            let axes: Vec<&str> = table.axes.iter().map(|a| a.name.as_str()).collect();
+            return Err(Error::format(
+                path,
+                format!(
+                    "holds a table with the axes ({}) and {} channels; {}",
+                    axes.join(", "),
+                    table.channel_count(),
+                    self.describe()
+                ),
+            ));
+        }
+        Ok(Checked { table, precision, entry })
+    }
+
+    /// Open `file` of `folder` (verified against the manifest) as this kind.
+    fn open(&self, folder: &LutFolder, file: &str) -> Result<Checked> {
+        let entry = folder.entry(file)?.clone();
+        let table = folder.load(file)?;
+        let precision = if entry.format == FileFormat::Bin { Precision::F32 } else { entry.precision };
+        self.check(table, precision, Some(entry), &folder.dir().join(file).to_string_lossy())
+    }
+
+    /// The file of `folder` holding this kind's table: the one its manifest lists under the
+    /// table's name, not a packing; a DDS file before an OpenEXR one before a `.bin` one.
+    fn find<'a>(&self, folder: &'a LutFolder) -> Result<&'a str> {
+        let files = &folder.manifest().files;
+        [FileFormat::Dds, FileFormat::Exr, FileFormat::Bin]
+            .iter()
+            .find_map(|&format| {
+                files
+                    .iter()
+                    .find(|(_, e)| e.table == self.kind && e.format == format && e.packing.is_none())
+                    .map(|(file, _)| file.as_str())
+            })
+            .ok_or_else(|| {
+                Error::format(
+                    folder.dir().join(MANIFEST_FILE),
+                    format!("lists no `{}` table (a file whose entry has \"table\": \"{}\")", self.kind, self.kind),
+                )
+            })
+    }
+}
+
+/// Converts the `mu` and `alpha` of a lookup into the texture coordinate of a 2D table.
+fn uv(table: &Table, mu: f64, alpha: f64) -> [f32; 2] {
+    [texture_coordinate(&table.axes[0], mu), texture_coordinate(&table.axes[1], alpha)]
+}
+
+/// The methods every handle has.
+macro_rules! common {
+    ($handle:ident, $shape:ident) => {
+        impl $handle {
+            /// Open `file` of `folder`, verified against the manifest and checked for this table's
+            /// axes and channels.
+            pub fn open(folder: &LutFolder, file: &str) -> Result<Self> {
+                $shape.open(folder, file).map($handle)
+            }
+
+            /// Open the file of `folder` that holds this table (a DDS file before an OpenEXR one
+            /// before a `.bin` one).
+            pub fn from_folder(folder: &LutFolder) -> Result<Self> {
+                Self::open(folder, $shape.find(folder)?)
+            }
+
+            /// Wrap a table already loaded, stored in `precision`; checked for this table's axes
+            /// and channels.
+            pub fn from_table(table: Table, precision: Precision) -> Result<Self> {
+                let name = format!("table `{}`", table.name);
+                $shape.check(table, precision, None, &name).map($handle)
+            }
+
+            pub fn table(&self) -> &Table {
+                &self.0.table
+            }
+
+            /// The manifest entry the file was verified against (none for [`Self::from_table`]).
+            pub fn entry(&self) -> Option<&FileEntry> {
+                self.0.entry.as_ref()
+            }
+
+            /// The precision the values are stored in.
+            pub fn precision(&self) -> Precision {
+                self.0.precision
+            }
+
+            pub fn into_table(self) -> Table {
+                self.0.table
+            }
+        }
+    };
+}
+
+/// Methods of the handles a GPU binds as a texture.
+macro_rules! texture {
+    ($handle:ident, $channels:expr, $dims:expr) => {
+        impl $handle {
+            /// The texel bytes and texture descriptor of the table, in its storage precision.
+            pub fn texture(&self) -> Result<TextureData> {
+                TextureData::from_table(&self.0.table, self.0.precision)
+            }
+
+            fn filter(&self, coordinate: [f32; $dims]) -> [f32; $channels] {
+                let mut out = [0.0; $channels];
+                // The shape was checked at opening: the counts agree.
+                let _ = sample_texture(&self.0.table, &coordinate, &mut out);
+                out
+            }
+        }
+    };
+}
+
+fn interpolate<const D: usize, const C: usize>(table: &Table, point: [f64; D]) -> [f32; C] {
+    let mut out = [0.0f64; C];
+    // The shape was checked at opening: the counts agree.
+    let _ = table.interpolate_into(&point, &mut out);
+    out.map(|v| v as f32)
+}
+
+/// The split-sum table of Karis (2013): `(scale, bias)` with `F0 * scale + bias` the specular
+/// albedo, over `(n.v, roughness)`.
+#[derive(Debug, Clone)]
+pub struct KarisLut(Checked);
+common!(KarisLut, KARIS);
+texture!(KarisLut, 2, 2);
+
+impl KarisLut {
+    /// `[scale, bias]` at `n_dot_v` and perceptual `roughness` (`alpha = roughness^2`).
+    pub fn sample(&self, n_dot_v: f32, roughness: f32) -> [f32; 2] {
+        let roughness = roughness as f64;
+        interpolate(&self.0.table, [n_dot_v as f64, roughness * roughness])
+    }
+
+    /// [`KarisLut::sample`] as a shader reads the texture.
+    pub fn sample_gpu(&self, n_dot_v: f32, roughness: f32) -> [f32; 2] {
+        let roughness = roughness as f64;
+        self.filter(uv(&self.0.table, n_dot_v as f64, roughness * roughness))
+    }
+
+    /// The texture sampled at texture coordinate `(u, v)`.
+    pub fn sample_uv(&self, u: f32, v: f32) -> [f32; 2] {
+        self.filter([u, v])
+    }
+}
+
+/// Belcour's Fresnel-basis split sum: four channels `b0..b3` over `(n.v, roughness)`; the albedo
+/// is `Σ c_k b_k` with the coefficients of the manifest's `fresnel_basis`.
+#[derive(Debug, Clone)]
+pub struct BelcourLut(Checked);
+common!(BelcourLut, BELCOUR);
+texture!(BelcourLut, 4, 2);
+
+impl BelcourLut {
+    /// `[b0, b1, b2, b3]` at `n_dot_v` and perceptual `roughness` (`alpha = roughness^2`).
+    pub fn sample(&self, n_dot_v: f32, roughness: f32) -> [f32; 4] {
+        let roughness = roughness as f64;
+        interpolate(&self.0.table, [n_dot_v as f64, roughness * roughness])
+    }
+
+    /// [`BelcourLut::sample`] as a shader reads the texture.
+    pub fn sample_gpu(&self, n_dot_v: f32, roughness: f32) -> [f32; 4] {
+        let roughness = roughness as f64;
+        self.filter(uv(&self.0.table, n_dot_v as f64, roughness * roughness))
+    }
+
+    /// The texture sampled at texture coordinate `(u, v)`.
+    pub fn sample_uv(&self, u: f32, v: f32) -> [f32; 4] {
+        self.filter([u, v])
+    }
+}
+
+/// The albedo of the GGX lobe without Fresnel, over `(mu, alpha)`.
+#[derive(Debug, Clone)]
+pub struct GdLut(Checked);
+common!(GdLut, GD);
+texture!(GdLut, 1, 2);
+
+impl GdLut {
+    pub fn sample(&self, mu: f32, alpha: f32) -> f32 {
+        let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64]);
+        v
+    }
+
+    /// [`GdLut::sample`] as a shader reads the texture.
+    pub fn sample_gpu(&self, mu: f32, alpha: f32) -> f32 {
+        self.filter(uv(&self.0.table, mu as f64, alpha as f64))[0]
+    }
+
+    /// The texture sampled at texture coordinate `(u, v)`.
+    pub fn sample_uv(&self, u: f32, v: f32) -> f32 {
+        self.filter([u, v])[0]
+    }
+}
+
+/// The fraction lost to total internal reflection, over `(mu, alpha)` and `eta` or the
+/// critical-angle offset `asin(eta) - acos(mu)` (`docs/tables.md`); the handle computes the
+/// offset where the table's third axis is it.
+#[derive(Debug, Clone)]
+pub struct TirLut(Checked);
+common!(TirLut, TIR);
+texture!(TirLut, 1, 3);
+
+impl TirLut {
+    /// The value the third axis samples at `(mu, eta)`.
+    fn third(&self, mu: f64, eta: f64) -> f64 {
+        if self.0.table.axes[2].name == CRITICAL_ANGLE_OFFSET { critical_angle_offset(mu, eta) } else { eta }
+    }
+
+    /// At `mu`, GGX `alpha` and the relative index `eta` (below 1: TIR happens inside the layer).
+    pub fn sample(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+        let (mu, eta) = (mu as f64, eta as f64);
+        let [v] = interpolate(&self.0.table, [mu, alpha as f64, self.third(mu, eta)]);
+        v
+    }
+
+    /// [`TirLut::sample`] as a shader reads the texture: the third axis's quantity computed in f64,
+    /// then every texture coordinate in f32 from the manifest's formulas.
+    pub fn sample_gpu(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+        let table = &self.0.table;
+        let (mu, eta) = (mu as f64, eta as f64);
+        let [u, v] = uv(table, mu, alpha as f64);
+        self.filter([u, v, texture_coordinate(&table.axes[2], self.third(mu, eta))])[0]
+    }
+
+    /// The texture sampled at texture coordinate `(u, v, w)`.
+    pub fn sample_uvw(&self, u: f32, v: f32, w: f32) -> f32 {
+        self.filter([u, v, w])[0]
+    }
+}
+
+/// The directional albedo with exact Fresnel of a conductor or dielectric, over
+/// `(mu, alpha, eta, kappa)`. Four axes: no texture holds it as it is (the GPU packings of
+/// `docs/packing.md` do, read through [`crate::packing`]); it is interpolated on the CPU.
+#[derive(Debug, Clone)]
+pub struct FgdLut(Checked);
+common!(FgdLut, FGD);
+
+impl FgdLut {
+    pub fn sample(&self, mu: f32, alpha: f32, eta: f32, kappa: f32) -> f32 {
+        let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64, eta as f64, kappa as f64]);
+        v
+    }
+}

@@ -1,0 +1,344 @@
+//! The typed handles against the table they wrap and the GPU emulator, the texture descriptor
+//! against the DDS files' own texel bytes, and the errors a renderer meets.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use super::*;
+use crate::formats::manifest::{AxisEntry, ErrorEntry, MANIFEST_FILE};
+use crate::formats::{bin, dds};
+use crate::model::folder::SampledTable;
+use crate::stats::{ErrorRecord, ErrorSummary};
+use crate::table::derived::{CRITICAL_ANGLE_OFFSET, critical_angle_offset};
+
+/// Length of a DDS file's headers: magic, `DDS_HEADER`, `DDS_HEADER_DXT10`.
+const DDS_HEADERS: usize = 4 + 124 + 20;
+
+/// A smooth, non-separable function of a node's position, different per channel.
+fn fill(axes: Vec<Axis>, channels: usize, name: &str) -> Table {
+    let channel_list = (0..channels).map(|c| Channel::new(format!("c{c}"), "test")).collect();
+    let mut table = Table::zeros(name, axes, channel_list).unwrap();
+    for n in 0..table.node_count() {
+        let position = table.node_position(&table.node_index(n));
+        for c in 0..channels {
+            let v = position.iter().enumerate().map(|(d, x)| ((d + 1) as f64 * x + c as f64).sin()).sum::<f64>();
+            table.data[n * channels + c] = (0.25 + 0.2 * v) as f32;
+        }
+    }
+    table
+}
+
+fn karis_table() -> Table {
+    let mu = Axis::cell_centred("mu", 0.0, 1.0, 8).unwrap();
+    let alpha = Axis::cell_centred("alpha", 0.0, 1.0, 6).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+    fill(vec![mu, alpha], 2, "karis")
+}
+
+fn belcour_table() -> Table {
+    let mu = Axis::cell_centred("mu", 0.0, 1.0, 5).unwrap();
+    let alpha = Axis::cell_centred("alpha", 1.0, 0.0, 7).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+    fill(vec![mu, alpha], 4, "belcour")
+}
+
+fn gd_table() -> Table {
+    let mu = Axis::node_aligned("mu", 0.0, 1.0, 9).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
+    let alpha = Axis::node_aligned("alpha", 0.0, 1.0, 6).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+    fill(vec![mu, alpha], 1, "gd")
+}
+
+fn tir_table() -> Table {
+    let mu = Axis::node_aligned("mu", 0.0, 1.0, 7).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
+    let alpha = Axis::node_aligned("alpha", 0.0, 1.0, 5).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+    let offset = Axis::node_aligned(CRITICAL_ANGLE_OFFSET, -1.5, 1.5, 6)
+        .unwrap()
+        .with_mapping(Mapping::Asinh { scale: 0.05 })
+        .unwrap();
+    fill(vec![mu, alpha, offset], 1, "tir")
+}
+
+fn fgd_table() -> Table {
+    let axes = vec![
+        Axis::node_aligned("mu", 0.0, 1.0, 5).unwrap(),
+        Axis::node_aligned("alpha", 0.0, 1.0, 4).unwrap(),
+        Axis::node_aligned("eta", 0.0, 4.0, 6).unwrap(),
+        Axis::node_aligned("kappa", 0.0, 4.0, 3).unwrap(),
+    ];
+    fill(axes, 1, "fgd")
+}
+
+/// Write `table` as `file` into `dir` and return its manifest entry, as a build states it.
+fn write(dir: &Path, file: &str, table: &Table, format: FileFormat, precision: Precision) -> (String, FileEntry) {
+    let bytes = match format {
+        FileFormat::Dds => dds::encode_dds(table, precision).unwrap(),
+        FileFormat::Bin => bin::encode_bin(table).unwrap(),
+        FileFormat::Exr => unreachable!("the tests write DDS and .bin files"),
+    };
+    std::fs::write(dir.join(file), &bytes).unwrap();
+    let stored: Vec<f32> = table.data.iter().map(|&v| precision.round(v)).collect();
+    let min = stored.iter().copied().fold(f32::INFINITY, f32::min);
+    let max = stored.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let along = ["x", "y", "z", "w"];
+    let entry = FileEntry {
+        table: table.name.clone(),
+        format,
+        precision,
+        dxgi_format: (format == FileFormat::Dds).then(|| dds::dxgi_format_name(table.channel_count(), precision)),
+        axes: table.axes.iter().zip(along).map(|(a, s)| AxisEntry::new(a, s)).collect(),
+        channels: table.channels.clone(),
+        integrand: "test".into(),
+        masking: None,
+        notes: vec![],
+        method: "test".into(),
+        sampler: "test".into(),
+        samples_per_cell: 1,
+        seed: 0,
+        wall_time_s: 0.0,
+        value_range: [min, max],
+        nan_count: 0,
+        error: ErrorEntry {
+            integration: ErrorRecord {
+                replicate_standard_error: ErrorSummary { count: 0, rms: 0.0, max: 0.0 },
+                reference: None,
+            },
+            storage_rounding_max: 0.0,
+            storage_channel_sum: None,
+            interpolation: vec![],
+        },
+        fresnel_basis: None,
+        accuracy: vec![],
+        sha256: sha256_hex(&bytes),
+        bytes: bytes.len() as u64,
+        packing: None,
+        fit: None,
+        binding: None,
+    };
+    (file.to_string(), entry)
+}
+
+/// A folder with one table of each kind, its files in the formats and precisions a build writes.
+fn folder() -> (tempfile::TempDir, LutFolder) {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let files = BTreeMap::from([
+        write(d, "karis.dds", &karis_table(), FileFormat::Dds, Precision::F16),
+        write(d, "belcour.dds", &belcour_table(), FileFormat::Dds, Precision::F16),
+        write(d, "gd.dds", &gd_table(), FileFormat::Dds, Precision::F16),
+        write(d, "tir.dds", &tir_table(), FileFormat::Dds, Precision::F32),
+        write(d, "fgd.bin", &fgd_table(), FileFormat::Bin, Precision::F32),
+    ]);
+    Manifest { generator: "tmlut test".into(), files, scene: None }.write(d).unwrap();
+    let folder = LutFolder::open(d).unwrap();
+    (dir, folder)
+}
+
+/// Lookup parameters inside, at and past the ends of the unit range.
+const PARAMETERS: [f32; 7] = [0.0, 0.013, 0.2, 0.5, 0.77, 1.0, 1.3];
+
+fn assert_same<const N: usize>(handle: [f32; N], table: Vec<f64>, at: &str) {
+    let table: Vec<f32> = table.iter().map(|&v| v as f32).collect();
+    assert_eq!(&handle[..], &table[..], "at {at}");
+}
+
+#[test]
+fn each_handle_samples_as_its_table_interpolates() {
+    let (_dir, luts) = folder();
+    let karis = KarisLut::from_folder(&luts).unwrap();
+    let belcour = BelcourLut::open(&luts, "belcour.dds").unwrap();
+    let gd = GdLut::from_folder(&luts).unwrap();
+    let tir = TirLut::from_folder(&luts).unwrap();
+    let fgd = FgdLut::from_folder(&luts).unwrap();
+    for &a in &PARAMETERS {
+        for &b in &PARAMETERS {
+            let at = format!("({a}, {b})");
+            let r = b as f64;
+            assert_same(karis.sample(a, b), karis.table().interpolate(&[a as f64, r * r]), &at);
+            assert_same(belcour.sample(a, b), belcour.table().interpolate(&[a as f64, r * r]), &at);
+            assert_same([gd.sample(a, b)], gd.table().interpolate(&[a as f64, b as f64]), &at);
+            for eta in [0.3f32, 0.9, 1.0] {
+                let offset = critical_angle_offset(a as f64, eta as f64);
+                let expected = tir.table().interpolate(&[a as f64, b as f64, offset]);
+                assert_same([tir.sample(a, b, eta)], expected, &format!("{at}, eta {eta}"));
+                let eta = eta * 3.0;
+                let expected = fgd.table().interpolate(&[a as f64, b as f64, eta as f64, 0.5]);
+                assert_same([fgd.sample(a, b, eta, 0.5)], expected, &format!("{at}, eta {eta}"));
+            }
+        }
+    }
+}
+
+#[test]
+fn gpu_sampling_is_the_emulators_bit_for_bit() {
+    let (_dir, luts) = folder();
+    let karis = KarisLut::from_folder(&luts).unwrap();
+    let belcour = BelcourLut::from_folder(&luts).unwrap();
+    let gd = GdLut::from_folder(&luts).unwrap();
+    let tir = TirLut::from_folder(&luts).unwrap();
+    let emulated = |table: &Table| SampledTable::new(table).unwrap();
+    let (karis_gpu, belcour_gpu, gd_gpu, tir_gpu) =
+        (emulated(karis.table()), emulated(belcour.table()), emulated(gd.table()), emulated(tir.table()));
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for &a in &PARAMETERS {
+        for &b in &PARAMETERS {
+            let r = b as f64;
+            let point = [a as f64, r * r];
+            let expected: Vec<f32> = (0..2).map(|c| karis_gpu.sample(c, &point)).collect();
+            assert_eq!(bits(&karis.sample_gpu(a, b)), bits(&expected), "karis at ({a}, {b})");
+            let expected: Vec<f32> = (0..4).map(|c| belcour_gpu.sample(c, &point)).collect();
+            assert_eq!(bits(&belcour.sample_gpu(a, b)), bits(&expected), "belcour at ({a}, {b})");
+            let point = [a as f64, b as f64];
+            assert_eq!(gd.sample_gpu(a, b).to_bits(), gd_gpu.sample(0, &point).to_bits(), "gd at ({a}, {b})");
+            for eta in [0.3f32, 0.9, 1.0] {
+                let point = [a as f64, b as f64, critical_angle_offset(a as f64, eta as f64)];
+                let expected = tir_gpu.sample(0, &point);
+                assert_eq!(tir.sample_gpu(a, b, eta).to_bits(), expected.to_bits(), "tir at ({a}, {b}, {eta})");
+            }
+        }
+    }
+}
+
+#[test]
+fn texel_centres_read_their_texel() {
+    let (_dir, luts) = folder();
+    let karis = KarisLut::from_folder(&luts).unwrap();
+    let tir = TirLut::from_folder(&luts).unwrap();
+    let centre = |k: usize, n: usize| (k as f32 + 0.5) / n as f32;
+    assert_eq!(&karis.sample_uv(centre(3, 8), centre(4, 6))[..], karis.table().node(&[3, 4]));
+    assert_eq!(tir.sample_uvw(centre(6, 7), centre(0, 5), centre(2, 6)), tir.table().node(&[6, 0, 2])[0]);
+    // Clamp addressing: past the edge reads the edge texel.
+    assert_eq!(&karis.sample_uv(-1.0, 2.0)[..], karis.table().node(&[0, 5]));
+}
+
+#[test]
+fn texture_bytes_are_the_dds_files_texels_with_their_descriptor() {
+    let (dir, luts) = folder();
+    let cases = [
+        ("karis.dds", KarisLut::from_folder(&luts).unwrap().texture().unwrap(), (8, 6, 1), TextureFormat::Rg16Float),
+        (
+            "belcour.dds",
+            BelcourLut::from_folder(&luts).unwrap().texture().unwrap(),
+            (5, 7, 1),
+            TextureFormat::Rgba16Float,
+        ),
+        ("gd.dds", GdLut::from_folder(&luts).unwrap().texture().unwrap(), (9, 6, 1), TextureFormat::R16Float),
+        ("tir.dds", TirLut::from_folder(&luts).unwrap().texture().unwrap(), (7, 5, 6), TextureFormat::R32Float),
+    ];
+    for (file, texture, (w, h, d), format) in cases {
+        let desc = texture.descriptor();
+        assert_eq!((desc.width, desc.height, desc.depth_or_layers), (w, h, d), "{file}");
+        assert_eq!(desc.format, format, "{file}");
+        assert_eq!(desc.dimension, if d == 1 { TextureDimension::D2 } else { TextureDimension::D3 }, "{file}");
+        assert_eq!(desc.mip_level_count, 1);
+        assert_eq!(desc.bytes_per_row, w * format.bytes_per_texel(), "{file}");
+        assert_eq!(desc.rows_per_image, h, "{file}");
+        let bytes = texture.to_bytes();
+        assert_eq!(bytes.len(), (w * h * d * format.bytes_per_texel()) as usize, "{file}");
+        assert_eq!(bytes.len(), desc.byte_len(), "{file}");
+        let file_bytes = std::fs::read(dir.path().join(file)).unwrap();
+        assert_eq!(&bytes[..], &file_bytes[DDS_HEADERS..], "{file}: the texels as the DDS file stores them");
+        let texel_count = (w * h * d) as usize * format.channels();
+        match format.precision() {
+            Precision::F16 => assert_eq!(texture.texels_f16().unwrap().len(), texel_count),
+            Precision::F32 => assert_eq!(texture.texels_f32().unwrap().len(), texel_count),
+        }
+        #[cfg(feature = "bytemuck")]
+        assert_eq!(texture.bytes(), &bytes[..], "{file}");
+    }
+    assert_eq!(TextureFormat::Rg16Float.webgpu_name(), "rg16float");
+    assert_eq!(TextureFormat::of(3, Precision::F16), None);
+}
+
+#[test]
+fn a_table_no_texture_holds_is_refused_naming_it() {
+    let err = TextureData::from_table(&fgd_table(), Precision::F32).unwrap_err().to_string();
+    assert!(err.contains("table `fgd`") && err.contains("4 axes; a texture has 1 to 3"), "{err}");
+    let mut three = gd_table();
+    three.channels = (0..3).map(|c| Channel::new(format!("c{c}"), "")).collect();
+    three.data = vec![0.0; three.node_count() * 3];
+    let err = TextureData::from_table(&three, Precision::F16).unwrap_err().to_string();
+    assert!(err.contains("3 channels; a texture holds 1, 2 or 4"), "{err}");
+}
+
+#[test]
+fn a_wrong_number_of_coordinates_is_an_error_not_a_panic() {
+    let table = karis_table();
+    let mut out = [0.0; 2];
+    assert_eq!(table.interpolate_into(&[0.5], &mut out), Err(InterpolationError::AxisCount { axes: 2, given: 1 }));
+    assert_eq!(
+        table.interpolate_into(&[0.5, 0.5, 0.5], &mut out),
+        Err(InterpolationError::AxisCount { axes: 2, given: 3 })
+    );
+    assert_eq!(
+        table.interpolate_into(&[0.5, 0.5], &mut [0.0; 3]),
+        Err(InterpolationError::ChannelCount { channels: 2, given: 3 })
+    );
+    let err = table.interpolate_into(&[0.5], &mut out).unwrap_err().to_string();
+    assert!(err.contains("1 coordinates given; the table has 2 axes"), "{err}");
+    let mut gpu = [0.0f32; 2];
+    assert_eq!(sample_texture(&table, &[0.5], &mut gpu), Err(InterpolationError::AxisCount { axes: 2, given: 1 }));
+    let mut one = [0.0f32; 1];
+    assert_eq!(sample_texture(&fgd_table(), &[0.5; 4], &mut one), Err(InterpolationError::NotATexture { axes: 4 }));
+    // And the allocation-free path is the allocating one.
+    table.interpolate_into(&[0.3, 0.6], &mut out).unwrap();
+    assert_eq!(out.to_vec(), table.interpolate(&[0.3, 0.6]));
+}
+
+#[test]
+fn a_file_of_another_kind_is_refused_naming_the_file_and_the_axes_allowed() {
+    let (_dir, luts) = folder();
+    let err = GdLut::open(&luts, "karis.dds").unwrap_err().to_string();
+    assert!(err.contains("karis.dds"), "{err}");
+    assert!(err.contains("2 channels; a gd table has the axes (mu, alpha) and 1 channel"), "{err}");
+    let err = TirLut::open(&luts, "gd.dds").unwrap_err().to_string();
+    assert!(err.contains("a tir table has the axes (mu, alpha, eta or critical_angle_offset)"), "{err}");
+    let err = KarisLut::from_table(gd_table(), Precision::F16).unwrap_err().to_string();
+    assert!(err.contains("table `gd`"), "{err}");
+}
+
+#[test]
+fn a_folder_without_the_table_or_with_a_changed_file_is_refused() {
+    let (dir, luts) = folder();
+    let mut manifest = luts.manifest().clone();
+    manifest.files.remove("karis.dds");
+    manifest.write(dir.path()).unwrap();
+    let err = KarisLut::from_folder(&LutFolder::open(dir.path()).unwrap()).unwrap_err().to_string();
+    assert!(err.contains(MANIFEST_FILE) && err.contains("lists no `karis` table"), "{err}");
+    // A file replaced after the build: the handle opens it verified, as `LutFolder::load`.
+    let mut bytes = std::fs::read(dir.path().join("gd.dds")).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(dir.path().join("gd.dds"), bytes).unwrap();
+    let err = GdLut::open(&luts, "gd.dds").unwrap_err().to_string();
+    assert!(err.contains("gd.dds") && err.contains("SHA-256"), "{err}");
+}
+
+#[test]
+fn paths_are_taken_as_any_path_like_value() {
+    let (dir, _) = folder();
+    let as_str = dir.path().to_str().unwrap();
+    let as_string = as_str.to_string();
+    let as_path_buf = dir.path().to_path_buf();
+    for folder in [LutFolder::open(as_str), LutFolder::open(&as_string), LutFolder::open(as_path_buf)] {
+        assert_eq!(
+            folder.unwrap().files().collect::<Vec<_>>(),
+            ["belcour.dds", "fgd.bin", "gd.dds", "karis.dds", "tir.dds"]
+        );
+    }
+    assert_eq!(load_table(dir.path().join("gd.dds")).unwrap(), load_table(format!("{as_str}/gd.dds")).unwrap());
+}
+
+#[test]
+fn the_loader_uses_only_tables_formats_errors_and_the_gpu_sampler() {
+    // What a renderer links: the model and the generator build on the loader, never the reverse.
+    let allowed = ["error", "formats", "table", "packing"];
+    let sources = [
+        ("mod.rs", include_str!("mod.rs")),
+        ("handles.rs", include_str!("handles.rs")),
+        ("texture.rs", include_str!("texture.rs")),
+    ];
+    for (file, text) in sources {
+        for (at, _) in text.match_indices("crate::") {
+            let module = text[at + 7..].split(|c: char| !(c.is_alphanumeric() || c == '_')).next().unwrap_or_default();
+            assert!(allowed.contains(&module), "src/loader/{file} uses crate::{module}; allowed: {allowed:?}");
+        }
+    }
+}
