@@ -539,7 +539,7 @@ mod tests {
             BuildRequest { config, only: Some(vec!["karis".into()]), out: dir.path().to_path_buf(), error_maps: false };
         build(&request, &()).unwrap();
         let folder = LutFolder::open(dir.path()).unwrap();
-        let listed: Vec<&str> = folder.manifest.files.keys().map(String::as_str).collect();
+        let listed: Vec<&str> = folder.manifest().files.keys().map(String::as_str).collect();
         assert_eq!(listed, ["gd.dds", "karis.dds"]);
         assert!(!dir.path().join("karis.exr").exists());
         assert!(dir.path().join("gd.dds").exists());
