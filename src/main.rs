@@ -258,6 +258,22 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+    /// Write a scene's transfer-matrix shader (WGSL and HLSL) over a built folder: one function
+    /// per material returning its lobes and directional albedo, reading the folder's tables with
+    /// the manifest's coordinates (docs/shaders.md).
+    Shader {
+        /// Scene file (TOML; see luts/scenes/).
+        scene: PathBuf,
+        /// The folder built for the scene (tmlut build --scene), or one holding the tables it reads.
+        #[arg(long)]
+        luts: PathBuf,
+        /// Output folder for <scene>.wgsl, <scene>.hlsl, <scene>.shader.json.
+        #[arg(long)]
+        out: PathBuf,
+        /// Also write <scene>.reference.json: the CPU evaluator at this many views per material.
+        #[arg(long, default_value_t = 0)]
+        reference_views: usize,
+    },
     /// List the tables tmlut knows.
     List,
     /// Describe a table file: axes, channels, value range, NaN count, conventions.
@@ -292,7 +308,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                     let (scene, text) = Scene::read(&path)?;
                     let request = SceneBuildRequest {
                         scene,
-                        source: path,
+                        source: path.clone(),
                         text,
                         config,
                         out,
@@ -310,6 +326,7 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                     for warning in &plan.warnings {
                         eprintln!("warning: {warning}");
                     }
+                    write_shader(&path, &request.out, &request.out)?;
                     written
                 }
                 None => pipeline::build(&BuildRequest { config, only, out, error_maps }, &progress)?,
@@ -336,6 +353,13 @@ fn run(cli: Cli) -> tmlut::Result<()> {
                     let what = accuracy.what.split(['(', ';']).next().unwrap_or_default().trim_end();
                     println!("    {what}: RMS {:.2e}, max {:.2e}", accuracy.error.rms, accuracy.error.max);
                 }
+            }
+            Ok(())
+        }
+        Command::Shader { scene, luts, out, reference_views } => {
+            let (scene, _) = Scene::read(&scene)?;
+            for path in tmlut::scene::shader::write_scene_shader(&scene, &luts, &out, reference_views)? {
+                println!("{}", path.display());
             }
             Ok(())
         }
@@ -719,4 +743,18 @@ impl Progress for ProgressBars {
     fn note(&self, message: &str) {
         eprintln!("note: {message}");
     }
+}
+
+/// `build --scene` writes the scene's shader beside its tables, where the shader covers the scene.
+fn write_shader(scene: &std::path::Path, luts: &std::path::Path, out: &std::path::Path) -> tmlut::Result<()> {
+    let (scene, _) = Scene::read(scene)?;
+    match tmlut::scene::shader::write_scene_shader(&scene, luts, out, 0) {
+        Ok(paths) => {
+            for path in paths {
+                println!("{}", path.display());
+            }
+        }
+        Err(e) => eprintln!("note: no shader written for scene `{}`: {e}", scene.name),
+    }
+    Ok(())
 }

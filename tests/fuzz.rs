@@ -319,8 +319,21 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
     let read = |name: &str| std::fs::read(folder.join(name)).unwrap();
     let manifest_bytes = read("manifest.json");
     let manifest: serde_json::Value = serde_json::from_slice(&manifest_bytes).unwrap();
-    let tables =
-        ["karis.dds", "belcour.dds", "fgd_lossless.dds", "gd.dds", "tir.dds", "karis.exr", "belcour.exr", "fgd.exr", "gd.exr", "tir.exr", "fgd.bin", "gd.bin", "tir.bin"];
+    let tables = [
+        "karis.dds",
+        "belcour.dds",
+        "fgd_lossless.dds",
+        "gd.dds",
+        "tir.dds",
+        "karis.exr",
+        "belcour.exr",
+        "fgd.exr",
+        "gd.exr",
+        "tir.exr",
+        "fgd.bin",
+        "gd.bin",
+        "tir.bin",
+    ];
     let shaders = ["fgd_lossless.hlsl", "fgd_lossless.wgsl", "tir_fit.hlsl", "tir_fit.wgsl"];
     let mut all = Vec::with_capacity(count);
     while all.len() < count {

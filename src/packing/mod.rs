@@ -654,4 +654,6 @@ impl PackedFgd {
 }
 
 #[cfg(test)]
+mod identity_tests;
+#[cfg(test)]
 mod tests;

@@ -28,7 +28,7 @@ fn table(counts: [usize; 4], f: impl Fn([f64; 4], usize) -> f64) -> Table {
 }
 
 /// Rough values in [0, 1) at every node: the hardest case for a packing that blends neighbours.
-fn noise(counts: [usize; 4]) -> Table {
+pub(super) fn noise(counts: [usize; 4]) -> Table {
     table(counts, |_, n| hash01(n as u64))
 }
 
