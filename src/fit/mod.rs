@@ -13,6 +13,3 @@ pub mod least_squares;
 pub use forms::{ALL_FORMS, Form, ShaderLanguage};
 #[cfg(feature = "generator")]
 pub use least_squares::*;
-
-#[cfg(test)]
-mod identity_tests;

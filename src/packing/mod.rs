@@ -654,6 +654,4 @@ impl PackedFgd {
 }
 
 #[cfg(test)]
-mod identity_tests;
-#[cfg(test)]
 mod tests;

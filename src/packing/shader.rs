@@ -205,13 +205,13 @@ impl Program {
         self.result.eval(inputs, &locals)
     }
 
-    pub(crate) fn text(&self, e: &Expr) -> String {
+    fn text(&self, e: &Expr) -> String {
         let mut text = String::new();
         e.print(self, &mut text);
         text
     }
 
-    pub(crate) fn names(&self, c: &[usize; 3]) -> [&str; 3] {
+    fn names(&self, c: &[usize; 3]) -> [&str; 3] {
         c.map(|i| self.locals[i].0.as_str())
     }
 

@@ -28,7 +28,7 @@ fn table(counts: [usize; 4], f: impl Fn([f64; 4], usize) -> f64) -> Table {
 }
 
 /// Rough values in [0, 1) at every node: the hardest case for a packing that blends neighbours.
-pub(super) fn noise(counts: [usize; 4]) -> Table {
+fn noise(counts: [usize; 4]) -> Table {
     table(counts, |_, n| hash01(n as u64))
 }
 
@@ -292,6 +292,7 @@ fn shader_text_is_the_evaluated_program() {
         let packed = PackedFgd::pack(&t, packing, Precision::F32).unwrap();
         let hlsl = packed.hlsl();
         let wgsl = packed.wgsl();
+        crate::shader::validate::wgsl(&wgsl).unwrap_or_else(|e| panic!("{}: {e}", packing.name()));
         // Every value the emulator computes appears, with its constants, in both languages.
         for (name, step) in &packed.program.locals {
             let Step::Value(_) = step else { continue };
