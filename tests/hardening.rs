@@ -75,7 +75,7 @@ fn inputs_that_never_end_or_are_not_files_are_refused() {
     // A manifest that is a folder.
     std::fs::remove_file(built.join("manifest.json")).unwrap();
     std::fs::create_dir(built.join("manifest.json")).unwrap();
-    let run = run_limited(&["inspect", built.join("gd.bin").to_str().unwrap()], QUICK);
+    let run = run_limited(&["inspect", built.join("gd.dds").to_str().unwrap()], QUICK);
     assert_clean_error(&run, &["manifest.json", "folder"]);
 }
 
@@ -113,7 +113,7 @@ fn concurrent_builds_into_one_folder_take_turns_and_keep_both_tables() {
 
     let manifest = tmlut::loader::LutFolder::open(&out).unwrap().manifest;
     let files: Vec<&str> = manifest.files.keys().map(String::as_str).collect();
-    assert_eq!(files, ["gd.bin", "karis.dds", "karis.exr"]);
+    assert_eq!(files, ["gd.dds", "karis.dds", "karis.exr"]);
     let no_budgets = dir.path().join("none.toml");
     std::fs::write(&no_budgets, "").unwrap();
     let check = check_consistency(&out, &no_budgets);
