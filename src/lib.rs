@@ -13,6 +13,8 @@
 //!   folder by [`commit`];
 //! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and a
 //!   GPU sampling emulator to measure it;
+//! - [`shader`]: one emitter that writes every shader as HLSL and WGSL from one description, and
+//!   the transfer-matrix evaluation of a scene's materials;
 //! - [`loader`]: what a renderer needs to read and sample the files;
 //! - [`model`]: the transfer-matrix model itself: layer stacks, their lobes and directional albedo;
 //! - [`random_walk`]: the furnace test's ground truth, a random walk through an explicit layer stack
@@ -36,6 +38,7 @@ pub mod physics;
 #[cfg(feature = "generator")]
 pub mod report;
 pub mod sampling;
+pub mod shader;
 pub mod stats;
 pub mod table;
 

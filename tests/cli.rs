@@ -167,6 +167,8 @@ fn same_seed_gives_identical_files_whatever_the_thread_count() {
             "tir_fit.wgsl"
         ]
     );
+    // Every WGSL file of a build is valid WebGPU shader code (naga).
+    assert_eq!(common::validate_wgsl_files(&one), 2);
     let (a, b) = (snapshot(&one), snapshot(&two));
     for ((name_a, bytes_a), (name_b, bytes_b)) in a.iter().zip(&b) {
         assert_eq!(name_a, name_b);
@@ -335,6 +337,11 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
     // Exactly the plan: a DDS per slice and GD in its configured format, nothing of the default set.
     let mut files: Vec<&String> = manifest.files.keys().collect();
     files.sort();
+    // Beside the tables, the scene's shader (not a table: not in the manifest's files), valid WGSL.
+    for shader in ["copper_pot.wgsl", "copper_pot.hlsl", "copper_pot.shader.json"] {
+        assert!(out.join(shader).exists(), "{shader}");
+    }
+    assert_eq!(common::validate_wgsl_files(&out), 1);
     let mut expected: Vec<String> = planned.iter().map(|n| format!("{n}.dds")).collect();
     expected.sort();
     assert_eq!(files, expected.iter().collect::<Vec<_>>());
@@ -373,6 +380,9 @@ fn a_scene_with_the_fitted_tir_form_writes_its_shaders_and_no_tir_table() {
     }
     assert_eq!(fit.shaders.len(), 2);
     assert!(fit.figures.rmse.is_finite());
+    // The fitted form's shader and the scene's shader reading it are valid WGSL.
+    assert_eq!(common::validate_wgsl_files(&out), 2);
+    assert!(std::fs::read_to_string(out.join("copper_pot.wgsl")).unwrap().contains("tmlut_tir(l1_cos_below"));
 }
 
 #[test]

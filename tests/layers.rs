@@ -16,6 +16,9 @@ const LAYERS: &[&[&str]] = &[
     &["stats", "table", "physics"],
     // Files and the drawing of PNG plots, which are a file format.
     &["formats"],
+    // The emitter that prints one description of a shader as HLSL and WGSL, and the emulator of
+    // a GPU's texture filtering, which the loader samples with.
+    &["shader", "packing/emulator"],
     &["report/plot"],
     &["loader"],
     &["sampling"],
@@ -27,6 +30,8 @@ const LAYERS: &[&[&str]] = &[
     &["packing"],
     &["model"],
     &["random_walk"],
+    // A scene's transfer-matrix shader, over the model and a built folder.
+    &["shader/scene"],
     &["recipes"],
     &["config"],
     // The build's own steps: the locked output folder, the fit a build writes, the error maps.

@@ -72,6 +72,7 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
             for warning in &plan.warnings {
                 eprintln!("warning: {warning}");
             }
+            write_scene_shader(&request.scene, &request.out);
             written
         }
         None => {
@@ -81,4 +82,17 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
     };
     print!("{}", pipeline::summary(&written));
     Ok(())
+}
+
+/// The scene's shader beside its tables, where the shader covers the scene; a note where it does
+/// not (the tables are built either way).
+fn write_scene_shader(scene: &Scene, out: &std::path::Path) {
+    match tmlut::scene::shader::write_scene_shader(scene, out, out, 0) {
+        Ok(paths) => {
+            for path in paths {
+                println!("{}", path.display());
+            }
+        }
+        Err(e) => eprintln!("note: no shader written for scene `{}`: {e}", scene.name),
+    }
 }

@@ -21,6 +21,7 @@ mod inspect;
 mod list;
 mod pack_report;
 mod plan;
+mod shader;
 mod stability;
 
 #[derive(Parser)]
@@ -48,6 +49,7 @@ enum Command {
     Converge(converge::ConvergeArgs),
     Fit(fit::FitArgs),
     Furnace(furnace::FurnaceArgs),
+    Shader(shader::ShaderArgs),
     List(list::ListArgs),
     Inspect(inspect::InspectArgs),
 }
@@ -76,6 +78,7 @@ pub fn run(cli: Cli) -> tmlut::Result<()> {
         Command::Converge(args) => converge::exec(args, &context),
         Command::Fit(args) => fit::exec(args, &context),
         Command::Furnace(args) => furnace::exec(args, &context),
+        Command::Shader(args) => shader::exec(args, &context),
         Command::List(args) => list::exec(args, &context),
         Command::Inspect(args) => inspect::exec(args, &context),
     }

@@ -445,6 +445,7 @@ fn every_fitted_forms_definition_computes_what_its_shaders_compute() {
                 .collect();
             let wgsl = shader(form, &parameters, ShaderLanguage::Wgsl).unwrap();
             let hlsl = shader(form, &parameters, ShaderLanguage::Hlsl).unwrap();
+            crate::shader::validate::wgsl(&wgsl).unwrap_or_else(|e| panic!("{}: {e}", form.name()));
             let edges = [0.0, 1e-4, 0.5, 1.0];
             let points: Vec<[f64; 3]> = (0..300)
                 .map(|n| {

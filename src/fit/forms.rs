@@ -29,6 +29,7 @@ use std::cmp::Ordering;
 use serde::{Deserialize, Serialize};
 
 use super::dual::Dual;
+use crate::shader::{Builtin, Expr, Module, Parens, Stmt, Ty, call, f, func, name, select};
 
 /// The narrowest step a step form can take, so that `t` stays finite at `alpha = 0`
 /// (a hard step at the table's resolution).
@@ -615,162 +616,212 @@ fn eq56<R: Real>(mu: R, alpha: R, eta: R, corrected: bool) -> R {
 /// Shader source of a fitted form with its coefficients baked in (`None` for the baselines, whose
 /// shader is the thesis's own).
 pub fn shader(form: Form, parameters: &[f64], language: ShaderLanguage) -> Option<String> {
+    module(form, parameters).map(|m| m.print(language))
+}
+
+/// The fitted form as a module of the shader emitter: one description printed as HLSL and WGSL.
+/// Coefficients are baked in as f32 literals (Rust's shortest text that reads back to the same f32).
+pub fn module(form: Form, parameters: &[f64]) -> Option<Module> {
     if parameters.is_empty() || parameters.len() != form.parameter_names().len() {
         return None;
     }
-    // `{:?}` of an f32 is the shortest text that reads back to the same f32.
-    let c: Vec<String> = parameters.iter().map(|&v| format!("{:?}", v as f32)).collect();
+    let c: Vec<f32> = parameters.iter().map(|&v| v as f32).collect();
     if matches!(form, Form::CauchyCap | Form::CauchySlope) {
-        return Some(cauchy_shader(form, &c, language));
+        return Some(cauchy_module(form, &c));
     }
-    let (signature, binding) = match language {
-        ShaderLanguage::Hlsl => ("float tmlut_tir(float mu, float alpha, float eta)", "float"),
-        ShaderLanguage::Wgsl => ("fn tmlut_tir(mu: f32, alpha: f32, eta: f32) -> f32", "let"),
-    };
+    let (mu, alpha, eta, t) = (name("mu"), name("alpha"), name("eta"), name("t"));
     let step = match form {
-        Form::Logistic => "1.0 / (1.0 + exp(min(t, 80.0)))",
-        Form::Smoothstep => "1.0 - smoothstep(-1.0, 1.0, t)",
-        Form::Algebraic => "0.5 - 0.5 * t / sqrt(1.0 + t * t)",
-        Form::Rational => "0.5 - 0.5 * t / (1.0 + abs(t))",
+        Form::Logistic => f(1.0) / (f(1.0) + call(Builtin::Exp, vec![t.min(f(80.0))])),
+        Form::Smoothstep => f(1.0) - call(Builtin::Smoothstep, vec![f(-1.0), f(1.0), t]),
+        Form::Algebraic => f(0.5) - f(0.5) * t.clone() / (f(1.0) + t.clone() * t).sqrt(),
+        Form::Rational => f(0.5) - f(0.5) * t.clone() / (f(1.0) + t.abs()),
         Form::Eq56 | Form::Eq56Corrected | Form::CauchyCap | Form::CauchySlope => return None,
     };
-    Some(format!(
-        "// tmlut fit tir: form '{name}', {formula}\n\
-         // width = alpha (c0 + c1 alpha + c2 mu) + {floor:?}, shift = alpha (c3 + c4 alpha + c5 mu^2),\n\
-         // plus c6 logit(eta^2) clamped to +-{limit:?}. c0..c6: the fit's `parameters`, in order\n\
-         // (manifest.json `fit` of the build; fit.json of `tmlut fit tir`), as f32.\n\
-         {signature} {{\n\
-         \x20   {binding} width = alpha * max({c0} + {c1} * alpha + {c2} * mu, 0.0) + {floor:?};\n\
-         \x20   {binding} shift = alpha * ({c3} + {c4} * alpha + {c5} * mu * mu);\n\
-         \x20   {binding} eta2 = eta * eta;\n\
-         \x20   {binding} edge_logit = clamp(log(max(eta2, 1e-30)) - log(max(1.0 - eta2, 1e-30)), -{limit:?}, {limit:?});\n\
-         \x20   {binding} t = (mu * mu + eta2 - 1.0 - shift) / width + {c6} * edge_logit;\n\
-         \x20   return {step};\n\
-         }}\n",
+    let (floor, limit) = (WIDTH_FLOOR as f32, EDGE_LOGIT_LIMIT as f32);
+    let mut m = Module::new(Parens::Minimal);
+    m.comment(&format!(
+        "tmlut fit tir: form '{name}', {formula}\n\
+         width = alpha (c0 + c1 alpha + c2 mu) + {floor:?}, shift = alpha (c3 + c4 alpha + c5 mu^2),\n\
+         plus c6 logit(eta^2) clamped to +-{limit:?}. c0..c6: the fit's `parameters`, in order\n\
+         (manifest.json `fit` of the build; fit.json of `tmlut fit tir`), as f32.",
         name = form.name(),
         formula = form.formula(),
-        floor = WIDTH_FLOOR as f32,
-        c0 = c[0],
-        c1 = c[1],
-        c2 = c[2],
-        c3 = c[3],
-        c4 = c[4],
-        c5 = c[5],
-        c6 = c[6],
-        limit = EDGE_LOGIT_LIMIT as f32,
-    ))
+    ));
+    let log = |e: Expr| call(Builtin::Log, vec![e]);
+    let (eta2, shift, width) = (name("eta2"), name("shift"), name("width"));
+    m.function(
+        "tmlut_tir",
+        vec![("mu", Ty::F32), ("alpha", Ty::F32), ("eta", Ty::F32)],
+        Ty::F32,
+        vec![
+            local(
+                "width",
+                alpha.clone() * (f(c[0]) + f(c[1]) * alpha.clone() + f(c[2]) * mu.clone()).max(f(0.0)) + f(floor),
+            ),
+            local("shift", alpha.clone() * (f(c[3]) + f(c[4]) * alpha + f(c[5]) * mu.clone() * mu.clone())),
+            local("eta2", eta.clone() * eta),
+            local(
+                "edge_logit",
+                (log(eta2.clone().max(f(1e-30))) - log((f(1.0) - eta2.clone()).max(f(1e-30))))
+                    .clamp(f(-limit), f(limit)),
+            ),
+            local("t", (mu.clone() * mu + eta2 - f(1.0) - shift) / width + f(c[6]) * name("edge_logit")),
+            Stmt::Return(step),
+        ],
+    );
+    Some(m)
 }
 
-/// [`cauchy_cap`] or [`cauchy_slope`] as shader text, statement for statement, with coefficients
-/// `c` (f32 text) baked in as named constants `c0..c9`.
-fn cauchy_shader(form: Form, c: &[String], language: ShaderLanguage) -> String {
-    let hlsl = language == ShaderLanguage::Hlsl;
-    let (binding, constant_type, pair) = if hlsl { ("float", "", "float2") } else { ("let", ": f32", "vec2<f32>") };
-    let function = |name: &str, arguments: &[(&str, &str)], returns: &str| -> String {
-        if hlsl {
-            let list: Vec<String> = arguments.iter().map(|(a, ty)| format!("{ty} {a}")).collect();
-            format!("{returns} {name}({})", list.join(", "))
-        } else {
-            let list: Vec<String> = arguments.iter().map(|(a, ty)| format!("{a}: {ty}")).collect();
-            format!("fn {name}({}) -> {returns}", list.join(", "))
-        }
-    };
-    let scalar = if hlsl { "float" } else { "f32" };
-    let choose = |condition: &str, then: &str, otherwise: &str| {
-        if hlsl {
-            format!("{condition} ? {then} : {otherwise}")
-        } else {
-            format!("select({otherwise}, {then}, {condition})")
-        }
-    };
-    let mut text = format!(
-        "// tmlut fit tir: form '{name}', {formula}\n\
-         // c0..c9: the fit's `parameters`, in order (manifest.json `fit` of the build; fit.json of\n\
-         // `tmlut fit tir`), as f32; the manifest's `definition` states every statement below.\n\
-         // Shares are (numerator, denominator) pairs, so that a ratio of two shares costs one division.\n\
-         {ratio_signature} {{\n\
-         \x20   return a.x * b.y / max(a.y * b.x, 1e-37);\n\
-         }}\n\
-         // Share of a spherical Cauchy lobe in a cap: (1 - u / s) / 2, written without cancellation\n\
-         // for u > 0 as w^2 / (2 s d), d = s + |u|, and as d^2 / (2 s d) otherwise.\n\
-         {share_signature} {{\n\
-         \x20   {binding} s = max(sqrt(u * u + w * w), 1e-30);\n\
-         \x20   {binding} d = s + abs(u);\n\
-         \x20   return {pair}({share}, 2.0 * s * d);\n\
-         }}\n",
+/// An untyped scalar local (`float x = ...;` / `let x = ...;`), as the fitted forms print them.
+fn local(n: &str, value: Expr) -> Stmt {
+    Stmt::Let { name: n.to_string(), ty: Ty::F32, value, typed: false, precise: false }
+}
+
+/// [`cauchy_cap`] or [`cauchy_slope`] as a module, statement for statement, with coefficients `c`
+/// baked in as named constants `c0..c9`.
+fn cauchy_module(form: Form, c: &[f32]) -> Module {
+    let pair = Ty::Vec(2);
+    let pair_local =
+        |n: &str, value: Expr| Stmt::Let { name: n.to_string(), ty: Ty::Vec(2), value, typed: false, precise: false };
+    let n = name;
+    let mut m = Module::new(Parens::Minimal);
+    m.comment(&format!(
+        "tmlut fit tir: form '{name}', {formula}\n\
+         c0..c9: the fit's `parameters`, in order (manifest.json `fit` of the build; fit.json of\n\
+         `tmlut fit tir`), as f32; the manifest's `definition` states every statement below.\n\
+         Shares are (numerator, denominator) pairs, so that a ratio of two shares costs one division.",
         name = form.name(),
         formula = form.formula(),
-        ratio_signature = function("tmlut_ratio", &[("a", pair), ("b", pair)], scalar),
-        share_signature = function("tmlut_cap_share", &[("u", scalar), ("w", scalar)], pair),
-        share = choose("u > 0.0", "w * w", "d * d"),
+    ));
+    m.function(
+        "tmlut_ratio",
+        vec![("a", pair.clone()), ("b", pair.clone())],
+        Ty::F32,
+        vec![Stmt::Return(
+            n("a").member("x") * n("b").member("y") / (n("a").member("y") * n("b").member("x")).max(f(1e-37)),
+        )],
+    );
+    m.comment(
+        "Share of a spherical Cauchy lobe in a cap: (1 - u / s) / 2, written without cancellation\n\
+         for u > 0 as w^2 / (2 s d), d = s + |u|, and as d^2 / (2 s d) otherwise.",
+    );
+    m.function(
+        "tmlut_cap_share",
+        vec![("u", Ty::F32), ("w", Ty::F32)],
+        pair.clone(),
+        vec![
+            local("s", (n("u") * n("u") + n("w") * n("w")).sqrt().max(f(1e-30))),
+            local("d", n("s") + n("u").abs()),
+            Stmt::Return(Expr::Construct(
+                pair.clone(),
+                vec![select(n("u").gt(f(0.0)), n("w") * n("w"), n("d") * n("d")), f(2.0) * n("s") * n("d")],
+            )),
+        ],
     );
     if form == Form::CauchySlope {
-        text += &format!(
-            "// Weight of the in-plane visible-slope lobe reflected above cosine c (up to a common factor):\n\
-             // (mu (r - t) + s^2) / r, with r - t written as s^2 / e for t > 0, e = r + |t|.\n\
-             {signature} {{\n\
-             \x20   {binding} t = 0.5 * (c - mu);\n\
-             \x20   {binding} s2 = s * s;\n\
-             \x20   {binding} r = sqrt(s2 + t * t);\n\
-             \x20   {binding} e = r + abs(t);\n\
-             \x20   return {pair}({above}, e * r);\n\
-             }}\n",
-            signature = function("tmlut_slope_above", &[("c", scalar), ("mu", scalar), ("s", scalar)], pair),
-            above = choose("t > 0.0", "s2 * (mu + e)", "(mu * e + s2) * e"),
+        m.comment(
+            "Weight of the in-plane visible-slope lobe reflected above cosine c (up to a common factor):\n\
+             (mu (r - t) + s^2) / r, with r - t written as s^2 / e for t > 0, e = r + |t|.",
+        );
+        m.function(
+            "tmlut_slope_above",
+            vec![("c", Ty::F32), ("mu", Ty::F32), ("s", Ty::F32)],
+            pair.clone(),
+            vec![
+                local("t", f(0.5) * (n("c") - n("mu"))),
+                local("s2", n("s") * n("s")),
+                local("r", (n("s2") + n("t") * n("t")).sqrt()),
+                local("e", n("r") + n("t").abs()),
+                Stmt::Return(Expr::Construct(
+                    pair.clone(),
+                    vec![
+                        select(n("t").gt(f(0.0)), n("s2") * (n("mu") + n("e")), (n("mu") * n("e") + n("s2")) * n("e")),
+                        n("e") * n("r"),
+                    ],
+                )),
+            ],
         );
     }
     let (centre, grazing) = if form == Form::CauchySlope { ("c6", "c7") } else { ("c8", "c9") };
-    let constants: String =
-        c.iter().enumerate().map(|(k, v)| format!("    {binding} c{k}{constant_type} = {v};\n")).collect();
-    text += &format!(
-        "{signature} {{\n\
-         {constants}\
-         \x20   {binding} sqrt_alpha = sqrt(alpha);\n\
-         \x20   {binding} g2 = (1.0 - mu) * (1.0 - mu);\n\
-         \x20   {binding} g4 = g2 * g2;\n\
-         \x20   {binding} g8 = g4 * g4;\n\
-         \x20   {binding} scale = max(alpha * (c0 + c1 * alpha + c2 * mu), 0.0) + {grazing} * sqrt_alpha * (g8 * g8) + {floor:?};\n\
-         \x20   {binding} centre = clamp(mu + {centre} * alpha * (1.0 - mu), 0.0, 1.0);\n\
-         \x20   {binding} critical_cosine_squared = max(1.0 - eta * eta, 0.0);\n\
-         \x20   {binding} critical_cosine = sqrt(critical_cosine_squared);\n\
-         \x20   {binding} k = clamp(1.0 - alpha * (c3 + c4 * alpha), 0.0, 1.0);\n\
-         \x20   {binding} k2 = k * k;\n\
-         \x20   {binding} upper_centre = centre * (1.0 + k2);\n\
-         \x20   {binding} scale2 = scale * scale;\n\
-         \x20   {pair_binding} cone = tmlut_cap_share(scale2 * (centre + critical_cosine) + (critical_cosine - centre), 2.0 * scale * eta);\n\
-         \x20   {pair_binding} upper = tmlut_cap_share(scale2 * (upper_centre + (1.0 - k2)) + ((1.0 - k2) - upper_centre), 2.0 * scale * (2.0 * k));\n\
-         \x20   {binding} cauchy_inside = tmlut_ratio(cone, upper);\n",
-        signature = function("tmlut_tir", &[("mu", scalar), ("alpha", scalar), ("eta", scalar)], scalar),
-        pair_binding = if hlsl { pair } else { "let" },
-        floor = CAUCHY_SCALE_FLOOR as f32,
-    );
-    text += &if form == Form::CauchySlope {
-        format!(
-            "\x20   {binding} slope_scale = c8 * alpha + {floor:?};\n\
-             \x20   {binding} slope_inside = tmlut_ratio(tmlut_slope_above(critical_cosine, mu, slope_scale), tmlut_slope_above(0.0, mu, slope_scale));\n\
-             \x20   {binding} fade_denominator = 1.0 + c9 * alpha;\n\
-             \x20   {binding} fade = (1.0 - mu) / (fade_denominator * fade_denominator);\n\
-             \x20   {binding} narrow = clamp(1.0 - (cauchy_inside + fade * (slope_inside - cauchy_inside)), 0.0, 1.0);\n\
-             \x20   {binding} rough = critical_cosine_squared;\n\
-             \x20   {binding} blend = min(c5 * alpha * sqrt_alpha, 1.0);\n",
-            floor = SLOPE_SCALE_FLOOR as f32,
-        )
+    let mut body: Vec<Stmt> = c
+        .iter()
+        .enumerate()
+        .map(|(k, &v)| Stmt::Let { name: format!("c{k}"), ty: Ty::F32, value: f(v), typed: true, precise: false })
+        .collect();
+    let (mu, alpha, eta) = (n("mu"), n("alpha"), n("eta"));
+    let one_minus = |e: Expr| f(1.0) - e;
+    let paren = |e: Expr| Expr::Paren(Box::new(e));
+    body.extend([
+        local("sqrt_alpha", alpha.clone().sqrt()),
+        local("g2", one_minus(mu.clone()) * one_minus(mu.clone())),
+        local("g4", n("g2") * n("g2")),
+        local("g8", n("g4") * n("g4")),
+        local(
+            "scale",
+            (alpha.clone() * (n("c0") + n("c1") * alpha.clone() + n("c2") * mu.clone())).max(f(0.0))
+                + n(grazing) * n("sqrt_alpha") * (n("g8") * n("g8"))
+                + f(CAUCHY_SCALE_FLOOR as f32),
+        ),
+        local("centre", (mu.clone() + n(centre) * alpha.clone() * one_minus(mu.clone())).clamp(f(0.0), f(1.0))),
+        local("critical_cosine_squared", one_minus(eta.clone() * eta.clone()).max(f(0.0))),
+        local("critical_cosine", n("critical_cosine_squared").sqrt()),
+        local("k", one_minus(alpha.clone() * (n("c3") + n("c4") * alpha.clone())).clamp(f(0.0), f(1.0))),
+        local("k2", n("k") * n("k")),
+        local("upper_centre", n("centre") * (f(1.0) + n("k2"))),
+        local("scale2", n("scale") * n("scale")),
+        pair_local(
+            "cone",
+            func(
+                "tmlut_cap_share",
+                vec![
+                    n("scale2") * (n("centre") + n("critical_cosine")) + (n("critical_cosine") - n("centre")),
+                    f(2.0) * n("scale") * eta,
+                ],
+            ),
+        ),
+        pair_local(
+            "upper",
+            func(
+                "tmlut_cap_share",
+                vec![
+                    n("scale2") * (n("upper_centre") + one_minus(n("k2")))
+                        + (paren(one_minus(n("k2"))) - n("upper_centre")),
+                    f(2.0) * n("scale") * (f(2.0) * n("k")),
+                ],
+            ),
+        ),
+        local("cauchy_inside", func("tmlut_ratio", vec![n("cone"), n("upper")])),
+    ]);
+    if form == Form::CauchySlope {
+        let above = |c: Expr| func("tmlut_slope_above", vec![c, mu.clone(), n("slope_scale")]);
+        body.extend([
+            local("slope_scale", n("c8") * alpha.clone() + f(SLOPE_SCALE_FLOOR as f32)),
+            local("slope_inside", func("tmlut_ratio", vec![above(n("critical_cosine")), above(f(0.0))])),
+            local("fade_denominator", f(1.0) + n("c9") * alpha.clone()),
+            local("fade", one_minus(mu.clone()) / (n("fade_denominator") * n("fade_denominator"))),
+            local(
+                "narrow",
+                one_minus(n("cauchy_inside") + n("fade") * (n("slope_inside") - n("cauchy_inside")))
+                    .clamp(f(0.0), f(1.0)),
+            ),
+            local("rough", n("critical_cosine_squared")),
+            local("blend", (n("c5") * alpha * n("sqrt_alpha")).min(f(1.0))),
+        ]);
     } else {
-        format!(
-            "\x20   {binding} narrow = clamp(1.0 - cauchy_inside, 0.0, 1.0);\n\
-             \x20   {binding} rough = pow(critical_cosine, c5);\n\
-             \x20   {binding} blend = min(c6 * pow(alpha, c7), 1.0);\n"
-        )
-    };
-    text += "    return narrow + blend * (rough - narrow);\n}\n";
-    text
+        let pow = |a: Expr, b: Expr| call(Builtin::Pow, vec![a, b]);
+        body.extend([
+            local("narrow", one_minus(n("cauchy_inside")).clamp(f(0.0), f(1.0))),
+            local("rough", pow(n("critical_cosine"), n("c5"))),
+            local("blend", (n("c6") * pow(alpha, n("c7"))).min(f(1.0))),
+        ]);
+    }
+    body.push(Stmt::Return(n("narrow") + n("blend") * (n("rough") - n("narrow"))));
+    m.function("tmlut_tir", vec![("mu", Ty::F32), ("alpha", Ty::F32), ("eta", Ty::F32)], Ty::F32, body);
+    m
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ShaderLanguage {
-    Hlsl,
-    Wgsl,
-}
+/// The language a fitted form's shader is printed in.
+pub type ShaderLanguage = crate::shader::Lang;
 
 #[cfg(test)]
 #[path = "definition_tests.rs"]

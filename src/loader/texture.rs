@@ -22,7 +22,7 @@
 
 use super::{Precision, Table};
 use crate::error::{Error, Result};
-use crate::packing::Filter;
+use crate::packing::emulator::Filter;
 use crate::packing::emulator::{lerp, linear_taps};
 use crate::table::{Axis, InterpolationError, Placement};
 

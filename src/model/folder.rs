@@ -63,6 +63,16 @@ impl SampledTable {
         self.channels.len()
     }
 
+    /// The texture of channel `channel` (empty where there is none).
+    pub fn into_channel(self, channel: usize) -> Texture3D {
+        self.channels.into_iter().nth(channel).unwrap_or(Texture3D {
+            width: 0,
+            height: 0,
+            depth: 0,
+            texels: Vec::new(),
+        })
+    }
+
     /// Channel `channel` at `point` (one value per axis), filtered as a GPU does.
     pub fn sample(&self, channel: usize, point: &[f64]) -> f32 {
         let mut uvw = [0.5f32; 3];

@@ -415,7 +415,8 @@ impl PackedFgd {
         }
         let [n_mu, n_alpha, n_eta, n_kappa] = counts;
         let axes = source_axes;
-        let mut program = Program::new(packing.file_stem(), FGD_INPUTS.to_vec());
+        // The file stem of `lossless-filtered` holds a `-`, which no shading language admits in a name.
+        let mut program = Program::new(packing.file_stem().replace('-', "_"), FGD_INPUTS.to_vec());
         let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
         let mut layout;
         let axis_entries;

@@ -13,6 +13,7 @@
 use std::fmt::Write as _;
 
 use super::emulator::{Filter, Texture3D};
+use crate::shader::{self, Lang, literal};
 
 impl std::ops::Add for Expr {
     type Output = Expr;
@@ -119,13 +120,6 @@ impl Expr {
             Expr::Sqrt(a) => call("sqrt", &[a], out),
         }
     }
-}
-
-/// An f32 literal both languages parse to the same value: Rust's shortest round-trip form, which
-/// always has a `.` or an exponent (`63.0`, `0.0078125`, `1e-7`).
-fn literal(v: f32) -> String {
-    let text = format!("{v:?}");
-    if text.contains('.') || text.contains('e') { text } else { format!("{text}.0") }
 }
 
 /// One statement of a [`Program`]: an f32 value, or a read of the packed texture.
@@ -242,61 +236,83 @@ impl Program {
         lines
     }
 
-    /// An HLSL function `float NAME(Texture3D<float> tex[, SamplerState linear_clamp], float mu, ...)`.
-    /// Value locals are `precise`: the compiler must evaluate them as written (no reassociation),
-    /// which the exact interpolation weights rely on.
-    pub fn hlsl(&self, header: &str) -> String {
-        let mut s = comment_block("//", header);
-        let mut params = vec!["Texture3D<float> tex".to_string()];
+    /// The lookup as one function of the shader emitter: `float NAME(Texture3D<float> tex[,
+    /// SamplerState linear_clamp], float mu, ...)` in HLSL, `fn NAME(tex: texture_3d<f32>[,
+    /// linear_clamp: sampler], mu: f32, ...) -> f32` in WGSL. Every value is fully parenthesised,
+    /// so the order of the f32 operations is on the page; HLSL value locals are `precise`: the
+    /// compiler must evaluate them as written (no reassociation), which the exact interpolation
+    /// weights rely on (WGSL forbids reassociation without being asked).
+    pub fn module(&self, header: &str) -> shader::Module {
+        use shader::{Stmt, Ty};
+        let mut module = shader::Module::new(shader::Parens::Full);
+        module.hlsl_brace_on_next_line = true;
+        module.comment(header);
+        let mut params = vec![("tex", Ty::Texture { dims: 3, scalar: true })];
         if self.uses_sampler() {
-            params.push("SamplerState linear_clamp".into());
+            params.push(("linear_clamp", Ty::Sampler));
         }
-        params.extend(self.inputs.iter().map(|i| format!("float {i}")));
-        let _ = writeln!(s, "float {}({})\n{{", self.function, params.join(", "));
-        for (name, step) in &self.locals {
-            let _ = match step {
-                Step::Value(e) => writeln!(s, "    precise float {name} = {};", self.text(e)),
-                Step::Sample(c) => {
-                    let [u, v, w] = self.names(c);
-                    writeln!(s, "    float {name} = tex.SampleLevel(linear_clamp, float3({u}, {v}, {w}), 0);")
-                }
-                Step::Load(c) => {
-                    let [x, y, z] = self.names(c);
-                    writeln!(s, "    float {name} = tex.Load(int4(int({x}), int({y}), int({z}), 0));")
-                }
-            };
-        }
-        let _ = writeln!(s, "    return {};\n}}", self.text(&self.result));
-        s
+        params.extend(self.inputs.iter().map(|&i| (i, Ty::F32)));
+        let local = |i: usize| shader::name(&self.locals[i].0);
+        let mut body: Vec<Stmt> = self
+            .locals
+            .iter()
+            .map(|(name, step)| {
+                let (value, precise) = match step {
+                    Step::Value(e) => (self.emitted(e), true),
+                    Step::Sample(c) => (
+                        shader::Expr::SampleLevel {
+                            texture: "tex".into(),
+                            scalar_texture: true,
+                            sampler: "linear_clamp".into(),
+                            coordinates: c.iter().map(|&i| local(i)).collect(),
+                            swizzle: "r",
+                        },
+                        false,
+                    ),
+                    Step::Load(c) => (
+                        shader::Expr::Load {
+                            texture: "tex".into(),
+                            scalar_texture: true,
+                            coordinates: c.iter().map(|&i| shader::Expr::Construct(Ty::I32, vec![local(i)])).collect(),
+                            swizzle: "r",
+                        },
+                        false,
+                    ),
+                };
+                Stmt::Let { name: name.clone(), ty: Ty::F32, value, typed: true, precise }
+            })
+            .collect();
+        body.push(Stmt::Return(self.emitted(&self.result)));
+        module.function(&self.function, params, Ty::F32, body);
+        module
     }
 
-    /// A WGSL function `fn NAME(tex: texture_3d<f32>[, linear_clamp: sampler], mu: f32, ...) -> f32`.
+    /// `e` as an expression of the shader emitter.
+    pub fn emitted(&self, e: &Expr) -> shader::Expr {
+        use shader::Builtin;
+        let two = |a: &Expr, b: &Expr| vec![self.emitted(a), self.emitted(b)];
+        match e {
+            Expr::Input(i) => shader::name(self.inputs[*i]),
+            Expr::Local(i) => shader::name(&self.locals[*i].0),
+            Expr::Const(v) => shader::f(*v),
+            Expr::Add(a, b) => self.emitted(a) + self.emitted(b),
+            Expr::Sub(a, b) => self.emitted(a) - self.emitted(b),
+            Expr::Mul(a, b) => self.emitted(a) * self.emitted(b),
+            Expr::Floor(a) => shader::call(Builtin::Floor, vec![self.emitted(a)]),
+            Expr::Min(a, b) => shader::call(Builtin::Min, two(a, b)),
+            Expr::Max(a, b) => shader::call(Builtin::Max, two(a, b)),
+            Expr::Sqrt(a) => shader::call(Builtin::Sqrt, vec![self.emitted(a)]),
+        }
+    }
+
+    /// The lookup as an HLSL function (see [`Program::module`]).
+    pub fn hlsl(&self, header: &str) -> String {
+        self.module(header).print(Lang::Hlsl)
+    }
+
+    /// The lookup as a WGSL function (see [`Program::module`]).
     pub fn wgsl(&self, header: &str) -> String {
-        let mut s = comment_block("//", header);
-        let mut params = vec!["tex: texture_3d<f32>".to_string()];
-        if self.uses_sampler() {
-            params.push("linear_clamp: sampler".into());
-        }
-        params.extend(self.inputs.iter().map(|i| format!("{i}: f32")));
-        let _ = writeln!(s, "fn {}({}) -> f32 {{", self.function, params.join(", "));
-        for (name, step) in &self.locals {
-            let _ = match step {
-                Step::Value(e) => writeln!(s, "    let {name}: f32 = {};", self.text(e)),
-                Step::Sample(c) => {
-                    let [u, v, w] = self.names(c);
-                    writeln!(
-                        s,
-                        "    let {name}: f32 = textureSampleLevel(tex, linear_clamp, vec3<f32>({u}, {v}, {w}), 0.0).r;"
-                    )
-                }
-                Step::Load(c) => {
-                    let [x, y, z] = self.names(c);
-                    writeln!(s, "    let {name}: f32 = textureLoad(tex, vec3<i32>(i32({x}), i32({y}), i32({z})), 0).r;")
-                }
-            };
-        }
-        let _ = writeln!(s, "    return {};\n}}", self.text(&self.result));
-        s
+        self.module(header).print(Lang::Wgsl)
     }
 }
 
@@ -311,10 +327,6 @@ fn local_index(e: &Expr) -> usize {
 /// languages and the emulator compute the same operations.
 pub fn lerp(a: Expr, b: Expr, t: Expr) -> Expr {
     a.clone() + t * (b - a)
-}
-
-fn comment_block(prefix: &str, text: &str) -> String {
-    text.lines().map(|l| if l.is_empty() { format!("{prefix}\n") } else { format!("{prefix} {l}\n") }).collect()
 }
 
 #[cfg(test)]

@@ -292,6 +292,7 @@ fn shader_text_is_the_evaluated_program() {
         let packed = PackedFgd::pack(&t, packing, Precision::F32).unwrap();
         let hlsl = packed.hlsl();
         let wgsl = packed.wgsl();
+        crate::shader::validate::wgsl(&wgsl).unwrap_or_else(|e| panic!("{}: {e}", packing.name()));
         // Every value the emulator computes appears, with its constants, in both languages.
         for (name, step) in &packed.program.locals {
             let Step::Value(_) = step else { continue };

@@ -29,6 +29,7 @@
 
 pub mod build;
 pub mod plan;
+pub mod shader;
 
 use std::path::Path;
 

@@ -187,3 +187,22 @@ pub fn build_config(dir: &Path, text: &str, extra: &[&str]) -> PathBuf {
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     out
 }
+
+/// Parse and validate every `.wgsl` file of `dir` with naga, as a WebGPU implementation does
+/// before compiling it; returns how many were validated.
+pub fn validate_wgsl_files(dir: &Path) -> usize {
+    let mut count = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "wgsl") {
+            let text = std::fs::read_to_string(&path).unwrap();
+            let module = naga::front::wgsl::parse_str(&text)
+                .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&text)));
+            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&text)));
+            count += 1;
+        }
+    }
+    count
+}

@@ -1,0 +1,172 @@
+"""Run tmlut's generated WGSL on a real GPU API (wgpu-native through Python's `wgpu`; Mesa's
+lavapipe where no GPU is present) and compare it with tmlut's CPU evaluation.
+
+    python scripts/gpu_check.py SHADER_DIR LUTS_DIR [SHADER_DIR LUTS_DIR ...]
+
+For each scene shader (<scene>.wgsl, <scene>.shader.json, <scene>.reference.json from
+`tmlut shader --reference-views N`), every texture of the shader is created from the table file's
+texels as stored (the DDS header gives format and extent) and each material's function is run
+once per reference view in a compute shader. Prints the largest |GPU - CPU| over albedo, top
+albedo, lobe energies, roughnesses and GD, and the NaN count; exits non-zero above 1e-5 or on any
+NaN.
+"""
+
+import json
+import math
+import struct
+import sys
+from pathlib import Path
+
+import numpy as np
+import wgpu
+
+TOLERANCE = 1e-5
+
+# DXGI format -> (WebGPU format, bytes per texel).
+DXGI = {
+    41: ("r32float", 4),
+    16: ("rg32float", 8),
+    2: ("rgba32float", 16),
+    54: ("r16float", 2),
+    34: ("rg16float", 4),
+    10: ("rgba16float", 8),
+}
+
+
+def read_dds(path):
+    """Texels of a DDS file with the DX10 header: (WebGPU format, bytes per texel, extent, bytes)."""
+    data = path.read_bytes()
+    if data[:4] != b"DDS " or len(data) < 148:
+        raise SystemExit(f"{path}: not a DDS file with a DX10 header")
+    height, width = struct.unpack_from("<II", data, 12)
+    depth = struct.unpack_from("<I", data, 24)[0] or 1
+    if data[84:88] != b"DX10":
+        raise SystemExit(f"{path}: no DX10 header")
+    dxgi = struct.unpack_from("<I", data, 128)[0]
+    if dxgi not in DXGI:
+        raise SystemExit(f"{path}: DXGI format {dxgi} not handled here")
+    fmt, size = DXGI[dxgi]
+    texels = data[148 : 148 + width * height * depth * size]
+    return fmt, size, (width, height, depth), texels
+
+
+def device():
+    adapter = wgpu.gpu.request_adapter_sync(power_preference="high-performance")
+    info = adapter.info
+    print(f"adapter: {info.get('device', '?')} ({info.get('backend_type', '?')}, {info.get('adapter_type', '?')})")
+    return adapter.request_device_sync()
+
+
+def check_scene(dev, shader_dir, luts):
+    descriptions = sorted(shader_dir.glob("*.shader.json"))
+    if not descriptions:
+        raise SystemExit(f"{shader_dir}: no .shader.json")
+    worst = 0.0
+    nans = 0
+    points = 0
+    for description_path in descriptions:
+        stem = description_path.name[: -len(".shader.json")]
+        description = json.loads(description_path.read_text())
+        reference = json.loads((shader_dir / f"{stem}.reference.json").read_text())
+        wgsl = (shader_dir / f"{stem}.wgsl").read_text()
+        lobes = description["max_lobes"]
+        stride = 6 + 6 * lobes
+        textures = []
+        layout0 = []
+        for t in description["textures"]:
+            fmt, size, extent, texels = read_dds(luts / t["file"])
+            dimension = "3d" if t["dimension"] == 3 else "2d"
+            texture = dev.create_texture(
+                size=extent, format=fmt, dimension=dimension, usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST
+            )
+            dev.queue.write_texture(
+                {"texture": texture}, texels, {"bytes_per_row": extent[0] * size, "rows_per_image": extent[1]}, extent
+            )
+            textures.append((t["binding"], texture.create_view()))
+            layout0.append({
+                "binding": t["binding"],
+                "visibility": wgpu.ShaderStage.COMPUTE,
+                "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float, "view_dimension": dimension},
+            })
+        group0_layout = dev.create_bind_group_layout(entries=layout0)
+        group1_layout = dev.create_bind_group_layout(entries=[
+            {"binding": 0, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.read_only_storage}},
+            {"binding": 1, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.storage}},
+        ])
+        layout = dev.create_pipeline_layout(bind_group_layouts=[group0_layout, group1_layout])
+        for material in description["materials"]:
+            views = [p["evaluation"] for p in reference if p["function"] == material["function"]]
+            mus = np.array([v["mu"] for v in views], dtype=np.float32)
+            entry = f"""
+@group(1) @binding(0) var<storage, read> tm_views: array<f32>;
+@group(1) @binding(1) var<storage, read_write> tm_out: array<f32>;
+@compute @workgroup_size(64)
+fn tm_main(@builtin(global_invocation_id) id: vec3<u32>) {{
+    let i = id.x;
+    if (i >= arrayLength(&tm_views)) {{ return; }}
+    let r = {material['function']}(tm_views[i]);
+    let o = i * {stride}u;
+    tm_out[o + 0u] = r.albedo.x; tm_out[o + 1u] = r.albedo.y; tm_out[o + 2u] = r.albedo.z;
+    tm_out[o + 3u] = r.top_albedo.x; tm_out[o + 4u] = r.top_albedo.y; tm_out[o + 5u] = r.top_albedo.z;
+    for (var k = 0u; k < {lobes}u; k++) {{
+        let b = o + 6u + 6u * k;
+        tm_out[b + 0u] = r.lobe_energy[k].x; tm_out[b + 1u] = r.lobe_energy[k].y; tm_out[b + 2u] = r.lobe_energy[k].z;
+        tm_out[b + 3u] = r.lobe_roughness[k]; tm_out[b + 4u] = r.lobe_cos[k]; tm_out[b + 5u] = r.lobe_gd[k];
+    }}
+}}
+"""
+            module = dev.create_shader_module(code=wgsl + entry)
+            pipeline = dev.create_compute_pipeline(layout=layout, compute={"module": module, "entry_point": "tm_main"})
+            views_buffer = dev.create_buffer_with_data(data=mus.tobytes(), usage=wgpu.BufferUsage.STORAGE)
+            out_buffer = dev.create_buffer(size=len(mus) * stride * 4, usage=wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_SRC)
+            group0 = dev.create_bind_group(
+                layout=group0_layout,
+                entries=[{"binding": b, "resource": view} for b, view in textures],
+            )
+            group1 = dev.create_bind_group(
+                layout=group1_layout,
+                entries=[
+                    {"binding": 0, "resource": {"buffer": views_buffer, "offset": 0, "size": views_buffer.size}},
+                    {"binding": 1, "resource": {"buffer": out_buffer, "offset": 0, "size": out_buffer.size}},
+                ],
+            )
+            encoder = dev.create_command_encoder()
+            compute = encoder.begin_compute_pass()
+            compute.set_pipeline(pipeline)
+            compute.set_bind_group(0, group0)
+            compute.set_bind_group(1, group1)
+            compute.dispatch_workgroups((len(mus) + 63) // 64)
+            compute.end()
+            dev.queue.submit([encoder.finish()])
+            out = np.frombuffer(dev.queue.read_buffer(out_buffer), dtype=np.float32).reshape(len(mus), stride)
+            nans += int(np.count_nonzero(~np.isfinite(out)))
+            for row, view in zip(out, views):
+                expected = list(view["albedo"]) + list(view["top_albedo"])
+                got = list(row[:6])
+                for k, lobe in enumerate(view["lobes"]):
+                    b = 6 + 6 * k
+                    expected += list(lobe["energy"]) + [lobe["roughness"], lobe["incident"][2], lobe["gd"]]
+                    got += list(row[b : b + 6])
+                for e, g in zip(expected, got):
+                    worst = max(worst, abs(float(g) - e)) if math.isfinite(g) else worst
+                points += 1
+            print(f"  {stem} / {material['material']}: {len(mus)} views")
+    return worst, nans, points
+
+
+def main(argv):
+    if len(argv) < 2 or len(argv) % 2:
+        raise SystemExit(__doc__)
+    dev = device()
+    worst, nans, points = 0.0, 0, 0
+    for shader_dir, luts in zip(argv[0::2], argv[1::2]):
+        w, n, p = check_scene(dev, Path(shader_dir), Path(luts))
+        worst, nans, points = max(worst, w), nans + n, points + p
+    print(f"scene shaders on the GPU API vs the CPU evaluator: {points} (material, view) points, "
+          f"max |GPU - CPU| {worst:.3e} (tolerance {TOLERANCE:g}), {nans} NaN/inf")
+    if worst > TOLERANCE or nans:
+        raise SystemExit("FAILED")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

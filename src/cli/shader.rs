@@ -1,0 +1,35 @@
+//! `tmlut shader`: a scene's transfer-matrix evaluation as WGSL and HLSL over a built folder.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use tmlut::scene::Scene;
+
+use super::Context;
+
+/// Write a scene's transfer-matrix shader (WGSL and HLSL) over a built folder: one function per
+/// material returning its lobes and directional albedo, reading the folder's tables with the
+/// manifest's coordinates (docs/shaders.md).
+#[derive(Args)]
+pub struct ShaderArgs {
+    /// Scene file (TOML; see luts/scenes/).
+    scene: PathBuf,
+    /// The folder built for the scene (tmlut build --scene), or one holding the tables it reads.
+    #[arg(long)]
+    luts: PathBuf,
+    /// Output folder for <scene>.wgsl, <scene>.hlsl, <scene>.shader.json.
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write <scene>.reference.json: the CPU evaluator at this many views per material.
+    #[arg(long, default_value_t = 0)]
+    reference_views: usize,
+}
+
+pub fn exec(args: ShaderArgs, _: &Context) -> tmlut::Result<()> {
+    let (scene, _) = Scene::read(&args.scene)?;
+    for path in tmlut::scene::shader::write_scene_shader(&scene, &args.luts, &args.out, args.reference_views)? {
+        println!("{}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,116 @@
+//! `tmlut shader`: a scene's transfer-matrix shader ([`crate::shader::scene`]) over a built folder,
+//! written as `<scene>.wgsl`, `<scene>.hlsl` and `<scene>.shader.json` (what to bind), and on
+//! request `<scene>.reference.json`: the CPU evaluator's lobes and albedo at evenly spaced views,
+//! the values the shader must reproduce (the GPU-API test holds it to 1e-5).
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::Scene;
+use crate::commit::OutputFolder;
+use crate::error::{Error, Result};
+use crate::formats::write_bytes_atomically;
+use crate::loader::LutFolder;
+use crate::model::folder::{FgdSource, FolderTables};
+use crate::model::{Evaluation, Material};
+use crate::shader::scene::{SceneShader, ShaderMaterial, generate, texts};
+
+/// The scene's materials as the shader takes them (their nominal values).
+pub fn shader_materials(scene: &Scene) -> Result<Vec<ShaderMaterial>> {
+    scene
+        .materials
+        .iter()
+        .map(|m| {
+            Ok(ShaderMaterial { name: m.name.clone(), model: m.model, albedo: m.albedo, tir: m.tir, stack: m.stack()? })
+        })
+        .collect()
+}
+
+/// The CPU evaluator's result for one material at one view.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReferencePoint {
+    pub material: String,
+    pub function: String,
+    pub evaluation: Evaluation,
+}
+
+/// The CPU evaluation of every material of `materials` at `views` view cosines `k / (views - 1)`,
+/// with the tables of `folder` read as the shader reads them. Fails where the folder could not
+/// answer a lookup (the shader would have been refused too).
+pub fn reference(
+    folder: &LutFolder,
+    shader: &SceneShader,
+    materials: &[ShaderMaterial],
+    views: usize,
+) -> Result<Vec<ReferencePoint>> {
+    let mut points = Vec::with_capacity(materials.len() * views);
+    for (material, function) in materials.iter().zip(&shader.materials) {
+        let tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?;
+        let model = Material::new(material.model, material.stack.clone());
+        for k in 0..views {
+            let mu = if views > 1 { k as f64 / (views - 1) as f64 } else { 1.0 };
+            points.push(ReferencePoint {
+                material: material.name.clone(),
+                function: function.function.clone(),
+                evaluation: model.evaluate(mu, &tables),
+            });
+        }
+        let misses = tables.misses();
+        if misses.count > 0 {
+            return Err(Error::invalid(
+                format!("material `{}`", material.name),
+                format!(
+                    "{} lookup(s) the folder holds no table for, first: {}",
+                    misses.count,
+                    misses.first.unwrap_or_default()
+                ),
+            ));
+        }
+    }
+    Ok(points)
+}
+
+/// Write the shader of `scene` over the folder `luts` into `out` (created; locked while written;
+/// each file replaced atomically), with `reference_views` CPU reference views per material (0: no
+/// reference file). Returns the paths written.
+pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_views: usize) -> Result<Vec<PathBuf>> {
+    let folder = LutFolder::open(luts)?;
+    let materials = shader_materials(scene)?;
+    let shader = generate(&folder, &materials)?;
+    let stem = crate::shader::scene::identifier(&scene.name);
+    let mut files: Vec<(String, Vec<u8>)> = texts(&shader)
+        .into_iter()
+        .map(|(lang, text)| (format!("{stem}.{}", lang.extension()), text.into_bytes()))
+        .collect();
+    let json = |v: &dyn erased::Json| v.bytes();
+    files.push((format!("{stem}.shader.json"), json(&shader.description())));
+    if reference_views > 0 {
+        let points = reference(&folder, &shader, &materials, reference_views)?;
+        files.push((format!("{stem}.reference.json"), json(&points)));
+    }
+    std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
+    let _lock =
+        OutputFolder::take(out, |holder| eprintln!("waiting for {holder} to finish writing {}", out.display()))?;
+    let mut written = Vec::new();
+    for (file, bytes) in files {
+        let path = out.join(file);
+        write_bytes_atomically(&path, &bytes)?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+mod erased {
+    /// Pretty JSON of any serialisable value, with a final newline.
+    pub trait Json {
+        fn bytes(&self) -> Vec<u8>;
+    }
+    impl<T: serde::Serialize> Json for T {
+        fn bytes(&self) -> Vec<u8> {
+            let mut text = serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("\"unserialisable: {e}\""));
+            text.push('\n');
+            text.into_bytes()
+        }
+    }
+}
