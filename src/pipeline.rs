@@ -19,7 +19,7 @@ use crate::formats::{self, FileFormat, Precision, SumRounding};
 use crate::integrate::Progress;
 use crate::model::folder::SampledTable;
 use crate::packing::{Filter, PackedFgd, Packing};
-use crate::recipes::{TableBuild, interpolation};
+use crate::recipes::{Provenance, TableBuild, interpolation};
 use crate::stats::InterpolationError;
 use crate::table::Table;
 
@@ -248,7 +248,7 @@ pub fn write_table_file(
     precision: Precision,
 ) -> Result<WrittenFile> {
     let file = format!("{}.{}", build.table.name, format.extension());
-    write_table_file_named(&dir.join(file), build, format, precision)
+    write_table_file_named(&dir.join(file), &build.table, &build.provenance, format, precision)
 }
 
 /// Pack the FGD table of `build`, write `fgd_<packing>.dds` and the `.hlsl` and `.wgsl` lookups
@@ -262,21 +262,14 @@ pub fn write_packing_files(
 ) -> Result<(WrittenFile, Vec<PathBuf>)> {
     let packed = PackedFgd::pack(&build.table, packing, precision)?;
     let stem = packing.file_stem();
-    let texture = TableBuild {
-        table: packed.texture_table()?,
-        integrand: build.integrand.clone(),
-        masking: build.masking,
-        notes: build.notes.clone(),
-        sampling: build.sampling.clone(),
-        error: build.error.clone(),
-        wall_time_s: build.wall_time_s,
-        fresnel_basis: None,
-        accuracy: Vec::new(),
-        standard_error: None,
-        interpolation: Vec::new(),
-        channel_sum: None,
-    };
-    let mut written = write_table_file_named(&dir.join(format!("{stem}.dds")), &texture, FileFormat::Dds, precision)?;
+    let texture = packed.texture_table()?;
+    let mut written = write_table_file_named(
+        &dir.join(format!("{stem}.dds")),
+        &texture,
+        &build.provenance.of_derived_table(),
+        FileFormat::Dds,
+        precision,
+    )?;
     // Its lookup is the shader's (`packing.lookup`), not one sample call.
     written.entry.binding = None;
     // The texels were rounded when packed; state what rounding did to the source values.
@@ -287,6 +280,7 @@ pub fn write_packing_files(
     );
     let channels = [build.table.channels[0].name.clone()];
     written.entry.error.interpolation = build
+        .provenance
         .interpolation
         .iter()
         .map(|exact| {
@@ -322,20 +316,21 @@ pub fn write_packing_files(
     Ok((written, paths))
 }
 
-/// Write one table in one format to `path` and describe the file.
+/// Write one table in one format to `path` and describe the file, with `provenance` saying how
+/// the table was made.
 fn write_table_file_named(
     path: &Path,
-    build: &TableBuild,
+    table: &Table,
+    provenance: &Provenance,
     format: FileFormat,
     precision: Precision,
 ) -> Result<WrittenFile> {
-    let table = &build.table;
     let path = path.to_path_buf();
     // `.bin` has no precision field: it is f32 by definition.
     let precision = if format == FileFormat::Bin { Precision::F32 } else { precision };
     // Channels that add up to an albedo are rounded together; the writers' own rounding then
     // leaves those values as they are (each is already a value of the precision).
-    let stored = build.channel_sum.map(|rounding| stored_with_sum(table, rounding, precision)).transpose()?;
+    let stored = provenance.channel_sum.map(|rounding| stored_with_sum(table, rounding, precision)).transpose()?;
     formats::write_table(&path, stored.as_ref().unwrap_or(table), format, precision)?;
     let bytes = formats::read_bytes(&path)?;
     let stats = table.stats();
@@ -347,27 +342,30 @@ fn write_table_file_named(
             .then(|| formats::dds::dxgi_format_name(table.channel_count(), precision)),
         axes: table.axes.iter().zip(stored_along(table, format)).map(|(a, s)| AxisEntry::new(a, s)).collect(),
         channels: table.channels.clone(),
-        integrand: build.integrand.clone(),
-        masking: build.masking.map(|m| m.name().to_string()),
-        notes: build.notes.clone(),
-        method: build.sampling.method.clone(),
-        sampler: build.sampling.sampler.clone(),
-        samples_per_cell: build.sampling.samples_per_cell,
-        seed: build.sampling.seed,
-        wall_time_s: build.wall_time_s,
+        integrand: provenance.integrand.clone(),
+        masking: provenance.masking.map(|m| m.name().to_string()),
+        notes: provenance.notes.clone(),
+        method: provenance.sampling.method.clone(),
+        sampler: provenance.sampling.sampler.clone(),
+        samples_per_cell: provenance.sampling.samples_per_cell,
+        seed: provenance.sampling.seed,
+        wall_time_s: provenance.wall_time_s,
         value_range: [stats.min, stats.max],
         nan_count: stats.nan_count + stats.infinite_count,
         error: ErrorEntry {
-            integration: build.error.clone(),
+            integration: provenance.error.clone(),
             storage_rounding_max: match &stored {
                 Some(stored) => max_difference(&table.data, &stored.data),
                 None => storage_rounding(table, precision),
             },
-            storage_channel_sum: build.channel_sum.zip(stored.as_ref()).map(|(r, s)| channel_sum_storage(table, s, r)),
+            storage_channel_sum: provenance
+                .channel_sum
+                .zip(stored.as_ref())
+                .map(|(r, s)| channel_sum_storage(table, s, r)),
             interpolation: Vec::new(),
         },
-        fresnel_basis: build.fresnel_basis.clone(),
-        accuracy: build.accuracy.clone(),
+        fresnel_basis: provenance.fresnel_basis.clone(),
+        accuracy: provenance.accuracy.clone(),
         sha256: sha256_hex(&bytes),
         bytes: bytes.len() as u64,
         packing: None,
@@ -376,14 +374,18 @@ fn write_table_file_named(
             .then(|| formats::dds::binding(&table.axes, table.channel_count(), precision)),
     };
     let mut entry = entry;
-    entry.error.interpolation = interpolation_errors(&path, &entry, build)?;
+    entry.error.interpolation = interpolation_errors(&path, &entry, &provenance.interpolation)?;
     Ok(WrittenFile { path, entry })
 }
 
 /// The file at `path`, read back as `entry` describes it and sampled as a renderer samples it, at
-/// the random points of every domain of `build`'s interpolation check.
-fn interpolation_errors(path: &Path, entry: &FileEntry, build: &TableBuild) -> Result<Vec<InterpolationError>> {
-    if build.interpolation.is_empty() {
+/// the random points of every domain of an interpolation check (`exact`).
+fn interpolation_errors(
+    path: &Path,
+    entry: &FileEntry,
+    exact: &[interpolation::ExactValues],
+) -> Result<Vec<InterpolationError>> {
+    if exact.is_empty() {
         return Ok(Vec::new());
     }
     let table = crate::loader::load_verified(path, entry)?;
@@ -395,7 +397,7 @@ fn interpolation_errors(path: &Path, entry: &FileEntry, build: &TableBuild) -> R
         .filter(|name| name != crate::recipes::slices::PADDING_CHANNEL)
         .collect();
     let compare_all = |read_as: &str, read: &dyn Fn(&[f64]) -> Vec<f64>| {
-        build.interpolation.iter().map(|exact| interpolation::compare(exact, read_as, &channels, read)).collect()
+        exact.iter().map(|exact| interpolation::compare(exact, read_as, &channels, read)).collect()
     };
     if entry.format == FileFormat::Bin || table.dimension() > 3 {
         let how = if entry.format == FileFormat::Bin {

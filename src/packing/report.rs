@@ -10,7 +10,7 @@ use super::{Filter, PackedFgd, Packing, Program, Texture3D};
 use crate::error::Result;
 use crate::formats::Precision;
 use crate::integrate::Progress;
-use crate::recipes::TableRecipe;
+use crate::recipes::Kernel;
 use crate::recipes::fgd::FgdSettings;
 use crate::table::Table;
 

@@ -10,24 +10,19 @@
 //! [`FresnelBasis::coefficients`]. The basis and its probe cosines go into the manifest, since a
 //! shader needs them. Height-correlated Smith by default, as the thesis says its table used.
 
-use std::time::Instant;
-
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
-use super::{
-    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
-    standard_error_map, table_points,
-};
+use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, Projection, cosine_measure, dot};
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
 use crate::physics::{FresnelBasis, MaskingShadowing, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
-use crate::stats::{AccuracyReport, ErrorRecord, ErrorSummary};
+use crate::stats::{AccuracyReport, ErrorSummary};
 use crate::table::{Axis, Channel, Table};
 
 use super::fgd::{fresnel_kinks, projected_fresnel};
@@ -236,7 +231,7 @@ fn argmax(v: &[f64]) -> usize {
 }
 
 impl BelcourSettings {
-    /// One node by the fast method, as [`build`] computes it: the f32 measure of `(mu, alpha)`
+    /// One node by the fast method, as [`Kernel::integrate`] computes it: the f32 measure of `(mu, alpha)`
     /// times the basis curves projected on the hat basis.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let basis = basis();
@@ -276,74 +271,71 @@ impl TableRecipe for BelcourSettings {
     fn kept_measure_intervals(&self) -> Option<usize> {
         Some(self.cosine_intervals)
     }
+}
+
+impl Kernel for BelcourSettings {
+    kernel_settings!();
+
+    fn empty_table(&self) -> Result<Table> {
+        let channels = (0..4)
+            .map(|k| {
+                let name = ["b0", "b1", "b2", "b3"][k];
+                Channel::new(name, format!("∫ {name}(wi.h) D G2 / (4 mu) dwo; FGD ≈ Σ c_k {name}-channel"))
+            })
+            .collect();
+        Table::zeros(NAME, self.axes()?, channels)
+    }
+
+    fn metadata(&self) -> Metadata {
+        let mut notes = vec![
+            "Runtime: FGD ≈ c0 b0 + c1 b1 + c2 b2 + c3 b3 (RGBA = b0..b3), coefficients from the basis in this manifest: c0 = F(1), c1 = 1 - c0, (c2, c3) from the 2x2 system at the probe cosines.".to_string(),
+        ];
+        notes.extend(self.layout().notes());
+        Metadata {
+            integrand: "LUT_k = E_{h~VNDF(wi)}[b_k(wi.h) G2(wi,wo) / G1(wi)], b0 = 1, b1..b3 the tabulated basis"
+                .into(),
+            masking: Some(self.masking),
+            notes,
+            sampler: "visible-normal measure per texel, times the projected basis".into(),
+            fresnel_basis: Some(basis().clone()),
+            channel_sum: None,
+        }
+    }
+
+    /// The four integrals at every texel, and how well `Σ c_k LUT_k` reproduces FGD there.
+    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
+        let basis = basis();
+        let hats = HatBasis { intervals: self.cosine_intervals };
+        let projected = projected_basis(basis, hats);
+        let projected_refs: Vec<&Projection> = projected.iter().collect();
+        let kinks = basis_kinks(basis);
+
+        // The fast path keeps each texel's mean measure: the accuracy report needs it too.
+        let measures = std::sync::Mutex::new(vec![None; table.node_count()]);
+        let estimates = fill_mu_alpha_nodes(table, progress, |texel, mu, alpha| match self.method {
+            Method::Fast => {
+                let measure = cosine_measure(mu, alpha, self.masking, points, hats);
+                let estimate = measure.integrate(&projected_refs, |k, c| basis.evaluate(k, c), &kinks);
+                measures.lock().expect("measure store")[texel] = Some(measure.averaged());
+                estimate
+            }
+            Method::PerCell => basis_integrals(basis, self.masking, Method::PerCell, points, mu, alpha),
+        });
+        let mut measures: Vec<CosineMeasure> =
+            measures.into_inner().expect("measure store").into_iter().flatten().collect();
+        if self.method == Method::PerCell {
+            let cells: Vec<u64> = (0..table.node_count() as u64).collect();
+            measures = estimate_cells(&cells, "belcour accuracy", progress, |cell| {
+                let position = table.node_position(&table.node_index(cell as usize));
+                cosine_measure(position[0], position[1], self.masking, points, hats).averaged()
+            });
+        }
+        Ok(Integrated { accuracy: split_sum_accuracy(table, basis, &measures, hats), ..Integrated::of(&estimates) })
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         basis_integrals(basis(), self.masking, Method::PerCell, points, position[0], position[1])
     }
-}
-
-pub fn build(settings: &BelcourSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-    settings.validate()?;
-    let started = Instant::now();
-    let basis = basis().clone();
-    let points = table_points(&settings.sampling, seed)?;
-    let channels = (0..4)
-        .map(|k| {
-            let name = ["b0", "b1", "b2", "b3"][k];
-            Channel::new(name, format!("∫ {name}(wi.h) D G2 / (4 mu) dwo; FGD ≈ Σ c_k {name}-channel"))
-        })
-        .collect();
-    let mut table = Table::zeros(NAME, settings.axes()?, channels)?;
-    let hats = HatBasis { intervals: settings.cosine_intervals };
-    let projected = projected_basis(&basis, hats);
-    let projected_refs: Vec<&Projection> = projected.iter().collect();
-    let kinks = basis_kinks(&basis);
-
-    // The fast path keeps each texel's mean measure: the accuracy report needs it too.
-    let measures = std::sync::Mutex::new(vec![None; table.node_count()]);
-    let estimates = fill_mu_alpha_nodes(&mut table, progress, |texel, mu, alpha| match settings.method {
-        Method::Fast => {
-            let measure = cosine_measure(mu, alpha, settings.masking, &points, hats);
-            let estimate = measure.integrate(&projected_refs, |k, c| basis.evaluate(k, c), &kinks);
-            measures.lock().expect("measure store")[texel] = Some(measure.averaged());
-            estimate
-        }
-        Method::PerCell => basis_integrals(&basis, settings.masking, Method::PerCell, &points, mu, alpha),
-    });
-    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
-    let mut measures: Vec<CosineMeasure> =
-        measures.into_inner().expect("measure store").into_iter().flatten().collect();
-    if settings.method == Method::PerCell {
-        let cells: Vec<u64> = (0..table.node_count() as u64).collect();
-        measures = estimate_cells(&cells, "belcour accuracy", progress, |cell| {
-            let position = table.node_position(&table.node_index(cell as usize));
-            cosine_measure(position[0], position[1], settings.masking, &points, hats).averaged()
-        });
-    }
-    let accuracy = split_sum_accuracy(&table, &basis, &measures, hats);
-
-    let mut notes = vec![
-        "Runtime: FGD ≈ c0 b0 + c1 b1 + c2 b2 + c3 b3 (RGBA = b0..b3), coefficients from the basis in this manifest: c0 = F(1), c1 = 1 - c0, (c2, c3) from the 2x2 system at the probe cosines.".to_string(),
-    ];
-    notes.extend(settings.layout().notes());
-    Ok(TableBuild {
-        integrand: "LUT_k = E_{h~VNDF(wi)}[b_k(wi.h) G2(wi,wo) / G1(wi)], b0 = 1, b1..b3 the tabulated basis".into(),
-        masking: Some(settings.masking),
-        notes,
-        sampling: sampling_record(
-            settings.method,
-            "visible-normal measure per texel, times the projected basis",
-            &points,
-        ),
-        error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
-        wall_time_s: started.elapsed().as_secs_f64(),
-        fresnel_basis: Some(basis),
-        accuracy,
-        standard_error: Some(standard_error_map(&estimates)),
-        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
-        channel_sum: None,
-        table,
-    })
 }
 
 /// The four integrals at one `(mu, alpha)`, each cell on its own.
@@ -463,21 +455,22 @@ mod tests {
             reference: ReferenceConfig { cells: 64, samples: 1 << 18 },
             ..BelcourSettings::default()
         };
-        let build = build(&settings, 4, &()).unwrap();
+        let build = settings.build(4, &()).unwrap();
         let stats = build.table.stats();
         assert_eq!(stats.nan_count + stats.infinite_count, 0);
         // b0 = 1: the channel is the height-correlated albedo, within [0, 1].
         assert!(build.table.channel_values(0).all(|v| (0.0..=1.0).contains(&v)));
         // Every texel against 2^18-sample per-cell f64 estimates of all four channels.
-        let reference = build.error.reference.as_ref().unwrap();
+        let reference = build.provenance.error.reference.as_ref().unwrap();
         assert_eq!(reference.difference.count, 256);
         assert!(reference.difference.max < 1e-3 && reference.difference.rms < 2e-4, "{reference:?}");
         // The accuracy report covers the three domains, and the basis's own domain does best.
-        assert_eq!(build.accuracy.len(), 3);
-        let [dielectrics, conductors, total_internal_reflection] = [0, 1, 2].map(|i| build.accuracy[i].error.rms);
-        assert!(dielectrics < 0.01 && conductors < 0.01, "{:?}", build.accuracy);
-        assert!(total_internal_reflection > 10.0 * dielectrics, "{:?}", build.accuracy);
-        assert_eq!(build.fresnel_basis.as_ref(), Some(basis()));
+        assert_eq!(build.provenance.accuracy.len(), 3);
+        let [dielectrics, conductors, total_internal_reflection] =
+            [0, 1, 2].map(|i| build.provenance.accuracy[i].error.rms);
+        assert!(dielectrics < 0.01 && conductors < 0.01, "{:?}", build.provenance.accuracy);
+        assert!(total_internal_reflection > 10.0 * dielectrics, "{:?}", build.provenance.accuracy);
+        assert_eq!(build.provenance.fresnel_basis.as_ref(), Some(basis()));
     }
 
     #[test]

@@ -13,16 +13,13 @@
 //! matrix product of the two. Defaults follow the original table: 64^4 node-aligned nodes,
 //! `mu`, `alpha` over [0, 1], `eta`, `kappa` over [0, 4], separable Smith, f32 `.bin`.
 
-use std::time::Instant;
-
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
-    ReferenceComparison, TableBuild, TableRecipe, compare_mu_alpha_groups_to_reference, random_cells, sampling_record,
-    table_points,
+    Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference, random_cells,
 };
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -31,7 +28,7 @@ use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_per_
 use crate::packing::Packing;
 use crate::physics::{MaskingShadowing, critical_cosine, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
-use crate::stats::{ErrorRecord, ErrorSummary};
+use crate::stats::ErrorSummary;
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "fgd";
@@ -175,10 +172,10 @@ pub fn projected_fresnel(basis: HatBasis, eta: f64, kappa: f64) -> Projection {
 }
 
 impl FgdSettings {
-    /// One node by the fast method, as [`build`] computes it (the f32 measure of `(mu, alpha)`
+    /// One node by the fast method, as [`Kernel::integrate`] computes it (the f32 measure of `(mu, alpha)`
     /// times Fresnel projected on the hat basis, narrow lobes on their own hats where that
     /// projection does not resolve Fresnel), at a position in the axes' quantities: what the
-    /// stability checks hold against [`TableRecipe::estimate_node`].
+    /// stability checks hold against [`Kernel::estimate_node`].
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);
         let projections = [projected_fresnel(self.cosine_basis(), eta, kappa)];
@@ -240,28 +237,6 @@ pub fn fgd_cells_at_mu_alpha(
     .into_channels()
 }
 
-/// The reference check of [`build`]: the per-cell f64 estimates at random cells, drawn in groups
-/// that share their `(mu, alpha)` ([`compare_mu_alpha_groups_to_reference`]) so that each group
-/// takes one pass over the reference samples.
-fn reference_check(
-    settings: &FgdSettings,
-    table: &Table,
-    seed: u64,
-    progress: &dyn Progress,
-) -> Result<Option<ReferenceComparison>> {
-    compare_mu_alpha_groups_to_reference(
-        |points, positions| {
-            let (mu, alpha) = (positions[0][0], positions[0][1]);
-            let pairs: Vec<(f64, f64)> = positions.iter().map(|p| (p[2], p[3])).collect();
-            fgd_cells_at_mu_alpha(settings.masking, points, mu, alpha, &pairs)
-        },
-        table,
-        &settings.reference,
-        seed,
-        progress,
-    )
-}
-
 impl TableRecipe for FgdSettings {
     table_recipe_accessors!();
 
@@ -272,10 +247,6 @@ impl TableRecipe for FgdSettings {
 
     fn kept_measure_intervals(&self) -> Option<usize> {
         (self.method == Method::Fast).then_some(self.cosine_intervals)
-    }
-
-    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        fgd_cell(self.masking, points, position)
     }
 
     /// The whole domain and its low-roughness part, and the domain cut at `eta = 1`: below it a
@@ -311,49 +282,76 @@ impl TableRecipe for FgdSettings {
     }
 }
 
-pub fn build(settings: &FgdSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-    settings.validate()?;
-    let started = Instant::now();
-    let points = table_points(&settings.sampling, seed)?;
-    let channel = Channel::new("fgd", "∫ F(wi.h; eta, kappa) D G2 / (4 mu) dwo: directional albedo with exact Fresnel");
-    let mut table = Table::zeros(NAME, settings.axes()?, vec![channel])?;
+impl Kernel for FgdSettings {
+    kernel_settings!();
 
-    let (replicate_standard_error, standard_error) = match settings.method {
-        Method::Fast => build_fast(settings, &points, &mut table, seed, progress),
-        Method::PerCell => {
-            let cells: Vec<u64> = (0..table.node_count() as u64).collect();
-            let estimates = estimate_cells(&cells, NAME, progress, |cell| {
-                fgd_cell(settings.masking, &points, &table.node_position(&table.node_index(cell as usize)))
-            });
-            for (value, estimate) in table.data.iter_mut().zip(&estimates) {
-                *value = estimate.mean[0] as f32;
-            }
-            (super::replicate_error(&estimates), Some(super::standard_error_map(&estimates)))
+    fn empty_table(&self) -> Result<Table> {
+        let channel =
+            Channel::new("fgd", "∫ F(wi.h; eta, kappa) D G2 / (4 mu) dwo: directional albedo with exact Fresnel");
+        Table::zeros(NAME, self.axes()?, vec![channel])
+    }
+
+    fn metadata(&self) -> Metadata {
+        Metadata {
+            integrand: "FGD = E_{h~VNDF(wi)}[F(wi.h; eta, kappa) G2(wi,wo) / G1(wi)], wo = reflect(wi, h)".into(),
+            masking: Some(self.masking),
+            notes: vec![
+                "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.".into(),
+                "eta and kappa are relative to the medium above the interface; lookups outside the range clamp (kappa > 4 reads as 4).".into(),
+                format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.", crate::integrate::GRAZING_COSINE),
+            ],
+            sampler: format!(
+                "visible-normal measure per (mu, alpha) on {} hat intervals in wi.h, times projected Fresnel",
+                self.cosine_intervals
+            ),
+            ..Metadata::default()
         }
-    };
-    let reference = reference_check(settings, &table, seed, progress)?;
-    Ok(TableBuild {
-        integrand: "FGD = E_{h~VNDF(wi)}[F(wi.h; eta, kappa) G2(wi,wo) / G1(wi)], wo = reflect(wi, h)".into(),
-        masking: Some(settings.masking),
-        notes: vec![
-            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.".into(),
-            "eta and kappa are relative to the medium above the interface; lookups outside the range clamp (kappa > 4 reads as 4).".into(),
-            format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.", crate::integrate::GRAZING_COSINE),
-        ],
-        sampling: sampling_record(
-            settings.method,
-            &format!("visible-normal measure per (mu, alpha) on {} hat intervals in wi.h, times projected Fresnel", settings.cosine_intervals),
-            &points,
-        ),
-        error: ErrorRecord { replicate_standard_error, reference },
-        wall_time_s: started.elapsed().as_secs_f64(),
-        fresnel_basis: None,
-        accuracy: Vec::new(),
-        standard_error,
-        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
-        channel_sum: None,
-        table,
-    })
+    }
+
+    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
+        Ok(match self.method {
+            Method::Fast => {
+                let (replicate_standard_error, standard_error) = build_fast(self, points, table, progress);
+                Integrated { replicate_standard_error, standard_error, accuracy: Vec::new() }
+            }
+            Method::PerCell => {
+                let cells: Vec<u64> = (0..table.node_count() as u64).collect();
+                let estimates = estimate_cells(&cells, NAME, progress, |cell| {
+                    fgd_cell(self.masking, points, &table.node_position(&table.node_index(cell as usize)))
+                });
+                for (value, estimate) in table.data.iter_mut().zip(&estimates) {
+                    *value = estimate.mean[0] as f32;
+                }
+                Integrated::of(&estimates)
+            }
+        })
+    }
+
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        fgd_cell(self.masking, points, position)
+    }
+
+    /// The per-cell f64 estimates at random cells, drawn in groups that share their `(mu, alpha)`
+    /// ([`compare_mu_alpha_groups_to_reference`]) so that each group takes one pass over the
+    /// reference samples.
+    fn check_reference(
+        &self,
+        table: &Table,
+        seed: u64,
+        progress: &dyn Progress,
+    ) -> Result<Option<ReferenceComparison>> {
+        compare_mu_alpha_groups_to_reference(
+            |points, positions| {
+                let (mu, alpha) = (positions[0][0], positions[0][1]);
+                let pairs: Vec<(f64, f64)> = positions.iter().map(|p| (p[2], p[3])).collect();
+                fgd_cells_at_mu_alpha(self.masking, points, mu, alpha, &pairs)
+            },
+            table,
+            &self.reference,
+            seed,
+            progress,
+        )
+    }
 }
 
 /// The fast path: measures, projected Fresnel, one matrix product. Returns the replicate spread
@@ -363,7 +361,6 @@ fn build_fast(
     settings: &FgdSettings,
     points: &PointSet,
     table: &mut Table,
-    seed: u64,
     progress: &dyn Progress,
 ) -> (ErrorSummary, Option<Vec<f32>>) {
     let basis = HatBasis { intervals: settings.cosine_intervals };
@@ -443,7 +440,7 @@ fn build_fast(
     }
 
     // Replicate spread at a random subset of (eta, kappa) columns, every (mu, alpha).
-    let sampled_columns = random_cells(columns, settings.replicate_error_columns, seed ^ 0xC011);
+    let sampled_columns = random_cells(columns, settings.replicate_error_columns, points.seed() ^ 0xC011);
     let standard_errors: Vec<f64> = sampled_columns
         .par_iter()
         .flat_map_iter(|&column| {
@@ -494,6 +491,7 @@ fn standard_error_of_every_node(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::recipes::driver::build;
     use crate::recipes::{random_cells, reference_points};
 
     fn small(settings: FgdSettings) -> FgdSettings {

@@ -9,22 +9,16 @@
 //! (height-correlated Smith does not). Defaults follow that file: 64 x 64 node-aligned nodes,
 //! `mu` and `alpha` over [0, 1], f32 `.bin`.
 
-use std::time::Instant;
-
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
 use super::spacing::{CosineAxis, RoughnessAxis};
-use super::{
-    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
-    standard_error_map, table_points,
-};
+use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
 use crate::sampling::sequence::PointSet;
-use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "gd";
@@ -89,7 +83,7 @@ impl GdSettings {
 }
 
 impl GdSettings {
-    /// One node by the fast method (the f32 kernel), as [`build`] computes it.
+    /// One node by the fast method (the f32 kernel), as [`Kernel::integrate`] computes it.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         albedo(self, Method::Fast, points, position[0], position[1])
     }
@@ -107,40 +101,43 @@ impl TableRecipe for GdSettings {
         use super::Companions;
         Companions::default()
     }
+}
+
+impl Kernel for GdSettings {
+    kernel_settings!();
+
+    fn empty_table(&self) -> Result<Table> {
+        let channel = Channel::new("gd", "∫ D G2 / (4 mu) dwo: the albedo of the microfacet lobe without Fresnel");
+        Table::zeros(NAME, self.axes()?, vec![channel])
+    }
+
+    fn metadata(&self) -> Metadata {
+        Metadata {
+            integrand: "GD = E_{h~VNDF(wi)}[G2(wi,wo) / G1(wi)], wo = reflect(wi, h); with separable Smith, E[G1(wo)]"
+                .into(),
+            masking: Some(self.masking),
+            notes: vec![
+                "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis."
+                    .into(),
+                format!(
+                    "The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.",
+                    crate::integrate::GRAZING_COSINE
+                ),
+            ],
+            sampler: "visible-normal measure per (mu, alpha)".into(),
+            ..Metadata::default()
+        }
+    }
+
+    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
+        let estimates =
+            fill_mu_alpha_nodes(table, progress, |_, mu, alpha| albedo(self, self.method, points, mu, alpha));
+        Ok(Integrated::of(&estimates))
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         albedo(self, Method::PerCell, points, position[0], position[1])
     }
-}
-
-pub fn build(settings: &GdSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-    settings.validate()?;
-    let started = Instant::now();
-    let points = table_points(&settings.sampling, seed)?;
-    let channel = Channel::new("gd", "∫ D G2 / (4 mu) dwo: the albedo of the microfacet lobe without Fresnel");
-    let mut table = Table::zeros(NAME, settings.axes()?, vec![channel])?;
-    let estimates =
-        fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| albedo(settings, settings.method, &points, mu, alpha));
-    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
-    Ok(TableBuild {
-        integrand: "GD = E_{h~VNDF(wi)}[G2(wi,wo) / G1(wi)], wo = reflect(wi, h); with separable Smith, E[G1(wo)]"
-            .into(),
-        masking: Some(settings.masking),
-        notes: vec![
-            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis."
-                .into(),
-            format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.", crate::integrate::GRAZING_COSINE),
-        ],
-        sampling: sampling_record(settings.method, "visible-normal measure per (mu, alpha)", &points),
-        error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
-        wall_time_s: started.elapsed().as_secs_f64(),
-        fresnel_basis: None,
-        accuracy: Vec::new(),
-        standard_error: Some(standard_error_map(&estimates)),
-        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
-        channel_sum: None,
-        table,
-    })
 }
 
 #[cfg(test)]
@@ -165,7 +162,7 @@ mod tests {
             interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, samples: 4 },
             ..GdSettings::default()
         };
-        let ours = build(&settings, 1, &()).unwrap().table;
+        let ours = settings.build(1, &()).unwrap().table;
         let original = original();
         assert_eq!(ours.axes, original.axes);
         let differences = (0..ours.node_count())
@@ -184,7 +181,7 @@ mod tests {
             reference: ReferenceConfig { cells: 81, samples: 1 << 16 },
             ..GdSettings::default()
         };
-        let build = build(&settings, 2, &()).unwrap();
+        let build = settings.build(2, &()).unwrap();
         let table = &build.table;
         let stats = table.stats();
         assert_eq!(stats.nan_count + stats.infinite_count, 0);
@@ -195,8 +192,8 @@ mod tests {
         }
         // The fast path agrees at every node with 2^16-sample f64 per-cell estimates, within the
         // Monte Carlo error of its own 2^12 samples.
-        let reference = build.error.reference.unwrap();
-        let spread = build.error.replicate_standard_error.max;
+        let reference = build.provenance.error.reference.unwrap();
+        let spread = build.provenance.error.replicate_standard_error.max;
         assert!(reference.difference.max < 5.0 * spread && spread < 1e-3, "{reference:?}, spread {spread}");
     }
 
@@ -209,8 +206,8 @@ mod tests {
             reference: ReferenceConfig { cells: 0, samples: 2 },
             ..GdSettings::default()
         };
-        let fast = build(&base, 3, &()).unwrap().table;
-        let per_cell = build(&GdSettings { method: Method::PerCell, ..base }, 3, &()).unwrap().table;
+        let fast = base.build(3, &()).unwrap().table;
+        let per_cell = GdSettings { method: Method::PerCell, ..base }.build(3, &()).unwrap().table;
         for (a, b) in fast.data.iter().zip(&per_cell.data) {
             assert!((a - b).abs() < 1e-5, "{a} vs {b}");
         }

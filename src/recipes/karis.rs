@@ -13,22 +13,16 @@
 //! sample at `float2(NoV, Roughness)`, and Direct3D, Vulkan, Metal and WebGPU address row 0 at
 //! `v = 0`), `alpha = roughness^2`, Schlick–Smith `k = alpha / 2`, stored as R16G16_FLOAT.
 
-use std::time::Instant;
-
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
-use super::{
-    TableBuild, TableRecipe, compare_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record,
-    standard_error_map, table_points,
-};
+use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision, SumRounding};
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::{MaskingShadowing, schlick_weight};
 use crate::sampling::sequence::PointSet;
-use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
 pub const NAME: &str = "karis";
@@ -107,7 +101,7 @@ impl KarisSettings {
 }
 
 impl KarisSettings {
-    /// One node by the fast method (the f32 kernel), as [`build`] computes it.
+    /// One node by the fast method (the f32 kernel), as [`Kernel::integrate`] computes it.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         split_sum_terms(self.masking, Method::Fast, points, position[0], position[1])
     }
@@ -128,41 +122,42 @@ impl TableRecipe for KarisSettings {
         use super::Companions;
         Companions::default()
     }
+}
+
+impl Kernel for KarisSettings {
+    kernel_settings!();
+
+    fn empty_table(&self) -> Result<Table> {
+        let channels = vec![
+            Channel::new("scale", "multiplies F0: ∫ (1 - (1 - v.h)^5) D G2 / (4 n.v) dl"),
+            Channel::new("bias", "added: ∫ (1 - v.h)^5 D G2 / (4 n.v) dl"),
+        ];
+        Table::zeros(NAME, self.axes()?, channels)
+    }
+
+    fn metadata(&self) -> Metadata {
+        let mut notes = vec!["Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string()];
+        notes.extend(self.layout().notes());
+        Metadata {
+            integrand: "scale = E_{h~VNDF(v)}[(1 - (1 - v.h)^5) G2(v,l) / G1(v)], bias = E_{h~VNDF(v)}[(1 - v.h)^5 G2(v,l) / G1(v)], l = reflect(v, h)".into(),
+            masking: Some(self.masking),
+            notes,
+            sampler: "visible-normal samples per texel".into(),
+            channel_sum: Some(self.storage_rounding),
+            ..Metadata::default()
+        }
+    }
+
+    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
+        let estimates = fill_mu_alpha_nodes(table, progress, |_, mu, alpha| {
+            split_sum_terms(self.masking, self.method, points, mu, alpha)
+        });
+        Ok(Integrated::of(&estimates))
+    }
 
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         split_sum_terms(self.masking, Method::PerCell, points, position[0], position[1])
     }
-}
-
-pub fn build(settings: &KarisSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-    settings.validate()?;
-    let started = Instant::now();
-    let points = table_points(&settings.sampling, seed)?;
-    let channels = vec![
-        Channel::new("scale", "multiplies F0: ∫ (1 - (1 - v.h)^5) D G2 / (4 n.v) dl"),
-        Channel::new("bias", "added: ∫ (1 - v.h)^5 D G2 / (4 n.v) dl"),
-    ];
-    let mut table = Table::zeros(NAME, settings.axes()?, channels)?;
-    let estimates = fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| {
-        split_sum_terms(settings.masking, settings.method, &points, mu, alpha)
-    });
-    let reference = compare_to_reference(settings, &table, &settings.reference, seed, progress)?;
-    let mut notes = vec!["Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string()];
-    notes.extend(settings.layout().notes());
-    Ok(TableBuild {
-        integrand: "scale = E_{h~VNDF(v)}[(1 - (1 - v.h)^5) G2(v,l) / G1(v)], bias = E_{h~VNDF(v)}[(1 - v.h)^5 G2(v,l) / G1(v)], l = reflect(v, h)".into(),
-        masking: Some(settings.masking),
-        notes,
-        sampling: sampling_record(settings.method, "visible-normal samples per texel", &points),
-        error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
-        wall_time_s: started.elapsed().as_secs_f64(),
-        fresnel_basis: None,
-        accuracy: Vec::new(),
-        standard_error: Some(standard_error_map(&estimates)),
-        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
-        channel_sum: Some(settings.storage_rounding),
-        table,
-    })
 }
 
 #[cfg(test)]
@@ -199,7 +194,7 @@ mod tests {
     fn smooth_surface_gives_schlick_at_the_view_angle() {
         // alpha -> 0: the lobe is a mirror, so scale = 1 - Fc(mu) and bias = Fc(mu).
         let settings = KarisSettings { alpha_range: [0.0, 1e-8], ..small_settings() };
-        let build = build(&settings, 1, &()).unwrap();
+        let build = settings.build(1, &()).unwrap();
         for i in 0..16 {
             let mu = build.table.axes[0].node_value(i);
             let v = build.table.node(&[i, 15]);
@@ -246,7 +241,7 @@ mod tests {
 
     #[test]
     fn agrees_with_karis_own_estimator() {
-        let build = build(&small_settings(), 7, &()).unwrap();
+        let build = small_settings().build(7, &()).unwrap();
         let stats = build.table.stats();
         assert_eq!(stats.nan_count + stats.infinite_count, 0);
         assert!(stats.min >= 0.0 && stats.max <= 1.0, "{stats:?}");
@@ -261,18 +256,18 @@ mod tests {
                 );
             }
         }
-        let reference = build.error.reference.as_ref().unwrap();
+        let reference = build.provenance.error.reference.as_ref().unwrap();
         assert_eq!(reference.difference.count, 16);
         assert!(reference.difference.max < 2e-3, "{reference:?}");
-        assert!(build.error.replicate_standard_error.max < 2e-3, "{:?}", build.error);
+        assert!(build.provenance.error.replicate_standard_error.max < 2e-3, "{:?}", build.provenance.error);
     }
 
     #[test]
     fn same_seed_same_table_and_different_seed_different_table() {
         let settings = small_settings();
-        let a = build(&settings, 3, &()).unwrap();
-        let b = build(&settings, 3, &()).unwrap();
-        let c = build(&settings, 4, &()).unwrap();
+        let a = settings.build(3, &()).unwrap();
+        let b = settings.build(3, &()).unwrap();
+        let c = settings.build(4, &()).unwrap();
         assert_eq!(a.table.data, b.table.data);
         assert_ne!(a.table.data, c.table.data);
     }

@@ -1,14 +1,43 @@
 //! Table recipes: one file per table, each readable as the integral it computes.
 //!
-//! A recipe turns its settings into a [`TableBuild`]: the table itself and the record of how it
-//! was made (integrand, masking-shadowing model, sampler, samples, seed, wall time, error
-//! estimates) that the manifest publishes beside every file.
+//! A recipe supplies its settings, metadata and kernel ([`driver::Kernel`]); the driver
+//! ([`driver::build`]) turns them into a [`TableBuild`]: the table itself and its [`Provenance`],
+//! the record of how it was made (integrand, masking-shadowing model, sampler, samples, seed, wall
+//! time, error estimates) that the manifest publishes beside every file.
+
+/// The part of a [`driver::Kernel`] impl that every table's settings share: the inherent
+/// `validate`, the `method`, `sampling` and `reference` fields, and the interpolation check over
+/// the recipe's domains. Used inside `impl Kernel for ...Settings`, so that each impl states only
+/// what differs (the table's layout, metadata and kernel).
+macro_rules! kernel_settings {
+    () => {
+        fn validate(&self) -> Result<()> {
+            Self::validate(self)
+        }
+
+        fn sampling(&self) -> SamplingConfig {
+            self.sampling
+        }
+
+        fn reference(&self) -> ReferenceConfig {
+            self.reference
+        }
+
+        fn method(&self) -> Method {
+            self.method
+        }
+
+        fn exact_values(&self, seed: u64, progress: &dyn Progress) -> Result<Vec<super::interpolation::ExactValues>> {
+            super::interpolation::exact_values_of(self, seed, progress)
+        }
+    };
+}
 
 /// The part of a [`TableRecipe`] impl that every table's settings share: the module's `NAME`,
-/// `DESCRIPTION`, `CHANNEL_COUNT`, `COUNT_KEYS` and `build`, the inherent `axes` and `validate`,
-/// and the `method`, `sampling`, `reference`, `interpolation` and `output` fields. Used inside
+/// `DESCRIPTION`, `CHANNEL_COUNT` and `COUNT_KEYS`, the inherent `axes`, and the `method`,
+/// `sampling`, `reference`, `interpolation` and `output` fields. Used inside
 /// `impl TableRecipe for ...Settings`, so that each impl states only what differs
-/// (`estimate_node`, `companions`).
+/// (`companions`, the interpolation check's domains).
 macro_rules! table_recipe_accessors {
     () => {
         fn name(&self) -> &'static str {
@@ -17,10 +46,6 @@ macro_rules! table_recipe_accessors {
 
         fn description(&self) -> &'static str {
             DESCRIPTION
-        }
-
-        fn validate(&self) -> Result<()> {
-            Self::validate(self)
         }
 
         fn method_mut(&mut self) -> &mut Method {
@@ -43,14 +68,6 @@ macro_rules! table_recipe_accessors {
             Self::axes(self)
         }
 
-        fn sampling(&self) -> SamplingConfig {
-            self.sampling
-        }
-
-        fn reference(&self) -> ReferenceConfig {
-            self.reference
-        }
-
         fn output(&self) -> &OutputConfig {
             &self.output
         }
@@ -66,18 +83,11 @@ macro_rules! table_recipe_accessors {
         fn count_keys(&self) -> &'static [&'static str] {
             COUNT_KEYS
         }
-
-        fn method(&self) -> Method {
-            self.method
-        }
-
-        fn build(&self, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-            build(self, seed, progress)
-        }
     };
 }
 
 pub mod belcour;
+pub mod driver;
 pub mod fgd;
 pub mod gd;
 pub mod interpolation;
@@ -88,14 +98,13 @@ pub mod spacing;
 pub mod split_sum;
 pub mod tir;
 
-use serde::{Deserialize, Serialize};
-
 pub use crate::integrate::Method;
 use crate::integrate::{Estimate, Progress};
-use crate::physics::{FresnelBasis, MaskingShadowing};
 use crate::sampling::sequence::{PointSet, SamplePlan};
 pub use crate::stats::{AccuracyReport, ErrorRecord, ErrorSummary, ReferenceComparison};
 use crate::table::Table;
+pub(crate) use driver::table_points;
+pub use driver::{Integrated, Kernel, Metadata, Provenance, SamplingRecord, TableBuild};
 
 /// Files a table writes beside its own, each from the table as built.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -114,26 +123,22 @@ impl Companions {
     }
 }
 
-/// What the configuration, the pipeline, the reports and the CLI need of every table. Each table's
-/// settings implement it; the registry in [`crate::config`] lists them.
-pub trait TableRecipe: Sync {
+/// What the configuration, the pipeline, the reports and the CLI need of every table, beyond what
+/// the driver needs ([`Kernel`]). Each table's settings implement it; the registry in
+/// [`crate::config`] lists them.
+pub trait TableRecipe: Kernel {
     fn name(&self) -> &'static str;
     /// One line for `tmlut list`.
     fn description(&self) -> &'static str;
-    /// Refuse settings out of range, naming the key and what is allowed.
-    fn validate(&self) -> crate::error::Result<()>;
     /// Files written beside the table's own.
     fn companions(&self) -> Companions;
     /// The axes of the table these settings describe.
     fn axes(&self) -> crate::error::Result<Vec<crate::table::Axis>>;
-    fn sampling(&self) -> settings::SamplingConfig;
-    fn reference(&self) -> settings::ReferenceConfig;
     fn output(&self) -> &settings::OutputConfig;
     /// Channels of the table.
     fn channel_count(&self) -> usize;
     /// The configuration keys of the node counts, axis 0 first (`mu_count`, ...).
     fn count_keys(&self) -> &'static [&'static str];
-    fn method(&self) -> Method;
     fn method_mut(&mut self) -> &mut Method;
     fn sampling_mut(&mut self) -> &mut settings::SamplingConfig;
     fn reference_mut(&mut self) -> &mut settings::ReferenceConfig;
@@ -143,11 +148,10 @@ pub trait TableRecipe: Sync {
     fn kept_measure_intervals(&self) -> Option<usize> {
         None
     }
-    /// Integrate the whole table.
-    fn build(&self, seed: u64, progress: &dyn Progress) -> crate::error::Result<TableBuild>;
-    /// One node on its own, by the per-cell method (scalar f64), at a position given in the
-    /// axes' quantities: the independent cross-check of whatever [`TableRecipe::build`] did.
-    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate;
+    /// Integrate the whole table ([`driver::build`]).
+    fn build(&self, seed: u64, progress: &dyn Progress) -> crate::error::Result<TableBuild> {
+        driver::build(self, seed, progress)
+    }
     /// How the table is checked between its nodes ([`interpolation`]).
     fn interpolation(&self) -> interpolation::InterpolationConfig;
     /// The boxes of lookup parameters the interpolation check draws from: by default each axis's
@@ -281,65 +285,6 @@ pub fn check_demand(recipe: &dyn TableRecipe) -> crate::error::Result<()> {
     Ok(())
 }
 
-/// How a table was integrated.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SamplingRecord {
-    /// The estimator, e.g. "visible-normal Monte Carlo, per cell".
-    pub method: String,
-    /// The point set, e.g. "Owen-scrambled Sobol (sobol_burley), 4 replicates x 256 points".
-    pub sampler: String,
-    pub samples_per_cell: u64,
-    pub replicates: u32,
-    pub seed: u64,
-}
-
-/// A table and the record of how it was made.
-#[derive(Debug, Clone)]
-pub struct TableBuild {
-    pub table: Table,
-    /// The integral, in words and symbols, as the manifest states it.
-    pub integrand: String,
-    pub masking: Option<MaskingShadowing>,
-    /// Conventions a user must know to read the table right.
-    pub notes: Vec<String>,
-    pub sampling: SamplingRecord,
-    pub error: ErrorRecord,
-    pub wall_time_s: f64,
-    /// The tabulated Fresnel basis a shader needs to use the table (Belcour only).
-    pub fresnel_basis: Option<FresnelBasis>,
-    /// Further measured accuracy figures (for instance, how well a split-sum reproduces FGD).
-    pub accuracy: Vec<AccuracyReport>,
-    /// The replicate standard error of every stored value, in the table's layout, where it was
-    /// computed for every node (the error maps draw it).
-    pub standard_error: Option<Vec<f32>>,
-    /// The exact integral at random points of the table's domains: each written file is read
-    /// there as a renderer reads it and compared ([`interpolation::compare`]).
-    pub interpolation: Vec<interpolation::ExactValues>,
-    /// For a table whose channels add up to an albedo (Karis): how storage rounds them; the
-    /// manifest then states what storage does to their sum.
-    pub channel_sum: Option<crate::formats::SumRounding>,
-}
-
-/// The record of a table integrated with `method` from the points of `points`.
-pub(crate) fn sampling_record(method: Method, description: &str, points: &PointSet) -> SamplingRecord {
-    let plan = points.plan();
-    SamplingRecord {
-        method: format!("{} ({description})", method.name()),
-        sampler: format!(
-            "Owen-scrambled Sobol (sobol_burley), {} replicates x {} points",
-            plan.replicates, plan.points
-        ),
-        samples_per_cell: plan.total(),
-        replicates: plan.replicates,
-        seed: points.seed(),
-    }
-}
-
-/// The point set of a table's own samples.
-pub(crate) fn table_points(sampling: &settings::SamplingConfig, seed: u64) -> crate::error::Result<PointSet> {
-    Ok(PointSet::new(SamplePlan::new(sampling.samples, sampling.replicates)?, seed))
-}
-
 /// Estimate every node of a 2D table whose axes are `mu` and `alpha`, store the means, and
 /// return the estimates in node order. `estimate(node, mu, alpha)` computes one node.
 pub(crate) fn fill_mu_alpha_nodes(
@@ -360,16 +305,6 @@ pub(crate) fn fill_mu_alpha_nodes(
         }
     }
     estimates
-}
-
-/// The standard error of every value of `estimates`, in node order: a table's error map.
-pub(crate) fn standard_error_map(estimates: &[Estimate]) -> Vec<f32> {
-    estimates.iter().flat_map(|e| e.standard_error.iter().map(|&s| s as f32)).collect()
-}
-
-/// RMS and maximum, over all cells and channels, of the replicate standard errors.
-pub(crate) fn replicate_error(estimates: &[crate::integrate::Estimate]) -> ErrorSummary {
-    ErrorSummary::of_differences(estimates.iter().flat_map(|e| e.standard_error.iter().copied()))
 }
 
 /// Seeds of reference estimates are offset from the table's so that their scrambles are
@@ -396,25 +331,8 @@ pub fn reference_points(samples: u64, seed: u64) -> crate::error::Result<std::sy
 }
 
 /// Compare a built table, at `reference.cells` cells drawn at random (reproducibly from `seed`),
-/// to per-cell estimates ([`TableRecipe::estimate_node`]) with `reference.samples` samples and
+/// to per-cell estimates `estimate_node(points, position)` with `reference.samples` samples and
 /// independent scrambles.
-pub(crate) fn compare_to_reference(
-    recipe: &dyn TableRecipe,
-    table: &Table,
-    reference: &settings::ReferenceConfig,
-    seed: u64,
-    progress: &dyn Progress,
-) -> crate::error::Result<Option<ReferenceComparison>> {
-    compare_nodes_to_reference(
-        |points, position| recipe.estimate_node(points, position),
-        table,
-        reference,
-        seed,
-        progress,
-    )
-}
-
-/// [`compare_to_reference`] for a table whose per-cell estimate is `estimate_node(points, position)`.
 pub(crate) fn compare_nodes_to_reference(
     estimate_node: impl Fn(&PointSet, &[f64]) -> Estimate + Sync,
     table: &Table,
@@ -442,7 +360,7 @@ pub(crate) fn compare_nodes_to_reference(
 /// while 32 reference cells still spread over eight random `(mu, alpha)` nodes.
 pub const REFERENCE_CELLS_PER_MU_ALPHA: usize = 4;
 
-/// [`compare_to_reference`] for a table whose axes 0 and 1 are `mu` and `alpha` and whose per-cell
+/// [`compare_nodes_to_reference`] for a table whose axes 0 and 1 are `mu` and `alpha` and whose per-cell
 /// estimator can serve several cells of one `(mu, alpha)` from one pass over the samples:
 /// `estimate_group(points, positions)` returns one estimate per position, all of which share
 /// `mu` and `alpha`. The `reference.cells` cells are drawn as in [`random_grouped_cells`].
@@ -577,7 +495,7 @@ mod tests {
         };
         let run = |threads| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| fgd::build(&settings, 3, &()).unwrap().error.reference.unwrap())
+            pool.install(|| driver::build(&settings, 3, &()).unwrap().provenance.error.reference.unwrap())
         };
         let (one, three) = (run(1), run(3));
         assert_eq!(one.difference.count, 13);

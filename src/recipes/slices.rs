@@ -13,17 +13,12 @@
 //! table's node at the same parameters up to rounding. The `mu` and `alpha` axes are sub-ranges of
 //! the full table's grid (the planner picks them), so the nodes coincide.
 
-use std::time::Instant;
-
 use serde::{Deserialize, Serialize};
 
 use super::fgd::{FgdSettings, projected_fresnel};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::tir::{TirSettings, tir_cell, tir_column};
-use super::{
-    TableBuild, compare_nodes_to_reference, fill_mu_alpha_nodes, replicate_error, sampling_record, standard_error_map,
-    table_points,
-};
+use super::{Integrated, Kernel, Metadata, fill_mu_alpha_nodes};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::integrate::measure::Projection;
@@ -31,7 +26,6 @@ use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
 use crate::physics::fresnel_reflectance;
 use crate::sampling::sequence::PointSet;
-use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Table};
 
 /// The integral a slice tabulates, with the settings of the full table it specialises.
@@ -225,60 +219,72 @@ fn pad(estimate: &mut Estimate, channels: usize) {
     estimate.standard_error.resize(channels, 0.0);
 }
 
-pub fn build(slices: &Slices, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-    slices.validate()?;
-    let started = Instant::now();
-    let points = table_points(&slices.sampling(), seed)?;
-    let mut table = Table::zeros(&slices.name, vec![slices.mu.clone(), slices.alpha.clone()], slices.channel_list())?;
-    let projections: Vec<Projection> = match &slices.of {
-        SliceOf::Fgd(settings) => {
-            slices.channels.iter().map(|c| projected_fresnel(settings.cosine_basis(), c.eta, c.kappa)).collect()
+impl Kernel for Slices {
+    fn validate(&self) -> Result<()> {
+        Slices::validate(self)
+    }
+
+    fn sampling(&self) -> SamplingConfig {
+        Slices::sampling(self)
+    }
+
+    fn reference(&self) -> ReferenceConfig {
+        Slices::reference(self)
+    }
+
+    /// Each channel is computed as the fast method computes the full table's node.
+    fn method(&self) -> Method {
+        Method::Fast
+    }
+
+    fn empty_table(&self) -> Result<Table> {
+        Table::zeros(&self.name, vec![self.mu.clone(), self.alpha.clone()], self.channel_list())
+    }
+
+    fn metadata(&self) -> Metadata {
+        let (integrand, sampler) = match self.of {
+            SliceOf::Fgd(ref settings) => (
+                "FGD(mu, alpha; eta_k, kappa_k) = E_{h~VNDF(wi)}[F(wi.h; eta_k, kappa_k) G2(wi,wo) / G1(wi)], one channel per (eta_k, kappa_k)",
+                format!(
+                    "visible-normal measure per (mu, alpha) on {} hat intervals in wi.h, times projected Fresnel",
+                    settings.cosine_intervals
+                ),
+            ),
+            SliceOf::Tir(_) => (
+                "TIR(mu, alpha; eta_k) = Σ G1(w) [1 - w.z^2 > eta_k^2] / Σ G1(w), w = reflect(wi, h), h ~ VNDF(wi), one channel per eta_k",
+                "ratio estimator over visible normals, f32 kernel".to_string(),
+            ),
+        };
+        Metadata {
+            integrand: integrand.into(),
+            masking: Some(self.masking()),
+            notes: vec![
+                format!(
+                    "A specialised slice of the {} table: fixed relative indices, one per channel; mu and alpha are sub-ranges of the full table's node-aligned grid, lookups outside them clamp.",
+                    self.table_name()
+                ),
+                "Node-aligned: a GPU sampler needs the half-texel correction given per axis.".into(),
+            ],
+            sampler,
+            ..Metadata::default()
         }
-        SliceOf::Tir(_) => Vec::new(),
-    };
-    let estimates = fill_mu_alpha_nodes(&mut table, progress, |_, mu, alpha| {
-        slices.estimate_fast(&points, mu, alpha, &projections)
-    });
-    let reference = compare_nodes_to_reference(
-        |points, position| slices.estimate_node(points, position),
-        &table,
-        &slices.reference(),
-        seed,
-        progress,
-    )?;
-    let (integrand, description) = match slices.of {
-        SliceOf::Fgd(ref settings) => (
-            "FGD(mu, alpha; eta_k, kappa_k) = E_{h~VNDF(wi)}[F(wi.h; eta_k, kappa_k) G2(wi,wo) / G1(wi)], one channel per (eta_k, kappa_k)",
-            format!(
-                "visible-normal measure per (mu, alpha) on {} hat intervals in wi.h, times projected Fresnel",
-                settings.cosine_intervals
-            ),
-        ),
-        SliceOf::Tir(_) => (
-            "TIR(mu, alpha; eta_k) = Σ G1(w) [1 - w.z^2 > eta_k^2] / Σ G1(w), w = reflect(wi, h), h ~ VNDF(wi), one channel per eta_k",
-            "ratio estimator over visible normals, f32 kernel".to_string(),
-        ),
-    };
-    Ok(TableBuild {
-        integrand: integrand.into(),
-        masking: Some(slices.masking()),
-        notes: vec![
-            format!(
-                "A specialised slice of the {} table: fixed relative indices, one per channel; mu and alpha are sub-ranges of the full table's node-aligned grid, lookups outside them clamp.",
-                slices.table_name()
-            ),
-            "Node-aligned: a GPU sampler needs the half-texel correction given per axis.".into(),
-        ],
-        sampling: sampling_record(Method::Fast, &description, &points),
-        error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
-        wall_time_s: started.elapsed().as_secs_f64(),
-        fresnel_basis: None,
-        accuracy: Vec::new(),
-        standard_error: Some(standard_error_map(&estimates)),
-        interpolation: Vec::new(),
-        channel_sum: None,
-        table,
-    })
+    }
+
+    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
+        let projections: Vec<Projection> = match &self.of {
+            SliceOf::Fgd(settings) => {
+                self.channels.iter().map(|c| projected_fresnel(settings.cosine_basis(), c.eta, c.kappa)).collect()
+            }
+            SliceOf::Tir(_) => Vec::new(),
+        };
+        let estimates =
+            fill_mu_alpha_nodes(table, progress, |_, mu, alpha| self.estimate_fast(points, mu, alpha, &projections));
+        Ok(Integrated::of(&estimates))
+    }
+
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        Slices::estimate_node(self, points, position)
+    }
 }
 
 #[cfg(test)]

@@ -19,16 +19,11 @@
 //! right in f64: a lobe seen at a critical angle and narrower than the f32 spacing of `sin^2`
 //! itself (6e-8, alpha <= 1e-4) is still split where its half past the angle begins.
 
-use std::time::Instant;
-
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use super::spacing::{CosineAxis, RoughnessAxis};
-use super::{
-    TableBuild, TableRecipe, compare_mu_alpha_groups_to_reference, replicate_error, sampling_record,
-    standard_error_map, table_points,
-};
+use super::{Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::batch::{CellWarp, for_each_block};
@@ -37,7 +32,6 @@ use crate::integrate::{
 };
 use crate::physics::{MaskingShadowing, direction_from_cosine};
 use crate::sampling::sequence::PointSet;
-use crate::stats::ErrorRecord;
 use crate::table::{Axis, Channel, Mapping, Table, derived};
 
 pub const NAME: &str = "tir";
@@ -266,7 +260,7 @@ pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -
 
 impl TirSettings {
     /// One node by the fast method (the f32 kernel's `sin^2` of each reflected direction, or its
-    /// offset from the view's, bucketed by eta), as [`build`] computes it; the top node (eta = 1)
+    /// offset from the view's, bucketed by eta), as [`Kernel::integrate`] computes it; the top node (eta = 1)
     /// at `top_eta`.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let eta = self.evaluated_eta(self.eta_of_node(position[0], position[2]));
@@ -316,12 +310,6 @@ impl TableRecipe for TirSettings {
         Companions { packings: Vec::new(), fitted_form: self.fit == TirFit::Best }
     }
 
-    /// The top node (eta = 1) is evaluated at `top_eta`, as in the table.
-    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        let eta = self.evaluated_eta(self.eta_of_node(position[0], position[2]));
-        tir_cell(position[0], position[1], eta, points)
-    }
-
     /// A lookup passes `(mu, alpha, eta)` whatever the third axis samples.
     fn interpolation_domains(&self) -> Result<Vec<super::interpolation::Domain>> {
         Ok(super::interpolation::standard_domains(
@@ -336,92 +324,108 @@ impl TableRecipe for TirSettings {
     }
 }
 
-pub fn build(settings: &TirSettings, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
-    settings.validate()?;
-    let started = Instant::now();
-    let points = table_points(&settings.sampling, seed)?;
-    let channel = Channel::new(
-        "tir",
-        "share of the energy transmitted through the interface that arrives past the critical angle and is reflected back",
-    );
-    let mut table = Table::zeros(NAME, settings.axes()?, vec![channel])?;
-    let (mu_axis, alpha_axis, third_axis) = (table.axes[0].clone(), table.axes[1].clone(), table.axes[2].clone());
-    let plane = mu_axis.count * alpha_axis.count;
+impl Kernel for TirSettings {
+    kernel_settings!();
 
-    let estimates: Vec<Estimate> = match settings.method {
-        Method::Fast => {
-            let columns: Vec<u64> = (0..plane as u64).collect();
-            let columns = estimate_cells(&columns, NAME, progress, |cell| {
-                let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
-                let mu = mu_axis.node_value(i);
-                tir_column(mu, alpha_axis.node_value(j), &settings.evaluated_etas(mu, &third_axis), &points)
-            });
-            // Reorder from (mu, alpha) columns of eta values to the table's node order.
-            (0..table.node_count())
-                .map(|n| {
-                    let column = &columns[n % plane];
-                    let k = n / plane;
-                    Estimate { mean: vec![column.mean[k]], standard_error: vec![column.standard_error[k]] }
-                })
-                .collect()
-        }
-        Method::PerCell => {
-            let cells: Vec<u64> = (0..table.node_count() as u64).collect();
-            estimate_cells(&cells, NAME, progress, |cell| {
-                let position = table.node_position(&table.node_index(cell as usize));
-                settings.estimate_node(&points, &position)
-            })
-        }
-    };
-    for (value, estimate) in table.data.iter_mut().zip(&estimates) {
-        *value = estimate.mean[0] as f32;
+    fn empty_table(&self) -> Result<Table> {
+        let channel = Channel::new(
+            "tir",
+            "share of the energy transmitted through the interface that arrives past the critical angle and is reflected back",
+        );
+        Table::zeros(NAME, self.axes()?, vec![channel])
     }
-    // The reference cells in groups sharing their (mu, alpha): one pass over the samples each.
-    let reference = compare_mu_alpha_groups_to_reference(
-        |points, positions| {
-            let etas: Vec<f64> =
-                positions.iter().map(|p| settings.evaluated_eta(settings.eta_of_node(p[0], p[2]))).collect();
-            tir_cells_at_mu_alpha(positions[0][0], positions[0][1], &etas, points)
-        },
-        &table,
-        &settings.reference,
-        seed,
-        progress,
-    )?;
-    Ok(TableBuild {
-        integrand:
-            "TIR = Σ G1(w) [1 - w.z^2 > eta^2] / Σ G1(w), h ~ VNDF(v), w = reflect(v, h), w.z > 0 (separable Smith)"
-                .into(),
-        masking: Some(MaskingShadowing::SmithSeparable),
-        notes: vec![
-            "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis."
-                .into(),
-            "alpha is the roughness of the incoming lobe (from hg_to_ggx in the model), not of the interface.".into(),
-            format!(
-                "The eta = 1 node is evaluated at eta = {} (1: exact, no total internal reflection; the original behaves as 0.999).",
-                settings.top_eta
-            ),
-            format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {GRAZING_COSINE}."),
-            format!(
-                "The alpha = 0 nodes are the limit alpha -> 0+, evaluated at alpha = {LIMIT_ROUGHNESS}: the mirror step, 1 at (mu = 1, eta = 0)."
-            ),
-        ],
-        sampling: sampling_record(settings.method, "weighted distribution of w.z per (mu, alpha)", &points),
-        error: ErrorRecord { replicate_standard_error: replicate_error(&estimates), reference },
-        wall_time_s: started.elapsed().as_secs_f64(),
-        fresnel_basis: None,
-        accuracy: Vec::new(),
-        standard_error: Some(standard_error_map(&estimates)),
-        interpolation: super::interpolation::exact_values_of(settings, seed, progress)?,
-        channel_sum: None,
-        table,
-    })
+
+    fn metadata(&self) -> Metadata {
+        Metadata {
+            integrand:
+                "TIR = Σ G1(w) [1 - w.z^2 > eta^2] / Σ G1(w), h ~ VNDF(v), w = reflect(v, h), w.z > 0 (separable Smith)"
+                    .into(),
+            masking: Some(MaskingShadowing::SmithSeparable),
+            notes: vec![
+                "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis."
+                    .into(),
+                "alpha is the roughness of the incoming lobe (from hg_to_ggx in the model), not of the interface.".into(),
+                format!(
+                    "The eta = 1 node is evaluated at eta = {} (1: exact, no total internal reflection; the original behaves as 0.999).",
+                    self.top_eta
+                ),
+                format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {GRAZING_COSINE}."),
+                format!(
+                    "The alpha = 0 nodes are the limit alpha -> 0+, evaluated at alpha = {LIMIT_ROUGHNESS}: the mirror step, 1 at (mu = 1, eta = 0)."
+                ),
+            ],
+            sampler: "weighted distribution of w.z per (mu, alpha)".into(),
+            ..Metadata::default()
+        }
+    }
+
+    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
+        let (mu_axis, alpha_axis, third_axis) = (table.axes[0].clone(), table.axes[1].clone(), table.axes[2].clone());
+        let plane = mu_axis.count * alpha_axis.count;
+
+        let estimates: Vec<Estimate> = match self.method {
+            Method::Fast => {
+                let columns: Vec<u64> = (0..plane as u64).collect();
+                let columns = estimate_cells(&columns, NAME, progress, |cell| {
+                    let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
+                    let mu = mu_axis.node_value(i);
+                    tir_column(mu, alpha_axis.node_value(j), &self.evaluated_etas(mu, &third_axis), points)
+                });
+                // Reorder from (mu, alpha) columns of eta values to the table's node order.
+                (0..table.node_count())
+                    .map(|n| {
+                        let column = &columns[n % plane];
+                        let k = n / plane;
+                        Estimate { mean: vec![column.mean[k]], standard_error: vec![column.standard_error[k]] }
+                    })
+                    .collect()
+            }
+            Method::PerCell => {
+                let cells: Vec<u64> = (0..table.node_count() as u64).collect();
+                estimate_cells(&cells, NAME, progress, |cell| {
+                    let position = table.node_position(&table.node_index(cell as usize));
+                    self.estimate_node(points, &position)
+                })
+            }
+        };
+        for (value, estimate) in table.data.iter_mut().zip(&estimates) {
+            *value = estimate.mean[0] as f32;
+        }
+        Ok(Integrated::of(&estimates))
+    }
+
+    /// The top node (eta = 1) is evaluated at `top_eta`, as in the table.
+    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        let eta = self.evaluated_eta(self.eta_of_node(position[0], position[2]));
+        tir_cell(position[0], position[1], eta, points)
+    }
+
+    /// The reference cells in groups sharing their (mu, alpha): one pass over the samples each.
+    fn check_reference(
+        &self,
+        table: &Table,
+        seed: u64,
+        progress: &dyn Progress,
+    ) -> Result<Option<ReferenceComparison>> {
+        compare_mu_alpha_groups_to_reference(
+            |points, positions| {
+                let etas: Vec<f64> =
+                    positions.iter().map(|p| self.evaluated_eta(self.eta_of_node(p[0], p[2]))).collect();
+                tir_cells_at_mu_alpha(positions[0][0], positions[0][1], &etas, points)
+            },
+            table,
+            &self.reference,
+            seed,
+            progress,
+        )
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::formats::bin::read_bin;
+    use crate::recipes::driver::build;
     use crate::recipes::interpolation::InterpolationConfig;
     use crate::sampling::sequence::SamplePlan;
     use crate::stats::ErrorSummary;
@@ -561,7 +565,7 @@ mod tests {
     #[test]
     fn both_methods_agree_and_stay_in_range() {
         let base = quick(TirSettings { mu_count: 5, alpha_count: 4, eta_count: 6, ..TirSettings::default() });
-        let fast = build(&base, 3, &()).unwrap().table;
+        let fast = base.build(3, &()).unwrap().table;
         let per_cell = build(&TirSettings { method: Method::PerCell, ..base }, 3, &()).unwrap().table;
         for (n, (a, b)) in fast.data.iter().zip(&per_cell.data).enumerate() {
             assert!((0.0..=1.0).contains(a), "{a}");

@@ -88,11 +88,15 @@ pub fn converge(
             let stored = build.table.node(&build.table.node_index(n as usize)).to_vec();
             stored.into_iter().zip(r.clone()).map(|(s, r)| s as f64 - r).collect::<Vec<_>>()
         });
-        let subset_spread = build.standard_error.as_ref().map_or(build.error.replicate_standard_error.rms, |se| {
-            let channels = build.table.channel_count();
-            let values = cells.iter().flat_map(|&n| se[n as usize * channels..(n as usize + 1) * channels].to_vec());
-            ErrorSummary::of_differences(values.map(|v| v as f64)).rms
-        });
+        let subset_spread = build.provenance.standard_error.as_ref().map_or(
+            build.provenance.error.replicate_standard_error.rms,
+            |se| {
+                let channels = build.table.channel_count();
+                let values =
+                    cells.iter().flat_map(|&n| se[n as usize * channels..(n as usize + 1) * channels].to_vec());
+                ErrorSummary::of_differences(values.map(|v| v as f64)).rms
+            },
+        );
         points.push(ConvergencePoint {
             method: "fast",
             samples_per_cell: samples,

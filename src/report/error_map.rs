@@ -14,7 +14,7 @@ use crate::table::{Axis, Channel, Table};
 
 /// The standard-error table of a build, if the build computed one for every node.
 pub fn error_table(build: &TableBuild) -> Option<Table> {
-    let errors = build.standard_error.as_ref()?;
+    let errors = build.provenance.standard_error.as_ref()?;
     let channels = build
         .table
         .channels
@@ -35,7 +35,7 @@ pub fn write_error_maps(dir: &Path, build: &TableBuild) -> Result<Vec<PathBuf>> 
 
     let mut title = format!(
         "{}: replicate standard error ({} samples per cell, {} replicates)",
-        build.table.name, build.sampling.samples_per_cell, build.sampling.replicates
+        build.table.name, build.provenance.sampling.samples_per_cell, build.provenance.sampling.replicates
     );
     if panels.len() > 16 {
         let (ax, ay) = (&table.axes[0], &table.axes[1]);
@@ -141,14 +141,14 @@ mod tests {
             reference: ReferenceConfig { cells: 0, samples: 2 },
             ..Default::default()
         };
-        let build = crate::recipes::tir::build(&settings, 1, &()).unwrap();
+        let build = crate::recipes::driver::build(&settings, 1, &()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let written = write_error_maps(dir.path(), &build).unwrap();
         assert_eq!(written.len(), 2);
         let map = crate::formats::exr::read_exr(&written[0]).unwrap();
         assert_eq!(map.name, "tir_error");
         assert_eq!(map.axes, build.table.axes);
-        assert_eq!(&map.data, build.standard_error.as_ref().unwrap());
+        assert_eq!(&map.data, build.provenance.standard_error.as_ref().unwrap());
         assert!(map.data.iter().any(|&s| s > 0.0) && map.data.iter().all(|s| s.is_finite() && *s >= 0.0));
         assert!(image::open(&written[1]).unwrap().width() > 0);
     }

@@ -18,7 +18,7 @@ use crate::integrate::Progress;
 use crate::pipeline::{Job, WrittenFile, sha256_hex, write_jobs};
 use crate::recipes::TableRecipe;
 use crate::recipes::interpolation::{self, Domain, ExactValues, InterpolationConfig};
-use crate::recipes::slices::{self, SliceOf, Slices};
+use crate::recipes::slices::{SliceOf, Slices};
 use crate::stats::AccuracyReport;
 use crate::table::{Table, derived};
 
@@ -87,11 +87,11 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                 };
                 Job {
                     run: Box::new(move |progress| {
-                        let mut build = slices::build(slices, seed, progress)?;
+                        let mut build = crate::recipes::driver::build(slices, seed, progress)?;
                         if let Some(full) = full {
                             let (exact, full_accuracy) = slice_accuracy(slices, full, seed, progress)?;
-                            build.interpolation.push(exact);
-                            build.accuracy.push(full_accuracy);
+                            build.provenance.interpolation.push(exact);
+                            build.provenance.accuracy.push(full_accuracy);
                         }
                         Ok(build)
                     }),

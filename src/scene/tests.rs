@@ -300,8 +300,8 @@ fn slice_nodes_agree_with_independent_per_cell_estimates() {
     let mut compared = 0;
     for planned in &plan.tables {
         let PlannedBuild::Slices(slices) = &planned.build else { continue };
-        let build = crate::recipes::slices::build(slices, config.seed, &progress).unwrap();
-        let standard_error = build.standard_error.as_ref().unwrap();
+        let build = crate::recipes::driver::build(slices, config.seed, &progress).unwrap();
+        let standard_error = build.provenance.standard_error.as_ref().unwrap();
         let stored = build.table.channel_count();
         for n in (0..build.table.node_count()).step_by(7) {
             let position = build.table.node_position(&build.table.node_index(n));
@@ -343,8 +343,8 @@ fn a_slice_beats_the_4d_table_between_its_eta_nodes() {
     let plan = plan(&example("copper-pot"), &config).unwrap();
     let slices = slices(&plan, "fgd_varnished-copper_l1_from-above");
     let progress = ();
-    let build = crate::recipes::slices::build(slices, config.seed, &progress).unwrap();
-    let full = crate::recipes::fgd::build(&config.fgd, config.seed, &progress).unwrap().table;
+    let build = crate::recipes::driver::build(slices, config.seed, &progress).unwrap();
+    let full = crate::recipes::driver::build(&config.fgd, config.seed, &progress).unwrap().table;
     let (exact, full_report) = super::build::slice_accuracy(slices, &full, config.seed, &progress).unwrap();
     let names = vec!["fgd0".to_string()];
     let slice = crate::recipes::interpolation::compare(&exact, "test", &names, |p| build.table.interpolate(p)).error;

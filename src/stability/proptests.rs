@@ -13,7 +13,7 @@ use crate::physics::{
     MaskingShadowing, critical_cosine, direction_from_cosine, fresnel_reflectance, ggx_distribution, ggx_to_hg,
     hg_to_ggx, smith_g1, smith_lambda,
 };
-use crate::recipes::TableRecipe;
+use crate::recipes::Kernel;
 use crate::recipes::fgd::FgdSettings;
 use crate::recipes::gd::GdSettings;
 use crate::sampling::sample_visible_normal;

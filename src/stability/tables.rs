@@ -16,12 +16,12 @@ use crate::error::Result;
 use crate::formats::Precision;
 use crate::integrate::{Estimate, GRAZING_COSINE};
 use crate::physics::{critical_cosine, direction_from_cosine, fresnel_reflectance, reflect, schlick_weight};
-use crate::recipes::TableRecipe;
 use crate::recipes::belcour::{self, BelcourSettings};
 use crate::recipes::fgd::FgdSettings;
 use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
 use crate::recipes::tir::TirSettings;
+use crate::recipes::{Kernel, TableRecipe};
 use crate::sampling::sequence::{PointSet, SamplePlan};
 
 /// Samples per stiff node: 4 replicates of 1024 Owen-scrambled Sobol points, shared by both paths.
