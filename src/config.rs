@@ -125,8 +125,12 @@ impl Config {
         // than its field (`alpha_range = [0.1, 0.5, 0.9]`), which deserialising from the text
         // directly accepts, dropping the third value.
         let table: toml::Table = text.parse().map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
-        let config: Config =
-            toml::Value::Table(table).try_into().map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
+        // Every key is optional, in a section given in part too (`[gd.sampling] replicates = 8`):
+        // the file is laid over the table's own defaults, key by key, before it is read.
+        let defaults = toml::Value::try_from(Config::default()).expect("the defaults are plain data");
+        let config: Config = overlay(defaults, toml::Value::Table(table))
+            .try_into()
+            .map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
         config.validate()?;
         Ok(config)
     }
@@ -201,6 +205,23 @@ impl Config {
 /// toml's messages span several lines with a source excerpt; keep them, but on one line each.
 pub(crate) fn clean_toml_error(error: &toml::de::Error) -> String {
     error.to_string().lines().map(str::trim_end).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" | ")
+}
+
+/// `over` laid on `under`: tables merge key by key, anything else (a value, an array) replaces.
+fn overlay(under: toml::Value, over: toml::Value) -> toml::Value {
+    match (under, over) {
+        (toml::Value::Table(mut under), toml::Value::Table(over)) => {
+            for (key, value) in over {
+                let merged = match under.remove(&key) {
+                    Some(below) => overlay(below, value),
+                    None => value,
+                };
+                under.insert(key, merged);
+            }
+            toml::Value::Table(under)
+        }
+        (_, over) => over,
+    }
 }
 
 #[cfg(test)]
@@ -281,6 +302,21 @@ mod tests {
     fn a_range_of_three_values_is_refused() {
         let e = error_of("[karis]\nalpha_range = [0.1, 0.5, 0.9]\n");
         assert!(e.contains("invalid length 3") && e.contains("karis.alpha_range"), "{e}");
+    }
+
+    #[test]
+    fn a_section_given_in_part_takes_the_tables_own_defaults_for_the_rest() {
+        let config =
+            Config::from_toml("[gd.sampling]\nreplicates = 8\n[karis.output]\nprecision = \"f32\"\n", "t").unwrap();
+        let defaults = Config::default();
+        assert_eq!(config.gd.sampling.replicates, 8);
+        assert_eq!(config.gd.sampling.samples, defaults.gd.sampling.samples);
+        assert_eq!(config.karis.output.formats, defaults.karis.output.formats);
+        assert_eq!(config.karis.output.precision, crate::formats::Precision::F32);
+        // Tables merge; arrays and values replace whole.
+        let config = Config::from_toml("[karis.output]\nformats = [\"exr\"]\n", "t").unwrap();
+        assert_eq!(config.karis.output.formats, [crate::formats::FileFormat::Exr]);
+        assert_eq!(overlay(toml::Value::Integer(1), toml::Value::Integer(2)), toml::Value::Integer(2));
     }
 
     #[test]
