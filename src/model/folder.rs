@@ -192,14 +192,7 @@ impl FolderTables {
                     continue;
                 }
                 let table = folder.load(file)?;
-                let indices = entry
-                    .channels
-                    .iter()
-                    .filter(|c| !c.fixed.is_empty())
-                    .map(|c| {
-                        (c.fixed.get("eta").copied().unwrap_or(f64::NAN), c.fixed.get("kappa").copied().unwrap_or(0.0))
-                    })
-                    .collect();
+                let indices = slice_indices(entry);
                 slices.push(Slice { quantity, indices, texture: SampledTable::new(&table)? });
             }
             Ok(slices)
@@ -435,10 +428,21 @@ pub fn describe(lookup: &Lookup) -> String {
 
 /// Whether a file is a scene slice of `prefix` (`fgd` or `tir`): two axes, and channels that state
 /// the indices they hold fixed.
-fn is_slice(entry: &FileEntry, prefix: &str) -> bool {
+pub(crate) fn is_slice(entry: &FileEntry, prefix: &str) -> bool {
     entry.axes.len() == 2
         && entry.table.starts_with(&format!("{prefix}_"))
         && entry.channels.iter().any(|c| !c.fixed.is_empty())
+}
+
+/// The `(eta, kappa)` a slice's channels hold fixed, in channel order (its padding channel, which
+/// fixes none, left out).
+pub(crate) fn slice_indices(entry: &FileEntry) -> Vec<(f64, f64)> {
+    entry
+        .channels
+        .iter()
+        .filter(|c| !c.fixed.is_empty())
+        .map(|c| (c.fixed.get("eta").copied().unwrap_or(f64::NAN), c.fixed.get("kappa").copied().unwrap_or(0.0)))
+        .collect()
 }
 
 /// The packed FGD texture of `file` with the lookup of its packing.

@@ -30,9 +30,10 @@ use super::{Expr, Item, Lang, Module, Parens, Stmt, Ty, assign, f, func, let_, n
 use crate::error::{Error, Result};
 use crate::fit::forms::Form;
 use crate::formats::FileFormat;
-use crate::formats::manifest::{FileEntry, MANIFEST_FILE};
+use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::LutFolder;
 use crate::model::factors::{EXPONENT_LIMIT, INDEX_MATCHED, NEARLY_INDEX_MATCHED};
+use crate::model::folder::{is_slice, slice_indices};
 use crate::model::tm2::SMALLEST_TRANSMISSION;
 use crate::model::{AlbedoPath, FluxModel, Layer, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
@@ -223,14 +224,7 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
         let axes: Vec<Axis> = entry.axes.iter().map(|a| a.axis.clone()).collect();
         let slice_of = |prefix: &str| is_slice(entry, prefix);
         if slice_of("fgd") || slice_of("tir") {
-            let indices = entry
-                .channels
-                .iter()
-                .filter(|c| !c.fixed.is_empty())
-                .map(|c| {
-                    (c.fixed.get("eta").copied().unwrap_or(f64::NAN), c.fixed.get("kappa").copied().unwrap_or(0.0))
-                })
-                .collect();
+            let indices = slice_indices(entry);
             slices.push(Table2 { file: file.clone(), axes, indices, is_tir: slice_of("tir"), is_fgd: slice_of("fgd") });
         } else if entry.table == "gd" && axes.len() == 2 {
             gd = Some(Table2 { file: file.clone(), axes, indices: Vec::new(), is_tir: false, is_fgd: false });
@@ -242,13 +236,6 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
         .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
         .and_then(|fit| Form::from_name(&fit.form).map(|form| (form, fit.parameters)));
     Ok(Sources { slices, gd, packing, fit })
-}
-
-/// Whether a file is a scene slice of `prefix`, as [`crate::model::folder`] decides it.
-fn is_slice(entry: &FileEntry, prefix: &str) -> bool {
-    entry.axes.len() == 2
-        && entry.table.starts_with(&format!("{prefix}_"))
-        && entry.channels.iter().any(|c| !c.fixed.is_empty())
 }
 
 struct Generator<'a> {
