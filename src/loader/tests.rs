@@ -51,7 +51,7 @@ fn tir_table() -> Table {
     let alpha = Axis::node_aligned("alpha", 0.0, 1.0, 5).unwrap().with_mapping(Mapping::Sqrt).unwrap();
     let offset = Axis::node_aligned(CRITICAL_ANGLE_OFFSET, -1.5, 1.5, 6)
         .unwrap()
-        .with_mapping(Mapping::Asinh { scale: 0.05 })
+        .with_mapping(Mapping::Asinh { scale: 0.05, centre: 0.0 })
         .unwrap();
     fill(vec![mu, alpha, offset], 1, "tir")
 }

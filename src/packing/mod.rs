@@ -176,13 +176,14 @@ fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize;
         ));
     }
     for axis in axes {
-        let mapped = matches!(axis.mapping, Mapping::Identity | Mapping::Sqrt | Mapping::SqrtEnds);
+        let mapped =
+            matches!(axis.mapping, Mapping::Identity | Mapping::Sqrt | Mapping::SqrtEnds | Mapping::Asinh { .. });
         if axis.placement != Placement::NodeAligned || !mapped {
             return Err(Error::invalid(
                 key,
                 format!(
                     "axis `{}` is {:?} with mapping {}; a packing takes node-aligned axes spaced in the quantity, its \
-                     square root, or (sqrt(x) - sqrt(1 - x) + 1) / 2",
+                     square root, (sqrt(x) - sqrt(1 - x) + 1) / 2 or asinh((x - c) / s)",
                     axis.name,
                     axis.placement,
                     axis.mapping.formula(&axis.name)
@@ -195,8 +196,11 @@ fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize;
 
 /// `u = clamp((m(x) - m(start)) * (1 / (m(end) - m(start))), 0, 1)`: the axis coordinate in
 /// [0, 1], in f32, as a local named `u_<axis>` (for the identity mapping exact when the range is a
-/// power of two, as FGD's 1 and 4 are). The mapping `m` is written out: `sqrt(max(x, 0))`, or
-/// `(sqrt(c) - sqrt(1 - c) + 1) * 0.5` with `c` clamped to [0, 1].
+/// power of two, as FGD's 1 and 4 are). The mapping `m` is written out: `sqrt(max(x, 0))`,
+/// `(sqrt(c) - sqrt(1 - c) + 1) * 0.5` with `c` clamped to [0, 1], or `log(y + sqrt(y * y + 1))`
+/// with `y = (x - centre) * (1 / scale)` (neither HLSL nor older GLSL has `asinh`; for `y < 0` the
+/// sum cancels, by up to 50 ulps of the logarithm's argument at FGD's `y = -5`, which moves the
+/// node index by a few 1e-6 of a node).
 fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
     let x = program.input(&axis.name);
     let mapped = match axis.mapping {
@@ -205,7 +209,12 @@ fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
             let c = program.local(&format!("c_{}", axis.name), x.clamp(0.0, 1.0));
             (c.clone().sqrt() - (Expr::c(1.0) - c).sqrt() + Expr::c(1.0)).mul(Expr::c(0.5))
         }
-        _ => x,
+        Mapping::Asinh { scale, centre } => {
+            let y = program
+                .local(&format!("y_{}", axis.name), x.sub(Expr::c(centre as f32)).mul(Expr::c((1.0 / scale) as f32)));
+            y.clone().add(y.clone().mul(y).add(Expr::c(1.0)).sqrt()).log()
+        }
+        Mapping::Identity | Mapping::SqrtOneMinus => x,
     };
     let (m0, m1) = (axis.mapping.forward(axis.start), axis.mapping.forward(axis.end));
     let u = mapped.sub(Expr::c(m0 as f32)).mul(Expr::c((1.0 / (m1 - m0)) as f32)).clamp(0.0, 1.0);
@@ -258,6 +267,7 @@ fn unit_formula(axis: &Axis) -> String {
     let clamped = format!("clamp({}, 0, 1)", axis.name);
     let mapped = match axis.mapping {
         Mapping::Sqrt => axis.mapping.formula(&format!("max({}, 0)", axis.name)),
+        Mapping::Asinh { .. } => axis.mapping.formula(&axis.name),
         _ => axis.mapping.formula(&clamped),
     };
     format!("u_{} = clamp(({mapped} - {m0}) / ({m1} - {m0}), 0, 1)", axis.name)

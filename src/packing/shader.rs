@@ -7,7 +7,9 @@
 //! division: a compiler may turn `x / c` into `x * (1 / c)`, so the program multiplies by
 //! reciprocal constants itself), `floor`, `min`, `max`, and `clamp` written as `min(max(x, lo), hi)`;
 //! and `sqrt`, for axes spaced in a square root, which IEEE rounds correctly and a GPU to within
-//! an ulp or two.
+//! an ulp or two; and `log`, for axes spaced in `asinh`, which neither HLSL nor WGSL rounds
+//! correctly (WGSL allows 2^-21 absolute error near 1, 3 ulps elsewhere): such an axis's node
+//! index may differ from the emulator's by a few 1e-6 of a node.
 //! Texel indices for loads are integers held exactly in f32 and converted with `int()`/`i32()`.
 
 use std::fmt::Write as _;
@@ -51,6 +53,9 @@ pub enum Expr {
     /// IEEE square root, correctly rounded in Rust's f32; a GPU may differ by an ulp (Direct3D
     /// 11 allows it), which moves a node index by at most `(N - 1)` ulps of the axis coordinate.
     Sqrt(Box<Expr>),
+    /// Natural logarithm; Rust's f32 `ln` is within an ulp, a GPU within a few (see the module's
+    /// notes).
+    Log(Box<Expr>),
 }
 
 impl Expr {
@@ -69,6 +74,9 @@ impl Expr {
     pub fn sqrt(self) -> Expr {
         Expr::Sqrt(Box::new(self))
     }
+    pub fn log(self) -> Expr {
+        Expr::Log(Box::new(self))
+    }
     /// `min(max(x, lo), hi)`; a NaN `x` becomes `lo` in Rust and in HLSL (IEEE maxNum).
     pub fn clamp(self, lo: f32, hi: f32) -> Expr {
         self.max(Expr::c(lo)).min(Expr::c(hi))
@@ -86,6 +94,7 @@ impl Expr {
             Expr::Min(a, b) => a.eval(inputs, locals).min(b.eval(inputs, locals)),
             Expr::Max(a, b) => a.eval(inputs, locals).max(b.eval(inputs, locals)),
             Expr::Sqrt(a) => a.eval(inputs, locals).sqrt(),
+            Expr::Log(a) => a.eval(inputs, locals).ln(),
         }
     }
 
@@ -118,6 +127,7 @@ impl Expr {
             Expr::Min(a, b) => call("min", &[a, b], out),
             Expr::Max(a, b) => call("max", &[a, b], out),
             Expr::Sqrt(a) => call("sqrt", &[a], out),
+            Expr::Log(a) => call("log", &[a], out),
         }
     }
 }
@@ -302,6 +312,7 @@ impl Program {
             Expr::Min(a, b) => shader::call(Builtin::Min, two(a, b)),
             Expr::Max(a, b) => shader::call(Builtin::Max, two(a, b)),
             Expr::Sqrt(a) => shader::call(Builtin::Sqrt, vec![self.emitted(a)]),
+            Expr::Log(a) => shader::call(Builtin::Log, vec![self.emitted(a)]),
         }
     }
 

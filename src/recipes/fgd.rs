@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
-use super::spacing::{CosineAxis, RoughnessAxis};
+use super::spacing::{CosineAxis, ExtinctionAxis, IndexAxis, RoughnessAxis};
 use super::{
     Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference, random_cells,
 };
@@ -55,6 +55,10 @@ pub struct FgdSettings {
     pub roughness_axis: RoughnessAxis,
     pub eta_range: [f64; 2],
     pub kappa_range: [f64; 2],
+    /// How the `eta` nodes are spaced.
+    pub eta_axis: IndexAxis,
+    /// How the `kappa` nodes are spaced.
+    pub kappa_axis: ExtinctionAxis,
     pub masking: MaskingShadowing,
     pub method: Method,
     /// Intervals of the hat basis in `c = wi.h` (fast method).
@@ -85,6 +89,8 @@ impl Default for FgdSettings {
             roughness_axis: RoughnessAxis::Perceptual,
             eta_range: [0.0, 4.0],
             kappa_range: [0.0, 4.0],
+            eta_axis: IndexAxis::DenseNearOne,
+            kappa_axis: ExtinctionAxis::DenseNearZero,
             masking: MaskingShadowing::SmithSeparable,
             method: Method::Fast,
             cosine_intervals: 256,
@@ -153,8 +159,10 @@ impl FgdSettings {
                 .with_mapping(self.mu_axis.mapping())?,
             Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?
                 .with_mapping(self.roughness_axis.mapping())?,
-            Axis::node_aligned("eta", self.eta_range[0], self.eta_range[1], self.eta_count)?,
-            Axis::node_aligned("kappa", self.kappa_range[0], self.kappa_range[1], self.kappa_count)?,
+            Axis::node_aligned("eta", self.eta_range[0], self.eta_range[1], self.eta_count)?
+                .with_mapping(self.eta_axis.mapping())?,
+            Axis::node_aligned("kappa", self.kappa_range[0], self.kappa_range[1], self.kappa_count)?
+                .with_mapping(self.kappa_axis.mapping())?,
         ])
     }
 }

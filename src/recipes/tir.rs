@@ -164,7 +164,7 @@ impl TirSettings {
             EtaAxis::CriticalAngleOffset => {
                 let half_pi = std::f64::consts::FRAC_PI_2;
                 Axis::node_aligned(derived::CRITICAL_ANGLE_OFFSET, -half_pi, half_pi, self.eta_count)?
-                    .with_mapping(Mapping::Asinh { scale: OFFSET_SCALE })?
+                    .with_mapping(Mapping::Asinh { scale: OFFSET_SCALE, centre: 0.0 })?
             }
         };
         Ok(vec![

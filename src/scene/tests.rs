@@ -215,10 +215,13 @@ fn textured_ranges_give_sub_ranges_and_a_varying_index_the_4d_table() {
     let Some(PlannedBuild::Fgd(fgd)) = plan.tables.iter().find(|t| t.record.name == "fgd").map(|t| &t.build) else {
         panic!("the glaze's varying index needs the 4D table: {:?}", table_names(&plan));
     };
-    // eta over [1.4, 1.7] and kappa 0 only, on the default grid's spacing (4/63).
-    let spacing = 4.0 / 63.0;
-    assert!(fgd.eta_range[0] <= 1.4 && fgd.eta_range[0] > 1.4 - 2.0 * spacing - 1e-12, "{:?}", fgd.eta_range);
-    assert!(fgd.eta_range[1] >= 1.7 && fgd.eta_range[1] < 1.7 + 2.0 * spacing + 1e-12, "{:?}", fgd.eta_range);
+    // eta over [1.4, 1.7] and kappa 0 only, between nodes of the default grid at most two cells
+    // outside the lookups.
+    let full_eta = &Config::default().fgd.axes().unwrap()[2];
+    let node_below = |x: f64| full_eta.value_at((full_eta.continuous_index(x).floor() - 1.0) / 63.0);
+    let node_above = |x: f64| full_eta.value_at((full_eta.continuous_index(x).ceil() + 1.0) / 63.0);
+    assert!(fgd.eta_range[0] <= 1.4 && fgd.eta_range[0] >= node_below(1.4) - 1e-12, "{:?}", fgd.eta_range);
+    assert!(fgd.eta_range[1] >= 1.7 && fgd.eta_range[1] <= node_above(1.7) + 1e-12, "{:?}", fgd.eta_range);
     assert_eq!(fgd.kappa_range[0], 0.0);
     assert_eq!(fgd.kappa_count, 2);
     assert!((fgd.alpha_range[0]..=fgd.alpha_range[1]).contains(&0.2));
@@ -408,7 +411,11 @@ fn impossible_values_and_sizes_are_refused_in_the_scenes_own_words() {
         [[material.layer]]\ntype = \"interface\"\neta = 0.01\nalpha = 0.1\n\
         [[material.layer]]\ntype = \"interface\"\nvary = { eta = [1.0, 100.0] }\nalpha = 0.1\n";
     let scene = Scene::from_toml(text, "t.toml", "t").unwrap();
-    let e = plan(&scene, &Config::default()).unwrap_err().to_string();
+    // On a uniform eta axis (the original layout); the default's asinh spacing reaches 10000 in 55
+    // nodes.
+    let mut uniform = Config::default();
+    uniform.fgd.eta_axis = crate::recipes::spacing::IndexAxis::Uniform;
+    let e = plan(&scene, &uniform).unwrap_err().to_string();
     assert!(e.contains("thin-over-dense, layer 2 from above") && e.contains("reach eta 100 to 10000"), "{e}");
     assert!(e.contains("allowed: at most 16384 nodes"), "{e}");
 }

@@ -41,9 +41,18 @@ pub enum Mapping {
     /// masking and the horizon reshape a lobe within a few thousandths of `mu`, and near the normal,
     /// where the view angle `acos(mu)` moves fastest.
     SqrtEnds,
-    /// `m(x) = asinh(x / scale)`: linear within about `scale` of 0 and logarithmic beyond, so that
-    /// equal steps of `m` resolve a transition at 0 of any width from `scale` up.
-    Asinh { scale: f64 },
+    /// `m(x) = asinh((x - centre) / scale)`: linear within about `scale` of `centre` and
+    /// logarithmic beyond, so that equal steps of `m` resolve a transition at `centre` of any
+    /// width from `scale` up.
+    Asinh {
+        scale: f64,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        centre: f64,
+    },
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl Mapping {
@@ -56,7 +65,7 @@ impl Mapping {
                 let x = x.clamp(0.0, 1.0);
                 0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
             }
-            Mapping::Asinh { scale } => (x / scale).asinh(),
+            Mapping::Asinh { scale, centre } => ((x - centre) / scale).asinh(),
         }
     }
 
@@ -70,7 +79,7 @@ impl Mapping {
                 let x = x.clamp(0.0, 1.0);
                 0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
             }
-            Mapping::Asinh { scale } => (x / scale as f32).asinh(),
+            Mapping::Asinh { scale, centre } => ((x - centre as f32) / scale as f32).asinh(),
         }
     }
 
@@ -85,7 +94,7 @@ impl Mapping {
                 let a = 0.5 * (difference + (2.0 - difference * difference).sqrt());
                 (a * a).clamp(0.0, 1.0)
             }
-            Mapping::Asinh { scale } => scale * m.sinh(),
+            Mapping::Asinh { scale, centre } => centre + scale * m.sinh(),
         }
     }
 
@@ -106,15 +115,19 @@ impl Mapping {
             Mapping::Sqrt => format!("sqrt({x})"),
             Mapping::SqrtOneMinus => format!("sqrt(1 - {x})"),
             Mapping::SqrtEnds => format!("(sqrt({x}) - sqrt(1 - {x}) + 1) / 2"),
-            Mapping::Asinh { scale } => format!("asinh({x} / {scale:?})"),
+            Mapping::Asinh { scale, centre: 0.0 } => format!("asinh({x} / {scale:?})"),
+            Mapping::Asinh { scale, centre } => format!("asinh(({x} - {centre:?}) / {scale:?})"),
         }
     }
 
     /// Whether the mapping is valid: a finite, positive `asinh` scale.
     pub fn validate(self) -> Result<()> {
         match self {
-            Mapping::Asinh { scale } if !(scale.is_finite() && scale > 0.0) => {
+            Mapping::Asinh { scale, .. } if !(scale.is_finite() && scale > 0.0) => {
                 Err(Error::invalid("mapping", format!("asinh scale {scale}; allowed: finite and > 0")))
+            }
+            Mapping::Asinh { centre, .. } if !centre.is_finite() => {
+                Err(Error::invalid("mapping", format!("asinh centre {centre}; allowed: finite")))
             }
             _ => Ok(()),
         }
@@ -348,8 +361,10 @@ mod tests {
     fn formula_spells_out_the_half_texel_correction() {
         let axis = Axis::node_aligned("eta", 0.0, 4.0, 64).unwrap();
         assert_eq!(axis.texture_coordinate_formula(), "(eta / 4) * 63 / 64 + 0.5 / 64");
-        let offset =
-            Axis::node_aligned("d", -2.0, 2.0, 5).unwrap().with_mapping(Mapping::Asinh { scale: 0.5 }).unwrap();
+        let offset = Axis::node_aligned("d", -2.0, 2.0, 5)
+            .unwrap()
+            .with_mapping(Mapping::Asinh { scale: 0.5, centre: 0.0 })
+            .unwrap();
         let m1 = 4.0f64.asinh();
         assert_eq!(
             offset.texture_coordinate_formula(),
@@ -360,8 +375,10 @@ mod tests {
     #[test]
     fn the_new_spacings_round_trip_and_pack_their_nodes_where_stated() {
         let ends = Axis::node_aligned("mu", 0.0, 1.0, 64).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
-        let offset =
-            Axis::node_aligned("d", -1.5, 1.5, 129).unwrap().with_mapping(Mapping::Asinh { scale: 1e-3 }).unwrap();
+        let offset = Axis::node_aligned("d", -1.5, 1.5, 129)
+            .unwrap()
+            .with_mapping(Mapping::Asinh { scale: 1e-3, centre: 0.0 })
+            .unwrap();
         for axis in [&ends, &offset] {
             for k in 0..axis.count {
                 let x = axis.node_value(k);
@@ -381,7 +398,38 @@ mod tests {
         assert!((offset.node_value(65) - 1e-3 * (1500f64.asinh() / 64.0).sinh()).abs() < 1e-15);
         assert!(offset.node_value(65) < 1.3e-4, "{}", offset.node_value(65));
         assert_eq!((offset.node_value(0), offset.node_value(128)), (-1.5, 1.5));
-        let bad = Axis::node_aligned("d", -1.0, 1.0, 4).unwrap().with_mapping(Mapping::Asinh { scale: 0.0 });
+        let bad =
+            Axis::node_aligned("d", -1.0, 1.0, 4).unwrap().with_mapping(Mapping::Asinh { scale: 0.0, centre: 0.0 });
         assert!(bad.unwrap_err().to_string().contains("asinh scale"));
+    }
+
+    #[test]
+    fn an_asinh_spacing_centred_off_zero_is_dense_at_its_centre() {
+        // FGD's eta axis: 64 nodes over [0, 4] in asinh((eta - 1) / 0.2).
+        let eta = Axis::node_aligned("eta", 0.0, 4.0, 64)
+            .unwrap()
+            .with_mapping(Mapping::Asinh { scale: 0.2, centre: 1.0 })
+            .unwrap();
+        for k in 0..eta.count {
+            assert!((eta.coordinate(eta.node_value(k)) - eta.node_coordinate(k)).abs() < 1e-12, "node {k}");
+        }
+        let width = |k: usize| eta.node_value(k + 1) - eta.node_value(k);
+        let at_one = eta.continuous_index(1.0).floor() as usize;
+        assert!(
+            width(at_one) < 0.02 && width(0) > 0.08 && width(62) > 0.25,
+            "{} {} {}",
+            width(at_one),
+            width(0),
+            width(62)
+        );
+        assert_eq!(eta.mapping.formula("eta"), "asinh((eta - 1.0) / 0.2)");
+        // The centre is omitted from the manifest where it is 0, so that axes written before it
+        // existed read back equal.
+        let json = serde_json::to_string(&Mapping::Asinh { scale: 0.5, centre: 0.0 }).unwrap();
+        assert_eq!(json, r#"{"asinh":{"scale":0.5}}"#);
+        assert_eq!(serde_json::from_str::<Mapping>(&json).unwrap(), Mapping::Asinh { scale: 0.5, centre: 0.0 });
+        let bad =
+            Axis::node_aligned("d", 0.0, 1.0, 4).unwrap().with_mapping(Mapping::Asinh { scale: 1.0, centre: f64::NAN });
+        assert!(bad.unwrap_err().to_string().contains("asinh centre"));
     }
 }

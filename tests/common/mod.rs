@@ -159,7 +159,7 @@ samples = 1024
 pub fn small_set_in_every_format() -> String {
     let mut config = SMALL_SET.to_string();
     for (table, formats, more) in [
-        ("fgd", r#"["bin", "exr"]"#, ""),
+        ("fgd", r#"["bin", "exr"]"#, "eta_axis = \"uniform\"\nkappa_axis = \"uniform\"\n"),
         ("gd", r#"["bin", "dds", "exr"]"#, ""),
         ("tir", r#"["bin", "dds", "exr"]"#, "eta_axis = \"eta\"\n"),
     ] {
