@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
-use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
+use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -35,23 +35,21 @@ pub const CHANNEL_COUNT: usize = 4;
 /// The configuration keys of the node counts, axis 0 first.
 pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BelcourSettings {
-    pub mu_count: usize,
-    pub roughness_count: usize,
-    pub alpha_range: [f64; 2],
-    pub roughness_axis: RoughnessAxis,
-    pub orientation: Orientation,
-    pub masking: MaskingShadowing,
-    pub method: Method,
+/// The Belcour table's settings: the split-sum ones and its own.
+pub type BelcourSettings = SplitSumSettings<BelcourOwn>;
+
+/// What only the Belcour table has.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BelcourOwn {
     /// Intervals of the hat basis in `c = wi.h` (fast method).
     pub cosine_intervals: usize,
-    pub sampling: SamplingConfig,
-    pub reference: ReferenceConfig,
-    /// The check between nodes: random points against the exact integral.
-    pub interpolation: super::interpolation::InterpolationConfig,
-    pub output: OutputConfig,
+}
+
+impl Default for BelcourOwn {
+    fn default() -> Self {
+        BelcourOwn { cosine_intervals: 256 }
+    }
 }
 
 impl Default for BelcourSettings {
@@ -64,42 +62,25 @@ impl Default for BelcourSettings {
             orientation: Orientation::SmoothFirst,
             masking: MaskingShadowing::SmithHeightCorrelated,
             method: Method::Fast,
-            cosine_intervals: 256,
             sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
+            own: BelcourOwn::default(),
         }
     }
 }
 
 impl BelcourSettings {
-    pub fn layout(&self) -> SplitSumLayout {
-        SplitSumLayout {
-            mu_count: self.mu_count,
-            roughness_count: self.roughness_count,
-            alpha_range: self.alpha_range,
-            roughness_axis: self.roughness_axis,
-            orientation: self.orientation,
-        }
-    }
-
     pub fn validate(&self) -> Result<()> {
-        self.layout().validate(NAME)?;
-        if !(8..=4096).contains(&self.cosine_intervals) {
+        self.validate_shared(NAME, &[FileFormat::Dds, FileFormat::Exr])?;
+        if !(8..=4096).contains(&self.own.cosine_intervals) {
             return Err(Error::invalid(
                 "belcour.cosine_intervals",
-                format!("{}; allowed: 8 to 4096", self.cosine_intervals),
+                format!("{}; allowed: 8 to 4096", self.own.cosine_intervals),
             ));
         }
-        self.sampling.validate("belcour.sampling")?;
-        self.reference.validate("belcour.reference")?;
-        self.interpolation.validate("belcour.interpolation")?;
-        self.output.validate("belcour.output", &[FileFormat::Dds, FileFormat::Exr])
-    }
-
-    pub fn axes(&self) -> Result<Vec<Axis>> {
-        self.layout().axes()
+        Ok(())
     }
 }
 
@@ -235,7 +216,7 @@ impl BelcourSettings {
     /// times the basis curves projected on the hat basis.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let basis = basis();
-        let hats = HatBasis { intervals: self.cosine_intervals };
+        let hats = HatBasis { intervals: self.own.cosine_intervals };
         let projected = projected_basis(basis, hats);
         let projected: Vec<&Projection> = projected.iter().collect();
         let measure = cosine_measure(position[0], position[1], self.masking, points, hats);
@@ -269,7 +250,7 @@ impl TableRecipe for BelcourSettings {
     }
 
     fn kept_measure_intervals(&self) -> Option<usize> {
-        Some(self.cosine_intervals)
+        Some(self.own.cosine_intervals)
     }
 }
 
@@ -290,7 +271,7 @@ impl Kernel for BelcourSettings {
         let mut notes = vec![
             "Runtime: FGD ≈ c0 b0 + c1 b1 + c2 b2 + c3 b3 (RGBA = b0..b3), coefficients from the basis in this manifest: c0 = F(1), c1 = 1 - c0, (c2, c3) from the 2x2 system at the probe cosines.".to_string(),
         ];
-        notes.extend(self.layout().notes());
+        notes.extend(self.layout_notes());
         Metadata {
             integrand: "LUT_k = E_{h~VNDF(wi)}[b_k(wi.h) G2(wi,wo) / G1(wi)], b0 = 1, b1..b3 the tabulated basis"
                 .into(),
@@ -305,7 +286,7 @@ impl Kernel for BelcourSettings {
     /// The four integrals at every texel, and how well `Σ c_k LUT_k` reproduces FGD there.
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
         let basis = basis();
-        let hats = HatBasis { intervals: self.cosine_intervals };
+        let hats = HatBasis { intervals: self.own.cosine_intervals };
         let projected = projected_basis(basis, hats);
         let projected_refs: Vec<&Projection> = projected.iter().collect();
         let kinks = basis_kinks(basis);
