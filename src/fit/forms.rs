@@ -125,33 +125,45 @@ pub const STEP_PARAMETERS: [Parameter; 7] = [
     parameter("edge_logit", 0.0, 0.0, 1.0),
 ];
 
-/// [`Form::CauchyCap`]'s parameters (see [`cauchy_cap`]). The start is the plain model: scale
-/// alpha (exact at mu = 1 without G1), the true horizon, a cosine-like rough limit 1 - eta^2
-/// reached linearly, no grazing terms.
+/// The coefficients of the spherical Cauchy lobe both Cauchy forms share ([`CauchyLobe::new`]),
+/// and of their blend into the rough limit. Their start is the plain model: scale alpha (exact at
+/// mu = 1 without G1), the true horizon, the centre at the view, no grazing term, the rough limit
+/// reached linearly.
+const SCALE_ALPHA: Parameter = parameter("scale_alpha", 1.0, 0.0, 4.0);
+const SCALE_ALPHA2: Parameter = parameter("scale_alpha2", 0.0, -2.0, 2.0);
+const SCALE_ALPHA_MU: Parameter = parameter("scale_alpha_mu", 0.0, -2.0, 2.0);
+const HORIZON_ALPHA: Parameter = parameter("horizon_alpha", 0.0, 0.0, 2.0);
+const HORIZON_ALPHA2: Parameter = parameter("horizon_alpha2", 0.0, -2.0, 2.0);
+const CENTRE_ALPHA: Parameter = parameter("centre_alpha", 0.0, -1.0, 2.0);
+const SCALE_GRAZING: Parameter = parameter("scale_grazing", 0.0, 0.0, 2.0);
+const ROUGH_BLEND: Parameter = parameter("rough_blend", 1.0, 0.0, 4.0);
+
+/// [`Form::CauchyCap`]'s parameters (see [`cauchy_cap`]): the lobe's, and a cosine-like rough
+/// limit `1 - eta^2` to start from.
 pub const CAUCHY_CAP_PARAMETERS: [Parameter; 10] = [
-    parameter("scale_alpha", 1.0, 0.0, 4.0),
-    parameter("scale_alpha2", 0.0, -2.0, 2.0),
-    parameter("scale_alpha_mu", 0.0, -2.0, 2.0),
-    parameter("horizon_alpha", 0.0, 0.0, 2.0),
-    parameter("horizon_alpha2", 0.0, -2.0, 2.0),
+    SCALE_ALPHA,
+    SCALE_ALPHA2,
+    SCALE_ALPHA_MU,
+    HORIZON_ALPHA,
+    HORIZON_ALPHA2,
     parameter("rough_exponent", 2.0, 0.5, 4.0),
-    parameter("rough_blend", 1.0, 0.0, 4.0),
+    ROUGH_BLEND,
     parameter("rough_blend_exponent", 1.0, 0.5, 4.0),
-    parameter("centre_alpha", 0.0, -1.0, 2.0),
-    parameter("scale_grazing", 0.0, 0.0, 2.0),
+    CENTRE_ALPHA,
+    SCALE_GRAZING,
 ];
 
-/// [`Form::CauchySlope`]'s parameters (see [`cauchy_slope`]). The start is the plain model again,
-/// with the slope lobe at its derived scale `alpha` fading out by `alpha = 0.3`.
+/// [`Form::CauchySlope`]'s parameters (see [`cauchy_slope`]): the lobe's, and the slope lobe at its
+/// derived scale `alpha` fading out by `alpha = 0.3` to start from.
 pub const CAUCHY_SLOPE_PARAMETERS: [Parameter; 10] = [
-    parameter("scale_alpha", 1.0, 0.0, 4.0),
-    parameter("scale_alpha2", 0.0, -2.0, 2.0),
-    parameter("scale_alpha_mu", 0.0, -2.0, 2.0),
-    parameter("horizon_alpha", 0.0, 0.0, 2.0),
-    parameter("horizon_alpha2", 0.0, -2.0, 2.0),
-    parameter("rough_blend", 1.0, 0.0, 4.0),
-    parameter("centre_alpha", 0.0, -1.0, 2.0),
-    parameter("scale_grazing", 0.0, 0.0, 2.0),
+    SCALE_ALPHA,
+    SCALE_ALPHA2,
+    SCALE_ALPHA_MU,
+    HORIZON_ALPHA,
+    HORIZON_ALPHA2,
+    ROUGH_BLEND,
+    CENTRE_ALPHA,
+    SCALE_GRAZING,
     parameter("slope_scale", 1.0, 0.1, 4.0),
     parameter("slope_fade_alpha", 10.0, 0.0, 200.0),
 ];
