@@ -283,7 +283,7 @@ impl Kernel for BelcourSettings {
         }
     }
 
-    /// The four integrals at every texel, and how well `Σ c_k LUT_k` reproduces FGD there.
+    /// The four integrals at every node, and how well `Σ c_k LUT_k` reproduces FGD there.
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
         let basis = basis();
         let hats = HatBasis { intervals: self.own.cosine_intervals };
@@ -291,13 +291,13 @@ impl Kernel for BelcourSettings {
         let projected_refs: Vec<&Projection> = projected.iter().collect();
         let kinks = basis_kinks(basis);
 
-        // The fast path keeps each texel's mean measure: the accuracy report needs it too.
+        // The fast path keeps each node's mean measure: the accuracy report needs it too.
         let measures = std::sync::Mutex::new(vec![None; table.node_count()]);
-        let estimates = fill_mu_alpha_nodes(table, progress, |texel, mu, alpha| match self.method {
+        let estimates = fill_mu_alpha_nodes(table, progress, |node, mu, alpha| match self.method {
             Method::Fast => {
                 let measure = cosine_measure(mu, alpha, self.masking, points, hats);
                 let estimate = measure.integrate(&projected_refs, |k, c| basis.evaluate(k, c), &kinks);
-                measures.lock().expect("measure store")[texel] = Some(measure.averaged());
+                measures.lock().expect("measure store")[node] = Some(measure.averaged());
                 estimate
             }
             Method::PerCell => basis_integrals(basis, self.masking, Method::PerCell, points, mu, alpha),
@@ -334,7 +334,7 @@ fn basis_integrals(
 }
 
 /// How well `Σ c_k LUT_k` reproduces FGD (same masking, same measures, so the difference is the
-/// basis's own error), over three parts of the `(eta, kappa)` domain, at every texel.
+/// basis's own error), over three parts of the `(eta, kappa)` domain, at every node.
 fn split_sum_accuracy(
     table: &Table,
     basis: &FresnelBasis,
@@ -360,25 +360,25 @@ fn split_sum_accuracy(
     domains
         .iter()
         .map(|(what, indices)| {
-            // (difference, eta, kappa, texel) for every index and texel.
+            // (difference, eta, kappa, node) for every index and node.
             let differences: Vec<(f64, f64, f64, usize)> = indices
                 .par_iter()
                 .flat_map_iter(|&(eta, kappa)| {
                     let fresnel = projected_fresnel(hats, eta, kappa);
                     let kinks = fresnel_kinks(eta);
                     let coefficients = basis.coefficients(eta, kappa);
-                    measures.iter().enumerate().map(move |(texel, measure)| {
-                        let lut = table.node(&table.node_index(texel));
+                    measures.iter().enumerate().map(move |(node, measure)| {
+                        let lut = table.node(&table.node_index(node));
                         let approximate: f64 = (0..4).map(|k| coefficients[k] * lut[k] as f64).sum();
                         let exact =
                             measure.integrate(&[&fresnel], |_, c| fresnel_reflectance(c, eta, kappa), &kinks).mean[0];
-                        (approximate - exact, eta, kappa, texel)
+                        (approximate - exact, eta, kappa, node)
                     })
                 })
                 .collect();
             let worst = differences.iter().max_by(|a, b| a.0.abs().total_cmp(&b.0.abs()));
-            let worst_at = worst.map_or(String::new(), |&(_, eta, kappa, texel)| {
-                let p = table.node_position(&table.node_index(texel));
+            let worst_at = worst.map_or(String::new(), |&(_, eta, kappa, node)| {
+                let p = table.node_position(&table.node_index(node));
                 format!("mu {:.4}, alpha {:.4}, eta {eta:.3}, kappa {kappa:.3}", p[0], p[1])
             });
             AccuracyReport {
@@ -441,7 +441,7 @@ mod tests {
         assert_eq!(stats.nan_count + stats.infinite_count, 0);
         // b0 = 1: the channel is the height-correlated albedo, within [0, 1].
         assert!(build.table.channel_values(0).all(|v| (0.0..=1.0).contains(&v)));
-        // Every texel against 2^18-sample per-cell f64 estimates of all four channels.
+        // Every node against 2^18-sample per-cell f64 estimates of all four channels.
         let reference = build.provenance.error.reference.as_ref().unwrap();
         assert_eq!(reference.difference.count, 256);
         assert!(reference.difference.max < 1e-3 && reference.difference.rms < 2e-4, "{reference:?}");

@@ -44,9 +44,9 @@ pub enum Orientation {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SplitSumSettings<Own> {
-    /// Texels along `x = n.v`.
+    /// Nodes along `x = n.v`, one per texel, at its centre.
     pub mu_count: usize,
-    /// Texels along roughness.
+    /// Nodes along roughness, one per texel, at its centre.
     pub roughness_count: usize,
     /// Range of GGX alpha covered, before orientation.
     pub alpha_range: [f64; 2],
