@@ -128,7 +128,8 @@ impl Config {
         // Every key is optional, in a section given in part too (`[gd.sampling] replicates = 8`):
         // the file is laid over the table's own defaults, key by key, before it is read.
         let defaults = toml::Value::try_from(Config::default()).expect("the defaults are plain data");
-        let config: Config = overlay(defaults, toml::Value::Table(table))
+        let config: Config = overlay(defaults, toml::Value::Table(table), "")
+            .map_err(|reason| Error::invalid(origin, reason))?
             .try_into()
             .map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
         config.validate()?;
@@ -208,19 +209,26 @@ pub(crate) fn clean_toml_error(error: &toml::de::Error) -> String {
 }
 
 /// `over` laid on `under`: tables merge key by key, anything else (a value, an array) replaces.
-fn overlay(under: toml::Value, over: toml::Value) -> toml::Value {
+/// A key of `over` that the table under it lacks is refused, naming it (`path` is where `over`
+/// sits) and the keys allowed there. The defaults hold every key a section accepts (no setting is
+/// optional or a map of free keys), so this refuses what `deny_unknown_fields` refuses, also in a
+/// section with a flattened part (the split-sum tables' own keys), where serde names no allowed
+/// keys and no full path.
+fn overlay(under: toml::Value, over: toml::Value, path: &str) -> std::result::Result<toml::Value, String> {
     match (under, over) {
         (toml::Value::Table(mut under), toml::Value::Table(over)) => {
             for (key, value) in over {
-                let merged = match under.remove(&key) {
-                    Some(below) => overlay(below, value),
-                    None => value,
+                let key_path = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
+                let Some(below) = under.remove(&key) else {
+                    let allowed: Vec<&str> = under.keys().map(String::as_str).collect();
+                    let place = if path.is_empty() { "at the top level".to_string() } else { format!("in [{path}]") };
+                    return Err(format!("unknown key `{key_path}`; allowed {place}: {}", allowed.join(", ")));
                 };
-                under.insert(key, merged);
+                under.insert(key, overlay(below, value, &key_path)?);
             }
-            toml::Value::Table(under)
+            Ok(toml::Value::Table(under))
         }
-        (_, over) => over,
+        (_, over) => Ok(over),
     }
 }
 
@@ -251,6 +259,45 @@ mod tests {
         assert!(e.contains("test.toml") && e.contains("mu_cuont"), "{e}");
         let e = error_of("[fgdd]\n");
         assert!(e.contains("fgdd"), "{e}");
+    }
+
+    #[test]
+    fn unknown_keys_are_refused_in_the_split_sum_sections_whose_own_keys_are_flattened_in() {
+        let e = error_of("[karis]\nmu_cuont = 32\n");
+        assert!(e.contains("`karis.mu_cuont`") && e.contains("allowed in [karis]: alpha_range"), "{e}");
+        assert!(e.contains("mu_count") && e.contains("storage_rounding") && !e.contains("cosine_intervals"), "{e}");
+        // Each table's own key belongs to its section only, and the Rust field holding it is no key.
+        let e = error_of("[belcour]\nstorage_rounding = \"nearest\"\n");
+        assert!(e.contains("`belcour.storage_rounding`") && e.contains("cosine_intervals"), "{e}");
+        let e = error_of("[karis]\ncosine_intervals = 64\n");
+        assert!(e.contains("`karis.cosine_intervals`"), "{e}");
+        let e = error_of("[karis.own]\nstorage_rounding = \"nearest\"\n");
+        assert!(e.contains("`karis.own`"), "{e}");
+        let e = error_of("[karis.sampling]\nsample = 1024\n");
+        assert!(
+            e.contains("`karis.sampling.sample`") && e.contains("allowed in [karis.sampling]: replicates, samples"),
+            "{e}"
+        );
+        let e = error_of("fgdd = 1\n");
+        assert!(e.contains("`fgdd`") && e.contains("allowed at the top level: belcour, fgd"), "{e}");
+        // The own keys are read where they belong, and a bad value names what is allowed.
+        let config =
+            Config::from_toml("[karis]\nstorage_rounding = \"nearest\"\n[belcour]\ncosine_intervals = 64\n", "t")
+                .unwrap();
+        assert_eq!(config.karis.own.storage_rounding, crate::formats::SumRounding::Nearest);
+        assert_eq!(config.belcour.own.cosine_intervals, 64);
+        let e = error_of("[karis]\nstorage_rounding = \"up\"\n");
+        assert!(e.contains("`up`") && e.contains("no-energy-gain"), "{e}");
+        // Read on their own, without the configuration's check, the settings still refuse an
+        // unknown key (serde's check of what the flattened part left).
+        let e = toml::from_str::<crate::recipes::karis::KarisSettings>("mu_cuont = 3\n").unwrap_err().to_string();
+        assert!(e.contains("unknown field `mu_cuont`"), "{e}");
+        let e = toml::from_str::<crate::recipes::belcour::BelcourSettings>("storage_rounding = \"nearest\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown field `storage_rounding`"), "{e}");
+        let karis: crate::recipes::karis::KarisSettings = toml::from_str("storage_rounding = \"nearest\"\n").unwrap();
+        assert_eq!(karis.own.storage_rounding, crate::formats::SumRounding::Nearest);
     }
 
     #[test]
@@ -316,7 +363,7 @@ mod tests {
         // Tables merge; arrays and values replace whole.
         let config = Config::from_toml("[karis.output]\nformats = [\"exr\"]\n", "t").unwrap();
         assert_eq!(config.karis.output.formats, [crate::formats::FileFormat::Exr]);
-        assert_eq!(overlay(toml::Value::Integer(1), toml::Value::Integer(2)), toml::Value::Integer(2));
+        assert_eq!(overlay(toml::Value::Integer(1), toml::Value::Integer(2), "k"), Ok(toml::Value::Integer(2)));
     }
 
     #[test]

@@ -40,108 +40,145 @@ const ETA10: f64 = 1.0 / 1.5;
 
 pub use super::real::Real;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Form {
-    Eq56,
-    Eq56Corrected,
-    Logistic,
-    Smoothstep,
-    Algebraic,
-    Rational,
-    CauchyCap,
-    CauchySlope,
+/// One fitted coefficient: its name (in manifests), the value the fit starts from, and its bounds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Parameter {
+    pub name: &'static str,
+    pub start: f64,
+    pub lower: f64,
+    pub upper: f64,
 }
 
-pub const ALL_FORMS: [Form; 8] = [
-    Form::Eq56,
-    Form::Eq56Corrected,
-    Form::Logistic,
-    Form::Smoothstep,
-    Form::Algebraic,
-    Form::Rational,
-    Form::CauchyCap,
-    Form::CauchySlope,
+const fn parameter(name: &'static str, start: f64, lower: f64, upper: f64) -> Parameter {
+    Parameter { name, start, lower, upper }
+}
+
+/// The forms, one line each: `Variant: "name", parameters, formula in words`. The name is the
+/// form's `--forms` name, its serialised name and its files' stem. From this list come [`Form`],
+/// [`ALL_FORMS`] (and so the `fit` help), [`Form::name`], [`Form::parameters`] and
+/// [`Form::formula`]. What a form computes (its value, its gradient, its definition statement by
+/// statement, its shader) is in the matches of [`Form`]'s methods, none of which has a `_` arm: a
+/// form added here and not there does not compile.
+macro_rules! form_registry {
+    ($($variant:ident: $name:literal, $parameters:expr, $formula:expr;)+) => {
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+        pub enum Form {
+            $(#[serde(rename = $name)] $variant,)+
+        }
+
+        /// Every form, in the order `tmlut fit` fits and reports them.
+        pub const ALL_FORMS: [Form; [$(Form::$variant),+].len()] = [$(Form::$variant),+];
+
+        impl Form {
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(Form::$variant => $name,)+
+                }
+            }
+
+            /// The fitted coefficients `c0, c1, ...`, in order (none for the baselines).
+            pub fn parameters(self) -> &'static [Parameter] {
+                match self {
+                    $(Form::$variant => &$parameters,)+
+                }
+            }
+
+            /// The formula in words, for the manifest.
+            pub fn formula(self) -> &'static str {
+                match self {
+                    $(Form::$variant => $formula,)+
+                }
+            }
+        }
+    };
+}
+
+form_registry! {
+    Eq56: "eq56", NO_PARAMETERS,
+        "thesis eq. 5.6 as published: F(w_o.s; eta) G1(w_s; alpha') (1 - F(w_o.z; 1/1.5)) step(w_s.z <= 0), w_o at theta = pi/4 (1 + mu), s = normalize(lerp(N, w_o, f_Frostbite))";
+    Eq56Corrected: "eq56-corrected", NO_PARAMETERS,
+        "thesis eq. 5.6 with the step kept where w_s.z > 0 and w_o = (sqrt(1 - mu^2), 0, mu)";
+    Logistic: "logistic", STEP_PARAMETERS,
+        "1 / (1 + exp(t)), t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)";
+    Smoothstep: "smoothstep", STEP_PARAMETERS,
+        "1 - smoothstep(-1, 1, t), t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)";
+    Algebraic: "algebraic", STEP_PARAMETERS,
+        "(1 - t / sqrt(1 + t^2)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)";
+    Rational: "rational", STEP_PARAMETERS,
+        "(1 - t / (1 + |t|)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)";
+    CauchyCap: "cauchy-cap", CAUCHY_CAP_PARAMETERS, CAUCHY_CAP_FORMULA;
+    CauchySlope: "cauchy-slope", CAUCHY_SLOPE_PARAMETERS, CAUCHY_SLOPE_FORMULA;
+}
+
+/// The baselines fit nothing.
+const NO_PARAMETERS: [Parameter; 0] = [];
+
+/// The step forms' parameters (see the module docs). The start is a plain step widening with
+/// roughness.
+pub const STEP_PARAMETERS: [Parameter; 7] = [
+    parameter("width_alpha", 0.3, 0.0, 3.0),
+    parameter("width_alpha2", 0.0, -2.0, 2.0),
+    parameter("width_alpha_mu", 0.0, -2.0, 2.0),
+    parameter("shift_alpha", 0.0, -2.0, 2.0),
+    parameter("shift_alpha2", 0.0, -2.0, 2.0),
+    parameter("shift_alpha_mu2", 0.0, -2.0, 2.0),
+    parameter("edge_logit", 0.0, 0.0, 1.0),
 ];
 
-/// Names of the step forms' parameters (see the module docs).
-pub const STEP_PARAMETERS: [&str; 7] =
-    ["width_alpha", "width_alpha2", "width_alpha_mu", "shift_alpha", "shift_alpha2", "shift_alpha_mu2", "edge_logit"];
+/// The coefficients of the spherical Cauchy lobe both Cauchy forms share ([`CauchyLobe::new`]),
+/// and of their blend into the rough limit. Their start is the plain model: scale alpha (exact at
+/// mu = 1 without G1), the true horizon, the centre at the view, no grazing term, the rough limit
+/// reached linearly.
+const SCALE_ALPHA: Parameter = parameter("scale_alpha", 1.0, 0.0, 4.0);
+const SCALE_ALPHA2: Parameter = parameter("scale_alpha2", 0.0, -2.0, 2.0);
+const SCALE_ALPHA_MU: Parameter = parameter("scale_alpha_mu", 0.0, -2.0, 2.0);
+const HORIZON_ALPHA: Parameter = parameter("horizon_alpha", 0.0, 0.0, 2.0);
+const HORIZON_ALPHA2: Parameter = parameter("horizon_alpha2", 0.0, -2.0, 2.0);
+const CENTRE_ALPHA: Parameter = parameter("centre_alpha", 0.0, -1.0, 2.0);
+const SCALE_GRAZING: Parameter = parameter("scale_grazing", 0.0, 0.0, 2.0);
+const ROUGH_BLEND: Parameter = parameter("rough_blend", 1.0, 0.0, 4.0);
 
-/// Names of [`Form::CauchyCap`]'s parameters (see [`cauchy_cap`]).
-pub const CAUCHY_CAP_PARAMETERS: [&str; 10] = [
-    "scale_alpha",
-    "scale_alpha2",
-    "scale_alpha_mu",
-    "horizon_alpha",
-    "horizon_alpha2",
-    "rough_exponent",
-    "rough_blend",
-    "rough_blend_exponent",
-    "centre_alpha",
-    "scale_grazing",
+/// [`Form::CauchyCap`]'s parameters (see [`cauchy_cap`]): the lobe's, and a cosine-like rough
+/// limit `1 - eta^2` to start from.
+pub const CAUCHY_CAP_PARAMETERS: [Parameter; 10] = [
+    SCALE_ALPHA,
+    SCALE_ALPHA2,
+    SCALE_ALPHA_MU,
+    HORIZON_ALPHA,
+    HORIZON_ALPHA2,
+    parameter("rough_exponent", 2.0, 0.5, 4.0),
+    ROUGH_BLEND,
+    parameter("rough_blend_exponent", 1.0, 0.5, 4.0),
+    CENTRE_ALPHA,
+    SCALE_GRAZING,
 ];
 
-/// Names of [`Form::CauchySlope`]'s parameters (see [`cauchy_slope`]).
-pub const CAUCHY_SLOPE_PARAMETERS: [&str; 10] = [
-    "scale_alpha",
-    "scale_alpha2",
-    "scale_alpha_mu",
-    "horizon_alpha",
-    "horizon_alpha2",
-    "rough_blend",
-    "centre_alpha",
-    "scale_grazing",
-    "slope_scale",
-    "slope_fade_alpha",
+/// [`Form::CauchySlope`]'s parameters (see [`cauchy_slope`]): the lobe's, and the slope lobe at its
+/// derived scale `alpha` fading out by `alpha = 0.3` to start from.
+pub const CAUCHY_SLOPE_PARAMETERS: [Parameter; 10] = [
+    SCALE_ALPHA,
+    SCALE_ALPHA2,
+    SCALE_ALPHA_MU,
+    HORIZON_ALPHA,
+    HORIZON_ALPHA2,
+    ROUGH_BLEND,
+    CENTRE_ALPHA,
+    SCALE_GRAZING,
+    parameter("slope_scale", 1.0, 0.1, 4.0),
+    parameter("slope_fade_alpha", 10.0, 0.0, 200.0),
 ];
 
 /// `logit(eta^2)` is clamped to this magnitude so that it stays finite at `eta = 0` and `eta = 1`.
 pub const EDGE_LOGIT_LIMIT: f64 = 40.0;
 
 impl Form {
-    pub fn name(self) -> &'static str {
-        match self {
-            Form::Eq56 => "eq56",
-            Form::Eq56Corrected => "eq56-corrected",
-            Form::Logistic => "logistic",
-            Form::Smoothstep => "smoothstep",
-            Form::Algebraic => "algebraic",
-            Form::Rational => "rational",
-            Form::CauchyCap => "cauchy-cap",
-            Form::CauchySlope => "cauchy-slope",
-        }
-    }
-
     pub fn from_name(name: &str) -> Option<Form> {
         ALL_FORMS.into_iter().find(|f| f.name() == name)
     }
 
-    pub fn parameter_names(self) -> &'static [&'static str] {
-        match self {
-            Form::Eq56 | Form::Eq56Corrected => &[],
-            Form::CauchyCap => &CAUCHY_CAP_PARAMETERS,
-            Form::CauchySlope => &CAUCHY_SLOPE_PARAMETERS,
-            _ => &STEP_PARAMETERS,
-        }
-    }
-
-    /// The formula in words, for the manifest.
-    pub fn formula(self) -> &'static str {
-        match self {
-            Form::Eq56 => {
-                "thesis eq. 5.6 as published: F(w_o.s; eta) G1(w_s; alpha') (1 - F(w_o.z; 1/1.5)) step(w_s.z <= 0), w_o at theta = pi/4 (1 + mu), s = normalize(lerp(N, w_o, f_Frostbite))"
-            }
-            Form::Eq56Corrected => {
-                "thesis eq. 5.6 with the step kept where w_s.z > 0 and w_o = (sqrt(1 - mu^2), 0, mu)"
-            }
-            Form::Logistic => "1 / (1 + exp(t)), t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
-            Form::Smoothstep => "1 - smoothstep(-1, 1, t), t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
-            Form::Algebraic => "(1 - t / sqrt(1 + t^2)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
-            Form::Rational => "(1 - t / (1 + |t|)) / 2, t = (mu^2 + eta^2 - 1 - shift) / width + c6 logit(eta^2)",
-            Form::CauchyCap => CAUCHY_CAP_FORMULA,
-            Form::CauchySlope => CAUCHY_SLOPE_FORMULA,
-        }
+    /// The parameters' names, in order.
+    pub fn parameter_names(self) -> impl ExactSizeIterator<Item = &'static str> {
+        self.parameters().iter().map(|p| p.name)
     }
 
     /// The form statement by statement, complete (every floor, clamp and guard the shader has),
@@ -200,30 +237,15 @@ impl Form {
         lines
     }
 
-    /// A starting point and bounds per parameter.
+    /// The fit's start, lower bounds and upper bounds, one entry per parameter (the vectors an
+    /// optimiser takes).
     pub fn start_and_bounds(self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        match self {
-            Form::Eq56 | Form::Eq56Corrected => (vec![], vec![], vec![]),
-            // The start is the plain model: scale alpha (exact at mu = 1 without G1), the true
-            // horizon, a cosine-like rough limit 1 - eta^2 reached linearly, no grazing terms.
-            Form::CauchyCap => (
-                vec![1.0, 0.0, 0.0, 0.0, 0.0, 2.0, 1.0, 1.0, 0.0, 0.0],
-                vec![0.0, -2.0, -2.0, 0.0, -2.0, 0.5, 0.0, 0.5, -1.0, 0.0],
-                vec![4.0, 2.0, 2.0, 2.0, 2.0, 4.0, 4.0, 4.0, 2.0, 2.0],
-            ),
-            // The plain model again, with the slope lobe at its derived scale `alpha` fading out
-            // by `alpha = 0.3`.
-            Form::CauchySlope => (
-                vec![1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 10.0],
-                vec![0.0, -2.0, -2.0, 0.0, -2.0, 0.0, -1.0, 0.0, 0.1, 0.0],
-                vec![4.0, 2.0, 2.0, 2.0, 2.0, 4.0, 2.0, 2.0, 4.0, 200.0],
-            ),
-            _ => (
-                vec![0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-                vec![0.0, -2.0, -2.0, -2.0, -2.0, -2.0, 0.0],
-                vec![3.0, 2.0, 2.0, 2.0, 2.0, 2.0, 1.0],
-            ),
-        }
+        let parameters = self.parameters();
+        (
+            parameters.iter().map(|p| p.start).collect(),
+            parameters.iter().map(|p| p.lower).collect(),
+            parameters.iter().map(|p| p.upper).collect(),
+        )
     }
 
     /// The form's value at one point.
@@ -233,7 +255,7 @@ impl Form {
             Form::Eq56Corrected => eq56(mu, alpha, eta, true),
             Form::CauchyCap => cauchy_cap(p, mu, alpha, eta),
             Form::CauchySlope => cauchy_slope(p, mu, alpha, eta),
-            _ => {
+            Form::Logistic | Form::Smoothstep | Form::Algebraic | Form::Rational => {
                 let t = step_argument(p, mu, alpha, eta).0;
                 self.step(t)
             }
@@ -277,12 +299,16 @@ impl Form {
         if p.is_empty() {
             return None;
         }
-        if matches!(self, Form::CauchyCap | Form::CauchySlope) {
-            // Exact gradient by forward-mode dual numbers through the same generic code.
-            let dual: Vec<Dual> = p.iter().enumerate().map(|(k, &v)| Dual::parameter(v, k)).collect();
-            let value = self.eval(&dual, Dual::of(mu), Dual::of(alpha), Dual::of(eta));
-            gradient.copy_from_slice(&value.gradient[..p.len()]);
-            return Some(value.value);
+        match self {
+            Form::Eq56 | Form::Eq56Corrected => return None,
+            Form::CauchyCap | Form::CauchySlope => {
+                // Exact gradient by forward-mode dual numbers through the same generic code.
+                let dual: Vec<Dual> = p.iter().enumerate().map(|(k, &v)| Dual::parameter(v, k)).collect();
+                let value = self.eval(&dual, Dual::of(mu), Dual::of(alpha), Dual::of(eta));
+                gradient.copy_from_slice(&value.gradient[..p.len()]);
+                return Some(value.value);
+            }
+            Form::Logistic | Form::Smoothstep | Form::Algebraic | Form::Rational => {}
         }
         let (t, width, clamped) = step_argument(p, mu, alpha, eta);
         let dv_dt = self.step_derivative(t);

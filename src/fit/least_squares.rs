@@ -486,7 +486,7 @@ pub fn fit_for_build(
         definition: BUILD_FORM.definition(),
         chosen_by: "tir.fit = \"best\": the most accurate form measured no costlier than thesis eq. 5.6 (docs/fit.md)"
             .into(),
-        parameter_names: BUILD_FORM.parameter_names().iter().map(|s| s.to_string()).collect(),
+        parameter_names: BUILD_FORM.parameter_names().map(String::from).collect(),
         parameters: fitted.parameters.clone(),
         figures: figures(&fitted, &data),
         search: fitted.search,
@@ -559,7 +559,7 @@ pub fn fit_tir(table: &Table, request: &FitRequest) -> Result<FitManifest> {
             name: form.name().into(),
             formula: form.formula().into(),
             definition: form.definition(),
-            parameter_names: form.parameter_names().iter().map(|s| s.to_string()).collect(),
+            parameter_names: form.parameter_names().map(String::from).collect(),
             parameters: fitted.parameters.clone(),
             figures,
             cost_ns_per_evaluation_f32: f64::NAN,

@@ -239,7 +239,7 @@ fn eq56_as_published_is_mostly_zero_and_the_baselines_have_no_parameters() {
         }
     }
     assert_eq!(non_zero, 0);
-    assert!(Form::Eq56Corrected.parameter_names().is_empty());
+    assert!(Form::Eq56Corrected.parameters().is_empty());
     for form in ALL_FORMS {
         assert_eq!(Form::from_name(form.name()), Some(form));
         // Finite everywhere on the domain, edges included.

@@ -1,7 +1,8 @@
 //! Transfer factors: what each component of a stack does to a lobe arriving at it, as energy per
 //! colour channel and Henyey–Greenstein asymmetry, before the transfer matrices combine them
-//! (Randrianandrasana et al. 2021, §4.2–4.3; their reference code `tm.h`,
-//! `dielectric_transfer_factors`, `conductor_transfer_factors`, `medium_transfer_factors`).
+//! (Randrianandrasana et al. 2021, §4.2–4.3; the reference implementation's
+//! `dielectric_transfer_factors`, `conductor_transfer_factors`, `medium_transfer_factors`, which
+//! `docs/furnace.md` pairs with the functions here).
 //!
 //! Only the cosines of lobe directions ever enter a lookup or a factor, so directions are carried
 //! as cosines: the reference's `r.mean.z`, `-t.mean.z` and the propagated `w.z`.
@@ -10,12 +11,12 @@ use super::lookup::{Lookup, Quantity, Site, Tables};
 use super::stack::{Interface, Layer, Medium, Rgb, Stack};
 use crate::physics::{ggx_to_hg, hg_backward_share};
 
-/// Relative indices closer to 1 than this are no interface at all (`tm.h`, `dielectric_transfer_factors`).
+/// Relative indices closer to 1 than this are no interface at all (the reference's `dielectric_transfer_factors`).
 pub const INDEX_MATCHED: f64 = 1e-5;
-/// Relative indices closer to 1 than this reflect nothing: albedo 0 without a lookup (`tm.h`, `albedos`).
+/// Relative indices closer to 1 than this reflect nothing: albedo 0 without a lookup (the reference's `albedos`).
 pub const NEARLY_INDEX_MATCHED: f64 = 1e-3;
 /// The largest exponent a medium's factors evaluate: the optical depth is cut where
-/// `gamma tau` or `sigma_ext tau` would pass it (`tm.h`, `TM_EXP_ARG_MAX`), which keeps
+/// `gamma tau` or `sigma_ext tau` would pass it (the reference's `TM_EXP_ARG_MAX`), which keeps
 /// `sinh^2` below the f32 maximum in a shader and changes no factor by more than `e^-45`.
 pub const EXPONENT_LIMIT: f64 = 45.0;
 
@@ -32,7 +33,7 @@ impl Flux {
     }
 
     /// The asymmetry weighted by the mean energy, the entries of the asymmetry matrices
-    /// (`tm.h`, `asymmetry_matrix`).
+    /// (the reference's `asymmetry_matrix`).
     pub fn weighted_g(&self) -> f64 {
         self.g * average(&self.energy)
     }
@@ -45,7 +46,7 @@ pub fn average(v: &Rgb) -> f64 {
 /// A dielectric interface seen by a lobe of cosine `cos_in` arriving from above.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DielectricFactors {
-    /// Relative index below over above, averaged over the channels (`tm2.cpp`,
+    /// Relative index below over above, averaged over the channels (the reference's
     /// `components_transfer_factors`: a dielectric interface is evaluated at one index).
     pub eta: f64,
     /// Cosine of the incident lobe's mean direction (and of the reflected one).
@@ -96,7 +97,7 @@ pub fn refracted_cosine(cos_in: f64, eta: f64) -> f64 {
 }
 
 /// Asymmetry of a transmission lobe of an interface of roughness `alpha` whose roughness the
-/// refraction scales by `scale` (`tm.h`: `hg_from_ggx(0.5 s alpha)`); an infinite scale (a mean
+/// refraction scales by `scale` (the reference's `hg_from_ggx(0.5 s alpha)`); an infinite scale (a mean
 /// direction at the horizon) gives the roughest lobe unless the interface is smooth.
 fn transmission_asymmetry(scale: f64, alpha: f64) -> f64 {
     if alpha == 0.0 { ggx_to_hg(0.0) } else { ggx_to_hg(0.5 * scale * alpha) }
@@ -109,8 +110,8 @@ fn scale_ratio(numerator: f64, denominator: f64) -> f64 {
 }
 
 /// The factors of a dielectric interface of layer `layer` (1-based) with relative index `eta`
-/// (scalar) and roughness `alpha`, for a lobe of cosine `cos_in` from above (`tm.h`,
-/// `dielectric_transfer_factors` and `albedos`). `None` for an index-matched interface.
+/// (scalar) and roughness `alpha`, for a lobe of cosine `cos_in` from above (the
+/// reference's `dielectric_transfer_factors` and `albedos`). `None` for an index-matched interface.
 pub fn dielectric(layer: usize, eta: f64, alpha: f64, cos_in: f64, tables: &dyn Tables) -> Option<DielectricFactors> {
     if (eta - 1.0).abs() < INDEX_MATCHED {
         return None;
@@ -118,7 +119,7 @@ pub fn dielectric(layer: usize, eta: f64, alpha: f64, cos_in: f64, tables: &dyn 
     let cos_below = refracted_cosine(cos_in, eta);
     let g = ggx_to_hg(alpha);
     // Fake rough transmissions: the lobe's roughness scaled as a refracted ray's angular spread
-    // (`tm.h`: s_ij = |(eta_ji r.z + rp.z) / rp.z|, s_ji = |(eta_ij rp.z + r.z) / r.z| with
+    // (the reference's s_ij = |(eta_ji r.z + rp.z) / rp.z|, s_ji = |(eta_ij rp.z + r.z) / r.z| with
     // r.z = cos_in and rp.z = -cos_below).
     let scale_down = scale_ratio(cos_in / eta - cos_below, cos_below);
     let scale_up = scale_ratio(cos_in - eta * cos_below, cos_in);
@@ -150,7 +151,7 @@ pub fn dielectric(layer: usize, eta: f64, alpha: f64, cos_in: f64, tables: &dyn 
 }
 
 /// The reflection of a conductor of layer `layer` with relative indices `eta`, `kappa` per
-/// channel (`tm.h`, `conductor_transfer_factors`).
+/// channel (the reference's `conductor_transfer_factors`).
 pub fn conductor(layer: usize, eta: Rgb, kappa: Rgb, alpha: f64, cos_in: f64, tables: &dyn Tables) -> Flux {
     let energy = std::array::from_fn(|c| {
         tables.value(&Lookup {
@@ -175,8 +176,8 @@ fn sinhc(x: f64) -> f64 {
 /// The two-flux solution of a slab for coefficients `a` (attenuation of a flux), `b` (its
 /// coupling to the opposite flux) over optical path `tau`, as `(reflected, transmitted)`:
 /// `r = S b / (C gamma + S a)`, `t = gamma / (C gamma + S a)` with `gamma = sqrt(a^2 - b^2)`,
-/// `S = sinh(gamma tau)`, `C = sqrt(1 + S^2)` (Kubelka–Munk in the form of `tm.h`,
-/// `medium_transfer_factors`). Written with `sinh(gamma tau) / gamma` so that a non-absorbing
+/// `S = sinh(gamma tau)`, `C = sqrt(1 + S^2)` (Kubelka–Munk in the form of the
+/// reference's `medium_transfer_factors`). Written with `sinh(gamma tau) / gamma` so that a non-absorbing
 /// slab (`gamma = 0`, where the reference divides `0 / 0` and so forces `sigma_k >= 1e-7`) gets its
 /// limit `r = tau b / (1 + tau a)`, `t = 1 / (1 + tau a)`. `a^2 - b^2` is given factored, as
 /// `(a - b)(a + b)`, both non-negative, so that it cannot round below zero.
@@ -189,7 +190,7 @@ fn slab(a: f64, b: f64, a_minus_b_times_a_plus_b: f64, tau: f64) -> (f64, f64) {
     (sinh_over_gamma * b / denominator, 1.0 / denominator)
 }
 
-/// The factors of a medium crossed by a lobe of cosine `cos` (`tm.h`, `medium_transfer_factors`),
+/// The factors of a medium crossed by a lobe of cosine `cos` (the reference's `medium_transfer_factors`),
 /// or `None` where it changes nothing (no depth, or neither absorption nor scattering). In the
 /// 2-flux model (`scatters == false`) a medium only absorbs: `t = exp(-sigma_k tau)`.
 pub fn medium(medium: &Medium, cos: f64, scatters: bool) -> Option<MediumFactors> {
@@ -235,7 +236,7 @@ pub fn medium(medium: &Medium, cos: f64, scatters: bool) -> Option<MediumFactors
         let b_g = -sigma_sb[c] * g;
         let product = (sigma_ext[c] - g * (sigma_sf[c] - sigma_sb[c])) * (sigma_ext[c] - g * sigma_s[c]);
         let (rg, tg) = slab(a_g, b_g, product, tau);
-        // `tm.h`: g_fb = avg(safe_div(S b_g x0, r_fb)), g_ff = avg(safe_div(gamma_g x0, t_ff)).
+        // As the reference: g_fb = avg(safe_div(S b_g x0, r_fb)), g_ff = avg(safe_div(gamma_g x0, t_ff)).
         r_fb_g[c] = safe_ratio(rg, r);
         t_ff_g[c] = safe_ratio(tg, tf);
     }
@@ -246,7 +247,7 @@ pub fn medium(medium: &Medium, cos: f64, scatters: bool) -> Option<MediumFactors
     })
 }
 
-/// `n / d`, or 0 where `|d| <= 1e-7` (`tm.h`, `safe_div`).
+/// `n / d`, or 0 where `|d| <= 1e-7` (the reference's `safe_div`).
 pub fn safe_ratio(n: f64, d: f64) -> f64 {
     if d.abs() > 1e-7 { n / d } else { 0.0 }
 }

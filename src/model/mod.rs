@@ -3,7 +3,8 @@
 //! stack and a view cosine in; the outgoing lobes (energy per channel, roughness, direction) and
 //! the directional albedo `A(mu)` out.
 //!
-//! The evaluation follows the authors' reference code (`tm.h`, `tm2.cpp`, `tm6.cpp`): transfer
+//! The evaluation follows the authors' reference implementation (`docs/furnace.md`, which pairs
+//! its names, quoted here as "the reference's", with the code here): transfer
 //! factors per component ([`factors`]), first-order transmission asymmetries and the TIR
 //! correction, energy and asymmetry matrices multiplied down the stack ([`tm2`], [`tm6`]), and
 //! lobes as the increments of the cumulative reflectance. Its tables reach it through one
@@ -110,7 +111,7 @@ pub struct Lobe {
     pub asymmetry: f64,
     /// GGX roughness of the lobe, `alpha(g)` clamped to [1e-4, 1].
     pub roughness: f64,
-    /// The direction its microfacet distribution is evaluated from (`tm6.cpp`, `lobes_wi`): the
+    /// The direction its microfacet distribution is evaluated from (the reference's `lobes_wi`): the
     /// view direction, or its mirror image about the normal for a backward lobe.
     pub incident: [f64; 3],
     /// Its mean outgoing direction: the mirror direction of `incident`.
@@ -171,7 +172,7 @@ impl Material {
             let mut gd = 0.0;
             if is_top {
                 // The 2-flux BSDF always adds the top term; the 6-flux one only where the top lobe
-                // carries energy (`tm6.cpp`, `eval`).
+                // carries energy (the reference's 6-flux `eval`).
                 if let Some(r) = top_flux
                     && (self.model == FluxModel::TwoFlux || has_energy)
                 {
@@ -264,7 +265,7 @@ pub fn below(components: &[(usize, Component)]) -> Below {
     Below { reflection_g: 1.0, media_forward_g, returns_light: scatters }
 }
 
-/// The TIR correction of one crossing (`tm2.cpp`, `outgoing_lobes`): the share of the transmitted
+/// The TIR correction of one crossing (the reference's 2-flux `outgoing_lobes`): the share of the transmitted
 /// lobe (roughness `alpha(g_lobe)`, mean cosine `mu`) past the critical angle of relative index
 /// `eta < 1` is reflected instead: `tir = TIR(mu, alpha(g), eta) t; r += tir; t -= tir`.
 #[allow(clippy::too_many_arguments)]

@@ -1,7 +1,8 @@
 //! The 2-flux transfer matrices: one 2 × 2 energy matrix per colour channel and one asymmetry
 //! matrix per interface, their product down the stack, and the outgoing lobes as the increments
-//! of the cumulative reflectance (Randrianandrasana et al. 2021, §4.3–4.4; reference code `tm.h`,
-//! `transfer_matrix_2`, `energy_matrix`, `asymmetry_matrix`, and `tm2.cpp`, `outgoing_lobes`).
+//! of the cumulative reflectance (Randrianandrasana et al. 2021, §4.3–4.4; the reference's
+//! `transfer_matrix_2`, `energy_matrix`, `asymmetry_matrix` and 2-flux `outgoing_lobes`,
+//! `docs/furnace.md`).
 
 use super::factors::{Component, DielectricFactors, average};
 use super::lookup::{Site, Tables};
@@ -117,7 +118,7 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
         let g_total = if g_total.is_finite() { g_total } else { g_above };
         let energy: Rgb = std::array::from_fn(|c| r_total[c] - r_above[c]);
         let mean = average(&energy);
-        // `tm2.cpp`: g = min((G_0i - G_0h) / avg(e), 1) where the lobe carries energy, else 0.
+        // As the reference: g = min((G_0i - G_0h) / avg(e), 1) where the lobe carries energy, else 0.
         let g = if mean > 0.0 { ((g_total - g_above) / mean).min(1.0) } else { 0.0 };
         lobes.push(RawLobe { layer, kind: LobeKind::Primary, energy, g });
         r_above = r_total;
@@ -126,8 +127,8 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
     lobes
 }
 
-/// The first-order transmission asymmetries of a dielectric and its TIR correction (`tm2.cpp`,
-/// `outgoing_lobes`): `t.g` and `tp.g` become the ratios of the asymmetry a lobe has after
+/// The first-order transmission asymmetries of a dielectric and its TIR correction (the reference's
+/// 2-flux `outgoing_lobes`): `t.g` and `tp.g` become the ratios of the asymmetry a lobe has after
 /// crossing to the one it had before, and the share of the transmitted lobe past the critical
 /// angle moves from transmission to reflection on the side toward the lower index. Returns the
 /// asymmetry of the lobe transmitted below, for the next interface.

@@ -1,10 +1,10 @@
 //! The 6-flux transfer matrices: a primary flux (unscattered, as in the 2-flux model) and a
 //! secondary one split into forward- and backward-scattered parts, so that media scatter
-//! (Randrianandrasana et al. 2021, §5; reference code `tm.h`, `transfer_matrix_6`, its products,
-//! `factors`, `energy_matrix` and `asymmetry_matrix`, and `tm6.cpp`, `outgoing_lobes`).
+//! (Randrianandrasana et al. 2021, §5; the reference's `transfer_matrix_6`, its products,
+//! `factors`, `energy_matrix`, `asymmetry_matrix` and 6-flux `outgoing_lobes`, `docs/furnace.md`).
 //!
 //! The matrix is sparse and structured: only the entries below are ever non-zero, and the products
-//! are those of `tm.h`, specialised by the right operand (an interface or a medium), written out
+//! are the reference's, specialised by the right operand (an interface or a medium), written out
 //! entry by entry. Energy and asymmetry matrices are both kept per colour channel.
 
 use super::factors::{Component, DielectricFactors, Flux, MediumFactors, safe_ratio};
@@ -38,7 +38,7 @@ pub struct Matrix6 {
     pub m62: f64,
 }
 
-/// Which reflectances the stack so far has (`tm.h`, `ETransferFactorRequest`): the primary one from
+/// Which reflectances the stack so far has (the reference's `ETransferFactorRequest`): the primary one from
 /// the first interface on, the backward-scattered one from the first medium on, the forward one
 /// once both exist.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -78,7 +78,7 @@ impl Matrix6 {
     }
 
     /// An interface's matrix from its primary `[r, t, rp, tp]` and secondary `[r, t, rp, tp]`
-    /// reflections and transmissions (`tm.h`, `energy_matrix` for `EDielectricInterface`).
+    /// reflections and transmissions (the reference's `energy_matrix` for `EDielectricInterface`).
     pub fn interface(primary: [f64; 4], secondary: [f64; 4]) -> Self {
         let [r, t, rp, tp] = primary;
         let [r_ff, t_ff, rp_ff, tp_ff] = secondary;
@@ -98,7 +98,7 @@ impl Matrix6 {
     }
 
     /// A medium's matrix from its primary transmission `t`, secondary backward reflection `r_fb`
-    /// and forward transmission `t_ff` (`tm.h`, `energy_matrix` for `EHomogeneousMedium`).
+    /// and forward transmission `t_ff` (the reference's `energy_matrix` for `EHomogeneousMedium`).
     pub fn medium(t: f64, r_fb: f64, t_ff: f64) -> Self {
         let m11 = inverse(t);
         let m33 = inverse(t_ff);
@@ -218,7 +218,7 @@ impl Matrix6 {
     }
 
     /// The requested reflectances of the stack, over a conductor of reflectance `base` or over
-    /// nothing (`tm.h`, the two `factors`); entries not requested keep the values in `previous`.
+    /// nothing (the reference's two `factors`); entries not requested keep the values in `previous`.
     fn reflectances(&self, base: Option<f64>, requested: Requested, previous: Reflectances) -> Reflectances {
         let m = self;
         let mut out = previous;
@@ -276,7 +276,7 @@ fn finite_or(value: f64, fallback: f64) -> f64 {
 }
 
 /// Energy or weighted asymmetry of a flux in channel `c`: the energy matrices take the first, the
-/// asymmetry matrices the second (`tm.h`, `asymmetry_matrix`: `norm * g` per channel).
+/// asymmetry matrices the second (the reference's `asymmetry_matrix`: `norm * g` per channel).
 fn entry(flux: &Flux, c: usize, asymmetry: bool) -> f64 {
     if asymmetry { flux.energy[c] * flux.g } else { flux.energy[c] }
 }
@@ -294,7 +294,7 @@ fn medium_matrix(m: &MediumFactors, c: usize, asymmetry: bool) -> Matrix6 {
 
 /// The outgoing lobes of the 6-flux model: per component, a primary lobe once an interface has
 /// been crossed, a backward-scattered lobe once a medium has, and a forward-scattered one once
-/// both have (`tm6.cpp`, `outgoing_lobes`). Energies are clamped at 0 and asymmetries are the
+/// both have (the reference's 6-flux `outgoing_lobes`). Energies are clamped at 0 and asymmetries are the
 /// channel mean of `safe_div(delta G, delta E)`, as there.
 pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawLobe> {
     let mut energy = [Matrix6::identity(); 3];
@@ -308,7 +308,7 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
         let base: Option<(Rgb, Rgb)> = match component {
             Component::Pass => continue,
             Component::Dielectric(mut primary) => {
-                // The secondary factors start as copies of the primary ones (`tm.h`), and get their
+                // The secondary factors start as copies of the primary ones (as in the reference), and get their
                 // own first-order asymmetries and TIR.
                 let mut secondary = primary;
                 let below = below(&components[index + 1..]);

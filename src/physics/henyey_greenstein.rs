@@ -1,6 +1,6 @@
 //! The Henyey–Greenstein phase function, and the statistics of Henyey–Greenstein lobes that the
 //! transfer-matrix model uses to carry lobes through a layer stack (Randrianandrasana et al. 2021,
-//! §4, as their reference code `tm.h` evaluates them): the fit
+//! §4, as their reference implementation evaluates them, `docs/furnace.md`): the fit
 //! `g(alpha) = -0.085 + 1.085 / (1 + (alpha / 0.5)^1.3)` between GGX roughness and asymmetry and
 //! its inverse, the asymmetry of a refracted lobe, and the back-hemisphere share of a phase
 //! function.
@@ -39,7 +39,7 @@ pub fn hg_to_ggx(g: f64) -> f64 {
 
 /// Asymmetry of a lobe of asymmetry `g` after refraction into a medium of relative index `eta`
 /// (index behind over index in front), `min(sqrt(max(1 - (1 - g^2) eta^(3/4), 0)), 1)` (the
-/// transfer-matrix reference, `tm.h`, `hg_refract`). Entering a denser medium (`eta < 1`) narrows a lobe; leaving one widens it,
+/// transfer-matrix reference's `hg_refract`). Entering a denser medium (`eta < 1`) narrows a lobe; leaving one widens it,
 /// to 0 when the lobe is wide enough to be totally reflected.
 pub fn hg_refract(g: f64, eta: f64) -> f64 {
     (1.0 - (1.0 - g * g) * eta.powf(0.75)).max(0.0).sqrt().min(1.0)
@@ -47,7 +47,7 @@ pub fn hg_refract(g: f64, eta: f64) -> f64 {
 
 /// The share of a Henyey–Greenstein phase function of asymmetry `g` scattered into the backward
 /// hemisphere: the fit `clamp(0.5039 - 0.8254 |g| + 0.3226 g^2, 0, 0.5)` for `g >= 0`, and one minus
-/// it for `g < 0` (the transfer-matrix reference, `tm.h`, `hg_lh_norm`).
+/// it for `g < 0` (the transfer-matrix reference's `hg_lh_norm`).
 pub fn hg_backward_share(g: f64) -> f64 {
     let magnitude = g.abs();
     let share = (0.5039 - 0.8254 * magnitude + 0.3226 * magnitude * magnitude).clamp(0.0, 0.5);

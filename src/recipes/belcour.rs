@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
-use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
+use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -35,23 +35,21 @@ pub const CHANNEL_COUNT: usize = 4;
 /// The configuration keys of the node counts, axis 0 first.
 pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BelcourSettings {
-    pub mu_count: usize,
-    pub roughness_count: usize,
-    pub alpha_range: [f64; 2],
-    pub roughness_axis: RoughnessAxis,
-    pub orientation: Orientation,
-    pub masking: MaskingShadowing,
-    pub method: Method,
+/// The Belcour table's settings: the split-sum ones and its own.
+pub type BelcourSettings = SplitSumSettings<BelcourOwn>;
+
+/// What only the Belcour table has.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BelcourOwn {
     /// Intervals of the hat basis in `c = wi.h` (fast method).
     pub cosine_intervals: usize,
-    pub sampling: SamplingConfig,
-    pub reference: ReferenceConfig,
-    /// The check between nodes: random points against the exact integral.
-    pub interpolation: super::interpolation::InterpolationConfig,
-    pub output: OutputConfig,
+}
+
+impl Default for BelcourOwn {
+    fn default() -> Self {
+        BelcourOwn { cosine_intervals: 256 }
+    }
 }
 
 impl Default for BelcourSettings {
@@ -64,42 +62,25 @@ impl Default for BelcourSettings {
             orientation: Orientation::SmoothFirst,
             masking: MaskingShadowing::SmithHeightCorrelated,
             method: Method::Fast,
-            cosine_intervals: 256,
             sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
+            own: BelcourOwn::default(),
         }
     }
 }
 
 impl BelcourSettings {
-    pub fn layout(&self) -> SplitSumLayout {
-        SplitSumLayout {
-            mu_count: self.mu_count,
-            roughness_count: self.roughness_count,
-            alpha_range: self.alpha_range,
-            roughness_axis: self.roughness_axis,
-            orientation: self.orientation,
-        }
-    }
-
     pub fn validate(&self) -> Result<()> {
-        self.layout().validate(NAME)?;
-        if !(8..=4096).contains(&self.cosine_intervals) {
+        self.validate_shared(NAME, &[FileFormat::Dds, FileFormat::Exr])?;
+        if !(8..=4096).contains(&self.own.cosine_intervals) {
             return Err(Error::invalid(
                 "belcour.cosine_intervals",
-                format!("{}; allowed: 8 to 4096", self.cosine_intervals),
+                format!("{}; allowed: 8 to 4096", self.own.cosine_intervals),
             ));
         }
-        self.sampling.validate("belcour.sampling")?;
-        self.reference.validate("belcour.reference")?;
-        self.interpolation.validate("belcour.interpolation")?;
-        self.output.validate("belcour.output", &[FileFormat::Dds, FileFormat::Exr])
-    }
-
-    pub fn axes(&self) -> Result<Vec<Axis>> {
-        self.layout().axes()
+        Ok(())
     }
 }
 
@@ -235,7 +216,7 @@ impl BelcourSettings {
     /// times the basis curves projected on the hat basis.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let basis = basis();
-        let hats = HatBasis { intervals: self.cosine_intervals };
+        let hats = HatBasis { intervals: self.own.cosine_intervals };
         let projected = projected_basis(basis, hats);
         let projected: Vec<&Projection> = projected.iter().collect();
         let measure = cosine_measure(position[0], position[1], self.masking, points, hats);
@@ -269,7 +250,7 @@ impl TableRecipe for BelcourSettings {
     }
 
     fn kept_measure_intervals(&self) -> Option<usize> {
-        Some(self.cosine_intervals)
+        Some(self.own.cosine_intervals)
     }
 }
 
@@ -290,7 +271,7 @@ impl Kernel for BelcourSettings {
         let mut notes = vec![
             "Runtime: FGD ≈ c0 b0 + c1 b1 + c2 b2 + c3 b3 (RGBA = b0..b3), coefficients from the basis in this manifest: c0 = F(1), c1 = 1 - c0, (c2, c3) from the 2x2 system at the probe cosines.".to_string(),
         ];
-        notes.extend(self.layout().notes());
+        notes.extend(self.layout_notes());
         Metadata {
             integrand: "LUT_k = E_{h~VNDF(wi)}[b_k(wi.h) G2(wi,wo) / G1(wi)], b0 = 1, b1..b3 the tabulated basis"
                 .into(),
@@ -302,21 +283,21 @@ impl Kernel for BelcourSettings {
         }
     }
 
-    /// The four integrals at every texel, and how well `Σ c_k LUT_k` reproduces FGD there.
+    /// The four integrals at every node, and how well `Σ c_k LUT_k` reproduces FGD there.
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
         let basis = basis();
-        let hats = HatBasis { intervals: self.cosine_intervals };
+        let hats = HatBasis { intervals: self.own.cosine_intervals };
         let projected = projected_basis(basis, hats);
         let projected_refs: Vec<&Projection> = projected.iter().collect();
         let kinks = basis_kinks(basis);
 
-        // The fast path keeps each texel's mean measure: the accuracy report needs it too.
+        // The fast path keeps each node's mean measure: the accuracy report needs it too.
         let measures = std::sync::Mutex::new(vec![None; table.node_count()]);
-        let estimates = fill_mu_alpha_nodes(table, progress, |texel, mu, alpha| match self.method {
+        let estimates = fill_mu_alpha_nodes(table, progress, |node, mu, alpha| match self.method {
             Method::Fast => {
                 let measure = cosine_measure(mu, alpha, self.masking, points, hats);
                 let estimate = measure.integrate(&projected_refs, |k, c| basis.evaluate(k, c), &kinks);
-                measures.lock().expect("measure store")[texel] = Some(measure.averaged());
+                measures.lock().expect("measure store")[node] = Some(measure.averaged());
                 estimate
             }
             Method::PerCell => basis_integrals(basis, self.masking, Method::PerCell, points, mu, alpha),
@@ -353,7 +334,7 @@ fn basis_integrals(
 }
 
 /// How well `Σ c_k LUT_k` reproduces FGD (same masking, same measures, so the difference is the
-/// basis's own error), over three parts of the `(eta, kappa)` domain, at every texel.
+/// basis's own error), over three parts of the `(eta, kappa)` domain, at every node.
 fn split_sum_accuracy(
     table: &Table,
     basis: &FresnelBasis,
@@ -379,25 +360,25 @@ fn split_sum_accuracy(
     domains
         .iter()
         .map(|(what, indices)| {
-            // (difference, eta, kappa, texel) for every index and texel.
+            // (difference, eta, kappa, node) for every index and node.
             let differences: Vec<(f64, f64, f64, usize)> = indices
                 .par_iter()
                 .flat_map_iter(|&(eta, kappa)| {
                     let fresnel = projected_fresnel(hats, eta, kappa);
                     let kinks = fresnel_kinks(eta);
                     let coefficients = basis.coefficients(eta, kappa);
-                    measures.iter().enumerate().map(move |(texel, measure)| {
-                        let lut = table.node(&table.node_index(texel));
+                    measures.iter().enumerate().map(move |(node, measure)| {
+                        let lut = table.node(&table.node_index(node));
                         let approximate: f64 = (0..4).map(|k| coefficients[k] * lut[k] as f64).sum();
                         let exact =
                             measure.integrate(&[&fresnel], |_, c| fresnel_reflectance(c, eta, kappa), &kinks).mean[0];
-                        (approximate - exact, eta, kappa, texel)
+                        (approximate - exact, eta, kappa, node)
                     })
                 })
                 .collect();
             let worst = differences.iter().max_by(|a, b| a.0.abs().total_cmp(&b.0.abs()));
-            let worst_at = worst.map_or(String::new(), |&(_, eta, kappa, texel)| {
-                let p = table.node_position(&table.node_index(texel));
+            let worst_at = worst.map_or(String::new(), |&(_, eta, kappa, node)| {
+                let p = table.node_position(&table.node_index(node));
                 format!("mu {:.4}, alpha {:.4}, eta {eta:.3}, kappa {kappa:.3}", p[0], p[1])
             });
             AccuracyReport {
@@ -460,7 +441,7 @@ mod tests {
         assert_eq!(stats.nan_count + stats.infinite_count, 0);
         // b0 = 1: the channel is the height-correlated albedo, within [0, 1].
         assert!(build.table.channel_values(0).all(|v| (0.0..=1.0).contains(&v)));
-        // Every texel against 2^18-sample per-cell f64 estimates of all four channels.
+        // Every node against 2^18-sample per-cell f64 estimates of all four channels.
         let reference = build.provenance.error.reference.as_ref().unwrap();
         assert_eq!(reference.difference.count, 256);
         assert!(reference.difference.max < 1e-3 && reference.difference.rms < 2e-4, "{reference:?}");

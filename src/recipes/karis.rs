@@ -16,7 +16,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
-use super::split_sum::{Orientation, RoughnessAxis, SplitSumLayout};
+use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision, SumRounding};
@@ -34,27 +34,22 @@ pub const CHANNEL_COUNT: usize = 2;
 /// The configuration keys of the node counts, axis 0 first.
 pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct KarisSettings {
-    /// Texels along `x = n.v`.
-    pub mu_count: usize,
-    /// Texels along roughness.
-    pub roughness_count: usize,
-    /// Range of GGX alpha covered, before orientation.
-    pub alpha_range: [f64; 2],
-    pub roughness_axis: RoughnessAxis,
-    pub orientation: Orientation,
-    pub masking: MaskingShadowing,
-    pub method: Method,
-    pub sampling: SamplingConfig,
-    pub reference: ReferenceConfig,
-    /// The check between nodes: random points against the exact integral.
-    pub interpolation: super::interpolation::InterpolationConfig,
-    pub output: OutputConfig,
+/// The Karis table's settings: the split-sum ones and its own.
+pub type KarisSettings = SplitSumSettings<KarisOwn>;
+
+/// What only the Karis table has.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct KarisOwn {
     /// How f16 storage rounds `scale` and `bias`: never above the integrated sum
     /// (`no-energy-gain`), or each to nearest (`nearest`).
     pub storage_rounding: SumRounding,
+}
+
+impl Default for KarisOwn {
+    fn default() -> Self {
+        KarisOwn { storage_rounding: SumRounding::NoEnergyGain }
+    }
 }
 
 impl Default for KarisSettings {
@@ -71,32 +66,14 @@ impl Default for KarisSettings {
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
-            storage_rounding: SumRounding::NoEnergyGain,
+            own: KarisOwn::default(),
         }
     }
 }
 
 impl KarisSettings {
-    pub fn layout(&self) -> SplitSumLayout {
-        SplitSumLayout {
-            mu_count: self.mu_count,
-            roughness_count: self.roughness_count,
-            alpha_range: self.alpha_range,
-            roughness_axis: self.roughness_axis,
-            orientation: self.orientation,
-        }
-    }
-
     pub fn validate(&self) -> Result<()> {
-        self.layout().validate(NAME)?;
-        self.sampling.validate("karis.sampling")?;
-        self.reference.validate("karis.reference")?;
-        self.interpolation.validate("karis.interpolation")?;
-        self.output.validate("karis.output", &[FileFormat::Dds, FileFormat::Exr])
-    }
-
-    pub fn axes(&self) -> Result<Vec<Axis>> {
-        self.layout().axes()
+        self.validate_shared(NAME, &[FileFormat::Dds, FileFormat::Exr])
     }
 }
 
@@ -137,13 +114,13 @@ impl Kernel for KarisSettings {
 
     fn metadata(&self) -> Metadata {
         let mut notes = vec!["Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string()];
-        notes.extend(self.layout().notes());
+        notes.extend(self.layout_notes());
         Metadata {
             integrand: "scale = E_{h~VNDF(v)}[(1 - (1 - v.h)^5) G2(v,l) / G1(v)], bias = E_{h~VNDF(v)}[(1 - v.h)^5 G2(v,l) / G1(v)], l = reflect(v, h)".into(),
             masking: Some(self.masking),
             notes,
             sampler: "visible-normal samples per texel".into(),
-            channel_sum: Some(self.storage_rounding),
+            channel_sum: Some(self.own.storage_rounding),
             ..Metadata::default()
         }
     }

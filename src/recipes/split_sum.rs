@@ -5,9 +5,13 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::settings::{check_count, check_unit_range};
+use super::interpolation::InterpolationConfig;
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 pub use super::spacing::RoughnessAxis;
 use crate::error::Result;
+use crate::formats::FileFormat;
+use crate::integrate::Method;
+use crate::physics::MaskingShadowing;
 use crate::table::Axis;
 
 /// Which end of the roughness axis is row 0 (the first row in memory and in the file).
@@ -30,25 +34,47 @@ pub enum Orientation {
     BottomUpImage,
 }
 
-/// The layout of a split-sum texture.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SplitSumLayout {
-    /// Texels along `x = n.v`.
+/// The settings both split-sum tables have, and `Own`, the keys only one of them has (Karis's
+/// f16 rounding, Belcour's hat intervals). In the TOML file they are one section: `Own`'s keys sit
+/// beside these (`[karis] storage_rounding`), so `Own` is flattened in. serde cannot refuse
+/// unknown keys through a flattened field with its own message; `Config::from_toml` refuses them
+/// before deserialising, naming the key and the section's allowed keys, and the
+/// `deny_unknown_fields` below still refuses them (by name only) when these settings are read on
+/// their own.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SplitSumSettings<Own> {
+    /// Nodes along `x = n.v`, one per texel, at its centre.
     pub mu_count: usize,
-    /// Texels along roughness.
+    /// Nodes along roughness, one per texel, at its centre.
     pub roughness_count: usize,
     /// Range of GGX alpha covered, before orientation.
     pub alpha_range: [f64; 2],
     pub roughness_axis: RoughnessAxis,
     pub orientation: Orientation,
+    pub masking: MaskingShadowing,
+    pub method: Method,
+    pub sampling: SamplingConfig,
+    pub reference: ReferenceConfig,
+    /// The check between nodes: random points against the exact integral.
+    pub interpolation: InterpolationConfig,
+    pub output: OutputConfig,
+    /// The settings of this table only.
+    #[serde(flatten)]
+    pub own: Own,
 }
 
-impl SplitSumLayout {
-    /// Check the layout; `table` names the configuration section in errors.
-    pub fn validate(&self, table: &str) -> Result<()> {
+impl<Own> SplitSumSettings<Own> {
+    /// Check the settings both tables have; `table` names the configuration section in errors,
+    /// `formats` the file formats that can hold the table.
+    pub fn validate_shared(&self, table: &str, formats: &[FileFormat]) -> Result<()> {
         check_count(&format!("{table}.mu_count"), self.mu_count)?;
         check_count(&format!("{table}.roughness_count"), self.roughness_count)?;
-        check_unit_range(&format!("{table}.alpha_range"), self.alpha_range)
+        check_unit_range(&format!("{table}.alpha_range"), self.alpha_range)?;
+        self.sampling.validate(&format!("{table}.sampling"))?;
+        self.reference.validate(&format!("{table}.reference"))?;
+        self.interpolation.validate(&format!("{table}.interpolation"))?;
+        self.output.validate(&format!("{table}.output"), formats)
     }
 
     /// The table's axes: `mu` cell-centred over [0, 1]; `alpha` cell-centred, spaced and ordered
@@ -66,7 +92,7 @@ impl SplitSumLayout {
     }
 
     /// The conventions a user must know to sample the texture, and the call that samples it.
-    pub fn notes(&self) -> Vec<String> {
+    pub fn layout_notes(&self) -> Vec<String> {
         let (quantity, of_alpha) = match self.roughness_axis {
             RoughnessAxis::Perceptual => ("roughness", "roughness = sqrt(alpha)"),
             RoughnessAxis::Alpha => ("alpha", "spaced linearly in GGX alpha"),

@@ -1,6 +1,7 @@
 use super::plan::{Plan, PlannedBuild, plan};
 use super::*;
 use crate::config::Config;
+use crate::error::Result;
 use crate::recipes::slices::{SliceOf, Slices};
 
 fn parse(text: &str) -> Result<Scene> {
@@ -202,7 +203,7 @@ fn nothing_comes_back_up_from_a_medium_that_only_absorbs() {
     let text =
         text.replace("sigma_k = 0.5", "sigma_s = 0.5").replace("name = \"m\"", "name = \"m\"\nmodel = \"6-flux\"");
     let plan = plan(&parse(&text).unwrap(), &Config::default()).unwrap();
-    let up: Vec<&super::plan::Lookup> = plan.lookups.iter().filter(|l| l.direction == "up").collect();
+    let up: Vec<&super::lookups::Lookup> = plan.lookups.iter().filter(|l| l.direction == "up").collect();
     assert_eq!(up.len(), 3);
     assert!(up.iter().all(|l| (l.eta.lo - 1.0 / 1.5).abs() < 1e-15), "{up:?}");
 }
@@ -260,7 +261,11 @@ fn an_index_matched_interface_needs_no_lookup() {
         [[material.layer]]\ntype = \"interface\"\neta = 1.0\nalpha = 0.3\n\
         [[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
     let plan = plan(&parse(text).unwrap(), &Config::default()).unwrap();
-    assert!(plan.lookups.iter().all(|l| l.layer == 2 || l.kind == super::plan::LookupKind::Gd), "{:?}", plan.lookups);
+    assert!(
+        plan.lookups.iter().all(|l| l.layer == 2 || l.kind == super::lookups::LookupKind::Gd),
+        "{:?}",
+        plan.lookups
+    );
     assert!(left_out(&plan, "m, layer 1").contains("index-matched"));
 }
 

@@ -1,6 +1,8 @@
 //! Hat functions of `c = wi.h` and the L2 projection of a function onto them: the quadrature
 //! that turns `∫ f dM` into a dot product of projected node values with a measure's hat moments.
 
+use super::linalg::solve_symmetric_tridiagonal;
+
 /// Hat functions on `intervals + 1` uniform nodes `c_k = k / intervals` over [0, 1].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct HatBasis {
@@ -54,6 +56,63 @@ impl HatBasis {
         let t = u - k as f64;
         measure[k] += w * (1.0 - t);
         measure[k + 1] += w * t;
+    }
+}
+
+/// The hat functions of a [`super::CosineMeasure::Local`] window: sorted nodes from one node of the
+/// global [`HatBasis`] to another, uniform at a quarter of the lobe's width over the lobe and
+/// doubling outward from it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocalHats {
+    pub nodes: Vec<f64>,
+    /// The global intervals the window covers, `first..end`.
+    pub intervals: std::ops::Range<usize>,
+}
+
+impl LocalHats {
+    /// The window around a lobe at `mu` of width `width` (both in `c`), in whole intervals of
+    /// `basis`.
+    pub(super) fn around(mu: f64, width: f64, basis: HatBasis) -> LocalHats {
+        let n = basis.intervals;
+        let reach = 2.0 * width;
+        let first = (((mu - reach) * n as f64).floor().max(0.0) as usize).min(n - 1);
+        let end = (((mu + reach) * n as f64).ceil() as usize).clamp(first + 1, n);
+        let (lower, upper) = (basis.node(first), basis.node(end));
+        let step = width / 4.0;
+        let mut nodes = vec![lower, upper];
+        let mut offset = 0.0;
+        let mut k = 0;
+        // Offsets 0, s, 2s, ..., 8s (the lobe), then 16s, 32s, ... to the window's edges.
+        while mu - offset > lower || mu + offset < upper {
+            for c in [mu - offset, mu + offset] {
+                if c > lower && c < upper {
+                    nodes.push(c);
+                }
+            }
+            k += 1;
+            offset = if k <= 8 { k as f64 * step } else { offset * 2.0 };
+        }
+        nodes.sort_by(f64::total_cmp);
+        // Nodes closer than 1e-3 of a step (mu on the window's edge, say) would make a singular Gram.
+        nodes.dedup_by(|b, a| *b - *a < 1e-3 * step);
+        if *nodes.last().expect("two nodes") < upper {
+            nodes.pop();
+            nodes.push(upper);
+        }
+        LocalHats { nodes, intervals: first..end }
+    }
+
+    /// Split weight `w` at `c` (inside the window) between the two nodes around it.
+    pub(super) fn deposit(&self, measure: &mut [f64], c: f64, w: f64) {
+        let last = self.nodes.len() - 2;
+        let k = self.nodes.partition_point(|&x| x <= c).saturating_sub(1).min(last);
+        let t = ((c - self.nodes[k]) / (self.nodes[k + 1] - self.nodes[k])).clamp(0.0, 1.0);
+        measure[k] += w * (1.0 - t);
+        measure[k + 1] += w * t;
+    }
+
+    pub(super) fn contains(&self, c: f64) -> bool {
+        c >= self.nodes[0] && c <= self.nodes[self.nodes.len() - 1]
     }
 }
 
@@ -149,29 +208,16 @@ pub(super) fn project_on_nodes(
 }
 
 /// Solve `G x = b` for the Gram matrix of the hat functions on the sorted `nodes`: tridiagonal,
-/// `(h_{k-1} + h_k) / 3` on the diagonal and `h_k / 6` beside it, `h_k` the interval widths (Thomas
-/// algorithm; the matrix is diagonally dominant, so no pivoting is needed).
-fn solve_hat_gram(nodes: &[f64], mut b: Vec<f64>) -> Vec<f64> {
+/// `(h_{k-1} + h_k) / 3` on the diagonal and `h_k / 6` beside it, `h_k` the interval widths.
+fn solve_hat_gram(nodes: &[f64], b: Vec<f64>) -> Vec<f64> {
     let n = nodes.len() - 1;
     let width = |k: usize| nodes[k + 1] - nodes[k];
-    let off = |k: usize| width(k) / 6.0;
     let diagonal = |k: usize| {
         let left = if k > 0 { width(k - 1) } else { 0.0 };
         let right = if k < n { width(k) } else { 0.0 };
         (left + right) / 3.0
     };
-    let mut c_prime = vec![0.0; n + 1];
-    c_prime[0] = off(0) / diagonal(0);
-    b[0] /= diagonal(0);
-    for k in 1..=n {
-        let denominator = diagonal(k) - off(k - 1) * c_prime[k - 1];
-        c_prime[k] = if k < n { off(k) / denominator } else { 0.0 };
-        b[k] = (b[k] - off(k - 1) * b[k - 1]) / denominator;
-    }
-    for k in (0..n).rev() {
-        b[k] -= c_prime[k] * b[k + 1];
-    }
-    b
+    solve_symmetric_tridiagonal(diagonal, |k| width(k) / 6.0, b)
 }
 
 #[cfg(test)]
@@ -239,5 +285,21 @@ mod tests {
         let right = |c: f64| c * c / 2.0 + c * c * c / 3.0 - 0.4 * c - 0.4 * c * c / 2.0;
         let exact = (left(0.4) - left(0.0)) + (right(1.0) - right(0.4));
         assert!((integral - exact).abs() < 1e-12, "{integral} vs {exact}");
+    }
+
+    #[test]
+    fn a_local_window_is_whole_global_intervals_graded_down_to_the_lobe() {
+        let basis = HatBasis { intervals: 256 };
+        for (mu, width) in [(0.5, 1e-7), (1e-6, 1e-7), (1.0, 1e-8), (0.3, 0.01)] {
+            let window = LocalHats::around(mu, width, basis);
+            let nodes = &window.nodes;
+            assert_eq!(nodes[0], basis.node(window.intervals.start), "mu {mu}");
+            assert_eq!(*nodes.last().unwrap(), basis.node(window.intervals.end), "mu {mu}");
+            assert!(nodes.windows(2).all(|w| w[1] > w[0]), "mu {mu}: sorted, distinct");
+            assert!(nodes[0] <= mu - 2.0 * width || nodes[0] == 0.0, "mu {mu}: the lobe is inside");
+            let finest = nodes.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min);
+            assert!(finest <= width / 4.0 * 1.001, "mu {mu}: finest interval {finest:e}");
+            assert!(nodes.len() < 64, "mu {mu}: {} nodes", nodes.len());
+        }
     }
 }

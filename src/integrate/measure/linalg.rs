@@ -1,5 +1,6 @@
-//! The linear algebra of the fast path: dot products of node values with hat moments, and the
-//! matrix product that evaluates a whole table at once.
+//! The linear algebra of the fast path: dot products of node values with hat moments, the
+//! matrix product that evaluates a whole table at once, and the tridiagonal solve of a projection
+//! onto hat functions.
 
 use rayon::prelude::*;
 
@@ -58,6 +59,29 @@ pub fn multiply_transposed(a: MatrixRef, b: MatrixRef, c: &mut [f64]) {
     });
 }
 
+/// Solve `A x = b` for the symmetric tridiagonal `A` of `b.len()` rows with `diagonal(k)` on its
+/// diagonal and `off(k)` at `(k, k + 1)` and `(k + 1, k)` (Thomas algorithm, no pivoting: `A` must
+/// be diagonally dominant, as a Gram matrix of hat functions is).
+pub fn solve_symmetric_tridiagonal(
+    diagonal: impl Fn(usize) -> f64,
+    off: impl Fn(usize) -> f64,
+    mut b: Vec<f64>,
+) -> Vec<f64> {
+    let n = b.len() - 1;
+    let mut c_prime = vec![0.0; n + 1];
+    c_prime[0] = off(0) / diagonal(0);
+    b[0] /= diagonal(0);
+    for k in 1..=n {
+        let denominator = diagonal(k) - off(k - 1) * c_prime[k - 1];
+        c_prime[k] = if k < n { off(k) / denominator } else { 0.0 };
+        b[k] = (b[k] - off(k - 1) * b[k - 1]) / denominator;
+    }
+    for k in (0..n).rev() {
+        b[k] -= c_prime[k] * b[k + 1];
+    }
+    b
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -74,6 +98,25 @@ mod tests {
                 let expected: f64 = (0..k).map(|l| a[i * k + l] * b[j * k + l]).sum();
                 assert!((c[i * n + j] - expected).abs() < 1e-12);
             }
+        }
+    }
+
+    #[test]
+    fn tridiagonal_solve_reproduces_the_right_hand_side() {
+        let n = 9;
+        let diagonal = |k: usize| 2.0 + 0.1 * k as f64;
+        let off = |k: usize| 0.5 - 0.03 * k as f64;
+        let x: Vec<f64> = (0..n).map(|k| (k as f64 * 0.7).cos()).collect();
+        let b: Vec<f64> = (0..n)
+            .map(|k| {
+                let below = if k > 0 { off(k - 1) * x[k - 1] } else { 0.0 };
+                let above = if k + 1 < n { off(k) * x[k + 1] } else { 0.0 };
+                below + diagonal(k) * x[k] + above
+            })
+            .collect();
+        let solved = solve_symmetric_tridiagonal(diagonal, off, b);
+        for k in 0..n {
+            assert!((solved[k] - x[k]).abs() < 1e-14, "row {k}: {} vs {}", solved[k], x[k]);
         }
     }
 }

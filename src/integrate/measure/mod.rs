@@ -4,14 +4,16 @@
 //! `c` — Fresnel for any `(eta, kappa)`, Schlick's weight, a basis curve — is a dot product with
 //! its values at the nodes; a whole 4D table is one matrix product.
 //!
-//! - [`hats`]: the hat basis and the projection of a function onto it (the quadrature);
+//! - [`hats`]: the hat bases (the global uniform one, and a narrow lobe's graded window) and the
+//!   projection of a function onto them (the quadrature);
 //! - this module: the measures themselves, per cell, estimated from visible-normal samples;
-//! - [`linalg`]: dot and matrix products of projected functions with measures.
+//! - [`linalg`]: dot and matrix products of projected functions with measures, and the
+//!   tridiagonal solve of the projection.
 
 mod hats;
 mod linalg;
 
-pub use hats::{HatBasis, Projection};
+pub use hats::{HatBasis, LocalHats, Projection};
 pub use linalg::{MatrixRef, dot, multiply_transposed};
 
 use super::batch::{CellWarp, for_each_block};
@@ -41,69 +43,12 @@ pub enum CosineMeasure {
     PointMass { cosine: f64, weight: f64 },
 }
 
-/// The hat functions of a [`CosineMeasure::Local`] window: sorted nodes from one node of the
-/// global [`HatBasis`] to another, uniform at a quarter of the lobe's width over the lobe and
-/// doubling outward from it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LocalHats {
-    pub nodes: Vec<f64>,
-    /// The global intervals the window covers, `first..end`.
-    pub intervals: std::ops::Range<usize>,
-}
-
 /// A lobe is kept on its own hats when its width is below this many intervals of the global basis.
 pub const LOCAL_LOBE_INTERVALS: f64 = 4.0;
 
 /// The global projection is trusted inside a window where it is within this of `f` (pointwise):
 /// 20 times below the 2e-4 the stability matrix holds the two paths to.
 pub const PROJECTION_TOLERANCE: f64 = 1e-5;
-
-impl LocalHats {
-    /// The window around a lobe at `mu` of width `width` (both in `c`), in whole intervals of
-    /// `basis`.
-    fn around(mu: f64, width: f64, basis: HatBasis) -> LocalHats {
-        let n = basis.intervals;
-        let reach = 2.0 * width;
-        let first = (((mu - reach) * n as f64).floor().max(0.0) as usize).min(n - 1);
-        let end = (((mu + reach) * n as f64).ceil() as usize).clamp(first + 1, n);
-        let (lower, upper) = (basis.node(first), basis.node(end));
-        let step = width / 4.0;
-        let mut nodes = vec![lower, upper];
-        let mut offset = 0.0;
-        let mut k = 0;
-        // Offsets 0, s, 2s, ..., 8s (the lobe), then 16s, 32s, ... to the window's edges.
-        while mu - offset > lower || mu + offset < upper {
-            for c in [mu - offset, mu + offset] {
-                if c > lower && c < upper {
-                    nodes.push(c);
-                }
-            }
-            k += 1;
-            offset = if k <= 8 { k as f64 * step } else { offset * 2.0 };
-        }
-        nodes.sort_by(f64::total_cmp);
-        // Nodes closer than 1e-3 of a step (mu on the window's edge, say) would make a singular Gram.
-        nodes.dedup_by(|b, a| *b - *a < 1e-3 * step);
-        if *nodes.last().expect("two nodes") < upper {
-            nodes.pop();
-            nodes.push(upper);
-        }
-        LocalHats { nodes, intervals: first..end }
-    }
-
-    /// Split weight `w` at `c` (inside the window) between the two nodes around it.
-    fn deposit(&self, measure: &mut [f64], c: f64, w: f64) {
-        let last = self.nodes.len() - 2;
-        let k = self.nodes.partition_point(|&x| x <= c).saturating_sub(1).min(last);
-        let t = ((c - self.nodes[k]) / (self.nodes[k + 1] - self.nodes[k])).clamp(0.0, 1.0);
-        measure[k] += w * (1.0 - t);
-        measure[k + 1] += w * t;
-    }
-
-    fn contains(&self, c: f64) -> bool {
-        c >= self.nodes[0] && c <= self.nodes[self.nodes.len() - 1]
-    }
-}
 
 impl CosineMeasure {
     /// Mean hat moments on the global basis; all zero for a point mass (whose contribution is
@@ -398,22 +343,6 @@ mod tests {
                 );
                 assert!(fast.mean[0] >= -1e-6, "no Gibbs undershoot: {}", fast.mean[0]);
             }
-        }
-    }
-
-    #[test]
-    fn a_local_window_is_whole_global_intervals_graded_down_to_the_lobe() {
-        let basis = HatBasis { intervals: 256 };
-        for (mu, width) in [(0.5, 1e-7), (1e-6, 1e-7), (1.0, 1e-8), (0.3, 0.01)] {
-            let window = LocalHats::around(mu, width, basis);
-            let nodes = &window.nodes;
-            assert_eq!(nodes[0], basis.node(window.intervals.start), "mu {mu}");
-            assert_eq!(*nodes.last().unwrap(), basis.node(window.intervals.end), "mu {mu}");
-            assert!(nodes.windows(2).all(|w| w[1] > w[0]), "mu {mu}: sorted, distinct");
-            assert!(nodes[0] <= mu - 2.0 * width || nodes[0] == 0.0, "mu {mu}: the lobe is inside");
-            let finest = nodes.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min);
-            assert!(finest <= width / 4.0 * 1.001, "mu {mu}: finest interval {finest:e}");
-            assert!(nodes.len() < 64, "mu {mu}: {} nodes", nodes.len());
         }
     }
 }

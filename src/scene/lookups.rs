@@ -1,0 +1,205 @@
+//! The lookups the transfer-matrix model makes for a scene's materials, recorded from the model
+//! itself ([`lookups`]): each material is evaluated over the whole hemisphere of views and over
+//! samples of the ranges its textures vary, and every lookup it makes (an interface's albedo from
+//! above at the relative index `(eta, kappa) / eta_above`, a TIR correction at a crossing toward
+//! the lower index, a lobe's GD) is kept with the hull of the parameters it was made at, per site
+//! and colour channel. Nothing is looked up below an opaque conductor or at an index-matched
+//! interface. [`super::plan`] derives the tables from them.
+
+use serde::{Deserialize, Serialize};
+
+use super::{AlbedoPath, Interval, Layer, Material, Scene, TirPath};
+use crate::error::{Error, Result};
+use crate::formats::manifest::LeftOutRecord;
+use crate::integrate::GRAZING_COSINE;
+use crate::model::{Lookup as ModelLookup, Quantity};
+use crate::physics::fresnel_reflectance;
+
+/// What a lookup reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum LookupKind {
+    /// Directional albedo (FGD, or a split-sum table on the Belcour and Karis paths).
+    Albedo(AlbedoPath),
+    Tir(TirPath),
+    Gd,
+}
+
+/// One lookup the model makes: a site (material, layer, direction), a colour channel, and the
+/// range of every parameter it is made at.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Lookup {
+    pub material: String,
+    /// 1-based, top first.
+    pub layer: usize,
+    pub kind: LookupKind,
+    /// "from above", "from below" (albedo), "down", "up" (TIR crossings) or "internal lobes" (GD).
+    pub direction: &'static str,
+    /// 0, 1, 2 for R, G, B.
+    pub channel: usize,
+    pub mu: Interval,
+    pub alpha: Interval,
+    pub eta: Interval,
+    pub kappa: Interval,
+}
+
+impl Lookup {
+    pub(super) fn site(&self) -> (String, usize, &'static str) {
+        (self.material.clone(), self.layer, self.direction)
+    }
+
+    pub(super) fn fixed_index(&self) -> bool {
+        self.eta.is_point() && self.kappa.is_point()
+    }
+}
+
+/// The lookups of every material of a scene, with what was noticed on the way (index-matched
+/// interfaces, which need no lookup).
+///
+/// They are the lookups the model itself makes ([`crate::model::Material::evaluate`]), recorded
+/// while it evaluates each material at [`PLANNING_VIEWS`] view cosines over the whole hemisphere,
+/// for every sample of the ranges its textures vary ([`Material::variants`]); each site's and
+/// channel's parameters are the hull of what was recorded. The lookups' parameters depend on the
+/// stack's geometry and roughness alone, not on the tables' values, except the roughness of a
+/// 2-flux lobe's GD, and GD is kept whole.
+pub fn lookups(scene: &Scene) -> Result<(Vec<Lookup>, Vec<LeftOutRecord>)> {
+    check_planning_work(scene)?;
+    let mut lookups: Vec<Lookup> = Vec::new();
+    let mut left_out = Vec::new();
+    for material in &scene.materials {
+        note_index_matched(material, &mut left_out);
+        // Where each (layer, direction, kind, channel) of this material is in `lookups`: one hash
+        // look-up per recorded lookup, so that planning stays linear in layers and materials.
+        let mut index: std::collections::HashMap<(usize, &'static str, LookupKind, usize), usize> =
+            std::collections::HashMap::new();
+        let recorded = std::cell::RefCell::new(Vec::new());
+        // Stand-ins for the tables: which lookups are made, and where, does not depend on them.
+        let recorder = |lookup: &ModelLookup| {
+            recorded.borrow_mut().push(*lookup);
+            match lookup.quantity {
+                Quantity::Albedo => fresnel_reflectance(lookup.mu, lookup.eta, lookup.kappa),
+                Quantity::Tir => 0.0,
+                Quantity::Gd => 1.0,
+            }
+        };
+        for stack in material.variants()? {
+            let model = crate::model::Material::new(material.model, stack);
+            for k in 0..PLANNING_VIEWS {
+                let theta = std::f64::consts::FRAC_PI_2 * k as f64 / (PLANNING_VIEWS - 1) as f64;
+                let mu = if k + 1 == PLANNING_VIEWS { GRAZING_COSINE } else { theta.cos() };
+                model.evaluate(mu, &recorder);
+                // Merged after every evaluation, so that memory does not grow with the variants.
+                for recorded in recorded.borrow_mut().drain(..) {
+                    merge_lookup(material, &recorded, &mut lookups, &mut index);
+                }
+            }
+        }
+    }
+    Ok((lookups, left_out))
+}
+
+/// Add one lookup the model made to the hull of its site and channel.
+fn merge_lookup(
+    material: &Material,
+    recorded: &ModelLookup,
+    lookups: &mut Vec<Lookup>,
+    index: &mut std::collections::HashMap<(usize, &'static str, LookupKind, usize), usize>,
+) {
+    let (kind, direction, layer) = match recorded.quantity {
+        Quantity::Albedo => (LookupKind::Albedo(material.albedo), recorded.site.name(), recorded.layer),
+        Quantity::Tir => (LookupKind::Tir(material.tir), recorded.site.name(), recorded.layer),
+        // One site for every lobe's GD: the table is kept whole anyway.
+        Quantity::Gd => (LookupKind::Gd, "internal lobes", 0),
+    };
+    // A value that serves every channel is a lookup of each, except GD, which has none.
+    let channels = match (recorded.channel, recorded.quantity) {
+        (Some(c), _) => c..c + 1,
+        (None, Quantity::Gd) => 0..1,
+        (None, _) => 0..3,
+    };
+    for channel in channels {
+        match index.get(&(layer, direction, kind, channel)) {
+            Some(&at) => {
+                let l = &mut lookups[at];
+                l.mu = l.mu.hull(Interval::point(recorded.mu));
+                l.alpha = l.alpha.hull(Interval::point(recorded.alpha));
+                l.eta = l.eta.hull(Interval::point(recorded.eta));
+                l.kappa = l.kappa.hull(Interval::point(recorded.kappa));
+            }
+            None => {
+                index.insert((layer, direction, kind, channel), lookups.len());
+                lookups.push(Lookup {
+                    material: material.name.clone(),
+                    layer,
+                    kind,
+                    direction,
+                    channel,
+                    mu: Interval::point(recorded.mu),
+                    alpha: Interval::point(recorded.alpha),
+                    eta: Interval::point(recorded.eta),
+                    kappa: Interval::point(recorded.kappa),
+                });
+            }
+        }
+    }
+}
+
+/// Layer evaluations a plan may make ([`PLANNING_VIEWS`] views of every variant of every material,
+/// each as many layers deep as the material): 2^25, about 15 s. On the project's 2-core machine
+/// `tmlut plan` takes 3.8 s for 256 materials of 64 layers (8.4 million) and 4.6 s for one
+/// 64-layer material whose textures vary six roughnesses (12 million; `docs/scenes.md`).
+pub const MAX_PLANNING_WORK: u64 = 1 << 25;
+
+/// Refuse a scene whose plan would evaluate the model more than [`MAX_PLANNING_WORK`] layers,
+/// naming the materials that cost most.
+fn check_planning_work(scene: &Scene) -> Result<()> {
+    let cost = |m: &Material| (m.variant_count() * PLANNING_VIEWS * m.layers.len()) as u64;
+    let work: u64 = scene.materials.iter().map(cost).sum();
+    if work <= MAX_PLANNING_WORK {
+        return Ok(());
+    }
+    let mut costly: Vec<&Material> = scene.materials.iter().collect();
+    costly.sort_by_key(|m| std::cmp::Reverse(cost(m)));
+    let named: Vec<String> = costly
+        .iter()
+        .take(3)
+        .map(|m| {
+            format!("`{}` ({} layers, {} stacks over its `vary` ranges)", m.name, m.layers.len(), m.variant_count())
+        })
+        .collect();
+    Err(Error::invalid(
+        format!("scene `{}`", scene.name),
+        format!(
+            "planning it evaluates {work} layers ({PLANNING_VIEWS} views of every stack of every material); allowed: \
+             at most {MAX_PLANNING_WORK}. Most of it: {}. Vary fewer parameters per material, or split the scene",
+            named.join(", ")
+        ),
+    ))
+}
+
+/// View cosines the planner evaluates each material at, uniform in angle from the normal to
+/// grazing (both included): 0.35 degrees apart.
+pub const PLANNING_VIEWS: usize = 257;
+
+/// Record each interface of `material` whose indices match the medium above in every channel:
+/// the model skips it and looks nothing up there.
+fn note_index_matched(material: &Material, left_out: &mut Vec<LeftOutRecord>) {
+    let mut eta_above = [Interval::point(1.0); 3];
+    for (k, layer) in material.layers.iter().enumerate() {
+        let Layer::Interface(interface) = layer else { continue };
+        let matched = (0..3).all(|c| {
+            interface.eta[c].divide(eta_above[c]) == Interval::point(1.0) && interface.kappa[c] == Interval::point(0.0)
+        });
+        if matched {
+            left_out.push(LeftOutRecord {
+                what: format!("{}, layer {}: albedo and TIR lookups", material.name, k + 1),
+                reason:
+                    "index-matched (relative eta 1, kappa 0): the interface reflects nothing, the model needs no lookup"
+                        .into(),
+            });
+        }
+        if interface.is_conductor() {
+            break;
+        }
+        eta_above = interface.eta;
+    }
+}

@@ -1,0 +1,94 @@
+//! A material's layer stacks as the transfer-matrix model takes them: at its nominal values, and
+//! over samples of the ranges its textures vary, where the planner evaluates the model.
+
+use super::{Interface, Interval, Layer, Material};
+use crate::error::{Error, Result};
+
+impl Material {
+    /// The layer stack at the material's nominal values, as the model and the random walk take it.
+    pub fn stack(&self) -> Result<crate::model::Stack> {
+        self.stack_with(|_, interface| interface.nominal)
+    }
+
+    /// The stack with each interface's values given by `values(layer index, interface)`.
+    fn stack_with(&self, values: impl Fn(usize, &Interface) -> crate::model::Interface) -> Result<crate::model::Stack> {
+        let layers = self
+            .layers
+            .iter()
+            .enumerate()
+            .map(|(k, layer)| match layer {
+                Layer::Interface(interface) => crate::model::Layer::Interface(values(k, interface)),
+                Layer::Medium(medium) => crate::model::Layer::Medium(*medium),
+            })
+            .collect();
+        crate::model::Stack::new(layers).map_err(|e| Error::invalid(format!("material `{}`", self.name), e.to_string()))
+    }
+
+    /// Stacks over the ranges the material's textures vary: the nominal stack, then every
+    /// combination of each varying parameter at its range's ends and middle (at most
+    /// [`MAX_VARIANTS`]; beyond, a deterministic spread of them), the nominal values elsewhere. The
+    /// planner evaluates the model over these to find where its lookups are made.
+    pub fn variants(&self) -> Result<Vec<crate::model::Stack>> {
+        let varying = self.varying();
+        let combinations = 3usize.saturating_pow(varying.len() as u32);
+        let chosen: Vec<usize> = if combinations <= MAX_VARIANTS {
+            (0..combinations).collect()
+        } else {
+            (0..MAX_VARIANTS as u64).map(|n| (spread(n) % combinations as u64) as usize).collect()
+        };
+        let mut stacks = vec![self.stack()?];
+        for combination in chosen {
+            let level = |which: usize| (combination / 3usize.pow(which as u32)) % 3;
+            let stack = self.stack_with(|k, interface| {
+                let mut values = interface.nominal;
+                for (which, &(layer, parameter, range)) in varying.iter().enumerate() {
+                    if layer != k {
+                        continue;
+                    }
+                    let x = [range.lo, 0.5 * (range.lo + range.hi), range.hi][level(which)];
+                    match parameter {
+                        0 => values.eta = [x; 3],
+                        1 => values.kappa = [x; 3],
+                        _ => values.alpha = x,
+                    }
+                }
+                values
+            });
+            stacks.push(stack?);
+        }
+        Ok(stacks)
+    }
+}
+
+impl Material {
+    /// (layer index, parameter 0 eta / 1 kappa / 2 alpha, range) of each parameter a texture varies.
+    fn varying(&self) -> Vec<(usize, usize, Interval)> {
+        let mut varying = Vec::new();
+        for (k, layer) in self.layers.iter().enumerate() {
+            if let Layer::Interface(i) = layer {
+                for (parameter, range) in [(0, i.eta[0]), (1, i.kappa[0]), (2, i.alpha)] {
+                    if !range.is_point() {
+                        varying.push((k, parameter, range));
+                    }
+                }
+            }
+        }
+        varying
+    }
+
+    /// How many stacks [`Material::variants`] gives, without building them.
+    pub fn variant_count(&self) -> usize {
+        1 + 3usize.saturating_pow(self.varying().len() as u32).min(MAX_VARIANTS)
+    }
+}
+
+/// The most stacks [`Material::variants`] gives.
+pub const MAX_VARIANTS: usize = 729;
+
+/// A well-mixed 64-bit hash of `n` (SplitMix64's finaliser), to spread samples over combinations.
+fn spread(n: u64) -> u64 {
+    let mut z = n.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
