@@ -95,7 +95,7 @@ impl BelcourSettings {
         self.sampling.validate("belcour.sampling")?;
         self.reference.validate("belcour.reference")?;
         self.interpolation.validate("belcour.interpolation")?;
-        self.output.validate("belcour.output", &[FileFormat::Dds, FileFormat::Exr])
+        self.output.validate("belcour.output", &[FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2])
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {

@@ -92,7 +92,7 @@ impl KarisSettings {
         self.sampling.validate("karis.sampling")?;
         self.reference.validate("karis.reference")?;
         self.interpolation.validate("karis.interpolation")?;
-        self.output.validate("karis.output", &[FileFormat::Dds, FileFormat::Exr])
+        self.output.validate("karis.output", &[FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2])
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
