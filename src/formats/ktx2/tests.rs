@@ -70,6 +70,11 @@ fn round_trips_2d_and_volume_textures_in_both_precisions() {
                 write_ktx2(&path, &table, precision).unwrap();
                 let file = read_ktx2(&path).unwrap();
                 let context = format!("{shape:?} {channels} channels {precision:?}");
+                // The independent reader parses every kind of file too, and finds the same texels.
+                let bytes = std::fs::read(&path).unwrap();
+                let reader = ::ktx2::Reader::new(bytes.as_slice()).unwrap();
+                let level = reader.levels().next().unwrap();
+                assert_eq!(texel_values(level.data, precision), file.texture.data, "{context}");
                 let texture = &file.texture;
                 assert_eq!((texture.channels, texture.precision), (channels, precision), "{context}");
                 assert_eq!(texture.volume, shape.len() == 3, "{context}");
