@@ -17,8 +17,7 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::formats::{
-    Precision, StoredTexture, check_storable_values, put_texels, read_bytes, texel_values, texture_extents,
-    write_bytes_atomically,
+    Precision, StoredTexture, put_texels, read_bytes, texel_values, texture_extents, write_bytes_atomically,
 };
 use crate::table::Table;
 
@@ -84,10 +83,9 @@ pub fn write_dds(path: &Path, table: &Table, precision: Precision) -> Result<()>
 /// The bytes of [`write_dds`]'s file.
 pub fn encode_dds(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     let key = format!("table `{}`", table.name);
-    let ([width, height, depth], volume) = texture_extents(table, "DDS")?;
+    let ([width, height, depth], volume) = texture_extents(table, precision, "DDS")?;
     let format = dxgi_format(table.channel_count(), precision)
         .ok_or_else(|| Error::invalid(&key, format!("has {} channels", table.channel_count())))?;
-    check_storable_values(table, precision)?;
 
     let bytes_per_texel = table.channel_count() * precision.bytes();
     let pitch = u32::try_from(width as usize * bytes_per_texel)

@@ -36,8 +36,8 @@ use ::ktx2::{Format, Header, Index, LevelIndex};
 use crate::error::{Error, Result};
 use crate::formats::manifest::AxisEntry;
 use crate::formats::{
-    Precision, StoredTexture, as_format_error, check_storable_values, put_texels, read_bytes, texel_values,
-    texture_extents, write_bytes_atomically,
+    Precision, StoredTexture, as_format_error, put_texels, read_bytes, texel_values, texture_extents,
+    write_bytes_atomically,
 };
 use crate::table::{Channel, Table};
 
@@ -48,11 +48,20 @@ const LEVEL_INDEX_OFFSET: usize = Header::LENGTH;
 /// Where the data format descriptor starts: after the level index of one level.
 const DFD_OFFSET: usize = LEVEL_INDEX_OFFSET + LevelIndex::LENGTH;
 
+// The keys of the key/value data (`docs/formats.md`, "KTX2"): two standard keys of KTX 2.0, and
+// tmlut's own under the prefix `tmlut.` (the prefixes `KTX` and `ktx` are reserved to the
+// specification).
+/// Standard key: `rd` (2D) or `rdi` (volume).
 pub const KEY_ORIENTATION: &str = "KTXorientation";
+/// Standard key: `tmlut` and its version.
 pub const KEY_WRITER: &str = "KTXwriter";
+/// The table's name.
 pub const KEY_TABLE: &str = "tmlut.table";
+/// JSON: the manifest's axis entries, axis 0 first.
 pub const KEY_AXES: &str = "tmlut.axes";
+/// JSON: each channel's name and meaning.
 pub const KEY_CHANNELS: &str = "tmlut.channels";
+/// `f16` or `f32`.
 pub const KEY_PRECISION: &str = "tmlut.precision";
 
 /// The Vulkan formats written and read, as (VkFormat, channels, precision).
@@ -196,10 +205,9 @@ fn level_alignment(texel_bytes: usize) -> usize {
 /// The bytes of [`write_ktx2`]'s file.
 pub fn encode_ktx2(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     let key = format!("table `{}`", table.name);
-    let ([width, height, depth], volume) = texture_extents(table, "KTX2")?;
+    let ([width, height, depth], volume) = texture_extents(table, precision, "KTX2")?;
     let format = vk_format(table.channel_count(), precision)
         .ok_or_else(|| Error::invalid(&key, format!("has {} channels", table.channel_count())))?;
-    check_storable_values(table, precision)?;
 
     let (dfd, type_size) = data_format_descriptor(format)?;
     let kvd = key_value_bytes(&Description::of(table, precision, volume).pairs()?);

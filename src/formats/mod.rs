@@ -184,8 +184,9 @@ pub struct StoredTexture {
 }
 
 /// The extents of the texture that holds `table` in a `container` (`DDS`, `KTX2`), and whether it
-/// is a volume: 2 axes make a 2D texture, 3 a volume; the table must have 1, 2 or 4 channels.
-pub(crate) fn texture_extents(table: &Table, container: &str) -> Result<([u32; 3], bool)> {
+/// is a volume: 2 axes make a 2D texture, 3 a volume; the table must have 1, 2 or 4 channels and
+/// values that `precision` stores as finite numbers ([`check_storable_values`]).
+pub(crate) fn texture_extents(table: &Table, precision: Precision, container: &str) -> Result<([u32; 3], bool)> {
     let key = format!("table `{}`", table.name);
     if ![1, 2, 4].contains(&table.channel_count()) {
         return Err(Error::invalid(
@@ -215,6 +216,7 @@ pub(crate) fn texture_extents(table: &Table, container: &str) -> Result<([u32; 3
             )
         })?;
     }
+    check_storable_values(table, precision)?;
     Ok((extents, volume))
 }
 
