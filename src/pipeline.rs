@@ -107,6 +107,8 @@ pub struct Job<'a> {
     pub output: OutputConfig,
     /// Volume-texture packings written beside it (FGD only).
     pub packings: Vec<Packing>,
+    /// The texture files of each packing (DDS, KTX2).
+    pub packing_formats: Vec<FileFormat>,
     /// Fit the analytic TIR form to the table with this seed, record it in the table's entries and
     /// write its shader files (TIR with `fit = "best"` only; `docs/fit.md`).
     pub fit_seed: Option<u64>,
@@ -131,6 +133,7 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
                 run: Box::new(move |progress| recipe.build(seed, progress)),
                 output: recipe.output().clone(),
                 packings: companions.packings,
+                packing_formats: companions.packing_formats,
                 fit_seed: companions.fitted_form.then_some(seed),
             }
         })
@@ -182,8 +185,9 @@ pub fn write_jobs(
             moves.extend(shaders.iter().map(|path| same_name(path, None)));
         }
         for &packing in &job.packings {
-            let (texture, shaders) = write_packing_files(&staging.dir, &build, packing, job.output.precision)?;
-            staged.push(texture);
+            let (textures, shaders) =
+                write_packing_files(&staging.dir, &build, packing, &job.packing_formats, job.output.precision)?;
+            staged.extend(textures);
             moves.extend(shaders.iter().map(|path| same_name(path, None)));
         }
         if error_maps {
@@ -251,35 +255,26 @@ pub fn write_table_file(
     write_table_file_named(&dir.join(file), &build.table, &build.provenance, format, precision)
 }
 
-/// Pack the FGD table of `build`, write `fgd_<packing>.dds` and the `.hlsl` and `.wgsl` lookups
-/// into `dir`, and describe the texture (the shader files are listed in its entry). Returns the
-/// texture and the paths of the shader files.
+/// Pack the FGD table of `build`, write its texture as `fgd_<packing>.dds` and/or `.ktx2` (one
+/// file per format) and the `.hlsl` and `.wgsl` lookups into `dir`, and describe each texture
+/// (the shader files are listed in its entry). Returns the textures and the paths of the shader
+/// files.
 pub fn write_packing_files(
     dir: &Path,
     build: &TableBuild,
     packing: Packing,
+    formats: &[FileFormat],
     precision: Precision,
-) -> Result<(WrittenFile, Vec<PathBuf>)> {
+) -> Result<(Vec<WrittenFile>, Vec<PathBuf>)> {
     let packed = PackedFgd::pack(&build.table, packing, precision)?;
     let stem = packing.file_stem();
     let texture = packed.texture_table()?;
-    let mut written = write_table_file_named(
-        &dir.join(format!("{stem}.dds")),
-        &texture,
-        &build.provenance.of_derived_table(),
-        FileFormat::Dds,
-        precision,
-    )?;
-    // Its lookup is the shader's (`packing.lookup`), not one sample call.
-    written.entry.binding = None;
-    // The texels were rounded when packed; state what rounding did to the source values.
-    written.entry.error.storage_rounding_max = storage_rounding(&build.table, precision);
     // Read as its shader reads it: the lookup program on the texels as stored.
     let read_as = format!(
         "the lookup of {stem}.hlsl / .wgsl, statement by statement in f32, on the texels as stored (GPU emulator, exact filter weights)"
     );
     let channels = [build.table.channels[0].name.clone()];
-    written.entry.error.interpolation = build
+    let interpolation: Vec<InterpolationError> = build
         .provenance
         .interpolation
         .iter()
@@ -303,7 +298,7 @@ pub fn write_packing_files(
         });
         paths.push(path);
     }
-    written.entry.packing = Some(PackingEntry {
+    let packing_entry = PackingEntry {
         name: packing.name().into(),
         lossless: packed.lossless,
         texture_extent: [packed.texture.width, packed.texture.height, packed.texture.depth],
@@ -312,8 +307,25 @@ pub fn write_packing_files(
         lookup: packed.program.statements(),
         fetches_per_lookup: packed.fetches_per_lookup(),
         shaders,
-    });
-    Ok((written, paths))
+    };
+    let mut textures = Vec::new();
+    for &format in formats {
+        let mut written = write_table_file_named(
+            &dir.join(format!("{stem}.{}", format.extension())),
+            &texture,
+            &build.provenance.of_derived_table(),
+            format,
+            precision,
+        )?;
+        // Its lookup is the shader's (`packing.lookup`), not one sample call.
+        written.entry.binding = None;
+        // The texels were rounded when packed; state what rounding did to the source values.
+        written.entry.error.storage_rounding_max = storage_rounding(&build.table, precision);
+        written.entry.error.interpolation = interpolation.clone();
+        written.entry.packing = Some(packing_entry.clone());
+        textures.push(written);
+    }
+    Ok((textures, paths))
 }
 
 /// Write one table in one format to `path` and describe the file, with `provenance` saying how
@@ -340,6 +352,8 @@ fn write_table_file_named(
         precision,
         dxgi_format: (format == FileFormat::Dds)
             .then(|| formats::dds::dxgi_format_name(table.channel_count(), precision)),
+        vk_format: (format == FileFormat::Ktx2)
+            .then(|| formats::ktx2::vk_format_name(table.channel_count(), precision)),
         axes: table.axes.iter().zip(stored_along(table, format)).map(|(a, s)| AxisEntry::new(a, s)).collect(),
         channels: table.channels.clone(),
         integrand: provenance.integrand.clone(),
@@ -370,8 +384,7 @@ fn write_table_file_named(
         bytes: bytes.len() as u64,
         packing: None,
         fit: None,
-        binding: (format == FileFormat::Dds)
-            .then(|| formats::dds::binding(&table.axes, table.channel_count(), precision)),
+        binding: formats::binding(&table.axes, table.channel_count(), precision, format),
     };
     let mut entry = entry;
     entry.error.interpolation = interpolation_errors(&path, &entry, &provenance.interpolation)?;
@@ -417,7 +430,7 @@ fn stored_along(table: &Table, format: FileFormat) -> Vec<String> {
     (0..table.dimension())
         .map(|d| match (format, d) {
             (FileFormat::Bin, d) => format!("axis {d}"),
-            (FileFormat::Dds, d) => ["x", "y", "z"][d].to_string(),
+            (FileFormat::Dds | FileFormat::Ktx2, d) => ["x", "y", "z"][d].to_string(),
             (FileFormat::Exr, d) if table.dimension() <= 2 => ["x", "y"][d].to_string(),
             (FileFormat::Exr, 0) => "x within a tile".into(),
             (FileFormat::Exr, 1) => "y within a tile".into(),

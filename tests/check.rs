@@ -171,6 +171,21 @@ fn tampered_emptied_and_deleted_shaders_fail() {
 }
 
 #[test]
+fn a_shader_misstated_by_one_of_two_entries_that_list_it_fails() {
+    // A packing written as DDS and KTX2 lists its shaders in both entries; here a second entry
+    // (a copy of the DDS file) states a wrong SHA-256 for one of them, the first the right one.
+    let (_dir, out) = copy_with_manifest(|m| {
+        let mut twin = m["files"]["fgd_lossless.dds"].clone();
+        twin["packing"]["shaders"][0]["sha256"] = "0".repeat(64).into();
+        m["files"]["twin.dds"] = twin;
+    });
+    std::fs::copy(out.join("fgd_lossless.dds"), out.join("twin.dds")).unwrap();
+    let failed = failures(&out);
+    assert_eq!(failed.len(), 1, "{failed:?}");
+    assert_eq!((failed[0].0.as_str(), failed[0].1.as_str()), ("fgd_lossless.hlsl", "shader sha256"), "{failed:?}");
+}
+
+#[test]
 fn a_manifest_that_misstates_a_file_fails() {
     // Each lie in the manifest's description of a file, with the SHA-256 left right.
     type Lie = fn(&mut serde_json::Value);

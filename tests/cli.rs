@@ -100,6 +100,79 @@ fn build_writes_dds_exr_and_a_manifest_that_a_renderer_can_load() {
 }
 
 #[test]
+fn ktx2_is_written_beside_dds_for_tables_and_packings_and_reads_back_the_same() {
+    use tmlut::loader::TirLut;
+    use tmlut::model::folder::{FgdSource, FolderTables};
+    use tmlut::model::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
+
+    let dir = tempfile::tempdir().unwrap();
+    let text = SMALL_SET.replacen("[fgd]\n", "[fgd]\npacking_formats = [\"dds\", \"ktx2\"]\n", 1)
+        + "[karis.output]\nformats = [\"dds\", \"ktx2\"]\nprecision = \"f16\"\n"
+        + "[tir.output]\nformats = [\"ktx2\"]\nprecision = \"f32\"\n";
+    let config = write_config(dir.path(), &text);
+    let out = dir.path().join("luts");
+    let output = build(&config, &out, &["--only", "fgd,tir,karis"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+
+    let manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
+    let karis = manifest.entry("karis.ktx2").expect("karis.ktx2 in the manifest");
+    assert_eq!((karis.vk_format.as_deref(), karis.dxgi_format.as_deref()), (Some("R16G16_SFLOAT"), None));
+    let binding = karis.binding.as_ref().expect("a binding");
+    assert!(binding.texture.contains("VK_FORMAT_R16G16_SFLOAT, WebGPU rg16float"), "{}", binding.texture);
+    let (packed_dds, packed_ktx2) =
+        (manifest.entry("fgd_lossless.dds").unwrap(), manifest.entry("fgd_lossless.ktx2").unwrap());
+    assert_eq!(packed_ktx2.packing, packed_dds.packing, "one packing, its shaders listed by both textures");
+    assert_eq!(packed_ktx2.error.interpolation, packed_dds.error.interpolation);
+    assert_eq!(packed_ktx2.vk_format.as_deref(), Some("R32_SFLOAT"));
+    assert!(manifest.entry("tir.ktx2").is_some() && manifest.entry("tir.dds").is_none());
+
+    // Written, then read back: the same table as its DDS twin (f16 values for Karis).
+    let folder = LutFolder::open(&out).unwrap();
+    assert_eq!(folder.load("karis.ktx2").unwrap(), folder.load("karis.dds").unwrap());
+    assert_eq!(folder.load("fgd_lossless.ktx2").unwrap(), folder.load("fgd_lossless.dds").unwrap());
+    assert_eq!(TirLut::from_folder(&folder).unwrap().entry().unwrap().vk_format.as_deref(), Some("R32_SFLOAT"));
+
+    // The model reads the packing from either file alike.
+    let lookups: Vec<Lookup> = [(0.1, 0.02, 1.5, 0.0), (0.7, 0.3, 0.4, 2.0), (1.0, 0.9, 3.1, 0.5)]
+        .into_iter()
+        .map(|(mu, alpha, eta, kappa)| Lookup {
+            quantity: Quantity::Albedo,
+            site: Site::FromAbove,
+            layer: 1,
+            channel: None,
+            mu,
+            alpha,
+            eta,
+            kappa,
+        })
+        .collect();
+    let open =
+        |folder: &LutFolder| FolderTables::open(folder, AlbedoPath::Fgd, TirPath::Table, FgdSource::Packing).unwrap();
+    let from_dds: Vec<f64> = lookups.iter().map(|l| open(&folder).value(l)).collect();
+    let mut without_dds = manifest.clone();
+    without_dds.files.remove("fgd_lossless.dds");
+    without_dds.write(&out).unwrap();
+    std::fs::remove_file(out.join("fgd_lossless.dds")).unwrap();
+    let only_ktx2 = LutFolder::open(&out).unwrap();
+    let from_ktx2: Vec<f64> = lookups.iter().map(|l| open(&only_ktx2).value(l)).collect();
+    assert_eq!(from_ktx2, from_dds);
+
+    let inspected = tmlut(&["inspect", out.join("karis.ktx2").to_str().unwrap()]);
+    assert!(inspected.status.success(), "{}", stderr(&inspected));
+    let text = stdout(&inspected);
+    for expected in
+        ["VK_FORMAT_R16G16_SFLOAT, 2D texture 32 x 24", "texture coordinate = sqrt(alpha)", "matches the manifest"]
+    {
+        assert!(text.contains(expected), "expected `{expected}` in:\n{text}");
+    }
+    let budgets = dir.path().join("budgets.toml");
+    std::fs::write(&budgets, "").unwrap();
+    let checked = tmlut(&["check", out.to_str().unwrap(), "--budgets", budgets.to_str().unwrap()]);
+    assert!(checked.status.success(), "{}", stdout(&checked));
+    assert!(stdout(&checked).contains("ok   fgd_lossless.ktx2: manifest agrees with the file"), "{}", stdout(&checked));
+}
+
+#[test]
 fn inspect_prints_the_conventions_of_each_file() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), SMALL_SET);
@@ -203,6 +276,9 @@ fn bad_configurations_are_refused_naming_the_key() {
         ("[karis.sampling]\nsamples = 100\nreplicates = 4\n", &["karis.sampling.samples", "power of two"]),
         ("seed = -1\n", &["config.toml", "seed"]),
         ("[karis\n", &["config.toml"]),
+        ("[fgd]\npacking_formats = [\"exr\"]\n", &["fgd.packing_formats", "allowed: dds, ktx2"]),
+        ("[fgd]\npacking_formats = []\n", &["fgd.packing_formats", "is empty"]),
+        ("[fgd.output]\nformats = [\"ktx2\"]\nprecision = \"f32\"\n", &["fgd.output.formats", "allowed: bin, exr"]),
     ];
     for (text, expected) in cases {
         let config = write_config(dir.path(), text);

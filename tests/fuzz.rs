@@ -24,6 +24,7 @@ const TIME_LIMIT: Duration = Duration::from_secs(10);
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 enum Reader {
     Dds,
+    Ktx2,
     Exr,
     Bin,
     Shader,
@@ -114,6 +115,39 @@ fn dds_lie(rng: &mut Pcg64Mcg, original: &[u8]) -> (String, Vec<u8>) {
     let value = lie_u32(rng);
     bytes[offset..offset + 4].copy_from_slice(&value.to_le_bytes());
     (format!("header field at {offset} set to {value:#x}"), bytes)
+}
+
+/// A KTX2 lie: a header or level index field (format, type size, extents, layer, face and level
+/// counts, supercompression, section offsets and lengths), a data format descriptor byte, or the
+/// length of a key/value pair.
+fn ktx2_lie(rng: &mut Pcg64Mcg, original: &[u8]) -> (String, Vec<u8>) {
+    let mut bytes = original.to_vec();
+    let word = |at: usize| u32::from_le_bytes(original[at..at + 4].try_into().unwrap()) as usize;
+    let (dfd, kvd, kvd_len) = (word(48), word(56), word(60));
+    let (offset, what) = match next(rng, 4) {
+        0 | 1 => (12 + 4 * next(rng, (104 - 12) / 4), "header or level index field".to_string()),
+        2 => {
+            let at = dfd + next(rng, kvd - dfd);
+            let value = *pick(rng, &[0u8, 1, 2, 0x7f, 0xff]);
+            bytes[at] = value;
+            return (format!("descriptor byte {} set to {value:#x}", at - dfd), bytes);
+        }
+        _ => {
+            // The length field of one of the key/value pairs.
+            let mut at = kvd;
+            for _ in 0..next(rng, 6) {
+                let next_at = (at + 4 + word(at)).next_multiple_of(4);
+                if next_at >= kvd + kvd_len {
+                    break;
+                }
+                at = next_at;
+            }
+            (at, "key/value pair length".to_string())
+        }
+    };
+    let value = lie_u32(rng);
+    bytes[offset..offset + 4].copy_from_slice(&value.to_le_bytes());
+    (format!("{what} at {offset} set to {value:#x}"), bytes)
 }
 
 /// An EXR header lie: a data or display window bound, the chunk count, an attribute's size, or any
@@ -230,6 +264,14 @@ fn manifest_lie(rng: &mut Pcg64Mcg, manifest: &serde_json::Value) -> (String, Ve
             entry["dxgi_format"] = json!(pick(rng, &other));
             "DXGI format".into()
         }
+        10 if file.ends_with(".ktx2") => {
+            let other: Vec<&str> = ["R32_SFLOAT", "R16G16_SFLOAT", "R16G16B16A16_SFLOAT", "BC7_UNORM_BLOCK"]
+                .into_iter()
+                .filter(|f| entry["vk_format"] != *f)
+                .collect();
+            entry["vk_format"] = json!(pick(rng, &other));
+            "Vulkan format".into()
+        }
         11 => {
             let name = pick(rng, &["/etc/hostname", "../../x", "../luts/gd.bin", "a/b.dds", "", "..", "ghost.dds"]);
             let moved = m["files"].as_object_mut().unwrap().remove(&file).unwrap();
@@ -247,7 +289,7 @@ fn manifest_lie(rng: &mut Pcg64Mcg, manifest: &serde_json::Value) -> (String, Ve
             "packed texture's shader".into()
         }
         _ => {
-            entry["format"] = json!(pick(rng, &["dds", "exr", "bin"]));
+            entry["format"] = json!(pick(rng, &["dds", "exr", "bin", "ktx2"]));
             // A format the file has: not a lie.
             let stated = entry["format"].as_str().unwrap();
             if file.ends_with(&format!(".{stated}")) {
@@ -325,6 +367,11 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
         "fgd_lossless.dds",
         "gd.dds",
         "tir.dds",
+        "karis.ktx2",
+        "belcour.ktx2",
+        "fgd_lossless.ktx2",
+        "gd.ktx2",
+        "tir.ktx2",
         "karis.exr",
         "belcour.exr",
         "fgd.exr",
@@ -343,12 +390,14 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
             let original = read(file);
             let (reader, (what, bytes)) = match (file.rsplit('.').next().unwrap(), next(&mut rng, 2)) {
                 ("dds", 0) => (Reader::Dds, dds_lie(&mut rng, &original)),
+                ("ktx2", 0) => (Reader::Ktx2, ktx2_lie(&mut rng, &original)),
                 ("exr", 0) => (Reader::Exr, exr_lie(&mut rng, &original)),
                 ("bin", 0) => {
                     let axes = manifest["files"][file]["axes"].as_array().unwrap().len();
                     (Reader::Bin, bin_lie(&mut rng, &original, axes))
                 }
                 ("dds", _) => (Reader::Dds, damage(&mut rng, &original)),
+                ("ktx2", _) => (Reader::Ktx2, damage(&mut rng, &original)),
                 ("exr", _) => (Reader::Exr, damage(&mut rng, &original)),
                 _ => (Reader::Bin, damage(&mut rng, &original)),
             };
@@ -405,7 +454,7 @@ fn run_case(case: &Case, work: &Path, folder: &Path, budgets: &Path) -> (Vec<com
             let check = run_limited(&["check", folder_arg, "--budgets", budgets.to_str().unwrap()], TIME_LIMIT);
             // `inspect` reads a table with the manifest beside it: the damaged one, or one that
             // the manifest describes.
-            let inspected = if case.file.contains(".dds") || case.file.contains(".exr") || case.file.contains(".bin") {
+            let inspected = if [".dds", ".ktx2", ".exr", ".bin"].iter().any(|e| case.file.contains(e)) {
                 case.file.clone()
             } else {
                 "karis.exr".into()
@@ -416,7 +465,8 @@ fn run_case(case: &Case, work: &Path, folder: &Path, budgets: &Path) -> (Vec<com
                 None => std::fs::remove_file(&path).unwrap(),
             }
             // A damaged table or shader must fail `check`; a damaged table must fail `inspect` too.
-            let damaged_table = matches!(case.reader, Reader::Dds | Reader::Exr | Reader::Bin) && case.check_must_fail;
+            let damaged_table =
+                matches!(case.reader, Reader::Dds | Reader::Ktx2 | Reader::Exr | Reader::Bin) && case.check_must_fail;
             let lost = (case.check_must_fail && check.ending == Ending::Success)
                 || (damaged_table && inspect.ending == Ending::Success);
             (vec![check, inspect], lost)

@@ -16,8 +16,10 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::formats::{Precision, check_storable_values, read_bytes, write_bytes_atomically};
-use crate::table::{Axis, Channel, Table};
+use crate::formats::{
+    Precision, StoredTexture, put_texels, read_bytes, texel_values, texture_extents, write_bytes_atomically,
+};
+use crate::table::Table;
 
 const MAGIC: &[u8; 4] = b"DDS ";
 const HEADER_SIZE: u32 = 124;
@@ -66,67 +68,11 @@ fn dxgi_format(channels: usize, precision: Precision) -> Option<u32> {
 
 /// The DXGI name of the format holding `channels` channels in `precision`, e.g. `R16G16_FLOAT`.
 pub fn dxgi_format_name(channels: usize, precision: Precision) -> String {
-    let bits = precision.bytes() * 8;
-    let components = &["R", "G", "B", "A"][..channels.min(4)];
-    let name: String = components.iter().map(|c| format!("{c}{bits}")).collect();
-    format!("{name}_FLOAT")
-}
-
-/// How a renderer binds a texture of `axes` (2 or 3, with their texture-coordinate formulas) and
-/// `channels` channels in `precision` and samples it with hardware filtering.
-pub fn binding(axes: &[Axis], channels: usize, precision: Precision) -> crate::formats::manifest::Binding {
-    let dimension = axes.len();
-    let (hlsl_texel, swizzle) = match channels {
-        1 => ("float", "r"),
-        2 => ("float2", "rg"),
-        _ => ("float4", "rgba"),
-    };
-    let webgpu = match (channels, precision) {
-        (1, Precision::F16) => "r16float",
-        (2, Precision::F16) => "rg16float",
-        (_, Precision::F16) => "rgba16float",
-        (1, Precision::F32) => "r32float",
-        (2, Precision::F32) => "rg32float",
-        (_, Precision::F32) => "rgba32float",
-    };
-    let filterable = match precision {
-        Precision::F16 => "filterable".to_string(),
-        Precision::F32 => format!(
-            "filterable only with the float32-filterable feature; without it bind as unfilterable-float and filter by \
-             hand ({} textureLoad texels around each coordinate times the texel count, minus 0.5)",
-            1 << dimension
-        ),
-    };
-    let names = ["u", "v", "w"];
-    let coordinates =
-        axes.iter().zip(names).map(|(a, n)| format!("{n} = {}", a.texture_coordinate_formula())).collect();
-    let list = names[..dimension].join(", ");
-    crate::formats::manifest::Binding {
-        texture: format!(
-            "Texture{dimension}D<{hlsl_texel}> (HLSL), texture_{dimension}d<f32> (WGSL); DXGI_FORMAT_{}, WebGPU {webgpu} \
-             ({filterable}); one mip level; linear data (not sRGB)",
-            dxgi_format_name(channels, precision)
-        ),
-        sampler: "linear min and mag filter, clamp-to-edge addressing on every axis, mip level 0".into(),
-        coordinates,
-        hlsl: format!("tex.SampleLevel(linear_clamp, float{dimension}({list}), 0)"),
-        wgsl: format!("textureSampleLevel(tex, linear_clamp, vec{dimension}<f32>({list}), 0.0).{swizzle}"),
-    }
+    format!("{}_FLOAT", super::component_layout(channels, precision))
 }
 
 /// A texture as stored in a DDS file.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DdsTexture {
-    pub width: u32,
-    pub height: u32,
-    /// 1 for a 2D texture.
-    pub depth: u32,
-    pub channels: usize,
-    pub precision: Precision,
-    pub volume: bool,
-    /// Channels interleaved, x fastest, then y, then z.
-    pub data: Vec<f32>,
-}
+pub type DdsTexture = StoredTexture;
 
 /// Write a 2-axis table as a 2D texture or a 3-axis table as a volume texture.
 pub fn write_dds(path: &Path, table: &Table, precision: Precision) -> Result<()> {
@@ -137,33 +83,9 @@ pub fn write_dds(path: &Path, table: &Table, precision: Precision) -> Result<()>
 /// The bytes of [`write_dds`]'s file.
 pub fn encode_dds(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     let key = format!("table `{}`", table.name);
-    let format = dxgi_format(table.channel_count(), precision).ok_or_else(|| {
-        Error::invalid(
-            &key,
-            format!(
-                "has {} channels; a DDS texture holds 1, 2 or 4 (R, RG or RGBA float formats)",
-                table.channel_count()
-            ),
-        )
-    })?;
-    let volume = match table.dimension() {
-        2 => false,
-        3 => true,
-        d => {
-            return Err(Error::invalid(
-                &key,
-                format!("has {d} axes; a DDS texture holds 2 (a 2D texture) or 3 (a volume texture)"),
-            ));
-        }
-    };
-    let mut extents = [1u32; 3];
-    for (extent, axis) in extents.iter_mut().zip(&table.axes) {
-        *extent = u32::try_from(axis.count).map_err(|_| {
-            Error::invalid(&key, format!("axis `{}` has {} nodes, more than a DDS extent holds", axis.name, axis.count))
-        })?;
-    }
-    let [width, height, depth] = extents;
-    check_storable_values(table, precision)?;
+    let ([width, height, depth], volume) = texture_extents(table, precision, "DDS")?;
+    let format = dxgi_format(table.channel_count(), precision)
+        .ok_or_else(|| Error::invalid(&key, format!("has {} channels", table.channel_count())))?;
 
     let bytes_per_texel = table.channel_count() * precision.bytes();
     let pitch = u32::try_from(width as usize * bytes_per_texel)
@@ -214,18 +136,7 @@ pub fn encode_dds(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     debug_assert_eq!(bytes.len(), DATA_OFFSET);
 
     // Table storage order is already texel order.
-    match precision {
-        Precision::F32 => {
-            for &v in &table.data {
-                bytes.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-        Precision::F16 => {
-            for &v in &table.data {
-                bytes.extend_from_slice(&half::f16::from_f32(v).to_le_bytes());
-            }
-        }
-    }
+    put_texels(&mut bytes, &table.data, precision);
     Ok(bytes)
 }
 
@@ -341,52 +252,14 @@ pub fn decode_dds(bytes: &[u8], path: &Path) -> Result<DdsTexture> {
         )));
     }
 
-    let texels = &bytes[DATA_OFFSET..];
-    let data = match precision {
-        Precision::F32 => texels.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect(),
-        Precision::F16 => texels.chunks_exact(2).map(|b| half::f16::from_le_bytes([b[0], b[1]]).to_f32()).collect(),
-    };
+    let data = texel_values(&bytes[DATA_OFFSET..], precision);
     Ok(DdsTexture { width, height, depth, channels, precision, volume, data })
-}
-
-impl DdsTexture {
-    /// The table this texture stores, given what its axes and channels are (the file does not say).
-    pub fn into_table(self, name: &str, axes: Vec<Axis>, channels: Vec<Channel>) -> Result<Table> {
-        let key = format!("table `{name}`");
-        let extents: &[u32] =
-            if self.volume { &[self.width, self.height, self.depth] } else { &[self.width, self.height] };
-        if axes.len() != extents.len() {
-            return Err(Error::invalid(
-                key,
-                format!(
-                    "{} axes given; a {} texture needs {}",
-                    axes.len(),
-                    if self.volume { "volume" } else { "2D" },
-                    extents.len()
-                ),
-            ));
-        }
-        for ((axis, &extent), dimension) in axes.iter().zip(extents).zip(["width", "height", "depth"]) {
-            if axis.count as u64 != u64::from(extent) {
-                return Err(Error::invalid(
-                    key,
-                    format!("axis `{}` has {} nodes, the texture {dimension} is {extent}", axis.name, axis.count),
-                ));
-            }
-        }
-        if channels.len() != self.channels {
-            return Err(Error::invalid(
-                key,
-                format!("{} channels given, the texture holds {}", channels.len(), self.channels),
-            ));
-        }
-        Table::new(name, axes, channels, self.data)
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::table::{Axis, Channel};
 
     fn channel_list(n: usize) -> Vec<Channel> {
         (0..n).map(|c| Channel::new(format!("c{c}"), format!("channel {c}"))).collect()

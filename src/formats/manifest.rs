@@ -154,6 +154,9 @@ pub struct FileEntry {
     /// The DXGI format of a DDS file, e.g. `R16G16_FLOAT`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dxgi_format: Option<String>,
+    /// The Vulkan format of a KTX2 file without its `VK_FORMAT_` prefix, e.g. `R16G16_SFLOAT`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vk_format: Option<String>,
     /// Axis 0 varies fastest in storage.
     pub axes: Vec<AxisEntry>,
     pub channels: Vec<Channel>,
@@ -180,15 +183,15 @@ pub struct FileEntry {
     pub accuracy: Vec<AccuracyReport>,
     pub sha256: String,
     pub bytes: u64,
-    /// For a packed texture (e.g. `fgd_lossless.dds`): how the source table is laid out in it and
+    /// For a packed texture (e.g. `fgd_lossless.dds`, `fgd_lossless.ktx2`): how the source table is laid out in it and
     /// the exact lookup. The entry's `axes` are then the texture's own texel axes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub packing: Option<PackingEntry>,
     /// The analytic approximation fitted to this table by the build (TIR with `tir.fit = "best"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<FitEntry>,
-    /// How a renderer binds and samples a DDS texture that its GPU filters (not a packing, whose
-    /// lookup is in `packing`).
+    /// How a renderer binds and samples a DDS or KTX2 texture that its GPU filters (not a packing,
+    /// whose lookup is in `packing`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub binding: Option<Binding>,
 }
@@ -365,6 +368,7 @@ mod tests {
             format: FileFormat::Bin,
             precision: Precision::F32,
             dxgi_format: None,
+            vk_format: None,
             axes: vec![AxisEntry::new(&axis, "axis 0")],
             channels: vec![Channel::new("value", "albedo")],
             integrand: "E[G1(wo)]".into(),

@@ -1,4 +1,4 @@
-//! File formats tmlut writes and reads back: DDS textures, OpenEXR images, the original
+//! File formats tmlut writes and reads back: DDS and KTX2 textures, OpenEXR images, the original
 //! transfer-matrix `.bin` layout, and the `manifest.json` that states every convention.
 //!
 //! Every writer goes through [`write_atomically`]: the bytes land in a temporary file beside the
@@ -9,6 +9,7 @@ pub mod bin;
 pub mod dds;
 #[cfg(feature = "exr")]
 pub mod exr;
+pub mod ktx2;
 pub mod manifest;
 
 use std::fs::File;
@@ -18,7 +19,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::table::Table;
+use crate::table::{Axis, Channel, Table};
 
 /// Precision a table's values are stored in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -120,6 +121,9 @@ pub enum FileFormat {
     Exr,
     /// The original transfer-matrix layout (single channel, node-aligned).
     Bin,
+    /// Khronos KTX 2.0: 2D or volume texture, uncompressed, with the table's description in its
+    /// key/value data.
+    Ktx2,
 }
 
 impl FileFormat {
@@ -128,6 +132,7 @@ impl FileFormat {
             FileFormat::Dds => "dds",
             FileFormat::Exr => "exr",
             FileFormat::Bin => "bin",
+            FileFormat::Ktx2 => "ktx2",
         }
     }
 
@@ -136,16 +141,18 @@ impl FileFormat {
             "dds" => Some(FileFormat::Dds),
             "exr" => Some(FileFormat::Exr),
             "bin" => Some(FileFormat::Bin),
+            "ktx2" => Some(FileFormat::Ktx2),
             _ => None,
         }
     }
 }
 
-/// Write a table in a format. DDS takes 2- and 3-axis tables with 1, 2 or 4 channels; `.bin`
-/// takes single-channel node-aligned tables; EXR takes any table.
+/// Write a table in a format. DDS and KTX2 take 2- and 3-axis tables with 1, 2 or 4 channels;
+/// `.bin` takes single-channel node-aligned tables; EXR takes any table.
 pub fn write_table(path: &Path, table: &Table, format: FileFormat, precision: Precision) -> Result<()> {
     match format {
         FileFormat::Dds => dds::write_dds(path, table, precision),
+        FileFormat::Ktx2 => ktx2::write_ktx2(path, table, precision),
         FileFormat::Bin => bin::write_bin(path, table),
         #[cfg(feature = "exr")]
         FileFormat::Exr => exr::write_exr(path, table, precision),
@@ -157,6 +164,185 @@ pub fn write_table(path: &Path, table: &Table, format: FileFormat, precision: Pr
 #[cfg(not(feature = "exr"))]
 pub(crate) fn no_exr_support(path: &Path) -> Error {
     Error::format(path, "this build of tmlut reads no OpenEXR; enable the `exr` feature of the tmlut crate")
+}
+
+/// A table's texels as a DDS or KTX2 file stores them: a 2D or volume texture of 1, 2 or 4 float
+/// channels in one precision, one mip level, channels interleaved, x fastest, then y (row 0
+/// first), then z. That is a table's own storage order: axis 0 is the width, axis 1 the height,
+/// axis 2 the depth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredTexture {
+    pub width: u32,
+    pub height: u32,
+    /// 1 for a 2D texture.
+    pub depth: u32,
+    pub channels: usize,
+    pub precision: Precision,
+    pub volume: bool,
+    /// Channels interleaved, x fastest, then y, then z.
+    pub data: Vec<f32>,
+}
+
+/// The extents of the texture that holds `table` in a `container` (`DDS`, `KTX2`), and whether it
+/// is a volume: 2 axes make a 2D texture, 3 a volume; the table must have 1, 2 or 4 channels and
+/// values that `precision` stores as finite numbers ([`check_storable_values`]).
+pub(crate) fn texture_extents(table: &Table, precision: Precision, container: &str) -> Result<([u32; 3], bool)> {
+    let key = format!("table `{}`", table.name);
+    if ![1, 2, 4].contains(&table.channel_count()) {
+        return Err(Error::invalid(
+            &key,
+            format!(
+                "has {} channels; a {container} texture holds 1, 2 or 4 (R, RG or RGBA float formats)",
+                table.channel_count()
+            ),
+        ));
+    }
+    let volume = match table.dimension() {
+        2 => false,
+        3 => true,
+        d => {
+            return Err(Error::invalid(
+                &key,
+                format!("has {d} axes; a {container} texture holds 2 (a 2D texture) or 3 (a volume texture)"),
+            ));
+        }
+    };
+    let mut extents = [1u32; 3];
+    for (extent, axis) in extents.iter_mut().zip(&table.axes) {
+        *extent = u32::try_from(axis.count).map_err(|_| {
+            Error::invalid(
+                &key,
+                format!("axis `{}` has {} nodes, more than a {container} extent holds", axis.name, axis.count),
+            )
+        })?;
+    }
+    check_storable_values(table, precision)?;
+    Ok((extents, volume))
+}
+
+/// `values` in `precision`, little-endian (the byte order of DDS, KTX2 and every GPU), appended
+/// to `bytes`; f16 rounded to nearest even.
+pub(crate) fn put_texels(bytes: &mut Vec<u8>, values: &[f32], precision: Precision) {
+    match precision {
+        Precision::F32 => values.iter().for_each(|v| bytes.extend_from_slice(&v.to_le_bytes())),
+        Precision::F16 => values.iter().for_each(|&v| bytes.extend_from_slice(&half::f16::from_f32(v).to_le_bytes())),
+    }
+}
+
+/// The values of little-endian texel bytes in `precision` (whole values only).
+pub(crate) fn texel_values(bytes: &[u8], precision: Precision) -> Vec<f32> {
+    match precision {
+        Precision::F32 => bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect(),
+        Precision::F16 => bytes.chunks_exact(2).map(|b| half::f16::from_le_bytes([b[0], b[1]]).to_f32()).collect(),
+    }
+}
+
+impl StoredTexture {
+    /// "2D texture" or "volume texture" with its extent, e.g. `volume texture 64 x 64 x 129`.
+    pub fn describe(&self) -> String {
+        if self.volume {
+            format!("volume texture {} x {} x {}", self.width, self.height, self.depth)
+        } else {
+            format!("2D texture {} x {}", self.width, self.height)
+        }
+    }
+
+    /// The table this texture stores, given what its axes and channels are.
+    pub fn into_table(self, name: &str, axes: Vec<Axis>, channels: Vec<Channel>) -> Result<Table> {
+        self.check_shape(name, &axes, channels.len())?;
+        Table::new(name, axes, channels, self.data)
+    }
+
+    /// Whether `axes` and `channels` channels describe this texture: one axis per dimension, each
+    /// with the texture's extent along it, and the texture's channels.
+    pub fn check_shape(&self, name: &str, axes: &[Axis], channels: usize) -> Result<()> {
+        let key = format!("table `{name}`");
+        let extents: &[u32] =
+            if self.volume { &[self.width, self.height, self.depth] } else { &[self.width, self.height] };
+        if axes.len() != extents.len() {
+            return Err(Error::invalid(
+                key,
+                format!(
+                    "{} axes given; a {} texture needs {}",
+                    axes.len(),
+                    if self.volume { "volume" } else { "2D" },
+                    extents.len()
+                ),
+            ));
+        }
+        for ((axis, &extent), dimension) in axes.iter().zip(extents).zip(["width", "height", "depth"]) {
+            if axis.count as u64 != u64::from(extent) {
+                return Err(Error::invalid(
+                    key,
+                    format!("axis `{}` has {} nodes, the texture {dimension} is {extent}", axis.name, axis.count),
+                ));
+            }
+        }
+        if channels != self.channels {
+            return Err(Error::invalid(key, format!("{channels} channels given, the texture holds {}", self.channels)));
+        }
+        Ok(())
+    }
+}
+
+/// The components of a float texel format of `channels` channels in `precision`, as DXGI and
+/// Vulkan name them: `R16G16` for two f16 channels.
+pub(crate) fn component_layout(channels: usize, precision: Precision) -> String {
+    let bits = precision.bytes() * 8;
+    ["R", "G", "B", "A"][..channels.min(4)].iter().map(|c| format!("{c}{bits}")).collect()
+}
+
+/// The name of the texel format a texture file states: `DXGI_FORMAT_R16G16_FLOAT` in a DDS file,
+/// `VK_FORMAT_R16G16_SFLOAT` in a KTX2 file; `None` for the formats that are not textures.
+pub fn texel_format_name(format: FileFormat, channels: usize, precision: Precision) -> Option<String> {
+    match format {
+        FileFormat::Dds => Some(format!("DXGI_FORMAT_{}", dds::dxgi_format_name(channels, precision))),
+        FileFormat::Ktx2 => Some(format!("VK_FORMAT_{}", ktx2::vk_format_name(channels, precision))),
+        FileFormat::Exr | FileFormat::Bin => None,
+    }
+}
+
+/// How a renderer binds a texture file (`format` DDS or KTX2) of `axes` (2 or 3, with their
+/// texture-coordinate formulas) and `channels` channels in `precision` and samples it with
+/// hardware filtering; `None` for the formats that are not textures.
+pub fn binding(axes: &[Axis], channels: usize, precision: Precision, format: FileFormat) -> Option<manifest::Binding> {
+    let texel_format = texel_format_name(format, channels, precision)?;
+    let dimension = axes.len();
+    let (hlsl_texel, swizzle) = match channels {
+        1 => ("float", "r"),
+        2 => ("float2", "rg"),
+        _ => ("float4", "rgba"),
+    };
+    let webgpu = match (channels, precision) {
+        (1, Precision::F16) => "r16float",
+        (2, Precision::F16) => "rg16float",
+        (_, Precision::F16) => "rgba16float",
+        (1, Precision::F32) => "r32float",
+        (2, Precision::F32) => "rg32float",
+        (_, Precision::F32) => "rgba32float",
+    };
+    let filterable = match precision {
+        Precision::F16 => "filterable".to_string(),
+        Precision::F32 => format!(
+            "filterable only with the float32-filterable feature; without it bind as unfilterable-float and filter by \
+             hand ({} textureLoad texels around each coordinate times the texel count, minus 0.5)",
+            1 << dimension
+        ),
+    };
+    let names = ["u", "v", "w"];
+    let coordinates =
+        axes.iter().zip(names).map(|(a, n)| format!("{n} = {}", a.texture_coordinate_formula())).collect();
+    let list = names[..dimension].join(", ");
+    Some(manifest::Binding {
+        texture: format!(
+            "Texture{dimension}D<{hlsl_texel}> (HLSL), texture_{dimension}d<f32> (WGSL); {texel_format}, WebGPU {webgpu} \
+             ({filterable}); one mip level; linear data (not sRGB)"
+        ),
+        sampler: "linear min and mag filter, clamp-to-edge addressing on every axis, mip level 0".into(),
+        coordinates,
+        hlsl: format!("tex.SampleLevel(linear_clamp, float{dimension}({list}), 0)"),
+        wgsl: format!("textureSampleLevel(tex, linear_clamp, vec{dimension}<f32>({list}), 0.0).{swizzle}"),
+    })
 }
 
 /// A table or axis refused while reading means the file, not an argument, is wrong: re-raise an

@@ -85,10 +85,11 @@ impl Shape {
     }
 
     /// The file of `folder` holding this kind's table: the one its manifest lists under the
-    /// table's name, not a packing; a DDS file before an OpenEXR one before a `.bin` one.
+    /// table's name, not a packing; a DDS file before a KTX2 one before an OpenEXR one before a
+    /// `.bin` one.
     fn find<'a>(&self, folder: &'a LutFolder) -> Result<&'a str> {
         let files = &folder.manifest().files;
-        [FileFormat::Dds, FileFormat::Exr, FileFormat::Bin]
+        [FileFormat::Dds, FileFormat::Ktx2, FileFormat::Exr, FileFormat::Bin]
             .iter()
             .find_map(|&format| {
                 files
@@ -120,8 +121,8 @@ macro_rules! common {
                 $shape.open(folder, file).map($handle)
             }
 
-            /// Open the file of `folder` that holds this table (a DDS file before an OpenEXR one
-            /// before a `.bin` one).
+            /// Open the file of `folder` that holds this table (a DDS file before a KTX2 one
+            /// before an OpenEXR one before a `.bin` one).
             pub fn from_folder(folder: &LutFolder) -> Result<Self> {
                 Self::open(folder, $shape.find(folder)?)
             }

@@ -25,7 +25,7 @@
 //! ```
 //!
 //! DDS files carry no description of their axes: the folder's `manifest.json` supplies it. EXR
-//! files written by tmlut carry their own; `.bin` files carry ranges and node counts but not axis
+//! and KTX2 files written by tmlut carry their own; `.bin` files carry ranges and node counts but not axis
 //! names, which the manifest adds when present.
 
 pub mod handles;
@@ -50,7 +50,7 @@ pub use texture::{
 use std::path::{Path, PathBuf};
 
 use crate::formats::manifest::{MANIFEST_FILE, check_file_name, pending_commit, pending_commit_error};
-use crate::formats::{bin, dds, read_bytes};
+use crate::formats::{bin, dds, ktx2, read_bytes};
 
 /// An output folder of tmlut and its manifest, read once and never changed: every file loaded
 /// through it is verified against the entry read here.
@@ -167,7 +167,8 @@ impl ManifestBeside {
     }
 }
 
-/// Decode a table file's bytes; a DDS file needs its manifest entry for axes and channels.
+/// Decode a table file's bytes; a DDS file needs its manifest entry for axes and channels (EXR and
+/// KTX2 files written by tmlut state their own).
 pub fn decode(path: &Path, bytes: &[u8], format: FileFormat, entry: Option<&FileEntry>) -> Result<Table> {
     let name = entry.map(|e| e.table.clone()).unwrap_or_else(|| file_stem(path));
     match format {
@@ -203,6 +204,10 @@ pub fn decode(path: &Path, bytes: &[u8], format: FileFormat, entry: Option<&File
             }
             Ok(table)
         }
+        // A KTX2 file written by tmlut describes its own table, as an EXR file does.
+        FileFormat::Ktx2 => {
+            ktx2::decode_ktx2(bytes, path)?.into_table().map_err(|e| crate::formats::as_format_error(e, path))
+        }
         #[cfg(feature = "exr")]
         FileFormat::Exr => crate::formats::exr::decode_exr(bytes, path),
         #[cfg(not(feature = "exr"))]
@@ -231,17 +236,21 @@ pub fn table_disagreements(entry: &FileEntry, format: FileFormat, bytes: &[u8], 
     if entry.format != format {
         found.push(format!("the file is {format:?}, the manifest states {:?}", entry.format));
     }
-    if format == FileFormat::Dds
-        && let Some((channels, precision)) = dds::stored_format(bytes)
+    let texel_format = match format {
+        FileFormat::Dds => dds::stored_format(bytes)
+            .map(|(c, p)| (dds::dxgi_format_name(c, p), p, entry.dxgi_format.as_deref(), "DXGI")),
+        FileFormat::Ktx2 => ktx2::stored_format(bytes)
+            .map(|(c, p)| (ktx2::vk_format_name(c, p), p, entry.vk_format.as_deref(), "Vulkan")),
+        FileFormat::Exr | FileFormat::Bin => None,
+    };
+    if let Some((stored, precision, stated, api)) = texel_format
+        && (stated != Some(stored.as_str()) || entry.precision != precision)
     {
-        let stored = dds::dxgi_format_name(channels, precision);
-        if entry.dxgi_format.as_deref() != Some(stored.as_str()) || entry.precision != precision {
-            found.push(format!(
-                "the texture is {stored}, the manifest states {} ({:?})",
-                entry.dxgi_format.as_deref().unwrap_or("no DXGI format"),
-                entry.precision
-            ));
-        }
+        found.push(format!(
+            "the texture is {stored}, the manifest states {} ({:?})",
+            stated.unwrap_or(&format!("no {api} format")),
+            entry.precision
+        ));
     }
     let stated: Vec<&crate::table::Axis> = entry.axes.iter().map(|a| &a.axis).collect();
     if stated.len() != table.axes.len() {
@@ -257,7 +266,7 @@ pub fn table_disagreements(entry: &FileEntry, format: FileFormat, bytes: &[u8], 
                         && stored.start as f32 == stated.start as f32
                         && stored.end as f32 == stated.end as f32
                 }
-                FileFormat::Exr => stored == stated,
+                FileFormat::Exr | FileFormat::Ktx2 => stored == stated,
             };
             if !same {
                 found.push(format!(
@@ -268,7 +277,8 @@ pub fn table_disagreements(entry: &FileEntry, format: FileFormat, bytes: &[u8], 
         }
     }
     if table.channels.len() != entry.channels.len()
-        || (format == FileFormat::Exr && table.channels.iter().zip(&entry.channels).any(|(a, b)| a.name != b.name))
+        || (matches!(format, FileFormat::Exr | FileFormat::Ktx2)
+            && table.channels.iter().zip(&entry.channels).any(|(a, b)| a.name != b.name))
     {
         let names = |c: &[crate::table::Channel]| c.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ");
         found.push(format!(
@@ -310,8 +320,8 @@ pub fn format_of_bytes(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
     format_of_magic(path, magic, bytes.len() >= 4)
 }
 
-/// The format of a file, from its first bytes (DDS and OpenEXR have magic numbers) or, for the
-/// magic-less `.bin` layout, its extension.
+/// The format of a file, from its first bytes (DDS, OpenEXR and KTX2 have magic numbers) or, for
+/// the magic-less `.bin` layout, its extension.
 pub fn format_of(path: impl AsRef<Path>) -> Result<FileFormat> {
     let path = path.as_ref();
     let mut magic = [0u8; 4];
@@ -328,11 +338,16 @@ fn format_of_magic(path: &Path, magic: [u8; 4], complete: bool) -> Result<FileFo
     if complete && magic == [0x76, 0x2f, 0x31, 0x01] {
         return Ok(FileFormat::Exr);
     }
+    // `«KTX`, the start of the 12-byte KTX identifier (the reader checks the rest: version 2.0).
+    if complete && magic == [0xAB, b'K', b'T', b'X'] {
+        return Ok(FileFormat::Ktx2);
+    }
     match path.extension().and_then(|e| e.to_str()).and_then(FileFormat::from_extension) {
         Some(FileFormat::Bin) => Ok(FileFormat::Bin),
         _ => Err(Error::format(
             path,
-            "not a table tmlut reads: allowed are DDS (magic `DDS `), OpenEXR (magic 76 2f 31 01) and the transfer-matrix `.bin` layout",
+            "not a table tmlut reads: allowed are DDS (magic `DDS `), OpenEXR (magic 76 2f 31 01), KTX2 (identifier \
+             «KTX 20»\\r\\n\\x1A\\n) and the transfer-matrix `.bin` layout",
         )),
     }
 }

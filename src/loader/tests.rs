@@ -1,12 +1,12 @@
 //! The typed handles against the table they wrap and the GPU emulator, the texture descriptor
-//! against the DDS files' own texel bytes, and the errors a renderer meets.
+//! against the DDS and KTX2 files' own texel bytes, and the errors a renderer meets.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::*;
 use crate::formats::manifest::{AxisEntry, ErrorEntry, MANIFEST_FILE};
-use crate::formats::{bin, dds};
+use crate::formats::{bin, dds, ktx2};
 use crate::model::folder::SampledTable;
 use crate::stats::{ErrorRecord, ErrorSummary};
 use crate::table::derived::{CRITICAL_ANGLE_OFFSET, critical_angle_offset};
@@ -71,7 +71,8 @@ fn write(dir: &Path, file: &str, table: &Table, format: FileFormat, precision: P
     let bytes = match format {
         FileFormat::Dds => dds::encode_dds(table, precision).unwrap(),
         FileFormat::Bin => bin::encode_bin(table).unwrap(),
-        FileFormat::Exr => unreachable!("the tests write DDS and .bin files"),
+        FileFormat::Ktx2 => ktx2::encode_ktx2(table, precision).unwrap(),
+        FileFormat::Exr => unreachable!("the tests write DDS, KTX2 and .bin files"),
     };
     std::fs::write(dir.join(file), &bytes).unwrap();
     let stored: Vec<f32> = table.data.iter().map(|&v| precision.round(v)).collect();
@@ -83,6 +84,7 @@ fn write(dir: &Path, file: &str, table: &Table, format: FileFormat, precision: P
         format,
         precision,
         dxgi_format: (format == FileFormat::Dds).then(|| dds::dxgi_format_name(table.channel_count(), precision)),
+        vk_format: (format == FileFormat::Ktx2).then(|| ktx2::vk_format_name(table.channel_count(), precision)),
         axes: table.axes.iter().zip(along).map(|(a, s)| AxisEntry::new(a, s)).collect(),
         channels: table.channels.clone(),
         integrand: "test".into(),
@@ -125,6 +127,21 @@ fn folder() -> (tempfile::TempDir, LutFolder) {
         write(d, "gd.dds", &gd_table(), FileFormat::Dds, Precision::F16),
         write(d, "tir.dds", &tir_table(), FileFormat::Dds, Precision::F32),
         write(d, "fgd.bin", &fgd_table(), FileFormat::Bin, Precision::F32),
+    ]);
+    Manifest { generator: "tmlut test".into(), files, scene: None }.write(d).unwrap();
+    let folder = LutFolder::open(d).unwrap();
+    (dir, folder)
+}
+
+/// A folder of the same tables as KTX2 files only, as `[T.output] formats = ["ktx2"]` builds it.
+fn ktx2_folder() -> (tempfile::TempDir, LutFolder) {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let files = BTreeMap::from([
+        write(d, "karis.ktx2", &karis_table(), FileFormat::Ktx2, Precision::F16),
+        write(d, "belcour.ktx2", &belcour_table(), FileFormat::Ktx2, Precision::F16),
+        write(d, "gd.ktx2", &gd_table(), FileFormat::Ktx2, Precision::F16),
+        write(d, "tir.ktx2", &tir_table(), FileFormat::Ktx2, Precision::F32),
     ]);
     Manifest { generator: "tmlut test".into(), files, scene: None }.write(d).unwrap();
     let folder = LutFolder::open(d).unwrap();
@@ -341,4 +358,73 @@ fn the_loader_uses_only_tables_formats_errors_and_the_gpu_sampler() {
             assert!(allowed.contains(&module), "src/loader/{file} uses crate::{module}; allowed: {allowed:?}");
         }
     }
+}
+
+#[test]
+fn ktx2_files_open_as_their_dds_twins_with_the_same_texels_and_descriptors() {
+    let (_dds_dir, dds) = folder();
+    let (dir, ktx) = ktx2_folder();
+    let pairs = [
+        (
+            KarisLut::from_folder(&dds).unwrap().texture().unwrap(),
+            KarisLut::from_folder(&ktx).unwrap().texture().unwrap(),
+            "karis.ktx2",
+        ),
+        (
+            BelcourLut::from_folder(&dds).unwrap().texture().unwrap(),
+            BelcourLut::from_folder(&ktx).unwrap().texture().unwrap(),
+            "belcour.ktx2",
+        ),
+        (
+            GdLut::from_folder(&dds).unwrap().texture().unwrap(),
+            GdLut::from_folder(&ktx).unwrap().texture().unwrap(),
+            "gd.ktx2",
+        ),
+        (
+            TirLut::from_folder(&dds).unwrap().texture().unwrap(),
+            TirLut::from_folder(&ktx).unwrap().texture().unwrap(),
+            "tir.ktx2",
+        ),
+    ];
+    for (from_dds, from_ktx2, file) in pairs {
+        assert_eq!(from_ktx2.descriptor(), from_dds.descriptor(), "{file}");
+        assert_eq!(from_ktx2.texels(), from_dds.texels(), "{file}");
+        // The texel bytes are the file's level 0, where its level index says.
+        let bytes = std::fs::read(dir.path().join(file)).unwrap();
+        let level = u64::from_le_bytes(bytes[80..88].try_into().unwrap()) as usize;
+        assert_eq!(&bytes[level..], &from_ktx2.to_bytes()[..], "{file}");
+    }
+    let (karis_dds, karis_ktx) = (KarisLut::from_folder(&dds).unwrap(), KarisLut::from_folder(&ktx).unwrap());
+    let (tir_dds, tir_ktx) = (TirLut::from_folder(&dds).unwrap(), TirLut::from_folder(&ktx).unwrap());
+    for &a in &PARAMETERS {
+        for &b in &PARAMETERS {
+            assert_eq!(karis_ktx.sample(a, b), karis_dds.sample(a, b), "karis at ({a}, {b})");
+            assert_eq!(karis_ktx.sample_gpu(a, b), karis_dds.sample_gpu(a, b), "karis at ({a}, {b})");
+            assert_eq!(tir_ktx.sample_gpu(a, b, 0.9), tir_dds.sample_gpu(a, b, 0.9), "tir at ({a}, {b})");
+        }
+    }
+}
+
+#[test]
+fn a_ktx2_file_is_verified_against_what_its_entry_states() {
+    let (dir, luts) = ktx2_folder();
+    let verify = |change: &dyn Fn(&mut FileEntry)| {
+        let mut entry = luts.entry("tir.ktx2").unwrap().clone();
+        change(&mut entry);
+        load_verified(dir.path().join("tir.ktx2"), &entry).map(|_| ()).map_err(|e| e.to_string())
+    };
+    assert_eq!(verify(&|_| {}), Ok(()));
+    // The file states its axes and channels: a manifest that disagrees is refuted by the file.
+    let err = verify(&|e| e.axes[2].axis.start = -1.0).unwrap_err();
+    assert!(err.contains("axis `critical_angle_offset`: the file has 6 nodes over [-1.5, 1.5]"), "{err}");
+    let err = verify(&|e| e.channels[0].name = "other".into()).unwrap_err();
+    assert!(err.contains("the file has the channels [c0], the manifest states [other]"), "{err}");
+    let err = verify(&|e| e.vk_format = Some("R16_SFLOAT".into())).unwrap_err();
+    assert!(err.contains("the texture is R32_SFLOAT, the manifest states R16_SFLOAT"), "{err}");
+    let err = verify(&|e| e.format = FileFormat::Dds).unwrap_err();
+    assert!(err.contains("the file is Ktx2, the manifest states Dds"), "{err}");
+    // Without a manifest the file alone describes its table.
+    let alone = tempfile::tempdir().unwrap();
+    std::fs::copy(dir.path().join("tir.ktx2"), alone.path().join("tir.ktx2")).unwrap();
+    assert_eq!(load_table(alone.path().join("tir.ktx2")).unwrap(), luts.load("tir.ktx2").unwrap());
 }

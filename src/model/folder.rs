@@ -22,8 +22,8 @@ use std::sync::Mutex;
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use crate::error::{Error, Result};
 use crate::fit::forms::Form;
+use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
-use crate::formats::{FileFormat, dds};
 use crate::loader::LutFolder;
 use crate::packing::{Filter, PackedFgd, Packing, Texture3D};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
@@ -200,6 +200,8 @@ impl FolderTables {
         let find = |table: &str, format: FileFormat| {
             entries.iter().find(|(_, e)| e.table == table && e.format == format && e.packing.is_none())
         };
+        // The texture of a table a GPU binds: its DDS file, else its KTX2 file.
+        let texture = |table: &str| find(table, FileFormat::Dds).or_else(|| find(table, FileFormat::Ktx2));
         let albedo = match albedo {
             AlbedoPath::Fgd => {
                 let slices = slices_of("fgd", Quantity::Albedo)?;
@@ -218,24 +220,24 @@ impl FolderTables {
                     (_, None, None) => None,
                 };
                 if slices.is_empty() && full.is_none() {
-                    return Err(missing("FGD table (fgd_lossless.dds, fgd.exr, fgd.bin or FGD slices)"));
+                    return Err(missing("FGD table (fgd_lossless.dds or .ktx2, fgd.exr, fgd.bin or FGD slices)"));
                 }
                 Albedo::Fgd { slices, full }
             }
             AlbedoPath::Belcour => {
-                let (file, entry) = find("belcour", FileFormat::Dds).ok_or_else(|| missing("belcour.dds"))?;
+                let (file, entry) = texture("belcour").ok_or_else(|| missing("belcour.dds or belcour.ktx2"))?;
                 let basis = entry.fresnel_basis.clone().ok_or_else(|| missing("Fresnel basis beside belcour.dds"))?;
                 Albedo::Belcour { texture: SampledTable::new(&folder.load(file)?)?, basis: Box::new(basis) }
             }
             AlbedoPath::Karis => {
-                let (file, _) = find("karis", FileFormat::Dds).ok_or_else(|| missing("karis.dds"))?;
+                let (file, _) = texture("karis").ok_or_else(|| missing("karis.dds or karis.ktx2"))?;
                 Albedo::Karis { texture: SampledTable::new(&folder.load(file)?)? }
             }
         };
         let tir = match tir {
             TirPath::Table => {
                 let slices = slices_of("tir", Quantity::Tir)?;
-                let full = match find("tir", FileFormat::Dds).or_else(|| find("tir", FileFormat::Bin)) {
+                let full = match texture("tir").or_else(|| find("tir", FileFormat::Bin)) {
                     Some((file, _)) => {
                         let texture = SampledTable::new(&folder.load(file)?)?;
                         if point_of(&texture.axes, 0.5, 0.5, 0.5, 0.0).is_none() {
@@ -253,7 +255,7 @@ impl FolderTables {
                     None => None,
                 };
                 if slices.is_empty() && full.is_none() {
-                    return Err(missing("TIR table (tir.dds, tir.bin or TIR slices)"));
+                    return Err(missing("TIR table (tir.dds, tir.ktx2, tir.bin or TIR slices)"));
                 }
                 Tir::Table { slices, full }
             }
@@ -269,7 +271,7 @@ impl FolderTables {
             }
             TirPath::Off => Tir::Off,
         };
-        let gd = match find("gd", FileFormat::Dds).or_else(|| find("gd", FileFormat::Bin)) {
+        let gd = match texture("gd").or_else(|| find("gd", FileFormat::Bin)) {
             Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
             None => None,
         };
@@ -450,10 +452,7 @@ fn packed_fgd(folder: &LutFolder, file: &str, entry: &FileEntry) -> Result<Packe
     let packing_entry = entry.packing.as_ref().expect("chosen for its packing");
     let packing = Packing::parse(&packing_entry.name)?;
     let path = folder.dir().join(file);
-    let texture = dds::read_dds(&path)?;
-    let table =
-        texture.into_table("fgd", entry.axes.iter().map(|a| a.axis.clone()).collect(), entry.channels.clone())?;
-    let sampled = SampledTable::new(&table)?;
+    let sampled = SampledTable::new(&folder.load(file)?)?;
     let texels = sampled.channels.into_iter().next().ok_or_else(|| Error::format(&path, "has no channel"))?;
     let axes: Vec<Axis> = packing_entry.source_axes.iter().map(|a| a.axis.clone()).collect();
     PackedFgd::with_texture(texels, packing, entry.precision, &axes).map_err(|e| Error::format(&path, e.to_string()))

@@ -71,9 +71,12 @@ pub struct FgdSettings {
     /// The check between nodes: random points against the exact integral.
     pub interpolation: super::interpolation::InterpolationConfig,
     pub output: OutputConfig,
-    /// Volume-texture packings written beside the 4D table (`fgd_<packing>.dds` with its HLSL and
-    /// WGSL lookup), in the precision of `output.precision`; see `docs/packing.md`.
+    /// Volume-texture packings written beside the 4D table (`fgd_<packing>.dds` or `.ktx2`, see
+    /// `packing_formats`, with its HLSL and WGSL lookup), in the precision of `output.precision`;
+    /// see `docs/packing.md`.
     pub packings: Vec<Packing>,
+    /// The files each packing's texture is written to: `fgd_<packing>.dds`, `.ktx2` or both.
+    pub packing_formats: Vec<FileFormat>,
 }
 
 impl Default for FgdSettings {
@@ -103,6 +106,7 @@ impl Default for FgdSettings {
             interpolation: super::interpolation::InterpolationConfig { points: 1024, samples: 1 << 14 },
             output: OutputConfig { formats: vec![FileFormat::Exr], precision: Precision::F32 },
             packings: vec![Packing::Lossless],
+            packing_formats: vec![FileFormat::Dds],
         }
     }
 }
@@ -150,6 +154,11 @@ impl FgdSettings {
             }
             packing.extent(counts).map_err(|e| Error::invalid("fgd.packings", strip_error_key(&e)))?;
         }
+        super::settings::check_packing_formats(
+            "fgd.packing_formats",
+            &self.packing_formats,
+            !self.packings.is_empty(),
+        )?;
         Ok(())
     }
 
@@ -250,7 +259,11 @@ impl TableRecipe for FgdSettings {
 
     fn companions(&self) -> super::Companions {
         use super::Companions;
-        Companions { packings: self.packings.clone(), fitted_form: false }
+        Companions {
+            packings: self.packings.clone(),
+            packing_formats: self.packing_formats.clone(),
+            fitted_form: false,
+        }
     }
 
     fn kept_measure_intervals(&self) -> Option<usize> {

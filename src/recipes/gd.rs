@@ -71,7 +71,7 @@ impl GdSettings {
         self.sampling.validate("gd.sampling")?;
         self.reference.validate("gd.reference")?;
         self.interpolation.validate("gd.interpolation")?;
-        self.output.validate("gd.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr])
+        self.output.validate("gd.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2])
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {

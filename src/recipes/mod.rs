@@ -111,6 +111,8 @@ pub use driver::{Integrated, Kernel, Metadata, Provenance, SamplingRecord, Table
 pub struct Companions {
     /// Volume-texture packings of the table with their shader lookups (FGD).
     pub packings: Vec<crate::packing::Packing>,
+    /// The texture files each packing is written to (DDS, KTX2).
+    pub packing_formats: Vec<crate::formats::FileFormat>,
     /// The analytic form fitted to the table, written as shader functions (TIR with `fit = "best"`;
     /// `docs/fit.md`).
     pub fitted_form: bool,

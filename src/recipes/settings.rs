@@ -65,29 +65,48 @@ impl ReferenceConfig {
 #[serde(deny_unknown_fields)]
 pub struct OutputConfig {
     pub formats: Vec<FileFormat>,
-    /// Precision of DDS and EXR files (`.bin` is always f32).
+    /// Precision of DDS, KTX2 and EXR files (`.bin` is always f32).
     pub precision: Precision,
 }
 
 impl OutputConfig {
     pub fn validate(&self, key: &str, allowed: &[FileFormat]) -> Result<()> {
-        for (k, format) in self.formats.iter().enumerate() {
-            if self.formats[..k].contains(format) {
-                return Err(Error::invalid(
-                    format!("{key}.formats"),
-                    format!("`{}` is listed twice; each format is written once", format.extension()),
-                ));
-            }
-            if !allowed.contains(format) {
-                let names: Vec<&str> = allowed.iter().map(|f| f.extension()).collect();
-                return Err(Error::invalid(
-                    format!("{key}.formats"),
-                    format!("`{}` cannot hold this table; allowed: {}", format.extension(), names.join(", ")),
-                ));
-            }
-        }
-        Ok(())
+        check_formats(&format!("{key}.formats"), &self.formats, allowed)
     }
+}
+
+/// A list of file formats under `key`: each allowed, none twice.
+pub fn check_formats(key: &str, formats: &[FileFormat], allowed: &[FileFormat]) -> Result<()> {
+    for (k, format) in formats.iter().enumerate() {
+        if formats[..k].contains(format) {
+            return Err(Error::invalid(
+                key,
+                format!("`{}` is listed twice; each format is written once", format.extension()),
+            ));
+        }
+        if !allowed.contains(format) {
+            let names: Vec<&str> = allowed.iter().map(|f| f.extension()).collect();
+            return Err(Error::invalid(
+                key,
+                format!("`{}` cannot hold this table; allowed: {}", format.extension(), names.join(", ")),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The texture files of a table's packings under `key`: DDS, KTX2 or both, at least one where
+/// any packing is written (`packed`).
+pub fn check_packing_formats(key: &str, formats: &[FileFormat], packed: bool) -> Result<()> {
+    let allowed = [FileFormat::Dds, FileFormat::Ktx2];
+    check_formats(key, formats, &allowed)?;
+    if packed && formats.is_empty() {
+        return Err(Error::invalid(
+            key,
+            "is empty, so the packings asked for would not be written; allowed: dds, ktx2",
+        ));
+    }
+    Ok(())
 }
 
 /// A node count must be at least 2 (an axis interpolates between nodes) and at most

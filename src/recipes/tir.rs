@@ -155,7 +155,7 @@ impl TirSettings {
         self.sampling.validate("tir.sampling")?;
         self.reference.validate("tir.reference")?;
         self.interpolation.validate("tir.interpolation")?;
-        self.output.validate("tir.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr])
+        self.output.validate("tir.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2])
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
@@ -307,7 +307,7 @@ impl TableRecipe for TirSettings {
 
     fn companions(&self) -> super::Companions {
         use super::Companions;
-        Companions { packings: Vec::new(), fitted_form: self.fit == TirFit::Best }
+        Companions { fitted_form: self.fit == TirFit::Best, ..Companions::default() }
     }
 
     /// A lookup passes `(mu, alpha, eta)` whatever the third axis samples.

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use crate::error::Result;
 use crate::formats::manifest::{FileEntry, MANIFEST_FILE};
-use crate::formats::{FileFormat, as_format_error, bin, dds};
+use crate::formats::{FileFormat, as_format_error, bin, dds, ktx2};
 use crate::loader::{byte_disagreements, sha256_hex, table_disagreements};
 use crate::table::{Axis, Placement, Table};
 
@@ -33,16 +33,11 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
     let (data, table): (Vec<f32>, Option<Table>) = match format {
         FileFormat::Dds => {
             let texture = dds::decode_dds(&bytes, path)?;
-            let kind = if texture.volume { "volume texture" } else { "2D texture" };
-            let size = if texture.volume {
-                format!("{} x {} x {}", texture.width, texture.height, texture.depth)
-            } else {
-                format!("{} x {}", texture.width, texture.height)
-            };
             let _ = writeln!(
                 w,
-                "format:   DDS with DX10 header, {}, {kind} {size}, 1 mip level",
-                dds::dxgi_format_name(texture.channels, texture.precision)
+                "format:   DDS with DX10 header, {}, {}, 1 mip level",
+                dds::dxgi_format_name(texture.channels, texture.precision),
+                texture.describe()
             );
             let table = entry.and_then(|entry| {
                 let axes = entry.axes.iter().map(|a| a.axis.clone()).collect();
@@ -55,6 +50,26 @@ pub fn inspect(path: &Path) -> Result<Inspection> {
                 }
             });
             (texture.data, table)
+        }
+        FileFormat::Ktx2 => {
+            let file = ktx2::decode_ktx2(&bytes, path)?;
+            let (texture, description) = (&file.texture, &file.description);
+            let _ = writeln!(
+                w,
+                "format:   KTX2, VK_FORMAT_{}, {}, 1 mip level, no supercompression, orientation {}, written by {}",
+                ktx2::vk_format_name(texture.channels, texture.precision),
+                texture.describe(),
+                description.orientation,
+                description.writer
+            );
+            let data = texture.data.clone();
+            let table = file.into_table().map_err(|e| as_format_error(e, path))?;
+            if entry.is_none() {
+                let _ = writeln!(w, "table:    {} (described by the file's key/value data)", table.name);
+                write_axes(w, &table.axes);
+                write_channels(w, &table);
+            }
+            (data, Some(table))
         }
         FileFormat::Bin => {
             let table = bin::decode_bin(&bytes, path, None)?;

@@ -97,14 +97,15 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                     }),
                     output: slices.output(),
                     packings: Vec::new(),
+                    packing_formats: Vec::new(),
                     fit_seed: None,
                 }
             }
             other => {
                 let recipe = other.recipe().expect("every other planned build is a full recipe");
-                let packings = match other {
-                    PlannedBuild::Fgd(settings) => settings.packings.clone(),
-                    _ => Vec::new(),
+                let (packings, packing_formats) = match other {
+                    PlannedBuild::Fgd(settings) => (settings.packings.clone(), settings.packing_formats.clone()),
+                    _ => (Vec::new(), Vec::new()),
                 };
                 // A TIR table over a sub-range is not what the analytic forms are fitted to: only
                 // the full table of the fitted-form item is, and that table is not written.
@@ -114,7 +115,13 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                     }
                     _ => (recipe.output().clone(), None),
                 };
-                Job { run: Box::new(move |progress| recipe.build(seed, progress)), output, packings, fit_seed }
+                Job {
+                    run: Box::new(move |progress| recipe.build(seed, progress)),
+                    output,
+                    packings,
+                    packing_formats,
+                    fit_seed,
+                }
             }
         })
         .collect();

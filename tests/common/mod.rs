@@ -155,18 +155,26 @@ samples = 1024
 ";
 
 /// [`SMALL_SET`] written in every format: FGD, GD and TIR also in the original `.bin` layout
-/// (uniform axes, the only ones that layout can hold) beside their EXR and DDS files.
+/// (uniform axes, the only ones that layout can hold) beside their EXR, DDS and KTX2 files, FGD's
+/// packing as DDS and KTX2.
 pub fn small_set_in_every_format() -> String {
     let mut config = SMALL_SET.to_string();
     for (table, formats, more) in [
-        ("fgd", r#"["bin", "exr"]"#, "eta_axis = \"uniform\"\nkappa_axis = \"uniform\"\n"),
-        ("gd", r#"["bin", "dds", "exr"]"#, ""),
-        ("tir", r#"["bin", "dds", "exr"]"#, "eta_axis = \"eta\"\n"),
+        (
+            "fgd",
+            r#"["bin", "exr"]"#,
+            "eta_axis = \"uniform\"\nkappa_axis = \"uniform\"\npacking_formats = [\"dds\", \"ktx2\"]\n",
+        ),
+        ("gd", r#"["bin", "dds", "exr", "ktx2"]"#, ""),
+        ("tir", r#"["bin", "dds", "exr", "ktx2"]"#, "eta_axis = \"eta\"\n"),
     ] {
         let header = format!("[{table}]\n");
         let uniform = format!("{header}mu_axis = \"uniform\"\nroughness_axis = \"alpha\"\n{more}");
         config = config.replacen(&header, &uniform, 1);
         config.push_str(&format!("[{table}.output]\nformats = {formats}\nprecision = \"f32\"\n"));
+    }
+    for table in ["belcour", "karis"] {
+        config.push_str(&format!("[{table}.output]\nformats = [\"dds\", \"exr\", \"ktx2\"]\nprecision = \"f16\"\n"));
     }
     config
 }
