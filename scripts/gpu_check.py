@@ -7,8 +7,15 @@ For each scene shader (<scene>.wgsl, <scene>.shader.json, <scene>.reference.json
 `tmlut shader --reference-views N`), every texture of the shader is created from the table file's
 texels as stored (the DDS header gives format and extent) and each material's function is run
 once per reference view in a compute shader. Prints the largest |GPU - CPU| over albedo, top
-albedo, lobe energies, roughnesses and GD, and the NaN count; exits non-zero above 1e-5 or on any
+albedo, lobe energies and cosines; over lobe roughnesses and GD, each weighted by its lobe's
+energy (largest channel); and the NaN count; exits non-zero where either is above 1e-5, or on any
 NaN.
+
+Why the weight: a lobe's roughness comes from its asymmetry, the ratio of two increments of
+cumulative reflectances, so in f32 it is known to about 1e-7 / (the lobe's energy), and its GD
+follows it (and is 0 for a lobe without energy, which rounding decides for a lobe at 1e-8). What
+a renderer draws is the lobe's energy times its shape, so the shape's error counts in proportion
+to the energy it shapes. The unweighted largest difference is printed too.
 """
 
 import json
@@ -57,11 +64,25 @@ def device():
     return adapter.request_device_sync()
 
 
+class Worst:
+    """The largest |GPU - CPU| of one kind of value, and where it was."""
+
+    def __init__(self):
+        self.difference, self.where = 0.0, ""
+
+    def record(self, difference, where):
+        if difference > self.difference:
+            self.difference, self.where = difference, where
+
+    def merge(self, other):
+        self.record(other.difference, other.where)
+
+
 def check_scene(dev, shader_dir, luts):
     descriptions = sorted(shader_dir.glob("*.shader.json"))
     if not descriptions:
         raise SystemExit(f"{shader_dir}: no .shader.json")
-    worst = 0.0
+    worst = {"values": Worst(), "weighted shape": Worst(), "shape": Worst()}
     nans = 0
     points = 0
     for description_path in descriptions:
@@ -141,14 +162,20 @@ fn tm_main(@builtin(global_invocation_id) id: vec3<u32>) {{
             out = np.frombuffer(dev.queue.read_buffer(out_buffer), dtype=np.float32).reshape(len(mus), stride)
             nans += int(np.count_nonzero(~np.isfinite(out)))
             for row, view in zip(out, views):
-                expected = list(view["albedo"]) + list(view["top_albedo"])
-                got = list(row[:6])
+                at = f"{stem} / {material['material']}, mu {view['mu']:.6g}"
+                values = list(zip(list(view["albedo"]) + list(view["top_albedo"]), row[:6]))
                 for k, lobe in enumerate(view["lobes"]):
                     b = 6 + 6 * k
-                    expected += list(lobe["energy"]) + [lobe["roughness"], lobe["incident"][2], lobe["gd"]]
-                    got += list(row[b : b + 6])
-                for e, g in zip(expected, got):
-                    worst = max(worst, abs(float(g) - e)) if math.isfinite(g) else worst
+                    values += list(zip(list(lobe["energy"]) + [lobe["incident"][2]], list(row[b : b + 3]) + [row[b + 4]]))
+                    energy = max(lobe["energy"])
+                    for name, expected, got in [("roughness", lobe["roughness"], row[b + 3]), ("GD", lobe["gd"], row[b + 5])]:
+                        if math.isfinite(got):
+                            where = f"{at}, lobe {k} {name} (energy {energy:.3g})"
+                            worst["shape"].record(abs(float(got) - expected), where)
+                            worst["weighted shape"].record(energy * abs(float(got) - expected), where)
+                for expected, got in values:
+                    if math.isfinite(got):
+                        worst["values"].record(abs(float(got) - expected), at)
                 points += 1
             print(f"  {stem} / {material['material']}: {len(mus)} views")
     return worst, nans, points
@@ -158,13 +185,20 @@ def main(argv):
     if len(argv) < 2 or len(argv) % 2:
         raise SystemExit(__doc__)
     dev = device()
-    worst, nans, points = 0.0, 0, 0
+    worst = {"values": Worst(), "weighted shape": Worst(), "shape": Worst()}
+    nans, points = 0, 0
     for shader_dir, luts in zip(argv[0::2], argv[1::2]):
         w, n, p = check_scene(dev, Path(shader_dir), Path(luts))
-        worst, nans, points = max(worst, w), nans + n, points + p
-    print(f"scene shaders on the GPU API vs the CPU evaluator: {points} (material, view) points, "
-          f"max |GPU - CPU| {worst:.3e} (tolerance {TOLERANCE:g}), {nans} NaN/inf")
-    if worst > TOLERANCE or nans:
+        for kind in worst:
+            worst[kind].merge(w[kind])
+        nans, points = nans + n, points + p
+    values, weighted, shape = worst["values"], worst["weighted shape"], worst["shape"]
+    print(f"scene shaders on the GPU API vs the CPU evaluator: {points} (material, view) points, tolerance {TOLERANCE:g}\n"
+          f"  albedo, top albedo, lobe energies and cosines: max |GPU - CPU| {values.difference:.3e} ({values.where})\n"
+          f"  lobe roughness and GD times the lobe's energy: max {weighted.difference:.3e} ({weighted.where})\n"
+          f"  lobe roughness and GD, unweighted: max {shape.difference:.3e} ({shape.where})\n"
+          f"  {nans} NaN/inf")
+    if values.difference > TOLERANCE or weighted.difference > TOLERANCE or nans:
         raise SystemExit("FAILED")
 
 

@@ -102,6 +102,8 @@ pub enum Builtin {
     Log,
     Pow,
     Smoothstep,
+    Acos,
+    Dot,
 }
 
 impl Builtin {
@@ -117,6 +119,8 @@ impl Builtin {
             Builtin::Log => "log",
             Builtin::Pow => "pow",
             Builtin::Smoothstep => "smoothstep",
+            Builtin::Acos => "acos",
+            Builtin::Dot => "dot",
         }
     }
 }
