@@ -102,7 +102,6 @@ pub enum Builtin {
     Log,
     Pow,
     Smoothstep,
-    Acos,
     Dot,
 }
 
@@ -119,7 +118,6 @@ impl Builtin {
             Builtin::Log => "log",
             Builtin::Pow => "pow",
             Builtin::Smoothstep => "smoothstep",
-            Builtin::Acos => "acos",
             Builtin::Dot => "dot",
         }
     }

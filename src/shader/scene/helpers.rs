@@ -275,6 +275,34 @@ pub(super) fn asinh(module: &mut Module) {
     );
 }
 
+/// `acos(x)` for `x` in [0, 1] to 2e-8 before rounding (Abramowitz & Stegun, Handbook of
+/// Mathematical Functions, 4.4.46): `sqrt(1 - x)` times a polynomial of degree 7. Vulkan allows the
+/// builtin `acos` an error inherited from `atan2`'s 4096 ulp, and Mesa's lavapipe (LLVM 15) is off
+/// by up to 1.6e-4 rad (median 6e-5 over 2^20 cosines), which the critical-angle axis (spaced in
+/// `asinh(offset / 0.001)`) turned into TIR errors of 1e-4; this one is within 2.4e-7 in f32.
+pub(super) fn acos(module: &mut Module) {
+    module.comment("acos(x) on [0, 1] to 2e-8 (Abramowitz & Stegun 4.4.46), a polynomial in x times sqrt(1 - x).");
+    const A: [f64; 8] = [
+        1.5707963050,
+        -0.2145988016,
+        0.0889789874,
+        -0.0501743046,
+        0.0308918810,
+        -0.0170881256,
+        0.0066700901,
+        -0.0012624911,
+    ];
+    // Horner's scheme from the highest coefficient.
+    let x = name("x");
+    let polynomial = A[..7].iter().rev().fold(f(A[7] as f32), |p, &a| f(a as f32) + x.clone() * p);
+    module.function(
+        "tm_acos",
+        vec![("x", Ty::F32)],
+        Ty::F32,
+        vec![Stmt::Return((f(1.0) - x.clone()).max(f(0.0)).sqrt() * polynomial)],
+    );
+}
+
 /// The entries of a 6-flux transfer matrix that are ever non-zero ([`crate::model::tm6::Matrix6`]).
 pub(super) const MATRIX6: [&str; 20] = [
     "m11", "m12", "m21", "m22", "m31", "m32", "m33", "m34", "m35", "m36", "m41", "m42", "m43", "m44", "m45", "m46",

@@ -161,6 +161,7 @@ struct Needs {
     fit: bool,
     trilinear: bool,
     asinh: bool,
+    acos: bool,
     six_flux: bool,
 }
 
@@ -230,6 +231,9 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     }
     if g.needs.asinh {
         helpers::asinh(&mut module);
+    }
+    if g.needs.acos {
+        helpers::acos(&mut module);
     }
     if g.needs.six_flux {
         helpers::six_flux(&mut module);
@@ -565,7 +569,9 @@ impl Generator<'_> {
 
     /// The 3D TIR table at the point [`crate::table::derived::point_of`] gives: each axis's
     /// quantity by name, `eta` itself or the critical-angle offset `asin(eta) - acos(mu)` (its
-    /// `asin(eta)` folded to a constant).
+    /// `asin(eta)` folded to a constant; `acos` by [`helpers::acos`], not the builtin, whose error
+    /// Vulkan bounds only loosely and which the axis's asinh spacing magnifies a thousandfold near
+    /// the critical angle).
     fn tir_volume(&mut self, m: &ShaderMaterial, t: &TableFile, mu: Expr, alpha: Expr, eta: f64) -> Result<Expr> {
         let mut point = Vec::with_capacity(3);
         for axis in &t.axes {
@@ -574,7 +580,8 @@ impl Generator<'_> {
                 "alpha" => alpha.clone(),
                 "eta" => f(eta as f32),
                 CRITICAL_ANGLE_OFFSET => {
-                    f(eta.clamp(0.0, 1.0).asin() as f32) - call(Builtin::Acos, vec![mu.clone().clamp(f(0.0), f(1.0))])
+                    self.needs.acos = true;
+                    f(eta.clamp(0.0, 1.0).asin() as f32) - func("tm_acos", vec![mu.clone().clamp(f(0.0), f(1.0))])
                 }
                 other => {
                     return Err(self.refuse(
