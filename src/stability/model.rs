@@ -12,7 +12,7 @@ use crate::model::{FluxModel, Interface, Layer, Lookup, Material, Medium, Quanti
 use crate::random_walk::{WalkSettings, directional_albedo};
 
 /// View cosines: the horizon, a rounding step above it, grazing, middle, the normal.
-const VIEWS: [f64; 5] = [0.0, 1e-7, 1e-3, 0.5, 1.0];
+const VIEWS: [f64; 5] = crate::model::STIFF_VIEWS;
 
 fn dielectric(eta: f64, alpha: f64) -> Layer {
     Layer::Interface(Interface { eta: [eta; 3], kappa: [0.0; 3], alpha })

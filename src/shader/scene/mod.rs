@@ -79,6 +79,13 @@ pub struct MaterialFunction {
     pub function: String,
     /// Lobes it fills in `TmResult` (the rest are zero).
     pub lobes: usize,
+    /// The bindings of the textures it reads: a pipeline running it alone binds only these (WebGPU
+    /// allows 16 sampled textures per stage unless a device asks for more).
+    pub textures: Vec<u32>,
+    pub model: FluxModel,
+    /// What its lookups read: `fgd slice`, `fgd packing`, `belcour`, `karis`, `tir slice`,
+    /// `tir table` (3D), `tir fit`, `gd`.
+    pub reads: Vec<&'static str>,
 }
 
 /// The shader of a scene: its module (print it with [`Module::print`]) and what a renderer binds.
@@ -173,6 +180,8 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
         sources: &sources,
         textures: Vec::new(),
         used: BTreeMap::new(),
+        reading: Default::default(),
+        reads: Default::default(),
         manifest_path: manifest_path.display().to_string(),
         needs: Needs::default(),
         choosers: BTreeMap::new(),
@@ -182,6 +191,8 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     let mut described = Vec::new();
     let mut max_lobes = 1;
     for material in materials {
+        g.reading.clear();
+        g.reads.clear();
         let (function, lobes) = match material.model {
             FluxModel::TwoFlux => tm2::function(&mut g, material)?,
             FluxModel::SixFlux => {
@@ -189,8 +200,25 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
                 tm6::function(&mut g, material)?
             }
         };
+        if let Some(other) = described.iter().find(|d: &&MaterialFunction| d.function == function.name) {
+            return Err(g.refuse(
+                &material.name,
+                format!(
+                    "its function name `{}` is that of material `{}`; material names must differ in more than \
+                     punctuation and case",
+                    function.name, other.material
+                ),
+            ));
+        }
         max_lobes = max_lobes.max(lobes);
-        described.push(MaterialFunction { material: material.name.clone(), function: function.name.clone(), lobes });
+        described.push(MaterialFunction {
+            material: material.name.clone(),
+            function: function.name.clone(),
+            lobes,
+            textures: g.reading.iter().copied().collect(),
+            model: material.model,
+            reads: g.reads.iter().copied().collect(),
+        });
         functions.push(function);
     }
     let models: Vec<&str> = [FluxModel::TwoFlux, FluxModel::SixFlux]
@@ -314,8 +342,11 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
 struct Generator<'a> {
     sources: &'a Sources,
     textures: Vec<TextureBinding>,
-    /// File -> variable of the textures bound so far.
-    used: BTreeMap<String, String>,
+    /// File -> binding of the textures bound so far.
+    used: BTreeMap<String, u32>,
+    /// The bindings the material being generated reads, and what kinds of table.
+    reading: std::collections::BTreeSet<u32>,
+    reads: std::collections::BTreeSet<&'static str>,
     manifest_path: String,
     needs: Needs,
     /// The functions choosing among slices ([`Self::slice`]), by their candidates.
@@ -336,19 +367,22 @@ impl Generator<'_> {
 
     /// The texture variable of `file`, binding it on first use.
     fn bind(&mut self, file: &str, extent: [usize; 3], dimension: u8, channels: usize) -> String {
-        if let Some(v) = self.used.get(file) {
-            return v.clone();
+        if let Some(&binding) = self.used.get(file) {
+            self.reading.insert(binding);
+            return self.textures[binding as usize].variable.clone();
         }
-        let variable = format!("tm_table{}", self.textures.len());
+        let binding = self.textures.len() as u32;
+        let variable = format!("tm_table{binding}");
         self.textures.push(TextureBinding {
-            binding: self.textures.len() as u32,
+            binding,
             variable: variable.clone(),
             file: file.to_string(),
             extent,
             dimension,
             channels,
         });
-        self.used.insert(file.to_string(), variable.clone());
+        self.used.insert(file.to_string(), binding);
+        self.reading.insert(binding);
         variable
     }
 
@@ -420,6 +454,9 @@ impl Generator<'_> {
             }
             None => candidates,
         };
+        if !candidates.is_empty() {
+            self.reads.insert(if tir { "tir slice" } else { "fgd slice" });
+        }
         match candidates.len() {
             0 => None,
             1 => {
@@ -433,8 +470,11 @@ impl Generator<'_> {
     /// The function choosing among slice `candidates` at `(mu, alpha)` as [`Self::slice`] says.
     fn slice_chooser(&mut self, candidates: &[(TableFile, usize)]) -> String {
         let key = candidates.iter().map(|(t, c)| format!("{}#{c}", t.file)).collect::<Vec<_>>().join(",");
-        if let Some(function) = self.choosers.get(&key) {
-            return function.clone();
+        if let Some(function) = self.choosers.get(&key).cloned() {
+            for (t, _) in candidates {
+                self.bind_table(t);
+            }
+            return function;
         }
         let function = format!("tm_slice{}", self.choosers.len());
         let mut body = Vec::new();
@@ -489,6 +529,7 @@ impl Generator<'_> {
                 let Some((table, basis)) = self.sources.belcour.clone() else {
                     return Err(self.missing(m, "the Belcour split-sum table (belcour.dds with its Fresnel basis)"));
                 };
+                self.reads.insert("belcour");
                 Ok(self.split_sum(&table, basis.coefficients(eta, kappa), mu, alpha))
             }
             AlbedoPath::Karis => {
@@ -497,6 +538,7 @@ impl Generator<'_> {
                 };
                 // FGD ~ F0 scale + bias, with F0 at the relative index (model::folder).
                 let f0 = normal_incidence_reflectance(eta, kappa);
+                self.reads.insert("karis");
                 Ok(self.split_sum(&table, [f0, 1.0, 0.0, 0.0], mu, alpha))
             }
         }
@@ -523,6 +565,7 @@ impl Generator<'_> {
                 let extent = [packed.texture.width, packed.texture.height, packed.texture.depth];
                 let variable = self.bind(&file, extent, 3, 1);
                 self.needs.packing = true;
+                self.reads.insert("fgd packing");
                 Ok(func(&function, vec![name(&variable), mu, f(alpha as f32), f(eta as f32), f(kappa as f32)]))
             }
             None => Err(Error::format(
@@ -547,6 +590,7 @@ impl Generator<'_> {
                     ));
                 }
                 self.needs.fit = true;
+                self.reads.insert("tir fit");
                 Ok(func("tmlut_tir", vec![mu, alpha, f(eta as f32)]))
             }
             TirPath::Table => {
@@ -597,6 +641,7 @@ impl Generator<'_> {
         }
         let variable = self.bind_table(t);
         self.needs.trilinear = true;
+        self.reads.insert("tir table");
         let mut arguments = vec![name(&variable)];
         arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x)));
         arguments.extend(t.axes.iter().map(|axis| f(axis.count as f32)));
@@ -606,7 +651,10 @@ impl Generator<'_> {
     /// `GD(mu, alpha)`.
     fn gd(&mut self, m: &ShaderMaterial, mu: Expr, alpha: Expr) -> Result<Expr> {
         match self.sources.gd.clone() {
-            Some(t) => Ok(self.read2(&t, mu, alpha).member("x")),
+            Some(t) => {
+                self.reads.insert("gd");
+                Ok(self.read2(&t, mu, alpha).member("x"))
+            }
             None => Err(self.missing(m, "2D GD table (gd.dds)")),
         }
     }
