@@ -125,3 +125,18 @@ mod erased {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reference_views_are_evenly_spaced_and_hold_the_stiff_views() {
+        let views = reference_views(5);
+        assert_eq!(views, vec![0.0, 1e-7, 1e-3, 0.25, 0.5, 0.75, 1.0]);
+        assert_eq!(reference_views(1), vec![0.0, 1e-7, 1e-3, 0.5, 1.0]);
+        let many = reference_views(2500);
+        assert_eq!(many.len(), 2503, "0 and 1 are both among the evenly spaced views");
+        assert!(many.windows(2).all(|w| w[0] < w[1]));
+    }
+}
