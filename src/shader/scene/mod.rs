@@ -690,7 +690,10 @@ fn coordinate(axis: &Axis, x: Expr) -> Expr {
             let x = x.clamp(f(0.0), f(1.0));
             f(0.5) * (x.clone().sqrt() - (f(1.0) - x).sqrt() + f(1.0))
         }
-        Mapping::Asinh { scale } => func("tm_asinh", vec![x / f(scale as f32)]),
+        Mapping::Asinh { scale, centre } => {
+            let from_centre = if centre == 0.0 { x } else { x - f(centre as f32) };
+            func("tm_asinh", vec![from_centre / f(scale as f32)])
+        }
     };
     let u = (mapped - f(m0)) / f(m1 - m0);
     let n = axis.count as f32;
