@@ -7,8 +7,15 @@ For each scene shader (<scene>.wgsl, <scene>.shader.json, <scene>.reference.json
 `tmlut shader --reference-views N`), every texture of the shader is created from the table file's
 texels as stored (the DDS header gives format and extent) and each material's function is run
 once per reference view in a compute shader. Prints the largest |GPU - CPU| over albedo, top
-albedo, lobe energies, roughnesses and GD, and the NaN count; exits non-zero above 1e-5 or on any
+albedo, lobe energies and cosines; over lobe roughnesses and GD, each weighted by its lobe's
+energy (largest channel); and the NaN count; exits non-zero where either is above 1e-5, or on any
 NaN.
+
+Why the weight: a lobe's roughness comes from its asymmetry, the ratio of two increments of
+cumulative reflectances, so in f32 it is known to about 1e-7 / (the lobe's energy), and its GD
+follows it (and is 0 for a lobe without energy, which rounding decides for a lobe at 1e-8). What
+a renderer draws is the lobe's energy times its shape, so the shape's error counts in proportion
+to the energy it shapes. The unweighted largest difference is printed too.
 """
 
 import json
@@ -57,11 +64,27 @@ def device():
     return adapter.request_device_sync()
 
 
+class Worst:
+    """The largest |GPU - CPU| of one kind of value, and where it was."""
+
+    def __init__(self):
+        self.difference, self.where = 0.0, ""
+
+    def record(self, difference, where):
+        if difference > self.difference:
+            self.difference, self.where = difference, where
+
+    def merge(self, other):
+        self.record(other.difference, other.where)
+
+
 def check_scene(dev, shader_dir, luts):
     descriptions = sorted(shader_dir.glob("*.shader.json"))
     if not descriptions:
         raise SystemExit(f"{shader_dir}: no .shader.json")
-    worst = 0.0
+    worst = {"values": Worst(), "weighted shape": Worst(), "shape": Worst()}
+    # Per flux model and per kind of table read: points, and the two largest differences.
+    groups = {}
     nans = 0
     points = 0
     for description_path in descriptions:
@@ -71,8 +94,7 @@ def check_scene(dev, shader_dir, luts):
         wgsl = (shader_dir / f"{stem}.wgsl").read_text()
         lobes = description["max_lobes"]
         stride = 6 + 6 * lobes
-        textures = []
-        layout0 = []
+        textures = {}
         for t in description["textures"]:
             fmt, size, extent, texels = read_dds(luts / t["file"])
             dimension = "3d" if t["dimension"] == 3 else "2d"
@@ -82,19 +104,22 @@ def check_scene(dev, shader_dir, luts):
             dev.queue.write_texture(
                 {"texture": texture}, texels, {"bytes_per_row": extent[0] * size, "rows_per_image": extent[1]}, extent
             )
-            textures.append((t["binding"], texture.create_view()))
-            layout0.append({
-                "binding": t["binding"],
-                "visibility": wgpu.ShaderStage.COMPUTE,
-                "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float, "view_dimension": dimension},
-            })
-        group0_layout = dev.create_bind_group_layout(entries=layout0)
+            textures[t["binding"]] = (dimension, texture.create_view())
         group1_layout = dev.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.read_only_storage}},
             {"binding": 1, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.storage}},
         ])
-        layout = dev.create_pipeline_layout(bind_group_layouts=[group0_layout, group1_layout])
         for material in description["materials"]:
+            # Only the textures the material's function reads: WebGPU bounds textures per stage.
+            group0_layout = dev.create_bind_group_layout(entries=[
+                {
+                    "binding": b,
+                    "visibility": wgpu.ShaderStage.COMPUTE,
+                    "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float, "view_dimension": textures[b][0]},
+                }
+                for b in material["textures"]
+            ])
+            layout = dev.create_pipeline_layout(bind_group_layouts=[group0_layout, group1_layout])
             views = [p["evaluation"] for p in reference if p["function"] == material["function"]]
             mus = np.array([v["mu"] for v in views], dtype=np.float32)
             entry = f"""
@@ -121,7 +146,7 @@ fn tm_main(@builtin(global_invocation_id) id: vec3<u32>) {{
             out_buffer = dev.create_buffer(size=len(mus) * stride * 4, usage=wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_SRC)
             group0 = dev.create_bind_group(
                 layout=group0_layout,
-                entries=[{"binding": b, "resource": view} for b, view in textures],
+                entries=[{"binding": b, "resource": textures[b][1]} for b in material["textures"]],
             )
             group1 = dev.create_bind_group(
                 layout=group1_layout,
@@ -140,31 +165,60 @@ fn tm_main(@builtin(global_invocation_id) id: vec3<u32>) {{
             dev.queue.submit([encoder.finish()])
             out = np.frombuffer(dev.queue.read_buffer(out_buffer), dtype=np.float32).reshape(len(mus), stride)
             nans += int(np.count_nonzero(~np.isfinite(out)))
+            mine = {"values": Worst(), "weighted shape": Worst(), "shape": Worst()}
             for row, view in zip(out, views):
-                expected = list(view["albedo"]) + list(view["top_albedo"])
-                got = list(row[:6])
+                at = f"{stem} / {material['material']}, mu {view['mu']:.6g}"
+                values = list(zip(list(view["albedo"]) + list(view["top_albedo"]), row[:6]))
                 for k, lobe in enumerate(view["lobes"]):
                     b = 6 + 6 * k
-                    expected += list(lobe["energy"]) + [lobe["roughness"], lobe["incident"][2], lobe["gd"]]
-                    got += list(row[b : b + 6])
-                for e, g in zip(expected, got):
-                    worst = max(worst, abs(float(g) - e)) if math.isfinite(g) else worst
+                    values += list(zip(list(lobe["energy"]) + [lobe["incident"][2]], list(row[b : b + 3]) + [row[b + 4]]))
+                    energy = max(lobe["energy"])
+                    for name, expected, got in [("roughness", lobe["roughness"], row[b + 3]), ("GD", lobe["gd"], row[b + 5])]:
+                        if math.isfinite(got):
+                            where = f"{at}, lobe {k} {name} (energy {energy:.3g})"
+                            mine["shape"].record(abs(float(got) - expected), where)
+                            mine["weighted shape"].record(energy * abs(float(got) - expected), where)
+                for expected, got in values:
+                    if math.isfinite(got):
+                        mine["values"].record(abs(float(got) - expected), at)
                 points += 1
+            for kind in worst:
+                worst[kind].merge(mine[kind])
+            for group in [material.get("model", "?")] + material.get("reads", []):
+                count, values, weighted = groups.get(group, (0, Worst(), Worst()))
+                values.merge(mine["values"])
+                weighted.merge(mine["weighted shape"])
+                groups[group] = (count + len(mus), values, weighted)
             print(f"  {stem} / {material['material']}: {len(mus)} views")
-    return worst, nans, points
+    return worst, nans, points, groups
 
 
 def main(argv):
     if len(argv) < 2 or len(argv) % 2:
         raise SystemExit(__doc__)
     dev = device()
-    worst, nans, points = 0.0, 0, 0
+    worst = {"values": Worst(), "weighted shape": Worst(), "shape": Worst()}
+    nans, points, groups = 0, 0, {}
     for shader_dir, luts in zip(argv[0::2], argv[1::2]):
-        w, n, p = check_scene(dev, Path(shader_dir), Path(luts))
-        worst, nans, points = max(worst, w), nans + n, points + p
-    print(f"scene shaders on the GPU API vs the CPU evaluator: {points} (material, view) points, "
-          f"max |GPU - CPU| {worst:.3e} (tolerance {TOLERANCE:g}), {nans} NaN/inf")
-    if worst > TOLERANCE or nans:
+        w, n, p, g = check_scene(dev, Path(shader_dir), Path(luts))
+        for kind in worst:
+            worst[kind].merge(w[kind])
+        nans, points = nans + n, points + p
+        for group, (count, values, weighted) in g.items():
+            total, all_values, all_weighted = groups.get(group, (0, Worst(), Worst()))
+            all_values.merge(values)
+            all_weighted.merge(weighted)
+            groups[group] = (total + count, all_values, all_weighted)
+    values, weighted, shape = worst["values"], worst["weighted shape"], worst["shape"]
+    print(f"scene shaders on the GPU API vs the CPU evaluator: {points} (material, view) points, tolerance {TOLERANCE:g}\n"
+          f"  albedo, top albedo, lobe energies and cosines: max |GPU - CPU| {values.difference:.3e} ({values.where})\n"
+          f"  lobe roughness and GD times the lobe's energy: max {weighted.difference:.3e} ({weighted.where})\n"
+          f"  lobe roughness and GD, unweighted: max {shape.difference:.3e} ({shape.where})\n"
+          f"  {nans} NaN/inf\n"
+          f"  by flux model and by table read (points; max |GPU - CPU| of values; of shapes times energy):")
+    for group, (count, values, weighted) in sorted(groups.items()):
+        print(f"    {group:12} {count:6} points  {values.difference:.3e}  {weighted.difference:.3e}")
+    if values.difference > TOLERANCE or weighted.difference > TOLERANCE or nans:
         raise SystemExit("FAILED")
 
 

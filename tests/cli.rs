@@ -461,6 +461,61 @@ fn a_scene_with_the_fitted_tir_form_writes_its_shaders_and_no_tir_table() {
     assert!(std::fs::read_to_string(out.join("copper_pot.wgsl")).unwrap().contains("tmlut_tir(l1_cos_below"));
 }
 
+/// The names of the functions a shader defines: `fn name(` in WGSL, `TYPE name(...) {` in HLSL.
+fn shader_functions(text: &str) -> Vec<String> {
+    let mut names: Vec<String> = text
+        .lines()
+        .filter(|line| !line.starts_with([' ', '/', '@', '}']) && line.trim_end().ends_with('{') && line.contains('('))
+        .filter_map(|line| line.split('(').next()?.split_whitespace().last().map(str::to_string))
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn scene_shaders_cover_the_6_flux_model_the_split_sum_tables_and_the_3d_tir_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    for (scene, stem, expected) in [
+        ("scattering", "scattering", &["fn tm_scattering_stack(", "tm6_then_medium(", "tm_slab("][..]),
+        ("thesis/split-sum", "thesis_split_sum", &["fn tm_varnished_copper_belcour(", "dot(vec4<f32>("]),
+        ("gpu-check/varied-coats", "varied_coats", &["tm_trilinear(", "tm_acos(", "fn fgd_lossless("]),
+        ("gpu-check/stiff-stacks", "stiff_stacks", &["tm6_reflectances_over(", "fn tm_slice0("]),
+    ] {
+        let out = dir.path().join(stem);
+        let output = build(&config, &out, &["--scene", &scene_path(scene)]);
+        assert!(output.status.success(), "{scene}: {}", stderr(&output));
+        assert!(!stderr(&output).contains("no shader written"), "{scene}: {}", stderr(&output));
+        let wgsl = std::fs::read_to_string(out.join(format!("{stem}.wgsl"))).unwrap();
+        for text in expected {
+            assert!(wgsl.contains(text), "{scene}: no `{text}` in {stem}.wgsl");
+        }
+        // Valid WebGPU shader code (naga), and HLSL printed from the same description.
+        assert!(common::validate_wgsl_files(&out) >= 1);
+        let hlsl = std::fs::read_to_string(out.join(format!("{stem}.hlsl"))).unwrap();
+        let functions = shader_functions(&wgsl);
+        assert!(functions.len() > 10, "{functions:?}");
+        assert_eq!(functions, shader_functions(&hlsl), "{scene}: the two languages define different functions");
+    }
+}
+
+#[test]
+fn material_names_that_give_one_function_name_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let scene = dir.path().join("twins.toml");
+    let material = |name: &str| {
+        format!("[[material]]\nname = \"{name}\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n")
+    };
+    std::fs::write(&scene, material("glass a") + &material("glass-a")).unwrap();
+    let out = dir.path().join("luts");
+    let output = build(&config, &out, &["--scene", scene.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = stderr(&output);
+    assert!(text.contains("no shader written") && text.contains("`tm_glass_a`"), "{text}");
+    assert!(!out.join("twins.wgsl").exists());
+}
+
 #[test]
 fn bad_scenes_are_refused_naming_material_and_layer() {
     let dir = tempfile::tempdir().unwrap();

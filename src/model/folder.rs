@@ -91,18 +91,26 @@ impl SampledTable {
         })
     }
 
-    /// How far outside the axes' ranges `point` lies, in units of each axis's range.
+    /// How far outside the axes' ranges `point` lies, in units of each axis's range, less
+    /// [`SLICE_CHOICE_SLACK`] per axis.
     fn distance_outside(&self, point: &[f64]) -> f64 {
         self.axes
             .iter()
             .zip(point)
             .map(|(axis, &x)| {
                 let (lo, hi) = if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
-                ((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo)
+                (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
             })
             .sum()
     }
 }
+
+/// How far outside a slice's range (in units of the range) a lookup may lie and still count as
+/// inside it, when slices holding the same index compete. A scene's slices end exactly at the
+/// extreme lookups their sites make, so lookups land on those ends; the slack makes the choice the
+/// same whether the lookup was computed in f64 here or in f32 by the scene's shader
+/// ([`crate::shader::scene`]), whose rounding is below 1e-6 of any range.
+pub const SLICE_CHOICE_SLACK: f64 = 1e-5;
 
 /// The texture coordinate of value `x` along `axis`, in f32 as a shader computes the manifest's
 /// formula ([`crate::loader::texture_coordinate`]).

@@ -78,6 +78,11 @@ pub use stack::{FluxModel, Interface, Layer, MAX_LAYERS, Medium, Rgb, Stack};
 
 use crate::physics::hg_to_ggx;
 
+/// View cosines where the model is stiff: the horizon, a rounding step above it, grazing, the
+/// middle, the normal (the stability matrix evaluates every stiff stack at these; the scene
+/// shader's reference evaluation includes them).
+pub const STIFF_VIEWS: [f64; 5] = [0.0, 1e-7, 1e-3, 0.5, 1.0];
+
 /// Which flux an outgoing lobe comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

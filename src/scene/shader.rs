@@ -1,7 +1,8 @@
 //! `tmlut shader`: a scene's transfer-matrix shader ([`crate::shader::scene`]) over a built folder,
 //! written as `<scene>.wgsl`, `<scene>.hlsl` and `<scene>.shader.json` (what to bind), and on
-//! request `<scene>.reference.json`: the CPU evaluator's lobes and albedo at evenly spaced views,
-//! the values the shader must reproduce (the GPU-API test holds it to 1e-5).
+//! request `<scene>.reference.json`: the CPU evaluator's lobes and albedo at evenly spaced views
+//! and the model's stiff ones, the values the shader must reproduce (the GPU-API test holds it to
+//! 1e-5).
 
 use std::path::{Path, PathBuf};
 
@@ -13,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::formats::write_bytes_atomically;
 use crate::loader::LutFolder;
 use crate::model::folder::{FgdSource, FolderTables};
-use crate::model::{Evaluation, Material};
+use crate::model::{Evaluation, Material, STIFF_VIEWS};
 use crate::shader::scene::{SceneShader, ShaderMaterial, generate, texts};
 
 /// The scene's materials as the shader takes them (their nominal values).
@@ -35,9 +36,20 @@ pub struct ReferencePoint {
     pub evaluation: Evaluation,
 }
 
-/// The CPU evaluation of every material of `materials` at `views` view cosines `k / (views - 1)`,
-/// with the tables of `folder` read as the shader reads them. Fails where the folder could not
-/// answer a lookup (the shader would have been refused too).
+/// The view cosines of a reference of `views` views: `k / (views - 1)` (the normal alone for one),
+/// and the model's stiff views ([`STIFF_VIEWS`]: the horizon, 1e-7, 1e-3, 0.5, the normal), in
+/// increasing order.
+pub fn reference_views(views: usize) -> Vec<f64> {
+    let mut mus: Vec<f64> =
+        (0..views).map(|k| if views > 1 { k as f64 / (views - 1) as f64 } else { 1.0 }).chain(STIFF_VIEWS).collect();
+    mus.sort_by(f64::total_cmp);
+    mus.dedup();
+    mus
+}
+
+/// The CPU evaluation of every material of `materials` at [`reference_views`]`(views)`, with the
+/// tables of `folder` read as the shader reads them. Fails where the folder could not answer a
+/// lookup (the shader would have been refused too).
 pub fn reference(
     folder: &LutFolder,
     shader: &SceneShader,
@@ -48,8 +60,7 @@ pub fn reference(
     for (material, function) in materials.iter().zip(&shader.materials) {
         let tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?;
         let model = Material::new(material.model, material.stack.clone());
-        for k in 0..views {
-            let mu = if views > 1 { k as f64 / (views - 1) as f64 } else { 1.0 };
+        for mu in reference_views(views) {
             points.push(ReferencePoint {
                 material: material.name.clone(),
                 function: function.function.clone(),
@@ -112,5 +123,20 @@ mod erased {
             text.push('\n');
             text.into_bytes()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reference_views_are_evenly_spaced_and_hold_the_stiff_views() {
+        let views = reference_views(5);
+        assert_eq!(views, vec![0.0, 1e-7, 1e-3, 0.25, 0.5, 0.75, 1.0]);
+        assert_eq!(reference_views(1), vec![0.0, 1e-7, 1e-3, 0.5, 1.0]);
+        let many = reference_views(2500);
+        assert_eq!(many.len(), 2503, "0 and 1 are both among the evenly spaced views");
+        assert!(many.windows(2).all(|w| w[0] < w[1]));
     }
 }

@@ -102,6 +102,7 @@ pub enum Builtin {
     Log,
     Pow,
     Smoothstep,
+    Dot,
 }
 
 impl Builtin {
@@ -117,6 +118,7 @@ impl Builtin {
             Builtin::Log => "log",
             Builtin::Pow => "pow",
             Builtin::Smoothstep => "smoothstep",
+            Builtin::Dot => "dot",
         }
     }
 }

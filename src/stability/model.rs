@@ -12,7 +12,7 @@ use crate::model::{FluxModel, Interface, Layer, Lookup, Material, Medium, Quanti
 use crate::random_walk::{WalkSettings, directional_albedo};
 
 /// View cosines: the horizon, a rounding step above it, grazing, middle, the normal.
-const VIEWS: [f64; 5] = [0.0, 1e-7, 1e-3, 0.5, 1.0];
+const VIEWS: [f64; 5] = crate::model::STIFF_VIEWS;
 
 fn dielectric(eta: f64, alpha: f64) -> Layer {
     Layer::Interface(Interface { eta: [eta; 3], kappa: [0.0; 3], alpha })
@@ -132,4 +132,35 @@ fn with_finite_lobes(case: Case, evaluation: &crate::model::Evaluation) -> Case 
     let bad = values.clone().filter(|v| !v.is_finite()).count();
     let count = values.count();
     case.with(Check::new("finite", bad == 0, format!("{bad} of {count} lobe and albedo values not finite")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `luts/scenes/gpu-check/stiff-stacks.toml`, which `scripts/gpu-check` runs on the GPU API,
+    /// holds these stacks in both flux models, in order, but for the two values a scene does not
+    /// admit: kappas scaled to at most 100 (the matrix's huge kappa is 1e4), a depth of 1e-30 for
+    /// its 0.
+    #[test]
+    fn the_gpu_checks_stiff_scene_holds_the_stiff_stacks() {
+        let text = include_str!("../../luts/scenes/gpu-check/stiff-stacks.toml");
+        let scene = crate::scene::Scene::from_toml(text, "stiff-stacks.toml", "stiff-stacks").unwrap();
+        let as_a_scene_admits = |layer: &Layer| match *layer {
+            Layer::Interface(i) => {
+                let scale = (100.0 / i.kappa.iter().copied().fold(0.0, f64::max)).min(1.0);
+                Layer::Interface(Interface { kappa: i.kappa.map(|k| k * scale), ..i })
+            }
+            Layer::Medium(m) => Layer::Medium(Medium { depth: if m.depth == 0.0 { 1e-30 } else { m.depth }, ..m }),
+        };
+        let mut expected = Vec::new();
+        for model in [FluxModel::TwoFlux, FluxModel::SixFlux] {
+            for (_, layers) in stacks() {
+                expected.push((model, layers.iter().map(as_a_scene_admits).collect::<Vec<_>>()));
+            }
+        }
+        let found: Vec<(FluxModel, Vec<Layer>)> =
+            scene.materials.iter().map(|m| (m.model, m.stack().unwrap().layers().to_vec())).collect();
+        assert_eq!(found, expected);
+    }
 }

@@ -1,0 +1,711 @@
+//! The transfer-matrix evaluation of a scene's materials as a shader: one function per material,
+//! `tm_<material>(mu)`, specialised to its layer stack (layers unrolled, every index, roughness and
+//! medium coefficient baked in, index-matched layers and empty media dropped) and to the tables of
+//! a built folder, read with the manifest's coordinates. It returns the lobes (energy per channel,
+//! GGX roughness, cosine of the mean direction, GD) and the directional albedo `A(mu)`, computing
+//! what [`crate::model::Material::evaluate`] computes, step for step, in f32: the 2-flux model
+//! ([`tm2`]) or the 6-flux one with scattering media ([`tm6`]), over the same per-layer transfer
+//! factors ([`layers`]).
+//!
+//! Tables are read by hand-filtered texel loads (four or eight `textureLoad`s and lerps in f32, as
+//! [`crate::packing::emulator`] filters with `Filter::Exact`), not by the sampler: hardware
+//! filtering weighs texels with 8 fractional bits on most GPUs, which alone moves a value by up to
+//! 1/512 of a texel step, and float32 textures are not filterable in WebGPU without a feature.
+//! Every lookup the plan can choose is read: albedo from FGD slices, the lossless FGD packing, or
+//! the Belcour and Karis split-sum tables with their Fresnel coefficients folded to constants; TIR
+//! from slices, the 3D TIR table (its third axis `eta` or the critical-angle offset), the fitted
+//! form, or off; GD from its 2D table.
+//!
+//! What the generated code guards, that the thesis's hand-written HLSL did not (the project notes'
+//! list of its defects): `1 / t` with `t` floored (never a division by 0 when TIR takes everything),
+//! ratios that are not finite fall back to the reflectance above (a comparison, so NaN included),
+//! the transmission lobes' roughness scale `|(eta_ji r.z + rp.z) / rp.z|` taken whole in `abs`,
+//! the top index of every interface that of the layer above (air 1.0, never 1.003), and no read
+//! of a layer below the last one.
+
+mod helpers;
+mod layers;
+mod tm2;
+mod tm6;
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, splat3};
+use crate::error::{Error, Result};
+use crate::fit::forms::Form;
+use crate::formats::FileFormat;
+use crate::formats::manifest::MANIFEST_FILE;
+use crate::loader::LutFolder;
+use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, slice_indices};
+use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
+use crate::packing::{PackedFgd, Packing};
+use crate::physics::{FresnelBasis, normal_incidence_reflectance};
+use crate::table::derived::CRITICAL_ANGLE_OFFSET;
+use crate::table::{Axis, Mapping, Placement};
+
+pub use helpers::SMALLEST_TRANSMISSION_F32;
+
+/// A material the shader evaluates.
+#[derive(Debug, Clone)]
+pub struct ShaderMaterial {
+    pub name: String,
+    pub model: FluxModel,
+    pub albedo: AlbedoPath,
+    pub tir: TirPath,
+    pub stack: Stack,
+}
+
+/// A texture the shader binds: its binding in group 0 and the file it holds.
+#[derive(Debug, Clone, Serialize)]
+pub struct TextureBinding {
+    pub binding: u32,
+    /// The variable in the shader.
+    pub variable: String,
+    pub file: String,
+    /// `[width, height, depth]` in texels.
+    pub extent: [usize; 3],
+    /// 2 or 3.
+    pub dimension: u8,
+    /// Channels per texel as stored (1, 2 or 4).
+    pub channels: usize,
+}
+
+/// A material's function in the shader.
+#[derive(Debug, Clone, Serialize)]
+pub struct MaterialFunction {
+    pub material: String,
+    pub function: String,
+    /// Lobes it fills in `TmResult` (the rest are zero).
+    pub lobes: usize,
+    /// The bindings of the textures it reads: a pipeline running it alone binds only these (WebGPU
+    /// allows 16 sampled textures per stage unless a device asks for more).
+    pub textures: Vec<u32>,
+    pub model: FluxModel,
+    /// What its lookups read: `fgd slice`, `fgd packing`, `belcour`, `karis`, `tir slice`,
+    /// `tir table` (3D), `tir fit`, `gd`.
+    pub reads: Vec<&'static str>,
+}
+
+/// The shader of a scene: its module (print it with [`Module::print`]) and what a renderer binds.
+#[derive(Debug, Clone)]
+pub struct SceneShader {
+    pub module: Module,
+    pub textures: Vec<TextureBinding>,
+    pub materials: Vec<MaterialFunction>,
+    /// The length of the lobe arrays of `TmResult`.
+    pub max_lobes: usize,
+}
+
+/// The description a renderer reads beside the shader files (`<scene>.shader.json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct ShaderDescription<'a> {
+    pub result_struct: &'static str,
+    pub max_lobes: usize,
+    pub textures: &'a [TextureBinding],
+    pub materials: &'a [MaterialFunction],
+    pub notes: &'static str,
+}
+
+impl SceneShader {
+    pub fn description(&self) -> ShaderDescription<'_> {
+        ShaderDescription {
+            result_struct: "TmResult",
+            max_lobes: self.max_lobes,
+            textures: &self.textures,
+            materials: &self.materials,
+            notes: "Each texture is bound in group 0 (HLSL: register tN) at `binding`, created from the file's texels as \
+                    stored (its DXGI format, e.g. R32_FLOAT -> r32float), one mip level, linear; no sampler: the shader \
+                    loads and filters texels itself. Call the material's function with the view cosine mu = n.v.",
+        }
+    }
+}
+
+/// A table file the shader reads: its axes, channels as stored, and for a slice the `(eta, kappa)`
+/// its channels hold fixed.
+#[derive(Debug, Clone)]
+struct TableFile {
+    file: String,
+    axes: Vec<Axis>,
+    channels: usize,
+    /// `(eta, kappa)` per channel, for slices.
+    indices: Vec<(f64, f64)>,
+    is_tir: bool,
+    is_fgd: bool,
+}
+
+impl TableFile {
+    fn of(file: &str, entry: &crate::formats::manifest::FileEntry) -> Self {
+        let indices = slice_indices(entry);
+        TableFile {
+            file: file.to_string(),
+            axes: entry.axes.iter().map(|a| a.axis.clone()).collect(),
+            channels: padded(entry.channels.len()),
+            is_tir: is_slice(entry, "tir"),
+            is_fgd: is_slice(entry, "fgd"),
+            indices: if is_slice(entry, "tir") || is_slice(entry, "fgd") { indices } else { Vec::new() },
+        }
+    }
+}
+
+/// Everything the materials read, found in the folder.
+struct Sources {
+    slices: Vec<TableFile>,
+    gd: Option<TableFile>,
+    packing: Option<(String, PackedFgd)>,
+    fit: Option<(Form, Vec<f64>)>,
+    /// The 3D TIR table.
+    tir: Option<TableFile>,
+    belcour: Option<(TableFile, FresnelBasis)>,
+    karis: Option<TableFile>,
+}
+
+/// What the generated functions call beyond the helpers every scene shader has.
+#[derive(Debug, Clone, Copy, Default)]
+struct Needs {
+    packing: bool,
+    fit: bool,
+    trilinear: bool,
+    asinh: bool,
+    acos: bool,
+    six_flux: bool,
+}
+
+/// The shader of `materials` over the tables of `folder`.
+pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<SceneShader> {
+    let manifest_path = folder.dir().join(MANIFEST_FILE);
+    let sources = sources(folder, materials)?;
+    let mut g = Generator {
+        sources: &sources,
+        textures: Vec::new(),
+        used: BTreeMap::new(),
+        reading: Default::default(),
+        reads: Default::default(),
+        manifest_path: manifest_path.display().to_string(),
+        needs: Needs::default(),
+        choosers: BTreeMap::new(),
+        chooser_functions: Vec::new(),
+    };
+    let mut functions = Vec::new();
+    let mut described = Vec::new();
+    let mut max_lobes = 1;
+    for material in materials {
+        g.reading.clear();
+        g.reads.clear();
+        let (function, lobes) = match material.model {
+            FluxModel::TwoFlux => tm2::function(&mut g, material)?,
+            FluxModel::SixFlux => {
+                g.needs.six_flux = true;
+                tm6::function(&mut g, material)?
+            }
+        };
+        if let Some(other) = described.iter().find(|d: &&MaterialFunction| d.function == function.name) {
+            return Err(g.refuse(
+                &material.name,
+                format!(
+                    "its function name `{}` is that of material `{}`; material names must differ in more than \
+                     punctuation and case",
+                    function.name, other.material
+                ),
+            ));
+        }
+        max_lobes = max_lobes.max(lobes);
+        described.push(MaterialFunction {
+            material: material.name.clone(),
+            function: function.name.clone(),
+            lobes,
+            textures: g.reading.iter().copied().collect(),
+            model: material.model,
+            reads: g.reads.iter().copied().collect(),
+        });
+        functions.push(function);
+    }
+    let models: Vec<&str> = [FluxModel::TwoFlux, FluxModel::SixFlux]
+        .into_iter()
+        .filter(|model| materials.iter().any(|m| m.model == *model))
+        .map(FluxModel::name)
+        .collect();
+    let mut module = Module::new(Parens::Minimal);
+    module.comment(&format!(
+        "tmlut shader: the transfer-matrix model (Randrianandrasana, Callet & Lucas 2021, {}) of\n\
+         a scene's materials, specialised to their layer stacks and the tables of one built folder.\n\
+         Generated; each material's function computes what tmlut's CPU evaluator computes, in f32.\n\
+         \"The reference's\" names a function of the paper authors' reference implementation that\n\
+         a helper follows (tmlut's docs/furnace.md pairs each with the CPU evaluator's).\n\
+         Bindings: group 0, one texture per table file (see the .shader.json beside this file).",
+        if models.is_empty() { "2-flux".to_string() } else { models.join(" and ") }
+    ));
+    module.push(Item::Struct {
+        name: "TmResult".into(),
+        fields: vec![
+            ("albedo".into(), Ty::Vec(3)),
+            ("top_albedo".into(), Ty::Vec(3)),
+            ("lobe_energy".into(), Ty::Array(Box::new(Ty::Vec(3)), max_lobes)),
+            ("lobe_roughness".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
+            ("lobe_cos".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
+            ("lobe_gd".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
+        ],
+    });
+    for t in &g.textures {
+        module.push(Item::Binding {
+            group: 0,
+            binding: t.binding,
+            name: t.variable.clone(),
+            ty: Ty::Texture { dims: t.dimension, scalar: t.channels == 1 && t.dimension == 3 },
+        });
+    }
+    helpers::common(&mut module);
+    if g.needs.trilinear {
+        helpers::trilinear(&mut module);
+    }
+    if g.needs.asinh {
+        helpers::asinh(&mut module);
+    }
+    if g.needs.acos {
+        helpers::acos(&mut module);
+    }
+    if g.needs.six_flux {
+        helpers::six_flux(&mut module);
+    }
+    if g.needs.fit
+        && let Some((form, parameters)) = &sources.fit
+    {
+        let fit = crate::fit::forms::module(*form, parameters).ok_or_else(|| {
+            Error::format(&manifest_path, format!("the fitted TIR form `{}` has no shader", form.name()))
+        })?;
+        module.items.extend(fit.items);
+    }
+    if g.needs.packing
+        && let Some((_, packed)) = &sources.packing
+    {
+        // The packing's lookup prints fully parenthesised; as a function of this module it takes
+        // the module's style, which changes only redundant parentheses, not the operations.
+        module.items.extend(packed.program.module("The lossless FGD packing's exact lookup (docs/packing.md).").items);
+    }
+    for function in g.chooser_functions.drain(..).chain(functions) {
+        module.push(Item::Function(function));
+    }
+    let textures = g.textures;
+    Ok(SceneShader { module, textures, materials: described, max_lobes })
+}
+
+fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> {
+    let entries = &folder.manifest().files;
+    let mut sources =
+        Sources { slices: Vec::new(), gd: None, packing: None, fit: None, tir: None, belcour: None, karis: None };
+    for (file, entry) in entries {
+        if entry.format != FileFormat::Dds {
+            continue;
+        }
+        if entry.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()) {
+            if materials.iter().any(|m| m.albedo == AlbedoPath::Fgd) {
+                let table = folder.load(file)?;
+                let source_axes: Vec<Axis> = entry
+                    .packing
+                    .as_ref()
+                    .map(|p| p.source_axes.iter().map(|a| a.axis.clone()).collect())
+                    .unwrap_or_default();
+                let texture = crate::model::folder::SampledTable::new(&table)?.into_channel(0);
+                let packed = PackedFgd::with_texture(texture, Packing::Lossless, entry.precision, &source_axes)
+                    .map_err(|e| Error::format(folder.dir().join(file), e.to_string()))?;
+                sources.packing = Some((file.clone(), packed));
+            }
+            continue;
+        }
+        if entry.packing.is_some() {
+            continue;
+        }
+        let table = TableFile::of(file, entry);
+        let dimension = table.axes.len();
+        if table.is_fgd || table.is_tir {
+            sources.slices.push(table);
+        } else if entry.table == "gd" && dimension == 2 {
+            sources.gd = Some(table);
+        } else if entry.table == crate::recipes::tir::NAME && dimension == 3 {
+            sources.tir = Some(table);
+        } else if entry.table == crate::recipes::karis::NAME && dimension == 2 {
+            sources.karis = Some(table);
+        } else if entry.table == crate::recipes::belcour::NAME
+            && dimension == 2
+            && let Some(basis) = &entry.fresnel_basis
+        {
+            sources.belcour = Some((table, basis.clone()));
+        }
+    }
+    sources.fit = entries
+        .values()
+        .find_map(|e| e.fit.clone())
+        .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
+        .and_then(|fit| Form::from_name(&fit.form).map(|form| (form, fit.parameters)));
+    Ok(sources)
+}
+
+struct Generator<'a> {
+    sources: &'a Sources,
+    textures: Vec<TextureBinding>,
+    /// File -> binding of the textures bound so far.
+    used: BTreeMap<String, u32>,
+    /// The bindings the material being generated reads, and what kinds of table.
+    reading: std::collections::BTreeSet<u32>,
+    reads: std::collections::BTreeSet<&'static str>,
+    manifest_path: String,
+    needs: Needs,
+    /// The functions choosing among slices ([`Self::slice`]), by their candidates.
+    choosers: BTreeMap<String, String>,
+    chooser_functions: Vec<super::Function>,
+}
+
+/// A value per channel: energies of interfaces are equal in all three, so kept as one scalar
+/// expression splatted where a vector is needed.
+fn v3(e: Expr) -> Expr {
+    splat3(e)
+}
+
+impl Generator<'_> {
+    fn refuse(&self, material: &str, what: String) -> Error {
+        Error::invalid(format!("tmlut shader, material `{material}`"), what)
+    }
+
+    /// The texture variable of `file`, binding it on first use.
+    fn bind(&mut self, file: &str, extent: [usize; 3], dimension: u8, channels: usize) -> String {
+        if let Some(&binding) = self.used.get(file) {
+            self.reading.insert(binding);
+            return self.textures[binding as usize].variable.clone();
+        }
+        let binding = self.textures.len() as u32;
+        let variable = format!("tm_table{binding}");
+        self.textures.push(TextureBinding {
+            binding,
+            variable: variable.clone(),
+            file: file.to_string(),
+            extent,
+            dimension,
+            channels,
+        });
+        self.used.insert(file.to_string(), binding);
+        self.reading.insert(binding);
+        variable
+    }
+
+    /// The texture variable of a table of two or three axes, one texel per node.
+    fn bind_table(&mut self, t: &TableFile) -> String {
+        let count = |d: usize| t.axes.get(d).map_or(1, |a| a.count);
+        if t.axes.iter().any(|a| matches!(a.mapping, Mapping::Asinh { .. })) {
+            self.needs.asinh = true;
+        }
+        self.bind(&t.file, [count(0), count(1), count(2)], t.axes.len() as u8, t.channels)
+    }
+
+    /// Every channel of 2D table `t` at `(mu, alpha)`: the manifest's texture coordinate of each
+    /// axis in f32, then bilinear filtering by hand (a `vec4`).
+    fn read2(&mut self, t: &TableFile, mu: Expr, alpha: Expr) -> Expr {
+        let variable = self.bind_table(t);
+        let [u, v] = [0, 1].map(|d| coordinate(&t.axes[d], if d == 0 { mu.clone() } else { alpha.clone() }));
+        func("tm_bilinear", vec![name(&variable), u, v, f(t.axes[0].count as f32), f(t.axes[1].count as f32)])
+    }
+
+    /// The value of the slice answering a lookup at `(eta, kappa)`, as
+    /// [`crate::model::folder::FolderTables`] chooses it: of the slices with a channel at those
+    /// indices (in the manifest's order), the one whose `(mu, alpha)` range lies nearest the lookup
+    /// (the sum over both axes of the distance outside the range, in units of the range, less
+    /// [`SLICE_CHOICE_SLACK`]), the first of equals, so the first that holds it. `None` where no slice has those indices.
+    ///
+    /// One candidate is read directly. Where several are, the ones that can never be chosen are
+    /// dropped when `alpha` is known here (a slice whose alpha range misses it loses to one that
+    /// holds it and every `mu`, and so does any slice after that one); the rest are compared in a
+    /// function of their own, `tm_slice<N>(mu, alpha)`.
+    fn slice(
+        &mut self,
+        tir: bool,
+        eta: f64,
+        kappa: f64,
+        mu: Expr,
+        alpha: Expr,
+        known_alpha: Option<f64>,
+    ) -> Option<Expr> {
+        let same = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+        let candidates: Vec<(TableFile, usize)> = self
+            .sources
+            .slices
+            .iter()
+            .filter(|s| if tir { s.is_tir } else { s.is_fgd })
+            .filter_map(|s| s.indices.iter().position(|&(e, k)| same(e, eta) && same(k, kappa)).map(|c| (s.clone(), c)))
+            .collect();
+        let range = |axis: &Axis| if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
+        let outside = |axis: &Axis, x: f64| {
+            let (lo, hi) = range(axis);
+            (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
+        };
+        let candidates = match known_alpha {
+            Some(alpha) => {
+                let always_chosen = candidates.iter().position(|(t, _)| {
+                    let (lo, hi) = range(&t.axes[0]);
+                    outside(&t.axes[1], alpha) == 0.0 && lo <= 0.0 && hi >= 1.0
+                });
+                match always_chosen {
+                    Some(k) => candidates
+                        .into_iter()
+                        .take(k + 1)
+                        .enumerate()
+                        .filter(|(i, (t, _))| *i == k || outside(&t.axes[1], alpha) == 0.0)
+                        .map(|(_, c)| c)
+                        .collect(),
+                    None => candidates,
+                }
+            }
+            None => candidates,
+        };
+        if !candidates.is_empty() {
+            self.reads.insert(if tir { "tir slice" } else { "fgd slice" });
+        }
+        match candidates.len() {
+            0 => None,
+            1 => {
+                let (t, c) = &candidates[0];
+                Some(self.read2(t, mu, alpha).member(CHANNELS[*c]))
+            }
+            _ => Some(func(&self.slice_chooser(&candidates), vec![mu, alpha])),
+        }
+    }
+
+    /// The function choosing among slice `candidates` at `(mu, alpha)` as [`Self::slice`] says.
+    fn slice_chooser(&mut self, candidates: &[(TableFile, usize)]) -> String {
+        let key = candidates.iter().map(|(t, c)| format!("{}#{c}", t.file)).collect::<Vec<_>>().join(",");
+        if let Some(function) = self.choosers.get(&key).cloned() {
+            for (t, _) in candidates {
+                self.bind_table(t);
+            }
+            return function;
+        }
+        let function = format!("tm_slice{}", self.choosers.len());
+        let mut body = Vec::new();
+        for (k, (t, c)) in candidates.iter().enumerate() {
+            let distance = [(0, "mu"), (1, "alpha")]
+                .map(|(d, x)| {
+                    let (lo, hi) = if t.axes[d].start <= t.axes[d].end {
+                        (t.axes[d].start, t.axes[d].end)
+                    } else {
+                        (t.axes[d].end, t.axes[d].start)
+                    };
+                    (((f(lo as f32) - name(x)).max(f(0.0)) + (name(x) - f(hi as f32)).max(f(0.0)))
+                        / f((hi - lo) as f32)
+                        - f(SLICE_CHOICE_SLACK as f32))
+                    .max(f(0.0))
+                })
+                .into_iter()
+                .reduce(|a, b| a + b)
+                .expect("two axes");
+            let value = self.read2(t, name("mu"), name("alpha")).member(CHANNELS[*c]);
+            if k == 0 {
+                body.push(super::var("nearest", Ty::F32, distance));
+                body.push(super::var("value", Ty::F32, value));
+            } else {
+                let (d, v) = (format!("distance{k}"), format!("value{k}"));
+                body.push(super::let_(&d, Ty::F32, distance));
+                body.push(super::let_(&v, Ty::F32, value));
+                body.push(super::Stmt::If {
+                    condition: name(&d).lt(name("nearest")),
+                    then: vec![super::assign(name("nearest"), name(&d)), super::assign(name("value"), name(&v))],
+                    otherwise: Vec::new(),
+                });
+            }
+        }
+        body.push(super::Stmt::Return(name("value")));
+        self.chooser_functions.push(super::Function {
+            name: function.clone(),
+            params: vec![("mu".into(), Ty::F32), ("alpha".into(), Ty::F32)],
+            returns: Ty::F32,
+            body,
+        });
+        self.choosers.insert(key, function.clone());
+        function
+    }
+
+    /// The directional albedo of an interface of roughness `alpha` and relative index
+    /// `(eta, kappa)` at cosine `mu`, on material `m`'s albedo path.
+    fn albedo(&mut self, m: &ShaderMaterial, mu: Expr, alpha: f64, eta: f64, kappa: f64) -> Result<Expr> {
+        match m.albedo {
+            AlbedoPath::Fgd => self.fgd(m, mu, alpha, eta, kappa),
+            AlbedoPath::Belcour => {
+                let Some((table, basis)) = self.sources.belcour.clone() else {
+                    return Err(self.missing(m, "the Belcour split-sum table (belcour.dds with its Fresnel basis)"));
+                };
+                self.reads.insert("belcour");
+                Ok(self.split_sum(&table, basis.coefficients(eta, kappa), mu, alpha))
+            }
+            AlbedoPath::Karis => {
+                let Some(table) = self.sources.karis.clone() else {
+                    return Err(self.missing(m, "the Karis split-sum table (karis.dds)"));
+                };
+                // FGD ~ F0 scale + bias, with F0 at the relative index (model::folder).
+                let f0 = normal_incidence_reflectance(eta, kappa);
+                self.reads.insert("karis");
+                Ok(self.split_sum(&table, [f0, 1.0, 0.0, 0.0], mu, alpha))
+            }
+        }
+    }
+
+    /// A split-sum table's channels weighed by `coefficients`, constants for the interface's index.
+    fn split_sum(&mut self, table: &TableFile, coefficients: [f64; 4], mu: Expr, alpha: f64) -> Expr {
+        let c = Expr::Construct(Ty::Vec(4), coefficients.iter().map(|&c| f(c as f32)).collect());
+        call(Builtin::Dot, vec![c, self.read2(table, mu, f(alpha as f32))])
+    }
+
+    fn missing(&self, m: &ShaderMaterial, what: &str) -> Error {
+        Error::format(&self.manifest_path, format!("lists no {what}, which material `{}` reads", m.name))
+    }
+
+    /// `FGD(mu, alpha, eta, kappa)`: the slice holding the index, else the lossless packing.
+    fn fgd(&mut self, m: &ShaderMaterial, mu: Expr, alpha: f64, eta: f64, kappa: f64) -> Result<Expr> {
+        if let Some(value) = self.slice(false, eta, kappa, mu.clone(), f(alpha as f32), Some(alpha)) {
+            return Ok(value);
+        }
+        match &self.sources.packing {
+            Some((file, packed)) => {
+                let (file, function) = (file.clone(), packed.program.function.clone());
+                let extent = [packed.texture.width, packed.texture.height, packed.texture.depth];
+                let variable = self.bind(&file, extent, 3, 1);
+                self.needs.packing = true;
+                self.reads.insert("fgd packing");
+                Ok(func(&function, vec![name(&variable), mu, f(alpha as f32), f(eta as f32), f(kappa as f32)]))
+            }
+            None => Err(Error::format(
+                &self.manifest_path,
+                format!(
+                    "holds no FGD slice at (eta, kappa) = ({eta}, {kappa}) and no lossless FGD packing, which material `{}` reads",
+                    m.name
+                ),
+            )),
+        }
+    }
+
+    /// `TIR(mu, alpha, eta)` for material `m`; `alpha` is a shader expression (a lobe's roughness).
+    fn tir(&mut self, m: &ShaderMaterial, mu: Expr, alpha: Expr, eta: f64) -> Result<Expr> {
+        match m.tir {
+            TirPath::Off => Ok(f(0.0)),
+            TirPath::Fit => {
+                if self.sources.fit.is_none() {
+                    return Err(Error::format(
+                        &self.manifest_path,
+                        "lists no fitted TIR form, which the scene's TIR path `fit` reads",
+                    ));
+                }
+                self.needs.fit = true;
+                self.reads.insert("tir fit");
+                Ok(func("tmlut_tir", vec![mu, alpha, f(eta as f32)]))
+            }
+            TirPath::Table => {
+                if let Some(value) = self.slice(true, eta, 0.0, mu.clone(), alpha.clone(), None) {
+                    return Ok(value);
+                }
+                let Some(table) = self.sources.tir.clone() else {
+                    return Err(self.refuse(
+                        &m.name,
+                        format!(
+                            "reads TIR at eta {eta}, which neither a TIR slice of the folder holds nor a 3D TIR table \
+                             (tir.dds) answers"
+                        ),
+                    ));
+                };
+                self.tir_volume(m, &table, mu, alpha, eta)
+            }
+        }
+    }
+
+    /// The 3D TIR table at the point [`crate::table::derived::point_of`] gives: each axis's
+    /// quantity by name, `eta` itself or the critical-angle offset `asin(eta) - acos(mu)` (its
+    /// `asin(eta)` folded to a constant; `acos` by [`helpers::acos`], not the builtin, whose error
+    /// Vulkan bounds only loosely and which the axis's asinh spacing magnifies a thousandfold near
+    /// the critical angle).
+    fn tir_volume(&mut self, m: &ShaderMaterial, t: &TableFile, mu: Expr, alpha: Expr, eta: f64) -> Result<Expr> {
+        let mut point = Vec::with_capacity(3);
+        for axis in &t.axes {
+            point.push(match axis.name.as_str() {
+                "mu" => mu.clone(),
+                "alpha" => alpha.clone(),
+                "eta" => f(eta as f32),
+                CRITICAL_ANGLE_OFFSET => {
+                    self.needs.acos = true;
+                    f(eta.clamp(0.0, 1.0).asin() as f32) - func("tm_acos", vec![mu.clone().clamp(f(0.0), f(1.0))])
+                }
+                other => {
+                    return Err(self.refuse(
+                        &m.name,
+                        format!(
+                            "reads TIR from {}, which has an axis `{other}`; the shader reads mu, alpha, and eta or \
+                             {CRITICAL_ANGLE_OFFSET}",
+                            t.file
+                        ),
+                    ));
+                }
+            });
+        }
+        let variable = self.bind_table(t);
+        self.needs.trilinear = true;
+        self.reads.insert("tir table");
+        let mut arguments = vec![name(&variable)];
+        arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x)));
+        arguments.extend(t.axes.iter().map(|axis| f(axis.count as f32)));
+        Ok(func("tm_trilinear", arguments))
+    }
+
+    /// `GD(mu, alpha)`.
+    fn gd(&mut self, m: &ShaderMaterial, mu: Expr, alpha: Expr) -> Result<Expr> {
+        match self.sources.gd.clone() {
+            Some(t) => {
+                self.reads.insert("gd");
+                Ok(self.read2(&t, mu, alpha).member("x"))
+            }
+            None => Err(self.missing(m, "2D GD table (gd.dds)")),
+        }
+    }
+}
+
+const CHANNELS: [&str; 4] = ["x", "y", "z", "w"];
+
+/// Channels as stored: DDS holds 1, 2 or 4.
+fn padded(n: usize) -> usize {
+    match n {
+        0 | 1 => 1,
+        2 => 2,
+        _ => 4,
+    }
+}
+
+/// A shader identifier from a material name: letters, digits and `_`.
+pub fn identifier(s: &str) -> String {
+    s.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' }).collect()
+}
+
+/// The manifest's texture coordinate of `x` along `axis` as [`crate::model::folder::texture_coordinate_f32`]
+/// computes it: the mapping in f32, its ends folded to f32 constants here, then the half-texel
+/// correction of a node-aligned axis.
+fn coordinate(axis: &Axis, x: Expr) -> Expr {
+    let m0 = axis.mapping.forward_f32(axis.start as f32);
+    let m1 = axis.mapping.forward_f32(axis.end as f32);
+    let mapped = match axis.mapping {
+        Mapping::Identity => x,
+        Mapping::Sqrt => x.max(f(0.0)).sqrt(),
+        Mapping::SqrtOneMinus => (f(1.0) - x).max(f(0.0)).sqrt(),
+        Mapping::SqrtEnds => {
+            let x = x.clamp(f(0.0), f(1.0));
+            f(0.5) * (x.clone().sqrt() - (f(1.0) - x).sqrt() + f(1.0))
+        }
+        Mapping::Asinh { scale, centre } => {
+            let from_centre = if centre == 0.0 { x } else { x - f(centre as f32) };
+            func("tm_asinh", vec![from_centre / f(scale as f32)])
+        }
+    };
+    let u = (mapped - f(m0)) / f(m1 - m0);
+    let n = axis.count as f32;
+    match axis.placement {
+        Placement::NodeAligned => (u * f(n - 1.0) + f(0.5)) / f(n),
+        Placement::CellCentred => u,
+    }
+}
+
+/// Print `shader` in both languages.
+pub fn texts(shader: &SceneShader) -> [(Lang, String); 2] {
+    [Lang::Hlsl, Lang::Wgsl].map(|lang| (lang, shader.module.print(lang)))
+}
