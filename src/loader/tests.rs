@@ -126,7 +126,7 @@ fn folder() -> (tempfile::TempDir, LutFolder) {
         write(d, "tir.dds", &tir_table(), FileFormat::Dds, Precision::F32),
         write(d, "fgd.bin", &fgd_table(), FileFormat::Bin, Precision::F32),
     ]);
-    Manifest { generator: "tmlut test".into(), files, scene: None }.write(d).unwrap();
+    Manifest { generator: "tmlut test".into(), files, ..Default::default() }.write(d).unwrap();
     let folder = LutFolder::open(d).unwrap();
     (dir, folder)
 }
