@@ -34,14 +34,7 @@ const FGD_TOLERANCE: f64 = 1e-6;
 const TIR_FIT_TOLERANCE: f64 = 1e-5;
 
 fn main() -> ExitCode {
-    match run() {
-        Ok(true) => ExitCode::SUCCESS,
-        Ok(false) => ExitCode::FAILURE,
-        Err(e) => {
-            eprintln!("gpu_lookups: {e}");
-            ExitCode::from(2)
-        }
-    }
+    gpu::exit_code("gpu_lookups", run())
 }
 
 fn run() -> Result<bool, Box<dyn std::error::Error>> {
@@ -93,10 +86,8 @@ fn check_fgd(
     let ranges: Vec<[f64; 2]> = fgd.table().axes.iter().map(|a| [a.start, a.end]).collect();
     let points: Vec<f32> = (0..POINTS).flat_map(|_| ranges.iter().map(|&r| uniform(r)).collect::<Vec<_>>()).collect();
     let on_gpu = gpu.run(&gpu.module(&wgsl), "main", &[texture], &points, POINTS, POINTS);
-    let mut comparison = Comparison::default();
-    for (&value, p) in on_gpu.iter().zip(points.chunks_exact(4)) {
-        comparison.add(value, fgd.sample(p[0], p[1], p[2], p[3]) as f64);
-    }
+    let on_cpu = points.chunks_exact(4).map(|p| fgd.sample(p[0], p[1], p[2], p[3]) as f64);
+    let comparison = Comparison::of(&on_gpu, on_cpu);
     println!("{} over {file} vs fgd.exr interpolated: {}", lookup.file, comparison.summary(FGD_TOLERANCE));
     Ok(comparison.passes(FGD_TOLERANCE))
 }
@@ -128,10 +119,8 @@ fn check_tir_fit(
     );
     let points: Vec<f32> = (0..3 * POINTS).map(|_| uniform([0.0, 1.0])).collect();
     let on_gpu = gpu.run(&gpu.module(&wgsl), "main", &[], &points, POINTS, POINTS);
-    let mut comparison = Comparison::default();
-    for (&value, p) in on_gpu.iter().zip(points.chunks_exact(3)) {
-        comparison.add(value, form.eval(&fit.parameters, p[0] as f64, p[1] as f64, p[2] as f64));
-    }
+    let on_cpu = points.chunks_exact(3).map(|p| form.eval(&fit.parameters, p[0] as f64, p[1] as f64, p[2] as f64));
+    let comparison = Comparison::of(&on_gpu, on_cpu);
     println!(
         "{} ({}) vs the form in f64 from the manifest's coefficients: {}",
         function.file,

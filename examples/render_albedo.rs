@@ -25,14 +25,7 @@ const VIEWS: usize = 17;
 const TOLERANCE: f64 = 1e-5;
 
 fn main() -> ExitCode {
-    match run() {
-        Ok(true) => ExitCode::SUCCESS,
-        Ok(false) => ExitCode::FAILURE,
-        Err(e) => {
-            eprintln!("render_albedo: {e}");
-            ExitCode::from(2)
-        }
-    }
+    gpu::exit_code("render_albedo", run())
 }
 
 fn run() -> Result<bool, Box<dyn std::error::Error>> {
@@ -74,7 +67,7 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     let scene = tmlut::scene::Scene::from_toml(&record.text, &format!("{luts_dir}/manifest.json"), &record.name)?;
     let materials = tmlut::scene::shader::shader_materials(&scene)?;
 
-    let mut comparison = gpu::Comparison::default();
+    let (mut on_gpu, mut on_cpu) = (Vec::new(), Vec::new());
     for function in shader.description.materials.iter() {
         let albedo = gpu.run(&module, &format!("albedo_{}", function.function), &textures, &views, VIEWS, 3 * VIEWS);
         let m = materials.iter().find(|m| m.name == function.material).ok_or("a shader material not in the scene")?;
@@ -82,20 +75,18 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
         let cpu = Material::new(m.model, m.stack.clone());
         println!("{} ({}): A(mu) on the GPU, R G B", function.material, function.function);
         for (k, &mu) in views.iter().enumerate() {
-            let on_gpu = &albedo[3 * k..3 * k + 3];
-            let on_cpu = cpu.evaluate(mu as f64, &tables).albedo;
-            for (&g, c) in on_gpu.iter().zip(on_cpu) {
-                comparison.add(g, c);
-            }
+            on_cpu.extend(cpu.evaluate(mu as f64, &tables).albedo);
             if k % 4 == 0 {
-                println!("  mu {mu:.2}: {:.6} {:.6} {:.6}", on_gpu[0], on_gpu[1], on_gpu[2]);
+                println!("  mu {mu:.2}: {:.6} {:.6} {:.6}", albedo[3 * k], albedo[3 * k + 1], albedo[3 * k + 2]);
             }
         }
+        on_gpu.extend(albedo);
         // A lookup the folder holds no table for would make the comparison meaningless.
         if let Some(first) = tables.misses().first {
             return Err(format!("material `{}`: the folder holds no table for {first}", function.material).into());
         }
     }
+    let comparison = gpu::Comparison::of(&on_gpu, on_cpu);
     println!("albedo, {VIEWS} views x 3 channels per material: {}", comparison.summary(TOLERANCE));
     Ok(comparison.passes(TOLERANCE))
 }

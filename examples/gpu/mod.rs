@@ -20,7 +20,16 @@ pub struct Comparison {
 }
 
 impl Comparison {
-    pub fn add(&mut self, gpu: f32, cpu: f64) {
+    /// Each GPU value against the CPU value in the same place.
+    pub fn of(gpu: &[f32], cpu: impl IntoIterator<Item = f64>) -> Self {
+        let mut comparison = Comparison::default();
+        for (&g, c) in gpu.iter().zip(cpu) {
+            comparison.add(g, c);
+        }
+        comparison
+    }
+
+    fn add(&mut self, gpu: f32, cpu: f64) {
         self.values += 1;
         match gpu.is_finite() {
             true => self.worst = self.worst.max((gpu as f64 - cpu).abs()),
@@ -38,6 +47,19 @@ impl Comparison {
             "max |GPU - CPU| {:.2e} over {} values (tolerance {tolerance:e}), {} not finite",
             self.worst, self.values, self.not_finite
         )
+    }
+}
+
+/// The exit code of an example: 0 when every comparison passed, 1 when one did not, 2 on an error
+/// (printed).
+pub fn exit_code(example: &str, result: Result<bool, Box<dyn std::error::Error>>) -> std::process::ExitCode {
+    match result {
+        Ok(true) => std::process::ExitCode::SUCCESS,
+        Ok(false) => std::process::ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("{example}: {e}");
+            std::process::ExitCode::from(2)
+        }
     }
 }
 
