@@ -209,6 +209,9 @@ pub fn write_jobs(
         removals.extend(shaders.map(|shader| shader.file.clone()));
         false
     });
+    // A scene shader is specialised to the tables it was written over: it leaves with them, and
+    // `build --scene` writes it again over the new ones.
+    removals.extend(manifest.scene_shader.take().into_iter().flat_map(|s| s.files).map(|f| f.file));
     let mut written = Vec::new();
     for file in staged {
         let name = file_name(&file.path);

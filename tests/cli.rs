@@ -413,7 +413,8 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
     // Exactly the plan: a DDS per slice and GD in its configured format, nothing of the default set.
     let mut files: Vec<&String> = manifest.files.keys().collect();
     files.sort();
-    // Beside the tables, the scene's shader (not a table: not in the manifest's files), valid WGSL.
+    // Beside the tables, the scene's shader (not a table: listed under `scene_shader`, not among
+    // the manifest's files), valid WGSL.
     for shader in ["copper_pot.wgsl", "copper_pot.hlsl", "copper_pot.shader.json"] {
         assert!(out.join(shader).exists(), "{shader}");
     }
@@ -434,6 +435,74 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
     assert_eq!(entry.nan_count, 0);
     let values = copper.interpolate(&[0.8, 0.01]);
     assert!(values[..3].iter().all(|v| (0.0..=1.0).contains(v)) && values[3] == 0.0, "{values:?}");
+}
+
+#[test]
+fn the_scene_shader_is_listed_in_the_manifest_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let out = dir.path().join("luts");
+    let out_arg = out.to_str().unwrap();
+    let scene = scene_path("copper-pot");
+    assert!(build(&config, &out, &["--scene", &scene]).status.success());
+    let no_budgets = write_config(dir.path(), "");
+    let check = || tmlut(&["check", out_arg, "--budgets", no_budgets.to_str().unwrap()]);
+
+    // Listed with length and SHA-256, read back by the loader and verified by `check`.
+    let listed = |out: &Path| -> Vec<String> {
+        let manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
+        let record = manifest.scene_shader.expect("the scene shader is listed");
+        assert_eq!(record.scene, "copper-pot");
+        for f in &record.files {
+            let bytes = std::fs::read(out.join(&f.file)).unwrap();
+            assert_eq!(
+                (f.bytes, f.sha256.as_str()),
+                (bytes.len() as u64, tmlut::pipeline::sha256_hex(&bytes).as_str())
+            );
+        }
+        record.files.into_iter().map(|f| f.file).collect()
+    };
+    assert_eq!(listed(&out), ["copper_pot.hlsl", "copper_pot.wgsl", "copper_pot.shader.json"]);
+    let shader = tmlut::loader::SceneShaderFiles::open(&out).unwrap();
+    assert_eq!(shader.wgsl, std::fs::read_to_string(out.join("copper_pot.wgsl")).unwrap());
+    assert_eq!(shader.description.materials[0].function, "tm_varnished_copper");
+    let output = check();
+    assert!(output.status.success(), "{}{}", stdout(&output), stderr(&output));
+    for line in ["ok   copper_pot.wgsl: shader length 9", "ok   copper_pot.shader.json: shader sha256"] {
+        assert!(stdout(&output).contains(line), "expected `{line}` in:\n{}", stdout(&output));
+    }
+
+    // A shader file changed after its build is found by both.
+    let wgsl = out.join("copper_pot.wgsl");
+    let original = std::fs::read(&wgsl).unwrap();
+    std::fs::write(&wgsl, [original.as_slice(), b"\n"].concat()).unwrap();
+    let output = check();
+    assert!(!output.status.success());
+    for line in ["FAIL copper_pot.wgsl: shader length", "FAIL copper_pot.wgsl: shader sha256"] {
+        assert!(stdout(&output).contains(line), "expected `{line}` in:\n{}", stdout(&output));
+    }
+    let err = tmlut::loader::SceneShaderFiles::open(&out).unwrap_err().to_string();
+    assert!(err.contains("copper_pot.wgsl") && err.contains("bytes, the manifest states"), "{err}");
+    std::fs::write(&wgsl, &original).unwrap();
+
+    // `tmlut shader` into the folder of its tables replaces the listing: the reference file is
+    // listed while written, and removed with it.
+    let shader_into_folder = |views: &str| {
+        let output = tmlut(&["shader", &scene, "--luts", out_arg, "--out", out_arg, "--reference-views", views]);
+        assert!(output.status.success(), "{}", stderr(&output));
+    };
+    shader_into_folder("3");
+    assert!(listed(&out).contains(&"copper_pot.reference.json".to_string()));
+    shader_into_folder("0");
+    assert!(!listed(&out).contains(&"copper_pot.reference.json".to_string()));
+    assert!(!out.join("copper_pot.reference.json").exists());
+    assert!(check().status.success());
+
+    // A build into the folder replaces the tables the shader was specialised to: the shader
+    // leaves with them.
+    assert!(build(&config, &out, &["--only", "gd"]).status.success());
+    assert!(Manifest::read(&out.join(MANIFEST_FILE)).unwrap().scene_shader.is_none());
+    assert!(!out.join("copper_pot.wgsl").exists());
 }
 
 #[test]

@@ -65,6 +65,27 @@ pub struct Manifest {
     /// The scene and plan of the last `tmlut build --scene` into this folder.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scene: Option<SceneRecord>,
+    /// The scene shader written into this folder over its own tables (`tmlut build --scene`, or
+    /// `tmlut shader` with `--out` the folder of `--luts`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene_shader: Option<SceneShaderRecord>,
+}
+
+/// The files of a scene shader (`docs/shaders.md`), each verified by `tmlut check` and the loader.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneShaderRecord {
+    /// The scene's name.
+    pub scene: String,
+    pub files: Vec<SceneShaderFile>,
+}
+
+/// One file of a scene shader: what it is, its length and its SHA-256.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneShaderFile {
+    pub file: String,
+    pub what: String,
+    pub bytes: u64,
+    pub sha256: String,
 }
 
 /// A scene a folder was built for, and the plan that was built.
@@ -401,7 +422,7 @@ mod tests {
             fit: None,
             binding: None,
         };
-        let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), scene: None };
+        let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), ..Default::default() };
         manifest.files.insert("gd.bin".into(), entry);
         let dir = tempfile::tempdir().unwrap();
         manifest.write(dir.path()).unwrap();

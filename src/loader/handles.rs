@@ -80,7 +80,7 @@ impl Shape {
     fn open(&self, folder: &LutFolder, file: &str) -> Result<Checked> {
         let entry = folder.entry(file)?.clone();
         let table = folder.load(file)?;
-        let precision = if entry.format == FileFormat::Bin { Precision::F32 } else { entry.precision };
+        let precision = super::stored_precision(&entry);
         self.check(table, precision, Some(entry), &folder.dir().join(file).to_string_lossy())
     }
 

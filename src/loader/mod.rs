@@ -29,6 +29,7 @@
 //! names, which the manifest adds when present.
 
 pub mod handles;
+pub mod shader;
 #[cfg(test)]
 mod tests;
 pub mod texture;
@@ -39,10 +40,11 @@ pub mod texture;
 pub struct Guide;
 
 pub use crate::error::{Error, Result};
-pub use crate::formats::manifest::{FileEntry, Manifest};
+pub use crate::formats::manifest::{FileEntry, Manifest, ShaderFile};
 pub use crate::formats::{FileFormat, Precision};
 pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Table};
 pub use handles::{BelcourLut, FgdLut, GdLut, KarisLut, TirLut};
+pub use shader::{MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
 pub use texture::{
     Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,
 };
@@ -101,6 +103,27 @@ impl LutFolder {
         check_file_name(file).map_err(|reason| Error::format(self.dir.join(MANIFEST_FILE), reason))?;
         load_verified(self.dir.join(file), self.entry(file)?)
     }
+
+    /// The texel bytes and texture descriptor of a file of this folder, in the precision it is
+    /// stored in, loaded as [`LutFolder::load`] loads it: what a renderer uploads for a table the
+    /// typed handles do not cover (a scene's slices, a packed FGD volume). Refused for a table of
+    /// four axes or of three channels, naming it.
+    pub fn texture(&self, file: &str) -> Result<TextureData> {
+        TextureData::from_table(&self.load(file)?, stored_precision(self.entry(file)?))
+    }
+
+    /// The text of a shader file the manifest lists (a packing's lookup, a fitted form's
+    /// function: `FileEntry::packing` and `FileEntry::fit` name them), verified against the
+    /// SHA-256 stated for it.
+    pub fn shader(&self, shader: &ShaderFile) -> Result<String> {
+        shader::read_text_verified(&self.dir, &shader.file, None, Some(&shader.sha256))
+    }
+}
+
+/// The precision a file's values are stored in: its entry's, f32 for `.bin` (which has no
+/// precision field: f32 by definition).
+fn stored_precision(entry: &FileEntry) -> Precision {
+    if entry.format == FileFormat::Bin { Precision::F32 } else { entry.precision }
 }
 
 /// Load a file listed in a manifest and verify it against its entry: the bytes must have the

@@ -128,7 +128,7 @@ fn folder() -> (tempfile::TempDir, LutFolder) {
         write(d, "tir.dds", &tir_table(), FileFormat::Dds, Precision::F32),
         write(d, "fgd.bin", &fgd_table(), FileFormat::Bin, Precision::F32),
     ]);
-    Manifest { generator: "tmlut test".into(), files, scene: None }.write(d).unwrap();
+    Manifest { generator: "tmlut test".into(), files, ..Default::default() }.write(d).unwrap();
     let folder = LutFolder::open(d).unwrap();
     (dir, folder)
 }
@@ -143,7 +143,7 @@ fn ktx2_folder() -> (tempfile::TempDir, LutFolder) {
         write(d, "gd.ktx2", &gd_table(), FileFormat::Ktx2, Precision::F16),
         write(d, "tir.ktx2", &tir_table(), FileFormat::Ktx2, Precision::F32),
     ]);
-    Manifest { generator: "tmlut test".into(), files, scene: None }.write(d).unwrap();
+    Manifest { generator: "tmlut test".into(), files, scene: None, scene_shader: None }.write(d).unwrap();
     let folder = LutFolder::open(d).unwrap();
     (dir, folder)
 }

@@ -361,8 +361,9 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
     }
 }
 
-/// Every shader file the manifest lists (a packing's lookups, a fitted form's functions), once
-/// each: inside the folder, present, and with the SHA-256 stated.
+/// Every shader file the manifest lists (a packing's lookups, a fitted form's functions, a scene
+/// shader's files), once each: inside the folder, present, with the SHA-256 stated and, where the
+/// manifest states it, the length.
 fn check_shaders(dir: &Path, manifest: &Manifest, findings: &mut Vec<Finding>) {
     let entries = manifest.files.values();
     let listed = entries
@@ -370,32 +371,32 @@ fn check_shaders(dir: &Path, manifest: &Manifest, findings: &mut Vec<Finding>) {
             let packing = e.packing.iter().flat_map(|p| &p.shaders);
             packing.chain(e.fit.iter().flat_map(|f| &f.shaders))
         })
-        .chain(manifest.scene.iter().flat_map(|s| s.plan.tir_fit.iter().flat_map(|f| &f.shaders)));
+        .chain(manifest.scene.iter().flat_map(|s| s.plan.tir_fit.iter().flat_map(|f| &f.shaders)))
+        .map(|shader| (shader.file.as_str(), shader.sha256.as_str(), None));
+    let scene_shader = manifest.scene_shader.iter().flat_map(|s| &s.files);
+    let listed = listed.chain(scene_shader.map(|f| (f.file.as_str(), f.sha256.as_str(), Some(f.bytes))));
     // A shader listed by several entries (the DDS and KTX2 textures of one packing) is checked
     // once per SHA-256 stated for it: an entry that misstates it fails even beside one that does not.
-    let seen: std::collections::BTreeSet<(&str, &str)> =
-        listed.map(|shader| (shader.file.as_str(), shader.sha256.as_str())).collect();
-    for (file, stated) in seen {
-        let mut record = |value: String, pass: bool| {
-            findings.push(Finding {
-                file: file.into(),
-                check: "shader sha256".into(),
-                value,
-                limit: stated.into(),
-                pass,
-            })
+    let seen: std::collections::BTreeSet<(&str, &str, Option<u64>)> = listed.collect();
+    for (file, stated, stated_bytes) in seen {
+        let mut record = |check: &str, value: String, limit: String, pass: bool| {
+            findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass })
         };
         if let Err(reason) = check_file_name(file) {
-            record(reason, false);
+            record("shader sha256", reason, stated.into(), false);
             continue;
         }
         match crate::formats::read_bytes_at_most(&dir.join(file), MAX_MANIFEST_BYTES, "a shader file") {
             Ok(bytes) => {
+                if let Some(stated_bytes) = stated_bytes {
+                    let length = bytes.len() as u64;
+                    record("shader length", length.to_string(), stated_bytes.to_string(), length == stated_bytes);
+                }
                 let actual = sha256_hex(&bytes);
                 let pass = actual == stated;
-                record(actual, pass);
+                record("shader sha256", actual, stated.into(), pass);
             }
-            Err(e) => record(format!("unreadable: {e}"), false),
+            Err(e) => record("shader sha256", format!("unreadable: {e}"), stated.into(), false),
         }
     }
 }

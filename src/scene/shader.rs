@@ -9,10 +9,11 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::Scene;
-use crate::commit::OutputFolder;
+use crate::commit::{Move, OutputFolder};
 use crate::error::{Error, Result};
+use crate::formats::manifest::{MANIFEST_FILE, Manifest, SceneShaderFile, SceneShaderRecord};
 use crate::formats::write_bytes_atomically;
-use crate::loader::LutFolder;
+use crate::loader::{LutFolder, sha256_hex};
 use crate::model::folder::{FgdSource, FolderTables};
 use crate::model::{Evaluation, Material, STIFF_VIEWS};
 use crate::shader::scene::{SceneShader, ShaderMaterial, generate, texts};
@@ -82,33 +83,104 @@ pub fn reference(
     Ok(points)
 }
 
-/// Write the shader of `scene` over the folder `luts` into `out` (created; locked while written;
-/// each file replaced atomically), with `reference_views` CPU reference views per material (0: no
-/// reference file). Returns the paths written.
+/// Write the shader of `scene` over the folder `luts` into `out` (created; locked while written),
+/// with `reference_views` CPU reference views per material (0: no reference file). Returns the
+/// paths written.
+///
+/// Into the folder of `luts` itself, the files are committed with its manifest, which lists them
+/// (`scene_shader`: length and SHA-256 of each, as `tmlut check` verifies them) in place of the
+/// scene shader it listed before; elsewhere each file is replaced atomically.
 pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_views: usize) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
+    // Taken before the tables are read: into the folder of `luts`, no build changes them between
+    // the reading and the commit.
+    let folder_lock =
+        OutputFolder::take(out, |holder| eprintln!("waiting for {holder} to finish writing {}", out.display()))?;
     let folder = LutFolder::open(luts)?;
     let materials = shader_materials(scene)?;
     let shader = generate(&folder, &materials)?;
     let stem = crate::shader::scene::identifier(&scene.name);
-    let mut files: Vec<(String, Vec<u8>)> = texts(&shader)
+    let functions: Vec<&str> = shader.materials.iter().map(|m| m.function.as_str()).collect();
+    let mut files: Vec<(String, String, Vec<u8>)> = texts(&shader)
         .into_iter()
-        .map(|(lang, text)| (format!("{stem}.{}", lang.extension()), text.into_bytes()))
+        .map(|(lang, text)| {
+            let what = format!(
+                "{}: the transfer-matrix evaluation of the scene's materials over this folder's tables, one function \
+                 per material ({}) returning TmResult; bound as {stem}.shader.json states",
+                lang.extension().to_uppercase(),
+                functions.join(", ")
+            );
+            (format!("{stem}.{}", lang.extension()), what, text.into_bytes())
+        })
         .collect();
     let json = |v: &dyn erased::Json| v.bytes();
-    files.push((format!("{stem}.shader.json"), json(&shader.description())));
+    files.push((
+        format!("{stem}.shader.json"),
+        "what the shader binds (one texture per table file: binding, file, extent, channels) and each material's \
+         function"
+            .into(),
+        json(&shader.description()),
+    ));
     if reference_views > 0 {
         let points = reference(&folder, &shader, &materials, reference_views)?;
-        files.push((format!("{stem}.reference.json"), json(&points)));
+        let what = format!(
+            "the CPU evaluator (tmlut::model) at {reference_views} evenly spaced view cosines per material: the \
+             values the shader must reproduce"
+        );
+        files.push((format!("{stem}.reference.json"), what, json(&points)));
     }
-    std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
-    let _lock =
-        OutputFolder::take(out, |holder| eprintln!("waiting for {holder} to finish writing {}", out.display()))?;
-    let mut written = Vec::new();
-    for (file, bytes) in files {
-        let path = out.join(file);
-        write_bytes_atomically(&path, &bytes)?;
-        written.push(path);
+    if same_folder(luts, out) {
+        commit_with_manifest(&folder_lock, scene, files)
+    } else {
+        let mut written = Vec::new();
+        for (file, _, bytes) in files {
+            let path = out.join(file);
+            write_bytes_atomically(&path, &bytes)?;
+            written.push(path);
+        }
+        Ok(written)
     }
+}
+
+/// Whether two paths name one folder (both exist here: `luts` was opened, `out` created).
+fn same_folder(a: &Path, b: &Path) -> bool {
+    matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)
+}
+
+/// Stage `files` (name, what it is, bytes) and commit them with the folder's manifest listing
+/// them; the files of the scene shader it listed before and no longer holds are removed.
+fn commit_with_manifest(
+    folder: &OutputFolder,
+    scene: &Scene,
+    files: Vec<(String, String, Vec<u8>)>,
+) -> Result<Vec<PathBuf>> {
+    let out = &folder.dir;
+    let mut manifest = Manifest::read(&out.join(MANIFEST_FILE))?;
+    let mut staging = folder.staging()?;
+    let mut moves = Vec::new();
+    let mut record = SceneShaderRecord { scene: scene.name.clone(), files: Vec::new() };
+    for (file, what, bytes) in files {
+        write_bytes_atomically(&staging.dir.join(&file), &bytes)?;
+        record.files.push(SceneShaderFile {
+            file: file.clone(),
+            what,
+            bytes: bytes.len() as u64,
+            sha256: sha256_hex(&bytes),
+        });
+        moves.push(Move { staged: file.clone(), destination: file });
+    }
+    let removals = manifest
+        .scene_shader
+        .take()
+        .into_iter()
+        .flat_map(|old| old.files)
+        .map(|f| f.file)
+        .filter(|file| !moves.iter().any(|m| &m.destination == file))
+        .collect();
+    let written = record.files.iter().map(|f| out.join(&f.file)).collect();
+    manifest.scene_shader = Some(record);
+    manifest.write(&staging.dir)?;
+    crate::commit::commit(folder, &mut staging, moves, removals)?;
     Ok(written)
 }
 

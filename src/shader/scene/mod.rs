@@ -28,9 +28,8 @@ mod layers;
 mod tm2;
 mod tm6;
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
-
-use serde::Serialize;
 
 use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, splat3};
 use crate::error::{Error, Result};
@@ -38,6 +37,7 @@ use crate::fit::forms::Form;
 use crate::formats::FileFormat;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::LutFolder;
+pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
 use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, slice_indices};
 use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
@@ -57,37 +57,6 @@ pub struct ShaderMaterial {
     pub stack: Stack,
 }
 
-/// A texture the shader binds: its binding in group 0 and the file it holds.
-#[derive(Debug, Clone, Serialize)]
-pub struct TextureBinding {
-    pub binding: u32,
-    /// The variable in the shader.
-    pub variable: String,
-    pub file: String,
-    /// `[width, height, depth]` in texels.
-    pub extent: [usize; 3],
-    /// 2 or 3.
-    pub dimension: u8,
-    /// Channels per texel as stored (1, 2 or 4).
-    pub channels: usize,
-}
-
-/// A material's function in the shader.
-#[derive(Debug, Clone, Serialize)]
-pub struct MaterialFunction {
-    pub material: String,
-    pub function: String,
-    /// Lobes it fills in `TmResult` (the rest are zero).
-    pub lobes: usize,
-    /// The bindings of the textures it reads: a pipeline running it alone binds only these (WebGPU
-    /// allows 16 sampled textures per stage unless a device asks for more).
-    pub textures: Vec<u32>,
-    pub model: FluxModel,
-    /// What its lookups read: `fgd slice`, `fgd packing`, `belcour`, `karis`, `tir slice`,
-    /// `tir table` (3D), `tir fit`, `gd`.
-    pub reads: Vec<&'static str>,
-}
-
 /// The shader of a scene: its module (print it with [`Module::print`]) and what a renderer binds.
 #[derive(Debug, Clone)]
 pub struct SceneShader {
@@ -98,26 +67,17 @@ pub struct SceneShader {
     pub max_lobes: usize,
 }
 
-/// The description a renderer reads beside the shader files (`<scene>.shader.json`).
-#[derive(Debug, Clone, Serialize)]
-pub struct ShaderDescription<'a> {
-    pub result_struct: &'static str,
-    pub max_lobes: usize,
-    pub textures: &'a [TextureBinding],
-    pub materials: &'a [MaterialFunction],
-    pub notes: &'static str,
-}
-
 impl SceneShader {
     pub fn description(&self) -> ShaderDescription<'_> {
         ShaderDescription {
-            result_struct: "TmResult",
+            result_struct: "TmResult".into(),
             max_lobes: self.max_lobes,
-            textures: &self.textures,
-            materials: &self.materials,
+            textures: Cow::Borrowed(&self.textures),
+            materials: Cow::Borrowed(&self.materials),
             notes: "Each texture is bound in group 0 (HLSL: register tN) at `binding`, created from the file's texels as \
                     stored (its DXGI format, e.g. R32_FLOAT -> r32float), one mip level, linear; no sampler: the shader \
-                    loads and filters texels itself. Call the material's function with the view cosine mu = n.v.",
+                    loads and filters texels itself. Call the material's function with the view cosine mu = n.v."
+                .into(),
         }
     }
 }
@@ -216,8 +176,8 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             function: function.name.clone(),
             lobes,
             textures: g.reading.iter().copied().collect(),
-            model: material.model,
-            reads: g.reads.iter().copied().collect(),
+            model: material.model.name().to_string(),
+            reads: g.reads.iter().map(|read| read.to_string()).collect(),
         });
         functions.push(function);
     }

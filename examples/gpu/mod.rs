@@ -1,0 +1,274 @@
+//! The wgpu plumbing the examples share: a headless device, a table uploaded as a texture from the
+//! loader's texel bytes and descriptor, and one compute pass from an f32 input array to an f32
+//! output array.
+
+use tmlut::loader::{TextureData, TextureDimension, TextureFormat};
+
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// The adapter, as wgpu names it (`llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)` on lavapipe).
+    pub adapter: String,
+}
+
+/// GPU values against the CPU's: the largest difference and the GPU values that are not finite.
+#[derive(Debug, Default)]
+pub struct Comparison {
+    pub worst: f64,
+    pub not_finite: usize,
+    pub values: usize,
+}
+
+impl Comparison {
+    /// Each GPU value against the CPU value in the same place.
+    pub fn of(gpu: &[f32], cpu: impl IntoIterator<Item = f64>) -> Self {
+        let mut comparison = Comparison::default();
+        for (&g, c) in gpu.iter().zip(cpu) {
+            comparison.add(g, c);
+        }
+        comparison
+    }
+
+    fn add(&mut self, gpu: f32, cpu: f64) {
+        self.values += 1;
+        match gpu.is_finite() {
+            true => self.worst = self.worst.max((gpu as f64 - cpu).abs()),
+            false => self.not_finite += 1,
+        }
+    }
+
+    pub fn passes(&self, tolerance: f64) -> bool {
+        self.worst <= tolerance && self.not_finite == 0
+    }
+
+    /// `max |GPU - CPU| ... over N values (tolerance ...), K not finite`.
+    pub fn summary(&self, tolerance: f64) -> String {
+        format!(
+            "max |GPU - CPU| {:.2e} over {} values (tolerance {tolerance:e}), {} not finite",
+            self.worst, self.values, self.not_finite
+        )
+    }
+}
+
+/// The exit code of an example: 0 when every comparison passed, 1 when one did not, 2 on an error
+/// (printed).
+pub fn exit_code(example: &str, result: Result<bool, Box<dyn std::error::Error>>) -> std::process::ExitCode {
+    match result {
+        Ok(true) => std::process::ExitCode::SUCCESS,
+        Ok(false) => std::process::ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("{example}: {e}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}
+
+/// A texture bound in group 0 at `binding`.
+pub struct Bound {
+    pub binding: u32,
+    pub view: wgpu::TextureView,
+    pub dimension: wgpu::TextureViewDimension,
+}
+
+impl Gpu {
+    /// A device on the first adapter wgpu finds: the machine's GPU, or a software one (Mesa's
+    /// lavapipe) where there is none. No window, no surface.
+    pub fn new() -> Result<Gpu, String> {
+        let instance = wgpu::Instance::new(&wgpu::InstanceDescriptor::from_env_or_default());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+            .map_err(|e| format!("no GPU adapter (install a Vulkan driver, e.g. mesa-vulkan-drivers): {e}"))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+            .map_err(|e| format!("{}: no device: {e}", info.name))?;
+        Ok(Gpu { device, queue, adapter: format!("{} ({:?})", info.name, info.backend) })
+    }
+
+    /// A texture holding a table, created and filled from the loader's descriptor, whose fields
+    /// are named as wgpu names them (docs/loader.md). Bound at `binding` of group 0.
+    pub fn upload(&self, binding: u32, data: &TextureData) -> Result<Bound, String> {
+        let d = data.descriptor();
+        let size = wgpu::Extent3d { width: d.width, height: d.height, depth_or_array_layers: d.depth_or_layers };
+        let (dimension, view_dimension) = match d.dimension {
+            TextureDimension::D3 => (wgpu::TextureDimension::D3, wgpu::TextureViewDimension::D3),
+            _ => (wgpu::TextureDimension::D2, wgpu::TextureViewDimension::D2),
+        };
+        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: None,
+            size,
+            mip_level_count: d.mip_level_count,
+            sample_count: 1,
+            dimension,
+            format: texture_format(d.format)?,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        // Rows are packed: `write_texture` takes them so (a buffer copy would pad them to 256 bytes).
+        self.queue.write_texture(
+            texture.as_image_copy(),
+            &data.to_bytes(),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(d.bytes_per_row),
+                rows_per_image: Some(d.rows_per_image),
+            },
+            size,
+        );
+        Ok(Bound { binding, view: texture.create_view(&Default::default()), dimension: view_dimension })
+    }
+
+    /// Run the compute entry point `entry` of `module` over `items` items of `inputs` (an
+    /// [`entry_point`]) and return the `outputs` f32 values it writes. The module declares
+    /// `textures` in group 0 and [`BUFFERS`] in group 1.
+    pub fn run(
+        &self,
+        module: &wgpu::ShaderModule,
+        entry: &str,
+        textures: &[Bound],
+        inputs: &[f32],
+        items: usize,
+        outputs: usize,
+    ) -> Vec<f32> {
+        // The tables are read with textureLoad: no sampler, unfilterable float (r32float needs no
+        // feature), visible to compute only.
+        let texture_entries: Vec<_> = textures
+            .iter()
+            .map(|t| wgpu::BindGroupLayoutEntry {
+                binding: t.binding,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: t.dimension,
+                    multisampled: false,
+                },
+                count: None,
+            })
+            .collect();
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        // An explicit layout: a layout derived from the shader would leave out the tables this
+        // entry point does not read, and binding them would then fail.
+        let device = &self.device;
+        let layouts = [
+            device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &texture_entries }),
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: None,
+                entries: &[storage(0, true), storage(1, false)],
+            }),
+        ];
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: None,
+                bind_group_layouts: &[&layouts[0], &layouts[1]],
+                push_constant_ranges: &[],
+            })),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let buffer = |size: usize, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size: size as u64,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let input = buffer(size_of_val(inputs), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST);
+        self.queue.write_buffer(&input, 0, &f32_bytes(inputs));
+        let out_size = outputs * size_of::<f32>();
+        let output = buffer(out_size, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
+        let readback = buffer(out_size, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
+        let groups = [
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &layouts[0],
+                entries: &textures
+                    .iter()
+                    .map(|t| wgpu::BindGroupEntry {
+                        binding: t.binding,
+                        resource: wgpu::BindingResource::TextureView(&t.view),
+                    })
+                    .collect::<Vec<_>>(),
+            }),
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &layouts[1],
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
+                ],
+            }),
+        ];
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &groups[0], &[]);
+            pass.set_bind_group(1, &groups[1], &[]);
+            pass.dispatch_workgroups(items.div_ceil(64) as u32, 1, 1);
+        }
+        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, out_size as u64);
+        self.queue.submit([encoder.finish()]);
+        readback.map_async(wgpu::MapMode::Read, .., |mapped| mapped.expect("mapping the read-back buffer"));
+        device.poll(wgpu::PollType::wait_indefinitely()).expect("the GPU finishes the compute pass");
+        let bytes = readback.get_mapped_range(..);
+        bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+    }
+
+    /// A WGSL module; wgpu (naga) reports an invalid one.
+    pub fn module(&self, wgsl: &str) -> wgpu::ShaderModule {
+        self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: None,
+            source: wgpu::ShaderSource::Wgsl(wgsl.into()),
+        })
+    }
+}
+
+/// The wgpu format of the same name.
+fn texture_format(format: TextureFormat) -> Result<wgpu::TextureFormat, String> {
+    Ok(match format {
+        TextureFormat::R16Float => wgpu::TextureFormat::R16Float,
+        TextureFormat::Rg16Float => wgpu::TextureFormat::Rg16Float,
+        TextureFormat::Rgba16Float => wgpu::TextureFormat::Rgba16Float,
+        TextureFormat::R32Float => wgpu::TextureFormat::R32Float,
+        TextureFormat::Rg32Float => wgpu::TextureFormat::Rg32Float,
+        TextureFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
+        other => return Err(format!("texture format {} is not mapped to wgpu here", other.webgpu_name())),
+    })
+}
+
+fn f32_bytes(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+/// The group 1 bindings of [`Gpu::run`].
+pub const BUFFERS: &str = "
+@group(1) @binding(0) var<storage, read> inputs: array<f32>;
+@group(1) @binding(1) var<storage, read_write> outputs: array<f32>;
+";
+
+/// A compute entry point running `body` for item `i` of the items of `inputs_per_item` inputs
+/// each; `body` reads `inputs[...]` and writes `outputs[...]`.
+pub fn entry_point(name: &str, inputs_per_item: usize, body: &str) -> String {
+    format!(
+        "
+@compute @workgroup_size(64)
+fn {name}(@builtin(global_invocation_id) id: vec3<u32>) {{
+    let i = id.x;
+    if (i >= arrayLength(&inputs) / {inputs_per_item}u) {{ return; }}
+    {body}
+}}
+"
+    )
+}

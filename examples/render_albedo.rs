@@ -1,0 +1,92 @@
+//! A renderer's first run of tmlut's scene shader: load a folder built for a scene, upload its
+//! tables to wgpu, run each material's function of the generated WGSL in a compute pass, read the
+//! directional albedo back, and compare it with tmlut's CPU evaluator.
+//!
+//! ```sh
+//! tmlut build --scene luts/scenes/copper-pot.toml --out luts/copper-pot   # tables + shader
+//! cargo run --example render_albedo -- luts/copper-pot [SHADER_DIR]
+//! ```
+//!
+//! `SHADER_DIR` is where `tmlut shader --out` wrote the shader, if not beside the tables. Exits
+//! non-zero where GPU and CPU differ by more than 1e-5 or the GPU returns a value that is not
+//! finite. The wgpu plumbing (device, texture upload, one compute pass) is in `gpu/mod.rs`.
+
+mod gpu;
+
+use std::process::ExitCode;
+
+use tmlut::loader::{LutFolder, SceneShaderFiles};
+use tmlut::model::Material;
+use tmlut::model::folder::{FgdSource, FolderTables};
+
+/// View cosines `mu = k / (VIEWS - 1)` per material.
+const VIEWS: usize = 17;
+/// The scene shader computes in f32 what the CPU evaluator computes in f64 (`docs/shaders.md`).
+const TOLERANCE: f64 = 1e-5;
+
+fn main() -> ExitCode {
+    gpu::exit_code("render_albedo", run())
+}
+
+fn run() -> Result<bool, Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (luts_dir, shader_dir) = match args.as_slice() {
+        [luts] => (luts, luts),
+        [luts, shader] => (luts, shader),
+        _ => return Err("usage: render_albedo LUTS_DIR [SHADER_DIR]".into()),
+    };
+    // Every file is verified against the manifest as it loads (length, SHA-256, shape).
+    let luts = LutFolder::open(luts_dir)?;
+    let shader = SceneShaderFiles::open(shader_dir)?;
+    let gpu = gpu::Gpu::new()?;
+    println!("adapter: {}", gpu.adapter);
+
+    // One texture per table file, created from its texels as stored, at the binding the shader's
+    // description gives.
+    let mut textures = Vec::new();
+    for t in shader.description.textures.iter() {
+        textures.push(gpu.upload(t.binding, &luts.texture(&t.file)?)?);
+    }
+
+    // The generated WGSL as written, and one entry point per material: A(mu), RGB, per view.
+    let mut wgsl = shader.wgsl.clone() + gpu::BUFFERS;
+    for m in shader.description.materials.iter() {
+        let body = format!(
+            "let a = {}(inputs[i]).albedo;\n    outputs[3u * i] = a.x; outputs[3u * i + 1u] = a.y; outputs[3u * i + 2u] = a.z;",
+            m.function
+        );
+        wgsl += &gpu::entry_point(&format!("albedo_{}", m.function), 1, &body);
+    }
+    let module = gpu.module(&wgsl);
+    let views: Vec<f32> = (0..VIEWS).map(|k| k as f32 / (VIEWS - 1) as f32).collect();
+
+    // The CPU evaluator reads the same folder as the shader reads it; the materials are the
+    // scene's, as `tmlut build --scene` recorded it in the manifest.
+    let record =
+        luts.manifest().scene.as_ref().ok_or("the folder records no scene: build it with `tmlut build --scene`")?;
+    let scene = tmlut::scene::Scene::from_toml(&record.text, &format!("{luts_dir}/manifest.json"), &record.name)?;
+    let materials = tmlut::scene::shader::shader_materials(&scene)?;
+
+    let (mut on_gpu, mut on_cpu) = (Vec::new(), Vec::new());
+    for function in shader.description.materials.iter() {
+        let albedo = gpu.run(&module, &format!("albedo_{}", function.function), &textures, &views, VIEWS, 3 * VIEWS);
+        let m = materials.iter().find(|m| m.name == function.material).ok_or("a shader material not in the scene")?;
+        let tables = FolderTables::open(&luts, m.albedo, m.tir, FgdSource::Packing)?;
+        let cpu = Material::new(m.model, m.stack.clone());
+        println!("{} ({}): A(mu) on the GPU, R G B", function.material, function.function);
+        for (k, &mu) in views.iter().enumerate() {
+            on_cpu.extend(cpu.evaluate(mu as f64, &tables).albedo);
+            if k % 4 == 0 {
+                println!("  mu {mu:.2}: {:.6} {:.6} {:.6}", albedo[3 * k], albedo[3 * k + 1], albedo[3 * k + 2]);
+            }
+        }
+        on_gpu.extend(albedo);
+        // A lookup the folder holds no table for would make the comparison meaningless.
+        if let Some(first) = tables.misses().first {
+            return Err(format!("material `{}`: the folder holds no table for {first}", function.material).into());
+        }
+    }
+    let comparison = gpu::Comparison::of(&on_gpu, on_cpu);
+    println!("albedo, {VIEWS} views x 3 channels per material: {}", comparison.summary(TOLERANCE));
+    Ok(comparison.passes(TOLERANCE))
+}

@@ -1,0 +1,227 @@
+//! A scene shader as a renderer reads it: the WGSL and HLSL that `tmlut shader` (and `tmlut build
+//! --scene`) writes, and `<scene>.shader.json`, what each texture binding holds and which function
+//! evaluates which material (`docs/shaders.md`).
+//!
+//! ```no_run
+//! use tmlut::loader::{LutFolder, SceneShaderFiles};
+//!
+//! let luts = LutFolder::open("luts/copper-pot")?; // tmlut build --scene: the shader lies beside the tables
+//! let shader = SceneShaderFiles::open(luts.dir())?; // verified against the manifest, which lists it
+//! for texture in shader.description.textures.iter() {
+//!     let data = luts.texture(&texture.file)?; // bound at @group(0) @binding(texture.binding)
+//!     # let _ = data;
+//! }
+//! let wgsl: &str = &shader.wgsl; // one function per material: shader.description.materials
+//! # let _ = wgsl;
+//! # Ok::<(), tmlut::Error>(())
+//! ```
+
+use std::borrow::Cow;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::{Manifest, sha256_hex};
+use crate::error::{Error, Result};
+use crate::formats::manifest::{MANIFEST_FILE, check_file_name};
+use crate::formats::{MAX_MANIFEST_BYTES, read_bytes_at_most};
+
+/// The suffix of a scene shader's description file: `<scene>.shader.json`.
+pub const DESCRIPTION_SUFFIX: &str = ".shader.json";
+
+/// A texture the shader binds: its binding in group 0 and the file it holds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TextureBinding {
+    pub binding: u32,
+    /// The variable in the shader.
+    pub variable: String,
+    pub file: String,
+    /// `[width, height, depth]` in texels.
+    pub extent: [usize; 3],
+    /// 2 or 3.
+    pub dimension: u8,
+    /// Channels per texel as stored (1, 2 or 4).
+    pub channels: usize,
+}
+
+/// A material's function in the shader.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MaterialFunction {
+    pub material: String,
+    pub function: String,
+    /// Lobes it fills in `TmResult` (the rest are zero).
+    pub lobes: usize,
+    /// The bindings of the textures it reads: a pipeline running it alone binds only these (WebGPU
+    /// allows 16 sampled textures per stage unless a device asks for more).
+    pub textures: Vec<u32>,
+    /// The flux model it evaluates: `2-flux` or `6-flux`.
+    pub model: String,
+    /// What its lookups read: `fgd slice`, `fgd packing`, `belcour`, `karis`, `tir slice`,
+    /// `tir table` (3D), `tir fit`, `gd`.
+    pub reads: Vec<String>,
+}
+
+/// `<scene>.shader.json`: what a renderer binds and calls. Borrowed where the generator writes it,
+/// owned where it is read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShaderDescription<'a> {
+    /// The struct each material's function returns (`TmResult`).
+    pub result_struct: Cow<'a, str>,
+    /// The length of its lobe arrays.
+    pub max_lobes: usize,
+    pub textures: Cow<'a, [TextureBinding]>,
+    pub materials: Cow<'a, [MaterialFunction]>,
+    pub notes: Cow<'a, str>,
+}
+
+/// The scene shader of a folder: its description and its WGSL and HLSL text.
+#[derive(Debug, Clone)]
+pub struct SceneShaderFiles {
+    /// The files' common stem, the scene's name as an identifier (`copper_pot`).
+    pub stem: String,
+    pub description: ShaderDescription<'static>,
+    pub wgsl: String,
+    pub hlsl: String,
+}
+
+impl SceneShaderFiles {
+    /// The scene shader in `dir`: its one `<scene>.shader.json` and the `<scene>.wgsl` and
+    /// `<scene>.hlsl` beside it. Where `dir`'s manifest lists the scene shader (`tmlut build
+    /// --scene`), each file is verified against its length and SHA-256, as tables are.
+    pub fn open(dir: impl AsRef<Path>) -> Result<Self> {
+        let dir = dir.as_ref();
+        let manifest_path = dir.join(MANIFEST_FILE);
+        let listed = match manifest_path.exists() {
+            true => Manifest::read(&manifest_path)?.scene_shader,
+            false => None,
+        };
+        let stem = match &listed {
+            Some(record) => {
+                record.files.iter().find_map(|f| f.file.strip_suffix(DESCRIPTION_SUFFIX)).map(str::to_owned)
+            }
+            None => None,
+        };
+        let stem = match stem {
+            Some(stem) => stem,
+            None => only_description(dir)?,
+        };
+        let read = |file: String| -> Result<String> {
+            match listed.as_ref().and_then(|r| r.files.iter().find(|f| f.file == file)) {
+                Some(entry) => read_text_verified(dir, &file, Some(entry.bytes), Some(&entry.sha256)),
+                None => read_text_verified(dir, &file, None, None),
+            }
+        };
+        let description_path = dir.join(format!("{stem}{DESCRIPTION_SUFFIX}"));
+        let description = serde_json::from_str(&read(format!("{stem}{DESCRIPTION_SUFFIX}"))?)
+            .map_err(|e| Error::format(&description_path, format!("not a scene shader description: {e}")))?;
+        Ok(SceneShaderFiles {
+            wgsl: read(format!("{stem}.wgsl"))?,
+            hlsl: read(format!("{stem}.hlsl"))?,
+            description,
+            stem,
+        })
+    }
+}
+
+/// The text of the shader file `file` of `dir` (a plain file name), verified against the length
+/// and SHA-256 a manifest states for it, where it states them.
+pub(crate) fn read_text_verified(
+    dir: &Path,
+    file: &str,
+    stated_bytes: Option<u64>,
+    stated_sha256: Option<&str>,
+) -> Result<String> {
+    check_file_name(file).map_err(|reason| Error::format(dir.join(MANIFEST_FILE), reason))?;
+    let path = dir.join(file);
+    let bytes = read_bytes_at_most(&path, MAX_MANIFEST_BYTES, "a shader file")?;
+    let mut disagreements = Vec::new();
+    if let Some(stated) = stated_bytes
+        && stated != bytes.len() as u64
+    {
+        disagreements.push(format!("the file has {} bytes, the manifest states {stated}", bytes.len()));
+    }
+    if let Some(stated) = stated_sha256 {
+        let sha256 = sha256_hex(&bytes);
+        if sha256 != stated {
+            disagreements.push(format!("its SHA-256 is {sha256}, the manifest states {stated}"));
+        }
+    }
+    if !disagreements.is_empty() {
+        return Err(Error::format(
+            &path,
+            format!("differs from its entry in {MANIFEST_FILE}: {}", disagreements.join("; ")),
+        ));
+    }
+    String::from_utf8(bytes).map_err(|_| Error::format(&path, "is not UTF-8 text"))
+}
+
+/// The stem of the one `*.shader.json` in `dir`.
+fn only_description(dir: &Path) -> Result<String> {
+    let entries = std::fs::read_dir(dir).map_err(|source| Error::io(dir, source))?;
+    let mut stems: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .filter_map(|e| e.file_name().to_str().and_then(|n| n.strip_suffix(DESCRIPTION_SUFFIX)).map(str::to_owned))
+        .collect();
+    stems.sort();
+    match stems.as_slice() {
+        [stem] => Ok(stem.clone()),
+        [] => Err(Error::format(
+            dir,
+            format!(
+                "holds no scene shader (*{DESCRIPTION_SUFFIX}); `tmlut shader SCENE --luts DIR --out DIR` writes one"
+            ),
+        )),
+        _ => Err(Error::format(
+            dir,
+            format!(
+                "holds {} scene shaders ({}); open one folder per scene",
+                stems.len(),
+                stems.iter().map(|s| format!("{s}{DESCRIPTION_SUFFIX}")).collect::<Vec<_>>().join(", ")
+            ),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_folder_without_a_manifest_holds_exactly_one_scene_shader() {
+        let dir = tempfile::tempdir().unwrap();
+        let err = SceneShaderFiles::open(dir.path()).unwrap_err().to_string();
+        assert!(err.contains("holds no scene shader (*.shader.json)"), "{err}");
+
+        let description = ShaderDescription {
+            result_struct: "TmResult".into(),
+            max_lobes: 1,
+            textures: Cow::Owned(vec![TextureBinding {
+                binding: 0,
+                variable: "tm_table0".into(),
+                file: "gd.dds".into(),
+                extent: [64, 64, 1],
+                dimension: 2,
+                channels: 1,
+            }]),
+            materials: Cow::Owned(vec![MaterialFunction {
+                material: "m".into(),
+                function: "tm_m".into(),
+                lobes: 1,
+                textures: vec![0],
+                model: "2-flux".into(),
+                reads: vec!["gd".into()],
+            }]),
+            notes: "".into(),
+        };
+        std::fs::write(dir.path().join("a.shader.json"), serde_json::to_string(&description).unwrap()).unwrap();
+        std::fs::write(dir.path().join("a.wgsl"), "fn tm_m() {}").unwrap();
+        std::fs::write(dir.path().join("a.hlsl"), "").unwrap();
+        let read = SceneShaderFiles::open(dir.path()).unwrap();
+        assert_eq!((read.stem.as_str(), read.wgsl.as_str()), ("a", "fn tm_m() {}"));
+        assert_eq!(read.description, description);
+
+        std::fs::write(dir.path().join("b.shader.json"), "{}").unwrap();
+        let err = SceneShaderFiles::open(dir.path()).unwrap_err().to_string();
+        assert!(err.contains("holds 2 scene shaders (a.shader.json, b.shader.json)"), "{err}");
+    }
+}
