@@ -282,11 +282,11 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
             sources.slices.push(table);
         } else if entry.table == "gd" && dimension == 2 {
             sources.gd = Some(table);
-        } else if entry.table == crate::recipes::tir::NAME && dimension == 3 {
+        } else if entry.table == "tir" && dimension == 3 {
             sources.tir = Some(table);
-        } else if entry.table == crate::recipes::karis::NAME && dimension == 2 {
+        } else if entry.table == "karis" && dimension == 2 {
             sources.karis = Some(table);
-        } else if entry.table == crate::recipes::belcour::NAME
+        } else if entry.table == "belcour"
             && dimension == 2
             && let Some(basis) = &entry.fresnel_basis
         {
