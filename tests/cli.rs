@@ -506,6 +506,51 @@ fn the_scene_shader_is_listed_in_the_manifest_and_checked() {
 }
 
 #[test]
+fn a_scene_built_in_ktx2_gives_the_shader_and_the_model_what_its_dds_twin_gives() {
+    let dir = tempfile::tempdir().unwrap();
+    let dds_config = write_config(dir.path(), SMALL_SET);
+    let mut ktx2 = SMALL_SET.replacen("[fgd]\n", "[fgd]\npacking_formats = [\"ktx2\"]\n", 1);
+    ktx2.push_str("[gd.output]\nformats = [\"ktx2\"]\n[tir.output]\nformats = [\"ktx2\"]\n");
+    let ktx2_dir = dir.path().join("ktx2");
+    std::fs::create_dir(&ktx2_dir).unwrap();
+    let ktx2_config = write_config(&ktx2_dir, &ktx2);
+    let scene = scene_path("copper-pot");
+    let built = |config: &Path, name: &str| -> PathBuf {
+        let out = dir.path().join(name);
+        let output = build(config, &out, &["--scene", &scene]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        let output = tmlut(&[
+            "shader",
+            &scene,
+            "--luts",
+            out.to_str().unwrap(),
+            "--out",
+            out.join("shader").to_str().unwrap(),
+            "--reference-views",
+            "7",
+        ]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        out
+    };
+    let (dds, ktx2) = (built(&dds_config, "dds"), built(&ktx2_config, "ktx2"));
+
+    // Every slice and GD in KTX2 alone, and the shader binds those files.
+    let manifest = Manifest::read(&ktx2.join(MANIFEST_FILE)).unwrap();
+    assert!(manifest.files.keys().all(|f| f.ends_with(".ktx2")), "{:?}", manifest.files.keys());
+    assert_eq!(manifest.files.len(), 4);
+    let shader = tmlut::loader::SceneShaderFiles::open(&ktx2).unwrap();
+    assert!(shader.description.textures.iter().all(|t| t.file.ends_with(".ktx2")));
+    let no_budgets = write_config(dir.path(), "");
+    let check = tmlut(&["check", ktx2.to_str().unwrap(), "--budgets", no_budgets.to_str().unwrap()]);
+    assert!(check.status.success(), "{}{}", stdout(&check), stderr(&check));
+
+    // The same values, so the same shader text and the same CPU evaluation, bit for bit.
+    let read = |dir: &Path, file: &str| std::fs::read(dir.join("shader").join(file)).unwrap();
+    assert_eq!(read(&dds, "copper_pot.wgsl"), read(&ktx2, "copper_pot.wgsl"));
+    assert_eq!(read(&dds, "copper_pot.reference.json"), read(&ktx2, "copper_pot.reference.json"));
+}
+
+#[test]
 fn a_scene_with_the_fitted_tir_form_writes_its_shaders_and_no_tir_table() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), SMALL_SET);

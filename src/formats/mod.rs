@@ -127,6 +127,25 @@ pub enum FileFormat {
 }
 
 impl FileFormat {
+    /// Every format, in the order messages list them.
+    pub const ALL: [FileFormat; 4] = [FileFormat::Bin, FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2];
+
+    /// The texture formats a GPU binds directly, in the order readers prefer them where a table
+    /// is written in several.
+    pub const TEXTURES: [FileFormat; 2] = [FileFormat::Dds, FileFormat::Ktx2];
+
+    /// The formats that can hold a table of `axes` axes, in [`FileFormat::ALL`]'s order: OpenEXR
+    /// any, a texture format 2 or 3, and the original `.bin` layout only a table that has one
+    /// (`original_layout`: FGD, GD and TIR).
+    pub fn for_table(axes: usize, original_layout: bool) -> Vec<FileFormat> {
+        let holds = |format: FileFormat| match format {
+            FileFormat::Bin => original_layout,
+            FileFormat::Exr => true,
+            texture => FileFormat::TEXTURES.contains(&texture) && (2..=3).contains(&axes),
+        };
+        FileFormat::ALL.into_iter().filter(|&f| holds(f)).collect()
+    }
+
     pub fn extension(self) -> &'static str {
         match self {
             FileFormat::Dds => "dds",

@@ -89,8 +89,9 @@ impl Shape {
     /// `.bin` one.
     fn find<'a>(&self, folder: &'a LutFolder) -> Result<&'a str> {
         let files = &folder.manifest().files;
-        [FileFormat::Dds, FileFormat::Ktx2, FileFormat::Exr, FileFormat::Bin]
+        FileFormat::TEXTURES
             .iter()
+            .chain(&[FileFormat::Exr, FileFormat::Bin])
             .find_map(|&format| {
                 files
                     .iter()

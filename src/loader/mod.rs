@@ -86,6 +86,26 @@ impl LutFolder {
         self.manifest.files.keys().map(String::as_str)
     }
 
+    /// The files a GPU binds as textures, sorted: a table (or packing of it) written in several
+    /// texture formats is bound once, from the format [`FileFormat::TEXTURES`] lists first (DDS
+    /// before KTX2).
+    pub fn gpu_textures(&self) -> impl Iterator<Item = (&str, &FileEntry)> {
+        let files = &self.manifest.files;
+        let rank = |format: FileFormat| FileFormat::TEXTURES.iter().position(|&f| f == format);
+        let packing = |e: &FileEntry| e.packing.as_ref().map(|p| p.name.clone());
+        let preferred_twin = move |entry: &FileEntry, rank_of_entry: usize| {
+            files.values().any(|e| {
+                rank(e.format).is_some_and(|r| r < rank_of_entry)
+                    && e.table == entry.table
+                    && packing(e) == packing(entry)
+            })
+        };
+        files
+            .iter()
+            .map(|(file, entry)| (file.as_str(), entry))
+            .filter(move |(_, entry)| rank(entry.format).is_some_and(|r| !preferred_twin(entry, r)))
+    }
+
     /// The manifest entry of a file in this folder.
     pub fn entry(&self, file: &str) -> Result<&FileEntry> {
         self.manifest.entry(file).ok_or_else(|| {

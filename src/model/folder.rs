@@ -1,10 +1,10 @@
 //! The files of a built folder answering the model's lookups exactly as a renderer reads them.
 //!
-//! - Textures (`.dds`, and the `.bin` tables of up to three axes, which a shader binds as textures)
-//!   are sampled the way a GPU samples them: the manifest's texture coordinate computed in f32,
+//! - Textures (`.dds` and `.ktx2`, the DDS file where a table is in both, and the `.bin` tables of
+//!   up to three axes, which a shader binds as textures) are sampled the way a GPU samples them: the manifest's texture coordinate computed in f32,
 //!   cell-centred linear filtering with clamp addressing in f32, texels as stored (f16 widened
 //!   exactly), through [`crate::packing::emulator`].
-//! - The 4D FGD table has no texture: its GPU packing (`fgd_lossless.dds`) is read through the very
+//! - The 4D FGD table has no texture: its GPU packing (`fgd_lossless.dds` or `.ktx2`) is read through the very
 //!   lookup program its shader files print ([`crate::packing::PackedFgd`]), or the 4D table (`fgd.exr`,
 //!   or `fgd.bin` in the original layout) is
 //!   interpolated on the CPU in 4D as the reference plugin does.
@@ -195,8 +195,8 @@ impl FolderTables {
         };
         let slices_of = |prefix: &str, quantity: Quantity| -> Result<Vec<Slice>> {
             let mut slices = Vec::new();
-            for (file, entry) in entries {
-                if entry.format != FileFormat::Dds || !is_slice(entry, prefix) {
+            for (file, entry) in folder.gpu_textures() {
+                if !is_slice(entry, prefix) {
                     continue;
                 }
                 let table = folder.load(file)?;
@@ -209,7 +209,7 @@ impl FolderTables {
             entries.iter().find(|(_, e)| e.table == table && e.format == format && e.packing.is_none())
         };
         // The texture of a table a GPU binds: its DDS file, else its KTX2 file.
-        let texture = |table: &str| find(table, FileFormat::Dds).or_else(|| find(table, FileFormat::Ktx2));
+        let texture = |table: &str| FileFormat::TEXTURES.iter().find_map(|&format| find(table, format));
         let albedo = match albedo {
             AlbedoPath::Fgd => {
                 let slices = slices_of("fgd", Quantity::Albedo)?;

@@ -73,7 +73,7 @@ impl Default for BelcourSettings {
 
 impl BelcourSettings {
     pub fn validate(&self) -> Result<()> {
-        self.validate_shared(NAME, &[FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2])?;
+        self.validate_shared(NAME, &FileFormat::for_table(2, false))?;
         if !(8..=4096).contains(&self.own.cosine_intervals) {
             return Err(Error::invalid(
                 "belcour.cosine_intervals",

@@ -146,7 +146,7 @@ impl FgdSettings {
         self.sampling.validate("fgd.sampling")?;
         self.reference.validate("fgd.reference")?;
         self.interpolation.validate("fgd.interpolation")?;
-        self.output.validate("fgd.output", &[FileFormat::Bin, FileFormat::Exr])?;
+        self.output.validate("fgd.output", &FileFormat::for_table(4, true))?;
         let counts = [self.mu_count, self.alpha_count, self.eta_count, self.kappa_count];
         for (k, packing) in self.packings.iter().enumerate() {
             if self.packings[..k].contains(packing) {

@@ -71,7 +71,7 @@ impl GdSettings {
         self.sampling.validate("gd.sampling")?;
         self.reference.validate("gd.reference")?;
         self.interpolation.validate("gd.interpolation")?;
-        self.output.validate("gd.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2])
+        self.output.validate("gd.output", &FileFormat::for_table(2, true))
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {

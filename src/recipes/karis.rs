@@ -73,7 +73,7 @@ impl Default for KarisSettings {
 
 impl KarisSettings {
     pub fn validate(&self) -> Result<()> {
-        self.validate_shared(NAME, &[FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2])
+        self.validate_shared(NAME, &FileFormat::for_table(2, false))
     }
 }
 

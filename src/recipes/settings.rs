@@ -95,15 +95,15 @@ pub fn check_formats(key: &str, formats: &[FileFormat], allowed: &[FileFormat]) 
     Ok(())
 }
 
-/// The texture files of a table's packings under `key`: DDS, KTX2 or both, at least one where
-/// any packing is written (`packed`).
+/// The texture files of a table's packings under `key`: any of the texture formats, at least one
+/// where any packing is written (`packed`).
 pub fn check_packing_formats(key: &str, formats: &[FileFormat], packed: bool) -> Result<()> {
-    let allowed = [FileFormat::Dds, FileFormat::Ktx2];
-    check_formats(key, formats, &allowed)?;
+    check_formats(key, formats, &FileFormat::TEXTURES)?;
     if packed && formats.is_empty() {
+        let names: Vec<&str> = FileFormat::TEXTURES.iter().map(|f| f.extension()).collect();
         return Err(Error::invalid(
             key,
-            "is empty, so the packings asked for would not be written; allowed: dds, ktx2",
+            format!("is empty, so the packings asked for would not be written; allowed: {}", names.join(", ")),
         ));
     }
     Ok(())

@@ -103,13 +103,20 @@ impl Slices {
         }
     }
 
-    /// Slices are written as DDS textures in the precision of the full table's output.
+    /// Slices are textures, written in the precision of the full table's output and in the texture
+    /// formats the full table is written in: FGD's `packing_formats` (its 4D table is no
+    /// texture), TIR's DDS and KTX2 `output.formats`; as DDS where those list neither.
     pub fn output(&self) -> OutputConfig {
-        let precision = match &self.of {
-            SliceOf::Fgd(s) => s.output.precision,
-            SliceOf::Tir(s) => s.output.precision,
+        let (texture_formats, precision) = match &self.of {
+            SliceOf::Fgd(s) => (&s.packing_formats, s.output.precision),
+            SliceOf::Tir(s) => (&s.output.formats, s.output.precision),
         };
-        OutputConfig { formats: vec![FileFormat::Dds], precision }
+        let mut formats: Vec<FileFormat> =
+            texture_formats.iter().copied().filter(|f| FileFormat::TEXTURES.contains(f)).collect();
+        if formats.is_empty() {
+            formats.push(FileFormat::TEXTURES[0]);
+        }
+        OutputConfig { formats, precision }
     }
 
     fn table_name(&self) -> &'static str {

@@ -155,7 +155,7 @@ impl TirSettings {
         self.sampling.validate("tir.sampling")?;
         self.reference.validate("tir.reference")?;
         self.interpolation.validate("tir.interpolation")?;
-        self.output.validate("tir.output", &[FileFormat::Bin, FileFormat::Dds, FileFormat::Exr, FileFormat::Ktx2])
+        self.output.validate("tir.output", &FileFormat::for_table(3, true))
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {

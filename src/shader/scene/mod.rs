@@ -34,7 +34,6 @@ use std::collections::BTreeMap;
 use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, splat3};
 use crate::error::{Error, Result};
 use crate::fit::forms::Form;
-use crate::formats::FileFormat;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::LutFolder;
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
@@ -254,10 +253,8 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
     let entries = &folder.manifest().files;
     let mut sources =
         Sources { slices: Vec::new(), gd: None, packing: None, fit: None, tir: None, belcour: None, karis: None };
-    for (file, entry) in entries {
-        if entry.format != FileFormat::Dds {
-            continue;
-        }
+    for (file, entry) in folder.gpu_textures() {
+        let file = &file.to_string();
         if entry.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()) {
             if materials.iter().any(|m| m.albedo == AlbedoPath::Fgd) {
                 let table = folder.load(file)?;
