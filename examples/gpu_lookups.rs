@@ -27,7 +27,9 @@ use gpu::Comparison;
 
 /// Random points per shader.
 const POINTS: usize = 16_384;
-/// The lossless lookup interpolates the same texels in f32 (`docs/packing.md`).
+/// The lossless lookup interpolates the same texels in f32 (`docs/packing.md`), from texture
+/// coordinates it computes in f32 (for the asinh-spaced `eta` and `kappa` axes with the odd
+/// symmetry that keeps `log(|y| + sqrt(y * y + 1))` from cancelling).
 const FGD_TOLERANCE: f64 = 1e-6;
 /// The fitted form in f32 on the GPU against f64 on the CPU; WGSL allows its transcendental
 /// functions a few ulp more than correct rounding.

@@ -197,10 +197,10 @@ fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize;
 /// `u = clamp((m(x) - m(start)) * (1 / (m(end) - m(start))), 0, 1)`: the axis coordinate in
 /// [0, 1], in f32, as a local named `u_<axis>` (for the identity mapping exact when the range is a
 /// power of two, as FGD's 1 and 4 are). The mapping `m` is written out: `sqrt(max(x, 0))`,
-/// `(sqrt(c) - sqrt(1 - c) + 1) * 0.5` with `c` clamped to [0, 1], or `log(y + sqrt(y * y + 1))`
-/// with `y = (x - centre) * (1 / scale)` (neither HLSL nor older GLSL has `asinh`; for `y < 0` the
-/// sum cancels, by up to 50 ulps of the logarithm's argument at FGD's `y = -5`, which moves the
-/// node index by a few 1e-6 of a node).
+/// `(sqrt(c) - sqrt(1 - c) + 1) * 0.5` with `c` clamped to [0, 1], or `asinh(y)` with
+/// `y = (x - centre) * (1 / scale)`, written `log(|y| + sqrt(y * y + 1))` with the sign of `y`
+/// (HLSL has no `asinh`; the odd symmetry keeps the sum from cancelling where `y < 0`, which at
+/// FGD's `y = -5` cost 50 ulps of the logarithm's argument and moved lookups by 5.4e-6).
 fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
     let x = program.input(&axis.name);
     let mapped = match axis.mapping {
@@ -212,7 +212,8 @@ fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
         Mapping::Asinh { scale, centre } => {
             let y = program
                 .local(&format!("y_{}", axis.name), x.sub(Expr::c(centre as f32)).mul(Expr::c((1.0 / scale) as f32)));
-            y.clone().add(y.clone().mul(y).add(Expr::c(1.0)).sqrt()).log()
+            let magnitude = y.clone().abs().add(y.clone().mul(y.clone()).add(Expr::c(1.0)).sqrt()).log();
+            magnitude.with_sign_of(y)
         }
         Mapping::Identity | Mapping::SqrtOneMinus => x,
     };

@@ -56,6 +56,9 @@ pub enum Expr {
     /// Natural logarithm; Rust's f32 `ln` is within an ulp, a GPU within a few (see the module's
     /// notes).
     Log(Box<Expr>),
+    Abs(Box<Expr>),
+    /// The first value with the sign of the second: negated where the second is below 0.
+    WithSignOf(Box<Expr>, Box<Expr>),
 }
 
 impl Expr {
@@ -77,6 +80,12 @@ impl Expr {
     pub fn log(self) -> Expr {
         Expr::Log(Box::new(self))
     }
+    pub fn abs(self) -> Expr {
+        Expr::Abs(Box::new(self))
+    }
+    pub fn with_sign_of(self, sign: Expr) -> Expr {
+        Expr::WithSignOf(Box::new(self), Box::new(sign))
+    }
     /// `min(max(x, lo), hi)`; a NaN `x` becomes `lo` in Rust and in HLSL (IEEE maxNum).
     pub fn clamp(self, lo: f32, hi: f32) -> Expr {
         self.max(Expr::c(lo)).min(Expr::c(hi))
@@ -95,6 +104,11 @@ impl Expr {
             Expr::Max(a, b) => a.eval(inputs, locals).max(b.eval(inputs, locals)),
             Expr::Sqrt(a) => a.eval(inputs, locals).sqrt(),
             Expr::Log(a) => a.eval(inputs, locals).ln(),
+            Expr::Abs(a) => a.eval(inputs, locals).abs(),
+            Expr::WithSignOf(a, s) => {
+                let a = a.eval(inputs, locals);
+                if s.eval(inputs, locals) < 0.0 { -a } else { a }
+            }
         }
     }
 
@@ -128,6 +142,16 @@ impl Expr {
             Expr::Max(a, b) => call("max", &[a, b], out),
             Expr::Sqrt(a) => call("sqrt", &[a], out),
             Expr::Log(a) => call("log", &[a], out),
+            Expr::Abs(a) => call("abs", &[a], out),
+            Expr::WithSignOf(a, s) => {
+                out.push('(');
+                s.print(program, out);
+                out.push_str(" < 0 ? -");
+                a.print(program, out);
+                out.push_str(" : ");
+                a.print(program, out);
+                out.push(')');
+            }
         }
     }
 }
@@ -313,6 +337,11 @@ impl Program {
             Expr::Max(a, b) => shader::call(Builtin::Max, two(a, b)),
             Expr::Sqrt(a) => shader::call(Builtin::Sqrt, vec![self.emitted(a)]),
             Expr::Log(a) => shader::call(Builtin::Log, vec![self.emitted(a)]),
+            Expr::Abs(a) => shader::call(Builtin::Abs, vec![self.emitted(a)]),
+            Expr::WithSignOf(a, s) => {
+                let negative = self.emitted(s).lt(shader::f(0.0));
+                shader::select(negative, -self.emitted(a), self.emitted(a))
+            }
         }
     }
 
