@@ -1,12 +1,15 @@
-"""Run tmlut's generated WGSL on a real GPU API (wgpu-native through Python's `wgpu`; Mesa's
-lavapipe where no GPU is present) and compare it with tmlut's CPU evaluation.
+"""Run tmlut's generated WGSL, and its HLSL compiled to SPIR-V, on a real GPU API (wgpu-native
+through Python's `wgpu`; Mesa's lavapipe where no GPU is present) and compare them with tmlut's
+CPU evaluation.
 
-    python scripts/gpu_check.py SHADER_DIR LUTS_DIR [SHADER_DIR LUTS_DIR ...]
+    python scripts/gpu_check.py [--hlsl GLSLANG_VALIDATOR] SHADER_DIR LUTS_DIR [SHADER_DIR LUTS_DIR ...]
 
 For each scene shader (<scene>.wgsl, <scene>.shader.json, <scene>.reference.json from
 `tmlut shader --reference-views N`), every texture of the shader is created from the table file's
 texels as stored (the DDS header gives format and extent) and each material's function is run
-once per reference view in a compute shader. Prints the largest |GPU - CPU| over albedo, top
+once per reference view in a compute shader. With `--hlsl`, the same again with <scene>.hlsl:
+compiled by glslang's HLSL front end to SPIR-V (`register(tN)` becomes binding N of set 0, as the
+WGSL's group 0), which wgpu takes as the shader module. Prints the largest |GPU - CPU| over albedo, top
 albedo, lobe energies and cosines; over lobe roughnesses and GD, each weighted by its lobe's
 energy (largest channel); and the NaN count; exits non-zero where either is above 1e-5, or on any
 NaN.
@@ -21,7 +24,9 @@ to the energy it shapes. The unweighted largest difference is printed too.
 import json
 import math
 import struct
+import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -78,7 +83,64 @@ class Worst:
         self.record(other.difference, other.where)
 
 
-def check_scene(dev, shader_dir, luts):
+def wgsl_module(dev, text, function, stride, lobes):
+    entry = f"""
+@group(1) @binding(0) var<storage, read> tm_views: array<f32>;
+@group(1) @binding(1) var<storage, read_write> tm_out: array<f32>;
+@compute @workgroup_size(64)
+fn tm_main(@builtin(global_invocation_id) id: vec3<u32>) {{
+    let i = id.x;
+    if (i >= arrayLength(&tm_views)) {{ return; }}
+    let r = {function}(tm_views[i]);
+    let o = i * {stride}u;
+    tm_out[o + 0u] = r.albedo.x; tm_out[o + 1u] = r.albedo.y; tm_out[o + 2u] = r.albedo.z;
+    tm_out[o + 3u] = r.top_albedo.x; tm_out[o + 4u] = r.top_albedo.y; tm_out[o + 5u] = r.top_albedo.z;
+    for (var k = 0u; k < {lobes}u; k++) {{
+        let b = o + 6u + 6u * k;
+        tm_out[b + 0u] = r.lobe_energy[k].x; tm_out[b + 1u] = r.lobe_energy[k].y; tm_out[b + 2u] = r.lobe_energy[k].z;
+        tm_out[b + 3u] = r.lobe_roughness[k]; tm_out[b + 4u] = r.lobe_cos[k]; tm_out[b + 5u] = r.lobe_gd[k];
+    }}
+}}
+"""
+    return dev.create_shader_module(code=text + entry)
+
+
+def hlsl_module(dev, text, function, stride, lobes, glslang):
+    """The same entry point in HLSL, compiled to SPIR-V by glslang."""
+    entry = f"""
+StructuredBuffer<float> tm_views : register(t0, space1);
+RWStructuredBuffer<float> tm_out : register(u1, space1);
+[numthreads(64, 1, 1)]
+void tm_main(uint3 id : SV_DispatchThreadID) {{
+    uint count, element_stride;
+    tm_views.GetDimensions(count, element_stride);
+    uint i = id.x;
+    if (i >= count) {{ return; }}
+    TmResult r = {function}(tm_views[i]);
+    uint o = i * {stride};
+    tm_out[o + 0] = r.albedo.x; tm_out[o + 1] = r.albedo.y; tm_out[o + 2] = r.albedo.z;
+    tm_out[o + 3] = r.top_albedo.x; tm_out[o + 4] = r.top_albedo.y; tm_out[o + 5] = r.top_albedo.z;
+    for (uint k = 0; k < {lobes}; k++) {{
+        uint b = o + 6 + 6 * k;
+        tm_out[b + 0] = r.lobe_energy[k].x; tm_out[b + 1] = r.lobe_energy[k].y; tm_out[b + 2] = r.lobe_energy[k].z;
+        tm_out[b + 3] = r.lobe_roughness[k]; tm_out[b + 4] = r.lobe_cos[k]; tm_out[b + 5] = r.lobe_gd[k];
+    }}
+}}
+"""
+    with tempfile.TemporaryDirectory() as work:
+        source, spirv = Path(work) / "scene.hlsl", Path(work) / "scene.spv"
+        source.write_text(text + entry)
+        result = subprocess.run(
+            [glslang, "-D", "-V", "-S", "comp", "-e", "tm_main", str(source), "-o", str(spirv)],
+            capture_output=True,
+            text=True,
+        )
+        if result.returncode != 0:
+            raise SystemExit(f"glslang could not compile the HLSL of {function}:\n{result.stdout}{result.stderr}")
+        return dev.create_shader_module(code=spirv.read_bytes())
+
+
+def check_scene(dev, shader_dir, luts, language, glslang):
     descriptions = sorted(shader_dir.glob("*.shader.json"))
     if not descriptions:
         raise SystemExit(f"{shader_dir}: no .shader.json")
@@ -91,7 +153,7 @@ def check_scene(dev, shader_dir, luts):
         stem = description_path.name[: -len(".shader.json")]
         description = json.loads(description_path.read_text())
         reference = json.loads((shader_dir / f"{stem}.reference.json").read_text())
-        wgsl = (shader_dir / f"{stem}.wgsl").read_text()
+        text = (shader_dir / f"{stem}.{language}").read_text()
         lobes = description["max_lobes"]
         stride = 6 + 6 * lobes
         textures = {}
@@ -122,25 +184,10 @@ def check_scene(dev, shader_dir, luts):
             layout = dev.create_pipeline_layout(bind_group_layouts=[group0_layout, group1_layout])
             views = [p["evaluation"] for p in reference if p["function"] == material["function"]]
             mus = np.array([v["mu"] for v in views], dtype=np.float32)
-            entry = f"""
-@group(1) @binding(0) var<storage, read> tm_views: array<f32>;
-@group(1) @binding(1) var<storage, read_write> tm_out: array<f32>;
-@compute @workgroup_size(64)
-fn tm_main(@builtin(global_invocation_id) id: vec3<u32>) {{
-    let i = id.x;
-    if (i >= arrayLength(&tm_views)) {{ return; }}
-    let r = {material['function']}(tm_views[i]);
-    let o = i * {stride}u;
-    tm_out[o + 0u] = r.albedo.x; tm_out[o + 1u] = r.albedo.y; tm_out[o + 2u] = r.albedo.z;
-    tm_out[o + 3u] = r.top_albedo.x; tm_out[o + 4u] = r.top_albedo.y; tm_out[o + 5u] = r.top_albedo.z;
-    for (var k = 0u; k < {lobes}u; k++) {{
-        let b = o + 6u + 6u * k;
-        tm_out[b + 0u] = r.lobe_energy[k].x; tm_out[b + 1u] = r.lobe_energy[k].y; tm_out[b + 2u] = r.lobe_energy[k].z;
-        tm_out[b + 3u] = r.lobe_roughness[k]; tm_out[b + 4u] = r.lobe_cos[k]; tm_out[b + 5u] = r.lobe_gd[k];
-    }}
-}}
-"""
-            module = dev.create_shader_module(code=wgsl + entry)
+            if language == "wgsl":
+                module = wgsl_module(dev, text, material["function"], stride, lobes)
+            else:
+                module = hlsl_module(dev, text, material["function"], stride, lobes, glslang)
             pipeline = dev.create_compute_pipeline(layout=layout, compute={"module": module, "entry_point": "tm_main"})
             views_buffer = dev.create_buffer_with_data(data=mus.tobytes(), usage=wgpu.BufferUsage.STORAGE)
             out_buffer = dev.create_buffer(size=len(mus) * stride * 4, usage=wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_SRC)
@@ -189,18 +236,30 @@ fn tm_main(@builtin(global_invocation_id) id: vec3<u32>) {{
                 values.merge(mine["values"])
                 weighted.merge(mine["weighted shape"])
                 groups[group] = (count + len(mus), values, weighted)
-            print(f"  {stem} / {material['material']}: {len(mus)} views")
+            print(f"  {language}: {stem} / {material['material']}: {len(mus)} views")
     return worst, nans, points, groups
 
 
 def main(argv):
+    glslang = None
+    if argv[:1] == ["--hlsl"]:
+        glslang, argv = argv[1], argv[2:]
     if len(argv) < 2 or len(argv) % 2:
         raise SystemExit(__doc__)
     dev = device()
+    failed = False
+    for language in ["wgsl"] + (["hlsl"] if glslang else []):
+        failed |= check_language(dev, argv, language, glslang)
+    if failed:
+        raise SystemExit("FAILED")
+
+
+def check_language(dev, argv, language, glslang):
+    """Runs every scene's shader in one language; prints the summary; whether it failed."""
     worst = {"values": Worst(), "weighted shape": Worst(), "shape": Worst()}
     nans, points, groups = 0, 0, {}
     for shader_dir, luts in zip(argv[0::2], argv[1::2]):
-        w, n, p, g = check_scene(dev, Path(shader_dir), Path(luts))
+        w, n, p, g = check_scene(dev, Path(shader_dir), Path(luts), language, glslang)
         for kind in worst:
             worst[kind].merge(w[kind])
         nans, points = nans + n, points + p
@@ -210,7 +269,8 @@ def main(argv):
             all_weighted.merge(weighted)
             groups[group] = (total + count, all_values, all_weighted)
     values, weighted, shape = worst["values"], worst["weighted shape"], worst["shape"]
-    print(f"scene shaders on the GPU API vs the CPU evaluator: {points} (material, view) points, tolerance {TOLERANCE:g}\n"
+    source = "WGSL" if language == "wgsl" else "HLSL (glslang to SPIR-V)"
+    print(f"scene shaders, {source}, on the GPU API vs the CPU evaluator: {points} (material, view) points, tolerance {TOLERANCE:g}\n"
           f"  albedo, top albedo, lobe energies and cosines: max |GPU - CPU| {values.difference:.3e} ({values.where})\n"
           f"  lobe roughness and GD times the lobe's energy: max {weighted.difference:.3e} ({weighted.where})\n"
           f"  lobe roughness and GD, unweighted: max {shape.difference:.3e} ({shape.where})\n"
@@ -218,8 +278,7 @@ def main(argv):
           f"  by flux model and by table read (points; max |GPU - CPU| of values; of shapes times energy):")
     for group, (count, values, weighted) in sorted(groups.items()):
         print(f"    {group:12} {count:6} points  {values.difference:.3e}  {weighted.difference:.3e}")
-    if values.difference > TOLERANCE or weighted.difference > TOLERANCE or nans:
-        raise SystemExit("FAILED")
+    return values.difference > TOLERANCE or weighted.difference > TOLERANCE or nans > 0
 
 
 if __name__ == "__main__":
