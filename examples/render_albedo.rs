@@ -4,10 +4,13 @@
 //!
 //! ```sh
 //! tmlut build --scene luts/scenes/copper-pot.toml --out luts/copper-pot   # tables + shader
-//! cargo run --example render_albedo -- luts/copper-pot [SHADER_DIR]
+//! cargo run --example render_albedo -- luts/copper-pot [SHADER_DIR] [--picture DIR]
 //! ```
 //!
-//! `SHADER_DIR` is where `tmlut shader --out` wrote the shader, if not beside the tables. Exits
+//! `SHADER_DIR` is where `tmlut shader --out` wrote the shader, if not beside the tables. With
+//! `--picture DIR`, also draws each material's furnace (`tmlut furnace`'s sphere under a uniform
+//! environment, `docs/furnace.md`) on the GPU, the shader evaluated at every pixel's view cosine,
+//! beside the CPU evaluator's and their difference: `DIR/<material>_furnace_gpu.png`. Exits
 //! non-zero where GPU and CPU differ by more than 1e-5 or the GPU returns a value that is not
 //! finite. The wgpu plumbing (device, texture upload, one compute pass) is in `gpu/mod.rs`.
 
@@ -21,6 +24,8 @@ use tmlut::model::folder::{FgdSource, FolderTables};
 
 /// View cosines `mu = k / (VIEWS - 1)` per material.
 const VIEWS: usize = 17;
+/// Pixels across a furnace picture.
+const PICTURE_SIZE: usize = 256;
 /// The scene shader computes in f32 what the CPU evaluator computes in f64 (`docs/shaders.md`).
 const TOLERANCE: f64 = 1e-5;
 
@@ -29,11 +34,16 @@ fn main() -> ExitCode {
 }
 
 fn run() -> Result<bool, Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let picture_dir = match args.iter().position(|a| a == "--picture") {
+        Some(k) if k + 1 < args.len() => Some(args.drain(k..k + 2).nth(1).expect("two drained")),
+        Some(_) => return Err("--picture needs a folder".into()),
+        None => None,
+    };
     let (luts_dir, shader_dir) = match args.as_slice() {
         [luts] => (luts, luts),
         [luts, shader] => (luts, shader),
-        _ => return Err("usage: render_albedo LUTS_DIR [SHADER_DIR]".into()),
+        _ => return Err("usage: render_albedo LUTS_DIR [SHADER_DIR] [--picture DIR]".into()),
     };
     // Every file is verified against the manifest as it loads (length, SHA-256, shape).
     let luts = LutFolder::open(luts_dir)?;
@@ -68,6 +78,7 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     let materials = tmlut::scene::shader::shader_materials(&scene)?;
 
     let (mut on_gpu, mut on_cpu) = (Vec::new(), Vec::new());
+    let mut pictures_pass = true;
     for function in shader.description.materials.iter() {
         let albedo = gpu.run(&module, &format!("albedo_{}", function.function), &textures, &views, VIEWS, 3 * VIEWS);
         let m = materials.iter().find(|m| m.name == function.material).ok_or("a shader material not in the scene")?;
@@ -81,6 +92,12 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
             }
         }
         on_gpu.extend(albedo);
+        if let Some(dir) = &picture_dir {
+            let entry = format!("albedo_{}", function.function);
+            let drawn = draw_furnace(&gpu, &module, &entry, &textures, (&cpu, &tables), dir, &function.material)?;
+            pictures_pass &= drawn.passes(TOLERANCE);
+            println!("  furnace picture: {}", drawn.summary(TOLERANCE));
+        }
         // A lookup the folder holds no table for would make the comparison meaningless.
         if let Some(first) = tables.misses().first {
             return Err(format!("material `{}`: the folder holds no table for {first}", function.material).into());
@@ -88,5 +105,60 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     }
     let comparison = gpu::Comparison::of(&on_gpu, on_cpu);
     println!("albedo, {VIEWS} views x 3 channels per material: {}", comparison.summary(TOLERANCE));
-    Ok(comparison.passes(TOLERANCE))
+    Ok(comparison.passes(TOLERANCE) && pictures_pass)
+}
+
+/// Draws the furnace of one material on the GPU, the albedo entry point run at every pixel's view
+/// cosine, beside the CPU evaluator's picture and their difference (`<dir>/<material>_furnace_gpu.png`);
+/// returns the comparison of the GPU's albedo with the CPU's over the sphere's pixels.
+fn draw_furnace(
+    gpu: &gpu::Gpu,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    textures: &[gpu::Bound],
+    (cpu, tables): (&Material, &FolderTables),
+    dir: &str,
+    material: &str,
+) -> Result<gpu::Comparison, Box<dyn std::error::Error>> {
+    use tmlut::furnace::picture::{difference_picture, furnace_radiance, radiance_picture, sphere_cosines};
+
+    let cosines = sphere_cosines(PICTURE_SIZE);
+    let views: Vec<f32> = cosines.iter().flatten().map(|&mu| mu as f32).collect();
+    let albedo = gpu.run(module, entry, textures, &views, views.len(), 3 * views.len());
+    let on_cpu: Vec<[f64; 3]> = views.iter().map(|&mu| cpu.evaluate(mu as f64, tables).albedo).collect();
+    let comparison = gpu::Comparison::of(&albedo, on_cpu.iter().flatten().copied());
+
+    // Back to pixels: the sphere's in order, the environment around it.
+    let (mut gpu_pixels, mut cpu_pixels, mut differences) = (Vec::new(), Vec::new(), Vec::new());
+    let mut k = 0;
+    for mu in &cosines {
+        let (on_gpu, on_cpu) = match mu {
+            Some(_) => {
+                k += 1;
+                let a = &albedo[3 * (k - 1)..3 * k];
+                (Some([a[0] as f64, a[1] as f64, a[2] as f64]), Some(on_cpu[k - 1]))
+            }
+            None => (None, None),
+        };
+        let (g, c) = (furnace_radiance(on_gpu), furnace_radiance(on_cpu));
+        differences.push((0..3).map(|i| (g[i] - c[i]).abs()).sum::<f64>() / 3.0);
+        gpu_pixels.push(g);
+        cpu_pixels.push(c);
+    }
+    let (heat, bar) = difference_picture("|GPU - CPU|, mean of R, G, B", PICTURE_SIZE, &differences);
+    std::fs::create_dir_all(dir)?;
+    tmlut::report::plot::images_png(
+        &std::path::Path::new(dir).join(format!("{}_furnace_gpu.png", tmlut::furnace::report::file_stem(material))),
+        &format!(
+            "{material}: furnace of radiance {}, the scene shader on the GPU at every pixel",
+            tmlut::furnace::ENVIRONMENT_RADIANCE
+        ),
+        &[
+            radiance_picture("GPU (scene shader, WGSL)", PICTURE_SIZE, &gpu_pixels),
+            radiance_picture("CPU evaluator", PICTURE_SIZE, &cpu_pixels),
+            heat,
+        ],
+        Some(&bar),
+    )?;
+    Ok(comparison)
 }

@@ -28,23 +28,55 @@ pub fn albedo_at(mus: &[f64], curve: &[Rgb], mu: f64) -> Rgb {
     std::array::from_fn(|c| (1.0 - t) * curve[k][c] + t * curve[k + 1][c])
 }
 
-/// The radiance of each pixel of a `size` x `size` sphere, rows top first: `0.42 A(mu)` inside,
-/// the environment outside.
-fn sphere(mus: &[f64], curve: &[Rgb], size: usize) -> Vec<Rgb> {
-    let mut pixels = Vec::with_capacity(size * size);
+/// The view cosine `mu = n.v` of each pixel of a `size` x `size` picture of the unit sphere seen
+/// orthographically, rows top first, at pixel centres; `None` outside the sphere.
+pub fn sphere_cosines(size: usize) -> Vec<Option<f64>> {
+    let mut cosines = Vec::with_capacity(size * size);
     for j in 0..size {
         for i in 0..size {
             let x = 2.0 * (i as f64 + 0.5) / size as f64 - 1.0;
             let y = 1.0 - 2.0 * (j as f64 + 0.5) / size as f64;
             let r2 = x * x + y * y;
-            pixels.push(if r2 <= 1.0 {
-                albedo_at(mus, curve, (1.0 - r2).sqrt()).map(|a| ENVIRONMENT_RADIANCE * a)
-            } else {
-                [ENVIRONMENT_RADIANCE; 3]
-            });
+            cosines.push((r2 <= 1.0).then(|| (1.0 - r2).sqrt()));
         }
     }
-    pixels
+    cosines
+}
+
+/// The radiance of a pixel of the furnace: `0.42 A(mu)` on the sphere (`albedo`), the environment
+/// itself outside.
+pub fn furnace_radiance(albedo: Option<Rgb>) -> Rgb {
+    albedo.map_or([ENVIRONMENT_RADIANCE; 3], |a| a.map(|a| ENVIRONMENT_RADIANCE * a))
+}
+
+/// The radiance of each pixel of a `size` x `size` sphere, rows top first, with `A` interpolated
+/// from a curve.
+fn sphere(mus: &[f64], curve: &[Rgb], size: usize) -> Vec<Rgb> {
+    sphere_cosines(size).into_iter().map(|mu| furnace_radiance(mu.map(|mu| albedo_at(mus, curve, mu)))).collect()
+}
+
+/// A square picture of linear radiances, rows top first, in 8-bit sRGB.
+pub fn radiance_picture(title: &str, size: usize, pixels: &[Rgb]) -> Picture {
+    Picture {
+        title: title.to_string(),
+        width: size as u32,
+        height: size as u32,
+        rgb: pixels.iter().flat_map(|p| p.map(srgb8)).collect(),
+    }
+}
+
+/// A square picture of differences, rows top first, in viridis on a colour bar whose end is 1, 2 or
+/// 5 times a power of ten above the largest.
+pub fn difference_picture(title: &str, size: usize, differences: &[f64]) -> (Picture, ColourBar) {
+    let bar =
+        ColourBar { label: "|difference|".into(), max: nice_ceiling(differences.iter().copied().fold(0.0, f64::max)) };
+    let picture = Picture {
+        title: title.to_string(),
+        width: size as u32,
+        height: size as u32,
+        rgb: differences.iter().flat_map(|&d| viridis(d / bar.max)).collect(),
+    };
+    (picture, bar)
 }
 
 /// Linear radiance to 8-bit sRGB (IEC 61966-2-1 transfer function), clamped to [0, 1].
@@ -91,23 +123,8 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
     write_exr(&dir.join(format!("{stem}_furnace.exr")), &table, Precision::F32)?;
 
     // PNG: sRGB spheres and the difference on a colour bar.
-    let to_picture = |title: &str, pixels: &[Rgb]| Picture {
-        title: title.to_string(),
-        width: size as u32,
-        height: size as u32,
-        rgb: pixels.iter().flat_map(|p| p.map(srgb8)).collect(),
-    };
     let mean_difference: Vec<f64> = difference.iter().map(|d| (d[0] + d[1] + d[2]) / 3.0).collect();
-    let bar = ColourBar {
-        label: "|difference|".into(),
-        max: nice_ceiling(mean_difference.iter().copied().fold(0.0, f64::max)),
-    };
-    let heat = Picture {
-        title: "|model - random walk|, mean of R, G, B".into(),
-        width: size as u32,
-        height: size as u32,
-        rgb: mean_difference.iter().flat_map(|&d| viridis(d / bar.max)).collect(),
-    };
+    let (heat, bar) = difference_picture("|model - random walk|, mean of R, G, B", size, &mean_difference);
     let title = format!(
         "{}: furnace of radiance {ENVIRONMENT_RADIANCE} ({}, albedo {}, TIR {})",
         report.name,
@@ -118,7 +135,7 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
     images_png(
         &dir.join(format!("{stem}_furnace.png")),
         &title,
-        &[to_picture("model, scene's tables", &model), to_picture("random walk", &walk), heat],
+        &[radiance_picture("model, scene's tables", size, &model), radiance_picture("random walk", size, &walk), heat],
         Some(&bar),
     )?;
 
