@@ -41,22 +41,28 @@ pub struct Matrix6 {
 /// Which reflectances the stack so far has (the reference's `ETransferFactorRequest`): the primary one from
 /// the first interface on, the backward-scattered one from the first medium on, the forward one
 /// once both exist.
+/// The scene shader follows the same request, known when it is generated.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-struct Requested {
-    primary: bool,
-    forward: bool,
-    backward: bool,
+pub(crate) struct Requested {
+    pub(crate) primary: bool,
+    pub(crate) forward: bool,
+    pub(crate) backward: bool,
 }
 
 impl Requested {
-    fn add_interface(&mut self) {
+    pub(crate) fn add_interface(&mut self) {
         self.primary = true;
         self.forward |= self.backward;
     }
 
-    fn add_medium(&mut self) {
+    pub(crate) fn add_medium(&mut self) {
         self.backward = true;
         self.forward |= self.primary;
+    }
+
+    /// The kinds of lobe, in the model's order, with whether each is requested.
+    pub(crate) fn kinds(self) -> [(&'static str, bool); 3] {
+        [("primary", self.primary), ("forward", self.forward), ("backward", self.backward)]
     }
 }
 

@@ -109,6 +109,20 @@ pub(super) fn prologue() -> Vec<Stmt> {
 /// (`cos_in`, `cos_below`), its albedo and the asymmetries of its rough transmissions before
 /// the first-order terms (`t_g0`, `tp_g0`); a conductor's albedo per channel (`base`); a medium's
 /// factors ([`medium_factors`]).
+/// What every material function starts with, whichever flux model: the stack's components, and
+/// a body that clamps the view cosine and computes every component's factors.
+pub(super) fn begin(g: &mut Generator, m: &ShaderMaterial) -> Result<(Vec<Component>, Vec<Stmt>)> {
+    let components = components(m);
+    let mut body = prologue();
+    body.extend(factors(g, m, &components)?);
+    Ok((components, body))
+}
+
+/// `var <name>: <matrix> = <identity>();`: a transfer matrix that starts as the identity.
+pub(super) fn identity_matrix(name: &str, matrix: &str, identity: &str) -> Stmt {
+    Stmt::Var { name: name.into(), ty: Ty::Named(matrix.into()), value: Some(func(identity, vec![])) }
+}
+
 pub(super) fn factors(g: &mut Generator, m: &ShaderMaterial, components: &[Component]) -> Result<Vec<Stmt>> {
     let mut body = Vec::new();
     for (index, component) in components.iter().enumerate() {

@@ -10,14 +10,8 @@ use crate::physics::ggx_to_hg;
 
 /// The function of material `m` and its lobe count.
 pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Function, usize)> {
-    let components = layers::components(m);
-    let mut body = layers::prologue();
-    body.extend(layers::factors(g, m, &components)?);
-    let matrix = |n: &str| Stmt::Var {
-        name: n.into(),
-        ty: Ty::Named("TmMatrix".into()),
-        value: Some(func("tm_identity", vec![])),
-    };
+    let (components, mut body) = layers::begin(g, m)?;
+    let matrix = |n: &str| layers::identity_matrix(n, "TmMatrix", "tm_identity");
     body.extend([
         Stmt::Comment(
             "The energy matrices (one 2x2 per channel, entrywise in a vec3), the asymmetry matrix (the\n\

@@ -7,45 +7,13 @@ use super::super::{Expr, Function, Stmt, Ty, assign, f, func, let_, name, select
 use super::layers::{self, Component};
 use super::{Generator, ShaderMaterial, v3};
 use crate::error::Result;
+use crate::model::tm6::Requested;
 use crate::physics::ggx_to_hg;
-
-/// Which reflectances the stack so far has (`tm6::Requested`): the primary one from the first
-/// interface on, the backward-scattered one from the first medium on, the forward one once both
-/// exist. Known when the shader is generated.
-#[derive(Debug, Clone, Copy, Default)]
-struct Requested {
-    primary: bool,
-    forward: bool,
-    backward: bool,
-}
-
-impl Requested {
-    fn add_interface(&mut self) {
-        self.primary = true;
-        self.forward |= self.backward;
-    }
-
-    fn add_medium(&mut self) {
-        self.backward = true;
-        self.forward |= self.primary;
-    }
-
-    /// The kinds of lobe, in the model's order, with whether each is requested.
-    fn kinds(self) -> [(&'static str, bool); 3] {
-        [("primary", self.primary), ("forward", self.forward), ("backward", self.backward)]
-    }
-}
 
 /// The function of material `m` and its lobe count.
 pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Function, usize)> {
-    let components = layers::components(m);
-    let mut body = layers::prologue();
-    body.extend(layers::factors(g, m, &components)?);
-    let matrix = |n: &str| Stmt::Var {
-        name: n.into(),
-        ty: Ty::Named("TmMatrix6".into()),
-        value: Some(func("tm6_identity", vec![])),
-    };
+    let (components, mut body) = layers::begin(g, m)?;
+    let matrix = |n: &str| layers::identity_matrix(n, "TmMatrix6", "tm6_identity");
     let reflectances = |n: &str| Stmt::Var { name: n.into(), ty: Ty::Named("TmReflect6".into()), value: None };
     body.extend([
         Stmt::Comment(
