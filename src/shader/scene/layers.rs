@@ -7,7 +7,7 @@
 //! the stack alone, not on the view, so it is decided here and the code is unrolled for it; the
 //! factors, which depend on the view, are computed in the shader.
 
-use super::super::{Expr, Op, Stmt, Ty, assign, f, func, let_, name, select, var, vec3};
+use super::super::{Expr, Function, Op, Stmt, Ty, assign, f, func, let_, name, select, var, vec3};
 use super::{Generator, ShaderMaterial, v3};
 use crate::error::Result;
 use crate::model::factors::{EXPONENT_LIMIT, INDEX_MATCHED, NEARLY_INDEX_MATCHED};
@@ -354,6 +354,18 @@ pub(super) fn has_energy(energy: Expr) -> Expr {
         .ne(f(0.0))
         .op(Op::Or, energy.clone().member("y").ne(f(0.0)))
         .op(Op::Or, energy.member("z").ne(f(0.0)))
+}
+
+/// Material `m`'s function, `tm_<material>(mu_in) -> TmResult`, from its body and its top
+/// term's albedo ([`epilogue`]).
+pub(super) fn finish(m: &ShaderMaterial, mut body: Vec<Stmt>, top: Option<Expr>) -> Function {
+    body.extend(epilogue(top));
+    Function {
+        name: format!("tm_{}", super::identifier(&m.name)),
+        params: vec![("mu_in".into(), Ty::F32)],
+        returns: Ty::Named("TmResult".into()),
+        body,
+    }
 }
 
 /// The end of every material's function: the top term's albedo (`top`, where the top interface

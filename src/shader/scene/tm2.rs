@@ -115,12 +115,5 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
         }
         lobes += 1;
     }
-    body.extend(layers::epilogue(top));
-    let function = Function {
-        name: format!("tm_{}", super::identifier(&m.name)),
-        params: vec![("mu_in".into(), Ty::F32)],
-        returns: Ty::Named("TmResult".into()),
-        body,
-    };
-    Ok((function, lobes))
+    Ok((layers::finish(m, body, top), lobes))
 }
