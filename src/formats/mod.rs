@@ -497,6 +497,15 @@ pub(crate) fn check_storable_values(table: &Table, precision: Precision) -> Resu
 mod tests {
     use super::*;
 
+    #[test]
+    fn textures_hold_two_or_three_axes_and_bin_only_an_original_layout() {
+        use FileFormat::{Bin, Dds, Exr, Ktx2};
+        assert_eq!(FileFormat::for_table(4, true), [Bin, Exr]);
+        assert_eq!(FileFormat::for_table(3, true), [Bin, Dds, Exr, Ktx2]);
+        assert_eq!(FileFormat::for_table(2, false), [Dds, Exr, Ktx2]);
+        assert_eq!(FileFormat::for_table(1, false), [Exr]);
+    }
+
     /// The f16 spacing at `v`: the gap to the next f16 away from zero.
     fn f16_ulp(v: f32) -> f32 {
         let h = half::f16::from_f32(v.abs());
