@@ -41,6 +41,7 @@ pub struct Matrix6 {
 /// Which reflectances the stack so far has (the reference's `ETransferFactorRequest`): the primary one from
 /// the first interface on, the backward-scattered one from the first medium on, the forward one
 /// once both exist.
+///
 /// The scene shader follows the same request, known when it is generated.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Requested {
