@@ -259,11 +259,8 @@ pub fn decode_dds(bytes: &[u8], path: &Path) -> Result<DdsTexture> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::table::{Axis, Channel};
-
-    fn channel_list(n: usize) -> Vec<Channel> {
-        (0..n).map(|c| Channel::new(format!("c{c}"), format!("channel {c}"))).collect()
-    }
+    use crate::formats::test_tables::{channel_list, sample_table_over};
+    use crate::table::Axis;
 
     fn axes_for(shape: &[usize]) -> Vec<Axis> {
         shape
@@ -273,12 +270,8 @@ mod tests {
             .collect()
     }
 
-    /// Values that are not exact in f16, with both signs and a range of magnitudes.
     fn sample_table(shape: &[usize], channels: usize) -> Table {
-        let axes = axes_for(shape);
-        let len = shape.iter().product::<usize>() * channels;
-        let data = (0..len).map(|i| (i as f32 * 0.731).sin() * (1.0 + i as f32 * 0.01)).collect();
-        Table::new("sample", axes, channel_list(channels), data).unwrap()
+        sample_table_over(axes_for(shape), channels)
     }
 
     fn field(bytes: &[u8], offset: usize) -> u32 {

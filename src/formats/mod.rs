@@ -11,6 +11,8 @@ pub mod dds;
 pub mod exr;
 pub mod ktx2;
 pub mod manifest;
+#[cfg(test)]
+mod test_tables;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};

@@ -1,10 +1,7 @@
 use super::*;
 use crate::formats::dds;
+use crate::formats::test_tables::sample_table_over;
 use crate::table::{Axis, Mapping};
-
-fn channel_list(n: usize) -> Vec<Channel> {
-    (0..n).map(|c| Channel::new(format!("c{c}"), format!("channel {c}"))).collect()
-}
 
 /// Axes of every placement and a mapping, one descending.
 fn axes_for(shape: &[usize]) -> Vec<Axis> {
@@ -19,11 +16,8 @@ fn axes_for(shape: &[usize]) -> Vec<Axis> {
         .collect()
 }
 
-/// Values that are not exact in f16, with both signs and a range of magnitudes.
 fn sample_table(shape: &[usize], channels: usize) -> Table {
-    let len = shape.iter().product::<usize>() * channels;
-    let data = (0..len).map(|i| (i as f32 * 0.731).sin() * (1.0 + i as f32 * 0.01)).collect();
-    Table::new("sample", axes_for(shape), channel_list(channels), data).unwrap()
+    sample_table_over(axes_for(shape), channels)
 }
 
 fn decode(bytes: &[u8]) -> Result<Ktx2Texture> {
