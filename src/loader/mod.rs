@@ -92,7 +92,9 @@ impl LutFolder {
     pub fn gpu_textures(&self) -> impl Iterator<Item = (&str, &FileEntry)> {
         let files = &self.manifest.files;
         let rank = |format: FileFormat| FileFormat::TEXTURES.iter().position(|&f| f == format);
-        let packing = |e: &FileEntry| e.packing.as_ref().map(|p| p.name.clone());
+        fn packing(e: &FileEntry) -> Option<&str> {
+            e.packing.as_ref().map(|p| p.name.as_str())
+        }
         let preferred_twin = move |entry: &FileEntry, rank_of_entry: usize| {
             files.values().any(|e| {
                 rank(e.format).is_some_and(|r| r < rank_of_entry)

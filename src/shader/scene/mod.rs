@@ -254,7 +254,6 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
     let mut sources =
         Sources { slices: Vec::new(), gd: None, packing: None, fit: None, tir: None, belcour: None, karis: None };
     for (file, entry) in folder.gpu_textures() {
-        let file = &file.to_string();
         if entry.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()) {
             if materials.iter().any(|m| m.albedo == AlbedoPath::Fgd) {
                 let table = folder.load(file)?;
@@ -266,7 +265,7 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
                 let texture = crate::model::folder::SampledTable::new(&table)?.into_channel(0);
                 let packed = PackedFgd::with_texture(texture, Packing::Lossless, entry.precision, &source_axes)
                     .map_err(|e| Error::format(folder.dir().join(file), e.to_string()))?;
-                sources.packing = Some((file.clone(), packed));
+                sources.packing = Some((file.to_string(), packed));
             }
             continue;
         }
