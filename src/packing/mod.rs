@@ -199,8 +199,8 @@ fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize;
 /// power of two, as FGD's 1 and 4 are). The mapping `m` is written out: `sqrt(max(x, 0))`,
 /// `(sqrt(c) - sqrt(1 - c) + 1) * 0.5` with `c` clamped to [0, 1], or `asinh(y)` with
 /// `y = (x - centre) * (1 / scale)`, written `log(|y| + sqrt(y * y + 1))` with the sign of `y`
-/// (HLSL has no `asinh`; the odd symmetry keeps the sum from cancelling where `y < 0`, which at
-/// FGD's `y = -5` cost 50 ulps of the logarithm's argument and moved lookups by 5.4e-6).
+/// (HLSL has no `asinh`; the odd symmetry keeps the sum from cancelling where `y < 0`: without
+/// it, at FGD's `y = -5` the logarithm's argument loses 50 ulps and lookups move by 5.4e-6).
 fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
     let x = program.input(&axis.name);
     let mapped = match axis.mapping {
