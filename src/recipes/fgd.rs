@@ -38,6 +38,8 @@ pub const DESCRIPTION: &str = "directional albedo with exact Fresnel, 4D (mu, al
 pub const CHANNEL_COUNT: usize = 1;
 /// The configuration keys of the node counts, axis 0 first.
 pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count", "kappa_count"];
+/// The interpolation domain of dielectric interfaces onto a rarer medium: `eta < 1`, `kappa = 0`.
+pub const DIELECTRIC_ONTO_RARER: &str = "a dielectric onto a rarer medium (eta < 1, kappa = 0)";
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -274,7 +276,10 @@ impl TableRecipe for FgdSettings {
     /// dielectric (or a faint absorber, `kappa <= 0.1`) has a critical angle, where Fresnel has a
     /// kink whose cosine `sqrt(1 - eta^2)` moves with `eta` across the cells of the `(mu, eta)`
     /// grid, so that no spacing of the separate axes follows it; above it the table has no such
-    /// kink.
+    /// kink. The last domain is the plane `kappa = 0` below `eta = 1`, where the model looks up
+    /// every dielectric interface onto a rarer medium (`notes/tm-model.md`, section 3.2): random
+    /// points of a box with `kappa` in a range never land on it, and there the kink is sharpest
+    /// (a square-root cusp, no absorption to round it).
     fn interpolation_domains(&self) -> Result<Vec<super::interpolation::Domain>> {
         let names = ["mu", "alpha", "eta", "kappa"];
         let ranges = [self.mu_range, self.alpha_range, self.eta_range, self.kappa_range];
@@ -287,8 +292,11 @@ impl TableRecipe for FgdSettings {
                 [lo, hi.min(1.0)],
                 [self.kappa_range[0], self.kappa_range[1].min(0.1)],
             ),
+            (DIELECTRIC_ONTO_RARER, [lo, hi.min(1.0)], [0.0, 0.0]),
         ] {
-            if eta[0] < eta[1] && kappa[0] < kappa[1] && (eta, kappa) != ([lo, hi], self.kappa_range) {
+            let kappa_reached =
+                if kappa[0] == kappa[1] { self.kappa_range[0] == kappa[0] } else { kappa[0] < kappa[1] };
+            if eta[0] < eta[1] && kappa_reached && (eta, kappa) != ([lo, hi], self.kappa_range) {
                 let mut cut = ranges;
                 cut[2] = eta;
                 cut[3] = kappa;
