@@ -277,9 +277,9 @@ impl TableRecipe for FgdSettings {
     /// kink whose cosine `sqrt(1 - eta^2)` moves with `eta` across the cells of the `(mu, eta)`
     /// grid, so that no spacing of the separate axes follows it; above it the table has no such
     /// kink. The last domain is the plane `kappa = 0` below `eta = 1`, where the model looks up
-    /// every dielectric interface onto a rarer medium (`notes/tm-model.md`, section 3.2): random
-    /// points of a box with `kappa` in a range never land on it, and there the kink is sharpest
-    /// (a square-root cusp, no absorption to round it).
+    /// every dielectric interface onto a rarer medium (`docs/scenes.md`, "What the model reads"):
+    /// random points of a box with `kappa` in a range never land on it, and there the kink is
+    /// sharpest (a square-root cusp, no absorption to round it).
     fn interpolation_domains(&self) -> Result<Vec<super::interpolation::Domain>> {
         let names = ["mu", "alpha", "eta", "kappa"];
         let ranges = [self.mu_range, self.alpha_range, self.eta_range, self.kappa_range];
