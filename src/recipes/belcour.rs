@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, Projection, cosine_measure, dot};
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
@@ -74,12 +74,7 @@ impl Default for BelcourSettings {
 impl BelcourSettings {
     pub fn validate(&self) -> Result<()> {
         self.validate_shared(NAME, &FileFormat::for_table(2, false))?;
-        if !(8..=4096).contains(&self.own.cosine_intervals) {
-            return Err(Error::invalid(
-                "belcour.cosine_intervals",
-                format!("{}; allowed: 8 to 4096", self.own.cosine_intervals),
-            ));
-        }
+        super::settings::check_cosine_intervals("belcour.cosine_intervals", self.own.cosine_intervals)?;
         Ok(())
     }
 }

@@ -16,7 +16,9 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
+use super::settings::{
+    OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_count, check_unit_range,
+};
 use super::spacing::{CosineAxis, ExtinctionAxis, IndexAxis, RoughnessAxis};
 use super::{
     Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference, random_cells,
@@ -139,12 +141,7 @@ impl FgdSettings {
         check_unit_range("fgd.alpha_range", self.alpha_range)?;
         check_index_range("fgd.eta_range", self.eta_range)?;
         check_index_range("fgd.kappa_range", self.kappa_range)?;
-        if !(8..=4096).contains(&self.cosine_intervals) {
-            return Err(Error::invalid(
-                "fgd.cosine_intervals",
-                format!("{}; allowed: 8 to 4096", self.cosine_intervals),
-            ));
-        }
+        check_cosine_intervals("fgd.cosine_intervals", self.cosine_intervals)?;
         self.sampling.validate("fgd.sampling")?;
         self.reference.validate("fgd.reference")?;
         self.interpolation.validate("fgd.interpolation")?;
@@ -198,36 +195,37 @@ impl FgdSettings {
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);
         let projections = [projected_fresnel(self.cosine_basis(), eta, kappa)];
-        self.estimate_pairs_fast(points, mu, alpha, &[(eta, kappa)], &projections)
+        fgd_pairs_fast(self.masking, self.cosine_basis(), points, mu, alpha, &[(eta, kappa)], &projections)
     }
 
     /// The hat basis in `c = wi.h` of the fast method.
     pub fn cosine_basis(&self) -> HatBasis {
         HatBasis { intervals: self.cosine_intervals }
     }
+}
 
-    /// FGD at one `(mu, alpha)` for several `(eta, kappa)` pairs by the fast method: one measure,
-    /// integrated against each pair's projected Fresnel (`projections[k]` from [`projected_fresnel`]
-    /// on [`FgdSettings::cosine_basis`] for `pairs[k]`). One channel per pair.
-    pub fn estimate_pairs_fast(
-        &self,
-        points: &PointSet,
-        mu: f64,
-        alpha: f64,
-        pairs: &[(f64, f64)],
-        projections: &[Projection],
-    ) -> Estimate {
-        let measure = cosine_measure(mu, alpha, self.masking, points, self.cosine_basis());
-        // One pair at a time: each has its own kinks.
-        let per_pair: Vec<Estimate> = pairs
-            .iter()
-            .zip(projections)
-            .map(|(&(eta, kappa), projection)| {
-                measure.integrate(&[projection], |_, c| fresnel_reflectance(c, eta, kappa), &fresnel_kinks(eta))
-            })
-            .collect();
-        Estimate::from_channels(&per_pair)
-    }
+/// FGD at one `(mu, alpha)` for several `(eta, kappa)` pairs by the fast method, with `masking` on
+/// the hat `basis` (`projections[k]` from [`projected_fresnel`] on `basis` for `pairs[k]`): one
+/// visible-normal measure, integrated against each pair's projected Fresnel. One channel per pair.
+pub fn fgd_pairs_fast(
+    masking: MaskingShadowing,
+    basis: HatBasis,
+    points: &PointSet,
+    mu: f64,
+    alpha: f64,
+    pairs: &[(f64, f64)],
+    projections: &[Projection],
+) -> Estimate {
+    let measure = cosine_measure(mu, alpha, masking, points, basis);
+    // One pair at a time: each has its own kinks.
+    let per_pair: Vec<Estimate> = pairs
+        .iter()
+        .zip(projections)
+        .map(|(&(eta, kappa), projection)| {
+            measure.integrate(&[projection], |_, c| fresnel_reflectance(c, eta, kappa), &fresnel_kinks(eta))
+        })
+        .collect();
+    Estimate::from_channels(&per_pair)
 }
 
 /// FGD at one cell on its own, in f64 (the per-cell method and the references).

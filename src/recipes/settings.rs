@@ -109,6 +109,14 @@ pub fn check_packing_formats(key: &str, formats: &[FileFormat], packed: bool) ->
     Ok(())
 }
 
+/// Intervals of the hat basis in `c = wi.h` of a fast path: 8 to 4096.
+pub fn check_cosine_intervals(key: &str, intervals: usize) -> Result<()> {
+    if !(8..=4096).contains(&intervals) {
+        return Err(Error::invalid(key, format!("{intervals}; allowed: 8 to 4096")));
+    }
+    Ok(())
+}
+
 /// A node count must be at least 2 (an axis interpolates between nodes) and at most
 /// [`MAX_NODES_PER_AXIS`].
 pub fn check_count(key: &str, count: usize) -> Result<()> {

@@ -8,7 +8,7 @@
 //! TIR slice, channel k:  TIR(mu, alpha; eta_k)          = ∫ rho(w) [1 - w.z^2 > eta_k^2] dw / ∫ rho(w) dw
 //! ```
 //!
-//! Each is computed exactly as its full table computes a node ([`FgdSettings::estimate_pairs_fast`],
+//! Each is computed exactly as its full table computes a node ([`super::fgd::fgd_pairs_fast`],
 //! [`super::tir::tir_column`]), with the full table's settings, so that a slice node equals the full
 //! table's node at the same parameters up to rounding. The `mu` and `alpha` axes are sub-ranges of
 //! the full table's grid (the planner picks them), so the nodes coincide.
@@ -160,7 +160,15 @@ impl Slices {
     /// Every channel at one `(mu, alpha)` by the full table's fast method (padding included).
     fn estimate_fast(&self, points: &PointSet, mu: f64, alpha: f64, projections: &[Projection]) -> Estimate {
         let mut estimate = match &self.of {
-            SliceOf::Fgd(settings) => settings.estimate_pairs_fast(points, mu, alpha, &self.pairs(), projections),
+            SliceOf::Fgd(settings) => super::fgd::fgd_pairs_fast(
+                settings.masking,
+                settings.cosine_basis(),
+                points,
+                mu,
+                alpha,
+                &self.pairs(),
+                projections,
+            ),
             SliceOf::Tir(settings) => {
                 // tir_column buckets by ascending eta: evaluate in sorted order, store in channel order.
                 let mut order: Vec<usize> = (0..self.channels.len()).collect();

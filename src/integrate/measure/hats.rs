@@ -144,42 +144,48 @@ const LOBE_STEPS_PER_WIDTH: f64 = 16.0;
 /// `J0 = ∫ f dt` and `J1 = ∫ f t dt` over the interval, `phi_left = 4 J0 - 6 J1` and
 /// `phi_right = 6 J1 - 2 J0`: `f` at the ends when `f` is linear, and unlike a projection on the
 /// hats (whose Gram solve spreads a cusp's error to every node) each interval on its own, so a
-/// cusp costs only the samples of its own interval. `J0` and `J1` are taken as in
-/// [`project_on_nodes`], split at `kinks` and through `c = kink + s^2` after one.
+/// cusp costs only the samples of its own interval. `J0` and `J1` are taken by [`quadrature`],
+/// split at `kinks` and through `c = kink + s^2` after one.
 pub(super) fn dual_weights(nodes: &[f64], f: impl Fn(f64) -> f64, kinks: &[f64]) -> Vec<[f64; 2]> {
-    let mut pieces = Vec::with_capacity(kinks.len() + 2);
     nodes
         .windows(2)
         .map(|interval| {
             let (a, b) = (interval[0], interval[1]);
             let width = b - a;
-            pieces.clear();
-            pieces.push(a);
-            pieces.extend(kinks.iter().copied().filter(|&c| c > a && c < b));
-            pieces.push(b);
             let (mut j0, mut j1) = (0.0, 0.0);
             // An interval without a kink is a small part of the lobe's window over which `f` is
             // smooth: 4 points are exact for `f` up to degree 6 and cost half of 8.
-            let rule: &[(f64, f64)] = if pieces.len() == 2 { &GAUSS_LEGENDRE_4 } else { &GAUSS_LEGENDRE_8 };
-            for piece in pieces.windows(2) {
-                let (lower, upper) = (piece[0], piece[1]);
-                let starts_at_kink = kinks.contains(&lower);
-                for &(x, w) in rule {
-                    let (c, jacobian) = if starts_at_kink {
-                        let span = (upper - lower).sqrt();
-                        let s = 0.5 * span * (x + 1.0);
-                        (lower + s * s, 0.5 * span * 2.0 * s)
-                    } else {
-                        (lower + 0.5 * (upper - lower) * (x + 1.0), 0.5 * (upper - lower))
-                    };
-                    let value = f(c) * w * jacobian / width;
-                    j0 += value;
-                    j1 += value * (c - a) / width;
-                }
-            }
+            let rule: &[(f64, f64)] =
+                if kinks.iter().any(|&c| c > a && c < b) { &GAUSS_LEGENDRE_8 } else { &GAUSS_LEGENDRE_4 };
+            quadrature(a, b, kinks, rule, |c, w, jacobian| {
+                let value = f(c) * w * jacobian / width;
+                j0 += value;
+                j1 += value * (c - a) / width;
+            });
             [4.0 * j0 - 6.0 * j1, 6.0 * j1 - 2.0 * j0]
         })
         .collect()
+}
+
+/// The points of `rule` over `[a, b]` split at the `kinks` inside it (ascending), each piece mapped
+/// from [-1, 1], through `c = kink + s^2` on a piece that starts at a kink (`dc = 2 s ds`), so that
+/// a square root starting there is integrated as a polynomial: `visit(c, w, jacobian)` per point.
+fn quadrature(a: f64, b: f64, kinks: &[f64], rule: &[(f64, f64)], mut visit: impl FnMut(f64, f64, f64)) {
+    let mut lower = a;
+    for upper in kinks.iter().copied().filter(|&c| c > a && c < b).chain(std::iter::once(b)) {
+        let starts_at_kink = kinks.contains(&lower);
+        for &(x, w) in rule {
+            let (c, jacobian) = if starts_at_kink {
+                let span = (upper - lower).sqrt();
+                let s = 0.5 * span * (x + 1.0);
+                (lower + s * s, 0.5 * span * 2.0 * s)
+            } else {
+                (lower + 0.5 * (upper - lower) * (x + 1.0), 0.5 * (upper - lower))
+            };
+            visit(c, w, jacobian);
+        }
+        lower = upper;
+    }
 }
 
 /// Gauss–Legendre nodes and weights on [-1, 1], 4 points (exact for polynomials up to degree 7).
@@ -220,42 +226,24 @@ pub(super) fn project_on_nodes(
 ) -> Vec<f64> {
     let n = nodes.len() - 1;
     let mut moments = vec![0.0; n + 1];
-    let mut pieces = Vec::with_capacity(kinks.len() + 2);
     // (interval, c, f(c)) of every point f was evaluated at, when the error is wanted.
     let keep = interval_error.is_some();
     let mut evaluated = Vec::with_capacity(if keep { n * 8 + kinks.len() } else { 0 });
     for k in 0..n {
         let (a, b) = (nodes[k], nodes[k + 1]);
         let width = b - a;
-        pieces.clear();
-        pieces.push(a);
-        pieces.extend(kinks.iter().copied().filter(|&c| c > a && c < b));
-        pieces.push(b);
-        for piece in pieces.windows(2) {
-            let (lower, upper) = (piece[0], piece[1]);
-            let starts_at_kink = kinks.contains(&lower);
-            for (x, w) in GAUSS_LEGENDRE_8 {
-                // Map the node x in [-1, 1] to [lower, upper], through c = lower + s^2 when the
-                // piece starts at a kink (dc = 2 s ds).
-                let (c, jacobian) = if starts_at_kink {
-                    let span = (upper - lower).sqrt();
-                    let s = 0.5 * span * (x + 1.0);
-                    (lower + s * s, 0.5 * span * 2.0 * s)
-                } else {
-                    (lower + 0.5 * (upper - lower) * (x + 1.0), 0.5 * (upper - lower))
-                };
-                let fc = f(c);
-                if keep {
-                    evaluated.push((k, c, fc));
-                }
-                let value = fc * w * jacobian;
-                let t = (c - a) / width;
-                moments[k] += value * (1.0 - t);
-                moments[k + 1] += value * t;
+        quadrature(a, b, kinks, &GAUSS_LEGENDRE_8, |c, w, jacobian| {
+            let fc = f(c);
+            if keep {
+                evaluated.push((k, c, fc));
             }
-            if keep && piece[1] != b {
-                evaluated.push((k, upper, f(upper)));
-            }
+            let value = fc * w * jacobian;
+            let t = (c - a) / width;
+            moments[k] += value * (1.0 - t);
+            moments[k + 1] += value * t;
+        });
+        if keep {
+            evaluated.extend(kinks.iter().filter(|&&c| c > a && c < b).map(|&c| (k, c, f(c))));
         }
     }
     let coefficients = solve_hat_gram(nodes, moments);
