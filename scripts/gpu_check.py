@@ -286,7 +286,7 @@ def check_language(dev, argv, language, glslang):
           f"  {nans} NaN/inf\n"
           f"  by flux model and by table read (points; max |GPU - CPU| of values; of shapes times energy):")
     for group, (count, values, weighted) in sorted(groups.items()):
-        print(f"    {group:12} {count:6} points  {values.difference:.3e}  {weighted.difference:.3e}")
+        print(f"    {group:15} {count:6} points  {values.difference:.3e}  {weighted.difference:.3e}")
     return values.difference > TOLERANCE or weighted.difference > TOLERANCE or nans > 0
 
 

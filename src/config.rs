@@ -95,6 +95,7 @@ table_registry! {
     tir: Tir => crate::recipes::tir::TirSettings,
     belcour: Belcour => crate::recipes::belcour::BelcourSettings,
     karis: Karis => crate::recipes::karis::KarisSettings,
+    fgd_rarer: FgdRarer => crate::recipes::fgd_rarer::FgdRarerSettings,
 }
 
 /// The seed of a configuration that names none.

@@ -230,6 +230,7 @@ fn same_seed_gives_identical_files_whatever_the_thread_count() {
             "fgd_lossless.dds",
             "fgd_lossless.hlsl",
             "fgd_lossless.wgsl",
+            "fgd_rarer.dds",
             "gd.dds",
             "karis.dds",
             "karis.exr",
@@ -384,7 +385,7 @@ fn plan_prints_the_tables_what_is_left_out_and_the_saving() {
         "tir_coated-conductor_l1_up",
         "Left out:",
         "fgd (4D, 64.0 MiB): every FGD lookup is at fixed (eta, kappa)",
-        "against 67.2 MiB (70418432 bytes) for the default set",
+        "against 69.2 MiB (72531968 bytes) for the default set",
     ] {
         assert!(text.contains(expected), "expected `{expected}` in:\n{text}");
     }
@@ -650,4 +651,50 @@ fn bad_scenes_are_refused_naming_material_and_layer() {
     assert_clean_failure(&output, &["missing.toml"]);
     let output = tmlut(&["build", "--scene", &scene_path("copper-pot"), "--only", "fgd"]);
     assert!(!output.status.success() && stderr(&output).contains("--only"), "{}", stderr(&output));
+}
+
+#[test]
+fn the_model_reads_a_dielectric_onto_a_rarer_medium_from_fgd_rarer_and_everything_else_as_before() {
+    use tmlut::model::folder::{FgdSource, FolderTables, SampledTable};
+    use tmlut::model::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
+    use tmlut::table::derived::point_of;
+
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let out = dir.path().join("luts");
+    let output = build(&config, &out, &["--only", "fgd,fgd_rarer"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let lookup = |mu, alpha, eta, kappa| Lookup {
+        quantity: Quantity::Albedo,
+        site: Site::FromAbove,
+        layer: 1,
+        channel: None,
+        mu,
+        alpha,
+        eta,
+        kappa,
+    };
+    let rarer = [lookup(0.72, 0.01, 0.7, 0.0), lookup(0.3, 0.4, 0.2, 0.0)];
+    let others = [lookup(0.72, 0.01, 0.7, 0.05), lookup(0.5, 0.2, 1.5, 0.0), lookup(0.9, 0.3, 0.2, 2.0)];
+    let open =
+        |folder: &LutFolder| FolderTables::open(folder, AlbedoPath::Fgd, TirPath::Off, FgdSource::Packing).unwrap();
+    let folder = LutFolder::open(&out).unwrap();
+    let with_rarer = open(&folder);
+    let texture = SampledTable::new(&folder.load("fgd_rarer.dds").unwrap()).unwrap();
+    for l in &rarer {
+        let point = point_of(&texture.axes, l.mu, l.alpha, l.eta, 0.0).unwrap();
+        assert_eq!(with_rarer.value(l), texture.sample(0, &point) as f64, "{l:?}");
+    }
+    // Without fgd_rarer the same lookups read the packing; the others read it either way.
+    let mut manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
+    manifest.files.remove("fgd_rarer.dds");
+    manifest.write(&out).unwrap();
+    std::fs::remove_file(out.join("fgd_rarer.dds")).unwrap();
+    let without = open(&LutFolder::open(&out).unwrap());
+    for l in &rarer {
+        assert_ne!(with_rarer.value(l), without.value(l), "{l:?}");
+    }
+    for l in &others {
+        assert_eq!(with_rarer.value(l), without.value(l), "{l:?}");
+    }
 }

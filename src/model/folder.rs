@@ -148,9 +148,20 @@ pub enum FgdSource {
 
 #[derive(Debug, Clone)]
 enum Albedo {
-    Fgd { slices: Vec<Slice>, full: Option<FullFgd> },
-    Belcour { texture: SampledTable, basis: Box<FresnelBasis> },
-    Karis { texture: SampledTable },
+    /// `rarer`: the table of a dielectric onto a rarer medium (`fgd_rarer`), which answers
+    /// `kappa = 0, eta < 1` in place of the full table where the folder has it.
+    Fgd {
+        slices: Vec<Slice>,
+        full: Option<FullFgd>,
+        rarer: Option<SampledTable>,
+    },
+    Belcour {
+        texture: SampledTable,
+        basis: Box<FresnelBasis>,
+    },
+    Karis {
+        texture: SampledTable,
+    },
 }
 
 #[derive(Debug, Clone)]
@@ -230,7 +241,11 @@ impl FolderTables {
                 if slices.is_empty() && full.is_none() {
                     return Err(missing("FGD table (fgd_lossless.dds or .ktx2, fgd.exr, fgd.bin or FGD slices)"));
                 }
-                Albedo::Fgd { slices, full }
+                let rarer = match texture("fgd_rarer") {
+                    Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
+                    None => None,
+                };
+                Albedo::Fgd { slices, full, rarer }
             }
             AlbedoPath::Belcour => {
                 let (file, entry) = texture("belcour").ok_or_else(|| missing("belcour.dds or belcour.ktx2"))?;
@@ -340,9 +355,14 @@ impl FolderTables {
 
     fn albedo(&self, lookup: &Lookup) -> f64 {
         match &self.albedo {
-            Albedo::Fgd { slices, full } => {
+            Albedo::Fgd { slices, full, rarer } => {
                 if let Some(value) = self.slice_value(slices, lookup) {
                     return value;
+                }
+                if let Some(texture) = rarer.as_ref().filter(|_| lookup.kappa == 0.0 && lookup.eta < 1.0)
+                    && let Some(point) = point_of(&texture.axes, lookup.mu, lookup.alpha, lookup.eta, 0.0)
+                {
+                    return self.full(texture, &point, lookup);
                 }
                 let point = [lookup.mu, lookup.alpha, lookup.eta, lookup.kappa];
                 match full {

@@ -89,6 +89,7 @@ macro_rules! table_recipe_accessors {
 pub mod belcour;
 pub mod driver;
 pub mod fgd;
+pub mod fgd_rarer;
 pub mod gd;
 pub mod interpolation;
 pub mod karis;

@@ -22,6 +22,7 @@ use crate::packing::Packing;
 use crate::recipes::TableRecipe;
 use crate::recipes::belcour::BelcourSettings;
 use crate::recipes::fgd::FgdSettings;
+use crate::recipes::fgd_rarer::FgdRarerSettings;
 use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
 use crate::recipes::slices::{SliceChannel, SliceOf, Slices};
@@ -40,6 +41,7 @@ pub enum PlannedBuild {
     Tir(TirSettings),
     Belcour(BelcourSettings),
     Karis(KarisSettings),
+    FgdRarer(FgdRarerSettings),
     Slices(Slices),
     /// The analytic TIR form fitted to the full TIR table of these settings; only its shaders
     /// and coefficients are written.
@@ -56,6 +58,7 @@ impl PlannedBuild {
             PlannedBuild::Tir(s) => Some(s),
             PlannedBuild::Belcour(s) => Some(s),
             PlannedBuild::Karis(s) => Some(s),
+            PlannedBuild::FgdRarer(s) => Some(s),
             PlannedBuild::TirFit(s) => Some(s),
             PlannedBuild::Slices(_) => None,
         }
@@ -164,6 +167,18 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         let record =
             record_of(&settings, "FGD 4D over the sub-range the lookups reach, on the full table's grid", reasons)?;
         tables.push(PlannedTable { record, build: PlannedBuild::Fgd(settings) });
+        // Dielectrics onto a rarer medium among them read the table whose grid follows the
+        // critical angle, as a folder of the default set answers them (`model::folder`).
+        let rarer: Vec<&Lookup> = varying.iter().copied().filter(|l| l.kappa.hi == 0.0 && l.eta.lo < 1.0).collect();
+        if !rarer.is_empty() {
+            let reasons = sites(&rarer)
+                .iter()
+                .map(|site| format!("{}: a dielectric onto a rarer medium, {}", site_label(site), ranges_label(site)))
+                .collect();
+            let settings = config.fgd_rarer.clone();
+            let record = record_of(&settings, "FGD onto a rarer medium (eta < 1, kappa = 0), whole", reasons)?;
+            tables.push(PlannedTable { record, build: PlannedBuild::FgdRarer(settings) });
+        }
     } else {
         let bytes = recipe_texel_bytes(&config.fgd)?;
         let reason = if fgd_lookups.is_empty() {

@@ -148,7 +148,12 @@ fn copper_pot_gets_two_fgd_slices_a_tir_slice_and_gd() {
     assert_eq!(plan.bytes, plan.tables.iter().map(|t| t.record.bytes).sum::<u64>());
     assert_eq!(
         plan.default_set_bytes,
-        (64usize.pow(4) * 4 + 64 * 64 * 4 + 64 * 64 * 129 * 4 + 128 * 128 * 4 * 2 + 512 * 512 * 2 * 2) as u64
+        (64usize.pow(4) * 4
+            + 64 * 64 * 4
+            + 64 * 64 * 129 * 4
+            + 128 * 128 * 4 * 2
+            + 512 * 512 * 2 * 2
+            + 64 * 64 * 129 * 4) as u64
     );
     assert!(plan.bytes < 32 * 1024, "{}", plan.bytes);
 }

@@ -18,6 +18,7 @@ use crate::integrate::{Estimate, GRAZING_COSINE};
 use crate::physics::{critical_cosine, direction_from_cosine, fresnel_reflectance, reflect, schlick_weight};
 use crate::recipes::belcour::{self, BelcourSettings};
 use crate::recipes::fgd::FgdSettings;
+use crate::recipes::fgd_rarer::FgdRarerSettings;
 use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
 use crate::recipes::tir::TirSettings;
@@ -43,6 +44,7 @@ const RANGE_SLACK: f64 = 1e-6;
 pub struct Evaluation {
     pub points: PointSet,
     fgd: FgdSettings,
+    fgd_rarer: FgdRarerSettings,
     gd: GdSettings,
     tir: TirSettings,
     belcour: BelcourSettings,
@@ -54,6 +56,7 @@ impl Evaluation {
         Ok(Evaluation {
             points: PointSet::new(SamplePlan::new(SAMPLES, REPLICATES)?, SEED),
             fgd: FgdSettings::default(),
+            fgd_rarer: FgdRarerSettings::default(),
             gd: GdSettings::default(),
             // The cases are at (mu, alpha, eta) themselves, whatever axis the table stores.
             tir: TirSettings { eta_axis: crate::recipes::tir::EtaAxis::Eta, ..TirSettings::default() },
@@ -72,6 +75,7 @@ pub fn run(kind: TableKind, evaluation: &Evaluation, report: &mut Report) {
         TableKind::Tir => tir(evaluation, report),
         TableKind::Belcour => belcour(evaluation, report),
         TableKind::Karis => karis(evaluation, report),
+        TableKind::FgdRarer => fgd_rarer(evaluation, report),
     }
 }
 
@@ -147,6 +151,12 @@ fn view_cosines(etas: &[f64]) -> Vec<(f64, Option<f64>)> {
         }
     }
     cosines
+}
+
+/// A case at `(mu, alpha, eta)`, `mu` marked where it is the critical cosine of `eta`.
+fn view_label(mu: f64, critical_of: Option<f64>, alpha: f64, eta: f64) -> String {
+    let critical = if critical_of.is_some() { " (critical)" } else { "" };
+    format!("mu={}{critical} alpha={} eta={}", label(mu), label(alpha), label(eta))
 }
 
 fn fgd(evaluation: &Evaluation, report: &mut Report) {
@@ -282,13 +292,7 @@ fn tir(evaluation: &Evaluation, report: &mut Report) {
                 }
                 let position = [mu, alpha, eta];
                 let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
-                let at = format!(
-                    "mu={}{} alpha={} eta={}",
-                    label(mu),
-                    if critical_of.is_some() { " (critical)" } else { "" },
-                    label(alpha),
-                    label(eta)
-                );
+                let at = view_label(mu, critical_of, alpha, eta);
                 let mut case = Case::new("tir", &at, values(&node));
                 case.checks = common_checks(&node, &["tir"], &[true], &mut paths, &at);
                 let (v64, v32) = (node.per_cell.mean[0], node.fast.mean[0]);
@@ -313,6 +317,42 @@ fn tir(evaluation: &Evaluation, report: &mut Report) {
                         case.checks.push(named(check, "tir", path));
                     }
                 }
+                report.cases.push(case);
+            }
+        }
+    }
+    report.precision.push(paths);
+}
+
+/// FGD onto a rarer medium at the stiff `(mu, alpha, eta < 1)` points, the critical views
+/// included: both paths, and the same integral as the 4D table's at `kappa = 0`.
+fn fgd_rarer(evaluation: &Evaluation, report: &mut Report) {
+    let settings = &evaluation.fgd_rarer;
+    let points = &evaluation.points;
+    let etas: Vec<f64> = ETAS.iter().copied().filter(|&e| e < 1.0).collect();
+    let mut paths = PrecisionDifference::new("fgd_rarer: fast f32 kernel vs per-cell f64", 1e-3);
+    for &alpha in &ALPHAS {
+        for (mu, critical_of) in view_cosines(&etas) {
+            for &eta in &etas {
+                if critical_of.is_some_and(|e| e != eta) {
+                    continue;
+                }
+                let position = [mu, alpha, crate::table::derived::critical_angle_fraction(evaluated_cosine(mu), eta)];
+                let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
+                let at = view_label(mu, critical_of, alpha, eta);
+                let mut case = Case::new("fgd_rarer", &at, values(&node));
+                case.checks = common_checks(&node, &["fgd"], &[true], &mut paths, &at);
+                let four_d = evaluation.fgd.estimate_node(points, &[mu, alpha, eta, 0.0]).mean[0];
+                case.checks.push(named(
+                    p::close(
+                        "the 4D FGD table's integral at kappa = 0, same points",
+                        node.per_cell.mean[0],
+                        four_d,
+                        1e-9,
+                    ),
+                    "fgd",
+                    "f64",
+                ));
                 report.cases.push(case);
             }
         }

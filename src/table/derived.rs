@@ -31,6 +31,44 @@ pub fn eta_at_critical_angle_offset(mu: f64, offset: f64) -> f64 {
 /// How a shader computes [`CRITICAL_ANGLE_OFFSET`], for the manifest.
 pub const CRITICAL_ANGLE_OFFSET_FORMULA: &str = "asin(clamp(eta, 0, 1)) - acos(clamp(mu, 0, 1))";
 
+/// Where the critical angle lies between the view and the end of its range, as a fraction:
+/// `(theta_c - theta_v) / theta_v` when the critical angle `theta_c = asin(eta)` lies below the
+/// view angle `theta_v = acos(mu)` (from -1 at `eta = 0` to 0 at the critical view), and
+/// `(theta_c - theta_v) / (pi/2 - theta_v)` above it (from 0 to 1 at `eta = 1`). Like
+/// [`CRITICAL_ANGLE_OFFSET`] it puts the critical view at 0 for every `mu` and `eta`, and unlike it
+/// every value in [-1, 1] is an index below 1 at every view, so no node lies outside the lookups'
+/// reach: FGD below a rarer medium, whose Fresnel has a cusp at the critical angle, spends all its
+/// nodes on `eta < 1`.
+pub const CRITICAL_ANGLE_FRACTION: &str = "critical_angle_fraction";
+
+/// [`CRITICAL_ANGLE_FRACTION`] at `(mu, eta)`, both clamped to [0, 1]; 0 at the one point where
+/// both ranges are empty (`mu = 0`, `eta = 1`).
+pub fn critical_angle_fraction(mu: f64, eta: f64) -> f64 {
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let (view, critical) = (mu.clamp(0.0, 1.0).acos(), eta.clamp(0.0, 1.0).asin());
+    if critical < view {
+        (critical - view) / view
+    } else if view < half_pi {
+        (critical - view) / (half_pi - view)
+    } else {
+        0.0
+    }
+}
+
+/// The relative index at [`CRITICAL_ANGLE_FRACTION`] `fraction` (clamped to [-1, 1]) for the view
+/// of cosine `mu`: the inverse of [`critical_angle_fraction`].
+pub fn eta_at_critical_angle_fraction(mu: f64, fraction: f64) -> f64 {
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let view = mu.clamp(0.0, 1.0).acos();
+    let fraction = fraction.clamp(-1.0, 1.0);
+    let critical = if fraction < 0.0 { view * (1.0 + fraction) } else { view + fraction * (half_pi - view) };
+    critical.clamp(0.0, half_pi).sin()
+}
+
+/// How a shader computes [`CRITICAL_ANGLE_FRACTION`], for the manifest.
+pub const CRITICAL_ANGLE_FRACTION_FORMULA: &str = "with v = acos(clamp(mu, 0, 1)), c = asin(clamp(eta, 0, 1)): \
+     c < v ? (c - v) / v : (c - v) / max(pi/2 - v, 1e-7)";
+
 /// The point a lookup at `(mu, alpha, eta, kappa)` reads in a table of `axes`: each axis's
 /// quantity, by name. `None` when an axis samples a quantity this module does not know.
 pub fn point_of(axes: &[Axis], mu: f64, alpha: f64, eta: f64, kappa: f64) -> Option<Vec<f64>> {
@@ -41,6 +79,7 @@ pub fn point_of(axes: &[Axis], mu: f64, alpha: f64, eta: f64, kappa: f64) -> Opt
             "eta" => Some(eta),
             "kappa" => Some(kappa),
             CRITICAL_ANGLE_OFFSET => Some(critical_angle_offset(mu, eta)),
+            CRITICAL_ANGLE_FRACTION => Some(critical_angle_fraction(mu, eta)),
             _ => None,
         })
         .collect()
@@ -48,7 +87,11 @@ pub fn point_of(axes: &[Axis], mu: f64, alpha: f64, eta: f64, kappa: f64) -> Opt
 
 /// The definition of an axis's quantity in the lookup's parameters, where it is derived.
 pub fn definition(name: &str) -> Option<&'static str> {
-    (name == CRITICAL_ANGLE_OFFSET).then_some(CRITICAL_ANGLE_OFFSET_FORMULA)
+    match name {
+        CRITICAL_ANGLE_OFFSET => Some(CRITICAL_ANGLE_OFFSET_FORMULA),
+        CRITICAL_ANGLE_FRACTION => Some(CRITICAL_ANGLE_FRACTION_FORMULA),
+        _ => None,
+    }
 }
 
 #[cfg(test)]
@@ -69,6 +112,27 @@ mod tests {
         // Past the ends the index clamps.
         assert_eq!(eta_at_critical_angle_offset(0.5, 3.0), 1.0);
         assert_eq!(eta_at_critical_angle_offset(0.5, -3.0), 0.0);
+    }
+
+    #[test]
+    fn fraction_and_index_are_inverse_and_the_critical_view_is_at_zero() {
+        for mu in [0.0, 1e-3, 0.1, 0.5, 0.716, 0.99, 1.0] {
+            for eta in [0.0, 0.2, 0.7, 0.999, 1.0] {
+                let fraction = critical_angle_fraction(mu, eta);
+                assert!((-1.0..=1.0).contains(&fraction), "mu {mu} eta {eta}: {fraction}");
+                if mu > 0.0 || eta < 1.0 {
+                    let back = eta_at_critical_angle_fraction(mu, fraction);
+                    assert!((back - eta).abs() < 1e-12, "mu {mu} eta {eta}: {back}");
+                }
+            }
+        }
+        // The ends of the range are eta = 0 and eta = 1 at every view with both sides.
+        for mu in [0.1, 0.5, 0.9] {
+            assert_eq!(critical_angle_fraction(mu, 0.0), -1.0);
+            assert_eq!(critical_angle_fraction(mu, 1.0), 1.0);
+            let eta: f64 = (1.0 - mu * mu).sqrt();
+            assert!(critical_angle_fraction(mu, eta).abs() < 1e-12);
+        }
     }
 
     #[test]

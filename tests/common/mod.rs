@@ -152,6 +152,19 @@ samples = 16384
 [karis.interpolation]
 points = 32
 samples = 1024
+[fgd_rarer]
+mu_count = 8
+alpha_count = 7
+fraction_count = 9
+[fgd_rarer.sampling]
+samples = 1024
+replicates = 4
+[fgd_rarer.reference]
+cells = 4
+samples = 16384
+[fgd_rarer.interpolation]
+points = 32
+samples = 1024
 ";
 
 /// [`SMALL_SET`] written in every format: FGD, GD and TIR also in the original `.bin` layout
@@ -176,6 +189,7 @@ pub fn small_set_in_every_format() -> String {
     for table in ["belcour", "karis"] {
         config.push_str(&format!("[{table}.output]\nformats = [\"dds\", \"exr\", \"ktx2\"]\nprecision = \"f16\"\n"));
     }
+    config.push_str("[fgd_rarer.output]\nformats = [\"dds\", \"exr\", \"ktx2\"]\nprecision = \"f32\"\n");
     config
 }
 

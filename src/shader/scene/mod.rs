@@ -31,7 +31,7 @@ mod tm6;
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 
-use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, splat3};
+use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, select, splat3};
 use crate::error::{Error, Result};
 use crate::fit::forms::Form;
 use crate::formats::manifest::MANIFEST_FILE;
@@ -41,7 +41,7 @@ use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, slice_indices};
 use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
-use crate::table::derived::CRITICAL_ANGLE_OFFSET;
+use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
 use crate::table::{Axis, Mapping, Placement};
 
 pub use helpers::SMALLEST_TRANSMISSION_F32;
@@ -116,6 +116,8 @@ struct Sources {
     fit: Option<(Form, Vec<f64>)>,
     /// The 3D TIR table.
     tir: Option<TableFile>,
+    /// The 3D table of FGD onto a rarer medium.
+    fgd_rarer: Option<TableFile>,
     belcour: Option<(TableFile, FresnelBasis)>,
     karis: Option<TableFile>,
 }
@@ -251,8 +253,16 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
 
 fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> {
     let entries = &folder.manifest().files;
-    let mut sources =
-        Sources { slices: Vec::new(), gd: None, packing: None, fit: None, tir: None, belcour: None, karis: None };
+    let mut sources = Sources {
+        slices: Vec::new(),
+        gd: None,
+        packing: None,
+        fit: None,
+        tir: None,
+        fgd_rarer: None,
+        belcour: None,
+        karis: None,
+    };
     for (file, entry) in folder.gpu_textures() {
         if entry.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()) {
             if materials.iter().any(|m| m.albedo == AlbedoPath::Fgd) {
@@ -280,6 +290,8 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
             sources.gd = Some(table);
         } else if entry.table == "tir" && dimension == 3 {
             sources.tir = Some(table);
+        } else if entry.table == "fgd_rarer" && dimension == 3 {
+            sources.fgd_rarer = Some(table);
         } else if entry.table == "karis" && dimension == 2 {
             sources.karis = Some(table);
         } else if entry.table == "belcour"
@@ -512,10 +524,18 @@ impl Generator<'_> {
         Error::format(&self.manifest_path, format!("lists no {what}, which material `{}` reads", m.name))
     }
 
-    /// `FGD(mu, alpha, eta, kappa)`: the slice holding the index, else the lossless packing.
+    /// `FGD(mu, alpha, eta, kappa)`: the slice holding the index, else for a dielectric onto a
+    /// rarer medium (`kappa = 0`, `eta < 1`) the `fgd_rarer` table, else the lossless packing (as
+    /// `model::folder` reads them).
     fn fgd(&mut self, m: &ShaderMaterial, mu: Expr, alpha: f64, eta: f64, kappa: f64) -> Result<Expr> {
         if let Some(value) = self.slice(false, eta, kappa, mu.clone(), f(alpha as f32), Some(alpha)) {
             return Ok(value);
+        }
+        if kappa == 0.0
+            && eta < 1.0
+            && let Some(table) = self.sources.fgd_rarer.clone()
+        {
+            return self.volume(m, &table, mu, f(alpha as f32), eta, "fgd_rarer table");
         }
         match &self.sources.packing {
             Some((file, packed)) => {
@@ -564,18 +584,28 @@ impl Generator<'_> {
                         ),
                     ));
                 };
-                self.tir_volume(m, &table, mu, alpha, eta)
+                self.volume(m, &table, mu, alpha, eta, "tir table")
             }
         }
     }
 
-    /// The 3D TIR table at the point [`crate::table::derived::point_of`] gives: each axis's
-    /// quantity by name, `eta` itself or the critical-angle offset `asin(eta) - acos(mu)` (its
-    /// `asin(eta)` folded to a constant; `acos` by [`helpers::acos`], not the builtin, whose error
-    /// Vulkan bounds only loosely and which the axis's asinh spacing magnifies a thousandfold near
+    /// A 3D table (TIR, or FGD onto a rarer medium) at the point
+    /// [`crate::table::derived::point_of`] gives: each axis's quantity by name, `eta` itself, the
+    /// critical-angle offset `asin(eta) - acos(mu)` or the critical-angle fraction (`asin(eta)`
+    /// folded to a constant; `acos` by [`helpers::acos`], not the builtin, whose error Vulkan
+    /// bounds only loosely and which the axes' asinh spacing magnifies up to a thousandfold near
     /// the critical angle).
-    fn tir_volume(&mut self, m: &ShaderMaterial, t: &TableFile, mu: Expr, alpha: Expr, eta: f64) -> Result<Expr> {
+    fn volume(
+        &mut self,
+        m: &ShaderMaterial,
+        t: &TableFile,
+        mu: Expr,
+        alpha: Expr,
+        eta: f64,
+        what: &'static str,
+    ) -> Result<Expr> {
         let mut point = Vec::with_capacity(3);
+        let critical = f(eta.clamp(0.0, 1.0).asin() as f32);
         for axis in &t.axes {
             point.push(match axis.name.as_str() {
                 "mu" => mu.clone(),
@@ -583,14 +613,25 @@ impl Generator<'_> {
                 "eta" => f(eta as f32),
                 CRITICAL_ANGLE_OFFSET => {
                     self.needs.acos = true;
-                    f(eta.clamp(0.0, 1.0).asin() as f32) - func("tm_acos", vec![mu.clone().clamp(f(0.0), f(1.0))])
+                    critical.clone() - func("tm_acos", vec![mu.clone().clamp(f(0.0), f(1.0))])
+                }
+                CRITICAL_ANGLE_FRACTION => {
+                    // (c - v) / v below the view's angle v, (c - v) / (pi/2 - v) above it.
+                    self.needs.acos = true;
+                    let view = func("tm_acos", vec![mu.clone().clamp(f(0.0), f(1.0))]);
+                    let offset = critical.clone() - view.clone();
+                    select(
+                        critical.clone().lt(view.clone()),
+                        offset.clone() / view.clone(),
+                        offset / (f(std::f32::consts::FRAC_PI_2) - view).max(f(1e-7)),
+                    )
                 }
                 other => {
                     return Err(self.refuse(
                         &m.name,
                         format!(
-                            "reads TIR from {}, which has an axis `{other}`; the shader reads mu, alpha, and eta or \
-                             {CRITICAL_ANGLE_OFFSET}",
+                            "reads {what} {}, which has an axis `{other}`; the shader reads mu, alpha, and eta, \
+                             {CRITICAL_ANGLE_OFFSET} or {CRITICAL_ANGLE_FRACTION}",
                             t.file
                         ),
                     ));
@@ -599,7 +640,7 @@ impl Generator<'_> {
         }
         let variable = self.bind_table(t);
         self.needs.trilinear = true;
-        self.reads.insert("tir table");
+        self.reads.insert(what);
         let mut arguments = vec![name(&variable)];
         arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x)));
         arguments.extend(t.axes.iter().map(|axis| f(axis.count as f32)));
