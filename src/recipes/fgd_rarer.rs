@@ -25,7 +25,7 @@ use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosin
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
     Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference,
-    fill_mu_alpha_nodes,
+    estimate_mu_alpha_columns,
 };
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
@@ -178,9 +178,7 @@ impl Kernel for FgdRarerSettings {
     }
 
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
-        let (mu_axis, fraction_axis) = (table.axes[0].clone(), table.axes[2].clone());
-        let plane = mu_axis.count * table.axes[1].count;
-        let fractions = fraction_axis.node_values();
+        let (mu_axis, fractions) = (&table.axes[0], table.axes[2].node_values());
         // Each mu node has its own indices: one Fresnel projection per (mu, fraction) node.
         let pairs: Vec<Vec<(f64, f64)>> = (0..mu_axis.count)
             .map(|i| fractions.iter().map(|&f| (Self::eta_of_node(mu_axis.node_value(i), f), 0.0)).collect())
@@ -193,29 +191,15 @@ impl Kernel for FgdRarerSettings {
             Method::PerCell => Vec::new(),
         };
         // Every fraction of one (mu, alpha) from one measure (fast) or one pass over the samples
-        // (per cell): a 2D table of `fraction_count` channels, then reordered to the 3D node order.
-        let mut columns = Table::zeros(
-            NAME,
-            table.axes[..2].to_vec(),
-            (0..fractions.len()).map(|k| Channel::new(format!("f{k}"), "")).collect(),
-        )?;
-        let estimates = fill_mu_alpha_nodes(&mut columns, progress, |cell, mu, alpha| {
-            let i = cell % mu_axis.count;
-            match self.method {
-                Method::Fast => {
-                    fgd_pairs_fast(self.masking, self.cosine_basis(), points, mu, alpha, &pairs[i], &projections[i])
-                }
-                Method::PerCell => {
-                    Estimate::from_channels(&fgd_cells_at_mu_alpha(self.masking, points, mu, alpha, &pairs[i]))
-                }
+        // (per cell).
+        let nodes = estimate_mu_alpha_columns(table, progress, |i, mu, alpha| match self.method {
+            Method::Fast => {
+                fgd_pairs_fast(self.masking, self.cosine_basis(), points, mu, alpha, &pairs[i], &projections[i])
+            }
+            Method::PerCell => {
+                Estimate::from_channels(&fgd_cells_at_mu_alpha(self.masking, points, mu, alpha, &pairs[i]))
             }
         });
-        let nodes: Vec<Estimate> = (0..table.node_count())
-            .map(|n| {
-                let (column, k) = (&estimates[n % plane], n / plane);
-                Estimate { mean: vec![column.mean[k]], standard_error: vec![column.standard_error[k]] }
-            })
-            .collect();
         // The global projection of Fresnel misses a cusp by up to 0.2 within its hat interval, and
         // a lobe spread over a few intervals reads a little of that (at most 7.5e-4 in the default
         // table, next to `eta = 1` at grazing views, where Fresnel falls from 1 to 0 within 1e-3 of

@@ -310,6 +310,31 @@ pub(crate) fn fill_mu_alpha_nodes(
     estimates
 }
 
+/// Estimate every node of a 3D table whose first two axes are `mu` and `alpha` a column at a time:
+/// `column(i, mu, alpha)` estimates the whole third axis at `mu` node `i` and `alpha`, one channel
+/// per node of it (one pass over the samples serves them all). Returns one single-channel estimate
+/// per node, in the table's node order.
+pub(crate) fn estimate_mu_alpha_columns(
+    table: &Table,
+    progress: &dyn Progress,
+    column: impl Fn(usize, f64, f64) -> Estimate + Sync,
+) -> Vec<Estimate> {
+    let (mu_axis, alpha_axis) = (&table.axes[0], &table.axes[1]);
+    let plane = mu_axis.count * alpha_axis.count;
+    let cells: Vec<u64> = (0..plane as u64).collect();
+    let columns = crate::integrate::estimate_cells(&cells, &table.name, progress, |cell| {
+        let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
+        column(i, mu_axis.node_value(i), alpha_axis.node_value(j))
+    });
+    // From (mu, alpha) columns of third-axis values to the table's node order.
+    (0..table.node_count())
+        .map(|n| {
+            let (column, k) = (&columns[n % plane], n / plane);
+            Estimate { mean: vec![column.mean[k]], standard_error: vec![column.standard_error[k]] }
+        })
+        .collect()
+}
+
 /// Seeds of reference estimates are offset from the table's so that their scrambles are
 /// independent of the ones the table was built with.
 const REFERENCE_SEED_OFFSET: u64 = 0x005E_ED0F_2EF5;

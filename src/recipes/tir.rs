@@ -23,7 +23,10 @@ use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use super::spacing::{CosineAxis, RoughnessAxis};
-use super::{Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference};
+use super::{
+    Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference,
+    estimate_mu_alpha_columns,
+};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::batch::{CellWarp, for_each_block};
@@ -360,25 +363,12 @@ impl Kernel for TirSettings {
     }
 
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
-        let (mu_axis, alpha_axis, third_axis) = (table.axes[0].clone(), table.axes[1].clone(), table.axes[2].clone());
-        let plane = mu_axis.count * alpha_axis.count;
-
         let estimates: Vec<Estimate> = match self.method {
             Method::Fast => {
-                let columns: Vec<u64> = (0..plane as u64).collect();
-                let columns = estimate_cells(&columns, NAME, progress, |cell| {
-                    let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
-                    let mu = mu_axis.node_value(i);
-                    tir_column(mu, alpha_axis.node_value(j), &self.evaluated_etas(mu, &third_axis), points)
-                });
-                // Reorder from (mu, alpha) columns of eta values to the table's node order.
-                (0..table.node_count())
-                    .map(|n| {
-                        let column = &columns[n % plane];
-                        let k = n / plane;
-                        Estimate { mean: vec![column.mean[k]], standard_error: vec![column.standard_error[k]] }
-                    })
-                    .collect()
+                let third_axis = &table.axes[2];
+                estimate_mu_alpha_columns(table, progress, |_, mu, alpha| {
+                    tir_column(mu, alpha, &self.evaluated_etas(mu, third_axis), points)
+                })
             }
             Method::PerCell => {
                 let cells: Vec<u64> = (0..table.node_count() as u64).collect();
