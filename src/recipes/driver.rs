@@ -59,6 +59,11 @@ pub trait Kernel: Sync {
     }
 }
 
+/// The note of every node-aligned table's metadata: where its nodes lie, and that a GPU sampler
+/// needs the half-texel correction its manifest gives per axis.
+pub const NODE_ALIGNED_NOTE: &str =
+    "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.";
+
 /// What a table states of itself, whatever its values.
 #[derive(Debug, Clone, Default)]
 pub struct Metadata {

@@ -323,7 +323,7 @@ impl Kernel for FgdSettings {
             integrand: "FGD = E_{h~VNDF(wi)}[F(wi.h; eta, kappa) G2(wi,wo) / G1(wi)], wo = reflect(wi, h)".into(),
             masking: Some(self.masking),
             notes: vec![
-                "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.".into(),
+                super::driver::NODE_ALIGNED_NOTE.into(),
                 "eta and kappa are relative to the medium above the interface; lookups outside the range clamp (kappa > 4 reads as 4).".into(),
                 format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.", crate::integrate::GRAZING_COSINE),
             ],

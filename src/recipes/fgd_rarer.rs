@@ -164,7 +164,7 @@ impl Kernel for FgdRarerSettings {
             integrand: "FGD = E_{h~VNDF(wi)}[F(wi.h; eta, 0) G2(wi,wo) / G1(wi)], wo = reflect(wi, h), eta < 1".into(),
             masking: Some(self.masking),
             notes: vec![
-                "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.".into(),
+                super::driver::NODE_ALIGNED_NOTE.into(),
                 "The third axis stands for eta: each node is evaluated at eta = sin(v (1 + f)) for f < 0 and sin(v + f (pi/2 - v)) for f >= 0, v = acos(mu); lookups compute f from (mu, eta) by the axis's definition.".into(),
                 "eta is relative to the medium above the interface (the denser one); for eta >= 1 or kappa > 0 read the 4D FGD table.".into(),
                 format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {GRAZING_COSINE}."),

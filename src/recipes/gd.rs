@@ -117,8 +117,7 @@ impl Kernel for GdSettings {
                 .into(),
             masking: Some(self.masking),
             notes: vec![
-                "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis."
-                    .into(),
+                super::driver::NODE_ALIGNED_NOTE.into(),
                 format!(
                     "The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.",
                     crate::integrate::GRAZING_COSINE

@@ -345,9 +345,9 @@ impl Kernel for TirSettings {
                     .into(),
             masking: Some(MaskingShadowing::SmithSeparable),
             notes: vec![
-                "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis."
+                super::driver::NODE_ALIGNED_NOTE.into(),
+                "alpha is the roughness of the incoming lobe (from hg_to_ggx in the model), not of the interface."
                     .into(),
-                "alpha is the roughness of the incoming lobe (from hg_to_ggx in the model), not of the interface.".into(),
                 format!(
                     "The eta = 1 node is evaluated at eta = {} (1: exact, no total internal reflection; the original behaves as 0.999).",
                     self.top_eta
