@@ -112,6 +112,12 @@ impl SampledTable {
 /// ([`crate::shader::scene`]), whose rounding is below 1e-6 of any range.
 pub const SLICE_CHOICE_SLACK: f64 = 1e-5;
 
+/// Whether an FGD lookup at `(eta, kappa)` reads `fgd_rarer` where a folder has it (and no slice
+/// holds the index): a dielectric onto a rarer medium. The scene's shader chooses by the same rule.
+pub fn reads_fgd_rarer(eta: f64, kappa: f64) -> bool {
+    kappa == 0.0 && eta < 1.0
+}
+
 /// The texture coordinate of value `x` along `axis`, in f32 as a shader computes the manifest's
 /// formula ([`crate::loader::texture_coordinate`]).
 pub fn texture_coordinate_f32(axis: &Axis, x: f64) -> f32 {
@@ -359,7 +365,7 @@ impl FolderTables {
                 if let Some(value) = self.slice_value(slices, lookup) {
                     return value;
                 }
-                if let Some(texture) = rarer.as_ref().filter(|_| lookup.kappa == 0.0 && lookup.eta < 1.0)
+                if let Some(texture) = rarer.as_ref().filter(|_| reads_fgd_rarer(lookup.eta, lookup.kappa))
                     && let Some(point) = point_of(&texture.axes, lookup.mu, lookup.alpha, lookup.eta, 0.0)
                 {
                     return self.full(texture, &point, lookup);

@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{LeftOutRecord, PlanRecord, PlannedTableRecord};
 use crate::integrate::GRAZING_COSINE;
+use crate::model::folder::reads_fgd_rarer;
 use crate::packing::Packing;
 use crate::recipes::TableRecipe;
 use crate::recipes::belcour::BelcourSettings;
@@ -167,9 +168,10 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         let record =
             record_of(&settings, "FGD 4D over the sub-range the lookups reach, on the full table's grid", reasons)?;
         tables.push(PlannedTable { record, build: PlannedBuild::Fgd(settings) });
-        // Dielectrics onto a rarer medium among them read the table whose grid follows the
-        // critical angle, as a folder of the default set answers them (`model::folder`).
-        let rarer: Vec<&Lookup> = varying.iter().copied().filter(|l| l.kappa.hi == 0.0 && l.eta.lo < 1.0).collect();
+        // Dielectrics onto a rarer medium among them (an index below 1 somewhere in their range,
+        // kappa 0 throughout) read the table whose grid follows the critical angle, as a folder of
+        // the default set answers them (`model::folder`).
+        let rarer: Vec<&Lookup> = varying.iter().copied().filter(|l| reads_fgd_rarer(l.eta.lo, l.kappa.hi)).collect();
         if !rarer.is_empty() {
             let reasons = sites(&rarer)
                 .iter()

@@ -37,7 +37,7 @@ use crate::fit::forms::Form;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::LutFolder;
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
-use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, slice_indices};
+use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, reads_fgd_rarer, slice_indices};
 use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
@@ -531,8 +531,7 @@ impl Generator<'_> {
         if let Some(value) = self.slice(false, eta, kappa, mu.clone(), f(alpha as f32), Some(alpha)) {
             return Ok(value);
         }
-        if kappa == 0.0
-            && eta < 1.0
+        if reads_fgd_rarer(eta, kappa)
             && let Some(table) = self.sources.fgd_rarer.clone()
         {
             return self.volume(m, &table, mu, f(alpha as f32), eta, "fgd_rarer table");
