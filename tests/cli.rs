@@ -103,7 +103,7 @@ fn build_writes_dds_exr_and_a_manifest_that_a_renderer_can_load() {
 fn ktx2_is_written_beside_dds_for_tables_and_packings_and_reads_back_the_same() {
     use tmlut::loader::TirLut;
     use tmlut::model::folder::{FgdSource, FolderTables};
-    use tmlut::model::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
+    use tmlut::model::{AlbedoPath, Lookup, Tables, TirPath};
 
     let dir = tempfile::tempdir().unwrap();
     let text = SMALL_SET.replacen("[fgd]\n", "[fgd]\npacking_formats = [\"dds\", \"ktx2\"]\n", 1)
@@ -135,16 +135,7 @@ fn ktx2_is_written_beside_dds_for_tables_and_packings_and_reads_back_the_same() 
     // The model reads the packing from either file alike.
     let lookups: Vec<Lookup> = [(0.1, 0.02, 1.5, 0.0), (0.7, 0.3, 0.4, 2.0), (1.0, 0.9, 3.1, 0.5)]
         .into_iter()
-        .map(|(mu, alpha, eta, kappa)| Lookup {
-            quantity: Quantity::Albedo,
-            site: Site::FromAbove,
-            layer: 1,
-            channel: None,
-            mu,
-            alpha,
-            eta,
-            kappa,
-        })
+        .map(|(mu, alpha, eta, kappa)| albedo_lookup(mu, alpha, eta, kappa))
         .collect();
     let open =
         |folder: &LutFolder| FolderTables::open(folder, AlbedoPath::Fgd, TirPath::Table, FgdSource::Packing).unwrap();
@@ -656,26 +647,14 @@ fn bad_scenes_are_refused_naming_material_and_layer() {
 #[test]
 fn the_model_reads_a_dielectric_onto_a_rarer_medium_from_fgd_rarer_and_everything_else_as_before() {
     use tmlut::model::folder::{FgdSource, FolderTables, SampledTable};
-    use tmlut::model::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
+    use tmlut::model::{AlbedoPath, Tables, TirPath};
     use tmlut::table::derived::point_of;
 
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), SMALL_SET);
-    let out = dir.path().join("luts");
-    let output = build(&config, &out, &["--only", "fgd,fgd_rarer"]);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let lookup = |mu, alpha, eta, kappa| Lookup {
-        quantity: Quantity::Albedo,
-        site: Site::FromAbove,
-        layer: 1,
-        channel: None,
-        mu,
-        alpha,
-        eta,
-        kappa,
-    };
-    let rarer = [lookup(0.72, 0.01, 0.7, 0.0), lookup(0.3, 0.4, 0.2, 0.0)];
-    let others = [lookup(0.72, 0.01, 0.7, 0.05), lookup(0.5, 0.2, 1.5, 0.0), lookup(0.9, 0.3, 0.2, 2.0)];
+    let out = common::build_config(dir.path(), SMALL_SET, &["--only", "fgd,fgd_rarer"]);
+    let rarer = [albedo_lookup(0.72, 0.01, 0.7, 0.0), albedo_lookup(0.3, 0.4, 0.2, 0.0)];
+    let others =
+        [albedo_lookup(0.72, 0.01, 0.7, 0.05), albedo_lookup(0.5, 0.2, 1.5, 0.0), albedo_lookup(0.9, 0.3, 0.2, 2.0)];
     let open =
         |folder: &LutFolder| FolderTables::open(folder, AlbedoPath::Fgd, TirPath::Off, FgdSource::Packing).unwrap();
     let folder = LutFolder::open(&out).unwrap();
@@ -696,5 +675,20 @@ fn the_model_reads_a_dielectric_onto_a_rarer_medium_from_fgd_rarer_and_everythin
     }
     for l in &others {
         assert_eq!(with_rarer.value(l), without.value(l), "{l:?}");
+    }
+}
+
+/// An albedo lookup of the first interface from above, as the model makes it.
+fn albedo_lookup(mu: f64, alpha: f64, eta: f64, kappa: f64) -> tmlut::model::Lookup {
+    use tmlut::model::{Quantity, Site};
+    tmlut::model::Lookup {
+        quantity: Quantity::Albedo,
+        site: Site::FromAbove,
+        layer: 1,
+        channel: None,
+        mu,
+        alpha,
+        eta,
+        kappa,
     }
 }
