@@ -86,8 +86,8 @@ pub fn summary(written: &[WrittenFile]) -> String {
         for interpolation in &e.error.interpolation {
             let _ = writeln!(
                 out,
-                "    interpolated vs the exact integral, {}: RMS {:.2e}, max {:.2e}",
-                interpolation.domain, interpolation.error.rms, interpolation.error.max
+                "    interpolated vs the exact integral, {}: RMS {:.2e}, 99th percentile {:.2e}, max {:.2e}",
+                interpolation.domain, interpolation.error.rms, interpolation.p99, interpolation.error.max
             );
         }
         for accuracy in &e.accuracy {

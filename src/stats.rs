@@ -71,8 +71,20 @@ pub struct InterpolationError {
     /// Read value minus exact, over points and channels.
     #[serde(flatten)]
     pub error: ErrorSummary,
+    /// The 99th percentile of `|read - exact|`: the level all but 1 % of lookups stay within,
+    /// where the maximum is one point on a feature the grid cannot follow.
+    #[serde(default)]
+    pub p99: f64,
     /// Where the largest difference is, and both values there.
     pub worst_at: String,
+}
+
+/// The `q`-quantile of `values` (0 <= q <= 1), the nearest rank `ceil(q n)`; 0 for none.
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let rank = (q * sorted.len() as f64).ceil() as usize;
+    sorted.get(rank.max(1) - 1).copied().unwrap_or(0.0)
 }
 
 /// The median of `values` (the mean of the middle two for an even count); NaN for none.
@@ -97,5 +109,14 @@ mod tests {
         assert!((e.rms - (12.5f64).sqrt()).abs() < 1e-15);
         assert_eq!(e.max, 4.0);
         assert_eq!(ErrorSummary::of_differences([]).rms, 0.0);
+    }
+
+    #[test]
+    fn quantile_takes_the_nearest_rank() {
+        let values: Vec<f64> = (1..=200).rev().map(f64::from).collect();
+        assert_eq!(quantile(&values, 0.99), 198.0);
+        assert_eq!(quantile(&values, 1.0), 200.0);
+        assert_eq!(quantile(&values, 0.0), 1.0);
+        assert_eq!(quantile(&[], 0.99), 0.0);
     }
 }

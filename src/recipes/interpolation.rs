@@ -221,7 +221,9 @@ pub fn compare(
             differences.push(difference);
         }
     }
+    let magnitudes: Vec<f64> = differences.iter().map(|d| d.abs()).collect();
     InterpolationError {
+        p99: crate::stats::quantile(&magnitudes, 0.99),
         domain: exact.domain.name.clone(),
         points: format!("{} points {}", exact.positions.len(), exact.domain.describe()),
         read_as: read_as.into(),

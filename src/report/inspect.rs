@@ -222,9 +222,10 @@ fn write_entry(w: &mut String, entry: &FileEntry, bytes: &[u8]) {
     for e in &error.interpolation {
         let _ = writeln!(
             w,
-            "between nodes ({}): RMS {:.2e}, max {:.2e} at {}; {}; read as {}; exact: {} samples, standard error up to {:.1e}",
+            "between nodes ({}): RMS {:.2e}, 99th percentile {:.2e}, max {:.2e} at {}; {}; read as {}; exact: {} samples, standard error up to {:.1e}",
             e.domain,
             e.error.rms,
+            e.p99,
             e.error.max,
             e.worst_at,
             e.points,
