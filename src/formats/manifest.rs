@@ -153,7 +153,10 @@ pub struct AxisEntry {
 impl AxisEntry {
     pub fn new(axis: &Axis, stored_along: impl Into<String>) -> Self {
         let derived = crate::table::derived::definition(&axis.name).map(|f| format!("{} = {f}", axis.name));
-        let asinh = matches!(axis.mapping, crate::table::Mapping::Asinh { .. })
+        let asinh = axis
+            .mapping
+            .asinh_parts()
+            .is_some()
             .then(|| "HLSL has no asinh: asinh(x) = sign(x) * log(abs(x) + sqrt(x * x + 1))".to_string());
         let definition = [derived, asinh].into_iter().flatten().collect::<Vec<_>>();
         AxisEntry {

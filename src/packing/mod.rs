@@ -176,14 +176,14 @@ fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize;
         ));
     }
     for axis in axes {
-        let mapped =
-            matches!(axis.mapping, Mapping::Identity | Mapping::Sqrt | Mapping::SqrtEnds | Mapping::Asinh { .. });
+        let mapped = matches!(axis.mapping, Mapping::Identity | Mapping::Sqrt | Mapping::SqrtEnds)
+            || axis.mapping.asinh_parts().is_some();
         if axis.placement != Placement::NodeAligned || !mapped {
             return Err(Error::invalid(
                 key,
                 format!(
                     "axis `{}` is {:?} with mapping {}; a packing takes node-aligned axes spaced in the quantity, its \
-                     square root, (sqrt(x) - sqrt(1 - x) + 1) / 2 or asinh((x - c) / s)",
+                     square root, (sqrt(x) - sqrt(1 - x) + 1) / 2 or asinh((x - c) / s) + r min(x - c, 0)",
                     axis.name,
                     axis.placement,
                     axis.mapping.formula(&axis.name)
@@ -197,8 +197,9 @@ fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize;
 /// `u = clamp((m(x) - m(start)) * (1 / (m(end) - m(start))), 0, 1)`: the axis coordinate in
 /// [0, 1], in f32, as a local named `u_<axis>` (for the identity mapping exact when the range is a
 /// power of two, as FGD's 1 and 4 are). The mapping `m` is written out: `sqrt(max(x, 0))`,
-/// `(sqrt(c) - sqrt(1 - c) + 1) * 0.5` with `c` clamped to [0, 1], or `asinh(y)` with
-/// `y = (x - centre) * (1 / scale)`, written `log(|y| + sqrt(y * y + 1))` with the sign of `y`
+/// `(sqrt(c) - sqrt(1 - c) + 1) * 0.5` with `c` clamped to [0, 1], or `asinh(y) + slope_below *
+/// min(x - centre, 0)` with `y = (x - centre) * (1 / scale)`, the `asinh` written
+/// `log(|y| + sqrt(y * y + 1))` with the sign of `y`
 /// (HLSL has no `asinh`; the odd symmetry keeps the sum from cancelling where `y < 0`: without
 /// it, at FGD's `y = -5` the logarithm's argument loses 50 ulps and lookups move by 5.4e-6).
 fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
@@ -209,11 +210,17 @@ fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
             let c = program.local(&format!("c_{}", axis.name), x.clamp(0.0, 1.0));
             (c.clone().sqrt() - (Expr::c(1.0) - c).sqrt() + Expr::c(1.0)).mul(Expr::c(0.5))
         }
-        Mapping::Asinh { scale, centre } => {
-            let y = program
-                .local(&format!("y_{}", axis.name), x.sub(Expr::c(centre as f32)).mul(Expr::c((1.0 / scale) as f32)));
+        Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
+            let (scale, centre, slope_below) = axis.mapping.asinh_parts().unwrap_or_default();
+            let from_centre = program.local(&format!("d_{}", axis.name), x.sub(Expr::c(centre as f32)));
+            let y = program.local(&format!("y_{}", axis.name), from_centre.clone().mul(Expr::c((1.0 / scale) as f32)));
             let magnitude = y.clone().abs().add(y.clone().mul(y.clone()).add(Expr::c(1.0)).sqrt()).log();
-            magnitude.with_sign_of(y)
+            let asinh = magnitude.with_sign_of(y);
+            if slope_below == 0.0 {
+                asinh
+            } else {
+                asinh.add(from_centre.min(Expr::c(0.0)).mul(Expr::c(slope_below as f32)))
+            }
         }
         Mapping::Identity | Mapping::SqrtOneMinus => x,
     };
@@ -268,7 +275,7 @@ fn unit_formula(axis: &Axis) -> String {
     let clamped = format!("clamp({}, 0, 1)", axis.name);
     let mapped = match axis.mapping {
         Mapping::Sqrt => axis.mapping.formula(&format!("max({}, 0)", axis.name)),
-        Mapping::Asinh { .. } => axis.mapping.formula(&axis.name),
+        Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => axis.mapping.formula(&axis.name),
         _ => axis.mapping.formula(&clamped),
     };
     format!("u_{} = clamp(({mapped} - {m0}) / ({m1} - {m0}), 0, 1)", axis.name)

@@ -55,23 +55,35 @@ impl CosineAxis {
 pub enum IndexAxis {
     /// Evenly spaced in `eta` (the original FGD table).
     Uniform,
-    /// Evenly spaced in `asinh((eta - 1) / INDEX_AXIS_SCALE)`: dense around `eta = 1`, where
-    /// Fresnel turns from nothing to total reflection within a few hundredths of `eta` at grazing
-    /// views and the critical cosine `sqrt(1 - eta^2)` sweeps fastest across the views.
+    /// Evenly spaced in `asinh((eta - 1) / INDEX_AXIS_SCALE) + INDEX_AXIS_SLOPE_BELOW_ONE *
+    /// min(eta - 1, 0)`: dense around `eta = 1`, where Fresnel turns from nothing to total
+    /// reflection within a few hundredths of `eta` at grazing views and the critical cosine
+    /// `sqrt(1 - eta^2)` sweeps fastest across the views, and kept dense below 1, where a
+    /// conductor's reflectance climbs to 1 as `eta` falls to 0, with a curvature of `16 / (1 +
+    /// kappa^2)^2` at normal incidence.
     DenseNearOne,
 }
 
-/// The scale of [`IndexAxis::DenseNearOne`]: 64 nodes over [0, 4] are 0.018 apart at `eta = 1`,
-/// 0.09 at 0 and 0.26 at 4. Chosen by measurement (`docs/tables.md`, "Interpolation error"):
-/// 0.1 and 0.5 give a larger maximum error between nodes, 0.3 a larger one at low roughness.
-pub const INDEX_AXIS_SCALE: f64 = 0.2;
+/// The scale of [`IndexAxis::DenseNearOne`]'s `asinh`.
+pub const INDEX_AXIS_SCALE: f64 = 0.25;
+
+/// The slope of [`IndexAxis::DenseNearOne`]'s ramp below `eta = 1`: with the scale, 64 nodes over
+/// [0, 4] are 0.039 apart at `eta = 0`, 0.019 below 1 and 0.029 above it, and 0.35 at 4 (scale
+/// 0.2 without the ramp: 0.092, 0.018 and 0.27). Both are chosen by measurement
+/// (`docs/tables.md`, "Interpolation error"): of the scales 0.1 to 0.3 and slopes 0 to 6 tried,
+/// this pair gives the lowest RMS between nodes over the whole domain and at low roughness.
+pub const INDEX_AXIS_SLOPE_BELOW_ONE: f64 = 2.0;
 
 impl IndexAxis {
     /// The mapping of an `eta` axis spaced this way.
     pub fn mapping(self) -> Mapping {
         match self {
             IndexAxis::Uniform => Mapping::Identity,
-            IndexAxis::DenseNearOne => Mapping::Asinh { scale: INDEX_AXIS_SCALE, centre: 1.0 },
+            IndexAxis::DenseNearOne => Mapping::AsinhRampBelow {
+                scale: INDEX_AXIS_SCALE,
+                centre: 1.0,
+                slope_below: INDEX_AXIS_SLOPE_BELOW_ONE,
+            },
         }
     }
 }

@@ -49,6 +49,11 @@ pub enum Mapping {
         #[serde(default, skip_serializing_if = "is_zero")]
         centre: f64,
     },
+    /// `m(x) = asinh((x - centre) / scale) + slope_below * min(x - centre, 0)`: [`Mapping::Asinh`]
+    /// with a ramp below `centre` that keeps nodes there no further apart than `1 / slope_below`
+    /// steps of `m`, where the logarithm alone would spread them. A variant of its own, so that a
+    /// reader that predates it refuses the manifest rather than read the `asinh` alone.
+    AsinhRampBelow { scale: f64, centre: f64, slope_below: f64 },
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -56,6 +61,16 @@ fn is_zero(x: &f64) -> bool {
 }
 
 impl Mapping {
+    /// `(scale, centre, slope_below)` of either `asinh` mapping (slope 0 for [`Mapping::Asinh`]):
+    /// every evaluation of the two is one formula.
+    pub fn asinh_parts(self) -> Option<(f64, f64, f64)> {
+        match self {
+            Mapping::Asinh { scale, centre } => Some((scale, centre, 0.0)),
+            Mapping::AsinhRampBelow { scale, centre, slope_below } => Some((scale, centre, slope_below)),
+            _ => None,
+        }
+    }
+
     pub fn forward(self, x: f64) -> f64 {
         match self {
             Mapping::Identity => x,
@@ -65,7 +80,10 @@ impl Mapping {
                 let x = x.clamp(0.0, 1.0);
                 0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
             }
-            Mapping::Asinh { scale, centre } => ((x - centre) / scale).asinh(),
+            Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
+                let (scale, centre, slope_below) = self.asinh_parts().unwrap_or_default();
+                ((x - centre) / scale).asinh() + slope_below * (x - centre).min(0.0)
+            }
         }
     }
 
@@ -79,7 +97,11 @@ impl Mapping {
                 let x = x.clamp(0.0, 1.0);
                 0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
             }
-            Mapping::Asinh { scale, centre } => ((x - centre as f32) / scale as f32).asinh(),
+            Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
+                let (scale, centre, slope_below) = self.asinh_parts().unwrap_or_default();
+                let from_centre = x - centre as f32;
+                (from_centre / scale as f32).asinh() + slope_below as f32 * from_centre.min(0.0)
+            }
         }
     }
 
@@ -94,14 +116,37 @@ impl Mapping {
                 let a = 0.5 * (difference + (2.0 - difference * difference).sqrt());
                 (a * a).clamp(0.0, 1.0)
             }
-            Mapping::Asinh { scale, centre } => centre + scale * m.sinh(),
+            Mapping::AsinhRampBelow { scale, centre, slope_below } if m < 0.0 && slope_below > 0.0 => {
+                // asinh(y) + slope_below * scale * y = m has one root y = (x - centre) / scale,
+                // between the roots of either term alone; bisection halves that bracket to f64's
+                // resolution.
+                let slope = slope_below * scale;
+                let (mut lo, mut hi) = ((m / slope).max(m.sinh()), 0.0);
+                for _ in 0..200 {
+                    let mid = 0.5 * (lo + hi);
+                    if mid == lo || mid == hi {
+                        break;
+                    }
+                    if mid.asinh() + slope * mid < m {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                centre + scale * 0.5 * (lo + hi)
+            }
+            Mapping::Asinh { scale, centre } | Mapping::AsinhRampBelow { scale, centre, .. } => {
+                centre + scale * m.sinh()
+            }
         }
     }
 
     /// The values of `x` the mapping is defined on, as `(lo, hi)`.
     pub fn domain(self) -> (f64, f64) {
         match self {
-            Mapping::Identity | Mapping::Asinh { .. } => (f64::NEG_INFINITY, f64::INFINITY),
+            Mapping::Identity | Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            }
             Mapping::Sqrt => (0.0, f64::INFINITY),
             Mapping::SqrtOneMinus => (f64::NEG_INFINITY, 1.0),
             Mapping::SqrtEnds => (0.0, 1.0),
@@ -117,17 +162,28 @@ impl Mapping {
             Mapping::SqrtEnds => format!("(sqrt({x}) - sqrt(1 - {x}) + 1) / 2"),
             Mapping::Asinh { scale, centre: 0.0 } => format!("asinh({x} / {scale:?})"),
             Mapping::Asinh { scale, centre } => format!("asinh(({x} - {centre:?}) / {scale:?})"),
+            Mapping::AsinhRampBelow { scale, centre, slope_below } => {
+                format!("asinh(({x} - {centre:?}) / {scale:?}) + {slope_below:?} * min({x} - {centre:?}, 0)")
+            }
         }
     }
 
     /// Whether the mapping is valid: a finite, positive `asinh` scale.
     pub fn validate(self) -> Result<()> {
         match self {
-            Mapping::Asinh { scale, .. } if !(scale.is_finite() && scale > 0.0) => {
+            _ if self.asinh_parts().is_some_and(|(scale, _, _)| !(scale.is_finite() && scale > 0.0)) => {
+                let (scale, _, _) = self.asinh_parts().unwrap_or_default();
                 Err(Error::invalid("mapping", format!("asinh scale {scale}; allowed: finite and > 0")))
             }
-            Mapping::Asinh { centre, .. } if !centre.is_finite() => {
+            _ if self.asinh_parts().is_some_and(|(_, centre, _)| !centre.is_finite()) => {
+                let (_, centre, _) = self.asinh_parts().unwrap_or_default();
                 Err(Error::invalid("mapping", format!("asinh centre {centre}; allowed: finite")))
+            }
+            Mapping::AsinhRampBelow { slope_below, .. } if !(slope_below.is_finite() && slope_below >= 0.0) => {
+                Err(Error::invalid(
+                    "mapping",
+                    format!("asinh slope below the centre {slope_below}; allowed: finite and >= 0"),
+                ))
             }
             _ => Ok(()),
         }
@@ -404,25 +460,38 @@ mod tests {
     }
 
     #[test]
-    fn an_asinh_spacing_centred_off_zero_is_dense_at_its_centre() {
-        // FGD's eta axis: 64 nodes over [0, 4] in asinh((eta - 1) / 0.2).
-        let eta = Axis::node_aligned("eta", 0.0, 4.0, 64)
-            .unwrap()
-            .with_mapping(Mapping::Asinh { scale: 0.2, centre: 1.0 })
-            .unwrap();
+    fn an_asinh_spacing_centred_off_zero_is_dense_at_its_centre_and_its_ramp_below() {
+        // FGD's eta axis: 64 nodes over [0, 4] in asinh((eta - 1) / 0.25) + 2 min(eta - 1, 0).
+        let ramp = Mapping::AsinhRampBelow { scale: 0.25, centre: 1.0, slope_below: 2.0 };
+        let eta = Axis::node_aligned("eta", 0.0, 4.0, 64).unwrap().with_mapping(ramp).unwrap();
         for k in 0..eta.count {
-            assert!((eta.coordinate(eta.node_value(k)) - eta.node_coordinate(k)).abs() < 1e-12, "node {k}");
+            let x = eta.node_value(k);
+            assert!((eta.coordinate(x) - eta.node_coordinate(k)).abs() < 1e-12, "node {k}");
+            let m = eta.mapping.forward(x);
+            assert!((eta.mapping.forward_f32(x as f32) as f64 - m).abs() <= 4e-7 * m.abs().max(1.0), "{x}");
+        }
+        // The ramp's inverse is exact at its ends and continuous through the centre.
+        for x in [0.0, 0.3, 1.0 - 1e-12, 1.0, 1.0 + 1e-12, 2.5] {
+            assert!((ramp.inverse(ramp.forward(x)) - x).abs() < 1e-13, "{x}");
         }
         let width = |k: usize| eta.node_value(k + 1) - eta.node_value(k);
         let at_one = eta.continuous_index(1.0).floor() as usize;
+        // Without the ramp (scale 0.2) the first cell is 0.092 wide; with it every cell below 1 is
+        // at most 0.04, and the cells grow to 0.35 at 4.
         assert!(
-            width(at_one) < 0.02 && width(0) > 0.08 && width(62) > 0.25,
+            width(at_one) < 0.03 && (0..at_one).all(|k| width(k) < 0.04) && width(62) > 0.3,
             "{} {} {}",
             width(at_one),
             width(0),
             width(62)
         );
-        assert_eq!(eta.mapping.formula("eta"), "asinh((eta - 1.0) / 0.2)");
+        assert_eq!(eta.mapping.formula("eta"), "asinh((eta - 1.0) / 0.25) + 2.0 * min(eta - 1.0, 0)");
+        let plain = Mapping::Asinh { scale: 0.2, centre: 1.0 };
+        assert_eq!(plain.formula("eta"), "asinh((eta - 1.0) / 0.2)");
+        // The ramp is a variant of its own in the manifest, which a reader without it refuses.
+        let json = serde_json::to_string(&ramp).unwrap();
+        assert_eq!(json, r#"{"asinh-ramp-below":{"scale":0.25,"centre":1.0,"slope_below":2.0}}"#);
+        assert_eq!(serde_json::from_str::<Mapping>(&json).unwrap(), ramp);
         // The centre is omitted from the manifest where it is 0, so that axes written before it
         // existed read back equal.
         let json = serde_json::to_string(&Mapping::Asinh { scale: 0.5, centre: 0.0 }).unwrap();
@@ -431,5 +500,11 @@ mod tests {
         let bad =
             Axis::node_aligned("d", 0.0, 1.0, 4).unwrap().with_mapping(Mapping::Asinh { scale: 1.0, centre: f64::NAN });
         assert!(bad.unwrap_err().to_string().contains("asinh centre"));
+        let falling = Axis::node_aligned("d", 0.0, 1.0, 4).unwrap().with_mapping(Mapping::AsinhRampBelow {
+            scale: 1.0,
+            centre: 0.5,
+            slope_below: -1.0,
+        });
+        assert!(falling.unwrap_err().to_string().contains("slope below the centre -1"));
     }
 }

@@ -359,7 +359,7 @@ impl Generator<'_> {
     /// The texture variable of a table of two or three axes, one texel per node.
     fn bind_table(&mut self, t: &TableFile) -> String {
         let count = |d: usize| t.axes.get(d).map_or(1, |a| a.count);
-        if t.axes.iter().any(|a| matches!(a.mapping, Mapping::Asinh { .. })) {
+        if t.axes.iter().any(|a| a.mapping.asinh_parts().is_some()) {
             self.needs.asinh = true;
         }
         self.bind(&t.file, [count(0), count(1), count(2)], t.axes.len() as u8, t.channels)
@@ -688,9 +688,11 @@ fn coordinate(axis: &Axis, x: Expr) -> Expr {
             let x = x.clamp(f(0.0), f(1.0));
             f(0.5) * (x.clone().sqrt() - (f(1.0) - x).sqrt() + f(1.0))
         }
-        Mapping::Asinh { scale, centre } => {
+        Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
+            let (scale, centre, slope_below) = axis.mapping.asinh_parts().unwrap_or_default();
             let from_centre = if centre == 0.0 { x } else { x - f(centre as f32) };
-            func("tm_asinh", vec![from_centre / f(scale as f32)])
+            let asinh = func("tm_asinh", vec![from_centre.clone() / f(scale as f32)]);
+            if slope_below == 0.0 { asinh } else { asinh + f(slope_below as f32) * from_centre.min(f(0.0)) }
         }
     };
     let u = (mapped - f(m0)) / f(m1 - m0);
