@@ -175,8 +175,10 @@ fn write_entry(w: &mut String, entry: &FileEntry, bytes: &[u8]) {
     for note in &entry.notes {
         let _ = writeln!(w, "note:     {note}");
     }
-    for axis in entry.axes.iter().filter(|a| a.definition.is_some()) {
-        let _ = writeln!(w, "quantity: {}", axis.definition.as_deref().unwrap_or_default());
+    for axis in &entry.axes {
+        if let Some(definition) = &axis.definition {
+            let _ = writeln!(w, "quantity: {}: {definition}", axis.axis.name);
+        }
     }
     if let Some(binding) = &entry.binding {
         let _ = writeln!(w, "binding:  {}; sampler: {}", binding.texture, binding.sampler);
