@@ -170,23 +170,19 @@ impl Mapping {
 
     /// Whether the mapping is valid: a finite, positive `asinh` scale.
     pub fn validate(self) -> Result<()> {
-        match self {
-            _ if self.asinh_parts().is_some_and(|(scale, _, _)| !(scale.is_finite() && scale > 0.0)) => {
-                let (scale, _, _) = self.asinh_parts().unwrap_or_default();
-                Err(Error::invalid("mapping", format!("asinh scale {scale}; allowed: finite and > 0")))
-            }
-            _ if self.asinh_parts().is_some_and(|(_, centre, _)| !centre.is_finite()) => {
-                let (_, centre, _) = self.asinh_parts().unwrap_or_default();
-                Err(Error::invalid("mapping", format!("asinh centre {centre}; allowed: finite")))
-            }
-            Mapping::AsinhRampBelow { slope_below, .. } if !(slope_below.is_finite() && slope_below >= 0.0) => {
-                Err(Error::invalid(
-                    "mapping",
-                    format!("asinh slope below the centre {slope_below}; allowed: finite and >= 0"),
-                ))
-            }
-            _ => Ok(()),
-        }
+        let Some((scale, centre, slope_below)) = self.asinh_parts() else {
+            return Ok(());
+        };
+        let problem = if !(scale.is_finite() && scale > 0.0) {
+            format!("asinh scale {scale}; allowed: finite and > 0")
+        } else if !centre.is_finite() {
+            format!("asinh centre {centre}; allowed: finite")
+        } else if !(slope_below.is_finite() && slope_below >= 0.0) {
+            format!("asinh slope below the centre {slope_below}; allowed: finite and >= 0")
+        } else {
+            return Ok(());
+        };
+        Err(Error::invalid("mapping", problem))
     }
 }
 
