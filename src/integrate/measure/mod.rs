@@ -260,11 +260,7 @@ mod tests {
                 let fresnel = basis.project(|c| fresnel_reflectance(c, eta, kappa), &kinks);
                 let fast = integrate_against(&measure, &[&fresnel]);
                 let (fast, standard_error) = (fast.mean[0], fast.standard_error[0]);
-                let reference = estimate_visible_normal_integral(mu, alpha, &reference_points, 1, |s, sums| {
-                    sums[0] += fresnel_reflectance(s.cos_wi_h, eta, kappa)
-                        * MaskingShadowing::SmithSeparable.visible_normal_weight(s.wi, s.wo, alpha);
-                })
-                .mean[0];
+                let reference = per_cell_fresnel(mu, alpha, eta, kappa, &reference_points).mean[0];
                 // Within four replicate standard errors, plus what the projection may cost.
                 assert!(
                     (fast - reference).abs() < 4.0 * standard_error + 1e-5,
@@ -293,6 +289,14 @@ mod tests {
         let projection = basis.project_with_error(|c| fresnel_reflectance(c, eta, kappa), &kinks);
         let estimate = measure.integrate(&[&projection], |_, c| fresnel_reflectance(c, eta, kappa), &kinks);
         (measure, estimate)
+    }
+
+    /// The same FGD by the f64 per-cell estimator, the independent cross-check.
+    fn per_cell_fresnel(mu: f64, alpha: f64, eta: f64, kappa: f64, points: &PointSet) -> Estimate {
+        estimate_visible_normal_integral(mu, alpha, points, 1, |s, sums| {
+            sums[0] += fresnel_reflectance(s.cos_wi_h, eta, kappa)
+                * MaskingShadowing::SmithSeparable.visible_normal_weight(s.wi, s.wo, alpha);
+        })
     }
 
     #[test]
@@ -339,10 +343,7 @@ mod tests {
         ] {
             let (measure, fast) = fast_fresnel(mu, alpha, eta, 0.0, &points);
             assert!(matches!(measure, CosineMeasure::Local { .. }), "mu {mu} alpha {alpha}: a narrow lobe");
-            let per_cell = estimate_visible_normal_integral(mu, alpha, &points, 1, |s, sums| {
-                sums[0] += fresnel_reflectance(s.cos_wi_h, eta, 0.0)
-                    * MaskingShadowing::SmithSeparable.visible_normal_weight(s.wi, s.wo, alpha);
-            });
+            let per_cell = per_cell_fresnel(mu, alpha, eta, 0.0, &points);
             let tolerance = 4.0 * fast.standard_error[0].hypot(per_cell.standard_error[0]) + 5e-5;
             assert!(
                 (fast.mean[0] - per_cell.mean[0]).abs() < tolerance,
@@ -361,10 +362,7 @@ mod tests {
         for (mu, alpha) in [(1e-6, 1e-7), (1e-6, 1e-4), (1e-3, 1e-4), (1e-6, 1e-2), (1e-3, 1e-2)] {
             for (eta, kappa) in [(1.0 + 1e-6, 0.0), (1.0 - 1e-6, 1e-6), (1.0, 1e-6)] {
                 let (_, fast) = fast_fresnel(mu, alpha, eta, kappa, &points);
-                let per_cell = estimate_visible_normal_integral(mu, alpha, &points, 1, |s, sums| {
-                    sums[0] += fresnel_reflectance(s.cos_wi_h, eta, kappa)
-                        * MaskingShadowing::SmithSeparable.visible_normal_weight(s.wi, s.wo, alpha);
-                });
+                let per_cell = per_cell_fresnel(mu, alpha, eta, kappa, &points);
                 let tolerance = 4.0 * fast.standard_error[0].hypot(per_cell.standard_error[0]) + 2e-4;
                 assert!(
                     (fast.mean[0] - per_cell.mean[0]).abs() < tolerance,
