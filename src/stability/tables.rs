@@ -153,6 +153,12 @@ fn view_cosines(etas: &[f64]) -> Vec<(f64, Option<f64>)> {
     cosines
 }
 
+/// The indices probed at a view of [`view_cosines`]: a critical-angle cosine with its own `eta`
+/// only, any other view with every one of `etas`.
+fn etas_at_view(critical_of: Option<f64>, etas: &[f64]) -> impl Iterator<Item = f64> + '_ {
+    etas.iter().copied().filter(move |&eta| critical_of.is_none_or(|e| e == eta))
+}
+
 /// A case at `(mu, alpha, eta)`, `mu` marked where it is the critical cosine of `eta`.
 fn view_label(mu: f64, critical_of: Option<f64>, alpha: f64, eta: f64) -> String {
     let critical = if critical_of.is_some() { " (critical)" } else { "" };
@@ -166,23 +172,12 @@ fn fgd(evaluation: &Evaluation, report: &mut Report) {
     for &alpha in &ALPHAS {
         for (mu, critical_of) in view_cosines(&ETAS) {
             let gd = evaluation.gd.estimate_node(points, &[mu, alpha]).mean[0];
-            for &eta in &ETAS {
-                // The critical-angle cosines are probed with their own eta only.
-                if critical_of.is_some_and(|e| e != eta) {
-                    continue;
-                }
+            for eta in etas_at_view(critical_of, &ETAS) {
                 for &kappa in &KAPPAS {
                     let position = [mu, alpha, eta, kappa];
                     let node =
                         both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
-                    let at = format!(
-                        "mu={}{} alpha={} eta={} kappa={}",
-                        label(mu),
-                        if critical_of.is_some() { " (critical)" } else { "" },
-                        label(alpha),
-                        label(eta),
-                        label(kappa)
-                    );
+                    let at = format!("{} kappa={}", view_label(mu, critical_of, alpha, eta), label(kappa));
                     let mut case = Case::new("fgd", &at, values(&node));
                     case.checks = common_checks(&node, &["fgd"], &[true], &mut paths, &at);
                     let (v64, v32) = (node.per_cell.mean[0], node.fast.mean[0]);
@@ -286,10 +281,7 @@ fn tir(evaluation: &Evaluation, report: &mut Report) {
     let mut paths = PrecisionDifference::new("tir: fast f32 kernel vs per-cell f64", 1e-3);
     for &alpha in &ALPHAS {
         for (mu, critical_of) in view_cosines(&etas) {
-            for &eta in &etas {
-                if critical_of.is_some_and(|e| e != eta) {
-                    continue;
-                }
+            for eta in etas_at_view(critical_of, &etas) {
                 let position = [mu, alpha, eta];
                 let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
                 let at = view_label(mu, critical_of, alpha, eta);
@@ -333,10 +325,7 @@ fn fgd_rarer(evaluation: &Evaluation, report: &mut Report) {
     let mut paths = PrecisionDifference::new("fgd_rarer: fast f32 kernel vs per-cell f64", 1e-3);
     for &alpha in &ALPHAS {
         for (mu, critical_of) in view_cosines(&etas) {
-            for &eta in &etas {
-                if critical_of.is_some_and(|e| e != eta) {
-                    continue;
-                }
+            for eta in etas_at_view(critical_of, &etas) {
                 let position = [mu, alpha, crate::table::derived::critical_angle_fraction(evaluated_cosine(mu), eta)];
                 let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
                 let at = view_label(mu, critical_of, alpha, eta);
