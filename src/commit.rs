@@ -164,7 +164,7 @@ pub struct Move {
 /// do, the manifest last, and the files of the earlier build that the new manifest no longer
 /// lists, removed after it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-struct Journal {
+pub struct Journal {
     staging: String,
     moves: Vec<Move>,
     #[serde(default)]
@@ -217,11 +217,14 @@ pub fn commit(
     let out = &folder.dir;
     check_destinations(out, &moves)?;
     // A damaged manifest may name paths outside the folder: those are never touched.
-    removals.retain(|file| check_destination_name(file).is_ok());
+    removals.retain(|file| check_destination_name(file).is_ok() && not_a_link_on_the_way(out, file).is_ok());
     moves.push(Move { staged: MANIFEST_FILE.into(), destination: MANIFEST_FILE.into() });
     sync_dir(&staging.dir).map_err(|source| Error::io(&staging.dir, source))?;
     let staging_name = staging.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let journal = Journal { staging: staging_name, moves, removals };
+    // The same rule the next build applies to a journal it finds: a journal this build could not
+    // complete is never written.
+    check_journal(out, &journal).map_err(|reason| Error::format(out, format!("{reason} (nothing was changed)")))?;
     let text = serde_json::to_string_pretty(&journal).expect("a journal is plain data");
     let journal_path = out.join(COMMIT_JOURNAL);
     faults::point("writing the journal").map_err(|source| Error::io(&journal_path, source))?;
@@ -329,33 +332,83 @@ fn replay(out: &Path, journal: &Journal) -> std::io::Result<()> {
 
 /// Complete the commit a journal records, if there is one (the caller holds the lock).
 fn complete_interrupted_commit(out: &Path) -> Result<()> {
-    let journal_path = out.join(COMMIT_JOURNAL);
-    if journal_path.symlink_metadata().is_err() {
-        return Ok(());
+    match read_journal(out)? {
+        Some(journal) => {
+            replay(out, &journal).map_err(|source| Error::io(out.join(COMMIT_JOURNAL), source))
+        }
+        None => Ok(()),
     }
-    let damaged = |reason: String| {
+}
+
+/// The journal of an interrupted commit in `out`, if there is one, once every path it names is
+/// known to stay inside the folder; a journal that names anything else (a damaged or hostile one)
+/// is refused with the reason, and nothing is touched.
+pub fn read_journal(out: &Path) -> Result<Option<Journal>> {
+    let journal_path = out.join(COMMIT_JOURNAL);
+    let Ok(metadata) = journal_path.symlink_metadata() else { return Ok(None) };
+    let refused = |reason: String| {
         Error::format(
             &journal_path,
             format!(
-                "{reason}; this journal of an interrupted build cannot be completed: rebuild the folder into a new \
-                 one, or remove the journal and rebuild every table"
+                "{reason}; tmlut refuses this journal of an interrupted build and touches nothing: rebuild into a \
+                 new folder, or remove the journal and rebuild every table"
             ),
         )
     };
+    if !metadata.is_file() {
+        return Err(refused("is not a plain file (a symbolic link or a folder)".into()));
+    }
     let bytes = read_bytes_at_most(&journal_path, MAX_MANIFEST_BYTES, "a commit journal")?;
     let journal: Journal =
-        serde_json::from_slice(&bytes).map_err(|e| damaged(format!("not a tmlut commit journal: {e}")))?;
-    check_file_name(&journal.staging).map_err(&damaged)?;
+        serde_json::from_slice(&bytes).map_err(|e| refused(format!("not a tmlut commit journal: {e}")))?;
+    check_journal(out, &journal).map_err(refused)?;
+    Ok(Some(journal))
+}
+
+/// Whether every path `journal` names resolves inside `out` with no symbolic link on the way: the
+/// staging folder (a `.tmlut-staging-` folder of `out`, not a link), every staged file (not a
+/// link), every destination and removal (a file name of the folder or of one of its known
+/// subfolders, which must be real folders).
+fn check_journal(out: &Path, journal: &Journal) -> std::result::Result<(), String> {
+    check_file_name(&journal.staging)?;
     if !journal.staging.starts_with(STAGING_PREFIX) {
-        return Err(damaged(format!("`{}` is not a staging folder", journal.staging)));
+        return Err(format!("`{}` is not a staging folder", journal.staging.escape_debug()));
     }
+    let staging = out.join(&journal.staging);
+    // A staging folder already removed is a commit whose renames are done.
+    not_a_link(&staging)?;
     for m in &journal.moves {
-        check_file_name(&m.staged)
-            .or_else(|_| check_destination_name(&m.staged))
-            .and_then(|()| check_destination_name(&m.destination))
-            .map_err(&damaged)?;
+        check_destination_name(&m.staged)?;
+        check_destination_name(&m.destination)?;
+        not_a_link_on_the_way(&staging, &m.staged)?;
+        // A staged link would carry a file from outside into the folder.
+        not_a_link(&staging.join(&m.staged))?;
+        not_a_link_on_the_way(out, &m.destination)?;
     }
-    replay(out, &journal).map_err(|source| Error::io(&journal_path, source))
+    for file in &journal.removals {
+        check_destination_name(file)?;
+        not_a_link_on_the_way(out, file)?;
+    }
+    Ok(())
+}
+
+/// The subfolder of `name` (a file name, or `subfolder/file`) under `dir` is not a symbolic link.
+/// A file that is a link is replaced by a rename or removed as a link, never followed.
+fn not_a_link_on_the_way(dir: &Path, name: &str) -> std::result::Result<(), String> {
+    match name.split_once('/') {
+        Some((subfolder, _)) => not_a_link(&dir.join(subfolder)),
+        None => Ok(()),
+    }
+}
+
+fn not_a_link(path: &Path) -> std::result::Result<(), String> {
+    match path.symlink_metadata() {
+        Ok(metadata) if metadata.file_type().is_symlink() => Err(format!(
+            "`{}` is a symbolic link, which could lead outside the folder",
+            path.display()
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// Remove staging folders and temporary files left by builds that died (the caller holds the
@@ -545,5 +598,94 @@ mod tests {
         assert!(dir.path().join("gd.dds").exists());
         let findings = check_folder(dir.path(), &Budgets::default()).unwrap();
         assert!(findings.iter().all(|f| f.pass), "{findings:?}");
+    }
+
+    /// A folder with a build in it, a victim file beside it outside the folder, and a journal.
+    fn folder_with_journal(journal: &serde_json::Value) -> (tempfile::TempDir, PathBuf, PathBuf) {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        build_into(&out, "rough-first", &["gd"], false).unwrap();
+        let victim = root.path().join("victim");
+        std::fs::write(&victim, b"not tmlut's").unwrap();
+        std::fs::write(out.join(COMMIT_JOURNAL), serde_json::to_vec(journal).unwrap()).unwrap();
+        (root, out, victim)
+    }
+
+    #[test]
+    fn a_journal_naming_paths_outside_the_folder_is_refused_and_nothing_is_touched() {
+        let root_of = |victim: &Path| victim.display().to_string();
+        for removal in ["../victim", "ABSOLUTE", "maps/../../victim", "..", "maps/../../../victim"] {
+            let (_root, out, victim) = folder_with_journal(&serde_json::json!({
+                "staging": ".tmlut-staging-1", "moves": [], "removals": [],
+            }));
+            let removal = if removal == "ABSOLUTE" { root_of(&victim) } else { removal.to_string() };
+            let journal = serde_json::json!({ "staging": ".tmlut-staging-1", "moves": [], "removals": [removal] });
+            std::fs::write(out.join(COMMIT_JOURNAL), serde_json::to_vec(&journal).unwrap()).unwrap();
+            let manifest = std::fs::read(out.join(MANIFEST_FILE)).unwrap();
+            let error = build_into(&out, "rough-first", &["gd"], false).unwrap_err().to_string();
+            assert!(error.contains("refuses this journal"), "{removal}: {error}");
+            assert!(victim.exists(), "{removal}: the file outside the folder was removed");
+            assert!(out.join(COMMIT_JOURNAL).exists() && out.join("gd.dds").exists());
+            assert_eq!(std::fs::read(out.join(MANIFEST_FILE)).unwrap(), manifest);
+            // check says the journal is refused, not that a build would complete it.
+            let findings = check_folder(&out, &Budgets::default()).unwrap();
+            let commit = findings.iter().find(|f| f.check == "commit").unwrap();
+            assert!(!commit.pass && commit.value.contains("refuses"), "{}", commit.value);
+        }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_journal_leading_through_a_symbolic_link_is_refused_and_nothing_is_touched() {
+        use std::os::unix::fs::symlink;
+        // A staging folder that is a link to a folder outside: its file would be moved in.
+        let (root, out, victim) = folder_with_journal(&serde_json::json!({
+            "staging": ".tmlut-staging-7",
+            "moves": [{ "staged": "victim", "destination": "taken.dds" }],
+        }));
+        symlink(root.path(), out.join(".tmlut-staging-7")).unwrap();
+        let error = build_into(&out, "rough-first", &["gd"], false).unwrap_err().to_string();
+        assert!(error.contains("symbolic link") && error.contains("refuses"), "{error}");
+        assert!(victim.exists() && !out.join("taken.dds").exists());
+
+        // A staged file that is a link to a file outside.
+        let (_root, out, victim) = folder_with_journal(&serde_json::json!({
+            "staging": ".tmlut-staging-7",
+            "moves": [{ "staged": "link", "destination": "taken.dds" }],
+        }));
+        std::fs::create_dir(out.join(".tmlut-staging-7")).unwrap();
+        symlink(&victim, out.join(".tmlut-staging-7/link")).unwrap();
+        let error = build_into(&out, "rough-first", &["gd"], false).unwrap_err().to_string();
+        assert!(error.contains("symbolic link"), "{error}");
+        assert!(!out.join("taken.dds").exists());
+
+        // A subfolder that is a link: a removal under it would delete outside.
+        let (root, out, victim) = folder_with_journal(&serde_json::json!({
+            "staging": ".tmlut-staging-7", "moves": [], "removals": ["maps/victim"],
+        }));
+        symlink(root.path(), out.join("maps")).unwrap();
+        let error = build_into(&out, "rough-first", &["gd"], false).unwrap_err().to_string();
+        assert!(error.contains("symbolic link"), "{error}");
+        assert!(victim.exists());
+
+        // The journal itself a link.
+        let (root, out, victim) = folder_with_journal(&serde_json::json!({}));
+        std::fs::remove_file(out.join(COMMIT_JOURNAL)).unwrap();
+        std::fs::write(root.path().join("j.json"), br#"{"staging":".tmlut-staging-1","moves":[],"removals":["victim"]}"#)
+            .unwrap();
+        symlink(root.path().join("j.json"), out.join(COMMIT_JOURNAL)).unwrap();
+        let error = build_into(&out, "rough-first", &["gd"], false).unwrap_err().to_string();
+        assert!(error.contains("not a plain file"), "{error}");
+        assert!(victim.exists());
+    }
+
+    #[test]
+    fn a_valid_journal_with_removals_inside_the_folder_is_still_completed() {
+        let (_root, out, victim) = folder_with_journal(&serde_json::json!({
+            "staging": ".tmlut-staging-3", "moves": [], "removals": ["stale.dds"],
+        }));
+        std::fs::write(out.join("stale.dds"), b"old").unwrap();
+        build_into(&out, "rough-first", &["gd"], false).unwrap();
+        assert!(!out.join("stale.dds").exists() && !pending_commit_exists(&out) && victim.exists());
     }
 }

@@ -167,10 +167,16 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
     }
     let mut findings = Vec::new();
     if let Some(journal) = pending_commit(dir) {
+        // A journal that the next build would refuse (a path outside the folder, a link) is said
+        // to be so, rather than advising a build that cannot complete it.
+        let value = match crate::commit::read_journal(dir) {
+            Err(refused) => refused.to_string(),
+            Ok(_) => pending_commit_error(&journal).to_string(),
+        };
         findings.push(Finding {
             file: COMMIT_JOURNAL.into(),
             check: "commit".into(),
-            value: pending_commit_error(&journal).to_string(),
+            value,
             limit: "no build interrupted while committing".into(),
             pass: false,
         });
