@@ -333,9 +333,7 @@ fn replay(out: &Path, journal: &Journal) -> std::io::Result<()> {
 /// Complete the commit a journal records, if there is one (the caller holds the lock).
 fn complete_interrupted_commit(out: &Path) -> Result<()> {
     match read_journal(out)? {
-        Some(journal) => {
-            replay(out, &journal).map_err(|source| Error::io(out.join(COMMIT_JOURNAL), source))
-        }
+        Some(journal) => replay(out, &journal).map_err(|source| Error::io(out.join(COMMIT_JOURNAL), source)),
         None => Ok(()),
     }
 }
@@ -403,10 +401,9 @@ fn not_a_link_on_the_way(dir: &Path, name: &str) -> std::result::Result<(), Stri
 
 fn not_a_link(path: &Path) -> std::result::Result<(), String> {
     match path.symlink_metadata() {
-        Ok(metadata) if metadata.file_type().is_symlink() => Err(format!(
-            "`{}` is a symbolic link, which could lead outside the folder",
-            path.display()
-        )),
+        Ok(metadata) if metadata.file_type().is_symlink() => {
+            Err(format!("`{}` is a symbolic link, which could lead outside the folder", path.display()))
+        }
         _ => Ok(()),
     }
 }
@@ -671,8 +668,11 @@ mod tests {
         // The journal itself a link.
         let (root, out, victim) = folder_with_journal(&serde_json::json!({}));
         std::fs::remove_file(out.join(COMMIT_JOURNAL)).unwrap();
-        std::fs::write(root.path().join("j.json"), br#"{"staging":".tmlut-staging-1","moves":[],"removals":["victim"]}"#)
-            .unwrap();
+        std::fs::write(
+            root.path().join("j.json"),
+            br#"{"staging":".tmlut-staging-1","moves":[],"removals":["victim"]}"#,
+        )
+        .unwrap();
         symlink(root.path().join("j.json"), out.join(COMMIT_JOURNAL)).unwrap();
         let error = build_into(&out, "rough-first", &["gd"], false).unwrap_err().to_string();
         assert!(error.contains("not a plain file"), "{error}");

@@ -7,7 +7,8 @@ use clap::Args;
 use tmlut::integrate::Method;
 use tmlut::pipeline::{self, BuildRequest};
 use tmlut::scene::Scene;
-use tmlut::scene::build::{SceneBuildRequest, build_scene};
+use tmlut::scene::build::{SceneBuildRequest, SliceChecks, build_scene};
+use tmlut::scene::library;
 
 use super::{ConfigArg, Context, ThreadsArg, one_of};
 
@@ -37,8 +38,19 @@ pub struct BuildArgs {
     error_maps: bool,
     /// Build only what this scene's materials need (see `tmlut plan`); the configuration
     /// still sets samples, masking and precision. Records the scene and plan in the manifest.
+    /// Given more than once, or a folder of scene files, every material of every scene is planned
+    /// together as one library: identical lookups are built once.
     #[arg(long, conflicts_with = "only")]
-    scene: Option<PathBuf>,
+    scene: Vec<PathBuf>,
+    /// How a scene's slices are checked against the exact integral: `sampled` (reference cells
+    /// and interpolation points drawn across every slice of the build; the default) or `full`
+    /// (every slice on its own, and against the full table).
+    #[arg(long, value_parser = parse_slice_checks, default_value = "sampled", requires = "scene")]
+    slice_checks: SliceChecks,
+}
+
+fn parse_slice_checks(text: &str) -> Result<SliceChecks, String> {
+    one_of(text, &[("sampled", SliceChecks::Sampled), ("full", SliceChecks::Full)])
 }
 
 fn parse_method(text: &str) -> Result<Method, String> {
@@ -55,17 +67,17 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
     }
     args.threads.apply()?;
     let progress = context.progress();
-    let written = match args.scene {
-        Some(path) => {
-            let (scene, text) = Scene::read(&path)?;
+    let written = match args.scene.is_empty() {
+        false => {
+            let files = library::read_scene_files(&args.scene)?;
             let request = SceneBuildRequest {
-                scene,
-                source: path,
-                text,
+                scene: library::merge(&files)?,
+                source: library::recorded_source(&files),
+                text: library::recorded_text(&files),
                 config,
                 out: args.out,
                 error_maps: args.error_maps,
-                accuracy_reports: true,
+                slice_checks: args.slice_checks,
             };
             let (plan, written) = build_scene(&request, &progress)?;
             println!("{}", plan.summary());
@@ -75,7 +87,7 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
             write_scene_shader(&request.scene, &request.out);
             written
         }
-        None => {
+        true => {
             let request = BuildRequest { config, only: args.only, out: args.out, error_maps: args.error_maps };
             pipeline::build(&request, &progress)?
         }

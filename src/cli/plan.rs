@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use tmlut::scene::Scene;
+use tmlut::scene::library;
 
 use super::{ConfigArg, Context};
 
@@ -13,15 +13,17 @@ use super::{ConfigArg, Context};
 /// the default set. Integrates nothing.
 #[derive(Args)]
 pub struct PlanArgs {
-    /// Scene file (TOML; see luts/scenes/ and docs/scenes.md).
-    scene: PathBuf,
+    /// Scene files (TOML; see luts/scenes/ and docs/scenes.md), or folders of them: more than
+    /// one is planned as one library, as `tmlut build --scene A --scene B` builds it.
+    #[arg(required = true)]
+    scenes: Vec<PathBuf>,
     #[command(flatten)]
     config: ConfigArg,
 }
 
 pub fn exec(args: PlanArgs, _: &Context) -> tmlut::Result<()> {
     let config = args.config.load()?;
-    let (scene, _) = Scene::read(&args.scene)?;
+    let scene = library::merge(&library::read_scene_files(&args.scenes)?)?;
     print!("{}", tmlut::scene::plan::plan(&scene, &config)?);
     Ok(())
 }

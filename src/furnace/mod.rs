@@ -28,7 +28,7 @@ use crate::model::folder::{FgdSource, FolderTables};
 use crate::model::{Material, Rgb, Tables};
 use crate::random_walk::{self, WalkSettings};
 use crate::scene::Scene;
-use crate::scene::build::{SceneBuildRequest, build_scene};
+use crate::scene::build::{SceneBuildRequest, SliceChecks, build_scene};
 use exact::ExactTables;
 pub use report::{ErrorFigures, FurnaceReport, MaterialReport};
 
@@ -141,7 +141,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
                 config,
                 out: dir.clone(),
                 error_maps: false,
-                accuracy_reports: false,
+                slice_checks: SliceChecks::None,
             };
             build_scene(&build, progress)?;
             dir

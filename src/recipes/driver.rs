@@ -200,7 +200,7 @@ pub fn build<K: Kernel + ?Sized>(kernel: &K, seed: u64, progress: &dyn Progress)
 }
 
 /// The record of a table integrated with `method` from the points of `points`.
-fn sampling_record(method: Method, description: &str, points: &PointSet) -> SamplingRecord {
+pub(crate) fn sampling_record(method: Method, description: &str, points: &PointSet) -> SamplingRecord {
     let plan = points.plan();
     SamplingRecord {
         method: format!("{} ({description})", method.name()),

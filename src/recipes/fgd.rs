@@ -219,6 +219,14 @@ pub fn fgd_pairs_fast(
     projections: &[Projection],
 ) -> Estimate {
     let measure = cosine_measure(mu, alpha, masking, points, basis);
+    fgd_pairs_on_measure(&measure, pairs, projections)
+}
+
+/// FGD of each of `pairs` against the visible-normal `measure` of one `(mu, alpha)`: the part of
+/// [`fgd_pairs_fast`] after the measure, which slices integrated together share
+/// ([`super::slices::integrate_batch`]). Each pair is integrated on its own, so its value does not
+/// depend on the other pairs.
+pub fn fgd_pairs_on_measure(measure: &CosineMeasure, pairs: &[(f64, f64)], projections: &[Projection]) -> Estimate {
     // One pair at a time: each has its own kinks.
     let per_pair: Vec<Estimate> = pairs
         .iter()

@@ -15,17 +15,19 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::fgd::{FgdSettings, projected_fresnel};
+use super::driver::{Provenance, TableBuild};
+use super::fgd::{FgdSettings, fgd_pairs_on_measure, projected_fresnel};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
-use super::tir::{TirSettings, tir_cell, tir_column};
+use super::tir::{TirSettings, tir_cell, tir_column_exact_sums};
 use super::{Integrated, Kernel, Metadata, fill_mu_alpha_nodes};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
-use crate::integrate::measure::Projection;
+use crate::integrate::measure::{Projection, cosine_measure};
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
 use crate::physics::fresnel_reflectance;
 use crate::sampling::sequence::PointSet;
+use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
 use crate::table::{Axis, Channel, Table};
 
 /// The integral a slice tabulates, with the settings of the full table it specialises.
@@ -157,34 +159,47 @@ impl Slices {
         self.channels.iter().map(|c| (c.eta, c.kappa)).collect()
     }
 
-    /// Every channel at one `(mu, alpha)` by the full table's fast method (padding included).
+    /// Every channel at one `(mu, alpha)` by the full table's fast method (padding included): the
+    /// node as [`integrate_batch`] computes it, with this slice alone at the node.
     fn estimate_fast(&self, points: &PointSet, mu: f64, alpha: f64, projections: &[Projection]) -> Estimate {
-        let mut estimate = match &self.of {
-            SliceOf::Fgd(settings) => super::fgd::fgd_pairs_fast(
-                settings.masking,
-                settings.cosine_basis(),
-                points,
-                mu,
-                alpha,
-                &self.pairs(),
-                projections,
+        self.estimate_on(&SharedNode::new(&self.of, mu, alpha, &[self], points), projections)
+    }
+
+    /// Every channel (padding included) from what the slices at one node share.
+    fn estimate_on(&self, shared: &SharedNode, projections: &[Projection]) -> Estimate {
+        let mut estimate = match shared {
+            SharedNode::Fgd(measure) => fgd_pairs_on_measure(measure, &self.pairs(), projections),
+            SharedNode::Tir { etas, column } => Estimate::from_channels(
+                &self
+                    .channels
+                    .iter()
+                    .map(|c| {
+                        let k = etas.partition_point(|&e| e < self.evaluated_eta(c.eta));
+                        Estimate { mean: vec![column.mean[k]], standard_error: vec![column.standard_error[k]] }
+                    })
+                    .collect::<Vec<_>>(),
             ),
-            SliceOf::Tir(settings) => {
-                // tir_column buckets by ascending eta: evaluate in sorted order, store in channel order.
-                let mut order: Vec<usize> = (0..self.channels.len()).collect();
-                order.sort_by(|&a, &b| self.channels[a].eta.total_cmp(&self.channels[b].eta));
-                let etas: Vec<f64> = order.iter().map(|&k| self.channels[k].eta.min(settings.top_eta)).collect();
-                let sorted = tir_column(mu, alpha, &etas, points);
-                let mut estimate = Estimate { mean: vec![0.0; order.len()], standard_error: vec![0.0; order.len()] };
-                for (position, &k) in order.iter().enumerate() {
-                    estimate.mean[k] = sorted.mean[position];
-                    estimate.standard_error[k] = sorted.standard_error[position];
-                }
-                estimate
-            }
         };
         pad(&mut estimate, self.stored_channel_count());
         estimate
+    }
+
+    /// The index a TIR channel is integrated at (FGD's are their own).
+    fn evaluated_eta(&self, eta: f64) -> f64 {
+        match &self.of {
+            SliceOf::Tir(settings) => eta.min(settings.top_eta),
+            SliceOf::Fgd(_) => eta,
+        }
+    }
+
+    /// Fresnel of each channel projected on the hat basis (FGD; none for TIR).
+    fn projections(&self) -> Vec<Projection> {
+        match &self.of {
+            SliceOf::Fgd(settings) => {
+                self.channels.iter().map(|c| projected_fresnel(settings.cosine_basis(), c.eta, c.kappa)).collect()
+            }
+            SliceOf::Tir(_) => Vec::new(),
+        }
     }
 
     /// Every channel at one `(mu, alpha)` on its own, in f64 (padding included): the references.
@@ -225,6 +240,32 @@ impl Slices {
         match &self.of {
             SliceOf::Fgd(s) => s.masking,
             SliceOf::Tir(_) => MaskingShadowing::SmithSeparable,
+        }
+    }
+}
+
+/// What every slice at one `(mu, alpha)` node shares: FGD's visible-normal measure, or TIR at
+/// every index the slices read there, from one pass over the samples (exact sums, so each value
+/// is the same whatever other indices share the pass).
+enum SharedNode {
+    Fgd(crate::integrate::measure::CosineMeasure),
+    Tir { etas: Vec<f64>, column: Estimate },
+}
+
+impl SharedNode {
+    fn new(of: &SliceOf, mu: f64, alpha: f64, users: &[&Slices], points: &PointSet) -> SharedNode {
+        match of {
+            SliceOf::Fgd(settings) => {
+                SharedNode::Fgd(cosine_measure(mu, alpha, settings.masking, points, settings.cosine_basis()))
+            }
+            SliceOf::Tir(_) => {
+                let mut etas: Vec<f64> =
+                    users.iter().flat_map(|s| s.channels.iter().map(|c| s.evaluated_eta(c.eta))).collect();
+                etas.sort_by(f64::total_cmp);
+                etas.dedup();
+                let column = tir_column_exact_sums(mu, alpha, &etas, points);
+                SharedNode::Tir { etas, column }
+            }
         }
     }
 }
@@ -286,14 +327,12 @@ impl Kernel for Slices {
     }
 
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
-        let projections: Vec<Projection> = match &self.of {
-            SliceOf::Fgd(settings) => {
-                self.channels.iter().map(|c| projected_fresnel(settings.cosine_basis(), c.eta, c.kappa)).collect()
-            }
-            SliceOf::Tir(_) => Vec::new(),
-        };
-        let estimates =
-            fill_mu_alpha_nodes(table, progress, |_, mu, alpha| self.estimate_fast(points, mu, alpha, &projections));
+        let projections = self.projections();
+        let (mu, alpha) = (&self.mu, &self.alpha);
+        let estimates = fill_mu_alpha_nodes(table, progress, |node, _, _| {
+            let (i, j) = (node % mu.count, node / mu.count);
+            self.estimate_fast(points, canonical_node(mu, i), canonical_node(alpha, j), &projections)
+        });
         Ok(Integrated::of(&estimates))
     }
 
@@ -302,10 +341,177 @@ impl Kernel for Slices {
     }
 }
 
+/// Slice nodes lie on one lattice: `k / SLICE_LATTICE` in their axis's mapped quantity (`mu` or
+/// `sqrt(mu)`, `sqrt(alpha)`), four times as dense as the default tables' 64 nodes. Slices of a
+/// build are sub-ranges of it, so that every slice at a node shares that node's visible-normal
+/// measure, however many materials read it ([`integrate_batch`]).
+pub const SLICE_LATTICE: f64 = 256.0;
+
+/// The value at lattice node `k` of `mapping` (`mapping.inverse(k / SLICE_LATTICE)`).
+pub fn lattice_value(mapping: crate::table::Mapping, k: f64) -> f64 {
+    mapping.inverse(k / SLICE_LATTICE)
+}
+
+/// Node `k` of a slice axis, as every slice that holds it integrates it: on the lattice, the
+/// lattice's own value (an axis computes its interior nodes from its own range, which may differ in
+/// the last bit); off it (a slice made by hand), the axis's.
+fn canonical_node(axis: &Axis, k: usize) -> f64 {
+    let value = axis.node_value(k);
+    let on_lattice = axis.mapping.forward(value) * SLICE_LATTICE;
+    if (on_lattice - on_lattice.round()).abs() < 1e-6 { lattice_value(axis.mapping, on_lattice.round()) } else { value }
+}
+
+/// A slice's reference figures when its checks are sampled across a batch
+/// ([`integrate_batch`]): what the manifest says of them.
+pub const BATCH_CHECK_NOTE: &str = "Checked as one of a batch: the reference cells (error.reference) and the exact-integral points of the interpolation check (error.interpolation, where this slice drew any) are drawn at random across every slice of the build integrated on the same settings, so the figures bound the batch's error, not this slice's alone; `tmlut build --scene ... --slice-checks full` checks every slice on its own.";
+
+/// Every slice of `slices` integrated in one pass over the `(mu, alpha)` nodes they hold: slices
+/// of the same table and settings share each node's visible-normal measure (FGD) or its one pass
+/// over the samples (TIR), so a slice costs its dot products, not its measures. Each slice's
+/// values are bit-identical to those it gets built alone: a node is integrated at its lattice value
+/// ([`canonical_node`]), each `(eta, kappa)` on its own ([`fgd_pairs_on_measure`]), TIR with exact
+/// sums ([`tir_column_exact_sums`]).
+///
+/// The reference check draws `reference.cells` random nodes across the slices of each group
+/// (instead of per slice), each against a per-cell estimate with the reference samples; the
+/// figure is recorded in every slice of the group, with [`BATCH_CHECK_NOTE`]. Returns one build per
+/// slice, in order, with the wall time of the whole batch.
+pub fn integrate_batch(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> Result<Vec<TableBuild>> {
+    for slice in slices {
+        slice.validate()?;
+    }
+    let started = std::time::Instant::now();
+    // Slices integrated on the same measures: the same table and settings (sampling, masking, basis).
+    let mut groups: std::collections::BTreeMap<String, Vec<usize>> = std::collections::BTreeMap::new();
+    for (index, slice) in slices.iter().enumerate() {
+        let key = serde_json::to_string(&slice.of).map_err(|e| Error::invalid(&slice.name, e.to_string()))?;
+        groups.entry(key).or_default().push(index);
+    }
+    let mut tables: Vec<Table> = slices.iter().map(|s| s.empty_table()).collect::<Result<_>>()?;
+    let mut estimates: Vec<Vec<Estimate>> = vec![Vec::new(); slices.len()];
+    let mut references: Vec<Option<ReferenceComparison>> = vec![None; slices.len()];
+    let mut records: Vec<Option<super::driver::SamplingRecord>> = vec![None; slices.len()];
+    for members in groups.values() {
+        let first = slices[members[0]];
+        let points = super::driver::table_points(&first.sampling(), seed)?;
+        // Each node of the group once, with the (slice, node number) pairs that hold it.
+        let mut nodes: std::collections::BTreeMap<(u64, u64), Vec<(usize, usize)>> = std::collections::BTreeMap::new();
+        for &s in members {
+            let (mu, alpha) = (&slices[s].mu, &slices[s].alpha);
+            estimates[s] = vec![Estimate { mean: Vec::new(), standard_error: Vec::new() }; mu.count * alpha.count];
+            for j in 0..alpha.count {
+                for i in 0..mu.count {
+                    let key = (canonical_node(mu, i).to_bits(), canonical_node(alpha, j).to_bits());
+                    nodes.entry(key).or_default().push((s, j * mu.count + i));
+                }
+            }
+        }
+        let nodes: Vec<((u64, u64), Vec<(usize, usize)>)> = nodes.into_iter().collect();
+        let projections: Vec<Vec<Projection>> = members.iter().map(|&s| slices[s].projections()).collect();
+        let member_of: std::collections::HashMap<usize, usize> =
+            members.iter().enumerate().map(|(m, &s)| (s, m)).collect();
+        let numbers: Vec<u64> = (0..nodes.len() as u64).collect();
+        let label = format!("{} slices ({} nodes shared by {} slices)", first.table_name(), nodes.len(), members.len());
+        let per_node: Vec<Vec<Estimate>> = crate::integrate::estimate_cells(&numbers, &label, progress, |n| {
+            let ((mu, alpha), users) = &nodes[n as usize];
+            let user_slices: Vec<&Slices> = users.iter().map(|&(s, _)| slices[s]).collect();
+            let shared = SharedNode::new(&first.of, f64::from_bits(*mu), f64::from_bits(*alpha), &user_slices, &points);
+            users.iter().map(|&(s, _)| slices[s].estimate_on(&shared, &projections[member_of[&s]])).collect()
+        });
+        for ((_, users), node_estimates) in nodes.iter().zip(per_node) {
+            for (&(s, node), estimate) in users.iter().zip(node_estimates) {
+                estimates[s][node] = estimate;
+            }
+        }
+        for &s in members {
+            let channels = tables[s].channel_count();
+            for (values, estimate) in tables[s].data.chunks_mut(channels).zip(&estimates[s]) {
+                for (v, m) in values.iter_mut().zip(&estimate.mean) {
+                    *v = *m as f32;
+                }
+            }
+        }
+        // The reference check, sampled across the group: random (slice, node) pairs.
+        let reference = first.reference();
+        if reference.cells > 0 {
+            let sizes: Vec<usize> = members.iter().map(|&s| tables[s].node_count()).collect();
+            let total: usize = sizes.iter().sum();
+            let cells = super::random_cells(total, reference.cells, seed ^ 0x5A1CE);
+            let located: Vec<(usize, usize)> = cells
+                .iter()
+                .map(|&cell| {
+                    let (mut slice, mut cell) = (0, cell as usize);
+                    while cell >= sizes[slice] {
+                        cell -= sizes[slice];
+                        slice += 1;
+                    }
+                    (members[slice], cell)
+                })
+                .collect();
+            let reference_points = super::reference_points(reference.samples, seed)?;
+            let numbers: Vec<u64> = (0..located.len() as u64).collect();
+            let label = format!(
+                "{} slices reference ({} cells across {} slices)",
+                first.table_name(),
+                located.len(),
+                members.len()
+            );
+            let differences: Vec<Vec<f64>> = crate::integrate::estimate_cells(&numbers, &label, progress, |n| {
+                let (s, cell) = located[n as usize];
+                let table = &tables[s];
+                let index = table.node_index(cell);
+                let exact = slices[s].estimate_node(&reference_points, &table.node_position(&index));
+                table.node(&index).iter().zip(&exact.mean).map(|(&stored, &r)| stored as f64 - r).collect()
+            });
+            let comparison = ReferenceComparison {
+                samples_per_cell: reference_points.plan().total(),
+                difference: ErrorSummary::of_differences(differences.into_iter().flatten()),
+            };
+            for &s in members {
+                references[s] = Some(comparison.clone());
+            }
+        }
+        for &s in members {
+            records[s] = Some(super::driver::sampling_record(Method::Fast, &slices[s].metadata().sampler, &points));
+        }
+    }
+    let wall_time_s = started.elapsed().as_secs_f64();
+    Ok(slices
+        .iter()
+        .zip(tables)
+        .zip(estimates)
+        .zip(references)
+        .zip(records)
+        .map(|((((slice, table), estimates), reference), sampling)| {
+            let integrated = Integrated::of(&estimates);
+            let metadata = slice.metadata();
+            let mut notes = metadata.notes;
+            notes.push(BATCH_CHECK_NOTE.into());
+            TableBuild {
+                table,
+                provenance: Provenance {
+                    integrand: metadata.integrand,
+                    masking: metadata.masking,
+                    notes,
+                    sampling: sampling.expect("every slice is in a group"),
+                    error: ErrorRecord { replicate_standard_error: integrated.replicate_standard_error, reference },
+                    wall_time_s,
+                    fresnel_basis: None,
+                    accuracy: Vec::new(),
+                    standard_error: integrated.standard_error,
+                    interpolation: Vec::new(),
+                    channel_sum: None,
+                },
+            }
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::recipes::table_points;
+    use crate::recipes::tir::tir_column;
 
     #[test]
     fn tir_channels_in_any_order_equal_their_single_channel_values() {
@@ -328,5 +534,90 @@ mod tests {
             assert_eq!(both.mean[k], alone.mean[0], "eta {eta}");
         }
         assert!(both.mean[0] < both.mean[1], "a higher index loses less: {:?}", both.mean);
+    }
+
+    /// A slice on the lattice: `mu` over lattice nodes `mu_nodes`, `alpha` over `alpha_nodes` (in
+    /// sqrt(alpha)), with the given channels.
+    fn lattice_slices(
+        name: &str,
+        of: SliceOf,
+        mu_nodes: [f64; 2],
+        alpha_nodes: [f64; 2],
+        channels: &[(f64, f64)],
+    ) -> Slices {
+        let axis = |name: &str, nodes: [f64; 2], mapping| {
+            let [first, last] = nodes;
+            Axis::node_aligned(
+                name,
+                lattice_value(mapping, first),
+                lattice_value(mapping, last),
+                (last - first) as usize + 1,
+            )
+            .unwrap()
+            .with_mapping(mapping)
+            .unwrap()
+        };
+        let mu = axis("mu", mu_nodes, crate::table::Mapping::Identity);
+        let alpha = axis("alpha", alpha_nodes, crate::table::Mapping::Sqrt);
+        Slices {
+            name: name.into(),
+            of,
+            lookup_mu: [mu.start, mu.end],
+            lookup_alpha: [alpha.start, alpha.end],
+            mu,
+            alpha,
+            channels: channels
+                .iter()
+                .map(|&(eta, kappa)| SliceChannel { eta, kappa, used_by: "test".into() })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn a_slice_is_bit_identical_built_alone_or_in_a_batch_that_shares_its_nodes() {
+        let mut fgd = FgdSettings::default();
+        fgd.sampling = SamplingConfig { samples: 1 << 10, replicates: 4 };
+        fgd.reference.cells = 0;
+        let mut tir = TirSettings::default();
+        tir.sampling = SamplingConfig { samples: 1 << 10, replicates: 4 };
+        tir.reference.cells = 0;
+        let (fgd, tir) = (SliceOf::Fgd(fgd), SliceOf::Tir(tir));
+        let copper = [(0.27, 3.61), (0.68, 2.63), (1.22, 2.29)];
+        let alone = [
+            lattice_slices("fgd_a", fgd.clone(), [200.0, 210.0], [20.0, 21.0], &copper),
+            lattice_slices("tir_a", tir.clone(), [190.0, 200.0], [30.0, 33.0], &[(0.66, 0.0)]),
+        ];
+        // Others overlapping their nodes, at other indices, and one of another kind in between.
+        let others = [
+            lattice_slices("fgd_b", fgd.clone(), [205.0, 220.0], [19.0, 22.0], &[(1.5, 0.0), (0.27, 3.61)]),
+            lattice_slices("tir_b", tir.clone(), [195.0, 199.0], [31.0, 32.0], &[(0.9, 0.0), (0.5, 0.0), (0.66, 0.0)]),
+            lattice_slices("fgd_c", fgd, [100.0, 102.0], [20.0, 21.0], &[(0.8, 0.0)]),
+        ];
+        let progress = ();
+        for slice in &alone {
+            let by_itself = integrate_batch(&[slice], 7, &progress).unwrap().remove(0);
+            let mut batch: Vec<&Slices> = others.iter().collect();
+            batch.insert(1, slice);
+            let among_others = integrate_batch(&batch, 7, &progress).unwrap().remove(1);
+            let bits = |t: &Table| t.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&by_itself.table), bits(&among_others.table), "{}", slice.name);
+            // And through the driver, as `--slice-checks full` builds it.
+            let driven = crate::recipes::driver::build(slice, 7, &progress).unwrap();
+            assert_eq!(bits(&by_itself.table), bits(&driven.table), "{}", slice.name);
+            assert!(by_itself.table.data.iter().all(|v| v.is_finite()), "{}", slice.name);
+            assert!(by_itself.table.data.iter().any(|&v| v > 0.0), "{}", slice.name);
+        }
+    }
+
+    #[test]
+    fn tir_exact_sums_do_not_depend_on_the_other_indices_of_the_pass() {
+        let points = table_points(&SamplingConfig { samples: 1 << 12, replicates: 4 }, 5).unwrap();
+        let alone = tir_column_exact_sums(0.6, 0.2, &[0.7], &points);
+        let among = tir_column_exact_sums(0.6, 0.2, &[0.1, 0.3, 0.5, 0.69, 0.7, 0.71, 0.95], &points);
+        assert_eq!(alone.mean[0].to_bits(), among.mean[4].to_bits());
+        assert_eq!(alone.standard_error[0].to_bits(), among.standard_error[4].to_bits());
+        // The same integral as the bucketed f64 sums, to rounding.
+        let bucketed = tir_column(0.6, 0.2, &[0.7], &points);
+        assert!((alone.mean[0] - bucketed.mean[0]).abs() < 1e-12, "{} {}", alone.mean[0], bucketed.mean[0]);
     }
 }

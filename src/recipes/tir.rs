@@ -34,7 +34,7 @@ use crate::integrate::{
     Estimate, GRAZING_COSINE, Method, Progress, combine_replicates, estimate_cells, visible_normal_replicate_means,
 };
 use crate::physics::{MaskingShadowing, direction_from_cosine};
-use crate::sampling::sequence::PointSet;
+use crate::sampling::sequence::{DiskPointsF32, PointSet};
 use crate::table::{Axis, Channel, Mapping, Table, derived};
 
 pub const NAME: &str = "tir";
@@ -214,18 +214,6 @@ fn past_critical_angle(sin2: f64, eta: f64) -> bool {
 /// TIR at every `eta` of one `(mu, alpha)` from one pass over the samples (see the module docs).
 /// `etas` must be ascending.
 pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
-    let (mu, alpha) = (mu.max(GRAZING_COSINE), alpha.max(LIMIT_ROUGHNESS));
-    let warp = CellWarp::with_sin2_offsets(mu, alpha);
-    // sin^2(theta_v) as the per-cell path has it (the mirror direction's wo.x^2), so that at
-    // alpha = 0, where every offset is 0, both paths take the same side of a critical view.
-    let view_x = direction_from_cosine(mu).x;
-    let view_sin2 = view_x * view_x;
-    // Each sample's sin^2(theta_w) is taken in the form that is precise for it: near the normal the
-    // f32 sin^2 itself (error ~ 4 eps sin(theta_w) sin(theta_v); exactly 0 only straight up, so
-    // eta = 0 stays exact), elsewhere sin^2(theta_v) + the f32 offset, summed in f64 (error
-    // ~ eps |offset|, so a lobe at the view's own angle keeps its shape). The two errors cross
-    // near sin(theta_w) = sin(theta_v) / 4; the switch is at half.
-    let near_normal = view_sin2 / 4.0;
     // Past the critical angle of etas[k] when sin^2(theta_w) > eta_squared[k] (ascending).
     let eta_squared: Vec<f64> = etas.iter().map(|eta| eta * eta).collect();
     let replicate_means: Vec<Vec<f64>> = points
@@ -235,18 +223,10 @@ pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -
             // buckets[j]: weight of the samples past the critical angle of exactly etas[..j].
             let mut buckets = vec![0.0; etas.len() + 1];
             let mut total = 0.0;
-            for_each_block(&warp, MaskingShadowing::SmithSeparable, replicate, |block| {
-                for ((&sin2, &sin2_offset), &w) in block.wo_sin2.iter().zip(block.wo_sin2_offset).zip(block.weight) {
-                    if w == 0.0 {
-                        continue;
-                    }
-                    let sin2 = sin2 as f64;
-                    // A weighted sample has w.z > 0, so sin^2 <= 1: the cap keeps eta = 1 exact.
-                    let sin2 = if sin2 < near_normal { sin2 } else { (view_sin2 + sin2_offset as f64).min(1.0) };
-                    let j = eta_squared.partition_point(|&threshold| sin2 > threshold);
-                    buckets[j] += w as f64;
-                    total += w as f64;
-                }
+            for_each_reflected_sin2(mu, alpha, replicate, |sin2, w| {
+                let j = eta_squared.partition_point(|&threshold| sin2 > threshold);
+                buckets[j] += w as f64;
+                total += w as f64;
             });
             // TIR(eta_i) = weight of samples with j > i, over the total.
             let mut above = 0.0;
@@ -259,6 +239,68 @@ pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -
         })
         .collect();
     combine_replicates(&replicate_means, etas.len())
+}
+
+/// [`tir_column`] with every weight summed exactly, as an integer count of `2^-52` (a weight is at
+/// most 1): each value is then the same whatever other `etas` share the pass, since integer sums do
+/// not depend on how the samples were split into buckets. Slices integrated together
+/// ([`super::slices::integrate_batch`]) rely on it: a slice is bit-identical built alone or beside
+/// thousands of others. `etas` must be ascending.
+pub(crate) fn tir_column_exact_sums(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
+    const UNIT: f64 = (1u64 << 52) as f64;
+    // Weights are G1(wo) <= 1, so a weight in units fits a u64; truncation is the one rounding.
+    let eta_squared: Vec<f64> = etas.iter().map(|eta| eta * eta).collect();
+    let replicate_means: Vec<Vec<f64>> = points
+        .replicates_f32()
+        .iter()
+        .map(|replicate| {
+            let mut buckets = vec![0u128; etas.len() + 1];
+            for_each_reflected_sin2(mu, alpha, replicate, |sin2, w| {
+                let j = eta_squared.partition_point(|&threshold| sin2 > threshold);
+                // A weight (G1(wo) <= 1) in units fits a u64; truncating it is the one rounding,
+                // the same in any batch.
+                buckets[j] += u128::from((w as f64 * UNIT) as u64);
+            });
+            let total: u128 = buckets.iter().sum();
+            let mut above = 0u128;
+            let mut column = vec![0.0; etas.len()];
+            for i in (0..etas.len()).rev() {
+                above += buckets[i + 1];
+                column[i] = if total > 0 { above as f64 / total as f64 } else { 0.0 };
+            }
+            column
+        })
+        .collect();
+    combine_replicates(&replicate_means, etas.len())
+}
+
+/// Call `f(sin2, weight)` for every weighted sample of `replicate` at `(mu, alpha)`: the
+/// `sin^2(theta_w)` of the reflected direction `w` and its visible-normal weight (zero weights
+/// skipped), both as the f32 kernel computes them.
+fn for_each_reflected_sin2(mu: f64, alpha: f64, replicate: &DiskPointsF32, mut f: impl FnMut(f64, f32)) {
+    let (mu, alpha) = (mu.max(GRAZING_COSINE), alpha.max(LIMIT_ROUGHNESS));
+    let warp = CellWarp::with_sin2_offsets(mu, alpha);
+    // sin^2(theta_v) as the per-cell path has it (the mirror direction's wo.x^2), so that at
+    // alpha = 0, where every offset is 0, both paths take the same side of a critical view.
+    let view_x = direction_from_cosine(mu).x;
+    let view_sin2 = view_x * view_x;
+    // Each sample's sin^2(theta_w) is taken in the form that is precise for it: near the normal the
+    // f32 sin^2 itself (error ~ 4 eps sin(theta_w) sin(theta_v); exactly 0 only straight up, so
+    // eta = 0 stays exact), elsewhere sin^2(theta_v) + the f32 offset, summed in f64 (error
+    // ~ eps |offset|, so a lobe at the view's own angle keeps its shape). The two errors cross
+    // near sin(theta_w) = sin(theta_v) / 4; the switch is at half.
+    let near_normal = view_sin2 / 4.0;
+    for_each_block(&warp, MaskingShadowing::SmithSeparable, replicate, |block| {
+        for ((&sin2, &sin2_offset), &w) in block.wo_sin2.iter().zip(block.wo_sin2_offset).zip(block.weight) {
+            if w == 0.0 {
+                continue;
+            }
+            let sin2 = sin2 as f64;
+            // A weighted sample has w.z > 0, so sin^2 <= 1: the cap keeps eta = 1 exact.
+            let sin2 = if sin2 < near_normal { sin2 } else { (view_sin2 + sin2_offset as f64).min(1.0) };
+            f(sin2, w);
+        }
+    });
 }
 
 impl TirSettings {

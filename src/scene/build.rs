@@ -17,8 +17,9 @@ use crate::formats::manifest::SceneRecord;
 use crate::integrate::Progress;
 use crate::pipeline::{Job, WrittenFile, sha256_hex, write_jobs};
 use crate::recipes::TableRecipe;
+use crate::recipes::driver::TableBuild;
 use crate::recipes::interpolation::{self, Domain, ExactValues, InterpolationConfig};
-use crate::recipes::slices::{SliceOf, Slices};
+use crate::recipes::slices::{SliceOf, Slices, integrate_batch};
 use crate::stats::AccuracyReport;
 use crate::table::{Table, derived};
 
@@ -31,10 +32,21 @@ pub struct SceneBuildRequest {
     pub config: Config,
     pub out: PathBuf,
     pub error_maps: bool,
-    /// Measure every slice against the exact integral and the full table (each full table the
-    /// slices specialise is integrated once for it); the furnace, which measures the tables in
-    /// the material itself, leaves this out.
-    pub accuracy_reports: bool,
+    pub slice_checks: SliceChecks,
+}
+
+/// How the slices of a scene build are checked against the exact integral.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SliceChecks {
+    /// Reference cells and interpolation points drawn at random across every slice of the build
+    /// ([`crate::recipes::slices::integrate_batch`]): the cost of a few slices' checks, whatever
+    /// the number of materials.
+    Sampled,
+    /// Every slice checked on its own, and against the full table of the same configuration
+    /// (each full table the slices specialise is integrated once for it).
+    Full,
+    /// No checks: the furnace measures the tables in the material itself.
+    None,
 }
 
 /// Build the plan of `request.scene`; returns the plan and the files written.
@@ -43,7 +55,7 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     if request.error_maps {
         config.fgd.replicate_error_columns = usize::MAX;
     }
-    if !request.accuracy_reports {
+    if request.slice_checks == SliceChecks::None {
         config.disable_interpolation_checks();
     }
     let plan = plan(&request.scene, &config)?;
@@ -51,7 +63,7 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     // The full tables the slices are compared with, built once, without their own reference checks.
     let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(seed, progress)?.table) };
     let has_slices_of = |fgd: bool| {
-        request.accuracy_reports
+        request.slice_checks == SliceChecks::Full
             && plan
                 .tables
                 .iter()
@@ -75,10 +87,40 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
         None
     };
 
+    // Every slice of the plan in one pass over the nodes they share, unless each is checked alone.
+    let all_slices: Vec<&Slices> = plan
+        .tables
+        .iter()
+        .filter_map(|t| match &t.build {
+            PlannedBuild::Slices(slices) => Some(slices),
+            _ => None,
+        })
+        .collect();
+    let mut batch: std::collections::HashMap<String, TableBuild> = std::collections::HashMap::new();
+    if request.slice_checks != SliceChecks::Full && !all_slices.is_empty() {
+        let builds = integrate_batch(&all_slices, seed, progress)?;
+        let exact = match request.slice_checks {
+            SliceChecks::Sampled => sampled_exact_values(&all_slices, seed, progress)?,
+            _ => vec![None; all_slices.len()],
+        };
+        for ((slices, mut build), exact) in all_slices.iter().zip(builds).zip(exact) {
+            build.provenance.interpolation.extend(exact);
+            batch.insert(slices.name.clone(), build);
+        }
+    }
+    let batch = &batch;
+
     let jobs: Vec<Job> = plan
         .tables
         .iter()
         .map(|planned| match &planned.build {
+            PlannedBuild::Slices(slices) if batch.contains_key(&slices.name) => Job {
+                run: Box::new(move |_| Ok(batch[&slices.name].clone())),
+                output: slices.output(),
+                packings: Vec::new(),
+                packing_formats: Vec::new(),
+                fit_seed: None,
+            },
             PlannedBuild::Slices(slices) => {
                 // Built above for every kind of slice planned, where accuracy is reported.
                 let full = match slices.of {
@@ -136,6 +178,63 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
     Ok((plan, written))
 }
 
+/// Points of the interpolation check drawn across every slice of a build ([`SliceChecks::Sampled`]).
+pub const SAMPLED_INTERPOLATION_POINTS: usize = 32;
+
+/// The exact integral at [`SAMPLED_INTERPOLATION_POINTS`] random points drawn across `slices`:
+/// each point picks a slice at random, then a point where that slice's lookups are made, as
+/// [`slice_accuracy`] draws them. Slices that drew no point get `None`.
+pub fn sampled_exact_values(
+    slices: &[&Slices],
+    seed: u64,
+    progress: &dyn Progress,
+) -> Result<Vec<Option<ExactValues>>> {
+    let mut drawn = vec![0usize; slices.len()];
+    for draw in 0..SAMPLED_INTERPOLATION_POINTS as u32 {
+        let hash = crate::sampling::sequence::scramble_seed(seed, 0x5A3D, draw) as usize;
+        drawn[hash % slices.len()] += 1;
+    }
+    slices
+        .iter()
+        .zip(drawn)
+        .map(|(slices, points)| {
+            if points == 0 {
+                return Ok(None);
+            }
+            let reference = match &slices.of {
+                SliceOf::Fgd(s) => s.reference,
+                SliceOf::Tir(s) => s.reference,
+            };
+            let config = InterpolationConfig { points, samples: reference.samples };
+            Ok(Some(lookup_exact_values(slices, &config, seed, progress)?))
+        })
+        .collect()
+}
+
+/// The exact integral at `config.points` random points where a slice's lookups are made.
+fn lookup_exact_values(
+    slices: &Slices,
+    config: &InterpolationConfig,
+    seed: u64,
+    progress: &dyn Progress,
+) -> Result<ExactValues> {
+    let domain = Domain {
+        name: "where the slice's lookups are made".into(),
+        parameters: vec!["mu".into(), "alpha".into()],
+        ranges: vec![slices.lookup_mu, slices.lookup_alpha],
+    };
+    Ok(interpolation::exact_values(
+        &slices.name,
+        vec![domain],
+        config,
+        seed ^ 0xACC0,
+        progress,
+        |lookup| lookup.to_vec(),
+        |points, position| slices.estimate_node(points, position),
+    )?
+    .remove(0))
+}
+
 /// The exact integral at random points where a slice's lookups are made (`(mu, alpha)` uniform
 /// over the ranges they reach; a fixed roughness is queried at exactly that roughness), and the
 /// full table of the same configuration read at the same points against it (`eta` and `kappa` of
@@ -150,23 +249,9 @@ pub fn slice_accuracy(
         SliceOf::Fgd(s) => s.reference,
         SliceOf::Tir(s) => s.reference,
     };
-    let domain = Domain {
-        name: "where the slice's lookups are made".into(),
-        parameters: vec!["mu".into(), "alpha".into()],
-        ranges: vec![slices.lookup_mu, slices.lookup_alpha],
-    };
     // The reference sample count: a slice is checked to its own integration noise.
     let config = InterpolationConfig { points: reference.cells.max(16), samples: reference.samples };
-    let exact = interpolation::exact_values(
-        &slices.name,
-        vec![domain],
-        &config,
-        seed ^ 0xACC0,
-        progress,
-        |lookup| lookup.to_vec(),
-        |points, position| slices.estimate_node(points, position),
-    )?
-    .remove(0);
+    let exact = lookup_exact_values(slices, &config, seed, progress)?;
     let channels: Vec<String> =
         slices.channels.iter().map(|c| format!("eta {:.4}, kappa {:.4}", c.eta, c.kappa)).collect();
     let full_shape = full.axes.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x ");

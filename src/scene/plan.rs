@@ -26,7 +26,7 @@ use crate::recipes::fgd::FgdSettings;
 use crate::recipes::fgd_rarer::FgdRarerSettings;
 use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
-use crate::recipes::slices::{SliceChannel, SliceOf, Slices};
+use crate::recipes::slices::{SLICE_LATTICE, SliceChannel, SliceOf, Slices, lattice_value};
 use crate::recipes::tir::TirSettings;
 use crate::table::{Axis, Mapping};
 
@@ -84,15 +84,19 @@ pub struct Plan {
     /// Texel bytes of the planned tables, and of the default set built the same way.
     pub bytes: u64,
     pub default_set_bytes: u64,
+    /// Slices of one site that are identical (to the bit: table, settings, grid and indices) to
+    /// one planned for another site, in this scene or another of the build: built once, shared.
+    pub merged_slices: usize,
 }
 
 impl Plan {
     /// One line: the tables of the plan and their bytes against the default set's.
     pub fn summary(&self) -> String {
         format!(
-            "scene `{}`: {} table(s), {} of texels against {} for the default set",
+            "scene `{}`: {} table(s) ({} identical slice(s) merged), {} of texels against {} for the default set",
             self.scene,
             self.tables.len(),
+            self.merged_slices,
             human_bytes(self.bytes),
             human_bytes(self.default_set_bytes)
         )
@@ -126,6 +130,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let margin = scene.margin_nodes;
     let mut tables: Vec<PlannedTable> = Vec::new();
     let mut planned_slices = std::collections::HashMap::new();
+    let mut merged_slices = 0;
     let full_fgd_axes = config.fgd.axes()?;
     let full_tir_axes = config.tir.axes()?;
 
@@ -134,7 +139,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let (fixed, varying) = split_by_fixed_sites(&fgd_lookups);
     for site in sites(&fixed) {
         let slices = slice_of("fgd", SliceOf::Fgd(config.fgd.clone()), &site)?;
-        add_slices(&mut tables, &mut planned_slices, slices, &site, "FGD");
+        merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site, "FGD"));
     }
     if !varying.is_empty() {
         let who = sites_label(&scene.name, &varying, "FGD");
@@ -258,7 +263,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let slices_before = tables.len();
     for site in sites(&fixed) {
         let slices = slice_of("tir", SliceOf::Tir(config.tir.clone()), &site)?;
-        add_slices(&mut tables, &mut planned_slices, slices, &site, "TIR");
+        merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site, "TIR"));
     }
     let tir_slices = tables.len() - slices_before;
     if !varying.is_empty() {
@@ -312,6 +317,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         warnings: scene.warnings.clone(),
         bytes,
         default_set_bytes,
+        merged_slices,
     })
 }
 
@@ -408,14 +414,14 @@ fn slice_of(prefix: &str, of: SliceOf, site: &[&Lookup]) -> Result<Slices> {
 }
 
 /// Add a slice table, or, where an identical one is planned already (another material with the
-/// same layer), add this site to its reasons.
+/// same layer), add this site to its reasons and return true.
 fn add_slices(
     tables: &mut Vec<PlannedTable>,
     planned_slices: &mut std::collections::HashMap<String, usize>,
     slices: Slices,
     site: &[&Lookup],
     what: &str,
-) {
+) -> bool {
     let indices = slices.channels.iter().map(|c| format!("({}, {})", short(c.eta), short(c.kappa))).collect::<Vec<_>>();
     let reason = match what {
         "TIR" => format!(
@@ -432,7 +438,7 @@ fn add_slices(
     let key = format!("{what}|{:?}|{:?}|{channel_indices:?}", slices.mu, slices.alpha);
     if let Some(&existing) = planned_slices.get(&key) {
         tables[existing].record.reasons.push(format!("{reason} (same slice)"));
-        return;
+        return true;
     }
     planned_slices.insert(key, tables.len());
     let channel_count = slices.stored_channel_count();
@@ -453,6 +459,7 @@ fn add_slices(
         reasons: vec![reason],
     };
     tables.push(PlannedTable { record, build: PlannedBuild::Slices(slices) });
+    false
 }
 
 fn record_of(recipe: &dyn TableRecipe, kind: &str, reasons: Vec<String>) -> Result<PlannedTableRecord> {
@@ -522,46 +529,40 @@ pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool,
     Axis::node_aligned(full.name.clone(), node(first), node(last), last - first + 1)?.with_mapping(full.mapping)
 }
 
-/// Nodes per unit of `mu` (or of `sqrt(alpha)`) of a slice's own grid: four times the default
-/// table's 63, since a slice is small and is read where lookups bunch up (grazing views, the
-/// critical angle of a TIR crossing, lobes a little rougher than their interface).
-pub const SLICE_NODES_PER_UNIT: f64 = 255.0;
-
-/// A slice's `mu` axis: its own node-aligned grid over exactly the cosines its lookups reach, so
-/// that the extreme lookups (the grazing view, the critical cosine) fall on nodes. From grazing
-/// (`mu = 0`, the limit at [`GRAZING_COSINE`]) it is spaced in `sqrt(mu)`, dense where the albedo of
-/// smooth interfaces turns fastest.
+/// A slice's `mu` axis over exactly the cosines its lookups reach, widened to the nodes of the
+/// slice lattice ([`SLICE_LATTICE`]) around them. From grazing (`mu = 0`, the limit at
+/// [`GRAZING_COSINE`]) it is spaced in `sqrt(mu)` on every second lattice node (`k / 128`), dense
+/// where the albedo of smooth interfaces turns fastest; elsewhere in `mu` on every lattice node.
 fn slice_mu_axis(needed: Interval) -> Result<Axis> {
     let (lo, hi) = (needed.lo, needed.hi);
     if lo <= GRAZING_COSINE {
-        let count = (hi.sqrt() * SLICE_NODES_PER_UNIT / 2.0).ceil().max(1.0) as usize + 1;
-        return Axis::node_aligned("mu", 0.0, hi, count)?.with_mapping(Mapping::Sqrt);
+        let half_lattice = SLICE_LATTICE / 2.0;
+        let last = (hi.sqrt() * half_lattice - LATTICE_TOLERANCE).ceil().clamp(1.0, half_lattice);
+        let end = (last / half_lattice) * (last / half_lattice);
+        return Axis::node_aligned("mu", 0.0, end, last as usize + 1)?.with_mapping(Mapping::Sqrt);
     }
-    two_or_more_nodes("mu", lo, hi, 1.0, |x| x, Mapping::Identity)
+    lattice_axis("mu", lo, hi, Mapping::Identity)
 }
 
-/// A slice's `alpha` axis: a roughness that never varies gets a node of its own (read with no
-/// interpolation in alpha); a range gets its own grid over exactly that range, spaced in
-/// `sqrt(alpha)`.
+/// A slice's `alpha` axis: the lattice nodes (in `sqrt(alpha)`) around the roughnesses its lookups
+/// reach; a roughness that never varies falls between two of them, or on one.
 fn slice_alpha_axis(needed: Interval) -> Result<Axis> {
-    two_or_more_nodes("alpha", needed.lo, needed.hi, 1.0, f64::sqrt, Mapping::Sqrt)
+    lattice_axis("alpha", needed.lo, needed.hi, Mapping::Sqrt)
 }
 
-/// A node-aligned axis over `[lo, hi]` within `[0, top]`, spaced uniformly in `m(x)` at about
-/// [`SLICE_NODES_PER_UNIT`] nodes per unit of `m`; a point gets a second node one spacing beyond
-/// it (or before it, at the top).
-fn two_or_more_nodes(name: &str, lo: f64, hi: f64, top: f64, m: fn(f64) -> f64, mapping: Mapping) -> Result<Axis> {
-    let spacing = 1.0 / SLICE_NODES_PER_UNIT;
-    if lo == hi {
-        let (start, end) = if m(lo) + spacing <= m(top) {
-            (lo, mapping.inverse(m(lo) + spacing))
-        } else {
-            (mapping.inverse(m(lo) - spacing), lo)
-        };
-        return Axis::node_aligned(name, start, end, 2)?.with_mapping(mapping);
+/// Within this of a lattice node (in lattice units), a value counts as on it.
+const LATTICE_TOLERANCE: f64 = 1e-9;
+
+/// The node-aligned axis over the lattice nodes of `mapping` (`k / SLICE_LATTICE` in the mapped
+/// quantity, within `[0, 1]`) that cover `[lo, hi]`; at least two nodes.
+fn lattice_axis(name: &str, lo: f64, hi: f64, mapping: Mapping) -> Result<Axis> {
+    let mut first = (mapping.forward(lo) * SLICE_LATTICE + LATTICE_TOLERANCE).floor().clamp(0.0, SLICE_LATTICE);
+    let mut last = (mapping.forward(hi) * SLICE_LATTICE - LATTICE_TOLERANCE).ceil().clamp(first, SLICE_LATTICE);
+    if first == last {
+        if last < SLICE_LATTICE { last += 1.0 } else { first -= 1.0 }
     }
-    let count = ((m(hi) - m(lo)) * SLICE_NODES_PER_UNIT).ceil().max(1.0) as usize + 1;
-    Axis::node_aligned(name, lo, hi, count)?.with_mapping(mapping)
+    let node = |k: f64| lattice_value(mapping, k);
+    Axis::node_aligned(name, node(first), node(last), (last - first) as usize + 1)?.with_mapping(mapping)
 }
 
 /// A material name as it may appear in a file name.
@@ -629,6 +630,11 @@ impl fmt::Display for Plan {
                 writeln!(f, "  {warning}")?;
             }
         }
+        writeln!(
+            f,
+            "\nIdentical slices merged: {} (built once, read by every site listed under them)",
+            self.merged_slices
+        )?;
         writeln!(
             f,
             "\nTotal: {} ({} bytes) against {} ({} bytes) for the default set: {:.3} % of it",
