@@ -47,6 +47,25 @@ pub struct BuildArgs {
     /// (every slice on its own, and against the full table).
     #[arg(long, value_parser = parse_slice_checks, default_value = "sampled", requires = "scene")]
     slice_checks: SliceChecks,
+    /// Read the slices of a scene build from this content-addressed cache and store new ones in
+    /// it, shared by every build, folder and scene that names it (see `tmlut cache`). Alone,
+    /// `--cache` uses the default folder: $XDG_CACHE_HOME/tmlut, else ~/.cache/tmlut. Without it,
+    /// nothing outside the output folder is touched.
+    #[arg(long, num_args = 0..=1, default_missing_value = "", requires = "scene")]
+    cache: Option<PathBuf>,
+}
+
+/// The cache folder `--cache` names: its value, or the default folder for `--cache` alone.
+pub fn cache_folder(cache: Option<PathBuf>) -> tmlut::Result<Option<PathBuf>> {
+    match cache {
+        Some(dir) if dir.as_os_str().is_empty() => tmlut::scene::cache::default_dir().map(Some).ok_or_else(|| {
+            tmlut::Error::invalid(
+                "--cache",
+                "no default cache folder: neither XDG_CACHE_HOME nor HOME is set; name one (--cache DIR)",
+            )
+        }),
+        other => Ok(other),
+    }
 }
 
 fn parse_slice_checks(text: &str) -> Result<SliceChecks, String> {
@@ -78,6 +97,7 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
                 out: args.out,
                 error_maps: args.error_maps,
                 slice_checks: args.slice_checks,
+                cache: cache_folder(args.cache)?,
             };
             let (plan, written) = build_scene(&request, &progress)?;
             println!("{}", plan.summary());

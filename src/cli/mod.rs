@@ -13,6 +13,7 @@ use tmlut::integrate::Progress;
 
 mod bench;
 mod build;
+mod cache;
 mod check;
 mod converge;
 mod fit;
@@ -42,6 +43,7 @@ pub struct Cli {
 enum Command {
     Build(build::BuildArgs),
     Plan(plan::PlanArgs),
+    Cache(cache::CacheArgs),
     Bench(bench::BenchArgs),
     Check(check::CheckArgs),
     Stability(stability::StabilityArgs),
@@ -71,6 +73,7 @@ pub fn run(cli: Cli) -> tmlut::Result<()> {
     match cli.command {
         Command::Build(args) => build::exec(args, &context),
         Command::Plan(args) => plan::exec(args, &context),
+        Command::Cache(args) => cache::exec(args, &context),
         Command::Bench(args) => bench::exec(args, &context),
         Command::Check(args) => check::exec(args, &context),
         Command::Stability(args) => stability::exec(args, &context),

@@ -142,6 +142,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
                 out: dir.clone(),
                 error_maps: false,
                 slice_checks: SliceChecks::None,
+                cache: None,
             };
             build_scene(&build, progress)?;
             dir

@@ -63,7 +63,7 @@ pub struct MicrofacetSample {
 
 /// A Monte Carlo estimate per channel: the mean over replicates and the standard error of that
 /// mean from the spread of the independently scrambled replicates (0 when there is only one).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Estimate {
     pub mean: Vec<f64>,
     pub standard_error: Vec<f64>,

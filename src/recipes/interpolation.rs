@@ -74,7 +74,7 @@ pub const MAX_POINTS: usize = 1 << 20;
 pub const SMOOTH_ALPHA_LIMIT: f64 = 0.05;
 
 /// A box of lookup parameters, one range per parameter, that random points are drawn from.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Domain {
     /// What the box is, in words, for the manifest.
     pub name: String,
@@ -139,7 +139,7 @@ pub fn exact_points(samples: u64, seed: u64) -> Result<PointSet> {
 }
 
 /// Random points of one domain with the exact integral at each.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ExactValues {
     pub domain: Domain,
     /// Each point's lookup parameters, in the domain's order.

@@ -331,7 +331,13 @@ impl Kernel for Slices {
         let (mu, alpha) = (&self.mu, &self.alpha);
         let estimates = fill_mu_alpha_nodes(table, progress, |node, _, _| {
             let (i, j) = (node % mu.count, node / mu.count);
-            self.estimate_fast(points, canonical_node(mu, i), canonical_node(alpha, j), &projections)
+            let [mu_lattice, alpha_lattice] = self.of.lattice();
+            self.estimate_fast(
+                points,
+                canonical_node(mu, i, mu_lattice),
+                canonical_node(alpha, j, alpha_lattice),
+                &projections,
+            )
         });
         Ok(Integrated::of(&estimates))
     }
@@ -341,24 +347,43 @@ impl Kernel for Slices {
     }
 }
 
-/// Slice nodes lie on one lattice: `k / SLICE_LATTICE` in their axis's mapped quantity (`mu` or
-/// `sqrt(mu)`, `sqrt(alpha)`), four times as dense as the default tables' 64 nodes. Slices of a
-/// build are sub-ranges of it, so that every slice at a node shares that node's visible-normal
-/// measure, however many materials read it ([`integrate_batch`]).
-pub const SLICE_LATTICE: f64 = 256.0;
+/// Slice nodes lie on one lattice per table: `k / lattice` in their axis's mapped quantity (`mu`
+/// or `sqrt(mu)`, `sqrt(alpha)`), one density per axis. Slices of a build are sub-ranges of it, so
+/// that every slice at a node shares that node's visible-normal measure, however many materials
+/// read it ([`integrate_batch`]). FGD's is twice as dense as the default tables' 64 nodes.
+pub const FGD_SLICE_LATTICE: [f64; 2] = [128.0, 128.0];
 
-/// The value at lattice node `k` of `mapping` (`mapping.inverse(k / SLICE_LATTICE)`).
-pub fn lattice_value(mapping: crate::table::Mapping, k: f64) -> f64 {
-    mapping.inverse(k / SLICE_LATTICE)
+/// TIR's lattice is four times denser in `mu`: at the critical cosine a smooth lobe's TIR steps
+/// from 1 to 0 within a few hundredths of `mu`, where FGD is smooth (the copper pot's TIR slice
+/// interpolated with an error of 8e-3 on FGD's lattice, and its material 1.0e-3).
+pub const TIR_SLICE_LATTICE: [f64; 2] = [512.0, 128.0];
+
+impl SliceOf {
+    /// Nodes per unit of the mapped quantity of this table's slice lattice, `mu` then `alpha`.
+    pub fn lattice(&self) -> [f64; 2] {
+        match self {
+            SliceOf::Fgd(_) => FGD_SLICE_LATTICE,
+            SliceOf::Tir(_) => TIR_SLICE_LATTICE,
+        }
+    }
+}
+
+/// The value at node `k` of a lattice of `lattice` nodes per unit of `mapping`.
+pub fn lattice_value(mapping: crate::table::Mapping, k: f64, lattice: f64) -> f64 {
+    mapping.inverse(k / lattice)
 }
 
 /// Node `k` of a slice axis, as every slice that holds it integrates it: on the lattice, the
 /// lattice's own value (an axis computes its interior nodes from its own range, which may differ in
 /// the last bit); off it (a slice made by hand), the axis's.
-fn canonical_node(axis: &Axis, k: usize) -> f64 {
+fn canonical_node(axis: &Axis, k: usize, lattice: f64) -> f64 {
     let value = axis.node_value(k);
-    let on_lattice = axis.mapping.forward(value) * SLICE_LATTICE;
-    if (on_lattice - on_lattice.round()).abs() < 1e-6 { lattice_value(axis.mapping, on_lattice.round()) } else { value }
+    let on_lattice = axis.mapping.forward(value) * lattice;
+    if (on_lattice - on_lattice.round()).abs() < 1e-6 {
+        lattice_value(axis.mapping, on_lattice.round(), lattice)
+    } else {
+        value
+    }
 }
 
 /// A slice's reference figures when its checks are sampled across a batch
@@ -397,11 +422,14 @@ pub fn integrate_batch(slices: &[&Slices], seed: u64, progress: &dyn Progress) -
         // Each node of the group once, with the (slice, node number) pairs that hold it.
         let mut nodes: std::collections::BTreeMap<(u64, u64), Vec<(usize, usize)>> = std::collections::BTreeMap::new();
         for &s in members {
-            let (mu, alpha) = (&slices[s].mu, &slices[s].alpha);
+            let (mu, alpha, [mu_lattice, alpha_lattice]) = (&slices[s].mu, &slices[s].alpha, slices[s].of.lattice());
             estimates[s] = vec![Estimate { mean: Vec::new(), standard_error: Vec::new() }; mu.count * alpha.count];
             for j in 0..alpha.count {
                 for i in 0..mu.count {
-                    let key = (canonical_node(mu, i).to_bits(), canonical_node(alpha, j).to_bits());
+                    let key = (
+                        canonical_node(mu, i, mu_lattice).to_bits(),
+                        canonical_node(alpha, j, alpha_lattice).to_bits(),
+                    );
                     nodes.entry(key).or_default().push((s, j * mu.count + i));
                 }
             }
@@ -545,20 +573,21 @@ mod tests {
         alpha_nodes: [f64; 2],
         channels: &[(f64, f64)],
     ) -> Slices {
-        let axis = |name: &str, nodes: [f64; 2], mapping| {
+        let axis = |name: &str, nodes: [f64; 2], mapping, lattice| {
             let [first, last] = nodes;
             Axis::node_aligned(
                 name,
-                lattice_value(mapping, first),
-                lattice_value(mapping, last),
+                lattice_value(mapping, first, lattice),
+                lattice_value(mapping, last, lattice),
                 (last - first) as usize + 1,
             )
             .unwrap()
             .with_mapping(mapping)
             .unwrap()
         };
-        let mu = axis("mu", mu_nodes, crate::table::Mapping::Identity);
-        let alpha = axis("alpha", alpha_nodes, crate::table::Mapping::Sqrt);
+        let [mu_lattice, alpha_lattice] = of.lattice();
+        let mu = axis("mu", mu_nodes, crate::table::Mapping::Identity, mu_lattice);
+        let alpha = axis("alpha", alpha_nodes, crate::table::Mapping::Sqrt, alpha_lattice);
         Slices {
             name: name.into(),
             of,
@@ -583,15 +612,16 @@ mod tests {
         tir.reference.cells = 0;
         let (fgd, tir) = (SliceOf::Fgd(fgd), SliceOf::Tir(tir));
         let copper = [(0.27, 3.61), (0.68, 2.63), (1.22, 2.29)];
+        // Lattice nodes: FGD's in 1/128, TIR's in 1/512 (mu) and 1/128 (sqrt(alpha)).
         let alone = [
-            lattice_slices("fgd_a", fgd.clone(), [200.0, 210.0], [20.0, 21.0], &copper),
-            lattice_slices("tir_a", tir.clone(), [190.0, 200.0], [30.0, 33.0], &[(0.66, 0.0)]),
+            lattice_slices("fgd_a", fgd.clone(), [100.0, 110.0], [20.0, 21.0], &copper),
+            lattice_slices("tir_a", tir.clone(), [400.0, 410.0], [30.0, 33.0], &[(0.66, 0.0)]),
         ];
         // Others overlapping their nodes, at other indices, and one of another kind in between.
         let others = [
-            lattice_slices("fgd_b", fgd.clone(), [205.0, 220.0], [19.0, 22.0], &[(1.5, 0.0), (0.27, 3.61)]),
-            lattice_slices("tir_b", tir.clone(), [195.0, 199.0], [31.0, 32.0], &[(0.9, 0.0), (0.5, 0.0), (0.66, 0.0)]),
-            lattice_slices("fgd_c", fgd, [100.0, 102.0], [20.0, 21.0], &[(0.8, 0.0)]),
+            lattice_slices("fgd_b", fgd.clone(), [105.0, 120.0], [19.0, 22.0], &[(1.5, 0.0), (0.27, 3.61)]),
+            lattice_slices("tir_b", tir.clone(), [405.0, 409.0], [31.0, 32.0], &[(0.9, 0.0), (0.5, 0.0), (0.66, 0.0)]),
+            lattice_slices("fgd_c", fgd, [50.0, 52.0], [20.0, 21.0], &[(0.8, 0.0)]),
         ];
         let progress = ();
         for slice in &alone {

@@ -10,6 +10,7 @@
 use std::path::PathBuf;
 
 use super::Scene;
+use super::cache::SliceCache;
 use super::plan::{Plan, PlannedBuild, plan};
 use crate::config::{Config, OutputConfig};
 use crate::error::Result;
@@ -33,6 +34,8 @@ pub struct SceneBuildRequest {
     pub out: PathBuf,
     pub error_maps: bool,
     pub slice_checks: SliceChecks,
+    /// The slice cache to read built slices from and store new ones in ([`super::cache`]).
+    pub cache: Option<PathBuf>,
 }
 
 /// How the slices of a scene build are checked against the exact integral.
@@ -98,14 +101,43 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
         .collect();
     let mut batch: std::collections::HashMap<String, TableBuild> = std::collections::HashMap::new();
     if request.slice_checks != SliceChecks::Full && !all_slices.is_empty() {
-        let builds = integrate_batch(&all_slices, seed, progress)?;
-        let exact = match request.slice_checks {
-            SliceChecks::Sampled => sampled_exact_values(&all_slices, seed, progress)?,
-            _ => vec![None; all_slices.len()],
-        };
-        for ((slices, mut build), exact) in all_slices.iter().zip(builds).zip(exact) {
-            build.provenance.interpolation.extend(exact);
-            batch.insert(slices.name.clone(), build);
+        // Slices an earlier build stored are read back; the others are integrated (and checked)
+        // together, then stored.
+        let cache = request.cache.as_deref().map(SliceCache::open);
+        let mut missing: Vec<&Slices> = Vec::new();
+        for slices in &all_slices {
+            match cache.as_ref().and_then(|c| c.get(slices, seed)) {
+                Some(build) => {
+                    batch.insert(slices.name.clone(), build);
+                }
+                None => missing.push(slices),
+            }
+        }
+        if !missing.is_empty() {
+            let builds = integrate_batch(&missing, seed, progress)?;
+            let exact = match request.slice_checks {
+                SliceChecks::Sampled => sampled_exact_values(&missing, seed, progress)?,
+                _ => vec![None; missing.len()],
+            };
+            for ((slices, mut build), exact) in missing.iter().zip(builds).zip(exact) {
+                build.provenance.interpolation.extend(exact);
+                if let Some(cache) = &cache {
+                    cache.put(slices, seed, &build);
+                }
+                batch.insert(slices.name.clone(), build);
+            }
+        }
+        if let Some(cache) = &cache {
+            progress.note(&format!(
+                "slice cache {}: {} of {} slices read from it, {} built",
+                cache.dir.display(),
+                cache.hits(),
+                all_slices.len(),
+                missing.len()
+            ));
+            for warning in cache.warnings() {
+                progress.note(&format!("warning: {warning}"));
+            }
         }
     }
     let batch = &batch;

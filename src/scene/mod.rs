@@ -28,6 +28,7 @@
 //! the phase asymmetry `g`. Every error names the material and layer it is about.
 
 pub mod build;
+pub mod cache;
 pub mod library;
 pub mod lookups;
 mod parse;

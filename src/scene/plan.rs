@@ -26,7 +26,7 @@ use crate::recipes::fgd::FgdSettings;
 use crate::recipes::fgd_rarer::FgdRarerSettings;
 use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
-use crate::recipes::slices::{SLICE_LATTICE, SliceChannel, SliceOf, Slices, lattice_value};
+use crate::recipes::slices::{SliceChannel, SliceOf, Slices, lattice_value};
 use crate::recipes::tir::TirSettings;
 use crate::table::{Axis, Mapping};
 
@@ -387,6 +387,7 @@ fn ranges_label(site: &[&Lookup]) -> String {
 /// The slice table of one site of fixed indices: one channel per distinct index.
 fn slice_of(prefix: &str, of: SliceOf, site: &[&Lookup]) -> Result<Slices> {
     let first = site[0];
+    let [mu_lattice, alpha_lattice] = of.lattice();
     let mu_needed = hull(site, |l| l.mu);
     let alpha_needed = hull(site, |l| l.alpha);
     let mut channels: Vec<SliceChannel> = Vec::new();
@@ -405,8 +406,8 @@ fn slice_of(prefix: &str, of: SliceOf, site: &[&Lookup]) -> Result<Slices> {
     Ok(Slices {
         name: format!("{prefix}_{}_l{}_{direction}", file_safe(&first.material), first.layer),
         of,
-        mu: slice_mu_axis(mu_needed)?,
-        alpha: slice_alpha_axis(alpha_needed)?,
+        mu: slice_mu_axis(mu_needed, mu_lattice)?,
+        alpha: slice_alpha_axis(alpha_needed, alpha_lattice)?,
         lookup_mu: [mu_needed.lo, mu_needed.hi],
         lookup_alpha: [alpha_needed.lo, alpha_needed.hi],
         channels,
@@ -529,39 +530,36 @@ pub fn covering_axis(full: &Axis, needed: Interval, margin: usize, extend: bool,
     Axis::node_aligned(full.name.clone(), node(first), node(last), last - first + 1)?.with_mapping(full.mapping)
 }
 
-/// A slice's `mu` axis over exactly the cosines its lookups reach, widened to the nodes of the
-/// slice lattice ([`SLICE_LATTICE`]) around them. From grazing (`mu = 0`, the limit at
-/// [`GRAZING_COSINE`]) it is spaced in `sqrt(mu)` on every second lattice node (`k / 128`), dense
-/// where the albedo of smooth interfaces turns fastest; elsewhere in `mu` on every lattice node.
-fn slice_mu_axis(needed: Interval) -> Result<Axis> {
+/// A slice's `mu` axis over exactly the cosines its lookups reach, widened to the nodes of its
+/// table's slice lattice (`lattice` nodes per unit; [`SliceOf::lattice`]) around them. From
+/// grazing (`mu = 0`, the limit at [`GRAZING_COSINE`]) it is spaced in `sqrt(mu)`, dense where the
+/// albedo of smooth interfaces turns fastest; elsewhere in `mu`.
+fn slice_mu_axis(needed: Interval, lattice: f64) -> Result<Axis> {
     let (lo, hi) = (needed.lo, needed.hi);
     if lo <= GRAZING_COSINE {
-        let half_lattice = SLICE_LATTICE / 2.0;
-        let last = (hi.sqrt() * half_lattice - LATTICE_TOLERANCE).ceil().clamp(1.0, half_lattice);
-        let end = (last / half_lattice) * (last / half_lattice);
-        return Axis::node_aligned("mu", 0.0, end, last as usize + 1)?.with_mapping(Mapping::Sqrt);
+        return lattice_axis("mu", 0.0, hi, Mapping::Sqrt, lattice);
     }
-    lattice_axis("mu", lo, hi, Mapping::Identity)
+    lattice_axis("mu", lo, hi, Mapping::Identity, lattice)
 }
 
 /// A slice's `alpha` axis: the lattice nodes (in `sqrt(alpha)`) around the roughnesses its lookups
 /// reach; a roughness that never varies falls between two of them, or on one.
-fn slice_alpha_axis(needed: Interval) -> Result<Axis> {
-    lattice_axis("alpha", needed.lo, needed.hi, Mapping::Sqrt)
+fn slice_alpha_axis(needed: Interval, lattice: f64) -> Result<Axis> {
+    lattice_axis("alpha", needed.lo, needed.hi, Mapping::Sqrt, lattice)
 }
 
 /// Within this of a lattice node (in lattice units), a value counts as on it.
 const LATTICE_TOLERANCE: f64 = 1e-9;
 
-/// The node-aligned axis over the lattice nodes of `mapping` (`k / SLICE_LATTICE` in the mapped
-/// quantity, within `[0, 1]`) that cover `[lo, hi]`; at least two nodes.
-fn lattice_axis(name: &str, lo: f64, hi: f64, mapping: Mapping) -> Result<Axis> {
-    let mut first = (mapping.forward(lo) * SLICE_LATTICE + LATTICE_TOLERANCE).floor().clamp(0.0, SLICE_LATTICE);
-    let mut last = (mapping.forward(hi) * SLICE_LATTICE - LATTICE_TOLERANCE).ceil().clamp(first, SLICE_LATTICE);
+/// The node-aligned axis over the nodes of a lattice of `lattice` nodes per unit of `mapping`
+/// (within `[0, 1]`) that cover `[lo, hi]`; at least two nodes.
+fn lattice_axis(name: &str, lo: f64, hi: f64, mapping: Mapping, lattice: f64) -> Result<Axis> {
+    let mut first = (mapping.forward(lo) * lattice + LATTICE_TOLERANCE).floor().clamp(0.0, lattice);
+    let mut last = (mapping.forward(hi) * lattice - LATTICE_TOLERANCE).ceil().clamp(first, lattice);
     if first == last {
-        if last < SLICE_LATTICE { last += 1.0 } else { first -= 1.0 }
+        if last < lattice { last += 1.0 } else { first -= 1.0 }
     }
-    let node = |k: f64| lattice_value(mapping, k);
+    let node = |k: f64| lattice_value(mapping, k, lattice);
     Axis::node_aligned(name, node(first), node(last), (last - first) as usize + 1)?.with_mapping(mapping)
 }
 

@@ -125,7 +125,7 @@ fn copper_pot_gets_two_fgd_slices_a_tir_slice_and_gd() {
     assert_eq!(top.channels.len(), 1);
     assert_eq!((top.channels[0].eta, top.channels[0].kappa), (1.1, 0.0));
     // A roughness that never varies lies between two neighbouring nodes of the slice lattice.
-    let lattice_step = 1.0 / crate::recipes::slices::SLICE_LATTICE;
+    let lattice_step = 1.0 / crate::recipes::slices::FGD_SLICE_LATTICE[0];
     assert_eq!(top.alpha.count, 2);
     assert!(top.alpha.start <= 0.01 && 0.01 <= top.alpha.end, "{:?}", top.alpha);
     assert!((top.alpha.end.sqrt() - top.alpha.start.sqrt() - lattice_step).abs() < 1e-12, "{:?}", top.alpha);
@@ -133,8 +133,8 @@ fn copper_pot_gets_two_fgd_slices_a_tir_slice_and_gd() {
     // cosine sqrt(1 - 1/1.1^2) (a grazing view) up, from the lattice node at or below it.
     let critical = (1.0 - 1.0 / (1.1f64 * 1.1)).sqrt();
     let copper = slices(&plan, "fgd_varnished-copper_l2_from-above");
-    let from_the_node_below = |start: f64| start <= critical && critical - start < lattice_step;
-    assert!(from_the_node_below(copper.mu.start) && copper.mu.end == 1.0, "{:?}", copper.mu);
+    let from_the_node_below = |start: f64, lattice: f64| start <= critical && critical - start < 1.0 / lattice;
+    assert!(from_the_node_below(copper.mu.start, 1.0 / lattice_step) && copper.mu.end == 1.0, "{:?}", copper.mu);
     // One channel per colour, indices relative to the varnish, padded to RGBA.
     let pairs: Vec<(f64, f64)> = copper.channels.iter().map(|c| (c.eta, c.kappa)).collect();
     assert_eq!(pairs, [(0.1 / 1.1, 4.0 / 1.1), (0.4 / 1.1, 2.4 / 1.1), (1.6 / 1.1, 1.6 / 1.1)]);
@@ -143,8 +143,8 @@ fn copper_pot_gets_two_fgd_slices_a_tir_slice_and_gd() {
     // copper (at least as rough as it) and narrowed by the smooth varnish: a small range.
     let tir = slices(&plan, "tir_varnished-copper_l1_up");
     assert!(matches!(tir.of, SliceOf::Tir(_)));
-    assert!(from_the_node_below(tir.mu.start), "{:?}", tir.mu);
-    assert!(tir.alpha.start >= 0.009 && tir.alpha.end < 0.02, "{:?}", tir.alpha);
+    assert!(from_the_node_below(tir.mu.start, crate::recipes::slices::TIR_SLICE_LATTICE[0]), "{:?}", tir.mu);
+    assert!(tir.alpha.start >= 0.0085 && tir.alpha.end < 0.02, "{:?}", tir.alpha);
     assert!((tir.channels[0].eta - 1.0 / 1.1).abs() < 1e-15);
     assert!(left_out(&plan, "fgd (4D").contains("2 slice tables replace it"));
     assert!(left_out(&plan, "tir (3D").contains("1 slice table replaces it"));
@@ -188,7 +188,7 @@ fn scattering_stack_reads_the_conductor_at_refracted_cosines_and_gd_for_its_lobe
     // the scattered fluxes reuse those factors.
     let critical = (1.0 - 1.0 / (1.5f64 * 1.5)).sqrt();
     let conductor = slices(&plan, "fgd_scattering-stack_l3_from-above");
-    let lattice_step = 1.0 / crate::recipes::slices::SLICE_LATTICE;
+    let lattice_step = 1.0 / crate::recipes::slices::FGD_SLICE_LATTICE[0];
     let from_the_node_below = conductor.mu.start <= critical && critical - conductor.mu.start < lattice_step;
     assert!(from_the_node_below && conductor.mu.end == 1.0, "{:?}", conductor.mu);
     assert!((conductor.channels[0].eta - 0.1 / 1.5).abs() < 1e-15);
@@ -328,11 +328,12 @@ fn slice_nodes_agree_with_independent_per_cell_estimates() {
             for k in 0..slices.channels.len() {
                 let value = build.table.data[n * stored + k] as f64;
                 let spread = (standard_error[n * stored + k] as f64).hypot(independent.standard_error[k]);
-                // TIR integrates an indicator: each replicate's stratified points can all fall on
-                // one side of the critical angle, so its replicates may agree far better than its
-                // error, which is up to one point's share, 1 / (points per replicate).
+                // TIR integrates an indicator, discontinuous along the critical cone: scrambled
+                // net points integrate it with an error of order n^(-3/4) for n points per
+                // replicate (Owen 1997), and a spread over four replicates estimates that poorly,
+                // so it is allowed besides.
                 let discontinuity = match slices.of {
-                    SliceOf::Tir(ref s) => s.sampling.replicates as f64 / s.sampling.samples as f64,
+                    SliceOf::Tir(ref s) => (s.sampling.samples as f64 / s.sampling.replicates as f64).powf(-0.75),
                     SliceOf::Fgd(_) => 0.0,
                 };
                 let tolerance = 1e-5 + discontinuity + 4.0 * spread;

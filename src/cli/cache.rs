@@ -1,0 +1,40 @@
+//! `tmlut cache`: what the slice cache holds, and pruning it.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use tmlut::scene::cache::{self, CacheUsage};
+use tmlut::scene::plan::human_bytes;
+
+use super::Context;
+
+/// Show the slice cache (entries and bytes) that `tmlut build --scene ... --cache` reads and
+/// fills, or prune it to a size, oldest entries first. Only the cache's own files are touched.
+#[derive(Args)]
+pub struct CacheArgs {
+    /// The cache folder (default: $XDG_CACHE_HOME/tmlut, else ~/.cache/tmlut).
+    #[arg(long)]
+    dir: Option<PathBuf>,
+    /// Remove the oldest entries until the cache holds at most this many bytes (0 empties it).
+    #[arg(long)]
+    prune_to: Option<u64>,
+}
+
+pub fn exec(args: CacheArgs, _: &Context) -> tmlut::Result<()> {
+    let dir = super::build::cache_folder(Some(args.dir.unwrap_or_default()))?.expect("a folder or an error");
+    if !dir.exists() {
+        println!("slice cache {}: no cache there yet (a build with --cache creates it)", dir.display());
+        return Ok(());
+    }
+    let shown = |usage: CacheUsage| format!("{} entries, {}", usage.entries, human_bytes(usage.bytes));
+    let before = cache::usage(&dir)?;
+    match args.prune_to {
+        Some(max_bytes) => {
+            let after = cache::prune(&dir, max_bytes)?;
+            println!("slice cache {}: {} before, {} after pruning", dir.display(), shown(before), shown(after));
+        }
+        None => println!("slice cache {}: {}", dir.display(), shown(before)),
+    }
+    Ok(())
+}

@@ -1,0 +1,385 @@
+//! A content-addressed cache of built slices, shared across scenes, output folders and runs
+//! (`tmlut build --scene ... --cache [DIR]`, `tmlut cache`).
+//!
+//! A slice's stored values depend on its table and settings (samples, replicates, masking, basis,
+//! top index), its `(mu, alpha)` axes, the indices of its channels, the seed and the recipe's code,
+//! and on nothing else: not on its name, the materials that read it, or the other slices of the
+//! build (`recipes::slices::integrate_batch` makes it so). The SHA-256 of those, with
+//! [`CACHE_FORMAT`] and the crate's version, is its key; the entry `<key>.slice` holds its values,
+//! their replicate standard errors and the checks of the batch it was built in, after one line
+//! with the SHA-256 of the rest.
+//!
+//! - An entry is written to a temporary file of its own and renamed into place, so concurrent
+//!   builds sharing a cache write whole entries (two writers of one key write the same bytes).
+//! - An entry whose hash, key or size does not match is damaged: it is never used; the slice is
+//!   built and the entry written again, with a warning.
+//! - A cache folder that cannot be created, read or written (read-only, full, not a folder)
+//!   degrades to building, with one warning.
+//!
+//! tmlut touches nothing outside the folders it is given, so the cache is used only when asked
+//! for: `--cache DIR`, or `--cache` alone for the default folder ([`default_dir`]).
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::loader::sha256_hex;
+use crate::recipes::driver::{Provenance, SamplingRecord, TableBuild};
+use crate::recipes::interpolation::ExactValues;
+use crate::recipes::slices::Slices;
+use crate::recipes::{Kernel, slices::BATCH_CHECK_NOTE};
+use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
+
+/// The layout of an entry and of what its key covers; a change to either, or to how a slice is
+/// integrated, changes it (and the crate's version is in every key besides).
+pub const CACHE_FORMAT: u32 = 1;
+
+/// The extension of an entry.
+pub const ENTRY_EXTENSION: &str = "slice";
+
+/// The note a slice from the cache carries in the manifest.
+pub const FROM_CACHE_NOTE: &str = "From the slice cache: built in an earlier run with the same settings, axes, indices and seed (the same bytes); its checks are those of the batch it was built in.";
+
+/// The default cache folder: `$XDG_CACHE_HOME/tmlut`, else `$HOME/.cache/tmlut`
+/// (`%LOCALAPPDATA%\tmlut\cache` on Windows).
+pub fn default_dir() -> Option<PathBuf> {
+    let from = |var: &str| std::env::var_os(var).filter(|v| !v.is_empty()).map(PathBuf::from);
+    if cfg!(windows) {
+        return from("LOCALAPPDATA").map(|d| d.join("tmlut").join("cache"));
+    }
+    from("XDG_CACHE_HOME").map(|d| d.join("tmlut")).or_else(|| from("HOME").map(|h| h.join(".cache").join("tmlut")))
+}
+
+/// What an entry holds.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct Entry {
+    key: String,
+    values: Vec<f32>,
+    standard_error: Option<Vec<f32>>,
+    replicate_standard_error: ErrorSummary,
+    reference: Option<ReferenceComparison>,
+    interpolation: Vec<ExactValues>,
+    sampling: SamplingRecord,
+    wall_time_s: f64,
+}
+
+/// What a slice's key covers, as hashed.
+#[derive(Serialize)]
+struct KeyFields<'a> {
+    format: u32,
+    version: &'a str,
+    of: &'a crate::recipes::slices::SliceOf,
+    mu: &'a crate::table::Axis,
+    alpha: &'a crate::table::Axis,
+    /// The channels' indices, to the bit.
+    indices: Vec<(u64, u64)>,
+    seed: u64,
+}
+
+/// A cache folder, for one build.
+pub struct SliceCache {
+    pub dir: PathBuf,
+    /// False once the folder proved unusable: the build goes on without it.
+    usable: Mutex<bool>,
+    warnings: Mutex<Vec<String>>,
+    hits: Mutex<usize>,
+}
+
+impl SliceCache {
+    /// The cache at `dir`, created if needed; a folder that cannot be created leaves the cache
+    /// unusable, with a warning (the build goes on).
+    pub fn open(dir: &Path) -> SliceCache {
+        let cache = SliceCache {
+            dir: dir.to_path_buf(),
+            usable: Mutex::new(true),
+            warnings: Mutex::new(Vec::new()),
+            hits: Mutex::new(0),
+        };
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            cache.disable(&format!("cannot create it: {e}"));
+        } else if !dir.is_dir() {
+            cache.disable("it is not a folder");
+        }
+        cache
+    }
+
+    /// The key of `slices` built with `seed`.
+    pub fn key(slices: &Slices, seed: u64) -> String {
+        let fields = KeyFields {
+            format: CACHE_FORMAT,
+            version: env!("CARGO_PKG_VERSION"),
+            of: &slices.of,
+            mu: &slices.mu,
+            alpha: &slices.alpha,
+            indices: slices.channels.iter().map(|c| (c.eta.to_bits(), c.kappa.to_bits())).collect(),
+            seed,
+        };
+        sha256_hex(serde_json::to_string(&fields).expect("plain data").as_bytes())
+    }
+
+    fn entry_path(&self, key: &str) -> PathBuf {
+        self.dir.join(format!("{key}.{ENTRY_EXTENSION}"))
+    }
+
+    fn usable(&self) -> bool {
+        *self.usable.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn disable(&self, why: &str) {
+        let mut usable = self.usable.lock().unwrap_or_else(|p| p.into_inner());
+        if *usable {
+            *usable = false;
+            self.warn(format!("slice cache {}: {why}; building without it", self.dir.display()));
+        }
+    }
+
+    fn warn(&self, warning: String) {
+        self.warnings.lock().unwrap_or_else(|p| p.into_inner()).push(warning);
+    }
+
+    /// What went wrong with the cache in this build (damaged entries, an unusable folder).
+    pub fn warnings(&self) -> Vec<String> {
+        self.warnings.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// Slices read from the cache in this build.
+    pub fn hits(&self) -> usize {
+        *self.hits.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The slice's build from the cache, if an intact entry holds it; a damaged entry is reported
+    /// and left for [`SliceCache::put`] to replace.
+    pub fn get(&self, slices: &Slices, seed: u64) -> Option<TableBuild> {
+        if !self.usable() {
+            return None;
+        }
+        let key = Self::key(slices, seed);
+        let path = self.entry_path(&key);
+        let bytes = match std::fs::read(&path) {
+            Ok(bytes) => bytes,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
+            Err(e) => {
+                self.warn(format!("slice cache entry {}: {e}; built again", path.display()));
+                return None;
+            }
+        };
+        match decode(&bytes, &key).and_then(|entry| into_build(slices, entry)) {
+            Ok(build) => {
+                *self.hits.lock().unwrap_or_else(|p| p.into_inner()) += 1;
+                Some(build)
+            }
+            Err(why) => {
+                self.warn(format!("slice cache entry {} is damaged ({why}); built again", path.display()));
+                None
+            }
+        }
+    }
+
+    /// Store the build of `slices`; a failure (read-only or full folder) disables the cache for
+    /// the rest of the build, with a warning.
+    pub fn put(&self, slices: &Slices, seed: u64, build: &TableBuild) {
+        if !self.usable() {
+            return;
+        }
+        let key = Self::key(slices, seed);
+        let p = &build.provenance;
+        let entry = Entry {
+            key: key.clone(),
+            values: build.table.data.clone(),
+            standard_error: p.standard_error.clone(),
+            replicate_standard_error: p.error.replicate_standard_error.clone(),
+            reference: p.error.reference.clone(),
+            interpolation: p.interpolation.clone(),
+            sampling: p.sampling.clone(),
+            wall_time_s: p.wall_time_s,
+        };
+        let body = serde_json::to_vec(&entry).expect("plain data");
+        let mut bytes = format!("{}\n", sha256_hex(&body)).into_bytes();
+        bytes.extend_from_slice(&body);
+        let path = self.entry_path(&key);
+        // A temporary name of this writer's own, then a rename: readers see a whole entry or none.
+        let temporary = self.dir.join(format!(".{key}.tmp-{}-{:?}", std::process::id(), std::thread::current().id()));
+        let written = std::fs::write(&temporary, &bytes).and_then(|()| std::fs::rename(&temporary, &path));
+        if let Err(e) = written {
+            let _ = std::fs::remove_file(&temporary);
+            self.disable(&format!("cannot write {}: {e}", path.display()));
+        }
+    }
+}
+
+/// The entry of `bytes`, if its hash, key and layout are intact.
+fn decode(bytes: &[u8], key: &str) -> std::result::Result<Entry, String> {
+    let newline = bytes.iter().position(|&b| b == b'\n').ok_or("no hash line")?;
+    let (hash, body) = (&bytes[..newline], &bytes[newline + 1..]);
+    if hash != sha256_hex(body).as_bytes() {
+        return Err("its SHA-256 does not match its contents".into());
+    }
+    let entry: Entry = serde_json::from_slice(body).map_err(|e| format!("not an entry: {e}"))?;
+    if entry.key != key {
+        return Err(format!("it holds key {}", entry.key));
+    }
+    Ok(entry)
+}
+
+/// The slice's build from its entry, with the metadata the slice states of itself.
+fn into_build(slices: &Slices, entry: Entry) -> std::result::Result<TableBuild, String> {
+    let mut table = slices.empty_table().map_err(|e| e.to_string())?;
+    if entry.values.len() != table.data.len()
+        || entry.standard_error.as_ref().is_some_and(|s| s.len() != table.data.len())
+        || entry.values.iter().any(|v| !v.is_finite())
+    {
+        return Err(format!("{} values where the slice has {}", entry.values.len(), table.data.len()));
+    }
+    table.data = entry.values;
+    let metadata = slices.metadata();
+    let mut notes = metadata.notes;
+    notes.push(BATCH_CHECK_NOTE.into());
+    notes.push(FROM_CACHE_NOTE.into());
+    Ok(TableBuild {
+        table,
+        provenance: Provenance {
+            integrand: metadata.integrand,
+            masking: metadata.masking,
+            notes,
+            sampling: entry.sampling,
+            error: ErrorRecord { replicate_standard_error: entry.replicate_standard_error, reference: entry.reference },
+            wall_time_s: entry.wall_time_s,
+            fresnel_basis: None,
+            accuracy: Vec::new(),
+            standard_error: entry.standard_error,
+            interpolation: entry.interpolation,
+            channel_sum: None,
+        },
+    })
+}
+
+/// What a cache folder holds: entries and their bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CacheUsage {
+    pub entries: usize,
+    pub bytes: u64,
+}
+
+/// The entries of the cache at `dir`, oldest first, with their sizes.
+fn entries(dir: &Path) -> Result<Vec<(PathBuf, u64, std::time::SystemTime)>> {
+    let listing = std::fs::read_dir(dir).map_err(|source| Error::io(dir, source))?;
+    let mut entries: Vec<(PathBuf, u64, std::time::SystemTime)> = listing
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == ENTRY_EXTENSION))
+        .filter_map(|e| {
+            let metadata = e.metadata().ok().filter(|m| m.is_file())?;
+            Some((e.path(), metadata.len(), metadata.modified().unwrap_or(std::time::UNIX_EPOCH)))
+        })
+        .collect();
+    entries.sort_by(|a, b| a.2.cmp(&b.2).then_with(|| a.0.cmp(&b.0)));
+    Ok(entries)
+}
+
+/// Entries and bytes of the cache at `dir`.
+pub fn usage(dir: &Path) -> Result<CacheUsage> {
+    let entries = entries(dir)?;
+    Ok(CacheUsage { entries: entries.len(), bytes: entries.iter().map(|e| e.1).sum() })
+}
+
+/// Remove the oldest entries of the cache at `dir` until it holds at most `max_bytes` (0 empties
+/// it), and the temporary files of writers that died; only files of the cache's own names are
+/// touched. Returns what is left.
+pub fn prune(dir: &Path, max_bytes: u64) -> Result<CacheUsage> {
+    if let Ok(listing) = std::fs::read_dir(dir) {
+        for entry in listing.flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name.starts_with('.') && name.contains(".tmp-") && entry.path().is_file() {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+    let entries = entries(dir)?;
+    let mut total: u64 = entries.iter().map(|e| e.1).sum();
+    let mut left = entries.len();
+    for (path, bytes, _) in &entries {
+        if total <= max_bytes {
+            break;
+        }
+        std::fs::remove_file(path).map_err(|source| Error::io(path, source))?;
+        total -= bytes;
+        left -= 1;
+    }
+    Ok(CacheUsage { entries: left, bytes: total })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::recipes::fgd::FgdSettings;
+    use crate::recipes::settings::SamplingConfig;
+    use crate::recipes::slices::{SliceChannel, SliceOf, integrate_batch};
+    use crate::table::{Axis, Mapping};
+
+    fn slice(name: &str, eta: f64) -> Slices {
+        let mut settings = FgdSettings::default();
+        settings.sampling = SamplingConfig { samples: 1 << 10, replicates: 4 };
+        settings.reference.cells = 4;
+        settings.reference.samples = 1 << 12;
+        let mu = Axis::node_aligned("mu", 0.5, 0.5 + 4.0 / 128.0, 5).unwrap();
+        let alpha = Axis::node_aligned("alpha", 0.0625, 0.0625 * (1.0 + 1.0 / 32.0) * (1.0 + 1.0 / 32.0), 2)
+            .unwrap()
+            .with_mapping(Mapping::Sqrt)
+            .unwrap();
+        Slices {
+            name: name.into(),
+            of: SliceOf::Fgd(settings),
+            lookup_mu: [mu.start, mu.end],
+            lookup_alpha: [alpha.start, alpha.end],
+            mu,
+            alpha,
+            channels: vec![SliceChannel { eta, kappa: 0.0, used_by: name.into() }],
+        }
+    }
+
+    #[test]
+    fn an_entry_gives_back_the_bits_it_stored_under_any_name_and_a_damaged_one_is_never_used() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = SliceCache::open(dir.path());
+        let built = integrate_batch(&[&slice("a", 1.5)], 3, &()).unwrap().remove(0);
+        assert!(cache.get(&slice("a", 1.5), 3).is_none());
+        cache.put(&slice("a", 1.5), 3, &built);
+        // Another name, the same integral: the same entry.
+        let read = cache.get(&slice("renamed", 1.5), 3).expect("a hit");
+        assert_eq!(read.table.data, built.table.data);
+        assert_eq!(read.provenance.error, built.provenance.error);
+        assert_eq!(cache.hits(), 1);
+        // Another index or seed: another key.
+        assert!(cache.get(&slice("a", 1.6), 3).is_none() && cache.get(&slice("a", 1.5), 4).is_none());
+
+        // One byte changed: refused with a warning, built again and stored whole.
+        let path = cache.entry_path(&SliceCache::key(&slice("a", 1.5), 3));
+        let mut bytes = std::fs::read(&path).unwrap();
+        let last = bytes.len() - 2;
+        bytes[last] ^= 1;
+        std::fs::write(&path, &bytes).unwrap();
+        assert!(cache.get(&slice("a", 1.5), 3).is_none());
+        assert!(cache.warnings().iter().any(|w| w.contains("damaged")), "{:?}", cache.warnings());
+        cache.put(&slice("a", 1.5), 3, &built);
+        assert_eq!(cache.get(&slice("a", 1.5), 3).unwrap().table.data, built.table.data);
+
+        assert_eq!(usage(dir.path()).unwrap().entries, 1);
+        assert_eq!(prune(dir.path(), 0).unwrap(), CacheUsage::default());
+        assert!(cache.get(&slice("a", 1.5), 3).is_none());
+    }
+
+    #[test]
+    fn a_cache_that_cannot_be_written_degrades_to_building_with_one_warning() {
+        let dir = tempfile::tempdir().unwrap();
+        // A file where the cache folder should be.
+        let file = dir.path().join("not-a-folder");
+        std::fs::write(&file, b"x").unwrap();
+        let cache = SliceCache::open(&file);
+        let built = integrate_batch(&[&slice("a", 1.5)], 3, &()).unwrap().remove(0);
+        cache.put(&slice("a", 1.5), 3, &built);
+        assert!(cache.get(&slice("a", 1.5), 3).is_none());
+        assert_eq!(cache.warnings().len(), 1, "{:?}", cache.warnings());
+        assert!(cache.warnings()[0].contains("building without it"), "{:?}", cache.warnings());
+    }
+}
