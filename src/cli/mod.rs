@@ -3,6 +3,7 @@
 //! arguments, draws progress bars and turns errors into exit codes.
 
 use std::path::PathBuf;
+use std::process::ExitCode;
 use std::sync::Mutex;
 
 use clap::{Args, Parser, Subcommand};
@@ -66,13 +67,16 @@ impl Context {
     }
 }
 
-pub fn run(cli: Cli) -> tmlut::Result<()> {
+/// Run a command and give its exit status: 0 when it did what was asked, 1 when it failed. `check`
+/// tells a budget exceeded (1) from a folder it could not check (2; see `check::exec`), so that CI
+/// tells a worse table from a broken job.
+pub fn run(cli: Cli) -> ExitCode {
     let context = Context { quiet: cli.quiet };
-    match cli.command {
+    let result = match cli.command {
         Command::Build(args) => build::exec(args, &context),
         Command::Plan(args) => plan::exec(args, &context),
         Command::Bench(args) => bench::exec(args, &context),
-        Command::Check(args) => check::exec(args, &context),
+        Command::Check(args) => return check::exec(args, &context),
         Command::Stability(args) => stability::exec(args, &context),
         Command::PackReport(args) => pack_report::exec(args, &context),
         Command::Converge(args) => converge::exec(args, &context),
@@ -81,6 +85,19 @@ pub fn run(cli: Cli) -> tmlut::Result<()> {
         Command::Shader(args) => shader::exec(args, &context),
         Command::List(args) => list::exec(args, &context),
         Command::Inspect(args) => inspect::exec(args, &context),
+    };
+    exit_status(result, ExitCode::FAILURE)
+}
+
+/// Print the error of `result`, if any, on standard error and give the status to exit with:
+/// success, or `on_error`.
+pub fn exit_status(result: tmlut::Result<()>, on_error: ExitCode) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            on_error
+        }
     }
 }
 
