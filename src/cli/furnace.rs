@@ -8,7 +8,7 @@ use tmlut::model::folder::FgdSource;
 use tmlut::random_walk::{Masking, WalkSettings};
 use tmlut::scene::Scene;
 
-use super::{ConfigArg, Context, ThreadsArg, one_of};
+use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count, one_of};
 
 /// The furnace test of a scene's materials: the directional albedo A(mu) of the transfer-matrix
 /// model with the scene's tables, with exact integrals, and from a random walk through the
@@ -71,6 +71,12 @@ fn parse_fgd_source(text: &str) -> Result<FgdSource, String> {
 }
 
 pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
+    // The library bounds these too (`FurnaceSettings::validate`); here the error names the option.
+    check_count("--views", args.views, tmlut::furnace::VIEWS)?;
+    check_sample_count("--exact-samples", args.exact_samples)?;
+    check_count("--walk-min-paths", args.walk_min_paths, 1..=tmlut::random_walk::MAX_PATHS)?;
+    check_count("--walk-max-paths", args.walk_max_paths, 1..=tmlut::random_walk::MAX_PATHS)?;
+    check_count("--picture-size", args.picture_size, tmlut::furnace::PICTURE_SIZES)?;
     let config = args.config.load()?;
     args.threads.apply()?;
     let scenes = if args.scenes.is_empty() {

@@ -142,8 +142,33 @@ impl ThreadsArg {
     }
 }
 
-/// A sample count given on the command line must be a power of two.
+/// A count given on the command line, refused outside `allowed` before anything is allocated or
+/// run: an unbounded count aborts on its allocation (or overflows the arithmetic sizing it) long
+/// after the option was read, with no word of which option it was.
+pub fn check_count<T>(key: &str, value: T, allowed: std::ops::RangeInclusive<T>) -> tmlut::Result<()>
+where
+    T: PartialOrd + std::fmt::Display,
+{
+    if allowed.contains(&value) {
+        Ok(())
+    } else {
+        Err(tmlut::Error::invalid(key, format!("{value}; allowed: {} to {}", allowed.start(), allowed.end())))
+    }
+}
+
+/// The most samples per cell a sample-count option takes: a reference's points are held in memory
+/// at once (about 24 bytes each, 400 MiB here), so the configuration's 2^32 would need 100 GiB.
+pub const MAX_OPTION_SAMPLES: u64 = 1 << 24;
+
+/// A sample count given on the command line must be a power of two, at most
+/// [`MAX_OPTION_SAMPLES`].
 pub fn check_sample_count(key: &str, samples: u64) -> tmlut::Result<()> {
+    if samples > MAX_OPTION_SAMPLES {
+        return Err(tmlut::Error::invalid(
+            key,
+            format!("{samples}; allowed: a power of two from 2 to 2^24 = {MAX_OPTION_SAMPLES} (held in memory at once)"),
+        ));
+    }
     tmlut::sampling::sequence::SamplePlan::new(samples, 1)
         .map(|_| ())
         .map_err(|e| tmlut::Error::invalid(key, e.to_string()))
