@@ -448,3 +448,17 @@ fn planning_work_is_bounded() {
         "{e}"
     );
 }
+
+#[test]
+fn gd_is_planned_for_every_lobe_the_shader_reads_it_for_even_one_without_energy() {
+    // A coat over a conductor that reflects nothing (relative index 1, kappa 5e-324)
+    // has a lobe with no energy at every view: the model reads no GD for it, but the shader binds
+    // GD for it all the same, and refused the folder whose plan had left GD out.
+    let text = format!("{ONE_LAYER}[[material.layer]]\ntype = \"interface\"\neta = 1.5\nkappa = 1.0\nalpha = 0.2\n");
+    let mut scene = parse(&text).unwrap();
+    let Layer::Interface(conductor) = &mut scene.materials[0].layers[1] else { panic!("an interface") };
+    conductor.kappa = [Interval::point(5e-324); 3];
+    conductor.nominal.kappa = [5e-324; 3];
+    let plan = plan(&scene, &Config::default()).unwrap();
+    assert!(table_names(&plan).contains(&"gd"), "{:?}", table_names(&plan));
+}
