@@ -219,15 +219,25 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
                 ));
             };
             let depth = number(depth, &format!("{where_}: depth"))?;
-            if !(depth.is_finite() && depth > 0.0) {
-                return Err(Error::invalid(format!("{where_}: depth"), format!("{depth}; allowed: finite and > 0")));
+            if !(depth.is_finite() && depth > 0.0 && shader_holds(depth)) {
+                return Err(Error::invalid(
+                    format!("{where_}: depth"),
+                    format!(
+                        "{}; allowed: a finite number from {MIN_MAGNITUDE:e} to {MAX_COEFFICIENT:e} (held in f32 by \
+                         the shader)",
+                        number_text(depth)
+                    ),
+                ));
             }
             let g = match table.get("g") {
                 None => 0.0,
                 Some(value) => number(value, &format!("{where_}: g"))?,
             };
-            if !(-1.0..=1.0).contains(&g) {
-                return Err(Error::invalid(format!("{where_}: g"), format!("{g}; allowed: -1 to 1")));
+            if !((-1.0..=1.0).contains(&g) && shader_holds(g)) {
+                return Err(Error::invalid(
+                    format!("{where_}: g"),
+                    format!("{}; allowed: -1 to 1, 0 or at least {MIN_MAGNITUDE:e} in magnitude", number_text(g)),
+                ));
             }
             Ok(Layer::Medium(Medium { sigma_s, sigma_k, depth, g }))
         }
@@ -247,6 +257,21 @@ pub const MAX_INDEX: f64 = 100.0;
 /// The most materials a scene holds.
 pub const MAX_MATERIALS: usize = 256;
 
+/// The smallest magnitude of a value other than 0: the scene's shader holds every value, and the
+/// constants folded from them (a medium's path limit `45 / sigma`, its backward scattering
+/// `sigma_s` times a share), in f32, whose normal numbers end at 1.2e-38. A kappa of 5e-324 was a
+/// conductor to the planner and 0 to the shader; 1e-40 folded to an infinite path limit.
+pub const MIN_MAGNITUDE: f64 = 1e-30;
+/// The largest medium coefficient (`sigma_s`, `sigma_k`) or depth: f32 ends at 3.4e38, and the
+/// constants folded from coefficients (their sums, `sqrt` of their products) must stay inside it.
+pub const MAX_COEFFICIENT: f64 = 1e30;
+
+/// Whether the scene's shader holds `x` as the value it is: 0, or a magnitude in
+/// [`MIN_MAGNITUDE`, `MAX_COEFFICIENT`].
+fn shader_holds(x: f64) -> bool {
+    x == 0.0 || (MIN_MAGNITUDE..=MAX_COEFFICIENT).contains(&x.abs())
+}
+
 /// What values a parameter admits.
 #[derive(Clone, Copy)]
 enum Bound {
@@ -263,18 +288,18 @@ impl Bound {
         x.is_finite()
             && match self {
                 Bound::Index => (MIN_INDEX..=MAX_INDEX).contains(&x),
-                Bound::Extinction => (0.0..=MAX_INDEX).contains(&x),
-                Bound::NonNegative => x >= 0.0,
-                Bound::Unit => (0.0..=1.0).contains(&x),
+                Bound::Extinction => (0.0..=MAX_INDEX).contains(&x) && shader_holds(x),
+                Bound::NonNegative => (0.0..=MAX_COEFFICIENT).contains(&x) && shader_holds(x),
+                Bound::Unit => (0.0..=1.0).contains(&x) && shader_holds(x),
             }
     }
 
     fn allowed(self) -> String {
         match self {
             Bound::Index => format!("{MIN_INDEX} to {MAX_INDEX} (a real medium's index)"),
-            Bound::Extinction => format!("0 to {MAX_INDEX} (a real medium's extinction index)"),
-            Bound::NonNegative => "finite and >= 0".into(),
-            Bound::Unit => "0 to 1".into(),
+            Bound::Extinction => format!("0, or {MIN_MAGNITUDE:e} to {MAX_INDEX} (a real medium's extinction index)"),
+            Bound::NonNegative => format!("0, or {MIN_MAGNITUDE:e} to {MAX_COEFFICIENT:e} (held in f32 by the shader)"),
+            Bound::Unit => format!("0, or {MIN_MAGNITUDE:e} to 1"),
         }
     }
 }

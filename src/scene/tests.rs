@@ -450,8 +450,31 @@ fn planning_work_is_bounded() {
 }
 
 #[test]
+fn values_the_shader_cannot_hold_in_f32_are_refused_naming_key_and_range() {
+    // Each printed `inf` into the scene's shader (or a subnormal a GPU flushes to 0), which then
+    // failed to compile while `tmlut shader` exited 0.
+    let medium = |line: &str| format!("{ONE_LAYER}[[material.layer]]\ntype = \"medium\"\n{line}\n");
+    for (text, key, allowed) in [
+        (medium("sigma_k = 0.5\ndepth = 3.4e38"), "layer 2: depth", "a finite number from 1e-30 to 1e30"),
+        (medium("sigma_k = 0.5\ndepth = 1e-40"), "layer 2: depth", "a finite number from 1e-30 to 1e30"),
+        (medium("sigma_s = 1e39\ndepth = 1.0"), "layer 2: sigma_s", "0, or 1e-30 to 1e30"),
+        (medium("sigma_k = 1e-40\ndepth = 1.0"), "layer 2: sigma_k", "0, or 1e-30 to 1e30"),
+        (medium("sigma_s = 0.5\ng = 1e-40\ndepth = 1.0"), "layer 2: g", "-1 to 1, 0 or at least 1e-30 in magnitude"),
+        (ONE_LAYER.replace("eta = 1.5", "eta = 1.5\nkappa = 5e-324"), "layer 1: kappa", "0, or 1e-30 to 100"),
+        (ONE_LAYER.replace("alpha = 0.1", "alpha = 1e-40"), "layer 1: alpha", "0, or 1e-30 to 1"),
+    ] {
+        let e = error(&text);
+        assert!(e.contains(key) && e.contains(&format!("allowed: {allowed}")), "{key}: {e}");
+    }
+    // The ends of the ranges are values a scene may give.
+    for line in ["sigma_k = 1e30\ndepth = 1e30", "sigma_s = 1e-30\nsigma_k = 0\ndepth = 1e-30", "sigma_k = 0.5\ndepth = 1.0\ng = -1e-30"] {
+        parse(&medium(line)).unwrap();
+    }
+}
+
+#[test]
 fn gd_is_planned_for_every_lobe_the_shader_reads_it_for_even_one_without_energy() {
-    // A coat over a conductor that reflects nothing (relative index 1, kappa 5e-324)
+    // A coat over a conductor that reflects nothing (relative index 1, kappa 5e-324, once admitted)
     // has a lobe with no energy at every view: the model reads no GD for it, but the shader binds
     // GD for it all the same, and refused the folder whose plan had left GD out.
     let text = format!("{ONE_LAYER}[[material.layer]]\ntype = \"interface\"\neta = 1.5\nkappa = 1.0\nalpha = 0.2\n");
