@@ -606,20 +606,29 @@ fn scene_shaders_cover_the_6_flux_model_the_split_sum_tables_and_the_3d_tir_tabl
 }
 
 #[test]
-fn material_names_that_give_one_function_name_are_refused() {
+fn names_that_give_one_file_are_refused_by_plan_and_build_alike() {
+    // `plan` passed names that `build` then refused ("a format listed twice", "file name too
+    // long"), or that gave one shader function (`glass a`, `glass-a`): both now refuse them.
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), SMALL_SET);
-    let scene = dir.path().join("twins.toml");
     let material = |name: &str| {
         format!("[[material]]\nname = \"{name}\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n")
     };
-    std::fs::write(&scene, material("glass a") + &material("glass-a")).unwrap();
-    let out = dir.path().join("luts");
-    let output = build(&config, &out, &["--scene", scene.to_str().unwrap()]);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let text = stderr(&output);
-    assert!(text.contains("no shader written") && text.contains("`tm_glass_a`"), "{text}");
-    assert!(!out.join("twins.wgsl").exists());
+    let long = "x".repeat(300);
+    for (text, expected) in [
+        (material("glass a") + &material("glass-a"), &["material 2", "`glass-a`", "(`glass a`)"][..]),
+        (material("Copper") + &material("copper"), &["material 2", "`copper`", "(`Copper`)"]),
+        (material(&long), &["material 1: name", "300 characters", "allowed: 1 to 64"]),
+    ] {
+        let scene = dir.path().join("twins.toml");
+        std::fs::write(&scene, text).unwrap();
+        let output = tmlut(&["plan", scene.to_str().unwrap(), "--config", config.to_str().unwrap()]);
+        assert_clean_failure(&output, expected);
+        let out = dir.path().join("luts");
+        let output = build(&config, &out, &["--scene", scene.to_str().unwrap()]);
+        assert_clean_failure(&output, expected);
+        assert!(!out.join(MANIFEST_FILE).exists());
+    }
 }
 
 #[test]

@@ -204,3 +204,16 @@ fn scenes_whose_plan_needs_no_tir_table_are_measured() {
     let report = report(&out, "no-tir");
     assert_eq!(report["materials"].as_array().unwrap().len(), 4);
 }
+
+#[test]
+fn scenes_whose_names_give_one_folder_are_refused_before_either_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let copper = std::fs::read_to_string(repo("luts/scenes/copper-pot.toml")).unwrap();
+    let twin = dir.path().join("twin.toml");
+    std::fs::write(&twin, copper.replace("name = \"copper-pot\"", "name = \"Copper Pot\"")).unwrap();
+    let out = dir.path().join("furnace");
+    let output = tmlut(&["furnace", &repo("luts/scenes/copper-pot.toml"), twin.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(1), "{}", text(&output));
+    assert!(text(&output).contains("`Copper Pot`") && text(&output).contains("copper-pot"), "{}", text(&output));
+    assert!(!out.exists(), "nothing is written");
+}

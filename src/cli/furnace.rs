@@ -113,10 +113,28 @@ pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
         ..Default::default()
     };
     settings.validate()?;
-    let progress = context.progress();
-    let mut summary = String::from(tmlut::furnace::report::MARKDOWN_HEADER);
+    // Every scene is read before any runs: each writes into a folder named after it, and two
+    // names that give one folder (`copper-pot` and `copper pot`) would overwrite each other.
+    let mut read: Vec<(PathBuf, Scene, String)> = Vec::new();
     for path in scenes {
         let (scene, text) = Scene::read(&path)?;
+        let stem = tmlut::furnace::report::file_stem(&scene.name);
+        if let Some((other, _, _)) = read.iter().find(|(_, s, _)| tmlut::furnace::report::file_stem(&s.name) == stem) {
+            return Err(tmlut::Error::invalid(
+                path.display().to_string(),
+                format!(
+                    "scene `{}` writes into the folder `{stem}`, as scene {} does; scenes run together need names \
+                     that differ in more than case and punctuation",
+                    scene.name,
+                    other.display()
+                ),
+            ));
+        }
+        read.push((path, scene, text));
+    }
+    let progress = context.progress();
+    let mut summary = String::from(tmlut::furnace::report::MARKDOWN_HEADER);
+    for (path, scene, text) in read {
         for warning in &scene.warnings {
             eprintln!("warning: {warning}");
         }

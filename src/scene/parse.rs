@@ -45,6 +45,7 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Resu
         Some(value) => string(value, &format!("{origin}: name"))?.to_string(),
         None => default_name.to_string(),
     };
+    check_name(&name, &format!("{origin}: name"), "scene")?;
     let defaults = Paths {
         model: choice(document, "model", origin)?.unwrap_or(FluxModel::TwoFlux),
         albedo: choice(document, "albedo", origin)?.unwrap_or(AlbedoPath::Fgd),
@@ -73,17 +74,30 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Resu
         ));
     }
     let mut scene = Scene { name, materials: Vec::new(), margin_nodes, warnings: Vec::new() };
-    let mut names = std::collections::HashSet::new();
+    // Each material's files (its slices, its furnace pictures) and shader function are named
+    // after it, as `file_name_part` maps it: two names that map to one would overwrite each other's
+    // files, or fail the build after `plan` passed them.
+    let mut names: std::collections::HashMap<String, (usize, String)> = std::collections::HashMap::new();
     for (index, value) in materials.iter().enumerate() {
         let where_ = format!("{origin}: material {}", index + 1);
         let table = value.as_table().ok_or_else(|| Error::invalid(&where_, "must be a table ([[material]])"))?;
         let material = parse_material(table, &where_, index, defaults, &mut scene.warnings)?;
-        if !names.insert(material.name.clone()) {
-            return Err(Error::invalid(
-                where_,
-                format!("the name `{}` is used twice; names must differ", material.name),
-            ));
+        let part = file_name_part(&material.name);
+        if let Some((other, other_name)) = names.get(&part) {
+            let reason = if *other_name == material.name {
+                format!("the name `{}` is used twice; names must differ", material.name)
+            } else {
+                format!(
+                    "the name `{}` gives the files and shader function of material {} (`{other_name}`): both \
+                     become `{part}` (names are lowercased, and every character but an ASCII letter or digit \
+                     becomes `-`); names must differ in more than case and punctuation",
+                    material.name,
+                    other + 1
+                )
+            };
+            return Err(Error::invalid(where_, reason));
         }
+        names.insert(part, (index, material.name.clone()));
         scene.materials.push(material);
     }
     Ok(scene)
@@ -101,9 +115,7 @@ fn parse_material(
         Some(value) => string(value, &format!("{where_}: name"))?.to_string(),
         None => format!("material-{}", index + 1),
     };
-    if name.is_empty() {
-        return Err(Error::invalid(format!("{where_}: name"), "is empty"));
-    }
+    check_name(&name, &format!("{where_}: name"), "material")?;
     let where_ = format!("{where_} (`{name}`)");
     let model = choice(table, "model", &where_)?.unwrap_or(defaults.model);
     let albedo = choice(table, "albedo", &where_)?.unwrap_or(defaults.albedo);
@@ -245,6 +257,40 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
             Err(Error::invalid(format!("{where_}: type"), format!("`{other}`; allowed: \"interface\", \"medium\"")))
         }
     }
+}
+
+/// The longest scene or material name, in characters. Names become parts of file names (a
+/// material's slices `fgd_<material>_l<layer>_<direction>.ktx2`, its furnace pictures, the scene's
+/// `<scene>.shader.json` and furnace folder) that must stay under the 255 bytes a file name may
+/// have with room for the rest; 300-character names passed `plan` and failed the build.
+pub const MAX_NAME_CHARS: usize = 64;
+
+/// Refuse a scene or material name that cannot name files: empty (a scene named `""` wrote into
+/// the output folder itself), or longer than [`MAX_NAME_CHARS`].
+fn check_name(name: &str, key: &str, what: &str) -> Result<()> {
+    if name.is_empty() {
+        return Err(Error::invalid(key, format!("is empty; a {what} needs a name (it names files)")));
+    }
+    let chars = name.chars().count();
+    if chars > MAX_NAME_CHARS {
+        return Err(Error::invalid(
+            key,
+            format!(
+                "`{}...` is {chars} characters long; allowed: 1 to {MAX_NAME_CHARS} (the name becomes part of file \
+                 names)",
+                name.chars().take(16).collect::<String>()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A name as it appears in file names and shader identifiers: lowercased, every character but an
+/// ASCII letter or digit a `-`. The scene's files map names the same way (`plan`'s slice names and
+/// the furnace's file names keep `-`, the shader's identifiers write `_` for it), so two names
+/// that give one part give one file.
+pub fn file_name_part(name: &str) -> String {
+    name.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' }).collect()
 }
 
 /// The smallest real index an interface's medium may have: below every real medium (silver's is

@@ -564,9 +564,10 @@ fn two_or_more_nodes(name: &str, lo: f64, hi: f64, top: f64, m: fn(f64) -> f64, 
     Axis::node_aligned(name, lo, hi, count)?.with_mapping(mapping)
 }
 
-/// A material name as it may appear in a file name.
+/// A material name as it may appear in a file name: the one mapping the scene parser holds names
+/// apart by.
 fn file_safe(name: &str) -> String {
-    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c.to_ascii_lowercase() } else { '-' }).collect()
+    super::file_name_part(name)
 }
 
 pub fn human_bytes(bytes: u64) -> String {

@@ -473,6 +473,34 @@ fn values_the_shader_cannot_hold_in_f32_are_refused_naming_key_and_range() {
 }
 
 #[test]
+fn names_that_would_share_a_file_or_not_fit_one_are_refused() {
+    // `plan` passed these, and `build` then failed on "a format listed twice" or "file name too
+    // long"; `Copper` and `copper` shared their furnace pictures.
+    let named = |name: &str| ONE_LAYER.replace("name = \"m\"", &format!("name = \"{name}\""));
+    for (a, b) in [("Copper", "copper"), ("glass a", "glass-a"), ("glass_a", "glass.a"), ("été", "-t-")] {
+        let e = error(&format!("{}{}", named(a), named(b)));
+        assert!(e.contains("material 2") && e.contains(&format!("`{b}`")) && e.contains(&format!("(`{a}`)")), "{e}");
+        assert!(e.contains("differ in more than case and punctuation"), "{e}");
+    }
+    let long = "x".repeat(MAX_NAME_CHARS + 1);
+    let e = error(&named(&long));
+    assert!(e.contains("material 1: name") && e.contains("65 characters") && e.contains("allowed: 1 to 64"), "{e}");
+    parse(&named(&"x".repeat(MAX_NAME_CHARS))).unwrap();
+    let e = error(&named(""));
+    assert!(e.contains("material 1: name") && e.contains("is empty"), "{e}");
+    let e = error(&format!("name = \"\"\n{ONE_LAYER}"));
+    assert!(e.contains("test.toml: name") && e.contains("is empty"), "{e}");
+    let e = error(&format!("name = \"{long}\"\n{ONE_LAYER}"));
+    assert!(e.contains("test.toml: name") && e.contains("allowed: 1 to 64"), "{e}");
+    // Whatever the name, the files a plan makes are named by the same mapping the parser holds apart.
+    let scene = parse(&format!("{}{}", named("Glass A"), named("glass b").replace("1.5", "1.6"))).unwrap();
+    let plan = plan(&scene, &Config::default()).unwrap();
+    let mut slice_names: Vec<&str> = table_names(&plan).into_iter().filter(|n| n.starts_with("fgd_")).collect();
+    slice_names.sort();
+    assert_eq!(slice_names, ["fgd_glass-a_l1_from-above", "fgd_glass-b_l1_from-above"]);
+}
+
+#[test]
 fn gd_is_planned_for_every_lobe_the_shader_reads_it_for_even_one_without_energy() {
     // A coat over a conductor that reflects nothing (relative index 1, kappa 5e-324, once admitted)
     // has a lobe with no energy at every view: the model reads no GD for it, but the shader binds
