@@ -640,9 +640,32 @@ fn every_scene_shader_validates_whatever_its_material_names_and_values() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), SMALL_SET);
     let hostile = [
-        "finite-or", "finite-or3", "average", "ggx-to-hg", "transmission-g", "then-interface", "refracted-cosine",
-        "hg-refract", "attenuate", "asinh", "trilinear", "acos", "slab", "safe-ratio", "bilinear", "hg-to-ggx",
-        "normalised", "identity", "table0", "table1", "table2", "table3", "slice0", "slice1", "slice2", "main",
+        "finite-or",
+        "finite-or3",
+        "average",
+        "ggx-to-hg",
+        "transmission-g",
+        "then-interface",
+        "refracted-cosine",
+        "hg-refract",
+        "attenuate",
+        "asinh",
+        "trilinear",
+        "acos",
+        "slab",
+        "safe-ratio",
+        "bilinear",
+        "hg-to-ggx",
+        "normalised",
+        "identity",
+        "table0",
+        "table1",
+        "table2",
+        "table3",
+        "slice0",
+        "slice1",
+        "slice2",
+        "main",
     ];
     let original = std::fs::read_to_string(scene_path("gpu-check/stiff-stacks")).unwrap();
     let mut names = hostile.iter();

@@ -212,7 +212,13 @@ fn scenes_whose_names_give_one_folder_are_refused_before_either_runs() {
     let twin = dir.path().join("twin.toml");
     std::fs::write(&twin, copper.replace("name = \"copper-pot\"", "name = \"Copper Pot\"")).unwrap();
     let out = dir.path().join("furnace");
-    let output = tmlut(&["furnace", &repo("luts/scenes/copper-pot.toml"), twin.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let output = tmlut(&[
+        "furnace",
+        &repo("luts/scenes/copper-pot.toml"),
+        twin.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(output.status.code(), Some(1), "{}", text(&output));
     assert!(text(&output).contains("`Copper Pot`") && text(&output).contains("copper-pot"), "{}", text(&output));
     assert!(!out.exists(), "nothing is written");

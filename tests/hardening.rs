@@ -242,7 +242,10 @@ fn count_options_beyond_any_machine_are_refused_naming_the_option_and_its_range(
     let scene = format!("{}/luts/scenes/copper-pot.toml", env!("CARGO_MANIFEST_DIR"));
     let huge = "18446744073709551615";
     let cases: Vec<(Vec<&str>, &str)> = vec![
-        (vec!["shader", &scene, "--luts", out, "--out", out, "--reference-views", "1000000000000"], "--reference-views"),
+        (
+            vec!["shader", &scene, "--luts", out, "--out", out, "--reference-views", "1000000000000"],
+            "--reference-views",
+        ),
         (vec!["shader", &scene, "--luts", out, "--out", out, "--reference-views", huge], "--reference-views"),
         (vec!["furnace", &scene, "--out", out, "--walk-min-paths", huge, "--walk-max-paths", huge], "--walk-min-paths"),
         (vec!["furnace", &scene, "--out", out, "--walk-max-paths", huge], "--walk-max-paths"),

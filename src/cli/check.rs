@@ -42,10 +42,7 @@ pub fn exec(args: CheckArgs, _: &Context) -> ExitCode {
     }
     let failed = findings.iter().filter(|f| !f.pass).count();
     let result = if failed > 0 {
-        Err(tmlut::Error::invalid(
-            args.dir.display().to_string(),
-            format!("{failed} budget(s) exceeded (see above)"),
-        ))
+        Err(tmlut::Error::invalid(args.dir.display().to_string(), format!("{failed} budget(s) exceeded (see above)")))
     } else {
         Ok(())
     };

@@ -166,7 +166,9 @@ pub fn check_sample_count(key: &str, samples: u64) -> tmlut::Result<()> {
     if samples > MAX_OPTION_SAMPLES {
         return Err(tmlut::Error::invalid(
             key,
-            format!("{samples}; allowed: a power of two from 2 to 2^24 = {MAX_OPTION_SAMPLES} (held in memory at once)"),
+            format!(
+                "{samples}; allowed: a power of two from 2 to 2^24 = {MAX_OPTION_SAMPLES} (held in memory at once)"
+            ),
         ));
     }
     tmlut::sampling::sequence::SamplePlan::new(samples, 1)

@@ -174,8 +174,14 @@ enum Albedo {
 
 #[derive(Debug, Clone)]
 enum Tir {
-    Table { slices: Vec<Slice>, full: Option<SampledTable> },
-    Fit { form: Form, parameters: Vec<f32> },
+    Table {
+        slices: Vec<Slice>,
+        full: Option<SampledTable>,
+    },
+    Fit {
+        form: Form,
+        parameters: Vec<f32>,
+    },
     Off,
     /// The folder holds no TIR table or fitted form: every TIR lookup misses.
     Absent,

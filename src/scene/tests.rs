@@ -467,7 +467,11 @@ fn values_the_shader_cannot_hold_in_f32_are_refused_naming_key_and_range() {
         assert!(e.contains(key) && e.contains(&format!("allowed: {allowed}")), "{key}: {e}");
     }
     // The ends of the ranges are values a scene may give.
-    for line in ["sigma_k = 1e30\ndepth = 1e30", "sigma_s = 1e-30\nsigma_k = 0\ndepth = 1e-30", "sigma_k = 0.5\ndepth = 1.0\ng = -1e-30"] {
+    for line in [
+        "sigma_k = 1e30\ndepth = 1e30",
+        "sigma_s = 1e-30\nsigma_k = 0\ndepth = 1e-30",
+        "sigma_k = 0.5\ndepth = 1.0\ng = -1e-30",
+    ] {
         parse(&medium(line)).unwrap();
     }
 }

@@ -89,7 +89,10 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
                         / (m.clone().member("m11") + m.member("m12") * base)
                 };
                 let g_alpha = f(ggx_to_hg(alpha) as f32);
-                (over("energy", n("base")), over("asym", v3(func("tmh_average", vec![n("base")]) * g_alpha)).member("x"))
+                (
+                    over("energy", n("base")),
+                    over("asym", v3(func("tmh_average", vec![n("base")]) * g_alpha)).member("x"),
+                )
             }
         };
         // The lobe: the increment of the cumulative reflectance (`tm2::lobes`); where nothing
