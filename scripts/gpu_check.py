@@ -86,20 +86,20 @@ class Worst:
 
 def wgsl_module(dev, text, function, stride, lobes):
     entry = f"""
-@group(1) @binding(0) var<storage, read> tm_views: array<f32>;
-@group(1) @binding(1) var<storage, read_write> tm_out: array<f32>;
+@group(1) @binding(0) var<storage, read> harness_views: array<f32>;
+@group(1) @binding(1) var<storage, read_write> harness_out: array<f32>;
 @compute @workgroup_size(64)
-fn tm_main(@builtin(global_invocation_id) id: vec3<u32>) {{
+fn harness_main(@builtin(global_invocation_id) id: vec3<u32>) {{
     let i = id.x;
-    if (i >= arrayLength(&tm_views)) {{ return; }}
-    let r = {function}(tm_views[i]);
+    if (i >= arrayLength(&harness_views)) {{ return; }}
+    let r = {function}(harness_views[i]);
     let o = i * {stride}u;
-    tm_out[o + 0u] = r.albedo.x; tm_out[o + 1u] = r.albedo.y; tm_out[o + 2u] = r.albedo.z;
-    tm_out[o + 3u] = r.top_albedo.x; tm_out[o + 4u] = r.top_albedo.y; tm_out[o + 5u] = r.top_albedo.z;
+    harness_out[o + 0u] = r.albedo.x; harness_out[o + 1u] = r.albedo.y; harness_out[o + 2u] = r.albedo.z;
+    harness_out[o + 3u] = r.top_albedo.x; harness_out[o + 4u] = r.top_albedo.y; harness_out[o + 5u] = r.top_albedo.z;
     for (var k = 0u; k < {lobes}u; k++) {{
         let b = o + 6u + 6u * k;
-        tm_out[b + 0u] = r.lobe_energy[k].x; tm_out[b + 1u] = r.lobe_energy[k].y; tm_out[b + 2u] = r.lobe_energy[k].z;
-        tm_out[b + 3u] = r.lobe_roughness[k]; tm_out[b + 4u] = r.lobe_cos[k]; tm_out[b + 5u] = r.lobe_gd[k];
+        harness_out[b + 0u] = r.lobe_energy[k].x; harness_out[b + 1u] = r.lobe_energy[k].y; harness_out[b + 2u] = r.lobe_energy[k].z;
+        harness_out[b + 3u] = r.lobe_roughness[k]; harness_out[b + 4u] = r.lobe_cos[k]; harness_out[b + 5u] = r.lobe_gd[k];
     }}
 }}
 """
@@ -111,22 +111,22 @@ def hlsl_module(dev, text, function, stride, lobes, glslang):
     warns once per `precise` value (the SPIR-V decoration NoContraction) that it does not keep
     the decoration; the warnings are silenced and `main` says so once."""
     entry = f"""
-StructuredBuffer<float> tm_views : register(t0, space1);
-RWStructuredBuffer<float> tm_out : register(u1, space1);
+StructuredBuffer<float> harness_views : register(t0, space1);
+RWStructuredBuffer<float> harness_out : register(u1, space1);
 [numthreads(64, 1, 1)]
-void tm_main(uint3 id : SV_DispatchThreadID) {{
+void harness_main(uint3 id : SV_DispatchThreadID) {{
     uint count, element_stride;
-    tm_views.GetDimensions(count, element_stride);
+    harness_views.GetDimensions(count, element_stride);
     uint i = id.x;
     if (i >= count) {{ return; }}
-    TmResult r = {function}(tm_views[i]);
+    TmResult r = {function}(harness_views[i]);
     uint o = i * {stride};
-    tm_out[o + 0] = r.albedo.x; tm_out[o + 1] = r.albedo.y; tm_out[o + 2] = r.albedo.z;
-    tm_out[o + 3] = r.top_albedo.x; tm_out[o + 4] = r.top_albedo.y; tm_out[o + 5] = r.top_albedo.z;
+    harness_out[o + 0] = r.albedo.x; harness_out[o + 1] = r.albedo.y; harness_out[o + 2] = r.albedo.z;
+    harness_out[o + 3] = r.top_albedo.x; harness_out[o + 4] = r.top_albedo.y; harness_out[o + 5] = r.top_albedo.z;
     for (uint k = 0; k < {lobes}; k++) {{
         uint b = o + 6 + 6 * k;
-        tm_out[b + 0] = r.lobe_energy[k].x; tm_out[b + 1] = r.lobe_energy[k].y; tm_out[b + 2] = r.lobe_energy[k].z;
-        tm_out[b + 3] = r.lobe_roughness[k]; tm_out[b + 4] = r.lobe_cos[k]; tm_out[b + 5] = r.lobe_gd[k];
+        harness_out[b + 0] = r.lobe_energy[k].x; harness_out[b + 1] = r.lobe_energy[k].y; harness_out[b + 2] = r.lobe_energy[k].z;
+        harness_out[b + 3] = r.lobe_roughness[k]; harness_out[b + 4] = r.lobe_cos[k]; harness_out[b + 5] = r.lobe_gd[k];
     }}
 }}
 """
@@ -134,7 +134,7 @@ void tm_main(uint3 id : SV_DispatchThreadID) {{
         source, spirv = Path(work) / "scene.hlsl", Path(work) / "scene.spv"
         source.write_text(text + entry)
         result = subprocess.run(
-            [glslang, "-D", "-V", "-S", "comp", "-e", "tm_main", str(source), "-o", str(spirv)],
+            [glslang, "-D", "-V", "-S", "comp", "-e", "harness_main", str(source), "-o", str(spirv)],
             capture_output=True,
             text=True,
         )
@@ -197,7 +197,7 @@ def check_scene(dev, shader_dir, luts, language, glslang):
                 module = wgsl_module(dev, text, material["function"], stride, lobes)
             else:
                 module = hlsl_module(dev, text, material["function"], stride, lobes, glslang)
-            pipeline = dev.create_compute_pipeline(layout=layout, compute={"module": module, "entry_point": "tm_main"})
+            pipeline = dev.create_compute_pipeline(layout=layout, compute={"module": module, "entry_point": "harness_main"})
             views_buffer = dev.create_buffer_with_data(data=mus.tobytes(), usage=wgpu.BufferUsage.STORAGE)
             out_buffer = dev.create_buffer(size=len(mus) * stride * 4, usage=wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_SRC)
             group0 = dev.create_bind_group(

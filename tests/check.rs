@@ -276,3 +276,41 @@ fn the_default_budgets_are_the_committed_file() {
     assert!(!output.status.success());
     assert!(text.contains("FAIL fgd.exr: replicate_max"), "{text}");
 }
+
+#[test]
+fn exit_status_tells_a_budget_exceeded_from_a_check_that_could_not_run() {
+    // CI needs 0 every budget held, 1 a budget exceeded, 2 the tool could not run: a broken job is
+    // not a worse table.
+    let status = |args: &[&str]| {
+        let output = tmlut(args);
+        let text = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+        assert!(!text.contains("panicked"), "{text}");
+        (output.status.code(), text)
+    };
+    let ci = ci_build().to_str().unwrap();
+    let ci_budgets = repo("luts/ci-budgets.toml");
+    assert_eq!(status(&["check", ci, "--budgets", &ci_budgets]).0, Some(0));
+
+    let dir = tempfile::tempdir().unwrap();
+    let tight = dir.path().join("tight.toml");
+    std::fs::write(&tight, "[fgd]\nmax_reference_rms = 1e-9\n").unwrap();
+    let (code, text) = status(&["check", ci, "--budgets", tight.to_str().unwrap()]);
+    assert_eq!(code, Some(1), "{text}");
+
+    let missing = dir.path().join("no-such-folder");
+    let (code, text) = status(&["check", missing.to_str().unwrap(), "--budgets", &ci_budgets]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("no-such-folder"), "{text}");
+
+    let typo = dir.path().join("typo.toml");
+    std::fs::write(&typo, "[fgd]\nmax_referenc_rms = 1e-3\n").unwrap();
+    let (code, text) = status(&["check", ci, "--budgets", typo.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("max_referenc_rms"), "{text}");
+
+    let (_copy, out) = copy_of_ci_build();
+    std::fs::write(out.join("manifest.json"), "{ not a manifest").unwrap();
+    let (code, text) = status(&["check", out.to_str().unwrap(), "--budgets", &ci_budgets]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("manifest.json"), "{text}");
+}

@@ -583,10 +583,10 @@ fn scene_shaders_cover_the_6_flux_model_the_split_sum_tables_and_the_3d_tir_tabl
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), SMALL_SET);
     for (scene, stem, expected) in [
-        ("scattering", "scattering", &["fn tm_scattering_stack(", "tm6_then_medium(", "tm_slab("][..]),
+        ("scattering", "scattering", &["fn tm_scattering_stack(", "tm6_then_medium(", "tmh_slab("][..]),
         ("thesis/split-sum", "thesis_split_sum", &["fn tm_varnished_copper_belcour(", "dot(vec4<f32>("]),
-        ("gpu-check/varied-coats", "varied_coats", &["tm_trilinear(", "tm_acos(", "fn fgd_lossless("]),
-        ("gpu-check/stiff-stacks", "stiff_stacks", &["tm6_reflectances_over(", "fn tm_slice0("]),
+        ("gpu-check/varied-coats", "varied_coats", &["tmh_trilinear(", "tmh_acos(", "fn fgd_lossless("]),
+        ("gpu-check/stiff-stacks", "stiff_stacks", &["tm6_reflectances_over(", "fn tmh_slice0("]),
     ] {
         let out = dir.path().join(stem);
         let output = build(&config, &out, &["--scene", &scene_path(scene)]);
@@ -606,20 +606,113 @@ fn scene_shaders_cover_the_6_flux_model_the_split_sum_tables_and_the_3d_tir_tabl
 }
 
 #[test]
-fn material_names_that_give_one_function_name_are_refused() {
+fn names_that_give_one_file_are_refused_by_plan_and_build_alike() {
+    // `plan` passed names that `build` then refused ("a format listed twice", "file name too
+    // long"), or that gave one shader function (`glass a`, `glass-a`): both now refuse them.
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), SMALL_SET);
-    let scene = dir.path().join("twins.toml");
     let material = |name: &str| {
         format!("[[material]]\nname = \"{name}\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n")
     };
-    std::fs::write(&scene, material("glass a") + &material("glass-a")).unwrap();
+    let long = "x".repeat(300);
+    for (text, expected) in [
+        (material("glass a") + &material("glass-a"), &["material 2", "`glass-a`", "(`glass a`)"][..]),
+        (material("Copper") + &material("copper"), &["material 2", "`copper`", "(`Copper`)"]),
+        (material(&long), &["material 1: name", "300 characters", "allowed: 1 to 64"]),
+    ] {
+        let scene = dir.path().join("twins.toml");
+        std::fs::write(&scene, text).unwrap();
+        let output = tmlut(&["plan", scene.to_str().unwrap(), "--config", config.to_str().unwrap()]);
+        assert_clean_failure(&output, expected);
+        let out = dir.path().join("luts");
+        let output = build(&config, &out, &["--scene", scene.to_str().unwrap()]);
+        assert_clean_failure(&output, expected);
+        assert!(!out.join(MANIFEST_FILE).exists());
+    }
+}
+
+#[test]
+fn every_scene_shader_validates_whatever_its_material_names_and_values() {
+    // Materials named after the generator's helpers redefined them (`finite-or` gave a second
+    // `tm_finite_or`), and extreme media printed `inf`; both shaders failed naga while `tmlut
+    // shader` exited 0. The stiff stacks cover every helper and slice chooser; here they carry the
+    // helpers' names, beside media at the ends of what a scene admits.
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let hostile = [
+        "finite-or",
+        "finite-or3",
+        "average",
+        "ggx-to-hg",
+        "transmission-g",
+        "then-interface",
+        "refracted-cosine",
+        "hg-refract",
+        "attenuate",
+        "asinh",
+        "trilinear",
+        "acos",
+        "slab",
+        "safe-ratio",
+        "bilinear",
+        "hg-to-ggx",
+        "normalised",
+        "identity",
+        "table0",
+        "table1",
+        "table2",
+        "table3",
+        "slice0",
+        "slice1",
+        "slice2",
+        "main",
+    ];
+    let original = std::fs::read_to_string(scene_path("gpu-check/stiff-stacks")).unwrap();
+    let mut names = hostile.iter();
+    let mut text: String = original
+        .lines()
+        .map(|line| {
+            let material_name = line.starts_with("name = ") && !line.contains("stiff-stacks");
+            match if material_name { names.next() } else { None } {
+                Some(name) => format!("name = \"{name}\"\n"),
+                None => format!("{line}\n"),
+            }
+        })
+        .collect();
+    assert!(names.next().is_none(), "every hostile name was given to a material");
+    for (k, medium) in [
+        "sigma_k = 1e30\ndepth = 1e30",
+        "sigma_s = 1e30\nsigma_k = 1e-30\ndepth = 1e-30\ng = 0.999999",
+        "sigma_s = 1e-30\nsigma_k = 1e-30\ndepth = 1e30\ng = -1e-30",
+    ]
+    .iter()
+    .enumerate()
+    {
+        for model in ["2-flux", "6-flux"] {
+            text.push_str(&format!(
+                "[[material]]\nname = \"extreme-{k}-{model}\"\nmodel = \"{model}\"\n\
+                 [[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n\
+                 [[material.layer]]\ntype = \"medium\"\n{medium}\n\
+                 [[material.layer]]\ntype = \"interface\"\neta = [0.2, 0.9, 1.1]\nkappa = [3.0, 2.5, 2.0]\nalpha = 0.3\n"
+            ));
+        }
+    }
+    let scene = dir.path().join("stiff-stacks.toml");
+    std::fs::write(&scene, text).unwrap();
     let out = dir.path().join("luts");
     let output = build(&config, &out, &["--scene", scene.to_str().unwrap()]);
     assert!(output.status.success(), "{}", stderr(&output));
-    let text = stderr(&output);
-    assert!(text.contains("no shader written") && text.contains("`tm_glass_a`"), "{text}");
-    assert!(!out.join("twins.wgsl").exists());
+    assert!(!stderr(&output).contains("no shader written"), "{}", stderr(&output));
+    assert_eq!(common::validate_wgsl_files(&out), 1);
+    let wgsl = std::fs::read_to_string(out.join("stiff_stacks.wgsl")).unwrap();
+    for name in hostile {
+        assert!(wgsl.contains(&format!("fn tm_{}(", name.replace('-', "_"))), "no function of `{name}`");
+    }
+    let code = wgsl.lines().map(|line| line.split("//").next().unwrap_or("")).collect::<Vec<_>>().join("\n");
+    let words: Vec<&str> = code.split(|c: char| !c.is_ascii_alphanumeric()).collect();
+    assert!(!words.contains(&"inf") && !words.contains(&"NaN"), "a non-finite literal");
+    let hlsl = std::fs::read_to_string(out.join("stiff_stacks.hlsl")).unwrap();
+    assert_eq!(shader_functions(&wgsl), shader_functions(&hlsl));
 }
 
 #[test]

@@ -160,3 +160,66 @@ fn bad_input_is_refused_with_what_is_allowed() {
     let said = text(&output);
     assert!(said.contains("has no table for") && said.contains("FGD of layer 1"), "{said}");
 }
+
+#[test]
+fn scenes_whose_plan_needs_no_tir_table_are_measured() {
+    // A bare conductor, one glass interface, an index-matched coat and a 6-flux material without
+    // a medium make no TIR lookup, so their plan builds no TIR table; the furnace refused the folder
+    // it had just built for them ("lists no TIR table").
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("no-tir.toml");
+    let interface = |eta: &str, kappa: &str| {
+        format!("[[material.layer]]\ntype = \"interface\"\neta = {eta}\nkappa = {kappa}\nalpha = 0.2\n")
+    };
+    let conductor = interface("[0.2, 0.9, 1.1]", "[3.0, 2.5, 2.0]");
+    let scene_text = [
+        format!("[[material]]\nname = \"bare-conductor\"\n{conductor}"),
+        format!("[[material]]\nname = \"glass\"\n{}", interface("1.5", "0.0")),
+        format!("[[material]]\nname = \"matched-coat\"\n{}{conductor}", interface("1.0", "0.0")),
+        format!("[[material]]\nname = \"six-flux\"\nmodel = \"6-flux\"\n{conductor}"),
+    ]
+    .concat();
+    std::fs::write(&scene, scene_text).unwrap();
+    let out = dir.path().join("furnace");
+    let output = tmlut(&[
+        "furnace",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--views",
+        "4",
+        "--exact-samples",
+        "1024",
+        "--walk-min-paths",
+        "1024",
+        "--walk-max-paths",
+        "4096",
+        "--picture-size",
+        "16",
+        "--quiet",
+    ]);
+    assert!(output.status.success(), "{}", text(&output));
+    let manifest = std::fs::read_to_string(out.join("no-tir").join("luts").join("manifest.json")).unwrap();
+    assert!(!manifest.contains("\"tir_"), "the plan built a TIR table after all");
+    let report = report(&out, "no-tir");
+    assert_eq!(report["materials"].as_array().unwrap().len(), 4);
+}
+
+#[test]
+fn scenes_whose_names_give_one_folder_are_refused_before_either_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let copper = std::fs::read_to_string(repo("luts/scenes/copper-pot.toml")).unwrap();
+    let twin = dir.path().join("twin.toml");
+    std::fs::write(&twin, copper.replace("name = \"copper-pot\"", "name = \"Copper Pot\"")).unwrap();
+    let out = dir.path().join("furnace");
+    let output = tmlut(&[
+        "furnace",
+        &repo("luts/scenes/copper-pot.toml"),
+        twin.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(1), "{}", text(&output));
+    assert!(text(&output).contains("`Copper Pot`") && text(&output).contains("copper-pot"), "{}", text(&output));
+    assert!(!out.exists(), "nothing is written");
+}

@@ -231,3 +231,42 @@ fn configurations_and_scenes_beyond_any_machine_are_refused_before_allocating() 
     let run = run_limited(&["plan", scene.to_str().unwrap()], QUICK);
     assert_clean_error(&run, &["`glaze`", "layer 1: vary.eta", "1e20", "allowed: 0.01 to 100"]);
 }
+
+#[test]
+fn count_options_beyond_any_machine_are_refused_naming_the_option_and_its_range() {
+    // Each aborted (SIGABRT on the allocation, a capacity-overflow panic) or ran for ever before
+    // it was bounded; every count option of every command is refused before anything is allocated.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    let scene = format!("{}/luts/scenes/copper-pot.toml", env!("CARGO_MANIFEST_DIR"));
+    let huge = "18446744073709551615";
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["shader", &scene, "--luts", out, "--out", out, "--reference-views", "1000000000000"],
+            "--reference-views",
+        ),
+        (vec!["shader", &scene, "--luts", out, "--out", out, "--reference-views", huge], "--reference-views"),
+        (vec!["furnace", &scene, "--out", out, "--walk-min-paths", huge, "--walk-max-paths", huge], "--walk-min-paths"),
+        (vec!["furnace", &scene, "--out", out, "--walk-max-paths", huge], "--walk-max-paths"),
+        (vec!["furnace", &scene, "--out", out, "--views", huge], "--views"),
+        (vec!["furnace", &scene, "--out", out, "--picture-size", huge], "--picture-size"),
+        (vec!["furnace", &scene, "--out", out, "--exact-samples", "4294967296"], "--exact-samples"),
+        (vec!["bench", "--only", "gd", "--reference-samples", "4294967296"], "--reference-samples"),
+        (vec!["converge", "gd", "--out", out, "--samples-to", "4294967296"], "--samples-to"),
+        (vec!["bench", "--only", "gd", "--nodes", huge], "--nodes"),
+        (vec!["bench", "--only", "gd", "--repeats", huge], "--repeats"),
+        (vec!["bench", "--only", "gd", "--per-cell-nodes", huge], "--per-cell-nodes"),
+        (vec!["converge", "gd", "--out", out, "--cells", huge], "--cells"),
+        (vec!["fit", "tir", "--out", out, "--starts", huge], "--starts"),
+        (vec!["fit", "tir", "--out", out, "--timing-runs", huge], "--timing-runs"),
+        (vec!["pack-report", "--points", huge], "--points"),
+        (vec!["pack-report", "--reference-points", huge], "--reference-points"),
+    ];
+    for (args, option) in cases {
+        let run = run_limited(&args, QUICK);
+        assert_eq!(run.ending, common::Ending::CleanError, "{args:?}: {}{}", run.stdout, run.stderr);
+        assert!(run.stderr.contains(option) && run.stderr.contains("allowed: "), "{args:?}: {}", run.stderr);
+    }
+    assert!(!std::path::Path::new(out).exists(), "nothing is created for a refused command");
+}

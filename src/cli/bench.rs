@@ -5,7 +5,7 @@ use clap::Args;
 use tmlut::pipeline;
 use tmlut::report::bench::{self, BenchSettings};
 
-use super::{ConfigArg, Context, ThreadsArg, check_sample_count};
+use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count};
 
 /// Time each table's build and measure its error against per-cell references, beside the
 /// per-cell method on the same nodes. Prints a Markdown table.
@@ -36,6 +36,11 @@ pub fn exec(args: BenchArgs, context: &Context) -> tmlut::Result<()> {
     let config = args.config.load()?;
     args.threads.apply()?;
     check_sample_count("--reference-samples", args.reference_samples)?;
+    // Each repeat is a whole build, and each node a reference integral: beyond these a bench runs
+    // for days, and the nodes' arithmetic overflows.
+    check_count("--repeats", args.repeats, 1..=100)?;
+    check_count("--nodes", args.nodes, 1..=100_000)?;
+    check_count("--per-cell-nodes", args.per_cell_nodes, 0..=100_000)?;
     let tables = pipeline::resolve_tables(args.only.as_deref())?;
     let settings = BenchSettings {
         repeats: args.repeats,

@@ -6,7 +6,7 @@ use clap::Args;
 
 use tmlut::report::converge;
 
-use super::{ConfigArg, Context, ThreadsArg, check_sample_count};
+use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count};
 
 /// Error against run time: sweep the samples per cell (powers of two) for the fast build and
 /// the per-cell method, measure error on a fixed random subset against high-sample references,
@@ -46,10 +46,12 @@ pub fn exec(args: ConvergeArgs, context: &Context) -> tmlut::Result<()> {
     ] {
         check_sample_count(key, n)?;
     }
-    if args.samples_from > args.samples_to || args.cells == 0 {
+    // Every cell is a reference integral and one per-cell run per sample count.
+    check_count("--cells", args.cells, 1..=100_000)?;
+    if args.samples_from > args.samples_to {
         return Err(tmlut::Error::invalid(
-            "--samples-from/--samples-to/--cells",
-            "allowed: samples-from <= samples-to, at least one cell",
+            "--samples-from/--samples-to",
+            format!("{} > {}; allowed: samples-from <= samples-to", args.samples_from, args.samples_to),
         ));
     }
     let samples = (args.samples_from.trailing_zeros()..=args.samples_to.trailing_zeros()).map(|k| 1u64 << k).collect();

@@ -6,7 +6,7 @@ use clap::Args;
 
 use tmlut::fit::{ALL_FORMS, Form};
 
-use super::Context;
+use super::{Context, check_count};
 
 /// Fit analytic approximations to a table by least squares (NLopt) and report error against
 /// cost: `tmlut fit tir`. Writes fit.json, HLSL/WGSL per fitted form and error_vs_cost.png.
@@ -42,6 +42,9 @@ pub fn exec(args: FitArgs, _: &Context) -> tmlut::Result<()> {
     if args.target != "tir" {
         return Err(tmlut::Error::invalid("fit target", format!("{}; allowed: tir", args.target)));
     }
+    // Each start is a whole minimisation and each timing run a pass over 2^14 queries per form.
+    check_count("--starts", args.starts, 1..=1000)?;
+    check_count("--timing-runs", args.timing_runs, 1..=1000)?;
     let forms = match &args.forms {
         None => ALL_FORMS.to_vec(),
         Some(names) => names

@@ -8,7 +8,7 @@ use tmlut::model::folder::FgdSource;
 use tmlut::random_walk::{Masking, WalkSettings};
 use tmlut::scene::Scene;
 
-use super::{ConfigArg, Context, ThreadsArg, one_of};
+use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count, one_of};
 
 /// The furnace test of a scene's materials: the directional albedo A(mu) of the transfer-matrix
 /// model with the scene's tables, with exact integrals, and from a random walk through the
@@ -71,6 +71,12 @@ fn parse_fgd_source(text: &str) -> Result<FgdSource, String> {
 }
 
 pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
+    // The library bounds these too (`FurnaceSettings::validate`); here the error names the option.
+    check_count("--views", args.views, tmlut::furnace::VIEWS)?;
+    check_sample_count("--exact-samples", args.exact_samples)?;
+    check_count("--walk-min-paths", args.walk_min_paths, 1..=tmlut::random_walk::MAX_PATHS)?;
+    check_count("--walk-max-paths", args.walk_max_paths, 1..=tmlut::random_walk::MAX_PATHS)?;
+    check_count("--picture-size", args.picture_size, tmlut::furnace::PICTURE_SIZES)?;
     let config = args.config.load()?;
     args.threads.apply()?;
     let scenes = if args.scenes.is_empty() {
@@ -107,10 +113,28 @@ pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
         ..Default::default()
     };
     settings.validate()?;
-    let progress = context.progress();
-    let mut summary = String::from(tmlut::furnace::report::MARKDOWN_HEADER);
+    // Every scene is read before any runs: each writes into a folder named after it, and two
+    // names that give one folder (`copper-pot` and `copper pot`) would overwrite each other.
+    let mut read: Vec<(PathBuf, Scene, String)> = Vec::new();
     for path in scenes {
         let (scene, text) = Scene::read(&path)?;
+        let stem = tmlut::furnace::report::file_stem(&scene.name);
+        if let Some((other, _, _)) = read.iter().find(|(_, s, _)| tmlut::furnace::report::file_stem(&s.name) == stem) {
+            return Err(tmlut::Error::invalid(
+                path.display().to_string(),
+                format!(
+                    "scene `{}` writes into the folder `{stem}`, as scene {} does; scenes run together need names \
+                     that differ in more than case and punctuation",
+                    scene.name,
+                    other.display()
+                ),
+            ));
+        }
+        read.push((path, scene, text));
+    }
+    let progress = context.progress();
+    let mut summary = String::from(tmlut::furnace::report::MARKDOWN_HEADER);
+    for (path, scene, text) in read {
         for warning in &scene.warnings {
             eprintln!("warning: {warning}");
         }

@@ -3,6 +3,7 @@
 //! arguments, draws progress bars and turns errors into exit codes.
 
 use std::path::PathBuf;
+use std::process::ExitCode;
 use std::sync::Mutex;
 
 use clap::{Args, Parser, Subcommand};
@@ -68,14 +69,17 @@ impl Context {
     }
 }
 
-pub fn run(cli: Cli) -> tmlut::Result<()> {
+/// Run a command and give its exit status: 0 when it did what was asked, 1 when it failed. `check`
+/// tells a budget exceeded (1) from a folder it could not check (2; see `check::exec`), so that CI
+/// tells a worse table from a broken job.
+pub fn run(cli: Cli) -> ExitCode {
     let context = Context { quiet: cli.quiet };
-    match cli.command {
+    let result = match cli.command {
         Command::Build(args) => build::exec(args, &context),
         Command::Plan(args) => plan::exec(args, &context),
         Command::Cache(args) => cache::exec(args, &context),
         Command::Bench(args) => bench::exec(args, &context),
-        Command::Check(args) => check::exec(args, &context),
+        Command::Check(args) => return check::exec(args, &context),
         Command::Stability(args) => stability::exec(args, &context),
         Command::PackReport(args) => pack_report::exec(args, &context),
         Command::Converge(args) => converge::exec(args, &context),
@@ -84,6 +88,19 @@ pub fn run(cli: Cli) -> tmlut::Result<()> {
         Command::Shader(args) => shader::exec(args, &context),
         Command::List(args) => list::exec(args, &context),
         Command::Inspect(args) => inspect::exec(args, &context),
+    };
+    exit_status(result, ExitCode::FAILURE)
+}
+
+/// Print the error of `result`, if any, on standard error and give the status to exit with:
+/// success, or `on_error`.
+pub fn exit_status(result: tmlut::Result<()>, on_error: ExitCode) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            on_error
+        }
     }
 }
 
@@ -128,8 +145,35 @@ impl ThreadsArg {
     }
 }
 
-/// A sample count given on the command line must be a power of two.
+/// A count given on the command line, refused outside `allowed` before anything is allocated or
+/// run: an unbounded count aborts on its allocation (or overflows the arithmetic sizing it) long
+/// after the option was read, with no word of which option it was.
+pub fn check_count<T>(key: &str, value: T, allowed: std::ops::RangeInclusive<T>) -> tmlut::Result<()>
+where
+    T: PartialOrd + std::fmt::Display,
+{
+    if allowed.contains(&value) {
+        Ok(())
+    } else {
+        Err(tmlut::Error::invalid(key, format!("{value}; allowed: {} to {}", allowed.start(), allowed.end())))
+    }
+}
+
+/// The most samples per cell a sample-count option takes: a reference's points are held in memory
+/// at once (about 24 bytes each, 400 MiB here), so the configuration's 2^32 would need 100 GiB.
+pub const MAX_OPTION_SAMPLES: u64 = 1 << 24;
+
+/// A sample count given on the command line must be a power of two, at most
+/// [`MAX_OPTION_SAMPLES`].
 pub fn check_sample_count(key: &str, samples: u64) -> tmlut::Result<()> {
+    if samples > MAX_OPTION_SAMPLES {
+        return Err(tmlut::Error::invalid(
+            key,
+            format!(
+                "{samples}; allowed: a power of two from 2 to 2^24 = {MAX_OPTION_SAMPLES} (held in memory at once)"
+            ),
+        ));
+    }
     tmlut::sampling::sequence::SamplePlan::new(samples, 1)
         .map(|_| ())
         .map_err(|e| tmlut::Error::invalid(key, e.to_string()))

@@ -8,7 +8,7 @@ use tmlut::formats::Precision;
 use tmlut::packing::Packing;
 use tmlut::packing::report::ReportSettings;
 
-use super::{ConfigArg, Context, ThreadsArg, check_sample_count, one_of};
+use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count, one_of};
 
 /// Measure FGD packings: the emulated shader lookup at random points against 4D multilinear
 /// interpolation of the table and against the integral. Prints a Markdown table.
@@ -50,12 +50,14 @@ fn parse_precision(text: &str) -> Result<Precision, String> {
 pub fn exec(args: PackReportArgs, context: &Context) -> tmlut::Result<()> {
     let config = args.config.load()?;
     args.threads.apply()?;
+    // The query points are held in memory at once (a few tens of bytes each, per packing), and
+    // each reference point is an integral.
+    check_count("--points", args.points, 1..=10_000_000)?;
+    check_count("--reference-points", args.reference_points, 0..=100_000)?;
     if args.reference_points > 0 {
         check_sample_count("--reference-samples", args.reference_samples)?;
     }
-    if !(1..=23).contains(&args.weight_bits) {
-        return Err(tmlut::Error::invalid("--weight-bits", format!("{}; allowed: 1 to 23", args.weight_bits)));
-    }
+    check_count("--weight-bits", args.weight_bits, 1..=23)?;
     let packings = match &args.packing {
         Some(names) => names.iter().map(|n| Packing::parse(n)).collect::<tmlut::Result<Vec<_>>>()?,
         None => Packing::ALL.to_vec(),

@@ -65,10 +65,18 @@ impl Default for FurnaceSettings {
     }
 }
 
+/// View cosines a furnace run allows per material.
+pub const VIEWS: std::ops::RangeInclusive<usize> = 2..=4096;
+/// Sphere sizes of the pictures, in pixels.
+pub const PICTURE_SIZES: std::ops::RangeInclusive<usize> = 16..=4096;
+
 impl FurnaceSettings {
     pub fn validate(&self) -> Result<()> {
-        if !(2..=4096).contains(&self.views) {
-            return Err(Error::invalid("views", format!("{}; allowed: 2 to 4096", self.views)));
+        if !VIEWS.contains(&self.views) {
+            return Err(Error::invalid(
+                "views",
+                format!("{}; allowed: {} to {}", self.views, VIEWS.start(), VIEWS.end()),
+            ));
         }
         crate::sampling::sequence::SamplePlan::new(self.exact_samples, 1)
             .map_err(|e| Error::invalid("exact samples", e.to_string()))?;
@@ -78,14 +86,21 @@ impl FurnaceSettings {
                 format!("{}; allowed: finite and > 0", self.walk.target_standard_error),
             ));
         }
-        if self.walk.min_paths == 0 || self.walk.min_paths > self.walk.max_paths {
+        let max_paths = random_walk::MAX_PATHS;
+        if self.walk.min_paths == 0 || self.walk.min_paths > self.walk.max_paths || self.walk.max_paths > max_paths {
             return Err(Error::invalid(
                 "walk paths",
-                format!("min {} and max {}; allowed: 1 <= min <= max", self.walk.min_paths, self.walk.max_paths),
+                format!(
+                    "min {} and max {}; allowed: 1 <= min <= max <= 2^30 = {max_paths}",
+                    self.walk.min_paths, self.walk.max_paths
+                ),
             ));
         }
-        if !(16..=4096).contains(&self.picture_size) {
-            return Err(Error::invalid("picture size", format!("{}; allowed: 16 to 4096", self.picture_size)));
+        if !PICTURE_SIZES.contains(&self.picture_size) {
+            return Err(Error::invalid(
+                "picture size",
+                format!("{}; allowed: {} to {}", self.picture_size, PICTURE_SIZES.start(), PICTURE_SIZES.end()),
+            ));
         }
         if self.timing_rounds == 0 {
             return Err(Error::invalid("timing rounds", "0; allowed: 1 or more"));

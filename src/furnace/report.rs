@@ -180,9 +180,10 @@ impl MaterialReport {
     }
 }
 
-/// A material name as it may appear in a file name.
+/// A scene or material name as it may appear in a file name: the one mapping the scene parser
+/// holds names apart by.
 pub fn file_stem(name: &str) -> String {
-    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c.to_ascii_lowercase() } else { '-' }).collect()
+    crate::scene::file_name_part(name)
 }
 
 /// The settings a run was made with, as recorded.

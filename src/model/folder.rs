@@ -168,13 +168,23 @@ enum Albedo {
     Karis {
         texture: SampledTable,
     },
+    /// The folder holds no table of the path: every albedo lookup misses.
+    Absent,
 }
 
 #[derive(Debug, Clone)]
 enum Tir {
-    Table { slices: Vec<Slice>, full: Option<SampledTable> },
-    Fit { form: Form, parameters: Vec<f32> },
+    Table {
+        slices: Vec<Slice>,
+        full: Option<SampledTable>,
+    },
+    Fit {
+        form: Form,
+        parameters: Vec<f32>,
+    },
     Off,
+    /// The folder holds no TIR table or fitted form: every TIR lookup misses.
+    Absent,
 }
 
 /// What a folder could not answer.
@@ -198,17 +208,15 @@ pub struct FolderTables {
 
 impl FolderTables {
     /// The tables of `folder` for materials reading albedo by `albedo` and TIR by `tir`; `fgd`
-    /// picks the full FGD table where there are two. Fails, naming the files, when the folder holds
-    /// nothing for a path.
+    /// picks the full FGD table where there are two. A path the folder holds no table for is not
+    /// refused here: a scene's plan leaves out what its materials never look up (a bare conductor
+    /// makes no TIR lookup, an index-matched interface no albedo lookup), so its lookups miss
+    /// instead and [`FolderTables::misses`] names the first, for the caller to refuse. Fails on a
+    /// table that is listed but cannot be read as its path needs.
     pub fn open(folder: &LutFolder, albedo: AlbedoPath, tir: TirPath, fgd: FgdSource) -> Result<Self> {
         let entries = &folder.manifest().files;
         let missing = |what: &str| {
-            Error::format(
-                folder.dir().join(crate::formats::manifest::MANIFEST_FILE),
-                format!(
-                    "lists no {what}; build the tables of the scene (tmlut build --scene) or the default set first"
-                ),
-            )
+            Error::format(folder.dir().join(crate::formats::manifest::MANIFEST_FILE), format!("lists no {what}"))
         };
         let slices_of = |prefix: &str, quantity: Quantity| -> Result<Vec<Slice>> {
             let mut slices = Vec::new();
@@ -244,24 +252,24 @@ impl FolderTables {
                     }
                     (_, None, None) => None,
                 };
-                if slices.is_empty() && full.is_none() {
-                    return Err(missing("FGD table (fgd_lossless.dds or .ktx2, fgd.exr, fgd.bin or FGD slices)"));
-                }
                 let rarer = match texture("fgd_rarer") {
                     Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
                     None => None,
                 };
                 Albedo::Fgd { slices, full, rarer }
             }
-            AlbedoPath::Belcour => {
-                let (file, entry) = texture("belcour").ok_or_else(|| missing("belcour.dds or belcour.ktx2"))?;
-                let basis = entry.fresnel_basis.clone().ok_or_else(|| missing("Fresnel basis beside belcour.dds"))?;
-                Albedo::Belcour { texture: SampledTable::new(&folder.load(file)?)?, basis: Box::new(basis) }
-            }
-            AlbedoPath::Karis => {
-                let (file, _) = texture("karis").ok_or_else(|| missing("karis.dds or karis.ktx2"))?;
-                Albedo::Karis { texture: SampledTable::new(&folder.load(file)?)? }
-            }
+            AlbedoPath::Belcour => match texture("belcour") {
+                Some((file, entry)) => {
+                    let basis =
+                        entry.fresnel_basis.clone().ok_or_else(|| missing("Fresnel basis beside belcour.dds"))?;
+                    Albedo::Belcour { texture: SampledTable::new(&folder.load(file)?)?, basis: Box::new(basis) }
+                }
+                None => Albedo::Absent,
+            },
+            AlbedoPath::Karis => match texture("karis") {
+                Some((file, _)) => Albedo::Karis { texture: SampledTable::new(&folder.load(file)?)? },
+                None => Albedo::Absent,
+            },
         };
         let tir = match tir {
             TirPath::Table => {
@@ -283,20 +291,17 @@ impl FolderTables {
                     }
                     None => None,
                 };
-                if slices.is_empty() && full.is_none() {
-                    return Err(missing("TIR table (tir.dds, tir.ktx2, tir.bin or TIR slices)"));
-                }
                 Tir::Table { slices, full }
             }
             TirPath::Fit => {
                 let fit = entries
                     .values()
                     .find_map(|e| e.fit.clone())
-                    .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
-                    .ok_or_else(|| {
-                        missing("fitted TIR form (a `fit` entry beside the TIR table, or the scene plan's `tir_fit`)")
-                    })?;
-                fitted_form(folder, &fit)?
+                    .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()));
+                match fit {
+                    Some(fit) => fitted_form(folder, &fit)?,
+                    None => Tir::Absent,
+                }
             }
             TirPath::Off => Tir::Off,
         };
@@ -407,6 +412,7 @@ impl FolderTables {
                 let point = [lookup.mu, lookup.alpha];
                 f0 * texture.sample(0, &point) as f64 + texture.sample(1, &point) as f64
             }
+            Albedo::Absent => self.miss(lookup),
         }
     }
 
@@ -430,6 +436,7 @@ impl FolderTables {
                 form.eval::<f32>(parameters, lookup.mu as f32, lookup.alpha as f32, lookup.eta as f32) as f64
             }
             Tir::Off => 0.0,
+            Tir::Absent => self.miss(lookup),
         }
     }
 }

@@ -78,6 +78,11 @@ impl Masking {
     }
 }
 
+/// The most paths a walk traces per view: 2^30, hours per view already. A round's batches are
+/// tallied at once (about 240 bytes per batch of [`BATCH_PATHS`]), so the bound also bounds that
+/// memory (256 MiB).
+pub const MAX_PATHS: u64 = 1 << 30;
+
 /// How many paths a random walk traces and how each one ends.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct WalkSettings {
@@ -332,7 +337,10 @@ fn estimate_view(plan: &WalkPlan, mu: f64, settings: &WalkSettings) -> WalkEstim
     let mu_walked = mu.clamp(GRAZING_COSINE, 1.0);
     let view = ViewStreams::new(settings.seed, mu_walked);
     let batches_for = |paths: u64| paths.div_ceil(BATCH_PATHS).max(1);
-    let (min_batches, max_batches) = (batches_for(settings.min_paths), batches_for(settings.max_paths.max(1)));
+    // Held to [`MAX_PATHS`] here too, so that no caller's settings size a round past memory (the
+    // furnace refuses larger ones before it starts).
+    let (min_batches, max_batches) =
+        (batches_for(settings.min_paths.min(MAX_PATHS)), batches_for(settings.max_paths.clamp(1, MAX_PATHS)));
     let mut tally = Tally::default();
     let mut done = 0u64;
     let mut round = min_batches.min(max_batches);

@@ -1,8 +1,9 @@
 //! `tmlut check DIR`: hold an output folder to an error budget. Every file in the folder's manifest
 //! must still match its SHA-256, hold no more non-finite values than allowed, keep its values in
-//! the allowed range, and stay within its table's error and build-time budgets. Every exceeded
-//! budget is reported with its figure and its limit, so CI fails on a table that got worse and says
-//! why.
+//! the allowed range, and stay within its table's error budgets. Every exceeded budget is reported
+//! with its figure and its limit, so CI fails on a table that got worse and says why. Wall time is
+//! not held here: it measures the machine as much as the build, and a loaded CI runner would fail a
+//! good build; `tmlut bench` is where tables are timed.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -35,8 +36,6 @@ pub struct TableBudget {
     /// RMS and maximum of the replicate standard error.
     pub max_replicate_rms: Option<f64>,
     pub max_replicate_max: Option<f64>,
-    /// Integration wall time of the table, in seconds.
-    pub max_build_s: Option<f64>,
     /// RMS and maximum of the interpolation error (manifest `error.interpolation`), per domain by
     /// name: `max_interpolation_max = { "whole domain" = 1e-2, "low roughness" = 2e-2 }`.
     #[serde(default)]
@@ -78,6 +77,7 @@ impl Budgets {
             )
         };
         let mut document: toml::Table = text.parse().map_err(clean)?;
+        refuse_time_budgets(&document, origin)?;
         let furnace = match document.remove("furnace") {
             Some(value) => value.try_into().map_err(clean)?,
             None => BTreeMap::new(),
@@ -101,7 +101,6 @@ impl Budgets {
                     ("max_reference_max", budget.max_reference_max),
                     ("max_replicate_rms", budget.max_replicate_rms),
                     ("max_replicate_max", budget.max_replicate_max),
-                    ("max_build_s", budget.max_build_s),
                 ],
             )?;
             for (key, limits) in [
@@ -129,6 +128,27 @@ impl Budgets {
         Self::from_toml(&text, &path.display().to_string())
     }
 }
+
+/// Refuse a wall-time budget by name, rather than as one more unknown key: budgets files written
+/// when `check` held build times still carry `max_build_s`, and their authors need to know where
+/// timing went.
+fn refuse_time_budgets(document: &toml::Table, origin: &str) -> Result<()> {
+    for (table, section) in document {
+        if let Some(section) = section.as_table()
+            && section.contains_key(TIME_BUDGET_KEY)
+        {
+            return Err(Error::invalid(
+                format!("{origin}: {table}.{TIME_BUDGET_KEY}"),
+                "wall-time budgets are not checked: a loaded machine fails a good build. Remove the key; \
+                 `tmlut bench` times the tables",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The key that held a table's build time when `check` held one.
+const TIME_BUDGET_KEY: &str = "max_build_s";
 
 /// Refuse a limit that is not a finite number >= 0: a NaN limit would pass or fail every figure
 /// silently (every comparison with it is false).
@@ -357,7 +377,6 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
     at_most("reference_max", reference.map(|d| d.max), budget.max_reference_max);
     at_most("replicate_rms", Some(integration.replicate_standard_error.rms), budget.max_replicate_rms);
     at_most("replicate_max", Some(integration.replicate_standard_error.max), budget.max_replicate_max);
-    at_most("build_s", Some(entry.wall_time_s), budget.max_build_s);
     for (figure, limits) in [("rms", &budget.max_interpolation_rms), ("max", &budget.max_interpolation_max)] {
         for (domain, &limit) in limits {
             let measured = entry.error.interpolation.iter().find(|e| &e.domain == domain);
@@ -426,6 +445,8 @@ pub fn render(findings: &[Finding]) -> String {
 mod tests {
     use super::*;
 
+    const CI_BUDGETS: &str = include_str!("../../luts/ci-budgets.toml");
+
     #[test]
     fn committed_budgets_parse_and_cover_every_table() {
         let budgets = Budgets::from_toml(DEFAULT_BUDGETS, "budgets.toml").unwrap();
@@ -444,5 +465,17 @@ mod tests {
         assert!(err.contains("fgd.max_reference_rms") && err.contains("NaN; allowed: finite"), "{err}");
         let err = Budgets::from_toml("[karis]\nvalue_range = [0.0, 1.0, 2.0]\n", "b.toml").unwrap_err().to_string();
         assert!(err.contains("invalid length 3") && err.contains("karis.value_range"), "{err}");
+    }
+
+    #[test]
+    fn wall_time_is_not_budgeted() {
+        // A build time measures the machine as much as the build: a loaded CI runner failed a good
+        // build on it. Timing belongs to `tmlut bench`; an old budget says so rather than passing.
+        let err = Budgets::from_toml("[fgd]\nmax_build_s = 10.0\n", "b.toml").unwrap_err().to_string();
+        assert!(err.contains("b.toml: fgd.max_build_s") && err.contains("tmlut bench"), "{err}");
+        for (name, text) in [("budgets.toml", DEFAULT_BUDGETS), ("luts/ci-budgets.toml", CI_BUDGETS)] {
+            assert!(!text.contains("max_build_s"), "{name} still budgets wall time");
+            Budgets::from_toml(text, name).unwrap();
+        }
     }
 }

@@ -86,7 +86,23 @@ pub fn lookups(scene: &Scene) -> Result<(Vec<Lookup>, Vec<LeftOutRecord>)> {
             for k in 0..PLANNING_VIEWS {
                 let theta = std::f64::consts::FRAC_PI_2 * k as f64 / (PLANNING_VIEWS - 1) as f64;
                 let mu = if k + 1 == PLANNING_VIEWS { GRAZING_COSINE } else { theta.cos() };
-                model.evaluate(mu, &recorder);
+                let evaluation = model.evaluate(mu, &recorder);
+                // The shader reads GD for every lobe below the top one and keeps it where the lobe
+                // carries energy (a select, not a branch the generator can drop): a lobe that
+                // carries none at every view (a coat over a conductor that reflects nothing) still
+                // binds GD, so the plan must build it.
+                for lobe in evaluation.lobes.iter().filter(|l| !l.is_top && l.energy.iter().all(|&e| e == 0.0)) {
+                    recorded.borrow_mut().push(ModelLookup {
+                        quantity: Quantity::Gd,
+                        site: crate::model::Site::Lobe,
+                        layer: lobe.layer,
+                        channel: None,
+                        mu: evaluation.mu,
+                        alpha: lobe.roughness,
+                        eta: 1.0,
+                        kappa: 0.0,
+                    });
+                }
                 // Merged after every evaluation, so that memory does not grow with the variants.
                 for recorded in recorded.borrow_mut().drain(..) {
                     merge_lookup(material, &recorded, &mut lookups, &mut index);

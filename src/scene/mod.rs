@@ -39,7 +39,7 @@ mod stacks;
 use serde::{Deserialize, Serialize};
 
 pub use crate::model::{AlbedoPath, FluxModel, Medium, TirPath};
-pub use parse::{MAX_INDEX, MAX_MATERIALS, MIN_INDEX};
+pub use parse::{MAX_COEFFICIENT, MAX_INDEX, MAX_MATERIALS, MAX_NAME_CHARS, MIN_INDEX, MIN_MAGNITUDE, file_name_part};
 pub use stacks::MAX_VARIANTS;
 
 /// A closed range `[lo, hi]` of a parameter; a fixed value has `lo == hi`.

@@ -45,6 +45,7 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Resu
         Some(value) => string(value, &format!("{origin}: name"))?.to_string(),
         None => default_name.to_string(),
     };
+    check_name(&name, &format!("{origin}: name"), "scene")?;
     let defaults = Paths {
         model: choice(document, "model", origin)?.unwrap_or(FluxModel::TwoFlux),
         albedo: choice(document, "albedo", origin)?.unwrap_or(AlbedoPath::Fgd),
@@ -73,17 +74,30 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Resu
         ));
     }
     let mut scene = Scene { name, materials: Vec::new(), margin_nodes, warnings: Vec::new() };
-    let mut names = std::collections::HashSet::new();
+    // Each material's files (its slices, its furnace pictures) and shader function are named
+    // after it, as `file_name_part` maps it: two names that map to one would overwrite each other's
+    // files, or fail the build after `plan` passed them.
+    let mut names: std::collections::HashMap<String, (usize, String)> = std::collections::HashMap::new();
     for (index, value) in materials.iter().enumerate() {
         let where_ = format!("{origin}: material {}", index + 1);
         let table = value.as_table().ok_or_else(|| Error::invalid(&where_, "must be a table ([[material]])"))?;
         let material = parse_material(table, &where_, index, defaults, &mut scene.warnings)?;
-        if !names.insert(material.name.clone()) {
-            return Err(Error::invalid(
-                where_,
-                format!("the name `{}` is used twice; names must differ", material.name),
-            ));
+        let part = file_name_part(&material.name);
+        if let Some((other, other_name)) = names.get(&part) {
+            let reason = if *other_name == material.name {
+                format!("the name `{}` is used twice; names must differ", material.name)
+            } else {
+                format!(
+                    "the name `{}` gives the files and shader function of material {} (`{other_name}`): both \
+                     become `{part}` (names are lowercased, and every character but an ASCII letter or digit \
+                     becomes `-`); names must differ in more than case and punctuation",
+                    material.name,
+                    other + 1
+                )
+            };
+            return Err(Error::invalid(where_, reason));
         }
+        names.insert(part, (index, material.name.clone()));
         scene.materials.push(material);
     }
     Ok(scene)
@@ -101,9 +115,7 @@ fn parse_material(
         Some(value) => string(value, &format!("{where_}: name"))?.to_string(),
         None => format!("material-{}", index + 1),
     };
-    if name.is_empty() {
-        return Err(Error::invalid(format!("{where_}: name"), "is empty"));
-    }
+    check_name(&name, &format!("{where_}: name"), "material")?;
     let where_ = format!("{where_} (`{name}`)");
     let model = choice(table, "model", &where_)?.unwrap_or(defaults.model);
     let albedo = choice(table, "albedo", &where_)?.unwrap_or(defaults.albedo);
@@ -219,15 +231,25 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
                 ));
             };
             let depth = number(depth, &format!("{where_}: depth"))?;
-            if !(depth.is_finite() && depth > 0.0) {
-                return Err(Error::invalid(format!("{where_}: depth"), format!("{depth}; allowed: finite and > 0")));
+            if !(depth.is_finite() && depth > 0.0 && shader_holds(depth)) {
+                return Err(Error::invalid(
+                    format!("{where_}: depth"),
+                    format!(
+                        "{}; allowed: a finite number from {MIN_MAGNITUDE:e} to {MAX_COEFFICIENT:e} (held in f32 by \
+                         the shader)",
+                        number_text(depth)
+                    ),
+                ));
             }
             let g = match table.get("g") {
                 None => 0.0,
                 Some(value) => number(value, &format!("{where_}: g"))?,
             };
-            if !(-1.0..=1.0).contains(&g) {
-                return Err(Error::invalid(format!("{where_}: g"), format!("{g}; allowed: -1 to 1")));
+            if !((-1.0..=1.0).contains(&g) && shader_holds(g)) {
+                return Err(Error::invalid(
+                    format!("{where_}: g"),
+                    format!("{}; allowed: -1 to 1, 0 or at least {MIN_MAGNITUDE:e} in magnitude", number_text(g)),
+                ));
             }
             Ok(Layer::Medium(Medium { sigma_s, sigma_k, depth, g }))
         }
@@ -235,6 +257,40 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
             Err(Error::invalid(format!("{where_}: type"), format!("`{other}`; allowed: \"interface\", \"medium\"")))
         }
     }
+}
+
+/// The longest scene or material name, in characters. Names become parts of file names (a
+/// material's slices `fgd_<material>_l<layer>_<direction>.ktx2`, its furnace pictures, the scene's
+/// `<scene>.shader.json` and furnace folder) that must stay under the 255 bytes a file name may
+/// have with room for the rest; 300-character names passed `plan` and failed the build.
+pub const MAX_NAME_CHARS: usize = 64;
+
+/// Refuse a scene or material name that cannot name files: empty (a scene named `""` wrote into
+/// the output folder itself), or longer than [`MAX_NAME_CHARS`].
+fn check_name(name: &str, key: &str, what: &str) -> Result<()> {
+    if name.is_empty() {
+        return Err(Error::invalid(key, format!("is empty; a {what} needs a name (it names files)")));
+    }
+    let chars = name.chars().count();
+    if chars > MAX_NAME_CHARS {
+        return Err(Error::invalid(
+            key,
+            format!(
+                "`{}...` is {chars} characters long; allowed: 1 to {MAX_NAME_CHARS} (the name becomes part of file \
+                 names)",
+                name.chars().take(16).collect::<String>()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A name as it appears in file names and shader identifiers: lowercased, every character but an
+/// ASCII letter or digit a `-`. The scene's files map names the same way (`plan`'s slice names and
+/// the furnace's file names keep `-`, the shader's identifiers write `_` for it), so two names
+/// that give one part give one file.
+pub fn file_name_part(name: &str) -> String {
+    name.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' }).collect()
 }
 
 /// The smallest real index an interface's medium may have: below every real medium (silver's is
@@ -246,6 +302,21 @@ pub const MIN_INDEX: f64 = 0.01;
 pub const MAX_INDEX: f64 = 100.0;
 /// The most materials a scene holds.
 pub const MAX_MATERIALS: usize = 256;
+
+/// The smallest magnitude of a value other than 0: the scene's shader holds every value, and the
+/// constants folded from them (a medium's path limit `45 / sigma`, its backward scattering
+/// `sigma_s` times a share), in f32, whose normal numbers end at 1.2e-38. A kappa of 5e-324 was a
+/// conductor to the planner and 0 to the shader; 1e-40 folded to an infinite path limit.
+pub const MIN_MAGNITUDE: f64 = 1e-30;
+/// The largest medium coefficient (`sigma_s`, `sigma_k`) or depth: f32 ends at 3.4e38, and the
+/// constants folded from coefficients (their sums, `sqrt` of their products) must stay inside it.
+pub const MAX_COEFFICIENT: f64 = 1e30;
+
+/// Whether the scene's shader holds `x` as the value it is: 0, or a magnitude in
+/// [`MIN_MAGNITUDE`, `MAX_COEFFICIENT`].
+fn shader_holds(x: f64) -> bool {
+    x == 0.0 || (MIN_MAGNITUDE..=MAX_COEFFICIENT).contains(&x.abs())
+}
 
 /// What values a parameter admits.
 #[derive(Clone, Copy)]
@@ -263,18 +334,18 @@ impl Bound {
         x.is_finite()
             && match self {
                 Bound::Index => (MIN_INDEX..=MAX_INDEX).contains(&x),
-                Bound::Extinction => (0.0..=MAX_INDEX).contains(&x),
-                Bound::NonNegative => x >= 0.0,
-                Bound::Unit => (0.0..=1.0).contains(&x),
+                Bound::Extinction => (0.0..=MAX_INDEX).contains(&x) && shader_holds(x),
+                Bound::NonNegative => (0.0..=MAX_COEFFICIENT).contains(&x) && shader_holds(x),
+                Bound::Unit => (0.0..=1.0).contains(&x) && shader_holds(x),
             }
     }
 
     fn allowed(self) -> String {
         match self {
             Bound::Index => format!("{MIN_INDEX} to {MAX_INDEX} (a real medium's index)"),
-            Bound::Extinction => format!("0 to {MAX_INDEX} (a real medium's extinction index)"),
-            Bound::NonNegative => "finite and >= 0".into(),
-            Bound::Unit => "0 to 1".into(),
+            Bound::Extinction => format!("0, or {MIN_MAGNITUDE:e} to {MAX_INDEX} (a real medium's extinction index)"),
+            Bound::NonNegative => format!("0, or {MIN_MAGNITUDE:e} to {MAX_COEFFICIENT:e} (held in f32 by the shader)"),
+            Bound::Unit => format!("0, or {MIN_MAGNITUDE:e} to 1"),
         }
     }
 }

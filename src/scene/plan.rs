@@ -563,9 +563,10 @@ fn lattice_axis(name: &str, lo: f64, hi: f64, mapping: Mapping, lattice: f64) ->
     Axis::node_aligned(name, node(first), node(last), (last - first) as usize + 1)?.with_mapping(mapping)
 }
 
-/// A material name as it may appear in a file name.
+/// A material name as it may appear in a file name: the one mapping the scene parser holds names
+/// apart by.
 fn file_safe(name: &str) -> String {
-    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c.to_ascii_lowercase() } else { '-' }).collect()
+    super::file_name_part(name)
 }
 
 pub fn human_bytes(bytes: u64) -> String {

@@ -48,6 +48,35 @@ pub fn reference_views(views: usize) -> Vec<f64> {
     mus
 }
 
+/// The most evenly spaced views a reference takes per material.
+pub const MAX_REFERENCE_VIEWS: usize = 1 << 16;
+/// The most (material, view) points a reference holds: each is a whole evaluation (its lobes
+/// included), all held in memory until the file is written.
+pub const MAX_REFERENCE_POINTS: usize = 1 << 20;
+
+/// Refuse a reference of `views` views per material of `materials` beyond [`MAX_REFERENCE_VIEWS`]
+/// or [`MAX_REFERENCE_POINTS`], before anything is allocated.
+pub fn check_reference_views(views: usize, materials: usize) -> Result<()> {
+    if views > MAX_REFERENCE_VIEWS {
+        return Err(Error::invalid(
+            "--reference-views",
+            format!("{views}; allowed: 0 (no reference) to {MAX_REFERENCE_VIEWS}"),
+        ));
+    }
+    let points = (views + STIFF_VIEWS.len()).saturating_mul(materials);
+    if views > 0 && points > MAX_REFERENCE_POINTS {
+        return Err(Error::invalid(
+            "--reference-views",
+            format!(
+                "{views} views for each of {materials} materials make {points} reference points; allowed: at most \
+                 {MAX_REFERENCE_POINTS} (views, and the {} stiff ones, times materials)",
+                STIFF_VIEWS.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// The CPU evaluation of every material of `materials` at [`reference_views`]`(views)`, with the
 /// tables of `folder` read as the shader reads them. Fails where the folder could not answer a
 /// lookup (the shader would have been refused too).
@@ -57,7 +86,8 @@ pub fn reference(
     materials: &[ShaderMaterial],
     views: usize,
 ) -> Result<Vec<ReferencePoint>> {
-    let mut points = Vec::with_capacity(materials.len() * views);
+    check_reference_views(views, materials.len())?;
+    let mut points = Vec::with_capacity(materials.len() * (views + STIFF_VIEWS.len()));
     for (material, function) in materials.iter().zip(&shader.materials) {
         let tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?;
         let model = Material::new(material.model, material.stack.clone());
@@ -91,6 +121,7 @@ pub fn reference(
 /// (`scene_shader`: length and SHA-256 of each, as `tmlut check` verifies them) in place of the
 /// scene shader it listed before; elsewhere each file is replaced atomically.
 pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_views: usize) -> Result<Vec<PathBuf>> {
+    check_reference_views(reference_views, scene.materials.len())?;
     std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
     // Taken before the tables are read: into the folder of `luts`, no build changes them between
     // the reading and the commit.

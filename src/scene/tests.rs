@@ -455,3 +455,72 @@ fn planning_work_is_bounded() {
         "{e}"
     );
 }
+
+#[test]
+fn values_the_shader_cannot_hold_in_f32_are_refused_naming_key_and_range() {
+    // Each printed `inf` into the scene's shader (or a subnormal a GPU flushes to 0), which then
+    // failed to compile while `tmlut shader` exited 0.
+    let medium = |line: &str| format!("{ONE_LAYER}[[material.layer]]\ntype = \"medium\"\n{line}\n");
+    for (text, key, allowed) in [
+        (medium("sigma_k = 0.5\ndepth = 3.4e38"), "layer 2: depth", "a finite number from 1e-30 to 1e30"),
+        (medium("sigma_k = 0.5\ndepth = 1e-40"), "layer 2: depth", "a finite number from 1e-30 to 1e30"),
+        (medium("sigma_s = 1e39\ndepth = 1.0"), "layer 2: sigma_s", "0, or 1e-30 to 1e30"),
+        (medium("sigma_k = 1e-40\ndepth = 1.0"), "layer 2: sigma_k", "0, or 1e-30 to 1e30"),
+        (medium("sigma_s = 0.5\ng = 1e-40\ndepth = 1.0"), "layer 2: g", "-1 to 1, 0 or at least 1e-30 in magnitude"),
+        (ONE_LAYER.replace("eta = 1.5", "eta = 1.5\nkappa = 5e-324"), "layer 1: kappa", "0, or 1e-30 to 100"),
+        (ONE_LAYER.replace("alpha = 0.1", "alpha = 1e-40"), "layer 1: alpha", "0, or 1e-30 to 1"),
+    ] {
+        let e = error(&text);
+        assert!(e.contains(key) && e.contains(&format!("allowed: {allowed}")), "{key}: {e}");
+    }
+    // The ends of the ranges are values a scene may give.
+    for line in [
+        "sigma_k = 1e30\ndepth = 1e30",
+        "sigma_s = 1e-30\nsigma_k = 0\ndepth = 1e-30",
+        "sigma_k = 0.5\ndepth = 1.0\ng = -1e-30",
+    ] {
+        parse(&medium(line)).unwrap();
+    }
+}
+
+#[test]
+fn names_that_would_share_a_file_or_not_fit_one_are_refused() {
+    // `plan` passed these, and `build` then failed on "a format listed twice" or "file name too
+    // long"; `Copper` and `copper` shared their furnace pictures.
+    let named = |name: &str| ONE_LAYER.replace("name = \"m\"", &format!("name = \"{name}\""));
+    for (a, b) in [("Copper", "copper"), ("glass a", "glass-a"), ("glass_a", "glass.a"), ("été", "-t-")] {
+        let e = error(&format!("{}{}", named(a), named(b)));
+        assert!(e.contains("material 2") && e.contains(&format!("`{b}`")) && e.contains(&format!("(`{a}`)")), "{e}");
+        assert!(e.contains("differ in more than case and punctuation"), "{e}");
+    }
+    let long = "x".repeat(MAX_NAME_CHARS + 1);
+    let e = error(&named(&long));
+    assert!(e.contains("material 1: name") && e.contains("65 characters") && e.contains("allowed: 1 to 64"), "{e}");
+    parse(&named(&"x".repeat(MAX_NAME_CHARS))).unwrap();
+    let e = error(&named(""));
+    assert!(e.contains("material 1: name") && e.contains("is empty"), "{e}");
+    let e = error(&format!("name = \"\"\n{ONE_LAYER}"));
+    assert!(e.contains("test.toml: name") && e.contains("is empty"), "{e}");
+    let e = error(&format!("name = \"{long}\"\n{ONE_LAYER}"));
+    assert!(e.contains("test.toml: name") && e.contains("allowed: 1 to 64"), "{e}");
+    // Whatever the name, the files a plan makes are named by the same mapping the parser holds apart.
+    let scene = parse(&format!("{}{}", named("Glass A"), named("glass b").replace("1.5", "1.6"))).unwrap();
+    let plan = plan(&scene, &Config::default()).unwrap();
+    let mut slice_names: Vec<&str> = table_names(&plan).into_iter().filter(|n| n.starts_with("fgd_")).collect();
+    slice_names.sort();
+    assert_eq!(slice_names, ["fgd_glass-a_l1_from-above", "fgd_glass-b_l1_from-above"]);
+}
+
+#[test]
+fn gd_is_planned_for_every_lobe_the_shader_reads_it_for_even_one_without_energy() {
+    // A coat over a conductor that reflects nothing (relative index 1, kappa 5e-324, once admitted)
+    // has a lobe with no energy at every view: the model reads no GD for it, but the shader binds
+    // GD for it all the same, and refused the folder whose plan had left GD out.
+    let text = format!("{ONE_LAYER}[[material.layer]]\ntype = \"interface\"\neta = 1.5\nkappa = 1.0\nalpha = 0.2\n");
+    let mut scene = parse(&text).unwrap();
+    let Layer::Interface(conductor) = &mut scene.materials[0].layers[1] else { panic!("an interface") };
+    conductor.kappa = [Interval::point(5e-324); 3];
+    conductor.nominal.kappa = [5e-324; 3];
+    let plan = plan(&scene, &Config::default()).unwrap();
+    assert!(table_names(&plan).contains(&"gd"), "{:?}", table_names(&plan));
+}

@@ -222,8 +222,24 @@ pub enum Expr {
 pub fn name(n: &str) -> Expr {
     Expr::Name(n.to_string())
 }
+/// An f32 constant, as a shader can hold it: an infinity (a value past f32's range, folded from
+/// f64) becomes the largest finite f32 of its sign, since neither language has an infinite
+/// literal (naga refuses `inf`), and a subnormal becomes 0 of its sign, as GPUs that flush
+/// subnormals read it anyway, so that the CPU side of a program (the packing's emulated lookup)
+/// computes with the value the GPU sees.
 pub fn f(v: f32) -> Expr {
-    Expr::F32(v)
+    Expr::F32(representable(v))
+}
+
+/// `v` as [`f`] stores it.
+pub fn representable(v: f32) -> f32 {
+    if v.is_infinite() {
+        f32::MAX.copysign(v)
+    } else if v.is_subnormal() {
+        0.0f32.copysign(v)
+    } else {
+        v
+    }
 }
 pub fn call(b: Builtin, args: Vec<Expr>) -> Expr {
     Expr::Call(b, args)
@@ -763,5 +779,21 @@ mod tests {
         assert!(hlsl.contains("Texture2D<float4> t : register(t3);"), "{hlsl}");
         assert!(hlsl.contains("    S s = (S)0;\n"), "{hlsl}");
         super::validate::wgsl(&wgsl).unwrap();
+    }
+
+    #[test]
+    fn constants_past_f32_print_as_values_a_shader_holds() {
+        // Folded from f64 (a medium's depth of 3.4e38, a tau limit of 45 / 1e-40), these printed
+        // `inf` (no such literal in WGSL or HLSL) or a subnormal a GPU flushes behind the CPU's back.
+        let mut m = Module::new(Parens::Minimal);
+        let values = [1e39f64 as f32, -1e39f64 as f32, 1e-40f64 as f32, -1e-45f64 as f32, 3.4e38f32];
+        let body = values.iter().enumerate().map(|(k, &v)| let_(&format!("v{k}"), Ty::F32, f(v))).collect();
+        m.function("h", vec![], Ty::F32, [body, vec![Stmt::Return(f(0.0))]].concat());
+        let wgsl = m.print(Lang::Wgsl);
+        for text in ["inf", "e-40", "e-45"] {
+            assert!(!wgsl.contains(text), "{text} in {wgsl}");
+        }
+        assert!(wgsl.contains("3.4028235e38") && wgsl.contains("-3.4028235e38") && wgsl.contains("-0.0"), "{wgsl}");
+        super::validate::wgsl(&wgsl).unwrap_or_else(|e| panic!("{e}\n{wgsl}"));
     }
 }

@@ -80,7 +80,8 @@ pub fn classify(output: &Output, hung: bool) -> Run {
     } else {
         match output.status.code() {
             Some(0) => Ending::Success,
-            Some(1) if stderr.starts_with("error: ") => Ending::CleanError,
+            // 2: `check` could not run (or clap refused the arguments), a clean error as well.
+            Some(1 | 2) if stderr.starts_with("error: ") => Ending::CleanError,
             _ => Ending::Abort,
         }
     };

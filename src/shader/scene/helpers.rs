@@ -17,7 +17,7 @@ pub(super) fn common(module: &mut Module) {
     });
     module.comment("Henyey-Greenstein asymmetry of a GGX lobe of roughness alpha (the reference's hg_from_ggx).");
     module.function(
-        "tm_ggx_to_hg",
+        "tmh_ggx_to_hg",
         vec![("alpha", Ty::F32)],
         Ty::F32,
         vec![
@@ -29,7 +29,7 @@ pub(super) fn common(module: &mut Module) {
     );
     module.comment("GGX roughness of an HG lobe: the inverse, g clamped to [0.2, 1], alpha to [1e-4, 1].");
     module.function(
-        "tm_hg_to_ggx",
+        "tmh_hg_to_ggx",
         vec![("g_in", Ty::F32)],
         Ty::F32,
         vec![
@@ -40,7 +40,7 @@ pub(super) fn common(module: &mut Module) {
     );
     module.comment("Asymmetry of a lobe refracted into relative index eta (the reference's hg_refract).");
     module.function(
-        "tm_hg_refract",
+        "tmh_hg_refract",
         vec![("g", Ty::F32), ("eta", Ty::F32)],
         Ty::F32,
         vec![Stmt::Return(
@@ -52,7 +52,7 @@ pub(super) fn common(module: &mut Module) {
     );
     module.comment("Snell's law on cosines; 0 where the direction is totally reflected.");
     module.function(
-        "tm_refracted_cosine",
+        "tmh_refracted_cosine",
         vec![("c", Ty::F32), ("eta", Ty::F32)],
         Ty::F32,
         vec![
@@ -67,40 +67,40 @@ pub(super) fn common(module: &mut Module) {
          (d = 0) gives the roughest lobe.",
     );
     module.function(
-        "tm_transmission_g",
+        "tmh_transmission_g",
         vec![("n", Ty::F32), ("d", Ty::F32), ("alpha", Ty::F32)],
         Ty::F32,
         vec![
             let_("scale", Ty::F32, (name("n") / select(name("d").ne(f(0.0)), name("d"), f(1.0))).abs()),
             Stmt::Return(select(
                 name("d").ne(f(0.0)),
-                func("tm_ggx_to_hg", vec![f(0.5) * name("scale") * name("alpha")]),
-                func("tm_ggx_to_hg", vec![f(1.0)]),
+                func("tmh_ggx_to_hg", vec![f(0.5) * name("scale") * name("alpha")]),
+                func("tmh_ggx_to_hg", vec![f(1.0)]),
             )),
         ],
     );
     module.function(
-        "tm_average",
+        "tmh_average",
         vec![("v", Ty::Vec(3))],
         Ty::F32,
         vec![Stmt::Return((name("v").member("x") + name("v").member("y") + name("v").member("z")) / f(3.0))],
     );
     module.comment("x where it is finite (a comparison: false for NaN and infinities), else the fallback.");
     module.function(
-        "tm_finite_or",
+        "tmh_finite_or",
         vec![("x", Ty::F32), ("fallback", Ty::F32)],
         Ty::F32,
         vec![Stmt::Return(select(x.abs().le(f(f32::MAX)), name("x"), name("fallback")))],
     );
-    let lane = |c: &str| func("tm_finite_or", vec![name("v").member(c), name("fallback").member(c)]);
+    let lane = |c: &str| func("tmh_finite_or", vec![name("v").member(c), name("fallback").member(c)]);
     module.function(
-        "tm_finite_or3",
+        "tmh_finite_or3",
         vec![("v", Ty::Vec(3)), ("fallback", Ty::Vec(3))],
         Ty::Vec(3),
         vec![Stmt::Return(vec3(lane("x"), lane("y"), lane("z")))],
     );
     module.function(
-        "tm_identity",
+        "tmh_identity",
         vec![],
         matrix.clone(),
         vec![
@@ -116,7 +116,7 @@ pub(super) fn common(module: &mut Module) {
     );
     let abs = |e: &str| name("m").member(e).abs();
     module.function(
-        "tm_normalised",
+        "tmh_normalised",
         vec![("m", matrix.clone())],
         matrix.clone(),
         vec![
@@ -136,7 +136,7 @@ pub(super) fn common(module: &mut Module) {
     );
     let e = |a: &str, b: &str| name("m").member(a) * name(b);
     module.function(
-        "tm_then_interface",
+        "tmh_then_interface",
         vec![("m", matrix.clone()), ("r", Ty::Vec(3)), ("t", Ty::Vec(3)), ("rp", Ty::Vec(3)), ("tp", Ty::Vec(3))],
         matrix.clone(),
         vec![
@@ -150,12 +150,12 @@ pub(super) fn common(module: &mut Module) {
             assign(name("o").member("m12"), e("m11", "e12") + e("m12", "e22")),
             assign(name("o").member("m21"), e("m21", "e11") + e("m22", "e21")),
             assign(name("o").member("m22"), e("m21", "e12") + e("m22", "e22")),
-            Stmt::Return(func("tm_normalised", vec![name("o")])),
+            Stmt::Return(func("tmh_normalised", vec![name("o")])),
         ],
     );
     module.comment("m times a medium that only attenuates, by t each way: diag(1 / t, t).");
     module.function(
-        "tm_attenuate",
+        "tmh_attenuate",
         vec![("m", matrix.clone()), ("t", Ty::Vec(3))],
         matrix.clone(),
         vec![
@@ -165,7 +165,7 @@ pub(super) fn common(module: &mut Module) {
             assign(name("o").member("m12"), name("m").member("m12") * name("t")),
             assign(name("o").member("m21"), name("m").member("m21") * name("inverse")),
             assign(name("o").member("m22"), name("m").member("m22") * name("t")),
-            Stmt::Return(func("tm_normalised", vec![name("o")])),
+            Stmt::Return(func("tmh_normalised", vec![name("o")])),
         ],
     );
     module.comment(
@@ -185,7 +185,7 @@ pub(super) fn common(module: &mut Module) {
     body.push(let_("row1", Ty::Vec(4), lerp4(load("u0", "v1"), load("u1", "v1"), "fu")));
     body.push(Stmt::Return(lerp4(name("row0"), name("row1"), "fv")));
     module.function(
-        "tm_bilinear",
+        "tmh_bilinear",
         vec![
             ("tex", Ty::Texture { dims: 2, scalar: false }),
             ("u", Ty::F32),
@@ -244,7 +244,7 @@ pub(super) fn trilinear(module: &mut Module) {
     }
     body.push(Stmt::Return(lerp(name("plane_w0"), name("plane_w1"), name("fw"))));
     module.function(
-        "tm_trilinear",
+        "tmh_trilinear",
         vec![
             ("tex", Ty::Texture { dims: 3, scalar: true }),
             ("u", Ty::F32),
@@ -264,7 +264,7 @@ pub(super) fn asinh(module: &mut Module) {
     module.comment("asinh(x), odd, without HLSL's missing builtin: an axis spaced in asinh.");
     let a = name("a");
     module.function(
-        "tm_asinh",
+        "tmh_asinh",
         vec![("x", Ty::F32)],
         Ty::F32,
         vec![
@@ -296,7 +296,7 @@ pub(super) fn acos(module: &mut Module) {
     let x = name("x");
     let polynomial = A[..7].iter().rev().fold(f(A[7] as f32), |p, &a| f(a as f32) + x.clone() * p);
     module.function(
-        "tm_acos",
+        "tmh_acos",
         vec![("x", Ty::F32)],
         Ty::F32,
         vec![Stmt::Return((f(1.0) - x.clone()).max(f(0.0)).sqrt() * polynomial)],
@@ -522,7 +522,7 @@ pub(super) fn six_flux(module: &mut Module) {
     );
     module.comment("n / d, or 0 where |d| <= 1e-7 (the reference's safe_div).");
     module.function(
-        "tm_safe_ratio",
+        "tmh_safe_ratio",
         vec![("n", Ty::F32), ("d", Ty::F32)],
         Ty::F32,
         vec![Stmt::Return(select(name("d").abs().gt(f(1e-7)), name("n") / name("d"), f(0.0)))],
@@ -541,7 +541,7 @@ pub(super) fn six_flux(module: &mut Module) {
         + xx.clone() / f(6.0)
             * (f(1.0) + xx.clone() / f(20.0) * (f(1.0) + xx.clone() / f(42.0) * (f(1.0) + xx / f(72.0))));
     module.function(
-        "tm_slab",
+        "tmh_slab",
         vec![("a", Ty::F32), ("b", Ty::F32), ("gamma", Ty::F32), ("tau", Ty::F32)],
         Ty::Vec(2),
         vec![

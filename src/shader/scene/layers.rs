@@ -136,7 +136,7 @@ pub(super) fn factors(g: &mut Generator, m: &ShaderMaterial, components: &[Compo
                 body.push(let_(
                     &format!("{p}cos_below"),
                     Ty::F32,
-                    func("tm_refracted_cosine", vec![name("cos_in"), f(eta as f32)]),
+                    func("tmh_refracted_cosine", vec![name("cos_in"), f(eta as f32)]),
                 ));
                 let albedo = if (eta - 1.0).abs() < NEARLY_INDEX_MATCHED {
                     f(0.0)
@@ -152,11 +152,11 @@ pub(super) fn factors(g: &mut Generator, m: &ShaderMaterial, components: &[Compo
                 } else {
                     (
                         func(
-                            "tm_transmission_g",
+                            "tmh_transmission_g",
                             vec![name("cos_in") / f(eta as f32) - n("cos_below"), n("cos_below"), f(alpha as f32)],
                         ),
                         func(
-                            "tm_transmission_g",
+                            "tmh_transmission_g",
                             vec![name("cos_in") - f(eta as f32) * n("cos_below"), name("cos_in"), f(alpha as f32)],
                         ),
                     )
@@ -227,7 +227,7 @@ fn medium_factors(p: &str, medium: &Medium, scattering: bool) -> Vec<Stmt> {
             body.push(let_(
                 &format!("{p}slab_{suffix}{}", lanes[c]),
                 Ty::Vec(2),
-                func("tm_slab", vec![f(a as f32), f(b as f32), f(gamma as f32), n("tau")]),
+                func("tmh_slab", vec![f(a as f32), f(b as f32), f(gamma as f32), n("tau")]),
             ));
         }
     }
@@ -239,7 +239,7 @@ fn medium_factors(p: &str, medium: &Medium, scattering: bool) -> Vec<Stmt> {
             .iter()
             .map(|c| {
                 func(
-                    "tm_safe_ratio",
+                    "tmh_safe_ratio",
                     vec![n(&format!("slab_g_{c}")).member(component), n(&format!("slab_{c}")).member(component)],
                 )
             })
@@ -283,13 +283,13 @@ pub(super) fn transmission_asymmetries(
         let_(
             &declare("g_below"),
             Ty::F32,
-            func("tm_hg_refract", vec![name(g_arriving), f((1.0 / eta) as f32)]) * n("t_g0"),
+            func("tmh_hg_refract", vec![name(g_arriving), f((1.0 / eta) as f32)]) * n("t_g0"),
         ),
         let_(&declare("g_reflected_below"), Ty::F32, o("g_below") * g_next),
         let_(
             &declare("g_back_up"),
             Ty::F32,
-            func("tm_hg_refract", vec![o("g_reflected_below"), f(eta as f32)]) * n("tp_g0"),
+            func("tmh_hg_refract", vec![o("g_reflected_below"), f(eta as f32)]) * n("tp_g0"),
         ),
         let_(&declare("t_g"), Ty::F32, select(name(g_arriving).ne(f(0.0)), o("g_below") / name(g_arriving), f(0.0))),
         let_(
@@ -308,7 +308,7 @@ pub(super) fn transmission_asymmetries(
         None
     };
     if let Some((mu, g_lobe, eta_crossed, r, t)) = crossing {
-        let share = g.tir(m, mu, func("tm_hg_to_ggx", vec![g_lobe]), eta_crossed)?;
+        let share = g.tir(m, mu, func("tmh_hg_to_ggx", vec![g_lobe]), eta_crossed)?;
         body.push(let_(&declare(&format!("moved_{t}")), Ty::F32, share * o(t)));
         body.push(assign(o(r), o(r) + o(&format!("moved_{t}"))));
         body.push(assign(o(t), o(t) - o(&format!("moved_{t}"))));
@@ -332,7 +332,7 @@ pub(super) fn store_lobe(
 ) -> Result<(Vec<Stmt>, Expr)> {
     let n = |s: &str| name(&format!("{lp}{s}"));
     let mut body = vec![
-        let_(&format!("{lp}roughness"), Ty::F32, func("tm_hg_to_ggx", vec![asymmetry])),
+        let_(&format!("{lp}roughness"), Ty::F32, func("tmh_hg_to_ggx", vec![asymmetry])),
         assign(name("result").member("lobe_energy").index(k), n("energy")),
         assign(name("result").member("lobe_roughness").index(k), n("roughness")),
         assign(name("result").member("lobe_cos").index(k), name("mu")),
@@ -361,7 +361,7 @@ pub(super) fn has_energy(energy: Expr) -> Expr {
 pub(super) fn finish(m: &ShaderMaterial, mut body: Vec<Stmt>, top: Option<Expr>) -> Function {
     body.extend(epilogue(top));
     Function {
-        name: format!("tm_{}", super::identifier(&m.name)),
+        name: super::material_function(&m.name),
         params: vec![("mu_in".into(), Ty::F32)],
         returns: Ty::Named("TmResult".into()),
         body,

@@ -22,6 +22,12 @@
 //! the transmission lobes' roughness scale `|(eta_ji r.z + rp.z) / rp.z|` taken whole in `abs`,
 //! the top index of every interface that of the layer above (air 1.0, never 1.003), and no read
 //! of a layer below the last one.
+//!
+//! Names: a material's function is `tm_` and the material's name ([`material_function`]); every
+//! other name the generator makes at module scope begins otherwise (`tmh_` for helpers, texture
+//! bindings and slice choosers, `tm6_` for the 6-flux helpers, `tmlut_` for the fitted TIR form,
+//! `fgd_lossless` for the packing's lookup, `TmResult`), so that no material name can give the
+//! name of a helper (`finite-or` once redefined `tm_finite_or`).
 
 mod helpers;
 mod layers;
@@ -342,7 +348,7 @@ impl Generator<'_> {
             return self.textures[binding as usize].variable.clone();
         }
         let binding = self.textures.len() as u32;
-        let variable = format!("tm_table{binding}");
+        let variable = format!("tmh_table{binding}");
         self.textures.push(TextureBinding {
             binding,
             variable: variable.clone(),
@@ -370,7 +376,7 @@ impl Generator<'_> {
     fn read2(&mut self, t: &TableFile, mu: Expr, alpha: Expr) -> Expr {
         let variable = self.bind_table(t);
         let [u, v] = [0, 1].map(|d| coordinate(&t.axes[d], if d == 0 { mu.clone() } else { alpha.clone() }));
-        func("tm_bilinear", vec![name(&variable), u, v, f(t.axes[0].count as f32), f(t.axes[1].count as f32)])
+        func("tmh_bilinear", vec![name(&variable), u, v, f(t.axes[0].count as f32), f(t.axes[1].count as f32)])
     }
 
     /// The value of the slice answering a lookup at `(eta, kappa)`, as
@@ -382,7 +388,7 @@ impl Generator<'_> {
     /// One candidate is read directly. Where several are, the ones that can never be chosen are
     /// dropped when `alpha` is known here (a slice whose alpha range misses it loses to one that
     /// holds it and every `mu`, and so does any slice after that one); the rest are compared in a
-    /// function of their own, `tm_slice<N>(mu, alpha)`.
+    /// function of their own, `tmh_slice<N>(mu, alpha)`.
     fn slice(
         &mut self,
         tir: bool,
@@ -446,7 +452,7 @@ impl Generator<'_> {
             }
             return function;
         }
-        let function = format!("tm_slice{}", self.choosers.len());
+        let function = format!("tmh_slice{}", self.choosers.len());
         let mut body = Vec::new();
         for (k, (t, c)) in candidates.iter().enumerate() {
             let distance = [(0, "mu"), (1, "alpha")]
@@ -612,12 +618,12 @@ impl Generator<'_> {
                 "eta" => f(eta as f32),
                 CRITICAL_ANGLE_OFFSET => {
                     self.needs.acos = true;
-                    critical.clone() - func("tm_acos", vec![mu.clone().clamp(f(0.0), f(1.0))])
+                    critical.clone() - func("tmh_acos", vec![mu.clone().clamp(f(0.0), f(1.0))])
                 }
                 CRITICAL_ANGLE_FRACTION => {
                     // (c - v) / v below the view's angle v, (c - v) / (pi/2 - v) above it.
                     self.needs.acos = true;
-                    let view = func("tm_acos", vec![mu.clone().clamp(f(0.0), f(1.0))]);
+                    let view = func("tmh_acos", vec![mu.clone().clamp(f(0.0), f(1.0))]);
                     let offset = critical.clone() - view.clone();
                     select(
                         critical.clone().lt(view.clone()),
@@ -643,7 +649,7 @@ impl Generator<'_> {
         let mut arguments = vec![name(&variable)];
         arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x)));
         arguments.extend(t.axes.iter().map(|axis| f(axis.count as f32)));
-        Ok(func("tm_trilinear", arguments))
+        Ok(func("tmh_trilinear", arguments))
     }
 
     /// `GD(mu, alpha)`.
@@ -669,6 +675,12 @@ fn padded(n: usize) -> usize {
     }
 }
 
+/// The function of material `name`: `tm_` and its [`identifier`]. Nothing else the generator
+/// makes begins with `tm_` (the module docs), so material names collide only with each other.
+pub fn material_function(name: &str) -> String {
+    format!("tm_{}", identifier(name))
+}
+
 /// A shader identifier from a material name: letters, digits and `_`.
 pub fn identifier(s: &str) -> String {
     s.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' }).collect()
@@ -691,7 +703,7 @@ fn coordinate(axis: &Axis, x: Expr) -> Expr {
         Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
             let (scale, centre, slope_below) = axis.mapping.asinh_parts().unwrap_or_default();
             let from_centre = if centre == 0.0 { x } else { x - f(centre as f32) };
-            let asinh = func("tm_asinh", vec![from_centre.clone() / f(scale as f32)]);
+            let asinh = func("tmh_asinh", vec![from_centre.clone() / f(scale as f32)]);
             if slope_below == 0.0 { asinh } else { asinh + f(slope_below as f32) * from_centre.min(f(0.0)) }
         }
     };

@@ -11,7 +11,7 @@ use crate::physics::ggx_to_hg;
 /// The function of material `m` and its lobe count.
 pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Function, usize)> {
     let (components, mut body) = layers::begin(g, m)?;
-    let matrix = |n: &str| layers::identity_matrix(n, "TmMatrix", "tm_identity");
+    let matrix = |n: &str| layers::identity_matrix(n, "TmMatrix", "tmh_identity");
     body.extend([
         Stmt::Comment(
             "The energy matrices (one 2x2 per channel, entrywise in a vec3), the asymmetry matrix (the\n\
@@ -34,10 +34,10 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
             Component::Pass => continue,
             Component::Medium(_) => {
                 // An attenuator leaves the reflectance above it as it is: no lobe of its own.
-                body.push(assign(name("energy"), func("tm_attenuate", vec![name("energy"), n("t")])));
+                body.push(assign(name("energy"), func("tmh_attenuate", vec![name("energy"), n("t")])));
                 body.push(assign(
                     name("asym"),
-                    func("tm_attenuate", vec![name("asym"), v3(func("tm_average", vec![n("t")]))]),
+                    func("tmh_attenuate", vec![name("asym"), v3(func("tmh_average", vec![n("t")]))]),
                 ));
                 continue;
             }
@@ -56,12 +56,12 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
                 let g_alpha = f(ggx_to_hg(alpha) as f32);
                 body.push(assign(
                     name("energy"),
-                    func("tm_then_interface", vec![name("energy"), v3(n("r")), v3(n("t")), v3(n("rp")), v3(n("tp"))]),
+                    func("tmh_then_interface", vec![name("energy"), v3(n("r")), v3(n("t")), v3(n("rp")), v3(n("tp"))]),
                 ));
                 body.push(assign(
                     name("asym"),
                     func(
-                        "tm_then_interface",
+                        "tmh_then_interface",
                         vec![
                             name("asym"),
                             v3(n("r") * g_alpha.clone()),
@@ -89,16 +89,19 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
                         / (m.clone().member("m11") + m.member("m12") * base)
                 };
                 let g_alpha = f(ggx_to_hg(alpha) as f32);
-                (over("energy", n("base")), over("asym", v3(func("tm_average", vec![n("base")]) * g_alpha)).member("x"))
+                (
+                    over("energy", n("base")),
+                    over("asym", v3(func("tmh_average", vec![n("base")]) * g_alpha)).member("x"),
+                )
             }
         };
         // The lobe: the increment of the cumulative reflectance (`tm2::lobes`); where nothing
         // crosses (0 / 0) the limit adds nothing to what was reflected above.
         body.extend([
-            let_(&format!("{p}r_total"), Ty::Vec(3), func("tm_finite_or3", vec![r_total, name("r_above")])),
-            let_(&format!("{p}g_total"), Ty::F32, func("tm_finite_or", vec![g_total, name("g_above")])),
+            let_(&format!("{p}r_total"), Ty::Vec(3), func("tmh_finite_or3", vec![r_total, name("r_above")])),
+            let_(&format!("{p}g_total"), Ty::F32, func("tmh_finite_or", vec![g_total, name("g_above")])),
             let_(&format!("{p}energy"), Ty::Vec(3), n("r_total") - name("r_above")),
-            let_(&format!("{p}mean"), Ty::F32, func("tm_average", vec![n("energy")])),
+            let_(&format!("{p}mean"), Ty::F32, func("tmh_average", vec![n("energy")])),
             let_(
                 &format!("{p}g"),
                 Ty::F32,

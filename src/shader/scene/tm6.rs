@@ -146,7 +146,7 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
                 if wanted {
                     body.push(assign(
                         n(total).member(kind),
-                        func("tm_finite_or3", vec![name(&raw_name).member(kind), name(above).member(kind)]),
+                        func("tmh_finite_or3", vec![name(&raw_name).member(kind), name(above).member(kind)]),
                     ));
                 }
             }
@@ -170,7 +170,7 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
                 Ty::Vec(3),
                 n("g_total").member(kind) - name("g_above").member(kind),
             ));
-            let ratio = |c: &str| func("tm_safe_ratio", vec![l("g_delta").member(c), l("delta").member(c)]);
+            let ratio = |c: &str| func("tmh_safe_ratio", vec![l("g_delta").member(c), l("delta").member(c)]);
             body.push(let_(&format!("{lp}g"), Ty::F32, (ratio("x") + ratio("y") + ratio("z")) / f(3.0)));
             body.push(let_(&format!("{lp}energy"), Ty::Vec(3), l("delta").max(v3(f(0.0)))));
             let is_top = index == 0 && kind == "primary";
