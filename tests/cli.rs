@@ -388,7 +388,8 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
     let config = write_config(dir.path(), SMALL_SET);
     let out = dir.path().join("luts");
     let scene = scene_path("copper-pot");
-    let output = build(&config, &out, &["--scene", &scene]);
+    // Every slice checked on its own and against the full table.
+    let output = build(&config, &out, &["--scene", &scene, "--slice-checks", "full"]);
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(
         stdout(&output).contains("interpolated vs the exact integral, where the slice's lookups are made"),
@@ -427,6 +428,21 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
     assert_eq!(entry.nan_count, 0);
     let values = copper.interpolate(&[0.8, 0.01]);
     assert!(values[..3].iter().all(|v| (0.0..=1.0).contains(v)) && values[3] == 0.0, "{values:?}");
+
+    // By default the checks are drawn across the slices of the build: the same tables, each with
+    // the batch's reference figure and a note saying so.
+    let sampled = dir.path().join("sampled");
+    let output = build(&config, &sampled, &["--scene", &scene]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stdout(&output).contains("1 materials: 4 tables (3 slices"), "{}", stdout(&output));
+    let sampled_manifest = Manifest::read(&sampled.join(MANIFEST_FILE)).unwrap();
+    for (file, entry) in &sampled_manifest.files {
+        assert_eq!(entry.sha256, manifest.files[file].sha256, "{file}: the same bytes either way");
+        if file.starts_with("fgd_") || file.starts_with("tir_") {
+            assert!(entry.error.reference.is_some(), "{file}");
+            assert!(entry.notes.iter().any(|n| n.contains("Checked as one of a batch")), "{file}: {:?}", entry.notes);
+        }
+    }
 }
 
 #[test]

@@ -68,6 +68,9 @@ pub fn cache_folder(cache: Option<PathBuf>) -> tmlut::Result<Option<PathBuf>> {
     }
 }
 
+/// The most files a scene build lists one by one.
+const MAX_FILES_LISTED: usize = 64;
+
 fn parse_slice_checks(text: &str) -> Result<SliceChecks, String> {
     one_of(text, &[("sampled", SliceChecks::Sampled), ("full", SliceChecks::Full)])
 }
@@ -99,13 +102,20 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
                 slice_checks: args.slice_checks,
                 cache: cache_folder(args.cache)?,
             };
-            let (plan, written) = build_scene(&request, &progress)?;
+            let (plan, written, summary) = build_scene(&request, &progress)?;
             println!("{}", plan.summary());
             for warning in &plan.warnings {
                 eprintln!("warning: {warning}");
             }
             write_scene_shader(&request.scene, &request.out);
-            written
+            // A library's files are listed in its manifest; one line per file would bury the summary.
+            if written.len() <= MAX_FILES_LISTED {
+                print!("{}", pipeline::summary(&written));
+            } else {
+                println!("{} files, each described in {}", written.len(), request.out.join("manifest.json").display());
+            }
+            println!("{summary}");
+            return Ok(());
         }
         true => {
             let request = BuildRequest { config, only: args.only, out: args.out, error_maps: args.error_maps };

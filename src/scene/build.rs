@@ -52,8 +52,54 @@ pub enum SliceChecks {
     None,
 }
 
-/// Build the plan of `request.scene`; returns the plan and the files written.
-pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Result<(Plan, Vec<WrittenFile>)> {
+/// What a scene build did: its closing summary.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SceneBuildSummary {
+    pub materials: usize,
+    pub tables: usize,
+    pub merged_slices: usize,
+    pub slices: usize,
+    pub slices_from_cache: usize,
+    pub texel_bytes: u64,
+    pub files: usize,
+    pub file_bytes: u64,
+    /// Wall time of each phase: planning; the slices (cache, integration, checks); the other
+    /// tables, writing and the commit.
+    pub plan_s: f64,
+    pub slices_s: f64,
+    pub rest_s: f64,
+}
+
+impl std::fmt::Display for SceneBuildSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let total = self.plan_s + self.slices_s + self.rest_s;
+        write!(
+            f,
+            "{} materials: {} tables ({} slices, {} of them from the cache; {} identical slices merged), {} of texels in {} files ({}); \
+             {:.2} s: plan {:.2} s, slices {:.2} s, other tables and writing {:.2} s ({:.1} materials per second)",
+            self.materials,
+            self.tables,
+            self.slices,
+            self.slices_from_cache,
+            self.merged_slices,
+            super::plan::human_bytes(self.texel_bytes),
+            self.files,
+            super::plan::human_bytes(self.file_bytes),
+            total,
+            self.plan_s,
+            self.slices_s,
+            self.rest_s,
+            self.materials as f64 / total.max(1e-9)
+        )
+    }
+}
+
+/// Build the plan of `request.scene`; returns the plan, the files written and a summary.
+pub fn build_scene(
+    request: &SceneBuildRequest,
+    progress: &dyn Progress,
+) -> Result<(Plan, Vec<WrittenFile>, SceneBuildSummary)> {
+    let started = std::time::Instant::now();
     let mut config = request.config.clone();
     if request.error_maps {
         config.fgd.replicate_error_columns = usize::MAX;
@@ -62,6 +108,7 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
         config.disable_interpolation_checks();
     }
     let plan = plan(&request.scene, &config)?;
+    let plan_s = started.elapsed().as_secs_f64();
     let seed = config.seed;
     // The full tables the slices are compared with, built once, without their own reference checks.
     let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(seed, progress)?.table) };
@@ -99,11 +146,13 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
             _ => None,
         })
         .collect();
+    let cache = request.cache.as_deref().map(SliceCache::open);
+    let slices_started = std::time::Instant::now();
+    let mut slices_from_cache = 0;
     let mut batch: std::collections::HashMap<String, TableBuild> = std::collections::HashMap::new();
     if request.slice_checks != SliceChecks::Full && !all_slices.is_empty() {
         // Slices an earlier build stored are read back; the others are integrated (and checked)
         // together, then stored.
-        let cache = request.cache.as_deref().map(SliceCache::open);
         let mut missing: Vec<&Slices> = Vec::new();
         for slices in &all_slices {
             match cache.as_ref().and_then(|c| c.get(slices, seed)) {
@@ -127,20 +176,12 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                 batch.insert(slices.name.clone(), build);
             }
         }
-        if let Some(cache) = &cache {
-            progress.note(&format!(
-                "slice cache {}: {} of {} slices read from it, {} built",
-                cache.dir.display(),
-                cache.hits(),
-                all_slices.len(),
-                missing.len()
-            ));
-            for warning in cache.warnings() {
-                progress.note(&format!("warning: {warning}"));
-            }
-        }
+        slices_from_cache = all_slices.len() - missing.len();
     }
     let batch = &batch;
+    let cache = &cache;
+    let slices_s = slices_started.elapsed().as_secs_f64();
+    let rest_started = std::time::Instant::now();
 
     let jobs: Vec<Job> = plan
         .tables
@@ -189,8 +230,19 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
                     }
                     _ => (recipe.output().clone(), None),
                 };
+                // A full table is kept in the cache too (GD, read by every 6-flux library, and the
+                // sub-range tables): a build of an unchanged library then integrates nothing.
+                let key = cache.as_ref().and(table_key(other, seed));
                 Job {
-                    run: Box::new(move |progress| recipe.build(seed, progress)),
+                    run: Box::new(move |progress| {
+                        let (Some(cache), Some(key)) = (cache, &key) else { return recipe.build(seed, progress) };
+                        if let Some(build) = cache.get_by_key(key, &recipe.axes()?) {
+                            return Ok(build);
+                        }
+                        let build = recipe.build(seed, progress)?;
+                        cache.put_by_key(key, &build);
+                        Ok(build)
+                    }),
                     output,
                     packings,
                     packing_formats,
@@ -207,7 +259,58 @@ pub fn build_scene(request: &SceneBuildRequest, progress: &dyn Progress) -> Resu
         plan: plan.record(),
     };
     let written = write_jobs(&request.out, jobs, request.error_maps, Some(record), progress)?;
-    Ok((plan, written))
+    if let Some(cache) = cache {
+        progress.note(&format!(
+            "table cache {}: {} of {} tables read from it",
+            cache.dir.display(),
+            cache.hits(),
+            plan.tables.iter().filter(|t| !matches!(t.build, PlannedBuild::TirFit(_))).count()
+        ));
+        for warning in cache.warnings() {
+            progress.note(&format!("warning: {warning}"));
+        }
+    }
+    let summary = SceneBuildSummary {
+        materials: request.scene.materials.len(),
+        tables: plan.tables.len(),
+        merged_slices: plan.merged_slices,
+        slices: all_slices.len(),
+        slices_from_cache,
+        texel_bytes: plan.bytes,
+        files: written.len(),
+        file_bytes: written.iter().map(|w| w.entry.bytes).sum(),
+        plan_s,
+        slices_s,
+        rest_s: rest_started.elapsed().as_secs_f64(),
+    };
+    Ok((plan, written, summary))
+}
+
+/// The cache key of a planned full (or sub-range) table; `None` for the fitted form, whose fit
+/// the cache does not keep.
+fn table_key(build: &PlannedBuild, seed: u64) -> Option<String> {
+    let key = |table: &str, settings: &dyn erased::Settings| Some(SliceCache::table_key(table, &settings.json(), seed));
+    match build {
+        PlannedBuild::Fgd(s) => key("fgd", s),
+        PlannedBuild::Gd(s) => key("gd", s),
+        PlannedBuild::Tir(s) => key("tir", s),
+        PlannedBuild::Belcour(s) => key("belcour", s),
+        PlannedBuild::Karis(s) => key("karis", s),
+        PlannedBuild::FgdRarer(s) => key("fgd_rarer", s),
+        PlannedBuild::TirFit(_) | PlannedBuild::Slices(_) => None,
+    }
+}
+
+/// Settings of any table as the JSON value a cache key hashes.
+mod erased {
+    pub trait Settings {
+        fn json(&self) -> serde_json::Value;
+    }
+    impl<T: serde::Serialize> Settings for T {
+        fn json(&self) -> serde_json::Value {
+            serde_json::to_value(self).expect("plain data")
+        }
+    }
 }
 
 /// Points of the interpolation check drawn across every slice of a build ([`SliceChecks::Sampled`]).

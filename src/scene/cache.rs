@@ -1,13 +1,14 @@
-//! A content-addressed cache of built slices, shared across scenes, output folders and runs
-//! (`tmlut build --scene ... --cache [DIR]`, `tmlut cache`).
+//! A content-addressed cache of the tables a scene build integrates, shared across scenes, output
+//! folders and runs (`tmlut build --scene ... --cache [DIR]`, `tmlut cache`).
 //!
 //! A slice's stored values depend on its table and settings (samples, replicates, masking, basis,
 //! top index), its `(mu, alpha)` axes, the indices of its channels, the seed and the recipe's code,
 //! and on nothing else: not on its name, the materials that read it, or the other slices of the
 //! build (`recipes::slices::integrate_batch` makes it so). The SHA-256 of those, with
-//! [`CACHE_FORMAT`] and the crate's version, is its key; the entry `<key>.slice` holds its values,
-//! their replicate standard errors and the checks of the batch it was built in, after one line
-//! with the SHA-256 of the rest.
+//! [`CACHE_FORMAT`] and the crate's version, is its key. A full or sub-range table of a plan (GD,
+//! a sub-range FGD or TIR) is keyed by its table's name and every setting. The entry
+//! `<key>.slice` holds the table's layout, values, replicate standard errors, provenance and the
+//! checks of the run that built it, after one line with the SHA-256 of the rest.
 //!
 //! - An entry is written to a temporary file of its own and renamed into place, so concurrent
 //!   builds sharing a cache write whole entries (two writers of one key write the same bytes).
@@ -29,18 +30,18 @@ use crate::loader::sha256_hex;
 use crate::recipes::driver::{Provenance, SamplingRecord, TableBuild};
 use crate::recipes::interpolation::ExactValues;
 use crate::recipes::slices::Slices;
-use crate::recipes::{Kernel, slices::BATCH_CHECK_NOTE};
+use crate::recipes::Kernel;
 use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
 
 /// The layout of an entry and of what its key covers; a change to either, or to how a slice is
 /// integrated, changes it (and the crate's version is in every key besides).
-pub const CACHE_FORMAT: u32 = 1;
+pub const CACHE_FORMAT: u32 = 2;
 
 /// The extension of an entry.
 pub const ENTRY_EXTENSION: &str = "slice";
 
 /// The note a slice from the cache carries in the manifest.
-pub const FROM_CACHE_NOTE: &str = "From the slice cache: built in an earlier run with the same settings, axes, indices and seed (the same bytes); its checks are those of the batch it was built in.";
+pub const FROM_CACHE_NOTE: &str = "From the table cache: built in an earlier run with the same settings, axes, indices and seed (the same bytes); its checks are those of that run.";
 
 /// The default cache folder: `$XDG_CACHE_HOME/tmlut`, else `$HOME/.cache/tmlut`
 /// (`%LOCALAPPDATA%\tmlut\cache` on Windows).
@@ -56,6 +57,14 @@ pub fn default_dir() -> Option<PathBuf> {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct Entry {
     key: String,
+    integrand: String,
+    masking: Option<crate::physics::MaskingShadowing>,
+    notes: Vec<String>,
+    accuracy: Vec<crate::stats::AccuracyReport>,
+    /// The table's layout: its name, axes and channels.
+    table: String,
+    axes: Vec<crate::table::Axis>,
+    channels: Vec<crate::table::Channel>,
     values: Vec<f32>,
     standard_error: Option<Vec<f32>>,
     replicate_standard_error: ErrorSummary,
@@ -119,6 +128,13 @@ impl SliceCache {
         sha256_hex(serde_json::to_string(&fields).expect("plain data").as_bytes())
     }
 
+    /// The key of a full (or sub-range) table of a scene plan: its table and settings (every key,
+    /// sub-ranges and counts included) and the seed.
+    pub fn table_key(table: &str, settings: &impl Serialize, seed: u64) -> String {
+        let fields = (CACHE_FORMAT, env!("CARGO_PKG_VERSION"), table, settings, seed);
+        sha256_hex(serde_json::to_string(&fields).expect("plain data").as_bytes())
+    }
+
     fn entry_path(&self, key: &str) -> PathBuf {
         self.dir.join(format!("{key}.{ENTRY_EXTENSION}"))
     }
@@ -152,11 +168,20 @@ impl SliceCache {
     /// The slice's build from the cache, if an intact entry holds it; a damaged entry is reported
     /// and left for [`SliceCache::put`] to replace.
     pub fn get(&self, slices: &Slices, seed: u64) -> Option<TableBuild> {
+        let expected = slices.empty_table().ok()?;
+        // The channels' descriptions name the materials that read them: this build's.
+        let mut build = self.get_by_key(&Self::key(slices, seed), &expected.axes)?;
+        build.table.name = expected.name;
+        build.table.channels = expected.channels;
+        Some(build)
+    }
+
+    /// The build stored under `key`, whose axes must be `axes`.
+    pub fn get_by_key(&self, key: &str, axes: &[crate::table::Axis]) -> Option<TableBuild> {
         if !self.usable() {
             return None;
         }
-        let key = Self::key(slices, seed);
-        let path = self.entry_path(&key);
+        let path = self.entry_path(key);
         let bytes = match std::fs::read(&path) {
             Ok(bytes) => bytes,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
@@ -165,7 +190,7 @@ impl SliceCache {
                 return None;
             }
         };
-        match decode(&bytes, &key).and_then(|entry| into_build(slices, entry)) {
+        match decode(&bytes, key).and_then(|entry| into_build(axes, entry)) {
             Ok(build) => {
                 *self.hits.lock().unwrap_or_else(|p| p.into_inner()) += 1;
                 Some(build)
@@ -180,13 +205,26 @@ impl SliceCache {
     /// Store the build of `slices`; a failure (read-only or full folder) disables the cache for
     /// the rest of the build, with a warning.
     pub fn put(&self, slices: &Slices, seed: u64, build: &TableBuild) {
-        if !self.usable() {
+        self.put_by_key(&Self::key(slices, seed), build);
+    }
+
+    /// Store `build` under `key`. A build whose provenance holds what an entry does not keep (a
+    /// Fresnel basis, a channel-sum rounding: the split-sum tables) is not stored.
+    pub fn put_by_key(&self, key: &str, build: &TableBuild) {
+        let p = &build.provenance;
+        if !self.usable() || p.fresnel_basis.is_some() || p.channel_sum.is_some() {
             return;
         }
-        let key = Self::key(slices, seed);
-        let p = &build.provenance;
+        let key = key.to_string();
         let entry = Entry {
             key: key.clone(),
+            integrand: p.integrand.clone(),
+            masking: p.masking,
+            notes: p.notes.iter().filter(|n| n.as_str() != FROM_CACHE_NOTE).cloned().collect(),
+            accuracy: p.accuracy.clone(),
+            table: build.table.name.clone(),
+            axes: build.table.axes.clone(),
+            channels: build.table.channels.clone(),
             values: build.table.data.clone(),
             standard_error: p.standard_error.clone(),
             replicate_standard_error: p.error.replicate_standard_error.clone(),
@@ -223,31 +261,32 @@ fn decode(bytes: &[u8], key: &str) -> std::result::Result<Entry, String> {
     Ok(entry)
 }
 
-/// The slice's build from its entry, with the metadata the slice states of itself.
-fn into_build(slices: &Slices, entry: Entry) -> std::result::Result<TableBuild, String> {
-    let mut table = slices.empty_table().map_err(|e| e.to_string())?;
+/// The build an entry holds, whose axes must be `axes`.
+fn into_build(axes: &[crate::table::Axis], entry: Entry) -> std::result::Result<TableBuild, String> {
+    if entry.axes != axes {
+        return Err("its axes differ from the table's".into());
+    }
+    let mut table = crate::table::Table::zeros(entry.table, entry.axes, entry.channels).map_err(|e| e.to_string())?;
     if entry.values.len() != table.data.len()
         || entry.standard_error.as_ref().is_some_and(|s| s.len() != table.data.len())
         || entry.values.iter().any(|v| !v.is_finite())
     {
-        return Err(format!("{} values where the slice has {}", entry.values.len(), table.data.len()));
+        return Err(format!("{} values where the table has {}", entry.values.len(), table.data.len()));
     }
     table.data = entry.values;
-    let metadata = slices.metadata();
-    let mut notes = metadata.notes;
-    notes.push(BATCH_CHECK_NOTE.into());
+    let mut notes = entry.notes;
     notes.push(FROM_CACHE_NOTE.into());
     Ok(TableBuild {
         table,
         provenance: Provenance {
-            integrand: metadata.integrand,
-            masking: metadata.masking,
+            integrand: entry.integrand,
+            masking: entry.masking,
             notes,
             sampling: entry.sampling,
             error: ErrorRecord { replicate_standard_error: entry.replicate_standard_error, reference: entry.reference },
             wall_time_s: entry.wall_time_s,
             fresnel_basis: None,
-            accuracy: Vec::new(),
+            accuracy: entry.accuracy,
             standard_error: entry.standard_error,
             interpolation: entry.interpolation,
             channel_sum: None,

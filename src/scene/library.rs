@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::Scene;
+use super::{Scene, file_name_part};
 use crate::error::{Error, Result};
 
 /// Most materials one build plans: 40 scene files of the most a scene holds. Planning and the
@@ -78,15 +78,17 @@ pub fn merge(files: &[SceneFile]) -> Result<Scene> {
         margin_nodes: first.scene.margin_nodes,
         warnings: Vec::new(),
     };
-    let mut material_at: std::collections::HashMap<&str, &Path> = std::collections::HashMap::new();
-    let mut scene_at: std::collections::HashMap<&str, &Path> = std::collections::HashMap::new();
+    // Names are compared as the files they become (`Copper` and `copper` are one file), as a
+    // scene's own materials are.
+    let mut material_at: std::collections::HashMap<String, (&str, &Path)> = std::collections::HashMap::new();
+    let mut scene_at: std::collections::HashMap<String, (&str, &Path)> = std::collections::HashMap::new();
     for file in files {
         let scene = &file.scene;
-        if let Some(other) = scene_at.insert(&scene.name, &file.path) {
+        if let Some((other_name, other)) = scene_at.insert(file_name_part(&scene.name), (&scene.name, &file.path)) {
             return Err(Error::invalid(
                 file.path.display().to_string(),
                 format!(
-                    "scene `{}` is also the name of {}; the scenes of one build must have different names",
+                    "scene `{}` and scene `{other_name}` of {} give one file name; the scenes of one build must have names that differ as file names",
                     scene.name,
                     other.display()
                 ),
@@ -104,11 +106,13 @@ pub fn merge(files: &[SceneFile]) -> Result<Scene> {
             ));
         }
         for material in &scene.materials {
-            if let Some(other) = material_at.insert(&material.name, &file.path) {
+            if let Some((other_name, other)) =
+                material_at.insert(file_name_part(&material.name), (&material.name, &file.path))
+            {
                 return Err(Error::invalid(
                     file.path.display().to_string(),
                     format!(
-                        "material `{}` is also a material of {}; a material name may appear in one scene of a build only (rename one)",
+                        "material `{}` and material `{other_name}` of {} give one file name; a material name may appear in one scene of a build only (rename one)",
                         material.name,
                         other.display()
                     ),
@@ -156,6 +160,10 @@ mod tests {
 
         let error = merge(&[file("a", COPPER), file("b", COPPER)]).unwrap_err().to_string();
         assert!(error.contains("copper") && error.contains("a.toml") && error.contains("b.toml"), "{error}");
+        // Names that differ only as file names do not: they would share files.
+        let capital = COPPER.replace("\"copper\"", "\"Copper\"");
+        let error = merge(&[file("a", COPPER), file("b", &capital)]).unwrap_err().to_string();
+        assert!(error.contains("Copper") && error.contains("give one file name"), "{error}");
 
         let margin = format!("margin_nodes = 2\n{glass}");
         let error = merge(&[file("a", COPPER), file("b", &margin)]).unwrap_err().to_string();
