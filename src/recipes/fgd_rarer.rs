@@ -20,7 +20,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::fgd::{fgd_cells_at_mu_alpha, fgd_pairs_fast, projected_fresnel};
+use super::fgd::{fgd_cell_f32, fgd_cells_at_mu_alpha, fgd_pairs_fast, projected_fresnel};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_count};
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
@@ -213,6 +213,11 @@ impl Kernel for FgdRarerSettings {
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let pair = (Self::eta_of_node(position[0], position[2]), 0.0);
         fgd_cells_at_mu_alpha(self.masking, points, position[0], position[1], &[pair]).remove(0)
+    }
+
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        let pair = (Self::eta_of_node(position[0], position[2]), 0.0);
+        fgd_cell_f32(self.masking, points, position[0], position[1], pair)
     }
 
     /// The reference cells in groups sharing their `(mu, alpha)`: one pass over the samples each.

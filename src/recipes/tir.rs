@@ -390,6 +390,11 @@ impl Kernel for TirSettings {
         tir_cell(position[0], position[1], eta, points)
     }
 
+    /// The f32 kernel's indicator at one `eta` (exact at every sample, no binning).
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        self.estimate_node_fast(points, position)
+    }
+
     /// The reference cells in groups sharing their (mu, alpha): one pass over the samples each.
     fn check_reference(
         &self,
