@@ -220,7 +220,11 @@ pub fn fgd_pairs_fast(
     pairs: &[(f64, f64)],
     projections: &[Projection],
 ) -> Estimate {
-    let measure = cosine_measure(mu, alpha, masking, points, basis);
+    fgd_pairs_on(&cosine_measure(mu, alpha, masking, points, basis), pairs, projections)
+}
+
+/// [`fgd_pairs_fast`] on a measure already estimated.
+pub fn fgd_pairs_on(measure: &CosineMeasure, pairs: &[(f64, f64)], projections: &[Projection]) -> Estimate {
     // One pair at a time: each has its own kinks.
     let per_pair: Vec<Estimate> = pairs
         .iter()
@@ -402,6 +406,40 @@ impl Kernel for FgdSettings {
     }
 }
 
+/// The visible-normal measure of every `(mu, alpha)` node of `mu_axis` x `alpha_axis` (`mu`
+/// fastest), on `points` with `masking` on the hat `basis`.
+///
+/// FGD and `fgd_rarer` integrate the same measures (the same nodes, masking, hats and points by
+/// default): the set built last is kept and handed out again when the next table asks for the same
+/// one, as the reference points are ([`super::reference_points`]), so that a build of both
+/// estimates them once. They depend on nothing but the key.
+pub(crate) fn mu_alpha_measures(
+    mu_axis: &Axis,
+    alpha_axis: &Axis,
+    masking: MaskingShadowing,
+    points: &PointSet,
+    basis: HatBasis,
+    progress: &dyn Progress,
+) -> std::sync::Arc<Vec<CosineMeasure>> {
+    type Key = (Vec<u64>, Vec<u64>, MaskingShadowing, usize, crate::sampling::sequence::SamplePlan, u64);
+    static LAST: std::sync::Mutex<Option<(Key, std::sync::Arc<Vec<CosineMeasure>>)>> = std::sync::Mutex::new(None);
+    let bits = |axis: &Axis| axis.node_values().iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+    let key: Key = (bits(mu_axis), bits(alpha_axis), masking, basis.intervals, points.plan(), points.seed());
+    // A panic elsewhere while the lock was held leaves at worst a complete set or none.
+    if let Some((_, measures)) =
+        LAST.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).as_ref().filter(|(k, _)| *k == key)
+    {
+        return measures.clone();
+    }
+    let cells: Vec<u64> = (0..(mu_axis.count * alpha_axis.count) as u64).collect();
+    let measures = std::sync::Arc::new(estimate_cells(&cells, "fgd measures", progress, |cell| {
+        let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
+        cosine_measure(mu_axis.node_value(i), alpha_axis.node_value(j), masking, points, basis)
+    }));
+    *LAST.lock().unwrap_or_else(|poisoned| poisoned.into_inner()) = Some((key, measures.clone()));
+    measures
+}
+
 /// The fast path: measures, projected Fresnel, one matrix product. Returns the replicate spread
 /// over `settings.replicate_error_columns` random `(eta, kappa)` columns, and, when that is all of
 /// them, the standard error of every node (one more matrix product per replicate).
@@ -419,11 +457,8 @@ fn build_fast(
     let columns = eta_axis.count * kappa_axis.count;
 
     // Measures, one per (mu, alpha) and replicate.
-    let cells: Vec<u64> = (0..plane as u64).collect();
-    let measures: Vec<CosineMeasure> = estimate_cells(&cells, "fgd measures", progress, |cell| {
-        let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
-        cosine_measure(mu_axis.node_value(i), alpha_axis.node_value(j), settings.masking, points, basis)
-    });
+    let measures = mu_alpha_measures(&mu_axis, &alpha_axis, settings.masking, points, basis, progress);
+    let measures: &[CosineMeasure] = &measures;
     let mean: Vec<f64> = measures.iter().flat_map(|m| m.mean_moments(basis)).collect();
     let fresnel_of_column = |column: usize| {
         let (e, q) = (column % eta_axis.count, column / eta_axis.count);
@@ -467,7 +502,7 @@ fn build_fast(
     // Smooth-surface cells hold a point mass instead (their rows of `mean` are zero).
     product.par_chunks_mut(plane).enumerate().for_each(|(column, row)| {
         let (eta, kappa) = fresnel_of_column(column);
-        for (value, measure) in row.iter_mut().zip(&measures) {
+        for (value, measure) in row.iter_mut().zip(measures) {
             if let CosineMeasure::PointMass { cosine, weight } = measure {
                 *value += weight * fresnel_reflectance(*cosine, eta, kappa);
             }
