@@ -518,36 +518,41 @@ fn build_fast(
     }
 
     if settings.replicate_error_columns >= columns {
-        let map = standard_error_of_every_node(&fresnel, &measures, &corrections, basis, replicates, columns);
+        let map: Vec<f32> = standard_errors(&fresnel, measures, &corrections, basis, replicates, columns)
+            .into_iter()
+            .map(|s| s as f32)
+            .collect();
         return (ErrorSummary::of_differences(map.iter().map(|&s| s as f64)), Some(map));
     }
 
-    // Replicate spread at a random subset of (eta, kappa) columns, every (mu, alpha).
-    let sampled_columns = random_cells(columns, settings.replicate_error_columns, points.seed() ^ 0xC011);
-    let standard_errors: Vec<f64> = sampled_columns
-        .par_iter()
-        .flat_map_iter(|&column| {
-            let projection = &projections[column as usize];
-            let (eta, kappa) = fresnel_of_column(column as usize);
-            let kinks = fresnel_kinks(eta);
-            measures.iter().map(move |measure| {
-                measure.integrate(&[projection], |_, c| fresnel_reflectance(c, eta, kappa), &kinks).standard_error[0]
-            })
-        })
+    // Replicate spread at a random subset of (eta, kappa) columns, every (mu, alpha): the same
+    // products on those columns' rows, with the corrections already computed for them.
+    let sampled: Vec<usize> = random_cells(columns, settings.replicate_error_columns, points.seed() ^ 0xC011)
+        .into_iter()
+        .map(|column| column as usize)
         .collect();
-    (ErrorSummary::of_differences(standard_errors), None)
+    let sampled_fresnel: Vec<f64> =
+        sampled.iter().flat_map(|&column| projections[column].coefficients.clone()).collect();
+    let sampled_corrections: Vec<(usize, usize, Vec<f64>)> = corrections
+        .iter()
+        .filter_map(|(column, cell, values)| sampled.binary_search(column).ok().map(|row| (row, *cell, values.clone())))
+        .collect();
+    let spread = standard_errors(&sampled_fresnel, measures, &sampled_corrections, basis, replicates, sampled.len());
+    (ErrorSummary::of_differences(spread), None)
 }
 
-/// The replicate standard error of every node: one product per replicate, combined with Welford's
-/// running mean and sum of squares (so only one replicate's product is held at a time).
-fn standard_error_of_every_node(
+/// The replicate standard error of every node of the `columns` rows of `fresnel` (projected Fresnel,
+/// with `corrections` numbered by those rows), every `(mu, alpha)` fastest: one product per
+/// replicate, combined with Welford's running mean and sum of squares (so only one replicate's
+/// product is held at a time).
+fn standard_errors(
     fresnel: &[f64],
     measures: &[CosineMeasure],
     corrections: &[(usize, usize, Vec<f64>)],
     basis: HatBasis,
     replicates: usize,
     columns: usize,
-) -> Vec<f32> {
+) -> Vec<f64> {
     let k = basis.node_count();
     let plane = measures.len();
     let mut mean = vec![0.0f64; columns * plane];
@@ -568,7 +573,7 @@ fn standard_error_of_every_node(
     }
     let r = replicates as f64;
     // Point masses are exact: their rows are zero in every replicate, so their spread is 0.
-    sum_of_squares.iter().map(|&s| if replicates < 2 { 0.0 } else { (s / (r - 1.0) / r).sqrt() as f32 }).collect()
+    sum_of_squares.iter().map(|&s| if replicates < 2 { 0.0 } else { (s / (r - 1.0) / r).sqrt() }).collect()
 }
 
 #[cfg(test)]
