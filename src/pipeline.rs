@@ -168,15 +168,15 @@ pub fn write_jobs(
     // and would otherwise leave the integration's other core idle. Tables are still collected in
     // job order, so the staged files and the manifest do not depend on which finishes first.
     std::thread::scope(|scope| -> Result<()> {
-        let mut collect = |files: JobFiles| {
+        let mut collect = |files: StagedFiles| {
             // A fit whose table is not written (a scene's `tir = "fit"`) is recorded with the plan.
             if let (Some(fit), Some(scene)) = (files.unwritten_fit, scene.as_mut()) {
                 scene.plan.tir_fit = Some(fit);
             }
-            staged.extend(files.staged);
+            staged.extend(files.files);
             moves.extend(files.moves);
         };
-        let join = |writing: std::thread::ScopedJoinHandle<'_, Result<JobFiles>>| {
+        let join = |writing: std::thread::ScopedJoinHandle<'_, Result<StagedFiles>>| {
             writing.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
         };
         let mut writing = None;
@@ -188,7 +188,7 @@ pub fn write_jobs(
                 collect(join(previous)?);
             }
             let (dir, maps) = (&staging.dir, &staged_maps);
-            let files = JobFiles::of(build, output, packings, packing_formats, fit_seed, error_maps);
+            let files = JobFiles { build, output, packings, packing_formats, fit_seed, error_maps };
             writing = Some(scope.spawn(move || files.write(dir, maps)));
         }
         if let Some(last) = writing {
@@ -230,74 +230,57 @@ pub fn write_jobs(
     Ok(written)
 }
 
-/// One table's files, to be written: the table as built and what its job asks to write of it
-/// ([`Job`]); after [`JobFiles::write`], what was staged.
+/// One table as built and what its job asks to write of it ([`Job`]).
 struct JobFiles {
-    build: Option<TableBuild>,
+    build: TableBuild,
     output: OutputConfig,
     packings: Vec<Packing>,
     packing_formats: Vec<FileFormat>,
     fit_seed: Option<u64>,
     error_maps: bool,
-    /// The files staged with their manifest entries, the table's own first.
-    staged: Vec<WrittenFile>,
-    /// Staged files without a manifest entry of their own (shaders, error maps).
+}
+
+/// What [`JobFiles::write`] staged.
+struct StagedFiles {
+    /// The files with their manifest entries, the table's own first.
+    files: Vec<WrittenFile>,
+    /// Files without a manifest entry of their own (shaders, listed in the table's entry; error maps).
     moves: Vec<Move>,
     /// The fitted form of a table none of whose own files is written (a scene's `tir = "fit"`).
     unwritten_fit: Option<crate::formats::manifest::FitEntry>,
 }
 
 impl JobFiles {
-    fn of(
-        build: TableBuild,
-        output: OutputConfig,
-        packings: Vec<Packing>,
-        packing_formats: Vec<FileFormat>,
-        fit_seed: Option<u64>,
-        error_maps: bool,
-    ) -> JobFiles {
-        JobFiles {
-            build: Some(build),
-            output,
-            packings,
-            packing_formats,
-            fit_seed,
-            error_maps,
-            staged: Vec::new(),
-            moves: Vec::new(),
-            unwritten_fit: None,
-        }
-    }
-
     /// Write every file of the table into `dir` (error maps into `maps`), in formats, fit,
     /// packings, maps order.
-    fn write(mut self, dir: &Path, maps: &Path) -> Result<JobFiles> {
-        let build = self.build.take().expect("a table to write");
-        for &format in &self.output.formats {
-            self.staged.push(write_table_file(dir, &build, format, self.output.precision)?);
+    fn write(self, dir: &Path, maps: &Path) -> Result<StagedFiles> {
+        let (build, output) = (&self.build, &self.output);
+        let mut staged = StagedFiles { files: Vec::new(), moves: Vec::new(), unwritten_fit: None };
+        for &format in &output.formats {
+            staged.files.push(write_table_file(dir, build, format, output.precision)?);
         }
         if let Some(seed) = self.fit_seed {
             let (fit, shaders) = crate::fit::fit_for_build(&build.table, seed, dir)?;
-            for file in &mut self.staged {
+            for file in &mut staged.files {
                 file.entry.fit = Some(fit.clone());
             }
-            if self.staged.is_empty() {
-                self.unwritten_fit = Some(fit);
+            if staged.files.is_empty() {
+                staged.unwritten_fit = Some(fit);
             }
-            self.moves.extend(shaders.iter().map(|path| same_name(path, None)));
+            staged.moves.extend(shaders.iter().map(|path| same_name(path, None)));
         }
         for &packing in &self.packings {
             let (textures, shaders) =
-                write_packing_files(dir, &build, packing, &self.packing_formats, self.output.precision)?;
-            self.staged.extend(textures);
-            self.moves.extend(shaders.iter().map(|path| same_name(path, None)));
+                write_packing_files(dir, build, packing, &self.packing_formats, output.precision)?;
+            staged.files.extend(textures);
+            staged.moves.extend(shaders.iter().map(|path| same_name(path, None)));
         }
         if self.error_maps {
             std::fs::create_dir_all(maps).map_err(|source| Error::io(maps, source))?;
-            let written = crate::report::error_map::write_error_maps(maps, &build)?;
-            self.moves.extend(written.iter().map(|path| same_name(path, Some(MAPS_FOLDER))));
+            let written = crate::report::error_map::write_error_maps(maps, build)?;
+            staged.moves.extend(written.iter().map(|path| same_name(path, Some(MAPS_FOLDER))));
         }
-        Ok(self)
+        Ok(staged)
     }
 }
 
