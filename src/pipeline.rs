@@ -163,39 +163,39 @@ pub fn write_jobs(
     let mut staged = Vec::new();
     let mut moves = Vec::new();
     let mut rebuilt = std::collections::BTreeSet::new();
-    for job in jobs {
-        let build = (job.run)(progress)?;
-        rebuilt.insert(build.table.name.clone());
-        let first_file = staged.len();
-        for &format in &job.output.formats {
-            staged.push(write_table_file(&staging.dir, &build, format, job.output.precision)?);
-        }
-        if let Some(seed) = job.fit_seed {
-            let (fit, shaders) = crate::fit::fit_for_build(&build.table, seed, &staging.dir)?;
+    // Each table's files are written, hashed, read back for the interpolation check and (TIR)
+    // fitted on a thread of their own while the next table integrates: that work runs on one core
+    // and would otherwise leave the integration's other core idle. Tables are still collected in
+    // job order, so the staged files and the manifest do not depend on which finishes first.
+    std::thread::scope(|scope| -> Result<()> {
+        let mut collect = |files: StagedFiles| {
             // A fit whose table is not written (a scene's `tir = "fit"`) is recorded with the plan.
-            if staged.len() == first_file
-                && let Some(scene) = scene.as_mut()
-            {
-                scene.plan.tir_fit = Some(fit.clone());
+            if let (Some(fit), Some(scene)) = (files.unwritten_fit, scene.as_mut()) {
+                scene.plan.tir_fit = Some(fit);
             }
-            for file in &mut staged[first_file..] {
-                file.entry.fit = Some(fit.clone());
+            staged.extend(files.files);
+            moves.extend(files.moves);
+        };
+        let join = |writing: std::thread::ScopedJoinHandle<'_, Result<StagedFiles>>| {
+            writing.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        };
+        let mut writing = None;
+        for job in jobs {
+            let Job { run, output, packings, packing_formats, fit_seed } = job;
+            let build = run(progress)?;
+            rebuilt.insert(build.table.name.clone());
+            if let Some(previous) = writing.take() {
+                collect(join(previous)?);
             }
-            // Files without a manifest entry of their own (listed in the table's entry).
-            moves.extend(shaders.iter().map(|path| same_name(path, None)));
+            let (dir, maps) = (&staging.dir, &staged_maps);
+            let files = JobFiles { build, output, packings, packing_formats, fit_seed, error_maps };
+            writing = Some(scope.spawn(move || files.write(dir, maps)));
         }
-        for &packing in &job.packings {
-            let (textures, shaders) =
-                write_packing_files(&staging.dir, &build, packing, &job.packing_formats, job.output.precision)?;
-            staged.extend(textures);
-            moves.extend(shaders.iter().map(|path| same_name(path, None)));
+        if let Some(last) = writing {
+            collect(join(last)?);
         }
-        if error_maps {
-            std::fs::create_dir_all(&staged_maps).map_err(|source| Error::io(&staged_maps, source))?;
-            let maps = crate::report::error_map::write_error_maps(&staged_maps, &build)?;
-            moves.extend(maps.iter().map(|path| same_name(path, Some(MAPS_FOLDER))));
-        }
-    }
+        Ok(())
+    })?;
     // The earlier entries of every table built again describe an earlier build: a file in a
     // format no longer asked for would stay listed beside the new ones and disagree with them.
     // They leave the manifest, and their files the folder, in the same commit.
@@ -228,6 +228,60 @@ pub fn write_jobs(
     removals.dedup();
     crate::commit::commit(&folder, &mut staging, moves, removals)?;
     Ok(written)
+}
+
+/// One table as built and what its job asks to write of it ([`Job`]).
+struct JobFiles {
+    build: TableBuild,
+    output: OutputConfig,
+    packings: Vec<Packing>,
+    packing_formats: Vec<FileFormat>,
+    fit_seed: Option<u64>,
+    error_maps: bool,
+}
+
+/// What [`JobFiles::write`] staged.
+struct StagedFiles {
+    /// The files with their manifest entries, the table's own first.
+    files: Vec<WrittenFile>,
+    /// Files without a manifest entry of their own (shaders, listed in the table's entry; error maps).
+    moves: Vec<Move>,
+    /// The fitted form of a table none of whose own files is written (a scene's `tir = "fit"`).
+    unwritten_fit: Option<crate::formats::manifest::FitEntry>,
+}
+
+impl JobFiles {
+    /// Write every file of the table into `dir` (error maps into `maps`), in formats, fit,
+    /// packings, maps order.
+    fn write(self, dir: &Path, maps: &Path) -> Result<StagedFiles> {
+        let (build, output) = (&self.build, &self.output);
+        let mut staged = StagedFiles { files: Vec::new(), moves: Vec::new(), unwritten_fit: None };
+        for &format in &output.formats {
+            staged.files.push(write_table_file(dir, build, format, output.precision)?);
+        }
+        if let Some(seed) = self.fit_seed {
+            let (fit, shaders) = crate::fit::fit_for_build(&build.table, seed, dir)?;
+            for file in &mut staged.files {
+                file.entry.fit = Some(fit.clone());
+            }
+            if staged.files.is_empty() {
+                staged.unwritten_fit = Some(fit);
+            }
+            staged.moves.extend(shaders.iter().map(|path| same_name(path, None)));
+        }
+        for &packing in &self.packings {
+            let (textures, shaders) =
+                write_packing_files(dir, build, packing, &self.packing_formats, output.precision)?;
+            staged.files.extend(textures);
+            staged.moves.extend(shaders.iter().map(|path| same_name(path, None)));
+        }
+        if self.error_maps {
+            std::fs::create_dir_all(maps).map_err(|source| Error::io(maps, source))?;
+            let written = crate::report::error_map::write_error_maps(maps, build)?;
+            staged.moves.extend(written.iter().map(|path| same_name(path, Some(MAPS_FOLDER))));
+        }
+        Ok(staged)
+    }
 }
 
 /// The move of a staged file to the same name in the output folder (under `subfolder`).

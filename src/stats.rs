@@ -64,7 +64,8 @@ pub struct InterpolationError {
     pub points: String,
     /// How the values were read (the renderer's path).
     pub read_as: String,
-    /// Samples of each exact value (per-cell f64 estimator, independent scrambles).
+    /// Samples of each exact value (plain Monte Carlo, the integrand at every sample, independent
+    /// scrambles; `recipes::Kernel::exact_value`).
     pub exact_samples: u64,
     /// The largest standard error of an exact value: differences below a few times this are noise.
     pub exact_standard_error_max: f64,

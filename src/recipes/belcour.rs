@@ -312,6 +312,11 @@ impl Kernel for BelcourSettings {
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         basis_integrals(basis(), self.masking, Method::PerCell, points, position[0], position[1])
     }
+
+    /// The basis curves at every sample of the f32 kernel, not projected on the hats.
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        basis_integrals(basis(), self.masking, Method::Fast, points, position[0], position[1])
+    }
 }
 
 /// The four integrals at one `(mu, alpha)`, each cell on its own.

@@ -52,6 +52,17 @@ pub trait Kernel: Sync {
             progress,
         )
     }
+    /// One point of the interpolation check's exact integral ([`super::interpolation::exact_values_of`]):
+    /// a plain Monte Carlo estimate, the integrand evaluated at every sample (no hat projection),
+    /// at a position given in the axes' quantities. By default [`Kernel::estimate_node`], the per-cell
+    /// f64 path; a table whose integrand the f32 kernel evaluates sample by sample takes that
+    /// instead: its rounding (about 1e-7 of a value) is far below the interpolation errors the
+    /// check measures (1e-4 and up) and the exact values' own standard error (the default build's
+    /// figures agree with the f64 path's to three digits), at a fraction of the f64 sampler's
+    /// time (`docs/integration.md`, "Error estimates").
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        self.estimate_node(points, position)
+    }
     /// The exact integral at random points of the table's domains, for the interpolation check
     /// ([`super::interpolation::exact_values_of`]); none by default.
     fn exact_values(&self, _seed: u64, _progress: &dyn Progress) -> Result<Vec<ExactValues>> {

@@ -26,7 +26,9 @@ use super::{
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, multiply_transposed};
-use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_per_cell_blocks};
+use crate::integrate::{
+    Estimate, Method, Progress, estimate_cells, estimate_cosine_functions, estimate_per_cell_blocks,
+};
 use crate::packing::Packing;
 use crate::physics::{MaskingShadowing, critical_cosine, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
@@ -244,6 +246,19 @@ pub fn fgd_cell(masking: MaskingShadowing, points: &PointSet, position: &[f64]) 
     fgd_cells_at_mu_alpha(masking, points, mu, alpha, &[(eta, kappa)]).remove(0)
 }
 
+/// FGD at one cell on its own by plain Monte Carlo on the f32 kernel: Fresnel (in f64) at each
+/// sample's `wi.h`, no hat projection. The interpolation check's exact values
+/// ([`Kernel::exact_value`]).
+pub fn fgd_cell_f32(
+    masking: MaskingShadowing,
+    points: &PointSet,
+    mu: f64,
+    alpha: f64,
+    (eta, kappa): (f64, f64),
+) -> Estimate {
+    estimate_cosine_functions(mu, alpha, masking, Method::Fast, points, |c| [fresnel_reflectance(c, eta, kappa)])
+}
+
 /// FGD at the cells `(mu, alpha, eta, kappa)` for each of `pairs`, in f64 by the per-cell method,
 /// from one pass over the samples: the sampling, the warp and the weight depend on `(mu, alpha)`
 /// alone, only Fresnel on the pair. Each estimate has the bits of [`fgd_cell`] at its cell.
@@ -368,6 +383,10 @@ impl Kernel for FgdSettings {
         fgd_cell(self.masking, points, position)
     }
 
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        fgd_cell_f32(self.masking, points, position[0], position[1], (position[2], position[3]))
+    }
+
     /// The per-cell f64 estimates at random cells, drawn in groups that share their `(mu, alpha)`
     /// ([`compare_mu_alpha_groups_to_reference`]) so that each group takes one pass over the
     /// reference samples.
@@ -391,6 +410,40 @@ impl Kernel for FgdSettings {
     }
 }
 
+/// The visible-normal measure of every `(mu, alpha)` node of `mu_axis` x `alpha_axis` (`mu`
+/// fastest), on `points` with `masking` on the hat `basis`.
+///
+/// FGD and `fgd_rarer` integrate the same measures (the same nodes, masking, hats and points by
+/// default): the set built last is kept and handed out again when the next table asks for the same
+/// one, as the reference points are ([`super::reference_points`]), so that a build of both
+/// estimates them once. They depend on nothing but the key.
+pub(crate) fn mu_alpha_measures(
+    mu_axis: &Axis,
+    alpha_axis: &Axis,
+    masking: MaskingShadowing,
+    points: &PointSet,
+    basis: HatBasis,
+    progress: &dyn Progress,
+) -> std::sync::Arc<Vec<CosineMeasure>> {
+    type Key = (Vec<u64>, Vec<u64>, MaskingShadowing, usize, crate::sampling::sequence::SamplePlan, u64);
+    static LAST: std::sync::Mutex<Option<(Key, std::sync::Arc<Vec<CosineMeasure>>)>> = std::sync::Mutex::new(None);
+    let bits = |axis: &Axis| axis.node_values().iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+    let key: Key = (bits(mu_axis), bits(alpha_axis), masking, basis.intervals, points.plan(), points.seed());
+    // A panic elsewhere while the lock was held leaves at worst a complete set or none.
+    if let Some((_, measures)) =
+        LAST.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).as_ref().filter(|(k, _)| *k == key)
+    {
+        return measures.clone();
+    }
+    let cells: Vec<u64> = (0..(mu_axis.count * alpha_axis.count) as u64).collect();
+    let measures = std::sync::Arc::new(estimate_cells(&cells, "fgd measures", progress, |cell| {
+        let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
+        cosine_measure(mu_axis.node_value(i), alpha_axis.node_value(j), masking, points, basis)
+    }));
+    *LAST.lock().unwrap_or_else(|poisoned| poisoned.into_inner()) = Some((key, measures.clone()));
+    measures
+}
+
 /// The fast path: measures, projected Fresnel, one matrix product. Returns the replicate spread
 /// over `settings.replicate_error_columns` random `(eta, kappa)` columns, and, when that is all of
 /// them, the standard error of every node (one more matrix product per replicate).
@@ -408,11 +461,8 @@ fn build_fast(
     let columns = eta_axis.count * kappa_axis.count;
 
     // Measures, one per (mu, alpha) and replicate.
-    let cells: Vec<u64> = (0..plane as u64).collect();
-    let measures: Vec<CosineMeasure> = estimate_cells(&cells, "fgd measures", progress, |cell| {
-        let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
-        cosine_measure(mu_axis.node_value(i), alpha_axis.node_value(j), settings.masking, points, basis)
-    });
+    let measures = mu_alpha_measures(&mu_axis, &alpha_axis, settings.masking, points, basis, progress);
+    let measures: &[CosineMeasure] = &measures;
     let mean: Vec<f64> = measures.iter().flat_map(|m| m.mean_moments(basis)).collect();
     let fresnel_of_column = |column: usize| {
         let (e, q) = (column % eta_axis.count, column / eta_axis.count);
@@ -456,7 +506,7 @@ fn build_fast(
     // Smooth-surface cells hold a point mass instead (their rows of `mean` are zero).
     product.par_chunks_mut(plane).enumerate().for_each(|(column, row)| {
         let (eta, kappa) = fresnel_of_column(column);
-        for (value, measure) in row.iter_mut().zip(&measures) {
+        for (value, measure) in row.iter_mut().zip(measures) {
             if let CosineMeasure::PointMass { cosine, weight } = measure {
                 *value += weight * fresnel_reflectance(*cosine, eta, kappa);
             }
@@ -472,36 +522,41 @@ fn build_fast(
     }
 
     if settings.replicate_error_columns >= columns {
-        let map = standard_error_of_every_node(&fresnel, &measures, &corrections, basis, replicates, columns);
+        let map: Vec<f32> = standard_errors(&fresnel, measures, &corrections, basis, replicates, columns)
+            .into_iter()
+            .map(|s| s as f32)
+            .collect();
         return (ErrorSummary::of_differences(map.iter().map(|&s| s as f64)), Some(map));
     }
 
-    // Replicate spread at a random subset of (eta, kappa) columns, every (mu, alpha).
-    let sampled_columns = random_cells(columns, settings.replicate_error_columns, points.seed() ^ 0xC011);
-    let standard_errors: Vec<f64> = sampled_columns
-        .par_iter()
-        .flat_map_iter(|&column| {
-            let projection = &projections[column as usize];
-            let (eta, kappa) = fresnel_of_column(column as usize);
-            let kinks = fresnel_kinks(eta);
-            measures.iter().map(move |measure| {
-                measure.integrate(&[projection], |_, c| fresnel_reflectance(c, eta, kappa), &kinks).standard_error[0]
-            })
-        })
+    // Replicate spread at a random subset of (eta, kappa) columns, every (mu, alpha): the same
+    // products on those columns' rows, with the corrections already computed for them.
+    let sampled: Vec<usize> = random_cells(columns, settings.replicate_error_columns, points.seed() ^ 0xC011)
+        .into_iter()
+        .map(|column| column as usize)
         .collect();
-    (ErrorSummary::of_differences(standard_errors), None)
+    let sampled_fresnel: Vec<f64> =
+        sampled.iter().flat_map(|&column| projections[column].coefficients.clone()).collect();
+    let sampled_corrections: Vec<(usize, usize, Vec<f64>)> = corrections
+        .iter()
+        .filter_map(|(column, cell, values)| sampled.binary_search(column).ok().map(|row| (row, *cell, values.clone())))
+        .collect();
+    let spread = standard_errors(&sampled_fresnel, measures, &sampled_corrections, basis, replicates, sampled.len());
+    (ErrorSummary::of_differences(spread), None)
 }
 
-/// The replicate standard error of every node: one product per replicate, combined with Welford's
-/// running mean and sum of squares (so only one replicate's product is held at a time).
-fn standard_error_of_every_node(
+/// The replicate standard error of every node of the `columns` rows of `fresnel` (projected Fresnel,
+/// with `corrections` numbered by those rows), every `(mu, alpha)` fastest: one product per
+/// replicate, combined with Welford's running mean and sum of squares (so only one replicate's
+/// product is held at a time).
+fn standard_errors(
     fresnel: &[f64],
     measures: &[CosineMeasure],
     corrections: &[(usize, usize, Vec<f64>)],
     basis: HatBasis,
     replicates: usize,
     columns: usize,
-) -> Vec<f32> {
+) -> Vec<f64> {
     let k = basis.node_count();
     let plane = measures.len();
     let mut mean = vec![0.0f64; columns * plane];
@@ -522,7 +577,7 @@ fn standard_error_of_every_node(
     }
     let r = replicates as f64;
     // Point masses are exact: their rows are zero in every replicate, so their spread is 0.
-    sum_of_squares.iter().map(|&s| if replicates < 2 { 0.0 } else { (s / (r - 1.0) / r).sqrt() as f32 }).collect()
+    sum_of_squares.iter().map(|&s| if replicates < 2 { 0.0 } else { (s / (r - 1.0) / r).sqrt() }).collect()
 }
 
 #[cfg(test)]

@@ -20,7 +20,9 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::fgd::{fgd_cells_at_mu_alpha, fgd_pairs_fast, projected_fresnel};
+use super::fgd::{
+    fgd_cell_f32, fgd_cells_at_mu_alpha, fgd_pairs_fast, fgd_pairs_on_measure, mu_alpha_measures, projected_fresnel,
+};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_count};
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{
@@ -82,7 +84,9 @@ impl Default for FgdRarerSettings {
             masking: MaskingShadowing::SmithSeparable,
             method: Method::Fast,
             cosine_intervals: 256,
-            sampling: SamplingConfig { samples: 1 << 16, replicates: 4 },
+            // FGD's samples on FGD's (mu, alpha) nodes: a build of both estimates the measures once
+            // ([`mu_alpha_measures`]); 2^16 of its own cost more than sharing 2^17.
+            sampling: SamplingConfig { samples: 1 << 17, replicates: 4 },
             reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
@@ -135,6 +139,10 @@ impl TableRecipe for FgdRarerSettings {
 
     fn companions(&self) -> super::Companions {
         super::Companions::default()
+    }
+
+    fn kept_measure_intervals(&self) -> Option<usize> {
+        (self.method == Method::Fast).then_some(self.cosine_intervals)
     }
 
     /// A lookup passes `(mu, alpha, eta)`, `eta` below 1; the third axis is derived from them.
@@ -192,12 +200,20 @@ impl Kernel for FgdRarerSettings {
         };
         // Every fraction of one (mu, alpha) from one measure (fast) or one pass over the samples
         // (per cell).
-        let nodes = estimate_mu_alpha_columns(table, progress, |i, mu, alpha| match self.method {
+        // The measures of FGD's fast path, which a build of both tables estimates once.
+        let measures = match self.method {
             Method::Fast => {
-                fgd_pairs_fast(self.masking, self.cosine_basis(), points, mu, alpha, &pairs[i], &projections[i])
+                mu_alpha_measures(&table.axes[0], &table.axes[1], self.masking, points, self.cosine_basis(), progress)
             }
-            Method::PerCell => {
-                Estimate::from_channels(&fgd_cells_at_mu_alpha(self.masking, points, mu, alpha, &pairs[i]))
+            Method::PerCell => Default::default(),
+        };
+        let nodes = estimate_mu_alpha_columns(table, progress, |cell, mu, alpha| {
+            let i = cell % mu_axis.count;
+            match self.method {
+                Method::Fast => fgd_pairs_on_measure(&measures[cell], &pairs[i], &projections[i]),
+                Method::PerCell => {
+                    Estimate::from_channels(&fgd_cells_at_mu_alpha(self.masking, points, mu, alpha, &pairs[i]))
+                }
             }
         });
         // The global projection of Fresnel misses a cusp by up to 0.2 within its hat interval, and
@@ -213,6 +229,11 @@ impl Kernel for FgdRarerSettings {
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let pair = (Self::eta_of_node(position[0], position[2]), 0.0);
         fgd_cells_at_mu_alpha(self.masking, points, position[0], position[1], &[pair]).remove(0)
+    }
+
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        let pair = (Self::eta_of_node(position[0], position[2]), 0.0);
+        fgd_cell_f32(self.masking, points, position[0], position[1], pair)
     }
 
     /// The reference cells in groups sharing their `(mu, alpha)`: one pass over the samples each.

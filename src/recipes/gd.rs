@@ -137,6 +137,11 @@ impl Kernel for GdSettings {
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         albedo(self, Method::PerCell, points, position[0], position[1])
     }
+
+    /// The f32 kernel's plain estimate (the table's own path: GD has no projection).
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        self.estimate_node_fast(points, position)
+    }
 }
 
 #[cfg(test)]

@@ -5,8 +5,9 @@
 //! taken at the nodes, where interpolation is exact: they say nothing of a table whose integrand
 //! turns faster between nodes than linear interpolation follows (a step of total internal
 //! reflection at low roughness, the grazing fall-off of a smooth interface). This check draws
-//! points uniformly over a domain of lookup parameters, integrates each on its own with the
-//! per-cell f64 estimator ([`TableRecipe::estimate_node`]) on points independent of the table's,
+//! points uniformly over a domain of lookup parameters, integrates each on its own by plain Monte
+//! Carlo ([`super::Kernel::exact_value`]: the integrand at every sample, on the f32 kernel where the
+//! table has one) on points independent of the table's,
 //! and the pipeline compares every written file, read back and sampled as a renderer samples it,
 //! with those values ([`compare`]).
 //!
@@ -190,7 +191,7 @@ pub fn exact_values_of(recipe: &dyn TableRecipe, seed: u64, progress: &dyn Progr
         seed,
         progress,
         |lookup| recipe.position_of(lookup),
-        |points, position| recipe.estimate_node(points, position),
+        |points, position| recipe.exact_value(points, position),
     )
 }
 

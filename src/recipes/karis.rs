@@ -135,6 +135,11 @@ impl Kernel for KarisSettings {
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         split_sum_terms(self.masking, Method::PerCell, points, position[0], position[1])
     }
+
+    /// The f32 kernel's plain estimate (the table's own path: Karis has no projection).
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        self.estimate_node_fast(points, position)
+    }
 }
 
 #[cfg(test)]

@@ -311,7 +311,8 @@ pub(crate) fn fill_mu_alpha_nodes(
 }
 
 /// Estimate every node of a 3D table whose first two axes are `mu` and `alpha` a column at a time:
-/// `column(i, mu, alpha)` estimates the whole third axis at `mu` node `i` and `alpha`, one channel
+/// `column(cell, mu, alpha)` estimates the whole third axis at the `(mu, alpha)` node numbered
+/// `cell` (`mu` fastest), one channel
 /// per node of it (one pass over the samples serves them all). Returns one single-channel estimate
 /// per node, in the table's node order.
 pub(crate) fn estimate_mu_alpha_columns(
@@ -324,7 +325,7 @@ pub(crate) fn estimate_mu_alpha_columns(
     let cells: Vec<u64> = (0..plane as u64).collect();
     let columns = crate::integrate::estimate_cells(&cells, &table.name, progress, |cell| {
         let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
-        column(i, mu_axis.node_value(i), alpha_axis.node_value(j))
+        column(cell as usize, mu_axis.node_value(i), alpha_axis.node_value(j))
     });
     // From (mu, alpha) columns of third-axis values to the table's node order.
     (0..table.node_count())

@@ -211,11 +211,61 @@ fn past_critical_angle(sin2: f64, eta: f64) -> bool {
     sin2 > eta * eta
 }
 
+/// How many of some ascending thresholds lie below a value: `thresholds.partition_point(|&t| value >
+/// t)`, through a table of that count at the edges of [`CELLS_PER_THRESHOLD`] equal cells of
+/// [0, 1] per threshold, from which the count is a step or none away. A binary search over the
+/// 129 critical `sin^2` of a TIR column waited on eight dependent loads per sample and took most of
+/// the table's time.
+struct ThresholdCounter {
+    thresholds: Vec<f64>,
+    /// `below_edge[g]`: the thresholds below `g / cells`.
+    below_edge: Vec<u32>,
+    cells: f64,
+}
+
+/// Cells of a [`ThresholdCounter`] per threshold (a power of two in all): the TIR axis's thresholds
+/// crowd around the view's own `sin^2`, a few per cell there.
+const CELLS_PER_THRESHOLD: usize = 16;
+
+impl ThresholdCounter {
+    fn new(thresholds: Vec<f64>) -> Self {
+        let cells = (thresholds.len() * CELLS_PER_THRESHOLD).next_power_of_two();
+        let mut below = 0;
+        let below_edge = (0..=cells)
+            .map(|g| {
+                // Exact: `cells` is a power of two.
+                let edge = g as f64 / cells as f64;
+                while below < thresholds.len() && thresholds[below] < edge {
+                    below += 1;
+                }
+                below as u32
+            })
+            .collect();
+        ThresholdCounter { thresholds, below_edge, cells: cells as f64 }
+    }
+
+    /// The thresholds `t` with `value > t`, all of them before any other (they ascend).
+    #[inline(always)]
+    fn count_below(&self, value: f64) -> usize {
+        // Every threshold below the cell's lower edge is below a value in the cell, so the count
+        // only walks up from there; the walk down covers what the cell's rounding may not.
+        let cell = ((value * self.cells) as usize).min(self.below_edge.len() - 1);
+        let mut count = self.below_edge[cell] as usize;
+        while count > 0 && !(value > self.thresholds[count - 1]) {
+            count -= 1;
+        }
+        while count < self.thresholds.len() && value > self.thresholds[count] {
+            count += 1;
+        }
+        count
+    }
+}
+
 /// TIR at every `eta` of one `(mu, alpha)` from one pass over the samples (see the module docs).
 /// `etas` must be ascending.
 pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
     // Past the critical angle of etas[k] when sin^2(theta_w) > eta_squared[k] (ascending).
-    let eta_squared: Vec<f64> = etas.iter().map(|eta| eta * eta).collect();
+    let eta_squared = ThresholdCounter::new(etas.iter().map(|eta| eta * eta).collect());
     let replicate_means: Vec<Vec<f64>> = points
         .replicates_f32()
         .iter()
@@ -224,7 +274,7 @@ pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -
             let mut buckets = vec![0.0; etas.len() + 1];
             let mut total = 0.0;
             for_each_reflected_sin2(mu, alpha, replicate, |sin2, w| {
-                let j = eta_squared.partition_point(|&threshold| sin2 > threshold);
+                let j = eta_squared.count_below(sin2);
                 buckets[j] += w as f64;
                 total += w as f64;
             });
@@ -248,15 +298,14 @@ pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -
 /// thousands of others. `etas` must be ascending.
 pub(crate) fn tir_column_exact_sums(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
     const UNIT: f64 = (1u64 << 52) as f64;
-    // Weights are G1(wo) <= 1, so a weight in units fits a u64; truncation is the one rounding.
-    let eta_squared: Vec<f64> = etas.iter().map(|eta| eta * eta).collect();
+    let eta_squared = ThresholdCounter::new(etas.iter().map(|eta| eta * eta).collect());
     let replicate_means: Vec<Vec<f64>> = points
         .replicates_f32()
         .iter()
         .map(|replicate| {
             let mut buckets = vec![0u128; etas.len() + 1];
             for_each_reflected_sin2(mu, alpha, replicate, |sin2, w| {
-                let j = eta_squared.partition_point(|&threshold| sin2 > threshold);
+                let j = eta_squared.count_below(sin2);
                 // A weight (G1(wo) <= 1) in units fits a u64; truncating it is the one rounding,
                 // the same in any batch.
                 buckets[j] += u128::from((w as f64 * UNIT) as u64);
@@ -432,6 +481,11 @@ impl Kernel for TirSettings {
         tir_cell(position[0], position[1], eta, points)
     }
 
+    /// The f32 kernel's indicator at one `eta` (exact at every sample, no binning).
+    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+        self.estimate_node_fast(points, position)
+    }
+
     /// The reference cells in groups sharing their (mu, alpha): one pass over the samples each.
     fn check_reference(
         &self,
@@ -461,6 +515,25 @@ mod tests {
     use crate::recipes::interpolation::InterpolationConfig;
     use crate::sampling::sequence::SamplePlan;
     use crate::stats::ErrorSummary;
+
+    #[test]
+    fn a_threshold_counter_counts_as_a_binary_search() {
+        let axis = TirSettings::default().axes().unwrap()[2].clone();
+        for mu in [1e-6, 0.3, 0.7071, 0.999, 1.0] {
+            let settings = TirSettings::default();
+            let thresholds: Vec<f64> = settings.evaluated_etas(mu, &axis).iter().map(|e| e * e).collect();
+            let counter = ThresholdCounter::new(thresholds.clone());
+            let mut values = vec![-1e-9, 0.0, 1.0, 1.0 + 1e-9, f64::NAN, 0.5, 2.0];
+            for &t in &thresholds {
+                values.extend([t, t.next_down(), t.next_up()]);
+            }
+            values.extend((0..1000).map(|k| k as f64 / 999.0));
+            for value in values {
+                let searched = thresholds.partition_point(|&t| value > t);
+                assert_eq!(counter.count_below(value), searched, "mu {mu}: value {value}");
+            }
+        }
+    }
 
     #[test]
     fn cells_sharing_mu_alpha_get_the_bits_of_each_cell_alone() {

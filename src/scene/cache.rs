@@ -27,10 +27,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::loader::sha256_hex;
+use crate::recipes::Kernel;
 use crate::recipes::driver::{Provenance, SamplingRecord, TableBuild};
 use crate::recipes::interpolation::ExactValues;
 use crate::recipes::slices::Slices;
-use crate::recipes::Kernel;
 use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
 
 /// The layout of an entry and of what its key covers; a change to either, or to how a slice is
