@@ -688,4 +688,79 @@ mod tests {
         build_into(&out, "rough-first", &["gd"], false).unwrap();
         assert!(!out.join("stale.dds").exists() && !pending_commit_exists(&out) && victim.exists());
     }
+
+    /// Journals drawn from hostile path pieces (absolute paths, `..`, subfolders, links, names of
+    /// files outside), 300 of them: taking the folder either completes a journal or refuses it,
+    /// and never touches a file outside the folder.
+    #[cfg(unix)]
+    #[test]
+    fn fuzzed_journals_never_touch_a_file_outside_the_folder() {
+        use std::os::unix::fs::symlink;
+        let root = tempfile::tempdir().unwrap();
+        let outside = root.path().join("outside");
+        std::fs::create_dir(&outside).unwrap();
+        let victim = outside.join("victim");
+        let pieces: Vec<String> = vec![
+            "victim".into(),
+            "../outside/victim".into(),
+            "../../victim".into(),
+            victim.display().to_string(),
+            "maps/victim".into(),
+            "maps/../../outside/victim".into(),
+            "link".into(),
+            "link/victim".into(),
+            ".tmlut-staging-1".into(),
+            ".tmlut-staging-1/../../outside/victim".into(),
+            "".into(),
+            ".".into(),
+            "..".into(),
+            "gd.dds".into(),
+            "C:victim".into(),
+            "a\\..\\..\\victim".into(),
+        ];
+        // xorshift64: a fixed sequence of draws below `n`.
+        let state = std::cell::Cell::new(0x9E37_79B9_7F4A_7C15u64);
+        let draw = |n: usize| {
+            let mut x = state.get();
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            state.set(x);
+            (x % n as u64) as usize
+        };
+        for case in 0..300 {
+            let out = root.path().join(format!("out{case}"));
+            std::fs::create_dir(&out).unwrap();
+            std::fs::write(&victim, b"not tmlut's").unwrap();
+            // Links a hostile folder may hold: a staging folder, a subfolder, a file.
+            if draw(2) == 0 {
+                symlink(&outside, out.join(".tmlut-staging-1")).unwrap();
+            } else {
+                std::fs::create_dir(out.join(".tmlut-staging-1")).unwrap();
+                if draw(2) == 0 {
+                    symlink(&victim, out.join(".tmlut-staging-1/victim")).unwrap();
+                }
+            }
+            if draw(2) == 0 {
+                symlink(&outside, out.join("maps")).unwrap();
+            }
+            if draw(2) == 0 {
+                symlink(&outside, out.join("link")).unwrap();
+            }
+            let piece = || pieces[draw(pieces.len())].clone();
+            let moves: Vec<serde_json::Value> =
+                (0..draw(3)).map(|_| serde_json::json!({ "staged": piece(), "destination": piece() })).collect();
+            let removals: Vec<String> = (0..draw(3)).map(|_| piece()).collect();
+            let staging = if draw(4) == 0 { piece() } else { ".tmlut-staging-1".to_string() };
+            let journal = serde_json::json!({ "staging": staging, "moves": moves, "removals": removals });
+            std::fs::write(out.join(COMMIT_JOURNAL), serde_json::to_vec(&journal).unwrap()).unwrap();
+            let taken = OutputFolder::take(&out, |_| {});
+            assert_eq!(std::fs::read(&victim).ok().as_deref(), Some(&b"not tmlut's"[..]), "case {case}: {journal}");
+            assert_eq!(std::fs::read_dir(&outside).unwrap().count(), 1, "case {case}: {journal}");
+            if let Err(e) = taken {
+                let said = e.to_string();
+                assert!(said.contains("journal") || said.contains(COMMIT_JOURNAL), "case {case}: {said}");
+            }
+        }
+    }
 }

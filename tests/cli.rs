@@ -439,7 +439,7 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
     for (file, entry) in &sampled_manifest.files {
         assert_eq!(entry.sha256, manifest.files[file].sha256, "{file}: the same bytes either way");
         if file.starts_with("fgd_") || file.starts_with("tir_") {
-            assert!(entry.error.reference.is_some(), "{file}");
+            assert!(entry.error.integration.reference.is_some(), "{file}");
             assert!(entry.notes.iter().any(|n| n.contains("Checked as one of a batch")), "{file}: {:?}", entry.notes);
         }
     }
