@@ -47,7 +47,7 @@ pub struct BuildArgs {
     /// (every slice on its own, and against the full table).
     #[arg(long, value_parser = parse_slice_checks, default_value = "sampled", requires = "scene")]
     slice_checks: SliceChecks,
-    /// Read the slices of a scene build from this content-addressed cache and store new ones in
+    /// Read the tables of a scene build from this content-addressed cache and store new ones in
     /// it, shared by every build, folder and scene that names it (see `tmlut cache`). Alone,
     /// `--cache` uses the default folder: $XDG_CACHE_HOME/tmlut, else ~/.cache/tmlut. Without it,
     /// nothing outside the output folder is touched.

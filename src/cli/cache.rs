@@ -1,4 +1,4 @@
-//! `tmlut cache`: what the slice cache holds, and pruning it.
+//! `tmlut cache`: what the table cache holds, and pruning it.
 
 use std::path::PathBuf;
 
@@ -9,7 +9,7 @@ use tmlut::scene::plan::human_bytes;
 
 use super::Context;
 
-/// Show the slice cache (entries and bytes) that `tmlut build --scene ... --cache` reads and
+/// Show the table cache (entries and bytes) that `tmlut build --scene ... --cache` reads and
 /// fills, or prune it to a size, oldest entries first. Only the cache's own files are touched.
 #[derive(Args)]
 pub struct CacheArgs {
@@ -24,7 +24,7 @@ pub struct CacheArgs {
 pub fn exec(args: CacheArgs, _: &Context) -> tmlut::Result<()> {
     let dir = super::build::cache_folder(Some(args.dir.unwrap_or_default()))?.expect("a folder or an error");
     if !dir.exists() {
-        println!("slice cache {}: no cache there yet (a build with --cache creates it)", dir.display());
+        println!("table cache {}: no cache there yet (a build with --cache creates it)", dir.display());
         return Ok(());
     }
     let shown = |usage: CacheUsage| format!("{} entries, {}", usage.entries, human_bytes(usage.bytes));
@@ -32,9 +32,9 @@ pub fn exec(args: CacheArgs, _: &Context) -> tmlut::Result<()> {
     match args.prune_to {
         Some(max_bytes) => {
             let after = cache::prune(&dir, max_bytes)?;
-            println!("slice cache {}: {} before, {} after pruning", dir.display(), shown(before), shown(after));
+            println!("table cache {}: {} before, {} after pruning", dir.display(), shown(before), shown(after));
         }
-        None => println!("slice cache {}: {}", dir.display(), shown(before)),
+        None => println!("table cache {}: {}", dir.display(), shown(before)),
     }
     Ok(())
 }

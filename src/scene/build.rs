@@ -34,7 +34,7 @@ pub struct SceneBuildRequest {
     pub out: PathBuf,
     pub error_maps: bool,
     pub slice_checks: SliceChecks,
-    /// The slice cache to read built slices from and store new ones in ([`super::cache`]).
+    /// The table cache to read built tables from and store new ones in ([`super::cache`]).
     pub cache: Option<PathBuf>,
 }
 

@@ -147,7 +147,7 @@ impl SliceCache {
         let mut usable = self.usable.lock().unwrap_or_else(|p| p.into_inner());
         if *usable {
             *usable = false;
-            self.warn(format!("slice cache {}: {why}; building without it", self.dir.display()));
+            self.warn(format!("table cache {}: {why}; building without it", self.dir.display()));
         }
     }
 
@@ -186,7 +186,7 @@ impl SliceCache {
             Ok(bytes) => bytes,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
             Err(e) => {
-                self.warn(format!("slice cache entry {}: {e}; built again", path.display()));
+                self.warn(format!("table cache entry {}: {e}; built again", path.display()));
                 return None;
             }
         };
@@ -196,7 +196,7 @@ impl SliceCache {
                 Some(build)
             }
             Err(why) => {
-                self.warn(format!("slice cache entry {} is damaged ({why}); built again", path.display()));
+                self.warn(format!("table cache entry {} is damaged ({why}); built again", path.display()));
                 None
             }
         }
