@@ -207,7 +207,7 @@ impl Progress for ProgressBars {
         }
         let bar = ProgressBar::new(total).with_message(label.to_string());
         bar.set_style(
-            ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} cells, {elapsed} (eta {eta})")
+            ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} cells, {per_sec}, {elapsed} (eta {eta})")
                 .expect("the template is valid")
                 .progress_chars("=> "),
         );
