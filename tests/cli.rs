@@ -446,6 +446,43 @@ fn build_with_a_scene_writes_its_plan_and_records_it() {
 }
 
 #[test]
+fn shader_refuses_a_folder_whose_tables_do_not_match_their_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let luts = dir.path().join("luts");
+    let scene = scene_path("copper-pot");
+    assert!(build(&config, &luts, &["--scene", &scene]).status.success());
+    let shader = |out: &str| tmlut(&["shader", &scene, "--luts", luts.to_str().unwrap(), "--out", out]);
+    let out = dir.path().join("shaders");
+    assert!(shader(out.to_str().unwrap()).status.success());
+    let slice = luts.join("fgd_varnished-copper_l2_from-above.dds");
+    let original = std::fs::read(&slice).unwrap();
+    let gd = luts.join("gd.dds");
+    let gd_bytes = std::fs::read(&gd).unwrap();
+    let mut other = gd_bytes.clone();
+    let last = other.len() - 1;
+    other[last] ^= 0x40;
+    // Truncated, deleted, and a GD of other values: each refused, naming the file.
+    for (file, damage, name) in [
+        (&slice, Some(original[..original.len() - 8].to_vec()), "fgd_varnished-copper_l2_from-above.dds"),
+        (&slice, None, "fgd_varnished-copper_l2_from-above.dds"),
+        (&gd, Some(other), "gd.dds"),
+    ] {
+        match damage {
+            Some(bytes) => std::fs::write(file, bytes).unwrap(),
+            None => std::fs::remove_file(file).unwrap(),
+        }
+        let refused = dir.path().join("refused");
+        let output = shader(refused.to_str().unwrap());
+        assert!(!output.status.success(), "{name}: {}", stdout(&output));
+        assert!(stderr(&output).contains(name), "{name}: {}", stderr(&output));
+        assert!(!refused.join("copper_pot.wgsl").exists(), "{name}");
+        std::fs::write(&slice, &original).unwrap();
+        std::fs::write(&gd, &gd_bytes).unwrap();
+    }
+}
+
+#[test]
 fn the_scene_shader_is_listed_in_the_manifest_and_checked() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), SMALL_SET);

@@ -130,6 +130,12 @@ pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_view
     let folder = LutFolder::open(luts)?;
     let materials = shader_materials(scene)?;
     let shader = generate(&folder, &materials)?;
+    // A shader is only as right as the files it binds: each is verified against the manifest
+    // (SHA-256, header against its description), as the furnace and the loader verify them, so
+    // that a swapped, truncated or deleted table is refused here rather than bound.
+    for texture in &shader.textures {
+        folder.load(&texture.file)?;
+    }
     let stem = crate::shader::scene::identifier(&scene.name);
     let functions: Vec<&str> = shader.materials.iter().map(|m| m.function.as_str()).collect();
     let mut files: Vec<(String, String, Vec<u8>)> = texts(&shader)
