@@ -301,13 +301,18 @@ pub(crate) fn fill_mu_alpha_nodes(
         let (i, j) = (cell as usize % mu_axis.count, cell as usize / mu_axis.count);
         estimate(cell as usize, mu_axis.node_value(i), alpha_axis.node_value(j))
     });
+    store_means(table, &estimates);
+    estimates
+}
+
+/// Store the means of `estimates` (one per node, in node order) as the table's values.
+pub(crate) fn store_means(table: &mut Table, estimates: &[Estimate]) {
     let channels = table.channel_count();
-    for (values, estimate) in table.data.chunks_mut(channels).zip(&estimates) {
+    for (values, estimate) in table.data.chunks_mut(channels).zip(estimates) {
         for (v, m) in values.iter_mut().zip(&estimate.mean) {
             *v = *m as f32;
         }
     }
-    estimates
 }
 
 /// Estimate every node of a 3D table whose first two axes are `mu` and `alpha` a column at a time:

@@ -19,7 +19,7 @@ use super::driver::{Provenance, TableBuild};
 use super::fgd::{FgdSettings, fgd_pairs_on_measure, projected_fresnel};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::tir::{TirSettings, tir_cell, tir_column_exact_sums};
-use super::{Integrated, Kernel, Metadata, fill_mu_alpha_nodes};
+use super::{Integrated, Kernel, Metadata, fill_mu_alpha_nodes, store_means};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::integrate::measure::{Projection, cosine_measure};
@@ -98,7 +98,7 @@ impl Slices {
         }
     }
 
-    fn reference(&self) -> ReferenceConfig {
+    pub fn reference(&self) -> ReferenceConfig {
         match &self.of {
             SliceOf::Fgd(s) => s.reference,
             SliceOf::Tir(s) => s.reference,
@@ -328,10 +328,9 @@ impl Kernel for Slices {
 
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
         let projections = self.projections();
-        let (mu, alpha) = (&self.mu, &self.alpha);
+        let (mu, alpha, [mu_lattice, alpha_lattice]) = (&self.mu, &self.alpha, self.of.lattice());
         let estimates = fill_mu_alpha_nodes(table, progress, |node, _, _| {
             let (i, j) = (node % mu.count, node / mu.count);
-            let [mu_lattice, alpha_lattice] = self.of.lattice();
             self.estimate_fast(
                 points,
                 canonical_node(mu, i, mu_lattice),
@@ -452,12 +451,7 @@ pub fn integrate_batch(slices: &[&Slices], seed: u64, progress: &dyn Progress) -
             }
         }
         for &s in members {
-            let channels = tables[s].channel_count();
-            for (values, estimate) in tables[s].data.chunks_mut(channels).zip(&estimates[s]) {
-                for (v, m) in values.iter_mut().zip(&estimate.mean) {
-                    *v = *m as f32;
-                }
-            }
+            store_means(&mut tables[s], &estimates[s]);
         }
         // The reference check, sampled across the group: random (slice, node) pairs.
         let reference = first.reference();

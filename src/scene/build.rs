@@ -289,28 +289,15 @@ pub fn build_scene(
 /// The cache key of a planned full (or sub-range) table; `None` for the fitted form, whose fit
 /// the cache does not keep.
 fn table_key(build: &PlannedBuild, seed: u64) -> Option<String> {
-    let key = |table: &str, settings: &dyn erased::Settings| Some(SliceCache::table_key(table, &settings.json(), seed));
-    match build {
-        PlannedBuild::Fgd(s) => key("fgd", s),
-        PlannedBuild::Gd(s) => key("gd", s),
-        PlannedBuild::Tir(s) => key("tir", s),
-        PlannedBuild::Belcour(s) => key("belcour", s),
-        PlannedBuild::Karis(s) => key("karis", s),
-        PlannedBuild::FgdRarer(s) => key("fgd_rarer", s),
-        PlannedBuild::TirFit(_) | PlannedBuild::Slices(_) => None,
-    }
-}
-
-/// Settings of any table as the JSON value a cache key hashes.
-mod erased {
-    pub trait Settings {
-        fn json(&self) -> serde_json::Value;
-    }
-    impl<T: serde::Serialize> Settings for T {
-        fn json(&self) -> serde_json::Value {
-            serde_json::to_value(self).expect("plain data")
-        }
-    }
+    Some(match build {
+        PlannedBuild::Fgd(s) => SliceCache::table_key("fgd", s, seed),
+        PlannedBuild::Gd(s) => SliceCache::table_key("gd", s, seed),
+        PlannedBuild::Tir(s) => SliceCache::table_key("tir", s, seed),
+        PlannedBuild::Belcour(s) => SliceCache::table_key("belcour", s, seed),
+        PlannedBuild::Karis(s) => SliceCache::table_key("karis", s, seed),
+        PlannedBuild::FgdRarer(s) => SliceCache::table_key("fgd_rarer", s, seed),
+        PlannedBuild::TirFit(_) | PlannedBuild::Slices(_) => return None,
+    })
 }
 
 /// Points of the interpolation check drawn across every slice of a build ([`SliceChecks::Sampled`]).
@@ -336,11 +323,7 @@ pub fn sampled_exact_values(
             if points == 0 {
                 return Ok(None);
             }
-            let reference = match &slices.of {
-                SliceOf::Fgd(s) => s.reference,
-                SliceOf::Tir(s) => s.reference,
-            };
-            let config = InterpolationConfig { points, samples: reference.samples };
+            let config = InterpolationConfig { points, samples: slices.reference().samples };
             Ok(Some(lookup_exact_values(slices, &config, seed, progress)?))
         })
         .collect()
@@ -380,10 +363,7 @@ pub fn slice_accuracy(
     seed: u64,
     progress: &dyn Progress,
 ) -> Result<(ExactValues, AccuracyReport)> {
-    let reference = match &slices.of {
-        SliceOf::Fgd(s) => s.reference,
-        SliceOf::Tir(s) => s.reference,
-    };
+    let reference = slices.reference();
     // The reference sample count: a slice is checked to its own integration noise.
     let config = InterpolationConfig { points: reference.cells.max(16), samples: reference.samples };
     let exact = lookup_exact_values(slices, &config, seed, progress)?;
