@@ -22,6 +22,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use serde::{Deserialize, Serialize};
 
@@ -91,9 +92,9 @@ struct KeyFields<'a> {
 pub struct SliceCache {
     pub dir: PathBuf,
     /// False once the folder proved unusable: the build goes on without it.
-    usable: Mutex<bool>,
+    usable: AtomicBool,
     warnings: Mutex<Vec<String>>,
-    hits: Mutex<usize>,
+    hits: AtomicUsize,
 }
 
 impl SliceCache {
@@ -102,9 +103,9 @@ impl SliceCache {
     pub fn open(dir: &Path) -> SliceCache {
         let cache = SliceCache {
             dir: dir.to_path_buf(),
-            usable: Mutex::new(true),
+            usable: AtomicBool::new(true),
             warnings: Mutex::new(Vec::new()),
-            hits: Mutex::new(0),
+            hits: AtomicUsize::new(0),
         };
         if let Err(e) = std::fs::create_dir_all(dir) {
             cache.disable(&format!("cannot create it: {e}"));
@@ -140,13 +141,12 @@ impl SliceCache {
     }
 
     fn usable(&self) -> bool {
-        *self.usable.lock().unwrap_or_else(|p| p.into_inner())
+        self.usable.load(Ordering::Relaxed)
     }
 
     fn disable(&self, why: &str) {
-        let mut usable = self.usable.lock().unwrap_or_else(|p| p.into_inner());
-        if *usable {
-            *usable = false;
+        // Only the first failure warns.
+        if self.usable.swap(false, Ordering::Relaxed) {
             self.warn(format!("table cache {}: {why}; building without it", self.dir.display()));
         }
     }
@@ -162,7 +162,7 @@ impl SliceCache {
 
     /// Slices read from the cache in this build.
     pub fn hits(&self) -> usize {
-        *self.hits.lock().unwrap_or_else(|p| p.into_inner())
+        self.hits.load(Ordering::Relaxed)
     }
 
     /// The slice's build from the cache, if an intact entry holds it; a damaged entry is reported
@@ -192,7 +192,7 @@ impl SliceCache {
         };
         match decode(&bytes, key).and_then(|entry| into_build(axes, entry)) {
             Ok(build) => {
-                *self.hits.lock().unwrap_or_else(|p| p.into_inner()) += 1;
+                self.hits.fetch_add(1, Ordering::Relaxed);
                 Some(build)
             }
             Err(why) => {
