@@ -52,7 +52,8 @@ def read_dds(path):
     if data[:4] != b"DDS " or len(data) < 148:
         raise SystemExit(f"{path}: not a DDS file with a DX10 header")
     height, width = struct.unpack_from("<II", data, 12)
-    depth = struct.unpack_from("<I", data, 24)[0] or 1
+    # A volume states its depth; an array (a library's slices) its layers in the DX10 header.
+    depth = struct.unpack_from("<I", data, 24)[0] or struct.unpack_from("<I", data, 140)[0] or 1
     if data[84:88] != b"DX10":
         raise SystemExit(f"{path}: no DX10 header")
     dxgi = struct.unpack_from("<I", data, 128)[0]
@@ -175,7 +176,8 @@ def check_scene(dev, shader_dir, luts, language, glslang):
             dev.queue.write_texture(
                 {"texture": texture}, texels, {"bytes_per_row": extent[0] * size, "rows_per_image": extent[1]}, extent
             )
-            textures[t["binding"]] = (dimension, texture.create_view())
+            view_dimension = "2d-array" if t.get("layered") else dimension
+            textures[t["binding"]] = (view_dimension, texture.create_view(dimension=view_dimension))
         group1_layout = dev.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.read_only_storage}},
             {"binding": 1, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.storage}},

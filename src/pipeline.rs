@@ -15,6 +15,7 @@ use crate::error::{Error, Result};
 use crate::formats::manifest::{
     AxisEntry, ChannelSumStorage, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile,
 };
+use crate::formats::slice_array::{ArraySlice, SliceArrayEntry, Slot};
 use crate::formats::{self, FileFormat, Precision, SumRounding};
 use crate::integrate::Progress;
 use crate::model::folder::SampledTable;
@@ -112,6 +113,8 @@ pub struct Job<'a> {
     /// Fit the analytic TIR form to the table with this seed, record it in the table's entries and
     /// write its shader files (TIR with `fit = "best"` only; `docs/fit.md`).
     pub fit_seed: Option<u64>,
+    /// For a texture array of slices: the slices it holds, recorded in its entries.
+    pub slice_array: Option<SliceArrayEntry>,
 }
 
 /// Integrate, write and describe every requested table.
@@ -135,6 +138,7 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
                 packings: companions.packings,
                 packing_formats: companions.packing_formats,
                 fit_seed: companions.fitted_form.then_some(seed),
+                slice_array: None,
             }
         })
         .collect();
@@ -181,14 +185,14 @@ pub fn write_jobs(
         };
         let mut writing = None;
         for job in jobs {
-            let Job { run, output, packings, packing_formats, fit_seed } = job;
+            let Job { run, output, packings, packing_formats, fit_seed, slice_array } = job;
             let build = run(progress)?;
             rebuilt.insert(build.table.name.clone());
             if let Some(previous) = writing.take() {
                 collect(join(previous)?);
             }
             let (dir, maps) = (&staging.dir, &staged_maps);
-            let files = JobFiles { build, output, packings, packing_formats, fit_seed, error_maps };
+            let files = JobFiles { build, output, packings, packing_formats, fit_seed, slice_array, error_maps };
             writing = Some(scope.spawn(move || files.write(dir, maps)));
         }
         if let Some(last) = writing {
@@ -237,6 +241,7 @@ struct JobFiles {
     packings: Vec<Packing>,
     packing_formats: Vec<FileFormat>,
     fit_seed: Option<u64>,
+    slice_array: Option<SliceArrayEntry>,
     error_maps: bool,
 }
 
@@ -257,7 +262,9 @@ impl JobFiles {
         let (build, output) = (&self.build, &self.output);
         let mut staged = StagedFiles { files: Vec::new(), moves: Vec::new(), unwritten_fit: None };
         for &format in &output.formats {
-            staged.files.push(write_table_file(dir, build, format, output.precision)?);
+            let mut file = write_table_file(dir, build, format, output.precision)?;
+            file.entry.slice_array = self.slice_array.clone();
+            staged.files.push(file);
         }
         if let Some(seed) = self.fit_seed {
             let (fit, shaders) = crate::fit::fit_for_build(&build.table, seed, dir)?;
@@ -385,6 +392,72 @@ pub fn write_packing_files(
     Ok((textures, paths))
 }
 
+/// The manifest record of slice `build` stored at `slot` of a texture array of `layer_extent`
+/// texels per layer: its axes with their coordinates in the array, and its error as a file of its
+/// own would state it. Its interpolation check reads its values as stored, filtered with clamp
+/// addressing: what a read clamped to its nodes in the array gives, since its gutter repeats its
+/// edge ([`formats::slice_array`]).
+pub fn array_slice_record(
+    build: &TableBuild,
+    precision: Precision,
+    slot: Slot,
+    layer_extent: [usize; 2],
+) -> Result<ArraySlice> {
+    let table = &build.table;
+    let stored = Table::new(
+        &table.name,
+        table.axes.clone(),
+        table.channels.clone(),
+        table.data.iter().map(|&v| precision.round(v)).collect(),
+    )?;
+    let channels: Vec<String> = table
+        .channels
+        .iter()
+        .map(|c| c.name.clone())
+        .filter(|name| name != crate::recipes::slices::PADDING_CHANNEL)
+        .collect();
+    let texture = SampledTable::new(&stored)?;
+    let read_as = "a slice of a texture array: its coordinates in f32 clamped to its nodes, linear filtering, texels as \
+                   stored (GPU emulator, exact filter weights)";
+    let interpolation = build
+        .provenance
+        .interpolation
+        .iter()
+        .map(|exact| {
+            interpolation::compare(exact, read_as, &channels, |p| {
+                (0..channels.len()).map(|c| texture.sample(c, p) as f64).collect()
+            })
+        })
+        .collect();
+    let axes = table
+        .axes
+        .iter()
+        .enumerate()
+        .map(|(d, axis)| {
+            let mut entry = AxisEntry::new(axis, ["x", "y"][d]);
+            entry.texture_coordinate =
+                formats::slice_array::texture_coordinate_formula(axis, slot.origin[d] as u32, layer_extent[d]);
+            entry
+        })
+        .collect();
+    let stats = table.stats();
+    Ok(ArraySlice {
+        table: table.name.clone(),
+        layer: slot.layer as u32,
+        origin: slot.origin.map(|o| o as u32),
+        axes,
+        channels: table.channels.clone(),
+        value_range: [stats.min, stats.max],
+        error: ErrorEntry {
+            integration: build.provenance.error.clone(),
+            storage_rounding_max: storage_rounding(table, precision),
+            storage_channel_sum: None,
+            interpolation,
+        },
+        accuracy: build.provenance.accuracy.clone(),
+    })
+}
+
 /// Write one table in one format to `path` and describe the file, with `provenance` saying how
 /// the table was made.
 fn write_table_file_named(
@@ -442,6 +515,7 @@ fn write_table_file_named(
         packing: None,
         fit: None,
         binding: formats::binding(&table.axes, table.channel_count(), precision, format),
+        slice_array: None,
     };
     let mut entry = entry;
     entry.error.interpolation = interpolation_errors(&path, &entry, &provenance.interpolation)?;
@@ -487,6 +561,7 @@ fn stored_along(table: &Table, format: FileFormat) -> Vec<String> {
     (0..table.dimension())
         .map(|d| match (format, d) {
             (FileFormat::Bin, d) => format!("axis {d}"),
+            (FileFormat::Dds | FileFormat::Ktx2, 2) if table.axes[2].name == formats::LAYER_AXIS => "layer".into(),
             (FileFormat::Dds | FileFormat::Ktx2, d) => ["x", "y", "z"][d].to_string(),
             (FileFormat::Exr, d) if table.dimension() <= 2 => ["x", "y"][d].to_string(),
             (FileFormat::Exr, 0) => "x within a tile".into(),

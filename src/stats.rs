@@ -23,6 +23,13 @@ impl ErrorSummary {
         }
         ErrorSummary { count, rms: if count == 0 { 0.0 } else { (sum2 / count as f64).sqrt() }, max }
     }
+
+    /// The summary of the values of two summaries together.
+    pub fn pooled(&self, other: &ErrorSummary) -> Self {
+        let count = self.count + other.count;
+        let sum2 = self.rms * self.rms * self.count as f64 + other.rms * other.rms * other.count as f64;
+        ErrorSummary { count, rms: if count == 0 { 0.0 } else { (sum2 / count as f64).sqrt() }, max: self.max.max(other.max) }
+    }
 }
 
 /// A table compared, at a subset of cells, to estimates with many more samples.
@@ -42,6 +49,22 @@ pub struct ErrorRecord {
     /// Difference to per-cell estimates with far more samples and independent scrambles.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<ReferenceComparison>,
+}
+
+impl ErrorRecord {
+    /// The error of two tables' values together (the slices of a texture array): replicate errors
+    /// pooled, and reference differences pooled where both were compared at the same sample count.
+    pub fn pooled(&self, other: &ErrorRecord) -> Self {
+        let reference = match (&self.reference, &other.reference) {
+            (Some(a), Some(b)) if a.samples_per_cell == b.samples_per_cell => Some(ReferenceComparison {
+                samples_per_cell: a.samples_per_cell,
+                difference: a.difference.pooled(&b.difference),
+            }),
+            (Some(a), _) => Some(a.clone()),
+            (None, b) => b.clone(),
+        };
+        ErrorRecord { replicate_standard_error: self.replicate_standard_error.pooled(&other.replicate_standard_error), reference }
+    }
 }
 
 /// A measured accuracy figure beyond the integration error: for instance how well a split-sum

@@ -7,7 +7,7 @@ use clap::Args;
 use tmlut::integrate::Method;
 use tmlut::pipeline::{self, BuildRequest};
 use tmlut::scene::Scene;
-use tmlut::scene::build::{SceneBuildRequest, SliceChecks, build_scene};
+use tmlut::scene::build::{SceneBuildRequest, SliceChecks, SliceLayout, build_scene};
 use tmlut::scene::library;
 
 use super::{ConfigArg, Context, ThreadsArg, one_of};
@@ -53,6 +53,15 @@ pub struct BuildArgs {
     /// nothing outside the output folder is touched.
     #[arg(long, num_args = 0..=1, default_missing_value = "", requires = "scene")]
     cache: Option<PathBuf>,
+    /// How a scene's slices are written: `arrays` (a few texture arrays, each slice a region of a
+    /// layer, listed in the array's manifest entry), `files` (a texture file per slice) or `auto`
+    /// (arrays above 16 slices, the textures a WebGPU shader stage binds by default).
+    #[arg(long, value_parser = parse_slice_layout, default_value = "auto", requires = "scene")]
+    slice_layout: SliceLayout,
+}
+
+fn parse_slice_layout(text: &str) -> Result<SliceLayout, String> {
+    one_of(text, &[("auto", SliceLayout::Auto), ("arrays", SliceLayout::Arrays), ("files", SliceLayout::Files)])
 }
 
 /// The cache folder `--cache` names: its value, or the default folder for `--cache` alone.
@@ -101,6 +110,7 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
                 error_maps: args.error_maps,
                 slice_checks: args.slice_checks,
                 cache: cache_folder(args.cache)?,
+                slice_layout: args.slice_layout,
             };
             let (plan, written, summary) = build_scene(&request, &progress)?;
             println!("{}", plan.summary());

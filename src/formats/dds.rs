@@ -5,7 +5,8 @@
 //! writes them sets a stray `DDPF_RGB` flag next to the `DX10` fourCC that makes other readers
 //! misread the file (Microsoft's `DDS_PIXELFORMAT` reference: with a `DX10` fourCC, `DDPF_FOURCC`
 //! is the only flag). The reader accepts exactly what the writer produces:
-//! uncompressed float formats of 1, 2 or 4 channels, 2D or volume textures, one mip level. It
+//! uncompressed float formats of 1, 2 or 4 channels, 2D textures, arrays of them, or volume
+//! textures, one mip level. It
 //! exists because no common Linux tool decodes float DDS, so our own files need a checker.
 //!
 //! File layout (all little-endian): the magic `"DDS "`, the 124-byte `DDS_HEADER` (which embeds
@@ -17,7 +18,7 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::formats::{
-    Precision, StoredTexture, put_texels, read_bytes, texel_values, texture_extents, write_bytes_atomically,
+    Precision, StoredTexture, TextureShape, put_texels, read_bytes, texel_values, texture_extents, write_bytes_atomically,
 };
 use crate::table::Table;
 
@@ -74,7 +75,8 @@ pub fn dxgi_format_name(channels: usize, precision: Precision) -> String {
 /// A texture as stored in a DDS file.
 pub type DdsTexture = StoredTexture;
 
-/// Write a 2-axis table as a 2D texture or a 3-axis table as a volume texture.
+/// Write a 2-axis table as a 2D texture, a 3-axis table as a volume texture, or as an array of 2D
+/// textures where its third axis is [`crate::formats::LAYER_AXIS`].
 pub fn write_dds(path: &Path, table: &Table, precision: Precision) -> Result<()> {
     let bytes = encode_dds(table, precision)?;
     write_bytes_atomically(path, &bytes)
@@ -83,7 +85,8 @@ pub fn write_dds(path: &Path, table: &Table, precision: Precision) -> Result<()>
 /// The bytes of [`write_dds`]'s file.
 pub fn encode_dds(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     let key = format!("table `{}`", table.name);
-    let ([width, height, depth], volume) = texture_extents(table, precision, "DDS")?;
+    let ([width, height, depth], shape) = texture_extents(table, precision, "DDS")?;
+    let volume = shape == TextureShape::Volume;
     let format = dxgi_format(table.channel_count(), precision)
         .ok_or_else(|| Error::invalid(&key, format!("has {} channels", table.channel_count())))?;
 
@@ -131,7 +134,7 @@ pub fn encode_dds(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     put(format);
     put(if volume { RESOURCE_DIMENSION_TEXTURE3D } else { RESOURCE_DIMENSION_TEXTURE2D });
     put(0); // miscFlag
-    put(1); // arraySize
+    put(if shape == TextureShape::Layers { depth } else { 1 }); // arraySize
     put(0); // miscFlags2: DDS_ALPHA_MODE_UNKNOWN, the channels are data, not colour and alpha
     debug_assert_eq!(bytes.len(), DATA_OFFSET);
 
@@ -208,9 +211,10 @@ pub fn decode_dds(bytes: &[u8], path: &Path) -> Result<DdsTexture> {
     if misc_flag & RESOURCE_MISC_TEXTURECUBE != 0 {
         return Err(refuse("a cube map; only 2D and volume textures are read".into()));
     }
-    if array_size != 1 {
-        return Err(refuse(format!("a texture array of {array_size}; only single textures (array size 1) are read")));
+    if array_size == 0 {
+        return Err(refuse("an array size of 0; a texture holds at least one layer".into()));
     }
+    let layered = array_size > 1;
     let volume = match resource_dimension {
         RESOURCE_DIMENSION_TEXTURE2D => {
             if caps2 & DDSCAPS2_VOLUME != 0 {
@@ -219,6 +223,9 @@ pub fn decode_dds(bytes: &[u8], path: &Path) -> Result<DdsTexture> {
             false
         }
         RESOURCE_DIMENSION_TEXTURE3D => {
+            if layered {
+                return Err(refuse(format!("a volume texture with an array size of {array_size}; volumes are single")));
+            }
             if flags & DDSD_DEPTH == 0 {
                 return Err(refuse("TEXTURE3D resource dimension without the DDSD_DEPTH flag".into()));
             }
@@ -228,7 +235,7 @@ pub fn decode_dds(bytes: &[u8], path: &Path) -> Result<DdsTexture> {
             return Err(refuse(format!("resource dimension {other}; only 3 (TEXTURE2D) and 4 (TEXTURE3D) are read")));
         }
     };
-    let depth = if volume { depth_field } else { 1 };
+    let depth = if volume { depth_field } else { array_size };
     if width == 0 || height == 0 || depth == 0 {
         return Err(refuse(format!("empty texture of {width} × {height} × {depth} texels")));
     }
@@ -253,7 +260,7 @@ pub fn decode_dds(bytes: &[u8], path: &Path) -> Result<DdsTexture> {
     }
 
     let data = texel_values(&bytes[DATA_OFFSET..], precision);
-    Ok(DdsTexture { width, height, depth, channels, precision, volume, data })
+    Ok(DdsTexture { width, height, depth, channels, precision, volume, layered, data })
 }
 
 #[cfg(test)]
@@ -276,6 +283,30 @@ mod tests {
 
     fn field(bytes: &[u8], offset: usize) -> u32 {
         u32::from_le_bytes(bytes[offset..offset + 4].try_into().unwrap())
+    }
+
+    #[test]
+    fn an_array_round_trips_and_states_its_layers_in_the_dx10_header() {
+        let mut axes = axes_for(&[5, 3]);
+        axes.push(Axis::node_aligned(crate::formats::LAYER_AXIS, 0.0, 6.0, 7).unwrap());
+        let table = sample_table_over(axes, 2);
+        let bytes = encode_dds(&table, Precision::F32).unwrap();
+        // A 2D resource of 7 layers, with no depth and no volume flag.
+        assert_eq!((field(&bytes, 132), field(&bytes, 140)), (RESOURCE_DIMENSION_TEXTURE2D, 7));
+        assert_eq!((field(&bytes, 8) & DDSD_DEPTH, field(&bytes, 24), field(&bytes, 112)), (0, 0, 0));
+        let texture = decode_dds(&bytes, Path::new("a.dds")).unwrap();
+        assert!(texture.layered && !texture.volume);
+        assert_eq!((texture.width, texture.height, texture.depth), (5, 3, 7));
+        assert_eq!(texture.describe(), "array of 7 2D textures 5 x 3");
+        assert_eq!(texture.clone().into_table("sample", table.axes.clone(), table.channels.clone()).unwrap(), table);
+        // The same texels described as a volume are refused, and an array stated as a volume too.
+        let volume_axes = axes_for(&[5, 3, 7]);
+        let error = texture.into_table("sample", volume_axes, table.channels.clone()).unwrap_err().to_string();
+        assert!(error.contains("is an array"), "{error}");
+        let mut bytes = bytes;
+        bytes[132..136].copy_from_slice(&RESOURCE_DIMENSION_TEXTURE3D.to_le_bytes());
+        let error = decode_dds(&bytes, Path::new("a.dds")).unwrap_err().to_string();
+        assert!(error.contains("array size of 7"), "{error}");
     }
 
     #[test]

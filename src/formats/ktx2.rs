@@ -36,7 +36,7 @@ use ::ktx2::{Format, Header, Index, LevelIndex};
 use crate::error::{Error, Result};
 use crate::formats::manifest::AxisEntry;
 use crate::formats::{
-    Precision, StoredTexture, as_format_error, put_texels, read_bytes, texel_values, texture_extents,
+    LAYER_AXIS, Precision, StoredTexture, TextureShape, as_format_error, put_texels, read_bytes, texel_values, texture_extents,
     write_bytes_atomically,
 };
 use crate::table::{Channel, Table};
@@ -107,7 +107,12 @@ impl Description {
     fn of(table: &Table, precision: Precision, volume: bool) -> Self {
         Description {
             table: table.name.clone(),
-            axes: table.axes.iter().zip(["x", "y", "z"]).map(|(axis, along)| AxisEntry::new(axis, along)).collect(),
+            axes: table
+                .axes
+                .iter()
+                .zip(["x", "y", "z"])
+                .map(|(axis, along)| AxisEntry::new(axis, if axis.name == LAYER_AXIS { LAYER_AXIS } else { along }))
+                .collect(),
             channels: table.channels.clone(),
             precision,
             orientation: orientation(volume).into(),
@@ -205,7 +210,8 @@ fn level_alignment(texel_bytes: usize) -> usize {
 /// The bytes of [`write_ktx2`]'s file.
 pub fn encode_ktx2(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     let key = format!("table `{}`", table.name);
-    let ([width, height, depth], volume) = texture_extents(table, precision, "KTX2")?;
+    let ([width, height, depth], shape) = texture_extents(table, precision, "KTX2")?;
+    let volume = shape == TextureShape::Volume;
     let format = vk_format(table.channel_count(), precision)
         .ok_or_else(|| Error::invalid(&key, format!("has {} channels", table.channel_count())))?;
 
@@ -223,7 +229,8 @@ pub fn encode_ktx2(table: &Table, precision: Precision) -> Result<Vec<u8>> {
         pixel_height: height,
         // 0 makes a 2D texture; a volume states its depth.
         pixel_depth: if volume { depth } else { 0 },
-        layer_count: 0,
+        // 0 makes a single texture; an array states its layers (KTX 2.0 section 3.4).
+        layer_count: if shape == TextureShape::Layers { depth } else { 0 },
         face_count: 1,
         level_count: 1,
         supercompression_scheme: None,
@@ -321,9 +328,10 @@ pub fn decode_ktx2(bytes: &[u8], path: &Path) -> Result<Ktx2Texture> {
             scheme.value()
         )));
     }
-    if header.layer_count != 0 {
+    let layered = header.layer_count != 0;
+    if layered && header.pixel_depth != 0 {
         return Err(refuse(format!(
-            "an array of {} layers; only single textures (layerCount 0) are read",
+            "an array of {} volume textures; only single volumes and arrays of 2D textures are read",
             header.layer_count
         )));
     }
@@ -342,7 +350,7 @@ pub fn decode_ktx2(bytes: &[u8], path: &Path) -> Result<Ktx2Texture> {
         return Err(refuse(format!("a 1D texture of {width} texels; only 2D and volume textures are read")));
     }
     let volume = header.pixel_depth != 0;
-    let depth = header.pixel_depth.max(1);
+    let depth = if layered { header.layer_count } else { header.pixel_depth.max(1) };
 
     // The sections in the order the writer puts them, each inside the file.
     let index = header.index;
@@ -446,7 +454,7 @@ pub fn decode_ktx2(bytes: &[u8], path: &Path) -> Result<Ktx2Texture> {
             orientation(volume)
         )));
     }
-    let mut texture = StoredTexture { width, height, depth, channels, precision, volume, data: Vec::new() };
+    let mut texture = StoredTexture { width, height, depth, channels, precision, volume, layered, data: Vec::new() };
     let axes: Vec<_> = description.axes.iter().map(|entry| entry.axis.clone()).collect();
     texture.check_shape(&description.table, &axes, description.channels.len()).map_err(|e| as_format_error(e, path))?;
     texture.data = texel_values(&bytes[data_offset as usize..], precision);

@@ -218,6 +218,10 @@ pub struct FileEntry {
     /// whose lookup is in `packing`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub binding: Option<Binding>,
+    /// For a texture array of a library's slices: the slices it holds, where, and their axes and
+    /// error ([`super::slice_array`]). The entry's `axes` are then the array's texel axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slice_array: Option<super::slice_array::SliceArrayEntry>,
 }
 
 /// The texture, the sampler and the call that reproduce the table's interpolation on a GPU.
@@ -424,6 +428,7 @@ mod tests {
             packing: None,
             fit: None,
             binding: None,
+            slice_array: None,
         };
         let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), ..Default::default() };
         manifest.files.insert("gd.bin".into(), entry);

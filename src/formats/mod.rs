@@ -11,6 +11,7 @@ pub mod dds;
 pub mod exr;
 pub mod ktx2;
 pub mod manifest;
+pub mod slice_array;
 #[cfg(test)]
 mod test_tables;
 
@@ -195,19 +196,50 @@ pub(crate) fn no_exr_support(path: &Path) -> Error {
 pub struct StoredTexture {
     pub width: u32,
     pub height: u32,
-    /// 1 for a 2D texture.
+    /// 1 for a 2D texture; the layer count of a texture array.
     pub depth: u32,
     pub channels: usize,
     pub precision: Precision,
     pub volume: bool,
+    /// An array of `depth` 2D textures ([`LAYER_AXIS`]).
+    pub layered: bool,
     /// Channels interleaved, x fastest, then y, then z.
     pub data: Vec<f32>,
 }
 
-/// The extents of the texture that holds `table` in a `container` (`DDS`, `KTX2`), and whether it
-/// is a volume: 2 axes make a 2D texture, 3 a volume; the table must have 1, 2 or 4 channels and
-/// values that `precision` stores as finite numbers ([`check_storable_values`]).
-pub(crate) fn texture_extents(table: &Table, precision: Precision, container: &str) -> Result<([u32; 3], bool)> {
+/// The third axis of a table stored as an array of 2D textures rather than a volume: the texel
+/// layers of a library's slices ([`crate::scene::arrays`]). A renderer binds it as `Texture2DArray`
+/// (HLSL) or `texture_2d_array` (WGSL), addressing the layer by its integer index.
+pub const LAYER_AXIS: &str = "layer";
+
+/// What kind of texture holds a table of two or three axes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TextureShape {
+    Flat,
+    Volume,
+    /// An array of 2D textures: the third axis is [`LAYER_AXIS`].
+    Layers,
+}
+
+impl TextureShape {
+    pub fn of(table: &Table) -> Self {
+        match table.axes.get(2) {
+            None => TextureShape::Flat,
+            Some(axis) if axis.name == LAYER_AXIS => TextureShape::Layers,
+            Some(_) => TextureShape::Volume,
+        }
+    }
+}
+
+/// The extents of the texture that holds `table` in a `container` (`DDS`, `KTX2`), and its shape:
+/// 2 axes make a 2D texture, 3 a volume or, where the third is [`LAYER_AXIS`], an array; the table
+/// must have 1, 2 or 4 channels and values that `precision` stores as finite numbers
+/// ([`check_storable_values`]).
+pub(crate) fn texture_extents(
+    table: &Table,
+    precision: Precision,
+    container: &str,
+) -> Result<([u32; 3], TextureShape)> {
     let key = format!("table `{}`", table.name);
     if ![1, 2, 4].contains(&table.channel_count()) {
         return Err(Error::invalid(
@@ -218,16 +250,15 @@ pub(crate) fn texture_extents(table: &Table, precision: Precision, container: &s
             ),
         ));
     }
-    let volume = match table.dimension() {
-        2 => false,
-        3 => true,
-        d => {
-            return Err(Error::invalid(
-                &key,
-                format!("has {d} axes; a {container} texture holds 2 (a 2D texture) or 3 (a volume texture)"),
-            ));
-        }
-    };
+    if !(2..=3).contains(&table.dimension()) {
+        return Err(Error::invalid(
+            &key,
+            format!(
+                "has {} axes; a {container} texture holds 2 (a 2D texture) or 3 (a volume or an array)",
+                table.dimension()
+            ),
+        ));
+    }
     let mut extents = [1u32; 3];
     for (extent, axis) in extents.iter_mut().zip(&table.axes) {
         *extent = u32::try_from(axis.count).map_err(|_| {
@@ -238,7 +269,7 @@ pub(crate) fn texture_extents(table: &Table, precision: Precision, container: &s
         })?;
     }
     check_storable_values(table, precision)?;
-    Ok((extents, volume))
+    Ok((extents, TextureShape::of(table)))
 }
 
 /// `values` in `precision`, little-endian (the byte order of DDS, KTX2 and every GPU), appended
@@ -263,6 +294,8 @@ impl StoredTexture {
     pub fn describe(&self) -> String {
         if self.volume {
             format!("volume texture {} x {} x {}", self.width, self.height, self.depth)
+        } else if self.layered {
+            format!("array of {} 2D textures {} x {}", self.depth, self.width, self.height)
         } else {
             format!("2D texture {} x {}", self.width, self.height)
         }
@@ -278,15 +311,21 @@ impl StoredTexture {
     /// with the texture's extent along it, and the texture's channels.
     pub fn check_shape(&self, name: &str, axes: &[Axis], channels: usize) -> Result<()> {
         let key = format!("table `{name}`");
-        let extents: &[u32] =
-            if self.volume { &[self.width, self.height, self.depth] } else { &[self.width, self.height] };
+        let three = self.volume || self.layered;
+        let extents: &[u32] = if three { &[self.width, self.height, self.depth] } else { &[self.width, self.height] };
         if axes.len() != extents.len() {
             return Err(Error::invalid(
                 key,
                 format!(
                     "{} axes given; a {} texture needs {}",
                     axes.len(),
-                    if self.volume { "volume" } else { "2D" },
+                    if self.volume {
+                        "volume"
+                    } else if self.layered {
+                        "layered"
+                    } else {
+                        "2D"
+                    },
                     extents.len()
                 ),
             ));
@@ -298,6 +337,16 @@ impl StoredTexture {
                     format!("axis `{}` has {} nodes, the texture {dimension} is {extent}", axis.name, axis.count),
                 ));
             }
+        }
+        if axes.len() == 3 && (axes[2].name == LAYER_AXIS) != self.layered {
+            return Err(Error::invalid(
+                key,
+                if self.layered {
+                    format!("the texture is an array, so its third axis is `{LAYER_AXIS}`, not `{}`", axes[2].name)
+                } else {
+                    format!("the texture is a volume, its third axis cannot be the layers of an array (`{LAYER_AXIS}`)")
+                },
+            ));
         }
         if channels != self.channels {
             return Err(Error::invalid(key, format!("{channels} channels given, the texture holds {}", self.channels)));
@@ -350,6 +399,24 @@ pub fn binding(axes: &[Axis], channels: usize, precision: Precision, format: Fil
             1 << dimension
         ),
     };
+    if axes.get(2).is_some_and(|a| a.name == LAYER_AXIS) {
+        // An array of slices: each slice states its own coordinates in the array.
+        return Some(manifest::Binding {
+            texture: format!(
+                "Texture2DArray<{hlsl_texel}> (HLSL), texture_2d_array<f32> (WGSL) of {} layers; {texel_format}, WebGPU \
+                 {webgpu} ({filterable}); one mip level; linear data (not sRGB)",
+                axes[2].count
+            ),
+            sampler: "linear min and mag filter, clamp-to-edge addressing, mip level 0".into(),
+            coordinates: vec![
+                "u = the slice's `texture_coordinate` of mu (slice_array.slices[].axes[0])".into(),
+                "v = the slice's `texture_coordinate` of alpha (slice_array.slices[].axes[1])".into(),
+                "layer = the slice's `layer` (an integer)".into(),
+            ],
+            hlsl: "tex.SampleLevel(linear_clamp, float3(u, v, layer), 0)".into(),
+            wgsl: format!("textureSampleLevel(tex, linear_clamp, vec2<f32>(u, v), layer, 0.0).{swizzle}"),
+        });
+    }
     let names = ["u", "v", "w"];
     let coordinates =
         axes.iter().zip(names).map(|(a, n)| format!("{n} = {}", a.texture_coordinate_formula())).collect();

@@ -28,7 +28,7 @@ use crate::model::folder::{FgdSource, FolderTables};
 use crate::model::{Material, Rgb, Tables};
 use crate::random_walk::{self, WalkSettings};
 use crate::scene::Scene;
-use crate::scene::build::{SceneBuildRequest, SliceChecks, build_scene};
+use crate::scene::build::{SceneBuildRequest, SliceChecks, SliceLayout, build_scene};
 use exact::ExactTables;
 pub use report::{ErrorFigures, FurnaceReport, MaterialReport};
 
@@ -158,6 +158,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
                 error_maps: false,
                 slice_checks: SliceChecks::None,
                 cache: None,
+                slice_layout: SliceLayout::Auto,
             };
             build_scene(&build, progress)?;
             dir

@@ -108,6 +108,65 @@ impl LutFolder {
             .filter(move |(_, entry)| rank(entry.format).is_some_and(|r| !preferred_twin(entry, r)))
     }
 
+    /// The slices of a scene build that `wanted` picks by their entry, with their tables, whether
+    /// each is a file of its own or a region of a texture array ([`FolderSlice`]). Each file is
+    /// loaded verified ([`LutFolder::load`]); an array whose manifest places a slice outside it is
+    /// refused, naming the slice.
+    pub fn scene_slices(&self, wanted: impl Fn(&FileEntry) -> bool) -> Result<Vec<FolderSlice>> {
+        let mut slices = Vec::new();
+        for (file, entry) in self.gpu_textures() {
+            let Some(array) = &entry.slice_array else {
+                if entry.axes.len() == 2 && entry.channels.iter().any(|c| !c.fixed.is_empty()) && wanted(entry) {
+                    slices.push(FolderSlice {
+                        entry: entry.clone(),
+                        table: self.load(file)?,
+                        file: file.to_string(),
+                        place: None,
+                    });
+                }
+                continue;
+            };
+            let mut base = entry.clone();
+            base.slice_array = None;
+            base.binding = None;
+            let members: Vec<(FileEntry, &crate::formats::slice_array::ArraySlice)> = array
+                .slices
+                .iter()
+                .map(|slice| {
+                    let mut member = base.clone();
+                    member.table = slice.table.clone();
+                    member.axes = slice.axes.clone();
+                    member.channels = slice.channels.clone();
+                    member.value_range = slice.value_range;
+                    member.error = slice.error.clone();
+                    member.accuracy = slice.accuracy.clone();
+                    (member, slice)
+                })
+                .filter(|(member, _)| wanted(member))
+                .collect();
+            if members.is_empty() {
+                continue;
+            }
+            let texels = self.load(file)?;
+            for (member, slice) in members {
+                let table = crate::formats::slice_array::unpack(&texels, slice)
+                    .map_err(|e| Error::format(self.dir.join(file), e.to_string()))?;
+                slices.push(FolderSlice {
+                    entry: member,
+                    table,
+                    file: file.to_string(),
+                    place: Some(ArrayPlace {
+                        layer: slice.layer,
+                        origin: slice.origin,
+                        layer_extent: array.layer_extent,
+                        layers: array.layers,
+                    }),
+                });
+            }
+        }
+        Ok(slices)
+    }
+
     /// The manifest entry of a file in this folder.
     pub fn entry(&self, file: &str) -> Result<&FileEntry> {
         self.manifest.entry(file).ok_or_else(|| {
@@ -140,6 +199,29 @@ impl LutFolder {
     pub fn shader(&self, shader: &ShaderFile) -> Result<String> {
         shader::read_text_verified(&self.dir, &shader.file, None, Some(&shader.sha256))
     }
+}
+
+/// A slice of a scene build as [`LutFolder::scene_slices`] finds it.
+#[derive(Debug, Clone)]
+pub struct FolderSlice {
+    /// Its entry: its own file's or, in a texture array, the array's with the slice's table name,
+    /// axes (their `texture_coordinate` in the array), channels, value range and error.
+    pub entry: FileEntry,
+    pub table: Table,
+    /// The file holding it.
+    pub file: String,
+    /// Where in the array, for a slice of one.
+    pub place: Option<ArrayPlace>,
+}
+
+/// Where a slice lies in a texture array: its layer, the texel of its first node, and the array's
+/// extent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ArrayPlace {
+    pub layer: u32,
+    pub origin: [u32; 2],
+    pub layer_extent: [u32; 2],
+    pub layers: u32,
 }
 
 /// The precision a file's values are stored in: its entry's, f32 for `.bin` (which has no

@@ -42,6 +42,10 @@ pub struct TextureBinding {
     pub dimension: u8,
     /// Channels per texel as stored (1, 2 or 4).
     pub channels: usize,
+    /// An array of 2D textures (slices of a library; `extent[2]` is its layer count), bound as
+    /// `texture_2d_array<f32>` / `Texture2DArray<float4>`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub layered: bool,
 }
 
 /// A material's function in the shader.

@@ -113,6 +113,7 @@ fn write(dir: &Path, file: &str, table: &Table, format: FileFormat, precision: P
         packing: None,
         fit: None,
         binding: None,
+        slice_array: None,
     };
     (file.to_string(), entry)
 }

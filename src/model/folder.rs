@@ -219,16 +219,14 @@ impl FolderTables {
             Error::format(folder.dir().join(crate::formats::manifest::MANIFEST_FILE), format!("lists no {what}"))
         };
         let slices_of = |prefix: &str, quantity: Quantity| -> Result<Vec<Slice>> {
-            let mut slices = Vec::new();
-            for (file, entry) in folder.gpu_textures() {
-                if !is_slice(entry, prefix) {
-                    continue;
-                }
-                let table = folder.load(file)?;
-                let indices = slice_indices(entry);
-                slices.push(Slice { quantity, indices, texture: SampledTable::new(&table)? });
-            }
-            Ok(slices)
+            folder
+                .scene_slices(|entry| is_slice(entry, prefix))?
+                .into_iter()
+                .map(|slice| {
+                    let indices = slice_indices(&slice.entry);
+                    Ok(Slice { quantity, indices, texture: SampledTable::new(&slice.table)? })
+                })
+                .collect()
         };
         let find = |table: &str, format: FileFormat| {
             entries.iter().find(|(_, e)| e.table == table && e.format == format && e.packing.is_none())

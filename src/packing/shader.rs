@@ -308,6 +308,7 @@ impl Program {
                             texture: "tex".into(),
                             scalar_texture: true,
                             coordinates: c.iter().map(|&i| shader::Expr::Construct(Ty::I32, vec![local(i)])).collect(),
+                            layer: None,
                             swizzle: "r",
                         },
                         false,

@@ -13,6 +13,8 @@ use super::Scene;
 use super::cache::SliceCache;
 use super::plan::{Plan, PlannedBuild, plan};
 use crate::config::{Config, OutputConfig};
+use crate::formats::Precision;
+use crate::formats::slice_array::{self, SliceArrayEntry};
 use crate::error::Result;
 use crate::formats::manifest::SceneRecord;
 use crate::integrate::Progress;
@@ -22,7 +24,7 @@ use crate::recipes::driver::TableBuild;
 use crate::recipes::interpolation::{self, Domain, ExactValues, InterpolationConfig};
 use crate::recipes::slices::{SliceOf, Slices, integrate_batch};
 use crate::stats::AccuracyReport;
-use crate::table::{Table, derived};
+use crate::table::{Channel, Table, derived};
 
 /// A scene build.
 pub struct SceneBuildRequest {
@@ -36,7 +38,24 @@ pub struct SceneBuildRequest {
     pub slice_checks: SliceChecks,
     /// The table cache to read built tables from and store new ones in ([`super::cache`]).
     pub cache: Option<PathBuf>,
+    pub slice_layout: SliceLayout,
 }
+
+/// How the slices of a scene build are written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SliceLayout {
+    /// A texture file per slice.
+    Files,
+    /// Texture arrays of slices ([`crate::formats::slice_array`]): a few files, whatever the
+    /// number of materials.
+    Arrays,
+    /// Arrays where a build has more than [`MAX_SLICE_FILES`] slices, a file per slice otherwise.
+    Auto,
+}
+
+/// The most slices [`SliceLayout::Auto`] writes as files of their own: WebGPU binds 16 sampled
+/// textures per shader stage by default.
+pub const MAX_SLICE_FILES: usize = 16;
 
 /// How the slices of a scene build are checked against the exact integral.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -178,21 +197,37 @@ pub fn build_scene(
         }
         slices_from_cache = all_slices.len() - missing.len();
     }
+    let arrays = match request.slice_layout {
+        SliceLayout::Files => false,
+        SliceLayout::Arrays => !all_slices.is_empty(),
+        SliceLayout::Auto => all_slices.len() > MAX_SLICE_FILES,
+    };
+    if arrays && request.slice_checks == SliceChecks::Full {
+        // An array is written from all its slices at once: each is built and checked on its own first.
+        for slices in &all_slices {
+            let full = match slices.of {
+                SliceOf::Fgd(_) => full_fgd.as_ref(),
+                SliceOf::Tir(_) => full_tir.as_ref(),
+            };
+            batch.insert(slices.name.clone(), checked_slice(slices, full, seed, progress)?);
+        }
+    }
+    let array_jobs = if arrays { slice_array_jobs(&all_slices, &batch)? } else { Vec::new() };
     let batch = &batch;
     let cache = &cache;
     let slices_s = slices_started.elapsed().as_secs_f64();
     let rest_started = std::time::Instant::now();
 
-    let jobs: Vec<Job> = plan
-        .tables
-        .iter()
-        .map(|planned| match &planned.build {
+    let jobs: Vec<Job> = array_jobs
+        .into_iter()
+        .chain(plan.tables.iter().filter(|t| !(arrays && matches!(t.build, PlannedBuild::Slices(_)))).map(|planned| match &planned.build {
             PlannedBuild::Slices(slices) if batch.contains_key(&slices.name) => Job {
                 run: Box::new(move |_| Ok(batch[&slices.name].clone())),
                 output: slices.output(),
                 packings: Vec::new(),
                 packing_formats: Vec::new(),
                 fit_seed: None,
+                slice_array: None,
             },
             PlannedBuild::Slices(slices) => {
                 // Built above for every kind of slice planned, where accuracy is reported.
@@ -201,19 +236,12 @@ pub fn build_scene(
                     SliceOf::Tir(_) => full_tir.as_ref(),
                 };
                 Job {
-                    run: Box::new(move |progress| {
-                        let mut build = crate::recipes::driver::build(slices, seed, progress)?;
-                        if let Some(full) = full {
-                            let (exact, full_accuracy) = slice_accuracy(slices, full, seed, progress)?;
-                            build.provenance.interpolation.push(exact);
-                            build.provenance.accuracy.push(full_accuracy);
-                        }
-                        Ok(build)
-                    }),
+                    run: Box::new(move |progress| checked_slice(slices, full, seed, progress)),
                     output: slices.output(),
                     packings: Vec::new(),
                     packing_formats: Vec::new(),
                     fit_seed: None,
+                    slice_array: None,
                 }
             }
             other => {
@@ -247,9 +275,10 @@ pub fn build_scene(
                     packings,
                     packing_formats,
                     fit_seed,
+                    slice_array: None,
                 }
             }
-        })
+        }))
         .collect();
     let record = SceneRecord {
         name: request.scene.name.clone(),
@@ -284,6 +313,100 @@ pub fn build_scene(
         rest_s: rest_started.elapsed().as_secs_f64(),
     };
     Ok((plan, written, summary))
+}
+
+/// A slice built on its own, and with `full` given, checked against the exact integral where its
+/// lookups are made and compared with that full table ([`slice_accuracy`]).
+fn checked_slice(slices: &Slices, full: Option<&Table>, seed: u64, progress: &dyn Progress) -> Result<TableBuild> {
+    let mut build = crate::recipes::driver::build(slices, seed, progress)?;
+    if let Some(full) = full {
+        let (exact, full_accuracy) = slice_accuracy(slices, full, seed, progress)?;
+        build.provenance.interpolation.push(exact);
+        build.provenance.accuracy.push(full_accuracy);
+    }
+    Ok(build)
+}
+
+/// The texture arrays holding `slices` (built in `builds`, by name): one per kind (FGD, TIR),
+/// stored channel count and output, in plan order, split where one would exceed
+/// [`slice_array::MAX_LAYERS`]. Named `<kind>_array_<channels>` (`fgd_array_r`, `tir_array_rgba`),
+/// with `_2`, `_3`, ... after the first of a split.
+fn slice_array_jobs<'a>(
+    slices: &[&'a Slices],
+    builds: &std::collections::HashMap<String, TableBuild>,
+) -> Result<Vec<Job<'a>>> {
+    let mut groups: Vec<(String, OutputConfig, Vec<&Slices>)> = Vec::new();
+    for &s in slices {
+        let kind = match s.of {
+            SliceOf::Fgd(_) => "fgd",
+            SliceOf::Tir(_) => "tir",
+        };
+        let name = format!("{kind}_array_{}", ["r", "rg", "rgb", "rgba"][s.stored_channel_count() - 1]);
+        let output = s.output();
+        match groups.iter_mut().find(|(n, o, _)| *n == name && *o == output) {
+            Some((_, _, members)) => members.push(s),
+            None => groups.push((name, output, vec![s])),
+        }
+    }
+    let mut jobs = Vec::new();
+    for (name, output, members) in groups {
+        let extents: Vec<[usize; 2]> = members.iter().map(|s| [s.mu.count, s.alpha.count]).collect();
+        let parts = slice_array::layout(&extents).layers.div_ceil(slice_array::MAX_LAYERS).max(1);
+        // Shelves fill layers about evenly, so equal counts of slices need about equal layers; a
+        // part that still needs too many is split once more.
+        let mut chunk = members.len().div_ceil(parts);
+        while members.chunks(chunk).any(|c| {
+            slice_array::layout(&c.iter().map(|s| [s.mu.count, s.alpha.count]).collect::<Vec<_>>()).layers
+                > slice_array::MAX_LAYERS
+        }) {
+            chunk = chunk.div_ceil(2);
+        }
+        for (k, part) in members.chunks(chunk).enumerate() {
+            let name = if k == 0 { name.clone() } else { format!("{name}_{}", k + 1) };
+            let parts: Vec<&TableBuild> = part.iter().map(|s| &builds[&s.name]).collect();
+            let (build, entry) = slice_array_build(&name, &parts, output.precision)?;
+            jobs.push(Job {
+                run: Box::new(move |_| Ok(build.clone())),
+                output: output.clone(),
+                packings: Vec::new(),
+                packing_formats: Vec::new(),
+                fit_seed: None,
+                slice_array: Some(entry),
+            });
+        }
+    }
+    Ok(jobs)
+}
+
+/// One texture array of slice `builds`: the array as a table with the provenance of its slices
+/// (their integral and sampling, errors pooled, wall times summed), and its manifest record.
+fn slice_array_build(name: &str, builds: &[&TableBuild], precision: Precision) -> Result<(TableBuild, SliceArrayEntry)> {
+    let tables: Vec<&Table> = builds.iter().map(|b| &b.table).collect();
+    let channels = (0..tables[0].channel_count())
+        .map(|c| Channel::new(format!("c{c}"), format!("channel {c} of each slice: slice_array.slices[].channels[{c}]")))
+        .collect();
+    let (table, layout) = slice_array::pack(name, &tables, channels)?;
+    let slices = builds
+        .iter()
+        .zip(&layout.slots)
+        .map(|(build, &slot)| crate::pipeline::array_slice_record(build, precision, slot, layout.layer_extent))
+        .collect::<Result<Vec<_>>>()?;
+    let mut provenance = builds[0].provenance.of_derived_table();
+    for build in &builds[1..] {
+        provenance.error = provenance.error.pooled(&build.provenance.error);
+    }
+    provenance.wall_time_s = builds.iter().map(|b| b.provenance.wall_time_s).sum();
+    provenance.notes.push(format!(
+        "A texture array of {} slices: each slice's own axes, channels, layer, texel origin and error are in \
+         slice_array.slices; error here pools them.",
+        builds.len()
+    ));
+    let entry = SliceArrayEntry {
+        layer_extent: layout.layer_extent.map(|e| e as u32),
+        layers: layout.layers as u32,
+        slices,
+    };
+    Ok((TableBuild { table, provenance }, entry))
 }
 
 /// The cache key of a planned full (or sub-range) table; `None` for the fitted form, whose fit

@@ -50,6 +50,8 @@ pub enum Ty {
         dims: u8,
         scalar: bool,
     },
+    /// An array of 2D float textures of four channels, addressed by an integer layer.
+    TextureArray,
     Sampler,
 }
 
@@ -72,6 +74,8 @@ impl Ty {
                 format!("Texture{dims}D<{}>", if *scalar { "float" } else { "float4" })
             }
             (Ty::Texture { dims, .. }, Lang::Wgsl) => format!("texture_{dims}d<f32>"),
+            (Ty::TextureArray, Lang::Hlsl) => "Texture2DArray<float4>".into(),
+            (Ty::TextureArray, Lang::Wgsl) => "texture_2d_array<f32>".into(),
             (Ty::Sampler, Lang::Hlsl) => "SamplerState".into(),
             (Ty::Sampler, Lang::Wgsl) => "sampler".into(),
         }
@@ -206,6 +210,9 @@ pub enum Expr {
         texture: String,
         scalar_texture: bool,
         coordinates: Vec<Expr>,
+        /// The layer of a texture array (an `i32`): `textureLoad(t, c, layer, 0)` /
+        /// `t.Load(int4(c, layer, 0))`.
+        layer: Option<Box<Expr>>,
         swizzle: &'static str,
     },
     /// A filtered sample at mip level 0: `textureSampleLevel(t, s, c, 0.0)` / `t.SampleLevel(s, c, 0)`.
@@ -668,23 +675,26 @@ impl Printer {
                         write!(out, "select({}, {}, {})", self.expr(otherwise), self.expr(then), self.expr(condition));
                 }
             },
-            Expr::Load { texture, scalar_texture, coordinates, swizzle } => {
+            Expr::Load { texture, scalar_texture, coordinates, layer, swizzle } => {
                 let n = coordinates.len() as u8;
                 match lang {
                     Lang::Wgsl => {
+                        let layer = layer.as_ref().map(|l| format!("{}, ", self.list(std::slice::from_ref(l)))).unwrap_or_default();
                         let _ = write!(
                             out,
-                            "textureLoad({texture}, {}({}), 0).{swizzle}",
+                            "textureLoad({texture}, {}({}), {layer}0).{swizzle}",
                             Ty::IVec(n).text(lang),
                             self.list(coordinates)
                         );
                     }
                     Lang::Hlsl => {
+                        let mut all = coordinates.clone();
+                        all.extend(layer.iter().map(|l| (**l).clone()));
                         let _ = write!(
                             out,
                             "{texture}.Load({}({}, 0))",
-                            Ty::IVec(n + 1).text(lang),
-                            self.list(coordinates)
+                            Ty::IVec(all.len() as u8 + 1).text(lang),
+                            self.list(&all)
                         );
                         if !scalar_texture {
                             let _ = write!(out, ".{swizzle}");

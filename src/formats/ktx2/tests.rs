@@ -54,6 +54,27 @@ fn replace_once(bytes: &mut [u8], from: &[u8], to: &[u8]) {
 }
 
 #[test]
+fn an_array_round_trips_with_its_layer_count_and_the_independent_reader_agrees() {
+    let mut axes = axes_for(&[5, 3]);
+    axes.push(Axis::node_aligned(crate::formats::LAYER_AXIS, 0.0, 5.0, 6).unwrap());
+    let table = sample_table_over(axes, 4);
+    let bytes = encode_ktx2(&table, Precision::F16).unwrap();
+    let reader = ::ktx2::Reader::new(bytes.as_slice()).unwrap();
+    let header = reader.header();
+    assert_eq!((header.layer_count, header.pixel_depth), (6, 0));
+    let file = decode(&bytes).unwrap();
+    assert!(file.texture.layered && !file.texture.volume);
+    assert_eq!(file.texture.depth, 6);
+    assert_eq!(file.description.axes[2].stored_along, "layer");
+    let back = file.into_table().unwrap();
+    assert_eq!(back.data, table.data.iter().map(|&v| Precision::F16.round(v)).collect::<Vec<_>>());
+    // An array of volumes is not something tmlut writes.
+    let mut bytes = bytes;
+    set(&mut bytes, 28, 2);
+    assert!(error_of(&bytes).contains("array of 6 volume textures"), "{}", error_of(&bytes));
+}
+
+#[test]
 fn round_trips_2d_and_volume_textures_in_both_precisions() {
     let dir = tempfile::tempdir().unwrap();
     for shape in [&[5, 3][..], &[4, 3, 6]] {

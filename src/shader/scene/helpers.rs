@@ -172,18 +172,6 @@ pub(super) fn common(module: &mut Module) {
         "Channel c of a 2D table at texture coordinates (u, v), filtered by hand: clamp addressing,\n\
          cell-centred texels, weights in f32 (what the sampler computes, without its 8-bit weights).",
     );
-    let load = |x: &str, y: &str| Expr::Load {
-        texture: "tex".into(),
-        scalar_texture: false,
-        coordinates: vec![name(x), name(y)],
-        swizzle: "xyzw",
-    };
-    let lerp4 = |a: Expr, b: Expr, w: &str| (v4(f(1.0)) - v4(name(w))) * a + v4(name(w)) * b;
-    let mut body = taps("u", "width");
-    body.extend(taps("v", "height"));
-    body.push(let_("row0", Ty::Vec(4), lerp4(load("u0", "v0"), load("u1", "v0"), "fu")));
-    body.push(let_("row1", Ty::Vec(4), lerp4(load("u0", "v1"), load("u1", "v1"), "fu")));
-    body.push(Stmt::Return(lerp4(name("row0"), name("row1"), "fv")));
     module.function(
         "tmh_bilinear",
         vec![
@@ -194,8 +182,46 @@ pub(super) fn common(module: &mut Module) {
             ("height", Ty::F32),
         ],
         Ty::Vec(4),
-        body,
+        bilinear_body(false),
     );
+}
+
+/// The read of a slice in a texture array: [`common`]'s `tmh_bilinear` on one layer. The
+/// coordinates are clamped to the slice's nodes by the caller, so the filter reaches at most the
+/// slice's gutter, which repeats its edge (`formats::slice_array`).
+pub(super) fn bilinear_layer(module: &mut Module) {
+    module.comment("tmh_bilinear on layer `layer` of a texture array of slices.");
+    module.function(
+        "tmh_bilinear_layer",
+        vec![
+            ("tex", Ty::TextureArray),
+            ("u", Ty::F32),
+            ("v", Ty::F32),
+            ("width", Ty::F32),
+            ("height", Ty::F32),
+            ("layer", Ty::I32),
+        ],
+        Ty::Vec(4),
+        bilinear_body(true),
+    );
+}
+
+/// Four texels around `(u, v)` of `tex` (of layer `layer` where `layered`), weighed bilinearly.
+fn bilinear_body(layered: bool) -> Vec<Stmt> {
+    let load = |x: &str, y: &str| Expr::Load {
+        texture: "tex".into(),
+        scalar_texture: false,
+        coordinates: vec![name(x), name(y)],
+        layer: layered.then(|| Box::new(name("layer"))),
+        swizzle: "xyzw",
+    };
+    let lerp4 = |a: Expr, b: Expr, w: &str| (v4(f(1.0)) - v4(name(w))) * a + v4(name(w)) * b;
+    let mut body = taps("u", "width");
+    body.extend(taps("v", "height"));
+    body.push(let_("row0", Ty::Vec(4), lerp4(load("u0", "v0"), load("u1", "v0"), "fu")));
+    body.push(let_("row1", Ty::Vec(4), lerp4(load("u0", "v1"), load("u1", "v1"), "fu")));
+    body.push(Stmt::Return(lerp4(name("row0"), name("row1"), "fv")));
+    body
 }
 
 /// The two taps of a clamp-addressed linear filter along one axis: the texel coordinate of `c` in
@@ -233,6 +259,7 @@ pub(super) fn trilinear(module: &mut Module) {
         texture: "tex".into(),
         scalar_texture: true,
         coordinates: vec![name(x), name(y), name(z)],
+        layer: None,
         swizzle: "x",
     };
     let mut body = taps("u", "width");

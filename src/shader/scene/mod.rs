@@ -43,6 +43,7 @@ use crate::fit::forms::Form;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::LutFolder;
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
+use crate::loader::ArrayPlace;
 use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, reads_fgd_rarer, slice_indices};
 use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
@@ -92,6 +93,10 @@ impl SceneShader {
 #[derive(Debug, Clone)]
 struct TableFile {
     file: String,
+    /// The table's name: a texture array holds several.
+    table: String,
+    /// Where a slice of a texture array lies in it.
+    place: Option<ArrayPlace>,
     axes: Vec<Axis>,
     channels: usize,
     /// `(eta, kappa)` per channel, for slices.
@@ -105,6 +110,8 @@ impl TableFile {
         let indices = slice_indices(entry);
         TableFile {
             file: file.to_string(),
+            table: entry.table.clone(),
+            place: None,
             axes: entry.axes.iter().map(|a| a.axis.clone()).collect(),
             channels: padded(entry.channels.len()),
             is_tir: is_slice(entry, "tir"),
@@ -134,6 +141,8 @@ struct Needs {
     packing: bool,
     fit: bool,
     trilinear: bool,
+    /// A slice is read from a texture array.
+    layers: bool,
     asinh: bool,
     acos: bool,
     six_flux: bool,
@@ -219,12 +228,19 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             group: 0,
             binding: t.binding,
             name: t.variable.clone(),
-            ty: Ty::Texture { dims: t.dimension, scalar: t.channels == 1 && t.dimension == 3 },
+            ty: if t.layered {
+                Ty::TextureArray
+            } else {
+                Ty::Texture { dims: t.dimension, scalar: t.channels == 1 && t.dimension == 3 }
+            },
         });
     }
     helpers::common(&mut module);
     if g.needs.trilinear {
         helpers::trilinear(&mut module);
+    }
+    if g.needs.layers {
+        helpers::bilinear_layer(&mut module);
     }
     if g.needs.asinh {
         helpers::asinh(&mut module);
@@ -269,7 +285,16 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
         belcour: None,
         karis: None,
     };
+    // The slices in the order the CPU evaluator finds them (`model::folder`), which decides among equals.
+    for slice in folder.scene_slices(|e| is_slice(e, "fgd") || is_slice(e, "tir"))? {
+        let mut table = TableFile::of(&slice.file, &slice.entry);
+        table.place = slice.place;
+        sources.slices.push(table);
+    }
     for (file, entry) in folder.gpu_textures() {
+        if entry.slice_array.is_some() {
+            continue;
+        }
         if entry.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()) {
             if materials.iter().any(|m| m.albedo == AlbedoPath::Fgd) {
                 let table = folder.load(file)?;
@@ -291,7 +316,7 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
         let table = TableFile::of(file, entry);
         let dimension = table.axes.len();
         if table.is_fgd || table.is_tir {
-            sources.slices.push(table);
+            continue;
         } else if entry.table == "gd" && dimension == 2 {
             sources.gd = Some(table);
         } else if entry.table == "tir" && dimension == 3 {
@@ -342,7 +367,7 @@ impl Generator<'_> {
     }
 
     /// The texture variable of `file`, binding it on first use.
-    fn bind(&mut self, file: &str, extent: [usize; 3], dimension: u8, channels: usize) -> String {
+    fn bind(&mut self, file: &str, extent: [usize; 3], dimension: u8, channels: usize, layered: bool) -> String {
         if let Some(&binding) = self.used.get(file) {
             self.reading.insert(binding);
             return self.textures[binding as usize].variable.clone();
@@ -356,6 +381,7 @@ impl Generator<'_> {
             extent,
             dimension,
             channels,
+            layered,
         });
         self.used.insert(file.to_string(), binding);
         self.reading.insert(binding);
@@ -368,13 +394,31 @@ impl Generator<'_> {
         if t.axes.iter().any(|a| a.mapping.asinh_parts().is_some()) {
             self.needs.asinh = true;
         }
-        self.bind(&t.file, [count(0), count(1), count(2)], t.axes.len() as u8, t.channels)
+        match t.place {
+            Some(place) => {
+                let [width, height] = place.layer_extent.map(|e| e as usize);
+                self.bind(&t.file, [width, height, place.layers as usize], 2, t.channels, true)
+            }
+            None => self.bind(&t.file, [count(0), count(1), count(2)], t.axes.len() as u8, t.channels, false),
+        }
     }
 
     /// Every channel of 2D table `t` at `(mu, alpha)`: the manifest's texture coordinate of each
     /// axis in f32, then bilinear filtering by hand (a `vec4`).
     fn read2(&mut self, t: &TableFile, mu: Expr, alpha: Expr) -> Expr {
         let variable = self.bind_table(t);
+        if let Some(place) = t.place {
+            // A slice of a texture array: its coordinates clamped to its nodes, in the array
+            // (`formats::slice_array::texture_coordinate`), and its layer.
+            self.needs.layers = true;
+            let [u, v] = [0, 1].map(|d| {
+                let x = if d == 0 { mu.clone() } else { alpha.clone() };
+                array_coordinate(&t.axes[d], place.origin[d], place.layer_extent[d], x)
+            });
+            let [width, height] = place.layer_extent.map(|e| f(e as f32));
+            let layer = Expr::Construct(Ty::I32, vec![f(place.layer as f32)]);
+            return func("tmh_bilinear_layer", vec![name(&variable), u, v, width, height, layer]);
+        }
         let [u, v] = [0, 1].map(|d| coordinate(&t.axes[d], if d == 0 { mu.clone() } else { alpha.clone() }));
         func("tmh_bilinear", vec![name(&variable), u, v, f(t.axes[0].count as f32), f(t.axes[1].count as f32)])
     }
@@ -445,7 +489,7 @@ impl Generator<'_> {
 
     /// The function choosing among slice `candidates` at `(mu, alpha)` as [`Self::slice`] says.
     fn slice_chooser(&mut self, candidates: &[(TableFile, usize)]) -> String {
-        let key = candidates.iter().map(|(t, c)| format!("{}#{c}", t.file)).collect::<Vec<_>>().join(",");
+        let key = candidates.iter().map(|(t, c)| format!("{}/{}#{c}", t.file, t.table)).collect::<Vec<_>>().join(",");
         if let Some(function) = self.choosers.get(&key).cloned() {
             for (t, _) in candidates {
                 self.bind_table(t);
@@ -546,7 +590,7 @@ impl Generator<'_> {
             Some((file, packed)) => {
                 let (file, function) = (file.clone(), packed.program.function.clone());
                 let extent = [packed.texture.width, packed.texture.height, packed.texture.depth];
-                let variable = self.bind(&file, extent, 3, 1);
+                let variable = self.bind(&file, extent, 3, 1, false);
                 self.needs.packing = true;
                 self.reads.insert("fgd packing");
                 Ok(func(&function, vec![name(&variable), mu, f(alpha as f32), f(eta as f32), f(kappa as f32)]))
@@ -690,6 +734,23 @@ pub fn identifier(s: &str) -> String {
 /// computes it: the mapping in f32, its ends folded to f32 constants here, then the half-texel
 /// correction of a node-aligned axis.
 fn coordinate(axis: &Axis, x: Expr) -> Expr {
+    let (u, n) = (unit_coordinate(axis, x), axis.count as f32);
+    match axis.placement {
+        Placement::NodeAligned => (u * f(n - 1.0) + f(0.5)) / f(n),
+        Placement::CellCentred => u,
+    }
+}
+
+/// The texture coordinate of `x` along node-aligned `axis` of a slice whose first node is texel
+/// `origin` of a texture array `extent` texels wide along it: its node position clamped to the
+/// slice (`formats::slice_array::texture_coordinate`).
+fn array_coordinate(axis: &Axis, origin: u32, extent: u32, x: Expr) -> Expr {
+    let t = unit_coordinate(axis, x).clamp(f(0.0), f(1.0));
+    (f(origin as f32 + 0.5) + t * f((axis.count - 1) as f32)) / f(extent as f32)
+}
+
+/// `x` along `axis` mapped to `[0, 1]` over its range.
+fn unit_coordinate(axis: &Axis, x: Expr) -> Expr {
     let m0 = axis.mapping.forward_f32(axis.start as f32);
     let m1 = axis.mapping.forward_f32(axis.end as f32);
     let mapped = match axis.mapping {
@@ -707,12 +768,7 @@ fn coordinate(axis: &Axis, x: Expr) -> Expr {
             if slope_below == 0.0 { asinh } else { asinh + f(slope_below as f32) * from_centre.min(f(0.0)) }
         }
     };
-    let u = (mapped - f(m0)) / f(m1 - m0);
-    let n = axis.count as f32;
-    match axis.placement {
-        Placement::NodeAligned => (u * f(n - 1.0) + f(0.5)) / f(n),
-        Placement::CellCentred => u,
-    }
+    (mapped - f(m0)) / f(m1 - m0)
 }
 
 /// Print `shader` in both languages.
