@@ -482,6 +482,82 @@ fn shader_refuses_a_folder_whose_tables_do_not_match_their_manifest() {
     }
 }
 
+/// Every slice of a folder as its reader finds it, by name: from a file of its own or a region of
+/// a texture array.
+fn slices_by_name(dir: &Path) -> std::collections::BTreeMap<String, tmlut::table::Table> {
+    let folder = LutFolder::open(dir).unwrap();
+    folder.scene_slices(|_| true).unwrap().into_iter().map(|s| (s.entry.table.clone(), s.table)).collect()
+}
+
+#[test]
+fn a_library_in_texture_arrays_reads_exactly_as_its_slice_files_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let (files, arrays) = (dir.path().join("files"), dir.path().join("arrays"));
+    let scenes = [scene_path("copper-pot"), scene_path("gpu-check/varied-coats"), scene_path("gpu-check/stiff-stacks")];
+    for (out, layout) in [(&files, "files"), (&arrays, "arrays")] {
+        let mut extra = vec!["--slice-layout", layout];
+        for scene in &scenes {
+            extra.extend(["--scene", scene.as_str()]);
+        }
+        let output = build(&config, out, &extra);
+        assert!(output.status.success(), "{layout}: {}", stderr(&output));
+    }
+    // The same slices, value for value, from a handful of arrays instead of a file each.
+    let (from_files, from_arrays) = (slices_by_name(&files), slices_by_name(&arrays));
+    assert!(from_files.len() > 30, "{} slices", from_files.len());
+    assert_eq!(from_files, from_arrays);
+    let manifest = Manifest::read(&arrays.join(MANIFEST_FILE)).unwrap();
+    // No slice has a file of its own; FGD and TIR of one channel, FGD of three (padded to four).
+    let own_files = manifest.files.values().filter(|e| e.axes.len() == 2 && e.channels.iter().any(|c| !c.fixed.is_empty()));
+    assert_eq!(own_files.count(), 0);
+    let arrays_written: Vec<&String> =
+        manifest.files.iter().filter(|(_, e)| e.slice_array.is_some()).map(|(f, _)| f).collect();
+    assert_eq!(arrays_written, ["fgd_array_r.dds", "fgd_array_rgba.dds", "tir_array_r.dds"]);
+    let held: usize = manifest.files.values().filter_map(|e| e.slice_array.as_ref()).map(|a| a.slices.len()).sum();
+    assert_eq!(held, from_files.len());
+
+    // One scene's shader over each folder: the CPU evaluator gives the same values, and the
+    // shader over the arrays reads texture_2d_array and validates.
+    let scene = scene_path("gpu-check/varied-coats");
+    let mut references = Vec::new();
+    for (name, layout) in [("one-files", "files"), ("one-arrays", "arrays")] {
+        let luts = dir.path().join(name);
+        assert!(build(&config, &luts, &["--slice-layout", layout, "--scene", &scene]).status.success());
+        let out = dir.path().join(format!("{name}-shader"));
+        let output = tmlut(&[
+            "shader", &scene, "--luts", luts.to_str().unwrap(), "--out", out.to_str().unwrap(), "--reference-views", "16",
+        ]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        assert_eq!(common::validate_wgsl_files(&out), 1);
+        let wgsl = std::fs::read_to_string(out.join("varied_coats.wgsl")).unwrap();
+        assert_eq!(wgsl.contains("texture_2d_array<f32>"), layout == "arrays");
+        references.push(std::fs::read(out.join("varied_coats.reference.json")).unwrap());
+    }
+    assert_eq!(references[0], references[1]);
+
+    // `check` finds every slice inside its array with the value range its entry states...
+    let budgets = dir.path().join("no-budgets.toml");
+    std::fs::write(&budgets, "").unwrap();
+    let check = || tmlut(&["check", arrays.to_str().unwrap(), "--budgets", budgets.to_str().unwrap()]);
+    let checked = check();
+    assert!(checked.status.success(), "{}", stdout(&checked));
+    assert!(stdout(&checked).contains("slices inside the array as placed"), "{}", stdout(&checked));
+    // ... and a manifest that places a slice outside its array is refused by the loader and by
+    // `check`, naming the slice.
+    let mut damaged = manifest.clone();
+    let (_, entry) = damaged.files.iter_mut().find(|(_, e)| e.slice_array.is_some()).unwrap();
+    let slice = &mut entry.slice_array.as_mut().unwrap().slices[0];
+    slice.origin[0] = 100_000;
+    let name = slice.table.clone();
+    damaged.write(&arrays).unwrap();
+    let error = LutFolder::open(&arrays).unwrap().scene_slices(|_| true).unwrap_err().to_string();
+    assert!(error.contains(&name) && error.contains("outside the array"), "{error}");
+    let checked = check();
+    assert_eq!(checked.status.code(), Some(1), "{}", stdout(&checked));
+    assert!(stdout(&checked).contains(&name), "{}", stdout(&checked));
+}
+
 #[test]
 fn the_scene_shader_is_listed_in_the_manifest_and_checked() {
     let dir = tempfile::tempdir().unwrap();

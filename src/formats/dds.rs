@@ -479,7 +479,12 @@ mod tests {
 
         let mut array = good;
         array[140..144].copy_from_slice(&6u32.to_le_bytes());
-        assert!(decode_dds(&array, Path::new("a.dds")).unwrap_err().to_string().contains("array"));
+        // A 2D texture stated as an array of 6 layers lacks the texels of five of them.
+        let err = decode_dds(&array, Path::new("a.dds")).unwrap_err().to_string();
+        assert!(err.contains("truncated"), "{err}");
+        array[140..144].copy_from_slice(&0u32.to_le_bytes());
+        let err = decode_dds(&array, Path::new("a.dds")).unwrap_err().to_string();
+        assert!(err.contains("array size of 0"), "{err}");
     }
 
     #[test]

@@ -107,12 +107,7 @@ impl Description {
     fn of(table: &Table, precision: Precision, volume: bool) -> Self {
         Description {
             table: table.name.clone(),
-            axes: table
-                .axes
-                .iter()
-                .zip(["x", "y", "z"])
-                .map(|(axis, along)| AxisEntry::new(axis, if axis.name == LAYER_AXIS { LAYER_AXIS } else { along }))
-                .collect(),
+            axes: table.axes.iter().enumerate().map(|(d, axis)| AxisEntry::new(axis, stored_along(axis, d))).collect(),
             channels: table.channels.clone(),
             precision,
             orientation: orientation(volume).into(),
@@ -132,6 +127,11 @@ impl Description {
             (KEY_PRECISION, precision_name(self.precision).into()),
         ]))
     }
+}
+
+/// The texture dimension axis `d` runs along: `x`, `y`, `z`, or the layers of an array.
+fn stored_along(axis: &crate::table::Axis, d: usize) -> &'static str {
+    if d == 2 && axis.name == LAYER_AXIS { LAYER_AXIS } else { ["x", "y", "z", "w"].get(d).copied().unwrap_or("w") }
 }
 
 fn to_json<T: serde::Serialize>(value: &T) -> Result<String> {
@@ -528,7 +528,8 @@ fn read_description(kvd: &[u8], path: &Path) -> Result<Description> {
     if axes.is_empty() || channels.is_empty() {
         return Err(refuse(format!("`{KEY_AXES}` or `{KEY_CHANNELS}` lists nothing")));
     }
-    for (entry, along) in axes.iter().zip(["x", "y", "z", "w"]) {
+    for (d, entry) in axes.iter().enumerate() {
+        let along = stored_along(&entry.axis, d);
         entry.axis.validate().map_err(|e| as_format_error(e, path))?;
         let formula = entry.axis.texture_coordinate_formula();
         if entry.stored_along != along || entry.texture_coordinate != formula {

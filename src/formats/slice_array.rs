@@ -348,7 +348,7 @@ mod tests {
         let error = unpack(&array, &entry).unwrap_err().to_string();
         assert!(error.contains("fgd_a") && error.contains("outside the array"), "{error}");
         entry.origin = [1, 1];
-        entry.layer = 1;
+        entry.layer = 2;
         assert!(unpack(&array, &entry).is_err());
     }
 

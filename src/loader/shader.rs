@@ -206,6 +206,7 @@ mod tests {
                 extent: [64, 64, 1],
                 dimension: 2,
                 channels: 1,
+                layered: false,
             }]),
             materials: Cow::Owned(vec![MaterialFunction {
                 material: "m".into(),

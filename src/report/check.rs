@@ -348,6 +348,35 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
                 "format, axes, channels, value range and NaN count as the file holds them".into(),
                 disagreements.is_empty(),
             );
+            if let Some(array) = &entry.slice_array {
+                // Every slice the manifest places in the array lies inside it, with its own value range.
+                let problems: Vec<String> = array
+                    .slices
+                    .iter()
+                    .filter_map(|slice| match crate::formats::slice_array::unpack(&table, slice) {
+                        Ok(values) => {
+                            let stats = values.stats();
+                            let stated = slice.value_range;
+                            let stored = [stats.min, stats.max];
+                            let rounded = stated.map(|v| entry.precision.round(v));
+                            (rounded != stored).then(|| {
+                                format!("slice `{}` holds [{}, {}], its entry states {stated:?}", slice.table, stored[0], stored[1])
+                            })
+                        }
+                        Err(e) => Some(e.to_string()),
+                    })
+                    .collect();
+                record(
+                    "slices",
+                    if problems.is_empty() {
+                        format!("{} slices inside the array as placed", array.slices.len())
+                    } else {
+                        problems.join("; ")
+                    },
+                    "every slice inside its layer, with its stated value range".into(),
+                    problems.is_empty(),
+                );
+            }
             let stats = table.stats();
             let non_finite = stats.nan_count + stats.infinite_count;
             record("nan_count", non_finite.to_string(), format!("<= {}", budget.max_nan), non_finite <= budget.max_nan);
