@@ -558,6 +558,80 @@ fn a_library_in_texture_arrays_reads_exactly_as_its_slice_files_do() {
     assert!(stdout(&checked).contains(&name), "{}", stdout(&checked));
 }
 
+/// A manifest's JSON without its wall times, the one thing two builds of a folder may differ in.
+fn manifest_without_wall_times(dir: &Path) -> serde_json::Value {
+    fn strip(value: &mut serde_json::Value) {
+        match value {
+            serde_json::Value::Object(map) => {
+                map.remove("wall_time_s");
+                map.values_mut().for_each(strip);
+            }
+            serde_json::Value::Array(items) => items.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    let mut value: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join(MANIFEST_FILE)).unwrap()).unwrap();
+    strip(&mut value);
+    value
+}
+
+#[test]
+fn shards_merged_give_the_files_of_one_build_and_a_missing_or_damaged_shard_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let scenes = [scene_path("copper-pot"), scene_path("gpu-check/varied-coats"), scene_path("gpu-check/stiff-stacks")];
+    let mut scene_args: Vec<&str> = Vec::new();
+    for scene in &scenes {
+        scene_args.extend(["--scene", scene.as_str()]);
+    }
+    let whole = dir.path().join("whole");
+    let output = build(&config, &whole, &scene_args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let shard_dirs: Vec<PathBuf> = (1..=3).map(|i| dir.path().join(format!("shard{i}"))).collect();
+    for (i, shard) in shard_dirs.iter().enumerate() {
+        let mut args = scene_args.clone();
+        let part = format!("{}/3", i + 1);
+        args.extend(["--shard", &part, "--cache", shard.to_str().unwrap()]);
+        let output = build(&config, &dir.path().join("unused"), &args);
+        assert!(output.status.success(), "{}", stderr(&output));
+    }
+    // A shard writes only into its own folder.
+    assert!(!dir.path().join("unused").exists());
+    let merge = |shards: &[PathBuf], out: &Path| {
+        let mut args = vec!["merge", "--quiet", "--config", config.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend(scene_args.iter().copied());
+        args.extend(shards.iter().map(|s| s.to_str().unwrap()));
+        tmlut(&args)
+    };
+    let merged = dir.path().join("merged");
+    let output = merge(&shard_dirs, &merged);
+    assert!(output.status.success(), "{}", stderr(&output));
+    // Every file byte for byte, the manifest apart from wall times.
+    let (a, b) = (snapshot(&whole), snapshot(&merged));
+    let names = |files: &[(String, Vec<u8>)]| files.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&a), names(&b));
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        if name != MANIFEST_FILE {
+            assert!(x == y, "{name} differs");
+        }
+    }
+    assert_eq!(manifest_without_wall_times(&whole), manifest_without_wall_times(&merged));
+
+    // Without one shard, the merge names a table none of the others holds and writes nothing.
+    let incomplete = dir.path().join("incomplete");
+    let output = merge(&shard_dirs[..2], &incomplete);
+    assert_clean_failure(&output, &["in none of the 2 shard folder(s)", "--shard I/N"]);
+    assert!(!incomplete.join(MANIFEST_FILE).exists());
+    // A damaged entry is refused, naming its file, rather than built again.
+    let entry = std::fs::read_dir(&shard_dirs[0]).unwrap().flatten().map(|e| e.path()).find(|p| p.extension().is_some_and(|e| e == "slice")).unwrap();
+    let mut bytes = std::fs::read(&entry).unwrap();
+    let last = bytes.len() - 2;
+    bytes[last] ^= 1;
+    std::fs::write(&entry, bytes).unwrap();
+    let output = merge(&shard_dirs, &dir.path().join("damaged"));
+    assert_clean_failure(&output, &[entry.file_name().unwrap().to_str().unwrap(), "damaged shard entry"]);
+}
+
 #[test]
 fn the_scene_shader_is_listed_in_the_manifest_and_checked() {
     let dir = tempfile::tempdir().unwrap();

@@ -7,7 +7,7 @@ use clap::Args;
 use tmlut::integrate::Method;
 use tmlut::pipeline::{self, BuildRequest};
 use tmlut::scene::Scene;
-use tmlut::scene::build::{SceneBuildRequest, SliceChecks, SliceLayout, build_scene};
+use tmlut::scene::build::{SceneBuildRequest, Shard, SliceChecks, SliceLayout, build_scene};
 use tmlut::scene::library;
 
 use super::{ConfigArg, Context, ThreadsArg, one_of};
@@ -58,9 +58,15 @@ pub struct BuildArgs {
     /// (arrays above 16 slices, the textures a WebGPU shader stage binds by default).
     #[arg(long, value_parser = parse_slice_layout, default_value = "auto", requires = "scene")]
     slice_layout: SliceLayout,
+    /// Build only part I of N of the scene's tables (I from 1), into the cache folder (`--cache
+    /// DIR`, required), and write no output folder; `tmlut merge` joins the shards' folders.
+    /// Every shard plans the whole library, so the same scenes, configuration and seed must be
+    /// given to each.
+    #[arg(long, value_parser = Shard::parse, requires = "cache")]
+    shard: Option<Shard>,
 }
 
-fn parse_slice_layout(text: &str) -> Result<SliceLayout, String> {
+pub fn parse_slice_layout(text: &str) -> Result<SliceLayout, String> {
     one_of(text, &[("auto", SliceLayout::Auto), ("arrays", SliceLayout::Arrays), ("files", SliceLayout::Files)])
 }
 
@@ -80,7 +86,7 @@ pub fn cache_folder(cache: Option<PathBuf>) -> tmlut::Result<Option<PathBuf>> {
 /// The most files a scene build lists one by one.
 const MAX_FILES_LISTED: usize = 64;
 
-fn parse_slice_checks(text: &str) -> Result<SliceChecks, String> {
+pub fn parse_slice_checks(text: &str) -> Result<SliceChecks, String> {
     one_of(text, &[("sampled", SliceChecks::Sampled), ("full", SliceChecks::Full)])
 }
 
@@ -111,21 +117,10 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
                 slice_checks: args.slice_checks,
                 cache: cache_folder(args.cache)?,
                 slice_layout: args.slice_layout,
+                shard: args.shard,
+                merge_from: Vec::new(),
             };
-            let (plan, written, summary) = build_scene(&request, &progress)?;
-            println!("{}", plan.summary());
-            for warning in &plan.warnings {
-                eprintln!("warning: {warning}");
-            }
-            write_scene_shader(&request.scene, &request.out);
-            // A library's files are listed in its manifest; one line per file would bury the summary.
-            if written.len() <= MAX_FILES_LISTED {
-                print!("{}", pipeline::summary(&written));
-            } else {
-                println!("{} files, each described in {}", written.len(), request.out.join("manifest.json").display());
-            }
-            println!("{summary}");
-            return Ok(());
+            return build_and_report(&request, context);
         }
         true => {
             let request = BuildRequest { config, only: args.only, out: args.out, error_maps: args.error_maps };
@@ -133,6 +128,29 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
         }
     };
     print!("{}", pipeline::summary(&written));
+    Ok(())
+}
+
+/// Build a scene's plan (or a shard of it, or merge shards) and print what it did: the plan's
+/// summary and warnings, the files (listed where few), the closing summary; the scene's shader is
+/// written beside a folder's tables.
+pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut::Result<()> {
+    let progress = context.progress();
+    let (plan, written, summary) = build_scene(request, &progress)?;
+    println!("{}", plan.summary());
+    for warning in &plan.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if request.shard.is_none() {
+        write_scene_shader(&request.scene, &request.out);
+        // A library's files are listed in its manifest; one line per file would bury the summary.
+        if written.len() <= MAX_FILES_LISTED {
+            print!("{}", pipeline::summary(&written));
+        } else {
+            println!("{} files, each described in {}", written.len(), request.out.join("manifest.json").display());
+        }
+    }
+    println!("{summary}");
     Ok(())
 }
 

@@ -21,6 +21,7 @@ mod fit;
 mod furnace;
 mod inspect;
 mod list;
+mod merge;
 mod pack_report;
 mod plan;
 mod shader;
@@ -43,6 +44,7 @@ pub struct Cli {
 #[derive(Subcommand)]
 enum Command {
     Build(build::BuildArgs),
+    Merge(merge::MergeArgs),
     Plan(plan::PlanArgs),
     Cache(cache::CacheArgs),
     Bench(bench::BenchArgs),
@@ -76,6 +78,7 @@ pub fn run(cli: Cli) -> ExitCode {
     let context = Context { quiet: cli.quiet };
     let result = match cli.command {
         Command::Build(args) => build::exec(args, &context),
+        Command::Merge(args) => merge::exec(args, &context),
         Command::Plan(args) => plan::exec(args, &context),
         Command::Cache(args) => cache::exec(args, &context),
         Command::Bench(args) => bench::exec(args, &context),

@@ -159,6 +159,8 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
                 slice_checks: SliceChecks::None,
                 cache: None,
                 slice_layout: SliceLayout::Auto,
+                shard: None,
+                merge_from: Vec::new(),
             };
             build_scene(&build, progress)?;
             dir

@@ -401,21 +401,141 @@ pub const BATCH_CHECK_NOTE: &str = "Checked as one of a batch: the reference cel
 /// figure is recorded in every slice of the group, with [`BATCH_CHECK_NOTE`]. Returns one build per
 /// slice, in order, with the wall time of the whole batch.
 pub fn integrate_batch(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> Result<Vec<TableBuild>> {
+    integrate_batch_among(slices, slices, seed, progress)
+}
+
+/// [`integrate_batch`], with the reference check drawn across `population` (a build's slices,
+/// `slices` among them): the nodes drawn, and so every slice's figure, depend on the population,
+/// not on which of its slices this call integrates, so a shard of a build, or a build that reads
+/// some slices from the cache, records what the whole build records. A drawn node of a slice not
+/// integrated here is integrated for the check alone.
+pub fn integrate_batch_among(
+    slices: &[&Slices],
+    population: &[&Slices],
+    seed: u64,
+    progress: &dyn Progress,
+) -> Result<Vec<TableBuild>> {
     for slice in slices {
         slice.validate()?;
     }
     let started = std::time::Instant::now();
-    // Slices integrated on the same measures: the same table and settings (sampling, masking, basis).
+    let integrated = integrate_tables(slices, seed, progress)?;
+    let mut references: Vec<Option<ReferenceComparison>> = vec![None; slices.len()];
+    // The reference check of each group of the population that holds a slice integrated here.
+    let population_groups = settings_groups(population)?;
+    for (key, members) in &settings_groups(slices)? {
+        let first = slices[members[0]];
+        let reference = first.reference();
+        if reference.cells == 0 {
+            continue;
+        }
+        let everyone: Vec<&Slices> = match population_groups.get(key) {
+            Some(all) => all.iter().map(|&p| population[p]).collect(),
+            None => members.iter().map(|&s| slices[s]).collect(),
+        };
+        let sizes: Vec<usize> = everyone.iter().map(|s| s.mu.count * s.alpha.count).collect();
+        let total: usize = sizes.iter().sum();
+        let cells = super::random_cells(total, reference.cells, seed ^ 0x5A1CE);
+        let located: Vec<(usize, usize)> = cells
+            .iter()
+            .map(|&cell| {
+                let (mut slice, mut cell) = (0, cell as usize);
+                while cell >= sizes[slice] {
+                    cell -= sizes[slice];
+                    slice += 1;
+                }
+                (slice, cell)
+            })
+            .collect();
+        // The stored values of drawn slices: integrated here, or on their own for the check.
+        let here: std::collections::HashMap<&str, usize> = members.iter().map(|&s| (slices[s].name.as_str(), s)).collect();
+        let mut outsiders: Vec<&Slices> = located.iter().map(|&(p, _)| everyone[p]).filter(|p| !here.contains_key(p.name.as_str())).collect();
+        outsiders.sort_by(|a, b| a.name.cmp(&b.name));
+        outsiders.dedup_by(|a, b| a.name == b.name);
+        let outsider_tables = integrate_tables(&outsiders, seed, progress)?.tables;
+        let table_of = |slice: &Slices| -> &Table {
+            match here.get(slice.name.as_str()) {
+                Some(&s) => &integrated.tables[s],
+                None => &outsider_tables[outsiders.iter().position(|o| o.name == slice.name).expect("integrated above")],
+            }
+        };
+        let reference_points = super::reference_points(reference.samples, seed)?;
+        let numbers: Vec<u64> = (0..located.len() as u64).collect();
+        let label =
+            format!("{} slices reference ({} cells across {} slices)", first.table_name(), located.len(), everyone.len());
+        let differences: Vec<Vec<f64>> = crate::integrate::estimate_cells(&numbers, &label, progress, |n| {
+            let (p, cell) = located[n as usize];
+            let table = table_of(everyone[p]);
+            let index = table.node_index(cell);
+            let exact = everyone[p].estimate_node(&reference_points, &table.node_position(&index));
+            table.node(&index).iter().zip(&exact.mean).map(|(&stored, &r)| stored as f64 - r).collect()
+        });
+        let comparison = ReferenceComparison {
+            samples_per_cell: reference_points.plan().total(),
+            difference: ErrorSummary::of_differences(differences.into_iter().flatten()),
+        };
+        for &s in members {
+            references[s] = Some(comparison.clone());
+        }
+    }
+    let wall_time_s = started.elapsed().as_secs_f64();
+    let BatchTables { tables, estimates, records } = integrated;
+    Ok(slices
+        .iter()
+        .zip(tables)
+        .zip(estimates)
+        .zip(references)
+        .zip(records)
+        .map(|((((slice, table), estimates), reference), sampling)| {
+            let integrated = Integrated::of(&estimates);
+            let metadata = slice.metadata();
+            let mut notes = metadata.notes;
+            notes.push(BATCH_CHECK_NOTE.into());
+            TableBuild {
+                table,
+                provenance: Provenance {
+                    integrand: metadata.integrand,
+                    masking: metadata.masking,
+                    notes,
+                    sampling,
+                    error: ErrorRecord { replicate_standard_error: integrated.replicate_standard_error, reference },
+                    wall_time_s,
+                    fresnel_basis: None,
+                    accuracy: Vec::new(),
+                    standard_error: integrated.standard_error,
+                    interpolation: Vec::new(),
+                    channel_sum: None,
+                },
+            }
+        })
+        .collect())
+}
+
+/// Slices integrated together: per slice its table, node estimates and sampling record.
+struct BatchTables {
+    tables: Vec<Table>,
+    estimates: Vec<Vec<Estimate>>,
+    records: Vec<super::driver::SamplingRecord>,
+}
+
+/// The indices of `slices` by the settings they are integrated on (the same table and settings:
+/// sampling, masking, basis), which share measures and a reference check.
+fn settings_groups(slices: &[&Slices]) -> Result<std::collections::BTreeMap<String, Vec<usize>>> {
     let mut groups: std::collections::BTreeMap<String, Vec<usize>> = std::collections::BTreeMap::new();
     for (index, slice) in slices.iter().enumerate() {
         let key = serde_json::to_string(&slice.of).map_err(|e| Error::invalid(&slice.name, e.to_string()))?;
         groups.entry(key).or_default().push(index);
     }
+    Ok(groups)
+}
+
+/// Every node of `slices` integrated, each distinct lattice node of a group once for all the
+/// slices that hold it.
+fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> Result<BatchTables> {
     let mut tables: Vec<Table> = slices.iter().map(|s| s.empty_table()).collect::<Result<_>>()?;
     let mut estimates: Vec<Vec<Estimate>> = vec![Vec::new(); slices.len()];
-    let mut references: Vec<Option<ReferenceComparison>> = vec![None; slices.len()];
     let mut records: Vec<Option<super::driver::SamplingRecord>> = vec![None; slices.len()];
-    for members in groups.values() {
+    for members in settings_groups(slices)?.values() {
         let first = slices[members[0]];
         let points = super::driver::table_points(&first.sampling(), seed)?;
         // Each node of the group once, with the (slice, node number) pairs that hold it.
@@ -452,81 +572,11 @@ pub fn integrate_batch(slices: &[&Slices], seed: u64, progress: &dyn Progress) -
         }
         for &s in members {
             store_means(&mut tables[s], &estimates[s]);
-        }
-        // The reference check, sampled across the group: random (slice, node) pairs.
-        let reference = first.reference();
-        if reference.cells > 0 {
-            let sizes: Vec<usize> = members.iter().map(|&s| tables[s].node_count()).collect();
-            let total: usize = sizes.iter().sum();
-            let cells = super::random_cells(total, reference.cells, seed ^ 0x5A1CE);
-            let located: Vec<(usize, usize)> = cells
-                .iter()
-                .map(|&cell| {
-                    let (mut slice, mut cell) = (0, cell as usize);
-                    while cell >= sizes[slice] {
-                        cell -= sizes[slice];
-                        slice += 1;
-                    }
-                    (members[slice], cell)
-                })
-                .collect();
-            let reference_points = super::reference_points(reference.samples, seed)?;
-            let numbers: Vec<u64> = (0..located.len() as u64).collect();
-            let label = format!(
-                "{} slices reference ({} cells across {} slices)",
-                first.table_name(),
-                located.len(),
-                members.len()
-            );
-            let differences: Vec<Vec<f64>> = crate::integrate::estimate_cells(&numbers, &label, progress, |n| {
-                let (s, cell) = located[n as usize];
-                let table = &tables[s];
-                let index = table.node_index(cell);
-                let exact = slices[s].estimate_node(&reference_points, &table.node_position(&index));
-                table.node(&index).iter().zip(&exact.mean).map(|(&stored, &r)| stored as f64 - r).collect()
-            });
-            let comparison = ReferenceComparison {
-                samples_per_cell: reference_points.plan().total(),
-                difference: ErrorSummary::of_differences(differences.into_iter().flatten()),
-            };
-            for &s in members {
-                references[s] = Some(comparison.clone());
-            }
-        }
-        for &s in members {
             records[s] = Some(super::driver::sampling_record(Method::Fast, &slices[s].metadata().sampler, &points));
         }
     }
-    let wall_time_s = started.elapsed().as_secs_f64();
-    Ok(slices
-        .iter()
-        .zip(tables)
-        .zip(estimates)
-        .zip(references)
-        .zip(records)
-        .map(|((((slice, table), estimates), reference), sampling)| {
-            let integrated = Integrated::of(&estimates);
-            let metadata = slice.metadata();
-            let mut notes = metadata.notes;
-            notes.push(BATCH_CHECK_NOTE.into());
-            TableBuild {
-                table,
-                provenance: Provenance {
-                    integrand: metadata.integrand,
-                    masking: metadata.masking,
-                    notes,
-                    sampling: sampling.expect("every slice is in a group"),
-                    error: ErrorRecord { replicate_standard_error: integrated.replicate_standard_error, reference },
-                    wall_time_s,
-                    fresnel_basis: None,
-                    accuracy: Vec::new(),
-                    standard_error: integrated.standard_error,
-                    interpolation: Vec::new(),
-                    channel_sum: None,
-                },
-            }
-        })
-        .collect())
+    let records = records.into_iter().map(|r| r.expect("every slice is in a group")).collect();
+    Ok(BatchTables { tables, estimates, records })
 }
 
 #[cfg(test)]

@@ -15,14 +15,14 @@ use super::plan::{Plan, PlannedBuild, plan};
 use crate::config::{Config, OutputConfig};
 use crate::formats::Precision;
 use crate::formats::slice_array::{self, SliceArrayEntry};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::formats::manifest::SceneRecord;
 use crate::integrate::Progress;
 use crate::pipeline::{Job, WrittenFile, sha256_hex, write_jobs};
 use crate::recipes::TableRecipe;
 use crate::recipes::driver::TableBuild;
 use crate::recipes::interpolation::{self, Domain, ExactValues, InterpolationConfig};
-use crate::recipes::slices::{SliceOf, Slices, integrate_batch};
+use crate::recipes::slices::{SliceOf, Slices, integrate_batch_among};
 use crate::stats::AccuracyReport;
 use crate::table::{Channel, Table, derived};
 
@@ -39,6 +39,42 @@ pub struct SceneBuildRequest {
     /// The table cache to read built tables from and store new ones in ([`super::cache`]).
     pub cache: Option<PathBuf>,
     pub slice_layout: SliceLayout,
+    /// Build only this shard's tables, into `cache`, and write no folder.
+    pub shard: Option<Shard>,
+    /// The shard folders a merge joins (`tmlut merge`): every table is read from them (verified),
+    /// none integrated.
+    pub merge_from: Vec<PathBuf>,
+}
+
+/// One of `count` parts of a build (`--shard index/count`, `index` from 1): the planned tables
+/// whose place in the plan is `index - 1` modulo `count`. Every shard plans the whole library, so
+/// the shards of a plan partition its tables, and checks drawn across the build's slices are
+/// drawn alike in every shard ([`crate::recipes::slices::integrate_batch_among`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+/// The most shards a build is split into.
+pub const MAX_SHARDS: usize = 4096;
+
+impl Shard {
+    /// `I/N` with `1 <= I <= N <= MAX_SHARDS`.
+    pub fn parse(text: &str) -> std::result::Result<Shard, String> {
+        let refuse = || format!("`{text}` is not a shard: give I/N, the I-th of N parts, 1 <= I <= N <= {MAX_SHARDS}");
+        let (index, count) = text.split_once('/').ok_or_else(refuse)?;
+        let (index, count) = (index.trim().parse::<usize>().map_err(|_| refuse())?, count.trim().parse::<usize>().map_err(|_| refuse())?);
+        if index == 0 || index > count || count > MAX_SHARDS {
+            return Err(refuse());
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// Whether the table at `place` in the plan is this shard's.
+    pub fn owns(&self, place: usize) -> bool {
+        place % self.count == self.index - 1
+    }
 }
 
 /// How the slices of a scene build are written.
@@ -126,8 +162,19 @@ pub fn build_scene(
     if request.slice_checks == SliceChecks::None {
         config.disable_interpolation_checks();
     }
+    let merging = !request.merge_from.is_empty();
+    if (request.shard.is_some() || merging) && request.slice_checks == SliceChecks::Full {
+        return Err(Error::invalid(
+            "--slice-checks full",
+            "checks each slice against the full table, which a shard or a merge does not build; allowed with --shard and merge: sampled, none",
+        ));
+    }
+    if request.shard.is_some() && request.cache.is_none() {
+        return Err(Error::invalid("--shard", "a shard writes its tables into a cache folder: give --cache DIR"));
+    }
     let plan = plan(&request.scene, &config)?;
     let plan_s = started.elapsed().as_secs_f64();
+    let owned = |place: usize| request.shard.is_none_or(|shard| shard.owns(place));
     let seed = config.seed;
     // The full tables the slices are compared with, built once, without their own reference checks.
     let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(seed, progress)?.table) };
@@ -165,7 +212,30 @@ pub fn build_scene(
             _ => None,
         })
         .collect();
-    let cache = request.cache.as_deref().map(SliceCache::open);
+    let own_slices: Vec<&Slices> = plan
+        .tables
+        .iter()
+        .enumerate()
+        .filter_map(|(place, t)| match &t.build {
+            PlannedBuild::Slices(slices) if owned(place) => Some(slices),
+            _ => None,
+        })
+        .collect();
+    let cache = if merging {
+        Some(SliceCache::shards(&request.merge_from)?)
+    } else {
+        request.cache.as_deref().map(SliceCache::open)
+    };
+    let not_in_shards = |table: &str| {
+        Error::invalid(
+            "tmlut merge",
+            format!(
+                "table `{table}` is in none of the {} shard folder(s): run every shard (`tmlut build --shard I/N` for I = 1 to N) \
+                 with the same scenes, configuration and seed",
+                request.merge_from.len()
+            ),
+        )
+    };
     let slices_started = std::time::Instant::now();
     let mut slices_from_cache = 0;
     let mut batch: std::collections::HashMap<String, TableBuild> = std::collections::HashMap::new();
@@ -173,7 +243,7 @@ pub fn build_scene(
         // Slices an earlier build stored are read back; the others are integrated (and checked)
         // together, then stored.
         let mut missing: Vec<&Slices> = Vec::new();
-        for slices in &all_slices {
+        for slices in &own_slices {
             match cache.as_ref().and_then(|c| c.get(slices, seed)) {
                 Some(build) => {
                     batch.insert(slices.name.clone(), build);
@@ -181,10 +251,14 @@ pub fn build_scene(
                 None => missing.push(slices),
             }
         }
+        if let (true, Some(first)) = (merging, missing.first()) {
+            return Err(not_in_shards(&first.name));
+        }
         if !missing.is_empty() {
-            let builds = integrate_batch(&missing, seed, progress)?;
+            // Checks are drawn across every slice of the plan, whichever of them are integrated here.
+            let builds = integrate_batch_among(&missing, &all_slices, seed, progress)?;
             let exact = match request.slice_checks {
-                SliceChecks::Sampled => sampled_exact_values(&missing, seed, progress)?,
+                SliceChecks::Sampled => sampled_exact_values(&missing, &all_slices, seed, progress)?,
                 _ => vec![None; missing.len()],
             };
             for ((slices, mut build), exact) in missing.iter().zip(builds).zip(exact) {
@@ -195,7 +269,40 @@ pub fn build_scene(
                 batch.insert(slices.name.clone(), build);
             }
         }
-        slices_from_cache = all_slices.len() - missing.len();
+        slices_from_cache = own_slices.len() - missing.len();
+    }
+    if let (Some(shard), Some(cache)) = (request.shard, &cache) {
+        let mut tables = own_slices.len();
+        for (place, planned) in plan.tables.iter().enumerate() {
+            let Some(key) = table_key(&planned.build, seed).filter(|_| owned(place)) else { continue };
+            let recipe = planned.build.recipe().expect("a full table");
+            if cache.get_by_key(&key, &recipe.axes()?).is_none() {
+                cache.put_by_key(&key, &recipe.build(seed, progress)?);
+            }
+            tables += 1;
+        }
+        for warning in cache.warnings() {
+            progress.note(&format!("warning: {warning}"));
+        }
+        progress.note(&format!(
+            "shard {}/{}: {tables} of the plan's {} tables in {} ({} slices from it already)",
+            shard.index,
+            shard.count,
+            plan.tables.len(),
+            cache.dir.display(),
+            slices_from_cache
+        ));
+        let summary = SceneBuildSummary {
+            materials: request.scene.materials.len(),
+            tables,
+            merged_slices: plan.merged_slices,
+            slices: own_slices.len(),
+            slices_from_cache,
+            plan_s,
+            slices_s: slices_started.elapsed().as_secs_f64(),
+            ..SceneBuildSummary::default()
+        };
+        return Ok((plan, Vec::new(), summary));
     }
     let arrays = match request.slice_layout {
         SliceLayout::Files => false,
@@ -261,11 +368,15 @@ pub fn build_scene(
                 // A full table is kept in the cache too (GD, read by every 6-flux library, and the
                 // sub-range tables): a build of an unchanged library then integrates nothing.
                 let key = cache.as_ref().and(table_key(other, seed));
+                let not_in_shards = &not_in_shards;
                 Job {
                     run: Box::new(move |progress| {
                         let (Some(cache), Some(key)) = (cache, &key) else { return recipe.build(seed, progress) };
                         if let Some(build) = cache.get_by_key(key, &recipe.axes()?) {
                             return Ok(build);
+                        }
+                        if merging {
+                            return Err(not_in_shards(recipe.name()));
                         }
                         let build = recipe.build(seed, progress)?;
                         cache.put_by_key(key, &build);
@@ -426,22 +537,25 @@ fn table_key(build: &PlannedBuild, seed: u64) -> Option<String> {
 /// Points of the interpolation check drawn across every slice of a build ([`SliceChecks::Sampled`]).
 pub const SAMPLED_INTERPOLATION_POINTS: usize = 32;
 
-/// The exact integral at [`SAMPLED_INTERPOLATION_POINTS`] random points drawn across `slices`:
-/// each point picks a slice at random, then a point where that slice's lookups are made, as
+/// The exact integral at [`SAMPLED_INTERPOLATION_POINTS`] random points drawn across `population`,
+/// for the slices of `slices` that drew any: each point picks a slice at random, then a point where that slice's lookups are made, as
 /// [`slice_accuracy`] draws them. Slices that drew no point get `None`.
 pub fn sampled_exact_values(
     slices: &[&Slices],
+    population: &[&Slices],
     seed: u64,
     progress: &dyn Progress,
 ) -> Result<Vec<Option<ExactValues>>> {
-    let mut drawn = vec![0usize; slices.len()];
+    // Drawn across the population (the build's slices), so that a slice draws the same points
+    // whichever others are integrated with it (a shard, or a build reading the rest from a cache).
+    let mut drawn: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
     for draw in 0..SAMPLED_INTERPOLATION_POINTS as u32 {
         let hash = crate::sampling::sequence::scramble_seed(seed, 0x5A3D, draw) as usize;
-        drawn[hash % slices.len()] += 1;
+        *drawn.entry(population[hash % population.len()].name.as_str()).or_default() += 1;
     }
     slices
         .iter()
-        .zip(drawn)
+        .map(|slices| (slices, drawn.get(slices.name.as_str()).copied().unwrap_or(0)))
         .map(|(slices, points)| {
             if points == 0 {
                 return Ok(None);

@@ -91,6 +91,11 @@ struct KeyFields<'a> {
 /// A cache folder, for one build.
 pub struct SliceCache {
     pub dir: PathBuf,
+    /// Further folders read, never written: the shards a merge joins ([`SliceCache::shards`]).
+    read_only: Vec<PathBuf>,
+    /// Whether a table read back says so in its notes: a merge's tables are its shards', and say
+    /// nothing a build of them all would not.
+    note_reads: bool,
     /// False once the folder proved unusable: the build goes on without it.
     usable: AtomicBool,
     warnings: Mutex<Vec<String>>,
@@ -103,6 +108,8 @@ impl SliceCache {
     pub fn open(dir: &Path) -> SliceCache {
         let cache = SliceCache {
             dir: dir.to_path_buf(),
+            read_only: Vec::new(),
+            note_reads: true,
             usable: AtomicBool::new(true),
             warnings: Mutex::new(Vec::new()),
             hits: AtomicUsize::new(0),
@@ -113,6 +120,30 @@ impl SliceCache {
             cache.disable("it is not a folder");
         }
         cache
+    }
+
+    /// The shard folders of a merge (`tmlut merge`), read and never written, every entry first
+    /// verified: a damaged entry, or a file that is no entry, is an error naming it rather than a
+    /// table to build again (a merge integrates nothing).
+    pub fn shards(dirs: &[PathBuf]) -> Result<SliceCache> {
+        let Some((first, rest)) = dirs.split_first() else {
+            return Err(Error::invalid("tmlut merge", "no shard folder given"));
+        };
+        for dir in dirs {
+            for (path, _, _) in entries(dir)? {
+                let bytes = crate::formats::read_bytes(&path)?;
+                let key = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+                decode(&bytes, &key).map_err(|why| Error::format(&path, format!("is a damaged shard entry: {why}")))?;
+            }
+        }
+        Ok(SliceCache {
+            dir: first.clone(),
+            read_only: rest.to_vec(),
+            note_reads: false,
+            usable: AtomicBool::new(true),
+            warnings: Mutex::new(Vec::new()),
+            hits: AtomicUsize::new(0),
+        })
     }
 
     /// The key of `slices` built with `seed`.
@@ -181,7 +212,12 @@ impl SliceCache {
         if !self.usable() {
             return None;
         }
-        let path = self.entry_path(key);
+        let file = format!("{key}.{ENTRY_EXTENSION}");
+        let path = std::iter::once(&self.dir)
+            .chain(&self.read_only)
+            .map(|dir| dir.join(&file))
+            .find(|path| path.exists())
+            .unwrap_or_else(|| self.entry_path(key));
         let bytes = match std::fs::read(&path) {
             Ok(bytes) => bytes,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
@@ -191,7 +227,10 @@ impl SliceCache {
             }
         };
         match decode(&bytes, key).and_then(|entry| into_build(axes, entry)) {
-            Ok(build) => {
+            Ok(mut build) => {
+                if !self.note_reads {
+                    build.provenance.notes.retain(|n| n != FROM_CACHE_NOTE);
+                }
                 self.hits.fetch_add(1, Ordering::Relaxed);
                 Some(build)
             }

@@ -524,3 +524,15 @@ fn gd_is_planned_for_every_lobe_the_shader_reads_it_for_even_one_without_energy(
     let plan = plan(&scene, &Config::default()).unwrap();
     assert!(table_names(&plan).contains(&"gd"), "{:?}", table_names(&plan));
 }
+
+#[test]
+fn shards_partition_a_plan_and_anything_but_i_of_n_is_refused() {
+    use super::build::Shard;
+    let shards: Vec<Shard> = (1..=3).map(|i| Shard::parse(&format!("{i}/3")).unwrap()).collect();
+    for place in 0..10 {
+        assert_eq!(shards.iter().filter(|s| s.owns(place)).count(), 1, "table {place}");
+    }
+    for bad in ["0/3", "4/3", "3", "a/b", "1/0", "1/5000", "-1/3"] {
+        assert!(Shard::parse(bad).unwrap_err().contains("I/N"), "{bad}");
+    }
+}
