@@ -43,8 +43,9 @@ pub struct BuildArgs {
     #[arg(long, conflicts_with = "only")]
     scene: Vec<PathBuf>,
     /// How a scene's slices are checked against the exact integral: `sampled` (reference cells
-    /// and interpolation points drawn across every slice of the build; the default) or `full`
-    /// (every slice on its own, and against the full table).
+    /// and interpolation points drawn across every slice of the build; the default), `full`
+    /// (every slice on its own, and against the full table) or `none` (no check of the tables:
+    /// the furnace measures them in the material).
     #[arg(long, value_parser = parse_slice_checks, default_value = "sampled", requires = "scene")]
     slice_checks: SliceChecks,
     /// Read the tables of a scene build from this content-addressed cache and store new ones in
@@ -87,7 +88,7 @@ pub fn cache_folder(cache: Option<PathBuf>) -> tmlut::Result<Option<PathBuf>> {
 const MAX_FILES_LISTED: usize = 64;
 
 pub fn parse_slice_checks(text: &str) -> Result<SliceChecks, String> {
-    one_of(text, &[("sampled", SliceChecks::Sampled), ("full", SliceChecks::Full)])
+    one_of(text, &[("sampled", SliceChecks::Sampled), ("full", SliceChecks::Full), ("none", SliceChecks::None)])
 }
 
 fn parse_method(text: &str) -> Result<Method, String> {

@@ -30,7 +30,7 @@ pub struct MergeArgs {
     /// The seed the shards were built with, where it overrode the configuration's.
     #[arg(long)]
     seed: Option<u64>,
-    /// As given to the shards' builds: `sampled` or `none`.
+    /// As given to the shards' builds: `sampled` or `none` (`full` builds no shard).
     #[arg(long, value_parser = parse_slice_checks, default_value = "sampled")]
     slice_checks: SliceChecks,
     /// How the slices are written, as `tmlut build --slice-layout`.

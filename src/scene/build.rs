@@ -553,8 +553,10 @@ pub fn sampled_exact_values(
         let hash = crate::sampling::sequence::scramble_seed(seed, 0x5A3D, draw) as usize;
         *drawn.entry(population[hash % population.len()].name.as_str()).or_default() += 1;
     }
+    // Most slices draw one point or none: the slices run in parallel, not each one's points.
+    use rayon::prelude::*;
     slices
-        .iter()
+        .par_iter()
         .map(|slices| (slices, drawn.get(slices.name.as_str()).copied().unwrap_or(0)))
         .map(|(slices, points)| {
             if points == 0 {
