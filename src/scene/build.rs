@@ -46,10 +46,10 @@ pub struct SceneBuildRequest {
     pub merge_from: Vec<PathBuf>,
 }
 
-/// One of `count` parts of a build (`--shard index/count`, `index` from 1): the planned tables
-/// whose place in the plan is `index - 1` modulo `count`. Every shard plans the whole library, so
-/// the shards of a plan partition its tables, and checks drawn across the build's slices are
-/// drawn alike in every shard ([`crate::recipes::slices::integrate_batch_among`]).
+/// One of `count` parts of a build (`--shard index/count`, `index` from 1; [`Shard::owned`] says
+/// which tables). Every shard plans the whole library, so the shards of a plan partition its
+/// tables, and checks drawn across the build's slices are drawn alike in every shard
+/// ([`crate::recipes::slices::integrate_batch_among`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
     pub index: usize,
@@ -71,9 +71,35 @@ impl Shard {
         Ok(Shard { index, count })
     }
 
-    /// Whether the table at `place` in the plan is this shard's.
-    pub fn owns(&self, place: usize) -> bool {
-        place % self.count == self.index - 1
+    /// Whether each table of `plan` is this shard's. Slices are ordered by kind and where they lie
+    /// on the lattice (`alpha`, then `mu`) and cut into `count` runs of equal length, so that the
+    /// lattice nodes a shard integrates are mostly its own: slices of neighbouring roughness share
+    /// nodes, and a node two shards hold is integrated by both. The other tables go round-robin.
+    pub fn owned(&self, plan: &Plan) -> Vec<bool> {
+        let mut slices: Vec<(usize, &Slices)> = plan
+            .tables
+            .iter()
+            .enumerate()
+            .filter_map(|(place, t)| match &t.build {
+                PlannedBuild::Slices(slices) => Some((place, slices)),
+                _ => None,
+            })
+            .collect();
+        slices.sort_by(|(_, a), (_, b)| {
+            (matches!(a.of, SliceOf::Tir(_)), a.alpha.start, a.mu.start, &a.name)
+                .partial_cmp(&(matches!(b.of, SliceOf::Tir(_)), b.alpha.start, b.mu.start, &b.name))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let mut owned = vec![false; plan.tables.len()];
+        let run = slices.len().div_ceil(self.count).max(1);
+        for (rank, (place, _)) in slices.iter().enumerate() {
+            owned[*place] = rank / run == self.index - 1;
+        }
+        let others = (0..plan.tables.len()).filter(|&p| !matches!(plan.tables[p].build, PlannedBuild::Slices(_)));
+        for (rank, place) in others.enumerate() {
+            owned[place] = rank % self.count == self.index - 1;
+        }
+        owned
     }
 }
 
@@ -174,7 +200,8 @@ pub fn build_scene(
     }
     let plan = plan(&request.scene, &config)?;
     let plan_s = started.elapsed().as_secs_f64();
-    let owned = |place: usize| request.shard.is_none_or(|shard| shard.owns(place));
+    let owned_places = request.shard.map(|shard| shard.owned(&plan));
+    let owned = |place: usize| owned_places.as_ref().is_none_or(|o| o[place]);
     let seed = config.seed;
     // The full tables the slices are compared with, built once, without their own reference checks.
     let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(seed, progress)?.table) };
@@ -243,8 +270,12 @@ pub fn build_scene(
         // Slices an earlier build stored are read back; the others are integrated (and checked)
         // together, then stored.
         let mut missing: Vec<&Slices> = Vec::new();
-        for slices in &own_slices {
-            match cache.as_ref().and_then(|c| c.get(slices, seed)) {
+        // Entries are read and verified in parallel: a library's thousands take a while.
+        use rayon::prelude::*;
+        let cached: Vec<Option<TableBuild>> =
+            own_slices.par_iter().map(|slices| cache.as_ref().and_then(|c| c.get(slices, seed))).collect();
+        for (slices, cached) in own_slices.iter().zip(cached) {
+            match cached {
                 Some(build) => {
                     batch.insert(slices.name.clone(), build);
                 }

@@ -528,9 +528,14 @@ fn gd_is_planned_for_every_lobe_the_shader_reads_it_for_even_one_without_energy(
 #[test]
 fn shards_partition_a_plan_and_anything_but_i_of_n_is_refused() {
     use super::build::Shard;
-    let shards: Vec<Shard> = (1..=3).map(|i| Shard::parse(&format!("{i}/3")).unwrap()).collect();
-    for place in 0..10 {
-        assert_eq!(shards.iter().filter(|s| s.owns(place)).count(), 1, "table {place}");
+    let plan = plan(&example("copper-pot"), &Config::default()).unwrap();
+    assert!(plan.tables.len() >= 4);
+    for count in 1..=5 {
+        let owned: Vec<Vec<bool>> =
+            (1..=count).map(|i| Shard::parse(&format!("{i}/{count}")).unwrap().owned(&plan)).collect();
+        for place in 0..plan.tables.len() {
+            assert_eq!(owned.iter().filter(|o| o[place]).count(), 1, "table {place} of {count} shards");
+        }
     }
     for bad in ["0/3", "4/3", "3", "a/b", "1/0", "1/5000", "-1/3"] {
         assert!(Shard::parse(bad).unwrap_err().contains("I/N"), "{bad}");
