@@ -217,7 +217,8 @@ pub fn write_jobs(
     // `build --scene` writes it again over the new ones.
     removals.extend(manifest.scene_shader.take().into_iter().flat_map(|s| s.files).map(|f| f.file));
     let mut written = Vec::new();
-    for file in staged {
+    for mut file in staged {
+        file.entry.seal();
         let name = file_name(&file.path);
         moves.push(same_name(&file.path, None));
         manifest.files.insert(name.clone(), file.entry.clone());
@@ -516,6 +517,7 @@ fn write_table_file_named(
         fit: None,
         binding: formats::binding(&table.axes, table.channel_count(), precision, format),
         slice_array: None,
+        claims_sha256: None,
     };
     let mut entry = entry;
     entry.error.interpolation = interpolation_errors(&path, &entry, &provenance.interpolation)?;

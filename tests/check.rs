@@ -181,8 +181,38 @@ fn a_shader_misstated_by_one_of_two_entries_that_list_it_fails() {
     });
     std::fs::copy(out.join("fgd_lossless.dds"), out.join("twin.dds")).unwrap();
     let failed = failures(&out);
-    assert_eq!(failed.len(), 1, "{failed:?}");
-    assert_eq!((failed[0].0.as_str(), failed[0].1.as_str()), ("fgd_lossless.hlsl", "shader sha256"), "{failed:?}");
+    // The shader's hash, and the twin's entry, which no longer holds what the build sealed.
+    let failed: Vec<(&str, &str)> = failed.iter().map(|(f, c, _)| (f.as_str(), c.as_str())).collect();
+    assert_eq!(failed, [("twin.dds", "claims"), ("fgd_lossless.hlsl", "shader sha256")], "{failed:?}");
+}
+
+#[test]
+fn claims_a_file_cannot_state_are_held_to_the_seal_of_the_build() {
+    // Each was passed by `check` before entries were sealed: a DDS file stores no axes, and a fit's
+    // parameters and a packing's lookup live in the manifest alone.
+    type Edit = fn(&mut serde_json::Value);
+    let edits: [(&str, &str, Edit); 4] = [
+        ("gd.dds", "an axis start", |e| e["axes"][0]["start"] = 0.5.into()),
+        ("tir.dds", "a fitted parameter", |e| e["fit"]["parameters"][0] = 0.25.into()),
+        ("fgd_lossless.dds", "a lookup statement", |e| e["packing"]["lookup"][0] = "c_mu = mu".into()),
+        ("karis.dds", "a texture coordinate", |e| e["axes"][1]["texture_coordinate"] = "v".into()),
+    ];
+    for (file, what, edit) in edits {
+        let (_dir, out) = copy_with_manifest(|m| edit(&mut m["files"][file]));
+        let failed = failures(&out);
+        assert!(failed.iter().any(|(f, check, _)| f == file && check == "claims"), "{what} of {file}: {failed:?}");
+        assert!(failed.iter().all(|(f, ..)| f == file), "{what}: {failed:?}");
+    }
+    // The same manifest rewritten with other whitespace and key order keeps every seal.
+    let (_dir, out) = copy_with_manifest(|m| {
+        let files = m["files"].as_object_mut().unwrap();
+        let reordered: serde_json::Map<String, serde_json::Value> =
+            std::mem::take(files).into_iter().rev().collect();
+        *files = reordered;
+    });
+    let (pass, text) = check(&out, &repo("luts/ci-budgets.toml"), &[]);
+    assert!(pass, "{text}");
+    assert!(text.contains("claims"), "{text}");
 }
 
 #[test]

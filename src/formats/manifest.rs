@@ -222,7 +222,42 @@ pub struct FileEntry {
     /// error ([`super::slice_array`]). The entry's `axes` are then the array's texel axes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slice_array: Option<super::slice_array::SliceArrayEntry>,
+    /// SHA-256 of every other field of this entry as the build wrote it ([`FileEntry::claims_hash`]):
+    /// what a file cannot say about itself (a DDS file's axes, a fit's parameters, a packing's
+    /// lookup, an array's slices) is held to it, so that an entry edited after the build is found
+    /// by the loader and by `tmlut check`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub claims_sha256: Option<String>,
 }
+
+impl FileEntry {
+    /// SHA-256 of the entry's JSON without `claims_sha256`.
+    pub fn claims_hash(&self) -> String {
+        let mut claims = self.clone();
+        claims.claims_sha256 = None;
+        super::sha256_hex(&serde_json::to_vec(&claims).expect("plain data"))
+    }
+
+    /// Record [`FileEntry::claims_hash`] in the entry: the last step of writing it.
+    pub fn seal(&mut self) {
+        self.claims_sha256 = Some(self.claims_hash());
+    }
+
+    /// Where the entry's claims differ from those the build sealed: `None` when they agree or the
+    /// entry has no seal (`tmlut check` fails those: [`UNSEALED`]), else what a reader reports.
+    pub fn claims_disagreement(&self) -> Option<String> {
+        let sealed = self.claims_sha256.as_ref()?;
+        let now = self.claims_hash();
+        (*sealed != now).then(|| {
+            format!(
+                "its entry was changed after the build wrote it: the SHA-256 of its claims is {now}, the build sealed {sealed}"
+            )
+        })
+    }
+}
+
+/// What `tmlut check` says of an entry with no `claims_sha256`.
+pub const UNSEALED: &str = "no `claims_sha256`, so its claims cannot be verified; build the folder again";
 
 /// The texture, the sampler and the call that reproduce the table's interpolation on a GPU.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -429,6 +464,7 @@ mod tests {
             fit: None,
             binding: None,
             slice_array: None,
+            claims_sha256: None,
         };
         let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), ..Default::default() };
         manifest.files.insert("gd.bin".into(), entry);

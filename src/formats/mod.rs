@@ -562,6 +562,12 @@ pub(crate) fn check_storable_values(table: &Table, precision: Precision) -> Resu
     Ok(())
 }
 
+/// SHA-256 of `bytes` in lowercase hexadecimal, as the manifest states it.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -41,7 +41,7 @@ pub struct Guide;
 
 pub use crate::error::{Error, Result};
 pub use crate::formats::manifest::{FileEntry, Manifest, ShaderFile};
-pub use crate::formats::{FileFormat, Precision};
+pub use crate::formats::{FileFormat, Precision, sha256_hex};
 pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Table};
 pub use handles::{BelcourLut, FgdLut, GdLut, KarisLut, TirLut};
 pub use shader::{MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
@@ -231,7 +231,8 @@ fn stored_precision(entry: &FileEntry) -> Precision {
 }
 
 /// Load a file listed in a manifest and verify it against its entry: the bytes must have the
-/// entry's length and SHA-256, and what the file states about itself (axes, orientation,
+/// entry's length and SHA-256, the entry the claims the build sealed
+/// ([`FileEntry::claims_disagreement`]), and what the file states about itself (axes, orientation,
 /// channels, value range, non-finite values) must be what the entry states. A file replaced or
 /// damaged after the build that described it is refused, naming what differs.
 ///
@@ -243,6 +244,7 @@ pub fn load_verified(path: impl AsRef<Path>, entry: &FileEntry) -> Result<Table>
     let bytes = read_bytes(path)?;
     let format = format_of_bytes(path, &bytes)?;
     let mut disagreements = byte_disagreements(entry, &bytes);
+    disagreements.extend(entry.claims_disagreement());
     if disagreements.is_empty() {
         let table = decode(path, &bytes, format, Some(entry))?;
         disagreements = table_disagreements(entry, format, &bytes, &table);
@@ -435,11 +437,6 @@ pub fn table_disagreements(entry: &FileEntry, format: FileFormat, bytes: &[u8], 
     found
 }
 
-/// SHA-256 of `bytes` in lowercase hexadecimal, as the manifest states it.
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    use sha2::{Digest, Sha256};
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
-}
 
 /// The format of a file, from its first bytes (see [`format_of`]).
 pub fn format_of_bytes(path: &Path, bytes: &[u8]) -> Result<FileFormat> {

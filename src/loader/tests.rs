@@ -114,6 +114,7 @@ fn write(dir: &Path, file: &str, table: &Table, format: FileFormat, precision: P
         fit: None,
         binding: None,
         slice_array: None,
+        claims_sha256: None,
     };
     (file.to_string(), entry)
 }

@@ -332,6 +332,19 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
     };
     let actual = sha256_hex(&bytes);
     record("sha256", actual.clone(), entry.sha256.clone(), actual == entry.sha256);
+    // What the file cannot state about itself (a DDS file's axes, a fit, a packing's lookup, an
+    // array's slices) is held to the seal the build put on the entry.
+    let claims = match (&entry.claims_sha256, entry.claims_disagreement()) {
+        (None, _) => Err(crate::formats::manifest::UNSEALED.to_string()),
+        (Some(_), Some(disagreement)) => Err(disagreement),
+        (Some(sealed), None) => Ok(sealed.clone()),
+    };
+    record(
+        "claims",
+        claims.clone().unwrap_or_else(|e| e),
+        "the entry as the build sealed it (claims_sha256)".into(),
+        claims.is_ok(),
+    );
     record("bytes", bytes.len().to_string(), entry.bytes.to_string(), bytes.len() as u64 == entry.bytes);
 
     let budget = budgets.tables.get(&entry.table).cloned().unwrap_or_default();
