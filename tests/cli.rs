@@ -532,6 +532,19 @@ fn a_library_in_texture_arrays_reads_exactly_as_its_slice_files_do() {
         assert_eq!(common::validate_wgsl_files(&out), 1);
         let wgsl = std::fs::read_to_string(out.join("varied_coats.wgsl")).unwrap();
         assert_eq!(wgsl.contains("texture_2d_array<f32>"), layout == "arrays");
+        // What a renderer creates each texture as, stated beside it.
+        let description: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("varied_coats.shader.json")).unwrap()).unwrap();
+        for texture in description["textures"].as_array().unwrap() {
+            let expected_view = match (texture["layered"] == true, texture["dimension"].as_u64()) {
+                (true, _) => "2d-array",
+                (false, Some(3)) => "3d",
+                _ => "2d",
+            };
+            assert_eq!(texture["view_dimension"], expected_view, "{texture}");
+            assert_eq!(texture["sample_type"], "unfilterable-float", "{texture}");
+            assert!(["r32float", "rgba32float", "r16float", "rgba16float"].contains(&texture["format"].as_str().unwrap()), "{texture}");
+        }
         references.push(std::fs::read(out.join("varied_coats.reference.json")).unwrap());
     }
     assert_eq!(references[0], references[1]);
@@ -550,6 +563,8 @@ fn a_library_in_texture_arrays_reads_exactly_as_its_slice_files_do() {
     let slice = &mut entry.slice_array.as_mut().unwrap().slices[0];
     slice.origin[0] = 100_000;
     let name = slice.table.clone();
+    // Sealed again, as a writer that placed it wrong would have: the placement itself is checked.
+    entry.seal();
     damaged.write(&arrays).unwrap();
     let error = LutFolder::open(&arrays).unwrap().scene_slices(|_| true).unwrap_err().to_string();
     assert!(error.contains(&name) && error.contains("outside the array"), "{error}");

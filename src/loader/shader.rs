@@ -46,6 +46,15 @@ pub struct TextureBinding {
     /// `texture_2d_array<f32>` / `Texture2DArray<float4>`.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub layered: bool,
+    /// How WebGPU creates and binds it: the texel format as stored (`r32float`, ...: the file's
+    /// DXGI or Vulkan format), the view dimension (`2d`, `3d`, `2d-array`) and the sample type,
+    /// always `unfilterable-float`: the shader loads texels and filters them itself.
+    #[serde(default)]
+    pub format: String,
+    #[serde(default)]
+    pub view_dimension: String,
+    #[serde(default)]
+    pub sample_type: String,
 }
 
 /// A material's function in the shader.
@@ -60,8 +69,8 @@ pub struct MaterialFunction {
     pub textures: Vec<u32>,
     /// The flux model it evaluates: `2-flux` or `6-flux`.
     pub model: String,
-    /// What its lookups read: `fgd slice`, `fgd packing`, `belcour`, `karis`, `tir slice`,
-    /// `tir table` (3D), `tir fit`, `gd`.
+    /// What its lookups read: `fgd slice`, `fgd packing`, `fgd_rarer table`, `belcour`, `karis`,
+    /// `tir slice`, `tir table` (3D), `tir fit`, `gd`.
     pub reads: Vec<String>,
 }
 
@@ -207,6 +216,9 @@ mod tests {
                 dimension: 2,
                 channels: 1,
                 layered: false,
+                format: "r32float".into(),
+                view_dimension: "2d".into(),
+                sample_type: "unfilterable-float".into(),
             }]),
             materials: Cow::Owned(vec![MaterialFunction {
                 material: "m".into(),

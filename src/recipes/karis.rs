@@ -114,6 +114,13 @@ impl Kernel for KarisSettings {
 
     fn metadata(&self) -> Metadata {
         let mut notes = vec!["Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string()];
+        if self.masking == MaskingShadowing::SchlickSmith {
+            notes.push(
+                "Masking `schlick-smith`: G1(w) = w.z / (w.z (1 - k) + k) with k = alpha / 2, as Unreal Engine 4's \
+                 image-based lighting (Karis 2013, eq. 4); G2 is G1(v) G1(l)."
+                    .into(),
+            );
+        }
         notes.extend(self.layout_notes());
         Metadata {
             integrand: "scale = E_{h~VNDF(v)}[(1 - (1 - v.h)^5) G2(v,l) / G1(v)], bias = E_{h~VNDF(v)}[(1 - v.h)^5 G2(v,l) / G1(v)], l = reflect(v, h)".into(),

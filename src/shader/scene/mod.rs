@@ -81,8 +81,9 @@ impl SceneShader {
             textures: Cow::Borrowed(&self.textures),
             materials: Cow::Borrowed(&self.materials),
             notes: "Each texture is bound in group 0 (HLSL: register tN) at `binding`, created from the file's texels as \
-                    stored (its DXGI format, e.g. R32_FLOAT -> r32float), one mip level, linear; no sampler: the shader \
-                    loads and filters texels itself. Call the material's function with the view cosine mu = n.v."
+                    stored (`format`: the WebGPU name of the file's DXGI or Vulkan format), one mip level, linear data, \
+                    bound with `view_dimension` and `sample_type`; no sampler: the shader loads and filters texels \
+                    itself. Call the material's function with the view cosine mu = n.v."
                 .into(),
         }
     }
@@ -269,7 +270,13 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     for function in g.chooser_functions.drain(..).chain(functions) {
         module.push(Item::Function(function));
     }
-    let textures = g.textures;
+    let mut textures = g.textures;
+    for texture in &mut textures {
+        let entry = folder.entry(&texture.file)?;
+        texture.format = crate::loader::TextureFormat::of(texture.channels, entry.precision)
+            .map(|f| f.webgpu_name().to_string())
+            .unwrap_or_default();
+    }
     Ok(SceneShader { module, textures, materials: described, max_lobes })
 }
 
@@ -382,6 +389,14 @@ impl Generator<'_> {
             dimension,
             channels,
             layered,
+            format: String::new(),
+            view_dimension: match (layered, dimension) {
+                (true, _) => "2d-array",
+                (false, 3) => "3d",
+                _ => "2d",
+            }
+            .into(),
+            sample_type: "unfilterable-float".into(),
         });
         self.used.insert(file.to_string(), binding);
         self.reading.insert(binding);
