@@ -231,10 +231,12 @@ pub struct FileEntry {
 }
 
 impl FileEntry {
-    /// SHA-256 of the entry's JSON without `claims_sha256`.
+    /// SHA-256 of the entry's JSON without `claims_sha256` and with no wall time: how long a build
+    /// took is no claim about the file, and two builds of one configuration seal alike.
     pub fn claims_hash(&self) -> String {
         let mut claims = self.clone();
         claims.claims_sha256 = None;
+        claims.wall_time_s = 0.0;
         super::sha256_hex(&serde_json::to_vec(&claims).expect("plain data"))
     }
 
