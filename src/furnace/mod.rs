@@ -432,7 +432,7 @@ fn exact_curves(
             .par_iter()
             .zip(proxies)
             .flat_map_iter(|(model, proxy)| {
-                let recording = Recording { exact, proxy: *proxy, missing: Mutex::new(Vec::new()) };
+                let recording = Recording { exact, proxy, missing: Mutex::new(Vec::new()) };
                 for &mu in mus {
                     model.albedo(mu, &recording);
                 }
@@ -608,7 +608,7 @@ mod tests {
             PASSED.with(|p| p.set(0));
             let failed = run(&request(&glass_only, luts.clone(), out), &());
             FAIL_AT.with(|f| f.set(None));
-            let error = failed.err().expect("the injected fault fails the run").to_string();
+            let error = failed.expect_err("the injected fault fails the run").to_string();
             assert!(error.contains("injected fault"), "{error}");
             if pending_commit(out).is_some() {
                 // Committed but not wholly in place: check says so, and the next run completes it.

@@ -99,7 +99,9 @@ pub struct MaterialReport {
     /// The model with exact integrals.
     pub albedo_exact: Vec<Rgb>,
     /// Whether the random walk ran for this material; the `walk` fields below are absent where
-    /// it did not.
+    /// it did not. (Defaults, here and in the run's lists, read reports written before runs could
+    /// leave the walk out, so that a new run into their folder still removes their pictures.)
+    #[serde(default)]
     pub walked: bool,
     /// The random walk, with its standard errors.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -248,8 +250,11 @@ pub struct SettingsRecord {
     pub timing_rounds: usize,
     pub environment_radiance: f64,
     /// `--walk` and `--pictures`: all, none or sample:N (N drawn from the walk's seed).
+    #[serde(default)]
     pub walk: String,
+    #[serde(default)]
     pub pictures: String,
+    #[serde(default)]
     pub picture_size: usize,
 }
 
@@ -290,9 +295,12 @@ pub struct FurnaceReport {
     /// How the random walk models the stack.
     pub random_walk: Vec<String>,
     /// The materials the random walk ran for, and those drawn, by name.
+    #[serde(default)]
     pub walked_materials: Vec<String>,
+    #[serde(default)]
     pub pictured_materials: Vec<String>,
     /// Where the run's wall time went.
+    #[serde(default)]
     pub wall_time_s: PhaseTimes,
     pub materials: Vec<MaterialReport>,
 }
