@@ -208,17 +208,24 @@ mod faults {
 /// named once, a plain file name (or one under a known subfolder), and free or a regular file, not
 /// a folder. A failure before the journal leaves the folder as it was; after it, the journal and
 /// the staging folder stay for the next build to complete.
-pub fn commit(
+pub fn commit(folder: &OutputFolder, staging: &mut Staging, moves: Vec<Move>, removals: Vec<String>) -> Result<()> {
+    commit_set(folder, staging, moves, removals, MANIFEST_FILE)
+}
+
+/// [`commit`] with `last` in place of the manifest: the staged file that lists the set (a furnace
+/// run's `furnace.json`), moved into place after every file it lists.
+pub fn commit_set(
     folder: &OutputFolder,
     staging: &mut Staging,
     mut moves: Vec<Move>,
     mut removals: Vec<String>,
+    last: &str,
 ) -> Result<()> {
     let out = &folder.dir;
-    check_destinations(out, &moves)?;
+    check_destinations(out, &moves, last)?;
     // A damaged manifest may name paths outside the folder: those are never touched.
     removals.retain(|file| check_destination_name(file).is_ok() && not_a_link_on_the_way(out, file).is_ok());
-    moves.push(Move { staged: MANIFEST_FILE.into(), destination: MANIFEST_FILE.into() });
+    moves.push(Move { staged: last.into(), destination: last.into() });
     sync_dir(&staging.dir).map_err(|source| Error::io(&staging.dir, source))?;
     let staging_name = staging.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let journal = Journal { staging: staging_name, moves, removals };
@@ -249,14 +256,17 @@ pub fn commit(
 }
 
 /// Refuse destinations a rename would fail on or that two files share, before anything moves.
-fn check_destinations(out: &Path, moves: &[Move]) -> Result<()> {
+fn check_destinations(out: &Path, moves: &[Move], last: &str) -> Result<()> {
     let mut seen = std::collections::BTreeSet::new();
     for m in moves {
         check_destination_name(&m.destination).map_err(|reason| Error::format(out.join(&m.destination), reason))?;
-        if m.destination == MANIFEST_FILE || !seen.insert(m.destination.as_str()) {
+        // Compared as a case-insensitive file system compares them: two names that differ only in
+        // case are one file there.
+        if m.destination.eq_ignore_ascii_case(last) || !seen.insert(m.destination.to_ascii_lowercase()) {
             return Err(Error::invalid(
                 format!("output file `{}`", m.destination),
-                "two files of this build have this name (a format listed twice, or two tables of one name); each \
+                "two files of this build have this name, or names that differ only in case, one file on a \
+                 case-insensitive file system (a format listed twice, two tables or materials of one name); each \
                  file must be written once",
             ));
         }
@@ -566,6 +576,23 @@ mod tests {
         let same = Move { staged: "a".into(), destination: "x.dds".into() };
         let error = commit(&folder, &mut staging, vec![same.clone(), same], Vec::new()).unwrap_err().to_string();
         assert!(error.contains("x.dds") && error.contains("two files"), "{error}");
+        // Names that differ only in case are one file on a case-insensitive file system (the
+        // default on macOS and Windows): refused as well, and so is the listing file's name.
+        {
+            let mut staging = folder.staging().unwrap();
+            let upper = Move { staged: "b".into(), destination: "Copper_furnace.png".into() };
+            let lower = Move { staged: "c".into(), destination: "copper_furnace.png".into() };
+            let error = commit(&folder, &mut staging, vec![upper, lower], Vec::new()).unwrap_err().to_string();
+            assert!(error.contains("copper_furnace.png") && error.contains("two files"), "{error}");
+        }
+        {
+            let mut staging = folder.staging().unwrap();
+            let listing = Move { staged: "d".into(), destination: "Furnace.json".into() };
+            let error =
+                commit_set(&folder, &mut staging, vec![listing], Vec::new(), "furnace.json").unwrap_err().to_string();
+            assert!(error.contains("Furnace.json") && error.contains("two files"), "{error}");
+        }
+        assert!(leftovers(dir.path()).iter().all(|n| n == LOCK_FILE), "{:?}", leftovers(dir.path()));
     }
 
     #[test]

@@ -132,11 +132,14 @@ fn bad_input_is_refused_with_what_is_allowed() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x");
     let scene = repo("luts/scenes/copper-pot.toml");
-    let cases: [(&[&str], &str); 4] = [
+    let cases: [(&[&str], &str); 7] = [
         (&["--views", "1"], "views: 1; allowed: 2 to 4096"),
         (&["--exact-samples", "1000"], "power of two"),
         (&["--walk-masking", "ggx"], "allowed: smith-separable, smith-height-correlated"),
-        (&["--luts", "/nonexistent", &repo("luts/scenes/profiling.toml")], "a folder of tables serves one scene"),
+        (&["--luts", "/nonexistent", &repo("luts/scenes/profiling.toml")], "a folder of tables serves one run"),
+        (&["--walk", "sample:0"], "allowed: sample:N with N from 1 to 10240"),
+        (&["--walk", "some"], "allowed: all, none, sample:N"),
+        (&["--pictures", "sample:99999"], "allowed: sample:N with N from 1 to 10240"),
     ];
     for (extra, says) in cases {
         let mut args = vec!["furnace", &scene, "--out", out.to_str().unwrap(), "--quiet"];
@@ -221,5 +224,124 @@ fn scenes_whose_names_give_one_folder_are_refused_before_either_runs() {
     ]);
     assert_eq!(output.status.code(), Some(1), "{}", text(&output));
     assert!(text(&output).contains("`Copper Pot`") && text(&output).contains("copper-pot"), "{}", text(&output));
+    assert!(!out.exists(), "nothing is written");
+}
+
+/// The CI scenes as one library at 4 views, small integrals and walks, with the given `--walk`.
+fn library_run(out: &Path, walk: &str) -> Output {
+    tmlut(&[
+        "furnace",
+        &repo("luts/scenes/copper-pot.toml"),
+        &repo("luts/scenes/scattering.toml"),
+        "--library",
+        "--out",
+        out.to_str().unwrap(),
+        "--views",
+        "4",
+        "--exact-samples",
+        "1024",
+        "--walk",
+        walk,
+        "--walk-min-paths",
+        "1024",
+        "--walk-max-paths",
+        "4096",
+        "--pictures",
+        "none",
+        "--quiet",
+    ])
+}
+
+#[test]
+fn without_the_walk_the_table_error_is_measured_and_the_model_error_is_absent() {
+    let dir = tempfile::tempdir().unwrap();
+    let none = dir.path().join("none");
+    let output = library_run(&none, "none");
+    assert!(output.status.success(), "{}", text(&output));
+    assert!(text(&output).contains("| copper-pot | varnished-copper |") && text(&output).contains("not walked"));
+    let measured = report(&none, "library");
+    assert_eq!(measured["walked_materials"].as_array().unwrap().len(), 0);
+    assert_eq!(measured["settings"]["walk"], "none");
+    let materials = measured["materials"].as_array().unwrap();
+    assert_eq!(materials.len(), 2);
+    for (m, scene) in materials.iter().zip(["copper-pot", "scattering"]) {
+        assert_eq!(m["scene"], scene, "each material of a library records its scene");
+        assert_eq!(m["walked"], false);
+        assert!(m["errors"]["table"]["max_all"].as_f64().unwrap() > 0.0);
+        // Absent, not zero and not NaN.
+        for key in ["model", "total", "model_error_beyond_3_standard_errors"] {
+            assert!(m["errors"].get(key).is_none(), "{key}: {}", m["errors"]);
+        }
+        for key in ["albedo_walk", "walk_standard_error", "walk_paths"] {
+            assert!(m.get(key).is_none(), "{key}");
+        }
+        assert_eq!(m["files"].as_array().unwrap().len(), 0, "--pictures none draws nothing");
+    }
+    let written: Vec<String> = std::fs::read_dir(none.join("library"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(written.iter().all(|n| n == "furnace.json" || n == "luts"), "{written:?}");
+
+    // One material walked, drawn from the seed: the same table and exact curves, and the model
+    // error where the walk ran only.
+    let sample = dir.path().join("sample");
+    let output = library_run(&sample, "sample:1");
+    assert!(output.status.success(), "{}", text(&output));
+    let sampled = report(&sample, "library");
+    assert_eq!(sampled["walked_materials"].as_array().unwrap().len(), 1);
+    for (a, b) in sampled["materials"].as_array().unwrap().iter().zip(materials) {
+        assert_eq!(a["albedo_tables"], b["albedo_tables"]);
+        assert_eq!(a["albedo_exact"], b["albedo_exact"]);
+        let walked = a["walked"].as_bool().unwrap();
+        assert_eq!(a["errors"].get("model").is_some(), walked);
+        assert_eq!(a.get("albedo_walk").is_some(), walked);
+    }
+
+    // check: a material whose scene has no budget is held to [furnace_every_material]; the worst
+    // are named; a model-error budget on a material not walked is not held, and says why.
+    let budgets = dir.path().join("every.toml");
+    std::fs::write(&budgets, "[furnace_every_material]\nmax_table_error = 1e-9\n").unwrap();
+    let output = tmlut(&["check", none.to_str().unwrap(), "--budgets", budgets.to_str().unwrap()]);
+    let said = text(&output);
+    assert_eq!(output.status.code(), Some(1), "{said}");
+    for material in ["varnished-copper", "scattering-stack"] {
+        assert!(said.contains(&format!("FAIL library/furnace.json: {material}: table_error_max")), "{said}");
+    }
+    assert!(said.contains("table_error_worst 2 of 2 materials: "), "{said}");
+    // (1,024 samples per exact integral leave it noisy at the 1e-3 level: a looser limit holds.)
+    std::fs::write(&budgets, "[furnace_every_material]\nmax_table_error = 5e-2\n").unwrap();
+    let output = tmlut(&["check", none.to_str().unwrap(), "--budgets", budgets.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output));
+    std::fs::write(&budgets, "[furnace.copper-pot]\nmax_model_error = 1.0\n").unwrap();
+    let output = tmlut(&["check", none.to_str().unwrap(), "--budgets", budgets.to_str().unwrap()]);
+    let said = text(&output);
+    assert_eq!(output.status.code(), Some(1), "{said}");
+    assert!(said.contains("varnished-copper: model_error_max is not measured"), "{said}");
+}
+
+#[test]
+fn a_library_whose_names_collide_as_files_is_refused_before_it_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let copper = std::fs::read_to_string(repo("luts/scenes/copper-pot.toml")).unwrap();
+    let twin = dir.path().join("twin.toml");
+    std::fs::write(
+        &twin,
+        copper
+            .replace("name = \"copper-pot\"", "name = \"twin\"")
+            .replace("\"varnished-copper\"", "\"Varnished Copper\""),
+    )
+    .unwrap();
+    let out = dir.path().join("furnace");
+    let output = tmlut(&[
+        "furnace",
+        &repo("luts/scenes/copper-pot.toml"),
+        twin.to_str().unwrap(),
+        "--library",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(1), "{}", text(&output));
+    assert!(text(&output).contains("give one file name"), "{}", text(&output));
     assert!(!out.exists(), "nothing is written");
 }

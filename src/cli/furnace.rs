@@ -4,25 +4,40 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use tmlut::furnace::Selection;
 use tmlut::model::folder::FgdSource;
 use tmlut::random_walk::{Masking, WalkSettings};
-use tmlut::scene::Scene;
+use tmlut::scene::library::{self, SceneFile};
 
 use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count, one_of};
 
 /// The furnace test of a scene's materials: the directional albedo A(mu) of the transfer-matrix
 /// model with the scene's tables, with exact integrals, and from a random walk through the
-/// explicit stack, so that the tables' error and the model's are measured apart. Writes
-/// <out>/<scene>/furnace.json and per material a furnace sphere (.exr, .png) and an A(mu)
-/// plot; prints a Markdown summary.
+/// explicit stack, so that the tables' error and the model's are measured apart. Commits
+/// <out>/<scene>/furnace.json and, per material pictured, a furnace sphere (.exr, .png) and an
+/// A(mu) plot as one set; prints a Markdown summary.
 #[derive(Args)]
 pub struct FurnaceArgs {
-    /// Scene files (default: every scene of luts/scenes/).
+    /// Scene files, or folders of them (default: every scene of luts/scenes/), each measured on
+    /// its own unless --library.
     scenes: Vec<PathBuf>,
-    /// A folder built for the scene (tmlut build --scene), or the default set; default: build
-    /// the scene's plan into <out>/<scene>/luts first.
+    /// Measure every scene given as one library, planned together as `tmlut build --scene` plans
+    /// several scenes: one folder of tables, one report in <out>/library (one scene keeps its
+    /// name), each material recording its scene.
+    #[arg(long)]
+    library: bool,
+    /// A folder built for the scene or library (tmlut build --scene), or the default set;
+    /// default: build the plan into <out>/<scene>/luts first.
     #[arg(long)]
     luts: Option<PathBuf>,
+    /// The materials the random walk runs for: all, none or sample:N (N drawn from --seed). The
+    /// table error needs no walk; the model error and the total are absent where it did not run.
+    #[arg(long, default_value = "all", value_parser = parse_selection)]
+    walk: Selection,
+    /// The materials drawn (furnace sphere and A(mu) plot): all, none or sample:N (N drawn from
+    /// --seed, the first of the walk's order: every material of a scene of up to 16).
+    #[arg(long, default_value = "sample:16", value_parser = parse_selection)]
+    pictures: Selection,
     /// Output folder; each scene writes into a subfolder named after it.
     #[arg(long, default_value = "furnace")]
     out: PathBuf,
@@ -66,6 +81,10 @@ fn parse_walk_masking(text: &str) -> Result<Masking, String> {
     one_of(text, &choices)
 }
 
+fn parse_selection(text: &str) -> Result<Selection, String> {
+    Selection::parse(text)
+}
+
 fn parse_fgd_source(text: &str) -> Result<FgdSource, String> {
     one_of(text, &[("packing", FgdSource::Packing), ("table", FgdSource::Table)])
 }
@@ -91,10 +110,14 @@ pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
     } else {
         args.scenes
     };
-    if args.luts.is_some() && scenes.len() > 1 {
+    let files = library::read_scene_files(&scenes)?;
+    if args.luts.is_some() && files.len() > 1 && !args.library {
         return Err(tmlut::Error::invalid(
             "--luts",
-            format!("given with {} scenes; a folder of tables serves one scene", scenes.len()),
+            format!(
+                "given with {} scenes; a folder of tables serves one run: one scene, or the scenes of a --library",
+                files.len()
+            ),
         ));
     }
     let settings = tmlut::furnace::FurnaceSettings {
@@ -110,39 +133,24 @@ pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
         },
         fgd_source: args.fgd_source,
         picture_size: args.picture_size,
+        walk_materials: args.walk,
+        pictures: args.pictures,
         ..Default::default()
     };
     settings.validate()?;
-    // Every scene is read before any runs: each writes into a folder named after it, and two
-    // names that give one folder (`copper-pot` and `copper pot`) would overwrite each other.
-    let mut read: Vec<(PathBuf, Scene, String)> = Vec::new();
-    for path in scenes {
-        let (scene, text) = Scene::read(&path)?;
-        let stem = tmlut::furnace::report::file_stem(&scene.name);
-        if let Some((other, _, _)) = read.iter().find(|(_, s, _)| tmlut::furnace::report::file_stem(&s.name) == stem) {
-            return Err(tmlut::Error::invalid(
-                path.display().to_string(),
-                format!(
-                    "scene `{}` writes into the folder `{stem}`, as scene {} does; scenes run together need names \
-                     that differ in more than case and punctuation",
-                    scene.name,
-                    other.display()
-                ),
-            ));
-        }
-        read.push((path, scene, text));
-    }
+    let runs = if args.library { vec![library_run(&files)?] } else { separate_runs(files)? };
     let progress = context.progress();
     let mut summary = String::from(tmlut::furnace::report::MARKDOWN_HEADER);
-    for (path, scene, text) in read {
-        for warning in &scene.warnings {
+    for run in runs {
+        for warning in &run.scene.warnings {
             eprintln!("warning: {warning}");
         }
         let request = tmlut::furnace::FurnaceRequest {
-            out: args.out.join(tmlut::furnace::report::file_stem(&scene.name)),
-            scene,
-            source: path.display().to_string(),
-            text,
+            out: args.out.join(tmlut::furnace::report::file_stem(&run.scene.name)),
+            scene: run.scene,
+            material_scenes: run.material_scenes,
+            source: run.source,
+            text: run.text,
             luts: args.luts.clone(),
             config: config.clone(),
             settings: settings.clone(),
@@ -153,4 +161,54 @@ pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
     }
     print!("{summary}");
     Ok(())
+}
+
+/// What one furnace run measures.
+struct Run {
+    scene: tmlut::scene::Scene,
+    material_scenes: Option<Vec<String>>,
+    source: String,
+    text: String,
+}
+
+/// Every scene file on its own. Every scene is read before any runs: each writes into a folder
+/// named after it, and two names that give one folder (`copper-pot` and `Copper pot`) would
+/// overwrite each other.
+fn separate_runs(files: Vec<SceneFile>) -> tmlut::Result<Vec<Run>> {
+    let mut runs: Vec<(std::path::PathBuf, Run)> = Vec::new();
+    for file in files {
+        let stem = tmlut::furnace::report::file_stem(&file.scene.name);
+        if let Some((other, run)) =
+            runs.iter().find(|(_, run)| tmlut::furnace::report::file_stem(&run.scene.name) == stem)
+        {
+            return Err(tmlut::Error::invalid(
+                file.path.display().to_string(),
+                format!(
+                    "scene `{}` writes into the folder `{stem}`, as scene `{}` of {} does; scenes run together need \
+                     names that differ in more than case and punctuation",
+                    file.scene.name,
+                    run.scene.name,
+                    other.display()
+                ),
+            ));
+        }
+        let run =
+            Run { source: file.path.display().to_string(), text: file.text, scene: file.scene, material_scenes: None };
+        runs.push((file.path, run));
+    }
+    Ok(runs.into_iter().map(|(_, run)| run).collect())
+}
+
+/// Every scene file as one library, merged as `tmlut build --scene` merges them (names that give
+/// one file are refused there, naming both scenes).
+fn library_run(files: &[SceneFile]) -> tmlut::Result<Run> {
+    let scene = library::merge(files)?;
+    let material_scenes = (files.len() > 1)
+        .then(|| files.iter().flat_map(|f| f.scene.materials.iter().map(|_| f.scene.name.clone())).collect());
+    Ok(Run {
+        scene,
+        material_scenes,
+        source: library::recorded_source(files).display().to_string(),
+        text: library::recorded_text(files),
+    })
 }

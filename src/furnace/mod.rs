@@ -16,21 +16,23 @@ pub mod picture;
 pub mod report;
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::integrate::{GRAZING_COSINE, Progress};
 use crate::loader::LutFolder;
 use crate::model::folder::{FgdSource, FolderTables};
-use crate::model::{Material, Rgb, Tables};
+use crate::model::{AlbedoPath, Lookup, Material, Rgb, Tables, TirPath};
 use crate::random_walk::{self, WalkSettings};
 use crate::scene::Scene;
 use crate::scene::build::{SceneBuildRequest, SliceChecks, SliceLayout, build_scene};
 use exact::ExactTables;
-pub use report::{ErrorFigures, FurnaceReport, MaterialReport};
+pub use report::{ErrorFigures, FURNACE_FILE, FurnaceReport, MaterialReport, PhaseTimes};
 
 /// Radiance of the uniform environment of the furnace pictures: the thesis's 0.42 (its §5.2), about
 /// mid-way between no energy and all of it, so that both loss and gain show.
@@ -50,7 +52,85 @@ pub struct FurnaceSettings {
     pub timing_rounds: usize,
     /// Width and height of each sphere in the pictures, in pixels.
     pub picture_size: usize,
+    /// The materials the random walk runs for. The table error needs none; the model error and
+    /// the total are measured where it ran, and absent elsewhere.
+    pub walk_materials: Selection,
+    /// The materials drawn (furnace sphere and `A(mu)` plot).
+    pub pictures: Selection,
 }
+
+/// Which materials of a run get something that costs time per material (the random walk,
+/// pictures): all, none, or `sample:N`, N of them drawn from the walk's seed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Selection {
+    All,
+    None,
+    Sample(usize),
+}
+
+/// Sample sizes of [`Selection::Sample`]: at least one, at most a library's materials.
+pub const SAMPLE_SIZES: std::ops::RangeInclusive<usize> = 1..=crate::scene::library::MAX_LIBRARY_MATERIALS;
+
+impl Selection {
+    /// `all`, `none` or `sample:N`.
+    pub fn parse(text: &str) -> std::result::Result<Self, String> {
+        match text {
+            "all" => Ok(Selection::All),
+            "none" => Ok(Selection::None),
+            _ => {
+                let n = text
+                    .strip_prefix("sample:")
+                    .and_then(|n| n.parse::<usize>().ok())
+                    .ok_or_else(|| format!("`{text}`; allowed: all, none, sample:N"))?;
+                if !SAMPLE_SIZES.contains(&n) {
+                    return Err(format!(
+                        "`{text}`; allowed: sample:N with N from {} to {}",
+                        SAMPLE_SIZES.start(),
+                        SAMPLE_SIZES.end()
+                    ));
+                }
+                Ok(Selection::Sample(n))
+            }
+        }
+    }
+
+    pub fn name(&self) -> String {
+        match self {
+            Selection::All => "all".into(),
+            Selection::None => "none".into(),
+            Selection::Sample(n) => format!("sample:{n}"),
+        }
+    }
+
+    /// Which of `count` materials are chosen. `sample:N` takes the first N of one order of the
+    /// materials drawn from `seed` (every material once), so that a smaller sample lies inside a
+    /// larger one of the same seed: the materials of `--pictures sample:8` are among those of
+    /// `--walk sample:16`. N at least `count` chooses all.
+    pub fn chosen(&self, count: usize, seed: u64) -> Vec<bool> {
+        match *self {
+            Selection::All => vec![true; count],
+            Selection::None => vec![false; count],
+            Selection::Sample(n) => {
+                let mut order: Vec<(u32, usize)> = (0..count)
+                    .map(|i| (crate::sampling::sequence::scramble_seed(seed, SAMPLE_STREAM, i as u32), i))
+                    .collect();
+                order.sort_unstable();
+                let mut chosen = vec![false; count];
+                for &(_, i) in order.iter().take(n) {
+                    chosen[i] = true;
+                }
+                chosen
+            }
+        }
+    }
+}
+
+/// The stream of the seed that orders materials for [`Selection::Sample`], apart from the walk's.
+const SAMPLE_STREAM: u64 = 0x5A_3B1E;
+
+/// The pictures a run draws by default: every material of a scene of up to 16 (every example
+/// scene), 16 of a library, whose thousands of pictures would cost more than its table error.
+pub const DEFAULT_PICTURES: Selection = Selection::Sample(16);
 
 impl Default for FurnaceSettings {
     fn default() -> Self {
@@ -61,6 +141,8 @@ impl Default for FurnaceSettings {
             fgd_source: FgdSource::default(),
             timing_rounds: 21,
             picture_size: 256,
+            walk_materials: Selection::All,
+            pictures: DEFAULT_PICTURES,
         }
     }
 }
@@ -102,6 +184,20 @@ impl FurnaceSettings {
                 format!("{}; allowed: {} to {}", self.picture_size, PICTURE_SIZES.start(), PICTURE_SIZES.end()),
             ));
         }
+        for (what, selection) in [("walk", self.walk_materials), ("pictures", self.pictures)] {
+            if let Selection::Sample(n) = selection
+                && !SAMPLE_SIZES.contains(&n)
+            {
+                return Err(Error::invalid(
+                    what,
+                    format!(
+                        "sample:{n}; allowed: sample:N with N from {} to {}",
+                        SAMPLE_SIZES.start(),
+                        SAMPLE_SIZES.end()
+                    ),
+                ));
+            }
+        }
         if self.timing_rounds == 0 {
             return Err(Error::invalid("timing rounds", "0; allowed: 1 or more"));
         }
@@ -120,9 +216,12 @@ impl FurnaceSettings {
     }
 }
 
-/// One scene's furnace run.
+/// One furnace run: a scene, or a library of scenes planned as one (`tmlut furnace --library`).
 pub struct FurnaceRequest {
     pub scene: Scene,
+    /// For a library, the scene each material came from (recorded per material, and the budget
+    /// `tmlut check` holds it to); `None` for one scene.
+    pub material_scenes: Option<Vec<String>>,
     /// Where the scene came from, and its text (recorded in the output).
     pub source: String,
     pub text: String,
@@ -136,11 +235,32 @@ pub struct FurnaceRequest {
     pub settings: FurnaceSettings,
 }
 
-/// Run the furnace on every material of a scene and write its outputs into `request.out`:
-/// `furnace.json`, and per material `<material>_furnace.exr`, `.png` and `<material>_albedo.png`.
+/// Passes of the model over every material that collect the lookups not yet integrated, before
+/// the last pass reads them all (`exact_curves`). A lookup's parameters can depend on the values of
+/// earlier lookups (a lobe's roughness on the energies above it), so a pass can find lookups the one
+/// before could not see; each pass integrates at least one new lookup, and past this many, the last
+/// pass integrates what is left one lookup at a time (the same bits, only slower).
+const EXACT_PASSES: usize = 8;
+
+/// Run the furnace on every material of a scene and commit its outputs into `request.out` as one
+/// set (`crate::commit`): `furnace.json`, and per material pictured `<material>_furnace.exr`,
+/// `.png` and `<material>_albedo.png`. A failed or killed run leaves the previous set as it was.
 pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceReport> {
     request.settings.validate()?;
-    std::fs::create_dir_all(&request.out).map_err(|source| Error::io(&request.out, source))?;
+    let count = request.scene.materials.len();
+    if let Some(scenes) = &request.material_scenes
+        && scenes.len() != count
+    {
+        return Err(Error::invalid(
+            "furnace request",
+            format!("{} scene names for {count} materials; one per material", scenes.len()),
+        ));
+    }
+    // Taken before anything is read or built: a second run into the folder waits, and what an
+    // interrupted run left (a commit half done, staging folders) is completed or removed first.
+    let folder_lock = OutputFolder::take(&request.out, |message| progress.note(message))?;
+    let mut times = PhaseTimes::default();
+    let started = Instant::now();
     let luts = match &request.luts {
         Some(dir) => dir.clone(),
         None => {
@@ -166,16 +286,39 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
             dir
         }
     };
+    times.tables = started.elapsed().as_secs_f64();
+
+    let started = Instant::now();
     let folder = LutFolder::open(&luts)?;
     let exact = ExactTables::new(&request.config, request.settings.exact_samples, request.config.seed)?;
     let mus = request.settings.view_cosines();
-    let mut materials = Vec::new();
-    for (index, material) in request.scene.materials.iter().enumerate() {
-        let model = Material::new(material.model, material.stack()?);
-        let tables = FolderTables::open(&folder, material.albedo, material.tir, request.settings.fgd_source)
-            .map_err(|e| Error::invalid(format!("material `{}`", material.name), e.to_string()))?;
-        let with_tables: Vec<Rgb> = mus.iter().map(|&mu| model.albedo(mu, &tables)).collect();
-        let misses = tables.misses();
+    let models: Vec<Material> =
+        request.scene.materials.iter().map(|m| Ok(Material::new(m.model, m.stack()?))).collect::<Result<_>>()?;
+    // Opening reads and verifies every table of the folder that the paths read (a library's
+    // thousands of slices): once per pair of paths, shared by the materials that read them.
+    let mut opened: Vec<((AlbedoPath, TirPath), FolderTables)> = Vec::new();
+    let mut tables_of = Vec::with_capacity(count);
+    for material in &request.scene.materials {
+        let paths = (material.albedo, material.tir);
+        let index = match opened.iter().position(|(p, _)| *p == paths) {
+            Some(index) => index,
+            None => {
+                let tables = FolderTables::open(&folder, material.albedo, material.tir, request.settings.fgd_source)
+                    .map_err(|e| Error::invalid(format!("material `{}`", material.name), e.to_string()))?;
+                opened.push((paths, tables));
+                opened.len() - 1
+            }
+        };
+        tables_of.push(index);
+    }
+    // The model with the tables, material after material: each material's misses and clamped
+    // lookups are its own (the counts are taken after it).
+    let mut with_tables = Vec::with_capacity(count);
+    for ((material, model), &index) in request.scene.materials.iter().zip(&models).zip(&tables_of) {
+        let tables = &opened[index].1;
+        tables.take_counts();
+        let curve: Vec<Rgb> = mus.iter().map(|&mu| model.albedo(mu, tables)).collect();
+        let (misses, clamped) = tables.take_counts();
         if let Some(first) = misses.first {
             return Err(Error::invalid(
                 format!("material `{}`", material.name),
@@ -186,32 +329,146 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
                 ),
             ));
         }
-        let started = Instant::now();
-        progress.start(&format!("{} exact", material.name), mus.len() as u64);
-        let with_exact: Vec<Rgb> = mus
-            .par_iter()
-            .map(|&mu| {
-                let a = model.albedo(mu, &exact);
-                progress.advance(1);
-                a
-            })
-            .collect();
-        progress.finish();
-        let exact_s = started.elapsed().as_secs_f64();
+        with_tables.push((curve, clamped));
+    }
+    // Each material's cost timed on one thread, materials side by side: a library's thousands of
+    // timings would otherwise be the run's longest phase on one core.
+    let costs: Vec<f64> = models
+        .par_iter()
+        .zip(&tables_of)
+        .map(|(model, &index)| time_model(model, &opened[index].1, &mus, request.settings.timing_rounds))
+        .collect();
+    times.model_with_tables = started.elapsed().as_secs_f64();
+
+    let started = Instant::now();
+    let proxies: Vec<&FolderTables> = tables_of.iter().map(|&i| &opened[i].1).collect();
+    let with_exact = exact_curves(&models, &proxies, &mus, &exact, progress);
+    times.exact = started.elapsed().as_secs_f64();
+
+    let started = Instant::now();
+    let walked = request.settings.walk_materials.chosen(count, request.settings.walk.seed);
+    let mut walks = Vec::with_capacity(count);
+    for (index, model) in models.iter().enumerate() {
+        if !walked[index] {
+            walks.push(None);
+            continue;
+        }
         let walk_settings =
             WalkSettings { seed: walk_seed(request.settings.walk.seed, index), ..request.settings.walk };
         let started = Instant::now();
         let walk = random_walk::directional_albedo_curve(&model.stack, &mus, &walk_settings, progress);
-        let walk_s = started.elapsed().as_secs_f64();
-        let cost_ns = time_model(&model, &tables, &mus, request.settings.timing_rounds);
-        let mut report = MaterialReport::new(material, &mus, with_tables, with_exact, &walk, cost_ns, tables.clamped());
-        report.wall_time_s = report::WallTimes { exact: exact_s, walk: walk_s };
-        picture::write_material_pictures(&request.out, &report, request.settings.picture_size)?;
-        materials.push(report);
+        walks.push(Some((walk, started.elapsed().as_secs_f64())));
     }
-    let report = FurnaceReport::new(request, &luts, exact.samples(), materials);
-    report.write(&request.out)?;
+    times.walk = started.elapsed().as_secs_f64();
+
+    let mut materials: Vec<MaterialReport> = request
+        .scene
+        .materials
+        .iter()
+        .zip(with_tables)
+        .zip(costs)
+        .zip(with_exact)
+        .zip(walks)
+        .enumerate()
+        .map(|(index, ((((material, (curve, clamped)), cost_ns), exact_curve), walk))| {
+            let scene = request.material_scenes.as_ref().map(|s| s[index].clone());
+            MaterialReport::new(material, scene, &mus, curve, exact_curve, walk, cost_ns, clamped)
+        })
+        .collect();
+
+    // Every file of the run is written into a staging folder and committed with `furnace.json`,
+    // which lists them, as one set.
+    let started = Instant::now();
+    let mut staging = folder_lock.staging()?;
+    let pictured = request.settings.pictures.chosen(count, request.settings.walk.seed);
+    materials
+        .par_iter_mut()
+        .zip(&pictured)
+        .filter(|(_, pictured)| **pictured)
+        .map(|(report, _)| {
+            report.files = picture::write_material_pictures(&staging.dir, report, request.settings.picture_size)?;
+            Ok(())
+        })
+        .collect::<Result<Vec<()>>>()?;
+    times.pictures = started.elapsed().as_secs_f64();
+
+    let report = FurnaceReport::new(request, &luts, exact.samples(), materials, times);
+    report.write(&staging.dir)?;
+    let moves: Vec<Move> = report
+        .materials
+        .iter()
+        .flat_map(|m| &m.files)
+        .map(|file| Move { staged: file.clone(), destination: file.clone() })
+        .collect();
+    // The files of the set the folder held before that this one does not replace (a material
+    // renamed or no longer pictured): removed with the commit, so that no picture outlives its report.
+    let removals = match FurnaceReport::read(&request.out.join(FURNACE_FILE)) {
+        Ok(old) => old
+            .materials
+            .iter()
+            .flat_map(|m| m.files.iter().cloned())
+            .filter(|file| !moves.iter().any(|m| &m.destination == file))
+            .collect(),
+        Err(_) => Vec::new(),
+    };
+    crate::commit::commit_set(&folder_lock, &mut staging, moves, removals, FURNACE_FILE)?;
     Ok(report)
+}
+
+/// `A(mu)` of every material at every view with exact integrals. The lookups of every material
+/// are collected first, by passes of the model that read a lookup not yet integrated from the
+/// material's tables (`proxies`), and integrated together ([`ExactTables::integrate_all`]: one
+/// pass over the samples per `(quantity, mu, alpha)`, shared across materials and channels); the
+/// last pass reads exact integrals only. The curves are those of the model reading
+/// [`ExactTables`] alone, to the bit: every lookup's answer is its own integral, however it was
+/// batched.
+fn exact_curves(
+    models: &[Material],
+    proxies: &[&FolderTables],
+    mus: &[f64],
+    exact: &ExactTables,
+    progress: &dyn Progress,
+) -> Vec<Vec<Rgb>> {
+    progress.start("exact integrals, passes", EXACT_PASSES as u64);
+    for _ in 0..EXACT_PASSES {
+        let missing: Vec<Lookup> = models
+            .par_iter()
+            .zip(proxies)
+            .flat_map_iter(|(model, proxy)| {
+                let recording = Recording { exact, proxy, missing: Mutex::new(Vec::new()) };
+                for &mu in mus {
+                    model.albedo(mu, &recording);
+                }
+                recording.missing.into_inner().unwrap_or_else(|p| p.into_inner())
+            })
+            .collect();
+        progress.advance(1);
+        if missing.is_empty() {
+            break;
+        }
+        exact.integrate_all(&missing);
+    }
+    progress.finish();
+    models.par_iter().map(|model| mus.iter().map(|&mu| model.albedo(mu, exact)).collect()).collect()
+}
+
+/// Exact integrals where known; elsewhere the lookup is recorded for the next batch and answered
+/// by the material's tables, so that the lookups after it are asked at nearly the parameters
+/// the exact pass will ask them at.
+struct Recording<'a> {
+    exact: &'a ExactTables,
+    proxy: &'a FolderTables,
+    missing: Mutex<Vec<Lookup>>,
+}
+
+impl Tables for Recording<'_> {
+    fn value(&self, lookup: &Lookup) -> f64 {
+        if self.exact.knows(lookup) {
+            return self.exact.value(lookup);
+        }
+        self.missing.lock().unwrap_or_else(|p| p.into_inner()).push(*lookup);
+        self.proxy.value(lookup)
+    }
 }
 
 /// The walk seed of material `index`: independent streams per material, from one seed.
@@ -248,4 +505,141 @@ pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>> {
         return Err(Error::invalid(dir.display().to_string(), "holds no scene (*.toml)"));
     }
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::commit::faults::{FAIL_AT, PASSED};
+    use crate::formats::manifest::pending_commit;
+    use crate::report::check::{Budgets, check_folder};
+
+    #[test]
+    fn selections_parse_and_samples_are_drawn_from_the_seed_nested() {
+        assert_eq!(Selection::parse("all"), Ok(Selection::All));
+        assert_eq!(Selection::parse("none"), Ok(Selection::None));
+        assert_eq!(Selection::parse("sample:3"), Ok(Selection::Sample(3)));
+        for bad in ["sample:0", "sample:", "sample:-1", "some", "sample:99999999"] {
+            let error = Selection::parse(bad).unwrap_err();
+            assert!(error.contains("allowed"), "{bad}: {error}");
+        }
+        let count = 50;
+        let three = Selection::Sample(3).chosen(count, 7);
+        assert_eq!(three.iter().filter(|&&c| c).count(), 3);
+        assert_eq!(three, Selection::Sample(3).chosen(count, 7), "the same seed draws the same materials");
+        assert_ne!(three, Selection::Sample(3).chosen(count, 8), "another seed draws others");
+        let ten = Selection::Sample(10).chosen(count, 7);
+        assert!(three.iter().zip(&ten).all(|(&a, &b)| !a || b), "a smaller sample lies inside a larger one");
+        assert!(Selection::Sample(60).chosen(count, 7).iter().all(|&c| c));
+        assert!(Selection::None.chosen(count, 7).iter().all(|&c| !c));
+    }
+
+    const SCENE: &str = "name = \"set\"\n\
+        [[material]]\nname = \"bare-conductor\"\n[[material.layer]]\ntype = \"interface\"\n\
+        eta = [0.2, 0.9, 1.1]\nkappa = [3.0, 2.5, 2.0]\nalpha = 0.2\n\
+        [[material]]\nname = \"glass\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.2\n";
+
+    /// A run of `scene` into `out`: 4 views, small integrals, no walk, every material pictured.
+    fn request(scene: &str, luts: Option<PathBuf>, out: &Path) -> FurnaceRequest {
+        let settings = FurnaceSettings {
+            views: 4,
+            exact_samples: 1024,
+            walk_materials: Selection::None,
+            pictures: Selection::All,
+            picture_size: 16,
+            timing_rounds: 1,
+            ..Default::default()
+        };
+        FurnaceRequest {
+            scene: Scene::from_toml(scene, "test", "set").unwrap(),
+            material_scenes: None,
+            source: "test".into(),
+            text: scene.into(),
+            luts,
+            out: out.to_path_buf(),
+            config: Config::default(),
+            settings,
+        }
+    }
+
+    /// The folder holds `furnace.json` and exactly the files it lists (besides the tables'
+    /// folder), and nothing half-written.
+    fn assert_one_set(out: &Path) -> Vec<String> {
+        let report = FurnaceReport::read(&out.join(FURNACE_FILE)).unwrap();
+        let mut listed: Vec<String> = report.materials.iter().flat_map(|m| m.files.clone()).collect();
+        listed.push(FURNACE_FILE.into());
+        listed.sort();
+        let mut present: Vec<String> = std::fs::read_dir(out)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n != "luts")
+            .collect();
+        present.sort();
+        assert_eq!(present, listed, "the files of one run, and only those");
+        listed
+    }
+
+    #[test]
+    fn a_run_commits_its_report_and_pictures_as_one_set_whatever_fails() {
+        let base = tempfile::tempdir().unwrap();
+        let first = run(&request(SCENE, None, base.path()), &()).unwrap();
+        assert_eq!(first.pictured_materials, ["bare-conductor", "glass"]);
+        assert!(first.walked_materials.is_empty());
+        assert!(first.materials.iter().all(|m| m.errors.model.is_none() && m.albedo_walk.is_none()));
+        let luts = Some(base.path().join("luts"));
+        // The second set: one material fewer, so the first set's pictures of it must go.
+        let glass_only = SCENE[SCENE.find("[[material]]\nname = \"glass\"").unwrap()..].to_string();
+        let glass_only = format!("name = \"set\"\n{glass_only}");
+
+        let dir = tempfile::tempdir().unwrap();
+        run(&request(SCENE, luts.clone(), dir.path()), &()).unwrap();
+        PASSED.with(|p| p.set(0));
+        run(&request(&glass_only, luts.clone(), dir.path()), &()).unwrap();
+        let points = PASSED.with(|p| p.get());
+        assert!(points >= 8, "{points} fault points");
+        let files = assert_one_set(dir.path());
+        assert!(files.iter().all(|f| !f.starts_with("bare-conductor")), "{files:?}");
+
+        let (mut old, mut journal) = (0, 0);
+        for fail_at in 0..points {
+            let dir = tempfile::tempdir().unwrap();
+            let out = dir.path();
+            run(&request(SCENE, luts.clone(), out), &()).unwrap();
+            let before = std::fs::read(out.join(FURNACE_FILE)).unwrap();
+            FAIL_AT.with(|f| f.set(Some(fail_at)));
+            PASSED.with(|p| p.set(0));
+            let failed = run(&request(&glass_only, luts.clone(), out), &());
+            FAIL_AT.with(|f| f.set(None));
+            let error = failed.expect_err("the injected fault fails the run").to_string();
+            assert!(error.contains("injected fault"), "{error}");
+            if pending_commit(out).is_some() {
+                // Committed but not wholly in place: check says so, and the next run completes it.
+                journal += 1;
+                let findings = check_folder(out, &Budgets::default()).unwrap();
+                assert!(findings.iter().any(|f| f.check == "commit" && !f.pass), "fault {fail_at}: {findings:?}");
+            } else {
+                // Wholly the earlier set: its report, every picture it lists, nothing else.
+                old += 1;
+                assert_eq!(std::fs::read(out.join(FURNACE_FILE)).unwrap(), before, "fault {fail_at}");
+                assert_eq!(assert_one_set(out).len(), 7, "fault {fail_at}");
+            }
+            run(&request(&glass_only, luts.clone(), out), &()).unwrap();
+            assert_eq!(assert_one_set(out), files, "fault {fail_at}");
+        }
+        assert_eq!((old, journal), (1, points - 1), "{old} wholly old, {journal} with a journal, of {points}");
+    }
+
+    #[test]
+    fn exact_curves_batched_are_the_curves_of_exact_integrals_alone() {
+        let base = tempfile::tempdir().unwrap();
+        let request = request(SCENE, None, base.path());
+        let report = run(&request, &()).unwrap();
+        let alone = ExactTables::new(&request.config, request.settings.exact_samples, request.config.seed).unwrap();
+        for (material, measured) in request.scene.materials.iter().zip(&report.materials) {
+            let model = Material::new(material.model, material.stack().unwrap());
+            let curve: Vec<Rgb> = measured.mu.iter().map(|&mu| model.albedo(mu, &alone)).collect();
+            assert_eq!(curve, measured.albedo_exact, "{}", material.name);
+        }
+    }
 }

@@ -95,21 +95,28 @@ fn nice_ceiling(max: f64) -> f64 {
     [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * decade).find(|&v| v >= max).unwrap_or(10.0 * decade)
 }
 
-/// Write `<material>_furnace.exr` (linear radiance, three spheres side by side: model with tables,
-/// random walk, their absolute difference per channel), `<material>_furnace.png` (the same for
-/// people, the difference as the mean over channels on a colour bar) and `<material>_albedo.png`
-/// (the three `A(mu)` curves per channel against the view angle).
-pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize) -> Result<()> {
+/// Write `<material>_furnace.exr` (linear radiance, three spheres side by side: the model with
+/// tables, the random walk, their absolute difference per channel), `<material>_furnace.png` (the
+/// same for people, the difference as the mean over channels on a colour bar) and
+/// `<material>_albedo.png` (the `A(mu)` curves per channel against the view angle). Where the walk
+/// did not run for the material, the second sphere is the model with exact integrals and the
+/// difference is the table error. Returns the file names written, relative to `dir`.
+pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize) -> Result<Vec<String>> {
     let stem = file_stem(&report.name);
+    let (reference, reference_name) = match &report.albedo_walk {
+        Some(walk) => (walk, "random walk"),
+        None => (&report.albedo_exact, "model, exact integrals"),
+    };
     let model = sphere(&report.mu, &report.albedo_tables, size);
-    let walk = sphere(&report.mu, &report.albedo_walk, size);
+    let other = sphere(&report.mu, reference, size);
     let difference: Vec<Rgb> =
-        model.iter().zip(&walk).map(|(a, b)| std::array::from_fn(|c| (a[c] - b[c]).abs())).collect();
+        model.iter().zip(&other).map(|(a, b)| std::array::from_fn(|c| (a[c] - b[c]).abs())).collect();
+    let files = [format!("{stem}_furnace.exr"), format!("{stem}_furnace.png"), format!("{stem}_albedo.png")];
 
     // EXR: the numbers, three panels along x.
     let mut data = Vec::with_capacity(3 * size * size * 3);
     for j in 0..size {
-        for panel in [&model, &walk, &difference] {
+        for panel in [&model, &other, &difference] {
             for i in 0..size {
                 data.extend(panel[i + size * j].map(|v| v as f32));
             }
@@ -117,14 +124,15 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
     }
     let axes = vec![Axis::cell_centred("x", 0.0, 3.0, 3 * size)?, Axis::cell_centred("y", 1.0, -1.0, size)?];
     let channels = ["R", "G", "B"]
-        .map(|c| Channel::new(c, format!("linear radiance under a uniform environment of {ENVIRONMENT_RADIANCE}; panels: model with tables, random walk, |difference|")))
+        .map(|c| Channel::new(c, format!("linear radiance under a uniform environment of {ENVIRONMENT_RADIANCE}; panels: model with tables, {reference_name}, |difference|")))
         .to_vec();
     let table = Table::new(format!("{}_furnace", report.name), axes, channels, data)?;
-    write_exr(&dir.join(format!("{stem}_furnace.exr")), &table, Precision::F32)?;
+    write_exr(&dir.join(&files[0]), &table, Precision::F32)?;
 
     // PNG: sRGB spheres and the difference on a colour bar.
     let mean_difference: Vec<f64> = difference.iter().map(|d| (d[0] + d[1] + d[2]) / 3.0).collect();
-    let (heat, bar) = difference_picture("|model - random walk|, mean of R, G, B", size, &mean_difference);
+    let (heat, bar) =
+        difference_picture(&format!("|model - {reference_name}|, mean of R, G, B"), size, &mean_difference);
     let title = format!(
         "{}: furnace of radiance {ENVIRONMENT_RADIANCE} ({}, albedo {}, TIR {})",
         report.name,
@@ -133,9 +141,13 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
         report.tir_path.name()
     );
     images_png(
-        &dir.join(format!("{stem}_furnace.png")),
+        &dir.join(&files[1]),
         &title,
-        &[radiance_picture("model, scene's tables", size, &model), radiance_picture("random walk", size, &walk), heat],
+        &[
+            radiance_picture("model, scene's tables", size, &model),
+            radiance_picture(reference_name, size, &other),
+            heat,
+        ],
         Some(&bar),
     )?;
 
@@ -145,23 +157,25 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
     let mut lines = Vec::new();
     let mut highest: f64 = 0.0;
     for (c, name) in ["R", "G", "B"].into_iter().enumerate() {
-        for (curve, what, style) in [
-            (&report.albedo_tables, "model, tables", LineStyle::Solid),
-            (&report.albedo_exact, "model, exact", LineStyle::Dashed),
-            (&report.albedo_walk, "random walk", LineStyle::Markers),
-        ] {
+        let curves = [
+            Some((&report.albedo_tables, "model, tables", LineStyle::Solid)),
+            Some((&report.albedo_exact, "model, exact", LineStyle::Dashed)),
+            report.albedo_walk.as_ref().map(|walk| (walk, "random walk", LineStyle::Markers)),
+        ];
+        for (curve, what, style) in curves.into_iter().flatten() {
             let points: Vec<(f64, f64)> = degrees.iter().zip(curve.iter()).map(|(&d, a)| (d, a[c])).collect();
             highest = points.iter().map(|p| p.1).fold(highest, f64::max);
             lines.push(Line { name: format!("{name}: {what}"), points, colour: COLOURS[c], style });
         }
     }
     lines_png(
-        &dir.join(format!("{stem}_albedo.png")),
+        &dir.join(&files[2]),
         &format!("{}: directional albedo A(mu)", report.name),
         ("view angle (degrees from the normal)", 0.0..90.0),
         ("A(mu)", 0.0..(highest * 1.05).max(0.1)),
         &lines,
-    )
+    )?;
+    Ok(files.to_vec())
 }
 
 #[cfg(test)]

@@ -63,23 +63,30 @@ impl ErrorFigures {
     }
 }
 
-/// The three errors of a material.
+/// The errors of a material. The model error and the total need the random walk: where it did
+/// not run for the material (`--walk`), they are absent, not zero.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Errors {
     /// `A(tables) - A(exact)`: what the tables cost.
     pub table: ErrorFigures,
     /// `A(exact) - A(walk)`: what the model costs (the walk's own noise included).
-    pub model: ErrorFigures,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<ErrorFigures>,
     /// `A(tables) - A(walk)`.
-    pub total: ErrorFigures,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub total: Option<ErrorFigures>,
     /// Views where the model error exceeds three of the walk's standard errors, per channel.
-    pub model_error_beyond_3_standard_errors: [usize; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_error_beyond_3_standard_errors: Option<[usize; 3]>,
 }
 
 /// One material's curves and errors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MaterialReport {
     pub name: String,
+    /// In a library (`tmlut furnace --library`), the scene the material came from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<String>,
     pub model: FluxModel,
     pub albedo_path: AlbedoPath,
     pub tir_path: TirPath,
@@ -91,66 +98,76 @@ pub struct MaterialReport {
     pub albedo_tables: Vec<Rgb>,
     /// The model with exact integrals.
     pub albedo_exact: Vec<Rgb>,
+    /// Whether the random walk ran for this material; the `walk` fields below are absent where
+    /// it did not. (Defaults, here and in the run's lists, read reports written before runs could
+    /// leave the walk out, so that a new run into their folder still removes their pictures.)
+    #[serde(default)]
+    pub walked: bool,
     /// The random walk, with its standard errors.
-    pub albedo_walk: Vec<Rgb>,
-    pub walk_standard_error: Vec<Rgb>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo_walk: Option<Vec<Rgb>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walk_standard_error: Option<Vec<Rgb>>,
     /// What the walk transmitted through the bottom, and what its interfaces' masking lost.
-    pub walk_transmitted: Vec<Rgb>,
-    pub walk_lost: Vec<Rgb>,
-    pub walk_paths: Vec<u64>,
-    pub walk_truncated_paths: u64,
-    pub walk_per_channel: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walk_transmitted: Option<Vec<Rgb>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walk_lost: Option<Vec<Rgb>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walk_paths: Option<Vec<u64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walk_truncated_paths: Option<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walk_per_channel: Option<bool>,
+    /// Wall time of the material's random walk, in seconds (all threads).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walk_wall_time_s: Option<f64>,
     pub errors: Errors,
     /// One model evaluation with the scene's tables on one CPU core, every lookup included:
     /// nanoseconds, median of the timed rounds.
     pub model_cost_ns: f64,
-    /// Lookups answered by a table whose range does not hold them (read clamped), and the first.
+    /// Lookups of the material's curve (every view once) answered by a table whose range does
+    /// not hold them (read clamped), and the first.
     pub clamped_lookups: u64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub first_clamped_lookup: Option<String>,
-    /// Files written for the material, relative to the scene's output folder.
+    /// Files written for the material (its pictures, where `--pictures` chose it), relative to
+    /// the run's output folder.
     pub files: Vec<String>,
-    /// Wall time of the exact integrals and of the random walk, in seconds (all threads).
-    pub wall_time_s: WallTimes,
 }
 
-/// Where a material's furnace time goes.
+/// Where a run's wall time goes, in seconds.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct WallTimes {
+pub struct PhaseTimes {
+    /// Building the scene's tables (0 with `--luts`).
+    pub tables: f64,
+    /// Opening the folder, the model with the tables and its timing.
+    pub model_with_tables: f64,
+    /// The exact integrals and the model reading them.
     pub exact: f64,
+    /// The random walks.
     pub walk: f64,
+    /// Drawing the pictures and plots.
+    pub pictures: f64,
 }
 
 impl MaterialReport {
+    /// `walk`: the random walk's curve and its wall time, where it ran.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         material: &crate::scene::Material,
+        scene: Option<String>,
         mus: &[f64],
         albedo_tables: Vec<Rgb>,
         albedo_exact: Vec<Rgb>,
-        walk: &[WalkEstimate],
+        walk: Option<(Vec<WalkEstimate>, f64)>,
         model_cost_ns: f64,
         clamped: Misses,
     ) -> Self {
-        let albedo_walk: Vec<Rgb> = walk.iter().map(|w| w.reflected).collect();
-        let walk_standard_error: Vec<Rgb> = walk.iter().map(|w| w.reflected_standard_error).collect();
-        let mut beyond = [0; 3];
-        for ((exact, w), se) in albedo_exact.iter().zip(&albedo_walk).zip(&walk_standard_error) {
-            for c in 0..3 {
-                if (exact[c] - w[c]).abs() > 3.0 * se[c] {
-                    beyond[c] += 1;
-                }
-            }
-        }
-        let errors = Errors {
-            table: ErrorFigures::of(mus, &albedo_tables, &albedo_exact),
-            model: ErrorFigures::of(mus, &albedo_exact, &albedo_walk),
-            total: ErrorFigures::of(mus, &albedo_tables, &albedo_walk),
-            model_error_beyond_3_standard_errors: beyond,
-        };
-        let stem = file_stem(&material.name);
-        MaterialReport {
+        let table = ErrorFigures::of(mus, &albedo_tables, &albedo_exact);
+        let mut report = MaterialReport {
             name: material.name.clone(),
+            scene,
             model: material.model,
             albedo_path: material.albedo,
             tir_path: material.tir,
@@ -158,25 +175,56 @@ impl MaterialReport {
             mu: mus.to_vec(),
             albedo_tables,
             albedo_exact,
-            albedo_walk,
-            walk_standard_error,
-            walk_transmitted: walk.iter().map(|w| w.transmitted).collect(),
-            walk_lost: walk.iter().map(|w| w.lost).collect(),
-            walk_paths: walk.iter().map(|w| w.paths).collect(),
-            walk_truncated_paths: walk.iter().map(|w| w.truncated_paths).sum(),
-            walk_per_channel: walk.iter().any(|w| w.per_channel_walks),
-            errors,
+            walked: false,
+            albedo_walk: None,
+            walk_standard_error: None,
+            walk_transmitted: None,
+            walk_lost: None,
+            walk_paths: None,
+            walk_truncated_paths: None,
+            walk_per_channel: None,
+            walk_wall_time_s: None,
+            errors: Errors { table, model: None, total: None, model_error_beyond_3_standard_errors: None },
             model_cost_ns,
             clamped_lookups: clamped.count,
             first_clamped_lookup: clamped.first,
-            files: vec![format!("{stem}_furnace.exr"), format!("{stem}_furnace.png"), format!("{stem}_albedo.png")],
-            wall_time_s: WallTimes::default(),
+            files: Vec::new(),
+        };
+        if let Some((walk, wall_time_s)) = walk {
+            let albedo_walk: Vec<Rgb> = walk.iter().map(|w| w.reflected).collect();
+            let walk_standard_error: Vec<Rgb> = walk.iter().map(|w| w.reflected_standard_error).collect();
+            let mut beyond = [0; 3];
+            for ((exact, w), se) in report.albedo_exact.iter().zip(&albedo_walk).zip(&walk_standard_error) {
+                for c in 0..3 {
+                    if (exact[c] - w[c]).abs() > 3.0 * se[c] {
+                        beyond[c] += 1;
+                    }
+                }
+            }
+            report.errors.model = Some(ErrorFigures::of(mus, &report.albedo_exact, &albedo_walk));
+            report.errors.total = Some(ErrorFigures::of(mus, &report.albedo_tables, &albedo_walk));
+            report.errors.model_error_beyond_3_standard_errors = Some(beyond);
+            report.walked = true;
+            report.albedo_walk = Some(albedo_walk);
+            report.walk_standard_error = Some(walk_standard_error);
+            report.walk_transmitted = Some(walk.iter().map(|w| w.transmitted).collect());
+            report.walk_lost = Some(walk.iter().map(|w| w.lost).collect());
+            report.walk_paths = Some(walk.iter().map(|w| w.paths).collect());
+            report.walk_truncated_paths = Some(walk.iter().map(|w| w.truncated_paths).sum());
+            report.walk_per_channel = Some(walk.iter().any(|w| w.per_channel_walks));
+            report.walk_wall_time_s = Some(wall_time_s);
         }
+        report
     }
 
-    /// The largest standard error of the walk over views and channels.
-    pub fn walk_standard_error_max(&self) -> f64 {
-        self.walk_standard_error.iter().flatten().copied().fold(0.0, f64::max)
+    /// The largest standard error of the walk over views and channels, where it ran.
+    pub fn walk_standard_error_max(&self) -> Option<f64> {
+        self.walk_standard_error.as_ref().map(|se| se.iter().flatten().copied().fold(0.0, f64::max))
+    }
+
+    /// The scene whose budget holds the material: its own in a library, else the report's.
+    pub fn scene_or<'a>(&'a self, report_scene: &'a str) -> &'a str {
+        self.scene.as_deref().unwrap_or(report_scene)
     }
 }
 
@@ -201,6 +249,13 @@ pub struct SettingsRecord {
     pub fgd_source: String,
     pub timing_rounds: usize,
     pub environment_radiance: f64,
+    /// `--walk` and `--pictures`: all, none or sample:N (N drawn from the walk's seed).
+    #[serde(default)]
+    pub walk: String,
+    #[serde(default)]
+    pub pictures: String,
+    #[serde(default)]
+    pub picture_size: usize,
 }
 
 impl SettingsRecord {
@@ -221,6 +276,9 @@ impl SettingsRecord {
             },
             timing_rounds: settings.timing_rounds,
             environment_radiance: super::ENVIRONMENT_RADIANCE,
+            walk: settings.walk_materials.name(),
+            pictures: settings.pictures.name(),
+            picture_size: settings.picture_size,
         }
     }
 }
@@ -236,12 +294,29 @@ pub struct FurnaceReport {
     pub settings: SettingsRecord,
     /// How the random walk models the stack.
     pub random_walk: Vec<String>,
+    /// The materials the random walk ran for, and those drawn, by name.
+    #[serde(default)]
+    pub walked_materials: Vec<String>,
+    #[serde(default)]
+    pub pictured_materials: Vec<String>,
+    /// Where the run's wall time went.
+    #[serde(default)]
+    pub wall_time_s: PhaseTimes,
     pub materials: Vec<MaterialReport>,
 }
 
 impl FurnaceReport {
-    pub fn new(request: &FurnaceRequest, luts: &Path, exact_samples: u64, materials: Vec<MaterialReport>) -> Self {
+    pub fn new(
+        request: &FurnaceRequest,
+        luts: &Path,
+        exact_samples: u64,
+        materials: Vec<MaterialReport>,
+        wall_time_s: PhaseTimes,
+    ) -> Self {
         FurnaceReport {
+            walked_materials: materials.iter().filter(|m| m.walked).map(|m| m.name.clone()).collect(),
+            pictured_materials: materials.iter().filter(|m| !m.files.is_empty()).map(|m| m.name.clone()).collect(),
+            wall_time_s,
             generator: format!("tmlut {}", env!("CARGO_PKG_VERSION")),
             scene: request.scene.name.clone(),
             source: request.source.clone(),
@@ -252,7 +327,8 @@ impl FurnaceReport {
         }
     }
 
-    /// Write `furnace.json` into `dir` (atomically).
+    /// Write `furnace.json` into `dir` (atomically; a run writes it into its staging folder, and
+    /// commits it with the pictures it lists).
     pub fn write(&self, dir: &Path) -> Result<()> {
         let mut text = serde_json::to_string_pretty(self).expect("a furnace report is plain data");
         text.push('\n');
@@ -269,14 +345,23 @@ impl FurnaceReport {
 /// The header of [`markdown_rows`].
 pub const MARKDOWN_HEADER: &str = "| scene | material | model | albedo / TIR | table error max (RMS) | at mu | model error max (RMS) | total max | walk s.e. max | ns/eval |\n|---|---|---|---|---|---|---|---|---|---|\n";
 
-/// One Markdown row per material of `report`.
+/// One Markdown row per material of `report`; the model error, the total and the walk's
+/// standard error read `not walked` where the random walk did not run.
 pub fn markdown_rows(report: &FurnaceReport) -> String {
     let mut out = String::new();
     for m in &report.materials {
         let e = &m.errors;
+        let (model, total, walk_se) = match (&e.model, &e.total, m.walk_standard_error_max()) {
+            (Some(model), Some(total), Some(se)) => (
+                format!("{:.2e} ({:.1e})", model.max_all, model.rms_all),
+                format!("{:.2e}", total.max_all),
+                format!("{se:.1e}"),
+            ),
+            _ => ("not walked".into(), "not walked".into(), "not walked".into()),
+        };
         out.push_str(&format!(
-            "| {} | {} | {} | {} / {} | {:.2e} ({:.1e}) | {:.3} | {:.2e} ({:.1e}) | {:.2e} | {:.1e} | {:.0} |\n",
-            report.scene,
+            "| {} | {} | {} | {} / {} | {:.2e} ({:.1e}) | {:.3} | {model} | {total} | {walk_se} | {:.0} |\n",
+            m.scene_or(&report.scene),
             m.name,
             m.model.name(),
             m.albedo_path.name(),
@@ -284,10 +369,6 @@ pub fn markdown_rows(report: &FurnaceReport) -> String {
             e.table.max_all,
             e.table.rms_all,
             e.table.max_all_at_mu,
-            e.model.max_all,
-            e.model.rms_all,
-            e.total.max_all,
-            m.walk_standard_error_max(),
             m.model_cost_ns,
         ));
     }

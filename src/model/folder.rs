@@ -321,6 +321,13 @@ impl FolderTables {
         self.clamped.lock().map(|m| m.clone()).unwrap_or_default()
     }
 
+    /// [`FolderTables::misses`] and [`FolderTables::clamped`], then both counts restarted: one
+    /// folder, opened once, serves the materials of a library in turn, each with its own counts.
+    pub fn take_counts(&self) -> (Misses, Misses) {
+        let take = |record: &Mutex<Misses>| record.lock().map(|mut m| std::mem::take(&mut *m)).unwrap_or_default();
+        (take(&self.misses), take(&self.clamped))
+    }
+
     fn note(record: &Mutex<Misses>, lookup: &Lookup) {
         if let Ok(mut m) = record.lock() {
             m.count += 1;

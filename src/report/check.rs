@@ -66,7 +66,16 @@ pub struct FurnaceBudget {
 pub struct Budgets {
     pub tables: BTreeMap<String, TableBudget>,
     pub furnace: BTreeMap<String, FurnaceBudget>,
+    /// `[furnace_every_material]`: the budget of every material of a furnace report whose scene
+    /// has no `[furnace.<scene>]` section (a library's materials, a new scene's).
+    pub furnace_every_material: Option<FurnaceBudget>,
 }
+
+/// The section of a budgets file that holds every material without a scene budget.
+pub const EVERY_MATERIAL: &str = "furnace_every_material";
+
+/// How many of a report's materials with the largest table error `check` names.
+pub const WORST_NAMED: usize = 5;
 
 impl Budgets {
     pub fn from_toml(text: &str, origin: &str) -> Result<Self> {
@@ -82,10 +91,23 @@ impl Budgets {
             Some(value) => value.try_into().map_err(clean)?,
             None => BTreeMap::new(),
         };
-        let budgets = Budgets { tables: toml::Value::Table(document).try_into().map_err(clean)?, furnace };
-        for (scene, budget) in &budgets.furnace {
+        let furnace_every_material = match document.remove(EVERY_MATERIAL) {
+            Some(value) => Some(value.try_into().map_err(|e: toml::de::Error| {
+                let words = e.to_string().lines().filter(|l| !l.trim().is_empty()).collect::<Vec<_>>().join(" | ");
+                Error::invalid(format!("{origin}: {EVERY_MATERIAL}"), words)
+            })?),
+            None => None,
+        };
+        let budgets = Budgets {
+            tables: toml::Value::Table(document).try_into().map_err(clean)?,
+            furnace,
+            furnace_every_material,
+        };
+        let every = budgets.furnace_every_material.iter().map(|b| (EVERY_MATERIAL.to_string(), b));
+        let scenes = budgets.furnace.iter().map(|(scene, b)| (format!("furnace.{scene}"), b));
+        for (section, budget) in scenes.chain(every) {
             check_limits(
-                &format!("{origin}: furnace.{scene}"),
+                &format!("{origin}: {section}"),
                 &[
                     ("max_table_error", budget.max_table_error),
                     ("max_model_error", budget.max_model_error),
@@ -243,12 +265,32 @@ fn furnace_reports(dir: &Path) -> Result<Vec<std::path::PathBuf>> {
     Ok(reports)
 }
 
-/// Hold every material of every furnace report to its scene's budget; every budgeted scene must
-/// have a report.
+/// Hold every material of every furnace report to its scene's budget (in a library, the scene
+/// the material came from), or where its scene has none to `[furnace_every_material]`; name each
+/// report's materials of largest table error; every budgeted scene must have a report.
 fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, findings: &mut Vec<Finding>) {
-    let mut seen = Vec::new();
+    let mut seen = std::collections::BTreeSet::new();
     for path in reports {
         let file = path.strip_prefix(dir).unwrap_or(path).display().to_string();
+        let folder = path.parent().unwrap_or(dir);
+        // A run killed while committing leaves its journal: the report may not match its pictures.
+        // (The folder checked itself has had its journal reported above.)
+        if let Some(journal) = pending_commit(folder).filter(|_| folder != dir) {
+            let value = match crate::commit::read_journal(folder) {
+                Err(refused) => refused.to_string(),
+                Ok(_) => format!(
+                    "{}: a furnace run was interrupted while committing its outputs; the next run into this folder completes it",
+                    journal.display()
+                ),
+            };
+            findings.push(Finding {
+                file: file.clone(),
+                check: "commit".into(),
+                value,
+                limit: "no run interrupted while committing".into(),
+                pass: false,
+            });
+        }
         let report = match FurnaceReport::read(path) {
             Ok(report) => report,
             Err(e) => {
@@ -262,32 +304,41 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 continue;
             }
         };
-        seen.push(report.scene.clone());
-        let Some(budget) = budgets.furnace.get(&report.scene) else {
-            findings.push(Finding {
-                file,
-                check: "furnace budget".into(),
-                value: format!("scene `{}` has none", report.scene),
-                limit: "none set: figures reported in furnace.json only".into(),
-                pass: true,
-            });
-            continue;
-        };
+        seen.insert(report.scene.clone());
+        let mut unbudgeted = std::collections::BTreeSet::new();
         for material in &report.materials {
+            let scene = material.scene_or(&report.scene);
+            seen.insert(scene.to_string());
+            let Some(budget) = budgets.furnace.get(scene).or(budgets.furnace_every_material.as_ref()) else {
+                unbudgeted.insert(scene.to_string());
+                continue;
+            };
             let file = format!("{file}: {}", material.name);
-            let mut at_most = |check: &str, value: f64, limit: Option<f64>| {
+            let mut at_most = |check: &str, value: Option<f64>, limit: Option<f64>| {
                 if let Some(limit) = limit {
-                    findings.push(Finding {
-                        file: file.clone(),
-                        check: check.into(),
-                        value: format!("{value:.3e}"),
-                        limit: format!("<= {limit:.3e}"),
-                        pass: value <= limit,
+                    findings.push(match value {
+                        Some(value) => Finding {
+                            file: file.clone(),
+                            check: check.into(),
+                            value: format!("{value:.3e}"),
+                            limit: format!("<= {limit:.3e}"),
+                            pass: value <= limit,
+                        },
+                        // A budget on a figure the run did not measure is not held: say so.
+                        None => Finding {
+                            file: file.clone(),
+                            check: check.into(),
+                            value: "not measured: the random walk did not run for this material (tmlut furnace --walk)"
+                                .into(),
+                            limit: format!("<= {limit:.3e}"),
+                            pass: false,
+                        },
                     });
                 }
             };
-            at_most("table_error_max", material.errors.table.max_all, budget.max_table_error);
-            at_most("model_error_max", material.errors.model.max_all, budget.max_model_error);
+            let errors = &material.errors;
+            at_most("table_error_max", Some(errors.table.max_all), budget.max_table_error);
+            at_most("model_error_max", errors.model.as_ref().map(|m| m.max_all), budget.max_model_error);
             at_most("walk_standard_error_max", material.walk_standard_error_max(), budget.max_walk_standard_error);
             findings.push(Finding {
                 file: file.clone(),
@@ -300,6 +351,16 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 pass: material.clamped_lookups <= budget.max_clamped_lookups,
             });
         }
+        for scene in unbudgeted {
+            findings.push(Finding {
+                file: file.clone(),
+                check: "furnace budget".into(),
+                value: format!("scene `{scene}` has none"),
+                limit: format!("none set, and no [{EVERY_MATERIAL}]: figures reported in furnace.json only"),
+                pass: true,
+            });
+        }
+        findings.push(worst_table_errors(&file, &report));
     }
     for scene in budgets.furnace.keys() {
         if !seen.contains(scene) {
@@ -311,6 +372,26 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 pass: false,
             });
         }
+    }
+}
+
+/// The [`WORST_NAMED`] materials of `report` with the largest table error, largest first: where a
+/// library stands against its budget, and which materials to look at. A figure, not a budget (the
+/// budgets are held material by material), so it always passes.
+fn worst_table_errors(file: &str, report: &FurnaceReport) -> Finding {
+    let mut order: Vec<&crate::furnace::MaterialReport> = report.materials.iter().collect();
+    order.sort_by(|a, b| b.errors.table.max_all.total_cmp(&a.errors.table.max_all).then_with(|| a.name.cmp(&b.name)));
+    let named: Vec<String> = order
+        .iter()
+        .take(WORST_NAMED)
+        .map(|m| format!("{} {:.3e} at mu {:.3}", m.name, m.errors.table.max_all, m.errors.table.max_all_at_mu))
+        .collect();
+    Finding {
+        file: file.into(),
+        check: "table_error_worst".into(),
+        value: format!("{} of {} materials: {}", named.len(), report.materials.len(), named.join(", ")),
+        limit: "the largest table errors, for reading (each material is held to its budget above)".into(),
+        pass: true,
     }
 }
 
@@ -507,6 +588,20 @@ mod tests {
         assert!(err.contains("fgd.max_reference_rms") && err.contains("NaN; allowed: finite"), "{err}");
         let err = Budgets::from_toml("[karis]\nvalue_range = [0.0, 1.0, 2.0]\n", "b.toml").unwrap_err().to_string();
         assert!(err.contains("invalid length 3") && err.contains("karis.value_range"), "{err}");
+    }
+
+    #[test]
+    fn every_material_budget_is_parsed_and_checked_like_a_scene_budget() {
+        let budgets = Budgets::from_toml("[furnace_every_material]\nmax_table_error = 1e-3\n", "b.toml").unwrap();
+        assert_eq!(budgets.furnace_every_material.unwrap().max_table_error, Some(1e-3));
+        assert!(budgets.tables.is_empty(), "not a table's budget");
+        let err = Budgets::from_toml("[furnace_every_material]\nmax_tabel_error = 1e-3\n", "b.toml").unwrap_err();
+        let err = err.to_string();
+        assert!(err.contains("b.toml: furnace_every_material") && err.contains("max_tabel_error"), "{err}");
+        let err = Budgets::from_toml("[furnace_every_material]\nmax_table_error = -1.0\n", "b.toml").unwrap_err();
+        assert!(err.to_string().contains("furnace_every_material.max_table_error"), "{err}");
+        let committed = Budgets::from_toml(DEFAULT_BUDGETS, "budgets.toml").unwrap();
+        assert_eq!(committed.furnace_every_material.and_then(|b| b.max_table_error), Some(1e-3));
     }
 
     #[test]
