@@ -133,6 +133,50 @@ struct Slice {
     texture: SampledTable,
 }
 
+/// A folder's slices of one quantity, with their channels sorted by `eta`: a library holds
+/// thousands, and a lookup finds the few at its index by a binary search, not by reading them all.
+#[derive(Debug, Clone)]
+struct Slices {
+    slices: Vec<Slice>,
+    /// `(eta, slice, channel)` of every channel, by `eta`.
+    by_eta: Vec<(f64, usize, usize)>,
+}
+
+impl Slices {
+    fn new(slices: Vec<Slice>) -> Self {
+        let mut by_eta: Vec<(f64, usize, usize)> = slices
+            .iter()
+            .enumerate()
+            .flat_map(|(s, slice)| slice.indices.iter().enumerate().map(move |(c, &(eta, _))| (eta, s, c)))
+            .collect();
+        by_eta.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        Slices { slices, by_eta }
+    }
+
+    /// The slices with a channel at `(eta, kappa)` (equal to within 1e-12 of the larger, the
+    /// tolerance f32 and f64 lookups of one index agree to), each with its first such channel,
+    /// in the folder's order.
+    fn at(&self, quantity: Quantity, eta: f64, kappa: f64) -> Vec<(&Slice, usize)> {
+        let same = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+        // Within the tolerance, |a - b| < 2e-12 |eta|: the window holds every candidate.
+        let reach = 2e-12 * eta.abs();
+        let from = self.by_eta.partition_point(|e| e.0 < eta - reach);
+        let to = self.by_eta.partition_point(|e| e.0 <= eta + reach);
+        let mut found: Vec<(usize, usize)> = Vec::new();
+        for &(_, s, c) in &self.by_eta[from..to] {
+            let slice = &self.slices[s];
+            let (e, k) = slice.indices[c];
+            if slice.quantity == quantity && same(e, eta) && same(k, kappa) {
+                found.push((s, c));
+            }
+        }
+        // Each slice once, at its first matching channel.
+        found.sort_unstable();
+        found.dedup_by_key(|&mut (s, _)| s);
+        found.into_iter().map(|(s, c)| (&self.slices[s], c)).collect()
+    }
+}
+
 /// Where the FGD path reads a full table.
 #[derive(Debug, Clone)]
 enum FullFgd {
@@ -157,7 +201,7 @@ enum Albedo {
     /// `rarer`: the table of a dielectric onto a rarer medium (`fgd_rarer`), which answers
     /// `kappa = 0, eta < 1` in place of the full table where the folder has it.
     Fgd {
-        slices: Vec<Slice>,
+        slices: Slices,
         full: Option<FullFgd>,
         rarer: Option<SampledTable>,
     },
@@ -175,7 +219,7 @@ enum Albedo {
 #[derive(Debug, Clone)]
 enum Tir {
     Table {
-        slices: Vec<Slice>,
+        slices: Slices,
         full: Option<SampledTable>,
     },
     Fit {
@@ -218,15 +262,16 @@ impl FolderTables {
         let missing = |what: &str| {
             Error::format(folder.dir().join(crate::formats::manifest::MANIFEST_FILE), format!("lists no {what}"))
         };
-        let slices_of = |prefix: &str, quantity: Quantity| -> Result<Vec<Slice>> {
-            folder
+        let slices_of = |prefix: &str, quantity: Quantity| -> Result<Slices> {
+            let slices = folder
                 .scene_slices(|entry| is_slice(entry, prefix))?
                 .into_iter()
                 .map(|slice| {
                     let indices = slice_indices(&slice.entry);
                     Ok(Slice { quantity, indices, texture: SampledTable::new(&slice.table)? })
                 })
-                .collect()
+                .collect::<Result<Vec<_>>>()?;
+            Ok(Slices::new(slices))
         };
         let find = |table: &str, format: FileFormat| {
             entries.iter().find(|(_, e)| e.table == table && e.format == format && e.packing.is_none())
@@ -344,16 +389,10 @@ impl FolderTables {
 
     /// The slice answering `lookup`: a channel at its indices, the slice whose range holds
     /// `(mu, alpha)`, else the nearest.
-    fn slice_value(&self, slices: &[Slice], lookup: &Lookup) -> Option<f64> {
+    fn slice_value(&self, slices: &Slices, lookup: &Lookup) -> Option<f64> {
         let point = [lookup.mu, lookup.alpha];
-        let same = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
-        let candidates = slices.iter().filter(|s| s.quantity == lookup.quantity).filter_map(|s| {
-            s.indices
-                .iter()
-                .position(|&(eta, kappa)| same(eta, lookup.eta) && same(kappa, lookup.kappa))
-                .map(|c| (s, c))
-        });
-        let (slice, channel) = candidates.min_by(|(a, _), (b, _)| {
+        let candidates = slices.at(lookup.quantity, lookup.eta, lookup.kappa);
+        let (slice, channel) = candidates.into_iter().min_by(|(a, _), (b, _)| {
             a.texture.distance_outside(&point).total_cmp(&b.texture.distance_outside(&point))
         })?;
         if !slice.texture.covers(&point) {

@@ -529,6 +529,9 @@ fn settings_groups(slices: &[&Slices]) -> Result<std::collections::BTreeMap<Stri
     Ok(groups)
 }
 
+/// A lattice node (the bits of its `mu` and `alpha`) and the (slice, node number) pairs that hold it.
+type NodeUsers = ((u64, u64), Vec<(usize, usize)>);
+
 /// Every node of `slices` integrated, each distinct lattice node of a group once for all the
 /// slices that hold it.
 fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> Result<BatchTables> {
@@ -553,7 +556,7 @@ fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> R
                 }
             }
         }
-        let nodes: Vec<((u64, u64), Vec<(usize, usize)>)> = nodes.into_iter().collect();
+        let nodes: Vec<NodeUsers> = nodes.into_iter().collect();
         let projections: Vec<Vec<Projection>> = members.iter().map(|&s| slices[s].projections()).collect();
         let member_of: std::collections::HashMap<usize, usize> =
             members.iter().enumerate().map(|(m, &s)| (s, m)).collect();
@@ -648,11 +651,11 @@ mod tests {
 
     #[test]
     fn a_slice_is_bit_identical_built_alone_or_in_a_batch_that_shares_its_nodes() {
-        let mut fgd = FgdSettings::default();
-        fgd.sampling = SamplingConfig { samples: 1 << 10, replicates: 4 };
+        let mut fgd =
+            FgdSettings { sampling: SamplingConfig { samples: 1 << 10, replicates: 4 }, ..FgdSettings::default() };
         fgd.reference.cells = 0;
-        let mut tir = TirSettings::default();
-        tir.sampling = SamplingConfig { samples: 1 << 10, replicates: 4 };
+        let mut tir =
+            TirSettings { sampling: SamplingConfig { samples: 1 << 10, replicates: 4 }, ..TirSettings::default() };
         tir.reference.cells = 0;
         let (fgd, tir) = (SliceOf::Fgd(fgd), SliceOf::Tir(tir));
         let copper = [(0.27, 3.61), (0.68, 2.63), (1.22, 2.29)];

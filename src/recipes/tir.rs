@@ -251,7 +251,7 @@ impl ThresholdCounter {
         // only walks up from there; the walk down covers what the cell's rounding may not.
         let cell = ((value * self.cells) as usize).min(self.below_edge.len() - 1);
         let mut count = self.below_edge[cell] as usize;
-        while count > 0 && !(value > self.thresholds[count - 1]) {
+        while count > 0 && value.partial_cmp(&self.thresholds[count - 1]) != Some(std::cmp::Ordering::Greater) {
             count -= 1;
         }
         while count < self.thresholds.len() && value > self.thresholds[count] {
@@ -519,7 +519,7 @@ mod tests {
     #[test]
     fn a_threshold_counter_counts_as_a_binary_search() {
         let axis = TirSettings::default().axes().unwrap()[2].clone();
-        for mu in [1e-6, 0.3, 0.7071, 0.999, 1.0] {
+        for mu in [1e-6, 0.3, std::f64::consts::FRAC_1_SQRT_2, 0.999, 1.0] {
             let settings = TirSettings::default();
             let thresholds: Vec<f64> = settings.evaluated_etas(mu, &axis).iter().map(|e| e * e).collect();
             let counter = ThresholdCounter::new(thresholds.clone());

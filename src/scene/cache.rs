@@ -266,7 +266,7 @@ impl SliceCache {
             channels: build.table.channels.clone(),
             values: build.table.data.clone(),
             standard_error: p.standard_error.clone(),
-            replicate_standard_error: p.error.replicate_standard_error.clone(),
+            replicate_standard_error: p.error.replicate_standard_error,
             reference: p.error.reference.clone(),
             interpolation: p.interpolation.clone(),
             sampling: p.sampling.clone(),
@@ -396,8 +396,8 @@ mod tests {
     use crate::table::{Axis, Mapping};
 
     fn slice(name: &str, eta: f64) -> Slices {
-        let mut settings = FgdSettings::default();
-        settings.sampling = SamplingConfig { samples: 1 << 10, replicates: 4 };
+        let mut settings =
+            FgdSettings { sampling: SamplingConfig { samples: 1 << 10, replicates: 4 }, ..FgdSettings::default() };
         settings.reference.cells = 4;
         settings.reference.samples = 1 << 12;
         let mu = Axis::node_aligned("mu", 0.5, 0.5 + 4.0 / 128.0, 5).unwrap();
