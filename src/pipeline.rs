@@ -411,12 +411,7 @@ pub fn array_slice_record(
         table.channels.clone(),
         table.data.iter().map(|&v| precision.round(v)).collect(),
     )?;
-    let channels: Vec<String> = table
-        .channels
-        .iter()
-        .map(|c| c.name.clone())
-        .filter(|name| name != crate::recipes::slices::PADDING_CHANNEL)
-        .collect();
+    let channels = checked_channels(table);
     let texture = SampledTable::new(&stored)?;
     let read_as = "a slice of a texture array: its coordinates in f32 clamped to its nodes, linear filtering, texels as \
                    stored (GPU emulator, exact filter weights)";
@@ -535,13 +530,7 @@ fn interpolation_errors(
         return Ok(Vec::new());
     }
     let table = crate::loader::load_verified(path, entry)?;
-    // A slice's padding channel holds no value to check.
-    let channels: Vec<String> = table
-        .channels
-        .iter()
-        .map(|c| c.name.clone())
-        .filter(|name| name != crate::recipes::slices::PADDING_CHANNEL)
-        .collect();
+    let channels = checked_channels(&table);
     let compare_all = |read_as: &str, read: &dyn Fn(&[f64]) -> Vec<f64>| {
         exact.iter().map(|exact| interpolation::compare(exact, read_as, &channels, read)).collect()
     };
@@ -556,6 +545,17 @@ fn interpolation_errors(
     let texture = SampledTable::new(&table)?;
     let read_as = "a GPU texture: the manifest's texture coordinates in f32, linear filtering with clamp addressing, texels as stored (GPU emulator, exact filter weights)";
     Ok(compare_all(read_as, &|p| (0..channels.len()).map(|c| texture.sample(c, p) as f64).collect()))
+}
+
+/// The channels of `table` an interpolation check compares: all but a slice's padding channel,
+/// which holds no value.
+fn checked_channels(table: &Table) -> Vec<String> {
+    table
+        .channels
+        .iter()
+        .map(|c| c.name.clone())
+        .filter(|name| name != crate::recipes::slices::PADDING_CHANNEL)
+        .collect()
 }
 
 /// Which dimension of the file each axis runs along.

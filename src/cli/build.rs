@@ -109,17 +109,12 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
         false => {
             let files = library::read_scene_files(&args.scene)?;
             let request = SceneBuildRequest {
-                scene: library::merge(&files)?,
-                source: library::recorded_source(&files),
-                text: library::recorded_text(&files),
-                config,
-                out: args.out,
                 error_maps: args.error_maps,
                 slice_checks: args.slice_checks,
                 cache: cache_folder(args.cache)?,
                 slice_layout: args.slice_layout,
                 shard: args.shard,
-                merge_from: Vec::new(),
+                ..library::build_request(&files, config, args.out)?
             };
             return build_and_report(&request, context);
         }

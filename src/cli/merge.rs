@@ -48,17 +48,10 @@ pub fn exec(args: MergeArgs, context: &Context) -> tmlut::Result<()> {
     args.threads.apply()?;
     let files = library::read_scene_files(&args.scene)?;
     let request = SceneBuildRequest {
-        scene: library::merge(&files)?,
-        source: library::recorded_source(&files),
-        text: library::recorded_text(&files),
-        config,
-        out: args.out,
-        error_maps: false,
         slice_checks: args.slice_checks,
-        cache: None,
         slice_layout: args.slice_layout,
-        shard: None,
         merge_from: args.shards,
+        ..library::build_request(&files, config, args.out)?
     };
     build_and_report(&request, context)
 }
