@@ -610,8 +610,13 @@ fn shards_merged_give_the_files_of_one_build_and_a_missing_or_damaged_shard_is_r
         let output = build(&config, &dir.path().join("unused"), &args);
         assert!(output.status.success(), "{}", stderr(&output));
     }
-    // A shard writes only into its own folder.
+    // A shard writes only into its own folder, and fails where it cannot.
     assert!(!dir.path().join("unused").exists());
+    let not_a_folder = dir.path().join("a-file");
+    std::fs::write(&not_a_folder, "x").unwrap();
+    let mut args = scene_args.clone();
+    args.extend(["--shard", "1/3", "--cache", not_a_folder.to_str().unwrap()]);
+    assert_clean_failure(&build(&config, &dir.path().join("unused"), &args), &["--shard", "the shard's folder is incomplete"]);
     let merge = |shards: &[PathBuf], out: &Path| {
         let mut args = vec!["merge", "--quiet", "--config", config.to_str().unwrap(), "--out", out.to_str().unwrap()];
         args.extend(scene_args.iter().copied());

@@ -253,6 +253,14 @@ pub fn build_scene(
     } else {
         request.cache.as_deref().map(SliceCache::open)
     };
+    let shard_folder_failed = |cache: &SliceCache| {
+        Error::invalid("--shard", format!("the shard's folder is incomplete: {}", cache.warnings().join("; ")))
+    };
+    if let (Some(_), Some(cache)) = (request.shard, &cache)
+        && cache.failed()
+    {
+        return Err(shard_folder_failed(cache));
+    }
     let not_in_shards = |table: &str| {
         Error::invalid(
             "tmlut merge",
@@ -311,6 +319,10 @@ pub fn build_scene(
                 cache.put_by_key(&key, &recipe.build(seed, progress)?);
             }
             tables += 1;
+        }
+        // The folder is the shard's only output: a table it could not keep is a failed shard.
+        if cache.failed() {
+            return Err(shard_folder_failed(cache));
         }
         for warning in cache.warnings() {
             progress.note(&format!("warning: {warning}"));

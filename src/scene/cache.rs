@@ -186,6 +186,11 @@ impl SliceCache {
         self.warnings.lock().unwrap_or_else(|p| p.into_inner()).push(warning);
     }
 
+    /// Whether the folder proved unusable in this build (it could not be created or written).
+    pub fn failed(&self) -> bool {
+        !self.usable()
+    }
+
     /// What went wrong with the cache in this build (damaged entries, an unusable folder).
     pub fn warnings(&self) -> Vec<String> {
         self.warnings.lock().unwrap_or_else(|p| p.into_inner()).clone()
