@@ -46,6 +46,13 @@ fn check(dir: &Path, budgets: &str, extra: &[&str]) -> (bool, String) {
     (output.status.success(), text)
 }
 
+/// The JSON report `check --json` prints on standard output (the text also holds standard error,
+/// after it).
+fn json_report(text: &str) -> serde_json::Value {
+    let end = text.rfind("\n}").expect("a JSON object") + 2;
+    serde_json::from_str(&text[..end]).unwrap()
+}
+
 #[test]
 fn a_good_build_meets_the_ci_budgets() {
     let (pass, text) = check(ci_build(), &repo("luts/ci-budgets.toml"), &[]);
@@ -105,9 +112,8 @@ fn an_injected_nan_and_a_changed_file_fail() {
     std::fs::write(&path, bytes).unwrap();
     let (pass, text) = check(&out, &repo("luts/ci-budgets.toml"), &["--json"]);
     assert!(!pass, "{text}");
-    let json_end = text.rfind(']').unwrap() + 1;
-    let findings: serde_json::Value = serde_json::from_str(&text[..json_end]).unwrap();
-    let failed: Vec<(String, String)> = findings
+    let report = json_report(&text);
+    let failed: Vec<(String, String)> = report["findings"]
         .as_array()
         .unwrap()
         .iter()
@@ -134,9 +140,7 @@ fn copy_with_manifest(edit: impl FnOnce(&mut serde_json::Value)) -> (tempfile::T
 fn failures(dir: &Path) -> Vec<(String, String, String)> {
     let (pass, text) = check(dir, &repo("luts/ci-budgets.toml"), &["--json"]);
     assert!(!pass, "{text}");
-    let json_end = text.rfind(']').unwrap() + 1;
-    let findings: serde_json::Value = serde_json::from_str(&text[..json_end]).unwrap();
-    findings
+    json_report(&text)["findings"]
         .as_array()
         .unwrap()
         .iter()
@@ -343,4 +347,62 @@ fn exit_status_tells_a_budget_exceeded_from_a_check_that_could_not_run() {
     let (code, text) = status(&["check", out.to_str().unwrap(), "--budgets", &ci_budgets]);
     assert_eq!(code, Some(2), "{text}");
     assert!(text.contains("manifest.json"), "{text}");
+}
+
+#[test]
+fn ci_formats_state_numbers_as_numbers_and_report_even_a_folder_that_cannot_be_checked() {
+    let ci_budgets = repo("luts/ci-budgets.toml");
+    // A held build: status, summary and numeric figures.
+    let output = tmlut(&["check", ci_build().to_str().unwrap(), "--budgets", &ci_budgets, "--format", "json"]);
+    assert_eq!(output.status.code(), Some(0));
+    let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(report["status"], "passed");
+    let summary = &report["summary"];
+    assert_eq!(summary["failed"], 0);
+    assert_eq!(summary["checks"], summary["passed"]);
+    assert_eq!(summary["checks"].as_u64().unwrap() as usize, report["findings"].as_array().unwrap().len());
+    let reference = report["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["file"] == "fgd.exr" && f["check"] == "reference_rms")
+        .expect("the FGD reference budget");
+    assert!(reference["measured"].as_f64().unwrap() <= reference["at_most"].as_f64().unwrap(), "{reference}");
+
+    // A budget exceeded: exit 1, one JUnit failure and one GitHub error annotation per failed finding.
+    let (_copy, out) = copy_of_ci_build();
+    std::fs::remove_file(out.join("gd.dds")).unwrap();
+    let junit = out.parent().unwrap().join("check.xml");
+    let output = tmlut(&[
+        "check",
+        out.to_str().unwrap(),
+        "--budgets",
+        &ci_budgets,
+        "--format",
+        "github",
+        "--junit",
+        junit.to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(1));
+    let annotations = String::from_utf8_lossy(&output.stdout);
+    let errors = annotations.lines().filter(|l| l.starts_with("::error title=tmlut check%3A gd.dds file::")).count();
+    assert_eq!(errors, 1, "{annotations}");
+    assert!(annotations.lines().last().unwrap().starts_with("::notice "), "{annotations}");
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    let failed = annotations.lines().filter(|l| l.starts_with("::error ")).count();
+    assert_eq!(xml.matches("<failure ").count(), failed, "{xml}");
+    assert!(xml.contains(&format!("failures=\"{failed}\"")), "{xml}");
+    assert!(xml.contains("classname=\"gd.dds\" name=\"file\""), "{xml}");
+
+    // A folder that cannot be checked: exit 2, and still a JSON report and a JUnit error case.
+    let missing = out.parent().unwrap().join("no such folder");
+    let junit = out.parent().unwrap().join("error.xml");
+    let output =
+        tmlut(&["check", missing.to_str().unwrap(), "--json", "--junit", junit.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(2));
+    let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(report["status"], "error");
+    assert!(report["error"].as_str().unwrap().contains("no such folder"), "{report}");
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(xml.contains("errors=\"1\"") && xml.contains("<error message="), "{xml}");
 }

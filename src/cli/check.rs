@@ -3,11 +3,12 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::Args;
+use clap::{Args, ValueEnum};
 
 use tmlut::report::check;
+use tmlut::report::ci::{CheckReport, Status};
 
-use super::{Context, exit_status};
+use super::Context;
 
 /// Exit status of `check` when every check ran and some budget was exceeded.
 pub const EXCEEDED: u8 = 1;
@@ -25,28 +26,62 @@ pub struct CheckArgs {
     /// Budgets file (default: the committed budgets.toml, for the default LUT set).
     #[arg(long)]
     budgets: Option<PathBuf>,
-    /// Print the findings as JSON instead of lines.
-    #[arg(long)]
+    /// How findings are printed: lines; json (one report: status, summary, findings with numbers
+    /// as numbers, printed even when the folder cannot be checked); github (workflow commands: an
+    /// error annotation per exceeded budget and a notice with the counts).
+    #[arg(long, value_enum, default_value_t = Format::Lines)]
+    format: Format,
+    /// The same as --format json.
+    #[arg(long, conflicts_with = "format")]
     json: bool,
+    /// Also write a JUnit XML report to this file (one test case per check; written whole or
+    /// not at all, also when the folder cannot be checked).
+    #[arg(long, value_name = "FILE")]
+    junit: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Format {
+    Lines,
+    Json,
+    Github,
 }
 
 pub fn exec(args: CheckArgs, _: &Context) -> ExitCode {
-    let findings = match findings(&args) {
-        Ok(findings) => findings,
-        Err(e) => return exit_status(Err(e), ExitCode::from(COULD_NOT_RUN)),
+    let format = if args.json { Format::Json } else { args.format };
+    let report = match findings(&args) {
+        Ok(findings) => CheckReport::of(findings),
+        Err(e) => CheckReport::could_not_run(e.to_string()),
     };
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&findings).expect("findings are plain data"));
-    } else {
-        print!("{}", check::render(&findings));
+    let folder = args.dir.display().to_string();
+    match format {
+        Format::Json => print!("{}", report.to_json()),
+        Format::Github => print!("{}", report.to_github(&folder)),
+        Format::Lines => {
+            if report.status != Status::Error {
+                print!("{}", check::render(&report.findings));
+            }
+        }
     }
-    let failed = findings.iter().filter(|f| !f.pass).count();
-    let result = if failed > 0 {
-        Err(tmlut::Error::invalid(args.dir.display().to_string(), format!("{failed} budget(s) exceeded (see above)")))
-    } else {
-        Ok(())
+    let mut status = match report.status {
+        Status::Passed => ExitCode::SUCCESS,
+        Status::Failed => ExitCode::from(EXCEEDED),
+        Status::Error => ExitCode::from(COULD_NOT_RUN),
     };
-    exit_status(result, ExitCode::from(EXCEEDED))
+    match &report.error {
+        Some(error) => eprintln!("error: {error}"),
+        None if report.status == Status::Failed => {
+            eprintln!("error: {folder}: {} budget(s) exceeded (see above)", report.summary.failed)
+        }
+        None => {}
+    }
+    if let Some(path) = &args.junit
+        && let Err(e) = tmlut::formats::write_bytes_atomically(path, report.to_junit(&folder).as_bytes())
+    {
+        eprintln!("error: --junit {}: {e}", path.display());
+        status = ExitCode::from(COULD_NOT_RUN);
+    }
+    status
 }
 
 /// Every finding, or why the folder could not be checked.

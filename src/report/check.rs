@@ -194,6 +194,12 @@ pub struct Finding {
     /// The limit it was held to.
     pub limit: String,
     pub pass: bool,
+    /// The measured figure as a number, where it is one (`value` says it in words).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measured: Option<f64>,
+    /// The largest value the budget allows, where the limit is a number (`limit` says it in words).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub at_most: Option<f64>,
 }
 
 /// Check an output folder against `budgets`: every file of its manifest, and every furnace report
@@ -221,6 +227,8 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
             value,
             limit: "no build interrupted while committing".into(),
             pass: false,
+            measured: None,
+            at_most: None,
         });
     }
     if manifest_path.exists() {
@@ -237,6 +245,8 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
                     value: "no file of this table in the manifest".into(),
                     limit: "a budgeted table must be built".into(),
                     pass: false,
+                    measured: None,
+                    at_most: None,
                 });
             }
         }
@@ -289,6 +299,8 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 value,
                 limit: "no run interrupted while committing".into(),
                 pass: false,
+                measured: None,
+                at_most: None,
             });
         }
         let report = match FurnaceReport::read(path) {
@@ -300,6 +312,8 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                     value: e.to_string(),
                     limit: "a tmlut furnace report".into(),
                     pass: false,
+                    measured: None,
+                    at_most: None,
                 });
                 continue;
             }
@@ -323,6 +337,8 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                             value: format!("{value:.3e}"),
                             limit: format!("<= {limit:.3e}"),
                             pass: value <= limit,
+                            measured: Some(value),
+                            at_most: Some(limit),
                         },
                         // A budget on a figure the run did not measure is not held: say so.
                         None => Finding {
@@ -332,6 +348,8 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                                 .into(),
                             limit: format!("<= {limit:.3e}"),
                             pass: false,
+                            measured: None,
+                            at_most: Some(limit),
                         },
                     });
                 }
@@ -349,6 +367,8 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 },
                 limit: format!("<= {}", budget.max_clamped_lookups),
                 pass: material.clamped_lookups <= budget.max_clamped_lookups,
+                measured: Some(material.clamped_lookups as f64),
+                at_most: Some(budget.max_clamped_lookups as f64),
             });
         }
         for scene in unbudgeted {
@@ -358,6 +378,8 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 value: format!("scene `{scene}` has none"),
                 limit: format!("none set, and no [{EVERY_MATERIAL}]: figures reported in furnace.json only"),
                 pass: true,
+                measured: None,
+                at_most: None,
             });
         }
         findings.push(worst_table_errors(&file, &report));
@@ -370,6 +392,8 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 value: "no furnace report of this scene in the folder".into(),
                 limit: "a budgeted scene must be run".into(),
                 pass: false,
+                measured: None,
+                at_most: None,
             });
         }
     }
@@ -392,27 +416,31 @@ fn worst_table_errors(file: &str, report: &FurnaceReport) -> Finding {
         value: format!("{} of {} materials: {}", named.len(), report.materials.len(), named.join(", ")),
         limit: "the largest table errors, for reading (each material is held to its budget above)".into(),
         pass: true,
+        measured: None,
+        at_most: None,
     }
 }
 
 fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, findings: &mut Vec<Finding>) {
-    let mut record = |check: &str, value: String, limit: String, pass: bool| {
-        findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass })
+    // `numbers`: the measured figure and the largest allowed, where both are numbers.
+    let mut record = |check: &str, value: String, limit: String, pass: bool, numbers: Option<(f64, f64)>| {
+        let (measured, at_most) = numbers.map_or((None, None), |(m, l)| (Some(m), Some(l)));
+        findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass, measured, at_most })
     };
     if let Err(reason) = check_file_name(file) {
-        record("path", reason, "a file name inside the folder".into(), false);
+        record("path", reason, "a file name inside the folder".into(), false, None);
         return;
     }
     let path = dir.join(file);
     let bytes = match read_bytes(&path) {
         Ok(bytes) => bytes,
         Err(e) => {
-            record("file", format!("unreadable: {e}"), "present and readable".into(), false);
+            record("file", format!("unreadable: {e}"), "present and readable".into(), false, None);
             return;
         }
     };
     let actual = sha256_hex(&bytes);
-    record("sha256", actual.clone(), entry.sha256.clone(), actual == entry.sha256);
+    record("sha256", actual.clone(), entry.sha256.clone(), actual == entry.sha256, None);
     // What the file cannot state about itself (a DDS file's axes, a fit, a packing's lookup, an
     // array's slices) is held to the seal the build put on the entry.
     let claims = match (&entry.claims_sha256, entry.claims_disagreement()) {
@@ -425,8 +453,9 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
         claims.clone().unwrap_or_else(|e| e),
         "the entry as the build sealed it (claims_sha256)".into(),
         claims.is_ok(),
-    );
-    record("bytes", bytes.len().to_string(), entry.bytes.to_string(), bytes.len() as u64 == entry.bytes);
+                    None,
+                );
+    record("bytes", bytes.len().to_string(), entry.bytes.to_string(), bytes.len() as u64 == entry.bytes, None);
 
     let budget = budgets.tables.get(&entry.table).cloned().unwrap_or_default();
     // Values are read back from the file itself, not taken from the manifest; the manifest's own
@@ -441,7 +470,8 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
                 if disagreements.is_empty() { "agrees with the file".into() } else { disagreements.join("; ") },
                 "format, axes, channels, value range and NaN count as the file holds them".into(),
                 disagreements.is_empty(),
-            );
+                    None,
+                );
             if let Some(array) = &entry.slice_array {
                 // Every slice the manifest places in the array lies inside it, with its own value range.
                 let problems: Vec<String> = array
@@ -469,11 +499,12 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
                     },
                     "every slice inside its layer, with its stated value range".into(),
                     problems.is_empty(),
+                    None,
                 );
             }
             let stats = table.stats();
             let non_finite = stats.nan_count + stats.infinite_count;
-            record("nan_count", non_finite.to_string(), format!("<= {}", budget.max_nan), non_finite <= budget.max_nan);
+            record("nan_count", non_finite.to_string(), format!("<= {}", budget.max_nan), non_finite <= budget.max_nan, Some((non_finite as f64, budget.max_nan as f64)));
             if let Some([lo, hi]) = budget.value_range {
                 let inside = stats.min >= lo && stats.max <= hi;
                 record(
@@ -481,16 +512,17 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
                     format!("[{}, {}]", stats.min, stats.max),
                     format!("within [{lo}, {hi}]"),
                     inside,
+                    None,
                 );
             }
         }
-        Err(e) => record("readable", format!("{e}"), "a table tmlut reads".into(), false),
+        Err(e) => record("readable", format!("{e}"), "a table tmlut reads".into(), false, None),
     }
     let mut at_most = |check: &str, value: Option<f64>, limit: Option<f64>| {
         if let Some(limit) = limit {
             match value {
-                Some(v) => record(check, format!("{v:.3e}"), format!("<= {limit:.3e}"), v <= limit),
-                None => record(check, "not in the manifest".into(), format!("<= {limit:.3e}"), false),
+                Some(v) => record(check, format!("{v:.3e}"), format!("<= {limit:.3e}"), v <= limit, Some((v, limit))),
+                None => record(check, "not in the manifest".into(), format!("<= {limit:.3e}"), false, None),
             }
         }
     };
@@ -528,7 +560,7 @@ fn check_shaders(dir: &Path, manifest: &Manifest, findings: &mut Vec<Finding>) {
     let seen: std::collections::BTreeSet<(&str, &str, Option<u64>)> = listed.collect();
     for (file, stated, stated_bytes) in seen {
         let mut record = |check: &str, value: String, limit: String, pass: bool| {
-            findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass })
+            findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass, measured: None, at_most: None })
         };
         if let Err(reason) = check_file_name(file) {
             record("shader sha256", reason, stated.into(), false);

@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod check;
+pub mod ci;
 pub mod converge;
 pub mod error_map;
 mod inspect;
