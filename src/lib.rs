@@ -51,6 +51,8 @@ pub mod furnace;
 #[cfg(feature = "generator")]
 pub mod integrate;
 #[cfg(feature = "generator")]
+pub mod machine;
+#[cfg(feature = "generator")]
 pub mod pipeline;
 #[cfg(feature = "generator")]
 pub mod random_walk;

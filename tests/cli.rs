@@ -1008,3 +1008,22 @@ fn albedo_lookup(mu: f64, alpha: f64, eta: f64, kappa: f64) -> tmlut::model::Loo
         kappa,
     }
 }
+
+#[test]
+fn a_table_larger_than_the_process_may_use_is_refused_before_anything_is_allocated() {
+    // 120^4 FGD needs about 10 GiB, under the 16 GiB a table may ask for: allowed on a large
+    // machine, but under a 4 GB address-space limit it would abort part way through the build.
+    let dir = tempfile::tempdir().unwrap();
+    let config =
+        write_config(dir.path(), "[fgd]\nmu_count = 120\nalpha_count = 120\neta_count = 120\nkappa_count = 120\n");
+    let out = dir.path().join("out");
+    let script = format!(
+        "ulimit -v 4000000 && exec '{}' build --config '{}' --only fgd --out '{}' -q",
+        env!("CARGO_BIN_EXE_tmlut"),
+        config.display(),
+        out.display()
+    );
+    let output = Command::new("sh").args(["-c", &script]).output().unwrap();
+    assert_clean_failure(&output, &["fgd", "needs about", "at most 3.8 GiB", "ulimit -v", "mu_count"]);
+    assert!(!out.exists(), "the refused build created {}", out.display());
+}

@@ -249,7 +249,8 @@ pub fn demand(recipe: &dyn TableRecipe) -> crate::error::Result<Demand> {
     Ok(Demand { bytes, sample_evaluations, parts })
 }
 
-/// Refuse a table whose build would need more than [`MAX_BUILD_BYTES`] of memory or
+/// Refuse a table whose build would need more than [`MAX_BUILD_BYTES`] of memory, or more than
+/// this process may use ([`crate::machine::memory_limit`]), or
 /// [`MAX_SAMPLE_EVALUATIONS`] samples, naming the keys that make it so.
 pub fn check_demand(recipe: &dyn TableRecipe) -> crate::error::Result<()> {
     let name = recipe.name();
@@ -268,6 +269,23 @@ pub fn check_demand(recipe: &dyn TableRecipe) -> crate::error::Result<()> {
                 gib(demand.bytes),
                 gib(*largest),
                 gib(MAX_BUILD_BYTES as u128)
+            ),
+        ));
+    }
+    // A build the machine cannot hold would be killed, or abort on a failed allocation, minutes in.
+    if let Some(limit) = crate::machine::memory_limit()
+        && demand.bytes > limit.bytes as u128
+    {
+        let (largest, keys) = &demand.parts[0];
+        return Err(crate::error::Error::invalid(
+            name,
+            format!(
+                "building this table needs about {} of memory, {} of it for {keys}; this process may use at most {} \
+                 ({}): lower those keys or raise the limit",
+                gib(demand.bytes),
+                gib(*largest),
+                gib(limit.bytes as u128),
+                limit.source
             ),
         ));
     }
