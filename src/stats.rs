@@ -99,6 +99,10 @@ pub struct InterpolationError {
     /// where the maximum is one point on a feature the grid cannot follow.
     #[serde(default)]
     pub p99: f64,
+    /// The largest `|read - exact|` over the random points alone (`error.max` is over the points
+    /// where the error peaks as well; the RMS and `p99` are over the random points).
+    #[serde(default)]
+    pub random_max: f64,
     /// Where the largest difference is, and both values there.
     pub worst_at: String,
 }

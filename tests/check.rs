@@ -66,6 +66,7 @@ fn a_good_build_meets_the_ci_budgets() {
 fn the_ci_budgets_hold_for_other_seeds() {
     // Seed 2 failed the budgets set from one run of seed 7; 100003 lies outside the seeds 1..64 the
     // budgets were derived from (scripts/ci-budgets).
+    let mut maxima: Vec<Vec<(String, f64, f64)>> = Vec::new();
     for seed in ["2", "100003"] {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("luts");
@@ -82,7 +83,34 @@ fn the_ci_budgets_hold_for_other_seeds() {
         assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
         let (pass, text) = check(&out, &repo("luts/ci-budgets.toml"), &[]);
         assert!(pass, "seed {seed}:\n{text}");
+        maxima.push(interpolation_maxima(&out));
     }
+    // Where the maximum is found at the points placed where the error peaks (above every random
+    // point at both seeds), it is the same for every seed but for the noise of the exact integrals.
+    // On this coarse set random points still beat them in TIR's whole domain (rough lobes).
+    let mut compared = 0;
+    for ((name, a, a_random), (_, b, b_random)) in maxima[0].iter().zip(&maxima[1]) {
+        if a > a_random && b > b_random {
+            assert!((a - b).abs() <= 0.05 * a.max(*b) + 1e-3, "{name}: {a} and {b} at two seeds");
+            compared += 1;
+        }
+    }
+    assert!(compared * 10 >= maxima[0].len() * 9, "{compared} of {} maxima found where the error peaks", maxima[0].len());
+}
+
+/// `(file: domain, max, max over the random points)` of every interpolation figure of a build's
+/// manifest, in manifest order.
+fn interpolation_maxima(out: &Path) -> Vec<(String, f64, f64)> {
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    let mut maxima = Vec::new();
+    for (file, entry) in manifest["files"].as_object().unwrap() {
+        for figure in entry["error"]["interpolation"].as_array().into_iter().flatten() {
+            let max = figure["max"].as_f64().unwrap();
+            maxima.push((format!("{file}: {}", figure["domain"]), max, figure["random_max"].as_f64().unwrap()));
+        }
+    }
+    maxima
 }
 
 #[test]

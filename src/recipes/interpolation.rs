@@ -149,17 +149,125 @@ pub struct ExactValues {
     pub positions: Vec<Vec<f64>>,
     pub exact: Vec<Estimate>,
     pub samples_per_point: u64,
+    /// Points placed where the error peaks ([`peak_lookups`]), the same for every seed: they add to
+    /// the maximum, not to the RMS or the percentile, which describe the random points alone.
+    #[serde(default)]
+    pub peaks: Vec<PeakPoint>,
 }
 
-/// Draw `config.points` random points in each of `domains`, map each to the table's axes with
-/// `position_of`, and integrate each with `estimate` (one estimate per stored channel) on points
-/// independent of the table's.
+/// A point of [`peak_lookups`] with its exact integral.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PeakPoint {
+    pub lookup: Vec<f64>,
+    pub position: Vec<f64>,
+    pub exact: Estimate,
+}
+
+/// Offsets of the view cosine from the critical cosine `sqrt(1 - eta^2)` in [`peak_lookups`]: most
+/// below it, where a smooth lobe reflects totally and the table blends in the nodes past the kink.
+const CRITICAL_OFFSETS: [f64; 4] = [-0.012, -0.003, -0.0008, 0.002];
+/// Relative indices below 1 along the critical angle in [`peak_lookups`].
+const CRITICAL_ETAS: usize = 16;
+/// Offsets of the view cosine and roughness from their smallest in [`peak_lookups`]: grazing views
+/// and the smoothest lobes, where the integrands turn fastest.
+const EDGE_OFFSETS: [f64; 2] = [0.0, 0.003];
+/// Values of each other parameter in [`peak_lookups`]: the centres of its thirds. Not its ends: at
+/// `eta = 1` exactly, `kappa = 0`, an interface reflects nothing, while at grazing views every
+/// other `eta` reflects everything, a step no table of `eta` holds and no material looks up (the
+/// model leaves an index-matched interface out).
+const OTHER_VALUES: usize = 3;
+
+/// Where a table of `mu` and `alpha` (and `eta`) is hardest to interpolate, the same for every
+/// seed: random points land on a narrow peak by chance, so that a maximum over them alone changes
+/// several-fold with the seed (FGD onto a rarer medium: 0.041 to 0.174 over four seeds).
+/// - grazing views of the smoothest lobes (`mu` and `alpha` at and just above their smallest),
+///   with every other parameter at the centres of its thirds;
+/// - with an `eta` reaching below 1: along the critical angle, `mu` just below and above
+///   `sqrt(1 - eta^2)` at 16 values of `eta`, for the smoothest lobes, with `kappa` (if any) at
+///   its smallest, where the kink is sharpest.
+///
+/// A domain without `mu` and `alpha` has none.
+pub fn peak_lookups(domain: &Domain) -> Vec<Vec<f64>> {
+    let index = |name: &str| domain.parameters.iter().position(|p| p == name);
+    let (Some(m), Some(a)) = (index("mu"), index("alpha")) else {
+        return Vec::new();
+    };
+    let ranges = &domain.ranges;
+    let inside = |d: usize, v: f64| v.clamp(ranges[d][0], ranges[d][1]);
+    let near_smallest = |d: usize| {
+        let mut values: Vec<f64> = EDGE_OFFSETS.iter().map(|o| inside(d, ranges[d][0] + o)).collect();
+        values.dedup();
+        values
+    };
+    let alphas = near_smallest(a);
+    let mut peaks = Vec::new();
+    // Every combination of the other parameters at their ends and middle.
+    let others: Vec<usize> = (0..ranges.len()).filter(|&d| d != m && d != a).collect();
+    let mut combinations: Vec<Vec<f64>> = vec![ranges.iter().map(|r| r[0]).collect()];
+    for &d in &others {
+        let [lo, hi] = ranges[d];
+        let mut values: Vec<f64> =
+            (0..OTHER_VALUES).map(|k| lo + (hi - lo) * (k as f64 + 0.5) / OTHER_VALUES as f64).collect();
+        values.dedup();
+        combinations = combinations
+            .into_iter()
+            .flat_map(|c| {
+                values.iter().map(move |&v| {
+                    let mut c = c.clone();
+                    c[d] = v;
+                    c
+                })
+            })
+            .collect();
+    }
+    for base in &combinations {
+        for &mu in &near_smallest(m) {
+            for &alpha in &alphas {
+                let mut point = base.clone();
+                point[m] = mu;
+                point[a] = alpha;
+                peaks.push(point);
+            }
+        }
+    }
+    if let Some(e) = index("eta") {
+        let [lo, hi] = ranges[e];
+        let hi = hi.min(1.0);
+        if lo < hi {
+            for k in 0..CRITICAL_ETAS {
+                // Cell centres of [lo, hi): eta = 1 has no critical angle.
+                let eta = lo + (hi - lo) * (k as f64 + 0.5) / CRITICAL_ETAS as f64;
+                let critical = (1.0 - eta * eta).sqrt();
+                for offset in CRITICAL_OFFSETS {
+                    let mu = critical + offset;
+                    if mu < ranges[m][0] || mu > ranges[m][1] {
+                        continue;
+                    }
+                    for &alpha in &alphas {
+                        let mut point: Vec<f64> = ranges.iter().map(|r| r[0]).collect();
+                        point[m] = mu;
+                        point[a] = alpha;
+                        point[e] = eta;
+                        peaks.push(point);
+                    }
+                }
+            }
+        }
+    }
+    peaks
+}
+
+/// Draw `config.points` random points in each of `domains`, and add the points `peaks` places in
+/// it; map each to the table's axes with `position_of`, and integrate each with `estimate` (one
+/// estimate per stored channel) on points independent of the table's.
+#[allow(clippy::too_many_arguments)]
 pub fn exact_values(
     label: &str,
     domains: Vec<Domain>,
     config: &InterpolationConfig,
     seed: u64,
     progress: &dyn Progress,
+    peaks: impl Fn(&Domain) -> Vec<Vec<f64>>,
     position_of: impl Fn(&[f64]) -> Vec<f64>,
     estimate: impl Fn(&PointSet, &[f64]) -> Estimate + Sync,
 ) -> Result<Vec<ExactValues>> {
@@ -172,12 +280,21 @@ pub fn exact_values(
         .enumerate()
         .map(|(d, domain)| {
             let lookups = random_points(&domain.ranges, config.points, seed, 0xD0_0000 + d as u64);
-            let positions: Vec<Vec<f64>> = lookups.iter().map(|l| position_of(l)).collect();
+            let peak_lookups = peaks(&domain);
+            let random = lookups.len();
+            let positions: Vec<Vec<f64>> = lookups.iter().chain(&peak_lookups).map(|l| position_of(l)).collect();
             let cells: Vec<u64> = (0..positions.len() as u64).collect();
-            let exact = estimate_cells(&cells, &format!("{label} interpolation check"), progress, |k| {
+            let mut exact = estimate_cells(&cells, &format!("{label} interpolation check"), progress, |k| {
                 estimate(&points, &positions[k as usize])
             });
-            Ok(ExactValues { domain, lookups, positions, exact, samples_per_point: points.plan().total() })
+            let mut positions = positions;
+            let peaks = peak_lookups
+                .into_iter()
+                .zip(positions.split_off(random))
+                .zip(exact.split_off(random))
+                .map(|((lookup, position), exact)| PeakPoint { lookup, position, exact })
+                .collect();
+            Ok(ExactValues { domain, lookups, positions, exact, samples_per_point: points.plan().total(), peaks })
         })
         .collect()
 }
@@ -190,6 +307,7 @@ pub fn exact_values_of(recipe: &dyn TableRecipe, seed: u64, progress: &dyn Progr
         &recipe.interpolation(),
         seed,
         progress,
+        peak_lookups,
         |lookup| recipe.position_of(lookup),
         |points, position| recipe.exact_value(points, position),
     )
@@ -206,7 +324,10 @@ pub fn compare(
     let mut differences = Vec::with_capacity(exact.positions.len() * channels.len());
     let mut worst = (-1.0f64, String::new());
     let mut standard_error_max = 0.0f64;
-    for ((lookup, position), estimate) in exact.lookups.iter().zip(&exact.positions).zip(&exact.exact) {
+    let random = exact.lookups.iter().zip(&exact.positions).zip(&exact.exact);
+    let peaks = exact.peaks.iter().map(|p| ((&p.lookup, &p.position), &p.exact));
+    let mut random_max = 0.0f64;
+    for (k, ((lookup, position), estimate)) in random.chain(peaks).enumerate() {
         let values = read(position);
         for (c, name) in channels.iter().enumerate() {
             let difference = values[c] - estimate.mean[c];
@@ -219,18 +340,31 @@ pub fn compare(
                     format!("{}, channel {name}: read {:.6}, exact {:.6}", at.join(", "), values[c], estimate.mean[c]),
                 );
             }
-            differences.push(difference);
+            if k < exact.lookups.len() {
+                differences.push(difference);
+                random_max = random_max.max(difference.abs());
+            }
         }
     }
     let magnitudes: Vec<f64> = differences.iter().map(|d| d.abs()).collect();
+    let mut error = ErrorSummary::of_differences(differences);
+    error.max = error.max.max(worst.0);
+    let mut points = format!("{} points {}", exact.positions.len(), exact.domain.describe());
+    if !exact.peaks.is_empty() {
+        points += &format!(
+            "; the max also over {} points where the error peaks (grazing views of the smoothest lobes, the critical angle)",
+            exact.peaks.len()
+        );
+    }
     InterpolationError {
         p99: crate::stats::quantile(&magnitudes, 0.99),
         domain: exact.domain.name.clone(),
-        points: format!("{} points {}", exact.positions.len(), exact.domain.describe()),
+        points,
         read_as: read_as.into(),
         exact_samples: exact.samples_per_point,
         exact_standard_error_max: standard_error_max,
-        error: ErrorSummary::of_differences(differences),
+        error,
+        random_max,
         worst_at: worst.1,
     }
 }
@@ -279,6 +413,7 @@ mod tests {
                 Estimate { mean: vec![3.0, 4.0], standard_error: vec![3e-4, 1e-4] },
             ],
             samples_per_point: 16,
+            peaks: Vec::new(),
         };
         let names = vec!["a".to_string(), "b".to_string()];
         let error = compare(&exact, "test", &names, |p| if p[0] < 0.5 { vec![1.0, 2.5] } else { vec![3.0, 4.0] });
@@ -287,5 +422,55 @@ mod tests {
         assert!((error.error.rms - 0.25).abs() < 1e-15);
         assert_eq!(error.exact_standard_error_max, 3e-4);
         assert!(error.worst_at.starts_with("x 0.100000, channel b"), "{}", error.worst_at);
+    }
+
+    #[test]
+    fn a_point_where_the_error_peaks_adds_to_the_max_and_not_to_the_rms_or_percentile() {
+        let domain = Domain { name: "box".into(), parameters: vec!["x".into()], ranges: vec![[0.0, 1.0]] };
+        let estimate = |mean: f64| Estimate { mean: vec![mean], standard_error: vec![0.0] };
+        let exact = ExactValues {
+            domain,
+            lookups: vec![vec![0.1], vec![0.7]],
+            positions: vec![vec![0.1], vec![0.7]],
+            exact: vec![estimate(1.0), estimate(2.0)],
+            samples_per_point: 16,
+            peaks: vec![PeakPoint { lookup: vec![0.5], position: vec![0.5], exact: estimate(0.0) }],
+        };
+        // Read 0.1 above exact at the random points, 0.9 at the peak.
+        let read = |p: &[f64]| vec![if p[0] == 0.5 { 0.9 } else if p[0] < 0.5 { 1.1 } else { 2.1 }];
+        let error = compare(&exact, "test", &["a".into()], read);
+        assert_eq!(error.error.count, 2);
+        assert_eq!(error.error.max, 0.9);
+        assert!((error.random_max - 0.1).abs() < 1e-15, "{}", error.random_max);
+        assert!((error.error.rms - 0.1).abs() < 1e-15, "{}", error.error.rms);
+        assert!((error.p99 - 0.1).abs() < 1e-15, "{}", error.p99);
+        assert!(error.worst_at.starts_with("x 0.500000"), "{}", error.worst_at);
+        assert!(error.points.contains("1 points where the error peaks"), "{}", error.points);
+    }
+
+    #[test]
+    fn peak_points_follow_the_critical_angle_and_the_grazing_smooth_edge_for_every_seed() {
+        let domain = Domain {
+            name: "onto a rarer medium".into(),
+            parameters: ["mu", "alpha", "eta", "kappa"].map(String::from).to_vec(),
+            ranges: vec![[0.0, 1.0], [0.0, 1.0], [0.0, 1.0], [0.0, 0.0]],
+        };
+        let peaks = peak_lookups(&domain);
+        // Grazing views of the smoothest lobes: mu and alpha at their smallest.
+        assert!(peaks.iter().any(|p| p[0] == 0.0 && p[1] == 0.0), "{peaks:?}");
+        // Along the critical angle: mu just below sqrt(1 - eta^2), for 16 values of eta.
+        let critical: Vec<&Vec<f64>> =
+            peaks.iter().filter(|p| ((1.0 - p[2] * p[2]).sqrt() - p[0] - 0.0008).abs() < 1e-12).collect();
+        assert_eq!(critical.len(), 16 * EDGE_OFFSETS.len(), "{peaks:?}");
+        // Inside the box, never at eta = 1 (no critical angle, and a step no material looks up).
+        for p in &peaks {
+            for (v, [lo, hi]) in p.iter().zip(&domain.ranges) {
+                assert!(lo <= v && v <= hi, "{p:?}");
+            }
+            assert!(p[2] < 1.0, "{p:?}");
+        }
+        // A table without a view cosine and a roughness has none.
+        let other = Domain { name: "x".into(), parameters: vec!["x".into()], ranges: vec![[0.0, 1.0]] };
+        assert!(peak_lookups(&other).is_empty());
     }
 }

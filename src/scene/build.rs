@@ -630,6 +630,8 @@ fn lookup_exact_values(
         config,
         seed ^ 0xACC0,
         progress,
+        // A slice's lookups are sampled where its materials make them; no peak search.
+        |_| Vec::new(),
         |lookup| lookup.to_vec(),
         |points, position| slices.estimate_node(points, position),
     )?
