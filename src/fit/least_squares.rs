@@ -450,7 +450,7 @@ pub const BUILD_STARTS: usize = 1;
 
 /// The build fits on every `BUILD_NODE_STRIDE`-th node along each axis; its figures are over
 /// every node.
-pub const BUILD_NODE_STRIDE: usize = 2;
+pub const BUILD_NODE_STRIDE: usize = 3;
 
 /// Fit [`BUILD_FORM`] to a built TIR table and write its shaders into `dir` as `tir_fit.hlsl` and
 /// `tir_fit.wgsl`. Returns the manifest entry and the shader paths.
@@ -462,7 +462,7 @@ pub fn fit_for_build(
     let grid = fit_grid(table)?;
     let data = FitData::from_table(&grid)?;
     let settings = FitSettings { starts: BUILD_STARTS, seed, ..FitSettings::default() };
-    // Fitted on every other node (an eighth of them), judged on all of them.
+    // Fitted on every third node (a 27th of them), judged on all of them.
     let fitted = fit_form(BUILD_FORM, &FitData::from_table_nodes(&grid, BUILD_NODE_STRIDE)?, &settings)?;
     let mut shaders = Vec::new();
     let mut paths = Vec::new();
