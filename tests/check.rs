@@ -434,3 +434,37 @@ fn ci_formats_state_numbers_as_numbers_and_report_even_a_folder_that_cannot_be_c
     let xml = std::fs::read_to_string(&junit).unwrap();
     assert!(xml.contains("errors=\"1\"") && xml.contains("<error message="), "{xml}");
 }
+
+#[test]
+fn fits_and_every_slice_of_a_kind_are_budgeted_and_strict_mode_fails_what_no_budget_holds() {
+    let dir = tempfile::tempdir().unwrap();
+    let budgets = dir.path().join("budgets.toml");
+    // The CI build's TIR table states its fitted form: its figures are held, and a fit budget on
+    // a table with no fit fails.
+    std::fs::write(&budgets, "[tir]\nmax_fit_rmse = 1e-9\nmax_fit_max = 1.0\n[gd]\nmax_fit_max = 1.0\n").unwrap();
+    let (pass, text) = check(ci_build(), budgets.to_str().unwrap(), &[]);
+    assert!(!pass, "{text}");
+    assert!(text.contains("FAIL tir.dds: fit_rmse is ") && text.contains("ok   tir.dds: fit_max"), "{text}");
+    assert!(text.contains("FAIL -: gd fit present"), "{text}");
+
+    // A scene's slices are named per material; [fgd_slice] holds every FGD slice.
+    let out = dir.path().join("scene");
+    let scene = repo("luts/scenes/copper-pot.toml");
+    let output = tmlut(&["build", "--quiet", "--scene", &scene, "--slice-checks", "none", "--out", out.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    std::fs::write(&budgets, "[fgd_slice]\nmax_replicate_max = 1e-15\n").unwrap();
+    let (pass, text) = check(&out, budgets.to_str().unwrap(), &[]);
+    assert!(!pass, "{text}");
+    let failed: Vec<&str> = text.lines().filter(|l| l.starts_with("FAIL ")).collect();
+    assert!(!failed.is_empty() && failed.iter().all(|l| l.starts_with("FAIL fgd_") && l.contains(": replicate_max is ")), "{text}");
+    assert!(!text.contains("fgd_slice present"), "{text}");
+
+    // --strict: every file that no section holds fails; without it they are checked unbudgeted.
+    std::fs::write(&budgets, "[fgd_slice]\n[tir_slice]\n").unwrap();
+    let (pass, text) = check(&out, budgets.to_str().unwrap(), &[]);
+    assert!(pass, "{text}");
+    let (pass, text) = check(&out, budgets.to_str().unwrap(), &["--strict"]);
+    assert!(!pass, "{text}");
+    assert!(text.contains("FAIL gd.dds: budget is no [gd] section"), "{text}");
+    assert!(!text.lines().any(|l| l.starts_with("FAIL fgd_") || l.starts_with("FAIL tir_")), "{text}");
+}

@@ -111,6 +111,34 @@ fn the_ci_budgets_hold_and_a_tightened_one_fails_naming_figure_and_limit() {
     let output = tmlut(&["check", out.to_str().unwrap(), "--budgets", tight.to_str().unwrap()]);
     assert!(!output.status.success());
     assert!(text(&output).contains("furnace textured present"), "{}", text(&output));
+
+    // Per channel, the total error against the walk, and one material's budget in place of its
+    // scene's: a tight green channel and a tight total fail, each named; the material's own
+    // budget lets the scene's tight table limit pass for it alone.
+    std::fs::write(
+        &tight,
+        "[furnace.copper-pot]\nmax_table_error_per_channel = [1.0, 1e-12, 1.0]\nmax_total_error = 1e-9\n\
+         [furnace.scattering]\nmax_table_error = 1e-12\n[furnace.scattering.materials.scattering-stack]\nmax_table_error = 1.0\n",
+    )
+    .unwrap();
+    let output = tmlut(&["check", out.to_str().unwrap(), "--budgets", tight.to_str().unwrap()]);
+    let said = text(&output);
+    assert_eq!(output.status.code(), Some(1), "{said}");
+    assert!(said.contains("FAIL copper-pot/furnace.json: varnished-copper: table_error_max (G)"), "{said}");
+    assert!(said.contains("ok   copper-pot/furnace.json: varnished-copper: table_error_max (R)"), "{said}");
+    assert!(said.contains("FAIL copper-pot/furnace.json: varnished-copper: total_error_max"), "{said}");
+    let scattering_failures: Vec<&str> =
+        said.lines().filter(|l| l.starts_with("FAIL scattering/furnace.json: ")).collect();
+    assert!(!scattering_failures.iter().any(|l| l.contains("scattering-stack:")), "{said}");
+    assert!(said.contains("ok   scattering/furnace.json: scattering-stack: table_error_max") && said.contains("(<= 1.000e0)"), "{said}");
+
+    // --strict: a scene with no budget fails instead of being reported unchecked.
+    std::fs::write(&tight, "[furnace.copper-pot]\nmax_table_error = 1.0\n").unwrap();
+    let lenient = tmlut(&["check", out.to_str().unwrap(), "--budgets", tight.to_str().unwrap()]);
+    assert!(lenient.status.success(), "{}", text(&lenient));
+    let strict = tmlut(&["check", out.to_str().unwrap(), "--budgets", tight.to_str().unwrap(), "--strict"]);
+    assert_eq!(strict.status.code(), Some(1), "{}", text(&strict));
+    assert!(text(&strict).contains("FAIL scattering/furnace.json: furnace budget is scene `scattering` has none"), "{}", text(&strict));
 }
 
 #[test]

@@ -34,6 +34,11 @@ pub struct CheckArgs {
     /// The same as --format json.
     #[arg(long, conflicts_with = "format")]
     json: bool,
+    /// Fail every file, and every furnace scene, that no budget holds (by its table, its slice
+    /// kind such as `[fgd_slice]`, its scene or `[furnace_every_material]`), instead of reporting
+    /// its figures unchecked.
+    #[arg(long)]
+    strict: bool,
     /// Also write a JUnit XML report to this file (one test case per check; written whole or
     /// not at all, also when the folder cannot be checked).
     #[arg(long, value_name = "FILE")]
@@ -86,9 +91,10 @@ pub fn exec(args: CheckArgs, _: &Context) -> ExitCode {
 
 /// Every finding, or why the folder could not be checked.
 fn findings(args: &CheckArgs) -> tmlut::Result<Vec<check::Finding>> {
-    let budgets = match &args.budgets {
+    let mut budgets = match &args.budgets {
         Some(path) => check::Budgets::from_file(path)?,
         None => check::Budgets::from_toml(check::DEFAULT_BUDGETS, "budgets.toml (built in)")?,
     };
+    budgets.strict = args.strict;
     check::check_folder(&args.dir, &budgets)
 }

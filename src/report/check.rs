@@ -46,6 +46,10 @@ pub struct TableBudget {
     pub max_interpolation_p99: BTreeMap<String, f64>,
     #[serde(default)]
     pub max_interpolation_max: BTreeMap<String, f64>,
+    /// RMSE and largest error of the table's fitted form against its nodes (manifest
+    /// `fit.figures`: TIR with `fit = "best"`).
+    pub max_fit_rmse: Option<f64>,
+    pub max_fit_max: Option<f64>,
 }
 
 /// The furnace budget of one scene (`[furnace.<scene>]`), over every material of it; a missing key
@@ -60,9 +64,17 @@ pub struct FurnaceBudget {
     pub max_model_error: Option<f64>,
     /// Largest standard error of the random walk.
     pub max_walk_standard_error: Option<f64>,
+    /// Largest `|A(tables) - A(walk)|`: what the user sees, tables and model together.
+    pub max_total_error: Option<f64>,
+    /// Largest `|A(tables) - A(exact)|` per channel (R, G, B), beside the one over all channels.
+    pub max_table_error_per_channel: Option<[f64; 3]>,
     /// Lookups read clamped outside their table's range (0 unless stated).
     #[serde(default)]
     pub max_clamped_lookups: u64,
+    /// Budgets of single materials by name (`[furnace.<scene>.materials.<name>]`), each in place of
+    /// the scene's for that material.
+    #[serde(default)]
+    pub materials: BTreeMap<String, FurnaceBudget>,
 }
 
 /// Budgets per table name, and per furnace scene under `[furnace.<scene>]`.
@@ -73,6 +85,10 @@ pub struct Budgets {
     /// `[furnace_every_material]`: the budget of every material of a furnace report whose scene
     /// has no `[furnace.<scene>]` section (a library's materials, a new scene's).
     pub furnace_every_material: Option<FurnaceBudget>,
+    /// Fail a file, or a furnace scene, that no budget holds (`tmlut check --strict`), rather than
+    /// reporting its figures unchecked.
+    #[serde(skip)]
+    pub strict: bool,
 }
 
 /// The section of a budgets file that holds every material without a scene budget.
@@ -106,18 +122,36 @@ impl Budgets {
             tables: toml::Value::Table(document).try_into().map_err(clean)?,
             furnace,
             furnace_every_material,
+            strict: false,
         };
         let every = budgets.furnace_every_material.iter().map(|b| (EVERY_MATERIAL.to_string(), b));
         let scenes = budgets.furnace.iter().map(|(scene, b)| (format!("furnace.{scene}"), b));
-        for (section, budget) in scenes.chain(every) {
+        let mut sections: Vec<(String, &FurnaceBudget)> = scenes.chain(every).collect();
+        let materials: Vec<(String, &FurnaceBudget)> = sections
+            .iter()
+            .flat_map(|(section, b)| b.materials.iter().map(move |(name, m)| (format!("{section}.materials.{name}"), m)))
+            .collect();
+        sections.extend(materials);
+        for (section, budget) in sections {
+            let channels = budget.max_table_error_per_channel.unwrap_or_default();
             check_limits(
                 &format!("{origin}: {section}"),
                 &[
                     ("max_table_error", budget.max_table_error),
                     ("max_model_error", budget.max_model_error),
                     ("max_walk_standard_error", budget.max_walk_standard_error),
+                    ("max_total_error", budget.max_total_error),
+                    ("max_table_error_per_channel[0]", Some(channels[0])),
+                    ("max_table_error_per_channel[1]", Some(channels[1])),
+                    ("max_table_error_per_channel[2]", Some(channels[2])),
                 ],
             )?;
+            if !budget.materials.is_empty() && section.contains(".materials.") {
+                return Err(Error::invalid(
+                    format!("{origin}: {section}"),
+                    "a material's budget holds no further materials; allowed: materials under a scene or furnace_every_material",
+                ));
+            }
         }
         for (table, budget) in &budgets.tables {
             check_limits(
@@ -127,6 +161,8 @@ impl Budgets {
                     ("max_reference_max", budget.max_reference_max),
                     ("max_replicate_rms", budget.max_replicate_rms),
                     ("max_replicate_max", budget.max_replicate_max),
+                    ("max_fit_rmse", budget.max_fit_rmse),
+                    ("max_fit_max", budget.max_fit_max),
                 ],
             )?;
             for (key, limits) in [
@@ -238,12 +274,48 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
     }
     if manifest_path.exists() {
         let manifest = Manifest::read(&manifest_path)?;
+        // A scene's slices are named per material; a budget may hold every slice of a kind
+        // (`[fgd_slice]`, `[tir_slice]`: the plan's kind in lower case, words joined by `_`).
+        let kinds: BTreeMap<&str, String> = manifest
+            .scene
+            .iter()
+            .flat_map(|scene| &scene.plan.tables)
+            .map(|t| (t.name.as_str(), t.kind.to_lowercase().replace(' ', "_")))
+            .collect();
+        let budget_of = |entry: &FileEntry| {
+            budgets.tables.get(&entry.table).or_else(|| kinds.get(entry.table.as_str()).and_then(|k| budgets.tables.get(k)))
+        };
         for (file, entry) in &manifest.files {
-            check_file(dir, file, entry, budgets, &mut findings);
+            let budget = budget_of(entry);
+            if budget.is_none() && budgets.strict {
+                findings.push(Finding {
+                    file: file.clone(),
+                    check: "budget".into(),
+                    value: format!("no [{}] section (nor one of its kind)", entry.table),
+                    limit: "every file held to a budget (--strict)".into(),
+                    pass: false,
+                    measured: None,
+                    at_most: None,
+                });
+            }
+            check_file(dir, file, entry, &budget.cloned().unwrap_or_default(), &mut findings);
         }
         check_shaders(dir, &manifest, &mut findings);
-        for table in budgets.tables.keys() {
-            if !manifest.files.values().any(|e| &e.table == table) {
+        for (table, budget) in &budgets.tables {
+            let fitted = manifest.files.values().any(|e| &e.table == table && e.fit.is_some());
+            if (budget.max_fit_rmse.is_some() || budget.max_fit_max.is_some()) && !fitted {
+                findings.push(Finding {
+                    file: "-".into(),
+                    check: format!("{table} fit present"),
+                    value: "no entry of this table states a fitted form".into(),
+                    limit: "a table with a fit budget must be fitted".into(),
+                    pass: false,
+                    measured: None,
+                    at_most: None,
+                });
+            }
+            let kind_built = kinds.values().any(|k| k == table);
+            if !kind_built && !manifest.files.values().any(|e| &e.table == table) {
                 findings.push(Finding {
                     file: "-".into(),
                     check: format!("{table} present"),
@@ -332,6 +404,7 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 unbudgeted.insert(scene.to_string());
                 continue;
             };
+            let budget = budget.materials.get(&material.name).unwrap_or(budget);
             let file = format!("{file}: {}", material.name);
             let mut at_most = |check: &str, value: Option<f64>, limit: Option<f64>| {
                 if let Some(limit) = limit {
@@ -363,6 +436,11 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
             at_most("table_error_max", Some(errors.table.max_all), budget.max_table_error);
             at_most("model_error_max", errors.model.as_ref().map(|m| m.max_all), budget.max_model_error);
             at_most("walk_standard_error_max", material.walk_standard_error_max(), budget.max_walk_standard_error);
+            at_most("total_error_max", errors.total.as_ref().map(|t| t.max_all), budget.max_total_error);
+            for (channel, name) in ["R", "G", "B"].iter().enumerate() {
+                let limit = budget.max_table_error_per_channel.map(|limits| limits[channel]);
+                at_most(&format!("table_error_max ({name})"), Some(errors.table.max[channel]), limit);
+            }
             findings.push(Finding {
                 file: file.clone(),
                 check: "clamped_lookups".into(),
@@ -381,8 +459,12 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 file: file.clone(),
                 check: "furnace budget".into(),
                 value: format!("scene `{scene}` has none"),
-                limit: format!("none set, and no [{EVERY_MATERIAL}]: figures reported in furnace.json only"),
-                pass: true,
+                limit: if budgets.strict {
+                    format!("a [furnace.{scene}] or [{EVERY_MATERIAL}] budget (--strict)")
+                } else {
+                    format!("none set, and no [{EVERY_MATERIAL}]: figures reported in furnace.json only")
+                },
+                pass: !budgets.strict,
                 measured: None,
                 at_most: None,
             });
@@ -426,7 +508,7 @@ fn worst_table_errors(file: &str, report: &FurnaceReport) -> Finding {
     }
 }
 
-fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, findings: &mut Vec<Finding>) {
+fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, findings: &mut Vec<Finding>) {
     // `numbers`: the measured figure and the largest allowed, where both are numbers.
     let mut record = |check: &str, value: String, limit: String, pass: bool, numbers: Option<(f64, f64)>| {
         let (measured, at_most) = numbers.map_or((None, None), |(m, l)| (Some(m), Some(l)));
@@ -462,7 +544,6 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
                 );
     record("bytes", bytes.len().to_string(), entry.bytes.to_string(), bytes.len() as u64 == entry.bytes, None);
 
-    let budget = budgets.tables.get(&entry.table).cloned().unwrap_or_default();
     // Values are read back from the file itself, not taken from the manifest; the manifest's own
     // figures are held to them.
     let table = crate::loader::format_of_bytes(&path, &bytes)
@@ -537,6 +618,12 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budgets: &Budgets, find
     at_most("reference_max", reference.map(|d| d.max), budget.max_reference_max);
     at_most("replicate_rms", Some(integration.replicate_standard_error.rms), budget.max_replicate_rms);
     at_most("replicate_max", Some(integration.replicate_standard_error.max), budget.max_replicate_max);
+    // The entry that states the table's fit carries its figures (a fit budget with no fit in
+    // the whole manifest fails in check_folder).
+    if let Some(fit) = entry.fit.as_ref().map(|f| &f.figures) {
+        at_most("fit_rmse", Some(fit.rmse), budget.max_fit_rmse);
+        at_most("fit_max", Some(fit.max_abs_error), budget.max_fit_max);
+    }
     for (figure, limits) in [
         ("rms", &budget.max_interpolation_rms),
         ("p99", &budget.max_interpolation_p99),
