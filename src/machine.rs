@@ -25,7 +25,8 @@ pub fn memory_limit() -> Option<MemoryLimit> {
     if let Some(bytes) = read("/proc/self/limits").as_deref().and_then(address_space_limit) {
         limits.push(MemoryLimit { bytes, source: "the process's address-space limit (ulimit -v)".into() });
     }
-    if let Some(limit) = read("/proc/self/cgroup").as_deref().and_then(|c| control_group_limit(c, Path::new("/sys/fs/cgroup")))
+    if let Some(limit) =
+        read("/proc/self/cgroup").as_deref().and_then(|c| control_group_limit(c, Path::new("/sys/fs/cgroup")))
     {
         limits.push(limit);
     }
@@ -52,7 +53,8 @@ fn control_group_limit(cgroup: &str, root: &Path) -> Option<MemoryLimit> {
     let mut found: Option<MemoryLimit> = None;
     let mut keep = |bytes: u64, file: &Path| {
         if found.as_ref().is_none_or(|f| bytes < f.bytes) {
-            found = Some(MemoryLimit { bytes, source: format!("the control group's memory limit ({})", file.display()) });
+            found =
+                Some(MemoryLimit { bytes, source: format!("the control group's memory limit ({})", file.display()) });
         }
     };
     for line in cgroup.lines() {

@@ -28,7 +28,11 @@ impl ErrorSummary {
     pub fn pooled(&self, other: &ErrorSummary) -> Self {
         let count = self.count + other.count;
         let sum2 = self.rms * self.rms * self.count as f64 + other.rms * other.rms * other.count as f64;
-        ErrorSummary { count, rms: if count == 0 { 0.0 } else { (sum2 / count as f64).sqrt() }, max: self.max.max(other.max) }
+        ErrorSummary {
+            count,
+            rms: if count == 0 { 0.0 } else { (sum2 / count as f64).sqrt() },
+            max: self.max.max(other.max),
+        }
     }
 }
 
@@ -63,7 +67,10 @@ impl ErrorRecord {
             (Some(a), _) => Some(a.clone()),
             (None, b) => b.clone(),
         };
-        ErrorRecord { replicate_standard_error: self.replicate_standard_error.pooled(&other.replicate_standard_error), reference }
+        ErrorRecord {
+            replicate_standard_error: self.replicate_standard_error.pooled(&other.replicate_standard_error),
+            reference,
+        }
     }
 }
 

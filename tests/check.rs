@@ -95,7 +95,11 @@ fn the_ci_budgets_hold_for_other_seeds() {
             compared += 1;
         }
     }
-    assert!(compared * 10 >= maxima[0].len() * 9, "{compared} of {} maxima found where the error peaks", maxima[0].len());
+    assert!(
+        compared * 10 >= maxima[0].len() * 9,
+        "{compared} of {} maxima found where the error peaks",
+        maxima[0].len()
+    );
 }
 
 /// `(file: domain, max, max over the random points)` of every interpolation figure of a build's
@@ -238,8 +242,7 @@ fn claims_a_file_cannot_state_are_held_to_the_seal_of_the_build() {
     // The same manifest rewritten with other whitespace and key order keeps every seal.
     let (_dir, out) = copy_with_manifest(|m| {
         let files = m["files"].as_object_mut().unwrap();
-        let reordered: serde_json::Map<String, serde_json::Value> =
-            std::mem::take(files).into_iter().rev().collect();
+        let reordered: serde_json::Map<String, serde_json::Value> = std::mem::take(files).into_iter().rev().collect();
         *files = reordered;
     });
     let (pass, text) = check(&out, &repo("luts/ci-budgets.toml"), &[]);
@@ -425,8 +428,7 @@ fn ci_formats_state_numbers_as_numbers_and_report_even_a_folder_that_cannot_be_c
     // A folder that cannot be checked: exit 2, and still a JSON report and a JUnit error case.
     let missing = out.parent().unwrap().join("no such folder");
     let junit = out.parent().unwrap().join("error.xml");
-    let output =
-        tmlut(&["check", missing.to_str().unwrap(), "--json", "--junit", junit.to_str().unwrap()]);
+    let output = tmlut(&["check", missing.to_str().unwrap(), "--json", "--junit", junit.to_str().unwrap()]);
     assert_eq!(output.status.code(), Some(2));
     let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(report["status"], "error");
@@ -450,13 +452,17 @@ fn fits_and_every_slice_of_a_kind_are_budgeted_and_strict_mode_fails_what_no_bud
     // A scene's slices are named per material; [fgd_slice] holds every FGD slice.
     let out = dir.path().join("scene");
     let scene = repo("luts/scenes/copper-pot.toml");
-    let output = tmlut(&["build", "--quiet", "--scene", &scene, "--slice-checks", "none", "--out", out.to_str().unwrap()]);
+    let output =
+        tmlut(&["build", "--quiet", "--scene", &scene, "--slice-checks", "none", "--out", out.to_str().unwrap()]);
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     std::fs::write(&budgets, "[fgd_slice]\nmax_replicate_max = 1e-15\n").unwrap();
     let (pass, text) = check(&out, budgets.to_str().unwrap(), &[]);
     assert!(!pass, "{text}");
     let failed: Vec<&str> = text.lines().filter(|l| l.starts_with("FAIL ")).collect();
-    assert!(!failed.is_empty() && failed.iter().all(|l| l.starts_with("FAIL fgd_") && l.contains(": replicate_max is ")), "{text}");
+    assert!(
+        !failed.is_empty() && failed.iter().all(|l| l.starts_with("FAIL fgd_") && l.contains(": replicate_max is ")),
+        "{text}"
+    );
     assert!(!text.contains("fgd_slice present"), "{text}");
 
     // --strict: every file that no section holds fails; without it they are checked unbudgeted.

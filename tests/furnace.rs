@@ -130,7 +130,11 @@ fn the_ci_budgets_hold_and_a_tightened_one_fails_naming_figure_and_limit() {
     let scattering_failures: Vec<&str> =
         said.lines().filter(|l| l.starts_with("FAIL scattering/furnace.json: ")).collect();
     assert!(!scattering_failures.iter().any(|l| l.contains("scattering-stack:")), "{said}");
-    assert!(said.contains("ok   scattering/furnace.json: scattering-stack: table_error_max") && said.contains("(<= 1.000e0)"), "{said}");
+    assert!(
+        said.contains("ok   scattering/furnace.json: scattering-stack: table_error_max")
+            && said.contains("(<= 1.000e0)"),
+        "{said}"
+    );
 
     // --strict: a scene with no budget fails instead of being reported unchecked.
     std::fs::write(&tight, "[furnace.copper-pot]\nmax_table_error = 1.0\n").unwrap();
@@ -138,7 +142,11 @@ fn the_ci_budgets_hold_and_a_tightened_one_fails_naming_figure_and_limit() {
     assert!(lenient.status.success(), "{}", text(&lenient));
     let strict = tmlut(&["check", out.to_str().unwrap(), "--budgets", tight.to_str().unwrap(), "--strict"]);
     assert_eq!(strict.status.code(), Some(1), "{}", text(&strict));
-    assert!(text(&strict).contains("FAIL scattering/furnace.json: furnace budget is scene `scattering` has none"), "{}", text(&strict));
+    assert!(
+        text(&strict).contains("FAIL scattering/furnace.json: furnace budget is scene `scattering` has none"),
+        "{}",
+        text(&strict)
+    );
 }
 
 #[test]

@@ -2,8 +2,9 @@
 //! one file at a time — truncated, bit-flipped, overwritten, its header made to lie about sizes and
 //! formats, its manifest made to lie about the files — and `tmlut check` and `tmlut inspect` read
 //! it, each run in its own process under a memory and a time limit (`common`). Configurations and
-//! scenes are mutated and planned the same way. Nothing may panic, abort or hang, and no damaged
-//! table may pass `check`.
+//! scenes are mutated and planned the same way; commit journals that name paths outside the folder
+//! are handed to `tmlut build`, which must refuse them and touch nothing. Nothing may panic, abort
+//! or hang, and no damaged table may pass `check`.
 //!
 //! `FUZZ_CASES` sets the number of cases (default 3000), `FUZZ_SEED` the seed.
 
@@ -30,6 +31,7 @@ enum Reader {
     Shader,
     Manifest,
     Journal,
+    HostileJournal,
     Config,
     Scene,
 }
@@ -410,6 +412,15 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
                 let (what, bytes, _) = manifest_lie(&mut rng, &manifest);
                 Case { reader: Reader::Manifest, what, file: "manifest.json".into(), check_must_fail: true, bytes }
             }
+        } else if roll < 80 {
+            let (what, bytes) = hostile_journal(&mut rng);
+            Case {
+                reader: Reader::HostileJournal,
+                what,
+                file: ".tmlut-commit.json".into(),
+                check_must_fail: true,
+                bytes,
+            }
         } else if roll < 81 {
             let journal =
                 serde_json::json!({"staging": ".tmlut-staging-1", "moves": [{"staged": "x", "destination": "gd.bin"}]});
@@ -423,6 +434,9 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
         } else if roll < 93 {
             let (what, bytes) = toml_damage(&mut rng, config);
             Case { reader: Reader::Config, what, file: "config.toml".into(), check_must_fail: false, bytes }
+        } else if next(&mut rng, 3) == 0 {
+            let (what, bytes) = hostile_names(&mut rng, scene);
+            Case { reader: Reader::Scene, what, file: "scene.toml".into(), check_must_fail: false, bytes }
         } else {
             let (what, bytes) = toml_damage(&mut rng, scene);
             Case { reader: Reader::Scene, what, file: "scene.toml".into(), check_must_fail: false, bytes }
@@ -432,11 +446,97 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
     all
 }
 
+/// The scene with its own name or a material's replaced by one that names a path, collides with
+/// another as a file name, is empty, too long, or not text a file system takes.
+fn hostile_names(rng: &mut Pcg64Mcg, scene: &str) -> (String, Vec<u8>) {
+    let long = "n".repeat(300);
+    let names = [
+        "../victim",
+        "/etc/passwd",
+        "a/b",
+        "",
+        ".",
+        "..",
+        "con",
+        "table0",
+        "finite-or",
+        "Worn-Gold",
+        "worn gold",
+        "glazed-ceramic",
+        &long,
+        r"tab\there",
+        r"\u0000",
+        "é⁄∕",
+    ];
+    let name = *pick(rng, &names);
+    let which = next(rng, 3);
+    let mut seen = 0;
+    let text: Vec<String> = scene
+        .lines()
+        .map(|line| {
+            if line.starts_with("name = ") {
+                seen += 1;
+                if seen == which + 1 {
+                    return format!("name = \"{name}\"");
+                }
+            }
+            line.to_string()
+        })
+        .collect();
+    (format!("name {which} = {name:?}"), (text.join("\n") + "\n").into_bytes())
+}
+
+/// Stands for the absolute path of a file outside the folder, filled in where the case runs.
+const VICTIM: &str = "{VICTIM}";
+
+/// A commit journal that names a path outside the folder (absolute, climbing out with `..`, or
+/// through a folder that is not there) as a staged file, a destination, a removal or the staging
+/// folder, the rest of it well formed.
+fn hostile_journal(rng: &mut Pcg64Mcg) -> (String, Vec<u8>) {
+    let paths = [VICTIM, "../victim.txt", "./../victim.txt", "a/../../victim.txt", "..", "/", "../luts/../victim.txt"];
+    let path = *pick(rng, &paths);
+    let benign_move = serde_json::json!({"staged": "gd.dds", "destination": "gd.dds"});
+    let (place, journal) = match next(rng, 4) {
+        0 => ("removal", serde_json::json!({"staging": ".tmlut-staging-1", "moves": [], "removals": [path]})),
+        1 => (
+            "move destination",
+            serde_json::json!({"staging": ".tmlut-staging-1", "moves": [{"staged": "gd.dds", "destination": path}]}),
+        ),
+        2 => (
+            "staged file",
+            serde_json::json!({"staging": ".tmlut-staging-1", "moves": [{"staged": path, "destination": "gd.dds"}]}),
+        ),
+        _ => ("staging folder", serde_json::json!({"staging": path, "moves": [benign_move], "removals": ["gd.dds"]})),
+    };
+    (format!("{place} {path}"), serde_json::to_vec(&journal).unwrap())
+}
+
 /// Run one case in `work` (a copy of the folder, with `config.toml` and `scene.toml` beside it)
 /// and put the file back. Returns each run's ending and whether a damaged folder was accepted.
-fn run_case(case: &Case, work: &Path, folder: &Path, budgets: &Path) -> (Vec<common::Run>, bool) {
+fn run_case(case: &Case, work: &Path, folder: &Path, built: &Path, budgets: &Path) -> (Vec<common::Run>, bool) {
     let folder_arg = folder.to_str().unwrap();
     match case.reader {
+        Reader::HostileJournal => {
+            // A build completes a journal before it builds: it must refuse this one and touch
+            // nothing outside the folder (nor, refusing, inside it).
+            let victim = work.join("victim.txt");
+            std::fs::write(&victim, "not tmlut's").unwrap();
+            let text = String::from_utf8(case.bytes.clone()).unwrap().replace(VICTIM, victim.to_str().unwrap());
+            std::fs::write(folder.join(&case.file), text).unwrap();
+            let before = snapshot(folder);
+            let config = work.join("config.toml");
+            let build = run_limited(
+                &["build", "-q", "--only", "gd", "--config", config.to_str().unwrap(), "--out", folder_arg],
+                TIME_LIMIT,
+            );
+            let lost = std::fs::read(&victim).ok().as_deref() != Some(b"not tmlut's".as_slice())
+                || build.ending == Ending::Success
+                || snapshot(folder) != before;
+            // Back to the built folder for the next case.
+            std::fs::remove_dir_all(folder).unwrap();
+            copy_folder(built, folder);
+            (vec![build], lost)
+        }
         Reader::Config | Reader::Scene => {
             let path = work.join(&case.file);
             let original = std::fs::read(&path).unwrap();
@@ -490,6 +590,17 @@ fn row(reader: &str, tally: &Tally) -> String {
     )
 }
 
+/// Every file of a folder (not its subfolders) with its bytes, sorted by name.
+fn snapshot(dir: &Path) -> Vec<(std::ffi::OsString, Vec<u8>)> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| (e.file_name(), std::fs::read(e.path()).unwrap_or_default()))
+        .collect();
+    files.sort();
+    files
+}
+
 fn copy_folder(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for entry in std::fs::read_dir(from).unwrap().flatten() {
@@ -522,7 +633,7 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
                 std::fs::write(work.join("config.toml"), config).unwrap();
                 std::fs::write(work.join("scene.toml"), scene).unwrap();
                 for case in cases.iter().skip(worker).step_by(workers) {
-                    let (runs, lost) = run_case(case, &work, &folder, budgets);
+                    let (runs, lost) = run_case(case, &work, &folder, built, budgets);
                     let mut tallies = tallies.lock().unwrap();
                     let tally = tallies.entry(case.reader).or_default();
                     tally.cases += 1;

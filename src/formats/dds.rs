@@ -18,7 +18,8 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::formats::{
-    Precision, StoredTexture, TextureShape, put_texels, read_bytes, texel_values, texture_extents, write_bytes_atomically,
+    Precision, StoredTexture, TextureShape, put_texels, read_bytes, texel_values, texture_extents,
+    write_bytes_atomically,
 };
 use crate::table::Table;
 

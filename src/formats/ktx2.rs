@@ -36,8 +36,8 @@ use ::ktx2::{Format, Header, Index, LevelIndex};
 use crate::error::{Error, Result};
 use crate::formats::manifest::AxisEntry;
 use crate::formats::{
-    LAYER_AXIS, Precision, StoredTexture, TextureShape, as_format_error, put_texels, read_bytes, texel_values, texture_extents,
-    write_bytes_atomically,
+    LAYER_AXIS, Precision, StoredTexture, TextureShape, as_format_error, put_texels, read_bytes, texel_values,
+    texture_extents, write_bytes_atomically,
 };
 use crate::table::{Channel, Table};
 

@@ -16,8 +16,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::manifest::{AxisEntry, ErrorEntry};
 use super::LAYER_AXIS;
+use super::manifest::{AxisEntry, ErrorEntry};
 use crate::error::{Error, Result};
 use crate::stats::AccuracyReport;
 use crate::table::{Axis, Channel, Table};
@@ -173,7 +173,12 @@ pub fn pack(name: &str, slices: &[&Table], channels: Vec<Channel>) -> Result<(Ta
         if slice.channels.len() != c || slice.axes.len() != 2 {
             return Err(Error::invalid(
                 format!("texture array `{name}`"),
-                format!("slice `{}` has {} axes and {} channels; it needs 2 and {c}", slice.name, slice.axes.len(), slice.channels.len()),
+                format!(
+                    "slice `{}` has {} axes and {} channels; it needs 2 and {c}",
+                    slice.name,
+                    slice.axes.len(),
+                    slice.channels.len()
+                ),
             ));
         }
         let [nx, ny] = [slice.axes[0].count, slice.axes[1].count];
@@ -198,7 +203,8 @@ pub fn pack(name: &str, slices: &[&Table], channels: Vec<Channel>) -> Result<(Ta
 /// table of its own axes and channels. Fails, naming the slice, where the manifest places it
 /// outside the array.
 pub fn unpack(array: &Table, slice: &ArraySlice) -> Result<Table> {
-    let refuse = |what: String| Error::invalid(format!("slice `{}` of texture array `{}`", slice.table, array.name), what);
+    let refuse =
+        |what: String| Error::invalid(format!("slice `{}` of texture array `{}`", slice.table, array.name), what);
     let axes = slice.axes();
     if array.axes.len() != 3 || axes.len() != 2 || slice.channels.len() != array.channels.len() {
         return Err(refuse(format!(
@@ -235,10 +241,7 @@ pub fn texture_coordinate_formula(axis: &Axis, origin: u32, extent: usize) -> St
     let m1 = axis.mapping.forward(axis.end);
     let mapped = axis.mapping.formula(&axis.name);
     let minus_m0 = if m0 < 0.0 { format!("+ {}", -m0) } else { format!("- {m0}") };
-    format!(
-        "({origin} + 0.5 + clamp(({mapped} {minus_m0}) / ({m1} {minus_m0}), 0, 1) * {}) / {extent}",
-        axis.count - 1
-    )
+    format!("({origin} + 0.5 + clamp(({mapped} {minus_m0}) / ({m1} {minus_m0}), 0, 1) * {}) / {extent}", axis.count - 1)
 }
 
 /// The texture coordinate of value `x` along `axis` of a slice in an array, as

@@ -437,7 +437,6 @@ pub fn table_disagreements(entry: &FileEntry, format: FileFormat, bytes: &[u8], 
     found
 }
 
-
 /// The format of a file, from its first bytes (see [`format_of`]).
 pub fn format_of_bytes(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
     let magic: [u8; 4] = bytes.get(..4).and_then(|m| m.try_into().ok()).unwrap_or_default();

@@ -437,7 +437,15 @@ mod tests {
             peaks: vec![PeakPoint { lookup: vec![0.5], position: vec![0.5], exact: estimate(0.0) }],
         };
         // Read 0.1 above exact at the random points, 0.9 at the peak.
-        let read = |p: &[f64]| vec![if p[0] == 0.5 { 0.9 } else if p[0] < 0.5 { 1.1 } else { 2.1 }];
+        let read = |p: &[f64]| {
+            vec![if p[0] == 0.5 {
+                0.9
+            } else if p[0] < 0.5 {
+                1.1
+            } else {
+                2.1
+            }]
+        };
         let error = compare(&exact, "test", &["a".into()], read);
         assert_eq!(error.error.count, 2);
         assert_eq!(error.error.max, 0.9);

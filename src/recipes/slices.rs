@@ -448,21 +448,29 @@ pub fn integrate_batch_among(
             })
             .collect();
         // The stored values of drawn slices: integrated here, or on their own for the check.
-        let here: std::collections::HashMap<&str, usize> = members.iter().map(|&s| (slices[s].name.as_str(), s)).collect();
-        let mut outsiders: Vec<&Slices> = located.iter().map(|&(p, _)| everyone[p]).filter(|p| !here.contains_key(p.name.as_str())).collect();
+        let here: std::collections::HashMap<&str, usize> =
+            members.iter().map(|&s| (slices[s].name.as_str(), s)).collect();
+        let mut outsiders: Vec<&Slices> =
+            located.iter().map(|&(p, _)| everyone[p]).filter(|p| !here.contains_key(p.name.as_str())).collect();
         outsiders.sort_by(|a, b| a.name.cmp(&b.name));
         outsiders.dedup_by(|a, b| a.name == b.name);
         let outsider_tables = integrate_tables(&outsiders, seed, progress)?.tables;
         let table_of = |slice: &Slices| -> &Table {
             match here.get(slice.name.as_str()) {
                 Some(&s) => &integrated.tables[s],
-                None => &outsider_tables[outsiders.iter().position(|o| o.name == slice.name).expect("integrated above")],
+                None => {
+                    &outsider_tables[outsiders.iter().position(|o| o.name == slice.name).expect("integrated above")]
+                }
             }
         };
         let reference_points = super::reference_points(reference.samples, seed)?;
         let numbers: Vec<u64> = (0..located.len() as u64).collect();
-        let label =
-            format!("{} slices reference ({} cells across {} slices)", first.table_name(), located.len(), everyone.len());
+        let label = format!(
+            "{} slices reference ({} cells across {} slices)",
+            first.table_name(),
+            located.len(),
+            everyone.len()
+        );
         let differences: Vec<Vec<f64>> = crate::integrate::estimate_cells(&numbers, &label, progress, |n| {
             let (p, cell) = located[n as usize];
             let table = table_of(everyone[p]);

@@ -129,7 +129,9 @@ impl Budgets {
         let mut sections: Vec<(String, &FurnaceBudget)> = scenes.chain(every).collect();
         let materials: Vec<(String, &FurnaceBudget)> = sections
             .iter()
-            .flat_map(|(section, b)| b.materials.iter().map(move |(name, m)| (format!("{section}.materials.{name}"), m)))
+            .flat_map(|(section, b)| {
+                b.materials.iter().map(move |(name, m)| (format!("{section}.materials.{name}"), m))
+            })
             .collect();
         sections.extend(materials);
         for (section, budget) in sections {
@@ -283,7 +285,10 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
             .map(|t| (t.name.as_str(), t.kind.to_lowercase().replace(' ', "_")))
             .collect();
         let budget_of = |entry: &FileEntry| {
-            budgets.tables.get(&entry.table).or_else(|| kinds.get(entry.table.as_str()).and_then(|k| budgets.tables.get(k)))
+            budgets
+                .tables
+                .get(&entry.table)
+                .or_else(|| kinds.get(entry.table.as_str()).and_then(|k| budgets.tables.get(k)))
         };
         for (file, entry) in &manifest.files {
             let budget = budget_of(entry);
@@ -540,8 +545,8 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, f
         claims.clone().unwrap_or_else(|e| e),
         "the entry as the build sealed it (claims_sha256)".into(),
         claims.is_ok(),
-                    None,
-                );
+        None,
+    );
     record("bytes", bytes.len().to_string(), entry.bytes.to_string(), bytes.len() as u64 == entry.bytes, None);
 
     // Values are read back from the file itself, not taken from the manifest; the manifest's own
@@ -556,8 +561,8 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, f
                 if disagreements.is_empty() { "agrees with the file".into() } else { disagreements.join("; ") },
                 "format, axes, channels, value range and NaN count as the file holds them".into(),
                 disagreements.is_empty(),
-                    None,
-                );
+                None,
+            );
             if let Some(array) = &entry.slice_array {
                 // Every slice the manifest places in the array lies inside it, with its own value range.
                 let problems: Vec<String> = array
@@ -570,7 +575,10 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, f
                             let stored = [stats.min, stats.max];
                             let rounded = stated.map(|v| entry.precision.round(v));
                             (rounded != stored).then(|| {
-                                format!("slice `{}` holds [{}, {}], its entry states {stated:?}", slice.table, stored[0], stored[1])
+                                format!(
+                                    "slice `{}` holds [{}, {}], its entry states {stated:?}",
+                                    slice.table, stored[0], stored[1]
+                                )
                             })
                         }
                         Err(e) => Some(e.to_string()),
@@ -590,7 +598,13 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, f
             }
             let stats = table.stats();
             let non_finite = stats.nan_count + stats.infinite_count;
-            record("nan_count", non_finite.to_string(), format!("<= {}", budget.max_nan), non_finite <= budget.max_nan, Some((non_finite as f64, budget.max_nan as f64)));
+            record(
+                "nan_count",
+                non_finite.to_string(),
+                format!("<= {}", budget.max_nan),
+                non_finite <= budget.max_nan,
+                Some((non_finite as f64, budget.max_nan as f64)),
+            );
             if let Some([lo, hi]) = budget.value_range {
                 let inside = stats.min >= lo && stats.max <= hi;
                 record(
@@ -660,7 +674,15 @@ fn check_shaders(dir: &Path, manifest: &Manifest, findings: &mut Vec<Finding>) {
     let seen: std::collections::BTreeSet<(&str, &str, Option<u64>)> = listed.collect();
     for (file, stated, stated_bytes) in seen {
         let mut record = |check: &str, value: String, limit: String, pass: bool| {
-            findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass, measured: None, at_most: None })
+            findings.push(Finding {
+                file: file.into(),
+                check: check.into(),
+                value,
+                limit,
+                pass,
+                measured: None,
+                at_most: None,
+            })
         };
         if let Err(reason) = check_file_name(file) {
             record("shader sha256", reason, stated.into(), false);

@@ -13,10 +13,10 @@ use super::Scene;
 use super::cache::SliceCache;
 use super::plan::{Plan, PlannedBuild, plan};
 use crate::config::{Config, OutputConfig};
-use crate::formats::Precision;
-use crate::formats::slice_array::{self, SliceArrayEntry};
 use crate::error::{Error, Result};
+use crate::formats::Precision;
 use crate::formats::manifest::SceneRecord;
+use crate::formats::slice_array::{self, SliceArrayEntry};
 use crate::integrate::Progress;
 use crate::pipeline::{Job, WrittenFile, sha256_hex, write_jobs};
 use crate::recipes::TableRecipe;
@@ -64,7 +64,10 @@ impl Shard {
     pub fn parse(text: &str) -> std::result::Result<Shard, String> {
         let refuse = || format!("`{text}` is not a shard: give I/N, the I-th of N parts, 1 <= I <= N <= {MAX_SHARDS}");
         let (index, count) = text.split_once('/').ok_or_else(refuse)?;
-        let (index, count) = (index.trim().parse::<usize>().map_err(|_| refuse())?, count.trim().parse::<usize>().map_err(|_| refuse())?);
+        let (index, count) = (
+            index.trim().parse::<usize>().map_err(|_| refuse())?,
+            count.trim().parse::<usize>().map_err(|_| refuse())?,
+        );
         if index == 0 || index > count || count > MAX_SHARDS {
             return Err(refuse());
         }
@@ -370,66 +373,68 @@ pub fn build_scene(
 
     let jobs: Vec<Job> = array_jobs
         .into_iter()
-        .chain(plan.tables.iter().filter(|t| !(arrays && matches!(t.build, PlannedBuild::Slices(_)))).map(|planned| match &planned.build {
-            PlannedBuild::Slices(slices) if batch.contains_key(&slices.name) => Job {
-                run: Box::new(move |_| Ok(batch[&slices.name].clone())),
-                output: slices.output(),
-                packings: Vec::new(),
-                packing_formats: Vec::new(),
-                fit_seed: None,
-                slice_array: None,
-            },
-            PlannedBuild::Slices(slices) => {
-                // Built above for every kind of slice planned, where accuracy is reported.
-                let full = match slices.of {
-                    SliceOf::Fgd(_) => full_fgd.as_ref(),
-                    SliceOf::Tir(_) => full_tir.as_ref(),
-                };
-                Job {
-                    run: Box::new(move |progress| checked_slice(slices, full, seed, progress)),
+        .chain(plan.tables.iter().filter(|t| !(arrays && matches!(t.build, PlannedBuild::Slices(_)))).map(|planned| {
+            match &planned.build {
+                PlannedBuild::Slices(slices) if batch.contains_key(&slices.name) => Job {
+                    run: Box::new(move |_| Ok(batch[&slices.name].clone())),
                     output: slices.output(),
                     packings: Vec::new(),
                     packing_formats: Vec::new(),
                     fit_seed: None,
                     slice_array: None,
-                }
-            }
-            other => {
-                let recipe = other.recipe().expect("every other planned build is a full recipe");
-                let (packings, packing_formats) = match other {
-                    PlannedBuild::Fgd(settings) => (settings.packings.clone(), settings.packing_formats.clone()),
-                    _ => (Vec::new(), Vec::new()),
-                };
-                // A TIR table over a sub-range is not what the analytic forms are fitted to: only
-                // the full table of the fitted-form item is, and that table is not written.
-                let (output, fit_seed) = match other {
-                    PlannedBuild::TirFit(settings) => {
-                        (OutputConfig { formats: Vec::new(), precision: settings.output.precision }, Some(seed))
+                },
+                PlannedBuild::Slices(slices) => {
+                    // Built above for every kind of slice planned, where accuracy is reported.
+                    let full = match slices.of {
+                        SliceOf::Fgd(_) => full_fgd.as_ref(),
+                        SliceOf::Tir(_) => full_tir.as_ref(),
+                    };
+                    Job {
+                        run: Box::new(move |progress| checked_slice(slices, full, seed, progress)),
+                        output: slices.output(),
+                        packings: Vec::new(),
+                        packing_formats: Vec::new(),
+                        fit_seed: None,
+                        slice_array: None,
                     }
-                    _ => (recipe.output().clone(), None),
-                };
-                // A full table is kept in the cache too (GD, read by every 6-flux library, and the
-                // sub-range tables): a build of an unchanged library then integrates nothing.
-                let key = cache.as_ref().and(table_key(other, seed));
-                let not_in_shards = &not_in_shards;
-                Job {
-                    run: Box::new(move |progress| {
-                        let (Some(cache), Some(key)) = (cache, &key) else { return recipe.build(seed, progress) };
-                        if let Some(build) = cache.get_by_key(key, &recipe.axes()?) {
-                            return Ok(build);
+                }
+                other => {
+                    let recipe = other.recipe().expect("every other planned build is a full recipe");
+                    let (packings, packing_formats) = match other {
+                        PlannedBuild::Fgd(settings) => (settings.packings.clone(), settings.packing_formats.clone()),
+                        _ => (Vec::new(), Vec::new()),
+                    };
+                    // A TIR table over a sub-range is not what the analytic forms are fitted to: only
+                    // the full table of the fitted-form item is, and that table is not written.
+                    let (output, fit_seed) = match other {
+                        PlannedBuild::TirFit(settings) => {
+                            (OutputConfig { formats: Vec::new(), precision: settings.output.precision }, Some(seed))
                         }
-                        if merging {
-                            return Err(not_in_shards(recipe.name()));
-                        }
-                        let build = recipe.build(seed, progress)?;
-                        cache.put_by_key(key, &build);
-                        Ok(build)
-                    }),
-                    output,
-                    packings,
-                    packing_formats,
-                    fit_seed,
-                    slice_array: None,
+                        _ => (recipe.output().clone(), None),
+                    };
+                    // A full table is kept in the cache too (GD, read by every 6-flux library, and the
+                    // sub-range tables): a build of an unchanged library then integrates nothing.
+                    let key = cache.as_ref().and(table_key(other, seed));
+                    let not_in_shards = &not_in_shards;
+                    Job {
+                        run: Box::new(move |progress| {
+                            let (Some(cache), Some(key)) = (cache, &key) else { return recipe.build(seed, progress) };
+                            if let Some(build) = cache.get_by_key(key, &recipe.axes()?) {
+                                return Ok(build);
+                            }
+                            if merging {
+                                return Err(not_in_shards(recipe.name()));
+                            }
+                            let build = recipe.build(seed, progress)?;
+                            cache.put_by_key(key, &build);
+                            Ok(build)
+                        }),
+                        output,
+                        packings,
+                        packing_formats,
+                        fit_seed,
+                        slice_array: None,
+                    }
                 }
             }
         }))
@@ -534,10 +539,16 @@ fn slice_array_jobs<'a>(
 
 /// One texture array of slice `builds`: the array as a table with the provenance of its slices
 /// (their integral and sampling, errors pooled, wall times summed), and its manifest record.
-fn slice_array_build(name: &str, builds: &[&TableBuild], precision: Precision) -> Result<(TableBuild, SliceArrayEntry)> {
+fn slice_array_build(
+    name: &str,
+    builds: &[&TableBuild],
+    precision: Precision,
+) -> Result<(TableBuild, SliceArrayEntry)> {
     let tables: Vec<&Table> = builds.iter().map(|b| &b.table).collect();
     let channels = (0..tables[0].channel_count())
-        .map(|c| Channel::new(format!("c{c}"), format!("channel {c} of each slice: slice_array.slices[].channels[{c}]")))
+        .map(|c| {
+            Channel::new(format!("c{c}"), format!("channel {c} of each slice: slice_array.slices[].channels[{c}]"))
+        })
         .collect();
     let (table, layout) = slice_array::pack(name, &tables, channels)?;
     let slices = builds
@@ -556,11 +567,8 @@ fn slice_array_build(name: &str, builds: &[&TableBuild], precision: Precision) -
          slice_array.slices; error here pools them.",
         builds.len()
     ));
-    let entry = SliceArrayEntry {
-        layer_extent: layout.layer_extent.map(|e| e as u32),
-        layers: layout.layers as u32,
-        slices,
-    };
+    let entry =
+        SliceArrayEntry { layer_extent: layout.layer_extent.map(|e| e as u32), layers: layout.layers as u32, slices };
     Ok((TableBuild { table, provenance }, entry))
 }
 

@@ -165,12 +165,7 @@ impl std::hash::Hasher for FxHasher {
 }
 
 /// Add one lookup the model made to the hull of its site and channel.
-fn merge_lookup(
-    material: &Material,
-    recorded: &ModelLookup,
-    lookups: &mut Vec<Lookup>,
-    index: &mut SiteIndex,
-) {
+fn merge_lookup(material: &Material, recorded: &ModelLookup, lookups: &mut Vec<Lookup>, index: &mut SiteIndex) {
     let (kind, direction, layer) = match recorded.quantity {
         Quantity::Albedo => (LookupKind::Albedo(material.albedo), recorded.site.name(), recorded.layer),
         Quantity::Tir => (LookupKind::Tir(material.tir), recorded.site.name(), recorded.layer),

@@ -679,7 +679,10 @@ impl Printer {
                 let n = coordinates.len() as u8;
                 match lang {
                     Lang::Wgsl => {
-                        let layer = layer.as_ref().map(|l| format!("{}, ", self.list(std::slice::from_ref(l)))).unwrap_or_default();
+                        let layer = layer
+                            .as_ref()
+                            .map(|l| format!("{}, ", self.list(std::slice::from_ref(l))))
+                            .unwrap_or_default();
                         let _ = write!(
                             out,
                             "textureLoad({texture}, {}({}), {layer}0).{swizzle}",

@@ -41,9 +41,9 @@ use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, 
 use crate::error::{Error, Result};
 use crate::fit::forms::Form;
 use crate::formats::manifest::MANIFEST_FILE;
+use crate::loader::ArrayPlace;
 use crate::loader::LutFolder;
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
-use crate::loader::ArrayPlace;
 use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, reads_fgd_rarer, slice_indices};
 use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
