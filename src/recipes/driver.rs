@@ -113,6 +113,16 @@ impl Integrated {
             accuracy: Vec::new(),
         }
     }
+
+    /// [`Integrated::of`] from the standard error of every value alone, in the table's layout
+    /// (node after node, the channels of a node together).
+    pub fn of_standard_errors(standard_errors: &[f64]) -> Integrated {
+        Integrated {
+            replicate_standard_error: ErrorSummary::of_differences(standard_errors.iter().copied()),
+            standard_error: Some(standard_errors.iter().map(|&s| s as f32).collect()),
+            accuracy: Vec::new(),
+        }
+    }
 }
 
 /// How a table was integrated.

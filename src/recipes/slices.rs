@@ -19,7 +19,7 @@ use super::driver::{Provenance, TableBuild};
 use super::fgd::{FgdSettings, fgd_pairs_on_measure, projected_fresnel};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
 use super::tir::{TirSettings, tir_cell, tir_column_exact_sums};
-use super::{Integrated, Kernel, Metadata, fill_mu_alpha_nodes, store_means};
+use super::{Integrated, Kernel, Metadata, fill_mu_alpha_nodes};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::integrate::measure::{Projection, cosine_measure};
@@ -487,15 +487,15 @@ pub fn integrate_batch_among(
         }
     }
     let wall_time_s = started.elapsed().as_secs_f64();
-    let BatchTables { tables, estimates, records } = integrated;
+    let BatchTables { tables, standard_errors, records } = integrated;
     Ok(slices
         .iter()
         .zip(tables)
-        .zip(estimates)
+        .zip(standard_errors)
         .zip(references)
         .zip(records)
-        .map(|((((slice, table), estimates), reference), sampling)| {
-            let integrated = Integrated::of(&estimates);
+        .map(|((((slice, table), standard_errors), reference), sampling)| {
+            let integrated = Integrated::of_standard_errors(&standard_errors);
             let metadata = slice.metadata();
             let mut notes = metadata.notes;
             notes.push(BATCH_CHECK_NOTE.into());
@@ -519,10 +519,11 @@ pub fn integrate_batch_among(
         .collect())
 }
 
-/// Slices integrated together: per slice its table, node estimates and sampling record.
+/// Slices integrated together: per slice its table, the replicate standard error of every value
+/// (in the table's layout) and its sampling record.
 struct BatchTables {
     tables: Vec<Table>,
-    estimates: Vec<Vec<Estimate>>,
+    standard_errors: Vec<Vec<f64>>,
     records: Vec<super::driver::SamplingRecord>,
 }
 
@@ -544,7 +545,7 @@ type NodeUsers = ((u64, u64), Vec<(usize, usize)>);
 /// slices that hold it.
 fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> Result<BatchTables> {
     let mut tables: Vec<Table> = slices.iter().map(|s| s.empty_table()).collect::<Result<_>>()?;
-    let mut estimates: Vec<Vec<Estimate>> = vec![Vec::new(); slices.len()];
+    let mut standard_errors: Vec<Vec<f64>> = tables.iter().map(|t| vec![0.0; t.data.len()]).collect();
     let mut records: Vec<Option<super::driver::SamplingRecord>> = vec![None; slices.len()];
     for members in settings_groups(slices)?.values() {
         let first = slices[members[0]];
@@ -553,7 +554,6 @@ fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> R
         let mut nodes: std::collections::BTreeMap<(u64, u64), Vec<(usize, usize)>> = std::collections::BTreeMap::new();
         for &s in members {
             let (mu, alpha, [mu_lattice, alpha_lattice]) = (&slices[s].mu, &slices[s].alpha, slices[s].of.lattice());
-            estimates[s] = vec![Estimate { mean: Vec::new(), standard_error: Vec::new() }; mu.count * alpha.count];
             for j in 0..alpha.count {
                 for i in 0..mu.count {
                     let key = (
@@ -570,24 +570,41 @@ fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> R
             members.iter().enumerate().map(|(m, &s)| (s, m)).collect();
         let numbers: Vec<u64> = (0..nodes.len() as u64).collect();
         let label = format!("{} slices ({} nodes shared by {} slices)", first.table_name(), nodes.len(), members.len());
-        let per_node: Vec<Vec<Estimate>> = crate::integrate::estimate_cells(&numbers, &label, progress, |n| {
+        // Each node's estimates for every slice that holds it, in one flat vector (per user its
+        // means, then its standard errors): a library's millions of slice nodes are held at once
+        // until they are stored, and two small vectors per node per slice would cost several
+        // times the values.
+        let per_node: Vec<Vec<f64>> = crate::integrate::estimate_cells(&numbers, &label, progress, |n| {
             let ((mu, alpha), users) = &nodes[n as usize];
             let user_slices: Vec<&Slices> = users.iter().map(|&(s, _)| slices[s]).collect();
             let shared = SharedNode::new(&first.of, f64::from_bits(*mu), f64::from_bits(*alpha), &user_slices, &points);
-            users.iter().map(|&(s, _)| slices[s].estimate_on(&shared, &projections[member_of[&s]])).collect()
+            users
+                .iter()
+                .flat_map(|&(s, _)| {
+                    let estimate = slices[s].estimate_on(&shared, &projections[member_of[&s]]);
+                    estimate.mean.into_iter().chain(estimate.standard_error)
+                })
+                .collect()
         });
-        for ((_, users), node_estimates) in nodes.iter().zip(per_node) {
-            for (&(s, node), estimate) in users.iter().zip(node_estimates) {
-                estimates[s][node] = estimate;
+        for ((_, users), flat) in nodes.iter().zip(per_node) {
+            let mut rest = flat.as_slice();
+            for &(s, node) in users {
+                let channels = tables[s].channel_count();
+                let (means, errors) = rest[..2 * channels].split_at(channels);
+                let range = node * channels..(node + 1) * channels;
+                for (value, &mean) in tables[s].data[range.clone()].iter_mut().zip(means) {
+                    *value = mean as f32;
+                }
+                standard_errors[s][range].copy_from_slice(errors);
+                rest = &rest[2 * channels..];
             }
         }
         for &s in members {
-            store_means(&mut tables[s], &estimates[s]);
             records[s] = Some(super::driver::sampling_record(Method::Fast, &slices[s].metadata().sampler, &points));
         }
     }
     let records = records.into_iter().map(|r| r.expect("every slice is in a group")).collect();
-    Ok(BatchTables { tables, estimates, records })
+    Ok(BatchTables { tables, standard_errors, records })
 }
 
 #[cfg(test)]
