@@ -1032,7 +1032,7 @@ fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
         json
     };
     let published = fit(&dir.path().join("published"), &["--max-evaluations", "0"]);
-    let fitted = fit(&dir.path().join("fitted"), &[]);
+    let fitted = fit(&dir.path().join("fitted"), &["--certify", "--config", config.to_str().unwrap()]);
     let rms = |json: &serde_json::Value| json["figures"]["together"]["rms"].as_f64().unwrap();
     assert_eq!(published["parameters"]["c"].as_f64(), Some(-0.572));
     assert_eq!(published["start_figures"], fitted["start_figures"]);
@@ -1042,10 +1042,19 @@ fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
     for name in ["a", "b", "c", "d", "e", "f", "g", "h"] {
         assert!(fitted["parameters"][name].as_f64().unwrap().is_finite(), "{name}");
     }
-    // The constant terms of `ry` (f) and the two channels' offsets (g, h) only enter as two sums,
-    // as do b, c and d along roughness: the report names both directions.
-    let weak = fitted["identifiability"]["ill_determined"].as_array().unwrap();
-    assert_eq!(weak.len(), 2, "{weak:?}");
+    // The constant term of `ry` (f) and the two channels' offsets (g, h) only enter as two sums,
+    // as do b, c and d along roughness: two directions the data cannot fix.
+    let id = &fitted["identifiability"];
+    assert_eq!(id["ill_determined"].as_array().unwrap().len(), 2, "{id}");
+    assert_eq!(id["ill_determined_parameters"], serde_json::json!(["b", "c", "d", "f", "g", "h"]), "{id}");
+    // Certified against exact integrals at the random points of the table's interpolation check
+    // (both of Karis's domains), beside the table's own error there.
+    let certified = fitted["certified"].as_array().unwrap();
+    assert_eq!(certified.len(), 2);
+    for c in certified {
+        let (form, table) = (c["form"]["together"]["rms"].as_f64().unwrap(), c["table"]["together"]["rms"].as_f64().unwrap());
+        assert!(table > 0.0 && table < form && form < 0.1, "{c}");
+    }
     let out = dir.path().join("fitted");
     let mut files: Vec<String> =
         std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
@@ -1065,7 +1074,7 @@ fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
     let again = dir.path().join("again");
     let output = Command::new(env!("CARGO_BIN_EXE_tmlut"))
         .args(["fit", "--form", form.to_str().unwrap(), "--table", table.to_str().unwrap()])
-        .args(["--out", again.to_str().unwrap(), "--starts", "3"])
+        .args(["--out", again.to_str().unwrap(), "--starts", "3", "--certify", "--config", config.to_str().unwrap()])
         .env("RAYON_NUM_THREADS", "1")
         .output()
         .unwrap();

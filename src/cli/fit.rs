@@ -24,6 +24,13 @@ pub struct FitArgs {
     /// values (the figures of published coefficients).
     #[arg(long, default_value_t = 2000, requires = "form")]
     max_evaluations: u32,
+    /// With --form: certify the fitted form against exact integrals at the random points of the
+    /// table's interpolation check (its points and samples from the configuration), beside the
+    /// table's own error there.
+    #[arg(long, requires = "form")]
+    certify: bool,
+    #[command(flatten)]
+    config: super::ConfigArg,
     /// Comma-separated forms (default: all).
     #[arg(long, value_delimiter = ',', help = format!("Comma-separated forms (default: all). Known: {}", form_names().join(", ")))]
     forms: Option<Vec<String>>,
@@ -59,7 +66,8 @@ pub fn exec(args: FitArgs, _: &Context) -> tmlut::Result<()> {
             max_evaluations: args.max_evaluations,
             ..tmlut::fit::FitSettings::default()
         };
-        let request = tmlut::fit::text::FormFitRequest { form, table: args.table, out: args.out, settings };
+        let certify = if args.certify { Some(args.config.load()?) } else { None };
+        let request = tmlut::fit::text::FormFitRequest { form, table: args.table, out: args.out, settings, certify };
         let report = tmlut::fit::text::fit_form_file(&table, &request)?;
         print!("{}", tmlut::fit::text::fitting::markdown(&report));
         println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FIT_FILE).display());

@@ -226,6 +226,13 @@ pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Figur
             ),
         ));
     }
+    Ok(figure_set(&errors, &data.channels, &data.variables, |n| data.point(n).to_vec()))
+}
+
+/// The figures of `errors` (point-major, one per channel) per channel and together; `point(n)` is
+/// point `n`'s coordinates in `variables`.
+fn figure_set(errors: &[f64], channels: &[String], variables: &[String], point: impl Fn(usize) -> Vec<f64>) -> FigureSet {
+    let count = channels.len();
     let summarise = |selected: &dyn Fn(usize) -> bool, name_channel: bool| -> Figures {
         let mut abs: Vec<f64> = Vec::new();
         let (mut sum, mut max, mut max_index) = (0.0, -1.0, 0);
@@ -239,19 +246,18 @@ pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Figur
         }
         abs.sort_by(f64::total_cmp);
         let rank = ((abs.len() as f64 * 0.99).ceil() as usize).clamp(1, abs.len().max(1)) - 1;
-        let point = data.point(max_index / channels);
         Figures {
             rms: (sum / abs.len().max(1) as f64).sqrt(),
             p99: abs.get(rank).copied().unwrap_or(0.0),
             max: max.max(0.0),
-            max_at: data.variables.iter().cloned().zip(point.iter().copied()).collect(),
-            max_channel: name_channel.then(|| data.channels[max_index % channels].clone()),
+            max_at: variables.iter().cloned().zip(point(max_index / count)).collect(),
+            max_channel: name_channel.then(|| channels[max_index % count].clone()),
         }
     };
-    Ok(FigureSet {
+    FigureSet {
         together: summarise(&|_| true, true),
-        channels: (0..channels).map(|c| (data.channels[c].clone(), summarise(&|k| k % channels == c, false))).collect(),
-    })
+        channels: (0..count).map(|c| (channels[c].clone(), summarise(&|k| k % count == c, false))).collect(),
+    }
 }
 
 fn describe_point(variables: &[String], point: &[f64]) -> String {
@@ -269,8 +275,12 @@ pub struct Identifiability {
     pub singular_values: Vec<f64>,
     /// Directions whose singular value is below [`ILL_DETERMINED_RATIO`] of the largest: moving
     /// along them changes the fit by almost nothing. Each lists the parameters that make up most
-    /// of it (|component| >= 0.3) and the direction itself, in parameter order.
+    /// of it (|component| >= 0.1) and the direction itself, in parameter order.
     pub ill_determined: Vec<WeakDirection>,
+    /// The parameters the ill-determined directions are made of: those whose projection onto the
+    /// space they span is at least 0.1 long. Where two directions are about equally weak, the
+    /// directions themselves are any basis of that space; this list is not.
+    pub ill_determined_parameters: Vec<String>,
     /// Parameters whose fitted value is at a bound (within 1e-9 of its range).
     pub at_bounds: Vec<String>,
     pub rule: String,
@@ -329,18 +339,25 @@ pub fn identifiability(form: &Form, data: &FormData, parameters: &[f64]) -> Iden
     let singular: Vec<f64> = order.iter().map(|&k| eigenvalues[k].max(0.0).sqrt()).collect();
     let largest = singular.first().copied().unwrap_or(0.0);
     let names = form.parameter_names();
-    let ill_determined = order
+    let ill_determined: Vec<WeakDirection> = order
         .iter()
         .zip(&singular)
         .filter(|(_, s)| **s <= ILL_DETERMINED_RATIO * largest)
         .map(|(&k, &s)| {
             let direction: Vec<f64> = (0..p).map(|i| vectors[i * p + k]).collect();
             WeakDirection {
-                parameters: (0..p).filter(|&i| direction[i].abs() >= 0.3).map(|i| names[i].clone()).collect(),
+                parameters: (0..p).filter(|&i| direction[i].abs() >= 0.1).map(|i| names[i].clone()).collect(),
                 singular_value_ratio: if largest > 0.0 { s / largest } else { 0.0 },
                 direction,
             }
         })
+        .collect();
+    let ill_determined_parameters = (0..p)
+        .filter(|&i| {
+            let projection: f64 = ill_determined.iter().map(|w: &WeakDirection| w.direction[i].powi(2)).sum();
+            projection >= 0.01
+        })
+        .map(|i| names[i].clone())
         .collect();
     let at_bounds = form
         .parameters
@@ -352,6 +369,7 @@ pub fn identifiability(form: &Form, data: &FormData, parameters: &[f64]) -> Iden
     Identifiability {
         singular_values: singular,
         ill_determined,
+        ill_determined_parameters,
         at_bounds,
         rule: format!(
             "columns of the Jacobian scaled by each parameter's bound range; a direction is ill-determined when its singular value is below {ILL_DETERMINED_RATIO} of the largest"
@@ -406,6 +424,96 @@ fn symmetric_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
     ((0..n).map(|i| a[i * n + i]).collect(), v)
 }
 
+/// The form's error against exact integrals at random points of one of the table's check domains
+/// (the points of its build's interpolation check, [`crate::recipes::interpolation`]: uniform
+/// over the domain's lookup parameters, each integrated on its own by plain Monte Carlo on
+/// samples independent of the table's), beside the table's own interpolation error at the same
+/// points.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Certified {
+    pub domain: String,
+    pub points: usize,
+    pub samples_per_point: u64,
+    /// The largest standard error of an exact value (the spread of its 4 scrambles).
+    pub exact_standard_error_max: f64,
+    /// The fitted form, in f32, against the exact values.
+    pub form: FigureSet,
+    /// The form at its start values.
+    pub form_at_start: FigureSet,
+    /// The table, interpolated multilinearly in its axes (`Table::interpolate`, f64 arithmetic on
+    /// its stored values), against the same exact values.
+    pub table: FigureSet,
+}
+
+/// [`Certified`] for every check domain of the table's recipe in `config` (the configuration the
+/// table was built with: its masking, its sample counts for the check).
+pub fn certify(
+    form: &Form,
+    table: &Table,
+    config: &crate::config::Config,
+    seed: u64,
+    start: &[f64],
+    fitted: &[f64],
+) -> Result<Vec<Certified>> {
+    let recipe = config
+        .recipe_named(&table.name)
+        .ok_or_else(|| Error::invalid("certify", format!("table `{}` has no recipe to integrate exactly", table.name)))?;
+    let channel_index: Vec<usize> = form
+        .channels
+        .iter()
+        .map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0))
+        .collect();
+    let channels: Vec<String> = form.channels.iter().map(|c| c.name.clone()).collect();
+    let mut out = Vec::new();
+    for exact in recipe.exact_values(seed, &())? {
+        // The form's variables from the domain's lookup parameters, by name.
+        let Some(order) = form
+            .variables
+            .iter()
+            .map(|v| exact.domain.parameters.iter().position(|p| p == v))
+            .collect::<Option<Vec<usize>>>()
+        else {
+            continue;
+        };
+        let point = |n: usize| order.iter().map(|&k| exact.lookups[n][k]).collect::<Vec<f64>>();
+        let form_errors = |parameters: &[f64]| -> Vec<f64> {
+            let p32: Vec<f32> = parameters.iter().map(|&v| v as f32).collect();
+            let (mut scratch, mut values) = (Vec::new(), vec![0.0f32; channels.len()]);
+            let mut errors = Vec::new();
+            for (n, e) in exact.exact.iter().enumerate() {
+                let x: Vec<f32> = point(n).iter().map(|&v| v as f32).collect();
+                form.tape.eval(&x, &p32, &mut scratch, &mut values);
+                errors.extend(channel_index.iter().zip(&values).map(|(&c, &v)| f64::from(v) - e.mean[c]));
+            }
+            errors
+        };
+        let mut table_errors = Vec::new();
+        for (position, e) in exact.positions.iter().zip(&exact.exact) {
+            let read = table.interpolate(position);
+            table_errors.extend(channel_index.iter().map(|&c| read[c] - e.mean[c]));
+        }
+        let (fitted_errors, start_errors) = (form_errors(fitted), form_errors(start));
+        if fitted_errors.iter().chain(&start_errors).chain(&table_errors).any(|e| !e.is_finite()) {
+            return Err(Error::invalid("certify", format!("a value that is not finite in domain {}", exact.domain.describe())));
+        }
+        let set = |errors: &[f64]| figure_set(errors, &channels, &form.variables, point);
+        out.push(Certified {
+            domain: exact.domain.describe(),
+            points: exact.exact.len(),
+            samples_per_point: exact.samples_per_point,
+            exact_standard_error_max: exact
+                .exact
+                .iter()
+                .flat_map(|e| channel_index.iter().map(|&c| e.standard_error[c]))
+                .fold(0.0, f64::max),
+            form: set(&fitted_errors),
+            form_at_start: set(&start_errors),
+            table: set(&table_errors),
+        });
+    }
+    Ok(out)
+}
+
 /// A form fitted to a table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FormFit {
@@ -453,6 +561,8 @@ pub struct FormReport {
     pub settings: FitSettings,
     pub search: Option<Minimum>,
     pub identifiability: Identifiability,
+    /// Against exact integrals at random points, per check domain; empty when not asked for.
+    pub certified: Vec<Certified>,
     pub shader_function: String,
     /// Every file of the set, `fit.json` and `report.md` included.
     pub files: Vec<String>,
@@ -468,6 +578,9 @@ pub struct FormFitRequest {
     pub table: PathBuf,
     pub out: PathBuf,
     pub settings: FitSettings,
+    /// The table's build configuration, to certify the form against exact integrals; `None`
+    /// skips the certification.
+    pub certify: Option<crate::config::Config>,
 }
 
 /// Read the form against the table, fit it, and write `fit.json`, `report.md` and the shader
@@ -504,6 +617,10 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         settings: request.settings,
         search: fitted.search,
         identifiability: identifiability(&form, &data, &fitted.parameters),
+        certified: match &request.certify {
+            Some(config) => certify(&form, table, config, request.settings.seed, &start, &fitted.parameters)?,
+            None => Vec::new(),
+        },
         shader_function: function_name(&form),
         files,
     };
@@ -560,6 +677,25 @@ pub fn markdown(report: &FormReport) -> String {
             fitted.max_channel.as_ref().map(|c| format!(" ({c})")).unwrap_or_default()
         );
     }
+    for c in &report.certified {
+        let _ = writeln!(
+            s,
+            "\nAgainst exact integrals at {} random points ({} samples each, standard error <= {:.1e}), {}:\n",
+            c.points, c.samples_per_point, c.exact_standard_error_max, c.domain
+        );
+        let _ = writeln!(s, "| channel | form at start: RMS | fitted: RMS | p99 | max | max at | table interpolated: RMS | p99 | max |");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---|---:|---:|---:|");
+        let rows = std::iter::once(("together".to_string(), &c.form_at_start.together, &c.form.together, &c.table.together))
+            .chain(c.form.channels.iter().map(|(k, f)| (k.clone(), &c.form_at_start.channels[k], f, &c.table.channels[k])));
+        for (channel, start, fitted, table) in rows {
+            let at: Vec<String> = fitted.max_at.iter().map(|(v, x)| format!("{v} {x:.4}")).collect();
+            let _ = writeln!(
+                s,
+                "| {channel} | {:.6} | {:.6} | {:.6} | {:.6} | {} | {:.2e} | {:.2e} | {:.2e} |",
+                start.rms, fitted.rms, fitted.p99, fitted.max, at.join(", "), table.rms, table.p99, table.max
+            );
+        }
+    }
     let _ = writeln!(s, "\n| parameter | start | fitted | bounds |\n|---|---:|---:|---|");
     for name in &report.parameter_order {
         let [lo, hi] = report.bounds[name];
@@ -584,15 +720,16 @@ pub fn markdown(report: &FormReport) -> String {
     if id.ill_determined.is_empty() {
         let _ = writeln!(s, "\nEvery parameter is determined by the data ({}).", id.rule);
     } else {
-        for w in &id.ill_determined {
-            let _ = writeln!(
-                s,
-                "\nIll-determined: {} (singular value {:.2e} of the largest; {}).",
-                w.parameters.join(", "),
-                w.singular_value_ratio,
-                id.rule
-            );
-        }
+        let ratios: Vec<String> = id.ill_determined.iter().map(|w| format!("{:.1e}", w.singular_value_ratio)).collect();
+        let _ = writeln!(
+            s,
+            "\nIll-determined: {} direction(s) of parameter space, made of {} (singular values {} of the largest; {}): \
+             the data fixes fewer combinations of these than there are parameters.",
+            id.ill_determined.len(),
+            id.ill_determined_parameters.join(", "),
+            ratios.join(", "),
+            id.rule
+        );
     }
     if !id.at_bounds.is_empty() {
         let _ = writeln!(s, "\nAt a bound: {}.", id.at_bounds.join(", "));

@@ -179,6 +179,7 @@ fn a_fit_recovers_the_parameters_the_table_was_made_with_and_reports_redundancy(
     let id = identifiability(&form, &data, &fitted.parameters);
     assert_eq!(id.ill_determined.len(), 1, "{id:?}");
     assert_eq!(id.ill_determined[0].parameters, ["p", "r"]);
+    assert_eq!(id.ill_determined_parameters, ["p", "r"]);
 }
 
 #[test]
