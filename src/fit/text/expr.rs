@@ -317,34 +317,26 @@ impl Parser {
         Ok(node)
     }
 
-    fn additive(&mut self) -> Result<Node, ExprError> {
-        let mut node = self.multiplicative()?;
-        loop {
-            let op = if self.is("+") {
-                BinOp::Add
-            } else if self.is("-") {
-                BinOp::Sub
-            } else {
-                return Ok(node);
-            };
+    /// One level of left-associative operators over the next level: `next (op next)*`.
+    fn left_associative(
+        &mut self,
+        operators: &[(&str, BinOp)],
+        next: fn(&mut Self) -> Result<Node, ExprError>,
+    ) -> Result<Node, ExprError> {
+        let mut node = next(self)?;
+        while let Some(&(_, op)) = operators.iter().find(|(symbol, _)| self.is(symbol)) {
             self.take();
-            node = Node::Binary(op, Box::new(node), Box::new(self.multiplicative()?));
+            node = Node::Binary(op, Box::new(node), Box::new(next(self)?));
         }
+        Ok(node)
+    }
+
+    fn additive(&mut self) -> Result<Node, ExprError> {
+        self.left_associative(&[("+", BinOp::Add), ("-", BinOp::Sub)], Self::multiplicative)
     }
 
     fn multiplicative(&mut self) -> Result<Node, ExprError> {
-        let mut node = self.unary()?;
-        loop {
-            let op = if self.is("*") {
-                BinOp::Mul
-            } else if self.is("/") {
-                BinOp::Div
-            } else {
-                return Ok(node);
-            };
-            self.take();
-            node = Node::Binary(op, Box::new(node), Box::new(self.unary()?));
-        }
+        self.left_associative(&[("*", BinOp::Mul), ("/", BinOp::Div)], Self::unary)
     }
 
     fn unary(&mut self) -> Result<Node, ExprError> {
