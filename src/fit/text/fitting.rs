@@ -125,53 +125,92 @@ impl FormData {
 /// number of threads.
 const CHUNK: usize = 4096;
 
-/// The mean squared residual over every point and channel, and its gradient when asked for.
-pub fn objective(form: &Form, data: &FormData, parameters: &[f64], gradient: Option<&mut [f64]>) -> f64 {
-    let (count, channels, p) = (data.len(), data.channels.len(), parameters.len());
-    let want = gradient.is_some();
-    let per_chunk: Vec<(f64, Vec<f64>)> = (0..count.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|chunk| {
-            let mut work = Work::default();
-            let mut scratch = Vec::new();
-            let (mut sum, mut g) = (0.0, vec![0.0; if want { p } else { 0 }]);
-            let mut out = vec![0.0; channels];
-            let mut seeds = vec![0.0; channels];
-            for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(count) {
-                if want {
-                    form.tape.forward(data.point(n), parameters, &mut work);
-                    for (c, (&k, &t)) in form.tape.outputs.iter().zip(data.targets(n)).enumerate() {
-                        let r = work.value(k) - t;
-                        sum += r * r;
-                        seeds[c] = 2.0 * r;
-                    }
-                    form.tape.backward(&mut work, &seeds, &mut g);
-                } else {
-                    form.tape.eval(data.point(n), parameters, &mut scratch, &mut out);
-                    for (v, t) in out.iter().zip(data.targets(n)) {
-                        sum += (v - t) * (v - t);
+/// The data as a search reads it: the form's tape split ([`super::tape::Tape::split`]) so that
+/// everything that does not depend on the parameters is computed once per point, here.
+pub struct Prepared<'a> {
+    data: &'a FormData,
+    tape: super::tape::Tape,
+    /// Per point: its variables, then the values of the split-off instructions.
+    inputs: Vec<f64>,
+    width: usize,
+}
+
+impl<'a> Prepared<'a> {
+    pub fn new(form: &Form, data: &'a FormData) -> Prepared<'a> {
+        let d = data.variables.len();
+        let (tape, split_off) = form.tape.split(d);
+        let width = d + split_off.len();
+        // Split-off instructions do not read the parameters: any values serve.
+        let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
+        let inputs: Vec<Vec<f64>> = (0..data.len().div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|chunk| {
+                let mut values = Vec::new();
+                let mut inputs = Vec::new();
+                for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
+                    form.tape.values(data.point(n), &start, &mut values);
+                    inputs.extend_from_slice(data.point(n));
+                    inputs.extend(split_off.iter().map(|&k| values[k]));
+                }
+                inputs
+            })
+            .collect();
+        Prepared { data, tape, inputs: inputs.concat(), width }
+    }
+
+    fn point(&self, n: usize) -> &[f64] {
+        &self.inputs[n * self.width..(n + 1) * self.width]
+    }
+
+    /// The mean squared residual over every point and channel, and its gradient when asked for.
+    pub fn objective(&self, parameters: &[f64], gradient: Option<&mut [f64]>) -> f64 {
+        let (data, tape) = (self.data, &self.tape);
+        let (count, channels, p) = (data.len(), data.channels.len(), parameters.len());
+        let want = gradient.is_some();
+        let per_chunk: Vec<(f64, Vec<f64>)> = (0..count.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|chunk| {
+                let mut work = Work::default();
+                let mut scratch = Vec::new();
+                let (mut sum, mut g) = (0.0, vec![0.0; if want { p } else { 0 }]);
+                let mut out = vec![0.0; channels];
+                let mut seeds = vec![0.0; channels];
+                for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(count) {
+                    if want {
+                        tape.forward(self.point(n), parameters, &mut work);
+                        for (c, (&k, &t)) in tape.outputs.iter().zip(data.targets(n)).enumerate() {
+                            let r = work.value(k) - t;
+                            sum += r * r;
+                            seeds[c] = 2.0 * r;
+                        }
+                        tape.backward(&mut work, &seeds, &mut g);
+                    } else {
+                        tape.eval(self.point(n), parameters, &mut scratch, &mut out);
+                        for (v, t) in out.iter().zip(data.targets(n)) {
+                            sum += (v - t) * (v - t);
+                        }
                     }
                 }
+                (sum, g)
+            })
+            .collect();
+        let scale = 1.0 / (count * channels).max(1) as f64;
+        let mut sum = 0.0;
+        let mut g_sum = vec![0.0; p];
+        for (s, g) in &per_chunk {
+            sum += s;
+            for (a, b) in g_sum.iter_mut().zip(g) {
+                *a += b;
             }
-            (sum, g)
-        })
-        .collect();
-    let scale = 1.0 / (count * channels).max(1) as f64;
-    let mut sum = 0.0;
-    let mut g_sum = vec![0.0; p];
-    for (s, g) in &per_chunk {
-        sum += s;
-        for (a, b) in g_sum.iter_mut().zip(g) {
-            *a += b;
         }
-    }
-    if let Some(gradient) = gradient {
-        for (g, s) in gradient.iter_mut().zip(&g_sum) {
-            *g = s * scale;
+        if let Some(gradient) = gradient {
+            for (g, s) in gradient.iter_mut().zip(&g_sum) {
+                *g = s * scale;
+            }
         }
+        let mse = sum * scale;
+        if mse.is_finite() { mse } else { f64::NAN }
     }
-    let mse = sum * scale;
-    if mse.is_finite() { mse } else { f64::NAN }
 }
 
 /// Error figures of one channel, or of all together.
@@ -298,7 +337,8 @@ pub struct WeakDirection {
 /// than a thousandth of what the best-determined direction does.
 pub const ILL_DETERMINED_RATIO: f64 = 1e-3;
 
-pub fn identifiability(form: &Form, data: &FormData, parameters: &[f64]) -> Identifiability {
+pub fn identifiability(form: &Form, prepared: &Prepared, parameters: &[f64]) -> Identifiability {
+    let (data, tape) = (prepared.data, &prepared.tape);
     let p = parameters.len();
     let channels = data.channels.len();
     let scale: Vec<f64> = form.parameters.iter().map(|q| q.max - q.min).collect();
@@ -311,11 +351,11 @@ pub fn identifiability(form: &Form, data: &FormData, parameters: &[f64]) -> Iden
             let mut row = vec![0.0; p];
             let mut seeds = vec![0.0; channels];
             for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
-                form.tape.forward(data.point(n), parameters, &mut work);
+                tape.forward(prepared.point(n), parameters, &mut work);
                 for c in 0..channels {
                     seeds.iter_mut().enumerate().for_each(|(k, s)| *s = if k == c { 1.0 } else { 0.0 });
                     row.iter_mut().for_each(|r| *r = 0.0);
-                    form.tape.backward(&mut work, &seeds, &mut row);
+                    tape.backward(&mut work, &seeds, &mut row);
                     for i in 0..p {
                         for j in 0..p {
                             jtj[i * p + j] += row[i] * scale[i] * row[j] * scale[j];
@@ -525,14 +565,14 @@ pub struct FormFit {
 /// Fit `form` to `data`: the form's start and `settings.starts - 1` seeded uniform points in the
 /// bounds, each searched by L-BFGS with the exact gradient; the best wins. `max_evaluations = 0`
 /// evaluates the form at its start values.
-pub fn fit(form: &Form, data: &FormData, settings: &FitSettings) -> Result<FormFit> {
+pub fn fit(form: &Form, prepared: &Prepared, settings: &FitSettings) -> Result<FormFit> {
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
     if settings.max_evaluations == 0 {
         return Ok(FormFit { parameters: start, search: None });
     }
     let lower: Vec<f64> = form.parameters.iter().map(|p| p.min).collect();
     let upper: Vec<f64> = form.parameters.iter().map(|p| p.max).collect();
-    let objective = |x: &[f64], g: Option<&mut [f64]>| objective(form, data, x, g);
+    let objective = |x: &[f64], g: Option<&mut [f64]>| prepared.objective(x, g);
     let minimum = minimise(&objective, true, &start, &lower, &upper, settings)?;
     Ok(FormFit { parameters: minimum.parameters.clone(), search: Some(minimum) })
 }
@@ -591,7 +631,8 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
     let data = FormData::from_table(table, &form)?;
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
     let start_figures = figures(&form, &data, &start)?;
-    let fitted = fit(&form, &data, &request.settings)?;
+    let prepared = Prepared::new(&form, &data);
+    let fitted = fit(&form, &prepared, &request.settings)?;
     let fitted_figures = figures(&form, &data, &fitted.parameters)?;
     let shaders = sources(&form, &fitted.parameters)?;
     let shader_files: Vec<String> = LANGUAGES.iter().map(|(_, ext)| format!("{}.{ext}", form.name)).collect();
@@ -616,7 +657,7 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         start_figures,
         settings: request.settings,
         search: fitted.search,
-        identifiability: identifiability(&form, &data, &fitted.parameters),
+        identifiability: identifiability(&form, &prepared, &fitted.parameters),
         certified: match &request.certify {
             Some(config) => certify(&form, table, config, request.settings.seed, &start, &fitted.parameters)?,
             None => Vec::new(),

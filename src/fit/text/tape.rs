@@ -205,13 +205,28 @@ impl Tape {
         }
     }
 
-    /// Values and each instruction's derivatives with respect to its operands, at one point.
+    /// Values and each instruction's derivatives with respect to its operands, at one point: the
+    /// derivatives kept as a flat list of `(operand, derivative)` edges per instruction, so that
+    /// the backward sweep is one pass over numbers.
     pub fn forward(&self, vars: &[f64], params: &[f64], work: &mut Work) {
         self.values(vars, params, &mut work.values);
-        work.partials.clear();
+        work.edges.clear();
+        work.edge_end.clear();
         let values = &work.values;
         for (i, ins) in self.ins.iter().enumerate() {
-            work.partials.push(partials(ins, values, values[i]));
+            if let Ins::Param(k) = *ins {
+                // A parameter's edge points at no instruction: its adjoint goes to the gradient.
+                work.edges.push((usize::MAX - k, 1.0));
+            } else {
+                for (operand, d) in operands(ins).into_iter().zip(partials(ins, values, values[i])) {
+                    if let Some(operand) = operand
+                        && d != 0.0
+                    {
+                        work.edges.push((operand, d));
+                    }
+                }
+            }
+            work.edge_end.push(work.edges.len() as u32);
         }
     }
 
@@ -228,19 +243,62 @@ impl Tape {
             if adjoint == 0.0 {
                 continue;
             }
-            match self.ins[i] {
-                Ins::Param(k) => gradient[k] += adjoint,
-                ins => {
-                    for (operand, d) in operands(&ins).into_iter().zip(work.partials[i]) {
-                        if let Some(operand) = operand
-                            && d != 0.0
-                        {
-                            work.adjoints[operand] += adjoint * d;
-                        }
-                    }
+            let start = if i == 0 { 0 } else { work.edge_end[i - 1] as usize };
+            for &(operand, d) in &work.edges[start..work.edge_end[i] as usize] {
+                if operand >= self.ins.len() {
+                    gradient[usize::MAX - operand] += adjoint;
+                } else {
+                    work.adjoints[operand] += adjoint * d;
                 }
             }
         }
+    }
+
+    /// The same channels as a tape over the variables and, after them, the values of some of
+    /// this tape's instructions at the point (returned by index): every instruction that does not
+    /// depend on the parameters is computed once per point instead of at every evaluation of a
+    /// search, and instructions that reach no channel (derived variables the form never reads)
+    /// are dropped. Evaluating the result at `(variables, values of the returned instructions)`
+    /// gives this tape's channels to the bit.
+    pub fn split(&self, variables: usize) -> (Tape, Vec<usize>) {
+        let n = self.ins.len();
+        let mut depends = vec![false; n];
+        for i in 0..n {
+            depends[i] = matches!(self.ins[i], Ins::Param(_)) || reads(&self.ins[i]).into_iter().any(|k| depends[k]);
+        }
+        let mut live = vec![false; n];
+        for &k in &self.outputs {
+            live[k] = true;
+        }
+        for i in (0..n).rev() {
+            if live[i] && depends[i] {
+                for k in reads(&self.ins[i]) {
+                    live[k] = true;
+                }
+            }
+        }
+        let mut tape = Tape::default();
+        let mut map = vec![usize::MAX; n];
+        let mut inputs = Vec::new();
+        let mut input = |k: usize, tape: &mut Tape, map: &mut Vec<usize>| -> usize {
+            if map[k] == usize::MAX {
+                map[k] = tape.push(Ins::Var(variables + inputs.len()));
+                inputs.push(k);
+            }
+            map[k]
+        };
+        for i in 0..n {
+            if !(live[i] && depends[i]) {
+                continue;
+            }
+            let mut ins = self.ins[i];
+            for slot in operand_slots(&mut ins) {
+                *slot = input(*slot, &mut tape, &mut map);
+            }
+            map[i] = tape.push(ins);
+        }
+        tape.outputs = self.outputs.iter().map(|&k| if depends[k] { map[k] } else { input(k, &mut tape, &mut map) }).collect();
+        (tape, inputs)
     }
 
     /// Whether each parameter reaches any channel.
@@ -257,7 +315,7 @@ impl Tape {
             if let Ins::Param(k) = self.ins[i] {
                 used[k] = true;
             }
-            for operand in operands(&self.ins[i]).into_iter().flatten() {
+            for operand in reads(&self.ins[i]) {
                 reaches[operand] = true;
             }
         }
@@ -269,7 +327,10 @@ impl Tape {
 #[derive(Debug, Default)]
 pub struct Work {
     values: Vec<f64>,
-    partials: Vec<[f64; 4]>,
+    /// `(operand, derivative)`; a parameter `k`'s own edge is `(usize::MAX - k, 1)`.
+    edges: Vec<(usize, f64)>,
+    /// Where each instruction's edges end in `edges`.
+    edge_end: Vec<u32>,
     adjoints: Vec<f64>,
 }
 
@@ -277,6 +338,28 @@ impl Work {
     pub fn value(&self, k: usize) -> f64 {
         self.values[k]
     }
+}
+
+/// Every instruction an instruction reads, a select's condition included, to rewrite them
+/// ([`Tape::split`]).
+fn operand_slots(ins: &mut Ins) -> Vec<&mut usize> {
+    match ins {
+        Ins::Const(_) | Ins::Var(_) | Ins::Param(_) => vec![],
+        Ins::Neg(a) | Ins::PowInt(a, _) => vec![a],
+        Ins::Bin(_, a, b) => vec![a, b],
+        Ins::Call(f, [a, b, c]) => match f {
+            Func::Clamp | Func::Mix | Func::Smoothstep => vec![a, b, c],
+            Func::Min | Func::Max | Func::Pow | Func::Atan2 | Func::Step => vec![a, b],
+            _ => vec![a],
+        },
+        Ins::Select { otherwise, then, left, right, .. } => vec![otherwise, then, left, right],
+    }
+}
+
+/// Every instruction an instruction reads ([`operand_slots`]).
+fn reads(ins: &Ins) -> Vec<usize> {
+    let mut ins = *ins;
+    operand_slots(&mut ins).into_iter().map(|k| *k).collect()
 }
 
 /// The operands of an instruction, in the order of [`partials`].

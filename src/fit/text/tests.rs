@@ -1,6 +1,6 @@
 use std::path::Path;
 
-use super::fitting::{FormData, figures, fit, identifiability, objective};
+use super::fitting::{FormData, Prepared, figures, fit, identifiability};
 use super::shader::{module, sources};
 use super::*;
 use crate::fit::FitSettings;
@@ -141,16 +141,28 @@ bias = "y - w / (z * z + 1)"
 fn the_mean_squared_residual_s_gradient_matches_finite_differences() {
     let form = parse(GOOD).unwrap();
     let data = FormData::from_table(&table(), &form).unwrap();
+    let prepared = Prepared::new(&form, &data);
+    let objective = |p: &[f64], g: Option<&mut [f64]>| prepared.objective(p, g);
     let p = [0.3, 2.5];
     let mut g = [0.0; 2];
-    let f0 = objective(&form, &data, &p, Some(&mut g));
-    assert_eq!(f0, objective(&form, &data, &p, None));
+    let f0 = objective(&p, Some(&mut g));
+    assert_eq!(f0, objective(&p, None));
+    // The split tape computes what the whole one does, to the bit.
+    let mut direct = 0.0;
+    let (mut scratch, mut out) = (Vec::new(), [0.0; 2]);
+    for n in 0..data.len() {
+        form.tape.eval(&data.coordinates[2 * n..2 * n + 2], &p, &mut scratch, &mut out);
+        for (v, t) in out.iter().zip(&data.values[2 * n..2 * n + 2]) {
+            direct += (v - t) * (v - t);
+        }
+    }
+    assert_eq!(f0, direct / (2 * data.len()) as f64);
     for k in 0..2 {
         let h = 1e-6;
         let (mut up, mut down) = (p, p);
         up[k] += h;
         down[k] -= h;
-        let numeric = (objective(&form, &data, &up, None) - objective(&form, &data, &down, None)) / (2.0 * h);
+        let numeric = (objective(&up, None) - objective(&down, None)) / (2.0 * h);
         assert!((numeric - g[k]).abs() < 1e-6 * (1.0 + numeric.abs()), "{k}: {numeric} against {}", g[k]);
     }
 }
@@ -160,14 +172,14 @@ fn a_fit_recovers_the_parameters_the_table_was_made_with_and_reports_redundancy(
     let form = parse(GOOD).unwrap();
     let data = FormData::from_table(&table(), &form).unwrap();
     let settings = FitSettings { starts: 3, ..FitSettings::default() };
-    let fitted = fit(&form, &data, &settings).unwrap();
+    let fitted = fit(&form, &Prepared::new(&form, &data), &settings).unwrap();
     assert!((fitted.parameters[0] - 0.5).abs() < 1e-3 && (fitted.parameters[1] - 5.0).abs() < 1e-2, "{:?}", fitted.parameters);
     let f = figures(&form, &data, &fitted.parameters).unwrap();
     assert!(f.together.rms < 1e-5 && f.channels["bias"].max < 1e-5, "{f:?}");
-    assert!(identifiability(&form, &data, &fitted.parameters).ill_determined.is_empty());
+    assert!(identifiability(&form, &Prepared::new(&form, &data), &fitted.parameters).ill_determined.is_empty());
     // The same seed gives the same bits, whatever the number of threads.
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    let again = one.install(|| fit(&form, &data, &settings).unwrap());
+    let again = one.install(|| fit(&form, &Prepared::new(&form, &data), &settings).unwrap());
     assert_eq!(again.parameters, fitted.parameters);
     // Two parameters that only enter as a sum are one direction of no information.
     let redundant = GOOD.replace("1 - p * roughness * mu", "1 - (p + r) * roughness * mu").replace(
@@ -175,8 +187,9 @@ fn a_fit_recovers_the_parameters_the_table_was_made_with_and_reports_redundancy(
         "r = { start = 0.0, min = -1.0, max = 1.0 }\n[let]",
     );
     let form = parse(&redundant).unwrap();
-    let fitted = fit(&form, &data, &settings).unwrap();
-    let id = identifiability(&form, &data, &fitted.parameters);
+    let prepared = Prepared::new(&form, &data);
+    let fitted = fit(&form, &prepared, &settings).unwrap();
+    let id = identifiability(&form, &prepared, &fitted.parameters);
     assert_eq!(id.ill_determined.len(), 1, "{id:?}");
     assert_eq!(id.ill_determined[0].parameters, ["p", "r"]);
     assert_eq!(id.ill_determined_parameters, ["p", "r"]);
@@ -199,9 +212,35 @@ fn tables_with_a_derived_axis_are_fitted_on_a_uniform_grid_of_the_lookup_variabl
     assert_eq!(form.variables, ["mu", "alpha", "eta"]);
     let data = FormData::from_table(&tir, &form).unwrap();
     assert_eq!(data.len(), crate::fit::FIT_GRID_NODES.pow(3));
-    let fitted = fit(&form, &data, &FitSettings { starts: 1, ..FitSettings::default() }).unwrap();
+    let fitted = fit(&form, &Prepared::new(&form, &data), &FitSettings { starts: 1, ..FitSettings::default() }).unwrap();
     assert!((fitted.parameters[0] - 0.25).abs() < 1e-4, "{:?}", fitted.parameters);
     let wgsl = module(&form, &fitted.parameters).print(crate::shader::Lang::Wgsl);
     assert!(wgsl.contains("fn tmlut_tir_line(mu: f32, alpha: f32, eta: f32) -> f32"), "{wgsl}");
     crate::shader::validate::wgsl(&wgsl).unwrap();
+}
+
+/// `luts/forms/tir-logistic.toml` computes the built-in `logistic` form of `tmlut fit tir`, with
+/// its parameters in the same order: one form, two ways to write it, the same numbers.
+#[test]
+fn the_logistic_form_file_computes_the_built_in_logistic_form() {
+    let axes = ["mu", "alpha", "eta"].map(|a| Axis::node_aligned(a, 0.0, 1.0, 3).unwrap()).to_vec();
+    let tir = Table::zeros("tir", axes, vec![Channel::new("tir", "test")]).unwrap();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms/tir-logistic.toml");
+    let form = Form::read(&path, &tir).unwrap();
+    let built_in = crate::fit::Form::Logistic;
+    let (start, _, _) = built_in.start_and_bounds();
+    assert_eq!(form.parameters.iter().map(|p| p.start).collect::<Vec<_>>(), start);
+    let mut state = 7u64;
+    let mut unit = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut scratch, mut out) = (Vec::new(), [0.0]);
+    for _ in 0..2000 {
+        let p: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
+        let (mu, alpha, eta) = (unit(), unit(), unit());
+        form.tape.eval(&[mu, alpha, eta], &p, &mut scratch, &mut out);
+        let expected = built_in.eval(&p, mu, alpha, eta);
+        assert!((out[0] - expected).abs() <= 1e-12, "{p:?} at ({mu}, {alpha}, {eta}): {} against {expected}", out[0]);
+    }
 }
