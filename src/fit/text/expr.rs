@@ -275,7 +275,18 @@ fn tokens(text: &str) -> Result<Vec<(Token, Span)>, ExprError> {
 struct Parser {
     tokens: Vec<(Token, Span)>,
     next: usize,
+    /// Nesting so far (parentheses, calls, unary minus): bounded, so that a pathological
+    /// expression is refused instead of overflowing the stack of this recursive parser and of
+    /// everything that walks its tree.
+    depth: usize,
 }
+
+/// The deepest nesting an expression may have.
+pub const MAX_DEPTH: usize = 200;
+
+/// The most tokens one expression may have: a long chain like `x + x + ...` nests its tree as
+/// deep as it is long, and the compiler and printers walk trees recursively.
+pub const MAX_TOKENS: usize = 4096;
 
 impl Parser {
     fn peek(&self) -> &(Token, Span) {
@@ -340,6 +351,16 @@ impl Parser {
     }
 
     fn unary(&mut self) -> Result<Node, ExprError> {
+        self.depth += 1;
+        if self.depth > MAX_DEPTH {
+            return error(self.peek().1.start, format!("the expression nests deeper than {MAX_DEPTH} levels"));
+        }
+        let node = self.unary_inner();
+        self.depth -= 1;
+        node
+    }
+
+    fn unary_inner(&mut self) -> Result<Node, ExprError> {
         if self.is("-") {
             self.take();
             return Ok(match self.unary()? {
@@ -450,7 +471,11 @@ fn comparison(symbol: &str) -> Option<Compare> {
 
 /// Parse one expression.
 pub fn parse(text: &str) -> Result<Node, ExprError> {
-    let mut parser = Parser { tokens: tokens(text)?, next: 0 };
+    let tokens = tokens(text)?;
+    if tokens.len() > MAX_TOKENS {
+        return error(tokens[MAX_TOKENS].1.start, format!("the expression has more than {MAX_TOKENS} tokens; split it with `let` bindings"));
+    }
+    let mut parser = Parser { tokens, next: 0, depth: 0 };
     if parser.peek().0 == Token::End {
         return error(0, "empty expression");
     }

@@ -69,3 +69,13 @@ fn names_that_shaders_refuse_are_refused() {
         assert!(check_identifier(bad).is_err(), "{bad}");
     }
 }
+
+#[test]
+fn deep_nesting_is_refused_not_a_stack_overflow() {
+    let deep = format!("{}x{}", "(".repeat(1000), ")".repeat(1000));
+    assert!(err(&deep).message.contains("nests deeper than"));
+    assert!(err(&format!("{}x", "-".repeat(1000))).message.contains("nests deeper than"));
+    assert!(err(&vec!["x"; 100_000].join(" + ")).message.contains("more than 4096 tokens"));
+    let fine = format!("{}x{}", "(".repeat(50), ")".repeat(50));
+    assert!(parse(&fine).is_ok());
+}
