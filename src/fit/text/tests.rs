@@ -244,3 +244,15 @@ fn the_logistic_form_file_computes_the_built_in_logistic_form() {
         assert!((out[0] - expected).abs() <= 1e-12, "{p:?} at ({mu}, {alpha}, {eta}): {} against {expected}", out[0]);
     }
 }
+
+/// A parameter read only by a `select`'s condition is used, and the split tape keeps the
+/// condition's dependence on it.
+#[test]
+fn a_parameter_in_a_select_condition_is_used_and_kept_by_the_split() {
+    let text = "table = \"karis\"\n[parameters]\nk = { start = 0.5, min = 0.0, max = 1.0 }\n[channels]\nscale = \"select(0.0, 1.0, mu < k)\"\nbias = \"mu * mu\"\n";
+    let form = parse(text).unwrap();
+    let data = FormData::from_table(&table(), &form).unwrap();
+    let prepared = Prepared::new(&form, &data);
+    // Where the step sits changes the objective: the condition was not split off as a constant.
+    assert_ne!(prepared.objective(&[0.2], None), prepared.objective(&[0.8], None));
+}
