@@ -171,7 +171,13 @@ pub enum Node {
     Binary(BinOp, Box<Node>, Box<Node>),
     Call(Func, Vec<Node>),
     /// `select(otherwise, then, left compare right)`.
-    Select { otherwise: Box<Node>, then: Box<Node>, compare: Compare, left: Box<Node>, right: Box<Node> },
+    Select {
+        otherwise: Box<Node>,
+        then: Box<Node>,
+        compare: Compare,
+        left: Box<Node>,
+        right: Box<Node>,
+    },
 }
 
 impl Node {
@@ -264,7 +270,9 @@ fn tokens(text: &str) -> Result<Vec<(Token, Span)>, ExprError> {
             let ch = text[i..].chars().next().unwrap_or('?');
             return error(
                 start,
-                format!("unexpected character `{ch}`; allowed: numbers, names, + - * / ^, ( ) , and < <= > >= == != in a select's condition"),
+                format!(
+                    "unexpected character `{ch}`; allowed: numbers, names, + - * / ^, ( ) , and < <= > >= == != in a select's condition"
+                ),
             );
         }
     }
@@ -422,7 +430,8 @@ impl Parser {
         self.expect(")", &format!("or `,` in the arguments of `{name}`"))?;
         let (given, wanted) = (args.len() + usize::from(condition.is_some()), func.map_or(3, Func::arity));
         if given != wanted {
-            let signature = if is_select { "select(a, b, condition)".to_string() } else { format!("{name} takes {wanted}") };
+            let signature =
+                if is_select { "select(a, b, condition)".to_string() } else { format!("{name} takes {wanted}") };
             return error(span.start, format!("`{name}` called with {given} arguments; {signature}"));
         }
         match (func, condition) {
@@ -451,7 +460,10 @@ impl Parser {
             _ => None,
         };
         let Some(compare) = compare else {
-            return error(span.start, format!("expected a comparison (< <= > >= == !=) in select's condition, found {token}"));
+            return error(
+                span.start,
+                format!("expected a comparison (< <= > >= == !=) in select's condition, found {token}"),
+            );
         };
         Ok((compare, left, self.expression()?))
     }
@@ -473,7 +485,10 @@ fn comparison(symbol: &str) -> Option<Compare> {
 pub fn parse(text: &str) -> Result<Node, ExprError> {
     let tokens = tokens(text)?;
     if tokens.len() > MAX_TOKENS {
-        return error(tokens[MAX_TOKENS].1.start, format!("the expression has more than {MAX_TOKENS} tokens; split it with `let` bindings"));
+        return error(
+            tokens[MAX_TOKENS].1.start,
+            format!("the expression has more than {MAX_TOKENS} tokens; split it with `let` bindings"),
+        );
     }
     let mut parser = Parser { tokens, next: 0, depth: 0 };
     if parser.peek().0 == Token::End {
@@ -495,9 +510,7 @@ pub fn check_identifier(name: &str) -> Result<(), String> {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
         && !name.contains("__");
     if !valid {
-        return Err(format!(
-            "`{name}` is not a name: a letter, then letters, digits or single underscores"
-        ));
+        return Err(format!("`{name}` is not a name: a letter, then letters, digits or single underscores"));
     }
     if FUNCTIONS.iter().any(|(n, ..)| *n == name) || name == SELECT {
         return Err(format!("`{name}` is a function of the language"));
@@ -511,15 +524,113 @@ pub fn check_identifier(name: &str) -> Result<(), String> {
 /// Words WGSL, HLSL, GLSL or MSL reserve that a short parameter name might collide with (the
 /// shader printers write names as they are).
 const RESERVED: &[&str] = &[
-    "as", "asm", "bool", "break", "case", "cast", "char", "const", "continue", "default", "discard", "do", "double",
-    "else", "enum", "false", "float", "fn", "for", "half", "if", "in", "inline", "inout", "int", "let", "loop",
-    "main", "matrix", "out", "precise", "return", "sample", "self", "static", "struct", "switch", "true", "type",
-    "uint", "uniform", "var", "vector", "void", "while", "f16", "f32", "f64", "i32", "u32", "vec2", "vec3", "vec4",
-    "float2", "float3", "float4", "mat2", "mat3", "mat4", "fma", "frac", "lerp", "length", "dot", "cross",
-    "normalize", "mod", "fmod", "ldexp", "round", "trunc", "ceil", "degrees", "radians", "distance", "ddx", "ddy",
-    "inverseSqrt", "texture", "sampler", "buffer", "shared", "private", "public", "signed", "unsigned", "long",
-    "short", "auto", "new", "delete", "this", "template", "typename", "using", "namespace", "kernel", "device",
-    "constant", "thread", "threadgroup", "attribute", "varying", "highp", "mediump", "lowp", "precision",
+    "as",
+    "asm",
+    "bool",
+    "break",
+    "case",
+    "cast",
+    "char",
+    "const",
+    "continue",
+    "default",
+    "discard",
+    "do",
+    "double",
+    "else",
+    "enum",
+    "false",
+    "float",
+    "fn",
+    "for",
+    "half",
+    "if",
+    "in",
+    "inline",
+    "inout",
+    "int",
+    "let",
+    "loop",
+    "main",
+    "matrix",
+    "out",
+    "precise",
+    "return",
+    "sample",
+    "self",
+    "static",
+    "struct",
+    "switch",
+    "true",
+    "type",
+    "uint",
+    "uniform",
+    "var",
+    "vector",
+    "void",
+    "while",
+    "f16",
+    "f32",
+    "f64",
+    "i32",
+    "u32",
+    "vec2",
+    "vec3",
+    "vec4",
+    "float2",
+    "float3",
+    "float4",
+    "mat2",
+    "mat3",
+    "mat4",
+    "fma",
+    "frac",
+    "lerp",
+    "length",
+    "dot",
+    "cross",
+    "normalize",
+    "mod",
+    "fmod",
+    "ldexp",
+    "round",
+    "trunc",
+    "ceil",
+    "degrees",
+    "radians",
+    "distance",
+    "ddx",
+    "ddy",
+    "inverseSqrt",
+    "texture",
+    "sampler",
+    "buffer",
+    "shared",
+    "private",
+    "public",
+    "signed",
+    "unsigned",
+    "long",
+    "short",
+    "auto",
+    "new",
+    "delete",
+    "this",
+    "template",
+    "typename",
+    "using",
+    "namespace",
+    "kernel",
+    "device",
+    "constant",
+    "thread",
+    "threadgroup",
+    "attribute",
+    "varying",
+    "highp",
+    "mediump",
+    "lowp",
+    "precision",
 ];
 
 #[cfg(test)]

@@ -53,11 +53,8 @@ impl FormData {
     /// the table interpolated there, so that an axis whose nodes crowd where the table is steep
     /// (TIR's critical-angle axis) does not weight the fit there.
     pub fn from_table(table: &Table, form: &Form) -> Result<FormData> {
-        let channel_index: Vec<usize> = form
-            .channels
-            .iter()
-            .map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0))
-            .collect();
+        let channel_index: Vec<usize> =
+            form.channels.iter().map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0)).collect();
         let d = form.variables.len();
         let mut coordinates = Vec::new();
         let mut values = Vec::new();
@@ -96,11 +93,15 @@ impl FormData {
                     rest /= n;
                 }
                 let get = |name: &str| form.variables.iter().position(|v| v == name).map_or(0.0, |i| point[i]);
-                let at = crate::table::derived::point_of(&table.axes, get("mu"), get("alpha"), get("eta"), get("kappa"))
-                    .ok_or_else(|| Error::invalid("fit table", format!("table `{}` has an axis no lookup addresses", table.name)))?;
-                table
-                    .interpolate_into(&at, &mut value)
-                    .map_err(|e| Error::invalid("fit table", format!("{e:?}")))?;
+                let at =
+                    crate::table::derived::point_of(&table.axes, get("mu"), get("alpha"), get("eta"), get("kappa"))
+                        .ok_or_else(|| {
+                            Error::invalid(
+                                "fit table",
+                                format!("table `{}` has an axis no lookup addresses", table.name),
+                            )
+                        })?;
+                table.interpolate_into(&at, &mut value).map_err(|e| Error::invalid("fit table", format!("{e:?}")))?;
                 coordinates.extend(point);
                 values.extend(channel_index.iter().map(|&c| value[c]));
             }
@@ -270,7 +271,12 @@ pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Figur
 
 /// The figures of `errors` (point-major, one per channel) per channel and together; `point(n)` is
 /// point `n`'s coordinates in `variables`.
-fn figure_set(errors: &[f64], channels: &[String], variables: &[String], point: impl Fn(usize) -> Vec<f64>) -> FigureSet {
+fn figure_set(
+    errors: &[f64],
+    channels: &[String],
+    variables: &[String],
+    point: impl Fn(usize) -> Vec<f64>,
+) -> FigureSet {
     let count = channels.len();
     let summarise = |selected: &dyn Fn(usize) -> bool, name_channel: bool| -> Figures {
         let mut abs: Vec<f64> = Vec::new();
@@ -427,7 +433,10 @@ fn symmetric_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
         v[i * n + i] = 1.0;
     }
     for _sweep in 0..100 {
-        let off: f64 = (0..n).flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j))).map(|(i, j)| a[i * n + j].powi(2)).sum();
+        let off: f64 = (0..n)
+            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i * n + j].powi(2))
+            .sum();
         let total: f64 = a.iter().map(|x| x * x).sum();
         if off <= 1e-30 * total || off == 0.0 {
             break;
@@ -495,14 +504,11 @@ pub fn certify(
     start: &[f64],
     fitted: &[f64],
 ) -> Result<Vec<Certified>> {
-    let recipe = config
-        .recipe_named(&table.name)
-        .ok_or_else(|| Error::invalid("certify", format!("table `{}` has no recipe to integrate exactly", table.name)))?;
-    let channel_index: Vec<usize> = form
-        .channels
-        .iter()
-        .map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0))
-        .collect();
+    let recipe = config.recipe_named(&table.name).ok_or_else(|| {
+        Error::invalid("certify", format!("table `{}` has no recipe to integrate exactly", table.name))
+    })?;
+    let channel_index: Vec<usize> =
+        form.channels.iter().map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0)).collect();
     let channels: Vec<String> = form.channels.iter().map(|c| c.name.clone()).collect();
     let mut out = Vec::new();
     for exact in recipe.exact_values(seed, &())? {
@@ -534,7 +540,10 @@ pub fn certify(
         }
         let (fitted_errors, start_errors) = (form_errors(fitted), form_errors(start));
         if fitted_errors.iter().chain(&start_errors).chain(&table_errors).any(|e| !e.is_finite()) {
-            return Err(Error::invalid("certify", format!("a value that is not finite in domain {}", exact.domain.describe())));
+            return Err(Error::invalid(
+                "certify",
+                format!("a value that is not finite in domain {}", exact.domain.describe()),
+            ));
         }
         let set = |errors: &[f64]| figure_set(errors, &channels, &form.variables, point);
         out.push(Certified {
@@ -698,13 +707,16 @@ pub fn markdown(report: &FormReport) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let _ = writeln!(s, "# Form `{}` fitted to table `{}`\n", report.form, report.table);
-    let _ = writeln!(s, "Form file `{}`, table file `{}`; {} points: {}.\n", report.form_file, report.table_file, report.points, report.points_are);
+    let _ = writeln!(
+        s,
+        "Form file `{}`, table file `{}`; {} points: {}.\n",
+        report.form_file, report.table_file, report.points, report.points_are
+    );
     let _ = writeln!(s, "```text\n{}\n```\n", report.definition.join("\n"));
     let _ = writeln!(s, "| channel | RMS at start | RMS fitted | p99 fitted | max fitted | max at |");
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
-    let rows = std::iter::once(("together".to_string(), &report.start_figures.together, &report.figures.together)).chain(
-        report.figures.channels.iter().map(|(c, f)| (c.clone(), &report.start_figures.channels[c], f)),
-    );
+    let rows = std::iter::once(("together".to_string(), &report.start_figures.together, &report.figures.together))
+        .chain(report.figures.channels.iter().map(|(c, f)| (c.clone(), &report.start_figures.channels[c], f)));
     for (channel, start, fitted) in rows {
         let at: Vec<String> = fitted.max_at.iter().map(|(v, x)| format!("{v} {x:.4}")).collect();
         let _ = writeln!(
@@ -724,16 +736,32 @@ pub fn markdown(report: &FormReport) -> String {
             "\nAgainst exact integrals at {} random points ({} samples each, standard error <= {:.1e}), {}:\n",
             c.points, c.samples_per_point, c.exact_standard_error_max, c.domain
         );
-        let _ = writeln!(s, "| channel | form at start: RMS | fitted: RMS | p99 | max | max at | table interpolated: RMS | p99 | max |");
+        let _ = writeln!(
+            s,
+            "| channel | form at start: RMS | fitted: RMS | p99 | max | max at | table interpolated: RMS | p99 | max |"
+        );
         let _ = writeln!(s, "|---|---:|---:|---:|---:|---|---:|---:|---:|");
-        let rows = std::iter::once(("together".to_string(), &c.form_at_start.together, &c.form.together, &c.table.together))
-            .chain(c.form.channels.iter().map(|(k, f)| (k.clone(), &c.form_at_start.channels[k], f, &c.table.channels[k])));
+        let rows =
+            std::iter::once(("together".to_string(), &c.form_at_start.together, &c.form.together, &c.table.together))
+                .chain(
+                    c.form
+                        .channels
+                        .iter()
+                        .map(|(k, f)| (k.clone(), &c.form_at_start.channels[k], f, &c.table.channels[k])),
+                );
         for (channel, start, fitted, table) in rows {
             let at: Vec<String> = fitted.max_at.iter().map(|(v, x)| format!("{v} {x:.4}")).collect();
             let _ = writeln!(
                 s,
                 "| {channel} | {:.6} | {:.6} | {:.6} | {:.6} | {} | {:.2e} | {:.2e} | {:.2e} |",
-                start.rms, fitted.rms, fitted.p99, fitted.max, at.join(", "), table.rms, table.p99, table.max
+                start.rms,
+                fitted.rms,
+                fitted.p99,
+                fitted.max,
+                at.join(", "),
+                table.rms,
+                table.p99,
+                table.max
             );
         }
     }
@@ -775,6 +803,11 @@ pub fn markdown(report: &FormReport) -> String {
     if !id.at_bounds.is_empty() {
         let _ = writeln!(s, "\nAt a bound: {}.", id.at_bounds.join(", "));
     }
-    let _ = writeln!(s, "\nShader function `{}` in: {}.", report.shader_function, report.files[..LANGUAGES.len()].join(", "));
+    let _ = writeln!(
+        s,
+        "\nShader function `{}` in: {}.",
+        report.shader_function,
+        report.files[..LANGUAGES.len()].join(", ")
+    );
     s
 }

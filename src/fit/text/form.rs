@@ -97,7 +97,11 @@ pub fn table_variables(table: &Table) -> Result<Vec<String>> {
         } else {
             return Err(Error::invalid(
                 "fit table",
-                format!("axis `{name}` of table `{}` is no quantity a form can read; allowed axes: {}", table.name, LOOKUP_VARIABLES.join(", ")),
+                format!(
+                    "axis `{name}` of table `{}` is no quantity a form can read; allowed axes: {}",
+                    table.name,
+                    LOOKUP_VARIABLES.join(", ")
+                ),
             ));
         }
     }
@@ -193,7 +197,10 @@ impl Form {
     pub fn parse(path: &Path, text: &str, table: &Table) -> Result<Form> {
         let at = |offset: usize, reason: String| Error::at(path, text, offset, reason);
         let file: FileText = toml::from_str(text).map_err(|e| {
-            at(e.span().map_or(0, |s| s.start), format!("{} (a form file has `table`, [parameters], optional [let], [channels])", e.message().trim()))
+            at(
+                e.span().map_or(0, |s| s.start),
+                format!("{} (a form file has `table`, [parameters], optional [let], [channels])", e.message().trim()),
+            )
         })?;
         let name = form_name(path);
         if *file.table.get_ref() != table.name {
@@ -236,7 +243,10 @@ impl Form {
         let check_name = |key: &Spanned<String>, scope: &Scope| -> Result<()> {
             expr::check_identifier(key.get_ref()).map_err(|reason| at(key.span().start, reason))?;
             if scope.names.contains_key(key.get_ref()) {
-                return Err(at(key.span().start, format!("`{}` is already defined (a variable, parameter or binding)", key.get_ref())));
+                return Err(at(
+                    key.span().start,
+                    format!("`{}` is already defined (a variable, parameter or binding)", key.get_ref()),
+                ));
             }
             Ok(())
         };
@@ -254,7 +264,10 @@ impl Form {
             let (start, min, max) = (*p.start.get_ref(), *p.min.get_ref(), *p.max.get_ref());
             for (what, v) in [("start", &p.start), ("min", &p.min), ("max", &p.max)] {
                 if !v.get_ref().is_finite() {
-                    return Err(at(v.span().start, format!("`{}`'s {what} is {}; allowed: a finite number", key.get_ref(), v.get_ref())));
+                    return Err(at(
+                        v.span().start,
+                        format!("`{}`'s {what} is {}; allowed: a finite number", key.get_ref(), v.get_ref()),
+                    ));
                 }
             }
             if min >= max {
@@ -288,7 +301,12 @@ impl Form {
             let Some(index) = table_channels.iter().position(|c| c == key.get_ref()) else {
                 return Err(at(
                     key.span().start,
-                    format!("table `{}` has no channel `{}`; its channels: {}", table.name, key.get_ref(), table_channels.join(", ")),
+                    format!(
+                        "table `{}` has no channel `{}`; its channels: {}",
+                        table.name,
+                        key.get_ref(),
+                        table_channels.join(", ")
+                    ),
                 ));
             };
             let (node, slot) = compile(&mut scope, value)?;

@@ -191,7 +191,8 @@ pub fn sources(form: &Form, parameters: &[f64]) -> Result<Vec<String>> {
         "{wgsl}\n@compute @workgroup_size(1)\nfn main() {{\n    _ = {}({arguments});\n}}\n",
         function_name(form)
     );
-    let module = naga::front::wgsl::parse_str(&with_entry).map_err(|e| refused("WGSL", e.emit_to_string(&with_entry)))?;
+    let module =
+        naga::front::wgsl::parse_str(&with_entry).map_err(|e| refused("WGSL", e.emit_to_string(&with_entry)))?;
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .map_err(|e| refused("WGSL", e.emit_to_string(&with_entry)))?;
@@ -210,7 +211,8 @@ pub fn sources(form: &Form, parameters: &[f64]) -> Result<Vec<String>> {
         .and_then(|mut w| w.write().map(|_| ()))
         .map_err(|e| refused("GLSL translation", e.to_string()))?;
     let msl_options = naga::back::msl::Options { lang_version: (2, 1), ..naga::back::msl::Options::default() };
-    let (msl, _) = naga::back::msl::write_string(&module, &info, &msl_options, &naga::back::msl::PipelineOptions::default())
-        .map_err(|e| refused("MSL translation", e.to_string()))?;
+    let (msl, _) =
+        naga::back::msl::write_string(&module, &info, &msl_options, &naga::back::msl::PipelineOptions::default())
+            .map_err(|e| refused("MSL translation", e.to_string()))?;
     Ok(vec![wgsl, hlsl, glsl, msl])
 }

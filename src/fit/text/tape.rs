@@ -22,7 +22,13 @@ pub enum Ins {
     /// multiplication, defined for a negative base, as the shaders compute it.
     PowInt(usize, i32),
     Call(Func, [usize; 3]),
-    Select { otherwise: usize, then: usize, compare: Compare, left: usize, right: usize },
+    Select {
+        otherwise: usize,
+        then: usize,
+        compare: Compare,
+        left: usize,
+        right: usize,
+    },
 }
 
 /// The largest integer exponent `^` computes by repeated multiplication; larger ones use `pow`.
@@ -186,11 +192,7 @@ impl Tape {
                     unary => T::unary(unary, v(a)),
                 },
                 Ins::Select { otherwise, then, compare, left, right } => {
-                    if compare.holds(v(left).to_f64(), v(right).to_f64()) {
-                        v(then)
-                    } else {
-                        v(otherwise)
-                    }
+                    if compare.holds(v(left).to_f64(), v(right).to_f64()) { v(then) } else { v(otherwise) }
                 }
             };
             values.push(value);
@@ -297,7 +299,8 @@ impl Tape {
             }
             map[i] = tape.push(ins);
         }
-        tape.outputs = self.outputs.iter().map(|&k| if depends[k] { map[k] } else { input(k, &mut tape, &mut map) }).collect();
+        tape.outputs =
+            self.outputs.iter().map(|&k| if depends[k] { map[k] } else { input(k, &mut tape, &mut map) }).collect();
         (tape, inputs)
     }
 

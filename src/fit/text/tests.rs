@@ -103,7 +103,9 @@ bias = "y - w / (z * z + 1)"
     let form = Form::parse(Path::new("all.toml"), text, &table).unwrap();
     let mut work = tape::Work::default();
     let mut scratch = Vec::new();
-    for (point, params) in [([0.3, 0.6], [0.3, 0.7, 1.3]), ([0.9, 0.1], [-0.4, 0.2, 0.6]), ([0.5, 0.5], [1.1, -0.3, 1.7])] {
+    for (point, params) in
+        [([0.3, 0.6], [0.3, 0.7, 1.3]), ([0.9, 0.1], [-0.4, 0.2, 0.6]), ([0.5, 0.5], [1.1, -0.3, 1.7])]
+    {
         for channel in 0..2 {
             let mut seeds = [0.0; 2];
             seeds[channel] = 1.0;
@@ -173,7 +175,11 @@ fn a_fit_recovers_the_parameters_the_table_was_made_with_and_reports_redundancy(
     let data = FormData::from_table(&table(), &form).unwrap();
     let settings = FitSettings { starts: 3, ..FitSettings::default() };
     let fitted = fit(&form, &Prepared::new(&form, &data), &settings).unwrap();
-    assert!((fitted.parameters[0] - 0.5).abs() < 1e-3 && (fitted.parameters[1] - 5.0).abs() < 1e-2, "{:?}", fitted.parameters);
+    assert!(
+        (fitted.parameters[0] - 0.5).abs() < 1e-3 && (fitted.parameters[1] - 5.0).abs() < 1e-2,
+        "{:?}",
+        fitted.parameters
+    );
     let f = figures(&form, &data, &fitted.parameters).unwrap();
     assert!(f.together.rms < 1e-5 && f.channels["bias"].max < 1e-5, "{f:?}");
     assert!(identifiability(&form, &Prepared::new(&form, &data), &fitted.parameters).ill_determined.is_empty());
@@ -182,10 +188,9 @@ fn a_fit_recovers_the_parameters_the_table_was_made_with_and_reports_redundancy(
     let again = one.install(|| fit(&form, &Prepared::new(&form, &data), &settings).unwrap());
     assert_eq!(again.parameters, fitted.parameters);
     // Two parameters that only enter as a sum are one direction of no information.
-    let redundant = GOOD.replace("1 - p * roughness * mu", "1 - (p + r) * roughness * mu").replace(
-        "[let]",
-        "r = { start = 0.0, min = -1.0, max = 1.0 }\n[let]",
-    );
+    let redundant = GOOD
+        .replace("1 - p * roughness * mu", "1 - (p + r) * roughness * mu")
+        .replace("[let]", "r = { start = 0.0, min = -1.0, max = 1.0 }\n[let]");
     let form = parse(&redundant).unwrap();
     let prepared = Prepared::new(&form, &data);
     let fitted = fit(&form, &prepared, &settings).unwrap();
@@ -212,7 +217,8 @@ fn tables_with_a_derived_axis_are_fitted_on_a_uniform_grid_of_the_lookup_variabl
     assert_eq!(form.variables, ["mu", "alpha", "eta"]);
     let data = FormData::from_table(&tir, &form).unwrap();
     assert_eq!(data.len(), crate::fit::FIT_GRID_NODES.pow(3));
-    let fitted = fit(&form, &Prepared::new(&form, &data), &FitSettings { starts: 1, ..FitSettings::default() }).unwrap();
+    let fitted =
+        fit(&form, &Prepared::new(&form, &data), &FitSettings { starts: 1, ..FitSettings::default() }).unwrap();
     assert!((fitted.parameters[0] - 0.25).abs() < 1e-4, "{:?}", fitted.parameters);
     let wgsl = module(&form, &fitted.parameters).print(crate::shader::Lang::Wgsl);
     assert!(wgsl.contains("fn tmlut_tir_line(mu: f32, alpha: f32, eta: f32) -> f32"), "{wgsl}");
