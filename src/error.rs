@@ -14,6 +14,11 @@ pub enum Error {
     #[error("{}: {reason}", path.display())]
     Format { path: PathBuf, reason: String },
 
+    /// A text file (a form file) is wrong at one place: its line and column, 1-based, the column
+    /// counted in characters, as editors count them.
+    #[error("{}:{line}:{column}: {reason}", path.display())]
+    At { path: PathBuf, line: usize, column: usize, reason: String },
+
     /// A configuration key or a command-line value is out of what is allowed.
     #[error("{key}: {reason}")]
     Invalid { key: String, reason: String },
@@ -26,6 +31,18 @@ impl Error {
 
     pub fn format(path: impl Into<PathBuf>, reason: impl Into<String>) -> Self {
         Error::Format { path: path.into(), reason: reason.into() }
+    }
+
+    /// The error at byte `offset` of `text`, the contents of `path`.
+    pub fn at(path: impl Into<PathBuf>, text: &str, offset: usize, reason: impl Into<String>) -> Self {
+        let mut end = offset.min(text.len());
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        let before = &text[..end];
+        let line = before.matches('\n').count() + 1;
+        let column = before.rsplit('\n').next().unwrap_or_default().chars().count() + 1;
+        Error::At { path: path.into(), line, column, reason: reason.into() }
     }
 
     pub fn invalid(key: impl Into<String>, reason: impl Into<String>) -> Self {

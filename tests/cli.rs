@@ -1027,3 +1027,105 @@ fn a_table_larger_than_the_process_may_use_is_refused_before_anything_is_allocat
     assert_clean_failure(&output, &["fgd", "needs about", "at most 3.8 GiB", "ulimit -v", "mu_count"]);
     assert!(!out.exists(), "the refused build created {}", out.display());
 }
+
+/// `tmlut fit --form`: the repository's EnvBRDFApprox form (UE4's mobile approximation of the
+/// split-sum table) fitted to a small Karis table, against the same form at its published
+/// coefficients; the set of files, valid WGSL, and the same bits from the same seed.
+#[test]
+fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let luts = dir.path().join("luts");
+    let output = build(&config, &luts, &["--only", "karis"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let form = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms/karis-env-brdf-approx.toml");
+    let table = luts.join("karis.dds");
+    let fit = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["fit", "--form", form.to_str().unwrap(), "--table", table.to_str().unwrap()];
+        args.extend(["--out", out.to_str().unwrap(), "--starts", "3"]);
+        args.extend_from_slice(extra);
+        let output = tmlut(&args);
+        assert!(output.status.success(), "{}", stderr(&output));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("fit.json")).unwrap()).unwrap();
+        json
+    };
+    let published = fit(&dir.path().join("published"), &["--max-evaluations", "0"]);
+    let fitted = fit(&dir.path().join("fitted"), &["--certify", "--config", config.to_str().unwrap()]);
+    let rms = |json: &serde_json::Value| json["figures"]["together"]["rms"].as_f64().unwrap();
+    assert_eq!(published["parameters"]["c"].as_f64(), Some(-0.572));
+    assert_eq!(published["start_figures"], fitted["start_figures"]);
+    // The least-squares optimum of this form on the 32 x 24 table (docs/fit.md has the figures of
+    // the default 512 x 512 table).
+    assert!(rms(&fitted) <= 0.93 * rms(&published), "fitted RMS {} against published {}", rms(&fitted), rms(&published));
+    for name in ["a", "b", "c", "d", "e", "f", "g", "h"] {
+        assert!(fitted["parameters"][name].as_f64().unwrap().is_finite(), "{name}");
+    }
+    // The constant term of `ry` (f) and the two channels' offsets (g, h) only enter as two sums,
+    // as do b, c and d along roughness: two directions the data cannot fix.
+    let id = &fitted["identifiability"];
+    assert_eq!(id["ill_determined"].as_array().unwrap().len(), 2, "{id}");
+    assert_eq!(id["ill_determined_parameters"], serde_json::json!(["b", "c", "d", "f", "g", "h"]), "{id}");
+    // Certified against exact integrals at the random points of the table's interpolation check
+    // (both of Karis's domains), beside the table's own error there.
+    let certified = fitted["certified"].as_array().unwrap();
+    assert_eq!(certified.len(), 2);
+    for c in certified {
+        let (form, table) = (c["form"]["together"]["rms"].as_f64().unwrap(), c["table"]["together"]["rms"].as_f64().unwrap());
+        assert!(table > 0.0 && table < form && form < 0.1, "{c}");
+    }
+    let out = dir.path().join("fitted");
+    let mut files: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    files.sort();
+    let stem = "karis_env_brdf_approx";
+    assert_eq!(
+        files,
+        ["fit.json", &format!("{stem}.glsl"), &format!("{stem}.hlsl"), &format!("{stem}.metal"), &format!("{stem}.wgsl"), "report.md"]
+    );
+    let wgsl = std::fs::read_to_string(out.join(format!("{stem}.wgsl"))).unwrap();
+    let module = naga::front::wgsl::parse_str(&wgsl).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&wgsl)));
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .unwrap();
+    assert!(wgsl.contains("fn tmlut_karis_env_brdf_approx(mu: f32, alpha: f32) -> vec2<f32>"), "{wgsl}");
+    // The same seed: the same bytes, on one thread as on all.
+    let again = dir.path().join("again");
+    let output = Command::new(env!("CARGO_BIN_EXE_tmlut"))
+        .args(["fit", "--form", form.to_str().unwrap(), "--table", table.to_str().unwrap()])
+        .args(["--out", again.to_str().unwrap(), "--starts", "3", "--certify", "--config", config.to_str().unwrap()])
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    for file in ["fit.json", &format!("{stem}.wgsl"), &format!("{stem}.metal")] {
+        let (a, b) = (std::fs::read_to_string(out.join(file)).unwrap(), std::fs::read_to_string(again.join(file)).unwrap());
+        assert_eq!(a.replace(out.to_str().unwrap(), ""), b.replace(again.to_str().unwrap(), ""), "{file}");
+    }
+}
+
+#[test]
+fn fit_form_refuses_a_mistake_naming_file_line_and_column_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let luts = dir.path().join("luts");
+    assert!(build(&config, &luts, &["--only", "karis"]).status.success());
+    let form = dir.path().join("bad.toml");
+    std::fs::write(
+        &form,
+        "table = \"karis\"\n[parameters]\na = { start = 1.0, min = 0.0, max = 2.0 }\n[channels]\nscale = \"a * rougness\"\n",
+    )
+    .unwrap();
+    let out = dir.path().join("fit");
+    let output = tmlut(&[
+        "fit", "--form", form.to_str().unwrap(), "--table", luts.join("karis.dds").to_str().unwrap(),
+        "--out", out.to_str().unwrap(),
+    ]);
+    assert!(!output.status.success());
+    let message = stderr(&output);
+    assert!(message.contains("bad.toml:5:14: unknown name `rougness`; allowed here: a, alpha, mu, roughness"), "{message}");
+    assert!(!out.exists(), "nothing written for a refused form");
+    // A target and a form at once are refused by the argument parser.
+    let output = tmlut(&["fit", "tir", "--form", form.to_str().unwrap()]);
+    assert!(!output.status.success() && stderr(&output).contains("--form"), "{}", stderr(&output));
+}

@@ -36,6 +36,9 @@ const LAYERS: &[&[&str]] = &[
     &["config"],
     // The build's own steps: the locked output folder, the fit a build writes, the error maps.
     &["commit", "fit", "report/error_map"],
+    // Forms written as text: fitted by the fit's search, certified by the recipes' exact
+    // integrals, written as one set by the commit.
+    &["fit/text"],
     &["pipeline"],
     &["scene"],
     &["furnace"],

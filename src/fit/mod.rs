@@ -12,6 +12,8 @@ pub mod least_squares;
 pub mod real;
 #[cfg(feature = "generator")]
 pub mod summary;
+#[cfg(feature = "generator")]
+pub mod text;
 
 pub use forms::{ALL_FORMS, Form, ShaderLanguage};
 #[cfg(feature = "generator")]

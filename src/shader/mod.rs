@@ -107,10 +107,38 @@ pub enum Builtin {
     Pow,
     Smoothstep,
     Dot,
+    Sign,
+    Saturate,
+    /// HLSL `frac`.
+    Fract,
+    /// WGSL `inverseSqrt`, HLSL `rsqrt`.
+    InverseSqrt,
+    Exp2,
+    Log2,
+    Sin,
+    Cos,
+    Tan,
+    Asin,
+    Acos,
+    Atan,
+    Atan2,
+    Sinh,
+    Cosh,
+    Tanh,
+    Step,
+    /// HLSL `lerp`.
+    Mix,
 }
 
 impl Builtin {
-    fn name(self) -> &'static str {
+    fn name(self, lang: Lang) -> &'static str {
+        match (self, lang) {
+            (Builtin::Fract, Lang::Hlsl) => return "frac",
+            (Builtin::InverseSqrt, Lang::Hlsl) => return "rsqrt",
+            (Builtin::InverseSqrt, Lang::Wgsl) => return "inverseSqrt",
+            (Builtin::Mix, Lang::Hlsl) => return "lerp",
+            _ => {}
+        }
         match self {
             Builtin::Abs => "abs",
             Builtin::Sqrt => "sqrt",
@@ -123,6 +151,24 @@ impl Builtin {
             Builtin::Pow => "pow",
             Builtin::Smoothstep => "smoothstep",
             Builtin::Dot => "dot",
+            Builtin::Sign => "sign",
+            Builtin::Saturate => "saturate",
+            Builtin::Fract => "fract",
+            Builtin::InverseSqrt => "inverseSqrt",
+            Builtin::Exp2 => "exp2",
+            Builtin::Log2 => "log2",
+            Builtin::Sin => "sin",
+            Builtin::Cos => "cos",
+            Builtin::Tan => "tan",
+            Builtin::Asin => "asin",
+            Builtin::Acos => "acos",
+            Builtin::Atan => "atan",
+            Builtin::Atan2 => "atan2",
+            Builtin::Sinh => "sinh",
+            Builtin::Cosh => "cosh",
+            Builtin::Tanh => "tanh",
+            Builtin::Step => "step",
+            Builtin::Mix => "mix",
         }
     }
 }
@@ -635,7 +681,7 @@ impl Printer {
                 self.operand(a, 6, true, out);
             }
             Expr::Call(b, args) => {
-                let _ = write!(out, "{}({})", b.name(), self.list(args));
+                let _ = write!(out, "{}({})", b.name(lang), self.list(args));
             }
             Expr::Function(n, args) => {
                 let _ = write!(out, "{n}({})", self.list(args));

@@ -1,0 +1,813 @@
+//! Fitting a form file to a table: the data (the table's nodes, or a uniform grid where an axis
+//! is derived), the least-squares search (the same seeded multi-start L-BFGS as the built-in
+//! forms, [`crate::fit::minimise`], with the gradient from the tape), the error figures per
+//! channel and together, which parameters the data leaves ill-determined, and the files.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::form::Form;
+use super::shader::{LANGUAGES, function_name, sources};
+use super::tape::Work;
+use crate::commit::{Move, OutputFolder, commit_set};
+use crate::error::{Error, Result};
+use crate::fit::{FIT_GRID_NODES, FitSettings, Minimum, minimise};
+use crate::table::Table;
+
+/// The points a form is fitted and judged on: coordinates in the form's variables and the
+/// table's values of the form's channels, both row-major.
+#[derive(Debug, Clone)]
+pub struct FormData {
+    pub variables: Vec<String>,
+    pub channels: Vec<String>,
+    pub coordinates: Vec<f64>,
+    pub values: Vec<f64>,
+    /// How the points were chosen, for the report.
+    pub description: String,
+}
+
+impl FormData {
+    pub fn len(&self) -> usize {
+        self.coordinates.len() / self.variables.len().max(1)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn point(&self, n: usize) -> &[f64] {
+        let d = self.variables.len();
+        &self.coordinates[n * d..(n + 1) * d]
+    }
+
+    fn targets(&self, n: usize) -> &[f64] {
+        let c = self.channels.len();
+        &self.values[n * c..(n + 1) * c]
+    }
+
+    /// The table's nodes where every axis is one of the form's variables; otherwise a uniform
+    /// grid of [`FIT_GRID_NODES`] per variable over the table's ranges (`eta` over [0, 1]) with
+    /// the table interpolated there, so that an axis whose nodes crowd where the table is steep
+    /// (TIR's critical-angle axis) does not weight the fit there.
+    pub fn from_table(table: &Table, form: &Form) -> Result<FormData> {
+        let channel_index: Vec<usize> =
+            form.channels.iter().map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0)).collect();
+        let d = form.variables.len();
+        let mut coordinates = Vec::new();
+        let mut values = Vec::new();
+        let plain = table.axes.iter().all(|a| form.variables.contains(&a.name));
+        let description;
+        if plain {
+            // Axis k of the table is the form's variable order[k].
+            let order: Vec<usize> =
+                table.axes.iter().map(|a| form.variables.iter().position(|v| *v == a.name).unwrap_or(0)).collect();
+            for n in 0..table.node_count() {
+                let index = table.node_index(n);
+                let position = table.node_position(&index);
+                let mut point = vec![0.0; d];
+                for (k, &v) in order.iter().enumerate() {
+                    point[v] = position[k];
+                }
+                coordinates.extend(point);
+                let node = table.node(&index);
+                values.extend(channel_index.iter().map(|&c| f64::from(node[c])));
+            }
+            description = format!("the table's {} nodes", table.node_count());
+        } else {
+            let range = |v: &str| match table.axes.iter().find(|a| a.name == v) {
+                Some(a) => (a.start.min(a.end), a.start.max(a.end)),
+                None => (0.0, 1.0),
+            };
+            let ranges: Vec<(f64, f64)> = form.variables.iter().map(|v| range(v)).collect();
+            let n = FIT_GRID_NODES;
+            let total = n.pow(d as u32);
+            let mut value = vec![0.0; table.channel_count()];
+            for k in 0..total {
+                let mut rest = k;
+                let mut point = vec![0.0; d];
+                for (p, &(lo, hi)) in point.iter_mut().zip(&ranges) {
+                    *p = lo + (hi - lo) * (rest % n) as f64 / (n - 1) as f64;
+                    rest /= n;
+                }
+                let get = |name: &str| form.variables.iter().position(|v| v == name).map_or(0.0, |i| point[i]);
+                let at =
+                    crate::table::derived::point_of(&table.axes, get("mu"), get("alpha"), get("eta"), get("kappa"))
+                        .ok_or_else(|| {
+                            Error::invalid(
+                                "fit table",
+                                format!("table `{}` has an axis no lookup addresses", table.name),
+                            )
+                        })?;
+                table.interpolate_into(&at, &mut value).map_err(|e| Error::invalid("fit table", format!("{e:?}")))?;
+                coordinates.extend(point);
+                values.extend(channel_index.iter().map(|&c| value[c]));
+            }
+            description = format!(
+                "a uniform grid of {n} points per variable ({total} in all) over the table's ranges (eta over [0, 1]), the table interpolated there"
+            );
+        }
+        if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
+            return Err(Error::invalid("fit table", format!("value {bad} of table `{}` is not finite", table.name)));
+        }
+        Ok(FormData {
+            variables: form.variables.clone(),
+            channels: form.channels.iter().map(|c| c.name.clone()).collect(),
+            coordinates,
+            values,
+            description,
+        })
+    }
+}
+
+/// Points per parallel work item: fixed, so that sums are added in the same order whatever the
+/// number of threads.
+const CHUNK: usize = 4096;
+
+/// The data as a search reads it: the form's tape split ([`super::tape::Tape::split`]) so that
+/// everything that does not depend on the parameters is computed once per point, here.
+pub struct Prepared<'a> {
+    data: &'a FormData,
+    tape: super::tape::Tape,
+    /// Per point: its variables, then the values of the split-off instructions.
+    inputs: Vec<f64>,
+    width: usize,
+}
+
+impl<'a> Prepared<'a> {
+    pub fn new(form: &Form, data: &'a FormData) -> Prepared<'a> {
+        let d = data.variables.len();
+        let (tape, split_off) = form.tape.split(d);
+        let width = d + split_off.len();
+        // Split-off instructions do not read the parameters: any values serve.
+        let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
+        let inputs: Vec<Vec<f64>> = (0..data.len().div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|chunk| {
+                let mut values = Vec::new();
+                let mut inputs = Vec::new();
+                for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
+                    form.tape.values(data.point(n), &start, &mut values);
+                    inputs.extend_from_slice(data.point(n));
+                    inputs.extend(split_off.iter().map(|&k| values[k]));
+                }
+                inputs
+            })
+            .collect();
+        Prepared { data, tape, inputs: inputs.concat(), width }
+    }
+
+    fn point(&self, n: usize) -> &[f64] {
+        &self.inputs[n * self.width..(n + 1) * self.width]
+    }
+
+    /// The mean squared residual over every point and channel, and its gradient when asked for.
+    pub fn objective(&self, parameters: &[f64], gradient: Option<&mut [f64]>) -> f64 {
+        let (data, tape) = (self.data, &self.tape);
+        let (count, channels, p) = (data.len(), data.channels.len(), parameters.len());
+        let want = gradient.is_some();
+        let per_chunk: Vec<(f64, Vec<f64>)> = (0..count.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|chunk| {
+                let mut work = Work::default();
+                let mut scratch = Vec::new();
+                let (mut sum, mut g) = (0.0, vec![0.0; if want { p } else { 0 }]);
+                let mut out = vec![0.0; channels];
+                let mut seeds = vec![0.0; channels];
+                for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(count) {
+                    if want {
+                        tape.forward(self.point(n), parameters, &mut work);
+                        for (c, (&k, &t)) in tape.outputs.iter().zip(data.targets(n)).enumerate() {
+                            let r = work.value(k) - t;
+                            sum += r * r;
+                            seeds[c] = 2.0 * r;
+                        }
+                        tape.backward(&mut work, &seeds, &mut g);
+                    } else {
+                        tape.eval(self.point(n), parameters, &mut scratch, &mut out);
+                        for (v, t) in out.iter().zip(data.targets(n)) {
+                            sum += (v - t) * (v - t);
+                        }
+                    }
+                }
+                (sum, g)
+            })
+            .collect();
+        let scale = 1.0 / (count * channels).max(1) as f64;
+        let mut sum = 0.0;
+        let mut g_sum = vec![0.0; p];
+        for (s, g) in &per_chunk {
+            sum += s;
+            for (a, b) in g_sum.iter_mut().zip(g) {
+                *a += b;
+            }
+        }
+        if let Some(gradient) = gradient {
+            for (g, s) in gradient.iter_mut().zip(&g_sum) {
+                *g = s * scale;
+            }
+        }
+        let mse = sum * scale;
+        if mse.is_finite() { mse } else { f64::NAN }
+    }
+}
+
+/// Error figures of one channel, or of all together.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Figures {
+    pub rms: f64,
+    /// The 99th percentile of |error| (nearest rank).
+    pub p99: f64,
+    pub max: f64,
+    /// Where the max is, by variable.
+    pub max_at: BTreeMap<String, f64>,
+    /// `max_at`'s channel (for the figures of all channels together).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_channel: Option<String>,
+}
+
+/// The figures of each channel and of all together.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FigureSet {
+    pub together: Figures,
+    pub channels: BTreeMap<String, Figures>,
+}
+
+/// The form evaluated in f32 with f32 parameters (what its shader computes) against the data.
+/// Refuses a value that is not finite, naming the point.
+pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<FigureSet> {
+    let p32: Vec<f32> = parameters.iter().map(|&v| v as f32).collect();
+    let channels = data.channels.len();
+    let errors: Vec<Vec<f64>> = (0..data.len().div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|chunk| {
+            let (mut scratch, mut out) = (Vec::new(), vec![0.0f32; channels]);
+            let mut errors = Vec::new();
+            for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
+                let point: Vec<f32> = data.point(n).iter().map(|&v| v as f32).collect();
+                form.tape.eval(&point, &p32, &mut scratch, &mut out);
+                errors.extend(out.iter().zip(data.targets(n)).map(|(&v, &t)| f64::from(v) - t));
+            }
+            errors
+        })
+        .collect();
+    let errors: Vec<f64> = errors.concat();
+    if let Some(bad) = errors.iter().position(|e| !e.is_finite()) {
+        let (n, c) = (bad / channels, bad % channels);
+        return Err(Error::invalid(
+            "fit",
+            format!(
+                "form `{}` is not finite in channel `{}` at {} with parameters {parameters:?}",
+                form.name,
+                data.channels[c],
+                describe_point(&data.variables, data.point(n))
+            ),
+        ));
+    }
+    Ok(figure_set(&errors, &data.channels, &data.variables, |n| data.point(n).to_vec()))
+}
+
+/// The figures of `errors` (point-major, one per channel) per channel and together; `point(n)` is
+/// point `n`'s coordinates in `variables`.
+fn figure_set(
+    errors: &[f64],
+    channels: &[String],
+    variables: &[String],
+    point: impl Fn(usize) -> Vec<f64>,
+) -> FigureSet {
+    let count = channels.len();
+    let summarise = |selected: &dyn Fn(usize) -> bool, name_channel: bool| -> Figures {
+        let mut abs: Vec<f64> = Vec::new();
+        let (mut sum, mut max, mut max_index) = (0.0, -1.0, 0);
+        for (k, &e) in errors.iter().enumerate().filter(|(k, _)| selected(*k)) {
+            sum += e * e;
+            abs.push(e.abs());
+            if e.abs() > max {
+                max = e.abs();
+                max_index = k;
+            }
+        }
+        abs.sort_by(f64::total_cmp);
+        let rank = ((abs.len() as f64 * 0.99).ceil() as usize).clamp(1, abs.len().max(1)) - 1;
+        Figures {
+            rms: (sum / abs.len().max(1) as f64).sqrt(),
+            p99: abs.get(rank).copied().unwrap_or(0.0),
+            max: max.max(0.0),
+            max_at: variables.iter().cloned().zip(point(max_index / count)).collect(),
+            max_channel: name_channel.then(|| channels[max_index % count].clone()),
+        }
+    };
+    FigureSet {
+        together: summarise(&|_| true, true),
+        channels: (0..count).map(|c| (channels[c].clone(), summarise(&|k| k % count == c, false))).collect(),
+    }
+}
+
+fn describe_point(variables: &[String], point: &[f64]) -> String {
+    let parts: Vec<String> = variables.iter().zip(point).map(|(v, x)| format!("{v} = {x}")).collect();
+    format!("({})", parts.join(", "))
+}
+
+/// What the data leaves undetermined at the optimum, from the Jacobian `J` of the residuals with
+/// respect to the parameters, each column scaled by its parameter's bound range (so that a unit
+/// step is "the whole allowed range" for every parameter).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Identifiability {
+    /// Singular values of the scaled `J / sqrt(points x channels)`, largest first: the RMS change
+    /// of the residuals per unit step along each principal direction.
+    pub singular_values: Vec<f64>,
+    /// Directions whose singular value is below [`ILL_DETERMINED_RATIO`] of the largest: moving
+    /// along them changes the fit by almost nothing. Each lists the parameters that make up most
+    /// of it (|component| >= 0.1) and the direction itself, in parameter order.
+    pub ill_determined: Vec<WeakDirection>,
+    /// The parameters the ill-determined directions are made of: those whose projection onto the
+    /// space they span is at least 0.1 long. Where two directions are about equally weak, the
+    /// directions themselves are any basis of that space; this list is not.
+    pub ill_determined_parameters: Vec<String>,
+    /// Parameters whose fitted value is at a bound (within 1e-9 of its range).
+    pub at_bounds: Vec<String>,
+    pub rule: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WeakDirection {
+    pub parameters: Vec<String>,
+    pub singular_value_ratio: f64,
+    pub direction: Vec<f64>,
+}
+
+/// A direction of parameter space is ill-determined when its singular value is below this share
+/// of the largest: along it a step over the whole bound range moves the residuals' RMS by less
+/// than a thousandth of what the best-determined direction does.
+pub const ILL_DETERMINED_RATIO: f64 = 1e-3;
+
+pub fn identifiability(form: &Form, prepared: &Prepared, parameters: &[f64]) -> Identifiability {
+    let (data, tape) = (prepared.data, &prepared.tape);
+    let p = parameters.len();
+    let channels = data.channels.len();
+    let scale: Vec<f64> = form.parameters.iter().map(|q| q.max - q.min).collect();
+    // J^T J, summed in fixed chunks in order.
+    let per_chunk: Vec<Vec<f64>> = (0..data.len().div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|chunk| {
+            let mut work = Work::default();
+            let mut jtj = vec![0.0; p * p];
+            let mut row = vec![0.0; p];
+            let mut seeds = vec![0.0; channels];
+            for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
+                tape.forward(prepared.point(n), parameters, &mut work);
+                for c in 0..channels {
+                    seeds.iter_mut().enumerate().for_each(|(k, s)| *s = if k == c { 1.0 } else { 0.0 });
+                    row.iter_mut().for_each(|r| *r = 0.0);
+                    tape.backward(&mut work, &seeds, &mut row);
+                    for i in 0..p {
+                        for j in 0..p {
+                            jtj[i * p + j] += row[i] * scale[i] * row[j] * scale[j];
+                        }
+                    }
+                }
+            }
+            jtj
+        })
+        .collect();
+    let rows = (data.len() * channels).max(1) as f64;
+    let mut jtj = vec![0.0; p * p];
+    for part in &per_chunk {
+        for (a, b) in jtj.iter_mut().zip(part) {
+            *a += b / rows;
+        }
+    }
+    let (eigenvalues, vectors) = symmetric_eigen(&jtj, p);
+    let mut order: Vec<usize> = (0..p).collect();
+    order.sort_by(|&a, &b| eigenvalues[b].total_cmp(&eigenvalues[a]));
+    let singular: Vec<f64> = order.iter().map(|&k| eigenvalues[k].max(0.0).sqrt()).collect();
+    let largest = singular.first().copied().unwrap_or(0.0);
+    let names = form.parameter_names();
+    let ill_determined: Vec<WeakDirection> = order
+        .iter()
+        .zip(&singular)
+        .filter(|(_, s)| **s <= ILL_DETERMINED_RATIO * largest)
+        .map(|(&k, &s)| {
+            let direction: Vec<f64> = (0..p).map(|i| vectors[i * p + k]).collect();
+            WeakDirection {
+                parameters: (0..p).filter(|&i| direction[i].abs() >= 0.1).map(|i| names[i].clone()).collect(),
+                singular_value_ratio: if largest > 0.0 { s / largest } else { 0.0 },
+                direction,
+            }
+        })
+        .collect();
+    let ill_determined_parameters = (0..p)
+        .filter(|&i| {
+            let projection: f64 = ill_determined.iter().map(|w: &WeakDirection| w.direction[i].powi(2)).sum();
+            projection >= 0.01
+        })
+        .map(|i| names[i].clone())
+        .collect();
+    let at_bounds = form
+        .parameters
+        .iter()
+        .zip(parameters)
+        .filter(|(q, v)| (**v - q.min).abs() <= 1e-9 * (q.max - q.min) || (q.max - **v).abs() <= 1e-9 * (q.max - q.min))
+        .map(|(q, _)| q.name.clone())
+        .collect();
+    Identifiability {
+        singular_values: singular,
+        ill_determined,
+        ill_determined_parameters,
+        at_bounds,
+        rule: format!(
+            "columns of the Jacobian scaled by each parameter's bound range; a direction is ill-determined when its singular value is below {ILL_DETERMINED_RATIO} of the largest"
+        ),
+    }
+}
+
+/// Eigenvalues and eigenvectors (columns of the row-major `n x n` result) of a symmetric matrix,
+/// by cyclic Jacobi rotations (Golub & Van Loan, "Matrix Computations", 4th ed., sec. 8.5): for
+/// the few parameters of a form, simple and accurate to rounding.
+fn symmetric_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut a = a.to_vec();
+    let mut v = vec![0.0; n * n];
+    for i in 0..n {
+        v[i * n + i] = 1.0;
+    }
+    for _sweep in 0..100 {
+        let off: f64 = (0..n)
+            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i * n + j].powi(2))
+            .sum();
+        let total: f64 = a.iter().map(|x| x * x).sum();
+        if off <= 1e-30 * total || off == 0.0 {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = a[p * n + q];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..n {
+                    let (akp, akq) = (a[k * n + p], a[k * n + q]);
+                    a[k * n + p] = c * akp - s * akq;
+                    a[k * n + q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let (apk, aqk) = (a[p * n + k], a[q * n + k]);
+                    a[p * n + k] = c * apk - s * aqk;
+                    a[q * n + k] = s * apk + c * aqk;
+                }
+                for k in 0..n {
+                    let (vkp, vkq) = (v[k * n + p], v[k * n + q]);
+                    v[k * n + p] = c * vkp - s * vkq;
+                    v[k * n + q] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    ((0..n).map(|i| a[i * n + i]).collect(), v)
+}
+
+/// The form's error against exact integrals at random points of one of the table's check domains
+/// (the points of its build's interpolation check, [`crate::recipes::interpolation`]: uniform
+/// over the domain's lookup parameters, each integrated on its own by plain Monte Carlo on
+/// samples independent of the table's), beside the table's own interpolation error at the same
+/// points.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Certified {
+    pub domain: String,
+    pub points: usize,
+    pub samples_per_point: u64,
+    /// The largest standard error of an exact value (the spread of its 4 scrambles).
+    pub exact_standard_error_max: f64,
+    /// The fitted form, in f32, against the exact values.
+    pub form: FigureSet,
+    /// The form at its start values.
+    pub form_at_start: FigureSet,
+    /// The table, interpolated multilinearly in its axes (`Table::interpolate`, f64 arithmetic on
+    /// its stored values), against the same exact values.
+    pub table: FigureSet,
+}
+
+/// [`Certified`] for every check domain of the table's recipe in `config` (the configuration the
+/// table was built with: its masking, its sample counts for the check).
+pub fn certify(
+    form: &Form,
+    table: &Table,
+    config: &crate::config::Config,
+    seed: u64,
+    start: &[f64],
+    fitted: &[f64],
+) -> Result<Vec<Certified>> {
+    let recipe = config.recipe_named(&table.name).ok_or_else(|| {
+        Error::invalid("certify", format!("table `{}` has no recipe to integrate exactly", table.name))
+    })?;
+    let channel_index: Vec<usize> =
+        form.channels.iter().map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0)).collect();
+    let channels: Vec<String> = form.channels.iter().map(|c| c.name.clone()).collect();
+    let mut out = Vec::new();
+    for exact in recipe.exact_values(seed, &())? {
+        // The form's variables from the domain's lookup parameters, by name.
+        let Some(order) = form
+            .variables
+            .iter()
+            .map(|v| exact.domain.parameters.iter().position(|p| p == v))
+            .collect::<Option<Vec<usize>>>()
+        else {
+            continue;
+        };
+        let point = |n: usize| order.iter().map(|&k| exact.lookups[n][k]).collect::<Vec<f64>>();
+        let form_errors = |parameters: &[f64]| -> Vec<f64> {
+            let p32: Vec<f32> = parameters.iter().map(|&v| v as f32).collect();
+            let (mut scratch, mut values) = (Vec::new(), vec![0.0f32; channels.len()]);
+            let mut errors = Vec::new();
+            for (n, e) in exact.exact.iter().enumerate() {
+                let x: Vec<f32> = point(n).iter().map(|&v| v as f32).collect();
+                form.tape.eval(&x, &p32, &mut scratch, &mut values);
+                errors.extend(channel_index.iter().zip(&values).map(|(&c, &v)| f64::from(v) - e.mean[c]));
+            }
+            errors
+        };
+        let mut table_errors = Vec::new();
+        for (position, e) in exact.positions.iter().zip(&exact.exact) {
+            let read = table.interpolate(position);
+            table_errors.extend(channel_index.iter().map(|&c| read[c] - e.mean[c]));
+        }
+        let (fitted_errors, start_errors) = (form_errors(fitted), form_errors(start));
+        if fitted_errors.iter().chain(&start_errors).chain(&table_errors).any(|e| !e.is_finite()) {
+            return Err(Error::invalid(
+                "certify",
+                format!("a value that is not finite in domain {}", exact.domain.describe()),
+            ));
+        }
+        let set = |errors: &[f64]| figure_set(errors, &channels, &form.variables, point);
+        out.push(Certified {
+            domain: exact.domain.describe(),
+            points: exact.exact.len(),
+            samples_per_point: exact.samples_per_point,
+            exact_standard_error_max: exact
+                .exact
+                .iter()
+                .flat_map(|e| channel_index.iter().map(|&c| e.standard_error[c]))
+                .fold(0.0, f64::max),
+            form: set(&fitted_errors),
+            form_at_start: set(&start_errors),
+            table: set(&table_errors),
+        });
+    }
+    Ok(out)
+}
+
+/// A form fitted to a table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FormFit {
+    pub parameters: Vec<f64>,
+    /// `None` when no search ran (`max_evaluations = 0`: the form at its start values).
+    pub search: Option<Minimum>,
+}
+
+/// Fit `form` to `data`: the form's start and `settings.starts - 1` seeded uniform points in the
+/// bounds, each searched by L-BFGS with the exact gradient; the best wins. `max_evaluations = 0`
+/// evaluates the form at its start values.
+pub fn fit(form: &Form, prepared: &Prepared, settings: &FitSettings) -> Result<FormFit> {
+    let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
+    if settings.max_evaluations == 0 {
+        return Ok(FormFit { parameters: start, search: None });
+    }
+    let lower: Vec<f64> = form.parameters.iter().map(|p| p.min).collect();
+    let upper: Vec<f64> = form.parameters.iter().map(|p| p.max).collect();
+    let objective = |x: &[f64], g: Option<&mut [f64]>| prepared.objective(x, g);
+    let minimum = minimise(&objective, true, &start, &lower, &upper, settings)?;
+    Ok(FormFit { parameters: minimum.parameters.clone(), search: Some(minimum) })
+}
+
+/// `fit.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FormReport {
+    pub form: String,
+    pub form_file: String,
+    pub table: String,
+    pub table_file: String,
+    pub variables: Vec<String>,
+    pub channels: Vec<String>,
+    /// The form statement by statement ([`Form::definition`]).
+    pub definition: Vec<String>,
+    pub parameters: BTreeMap<String, f64>,
+    pub parameter_order: Vec<String>,
+    pub start: BTreeMap<String, f64>,
+    pub bounds: BTreeMap<String, [f64; 2]>,
+    pub points: usize,
+    pub points_are: String,
+    /// At the fitted parameters, the form in f32 against the table's values.
+    pub figures: FigureSet,
+    /// The same at the start values.
+    pub start_figures: FigureSet,
+    pub settings: FitSettings,
+    pub search: Option<Minimum>,
+    pub identifiability: Identifiability,
+    /// Against exact integrals at random points, per check domain; empty when not asked for.
+    pub certified: Vec<Certified>,
+    pub shader_function: String,
+    /// Every file of the set, `fit.json` and `report.md` included.
+    pub files: Vec<String>,
+}
+
+/// The file that lists the set, moved into place last.
+pub const FIT_FILE: &str = "fit.json";
+pub const REPORT_FILE: &str = "report.md";
+
+/// What `tmlut fit --form` is asked.
+pub struct FormFitRequest {
+    pub form: PathBuf,
+    pub table: PathBuf,
+    pub out: PathBuf,
+    pub settings: FitSettings,
+    /// The table's build configuration, to certify the form against exact integrals; `None`
+    /// skips the certification.
+    pub certify: Option<crate::config::Config>,
+}
+
+/// Read the form against the table, fit it, and write `fit.json`, `report.md` and the shader
+/// files into `out` as one set ([`commit_set`]: every file staged, `fit.json` moved last; files of
+/// an earlier set that this one does not replace are removed with the commit).
+pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormReport> {
+    let form = Form::read(&request.form, table)?;
+    let data = FormData::from_table(table, &form)?;
+    let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
+    let start_figures = figures(&form, &data, &start)?;
+    let prepared = Prepared::new(&form, &data);
+    let fitted = fit(&form, &prepared, &request.settings)?;
+    let fitted_figures = figures(&form, &data, &fitted.parameters)?;
+    let shaders = sources(&form, &fitted.parameters)?;
+    let shader_files: Vec<String> = LANGUAGES.iter().map(|(_, ext)| format!("{}.{ext}", form.name)).collect();
+    let mut files = shader_files.clone();
+    files.extend([REPORT_FILE.to_string(), FIT_FILE.to_string()]);
+    let names = form.parameter_names();
+    let report = FormReport {
+        form: form.name.clone(),
+        form_file: request.form.display().to_string(),
+        table: table.name.clone(),
+        table_file: request.table.display().to_string(),
+        variables: form.variables.clone(),
+        channels: data.channels.clone(),
+        definition: form.definition(),
+        parameters: names.iter().cloned().zip(fitted.parameters.iter().copied()).collect(),
+        parameter_order: names.clone(),
+        start: form.parameters.iter().map(|p| (p.name.clone(), p.start)).collect(),
+        bounds: form.parameters.iter().map(|p| (p.name.clone(), [p.min, p.max])).collect(),
+        points: data.len(),
+        points_are: data.description.clone(),
+        figures: fitted_figures,
+        start_figures,
+        settings: request.settings,
+        search: fitted.search,
+        identifiability: identifiability(&form, &prepared, &fitted.parameters),
+        certified: match &request.certify {
+            Some(config) => certify(&form, table, config, request.settings.seed, &start, &fitted.parameters)?,
+            None => Vec::new(),
+        },
+        shader_function: function_name(&form),
+        files,
+    };
+    write_set(&request.out, &report, &shader_files, &shaders)?;
+    Ok(report)
+}
+
+fn write_set(out: &Path, report: &FormReport, shader_files: &[String], shaders: &[String]) -> Result<()> {
+    let folder = OutputFolder::take(out, |_| {})?;
+    let staging = &mut folder.staging()?;
+    let json = serde_json::to_string_pretty(report).map_err(|e| Error::format(out, e.to_string()))?;
+    let mut texts: Vec<(&str, String)> = shader_files.iter().map(String::as_str).zip(shaders.iter().cloned()).collect();
+    texts.push((REPORT_FILE, markdown(report)));
+    texts.push((FIT_FILE, json));
+    for (file, text) in &texts {
+        crate::formats::write_bytes_atomically(&staging.dir.join(file), text.as_bytes())?;
+    }
+    let moves: Vec<Move> = texts[..texts.len() - 1]
+        .iter()
+        .map(|(file, _)| Move { staged: file.to_string(), destination: file.to_string() })
+        .collect();
+    // An earlier set's files this one does not replace (a form of another name).
+    let removals = crate::formats::read_text_at_most(&out.join(FIT_FILE), 1 << 24, "fit.json")
+        .ok()
+        .and_then(|text| serde_json::from_str::<FormReport>(&text).ok())
+        .map(|old| old.files.into_iter().filter(|f| !report.files.contains(f)).collect())
+        .unwrap_or_default();
+    commit_set(&folder, staging, moves, removals, FIT_FILE)
+}
+
+/// The report a researcher reads: the figures at the start and fitted values, the parameters,
+/// what is ill-determined, and the files.
+pub fn markdown(report: &FormReport) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "# Form `{}` fitted to table `{}`\n", report.form, report.table);
+    let _ = writeln!(
+        s,
+        "Form file `{}`, table file `{}`; {} points: {}.\n",
+        report.form_file, report.table_file, report.points, report.points_are
+    );
+    let _ = writeln!(s, "```text\n{}\n```\n", report.definition.join("\n"));
+    let _ = writeln!(s, "| channel | RMS at start | RMS fitted | p99 fitted | max fitted | max at |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
+    let rows = std::iter::once(("together".to_string(), &report.start_figures.together, &report.figures.together))
+        .chain(report.figures.channels.iter().map(|(c, f)| (c.clone(), &report.start_figures.channels[c], f)));
+    for (channel, start, fitted) in rows {
+        let at: Vec<String> = fitted.max_at.iter().map(|(v, x)| format!("{v} {x:.4}")).collect();
+        let _ = writeln!(
+            s,
+            "| {channel} | {:.6} | {:.6} | {:.6} | {:.6} | {}{} |",
+            start.rms,
+            fitted.rms,
+            fitted.p99,
+            fitted.max,
+            at.join(", "),
+            fitted.max_channel.as_ref().map(|c| format!(" ({c})")).unwrap_or_default()
+        );
+    }
+    for c in &report.certified {
+        let _ = writeln!(
+            s,
+            "\nAgainst exact integrals at {} random points ({} samples each, standard error <= {:.1e}), {}:\n",
+            c.points, c.samples_per_point, c.exact_standard_error_max, c.domain
+        );
+        let _ = writeln!(
+            s,
+            "| channel | form at start: RMS | fitted: RMS | p99 | max | max at | table interpolated: RMS | p99 | max |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---|---:|---:|---:|");
+        let rows =
+            std::iter::once(("together".to_string(), &c.form_at_start.together, &c.form.together, &c.table.together))
+                .chain(
+                    c.form
+                        .channels
+                        .iter()
+                        .map(|(k, f)| (k.clone(), &c.form_at_start.channels[k], f, &c.table.channels[k])),
+                );
+        for (channel, start, fitted, table) in rows {
+            let at: Vec<String> = fitted.max_at.iter().map(|(v, x)| format!("{v} {x:.4}")).collect();
+            let _ = writeln!(
+                s,
+                "| {channel} | {:.6} | {:.6} | {:.6} | {:.6} | {} | {:.2e} | {:.2e} | {:.2e} |",
+                start.rms,
+                fitted.rms,
+                fitted.p99,
+                fitted.max,
+                at.join(", "),
+                table.rms,
+                table.p99,
+                table.max
+            );
+        }
+    }
+    let _ = writeln!(s, "\n| parameter | start | fitted | bounds |\n|---|---:|---:|---|");
+    for name in &report.parameter_order {
+        let [lo, hi] = report.bounds[name];
+        let _ = writeln!(s, "| {name} | {} | {} | [{lo}, {hi}] |", report.start[name], report.parameters[name]);
+    }
+    let id = &report.identifiability;
+    let _ = writeln!(s);
+    if let Some(search) = &report.search {
+        let succeeded = search.starts.iter().filter(|s| s.succeeded).count();
+        let _ = writeln!(
+            s,
+            "Search: {} from {} starts (seed {}), {succeeded} ended with a success status; start {} won, mean squared residual {:.6e}.",
+            search.algorithm,
+            search.starts.len(),
+            report.settings.seed,
+            search.best_start,
+            search.objective
+        );
+    } else {
+        let _ = writeln!(s, "No search (max evaluations 0): the figures are the start values'.");
+    }
+    if id.ill_determined.is_empty() {
+        let _ = writeln!(s, "\nEvery parameter is determined by the data ({}).", id.rule);
+    } else {
+        let ratios: Vec<String> = id.ill_determined.iter().map(|w| format!("{:.1e}", w.singular_value_ratio)).collect();
+        let _ = writeln!(
+            s,
+            "\nIll-determined: {} direction(s) of parameter space, made of {} (singular values {} of the largest; {}): \
+             the data fixes fewer combinations of these than there are parameters.",
+            id.ill_determined.len(),
+            id.ill_determined_parameters.join(", "),
+            ratios.join(", "),
+            id.rule
+        );
+    }
+    if !id.at_bounds.is_empty() {
+        let _ = writeln!(s, "\nAt a bound: {}.", id.at_bounds.join(", "));
+    }
+    let _ = writeln!(
+        s,
+        "\nShader function `{}` in: {}.",
+        report.shader_function,
+        report.files[..LANGUAGES.len()].join(", ")
+    );
+    s
+}

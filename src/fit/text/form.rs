@@ -1,0 +1,371 @@
+//! Form files: a TOML file that names the table a form approximates, its parameters (start and
+//! bounds), optional `let` bindings (in file order, each over the ones before it) and one
+//! expression per fitted channel ([`super::expr`]). Read against a table, a form file becomes a
+//! [`Form`]: the expressions with every name resolved and compiled ([`super::tape`]). Every
+//! mistake is an [`Error::At`] naming the file, line and column.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use toml::Spanned;
+
+use super::expr::{self, BinOp, ExprError, Node};
+use super::tape::{Ins, MAX_INTEGER_POWER, Tape};
+use crate::error::{Error, Result};
+use crate::table::Table;
+
+/// The variables a lookup passes, in this order where a table's axes depend on them.
+pub const LOOKUP_VARIABLES: &[&str] = &["mu", "alpha", "eta", "kappa"];
+
+/// Variables defined from the lookup variables, in the form language itself: name, definition,
+/// the lookup variables it needs. `critical_angle_offset` is the angle by which the critical angle
+/// of total internal reflection exceeds the view angle, as the TIR table's default axis defines
+/// it (`crate::table::derived::CRITICAL_ANGLE_OFFSET_FORMULA`): 0 at the critical view,
+/// positive inside the critical cone.
+pub const DERIVED_VARIABLES: &[(&str, &str, &[&str])] = &[
+    ("roughness", "sqrt(alpha)", &["alpha"]),
+    ("critical_angle_offset", "asin(clamp(eta, 0.0, 1.0)) - acos(clamp(mu, 0.0, 1.0))", &["mu", "eta"]),
+];
+
+/// The most channels one form computes: a shader returns them as one `f32` or `vecN<f32>`.
+pub const MAX_CHANNELS: usize = 4;
+
+/// A parameter as the file gives it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Parameter {
+    pub name: String,
+    pub start: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+/// A named expression: a derived variable, a `let` binding or a channel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Binding {
+    pub name: String,
+    pub text: String,
+    pub node: Node,
+}
+
+/// A form read against a table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Form {
+    pub path: PathBuf,
+    /// The file's stem: the name of its shader function and files.
+    pub name: String,
+    pub table: String,
+    /// The lookup variables, the shader function's arguments and each point's coordinates.
+    pub variables: Vec<String>,
+    /// The derived variables the form reads, in [`DERIVED_VARIABLES`] order.
+    pub derived: Vec<Binding>,
+    pub parameters: Vec<Parameter>,
+    pub lets: Vec<Binding>,
+    /// In the table's channel order.
+    pub channels: Vec<Binding>,
+    pub tape: Tape,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileText {
+    table: Spanned<String>,
+    parameters: BTreeMap<Spanned<String>, Spanned<ParameterText>>,
+    #[serde(rename = "let", default)]
+    lets: BTreeMap<Spanned<String>, Spanned<String>>,
+    channels: BTreeMap<Spanned<String>, Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ParameterText {
+    start: Spanned<f64>,
+    min: Spanned<f64>,
+    max: Spanned<f64>,
+}
+
+/// The lookup variables of a table: the quantities of [`LOOKUP_VARIABLES`] its axes are or are
+/// derived from (`critical_angle_offset` and `critical_angle_fraction` axes from `mu` and `eta`).
+pub fn table_variables(table: &Table) -> Result<Vec<String>> {
+    let mut needed = Vec::new();
+    for axis in &table.axes {
+        let name = axis.name.as_str();
+        if LOOKUP_VARIABLES.contains(&name) {
+            needed.push(name);
+        } else if crate::table::derived::definition(name).is_some() {
+            needed.extend(["mu", "eta"]);
+        } else {
+            return Err(Error::invalid(
+                "fit table",
+                format!(
+                    "axis `{name}` of table `{}` is no quantity a form can read; allowed axes: {}",
+                    table.name,
+                    LOOKUP_VARIABLES.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(LOOKUP_VARIABLES.iter().filter(|v| needed.contains(v)).map(|v| v.to_string()).collect())
+}
+
+/// Where an expression's text starts in the file: inside its quotes, where the string has no
+/// escapes (then every byte of the expression is the file's); otherwise at the string itself.
+fn text_start(file: &str, value: &Spanned<String>) -> (usize, bool) {
+    let span = value.span();
+    let raw = file.get(span.clone()).unwrap_or_default();
+    match raw.find(value.get_ref().as_str()) {
+        Some(k) => (span.start + k, true),
+        None => (span.start, false),
+    }
+}
+
+/// Everything resolved so far: the names an expression may read and the tape positions of their
+/// values.
+struct Scope {
+    names: BTreeMap<String, usize>,
+    tape: Tape,
+}
+
+impl Scope {
+    fn compile(&mut self, node: &Node) -> std::result::Result<usize, ExprError> {
+        let ins = match node {
+            Node::Number(v) => Ins::Const(*v),
+            Node::Name(name, span) => {
+                return self.names.get(name).copied().ok_or_else(|| ExprError {
+                    at: span.start,
+                    message: format!(
+                        "unknown name `{name}`; allowed here: {}",
+                        self.names.keys().cloned().collect::<Vec<_>>().join(", ")
+                    ),
+                });
+            }
+            Node::Neg(a) => Ins::Neg(self.compile(a)?),
+            Node::Binary(BinOp::Pow, a, b) if integer_exponent(b).is_some() => {
+                Ins::PowInt(self.compile(a)?, integer_exponent(b).unwrap_or(1))
+            }
+            Node::Binary(op, a, b) => Ins::Bin(*op, self.compile(a)?, self.compile(b)?),
+            Node::Call(f, args) => {
+                let mut operands = [0; 3];
+                for (slot, arg) in operands.iter_mut().zip(args) {
+                    *slot = self.compile(arg)?;
+                }
+                Ins::Call(*f, operands)
+            }
+            Node::Select { otherwise, then, compare, left, right } => Ins::Select {
+                otherwise: self.compile(otherwise)?,
+                then: self.compile(then)?,
+                compare: *compare,
+                left: self.compile(left)?,
+                right: self.compile(right)?,
+            },
+        };
+        Ok(self.tape.push(ins))
+    }
+}
+
+/// The name of a form: its file's stem with every character a shader identifier cannot hold
+/// replaced by `_` (`karis-env-brdf-approx.toml` is `karis_env_brdf_approx`).
+pub fn form_name(path: &Path) -> String {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut name = String::new();
+    for c in stem.chars() {
+        let c = if c.is_ascii_alphanumeric() { c } else { '_' };
+        if !(c == '_' && (name.is_empty() || name.ends_with('_'))) {
+            name.push(c);
+        }
+    }
+    let name = name.trim_end_matches('_').to_string();
+    if name.is_empty() { "form".into() } else { name }
+}
+
+/// The exponent of `x ^ n` when `n` is an integer literal small enough to multiply out.
+pub fn integer_exponent(node: &Node) -> Option<i32> {
+    match node {
+        Node::Number(v) if v.fract() == 0.0 && v.abs() <= f64::from(MAX_INTEGER_POWER) => Some(*v as i32),
+        _ => None,
+    }
+}
+
+impl Form {
+    /// Read the form file at `path` against `table` (the table file it is fitted to).
+    pub fn read(path: &Path, table: &Table) -> Result<Form> {
+        let text = crate::formats::read_text_at_most(path, 1 << 20, "form file")?;
+        Form::parse(path, &text, table)
+    }
+
+    /// A form file's text, `path` naming it in errors.
+    pub fn parse(path: &Path, text: &str, table: &Table) -> Result<Form> {
+        let at = |offset: usize, reason: String| Error::at(path, text, offset, reason);
+        let file: FileText = toml::from_str(text).map_err(|e| {
+            at(
+                e.span().map_or(0, |s| s.start),
+                format!("{} (a form file has `table`, [parameters], optional [let], [channels])", e.message().trim()),
+            )
+        })?;
+        let name = form_name(path);
+        if *file.table.get_ref() != table.name {
+            return Err(at(
+                file.table.span().start,
+                format!("the form is for table `{}`, and the table file holds `{}`", file.table.get_ref(), table.name),
+            ));
+        }
+        let variables = table_variables(table)?;
+
+        // An expression of the file, parsed and compiled in the scope so far.
+        let compile = |scope: &mut Scope, value: &Spanned<String>| -> Result<(Node, usize)> {
+            let (start, exact) = text_start(text, value);
+            let place = |e: ExprError| {
+                let offset = if exact { start + e.at } else { start };
+                at(offset, e.message)
+            };
+            let node = expr::parse(value.get_ref()).map_err(place)?;
+            let slot = scope.compile(&node).map_err(place)?;
+            Ok((node, slot))
+        };
+
+        let mut scope = Scope { names: BTreeMap::new(), tape: Tape::default() };
+        for (k, v) in variables.iter().enumerate() {
+            let slot = scope.tape.push(Ins::Var(k));
+            scope.names.insert(v.clone(), slot);
+        }
+        // Derived variables go into the scope as bindings of the language itself; those the form
+        // never reads are dropped from the shader below (the tape keeps their few instructions).
+        let mut derived_all = Vec::new();
+        for (name, definition, needs) in DERIVED_VARIABLES {
+            if needs.iter().all(|n| variables.iter().any(|v| v == n)) {
+                let node = expr::parse(definition).map_err(|e| Error::invalid("derived variable", e.message))?;
+                let slot = scope.compile(&node).map_err(|e| Error::invalid("derived variable", e.message))?;
+                scope.names.insert(name.to_string(), slot);
+                derived_all.push(Binding { name: name.to_string(), text: definition.to_string(), node });
+            }
+        }
+
+        let check_name = |key: &Spanned<String>, scope: &Scope| -> Result<()> {
+            expr::check_identifier(key.get_ref()).map_err(|reason| at(key.span().start, reason))?;
+            if scope.names.contains_key(key.get_ref()) {
+                return Err(at(
+                    key.span().start,
+                    format!("`{}` is already defined (a variable, parameter or binding)", key.get_ref()),
+                ));
+            }
+            Ok(())
+        };
+
+        let mut parameters = Vec::new();
+        let mut parameter_keys = Vec::new();
+        let mut entries: Vec<_> = file.parameters.iter().collect();
+        entries.sort_by_key(|(k, _)| k.span().start);
+        if entries.is_empty() {
+            return Err(at(0, "[parameters] is empty; a form has at least one parameter to fit".into()));
+        }
+        for (k, (key, value)) in entries.into_iter().enumerate() {
+            check_name(key, &scope)?;
+            let p = value.get_ref();
+            let (start, min, max) = (*p.start.get_ref(), *p.min.get_ref(), *p.max.get_ref());
+            for (what, v) in [("start", &p.start), ("min", &p.min), ("max", &p.max)] {
+                if !v.get_ref().is_finite() {
+                    return Err(at(
+                        v.span().start,
+                        format!("`{}`'s {what} is {}; allowed: a finite number", key.get_ref(), v.get_ref()),
+                    ));
+                }
+            }
+            if min >= max {
+                return Err(at(p.min.span().start, format!("`{}`: min {min} is not below max {max}", key.get_ref())));
+            }
+            if !(min..=max).contains(&start) {
+                return Err(at(
+                    p.start.span().start,
+                    format!("`{}`: the bounds [{min}, {max}] exclude its start {start}", key.get_ref()),
+                ));
+            }
+            let slot = scope.tape.push(Ins::Param(k));
+            scope.names.insert(key.get_ref().clone(), slot);
+            parameters.push(Parameter { name: key.get_ref().clone(), start, min, max });
+            parameter_keys.push(key.span().start);
+        }
+
+        let mut lets = Vec::new();
+        let mut entries: Vec<_> = file.lets.iter().collect();
+        entries.sort_by_key(|(k, _)| k.span().start);
+        for (key, value) in entries {
+            check_name(key, &scope)?;
+            let (node, slot) = compile(&mut scope, value)?;
+            scope.names.insert(key.get_ref().clone(), slot);
+            lets.push(Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node });
+        }
+
+        let table_channels: Vec<&str> = table.channels.iter().map(|c| c.name.as_str()).collect();
+        let mut channels: Vec<(usize, Binding, usize)> = Vec::new();
+        for (key, value) in &file.channels {
+            let Some(index) = table_channels.iter().position(|c| c == key.get_ref()) else {
+                return Err(at(
+                    key.span().start,
+                    format!(
+                        "table `{}` has no channel `{}`; its channels: {}",
+                        table.name,
+                        key.get_ref(),
+                        table_channels.join(", ")
+                    ),
+                ));
+            };
+            let (node, slot) = compile(&mut scope, value)?;
+            channels.push((index, Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node }, slot));
+        }
+        if channels.is_empty() || channels.len() > MAX_CHANNELS {
+            return Err(at(
+                0,
+                format!(
+                    "[channels] names {} channels; allowed: 1 to {MAX_CHANNELS} of table `{}`'s: {}",
+                    channels.len(),
+                    table.name,
+                    table_channels.join(", ")
+                ),
+            ));
+        }
+        channels.sort_by_key(|(index, ..)| *index);
+        scope.tape.outputs = channels.iter().map(|(.., slot)| *slot).collect();
+
+        for (k, used) in scope.tape.parameters_used(parameters.len()).into_iter().enumerate() {
+            if !used {
+                return Err(at(
+                    parameter_keys[k],
+                    format!("parameter `{}` is never used by a channel; remove it or use it", parameters[k].name),
+                ));
+            }
+        }
+
+        // The derived variables any binding or channel reads.
+        let mut read = Vec::new();
+        for binding in lets.iter().chain(channels.iter().map(|(_, b, _)| b)) {
+            binding.node.names(&mut read);
+        }
+        let derived = derived_all.into_iter().filter(|d| read.iter().any(|(n, _)| *n == d.name)).collect();
+
+        Ok(Form {
+            path: path.to_path_buf(),
+            name,
+            table: table.name.clone(),
+            variables,
+            derived,
+            parameters,
+            lets,
+            channels: channels.into_iter().map(|(_, b, _)| b).collect(),
+            tape: scope.tape,
+        })
+    }
+
+    /// The form as text, one statement a line: what the manifest and `fit.json` state as its
+    /// definition.
+    pub fn definition(&self) -> Vec<String> {
+        let mut lines = vec![format!("table = {}, variables: {}", self.table, self.variables.join(", "))];
+        lines.extend(self.derived.iter().map(|d| format!("{} = {}", d.name, d.text)));
+        lines.extend(self.lets.iter().map(|b| format!("{} = {}", b.name, b.text)));
+        lines.extend(self.channels.iter().map(|b| format!("channel {} = {}", b.name, b.text)));
+        lines
+    }
+
+    pub fn parameter_names(&self) -> Vec<String> {
+        self.parameters.iter().map(|p| p.name.clone()).collect()
+    }
+}

@@ -1,0 +1,17 @@
+//! Forms written as text: a form file names a table, its parameters and one expression per
+//! channel ([`form`], in the language of [`expr`]); it is compiled once ([`tape`]) and evaluated
+//! in f32 or f64 with an exact gradient, fitted by the same search as the built-in forms
+//! ([`fitting`]), and printed as WGSL, HLSL, GLSL and MSL ([`shader`]). `docs/fit.md`, "Forms as
+//! text", describes the language and the command.
+
+pub mod expr;
+pub mod fitting;
+pub mod form;
+pub mod shader;
+pub mod tape;
+
+pub use fitting::{FormFitRequest, FormReport, fit_form_file};
+pub use form::Form;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,264 @@
+use std::path::Path;
+
+use super::fitting::{FormData, Prepared, figures, fit, identifiability};
+use super::shader::{module, sources};
+use super::*;
+use crate::fit::FitSettings;
+use crate::table::{Axis, Channel, Table};
+
+/// A two-channel table named `karis` over (mu, alpha), filled with a known function.
+fn karis_like(n: usize, value: impl Fn(f64, f64) -> [f64; 2]) -> Table {
+    let axes = vec![Axis::node_aligned("mu", 0.0, 1.0, n).unwrap(), Axis::node_aligned("alpha", 0.0, 1.0, n).unwrap()];
+    let channels = vec![Channel::new("scale", "test"), Channel::new("bias", "test")];
+    let mut table = Table::zeros("karis", axes, channels).unwrap();
+    for node in 0..table.node_count() {
+        let p = table.node_position(&table.node_index(node));
+        let v = value(p[0], p[1]);
+        table.data[2 * node] = v[0] as f32;
+        table.data[2 * node + 1] = v[1] as f32;
+    }
+    table
+}
+
+fn table() -> Table {
+    karis_like(8, |mu, alpha| [1.0 - 0.5 * alpha.sqrt() * mu, 0.1 * (1.0 - mu).powi(5)])
+}
+
+const GOOD: &str = r#"table = "karis"
+[parameters]
+p = { start = 0.5, min = -2.0, max = 2.0 }
+q = { start = 1.0, min = 0.0, max = 10.0 }
+[let]
+t = "1 - mu"
+[channels]
+scale = "1 - p * roughness * mu"
+bias = "0.1 * t ^ q"
+"#;
+
+fn parse(text: &str) -> crate::error::Result<Form> {
+    Form::parse(Path::new("forms/test-form.toml"), text, &table())
+}
+
+/// The error's text, which must name the file, line and column.
+fn error_at(text: &str, line: usize, column: usize, says: &str) {
+    let e = parse(text).expect_err("refused").to_string();
+    let place = format!("forms/test-form.toml:{line}:{column}: ");
+    assert!(e.starts_with(&place), "expected {place}..., got: {e}");
+    assert!(e.contains(says), "expected `{says}` in: {e}");
+}
+
+#[test]
+fn a_good_form_reads_with_its_variables_bindings_and_channels_in_order() {
+    let form = parse(GOOD).unwrap();
+    assert_eq!(form.name, "test_form");
+    assert_eq!(form.variables, ["mu", "alpha"]);
+    assert_eq!(form.derived.iter().map(|d| d.name.as_str()).collect::<Vec<_>>(), ["roughness"]);
+    assert_eq!(form.parameter_names(), ["p", "q"]);
+    assert_eq!(form.channels.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(), ["scale", "bias"]);
+    let mut scratch = Vec::new();
+    let mut out = [0.0; 2];
+    form.tape.eval(&[0.5, 0.25], &[0.5, 2.0], &mut scratch, &mut out);
+    assert_eq!(out, [1.0 - 0.5 * 0.5 * 0.5, 0.1 * 0.25]);
+}
+
+#[test]
+fn each_kind_of_mistake_names_file_line_and_column() {
+    // Syntax: the `*` after `+` on line 8, column 14 (the expression starts at column 10).
+    error_at(&GOOD.replace("1 - p * roughness", "1 + * p roughness"), 8, 14, "expected a number");
+    error_at(&GOOD.replace("roughness * mu", "roughness * nu"), 8, 30, "unknown name `nu`");
+    error_at(&GOOD.replace("t ^ q", "tt(q)"), 9, 15, "unknown function `tt`");
+    error_at(&GOOD.replace("0.1 * t ^ q", "pow(t) * q"), 9, 9, "`pow` called with 1 arguments");
+    error_at(&GOOD.replace("0.1 * t ^ q", "0.1 * t"), 4, 1, "parameter `q` is never used");
+    error_at(&GOOD.replace("start = 1.0, min = 0.0", "start = -1.0, min = 0.0"), 4, 15, "exclude its start -1");
+    error_at(&GOOD.replace("min = -2.0, max = 2.0", "min = 2.0, max = 2.0"), 3, 26, "min 2 is not below max 2");
+    error_at(&GOOD.replace("bias =", "offset ="), 9, 1, "has no channel `offset`; its channels: scale, bias");
+    error_at(&GOOD.replace("\"karis\"", "\"tir\""), 1, 9, "the form is for table `tir`");
+    error_at(&GOOD.replace("t = \"1 - mu\"", "mu = \"1\""), 6, 1, "`mu` is already defined");
+    error_at(&GOOD.replace("t = \"1 - mu\"", "let = \"1\""), 6, 1, "reserved");
+    error_at(&GOOD.replace("[let]", "[lets]"), 5, 2, "unknown field");
+    error_at(&GOOD.replace("min = 0.0, max", "min = 0.0, maximum"), 4, 31, "unknown field");
+    // A binding reads only those before it.
+    error_at(&GOOD.replace("t = \"1 - mu\"", "t = \"u\"\nu = \"1 - mu\""), 6, 6, "unknown name `u`");
+    // Comparisons outside select.
+    error_at(&GOOD.replace("0.1 * t ^ q", "t ^ q < 1"), 9, 15, "only allowed as the condition of select");
+}
+
+#[test]
+fn the_gradient_is_the_finite_difference_of_the_value_for_every_function() {
+    let table = karis_like(4, |_, _| [0.0, 0.0]);
+    let text = r#"table = "karis"
+[parameters]
+a = { start = 0.3, min = -2.0, max = 2.0 }
+b = { start = 0.7, min = -2.0, max = 2.0 }
+c = { start = 1.3, min = -2.0, max = 2.0 }
+[let]
+u = "a * mu + b * alpha + 0.2"
+w = "abs(u - c) + sign(c) * floor(c) + fract(c * 3.7) + sqrt(u * u + 1) + rsqrt(c + 2) + exp(a) + exp2(b) + log(c + 3) + log2(c + 3) + pow(c + 2, a) + (c + 2) ^ b + u ^ 3 + u ^ -2"
+z = "sin(a) + cos(b) + tan(u) + asin(u / 3) + acos(b / 3) + atan(c) + atan2(a, c) + sinh(u) + cosh(b) + tanh(c) + asinh(u - 1)"
+y = "min(a, b) + max(u, c) + clamp(u, b, c) + saturate(u) + smoothstep(b, c + 1, u) + step(b, u) + mix(a, c, u) + select(a, b * c, u < 0.5)"
+[channels]
+scale = "w * z"
+bias = "y - w / (z * z + 1)"
+"#;
+    let form = Form::parse(Path::new("all.toml"), text, &table).unwrap();
+    let mut work = tape::Work::default();
+    let mut scratch = Vec::new();
+    for (point, params) in
+        [([0.3, 0.6], [0.3, 0.7, 1.3]), ([0.9, 0.1], [-0.4, 0.2, 0.6]), ([0.5, 0.5], [1.1, -0.3, 1.7])]
+    {
+        for channel in 0..2 {
+            let mut seeds = [0.0; 2];
+            seeds[channel] = 1.0;
+            let mut gradient = [0.0; 3];
+            form.tape.forward(&point, &params, &mut work);
+            form.tape.backward(&mut work, &seeds, &mut gradient);
+            for k in 0..3 {
+                let h = 1e-6;
+                let mut value = |delta: f64| {
+                    let mut p = params;
+                    p[k] += delta;
+                    let mut out = [0.0; 2];
+                    form.tape.eval(&point, &p, &mut scratch, &mut out);
+                    out[channel]
+                };
+                let numeric = (value(h) - value(-h)) / (2.0 * h);
+                assert!(
+                    (numeric - gradient[k]).abs() <= 1e-5 * (1.0 + numeric.abs()),
+                    "channel {channel} parameter {k} at {point:?} {params:?}: exact {} numeric {numeric}",
+                    gradient[k]
+                );
+            }
+        }
+    }
+    // Every language: the WGSL validates with naga, GLSL and MSL are naga's.
+    let texts = sources(&form, &[0.3, 0.7, 1.3]).unwrap();
+    assert!(texts[0].contains("fn tmlut_asinh") && texts[0].contains("fn tmlut_pow_m2"), "{}", texts[0]);
+    assert!(texts[1].contains("frac(") && texts[1].contains("lerp(") && texts[1].contains("rsqrt("), "{}", texts[1]);
+    assert!(texts[2].contains("vec2 tmlut_all("), "{}", texts[2]);
+    assert!(texts[3].contains("tmlut_all("), "{}", texts[3]);
+    crate::shader::validate::wgsl(&texts[0]).unwrap();
+}
+
+#[test]
+fn the_mean_squared_residual_s_gradient_matches_finite_differences() {
+    let form = parse(GOOD).unwrap();
+    let data = FormData::from_table(&table(), &form).unwrap();
+    let prepared = Prepared::new(&form, &data);
+    let objective = |p: &[f64], g: Option<&mut [f64]>| prepared.objective(p, g);
+    let p = [0.3, 2.5];
+    let mut g = [0.0; 2];
+    let f0 = objective(&p, Some(&mut g));
+    assert_eq!(f0, objective(&p, None));
+    // The split tape computes what the whole one does, to the bit.
+    let mut direct = 0.0;
+    let (mut scratch, mut out) = (Vec::new(), [0.0; 2]);
+    for n in 0..data.len() {
+        form.tape.eval(&data.coordinates[2 * n..2 * n + 2], &p, &mut scratch, &mut out);
+        for (v, t) in out.iter().zip(&data.values[2 * n..2 * n + 2]) {
+            direct += (v - t) * (v - t);
+        }
+    }
+    assert_eq!(f0, direct / (2 * data.len()) as f64);
+    for k in 0..2 {
+        let h = 1e-6;
+        let (mut up, mut down) = (p, p);
+        up[k] += h;
+        down[k] -= h;
+        let numeric = (objective(&up, None) - objective(&down, None)) / (2.0 * h);
+        assert!((numeric - g[k]).abs() < 1e-6 * (1.0 + numeric.abs()), "{k}: {numeric} against {}", g[k]);
+    }
+}
+
+#[test]
+fn a_fit_recovers_the_parameters_the_table_was_made_with_and_reports_redundancy() {
+    let form = parse(GOOD).unwrap();
+    let data = FormData::from_table(&table(), &form).unwrap();
+    let settings = FitSettings { starts: 3, ..FitSettings::default() };
+    let fitted = fit(&form, &Prepared::new(&form, &data), &settings).unwrap();
+    assert!(
+        (fitted.parameters[0] - 0.5).abs() < 1e-3 && (fitted.parameters[1] - 5.0).abs() < 1e-2,
+        "{:?}",
+        fitted.parameters
+    );
+    let f = figures(&form, &data, &fitted.parameters).unwrap();
+    assert!(f.together.rms < 1e-5 && f.channels["bias"].max < 1e-5, "{f:?}");
+    assert!(identifiability(&form, &Prepared::new(&form, &data), &fitted.parameters).ill_determined.is_empty());
+    // The same seed gives the same bits, whatever the number of threads.
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let again = one.install(|| fit(&form, &Prepared::new(&form, &data), &settings).unwrap());
+    assert_eq!(again.parameters, fitted.parameters);
+    // Two parameters that only enter as a sum are one direction of no information.
+    let redundant = GOOD
+        .replace("1 - p * roughness * mu", "1 - (p + r) * roughness * mu")
+        .replace("[let]", "r = { start = 0.0, min = -1.0, max = 1.0 }\n[let]");
+    let form = parse(&redundant).unwrap();
+    let prepared = Prepared::new(&form, &data);
+    let fitted = fit(&form, &prepared, &settings).unwrap();
+    let id = identifiability(&form, &prepared, &fitted.parameters);
+    assert_eq!(id.ill_determined.len(), 1, "{id:?}");
+    assert_eq!(id.ill_determined[0].parameters, ["p", "r"]);
+    assert_eq!(id.ill_determined_parameters, ["p", "r"]);
+}
+
+#[test]
+fn tables_with_a_derived_axis_are_fitted_on_a_uniform_grid_of_the_lookup_variables() {
+    let axes = vec![
+        Axis::node_aligned("mu", 0.0, 1.0, 5).unwrap(),
+        Axis::node_aligned("alpha", 0.0, 1.0, 5).unwrap(),
+        Axis::node_aligned(crate::table::derived::CRITICAL_ANGLE_OFFSET, -1.6, 1.6, 9).unwrap(),
+    ];
+    let mut tir = Table::zeros("tir", axes, vec![Channel::new("tir", "test")]).unwrap();
+    for node in 0..tir.node_count() {
+        let p = tir.node_position(&tir.node_index(node));
+        tir.data[node] = (0.5 - 0.25 * p[2]) as f32;
+    }
+    let text = "table = \"tir\"\n[parameters]\nk = { start = 0.1, min = -1.0, max = 1.0 }\n[channels]\ntir = \"0.5 - k * critical_angle_offset\"\n";
+    let form = Form::parse(Path::new("tir-line.toml"), text, &tir).unwrap();
+    assert_eq!(form.variables, ["mu", "alpha", "eta"]);
+    let data = FormData::from_table(&tir, &form).unwrap();
+    assert_eq!(data.len(), crate::fit::FIT_GRID_NODES.pow(3));
+    let fitted =
+        fit(&form, &Prepared::new(&form, &data), &FitSettings { starts: 1, ..FitSettings::default() }).unwrap();
+    assert!((fitted.parameters[0] - 0.25).abs() < 1e-4, "{:?}", fitted.parameters);
+    let wgsl = module(&form, &fitted.parameters).print(crate::shader::Lang::Wgsl);
+    assert!(wgsl.contains("fn tmlut_tir_line(mu: f32, alpha: f32, eta: f32) -> f32"), "{wgsl}");
+    crate::shader::validate::wgsl(&wgsl).unwrap();
+}
+
+/// `luts/forms/tir-logistic.toml` computes the built-in `logistic` form of `tmlut fit tir`, with
+/// its parameters in the same order: one form, two ways to write it, the same numbers.
+#[test]
+fn the_logistic_form_file_computes_the_built_in_logistic_form() {
+    let axes = ["mu", "alpha", "eta"].map(|a| Axis::node_aligned(a, 0.0, 1.0, 3).unwrap()).to_vec();
+    let tir = Table::zeros("tir", axes, vec![Channel::new("tir", "test")]).unwrap();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms/tir-logistic.toml");
+    let form = Form::read(&path, &tir).unwrap();
+    let built_in = crate::fit::Form::Logistic;
+    let (start, _, _) = built_in.start_and_bounds();
+    assert_eq!(form.parameters.iter().map(|p| p.start).collect::<Vec<_>>(), start);
+    let mut state = 7u64;
+    let mut unit = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut scratch, mut out) = (Vec::new(), [0.0]);
+    for _ in 0..2000 {
+        let p: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
+        let (mu, alpha, eta) = (unit(), unit(), unit());
+        form.tape.eval(&[mu, alpha, eta], &p, &mut scratch, &mut out);
+        let expected = built_in.eval(&p, mu, alpha, eta);
+        assert!((out[0] - expected).abs() <= 1e-12, "{p:?} at ({mu}, {alpha}, {eta}): {} against {expected}", out[0]);
+    }
+}
+
+/// A parameter read only by a `select`'s condition is used, and the split tape keeps the
+/// condition's dependence on it.
+#[test]
+fn a_parameter_in_a_select_condition_is_used_and_kept_by_the_split() {
+    let text = "table = \"karis\"\n[parameters]\nk = { start = 0.5, min = 0.0, max = 1.0 }\n[channels]\nscale = \"select(0.0, 1.0, mu < k)\"\nbias = \"mu * mu\"\n";
+    let form = parse(text).unwrap();
+    let data = FormData::from_table(&table(), &form).unwrap();
+    let prepared = Prepared::new(&form, &data);
+    // Where the step sits changes the objective: the condition was not split off as a constant.
+    assert_ne!(prepared.objective(&[0.2], None), prepared.objective(&[0.8], None));
+}
