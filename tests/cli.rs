@@ -1129,3 +1129,41 @@ fn fit_form_refuses_a_mistake_naming_file_line_and_column_and_writes_nothing() {
     let output = tmlut(&["fit", "tir", "--form", form.to_str().unwrap()]);
     assert!(!output.status.success() && stderr(&output).contains("--form"), "{}", stderr(&output));
 }
+
+#[test]
+fn a_scene_shader_is_written_as_one_set_or_not_at_all() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_path("copper-pot");
+    // The same scene's tables as a file per slice and as texture arrays: their shaders differ.
+    let luts = |layout: &str| {
+        let luts = dir.path().join(layout);
+        let args = ["build", "-q", "--scene", &scene, "--slice-checks", "none", "--slice-layout", layout, "--out"];
+        let built = tmlut(&[&args[..], &[luts.to_str().unwrap()]].concat());
+        assert!(built.status.success(), "{}", stderr(&built));
+        luts
+    };
+    let (files, arrays) = (luts("files"), luts("arrays"));
+    let out = dir.path().join("shader");
+    let shader = |luts: &Path, views: &str| {
+        let (luts, out) = (luts.to_str().unwrap(), out.to_str().unwrap());
+        tmlut(&["shader", &scene, "--luts", luts, "--out", out, "--reference-views", views])
+    };
+    let first = shader(&files, "0");
+    assert!(first.status.success(), "{}", stderr(&first));
+    let before = snapshot(&out);
+    assert_eq!(before.len(), 3, "{:?}", before.iter().map(|f| &f.0).collect::<Vec<_>>());
+    // A second run whose last file cannot be put in place (a folder holds its name) fails and
+    // changes nothing: not the shaders it would have written before that file.
+    let reference = before[0].0.replace(".hlsl", ".reference.json");
+    std::fs::create_dir(out.join(&reference)).unwrap();
+    let failed = shader(&arrays, "3");
+    assert_clean_failure(&failed, &[&reference]);
+    std::fs::remove_dir(out.join(&reference)).unwrap();
+    assert_eq!(snapshot(&out), before);
+    // Without the obstacle the set is replaced whole, and no staging folder is left.
+    assert!(shader(&arrays, "3").status.success());
+    let after = snapshot(&out);
+    assert_eq!(after.len(), 4);
+    assert_ne!(after.iter().find(|f| f.0.ends_with(".wgsl")), before.iter().find(|f| f.0.ends_with(".wgsl")));
+    assert!(std::fs::read_dir(&out).unwrap().flatten().all(|e| e.path().is_file()), "{after:?}");
+}

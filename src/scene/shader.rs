@@ -119,7 +119,7 @@ pub fn reference(
 ///
 /// Into the folder of `luts` itself, the files are committed with its manifest, which lists them
 /// (`scene_shader`: length and SHA-256 of each, as `tmlut check` verifies them) in place of the
-/// scene shader it listed before; elsewhere each file is replaced atomically.
+/// scene shader it listed before; elsewhere the files are committed as one set, `.shader.json` last.
 pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_views: usize) -> Result<Vec<PathBuf>> {
     check_reference_views(reference_views, scene.materials.len())?;
     std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
@@ -169,12 +169,20 @@ pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_view
     if same_folder(luts, out) {
         commit_with_manifest(&folder_lock, scene, files)
     } else {
-        let mut written = Vec::new();
+        // Committed as one set, `.shader.json` (which describes the others) last: a failed or
+        // killed run leaves the earlier set, or a journal the next run completes, never a new
+        // `.hlsl` beside an old `.wgsl`.
+        let last = format!("{stem}.shader.json");
+        let mut staging = folder_lock.staging()?;
+        let (mut moves, mut written) = (Vec::new(), Vec::new());
         for (file, _, bytes) in files {
-            let path = out.join(file);
-            write_bytes_atomically(&path, &bytes)?;
-            written.push(path);
+            write_bytes_atomically(&staging.dir.join(&file), &bytes)?;
+            if file != last {
+                moves.push(Move { staged: file.clone(), destination: file.clone() });
+            }
+            written.push(out.join(file));
         }
+        crate::commit::commit_set(&folder_lock, &mut staging, moves, Vec::new(), &last)?;
         Ok(written)
     }
 }
