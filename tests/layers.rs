@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 /// The layers, lowest first. Units of one layer do not use each other.
 const LAYERS: &[&[&str]] = &[
     &["error"],
-    &["stats", "table", "physics"],
+    // What the process may use of the machine (its memory limits) stands beside them: std alone.
+    &["stats", "table", "physics", "machine"],
     // Files and the drawing of PNG plots, which are a file format.
     &["formats"],
     // The emitter that prints one description of a shader as HLSL and WGSL, and the emulator of
