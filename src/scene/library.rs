@@ -139,6 +139,30 @@ pub fn recorded_source(files: &[SceneFile]) -> PathBuf {
     PathBuf::from(files.iter().map(|f| f.path.display().to_string()).collect::<Vec<_>>().join(", "))
 }
 
+/// The build of the scenes of `files` (a library where there are several) into `out`, with the
+/// defaults of `tmlut build --scene`: sampled checks, the slice layout chosen by count, no cache,
+/// no shard, no error maps.
+pub fn build_request(
+    files: &[SceneFile],
+    config: crate::config::Config,
+    out: std::path::PathBuf,
+) -> Result<super::build::SceneBuildRequest> {
+    use super::build::{SceneBuildRequest, SliceChecks, SliceLayout};
+    Ok(SceneBuildRequest {
+        scene: merge(files)?,
+        source: recorded_source(files),
+        text: recorded_text(files),
+        config,
+        out,
+        error_maps: false,
+        slice_checks: SliceChecks::Sampled,
+        cache: None,
+        slice_layout: SliceLayout::Auto,
+        shard: None,
+        merge_from: Vec::new(),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,28 +198,4 @@ mod tests {
         let error = merge(&[file("a", COPPER), same_name]).unwrap_err().to_string();
         assert!(error.contains("scene `a`"), "{error}");
     }
-}
-
-/// The build of the scenes of `files` (a library where there are several) into `out`, with the
-/// defaults of `tmlut build --scene`: sampled checks, the slice layout chosen by count, no cache,
-/// no shard, no error maps.
-pub fn build_request(
-    files: &[SceneFile],
-    config: crate::config::Config,
-    out: std::path::PathBuf,
-) -> Result<super::build::SceneBuildRequest> {
-    use super::build::{SceneBuildRequest, SliceChecks, SliceLayout};
-    Ok(SceneBuildRequest {
-        scene: merge(files)?,
-        source: recorded_source(files),
-        text: recorded_text(files),
-        config,
-        out,
-        error_maps: false,
-        slice_checks: SliceChecks::Sampled,
-        cache: None,
-        slice_layout: SliceLayout::Auto,
-        shard: None,
-        merge_from: Vec::new(),
-    })
 }
