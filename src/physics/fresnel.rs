@@ -41,20 +41,33 @@ pub fn fresnel_reflectance(cos_theta: f64, eta: f64, kappa: f64) -> f64 {
         // without the library call (a build evaluates a dielectric's Fresnel some 10^8 times, in the
         // per-sample estimates of `fgd_rarer` and of FGD's `kappa = 0` plane).
         if t0 >= 0.0 { (t0, 0.0) } else { (0.0, -t0) }
-    } else if t0 >= 0.0 {
-        let a2_plus_b2 = t0.hypot(two_eta_kappa);
-        let a2 = 0.5 * (a2_plus_b2 + t0);
-        (a2, if a2 > 0.0 { 0.25 * two_eta_kappa * two_eta_kappa / a2 } else { 0.0 })
     } else {
-        let a2_plus_b2 = t0.hypot(two_eta_kappa);
-        let b2 = 0.5 * (a2_plus_b2 - t0);
-        (0.25 * two_eta_kappa * two_eta_kappa / b2, b2)
+        // Of `a^2` and `b^2`, the one on the side of `t0`'s sign is `|t0|` plus the small
+        // `((a^2 + b^2) - |t0|) / 2`, taken as `y^2 / (2 ((a^2 + b^2) + |t0|))` with
+        // `y = 2 eta kappa`: no cancellation, and the modulus's own rounding reaches the result
+        // only through that small term (near `eta = 1` and the normal, `F` is the square of the
+        // difference of nearly equal `a` and `c`, and an ulp of the modulus moved it by 1e-10).
+        let y2 = two_eta_kappa * two_eta_kappa;
+        let magnitude = t0.abs();
+        let larger = magnitude + 0.5 * y2 / (modulus(t0, two_eta_kappa) + magnitude);
+        let smaller = if larger > 0.0 { 0.25 * y2 / larger } else { 0.0 };
+        if t0 >= 0.0 { (larger, smaller) } else { (smaller, larger) }
     };
     let (a, b) = (a2.sqrt(), b2.sqrt());
     let rs = ((a - c).powi(2) + b2) / ((a + c).powi(2) + b2);
     let rp_denominator = (a * c + s2).powi(2) + (b * c).powi(2);
     let rp_ratio = if rp_denominator == 0.0 { 1.0 } else { ((a * c - s2).powi(2) + (b * c).powi(2)) / rp_denominator };
     (0.5 * rs * (1.0 + rp_ratio)).clamp(0.0, 1.0)
+}
+
+/// `sqrt(x^2 + y^2)`, inline: the library's `hypot` is a call the compiler cannot inline or
+/// vectorise, and a build evaluates a conductor's Fresnel some 10^8 times (narrow lobes'
+/// corrections, the exact values of the interpolation checks). The squares lose nothing unless
+/// their sum leaves the normal range, where `hypot`'s scaling takes over.
+#[inline(always)]
+fn modulus(x: f64, y: f64) -> f64 {
+    let sum_of_squares = x * x + y * y;
+    if sum_of_squares >= f64::MIN_POSITIVE && sum_of_squares < f64::MAX { sum_of_squares.sqrt() } else { x.hypot(y) }
 }
 
 /// Reflectance at normal incidence, `((eta - 1)^2 + kappa^2) / ((eta + 1)^2 + kappa^2)`.

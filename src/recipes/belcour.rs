@@ -18,7 +18,7 @@ use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
-use crate::integrate::measure::{CosineMeasure, HatBasis, Projection, cosine_measure, dot};
+use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, dot, multiply_transposed};
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
 use crate::physics::{FresnelBasis, MaskingShadowing, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
@@ -357,22 +357,44 @@ fn split_sum_accuracy(
             (0..20).map(|i| (0.3 + 0.69 * i as f64 / 19.0, 0.0)).collect(),
         ),
     ];
+    // The measures' mean hat moments, one row per node: `∫ F dM` for every (eta, kappa) of a
+    // domain at every node is one matrix product with the projected Fresnel rows, plus each narrow
+    // lobe's correction ([`CosineMeasure::correction`]), as the FGD table is built.
+    let k = hats.node_count();
+    let moments: Vec<f64> = measures.iter().flat_map(|m| m.mean_moments(hats)).collect();
+    let approximations: Vec<[f64; 4]> = (0..measures.len())
+        .map(|node| {
+            let lut = table.node(&table.node_index(node));
+            std::array::from_fn(|c| lut[c] as f64)
+        })
+        .collect();
     domains
         .iter()
         .map(|(what, indices)| {
+            let projections: Vec<Projection> =
+                indices.par_iter().map(|&(eta, kappa)| projected_fresnel(hats, eta, kappa)).collect();
+            let fresnel: Vec<f64> = projections.iter().flat_map(|p| p.coefficients.iter().copied()).collect();
+            let mut exact = vec![0.0f64; indices.len() * measures.len()];
+            multiply_transposed(
+                MatrixRef::new(&fresnel, indices.len(), k),
+                MatrixRef::new(&moments, measures.len(), k),
+                &mut exact,
+            );
             // (difference, eta, kappa, node) for every index and node.
             let differences: Vec<(f64, f64, f64, usize)> = indices
                 .par_iter()
-                .flat_map_iter(|&(eta, kappa)| {
-                    let fresnel = projected_fresnel(hats, eta, kappa);
+                .zip(&projections)
+                .zip(exact.par_chunks(measures.len()))
+                .flat_map_iter(|((&(eta, kappa), projection), exact)| {
                     let kinks = fresnel_kinks(eta);
                     let coefficients = basis.coefficients(eta, kappa);
-                    measures.iter().enumerate().map(move |(node, measure)| {
-                        let lut = table.node(&table.node_index(node));
-                        let approximate: f64 = (0..4).map(|k| coefficients[k] * lut[k] as f64).sum();
-                        let exact =
-                            measure.integrate(&[&fresnel], |_, c| fresnel_reflectance(c, eta, kappa), &kinks).mean[0];
-                        (approximate - exact, eta, kappa, node)
+                    let approximations = &approximations;
+                    measures.iter().zip(exact).enumerate().map(move |(node, (measure, &on_hats))| {
+                        let correction = measure
+                            .correction(projection, |c| fresnel_reflectance(c, eta, kappa), &kinks, 1)
+                            .map_or(0.0, |c| c[0]);
+                        let approximate: f64 = (0..4).map(|k| coefficients[k] * approximations[node][k]).sum();
+                        (approximate - (on_hats + correction), eta, kappa, node)
                     })
                 })
                 .collect();
