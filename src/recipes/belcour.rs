@@ -18,7 +18,9 @@ use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
-use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, dot, multiply_transposed};
+use crate::integrate::measure::{
+    CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, dot, multiply_transposed,
+};
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
 use crate::physics::{FresnelBasis, MaskingShadowing, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
