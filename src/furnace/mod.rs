@@ -12,6 +12,7 @@
 //! (reciprocity), so a furnace sphere is `A` drawn over the sphere's view cosines ([`picture`]).
 
 pub mod exact;
+pub mod forms;
 pub mod picture;
 pub mod report;
 
