@@ -1239,7 +1239,7 @@ fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
     // The build records the form, writes no TIR table, and its scene shader calls the form.
     let manifest = Manifest::read(&luts.join(MANIFEST_FILE)).unwrap();
     let plan = &manifest.scene.as_ref().expect("the scene is recorded").plan;
-    assert_eq!(plan.tir_forms, [form.clone()]);
+    assert_eq!(plan.tir_forms, std::slice::from_ref(&form));
     assert!(manifest.files.keys().all(|f| !f.starts_with("tir")), "{:?}", manifest.files.keys());
     let wgsl = std::fs::read_to_string(luts.join("copper_pot.wgsl")).unwrap();
     assert!(wgsl.contains("fn tmlut_tir_logistic(mu: f32, alpha: f32, eta: f32) -> f32"), "{wgsl}");

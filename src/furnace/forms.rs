@@ -254,7 +254,7 @@ mod tests {
 
         // Each form's run: the model over the run's folder, every TIR lookup answered by the form
         // evaluated here (no other path to it), the rest by the folder; the same curve, bit for bit.
-        let folder = LutFolder::open(&dir.path().join("table").join("luts")).unwrap();
+        let folder = LutFolder::open(dir.path().join("table").join("luts")).unwrap();
         let others = FolderTables::open(&folder, AlbedoPath::Fgd, TirPath::Off, FgdSource::Packing).unwrap();
         for form in [&wide, &narrow] {
             let entry = ranking.forms.iter().find(|e| e.tir == form.name).unwrap();

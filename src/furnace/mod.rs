@@ -299,7 +299,8 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
     // Opening reads and verifies every table of the folder that the paths read (a library's
     // thousands of slices): once per pair of paths, shared by the materials that read them.
     // A material's own TIR form (`tir = "fit:PATH"`) answers its TIR lookups in place of the folder.
-    let mut opened: Vec<((AlbedoPath, TirPath, Option<&FittedForm>), FolderTables)> = Vec::new();
+    type Paths<'a> = (AlbedoPath, TirPath, Option<&'a FittedForm>);
+    let mut opened: Vec<(Paths, FolderTables)> = Vec::new();
     let mut tables_of = Vec::with_capacity(count);
     for material in &request.scene.materials {
         let paths = (material.albedo, material.tir, material.tir_form.as_ref());
