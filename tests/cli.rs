@@ -1245,6 +1245,9 @@ fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
     assert!(wgsl.contains("fn tmlut_tir_logistic(mu: f32, alpha: f32, eta: f32) -> f32"), "{wgsl}");
     assert!(wgsl.contains("tmlut_tir_logistic(l1_cos_below"), "{wgsl}");
     assert!(common::validate_wgsl_files(&luts) >= 1);
+    let hlsl = std::fs::read_to_string(luts.join("copper_pot.hlsl")).unwrap();
+    assert!(hlsl.contains("tmlut_tir_logistic(l1_cos_below"), "{hlsl}");
+    assert_eq!(shader_functions(&wgsl), shader_functions(&hlsl), "the two languages define different functions");
 
     // Ranked in the material: the same error for the form, the table's beside it.
     let ranked = dir.path().join("ranked");
