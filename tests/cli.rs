@@ -1292,4 +1292,6 @@ fn a_scene_naming_a_form_that_cannot_serve_is_refused_with_what_is_allowed() {
     assert!(wrong.contains("fitted to table `karis`") && wrong.contains("table `tir`"), "{wrong}");
     let bare = plan("fit:");
     assert!(bare.contains("names no form"), "{bare}");
+    let path_only = plan("form");
+    assert!(path_only.contains("names no form") && path_only.contains("\"fit:PATH\""), "{path_only}");
 }

@@ -155,10 +155,24 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
                 .filter(|p| p.extension().is_some_and(|e| e == "toml"))
                 .collect();
             files.sort();
+            // A folder of forms may hold forms of other tables (luts/forms/ does): those are skipped.
+            files.retain(|file| {
+                let table = std::fs::read_to_string(file)
+                    .ok()
+                    .and_then(|text| text.parse::<toml::Table>().ok())
+                    .and_then(|t| t.get("table").and_then(|v| v.as_str().map(str::to_string)));
+                match table.as_deref() {
+                    Some("tir") | None => true,
+                    Some(other) => {
+                        eprintln!("skipped {}: a form for table `{other}`, not `tir`", file.display());
+                        false
+                    }
+                }
+            });
             if files.is_empty() {
                 return Err(tmlut::Error::invalid(
                     format!("--form {}", path.display()),
-                    format!("a folder with no {FIT_FILE} and no form file (.toml)"),
+                    format!("a folder with no {FIT_FILE} and no TIR form file (.toml)"),
                 ));
             }
             candidates.extend(files);
