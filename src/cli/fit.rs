@@ -36,12 +36,12 @@ pub struct FitArgs {
     exact_samples: u64,
     /// With --form: the most objective evaluations per start; 0 evaluates the form at its start
     /// values (the figures of published coefficients).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = 2000, requires = "form")]
     max_evaluations: u32,
     /// With --form: certify the fitted form against exact integrals at the random points of the
     /// table's interpolation check (its points and samples from the configuration), beside the
     /// table's own error there.
-    #[arg(long, requires = "form")]
+    #[arg(long, requires = "form", conflicts_with = "scene")]
     certify: bool,
     #[command(flatten)]
     config: super::ConfigArg,
