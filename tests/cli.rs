@@ -1167,3 +1167,131 @@ fn a_scene_shader_is_written_as_one_set_or_not_at_all() {
     assert_ne!(after.iter().find(|f| f.0.ends_with(".wgsl")), before.iter().find(|f| f.0.ends_with(".wgsl")));
     assert!(std::fs::read_dir(&out).unwrap().flatten().all(|e| e.path().is_file()), "{after:?}");
 }
+
+/// Builds the small set's TIR table into `dir/tables` and fits the repository's logistic TIR
+/// form to it into `dir/<out>` with `extra` options; returns the fit's folder.
+fn fit_tir_logistic(dir: &Path, config: &Path, out: &str, extra: &[&str]) -> PathBuf {
+    let tables = dir.join("tables");
+    if !tables.join("tir.dds").is_file() {
+        let output = build(config, &tables, &["--only", "tir"]);
+        assert!(output.status.success(), "{}", stderr(&output));
+    }
+    let form = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms/tir-logistic.toml");
+    let fitted = dir.join(out);
+    let mut args = vec!["fit", "--form", form.to_str().unwrap(), "--table"];
+    let table = tables.join("tir.dds");
+    args.extend([table.to_str().unwrap(), "--out", fitted.to_str().unwrap(), "--starts", "1"]);
+    args.extend_from_slice(extra);
+    let output = tmlut(&args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    fitted
+}
+
+/// The copper pot with `tir = TIR`, written into `dir/name.toml`.
+fn copper_pot_with_tir(dir: &Path, name: &str, tir: &str) -> PathBuf {
+    let scene = dir.join(format!("{name}.toml"));
+    let text = std::fs::read_to_string(scene_path("copper-pot")).unwrap();
+    std::fs::write(&scene, text.replace("tir = \"table\"", &format!("tir = \"{tir}\""))).unwrap();
+    scene
+}
+
+#[test]
+fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
+    use tmlut::fit::text::FittedForm;
+    use tmlut::furnace::report::FurnaceReport;
+    use tmlut::model::folder::{FgdSource, FolderTables};
+    use tmlut::model::{AlbedoPath, Lookup, Material, Quantity, Tables, TirPath};
+
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    fit_tir_logistic(dir.path(), &config, "logistic", &["--max-evaluations", "300"]);
+    let scene = copper_pot_with_tir(dir.path(), "pot", "fit:logistic");
+    let luts = dir.path().join("luts");
+    let output = build(&config, &luts, &["--scene", scene.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let out = dir.path().join("furnace");
+    let (config_arg, out_arg) = (config.to_str().unwrap(), out.to_str().unwrap());
+    let small = ["--views", "8", "--exact-samples", "1024"];
+    let mut args = vec!["furnace", scene.to_str().unwrap(), "--config", config_arg, "--out", out_arg];
+    args.extend(["--luts", luts.to_str().unwrap(), "--walk", "none", "--pictures", "none"]);
+    args.extend(small);
+    let output = tmlut(&args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stdout(&output).contains("fgd / fit:logistic"), "{}", stdout(&output));
+
+    // The furnace's error in the material is the CPU model's with the form: every TIR lookup
+    // answered by the form evaluated here, the others by the built folder.
+    let report = FurnaceReport::read(&out.join("copper-pot").join("furnace.json")).unwrap();
+    let m = &report.materials[0];
+    assert!(m.errors.table.max_all.is_finite() && m.errors.table.max_all > 0.0, "{:?}", m.errors.table);
+    let form = FittedForm::read(&dir.path().join("logistic"), "logistic").unwrap();
+    assert_eq!(m.tir_form.as_ref(), Some(&form));
+    let folder = LutFolder::open(&luts).unwrap();
+    let others = FolderTables::open(&folder, AlbedoPath::Fgd, TirPath::Off, FgdSource::Packing).unwrap();
+    let evaluator = form.evaluator().unwrap();
+    let by_hand = |l: &Lookup| {
+        if l.quantity == Quantity::Tir { evaluator.tir(l.mu, l.alpha, l.eta) } else { others.value(l) }
+    };
+    let model = Material::new(m.model, m.stack.clone());
+    let curve: Vec<_> = m.mu.iter().map(|&mu| model.albedo(mu, &by_hand)).collect();
+    assert_eq!(curve, m.albedo_tables);
+
+    // The build records the form, writes no TIR table, and its scene shader calls the form.
+    let manifest = Manifest::read(&luts.join(MANIFEST_FILE)).unwrap();
+    let plan = &manifest.scene.as_ref().expect("the scene is recorded").plan;
+    assert_eq!(plan.tir_forms, std::slice::from_ref(&form));
+    assert!(manifest.files.keys().all(|f| !f.starts_with("tir")), "{:?}", manifest.files.keys());
+    let wgsl = std::fs::read_to_string(luts.join("copper_pot.wgsl")).unwrap();
+    assert!(wgsl.contains("fn tmlut_tir_logistic(mu: f32, alpha: f32, eta: f32) -> f32"), "{wgsl}");
+    assert!(wgsl.contains("tmlut_tir_logistic(l1_cos_below"), "{wgsl}");
+    assert!(common::validate_wgsl_files(&luts) >= 1);
+    let hlsl = std::fs::read_to_string(luts.join("copper_pot.hlsl")).unwrap();
+    assert!(hlsl.contains("tmlut_tir_logistic(l1_cos_below"), "{hlsl}");
+    assert_eq!(shader_functions(&wgsl), shader_functions(&hlsl), "the two languages define different functions");
+
+    // Ranked in the material: the same error for the form, the table's beside it.
+    let ranked = dir.path().join("ranked");
+    let mut args = vec!["fit", "--scene", scene.to_str().unwrap(), "--form", "logistic"];
+    args.extend(["--config", config_arg, "--out", ranked.to_str().unwrap()]);
+    args.extend(small);
+    let output = Command::new(env!("CARGO_BIN_EXE_tmlut")).current_dir(dir.path()).args(&args).output().unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    let ranking: tmlut::furnace::forms::FormRanking =
+        serde_json::from_slice(&std::fs::read(ranked.join("ranking.json")).unwrap()).unwrap();
+    assert_eq!(ranking.forms.len(), 1);
+    assert_eq!(ranking.forms[0].max_error, m.errors.table.max_all);
+    assert!(ranking.table.max_error.is_finite() && ranking.table.max_error < ranking.forms[0].max_error);
+    assert!(stdout(&output).contains("| 1 | `tir_logistic` (fit:logistic) |"), "{}", stdout(&output));
+}
+
+#[test]
+fn a_scene_naming_a_form_that_cannot_serve_is_refused_with_what_is_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    fit_tir_logistic(dir.path(), &config, "unfitted", &["--max-evaluations", "0"]);
+    let plan = |tir: &str| {
+        let scene = copper_pot_with_tir(dir.path(), "pot", tir);
+        let output = tmlut(&["plan", scene.to_str().unwrap(), "--config", config.to_str().unwrap()]);
+        assert!(!output.status.success(), "{tir}: accepted");
+        let message = stderr(&output);
+        assert!(!message.contains("panicked"), "{message}");
+        assert!(message.contains("pot.toml: tir: "), "{tir}: {message}");
+        message
+    };
+    let missing = plan("fit:nowhere");
+    assert!(missing.contains("tir: fit:nowhere (") && missing.contains("no such file"), "{missing}");
+    assert!(missing.contains("allowed: \"fit:PATH\""), "{missing}");
+    let unfitted = plan("fit:unfitted");
+    assert!(unfitted.contains("unfitted") && unfitted.contains("--max-evaluations"), "{unfitted}");
+    // A form fitted to another table: its fit.json as written, with the table renamed.
+    let other = dir.path().join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    let json = std::fs::read_to_string(dir.path().join("unfitted").join("fit.json")).unwrap();
+    std::fs::write(other.join("fit.json"), json.replace("\"table\": \"tir\"", "\"table\": \"karis\"")).unwrap();
+    let wrong = plan("fit:other/fit.json");
+    assert!(wrong.contains("fitted to table `karis`") && wrong.contains("table `tir`"), "{wrong}");
+    let bare = plan("fit:");
+    assert!(bare.contains("names no form"), "{bare}");
+    let path_only = plan("form");
+    assert!(path_only.contains("names no form") && path_only.contains("\"fit:PATH\""), "{path_only}");
+}

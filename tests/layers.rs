@@ -17,9 +17,17 @@ const LAYERS: &[&[&str]] = &[
     &["stats", "table", "physics", "machine"],
     // Files and the drawing of PNG plots, which are a file format.
     &["formats"],
+    // The form language of `fit/text` (expressions, their compiled tape, form files) and a fitted
+    // TIR form a scene names: the model evaluates it.
+    &["fit/text/expr"],
+    &["fit/text/tape"],
+    &["fit/text/form"],
+    &["fit/text/fitted"],
     // The emitter that prints one description of a shader as HLSL and WGSL, and the emulator of
     // a GPU's texture filtering, which the loader samples with.
     &["shader", "packing/emulator"],
+    // A form printed as a shader: the scene shader prints the forms its materials name.
+    &["fit/text/shader"],
     &["report/plot"],
     &["loader"],
     &["sampling"],

@@ -1,25 +1,39 @@
 //! `tmlut fit`: least-squares fits of analytic forms to a table, error against cost.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::Args;
 
 use tmlut::fit::{ALL_FORMS, Form};
 
-use super::{Context, check_count};
+use super::{Context, check_count, check_sample_count};
 
 /// Fit analytic approximations to a table by least squares (NLopt). `tmlut fit tir`: the built-in
 /// TIR forms, error against cost (fit.json, HLSL/WGSL per form, error_vs_cost.png). `tmlut fit
 /// --form FILE --table TABLE_FILE`: a form written as text (docs/fit.md, "Forms as text"), fitted
-/// to any table tmlut writes (fit.json, report.md, WGSL, HLSL, GLSL, MSL).
+/// to any table tmlut writes (fit.json, report.md, WGSL, HLSL, GLSL, MSL). `tmlut fit --scene
+/// SCENE --form A --form B ...`: TIR forms judged in the material (each form file fitted to
+/// --table first, or a `tmlut fit --form` output folder used as fitted), ranked by the furnace's
+/// largest error with each, the TIR table's beside them (ranking.json).
 #[derive(Args)]
 pub struct FitArgs {
     /// The built-in forms' table: `tir`. Not with --form.
     target: Option<String>,
     /// A form file (TOML): the table it approximates, its parameters, `let` bindings and one
-    /// expression per channel.
+    /// expression per channel. With --scene, repeated: form files (fitted to --table), folders
+    /// written by `tmlut fit --form` (or their fit.json), or folders of form files.
     #[arg(long, conflicts_with_all = ["target", "forms", "timing_runs"])]
-    form: Option<PathBuf>,
+    form: Vec<PathBuf>,
+    /// Rank the --form candidates (TIR forms) by their error in this scene's materials: a
+    /// furnace run with the TIR table, then one per form (tables built once, no random walk).
+    #[arg(long, requires = "form")]
+    scene: Option<PathBuf>,
+    /// With --scene: view cosines per material.
+    #[arg(long, default_value_t = tmlut::furnace::FurnaceSettings::default().views, requires = "scene")]
+    views: usize,
+    /// With --scene: samples of each exact integral (a power of two).
+    #[arg(long, default_value_t = tmlut::furnace::FurnaceSettings::default().exact_samples, requires = "scene")]
+    exact_samples: u64,
     /// With --form: the most objective evaluations per start; 0 evaluates the form at its start
     /// values (the figures of published coefficients).
     #[arg(long, default_value_t = 2000, requires = "form")]
@@ -27,7 +41,7 @@ pub struct FitArgs {
     /// With --form: certify the fitted form against exact integrals at the random points of the
     /// table's interpolation check (its points and samples from the configuration), beside the
     /// table's own error there.
-    #[arg(long, requires = "form")]
+    #[arg(long, requires = "form", conflicts_with = "scene")]
     certify: bool,
     #[command(flatten)]
     config: super::ConfigArg,
@@ -55,17 +69,26 @@ fn form_names() -> Vec<&'static str> {
     ALL_FORMS.iter().map(|f| f.name()).collect()
 }
 
-pub fn exec(args: FitArgs, _: &Context) -> tmlut::Result<()> {
+pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
     // Each start is a whole minimisation and each timing run a pass over 2^14 queries per form.
     check_count("--starts", args.starts, 1..=1000)?;
-    if let Some(form) = args.form {
+    let settings = tmlut::fit::FitSettings {
+        starts: args.starts,
+        seed: args.seed,
+        max_evaluations: args.max_evaluations,
+        ..tmlut::fit::FitSettings::default()
+    };
+    if let Some(scene) = &args.scene {
+        return rank(&args, scene, settings, context);
+    }
+    if args.form.len() > 1 {
+        return Err(tmlut::Error::invalid(
+            "--form",
+            format!("given {} times; one form is fitted at a time, several only with --scene", args.form.len()),
+        ));
+    }
+    if let Some(form) = args.form.first().cloned() {
         let table = tmlut::loader::load_table(&args.table)?;
-        let settings = tmlut::fit::FitSettings {
-            starts: args.starts,
-            seed: args.seed,
-            max_evaluations: args.max_evaluations,
-            ..tmlut::fit::FitSettings::default()
-        };
         let certify = if args.certify { Some(args.config.load()?) } else { None };
         let request = tmlut::fit::text::FormFitRequest { form, table: args.table, out: args.out, settings, certify };
         let report = tmlut::fit::text::fit_form_file(&table, &request)?;
@@ -111,5 +134,102 @@ pub fn exec(args: FitArgs, _: &Context) -> tmlut::Result<()> {
     };
     let manifest = tmlut::fit::fit_tir(&loaded, &request)?;
     print!("{}", tmlut::fit::summary::markdown(&manifest, &request.out.join("fit.json")));
+    Ok(())
+}
+
+/// `tmlut fit --scene`: every candidate fitted (or read as fitted), then ranked in the material.
+fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context: &Context) -> tmlut::Result<()> {
+    use tmlut::fit::text::FittedForm;
+    use tmlut::fit::text::fitting::FIT_FILE;
+    check_count("--views", args.views, tmlut::furnace::VIEWS)?;
+    check_sample_count("--exact-samples", args.exact_samples)?;
+    let config = args.config.load()?;
+    let (scene_read, text) = tmlut::scene::Scene::read(scene)?;
+    // Form files first found, then fitted in order (the table read once, where one is needed).
+    let mut candidates: Vec<PathBuf> = Vec::new();
+    for path in &args.form {
+        if path.is_dir() && !path.join(FIT_FILE).is_file() {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(path)
+                .map_err(|source| tmlut::Error::io(path, source))?
+                .filter_map(|entry| entry.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+                .collect();
+            files.sort();
+            // A folder of forms may hold forms of other tables (luts/forms/ does): those are skipped.
+            files.retain(|file| {
+                let table = std::fs::read_to_string(file)
+                    .ok()
+                    .and_then(|text| text.parse::<toml::Table>().ok())
+                    .and_then(|t| t.get("table").and_then(|v| v.as_str().map(str::to_string)));
+                match table.as_deref() {
+                    Some("tir") | None => true,
+                    Some(other) => {
+                        eprintln!("skipped {}: a form for table `{other}`, not `tir`", file.display());
+                        false
+                    }
+                }
+            });
+            if files.is_empty() {
+                return Err(tmlut::Error::invalid(
+                    format!("--form {}", path.display()),
+                    format!("a folder with no {FIT_FILE} and no TIR form file (.toml)"),
+                ));
+            }
+            candidates.extend(files);
+        } else {
+            candidates.push(path.clone());
+        }
+    }
+    let mut table = None;
+    let mut forms = Vec::with_capacity(candidates.len());
+    for path in candidates {
+        let fitted = if path.extension().is_some_and(|e| e == "toml") {
+            if table.is_none() {
+                table = Some(tmlut::loader::load_table(&args.table)?);
+            }
+            let name = tmlut::fit::text::form::form_name(&path);
+            let out = args.out.join("fits").join(&name);
+            let request = tmlut::fit::text::FormFitRequest {
+                form: path.clone(),
+                table: args.table.clone(),
+                out,
+                settings,
+                certify: None,
+            };
+            let report = tmlut::fit::text::fit_form_file(table.as_ref().expect("read above"), &request)?;
+            eprintln!(
+                "fitted {} to {}: RMS {:.3e}, max {:.3e} over the table's points",
+                path.display(),
+                args.table.display(),
+                report.figures.together.rms,
+                report.figures.together.max
+            );
+            FittedForm::read(&request.out, &request.out.display().to_string())?
+        } else {
+            FittedForm::read(&path, &path.display().to_string())?
+        };
+        forms.push(fitted);
+    }
+    let request = tmlut::furnace::forms::FormRankRequest {
+        scene: scene_read,
+        source: scene.display().to_string(),
+        text,
+        forms,
+        out: args.out.clone(),
+        config,
+        settings: tmlut::furnace::FurnaceSettings {
+            views: args.views,
+            exact_samples: args.exact_samples,
+            ..tmlut::furnace::FurnaceSettings::default()
+        },
+    };
+    let started = std::time::Instant::now();
+    let ranking = tmlut::furnace::forms::rank_forms(&request, &context.progress())?;
+    print!("{}", tmlut::furnace::forms::markdown(&ranking));
+    eprintln!(
+        "wrote {} ({:.1} s)",
+        args.out.join(tmlut::furnace::forms::RANKING_FILE).display(),
+        started.elapsed().as_secs_f64()
+    );
     Ok(())
 }

@@ -115,6 +115,30 @@ pub struct PlanRecord {
     /// `tir_fit.hlsl` and `.wgsl`; no TIR table is written for them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tir_fit: Option<FitEntry>,
+    /// The fitted forms the scene's materials name in place of the TIR table
+    /// (`tir = "fit:PATH"`): name, path, form text, definition and fitted parameters. The scene
+    /// shader holds each as `tmlut_<name>`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tir_forms: Vec<FittedForm>,
+}
+
+/// A form fitted to the TIR table by `tmlut fit --form`, which a scene's material names in place
+/// of the table (`tir = "fit:PATH"`): what the model evaluates, the scene shader prints, and the
+/// manifest and the furnace report record. Read and compiled by `crate::fit::text::fitted`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FittedForm {
+    /// The form's name (its file's stem): its shader function is `tmlut_<name>`.
+    pub name: String,
+    /// The path as the scene gives it, after `fit:`.
+    pub source: String,
+    /// The form file's text.
+    pub form_text: String,
+    /// The form statement by statement.
+    pub definition: Vec<String>,
+    /// Parameter names, in the form's order.
+    pub parameter_order: Vec<String>,
+    /// The fitted values, in that order.
+    pub parameters: Vec<f64>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

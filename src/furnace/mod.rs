@@ -12,6 +12,7 @@
 //! (reciprocity), so a furnace sphere is `A` drawn over the sphere's view cosines ([`picture`]).
 
 pub mod exact;
+pub mod forms;
 pub mod picture;
 pub mod report;
 
@@ -24,6 +25,7 @@ use rayon::prelude::*;
 use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
 use crate::error::{Error, Result};
+use crate::fit::text::FittedForm;
 use crate::integrate::{GRAZING_COSINE, Progress};
 use crate::loader::LutFolder;
 use crate::model::folder::{FgdSource, FolderTables};
@@ -296,15 +298,22 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         request.scene.materials.iter().map(|m| Ok(Material::new(m.model, m.stack()?))).collect::<Result<_>>()?;
     // Opening reads and verifies every table of the folder that the paths read (a library's
     // thousands of slices): once per pair of paths, shared by the materials that read them.
-    let mut opened: Vec<((AlbedoPath, TirPath), FolderTables)> = Vec::new();
+    // A material's own TIR form (`tir = "fit:PATH"`) answers its TIR lookups in place of the folder.
+    type Paths<'a> = (AlbedoPath, TirPath, Option<&'a FittedForm>);
+    let mut opened: Vec<(Paths, FolderTables)> = Vec::new();
     let mut tables_of = Vec::with_capacity(count);
     for material in &request.scene.materials {
-        let paths = (material.albedo, material.tir);
+        let paths = (material.albedo, material.tir, material.tir_form.as_ref());
         let index = match opened.iter().position(|(p, _)| *p == paths) {
             Some(index) => index,
             None => {
-                let tables = FolderTables::open(&folder, material.albedo, material.tir, request.settings.fgd_source)
-                    .map_err(|e| Error::invalid(format!("material `{}`", material.name), e.to_string()))?;
+                let in_material = |e: Error| Error::invalid(format!("material `{}`", material.name), e.to_string());
+                let mut tables =
+                    FolderTables::open(&folder, material.albedo, material.tir, request.settings.fgd_source)
+                        .map_err(in_material)?;
+                if let Some(form) = &material.tir_form {
+                    tables = tables.with_tir_form(form).map_err(in_material)?;
+                }
                 opened.push((paths, tables));
                 opened.len() - 1
             }

@@ -138,7 +138,7 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
         report.name,
         report.model.name(),
         report.albedo_path.name(),
-        report.tir_path.name()
+        report.tir_label()
     );
     images_png(
         &dir.join(&files[1]),

@@ -90,6 +90,10 @@ pub struct MaterialReport {
     pub model: FluxModel,
     pub albedo_path: AlbedoPath,
     pub tir_path: TirPath,
+    /// The fitted form read in place of the TIR table where `tir_path` is `form`: its name, the
+    /// path the scene gives, its definition and fitted parameters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tir_form: Option<crate::fit::text::FittedForm>,
     /// The stack at the values evaluated (the scene's, or the middle of a range it varies).
     pub stack: Stack,
     /// View cosines, from the normal to grazing.
@@ -152,6 +156,14 @@ pub struct PhaseTimes {
 }
 
 impl MaterialReport {
+    /// The TIR path as the scene writes it: `fit:PATH` for a named form.
+    pub fn tir_label(&self) -> String {
+        match &self.tir_form {
+            Some(form) => format!("fit:{}", form.source),
+            None => self.tir_path.name().to_string(),
+        }
+    }
+
     /// `walk`: the random walk's curve and its wall time, where it ran.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -171,6 +183,7 @@ impl MaterialReport {
             model: material.model,
             albedo_path: material.albedo,
             tir_path: material.tir,
+            tir_form: material.tir_form.clone(),
             stack: material.stack().expect("evaluated above"),
             mu: mus.to_vec(),
             albedo_tables,
@@ -365,7 +378,7 @@ pub fn markdown_rows(report: &FurnaceReport) -> String {
             m.name,
             m.model.name(),
             m.albedo_path.name(),
-            m.tir_path.name(),
+            m.tir_label(),
             e.table.max_all,
             e.table.rms_all,
             e.table.max_all_at_mu,

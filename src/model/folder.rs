@@ -12,7 +12,9 @@
 //!   whose `(mu, alpha)` range holds the lookup answers it.
 //! - The split-sum paths compute their Fresnel coefficients as a shader does: Belcour's from the
 //!   basis in the manifest, Karis's `F0` from the relative index at normal incidence.
-//! - The fitted TIR form is evaluated in f32 with the manifest's coefficients, as its shader.
+//! - The fitted TIR form is evaluated in f32 with the manifest's coefficients, as its shader; a
+//!   form a material names (`tir = "fit:PATH"`) in f32 with its fitted parameters
+//!   ([`FolderTables::with_tir_form`]).
 //!
 //! A lookup no file of the folder can answer reads 0 and is recorded: [`FolderTables::misses`]
 //! says what was asked that the folder does not hold, so a caller can refuse the result.
@@ -22,6 +24,7 @@ use std::sync::Mutex;
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use crate::error::{Error, Result};
 use crate::fit::forms::Form;
+use crate::fit::text::fitted::{FittedForm, FormEvaluator};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::loader::LutFolder;
@@ -226,6 +229,8 @@ enum Tir {
         form: Form,
         parameters: Vec<f32>,
     },
+    /// A form the material names (`tir = "fit:PATH"`).
+    Form(FormEvaluator),
     Off,
     /// The folder holds no TIR table or fitted form: every TIR lookup misses.
     Absent,
@@ -346,6 +351,8 @@ impl FolderTables {
                     None => Tir::Absent,
                 }
             }
+            // The form is the material's, not the folder's: [`FolderTables::with_tir_form`].
+            TirPath::Form => Tir::Absent,
             TirPath::Off => Tir::Off,
         };
         let gd = match texture("gd").or_else(|| find("gd", FileFormat::Bin)) {
@@ -353,6 +360,13 @@ impl FolderTables {
             None => None,
         };
         Ok(FolderTables { albedo, tir, gd, misses: Mutex::default(), clamped: Mutex::default() })
+    }
+
+    /// The same tables with every TIR lookup answered by `form` (a material's `tir = "fit:PATH"`),
+    /// evaluated in f32 as its shader computes it.
+    pub fn with_tir_form(mut self, form: &FittedForm) -> Result<Self> {
+        self.tir = Tir::Form(form.evaluator()?);
+        Ok(self)
     }
 
     /// Lookups the folder holds no table for (each read 0).
@@ -479,6 +493,7 @@ impl FolderTables {
             Tir::Fit { form, parameters } => {
                 form.eval::<f32>(parameters, lookup.mu as f32, lookup.alpha as f32, lookup.eta as f32) as f64
             }
+            Tir::Form(form) => form.tir(lookup.mu, lookup.alpha, lookup.eta),
             Tir::Off => 0.0,
             Tir::Absent => self.miss(lookup),
         }

@@ -109,6 +109,9 @@ pub enum TirPath {
     Table,
     /// A fitted analytic form (`tmlut fit tir`): no table.
     Fit,
+    /// A form file fitted by `tmlut fit --form` that the material names (`tir = "fit:PATH"`,
+    /// [`crate::fit::text::fitted::FittedForm`]): no table.
+    Form,
     /// No correction: every TIR lookup reads 0.
     Off,
 }
@@ -118,6 +121,7 @@ impl TirPath {
         match self {
             TirPath::Table => "table",
             TirPath::Fit => "fit",
+            TirPath::Form => "form",
             TirPath::Off => "off",
         }
     }

@@ -6,7 +6,8 @@
 //! name = "varnished-copper"      # optional; default: the file's stem
 //! model = "2-flux"               # every material's default: "2-flux" or "6-flux"
 //! albedo = "fgd"                 # "fgd" (4D table), "belcour" or "karis" (split-sum tables)
-//! tir = "table"                  # "table", "fit" (analytic form) or "off"
+//! tir = "table"                  # "table", "fit" (analytic form), "off", or "fit:PATH" (a form
+//!                                # fitted by `tmlut fit --form`: its output folder or fit.json)
 //! margin_nodes = 1               # nodes kept beyond each needed sub-range
 //!
 //! [[material]]
@@ -131,6 +132,10 @@ pub struct Material {
     pub model: FluxModel,
     pub albedo: AlbedoPath,
     pub tir: TirPath,
+    /// The fitted form read in place of the TIR table where `tir` is [`TirPath::Form`]
+    /// (`tir = "fit:PATH"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tir_form: Option<crate::fit::text::FittedForm>,
     /// Top first.
     pub layers: Vec<Layer>,
 }

@@ -7,21 +7,29 @@ use super::{
     AlbedoPath, DEFAULT_MARGIN_NODES, FluxModel, Interface, Interval, Layer, Material, Medium, Rgb, Scene, TirPath,
 };
 use crate::error::{Error, Result};
+use crate::fit::text::{FittedForm, fitted};
 
 impl Scene {
     /// Read a scene file; returns the scene and the file's text (which a build records).
     pub fn read(path: &Path) -> Result<(Self, String)> {
         let text = crate::formats::read_text_at_most(path, crate::formats::MAX_TEXT_INPUT_BYTES, "a scene file")?;
         let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
-        let scene = Self::from_toml(&text, &path.display().to_string(), &stem)?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let scene = Self::from_toml_in(&text, &path.display().to_string(), &stem, dir)?;
         Ok((scene, text))
     }
 
     /// Parse a scene; `origin` names it in errors, `default_name` is its name when it gives none.
+    /// A `tir = "fit:PATH"` is read relative to the working directory.
     pub fn from_toml(text: &str, origin: &str, default_name: &str) -> Result<Self> {
+        Self::from_toml_in(text, origin, default_name, Path::new(""))
+    }
+
+    /// [`Scene::from_toml`] with `tir = "fit:PATH"` read relative to `dir` (the scene file's folder).
+    pub fn from_toml_in(text: &str, origin: &str, default_name: &str, dir: &Path) -> Result<Self> {
         let document: toml::Table =
             text.parse().map_err(|e: toml::de::Error| Error::invalid(origin, crate::config::clean_toml_error(&e)))?;
-        parse_scene(&document, origin, default_name)
+        parse_scene(&document, origin, default_name, dir)
     }
 }
 
@@ -32,14 +40,16 @@ const INTERFACE_VARY_KEYS: &[&str] = &["eta", "kappa", "alpha"];
 const MEDIUM_KEYS: &[&str] = &["type", "sigma_s", "sigma_k", "depth", "g"];
 
 /// The scene-wide choices a material inherits unless it states its own.
-#[derive(Clone, Copy)]
-struct Paths {
+#[derive(Clone)]
+struct Paths<'a> {
     model: FluxModel,
     albedo: AlbedoPath,
-    tir: TirPath,
+    tir: (TirPath, Option<FittedForm>),
+    /// The scene file's folder, which `tir = "fit:PATH"` is relative to.
+    dir: &'a Path,
 }
 
-fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Result<Scene> {
+fn parse_scene(document: &toml::Table, origin: &str, default_name: &str, dir: &Path) -> Result<Scene> {
     check_keys(document, SCENE_KEYS, origin)?;
     let name = match document.get("name") {
         Some(value) => string(value, &format!("{origin}: name"))?.to_string(),
@@ -49,7 +59,8 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Resu
     let defaults = Paths {
         model: choice(document, "model", origin)?.unwrap_or(FluxModel::TwoFlux),
         albedo: choice(document, "albedo", origin)?.unwrap_or(AlbedoPath::Fgd),
-        tir: choice(document, "tir", origin)?.unwrap_or(TirPath::Table),
+        tir: tir_choice(document, origin, dir)?.unwrap_or((TirPath::Table, None)),
+        dir,
     };
     let margin_nodes = match document.get("margin_nodes") {
         None => DEFAULT_MARGIN_NODES,
@@ -81,7 +92,7 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str) -> Resu
     for (index, value) in materials.iter().enumerate() {
         let where_ = format!("{origin}: material {}", index + 1);
         let table = value.as_table().ok_or_else(|| Error::invalid(&where_, "must be a table ([[material]])"))?;
-        let material = parse_material(table, &where_, index, defaults, &mut scene.warnings)?;
+        let material = parse_material(table, &where_, index, &defaults, &mut scene.warnings)?;
         let part = file_name_part(&material.name);
         if let Some((other, other_name)) = names.get(&part) {
             let reason = if *other_name == material.name {
@@ -107,7 +118,7 @@ fn parse_material(
     table: &toml::Table,
     where_: &str,
     index: usize,
-    defaults: Paths,
+    defaults: &Paths,
     warnings: &mut Vec<String>,
 ) -> Result<Material> {
     check_keys(table, MATERIAL_KEYS, where_)?;
@@ -119,7 +130,10 @@ fn parse_material(
     let where_ = format!("{where_} (`{name}`)");
     let model = choice(table, "model", &where_)?.unwrap_or(defaults.model);
     let albedo = choice(table, "albedo", &where_)?.unwrap_or(defaults.albedo);
-    let tir = choice(table, "tir", &where_)?.unwrap_or(defaults.tir);
+    let (tir, tir_form) = match tir_choice(table, &where_, defaults.dir)? {
+        Some(chosen) => chosen,
+        None => defaults.tir.clone(),
+    };
     let layers = match table.get("layer") {
         None => Vec::new(),
         Some(value) => value
@@ -187,7 +201,7 @@ fn parse_material(
             }
         }
     }
-    Ok(Material { name, model, albedo, tir, layers: parsed })
+    Ok(Material { name, model, albedo, tir, tir_form, layers: parsed })
 }
 
 fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
@@ -377,11 +391,31 @@ fn choice<T: serde::de::DeserializeOwned>(table: &toml::Table, key: &str, where_
     let allowed = match key {
         "model" => "\"2-flux\", \"6-flux\"",
         "albedo" => "\"fgd\", \"belcour\", \"karis\"",
-        _ => "\"table\", \"fit\", \"off\"",
+        _ => "\"table\", \"fit\", \"off\", \"fit:PATH\"",
     };
     T::deserialize(value.clone())
         .map(Some)
         .map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
+}
+
+/// `tir`: a path, or `fit:PATH` with the fitted form it names (read relative to `dir`).
+fn tir_choice(table: &toml::Table, where_: &str, dir: &Path) -> Result<Option<(TirPath, Option<FittedForm>)>> {
+    let key = format!("{where_}: tir");
+    if let Some(path) = table.get("tir").and_then(|v| v.as_str()).and_then(|t| t.strip_prefix("fit:")) {
+        if path.is_empty() {
+            return Err(Error::invalid(key, format!("\"fit:\" names no form; allowed: {}", fitted::ALLOWED)));
+        }
+        let form = FittedForm::read(&dir.join(path), path).map_err(|e| Error::invalid(key, e.to_string()))?;
+        return Ok(Some((TirPath::Form, Some(form))));
+    }
+    match choice(table, "tir", where_)? {
+        // The path of a named form is only ever written `fit:PATH`.
+        Some(TirPath::Form) => Err(Error::invalid(
+            key,
+            format!("\"form\" names no form; allowed: \"table\", \"fit\", \"off\", {}", fitted::ALLOWED),
+        )),
+        other => Ok(other.map(|path| (path, None))),
+    }
 }
 
 /// A number as a person wrote it: `1e20` rather than its 21 digits.

@@ -15,6 +15,7 @@ use super::lookups::{Lookup, LookupKind, lookups};
 use super::{AlbedoPath, Interval, Scene, TirPath, short};
 use crate::config::{Config, MAX_NODES_PER_AXIS};
 use crate::error::{Error, Result};
+use crate::fit::text::FittedForm;
 use crate::formats::FileFormat;
 use crate::formats::manifest::{LeftOutRecord, PlanRecord, PlannedTableRecord};
 use crate::integrate::GRAZING_COSINE;
@@ -87,6 +88,9 @@ pub struct Plan {
     /// Slices of one site that are identical (to the bit: table, settings, grid and indices) to
     /// one planned for another site, in this scene or another of the build: built once, shared.
     pub merged_slices: usize,
+    /// The fitted forms the materials name in place of the TIR table (`tir = "fit:PATH"`), each
+    /// once.
+    pub tir_forms: Vec<FittedForm>,
 }
 
 impl Plan {
@@ -110,6 +114,7 @@ impl Plan {
             bytes: self.bytes,
             default_set_bytes: self.default_set_bytes,
             tir_fit: None,
+            tir_forms: self.tir_forms.clone(),
         }
     }
 }
@@ -259,6 +264,20 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             left_out.push(LeftOutRecord { what: format!("TIR lookups of {}", site_label(&site)), reason: why.into() });
         }
     }
+    let form_users: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(TirPath::Form)).collect();
+    for site in sites(&form_users) {
+        let form = scene.materials.iter().find(|m| m.name == site[0].material).and_then(|m| m.tir_form.as_ref());
+        left_out.push(LeftOutRecord {
+            what: format!("TIR lookups of {}", site_label(&site)),
+            reason: match form {
+                Some(form) => {
+                    format!("tir = \"fit:{}\": the fitted form `{}` replaces the table", form.source, form.name)
+                }
+                None => "tir names a fitted form".into(),
+            },
+        });
+    }
+    let tir_forms = tir_forms(scene)?;
     let (fixed, varying) = split_by_fixed_sites(&tir_lookups);
     let slices_before = tables.len();
     for site in sites(&fixed) {
@@ -318,7 +337,32 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         bytes,
         default_set_bytes,
         merged_slices,
+        tir_forms,
     })
+}
+
+/// The fitted forms the scene's materials name, each once; two different forms of one name (one
+/// shader function name) are refused.
+fn tir_forms(scene: &Scene) -> Result<Vec<FittedForm>> {
+    let mut forms: Vec<FittedForm> = Vec::new();
+    for material in &scene.materials {
+        let Some(form) = &material.tir_form else { continue };
+        match forms.iter().find(|f| f.name == form.name) {
+            Some(other) if other == form => {}
+            Some(other) => {
+                return Err(Error::invalid(
+                    format!("scene `{}`, material `{}`: tir", scene.name, material.name),
+                    format!(
+                        "fit:{} holds form `{}`, and another material's fit:{} holds a different form of that name; \
+                         one scene's forms need different names (their shader function is tmlut_<name>)",
+                        form.source, form.name, other.source
+                    ),
+                ));
+            }
+            None => forms.push(form.clone()),
+        }
+    }
+    Ok(forms)
 }
 
 /// "N slice table(s) replace(s) it".
@@ -593,6 +637,7 @@ impl fmt::Display for Plan {
                 LookupKind::Tir(TirPath::Table) => "TIR (table)".to_string(),
                 LookupKind::Tir(TirPath::Fit) => "TIR (fitted form)".to_string(),
                 LookupKind::Tir(TirPath::Off) => "TIR (off)".to_string(),
+                LookupKind::Tir(TirPath::Form) => "TIR (named form)".to_string(),
                 LookupKind::Gd => "GD".to_string(),
             };
             let channels: Vec<String> =

@@ -24,7 +24,14 @@ pub fn shader_materials(scene: &Scene) -> Result<Vec<ShaderMaterial>> {
         .materials
         .iter()
         .map(|m| {
-            Ok(ShaderMaterial { name: m.name.clone(), model: m.model, albedo: m.albedo, tir: m.tir, stack: m.stack()? })
+            Ok(ShaderMaterial {
+                name: m.name.clone(),
+                model: m.model,
+                albedo: m.albedo,
+                tir: m.tir,
+                tir_form: m.tir_form.clone(),
+                stack: m.stack()?,
+            })
         })
         .collect()
 }
@@ -89,7 +96,10 @@ pub fn reference(
     check_reference_views(views, materials.len())?;
     let mut points = Vec::with_capacity(materials.len() * (views + STIFF_VIEWS.len()));
     for (material, function) in materials.iter().zip(&shader.materials) {
-        let tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?;
+        let mut tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?;
+        if let Some(form) = &material.tir_form {
+            tables = tables.with_tir_form(form)?;
+        }
         let model = Material::new(material.model, material.stack.clone());
         for mu in reference_views(views) {
             points.push(ReferencePoint {

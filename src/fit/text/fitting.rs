@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::form::Form;
+use super::form::{Form, MAX_FORM_BYTES};
 use super::shader::{LANGUAGES, function_name, sources};
 use super::tape::Work;
 use crate::commit::{Move, OutputFolder, commit_set};
@@ -597,6 +597,10 @@ pub struct FormReport {
     pub channels: Vec<String>,
     /// The form statement by statement ([`Form::definition`]).
     pub definition: Vec<String>,
+    /// The form file's text, as read: with `parameters`, what a scene's `tir = "fit:..."` reads
+    /// ([`super::fitted`]). Empty in files written before it was recorded.
+    #[serde(default)]
+    pub form_text: String,
     pub parameters: BTreeMap<String, f64>,
     pub parameter_order: Vec<String>,
     pub start: BTreeMap<String, f64>,
@@ -618,7 +622,7 @@ pub struct FormReport {
 }
 
 /// The file that lists the set, moved into place last.
-pub const FIT_FILE: &str = "fit.json";
+pub const FIT_FILE: &str = super::fitted::FIT_FILE;
 pub const REPORT_FILE: &str = "report.md";
 
 /// What `tmlut fit --form` is asked.
@@ -636,7 +640,8 @@ pub struct FormFitRequest {
 /// files into `out` as one set ([`commit_set`]: every file staged, `fit.json` moved last; files of
 /// an earlier set that this one does not replace are removed with the commit).
 pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormReport> {
-    let form = Form::read(&request.form, table)?;
+    let form_text = crate::formats::read_text_at_most(&request.form, MAX_FORM_BYTES, "form file")?;
+    let form = Form::parse(&request.form, &form_text, table)?;
     let data = FormData::from_table(table, &form)?;
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
     let start_figures = figures(&form, &data, &start)?;
@@ -656,6 +661,7 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         variables: form.variables.clone(),
         channels: data.channels.clone(),
         definition: form.definition(),
+        form_text,
         parameters: names.iter().cloned().zip(fitted.parameters.iter().copied()).collect(),
         parameter_order: names.clone(),
         start: form.parameters.iter().map(|p| (p.name.clone(), p.start)).collect(),

@@ -28,6 +28,9 @@ pub const DERIVED_VARIABLES: &[(&str, &str, &[&str])] = &[
     ("critical_angle_offset", "asin(clamp(eta, 0.0, 1.0)) - acos(clamp(mu, 0.0, 1.0))", &["mu", "eta"]),
 ];
 
+/// The largest form file read.
+pub const MAX_FORM_BYTES: u64 = 1 << 20;
+
 /// The most channels one form computes: a shader returns them as one `f32` or `vecN<f32>`.
 pub const MAX_CHANNELS: usize = 4;
 
@@ -82,6 +85,15 @@ struct ParameterText {
     start: Spanned<f64>,
     min: Spanned<f64>,
     max: Spanned<f64>,
+}
+
+/// What a form is read against: a table's name, its lookup variables ([`table_variables`]) and
+/// its channels' names, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TableShape {
+    pub name: String,
+    pub variables: Vec<String>,
+    pub channels: Vec<String>,
 }
 
 /// The lookup variables of a table: the quantities of [`LOOKUP_VARIABLES`] its axes are or are
@@ -189,12 +201,23 @@ pub fn integer_exponent(node: &Node) -> Option<i32> {
 impl Form {
     /// Read the form file at `path` against `table` (the table file it is fitted to).
     pub fn read(path: &Path, table: &Table) -> Result<Form> {
-        let text = crate::formats::read_text_at_most(path, 1 << 20, "form file")?;
+        let text = crate::formats::read_text_at_most(path, MAX_FORM_BYTES, "form file")?;
         Form::parse(path, &text, table)
     }
 
     /// A form file's text, `path` naming it in errors.
     pub fn parse(path: &Path, text: &str, table: &Table) -> Result<Form> {
+        let shape = TableShape {
+            name: table.name.clone(),
+            variables: table_variables(table)?,
+            channels: table.channels.iter().map(|c| c.name.clone()).collect(),
+        };
+        Form::parse_for(path, text, &shape)
+    }
+
+    /// A form file's text read against a table's shape alone (no table file at hand: a scene's
+    /// fitted TIR form), `path` naming it in errors.
+    pub fn parse_for(path: &Path, text: &str, table: &TableShape) -> Result<Form> {
         let at = |offset: usize, reason: String| Error::at(path, text, offset, reason);
         let file: FileText = toml::from_str(text).map_err(|e| {
             at(
@@ -209,7 +232,7 @@ impl Form {
                 format!("the form is for table `{}`, and the table file holds `{}`", file.table.get_ref(), table.name),
             ));
         }
-        let variables = table_variables(table)?;
+        let variables = table.variables.clone();
 
         // An expression of the file, parsed and compiled in the scope so far.
         let compile = |scope: &mut Scope, value: &Spanned<String>| -> Result<(Node, usize)> {
@@ -295,7 +318,7 @@ impl Form {
             lets.push(Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node });
         }
 
-        let table_channels: Vec<&str> = table.channels.iter().map(|c| c.name.as_str()).collect();
+        let table_channels: Vec<&str> = table.channels.iter().map(String::as_str).collect();
         let mut channels: Vec<(usize, Binding, usize)> = Vec::new();
         for (key, value) in &file.channels {
             let Some(index) = table_channels.iter().position(|c| c == key.get_ref()) else {

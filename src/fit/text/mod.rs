@@ -5,11 +5,13 @@
 //! text", describes the language and the command.
 
 pub mod expr;
+pub mod fitted;
 pub mod fitting;
 pub mod form;
 pub mod shader;
 pub mod tape;
 
+pub use fitted::{FittedForm, FormEvaluator};
 pub use fitting::{FormFitRequest, FormReport, fit_form_file};
 pub use form::Form;
 

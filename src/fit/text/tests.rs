@@ -225,29 +225,80 @@ fn tables_with_a_derived_axis_are_fitted_on_a_uniform_grid_of_the_lookup_variabl
     crate::shader::validate::wgsl(&wgsl).unwrap();
 }
 
-/// `luts/forms/tir-logistic.toml` computes the built-in `logistic` form of `tmlut fit tir`, with
-/// its parameters in the same order: one form, two ways to write it, the same numbers.
+/// The built-in TIR forms of `tmlut fit tir` with parameters, each as the form file of
+/// `luts/forms/` that writes it (`cauchy-cap` has none yet).
+const FORM_FILES: [(&str, crate::fit::Form); 5] = [
+    ("tir-logistic.toml", crate::fit::Form::Logistic),
+    ("tir-smoothstep.toml", crate::fit::Form::Smoothstep),
+    ("tir-algebraic.toml", crate::fit::Form::Algebraic),
+    ("tir-rational.toml", crate::fit::Form::Rational),
+    ("tir-cauchy-slope.toml", crate::fit::Form::CauchySlope),
+];
+
+/// A TIR-shaped table on a uniform `(mu, alpha, eta)` grid: the built-in `cauchy-slope` form at
+/// the coefficients docs/fit.md reports for the TIR table.
+fn tir_shaped(nodes: usize) -> Table {
+    let axes = ["mu", "alpha", "eta"].map(|a| Axis::node_aligned(a, 0.0, 1.0, nodes).unwrap()).to_vec();
+    let mut tir = Table::zeros("tir", axes, vec![Channel::new("tir", "test")]).unwrap();
+    let c = [1.3606, -0.0525, -0.4440, 0.7608, -0.6821, 0.8040, 0.6046, 0.4777, 0.5700, 15.8816];
+    for node in 0..tir.node_count() {
+        let p = tir.node_position(&tir.node_index(node));
+        tir.data[node] = crate::fit::Form::CauchySlope.eval(&c, p[0], p[1], p[2]) as f32;
+    }
+    tir
+}
+
+/// Each form file of `luts/forms/` computes its built-in form, with its parameters in the
+/// same order and the same starts: one form, two ways to write it, the same numbers; and fitted
+/// to the same table from the same starts, the file's fit is as good as the built-in's.
 #[test]
-fn the_logistic_form_file_computes_the_built_in_logistic_form() {
-    let axes = ["mu", "alpha", "eta"].map(|a| Axis::node_aligned(a, 0.0, 1.0, 3).unwrap()).to_vec();
-    let tir = Table::zeros("tir", axes, vec![Channel::new("tir", "test")]).unwrap();
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms/tir-logistic.toml");
-    let form = Form::read(&path, &tir).unwrap();
-    let built_in = crate::fit::Form::Logistic;
-    let (start, _, _) = built_in.start_and_bounds();
-    assert_eq!(form.parameters.iter().map(|p| p.start).collect::<Vec<_>>(), start);
-    let mut state = 7u64;
-    let mut unit = || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let (mut scratch, mut out) = (Vec::new(), [0.0]);
-    for _ in 0..2000 {
-        let p: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
-        let (mu, alpha, eta) = (unit(), unit(), unit());
-        form.tape.eval(&[mu, alpha, eta], &p, &mut scratch, &mut out);
-        let expected = built_in.eval(&p, mu, alpha, eta);
-        assert!((out[0] - expected).abs() <= 1e-12, "{p:?} at ({mu}, {alpha}, {eta}): {} against {expected}", out[0]);
+fn the_form_files_compute_the_built_in_tir_forms_and_fit_as_well() {
+    let tir = tir_shaped(12);
+    let data = crate::fit::FitData::from_table(&tir).unwrap();
+    let settings = FitSettings { starts: 2, ..FitSettings::default() };
+    for (file, built_in) in FORM_FILES {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms").join(file);
+        let form = Form::read(&path, &tir).unwrap();
+        let (start, lower, upper) = built_in.start_and_bounds();
+        assert_eq!(form.parameters.iter().map(|p| p.start).collect::<Vec<_>>(), start, "{file}");
+        assert_eq!(form.parameters.iter().map(|p| p.min).collect::<Vec<_>>(), lower, "{file}");
+        assert_eq!(form.parameters.iter().map(|p| p.max).collect::<Vec<_>>(), upper, "{file}");
+        let mut state = 7u64;
+        let mut unit = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut scratch, mut out) = (Vec::new(), [0.0]);
+        for _ in 0..2000 {
+            let p: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
+            let (mu, alpha, eta) = (unit(), unit(), unit());
+            form.tape.eval(&[mu, alpha, eta], &p, &mut scratch, &mut out);
+            let expected = built_in.eval(&p, mu, alpha, eta);
+            assert!(
+                (out[0] - expected).abs() <= 1e-12,
+                "{file}: {p:?} at ({mu}, {alpha}, {eta}): {} against {expected}",
+                out[0]
+            );
+        }
+
+        // The RMSE over the table's nodes of the form (either way of computing it) at each fit.
+        let rmse = |p: &[f64]| {
+            let squares: f64 = data
+                .points
+                .iter()
+                .zip(&data.values)
+                .map(|(x, v)| (built_in.eval(p, x[0], x[1], x[2]) - v).powi(2))
+                .sum();
+            (squares / data.values.len() as f64).sqrt()
+        };
+        let compiled = crate::fit::least_squares::fit_form(built_in, &data, &settings).unwrap();
+        let form_data = FormData::from_table(&tir, &form).unwrap();
+        assert_eq!(form_data.len(), data.values.len(), "{file}: the same nodes");
+        let text = fit(&form, &Prepared::new(&form, &form_data), &settings).unwrap();
+        let (from_file, built) = (rmse(&text.parameters), rmse(&compiled.parameters));
+        assert!(from_file.is_finite() && from_file < 0.2, "{file}: {from_file}");
+        // Equal or better, up to the searches' own stopping tolerance (1e-9 relative).
+        assert!(from_file <= built * (1.0 + 1e-9), "{file}: the file's fit {from_file}, the built-in's {built}");
     }
 }
 

@@ -40,6 +40,7 @@ use std::collections::BTreeMap;
 use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, select, splat3};
 use crate::error::{Error, Result};
 use crate::fit::forms::Form;
+use crate::fit::text::fitted::FittedForm;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::ArrayPlace;
 use crate::loader::LutFolder;
@@ -60,6 +61,8 @@ pub struct ShaderMaterial {
     pub model: FluxModel,
     pub albedo: AlbedoPath,
     pub tir: TirPath,
+    /// The fitted form read in place of the TIR table where `tir` is [`TirPath::Form`].
+    pub tir_form: Option<FittedForm>,
     pub stack: Stack,
 }
 
@@ -163,6 +166,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
         needs: Needs::default(),
         choosers: BTreeMap::new(),
         chooser_functions: Vec::new(),
+        forms: Vec::new(),
     };
     let mut functions = Vec::new();
     let mut described = Vec::new();
@@ -259,6 +263,29 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             Error::format(&manifest_path, format!("the fitted TIR form `{}` has no shader", form.name()))
         })?;
         module.items.extend(fit.items);
+    }
+    // The forms materials name, each after the helpers it needs; a helper two forms share
+    // (`tmlut_pow_2`, `tmlut_asinh`: the same code whoever prints it) is printed once.
+    for fitted in &g.forms {
+        if g.needs.fit && crate::fit::text::shader::function_name(&fitted.form()?) == "tmlut_tir" {
+            return Err(Error::invalid(
+                format!("fit:{}", fitted.source),
+                "form `tir` has the shader function of the built-in fitted form (tmlut_tir), which another material's \
+                 tir = \"fit\" reads; rename the form file",
+            ));
+        }
+        let items = crate::fit::text::shader::module(&fitted.form()?, &fitted.parameters).items;
+        for item in items {
+            let printed = |name: &str| {
+                module.items.iter().any(|i| matches!(i, Item::Function(function) if function.name == name))
+            };
+            if let Item::Function(function) = &item
+                && printed(&function.name)
+            {
+                continue;
+            }
+            module.items.push(item);
+        }
     }
     if g.needs.packing
         && let Some((_, packed)) = &sources.packing
@@ -360,6 +387,8 @@ struct Generator<'a> {
     /// The functions choosing among slices ([`Self::slice`]), by their candidates.
     choosers: BTreeMap<String, String>,
     chooser_functions: Vec<super::Function>,
+    /// The fitted forms the materials name (`tir = "fit:PATH"`), in first use.
+    forms: Vec<FittedForm>,
 }
 
 /// A value per channel: energies of interfaces are equal in all three, so kept as one scalar
@@ -624,6 +653,16 @@ impl Generator<'_> {
     fn tir(&mut self, m: &ShaderMaterial, mu: Expr, alpha: Expr, eta: f64) -> Result<Expr> {
         match m.tir {
             TirPath::Off => Ok(f(0.0)),
+            TirPath::Form => {
+                let Some(fitted) = &m.tir_form else {
+                    return Err(self.refuse(&m.name, "names a TIR form (tir = \"fit:PATH\") and none was given".into()));
+                };
+                if !self.forms.contains(fitted) {
+                    self.forms.push(fitted.clone());
+                }
+                self.reads.insert("tir form");
+                Ok(func(&format!("tmlut_{}", fitted.name), vec![mu, alpha, f(eta as f32)]))
+            }
             TirPath::Fit => {
                 if self.sources.fit.is_none() {
                     return Err(Error::format(

@@ -1,0 +1,137 @@
+//! A fitted TIR form as a scene names it: `tir = "fit:PATH"`, PATH the output folder of
+//! `tmlut fit --form FILE --table TIR_TABLE` or its `fit.json`, which holds the form's text and
+//! its fitted parameters ([`FittedForm`], a record of the manifest). The model evaluates it in
+//! f32 with the parameters rounded to f32, as the scene shader computes it.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use super::form::{Form, TableShape};
+use super::tape::Tape;
+use crate::error::{Error, Result};
+pub use crate::formats::manifest::FittedForm;
+
+/// The file `tmlut fit --form` lists its set in.
+pub const FIT_FILE: &str = "fit.json";
+
+/// The table a scene's form replaces: TIR, its variables and its one channel.
+pub fn tir_shape() -> TableShape {
+    TableShape {
+        name: "tir".to_string(),
+        variables: ["mu", "alpha", "eta"].map(String::from).to_vec(),
+        channels: vec!["tir".to_string()],
+    }
+}
+
+/// What `tir = "fit:PATH"` allows, in the words of the error messages.
+pub const ALLOWED: &str = "\"fit:PATH\" with PATH (relative to the scene file) the output folder of \
+    `tmlut fit --form FORM.toml --table TIR_TABLE --out PATH`, or the fit.json in it";
+
+/// The parts of `fit.json` a scene reads.
+#[derive(Deserialize)]
+struct FitFile {
+    form: String,
+    table: String,
+    definition: Vec<String>,
+    #[serde(default)]
+    form_text: String,
+    parameters: BTreeMap<String, f64>,
+    parameter_order: Vec<String>,
+    /// `null` where no search ran (`--max-evaluations 0`).
+    search: Option<serde::de::IgnoredAny>,
+}
+
+impl FittedForm {
+    /// The fitted form at `path` (a folder holding `fit.json`, or the file), `source` being the
+    /// path as the scene wrote it. Refuses a missing file, a form of another table, a fit.json
+    /// with no form text, and parameters no search fitted.
+    pub fn read(path: &Path, source: &str) -> Result<FittedForm> {
+        let file: PathBuf = if path.is_dir() { path.join(FIT_FILE) } else { path.to_path_buf() };
+        let refuse = |reason: String| Error::invalid(format!("fit:{source} ({})", file.display()), reason);
+        if !file.is_file() {
+            return Err(refuse(format!("no such file; allowed: {ALLOWED}")));
+        }
+        let text = crate::formats::read_text_at_most(&file, 1 << 24, "fit.json")?;
+        let fit: FitFile = serde_json::from_str(&text)
+            .map_err(|e| refuse(format!("is not the fit.json of `tmlut fit --form` ({e}); allowed: {ALLOWED}")))?;
+        let shape = tir_shape();
+        if fit.table != shape.name {
+            return Err(refuse(format!(
+                "holds form `{}` fitted to table `{}`; a scene's `tir` reads a form fitted to table `{}`",
+                fit.form, fit.table, shape.name
+            )));
+        }
+        if fit.form_text.is_empty() {
+            return Err(refuse(
+                "records no form text (written before fit.json recorded it); fit the form again with tmlut fit --form"
+                    .into(),
+            ));
+        }
+        if fit.search.is_none() {
+            return Err(refuse(format!(
+                "holds form `{}` at its start values (fitted with --max-evaluations 0): its parameters are unfitted; \
+                 fit it with a search (--max-evaluations above 0)",
+                fit.form
+            )));
+        }
+        let mut parameters = Vec::with_capacity(fit.parameter_order.len());
+        for name in &fit.parameter_order {
+            match fit.parameters.get(name) {
+                Some(v) if v.is_finite() => parameters.push(*v),
+                Some(v) => return Err(refuse(format!("parameter `{name}` is {v}; allowed: a finite number"))),
+                None => return Err(refuse(format!("lists parameter `{name}` and gives no value for it"))),
+            }
+        }
+        let fitted = FittedForm {
+            name: fit.form,
+            source: source.to_string(),
+            form_text: fit.form_text,
+            definition: fit.definition,
+            parameter_order: fit.parameter_order,
+            parameters,
+        };
+        let form = fitted.form().map_err(|e| refuse(e.to_string()))?;
+        if form.parameter_names() != fitted.parameter_order {
+            return Err(refuse(format!(
+                "lists parameters {}, and its form text declares {}",
+                fitted.parameter_order.join(", "),
+                form.parameter_names().join(", ")
+            )));
+        }
+        Ok(fitted)
+    }
+
+    /// The form, read from its text against the TIR table's shape.
+    pub fn form(&self) -> Result<Form> {
+        let path = PathBuf::from(format!("{}.toml", self.name));
+        let mut form = Form::parse_for(&path, &self.form_text, &tir_shape())?;
+        form.name = self.name.clone();
+        Ok(form)
+    }
+
+    /// The form compiled for evaluation.
+    pub fn evaluator(&self) -> Result<FormEvaluator> {
+        let form = self.form()?;
+        Ok(FormEvaluator { tape: form.tape, parameters: self.parameters.iter().map(|&v| v as f32).collect() })
+    }
+}
+
+/// A fitted TIR form compiled once, evaluated in f32 with its parameters rounded to f32 (what
+/// its shader computes).
+#[derive(Debug, Clone)]
+pub struct FormEvaluator {
+    tape: Tape,
+    parameters: Vec<f32>,
+}
+
+impl FormEvaluator {
+    /// `TIR(mu, alpha, eta)`.
+    pub fn tir(&self, mu: f64, alpha: f64, eta: f64) -> f64 {
+        let mut scratch = Vec::with_capacity(self.tape.ins.len());
+        let mut out = [0.0f32];
+        self.tape.eval(&[mu as f32, alpha as f32, eta as f32], &self.parameters, &mut scratch, &mut out);
+        f64::from(out[0])
+    }
+}
