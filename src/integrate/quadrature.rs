@@ -291,13 +291,11 @@ mod tests {
                 sums[0] += s.cos_wi_h;
                 sums[1] += weight(s);
             });
-            for k in 0..2 {
-                let difference = (quadrature_values[k] - monte_carlo.mean[k]).abs();
+            for (k, value) in quadrature_values.into_iter().enumerate() {
+                let difference = (value - monte_carlo.mean[k]).abs();
                 assert!(
                     difference < 5.0 * monte_carlo.standard_error[k] + 1e-9,
-                    "mu {mu} alpha {alpha} channel {k}: {} vs {:?}",
-                    quadrature_values[k],
-                    monte_carlo
+                    "mu {mu} alpha {alpha} channel {k}: {value} vs {monte_carlo:?}"
                 );
             }
         }
