@@ -46,7 +46,7 @@ use crate::error::{Error, Result};
 use crate::physics::{direction_from_cosine, reflect};
 
 /// The widest outer (`theta`) panel, in radians.
-const MAX_PANEL_WIDTH: f64 = 0.25;
+const MAX_PANEL_WIDTH: f64 = 0.4;
 /// The widest inner (`phi`) panel, in radians.
 const MAX_INNER_PANEL_WIDTH: f64 = 0.8;
 
