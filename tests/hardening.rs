@@ -251,7 +251,7 @@ fn count_options_beyond_any_machine_are_refused_naming_the_option_and_its_range(
         (vec!["furnace", &scene, "--out", out, "--walk-max-paths", huge], "--walk-max-paths"),
         (vec!["furnace", &scene, "--out", out, "--views", huge], "--views"),
         (vec!["furnace", &scene, "--out", out, "--picture-size", huge], "--picture-size"),
-        (vec!["furnace", &scene, "--out", out, "--exact-samples", "4294967296"], "--exact-samples"),
+        (vec!["furnace", &scene, "--out", out, "--exact-nodes", huge], "--exact-nodes"),
         (vec!["bench", "--only", "gd", "--reference-samples", "4294967296"], "--reference-samples"),
         (vec!["converge", "gd", "--out", out, "--samples-to", "4294967296"], "--samples-to"),
         (vec!["bench", "--only", "gd", "--nodes", huge], "--nodes"),

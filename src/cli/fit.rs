@@ -6,7 +6,7 @@ use clap::Args;
 
 use tmlut::fit::{ALL_FORMS, Form};
 
-use super::{Context, check_count, check_sample_count};
+use super::{Context, check_count};
 
 /// Fit analytic approximations to a table by least squares (NLopt). `tmlut fit tir`: the built-in
 /// TIR forms, error against cost (fit.json, HLSL/WGSL per form, error_vs_cost.png). `tmlut fit
@@ -31,9 +31,9 @@ pub struct FitArgs {
     /// With --scene: view cosines per material.
     #[arg(long, default_value_t = tmlut::furnace::FurnaceSettings::default().views, requires = "scene")]
     views: usize,
-    /// With --scene: samples of each exact integral (a power of two).
-    #[arg(long, default_value_t = tmlut::furnace::FurnaceSettings::default().exact_samples, requires = "scene")]
-    exact_samples: u64,
+    /// With --scene: Gauss–Legendre nodes per panel of each exact integral (docs/furnace.md).
+    #[arg(long, default_value_t = tmlut::furnace::FurnaceSettings::default().exact_nodes, requires = "scene")]
+    exact_nodes: usize,
     /// With --form: the most objective evaluations per start; 0 evaluates the form at its start
     /// values (the figures of published coefficients).
     #[arg(long, default_value_t = 2000, requires = "form")]
@@ -142,7 +142,7 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
     use tmlut::fit::text::FittedForm;
     use tmlut::fit::text::fitting::FIT_FILE;
     check_count("--views", args.views, tmlut::furnace::VIEWS)?;
-    check_sample_count("--exact-samples", args.exact_samples)?;
+    check_count("--exact-nodes", args.exact_nodes, tmlut::integrate::quadrature::NODES)?;
     let config = args.config.load()?;
     let (scene_read, text) = tmlut::scene::Scene::read(scene)?;
     // Form files first found, then fitted in order (the table read once, where one is needed).
@@ -219,7 +219,7 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
         config,
         settings: tmlut::furnace::FurnaceSettings {
             views: args.views,
-            exact_samples: args.exact_samples,
+            exact_nodes: args.exact_nodes,
             ..tmlut::furnace::FurnaceSettings::default()
         },
     };

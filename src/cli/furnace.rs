@@ -9,7 +9,7 @@ use tmlut::model::folder::FgdSource;
 use tmlut::random_walk::{Masking, WalkSettings};
 use tmlut::scene::library::{self, SceneFile};
 
-use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count, one_of};
+use super::{ConfigArg, Context, ThreadsArg, check_count, one_of};
 
 /// The furnace test of a scene's materials: the directional albedo A(mu) of the transfer-matrix
 /// model with the scene's tables, with exact integrals, and from a random walk through the
@@ -46,9 +46,9 @@ pub struct FurnaceArgs {
     /// View cosines per material, uniform in angle, grazing included.
     #[arg(long, default_value_t = 64)]
     views: usize,
-    /// Samples of each exact integral (a power of two).
-    #[arg(long, default_value_t = 1 << 16)]
-    exact_samples: u64,
+    /// Gauss–Legendre nodes per panel of each exact integral's quadrature.
+    #[arg(long, default_value_t = tmlut::furnace::DEFAULT_EXACT_NODES)]
+    exact_nodes: usize,
     /// The random walk stops at this standard error of A in every channel ...
     #[arg(long, default_value_t = WalkSettings::default().target_standard_error)]
     walk_standard_error: f64,
@@ -92,7 +92,7 @@ fn parse_fgd_source(text: &str) -> Result<FgdSource, String> {
 pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
     // The library bounds these too (`FurnaceSettings::validate`); here the error names the option.
     check_count("--views", args.views, tmlut::furnace::VIEWS)?;
-    check_sample_count("--exact-samples", args.exact_samples)?;
+    check_count("--exact-nodes", args.exact_nodes, tmlut::integrate::quadrature::NODES)?;
     check_count("--walk-min-paths", args.walk_min_paths, 1..=tmlut::random_walk::MAX_PATHS)?;
     check_count("--walk-max-paths", args.walk_max_paths, 1..=tmlut::random_walk::MAX_PATHS)?;
     check_count("--picture-size", args.picture_size, tmlut::furnace::PICTURE_SIZES)?;
@@ -122,7 +122,7 @@ pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
     }
     let settings = tmlut::furnace::FurnaceSettings {
         views: args.views,
-        exact_samples: args.exact_samples,
+        exact_nodes: args.exact_nodes,
         walk: WalkSettings {
             seed: args.seed,
             target_standard_error: args.walk_standard_error,

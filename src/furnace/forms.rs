@@ -60,7 +60,7 @@ pub struct InMaterial {
 pub struct FormRanking {
     pub scene: String,
     pub views: usize,
-    pub exact_samples: u64,
+    pub exact_nodes: usize,
     /// The scene's materials with the TIR table.
     pub table: InMaterial,
     /// The forms, the smallest largest error first (then RMS, then name).
@@ -161,7 +161,7 @@ pub fn rank_forms(request: &FormRankRequest, progress: &dyn Progress) -> Result<
     let ranking = FormRanking {
         scene: request.scene.name.clone(),
         views: settings.views,
-        exact_samples: settings.exact_samples,
+        exact_nodes: settings.exact_nodes,
         table,
         forms,
         rule: "every material reads TIR by the form (or the table); error = |A(mu) with it - A(mu) with exact \
@@ -177,9 +177,9 @@ pub fn rank_forms(request: &FormRankRequest, progress: &dyn Progress) -> Result<
 pub fn markdown(ranking: &FormRanking) -> String {
     let mut s = format!(
         "Scene `{}`: error in the material, |A(mu) - A(mu) with exact integrals| over every material, {} views and \
-         the three channels ({} samples per exact integral).\n\n| rank | TIR | max error | material | at mu | RMS |\n\
+         the three channels (exact integrals with {} Gauss–Legendre nodes per panel).\n\n| rank | TIR | max error | material | at mu | RMS |\n\
          |---|---|---:|---|---:|---:|\n",
-        ranking.scene, ranking.views, ranking.exact_samples
+        ranking.scene, ranking.views, ranking.exact_nodes
     );
     let row = |rank: String, e: &InMaterial| {
         let name = match &e.source {
@@ -239,7 +239,7 @@ mod tests {
             forms,
             out: out.to_path_buf(),
             config: Config::default(),
-            settings: FurnaceSettings { views: 6, exact_samples: 1024, timing_rounds: 1, ..Default::default() },
+            settings: FurnaceSettings { views: 6, exact_nodes: 4, timing_rounds: 1, ..Default::default() },
         }
     }
 

@@ -45,8 +45,9 @@ pub const ENVIRONMENT_RADIANCE: f64 = 0.42;
 pub struct FurnaceSettings {
     /// View cosines per material, uniform in angle from the normal to grazing (both included).
     pub views: usize,
-    /// Samples of each exact integral (a power of two).
-    pub exact_samples: u64,
+    /// Gauss–Legendre nodes per panel of each exact integral's quadrature (in
+    /// [`crate::integrate::quadrature::NODES`]).
+    pub exact_nodes: usize,
     pub walk: WalkSettings,
     /// Which full FGD table the FGD path reads where a folder has two.
     pub fgd_source: FgdSource,
@@ -138,7 +139,7 @@ impl Default for FurnaceSettings {
     fn default() -> Self {
         FurnaceSettings {
             views: 64,
-            exact_samples: 1 << 16,
+            exact_nodes: DEFAULT_EXACT_NODES,
             walk: WalkSettings::default(),
             fgd_source: FgdSource::default(),
             timing_rounds: 21,
@@ -148,6 +149,10 @@ impl Default for FurnaceSettings {
         }
     }
 }
+
+/// Gauss–Legendre nodes per panel of the exact integrals by default (`docs/furnace.md`,
+/// "Libraries", measures what more would change).
+pub const DEFAULT_EXACT_NODES: usize = 8;
 
 /// View cosines a furnace run allows per material.
 pub const VIEWS: std::ops::RangeInclusive<usize> = 2..=4096;
@@ -162,8 +167,13 @@ impl FurnaceSettings {
                 format!("{}; allowed: {} to {}", self.views, VIEWS.start(), VIEWS.end()),
             ));
         }
-        crate::sampling::sequence::SamplePlan::new(self.exact_samples, 1)
-            .map_err(|e| Error::invalid("exact samples", e.to_string()))?;
+        let nodes = crate::integrate::quadrature::NODES;
+        if !nodes.contains(&self.exact_nodes) {
+            return Err(Error::invalid(
+                "exact nodes",
+                format!("{}; allowed: {} to {}", self.exact_nodes, nodes.start(), nodes.end()),
+            ));
+        }
         if !(self.walk.target_standard_error > 0.0 && self.walk.target_standard_error.is_finite()) {
             return Err(Error::invalid(
                 "walk standard error",
@@ -292,7 +302,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
 
     let started = Instant::now();
     let folder = LutFolder::open(&luts)?;
-    let exact = ExactTables::new(&request.config, request.settings.exact_samples, request.config.seed)?;
+    let exact = ExactTables::new(&request.config, request.settings.exact_nodes)?;
     let mus = request.settings.view_cosines();
     let models: Vec<Material> =
         request.scene.materials.iter().map(|m| Ok(Material::new(m.model, m.stack()?))).collect::<Result<_>>()?;
@@ -401,7 +411,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         .collect::<Result<Vec<()>>>()?;
     times.pictures = started.elapsed().as_secs_f64();
 
-    let report = FurnaceReport::new(request, &luts, exact.samples(), materials, times);
+    let report = FurnaceReport::new(request, &luts, exact.nodes(), materials, times);
     report.write(&staging.dir)?;
     let moves: Vec<Move> = report
         .materials
@@ -552,7 +562,7 @@ mod tests {
     fn request(scene: &str, luts: Option<PathBuf>, out: &Path) -> FurnaceRequest {
         let settings = FurnaceSettings {
             views: 4,
-            exact_samples: 1024,
+            exact_nodes: 6,
             walk_materials: Selection::None,
             pictures: Selection::All,
             picture_size: 16,
@@ -644,7 +654,7 @@ mod tests {
         let base = tempfile::tempdir().unwrap();
         let request = request(SCENE, None, base.path());
         let report = run(&request, &()).unwrap();
-        let alone = ExactTables::new(&request.config, request.settings.exact_samples, request.config.seed).unwrap();
+        let alone = ExactTables::new(&request.config, request.settings.exact_nodes).unwrap();
         for (material, measured) in request.scene.materials.iter().zip(&report.materials) {
             let model = Material::new(material.model, material.stack().unwrap());
             let curve: Vec<Rgb> = measured.mu.iter().map(|&mu| model.albedo(mu, &alone)).collect();

@@ -252,7 +252,7 @@ pub fn file_stem(name: &str) -> String {
 pub struct SettingsRecord {
     pub views: usize,
     pub view_spacing: String,
-    pub exact_samples: u64,
+    pub exact_nodes: usize,
     pub exact_method: String,
     pub walk_seed: u64,
     pub walk_target_standard_error: f64,
@@ -272,12 +272,12 @@ pub struct SettingsRecord {
 }
 
 impl SettingsRecord {
-    fn of(settings: &FurnaceSettings, exact_samples: u64) -> Self {
+    fn of(settings: &FurnaceSettings, exact_nodes: usize) -> Self {
         SettingsRecord {
             views: settings.views,
             view_spacing: "mu = cos(pi/2 k / (views - 1)), k = 0 .. views - 1: uniform in angle from the normal to grazing; the grazing view is evaluated at mu = 1e-6, as the tables take mu = 0".into(),
-            exact_samples,
-            exact_method: "per-cell f64 visible-normal estimates of the lookups' integrals (FGD, TIR's ratio, GD), Owen-scrambled Sobol points independent of the tables'".into(),
+            exact_nodes,
+            exact_method: "f64 product Gauss-Legendre quadrature of the lookups' integrals (FGD, TIR's ratio, GD) over the visible normals in (theta_h, phi_h), exact_nodes per panel, every jump and kink (horizon, critical angle) a panel edge; independent of the tables' samples".into(),
             walk_seed: settings.walk.seed,
             walk_target_standard_error: settings.walk.target_standard_error,
             walk_min_paths: settings.walk.min_paths,
@@ -322,7 +322,7 @@ impl FurnaceReport {
     pub fn new(
         request: &FurnaceRequest,
         luts: &Path,
-        exact_samples: u64,
+        exact_nodes: usize,
         materials: Vec<MaterialReport>,
         wall_time_s: PhaseTimes,
     ) -> Self {
@@ -334,7 +334,7 @@ impl FurnaceReport {
             scene: request.scene.name.clone(),
             source: request.source.clone(),
             luts: luts.display().to_string(),
-            settings: SettingsRecord::of(&request.settings, exact_samples),
+            settings: SettingsRecord::of(&request.settings, exact_nodes),
             random_walk: crate::random_walk::modelling_choices(&request.settings.walk),
             materials,
         }

@@ -12,6 +12,7 @@
 
 pub mod batch;
 pub mod measure;
+pub mod quadrature;
 
 use glam::DVec3;
 use rayon::prelude::*;

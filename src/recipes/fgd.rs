@@ -26,6 +26,7 @@ use super::{
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, multiply_transposed};
+use crate::integrate::quadrature::{Cut, VisibleNormalQuadrature};
 use crate::integrate::{
     Estimate, Method, Progress, estimate_cells, estimate_cosine_functions, estimate_per_cell_blocks,
 };
@@ -277,6 +278,29 @@ pub fn fgd_cells_at_mu_alpha(
         }
     })
     .into_channels()
+}
+
+/// FGD at one cell `(mu, alpha, eta, kappa)` in f64 by the deterministic visible-normal quadrature
+/// ([`VisibleNormalQuadrature`]), cut at the horizon and, below `eta = 1`, where Fresnel turns
+/// total: where `t0 = eta^2 - 1 - kappa^2 + c^2` of [`fresnel_reflectance`] changes sign, at
+/// `c = sqrt(1 - eta^2 + kappa^2)` (the critical cosine when `kappa = 0`, a rounded kink
+/// otherwise). The furnace's exact integrals.
+pub fn fgd_by_quadrature(
+    masking: MaskingShadowing,
+    quadrature: &VisibleNormalQuadrature,
+    mu: f64,
+    alpha: f64,
+    (eta, kappa): (f64, f64),
+) -> f64 {
+    let mut cuts = vec![Cut::MirrorCosine(0.0)];
+    let total_reflection_cosine2 = (1.0 - eta) * (1.0 + eta) + kappa * kappa;
+    if eta < 1.0 && total_reflection_cosine2 > 0.0 && total_reflection_cosine2 < 1.0 {
+        cuts.push(Cut::HalfCosine(total_reflection_cosine2.sqrt()));
+    }
+    let [fgd] = quadrature.integrate(mu, alpha, &cuts, |s| {
+        [masking.visible_normal_weight(s.wi, s.wo, alpha) * fresnel_reflectance(s.cos_wi_h, eta, kappa)]
+    });
+    fgd
 }
 
 impl TableRecipe for FgdSettings {

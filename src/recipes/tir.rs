@@ -30,10 +30,11 @@ use super::{
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::batch::{CellWarp, for_each_block};
+use crate::integrate::quadrature::{Cut, VisibleNormalQuadrature};
 use crate::integrate::{
     Estimate, GRAZING_COSINE, Method, Progress, combine_replicates, estimate_cells, visible_normal_replicate_means,
 };
-use crate::physics::{MaskingShadowing, direction_from_cosine};
+use crate::physics::{MaskingShadowing, critical_cosine, direction_from_cosine};
 use crate::sampling::sequence::{DiskPointsF32, PointSet};
 use crate::table::{Axis, Channel, Mapping, Table, derived};
 
@@ -394,6 +395,22 @@ pub(crate) fn tir_cells_at_mu_alpha(mu: f64, alpha: f64, etas: &[f64], points: &
         .map(|s| s[..total].iter().map(|&past| if s[total] > 0.0 { past / s[total] } else { 0.0 }).collect())
         .collect();
     combine_replicates(&ratios, total).into_channels()
+}
+
+/// TIR at one `(mu, alpha, eta)` in f64 by the deterministic visible-normal quadrature
+/// ([`VisibleNormalQuadrature`]): the ratio `∫ G1 [..] / ∫ G1` of [`tir_cell`], cut at the horizon
+/// and at the critical cosine `wo.z = sqrt(1 - eta^2)`, so that each piece integrates a smooth
+/// function. The furnace's exact integrals.
+pub(crate) fn tir_by_quadrature(quadrature: &VisibleNormalQuadrature, mu: f64, alpha: f64, eta: f64) -> f64 {
+    let alpha = alpha.max(LIMIT_ROUGHNESS);
+    let mut cuts = vec![Cut::MirrorCosine(0.0)];
+    cuts.extend(critical_cosine(eta).map(Cut::MirrorCosine));
+    let [past, all] = quadrature.integrate(mu, alpha, &cuts, |s| {
+        let weight = MaskingShadowing::SmithSeparable.visible_normal_weight(s.wi, s.wo, alpha);
+        let sin2 = s.wo.x * s.wo.x + s.wo.y * s.wo.y;
+        [if past_critical_angle(sin2, eta) { weight } else { 0.0 }, weight]
+    });
+    if all > 0.0 { past / all } else { 0.0 }
 }
 
 impl TableRecipe for TirSettings {

@@ -1,0 +1,314 @@
+//! Deterministic quadrature over the visible normals of a `(mu, alpha)` cell: a product
+//! Gauss–Legendre rule in the polar angles `(theta, phi)` of the microfacet normal `h`, with every
+//! place where the integrand jumps or kinks located in closed form and made a panel edge.
+//!
+//! The integral is the one the Monte Carlo estimators of [`super`] average,
+//! `E_{h ~ D_wi}[f(h)]` with the visible-normal density `D_wi(h) = G1(wi) max(0, wi.h) D(h) / mu`
+//! (Heitz 2018, eq. 2), written as
+//!
+//! ```text
+//! E[f] = ∫ f(h) max(0, wi.h) D(h) dω_h / ∫ max(0, wi.h) D(h) dω_h,
+//! D(h) ∝ alpha^2 / (alpha^2 cos^2(theta) + sin^2(theta))^2    (GGX, Walter et al. 2007, eq. 33),
+//! ```
+//!
+//! so that the normalisation `G1(wi) / mu` (which vanishes with `mu`) never enters, and a constant
+//! integrates to exactly 1. With `wi = (sin(theta_i), 0, cos(theta_i))`, everything the tables'
+//! integrands cut on is linear in `cos(phi)` at a fixed `theta`:
+//!
+//! - `wi.h = sin(theta) sin(theta_i) cos(phi) + cos(theta) cos(theta_i)`: the visible half
+//!   (`wi.h >= 0`) and the cosine at which Fresnel has its critical-angle kink;
+//! - `wo.z = 2 (wi.h) cos(theta) - cos(theta_i)` for the mirror direction `wo = reflect(wi, h)`: the
+//!   horizon (`wo.z = 0`) and TIR's critical cosine.
+//!
+//! So each inner `phi` interval is split at `acos` of a closed-form value, and each line of
+//! constant `theta` integrates only smooth pieces. The split points change in kind (appear,
+//! vanish, reach `phi = pi`) where the cut meets the plane of incidence, at `theta` solving
+//! `cos(2 theta ∓ theta_i) = z` (`wo.z = z` at `phi = 0, pi`: the mirror angle is `2 theta ∓
+//! theta_i`), `cos(theta ∓ theta_i) = c` (`wi.h = c`) and `cos(theta + theta_i) = 0` (the visible
+//! half reaches `phi = pi`); those `theta` are panel edges of the outer rule. At each edge the
+//! inner integral behaves like a square root (`acos` near ±1), and both rules map every panel
+//! through `x = a + (b - a)(3u^2 - 2u^3)`, whose derivative vanishes at both ends, so that such an
+//! endpoint is smooth in `u` (the same substitution smooths Fresnel's `sqrt(c - c_crit)` cusp at a
+//! split).
+//!
+//! The outer panels also follow the roughness: `D` has its scale `alpha` in `theta`, the integrands
+//! theirs at angles of order 1, so the `theta` panels grow geometrically from `alpha / 2` and no
+//! panel is wider than [`MAX_PANEL_WIDTH`].
+//!
+//! The answer depends only on the cell, the cuts, the integrand and the rule, evaluated in one
+//! fixed order: the same bits on every thread and in every batch.
+
+use glam::DVec3;
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use super::{GRAZING_COSINE, MicrofacetSample};
+use crate::error::{Error, Result};
+use crate::physics::{direction_from_cosine, reflect};
+
+/// The widest outer (`theta`) panel, in radians.
+const MAX_PANEL_WIDTH: f64 = 0.4;
+/// The widest inner (`phi`) panel, in radians.
+const MAX_INNER_PANEL_WIDTH: f64 = 0.8;
+
+/// The fewest and most Gauss–Legendre nodes per panel a rule accepts.
+pub const NODES: std::ops::RangeInclusive<usize> = 2..=64;
+
+/// A surface in the space of microfacet normals across which an integrand jumps or kinks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Cut {
+    /// `wo.z = z` for the mirror direction `wo` of `wi` about `h`, `0 <= z < 1`: the horizon
+    /// (`z = 0`), or the critical cosine of total internal reflection.
+    MirrorCosine(f64),
+    /// `wi.h = c`, `0 < c < 1`: the cosine at which Fresnel reaches total internal reflection.
+    HalfCosine(f64),
+}
+
+/// A Gauss–Legendre rule of a fixed number of nodes per panel, with the endpoint-smoothing map.
+#[derive(Debug, Clone)]
+pub struct VisibleNormalQuadrature {
+    /// Per node of the unit panel: the position `S(u)` and the weight `w(u) S'(u)`.
+    unit_panel: Vec<(f64, f64)>,
+}
+
+impl VisibleNormalQuadrature {
+    /// The rule with `nodes` Gauss–Legendre nodes per panel (in [`NODES`]).
+    pub fn new(nodes: usize) -> Result<Self> {
+        if !NODES.contains(&nodes) {
+            return Err(Error::invalid(
+                "quadrature nodes",
+                format!("{nodes}: must be from {} to {}", NODES.start(), NODES.end()),
+            ));
+        }
+        let unit_panel = gauss_legendre_unit(nodes)
+            .into_iter()
+            .map(|(u, w)| (u * u * (3.0 - 2.0 * u), w * 6.0 * u * (1.0 - u)))
+            .collect();
+        Ok(VisibleNormalQuadrature { unit_panel })
+    }
+
+    /// Nodes per panel.
+    pub fn nodes(&self) -> usize {
+        self.unit_panel.len()
+    }
+
+    /// `E_{h ~ D_wi}[f]` for each of `N` channels, at the view of cosine `mu` (taken at least
+    /// [`GRAZING_COSINE`], as the Monte Carlo estimators do) on GGX of roughness `alpha`, with the
+    /// integrand's jumps and kinks at `cuts` (the horizon is not implied: pass it). At
+    /// `alpha = 0` the visible normals are all `n`.
+    pub fn integrate<const N: usize>(
+        &self,
+        mu: f64,
+        alpha: f64,
+        cuts: &[Cut],
+        f: impl Fn(&MicrofacetSample) -> [f64; N],
+    ) -> [f64; N] {
+        let wi = direction_from_cosine(mu.max(GRAZING_COSINE));
+        let sample = |h: DVec3| {
+            let wo = reflect(wi, h);
+            MicrofacetSample { wi, h, wo, cos_wi_h: wi.dot(h).clamp(0.0, 1.0) }
+        };
+        if alpha <= 0.0 {
+            return f(&sample(DVec3::Z));
+        }
+        let (sin_i, cos_i) = (wi.x, wi.z);
+        let theta_i = sin_i.atan2(cos_i);
+        let outer = outer_edges(alpha, theta_i, cuts);
+        let alpha2 = alpha * alpha;
+        let mut sums = [0.0; N];
+        let mut total = 0.0;
+        let mut inner = Vec::with_capacity(8);
+        for edges in outer.windows(2) {
+            let (a, b) = (edges[0], edges[1]);
+            for &(s, w) in &self.unit_panel {
+                let theta = a + (b - a) * s;
+                let (sin_t, cos_t) = theta.sin_cos();
+                // GGX's D up to its constant factor alpha^2 / pi, as the ratio cancels it; sin(theta)
+                // is the solid angle's Jacobian.
+                let denominator = alpha2 * cos_t * cos_t + sin_t * sin_t;
+                let theta_weight = w * (b - a) * sin_t / (denominator * denominator);
+                inner_edges(sin_t, cos_t, sin_i, cos_i, cuts, &mut inner);
+                for piece in inner.windows(2) {
+                    let (c, d) = (piece[0], piece[1]);
+                    let panels = ((d - c) / MAX_INNER_PANEL_WIDTH).ceil().max(1.0);
+                    let width = (d - c) / panels;
+                    for p in 0..panels as usize {
+                        let start = c + width * p as f64;
+                        for &(s, v) in &self.unit_panel {
+                            let (sin_p, cos_p) = (start + width * s).sin_cos();
+                            let h = DVec3::new(sin_t * cos_p, sin_t * sin_p, cos_t);
+                            let visible = wi.dot(h).max(0.0);
+                            let weight = theta_weight * v * width * visible;
+                            if weight == 0.0 {
+                                continue;
+                            }
+                            total += weight;
+                            for (sum, value) in sums.iter_mut().zip(f(&sample(h))) {
+                                *sum += weight * value;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Mirror symmetry about the plane of incidence: phi in [0, pi] stands for the whole circle,
+        // and the factor 2 cancels in the ratio.
+        sums.map(|s| if total > 0.0 { s / total } else { 0.0 })
+    }
+}
+
+/// The outer panel edges in `theta` over `[0, pi / 2]`: geometric from `alpha / 2`, no wider than
+/// [`MAX_PANEL_WIDTH`], and every `theta` where an inner split point changes in kind (module
+/// documentation).
+fn outer_edges(alpha: f64, theta_i: f64, cuts: &[Cut]) -> Vec<f64> {
+    let mut edges = vec![0.0, FRAC_PI_2];
+    let mut edge = (0.5 * alpha).min(MAX_PANEL_WIDTH);
+    while edge < FRAC_PI_2 {
+        edges.push(edge);
+        edge = (2.0 * edge).min(edge + MAX_PANEL_WIDTH);
+    }
+    // The visible half reaches phi = pi: cos(theta + theta_i) = 0.
+    edges.push(FRAC_PI_2 - theta_i);
+    for cut in cuts {
+        match *cut {
+            Cut::MirrorCosine(z) => {
+                let angle = z.clamp(-1.0, 1.0).acos();
+                edges.extend([0.5 * (theta_i + angle), 0.5 * (theta_i - angle), 0.5 * (angle - theta_i)]);
+            }
+            Cut::HalfCosine(c) => {
+                let angle = c.clamp(-1.0, 1.0).acos();
+                edges.extend([theta_i + angle, theta_i - angle, angle - theta_i]);
+            }
+        }
+    }
+    edges.retain(|&e| (0.0..=FRAC_PI_2).contains(&e));
+    edges.sort_by(f64::total_cmp);
+    edges.dedup();
+    edges
+}
+
+/// The inner split points in `phi` over `[0, phi_max]` at one `theta`: 0, the roots of each cut
+/// inside the visible half, and `phi_max`, the edge of the visible half (`wi.h = 0`), in order.
+fn inner_edges(sin_t: f64, cos_t: f64, sin_i: f64, cos_i: f64, cuts: &[Cut], edges: &mut Vec<f64>) {
+    edges.clear();
+    // wi.h = A cos(phi) + B.
+    let (a, b) = (sin_t * sin_i, cos_t * cos_i);
+    let phi_of = |cos_phi: f64| -> Option<f64> { (cos_phi > -1.0 && cos_phi < 1.0).then(|| cos_phi.acos()) };
+    let phi_max = if a > 0.0 {
+        if b >= a { PI } else { phi_of(-b / a).unwrap_or(0.0) }
+    } else if b > 0.0 {
+        PI
+    } else {
+        0.0
+    };
+    edges.push(0.0);
+    if a > 0.0 {
+        for cut in cuts {
+            let cos_phi = match *cut {
+                // wo.z = 2 cos(theta) (A cos(phi) + B) - cos(theta_i) = z.
+                Cut::MirrorCosine(z) => (0.5 * (z + cos_i) / cos_t - b) / a,
+                // A cos(phi) + B = c.
+                Cut::HalfCosine(c) => (c - b) / a,
+            };
+            if let Some(phi) = phi_of(cos_phi).filter(|&phi| phi > 0.0 && phi < phi_max) {
+                edges.push(phi);
+            }
+        }
+    }
+    edges.push(phi_max);
+    edges.sort_by(f64::total_cmp);
+    edges.dedup();
+}
+
+/// The Gauss–Legendre nodes and weights of `n` points on `[0, 1]`: the roots of the Legendre
+/// polynomial `P_n` by Newton's method from `cos(pi (k - 1/4) / (n + 1/2))`, weights
+/// `2 / ((1 - x^2) P_n'(x)^2)` on `[-1, 1]` (Press et al., Numerical Recipes, 3rd ed., §4.6.1,
+/// `gauleg`), halved for the unit interval.
+fn gauss_legendre_unit(n: usize) -> Vec<(f64, f64)> {
+    let mut nodes = Vec::with_capacity(n);
+    for k in 1..=n {
+        let mut x = (PI * (k as f64 - 0.25) / (n as f64 + 0.5)).cos();
+        let mut derivative = 0.0;
+        for _ in 0..100 {
+            // P_n(x) and P_n'(x) by the three-term recurrence.
+            let (mut p0, mut p1) = (1.0, x);
+            for j in 2..=n {
+                let p2 = ((2 * j - 1) as f64 * x * p1 - (j - 1) as f64 * p0) / j as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            let p = if n == 1 { x } else { p1 };
+            let p_previous = if n == 1 { 1.0 } else { p0 };
+            derivative = n as f64 * (x * p - p_previous) / (x * x - 1.0);
+            let step = p / derivative;
+            x -= step;
+            if step.abs() < 1e-16 {
+                break;
+            }
+        }
+        let weight = 2.0 / ((1.0 - x * x) * derivative * derivative);
+        nodes.push((0.5 * (1.0 - x), 0.5 * weight));
+    }
+    nodes.sort_by(|a, b| a.0.total_cmp(&b.0));
+    nodes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrate::estimate_visible_normal_integral;
+    use crate::physics::MaskingShadowing;
+    use crate::sampling::sequence::{PointSet, SamplePlan};
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials_of_degree_2n_minus_1_exactly() {
+        for n in [2, 5, 8, 16] {
+            let rule = gauss_legendre_unit(n);
+            assert!((rule.iter().map(|r| r.1).sum::<f64>() - 1.0).abs() < 1e-14);
+            let degree = 2 * n - 1;
+            let integral: f64 = rule.iter().map(|&(x, w)| w * x.powi(degree as i32)).sum();
+            assert!((integral - 1.0 / (degree as f64 + 1.0)).abs() < 1e-14, "n {n}: {integral}");
+        }
+    }
+
+    #[test]
+    fn rejects_node_counts_out_of_range() {
+        assert!(VisibleNormalQuadrature::new(1).is_err());
+        assert!(VisibleNormalQuadrature::new(65).is_err());
+    }
+
+    #[test]
+    fn agrees_with_monte_carlo_on_the_mean_of_the_half_cosine_and_the_weight() {
+        // E[wi.h] and E[G1(wo)] over the visible normals, against 2^18 Sobol samples in 16
+        // replicates: within 5 standard errors, at a low, a middle and a grazing view.
+        let quadrature = VisibleNormalQuadrature::new(8).unwrap();
+        let points = PointSet::new(SamplePlan::new(1 << 18, 16).unwrap(), 5);
+        for (mu, alpha) in [(0.9, 0.05), (0.5, 0.4), (0.02, 0.8)] {
+            let weight =
+                |s: &MicrofacetSample| MaskingShadowing::SmithSeparable.visible_normal_weight(s.wi, s.wo, alpha);
+            let quadrature_values =
+                quadrature.integrate(mu, alpha, &[Cut::MirrorCosine(0.0)], |s| [s.cos_wi_h, weight(s)]);
+            let monte_carlo = estimate_visible_normal_integral(mu, alpha, &points, 2, |s, sums| {
+                sums[0] += s.cos_wi_h;
+                sums[1] += weight(s);
+            });
+            for (k, value) in quadrature_values.into_iter().enumerate() {
+                let difference = (value - monte_carlo.mean[k]).abs();
+                assert!(
+                    difference < 5.0 * monte_carlo.standard_error[k] + 1e-9,
+                    "mu {mu} alpha {alpha} channel {k}: {value} vs {monte_carlo:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_smooth_surface_is_the_mirror_and_constants_integrate_to_themselves() {
+        let quadrature = VisibleNormalQuadrature::new(6).unwrap();
+        let [c] = quadrature.integrate(0.6, 0.0, &[], |s| [s.cos_wi_h]);
+        assert!((c - 0.6).abs() < 1e-15);
+        for (mu, alpha) in [(1.0, 0.3), (1e-9, 1e-7), (0.3, 1.0)] {
+            let [one] = quadrature.integrate(mu, alpha, &[Cut::MirrorCosine(0.0)], |_| [1.0]);
+            assert!((one - 1.0).abs() < 1e-14, "mu {mu} alpha {alpha}: {one}");
+        }
+    }
+}
