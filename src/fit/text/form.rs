@@ -311,11 +311,13 @@ impl Form {
         let mut lets = Vec::new();
         let mut entries: Vec<_> = file.lets.iter().collect();
         entries.sort_by_key(|(k, _)| k.span().start);
+        let mut let_keys = Vec::new();
         for (key, value) in entries {
             check_name(key, &scope)?;
             let (node, slot) = compile(&mut scope, value)?;
             scope.names.insert(key.get_ref().clone(), slot);
             lets.push(Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node });
+            let_keys.push(key.span().start);
         }
 
         let table_channels: Vec<&str> = table.channels.iter().map(String::as_str).collect();
@@ -358,11 +360,21 @@ impl Form {
             }
         }
 
-        // The derived variables any binding or channel reads.
+        // The names any binding or channel reads: a binding none reads is a mistake (a channel
+        // that was meant to use it), as an unused parameter is.
         let mut read = Vec::new();
         for binding in lets.iter().chain(channels.iter().map(|(_, b, _)| b)) {
             binding.node.names(&mut read);
         }
+        for (binding, &key) in lets.iter().zip(&let_keys) {
+            if !read.iter().any(|(n, _)| *n == binding.name) {
+                return Err(at(
+                    key,
+                    format!("`{}` in [let] is never used by a channel or a later binding; remove it or use it", binding.name),
+                ));
+            }
+        }
+        // The derived variables any binding or channel reads.
         let derived = derived_all.into_iter().filter(|d| read.iter().any(|(n, _)| *n == d.name)).collect();
 
         Ok(Form {

@@ -69,6 +69,7 @@ fn each_kind_of_mistake_names_file_line_and_column() {
     error_at(&GOOD.replace("t ^ q", "tt(q)"), 9, 15, "unknown function `tt`");
     error_at(&GOOD.replace("0.1 * t ^ q", "pow(t) * q"), 9, 9, "`pow` called with 1 arguments");
     error_at(&GOOD.replace("0.1 * t ^ q", "0.1 * t"), 4, 1, "parameter `q` is never used");
+    error_at(&GOOD.replace("t = \"1 - mu\"", "t = \"1 - mu\"\nu = \"t * t\""), 7, 1, "`u` in [let] is never used");
     error_at(&GOOD.replace("start = 1.0, min = 0.0", "start = -1.0, min = 0.0"), 4, 15, "exclude its start -1");
     error_at(&GOOD.replace("min = -2.0, max = 2.0", "min = 2.0, max = 2.0"), 3, 26, "min 2 is not below max 2");
     error_at(&GOOD.replace("bias =", "offset ="), 9, 1, "has no channel `offset`; its channels: scale, bias");
