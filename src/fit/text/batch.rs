@@ -150,6 +150,23 @@ impl Batch {
                         edge(&mut lower[a * LANES + l], s, v[l]);
                     }
                 }
+                Ins::Call(Func::Min, [a, b, _]) => {
+                    for (l, &s) in adjoint.iter().enumerate() {
+                        let to = if x(b, l) < x(a, l) { b } else { a };
+                        edge(&mut lower[to * LANES + l], s, 1.0);
+                    }
+                }
+                Ins::Call(Func::Max, [a, b, _]) => {
+                    for (l, &s) in adjoint.iter().enumerate() {
+                        let to = if x(b, l) > x(a, l) { b } else { a };
+                        edge(&mut lower[to * LANES + l], s, 1.0);
+                    }
+                }
+                Ins::Call(Func::Sqrt, [a, _, _]) => {
+                    for (l, &s) in adjoint.iter().enumerate() {
+                        edge(&mut lower[a * LANES + l], s, if v[l] > 0.0 { 0.5 / v[l] } else { 0.0 });
+                    }
+                }
                 Ins::Select { otherwise, then, compare, left, right } => {
                     for (l, &s) in adjoint.iter().enumerate() {
                         let to = if compare.holds(x(left, l), x(right, l)) { then } else { otherwise };
