@@ -238,6 +238,14 @@ const FORM_FILES: [(&str, crate::fit::Form); 5] = [
     ("tir-cauchy-slope.toml", crate::fit::Form::CauchySlope),
 ];
 
+/// Numbers uniform in [0, 1) from a 64-bit linear congruential stream started at `state`.
+fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+    move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// A TIR-shaped table on a uniform `(mu, alpha, eta)` grid: the built-in `cauchy-slope` form at
 /// the coefficients docs/fit.md reports for the TIR table.
 fn tir_shaped(nodes: usize) -> Table {
@@ -266,11 +274,7 @@ fn the_form_files_compute_the_built_in_tir_forms_and_fit_as_well() {
         assert_eq!(form.parameters.iter().map(|p| p.start).collect::<Vec<_>>(), start, "{file}");
         assert_eq!(form.parameters.iter().map(|p| p.min).collect::<Vec<_>>(), lower, "{file}");
         assert_eq!(form.parameters.iter().map(|p| p.max).collect::<Vec<_>>(), upper, "{file}");
-        let mut state = 7u64;
-        let mut unit = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = uniform(7);
         let (mut scratch, mut out) = (Vec::new(), [0.0]);
         for _ in 0..2000 {
             let p: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
@@ -323,11 +327,7 @@ fn a_parameter_in_a_select_condition_is_used_and_kept_by_the_split() {
 /// their other side) and random parameters, over full rows and a partial one.
 #[test]
 fn the_batch_evaluation_is_the_point_by_point_one_to_the_bit() {
-    let mut state = 11u64;
-    let mut unit = || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut unit = uniform(11);
     let karis = karis_like(4, |_, _| [0.0, 0.0]);
     let tir = tir_shaped(4);
     let mut forms = vec![Form::parse(Path::new("all.toml"), ALL_FUNCTIONS, &karis).unwrap()];
