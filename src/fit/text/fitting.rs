@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::batch::{Batch, LANES};
 use super::form::{Form, MAX_FORM_BYTES};
 use super::shader::{LANGUAGES, function_name, sources};
 use super::tape::Work;
@@ -131,8 +132,9 @@ const CHUNK: usize = 4096;
 pub struct Prepared<'a> {
     data: &'a FormData,
     tape: super::tape::Tape,
-    /// Per point: its variables, then the values of the split-off instructions.
-    inputs: Vec<f64>,
+    /// Per input of the split tape (the variables, then the values of the split-off
+    /// instructions), its value at every point: one column each, for [`Batch`] to read rows of.
+    columns: Vec<f64>,
     width: usize,
 }
 
@@ -143,12 +145,13 @@ impl<'a> Prepared<'a> {
         let width = d + split_off.len();
         // Split-off instructions do not read the parameters: any values serve.
         let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
-        let inputs: Vec<Vec<f64>> = (0..data.len().div_ceil(CHUNK))
+        let count = data.len();
+        let rows: Vec<Vec<f64>> = (0..count.div_ceil(CHUNK))
             .into_par_iter()
             .map(|chunk| {
                 let mut values = Vec::new();
                 let mut inputs = Vec::new();
-                for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
+                for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(count) {
                     form.tape.values(data.point(n), &start, &mut values);
                     inputs.extend_from_slice(data.point(n));
                     inputs.extend(split_off.iter().map(|&k| values[k]));
@@ -156,40 +159,54 @@ impl<'a> Prepared<'a> {
                 inputs
             })
             .collect();
-        Prepared { data, tape, inputs: inputs.concat(), width }
+        let rows = rows.concat();
+        let mut columns = vec![0.0; rows.len()];
+        for (n, row) in rows.chunks_exact(width.max(1)).enumerate() {
+            for (k, &v) in row.iter().enumerate() {
+                columns[k * count + n] = v;
+            }
+        }
+        Prepared { data, tape, columns, width }
     }
 
-    fn point(&self, n: usize) -> &[f64] {
-        &self.inputs[n * self.width..(n + 1) * self.width]
+    /// Point `n`'s inputs of the split tape, into `point`.
+    fn point_into(&self, n: usize, point: &mut Vec<f64>) {
+        let count = self.data.len();
+        point.clear();
+        point.extend((0..self.width).map(|k| self.columns[k * count + n]));
     }
 
-    /// The mean squared residual over every point and channel, and its gradient when asked for.
+    /// The mean squared residual over every point and channel, and its gradient when asked for:
+    /// [`LANES`] points at a time ([`Batch`]), the sums of fixed chunks of points added in order,
+    /// so the result is the same to the bit whatever the number of threads (and the same as
+    /// [`super::tape::Tape::forward`] and [`super::tape::Tape::backward`] point by point give).
     pub fn objective(&self, parameters: &[f64], gradient: Option<&mut [f64]>) -> f64 {
         let (data, tape) = (self.data, &self.tape);
-        let (count, channels, p) = (data.len(), data.channels.len(), parameters.len());
+        let (count, p) = (data.len(), parameters.len());
+        let channels = data.channels.len();
         let want = gradient.is_some();
         let per_chunk: Vec<(f64, Vec<f64>)> = (0..count.div_ceil(CHUNK))
             .into_par_iter()
-            .map(|chunk| {
-                let mut work = Work::default();
-                let mut scratch = Vec::new();
+            .map_init(Batch::default, |batch, chunk| {
                 let (mut sum, mut g) = (0.0, vec![0.0; if want { p } else { 0 }]);
-                let mut out = vec![0.0; channels];
-                let mut seeds = vec![0.0; channels];
-                for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(count) {
+                let end = ((chunk + 1) * CHUNK).min(count);
+                for first in (chunk * CHUNK..end).step_by(LANES) {
+                    let len = LANES.min(end - first);
+                    batch.forward(tape, |k| &self.columns[k * count + first..], parameters, len);
                     if want {
-                        tape.forward(self.point(n), parameters, &mut work);
-                        for (c, (&k, &t)) in tape.outputs.iter().zip(data.targets(n)).enumerate() {
-                            let r = work.value(k) - t;
+                        batch.clear_adjoints(tape);
+                    }
+                    for l in 0..len {
+                        for (&k, &t) in tape.outputs.iter().zip(data.targets(first + l)) {
+                            let r = batch.value(k, l) - t;
                             sum += r * r;
-                            seeds[c] = 2.0 * r;
+                            if want {
+                                batch.seed(k, l, 2.0 * r);
+                            }
                         }
-                        tape.backward(&mut work, &seeds, &mut g);
-                    } else {
-                        tape.eval(self.point(n), parameters, &mut scratch, &mut out);
-                        for (v, t) in out.iter().zip(data.targets(n)) {
-                            sum += (v - t) * (v - t);
-                        }
+                    }
+                    if want {
+                        batch.backward(tape, &mut g);
                     }
                 }
                 (sum, g)
@@ -356,8 +373,10 @@ pub fn identifiability(form: &Form, prepared: &Prepared, parameters: &[f64]) -> 
             let mut jtj = vec![0.0; p * p];
             let mut row = vec![0.0; p];
             let mut seeds = vec![0.0; channels];
+            let mut point = Vec::new();
             for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
-                tape.forward(prepared.point(n), parameters, &mut work);
+                prepared.point_into(n, &mut point);
+                tape.forward(&point, parameters, &mut work);
                 for c in 0..channels {
                     seeds.iter_mut().enumerate().for_each(|(k, s)| *s = if k == c { 1.0 } else { 0.0 });
                     row.iter_mut().for_each(|r| *r = 0.0);

@@ -4,6 +4,7 @@
 //! ([`fitting`]), and printed as WGSL, HLSL, GLSL and MSL ([`shader`]). `docs/fit.md`, "Forms as
 //! text", describes the language and the command.
 
+pub mod batch;
 pub mod expr;
 pub mod fitted;
 pub mod fitting;

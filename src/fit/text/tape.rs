@@ -139,7 +139,7 @@ fn clamp<T: Scalar>(x: T, lo: T, hi: T) -> T {
 }
 
 /// `x^n` by repeated multiplication, left to right, as the shader helper computes it.
-fn pow_int<T: Scalar>(x: T, n: i32) -> T {
+pub(super) fn pow_int<T: Scalar>(x: T, n: i32) -> T {
     let mut product = T::of(1.0);
     for k in 0..n.unsigned_abs() {
         product = if k == 0 { x } else { product * x };
@@ -157,44 +157,7 @@ impl Tape {
     pub fn values<T: Scalar>(&self, vars: &[T], params: &[T], values: &mut Vec<T>) {
         values.clear();
         for ins in &self.ins {
-            let v = |k: usize| values[k];
-            let value = match *ins {
-                Ins::Const(c) => T::of(c),
-                Ins::Var(k) => vars[k],
-                Ins::Param(k) => params[k],
-                Ins::Neg(a) => -v(a),
-                Ins::Bin(op, a, b) => match op {
-                    BinOp::Add => v(a) + v(b),
-                    BinOp::Sub => v(a) - v(b),
-                    BinOp::Mul => v(a) * v(b),
-                    BinOp::Div => v(a) / v(b),
-                    BinOp::Pow => v(a).powf(v(b)),
-                },
-                Ins::PowInt(a, n) => pow_int(v(a), n),
-                Ins::Call(f, [a, b, c]) => match f {
-                    Func::Min => v(a).min(v(b)),
-                    Func::Max => v(a).max(v(b)),
-                    Func::Pow => v(a).powf(v(b)),
-                    Func::Atan2 => v(a).atan2(v(b)),
-                    Func::Step => {
-                        if v(a) <= v(b) {
-                            T::of(1.0)
-                        } else {
-                            T::of(0.0)
-                        }
-                    }
-                    Func::Clamp => clamp(v(a), v(b), v(c)),
-                    Func::Mix => v(a) * (T::of(1.0) - v(c)) + v(b) * v(c),
-                    Func::Smoothstep => {
-                        let t = clamp((v(c) - v(a)) / (v(b) - v(a)), T::of(0.0), T::of(1.0));
-                        t * t * (T::of(3.0) - T::of(2.0) * t)
-                    }
-                    unary => T::unary(unary, v(a)),
-                },
-                Ins::Select { otherwise, then, compare, left, right } => {
-                    if compare.holds(v(left).to_f64(), v(right).to_f64()) { v(then) } else { v(otherwise) }
-                }
-            };
+            let value = value_of(ins, |k| values[k], vars, params);
             values.push(value);
         }
     }
@@ -220,7 +183,7 @@ impl Tape {
                 // A parameter's edge points at no instruction: its adjoint goes to the gradient.
                 work.edges.push((usize::MAX - k, 1.0));
             } else {
-                for (operand, d) in operands(ins).into_iter().zip(partials(ins, values, values[i])) {
+                for (operand, d) in operands(ins).into_iter().zip(partials(ins, |k| values[k], values[i])) {
                     if let Some(operand) = operand
                         && d != 0.0
                     {
@@ -326,6 +289,54 @@ impl Tape {
     }
 }
 
+/// One instruction's value, given the values of earlier ones (`v(k)`), the point's variables and
+/// the parameters: the arithmetic of [`Tape::values`], shared with the evaluation over many points
+/// at once ([`super::batch`]) so that both compute the same bits.
+#[inline]
+pub(super) fn value_of<T: Scalar>(ins: &Ins, v: impl Fn(usize) -> T, vars: &[T], params: &[T]) -> T {
+    match *ins {
+        Ins::Const(c) => T::of(c),
+        Ins::Var(k) => vars[k],
+        Ins::Param(k) => params[k],
+        Ins::Neg(a) => -v(a),
+        Ins::Bin(op, a, b) => match op {
+            BinOp::Add => v(a) + v(b),
+            BinOp::Sub => v(a) - v(b),
+            BinOp::Mul => v(a) * v(b),
+            BinOp::Div => v(a) / v(b),
+            BinOp::Pow => v(a).powf(v(b)),
+        },
+        Ins::PowInt(a, n) => pow_int(v(a), n),
+        Ins::Call(f, [a, b, c]) => match f {
+            Func::Min => v(a).min(v(b)),
+            Func::Max => v(a).max(v(b)),
+            Func::Pow => v(a).powf(v(b)),
+            Func::Atan2 => v(a).atan2(v(b)),
+            Func::Step => {
+                if v(a) <= v(b) {
+                    T::of(1.0)
+                } else {
+                    T::of(0.0)
+                }
+            }
+            Func::Clamp => clamp(v(a), v(b), v(c)),
+            Func::Mix => v(a) * (T::of(1.0) - v(c)) + v(b) * v(c),
+            Func::Smoothstep => {
+                let t = clamp((v(c) - v(a)) / (v(b) - v(a)), T::of(0.0), T::of(1.0));
+                t * t * (T::of(3.0) - T::of(2.0) * t)
+            }
+            unary => T::unary(unary, v(a)),
+        },
+        Ins::Select { otherwise, then, compare, left, right } => {
+            if compare.holds(v(left).to_f64(), v(right).to_f64()) {
+                v(then)
+            } else {
+                v(otherwise)
+            }
+        }
+    }
+}
+
 /// Buffers of one thread's evaluations, reused from point to point.
 #[derive(Debug, Default)]
 pub struct Work {
@@ -366,7 +377,7 @@ fn reads(ins: &Ins) -> Vec<usize> {
 }
 
 /// The operands of an instruction, in the order of [`partials`].
-fn operands(ins: &Ins) -> [Option<usize>; 4] {
+pub(super) fn operands(ins: &Ins) -> [Option<usize>; 4] {
     match *ins {
         Ins::Const(_) | Ins::Var(_) | Ins::Param(_) => [None; 4],
         Ins::Neg(a) | Ins::PowInt(a, _) => [Some(a), None, None, None],
@@ -382,11 +393,10 @@ fn operands(ins: &Ins) -> [Option<usize>; 4] {
 }
 
 /// The derivatives of one instruction with respect to its operands ([`operands`]), given the
-/// values of all earlier instructions and its own `v`. At the kinks of `abs`, `min`, `max`,
+/// values of all earlier instructions (`x(k)`) and its own `v`. At the kinks of `abs`, `min`, `max`,
 /// `clamp` the derivative of the side the value comes from; where a derivative is infinite
 /// (`sqrt` at 0) or the value is not a number, 0, so that the search is never handed a NaN slope.
-fn partials(ins: &Ins, values: &[f64], v: f64) -> [f64; 4] {
-    let x = |k: usize| values[k];
+pub(super) fn partials(ins: &Ins, x: impl Fn(usize) -> f64, v: f64) -> [f64; 4] {
     let d = match *ins {
         Ins::Const(_) | Ins::Var(_) | Ins::Param(_) => [0.0; 4],
         Ins::Neg(_) => [-1.0, 0.0, 0.0, 0.0],

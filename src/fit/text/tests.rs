@@ -84,10 +84,8 @@ fn each_kind_of_mistake_names_file_line_and_column() {
     error_at(&GOOD.replace("0.1 * t ^ q", "t ^ q < 1"), 9, 15, "only allowed as the condition of select");
 }
 
-#[test]
-fn the_gradient_is_the_finite_difference_of_the_value_for_every_function() {
-    let table = karis_like(4, |_, _| [0.0, 0.0]);
-    let text = r#"table = "karis"
+/// A form that calls every function of the language and every operator.
+const ALL_FUNCTIONS: &str = r#"table = "karis"
 [parameters]
 a = { start = 0.3, min = -2.0, max = 2.0 }
 b = { start = 0.7, min = -2.0, max = 2.0 }
@@ -101,6 +99,11 @@ y = "min(a, b) + max(u, c) + clamp(u, b, c) + saturate(u) + smoothstep(b, c + 1,
 scale = "w * z"
 bias = "y - w / (z * z + 1)"
 "#;
+
+#[test]
+fn the_gradient_is_the_finite_difference_of_the_value_for_every_function() {
+    let table = karis_like(4, |_, _| [0.0, 0.0]);
+    let text = ALL_FUNCTIONS;
     let form = Form::parse(Path::new("all.toml"), text, &table).unwrap();
     let mut work = tape::Work::default();
     let mut scratch = Vec::new();
@@ -236,6 +239,14 @@ const FORM_FILES: [(&str, crate::fit::Form); 5] = [
     ("tir-cauchy-slope.toml", crate::fit::Form::CauchySlope),
 ];
 
+/// Numbers uniform in [0, 1) from a 64-bit linear congruential stream started at `state`.
+fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+    move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// A TIR-shaped table on a uniform `(mu, alpha, eta)` grid: the built-in `cauchy-slope` form at
 /// the coefficients docs/fit.md reports for the TIR table.
 fn tir_shaped(nodes: usize) -> Table {
@@ -264,11 +275,7 @@ fn the_form_files_compute_the_built_in_tir_forms_and_fit_as_well() {
         assert_eq!(form.parameters.iter().map(|p| p.start).collect::<Vec<_>>(), start, "{file}");
         assert_eq!(form.parameters.iter().map(|p| p.min).collect::<Vec<_>>(), lower, "{file}");
         assert_eq!(form.parameters.iter().map(|p| p.max).collect::<Vec<_>>(), upper, "{file}");
-        let mut state = 7u64;
-        let mut unit = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = uniform(7);
         let (mut scratch, mut out) = (Vec::new(), [0.0]);
         for _ in 0..2000 {
             let p: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
@@ -313,4 +320,49 @@ fn a_parameter_in_a_select_condition_is_used_and_kept_by_the_split() {
     let prepared = Prepared::new(&form, &data);
     // Where the step sits changes the objective: the condition was not split off as a constant.
     assert_ne!(prepared.objective(&[0.2], None), prepared.objective(&[0.8], None));
+}
+
+/// The evaluation over rows of points ([`batch::Batch`]) computes the same values and gradients,
+/// to the bit, as the tape point by point, for a form calling every function and for each TIR
+/// form file, at random points (some outside the tables' ranges, where clamps and selects take
+/// their other side) and random parameters, over full rows and a partial one.
+#[test]
+fn the_batch_evaluation_is_the_point_by_point_one_to_the_bit() {
+    let mut unit = uniform(11);
+    let karis = karis_like(4, |_, _| [0.0, 0.0]);
+    let tir = tir_shaped(4);
+    let mut forms = vec![Form::parse(Path::new("all.toml"), ALL_FUNCTIONS, &karis).unwrap()];
+    for (file, _) in FORM_FILES {
+        forms.push(Form::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms").join(file), &tir).unwrap());
+    }
+    let count = 2 * batch::LANES + 44;
+    for form in &forms {
+        let (d, channels, p) = (form.variables.len(), form.tape.outputs.len(), form.parameters.len());
+        let columns: Vec<Vec<f64>> = (0..d).map(|_| (0..count).map(|_| 1.4 * unit() - 0.2).collect()).collect();
+        let params: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
+        let seeds: Vec<Vec<f64>> = (0..count).map(|_| (0..channels).map(|_| unit() - 0.5).collect()).collect();
+        let (mut work, mut expected) = (tape::Work::default(), vec![0.0; p]);
+        let (mut batch, mut gradient) = (batch::Batch::default(), vec![0.0; p]);
+        for first in (0..count).step_by(batch::LANES) {
+            let len = batch::LANES.min(count - first);
+            batch.forward(&form.tape, |k| &columns[k][first..], &params, len);
+            batch.clear_adjoints(&form.tape);
+            for l in 0..len {
+                let point: Vec<f64> = columns.iter().map(|c| c[first + l]).collect();
+                form.tape.forward(&point, &params, &mut work);
+                for k in 0..form.tape.ins.len() {
+                    let (a, b) = (work.value(k), batch.value(k, l));
+                    assert!(a.to_bits() == b.to_bits(), "{}: instruction {k} at {point:?}: {a} against {b}", form.name);
+                }
+                for (&k, &s) in form.tape.outputs.iter().zip(&seeds[first + l]) {
+                    batch.seed(k, l, s);
+                }
+                form.tape.backward(&mut work, &seeds[first + l], &mut expected);
+            }
+            batch.backward(&form.tape, &mut gradient);
+            let bits = |g: &[f64]| g.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&gradient), bits(&expected), "{}: {gradient:?} against {expected:?}", form.name);
+        }
+        assert!(expected.iter().any(|g| *g != 0.0), "{}: the gradient is not all 0", form.name);
+    }
 }
