@@ -67,7 +67,7 @@ pub fn fresnel_reflectance(cos_theta: f64, eta: f64, kappa: f64) -> f64 {
 #[inline(always)]
 fn modulus(x: f64, y: f64) -> f64 {
     let sum_of_squares = x * x + y * y;
-    if sum_of_squares >= f64::MIN_POSITIVE && sum_of_squares < f64::MAX { sum_of_squares.sqrt() } else { x.hypot(y) }
+    if (f64::MIN_POSITIVE..f64::MAX).contains(&sum_of_squares) { sum_of_squares.sqrt() } else { x.hypot(y) }
 }
 
 /// Reflectance at normal incidence, `((eta - 1)^2 + kappa^2) / ((eta + 1)^2 + kappa^2)`.
