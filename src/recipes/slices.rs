@@ -10,7 +10,8 @@
 //!
 //! Each is computed exactly as its full table computes a node ([`super::fgd::fgd_pairs_fast`],
 //! [`super::tir::tir_column`]), with the full table's settings, so that a slice node equals the full
-//! table's node at the same parameters up to rounding. The `mu` and `alpha` axes are sub-ranges of
+//! table's node at the same parameters up to rounding; except a TIR value noisier than
+//! [`TIR_NOISE_TARGET`], integrated again with more samples. The `mu` and `alpha` axes are sub-ranges of
 //! the full table's grid (the planner picks them), so the nodes coincide.
 
 use serde::{Deserialize, Serialize};
@@ -161,7 +162,7 @@ impl Slices {
 
     /// Every channel at one `(mu, alpha)` by the full table's fast method (padding included): the
     /// node as [`integrate_batch`] computes it, with this slice alone at the node.
-    fn estimate_fast(&self, points: &PointSet, mu: f64, alpha: f64, projections: &[Projection]) -> Estimate {
+    fn estimate_fast(&self, points: &NodePoints, mu: f64, alpha: f64, projections: &[Projection]) -> Estimate {
         self.estimate_on(&SharedNode::new(&self.of, mu, alpha, &[self], points), projections)
     }
 
@@ -253,20 +254,75 @@ enum SharedNode {
 }
 
 impl SharedNode {
-    fn new(of: &SliceOf, mu: f64, alpha: f64, users: &[&Slices], points: &PointSet) -> SharedNode {
+    fn new(of: &SliceOf, mu: f64, alpha: f64, users: &[&Slices], points: &NodePoints) -> SharedNode {
         match of {
             SliceOf::Fgd(settings) => {
-                SharedNode::Fgd(cosine_measure(mu, alpha, settings.masking, points, settings.cosine_basis()))
+                SharedNode::Fgd(cosine_measure(mu, alpha, settings.masking, &points.table, settings.cosine_basis()))
             }
             SliceOf::Tir(_) => {
                 let mut etas: Vec<f64> =
                     users.iter().flat_map(|s| s.channels.iter().map(|c| s.evaluated_eta(c.eta))).collect();
                 etas.sort_by(f64::total_cmp);
                 etas.dedup();
-                let column = tir_column_exact_sums(mu, alpha, &etas, points);
+                let mut column = tir_column_exact_sums(mu, alpha, &etas, &points.table);
+                // Each index whose estimate is noisier than the target is integrated again on the
+                // denser sets in turn. The decision reads that index's own standard error, and the
+                // sums are exact, so a value does not depend on the other indices at the node.
+                for denser in &points.refined {
+                    let noisy: Vec<usize> =
+                        (0..etas.len()).filter(|&k| column.standard_error[k] > TIR_NOISE_TARGET).collect();
+                    if noisy.is_empty() {
+                        break;
+                    }
+                    let again =
+                        tir_column_exact_sums(mu, alpha, &noisy.iter().map(|&k| etas[k]).collect::<Vec<_>>(), denser);
+                    for (j, &k) in noisy.iter().enumerate() {
+                        column.mean[k] = again.mean[j];
+                        column.standard_error[k] = again.standard_error[j];
+                    }
+                }
                 SharedNode::Tir { etas, column }
             }
         }
+    }
+}
+
+/// A TIR slice value whose replicate standard error at the table's samples exceeds this is
+/// integrated again with [`TIR_REFINEMENT`] times the samples ([`TIR_REFINEMENTS`] times at most,
+/// while it still exceeds it). TIR integrates an indicator, whose quasi-Monte Carlo error falls
+/// slower than a smooth integrand's, largest for broad lobes whose critical circle crosses the
+/// sample disk: at the table's 2^15 samples a scattering coat's TIR slice alone put its albedo
+/// 1.1e-3 off. The target was chosen by the furnace's table error on `scripts/make-library 1000 1`
+/// against the build's CPU time (`docs/scenes.md`, "TIR noise").
+pub const TIR_NOISE_TARGET: f64 = 3e-4;
+
+/// The factor by which each refinement of a noisy TIR value multiplies the samples
+/// ([`TIR_NOISE_TARGET`]).
+pub const TIR_REFINEMENT: u64 = 4;
+/// Refinements at most: one (4 x 2^15 samples) brings every material of the 1,000 library within
+/// 6e-4; a second costs more build time than the budget allows.
+pub const TIR_REFINEMENTS: usize = 1;
+
+/// The point sets a slice node is integrated with: the table's, and for TIR the denser ones that
+/// its noisy values are integrated again with ([`TIR_NOISE_TARGET`]): the same seed, scrambles and
+/// replicates, each [`TIR_REFINEMENT`] times the points of the one before.
+pub struct NodePoints {
+    table: PointSet,
+    refined: Vec<PointSet>,
+}
+
+impl NodePoints {
+    pub fn new(of: &SliceOf, table: PointSet) -> Result<NodePoints> {
+        let mut refined: Vec<PointSet> = Vec::new();
+        if let SliceOf::Tir(_) = of {
+            let mut total = table.plan().total();
+            for _ in 0..TIR_REFINEMENTS {
+                total = total.saturating_mul(TIR_REFINEMENT);
+                let plan = crate::sampling::sequence::SamplePlan::new(total, table.plan().replicates)?;
+                refined.push(PointSet::new(plan, table.seed()));
+            }
+        }
+        Ok(NodePoints { table, refined })
     }
 }
 
@@ -308,7 +364,9 @@ impl Kernel for Slices {
             ),
             SliceOf::Tir(_) => (
                 "TIR(mu, alpha; eta_k) = Σ G1(w) [1 - w.z^2 > eta_k^2] / Σ G1(w), w = reflect(wi, h), h ~ VNDF(wi), one channel per eta_k",
-                "ratio estimator over visible normals, f32 kernel".to_string(),
+                format!(
+                    "ratio estimator over visible normals, f32 kernel; a value whose replicate standard error exceeds {TIR_NOISE_TARGET:e} is integrated again with {TIR_REFINEMENT} times the samples, up to {TIR_REFINEMENTS} times"
+                ),
             ),
         };
         Metadata {
@@ -329,10 +387,11 @@ impl Kernel for Slices {
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
         let projections = self.projections();
         let (mu, alpha, [mu_lattice, alpha_lattice]) = (&self.mu, &self.alpha, self.of.lattice());
+        let points = NodePoints::new(&self.of, points.clone())?;
         let estimates = fill_mu_alpha_nodes(table, progress, |node, _, _| {
             let (i, j) = (node % mu.count, node / mu.count);
             self.estimate_fast(
-                points,
+                &points,
                 canonical_node(mu, i, mu_lattice),
                 canonical_node(alpha, j, alpha_lattice),
                 &projections,
@@ -549,7 +608,7 @@ fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> R
     let mut records: Vec<Option<super::driver::SamplingRecord>> = vec![None; slices.len()];
     for members in settings_groups(slices)?.values() {
         let first = slices[members[0]];
-        let points = super::driver::table_points(&first.sampling(), seed)?;
+        let points = NodePoints::new(&first.of, super::driver::table_points(&first.sampling(), seed)?)?;
         // Each node of the group once, with the (slice, node number) pairs that hold it.
         let mut nodes: std::collections::BTreeMap<(u64, u64), Vec<(usize, usize)>> = std::collections::BTreeMap::new();
         for &s in members {
@@ -600,7 +659,8 @@ fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> R
             }
         }
         for &s in members {
-            records[s] = Some(super::driver::sampling_record(Method::Fast, &slices[s].metadata().sampler, &points));
+            records[s] =
+                Some(super::driver::sampling_record(Method::Fast, &slices[s].metadata().sampler, &points.table));
         }
     }
     let records = records.into_iter().map(|r| r.expect("every slice is in a group")).collect();
@@ -626,7 +686,11 @@ mod tests {
             lookup_alpha: [0.25, 0.75],
             channels: etas.iter().map(|&eta| SliceChannel { eta, kappa: 0.0, used_by: "test".into() }).collect(),
         };
-        let points = table_points(&SamplingConfig { samples: 1 << 12, replicates: 4 }, 3).unwrap();
+        let points = NodePoints::new(
+            &SliceOf::Tir(settings.clone()),
+            table_points(&SamplingConfig { samples: 1 << 12, replicates: 4 }, 3).unwrap(),
+        )
+        .unwrap();
         // Descending, as R, G, B of a coat whose index falls with wavelength.
         let both = slices(&[0.9, 0.6]).estimate_fast(&points, 0.5, 0.5, &[]);
         for (k, eta) in [0.9, 0.6].into_iter().enumerate() {
@@ -709,6 +773,47 @@ mod tests {
             assert!(by_itself.table.data.iter().all(|v| v.is_finite()), "{}", slice.name);
             assert!(by_itself.table.data.iter().any(|&v| v > 0.0), "{}", slice.name);
         }
+    }
+
+    #[test]
+    fn noisy_tir_values_are_integrated_again_on_denser_points_whatever_shares_the_node() {
+        let settings = TirSettings::default();
+        let slices = |etas: &[f64]| Slices {
+            name: "tir_test".into(),
+            of: SliceOf::Tir(settings.clone()),
+            mu: Axis::node_aligned("mu", 0.75, 1.0, 3).unwrap(),
+            alpha: Axis::node_aligned("alpha", 0.5, 1.0, 3).unwrap(),
+            lookup_mu: [0.75, 1.0],
+            lookup_alpha: [0.5, 1.0],
+            channels: etas.iter().map(|&eta| SliceChannel { eta, kappa: 0.0, used_by: "test".into() }).collect(),
+        };
+        let table = table_points(&settings.sampling, 11).unwrap();
+        let points = NodePoints::new(&SliceOf::Tir(settings.clone()), table.clone()).unwrap();
+        assert_eq!(points.refined.len(), TIR_REFINEMENTS);
+        assert_eq!(points.refined[0].plan().total(), TIR_REFINEMENT * table.plan().total());
+        // scattering-coat-00909's coat from below (eta 1 / 1.627) under a broad lobe, where the
+        // table's samples leave TIR noisier than the target.
+        let (mu, alpha, noisy, other) = (0.85, 0.8, 1.0 / 1.627, 0.95);
+        let plain = tir_column_exact_sums(mu, alpha, &[noisy], &table);
+        assert!(plain.standard_error[0] > TIR_NOISE_TARGET, "{plain:?}");
+        let dense = tir_column_exact_sums(mu, alpha, &[noisy], &points.refined[0]);
+        let both = slices(&[noisy, other]).estimate_fast(&points, mu, alpha, &[]);
+        assert_eq!(both.mean[0].to_bits(), dense.mean[0].to_bits());
+        assert_eq!(both.standard_error[0].to_bits(), dense.standard_error[0].to_bits());
+        // Alone at the node, each value is the same to the bit.
+        for (k, eta) in [noisy, other].into_iter().enumerate() {
+            let alone = slices(&[eta]).estimate_fast(&points, mu, alpha, &[]);
+            assert_eq!(alone.mean[0].to_bits(), both.mean[k].to_bits(), "eta {eta}");
+        }
+        // A smooth lobe seen past the critical angle: exact at the table's samples, kept as it is.
+        let quiet = tir_column_exact_sums(0.5, 0.01, &[noisy], &table);
+        assert!(quiet.standard_error[0] <= TIR_NOISE_TARGET, "{quiet:?}");
+        let kept = slices(&[noisy]).estimate_fast(&points, 0.5, 0.01, &[]);
+        assert_eq!(kept.mean[0].to_bits(), quiet.mean[0].to_bits());
+        // Within the target of a per-cell f64 estimate with 2^20 samples.
+        let reference = tir_cell(mu, alpha, noisy, &crate::recipes::reference_points(1 << 20, 5).unwrap());
+        let (before, after) = ((plain.mean[0] - reference.mean[0]).abs(), (both.mean[0] - reference.mean[0]).abs());
+        assert!(after < TIR_NOISE_TARGET, "refined {} against {} (before {before})", both.mean[0], reference.mean[0]);
     }
 
     #[test]
