@@ -24,6 +24,7 @@ use std::sync::Mutex;
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use crate::error::{Error, Result};
 use crate::fit::forms::Form;
+#[cfg(feature = "generator")]
 use crate::fit::text::fitted::{FittedForm, FormEvaluator};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
@@ -229,7 +230,9 @@ enum Tir {
         form: Form,
         parameters: Vec<f32>,
     },
-    /// A form the material names (`tir = "fit:PATH"`).
+    /// A form the material names (`tir = "fit:PATH"`); forms are read by the generator's form
+    /// language, so a loader-only build has none.
+    #[cfg(feature = "generator")]
     Form(FormEvaluator),
     Off,
     /// The folder holds no TIR table or fitted form: every TIR lookup misses.
@@ -364,6 +367,7 @@ impl FolderTables {
 
     /// The same tables with every TIR lookup answered by `form` (a material's `tir = "fit:PATH"`),
     /// evaluated in f32 as its shader computes it.
+    #[cfg(feature = "generator")]
     pub fn with_tir_form(mut self, form: &FittedForm) -> Result<Self> {
         self.tir = Tir::Form(form.evaluator()?);
         Ok(self)
@@ -493,6 +497,7 @@ impl FolderTables {
             Tir::Fit { form, parameters } => {
                 form.eval::<f32>(parameters, lookup.mu as f32, lookup.alpha as f32, lookup.eta as f32) as f64
             }
+            #[cfg(feature = "generator")]
             Tir::Form(form) => form.tir(lookup.mu, lookup.alpha, lookup.eta),
             Tir::Off => 0.0,
             Tir::Absent => self.miss(lookup),

@@ -61,7 +61,9 @@ impl Requested {
         self.forward |= self.primary;
     }
 
-    /// The kinds of lobe, in the model's order, with whether each is requested.
+    /// The kinds of lobe, in the model's order, with whether each is requested (the scene
+    /// shader's).
+    #[cfg(feature = "generator")]
     pub(crate) fn kinds(self) -> [(&'static str, bool); 3] {
         [("primary", self.primary), ("forward", self.forward), ("backward", self.backward)]
     }

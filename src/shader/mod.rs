@@ -10,6 +10,8 @@
 //! does not paper over it: HLSL's `precise` has no WGSL counterpart (WGSL forbids reassociation
 //! anyway), and WGSL has no `isnan`, so the evaluation code tests finiteness with comparisons.
 
+// The scene shader reads materials' fitted forms through the generator's form language.
+#[cfg(feature = "generator")]
 pub mod scene;
 
 use std::fmt::Write as _;
