@@ -124,9 +124,9 @@ mod tests {
 
     #[test]
     fn integrated_together_each_lookup_has_the_bits_of_its_integral_alone() {
-        // Lookups that share (mu, alpha) share one pass over the samples; every answer must still
-        // be the one integral of that lookup, to the bit, or a library's table error would depend
-        // on which other materials were measured beside it.
+        // Integrated as a batch, in parallel, every answer must be the one integral of that lookup
+        // alone, to the bit, or a library's table error would depend on which other materials were
+        // measured beside it.
         let config = Config::default();
         let lookups = [
             lookup(Quantity::Albedo, 0.7, 0.1, 1.5, 0.0),
