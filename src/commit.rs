@@ -458,9 +458,9 @@ mod tests {
     fn config(orientation: &str) -> Config {
         let text = format!(
             "[karis]\nmu_count = 8\nroughness_count = 6\norientation = \"{orientation}\"\n\
-             [karis.sampling]\nsamples = 64\nreplicates = 4\n[karis.reference]\ncells = 2\nsamples = 256\n\
+             [karis.sampling]\nsamples = 64\nreplicates = 4\n[karis.reference]\ncells = 2\nnodes = 8\n\
              [gd]\nmu_count = 5\nalpha_count = 5\n[gd.sampling]\nsamples = 64\nreplicates = 4\n\
-             [gd.reference]\ncells = 2\nsamples = 256\n"
+             [gd.reference]\ncells = 2\nnodes = 8\n"
         );
         Config::from_toml(&text, "test").unwrap()
     }

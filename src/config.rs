@@ -14,8 +14,8 @@
 //! samples = 1024                  # per cell, a power of two
 //! replicates = 4                  # independent scrambles, for error bars
 //! [karis.reference]
-//! cells = 64                      # cells checked against a high-sample estimate (0: none)
-//! samples = 1048576
+//! cells = 64                      # nodes checked against the exact integral (0: none)
+//! nodes = 8
 //! [karis.output]
 //! formats = ["dds", "exr"]
 //! precision = "f16"               # or "f32"

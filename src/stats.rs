@@ -36,10 +36,13 @@ impl ErrorSummary {
     }
 }
 
-/// A table compared, at a subset of cells, to estimates with many more samples.
+/// A table compared, at a subset of its nodes, with the exact integral there.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReferenceComparison {
-    pub samples_per_cell: u64,
+    /// Gauss–Legendre nodes per panel of each node's exact integral (the deterministic
+    /// visible-normal quadrature).
+    #[serde(default)]
+    pub exact_nodes: usize,
     /// Stored f32 value minus reference, over the compared cells and all channels.
     pub difference: ErrorSummary,
 }
@@ -50,20 +53,19 @@ pub struct ErrorRecord {
     /// Standard error of each cell's mean from the spread of its independently scrambled
     /// replicates, summarised over all cells and channels.
     pub replicate_standard_error: ErrorSummary,
-    /// Difference to per-cell estimates with far more samples and independent scrambles.
+    /// Difference to the exact integral at random nodes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<ReferenceComparison>,
 }
 
 impl ErrorRecord {
     /// The error of two tables' values together (the slices of a texture array): replicate errors
-    /// pooled, and reference differences pooled where both were compared at the same sample count.
+    /// pooled, and reference differences pooled where both were compared with the same quadrature.
     pub fn pooled(&self, other: &ErrorRecord) -> Self {
         let reference = match (&self.reference, &other.reference) {
-            (Some(a), Some(b)) if a.samples_per_cell == b.samples_per_cell => Some(ReferenceComparison {
-                samples_per_cell: a.samples_per_cell,
-                difference: a.difference.pooled(&b.difference),
-            }),
+            (Some(a), Some(b)) if a.exact_nodes == b.exact_nodes => {
+                Some(ReferenceComparison { exact_nodes: a.exact_nodes, difference: a.difference.pooled(&b.difference) })
+            }
             (Some(a), _) => Some(a.clone()),
             (None, b) => b.clone(),
         };
@@ -94,11 +96,10 @@ pub struct InterpolationError {
     pub points: String,
     /// How the values were read (the renderer's path).
     pub read_as: String,
-    /// Samples of each exact value (plain Monte Carlo, the integrand at every sample, independent
-    /// scrambles; `recipes::Kernel::exact_value`).
-    pub exact_samples: u64,
-    /// The largest standard error of an exact value: differences below a few times this are noise.
-    pub exact_standard_error_max: f64,
+    /// Gauss–Legendre nodes per panel of each exact value (the deterministic visible-normal
+    /// quadrature, `recipes::Kernel::exact_value`).
+    #[serde(default)]
+    pub exact_nodes: usize,
     /// Read value minus exact, over points and channels.
     #[serde(flatten)]
     pub error: ErrorSummary,

@@ -109,7 +109,7 @@ fn karis_exact(mu: f64, alpha: f64, samples: u32) -> [f64; 2] {
 fn karis_samples_at_nov_and_roughness_as_unreal_and_filament_read_it() {
     let (dir, manifest) = build(
         "[karis]\nmu_count = 64\nroughness_count = 64\n[karis.sampling]\nsamples = 4096\nreplicates = 4\n\
-         [karis.reference]\ncells = 0\nsamples = 2\n[karis.interpolation]\npoints = 0\nsamples = 4\n",
+         [karis.reference]\ncells = 0\nnodes = 8\n[karis.interpolation]\npoints = 0\nnodes = 6\n",
         "karis",
     );
     let entry = &manifest["files"]["karis.dds"];
@@ -200,7 +200,7 @@ fn the_interpolation_error_in_the_manifest_is_what_an_independent_estimate_finds
     // A coarse GD table, so that interpolation errs far more than either estimate's noise.
     let (dir, manifest) = build(
         "[gd]\nmu_count = 9\nalpha_count = 9\n[gd.sampling]\nsamples = 16384\nreplicates = 4\n\
-         [gd.reference]\ncells = 0\nsamples = 2\n[gd.interpolation]\npoints = 1024\nsamples = 16384\n",
+         [gd.reference]\ncells = 0\nnodes = 8\n[gd.interpolation]\npoints = 1024\nnodes = 6\n",
         "gd",
     );
     let entry = &manifest["files"]["gd.dds"];

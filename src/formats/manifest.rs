@@ -474,7 +474,7 @@ mod tests {
                 integration: ErrorRecord {
                     replicate_standard_error: ErrorSummary { count: 4096, rms: 1e-5, max: 1e-4 },
                     reference: Some(ReferenceComparison {
-                        samples_per_cell: 1 << 20,
+                        exact_nodes: 8,
                         difference: ErrorSummary { count: 10, rms: 1e-5, max: 2e-5 },
                     }),
                 },

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 use crate::config::Config;
 use crate::error::Result;
-use crate::integrate::quadrature::{Cut, VisibleNormalQuadrature};
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::model::{Lookup, Quantity, Tables};
 use crate::physics::MaskingShadowing;
 use crate::recipes::fgd::fgd_by_quadrature;
@@ -71,9 +71,7 @@ impl ExactTables {
             ALBEDO => fgd_by_quadrature(self.fgd_masking, &self.quadrature, mu, alpha, (eta, kappa)),
             TIR => tir_by_quadrature(&self.quadrature, mu, alpha, eta),
             _ => {
-                let [gd] = self.quadrature.integrate(mu, alpha, &[Cut::MirrorCosine(0.0)], |s| {
-                    [self.gd_masking.visible_normal_weight(s.wi, s.wo, alpha)]
-                });
+                let [gd] = self.quadrature.cosine_functions(mu, alpha, self.gd_masking, &[], |_| [1.0]);
                 gd
             }
         }

@@ -43,7 +43,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use super::{GRAZING_COSINE, MicrofacetSample};
 use crate::error::{Error, Result};
-use crate::physics::{direction_from_cosine, reflect};
+use crate::physics::{MaskingShadowing, direction_from_cosine, reflect};
 
 /// The widest outer (`theta`) panel, in radians.
 const MAX_PANEL_WIDTH: f64 = 0.4;
@@ -153,6 +153,25 @@ impl VisibleNormalQuadrature {
         // Mirror symmetry about the plane of incidence: phi in [0, pi] stands for the whole circle,
         // and the factor 2 cancels in the ratio.
         sums.map(|s| if total > 0.0 { s / total } else { 0.0 })
+    }
+
+    /// `E_{h ~ D_wi}[f_j(wi.h) W]` with `W = G2 / G1(wi)` of `masking`: the integral that
+    /// [`super::estimate_cosine_functions`] estimates, cut at the horizon and at each cosine of
+    /// `kinks` (each in (0, 1)) where `wi.h` crosses a kink of `f`.
+    pub fn cosine_functions<const N: usize>(
+        &self,
+        mu: f64,
+        alpha: f64,
+        masking: MaskingShadowing,
+        kinks: &[f64],
+        f: impl Fn(f64) -> [f64; N],
+    ) -> [f64; N] {
+        let mut cuts = vec![Cut::MirrorCosine(0.0)];
+        cuts.extend(kinks.iter().map(|&c| Cut::HalfCosine(c)));
+        self.integrate(mu, alpha, &cuts, |s| {
+            let weight = masking.visible_normal_weight(s.wi, s.wo, alpha);
+            f(s.cos_wi_h).map(|v| weight * v)
+        })
     }
 }
 

@@ -21,6 +21,7 @@ use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{
     CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, dot, multiply_transposed,
 };
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_cosine_functions};
 use crate::physics::{FresnelBasis, MaskingShadowing, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
@@ -65,8 +66,10 @@ impl Default for BelcourSettings {
             masking: MaskingShadowing::SmithHeightCorrelated,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
-            interpolation: super::interpolation::InterpolationConfig::default(),
+            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
+            // Height-correlated masking at grazing views of rough lobes needs 8 nodes per panel (6
+            // are 1.7e-4 off 16 there; `docs/integration.md`, "Error estimates").
+            interpolation: super::interpolation::InterpolationConfig { points: 2048, nodes: 8 },
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
             own: BelcourOwn::default(),
         }
@@ -315,9 +318,15 @@ impl Kernel for BelcourSettings {
         basis_integrals(basis(), self.masking, Method::PerCell, points, position[0], position[1])
     }
 
-    /// The basis curves at every sample of the f32 kernel, not projected on the hats.
-    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        basis_integrals(basis(), self.masking, Method::Fast, points, position[0], position[1])
+    /// The curves' kinks are not panel edges: tabulated at 1,000 cosines, each is smooth to the
+    /// quadrature's resolution.
+    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+        let basis = basis();
+        quadrature
+            .cosine_functions(position[0], position[1], self.masking, &[], |c| {
+                std::array::from_fn::<f64, 4, _>(|k| basis.evaluate(k, c))
+            })
+            .to_vec()
     }
 }
 
@@ -457,7 +466,7 @@ mod tests {
             mu_count: 8,
             roughness_count: 8,
             sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
-            reference: ReferenceConfig { cells: 64, samples: 1 << 18 },
+            reference: ReferenceConfig { cells: 64, nodes: 8 },
             ..BelcourSettings::default()
         };
         let build = settings.build(4, &()).unwrap();

@@ -2,7 +2,8 @@
 //!
 //! A table supplies a [`Kernel`]: its layout (an empty [`Table`]), its [`Metadata`] (the integral
 //! in words, masking, notes, the sampler's description) and its kernel (the integration of every
-//! node, and where it has a faster one, its reference check). [`build`] does the rest, the same
+//! node, a node on its own by the per-cell method, and the exact integral at any position by the
+//! deterministic quadrature). [`build`] does the rest, the same
 //! for every table: validation, timing, the table's points, the reference check, the exact values
 //! of the interpolation check, and the [`Provenance`] that the manifest publishes beside every file.
 
@@ -14,6 +15,7 @@ use super::interpolation::ExactValues;
 use super::settings::{ReferenceConfig, SamplingConfig};
 use crate::error::Result;
 use crate::formats::SumRounding;
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Method, Progress};
 use crate::physics::{FresnelBasis, MaskingShadowing};
 use crate::sampling::sequence::{PointSet, SamplePlan};
@@ -34,10 +36,15 @@ pub trait Kernel: Sync {
     /// Store every node's value in `table`, integrated on `points`.
     fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated>;
     /// One node on its own, by the per-cell method (scalar f64), at a position given in the
-    /// axes' quantities: the independent cross-check of whatever [`Kernel::integrate`] did.
+    /// axes' quantities: the Monte Carlo estimator that `converge` and `bench` set beside
+    /// [`Kernel::integrate`].
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate;
-    /// Compare the built table with reference estimates at random nodes: by default each node on
-    /// its own by [`Kernel::estimate_node`] ([`super::compare_nodes_to_reference`]).
+    /// The exact integral at one position, given in the axes' quantities: one value per stored
+    /// channel, by the deterministic visible-normal `quadrature` with every jump and kink of the
+    /// integrand a panel edge. What the reference nodes and the interpolation check compare with.
+    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64>;
+    /// Compare the built table with the exact integral at random nodes
+    /// ([`super::compare_nodes_to_reference`]).
     fn check_reference(
         &self,
         table: &Table,
@@ -45,23 +52,12 @@ pub trait Kernel: Sync {
         progress: &dyn Progress,
     ) -> Result<Option<ReferenceComparison>> {
         super::compare_nodes_to_reference(
-            |points, position| self.estimate_node(points, position),
+            |quadrature, position| self.exact_value(quadrature, position),
             table,
             &self.reference(),
             seed,
             progress,
         )
-    }
-    /// One point of the interpolation check's exact integral ([`super::interpolation::exact_values_of`]):
-    /// a plain Monte Carlo estimate, the integrand evaluated at every sample (no hat projection),
-    /// at a position given in the axes' quantities. By default [`Kernel::estimate_node`], the per-cell
-    /// f64 path; a table whose integrand the f32 kernel evaluates sample by sample takes that
-    /// instead: its rounding (about 1e-7 of a value) is far below the interpolation errors the
-    /// check measures (1e-4 and up) and the exact values' own standard error (the default build's
-    /// figures agree with the f64 path's to three digits), at a fraction of the f64 sampler's
-    /// time (`docs/integration.md`, "Error estimates").
-    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        self.estimate_node(points, position)
     }
     /// The exact integral at random points of the table's domains, for the interpolation check
     /// ([`super::interpolation::exact_values_of`]); none by default.

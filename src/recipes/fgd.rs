@@ -20,13 +20,11 @@ use super::settings::{
     OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_count, check_unit_range,
 };
 use super::spacing::{CosineAxis, ExtinctionAxis, IndexAxis, RoughnessAxis};
-use super::{
-    Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference, random_cells,
-};
+use super::{Integrated, Kernel, Metadata, TableRecipe, random_cells};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, multiply_transposed};
-use crate::integrate::quadrature::{Cut, VisibleNormalQuadrature};
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{
     Estimate, Method, Progress, estimate_cells, estimate_cosine_functions, estimate_per_cell_blocks,
 };
@@ -108,11 +106,13 @@ impl Default for FgdSettings {
             // 2^17: the worst cell's replicate standard error is 5.5e-5, within the 1e-4 target
             // (`docs/benchmark.md`); 2^16 reaches 1.01e-4 on the default `eta` nodes.
             sampling: SamplingConfig { samples: 1 << 17, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
-            // Five domains (`interpolation_domains`), each point a per-cell f64 estimate with
-            // exact Fresnel per sample: half the points of the other tables keeps the check at
-            // about 2 s of CPU.
-            interpolation: super::interpolation::InterpolationConfig { points: 1024, samples: 1 << 14 },
+            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
+            // Five domains (`interpolation_domains`): half the points of the other tables keeps
+            // the check at the cost of theirs.
+            interpolation: super::interpolation::InterpolationConfig {
+                points: 1024,
+                nodes: super::interpolation::EXACT_NODES,
+            },
             output: OutputConfig { formats: vec![FileFormat::Exr], precision: Precision::F32 },
             packings: vec![Packing::Lossless],
             packing_formats: vec![FileFormat::Dds],
@@ -292,14 +292,10 @@ pub fn fgd_by_quadrature(
     alpha: f64,
     (eta, kappa): (f64, f64),
 ) -> f64 {
-    let mut cuts = vec![Cut::MirrorCosine(0.0)];
     let total_reflection_cosine2 = (1.0 - eta) * (1.0 + eta) + kappa * kappa;
-    if eta < 1.0 && total_reflection_cosine2 > 0.0 && total_reflection_cosine2 < 1.0 {
-        cuts.push(Cut::HalfCosine(total_reflection_cosine2.sqrt()));
-    }
-    let [fgd] = quadrature.integrate(mu, alpha, &cuts, |s| {
-        [masking.visible_normal_weight(s.wi, s.wo, alpha) * fresnel_reflectance(s.cos_wi_h, eta, kappa)]
-    });
+    let kink = eta < 1.0 && total_reflection_cosine2 > 0.0 && total_reflection_cosine2 < 1.0;
+    let kinks = if kink { vec![total_reflection_cosine2.sqrt()] } else { Vec::new() };
+    let [fgd] = quadrature.cosine_functions(mu, alpha, masking, &kinks, |c| [fresnel_reflectance(c, eta, kappa)]);
     fgd
 }
 
@@ -407,30 +403,8 @@ impl Kernel for FgdSettings {
         fgd_cell(self.masking, points, position)
     }
 
-    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        fgd_cell_f32(self.masking, points, position[0], position[1], (position[2], position[3]))
-    }
-
-    /// The per-cell f64 estimates at random cells, drawn in groups that share their `(mu, alpha)`
-    /// ([`compare_mu_alpha_groups_to_reference`]) so that each group takes one pass over the
-    /// reference samples.
-    fn check_reference(
-        &self,
-        table: &Table,
-        seed: u64,
-        progress: &dyn Progress,
-    ) -> Result<Option<ReferenceComparison>> {
-        compare_mu_alpha_groups_to_reference(
-            |points, positions| {
-                let (mu, alpha) = (positions[0][0], positions[0][1]);
-                let pairs: Vec<(f64, f64)> = positions.iter().map(|p| (p[2], p[3])).collect();
-                fgd_cells_at_mu_alpha(self.masking, points, mu, alpha, &pairs)
-            },
-            table,
-            &self.reference,
-            seed,
-            progress,
-        )
+    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+        vec![fgd_by_quadrature(self.masking, quadrature, position[0], position[1], (position[2], position[3]))]
     }
 }
 
@@ -439,8 +413,7 @@ impl Kernel for FgdSettings {
 ///
 /// FGD and `fgd_rarer` integrate the same measures (the same nodes, masking, hats and points by
 /// default): the set built last is kept and handed out again when the next table asks for the same
-/// one, as the reference points are ([`super::reference_points`]), so that a build of both
-/// estimates them once. They depend on nothing but the key.
+/// one, so that a build of both estimates them once. They depend on nothing but the key.
 pub(crate) fn mu_alpha_measures(
     mu_axis: &Axis,
     alpha_axis: &Axis,
@@ -611,7 +584,7 @@ mod tests {
     use crate::recipes::{random_cells, reference_points};
 
     fn small(settings: FgdSettings) -> FgdSettings {
-        FgdSettings { reference: ReferenceConfig { cells: 0, samples: 2 }, replicate_error_columns: 16, ..settings }
+        FgdSettings { reference: ReferenceConfig { cells: 0, nodes: 8 }, replicate_error_columns: 16, ..settings }
     }
 
     #[test]

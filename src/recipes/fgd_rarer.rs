@@ -21,17 +21,16 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::fgd::{
-    fgd_cell_f32, fgd_cells_at_mu_alpha, fgd_pairs_fast, fgd_pairs_on_measure, mu_alpha_measures, projected_fresnel,
+    fgd_by_quadrature, fgd_cells_at_mu_alpha, fgd_pairs_fast, fgd_pairs_on_measure, mu_alpha_measures,
+    projected_fresnel,
 };
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_count};
 use super::spacing::{CosineAxis, RoughnessAxis};
-use super::{
-    Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference,
-    estimate_mu_alpha_columns,
-};
+use super::{Integrated, Kernel, Metadata, TableRecipe, estimate_mu_alpha_columns};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{HatBasis, Projection};
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, GRAZING_COSINE, Method, Progress};
 use crate::physics::MaskingShadowing;
 use crate::sampling::sequence::PointSet;
@@ -87,7 +86,7 @@ impl Default for FgdRarerSettings {
             // FGD's samples on FGD's (mu, alpha) nodes: a build of both estimates the measures once
             // ([`mu_alpha_measures`]); 2^16 of its own cost more than sharing 2^17.
             sampling: SamplingConfig { samples: 1 << 17, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
+            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
         }
@@ -231,28 +230,9 @@ impl Kernel for FgdRarerSettings {
         fgd_cells_at_mu_alpha(self.masking, points, position[0], position[1], &[pair]).remove(0)
     }
 
-    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
+    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
         let pair = (Self::eta_of_node(position[0], position[2]), 0.0);
-        fgd_cell_f32(self.masking, points, position[0], position[1], pair)
-    }
-
-    /// The reference cells in groups sharing their `(mu, alpha)`: one pass over the samples each.
-    fn check_reference(
-        &self,
-        table: &Table,
-        seed: u64,
-        progress: &dyn Progress,
-    ) -> Result<Option<ReferenceComparison>> {
-        compare_mu_alpha_groups_to_reference(
-            |points, positions| {
-                let pairs: Vec<(f64, f64)> = positions.iter().map(|p| (Self::eta_of_node(p[0], p[2]), 0.0)).collect();
-                fgd_cells_at_mu_alpha(self.masking, points, positions[0][0], positions[0][1], &pairs)
-            },
-            table,
-            &self.reference,
-            seed,
-            progress,
-        )
+        vec![fgd_by_quadrature(self.masking, quadrature, position[0], position[1], pair)]
     }
 }
 
@@ -268,8 +248,8 @@ mod tests {
             fraction_count: 9,
             method,
             sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            reference: ReferenceConfig { cells: 0, samples: 2 },
-            interpolation: InterpolationConfig { points: 0, samples: 4 },
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
+            interpolation: InterpolationConfig { points: 0, nodes: 6 },
             ..FgdRarerSettings::default()
         }
     }
@@ -288,12 +268,12 @@ mod tests {
     fn its_grid_interpolates_the_cusp_better_than_a_grid_of_eta_with_as_many_nodes() {
         // The same integral on 16 x 16 x 33 nodes: over the critical-angle fraction, and over
         // eta (the 4D table's axes at kappa = 0, eta in [0, 1] spaced as its default). Each read
-        // where renderers read it, against per-cell estimates at random points of eta < 1.
+        // where renderers read it, against the exact integral at random points of eta < 1.
         use crate::recipes::fgd::FgdSettings;
-        use crate::recipes::interpolation::{exact_points, random_points};
+        use crate::recipes::interpolation::random_points;
         let sampling = SamplingConfig { samples: 1 << 12, replicates: 4 };
-        let quiet = InterpolationConfig { points: 0, samples: 4 };
-        let no_reference = ReferenceConfig { cells: 0, samples: 2 };
+        let quiet = InterpolationConfig { points: 0, nodes: 6 };
+        let no_reference = ReferenceConfig { cells: 0, nodes: 8 };
         let rarer = FgdRarerSettings {
             mu_count: 16,
             alpha_count: 16,
@@ -317,11 +297,11 @@ mod tests {
             ..FgdSettings::default()
         };
         let (rarer_table, four_d_table) = (rarer.build(5, &()).unwrap().table, four_d.build(5, &()).unwrap().table);
-        let exact_points = exact_points(1 << 12, 6).unwrap();
+        let quadrature = VisibleNormalQuadrature::new(6).unwrap();
         let (mut rarer_max, mut four_d_max) = (0.0f64, 0.0f64);
         for lookup in random_points(&[[0.0, 1.0], [0.0, 1.0], [0.0, 1.0]], 256, 7, 1) {
             let (mu, alpha, eta) = (lookup[0], lookup[1], lookup[2]);
-            let exact = crate::recipes::fgd::fgd_cell(rarer.masking, &exact_points, &[mu, alpha, eta, 0.0]).mean[0];
+            let exact = fgd_by_quadrature(rarer.masking, &quadrature, mu, alpha, (eta, 0.0));
             rarer_max = rarer_max.max((rarer_table.interpolate(&rarer.position_of(&lookup))[0] - exact).abs());
             four_d_max = four_d_max.max((four_d_table.interpolate(&[mu, alpha, eta, 0.0])[0] - exact).abs());
         }

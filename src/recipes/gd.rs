@@ -16,6 +16,7 @@ use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
 use crate::sampling::sequence::PointSet;
@@ -57,7 +58,7 @@ impl Default for GdSettings {
             masking: MaskingShadowing::SmithSeparable,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 1 << 16, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
+            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
         }
@@ -138,9 +139,8 @@ impl Kernel for GdSettings {
         albedo(self, Method::PerCell, points, position[0], position[1])
     }
 
-    /// The f32 kernel's plain estimate (the table's own path: GD has no projection).
-    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        self.estimate_node_fast(points, position)
+    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+        quadrature.cosine_functions(position[0], position[1], self.masking, &[], |_| [1.0]).to_vec()
     }
 }
 
@@ -162,8 +162,8 @@ mod tests {
             mu_axis: CosineAxis::Uniform,
             roughness_axis: RoughnessAxis::Alpha,
             sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            reference: ReferenceConfig { cells: 0, samples: 2 },
-            interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, samples: 4 },
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
+            interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 },
             ..GdSettings::default()
         };
         let ours = settings.build(1, &()).unwrap().table;
@@ -182,7 +182,7 @@ mod tests {
             mu_count: 9,
             alpha_count: 9,
             sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            reference: ReferenceConfig { cells: 81, samples: 1 << 16 },
+            reference: ReferenceConfig { cells: 81, nodes: 8 },
             ..GdSettings::default()
         };
         let build = settings.build(2, &()).unwrap();
@@ -194,8 +194,8 @@ mod tests {
         for i in 0..9 {
             assert!((table.node(&[i, 0])[0] - 1.0).abs() < 1e-6, "mu node {i}: {}", table.node(&[i, 0])[0]);
         }
-        // The fast path agrees at every node with 2^16-sample f64 per-cell estimates, within the
-        // Monte Carlo error of its own 2^12 samples.
+        // The fast path agrees at every node with the exact integral, within the Monte Carlo error
+        // of its own 2^12 samples.
         let reference = build.provenance.error.reference.unwrap();
         let spread = build.provenance.error.replicate_standard_error.max;
         assert!(reference.difference.max < 5.0 * spread && spread < 1e-3, "{reference:?}, spread {spread}");
@@ -207,7 +207,7 @@ mod tests {
             mu_count: 6,
             alpha_count: 5,
             sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            reference: ReferenceConfig { cells: 0, samples: 2 },
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
             ..GdSettings::default()
         };
         let fast = base.build(3, &()).unwrap().table;

@@ -1,15 +1,15 @@
 //! Interpolation error: a table as a renderer reads it, against the exact integral at random
 //! points of its domain.
 //!
-//! The two error estimates of a build (the replicate spread and the per-cell references) are
-//! taken at the nodes, where interpolation is exact: they say nothing of a table whose integrand
-//! turns faster between nodes than linear interpolation follows (a step of total internal
-//! reflection at low roughness, the grazing fall-off of a smooth interface). This check draws
-//! points uniformly over a domain of lookup parameters, integrates each on its own by plain Monte
-//! Carlo ([`super::Kernel::exact_value`]: the integrand at every sample, on the f32 kernel where the
-//! table has one) on points independent of the table's,
-//! and the pipeline compares every written file, read back and sampled as a renderer samples it,
-//! with those values ([`compare`]).
+//! The two error estimates of a build (the replicate spread and the reference nodes) are taken at
+//! the nodes, where interpolation is exact: they say nothing of a table whose integrand turns
+//! faster between nodes than linear interpolation follows (a step of total internal reflection at
+//! low roughness, the grazing fall-off of a smooth interface). This check draws points uniformly
+//! over a domain of lookup parameters, integrates each on its own by the deterministic
+//! visible-normal quadrature ([`super::Kernel::exact_value`], [`VisibleNormalQuadrature`]: every
+//! jump and kink of the integrand a panel edge, so its error is far below a Monte Carlo
+//! estimate's at the same cost), and the pipeline compares every written file, read back and
+//! sampled as a renderer samples it, with those values ([`compare`]).
 //!
 //! The scene build measures its slices the same way, over the ranges their lookups reach.
 
@@ -17,45 +17,40 @@ use serde::{Deserialize, Serialize};
 
 use super::TableRecipe;
 use crate::error::{Error, Result};
-use crate::integrate::{Estimate, Progress, estimate_cells};
+use crate::integrate::quadrature::VisibleNormalQuadrature;
+use crate::integrate::{Progress, estimate_cells};
 use crate::physics::henyey_greenstein::MIN_ROUGHNESS;
-use crate::sampling::sequence::{PointSet, SamplePlan, scramble_seed};
+use crate::sampling::sequence::scramble_seed;
 use crate::stats::ErrorSummary;
 pub use crate::stats::InterpolationError;
 
-/// How many random points an interpolation check takes per domain, and how many samples the
-/// exact integral gets at each.
+/// How many random points an interpolation check takes per domain, and the quadrature of the
+/// exact integral at each.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InterpolationConfig {
     /// Random points per domain (0 skips the check).
     pub points: usize,
-    /// Samples of each point's exact integral: a power of two, in 4 independent scrambles (their
-    /// spread is the exact values' own standard error, reported beside the figures).
-    pub samples: u64,
+    /// Gauss–Legendre nodes per panel of each point's exact integral
+    /// ([`crate::integrate::quadrature`]).
+    pub nodes: usize,
 }
 
 impl Default for InterpolationConfig {
     fn default() -> Self {
-        InterpolationConfig { points: 2048, samples: 1 << 14 }
+        InterpolationConfig { points: 2048, nodes: EXACT_NODES }
     }
 }
 
-/// Scrambles of the exact values: their spread is the standard error the manifest reports.
-const EXACT_REPLICATES: u32 = 4;
+/// Quadrature nodes per panel of the interpolation check's exact values where a table does not
+/// need more: far below the interpolation errors the check measures, at 60 % of the cost of 8
+/// nodes (`docs/integration.md`, "Error estimates", measured per table).
+pub const EXACT_NODES: usize = 6;
 
 impl InterpolationConfig {
     pub fn validate(&self, key: &str) -> Result<()> {
         if self.points > 0 {
-            SamplePlan::new(self.samples, EXACT_REPLICATES).map_err(|e| {
-                Error::invalid(format!("{key}.samples"), format!("{}; allowed: a power of two from 4 to 2^32", e))
-            })?;
-            if self.samples < EXACT_REPLICATES as u64 {
-                return Err(Error::invalid(
-                    format!("{key}.samples"),
-                    format!("{}; allowed: a power of two from {EXACT_REPLICATES} to 2^32", self.samples),
-                ));
-            }
+            super::settings::check_quadrature_nodes(&format!("{key}.nodes"), self.nodes)?;
         }
         if self.points > MAX_POINTS {
             return Err(Error::invalid(
@@ -130,15 +125,6 @@ pub fn random_points(ranges: &[[f64; 2]], count: usize, seed: u64, stream: u64) 
         .collect()
 }
 
-/// Seeds of the exact values are offset from the table's, so that their scrambles are independent
-/// of the points the table was integrated with (and of the reference cells').
-const EXACT_SEED_OFFSET: u64 = 0x1_7E2F_0A7E;
-
-/// The points of exact values for a run seeded with `seed`.
-pub fn exact_points(samples: u64, seed: u64) -> Result<PointSet> {
-    Ok(PointSet::new(SamplePlan::new(samples, EXACT_REPLICATES)?, seed.wrapping_add(EXACT_SEED_OFFSET)))
-}
-
 /// Random points of one domain with the exact integral at each.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ExactValues {
@@ -147,8 +133,10 @@ pub struct ExactValues {
     pub lookups: Vec<Vec<f64>>,
     /// Each point in the table's axes' quantities (what `Table::interpolate` takes).
     pub positions: Vec<Vec<f64>>,
-    pub exact: Vec<Estimate>,
-    pub samples_per_point: u64,
+    /// Each point's exact integral, one value per stored channel.
+    pub exact: Vec<Vec<f64>>,
+    /// Gauss–Legendre nodes per panel of the exact integrals.
+    pub nodes: usize,
     /// Points placed where the error peaks ([`peak_lookups`]), the same for every seed: they add to
     /// the maximum, not to the RMS or the percentile, which describe the random points alone.
     #[serde(default)]
@@ -160,7 +148,7 @@ pub struct ExactValues {
 pub struct PeakPoint {
     pub lookup: Vec<f64>,
     pub position: Vec<f64>,
-    pub exact: Estimate,
+    pub exact: Vec<f64>,
 }
 
 /// Offsets of the view cosine from the critical cosine `sqrt(1 - eta^2)` in [`peak_lookups`]: most
@@ -258,8 +246,8 @@ pub fn peak_lookups(domain: &Domain) -> Vec<Vec<f64>> {
 }
 
 /// Draw `config.points` random points in each of `domains`, and add the points `peaks` places in
-/// it; map each to the table's axes with `position_of`, and integrate each with `estimate` (one
-/// estimate per stored channel) on points independent of the table's.
+/// it; map each to the table's axes with `position_of`, and integrate each with `exact(quadrature,
+/// position)` (one value per stored channel) by the quadrature of `config.nodes` nodes per panel.
 #[allow(clippy::too_many_arguments)]
 pub fn exact_values(
     label: &str,
@@ -269,12 +257,12 @@ pub fn exact_values(
     progress: &dyn Progress,
     peaks: impl Fn(&Domain) -> Vec<Vec<f64>>,
     position_of: impl Fn(&[f64]) -> Vec<f64>,
-    estimate: impl Fn(&PointSet, &[f64]) -> Estimate + Sync,
+    exact: impl Fn(&VisibleNormalQuadrature, &[f64]) -> Vec<f64> + Sync,
 ) -> Result<Vec<ExactValues>> {
     if config.points == 0 {
         return Ok(Vec::new());
     }
-    let points = exact_points(config.samples, seed)?;
+    let quadrature = VisibleNormalQuadrature::new(config.nodes)?;
     domains
         .into_iter()
         .enumerate()
@@ -284,17 +272,17 @@ pub fn exact_values(
             let random = lookups.len();
             let positions: Vec<Vec<f64>> = lookups.iter().chain(&peak_lookups).map(|l| position_of(l)).collect();
             let cells: Vec<u64> = (0..positions.len() as u64).collect();
-            let mut exact = estimate_cells(&cells, &format!("{label} interpolation check"), progress, |k| {
-                estimate(&points, &positions[k as usize])
+            let mut values = estimate_cells(&cells, &format!("{label} interpolation check"), progress, |k| {
+                exact(&quadrature, &positions[k as usize])
             });
             let mut positions = positions;
             let peaks = peak_lookups
                 .into_iter()
                 .zip(positions.split_off(random))
-                .zip(exact.split_off(random))
+                .zip(values.split_off(random))
                 .map(|((lookup, position), exact)| PeakPoint { lookup, position, exact })
                 .collect();
-            Ok(ExactValues { domain, lookups, positions, exact, samples_per_point: points.plan().total(), peaks })
+            Ok(ExactValues { domain, lookups, positions, exact: values, nodes: config.nodes, peaks })
         })
         .collect()
 }
@@ -309,7 +297,7 @@ pub fn exact_values_of(recipe: &dyn TableRecipe, seed: u64, progress: &dyn Progr
         progress,
         peak_lookups,
         |lookup| recipe.position_of(lookup),
-        |points, position| recipe.exact_value(points, position),
+        |quadrature, position| recipe.exact_value(quadrature, position),
     )
 }
 
@@ -323,21 +311,19 @@ pub fn compare(
 ) -> InterpolationError {
     let mut differences = Vec::with_capacity(exact.positions.len() * channels.len());
     let mut worst = (-1.0f64, String::new());
-    let mut standard_error_max = 0.0f64;
     let random = exact.lookups.iter().zip(&exact.positions).zip(&exact.exact);
     let peaks = exact.peaks.iter().map(|p| ((&p.lookup, &p.position), &p.exact));
     let mut random_max = 0.0f64;
-    for (k, ((lookup, position), estimate)) in random.chain(peaks).enumerate() {
+    for (k, ((lookup, position), exact_value)) in random.chain(peaks).enumerate() {
         let values = read(position);
         for (c, name) in channels.iter().enumerate() {
-            let difference = values[c] - estimate.mean[c];
-            standard_error_max = standard_error_max.max(estimate.standard_error[c]);
+            let difference = values[c] - exact_value[c];
             if difference.abs() > worst.0 {
                 let at: Vec<String> =
                     exact.domain.parameters.iter().zip(lookup).map(|(p, v)| format!("{p} {v:.6}")).collect();
                 worst = (
                     difference.abs(),
-                    format!("{}, channel {name}: read {:.6}, exact {:.6}", at.join(", "), values[c], estimate.mean[c]),
+                    format!("{}, channel {name}: read {:.6}, exact {:.6}", at.join(", "), values[c], exact_value[c]),
                 );
             }
             if k < exact.lookups.len() {
@@ -361,8 +347,7 @@ pub fn compare(
         domain: exact.domain.name.clone(),
         points,
         read_as: read_as.into(),
-        exact_samples: exact.samples_per_point,
-        exact_standard_error_max: standard_error_max,
+        exact_nodes: exact.nodes,
         error,
         random_max,
         worst_at: worst.1,
@@ -408,11 +393,8 @@ mod tests {
             domain,
             lookups: vec![vec![0.1], vec![0.7]],
             positions: vec![vec![0.1], vec![0.7]],
-            exact: vec![
-                Estimate { mean: vec![1.0, 2.0], standard_error: vec![1e-4, 2e-4] },
-                Estimate { mean: vec![3.0, 4.0], standard_error: vec![3e-4, 1e-4] },
-            ],
-            samples_per_point: 16,
+            exact: vec![vec![1.0, 2.0], vec![3.0, 4.0]],
+            nodes: 6,
             peaks: Vec::new(),
         };
         let names = vec!["a".to_string(), "b".to_string()];
@@ -420,21 +402,20 @@ mod tests {
         assert_eq!(error.error.count, 4);
         assert_eq!(error.error.max, 0.5);
         assert!((error.error.rms - 0.25).abs() < 1e-15);
-        assert_eq!(error.exact_standard_error_max, 3e-4);
+        assert_eq!(error.exact_nodes, 6);
         assert!(error.worst_at.starts_with("x 0.100000, channel b"), "{}", error.worst_at);
     }
 
     #[test]
     fn a_point_where_the_error_peaks_adds_to_the_max_and_not_to_the_rms_or_percentile() {
         let domain = Domain { name: "box".into(), parameters: vec!["x".into()], ranges: vec![[0.0, 1.0]] };
-        let estimate = |mean: f64| Estimate { mean: vec![mean], standard_error: vec![0.0] };
         let exact = ExactValues {
             domain,
             lookups: vec![vec![0.1], vec![0.7]],
             positions: vec![vec![0.1], vec![0.7]],
-            exact: vec![estimate(1.0), estimate(2.0)],
-            samples_per_point: 16,
-            peaks: vec![PeakPoint { lookup: vec![0.5], position: vec![0.5], exact: estimate(0.0) }],
+            exact: vec![vec![1.0], vec![2.0]],
+            nodes: 6,
+            peaks: vec![PeakPoint { lookup: vec![0.5], position: vec![0.5], exact: vec![0.0] }],
         };
         // Read 0.1 above exact at the random points, 0.9 at the peak.
         let read = |p: &[f64]| {
@@ -480,5 +461,46 @@ mod tests {
         // A table without a view cosine and a roughness has none.
         let other = Domain { name: "x".into(), parameters: vec!["x".into()], ranges: vec![[0.0, 1.0]] };
         assert!(peak_lookups(&other).is_empty());
+    }
+
+    #[test]
+    fn exact_values_are_converged_at_the_default_nodes() {
+        // Every table's exact integral at its default nodes per panel (the interpolation check's
+        // and the reference nodes') against 16, at random points of each domain and at points
+        // where the error peaks (critical angles, grazing views of the smoothest lobes): the
+        // checks' figures must not be the quadrature's own error. `--nocapture` prints them.
+        let config = crate::config::Config::default();
+        let quadrature = |nodes| VisibleNormalQuadrature::new(nodes).unwrap();
+        let fine = quadrature(16);
+        for recipe in config.recipes() {
+            let (check_nodes, reference_nodes) = (recipe.interpolation().nodes, recipe.reference().nodes);
+            let (check, reference) = (quadrature(check_nodes), quadrature(reference_nodes));
+            let (mut check_max, mut reference_max) = (0.0f64, 0.0f64);
+            let domains = recipe.interpolation_domains().unwrap();
+            let per_domain = 200 / domains.len();
+            for (d, domain) in domains.iter().enumerate() {
+                let mut lookups = random_points(&domain.ranges, per_domain, 11, d as u64);
+                lookups.extend(peak_lookups(domain).into_iter().step_by(4));
+                for lookup in &lookups {
+                    let position = recipe.position_of(lookup);
+                    let exact = recipe.exact_value(&fine, &position);
+                    let off = |q: &VisibleNormalQuadrature| {
+                        recipe
+                            .exact_value(q, &position)
+                            .iter()
+                            .zip(&exact)
+                            .map(|(a, b)| (a - b).abs())
+                            .fold(0.0, f64::max)
+                    };
+                    check_max = check_max.max(off(&check));
+                    reference_max = reference_max.max(off(&reference));
+                }
+            }
+            println!(
+                "{}: {check_nodes} nodes within {check_max:.2e} of 16, {reference_nodes} within {reference_max:.2e}",
+                recipe.name()
+            );
+            assert!(check_max < 1e-4 && reference_max < 3e-5, "{}: {check_max:e}, {reference_max:e}", recipe.name());
+        }
     }
 }

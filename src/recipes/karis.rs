@@ -20,6 +20,7 @@ use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision, SumRounding};
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::{MaskingShadowing, schlick_weight};
 use crate::sampling::sequence::PointSet;
@@ -63,7 +64,7 @@ impl Default for KarisSettings {
             masking: MaskingShadowing::SchlickSmith,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 4096, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
+            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
             own: KarisOwn::default(),
@@ -86,10 +87,13 @@ impl KarisSettings {
 
 /// Both terms at one `(mu, alpha)`: `E[(1 - Fc) W]` and `E[Fc W]` with `Fc = (1 - wi.h)^5`.
 fn split_sum_terms(masking: MaskingShadowing, method: Method, points: &PointSet, mu: f64, alpha: f64) -> Estimate {
-    estimate_cosine_functions(mu, alpha, masking, method, points, |c| {
-        let fc = schlick_weight(c);
-        [1.0 - fc, fc]
-    })
+    estimate_cosine_functions(mu, alpha, masking, method, points, split_sum_weights)
+}
+
+/// The weights of F0 and of 1 in Schlick's Fresnel at `c = wi.h`: `(1 - Fc, Fc)`, `Fc = (1 - c)^5`.
+fn split_sum_weights(c: f64) -> [f64; 2] {
+    let fc = schlick_weight(c);
+    [1.0 - fc, fc]
 }
 
 impl TableRecipe for KarisSettings {
@@ -143,9 +147,8 @@ impl Kernel for KarisSettings {
         split_sum_terms(self.masking, Method::PerCell, points, position[0], position[1])
     }
 
-    /// The f32 kernel's plain estimate (the table's own path: Karis has no projection).
-    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        self.estimate_node_fast(points, position)
+    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+        quadrature.cosine_functions(position[0], position[1], self.masking, &[], split_sum_weights).to_vec()
     }
 }
 
@@ -158,7 +161,7 @@ mod tests {
             mu_count: 16,
             roughness_count: 16,
             sampling: SamplingConfig { samples: 1024, replicates: 4 },
-            reference: ReferenceConfig { cells: 8, samples: 1 << 16 },
+            reference: ReferenceConfig { cells: 8, nodes: 8 },
             ..KarisSettings::default()
         }
     }

@@ -100,6 +100,7 @@ pub mod split_sum;
 pub mod tir;
 
 pub use crate::integrate::Method;
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Progress};
 use crate::sampling::sequence::{PointSet, SamplePlan};
 pub use crate::stats::{AccuracyReport, ErrorRecord, ErrorSummary, ReferenceComparison};
@@ -213,8 +214,6 @@ pub fn demand(recipe: &dyn TableRecipe) -> crate::error::Result<Demand> {
     let plane = counts[0] * counts.get(1).copied().unwrap_or(1);
     let sampling = recipe.sampling();
     let samples = sampling.samples as u128;
-    let reference = recipe.reference();
-    let reference_samples = if reference.cells > 0 { reference.samples as u128 } else { 0 };
     let estimated_cells = if recipe.method() == Method::PerCell { nodes } else { plane };
     let shape = counts.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(" x ");
     let count_keys = recipe.count_keys().iter().map(|k| format!("{name}.{k}")).collect::<Vec<_>>().join(", ");
@@ -224,13 +223,7 @@ pub fn demand(recipe: &dyn TableRecipe) -> crate::error::Result<Demand> {
             nodes * recipe.channel_count() as u128 * BUILD_BYTES_PER_VALUE + estimated_cells * BUILD_BYTES_PER_ESTIMATE,
             format!("{shape} nodes of {} channel(s) ({count_keys})", recipe.channel_count()),
         ),
-        (
-            (samples + reference_samples) * BYTES_PER_SAMPLE_POINT,
-            format!(
-                "{samples} sample points and {reference_samples} reference points ({name}.sampling.samples, \
-                 {name}.reference.samples)"
-            ),
-        ),
+        (samples * BYTES_PER_SAMPLE_POINT, format!("{samples} sample points ({name}.sampling.samples)")),
     ];
     if let Some(intervals) = recipe.kept_measure_intervals() {
         let replicates = crate::sampling::sequence::SamplePlan::new(sampling.samples, sampling.replicates)?.replicates;
@@ -245,7 +238,7 @@ pub fn demand(recipe: &dyn TableRecipe) -> crate::error::Result<Demand> {
     parts.push((BUILD_BYTES_BASE, "the program itself".into()));
     parts.sort_by_key(|part| std::cmp::Reverse(part.0));
     let bytes = parts.iter().map(|p| p.0).sum();
-    let sample_evaluations = estimated_cells * samples + reference.cells as u128 * reference_samples;
+    let sample_evaluations = estimated_cells * samples;
     Ok(Demand { bytes, sample_evaluations, parts })
 }
 
@@ -359,16 +352,15 @@ pub(crate) fn estimate_mu_alpha_columns(
         .collect()
 }
 
-/// Seeds of reference estimates are offset from the table's so that their scrambles are
-/// independent of the ones the table was built with.
+/// Seeds of high-sample reference estimates (`bench`, `converge`, the packing report) are offset
+/// from the table's so that their scrambles are independent of the ones the table was built with.
 const REFERENCE_SEED_OFFSET: u64 = 0x005E_ED0F_2EF5;
 
-/// The points of reference estimates for a run seeded with `seed`: `samples` per cell, scrambles
-/// independent of the table's own.
+/// The points of high-sample reference estimates for a run seeded with `seed`: `samples` per cell,
+/// scrambles independent of the table's own.
 ///
-/// Every table of a run checks against the same points, and 2^20 of them take a tenth of a second
-/// to draw, so the last set drawn is kept and handed out again for the same `samples` and `seed`
-/// (the points depend on nothing else).
+/// 2^20 points take a tenth of a second to draw, so the last set drawn is kept and handed out
+/// again for the same `samples` and `seed` (the points depend on nothing else).
 pub fn reference_points(samples: u64, seed: u64) -> crate::error::Result<std::sync::Arc<PointSet>> {
     static LAST: std::sync::Mutex<Option<std::sync::Arc<PointSet>>> = std::sync::Mutex::new(None);
     let (plan, seed) = (SamplePlan::new(samples, 1)?, seed.wrapping_add(REFERENCE_SEED_OFFSET));
@@ -382,11 +374,11 @@ pub fn reference_points(samples: u64, seed: u64) -> crate::error::Result<std::sy
     Ok(points)
 }
 
-/// Compare a built table, at `reference.cells` cells drawn at random (reproducibly from `seed`),
-/// to per-cell estimates `estimate_node(points, position)` with `reference.samples` samples and
-/// independent scrambles.
+/// Compare a built table, at `reference.cells` nodes drawn at random (reproducibly from `seed`),
+/// with `exact(quadrature, position)`, the exact integral by the quadrature of `reference.nodes`
+/// nodes per panel.
 pub(crate) fn compare_nodes_to_reference(
-    estimate_node: impl Fn(&PointSet, &[f64]) -> Estimate + Sync,
+    exact: impl Fn(&VisibleNormalQuadrature, &[f64]) -> Vec<f64> + Sync,
     table: &Table,
     reference: &settings::ReferenceConfig,
     seed: u64,
@@ -395,96 +387,20 @@ pub(crate) fn compare_nodes_to_reference(
     if reference.cells == 0 {
         return Ok(None);
     }
-    let groups: Vec<Vec<u64>> =
-        random_cells(table.node_count(), reference.cells, seed).into_iter().map(|cell| vec![cell]).collect();
-    compare_groups_to_reference(
-        |points, positions| positions.iter().map(|position| estimate_node(points, position)).collect(),
-        table,
-        &groups,
-        reference,
-        seed,
-        progress,
-    )
-}
-
-/// Reference cells per `(mu, alpha)` node in [`compare_mu_alpha_groups_to_reference`]: the cells of
-/// one `(mu, alpha)` share its pass over the samples, so four of them cost little more than one,
-/// while 32 reference cells still spread over eight random `(mu, alpha)` nodes.
-pub const REFERENCE_CELLS_PER_MU_ALPHA: usize = 4;
-
-/// [`compare_nodes_to_reference`] for a table whose axes 0 and 1 are `mu` and `alpha` and whose per-cell
-/// estimator can serve several cells of one `(mu, alpha)` from one pass over the samples:
-/// `estimate_group(points, positions)` returns one estimate per position, all of which share
-/// `mu` and `alpha`. The `reference.cells` cells are drawn as in [`random_grouped_cells`].
-pub(crate) fn compare_mu_alpha_groups_to_reference(
-    estimate_group: impl Fn(&PointSet, &[Vec<f64>]) -> Vec<Estimate> + Sync,
-    table: &Table,
-    reference: &settings::ReferenceConfig,
-    seed: u64,
-    progress: &dyn Progress,
-) -> crate::error::Result<Option<ReferenceComparison>> {
-    if reference.cells == 0 {
-        return Ok(None);
-    }
-    let plane = table.axes[0].count * table.axes[1].count;
-    let columns = table.node_count() / plane;
-    let groups = random_grouped_cells(plane, columns, reference.cells, REFERENCE_CELLS_PER_MU_ALPHA, seed);
-    compare_groups_to_reference(estimate_group, table, &groups, reference, seed, progress)
-}
-
-/// Compare a built table at the cells of `groups` to estimates with `reference.samples` samples and
-/// independent scrambles: `estimate_group(points, positions)` returns one estimate per cell of a
-/// group, in order.
-fn compare_groups_to_reference(
-    estimate_group: impl Fn(&PointSet, &[Vec<f64>]) -> Vec<Estimate> + Sync,
-    table: &Table,
-    groups: &[Vec<u64>],
-    reference: &settings::ReferenceConfig,
-    seed: u64,
-    progress: &dyn Progress,
-) -> crate::error::Result<Option<ReferenceComparison>> {
-    let points = reference_points(reference.samples, seed)?;
+    let quadrature = VisibleNormalQuadrature::new(reference.nodes)?;
+    let cells = random_cells(table.node_count(), reference.cells, seed);
     let label = format!("{} reference", table.name);
-    let group_numbers: Vec<u64> = (0..groups.len() as u64).collect();
-    let estimates = crate::integrate::estimate_cells(&group_numbers, &label, progress, |group| {
-        let positions: Vec<Vec<f64>> =
-            groups[group as usize].iter().map(|&cell| table.node_position(&table.node_index(cell as usize))).collect();
-        estimate_group(&points, &positions)
+    let values = crate::integrate::estimate_cells(&cells, &label, progress, |cell| {
+        exact(&quadrature, &table.node_position(&table.node_index(cell as usize)))
     });
-    let differences = groups.iter().flatten().zip(estimates.iter().flatten()).flat_map(|(&cell, estimate)| {
+    let differences = cells.iter().zip(&values).flat_map(|(&cell, exact)| {
         let stored = table.node(&table.node_index(cell as usize));
-        stored.iter().zip(&estimate.mean).map(|(&s, &r)| s as f64 - r).collect::<Vec<f64>>()
+        stored.iter().zip(exact).map(|(&s, &e)| s as f64 - e).collect::<Vec<f64>>()
     });
     Ok(Some(ReferenceComparison {
-        samples_per_cell: points.plan().total(),
+        exact_nodes: reference.nodes,
         difference: ErrorSummary::of_differences(differences),
     }))
-}
-
-/// `count` distinct cells (all of them if `count >= plane * columns`) of a table whose nodes are
-/// numbered `column * plane + p`, `p` one of `plane` `(mu, alpha)` nodes and `column` one of
-/// `columns` nodes of the other axes, drawn reproducibly from `seed` in groups that share their
-/// `(mu, alpha)`: `ceil(count / per_group)` random `(mu, alpha)` nodes (at most `plane`), each with
-/// an equal share of random columns. Groups in increasing `p`, cells of a group in increasing
-/// column.
-pub fn random_grouped_cells(plane: usize, columns: usize, count: usize, per_group: usize, seed: u64) -> Vec<Vec<u64>> {
-    let node = |p: u64, column: u64| column * plane as u64 + p;
-    if count >= plane * columns {
-        return (0..plane as u64).map(|p| (0..columns as u64).map(|column| node(p, column)).collect()).collect();
-    }
-    // With count < plane * columns, each share fits its columns: either there are `plane` groups
-    // and a share is at most ceil(count / plane) <= columns, or a share is at most per_group.
-    let per_group = per_group.clamp(1, columns);
-    let group_count = count.div_ceil(per_group).min(plane);
-    random_cells(plane, group_count, seed)
-        .into_iter()
-        .enumerate()
-        .map(|(g, p)| {
-            let share = count / group_count + usize::from(g < count % group_count);
-            // Each group's columns from a seed of its own (random_cells hashes the seed).
-            random_cells(columns, share, seed.wrapping_add(1 + g as u64)).into_iter().map(|c| node(p, c)).collect()
-        })
-        .collect()
 }
 
 /// `count` distinct cell numbers below `node_count` (all of them if `count >= node_count`), drawn
@@ -509,39 +425,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn grouped_reference_cells_share_their_mu_alpha_and_number_exactly_as_asked() {
-        // (plane, columns, count, per_group, groups expected): the default FGD draw, a draw with
-        // fewer columns than per_group, one with more groups wanted than (mu, alpha) nodes, and
-        // every cell.
-        for (plane, columns, count, per_group, groups) in
-            [(4096, 4096, 32, 4, 8), (4096, 4096, 30, 4, 8), (10, 2, 7, 4, 4), (3, 5, 14, 4, 3), (2, 3, 6, 4, 2)]
-        {
-            let drawn = random_grouped_cells(plane, columns, count, per_group, 2021);
-            assert_eq!(drawn.len(), groups, "{plane} x {columns}, {count} cells");
-            let cells: std::collections::BTreeSet<u64> = drawn.iter().flatten().copied().collect();
-            assert_eq!(cells.len(), count, "{plane} x {columns}: {drawn:?}");
-            assert!(cells.iter().all(|&c| c < (plane * columns) as u64));
-            for group in &drawn {
-                assert!(!group.is_empty() && group.iter().all(|&c| c % plane as u64 == group[0] % plane as u64));
-            }
-            assert_eq!(drawn, random_grouped_cells(plane, columns, count, per_group, 2021));
-        }
-        assert_ne!(random_grouped_cells(4096, 4096, 32, 4, 1), random_grouped_cells(4096, 4096, 32, 4, 2));
-        // The groups' columns are drawn independently: not all groups get the same columns.
-        let drawn = random_grouped_cells(4096, 4096, 32, 4, 2021);
-        let columns = |g: &Vec<u64>| g.iter().map(|c| c / 4096).collect::<Vec<_>>();
-        assert!(drawn.iter().any(|g| columns(g) != columns(&drawn[0])), "{drawn:?}");
-    }
-
-    #[test]
-    fn the_grouped_reference_check_does_not_depend_on_the_thread_count() {
+    fn the_reference_check_does_not_depend_on_the_thread_count() {
         let settings = fgd::FgdSettings {
             mu_count: 6,
             alpha_count: 5,
             eta_count: 4,
             kappa_count: 3,
             sampling: settings::SamplingConfig { samples: 1 << 10, replicates: 4 },
-            reference: settings::ReferenceConfig { cells: 13, samples: 1 << 12 },
+            reference: settings::ReferenceConfig { cells: 13, nodes: 4 },
             replicate_error_columns: 4,
             ..fgd::FgdSettings::default()
         };

@@ -40,24 +40,38 @@ impl SamplingConfig {
     }
 }
 
-/// The independent check of a table: cells re-estimated with many more samples.
+/// The independent check of a table at its nodes: random nodes against the exact integral, by
+/// the deterministic visible-normal quadrature ([`crate::integrate::quadrature`]), so that the
+/// difference is the table's whole integration error there (noise and any bias of the fast path).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ReferenceConfig {
-    /// Cells checked (0 skips the check).
+    /// Nodes checked (0 skips the check).
     pub cells: usize,
-    /// Samples per reference cell: a power of two.
-    pub samples: u64,
+    /// Gauss–Legendre nodes per panel of each exact integral.
+    pub nodes: usize,
 }
+
+/// Quadrature nodes per panel of a reference node's exact integral: far below the tables' replicate
+/// standard errors (`docs/integration.md`, "Error estimates", measured per table).
+pub const REFERENCE_NODES: usize = 8;
 
 impl ReferenceConfig {
     pub fn validate(&self, key: &str) -> Result<()> {
         if self.cells > 0 {
-            crate::sampling::sequence::SamplePlan::new(self.samples, 1)
-                .map_err(|e| Error::invalid(format!("{key}.samples"), strip_key(&e)))?;
+            check_quadrature_nodes(&format!("{key}.nodes"), self.nodes)?;
         }
         Ok(())
     }
+}
+
+/// Refuse quadrature `nodes` outside [`crate::integrate::quadrature::NODES`], naming `key`.
+pub fn check_quadrature_nodes(key: &str, nodes: usize) -> Result<()> {
+    let allowed = crate::integrate::quadrature::NODES;
+    if !allowed.contains(&nodes) {
+        return Err(Error::invalid(key, format!("{nodes}; allowed: {} to {}", allowed.start(), allowed.end())));
+    }
+    Ok(())
 }
 
 /// Which files a table is written to.

@@ -17,13 +17,14 @@
 use serde::{Deserialize, Serialize};
 
 use super::driver::{Provenance, TableBuild};
-use super::fgd::{FgdSettings, fgd_pairs_on_measure, projected_fresnel};
+use super::fgd::{FgdSettings, fgd_by_quadrature, fgd_pairs_on_measure, projected_fresnel};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
-use super::tir::{TirSettings, tir_cell, tir_column_exact_sums};
+use super::tir::{TirSettings, tir_by_quadrature, tir_cell, tir_column_exact_sums};
 use super::{Integrated, Kernel, Metadata, fill_mu_alpha_nodes};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::integrate::measure::{Projection, cosine_measure};
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
 use crate::physics::fresnel_reflectance;
@@ -237,6 +238,21 @@ impl Slices {
         estimate
     }
 
+    /// Every channel's exact integral at one `(mu, alpha)` by the quadrature (padding included).
+    pub fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+        let (mu, alpha) = (position[0], position[1]);
+        let mut values: Vec<f64> = self
+            .channels
+            .iter()
+            .map(|c| match &self.of {
+                SliceOf::Fgd(settings) => fgd_by_quadrature(settings.masking, quadrature, mu, alpha, (c.eta, c.kappa)),
+                SliceOf::Tir(_) => tir_by_quadrature(quadrature, mu, alpha, self.evaluated_eta(c.eta)),
+            })
+            .collect();
+        values.resize(self.stored_channel_count(), 0.0);
+        values
+    }
+
     fn masking(&self) -> MaskingShadowing {
         match &self.of {
             SliceOf::Fgd(s) => s.masking,
@@ -403,6 +419,10 @@ impl Kernel for Slices {
     fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         Slices::estimate_node(self, points, position)
     }
+
+    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+        Slices::exact_value(self, quadrature, position)
+    }
 }
 
 /// Slice nodes lie on one lattice per table: `k / lattice` in their axis's mapped quantity (`mu`
@@ -456,7 +476,7 @@ pub const BATCH_CHECK_NOTE: &str = "Checked as one of a batch: the reference cel
 /// sums ([`tir_column_exact_sums`]).
 ///
 /// The reference check draws `reference.cells` random nodes across the slices of each group
-/// (instead of per slice), each against a per-cell estimate with the reference samples; the
+/// (instead of per slice), each against its exact integral by the quadrature; the
 /// figure is recorded in every slice of the group, with [`BATCH_CHECK_NOTE`]. Returns one build per
 /// slice, in order, with the wall time of the whole batch.
 pub fn integrate_batch(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> Result<Vec<TableBuild>> {
@@ -522,7 +542,7 @@ pub fn integrate_batch_among(
                 }
             }
         };
-        let reference_points = super::reference_points(reference.samples, seed)?;
+        let quadrature = VisibleNormalQuadrature::new(reference.nodes)?;
         let numbers: Vec<u64> = (0..located.len() as u64).collect();
         let label = format!(
             "{} slices reference ({} cells across {} slices)",
@@ -534,11 +554,11 @@ pub fn integrate_batch_among(
             let (p, cell) = located[n as usize];
             let table = table_of(everyone[p]);
             let index = table.node_index(cell);
-            let exact = everyone[p].estimate_node(&reference_points, &table.node_position(&index));
-            table.node(&index).iter().zip(&exact.mean).map(|(&stored, &r)| stored as f64 - r).collect()
+            let exact = everyone[p].exact_value(&quadrature, &table.node_position(&index));
+            table.node(&index).iter().zip(&exact).map(|(&stored, &e)| stored as f64 - e).collect()
         });
         let comparison = ReferenceComparison {
-            samples_per_cell: reference_points.plan().total(),
+            exact_nodes: reference.nodes,
             difference: ErrorSummary::of_differences(differences.into_iter().flatten()),
         };
         for &s in members {

@@ -23,10 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
 use super::spacing::{CosineAxis, RoughnessAxis};
-use super::{
-    Integrated, Kernel, Metadata, ReferenceComparison, TableRecipe, compare_mu_alpha_groups_to_reference,
-    estimate_mu_alpha_columns,
-};
+use super::{Integrated, Kernel, Metadata, TableRecipe, estimate_mu_alpha_columns};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::batch::{CellWarp, for_each_block};
@@ -119,7 +116,7 @@ impl Default for TirSettings {
             top_eta: 1.0,
             method: Method::Fast,
             sampling: SamplingConfig { samples: 1 << 15, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, samples: 1 << 20 },
+            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
             fit: TirFit::Best,
@@ -498,29 +495,10 @@ impl Kernel for TirSettings {
         tir_cell(position[0], position[1], eta, points)
     }
 
-    /// The f32 kernel's indicator at one `eta` (exact at every sample, no binning).
-    fn exact_value(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        self.estimate_node_fast(points, position)
-    }
-
-    /// The reference cells in groups sharing their (mu, alpha): one pass over the samples each.
-    fn check_reference(
-        &self,
-        table: &Table,
-        seed: u64,
-        progress: &dyn Progress,
-    ) -> Result<Option<ReferenceComparison>> {
-        compare_mu_alpha_groups_to_reference(
-            |points, positions| {
-                let etas: Vec<f64> =
-                    positions.iter().map(|p| self.evaluated_eta(self.eta_of_node(p[0], p[2]))).collect();
-                tir_cells_at_mu_alpha(positions[0][0], positions[0][1], &etas, points)
-            },
-            table,
-            &self.reference,
-            seed,
-            progress,
-        )
+    /// The top node (eta = 1) at `top_eta`, as in the table.
+    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+        let eta = self.evaluated_eta(self.eta_of_node(position[0], position[2]));
+        vec![tir_by_quadrature(quadrature, position[0], position[1], eta)]
     }
 }
 
@@ -584,8 +562,8 @@ mod tests {
     fn quick(settings: TirSettings) -> TirSettings {
         TirSettings {
             sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            reference: ReferenceConfig { cells: 0, samples: 2 },
-            interpolation: InterpolationConfig { points: 0, samples: 4 },
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
+            interpolation: InterpolationConfig { points: 0, nodes: 6 },
             ..settings
         }
     }

@@ -138,7 +138,7 @@ mod tests {
             alpha_count: 5,
             eta_count: 9,
             sampling: SamplingConfig { samples: 1024, replicates: 4 },
-            reference: ReferenceConfig { cells: 0, samples: 2 },
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
             ..Default::default()
         };
         let build = crate::recipes::driver::build(&settings, 1, &()).unwrap();

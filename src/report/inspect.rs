@@ -204,8 +204,8 @@ fn write_entry(w: &mut String, entry: &FileEntry, bytes: &[u8]) {
     if let Some(reference) = &error.integration.reference {
         let _ = write!(
             w,
-            "; against {}-sample references at {} values: RMS {:.2e}, max {:.2e}",
-            reference.samples_per_cell, reference.difference.count, reference.difference.rms, reference.difference.max
+            "; against the exact integral ({} Gauss–Legendre nodes per panel) at {} values: RMS {:.2e}, max {:.2e}",
+            reference.exact_nodes, reference.difference.count, reference.difference.rms, reference.difference.max
         );
     }
     let _ = writeln!(w, "; storage rounding max {:.2e}", error.storage_rounding_max);
@@ -224,16 +224,8 @@ fn write_entry(w: &mut String, entry: &FileEntry, bytes: &[u8]) {
     for e in &error.interpolation {
         let _ = writeln!(
             w,
-            "between nodes ({}): RMS {:.2e}, 99th percentile {:.2e}, max {:.2e} at {}; {}; read as {}; exact: {} samples, standard error up to {:.1e}",
-            e.domain,
-            e.error.rms,
-            e.p99,
-            e.error.max,
-            e.worst_at,
-            e.points,
-            e.read_as,
-            e.exact_samples,
-            e.exact_standard_error_max
+            "between nodes ({}): RMS {:.2e}, 99th percentile {:.2e}, max {:.2e} at {}; {}; read as {}; exact: quadrature, {} nodes per panel",
+            e.domain, e.error.rms, e.p99, e.error.max, e.worst_at, e.points, e.read_as, e.exact_nodes
         );
     }
     let actual = sha256_hex(bytes);

@@ -2,7 +2,7 @@
 //!
 //! Every slice table is checked as every full table is ([`crate::recipes::interpolation`]), at
 //! random `(mu, alpha)` inside the ranges its lookups reach and every channel, against the exact
-//! integral (a per-cell estimate with the reference sample count): the slice as written, read as a
+//! integral (the deterministic quadrature, at the reference nodes): the slice as written, read as a
 //! renderer reads it, goes into its manifest entry's `error.interpolation`; what the full table of
 //! the same configuration would have given at the same points (interpolated across `eta` and
 //! `kappa` too, and clamped at its range's end) into its `accuracy`.
@@ -614,7 +614,7 @@ pub fn sampled_exact_values(
             if points == 0 {
                 return Ok(None);
             }
-            let config = InterpolationConfig { points, samples: slices.reference().samples };
+            let config = InterpolationConfig { points, nodes: slices.reference().nodes };
             Ok(Some(lookup_exact_values(slices, &config, seed, progress)?))
         })
         .collect()
@@ -641,7 +641,7 @@ fn lookup_exact_values(
         // A slice's lookups are sampled where its materials make them; no peak search.
         |_| Vec::new(),
         |lookup| lookup.to_vec(),
-        |points, position| slices.estimate_node(points, position),
+        |quadrature, position| slices.exact_value(quadrature, position),
     )?
     .remove(0))
 }
@@ -657,8 +657,7 @@ pub fn slice_accuracy(
     progress: &dyn Progress,
 ) -> Result<(ExactValues, AccuracyReport)> {
     let reference = slices.reference();
-    // The reference sample count: a slice is checked to its own integration noise.
-    let config = InterpolationConfig { points: reference.cells.max(16), samples: reference.samples };
+    let config = InterpolationConfig { points: reference.cells.max(16), nodes: reference.nodes };
     let exact = lookup_exact_values(slices, &config, seed, progress)?;
     let channels: Vec<String> =
         slices.channels.iter().map(|c| format!("eta {:.4}, kappa {:.4}", c.eta, c.kappa)).collect();
@@ -676,8 +675,8 @@ pub fn slice_accuracy(
     });
     let report = AccuracyReport {
         what: format!(
-            "full {full_shape} table interpolated at the points of error.interpolation vs the exact integral ({}; exact: per-cell estimate, {} samples)",
-            compared.points, compared.exact_samples
+            "full {full_shape} table interpolated at the points of error.interpolation vs the exact integral ({}; exact: quadrature, {} Gauss–Legendre nodes per panel)",
+            compared.points, compared.exact_nodes
         ),
         error: compared.error,
         worst_at: compared.worst_at,

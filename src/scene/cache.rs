@@ -36,7 +36,7 @@ use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
 
 /// The layout of an entry and of what its key covers; a change to either, or to how a slice is
 /// integrated, changes it (and the crate's version is in every key besides).
-pub const CACHE_FORMAT: u32 = 4;
+pub const CACHE_FORMAT: u32 = 5;
 
 /// The extension of an entry.
 pub const ENTRY_EXTENSION: &str = "slice";
@@ -404,7 +404,7 @@ mod tests {
         let mut settings =
             FgdSettings { sampling: SamplingConfig { samples: 1 << 10, replicates: 4 }, ..FgdSettings::default() };
         settings.reference.cells = 4;
-        settings.reference.samples = 1 << 12;
+        settings.reference.nodes = 4;
         let mu = Axis::node_aligned("mu", 0.5, 0.5 + 4.0 / 128.0, 5).unwrap();
         let alpha = Axis::node_aligned("alpha", 0.0625, 0.0625 * (1.0 + 1.0 / 32.0) * (1.0 + 1.0 / 32.0), 2)
             .unwrap()

@@ -290,14 +290,14 @@ fn small_config() -> Config {
     config.fgd.kappa_count = 5;
     config.fgd.sampling.samples = 1 << 12;
     config.fgd.reference.cells = 8;
-    config.fgd.reference.samples = 1 << 14;
+    config.fgd.reference.nodes = 4;
     config.fgd.packings = Vec::new();
     config.tir.mu_count = 9;
     config.tir.alpha_count = 9;
     config.tir.eta_count = 7;
     config.tir.sampling.samples = 1 << 12;
     config.tir.reference.cells = 8;
-    config.tir.reference.samples = 1 << 14;
+    config.tir.reference.nodes = 4;
     config.seed = 11;
     config
 }

@@ -100,10 +100,10 @@ samples = 1024
 replicates = 4
 [fgd.reference]
 cells = 4
-samples = 16384
+nodes = 8
 [fgd.interpolation]
 points = 32
-samples = 1024
+nodes = 6
 [gd]
 mu_count = 8
 alpha_count = 8
@@ -112,10 +112,10 @@ samples = 1024
 replicates = 4
 [gd.reference]
 cells = 4
-samples = 16384
+nodes = 8
 [gd.interpolation]
 points = 32
-samples = 1024
+nodes = 6
 [tir]
 mu_count = 8
 alpha_count = 8
@@ -125,10 +125,10 @@ samples = 1024
 replicates = 4
 [tir.reference]
 cells = 4
-samples = 16384
+nodes = 8
 [tir.interpolation]
 points = 32
-samples = 1024
+nodes = 6
 [belcour]
 mu_count = 16
 roughness_count = 16
@@ -137,10 +137,10 @@ samples = 1024
 replicates = 4
 [belcour.reference]
 cells = 4
-samples = 16384
+nodes = 8
 [belcour.interpolation]
 points = 32
-samples = 1024
+nodes = 6
 [karis]
 mu_count = 32
 roughness_count = 24
@@ -149,10 +149,10 @@ samples = 256
 replicates = 4
 [karis.reference]
 cells = 6
-samples = 16384
+nodes = 8
 [karis.interpolation]
 points = 32
-samples = 1024
+nodes = 6
 [fgd_rarer]
 mu_count = 8
 alpha_count = 7
@@ -162,10 +162,10 @@ samples = 1024
 replicates = 4
 [fgd_rarer.reference]
 cells = 4
-samples = 16384
+nodes = 8
 [fgd_rarer.interpolation]
 points = 32
-samples = 1024
+nodes = 6
 ";
 
 /// [`SMALL_SET`] written in every format: FGD, GD and TIR also in the original `.bin` layout

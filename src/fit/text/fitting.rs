@@ -494,16 +494,14 @@ fn symmetric_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
 
 /// The form's error against exact integrals at random points of one of the table's check domains
 /// (the points of its build's interpolation check, [`crate::recipes::interpolation`]: uniform
-/// over the domain's lookup parameters, each integrated on its own by plain Monte Carlo on
-/// samples independent of the table's), beside the table's own interpolation error at the same
-/// points.
+/// over the domain's lookup parameters, each integrated on its own by the deterministic
+/// visible-normal quadrature), beside the table's own interpolation error at the same points.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Certified {
     pub domain: String,
     pub points: usize,
-    pub samples_per_point: u64,
-    /// The largest standard error of an exact value (the spread of its 4 scrambles).
-    pub exact_standard_error_max: f64,
+    /// Gauss–Legendre nodes per panel of each exact value.
+    pub exact_nodes: usize,
     /// The fitted form, in f32, against the exact values.
     pub form: FigureSet,
     /// The form at its start values.
@@ -514,7 +512,7 @@ pub struct Certified {
 }
 
 /// [`Certified`] for every check domain of the table's recipe in `config` (the configuration the
-/// table was built with: its masking, its sample counts for the check).
+/// table was built with: its masking, its points and quadrature for the check).
 pub fn certify(
     form: &Form,
     table: &Table,
@@ -548,14 +546,14 @@ pub fn certify(
             for (n, e) in exact.exact.iter().enumerate() {
                 let x: Vec<f32> = point(n).iter().map(|&v| v as f32).collect();
                 form.tape.eval(&x, &p32, &mut scratch, &mut values);
-                errors.extend(channel_index.iter().zip(&values).map(|(&c, &v)| f64::from(v) - e.mean[c]));
+                errors.extend(channel_index.iter().zip(&values).map(|(&c, &v)| f64::from(v) - e[c]));
             }
             errors
         };
         let mut table_errors = Vec::new();
         for (position, e) in exact.positions.iter().zip(&exact.exact) {
             let read = table.interpolate(position);
-            table_errors.extend(channel_index.iter().map(|&c| read[c] - e.mean[c]));
+            table_errors.extend(channel_index.iter().map(|&c| read[c] - e[c]));
         }
         let (fitted_errors, start_errors) = (form_errors(fitted), form_errors(start));
         if fitted_errors.iter().chain(&start_errors).chain(&table_errors).any(|e| !e.is_finite()) {
@@ -568,12 +566,7 @@ pub fn certify(
         out.push(Certified {
             domain: exact.domain.describe(),
             points: exact.exact.len(),
-            samples_per_point: exact.samples_per_point,
-            exact_standard_error_max: exact
-                .exact
-                .iter()
-                .flat_map(|e| channel_index.iter().map(|&c| e.standard_error[c]))
-                .fold(0.0, f64::max),
+            exact_nodes: exact.nodes,
             form: set(&fitted_errors),
             form_at_start: set(&start_errors),
             table: set(&table_errors),
@@ -758,8 +751,8 @@ pub fn markdown(report: &FormReport) -> String {
     for c in &report.certified {
         let _ = writeln!(
             s,
-            "\nAgainst exact integrals at {} random points ({} samples each, standard error <= {:.1e}), {}:\n",
-            c.points, c.samples_per_point, c.exact_standard_error_max, c.domain
+            "\nAgainst exact integrals at {} random points (the quadrature, {} Gauss–Legendre nodes per panel), {}:\n",
+            c.points, c.exact_nodes, c.domain
         );
         let _ = writeln!(
             s,
