@@ -94,27 +94,46 @@ impl SampledTable {
             x >= lo - slack && x <= hi + slack
         })
     }
-
-    /// How far outside the axes' ranges `point` lies, in units of each axis's range, less
-    /// [`SLICE_CHOICE_SLACK`] per axis.
-    fn distance_outside(&self, point: &[f64]) -> f64 {
-        self.axes
-            .iter()
-            .zip(point)
-            .map(|(axis, &x)| {
-                let (lo, hi) = if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
-                (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
-            })
-            .sum()
-    }
 }
 
 /// How far outside a slice's range (in units of the range) a lookup may lie and still count as
 /// inside it, when slices holding the same index compete. A scene's slices end exactly at the
 /// extreme lookups their sites make, so lookups land on those ends; the slack makes the choice the
 /// same whether the lookup was computed in f64 here or in f32 by the scene's shader
-/// ([`crate::shader::scene`]), whose rounding is below 1e-6 of any range.
+/// ([`crate::shader::scene`]), whose rounding is below 1e-6 of any range. Whether a slice holds a
+/// lookup a rounding from its end can still differ between the two ([`slice_choice_distance`]);
+/// the slice that holds it then holds the lattice node at that end too, whose value both slices
+/// share (a build integrates a shared node once), so the two read the same node.
 pub const SLICE_CHOICE_SLACK: f64 = 1e-5;
+
+/// The distance by which slices holding a lookup's index compete for it (the least wins, the
+/// first of equals): -1 where every axis's range holds `point` (`lo <= x <= hi`), else the sum
+/// over the axes of how far outside the range it lies, in units of the range, less
+/// [`SLICE_CHOICE_SLACK`] per axis (so 0 within the slack). The scene's shader chooses by the same
+/// rule in f32 ([`crate::shader::scene`]).
+///
+/// A slice that holds the lookup beats one that merely lies within the slack of it: slices of
+/// different materials end on the same lattice nodes, so a lookup a rounding below the node where
+/// one slice begins may lie inside another slice at that index, and taking the first within the
+/// slack read it clamped at the first slice's edge (`absorbing-coat-00482` of the generated
+/// library, TIR at `alpha = (80/128)^2` minus a rounding).
+pub fn slice_choice_distance(axes: &[Axis], point: &[f64]) -> f64 {
+    let range = |axis: &Axis| if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
+    let holds = axes.iter().zip(point).all(|(axis, &x)| {
+        let (lo, hi) = range(axis);
+        lo <= x && x <= hi
+    });
+    if holds {
+        return -1.0;
+    }
+    axes.iter()
+        .zip(point)
+        .map(|(axis, &x)| {
+            let (lo, hi) = range(axis);
+            (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
+        })
+        .sum()
+}
 
 /// Whether an FGD lookup at `(eta, kappa)` reads `fgd_rarer` where a folder has it (and no slice
 /// holds the index): a dielectric onto a rarer medium. The scene's shader chooses by the same rule.
@@ -405,14 +424,13 @@ impl FolderTables {
         0.0
     }
 
-    /// The slice answering `lookup`: a channel at its indices, the slice whose range holds
-    /// `(mu, alpha)`, else the nearest.
+    /// The slice answering `lookup`: a channel at its indices, the first slice whose range holds
+    /// `(mu, alpha)`, else the nearest ([`slice_choice_distance`]).
     fn slice_value(&self, slices: &Slices, lookup: &Lookup) -> Option<f64> {
         let point = [lookup.mu, lookup.alpha];
         let candidates = slices.at(lookup.quantity, lookup.eta, lookup.kappa);
-        let (slice, channel) = candidates.into_iter().min_by(|(a, _), (b, _)| {
-            a.texture.distance_outside(&point).total_cmp(&b.texture.distance_outside(&point))
-        })?;
+        let distance = |slice: &Slice| slice_choice_distance(&slice.texture.axes, &point);
+        let (slice, channel) = candidates.into_iter().min_by(|(a, _), (b, _)| distance(a).total_cmp(&distance(b)))?;
         if !slice.texture.covers(&point) {
             Self::note(&self.clamped, lookup);
         }
@@ -579,4 +597,68 @@ fn fitted_form(folder: &LutFolder, fit: &FitEntry) -> Result<Tir> {
         ));
     }
     Ok(Tir::Fit { form, parameters: fit.parameters.iter().map(|&p| p as f32).collect() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::Mapping;
+
+    /// Lattice node 80 of the slices' alpha axis, `(80/128)^2`, exact in f32 and f64.
+    const NODE: f64 = 0.390625;
+    /// The index of `absorbing-coat-00482`'s TIR of layer 1 (up) in the generated library.
+    const ETA: f64 = 0.7122507122507123;
+
+    /// A TIR slice at [`ETA`] over `mu` in [0.701171875, 1] and `alpha` in `alpha`, every texel `value`.
+    fn tir_slice(alpha: (f64, f64), value: f32) -> Slice {
+        let axes = vec![
+            Axis::node_aligned("mu", 0.701171875, 1.0, 4).unwrap(),
+            Axis::node_aligned("alpha", alpha.0, alpha.1, 3).unwrap().with_mapping(Mapping::Sqrt).unwrap(),
+        ];
+        let texture = Texture3D { width: 4, height: 3, depth: 1, texels: vec![value; 12] };
+        Slice {
+            quantity: Quantity::Tir,
+            indices: vec![(ETA, 0.0)],
+            texture: SampledTable { name: "tir".into(), axes, channels: vec![texture] },
+        }
+    }
+
+    fn folder(slices: Vec<Slice>) -> FolderTables {
+        FolderTables {
+            albedo: Albedo::Absent,
+            tir: Tir::Table { slices: Slices::new(slices), full: None },
+            gd: None,
+            misses: Mutex::default(),
+            clamped: Mutex::default(),
+        }
+    }
+
+    fn tir(mu: f64, alpha: f64) -> Lookup {
+        Lookup { quantity: Quantity::Tir, site: Site::Up, layer: 1, channel: None, mu, alpha, eta: ETA, kappa: 0.0 }
+    }
+
+    #[test]
+    fn a_slice_that_holds_the_lookup_beats_one_whose_end_lies_within_the_slack() {
+        // absorbing-coat-00482 of `scripts/make-library 1000 1 DIR --per-scene 250` read TIR at
+        // alpha a rounding below lattice node 80, where the slice of another material at the same
+        // index begins (listed first, read 0.25 here), and its own slice holds it inside (0.75):
+        // both lie within SLICE_CHOICE_SLACK of the lookup, and the first of them was read, at its
+        // edge (one clamped lookup). A slice that holds a lookup comes first, in either order.
+        let other = || tir_slice((NODE, 1.0), 0.25);
+        let own = || tir_slice((0.32525634765625, 0.4306640625), 0.75);
+        for (slices, first) in [(vec![other(), own()], 0.25), (vec![own(), other()], 0.75)] {
+            let tables = folder(slices);
+            for alpha in [NODE - 1e-12, NODE * (1.0 - 1e-7), NODE - 5e-6] {
+                assert_eq!(slice_choice_distance(&other().texture.axes, &[0.723594, alpha]), 0.0, "{alpha}");
+                assert_eq!(tables.value(&tir(0.723594, alpha)), 0.75, "alpha {alpha}");
+            }
+            // Held by both, or by neither and within the slack of both: the first listed, as
+            // before; past the own slice's end, the other slice, which holds it.
+            assert_eq!(tables.value(&tir(0.723594, 0.42)), first);
+            assert_eq!(tables.value(&tir(1.0 + 1e-9, 0.42)), first);
+            assert_eq!(tables.value(&tir(0.723594, 0.5)), 0.25);
+            assert_eq!(tables.clamped().count, 1, "only the lookup held by neither reads clamped");
+            assert_eq!(tables.misses().count, 0);
+        }
+    }
 }

@@ -469,14 +469,16 @@ impl Generator<'_> {
 
     /// The value of the slice answering a lookup at `(eta, kappa)`, as
     /// [`crate::model::folder::FolderTables`] chooses it: of the slices with a channel at those
-    /// indices (in the manifest's order), the one whose `(mu, alpha)` range lies nearest the lookup
-    /// (the sum over both axes of the distance outside the range, in units of the range, less
-    /// [`SLICE_CHOICE_SLACK`]), the first of equals, so the first that holds it. `None` where no slice has those indices.
+    /// indices (in the manifest's order), the one with the least
+    /// [`slice_choice_distance`](crate::model::folder::slice_choice_distance) (-1 where its
+    /// `(mu, alpha)` range holds the lookup, else the sum over both axes of the distance outside
+    /// the range, in units of the range, less [`SLICE_CHOICE_SLACK`]), the first of equals: the
+    /// first that holds it, else the nearest. `None` where no slice has those indices.
     ///
     /// One candidate is read directly. Where several are, the ones that can never be chosen are
-    /// dropped when `alpha` is known here (a slice whose alpha range misses it loses to one that
-    /// holds it and every `mu`, and so does any slice after that one); the rest are compared in a
-    /// function of their own, `tmh_slice<N>(mu, alpha)`.
+    /// dropped when `alpha` is known here (a slice whose alpha range misses it by more than the
+    /// slack loses to one that holds it and every `mu`, and so does any slice after that one); the
+    /// rest are compared in a function of their own, `tmh_slice<N>(mu, alpha)`.
     fn slice(
         &mut self,
         tir: bool,
@@ -501,9 +503,14 @@ impl Generator<'_> {
         };
         let candidates = match known_alpha {
             Some(alpha) => {
+                // Holds alpha as the chooser compares it, in f32 (the lattice's ends are exact in f32).
+                let holds_alpha = |axis: &Axis| {
+                    let (lo, hi) = range(axis);
+                    lo as f32 <= alpha as f32 && alpha as f32 <= hi as f32
+                };
                 let always_chosen = candidates.iter().position(|(t, _)| {
                     let (lo, hi) = range(&t.axes[0]);
-                    outside(&t.axes[1], alpha) == 0.0 && lo <= 0.0 && hi >= 1.0
+                    holds_alpha(&t.axes[1]) && lo <= 0.0 && hi >= 1.0
                 });
                 match always_chosen {
                     Some(k) => candidates
@@ -543,13 +550,18 @@ impl Generator<'_> {
         let function = format!("tmh_slice{}", self.choosers.len());
         let mut body = Vec::new();
         for (k, (t, c)) in candidates.iter().enumerate() {
-            let distance = [(0, "mu"), (1, "alpha")]
-                .map(|(d, x)| {
-                    let (lo, hi) = if t.axes[d].start <= t.axes[d].end {
-                        (t.axes[d].start, t.axes[d].end)
-                    } else {
-                        (t.axes[d].end, t.axes[d].start)
-                    };
+            // `slice_choice_distance` in f32: -1 where the range holds (mu, alpha), so that such a
+            // slice beats one the lookup merely lies within the slack of.
+            let ranges = [0, 1].map(|d| {
+                let (lo, hi) = if t.axes[d].start <= t.axes[d].end {
+                    (t.axes[d].start, t.axes[d].end)
+                } else {
+                    (t.axes[d].end, t.axes[d].start)
+                };
+                (if d == 0 { "mu" } else { "alpha" }, lo, hi)
+            });
+            let outside = ranges
+                .map(|(x, lo, hi)| {
                     (((f(lo as f32) - name(x)).max(f(0.0)) + (name(x) - f(hi as f32)).max(f(0.0)))
                         / f((hi - lo) as f32)
                         - f(SLICE_CHOICE_SLACK as f32))
@@ -558,6 +570,12 @@ impl Generator<'_> {
                 .into_iter()
                 .reduce(|a, b| a + b)
                 .expect("two axes");
+            let holds = ranges
+                .into_iter()
+                .flat_map(|(x, lo, hi)| [f(lo as f32).le(name(x)), name(x).le(f(hi as f32))])
+                .reduce(Expr::and)
+                .expect("two axes");
+            let distance = select(holds, f(-1.0), outside);
             let value = self.read2(t, name("mu"), name("alpha")).member(CHANNELS[*c]);
             if k == 0 {
                 body.push(super::var("nearest", Ty::F32, distance));
@@ -828,4 +846,194 @@ fn unit_coordinate(axis: &Axis, x: Expr) -> Expr {
 /// Print `shader` in both languages.
 pub fn texts(shader: &SceneShader) -> [(Lang, String); 2] {
     [Lang::Hlsl, Lang::Wgsl].map(|lang| (lang, shader.module.print(lang)))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use super::super::{Function, Op, Stmt};
+    use super::*;
+
+    /// A value of the chooser functions' f32 arithmetic.
+    #[derive(Debug, Clone, Copy)]
+    enum Value {
+        F(f32),
+        B(bool),
+    }
+
+    impl Value {
+        fn f(self) -> f32 {
+            match self {
+                Value::F(x) => x,
+                Value::B(_) => panic!("a bool where an f32 is read"),
+            }
+        }
+        fn b(self) -> bool {
+            match self {
+                Value::B(b) => b,
+                Value::F(_) => panic!("an f32 where a bool is read"),
+            }
+        }
+    }
+
+    /// Evaluates a slice read's expression in f32, as a GPU computes it: a chooser of
+    /// `functions` it calls is run. A texture read (`tmh_bilinear(tmh_tableN, ...)`) stands for the
+    /// slice it reads: it is `N`, the binding.
+    fn evaluate(e: &Expr, scope: &HashMap<String, Value>, functions: &[Function]) -> Value {
+        let eval = |e: &Expr| evaluate(e, scope, functions);
+        match e {
+            Expr::Name(n) => scope[n],
+            Expr::F32(x) => Value::F(*x),
+            Expr::Paren(e) | Expr::Member(e, _) => eval(e),
+            Expr::Function(function, args) if function == "tmh_bilinear" => match &args[0] {
+                Expr::Name(texture) => Value::F(texture.trim_start_matches("tmh_table").parse::<f32>().unwrap()),
+                other => panic!("a texture read of {other:?}"),
+            },
+            Expr::Function(function, args) => {
+                let called = functions.iter().find(|f| &f.name == function).expect("a chooser of the module");
+                let mut inner: HashMap<String, Value> =
+                    called.params.iter().zip(args).map(|((p, _), a)| (p.clone(), eval(a))).collect();
+                run(&called.body, &mut inner, functions).expect("the chooser returns")
+            }
+            Expr::Call(Builtin::Max, args) => Value::F(eval(&args[0]).f().max(eval(&args[1]).f())),
+            Expr::Select { condition, then, otherwise } => {
+                if eval(condition).b() {
+                    eval(then)
+                } else {
+                    eval(otherwise)
+                }
+            }
+            Expr::Binary(op, a, b) => {
+                let (a, b) = (eval(a), eval(b));
+                match op {
+                    Op::Add => Value::F(a.f() + b.f()),
+                    Op::Sub => Value::F(a.f() - b.f()),
+                    Op::Mul => Value::F(a.f() * b.f()),
+                    Op::Div => Value::F(a.f() / b.f()),
+                    Op::Lt => Value::B(a.f() < b.f()),
+                    Op::Le => Value::B(a.f() <= b.f()),
+                    Op::Gt => Value::B(a.f() > b.f()),
+                    Op::Ge => Value::B(a.f() >= b.f()),
+                    Op::Eq => Value::B(a.f() == b.f()),
+                    Op::Ne => Value::B(a.f() != b.f()),
+                    Op::And => Value::B(a.b() && b.b()),
+                    Op::Or => Value::B(a.b() || b.b()),
+                }
+            }
+            other => panic!("the chooser evaluator reads no {other:?}"),
+        }
+    }
+
+    /// Runs `body` from `scope`; `Some` of what it returns.
+    fn run(body: &[Stmt], scope: &mut HashMap<String, Value>, functions: &[Function]) -> Option<Value> {
+        for statement in body {
+            match statement {
+                Stmt::Let { name, value, .. } | Stmt::Var { name, value: Some(value), .. } => {
+                    let v = evaluate(value, scope, functions);
+                    scope.insert(name.clone(), v);
+                }
+                Stmt::Assign(Expr::Name(name), value) => {
+                    let v = evaluate(value, scope, functions);
+                    scope.insert(name.clone(), v);
+                }
+                Stmt::If { condition, then, otherwise } => {
+                    let branch = if evaluate(condition, scope, functions).b() { then } else { otherwise };
+                    if let Some(v) = run(branch, scope, functions) {
+                        return Some(v);
+                    }
+                }
+                Stmt::Return(e) => return Some(evaluate(e, scope, functions)),
+                Stmt::Comment(_) => {}
+                other => panic!("the chooser evaluator runs no {other:?}"),
+            }
+        }
+        None
+    }
+
+    /// Lattice node 80 of the slices' alpha axis, `(80/128)^2`, exact in f32 and f64.
+    const NODE: f64 = 0.390625;
+    const ETA: f64 = 0.7122507122507123;
+
+    /// A slice file (TIR, or FGD at `kappa = 0`) at [`ETA`] over `mu` from `mu_start` to 1 and
+    /// `alpha` in `alpha`.
+    fn slice_file(file: &str, tir: bool, mu_start: f64, alpha: (f64, f64)) -> TableFile {
+        TableFile {
+            file: file.into(),
+            table: file.trim_end_matches(".dds").into(),
+            place: None,
+            axes: vec![
+                Axis::node_aligned("mu", mu_start, 1.0, 154).unwrap(),
+                Axis::node_aligned("alpha", alpha.0, alpha.1, 12).unwrap().with_mapping(Mapping::Sqrt).unwrap(),
+            ],
+            channels: 1,
+            indices: vec![(ETA, 0.0)],
+            is_tir: tir,
+            is_fgd: !tir,
+        }
+    }
+
+    /// The file of the slice the scene shader reads among `slices` at `(mu, alpha)`, run in f32;
+    /// `known_alpha` where the generator knows the roughness (an interface's FGD).
+    fn chosen(slices: &[TableFile], tir: bool, mu: f32, alpha: f32, known_alpha: Option<f64>) -> String {
+        let sources = Sources {
+            slices: slices.to_vec(),
+            gd: None,
+            packing: None,
+            fit: None,
+            tir: None,
+            fgd_rarer: None,
+            belcour: None,
+            karis: None,
+        };
+        let mut g = Generator {
+            sources: &sources,
+            textures: Vec::new(),
+            used: BTreeMap::new(),
+            reading: Default::default(),
+            reads: Default::default(),
+            manifest_path: String::new(),
+            needs: Needs::default(),
+            choosers: BTreeMap::new(),
+            chooser_functions: Vec::new(),
+            forms: Vec::new(),
+        };
+        let alpha_expr = if known_alpha.is_some() { f(alpha) } else { name("alpha") };
+        let read = g.slice(tir, ETA, 0.0, name("mu"), alpha_expr, known_alpha).expect("slices at the index");
+        let scope = HashMap::from([("mu".to_string(), Value::F(mu)), ("alpha".to_string(), Value::F(alpha))]);
+        let binding = evaluate(&read, &scope, &g.chooser_functions).f();
+        g.textures[binding as usize].file.clone()
+    }
+
+    #[test]
+    fn the_slice_chooser_prefers_a_slice_that_holds_the_lookup_as_the_cpu_evaluator_does() {
+        // absorbing-coat-00482 of `scripts/make-library 1000 1 DIR --per-scene 250` (as in
+        // `model::folder::tests`): TIR at alpha a rounding below lattice node 80, where another
+        // material's slice at the index begins; the material's own slice holds it inside. The
+        // printed chooser, run in f32, reads the slice that holds it, in either order.
+        let other = slice_file("other.dds", true, 0.701171875, (NODE, 1.0));
+        let own = slice_file("own.dds", true, 0.701171875, (0.32525634765625, 0.4306640625));
+        let below = |ulps: u32| f32::from_bits((NODE as f32).to_bits() - ulps);
+        for (slices, first) in [([other.clone(), own.clone()], "other.dds"), ([own, other], "own.dds")] {
+            for alpha in [below(1), below(8), (NODE - 5e-6) as f32] {
+                assert_eq!(chosen(&slices, true, 0.723594, alpha, None), "own.dds", "alpha {alpha}");
+            }
+            // Held by both, or by neither and within the slack of both: the first listed; past
+            // the own slice's end, the other slice, which holds it.
+            assert_eq!(chosen(&slices, true, 0.723594, 0.42, None), first);
+            assert_eq!(chosen(&slices, true, 1.0 + 2.0 * f32::EPSILON, 0.42, None), first);
+            assert_eq!(chosen(&slices, true, 0.723594, 0.5, None), "other.dds");
+        }
+        // An interface's FGD, whose roughness the generator knows: a slice over every mu that
+        // holds it is always chosen, and the slices that cannot beat it are left out, but not one
+        // whose end merely lies within the slack of it (the other slice, listed first).
+        let other = slice_file("other.dds", false, 0.0, (NODE, 1.0));
+        let own = slice_file("own.dds", false, 0.0, (0.32525634765625, 0.4306640625));
+        let slices = [other, own];
+        for alpha in [NODE - 1e-6, 0.38] {
+            assert_eq!(chosen(&slices, false, 0.5, alpha as f32, Some(alpha)), "own.dds", "alpha {alpha}");
+        }
+        assert_eq!(chosen(&slices, false, 0.5, NODE as f32, Some(NODE)), "other.dds");
+        assert_eq!(chosen(&slices, false, 0.5, 0.42, Some(0.42)), "other.dds");
+    }
 }
