@@ -126,6 +126,7 @@ impl TableFile {
 }
 
 /// Everything the materials read, found in the folder.
+#[derive(Default)]
 struct Sources {
     slices: Vec<TableFile>,
     gd: Option<TableFile>,
@@ -309,16 +310,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
 
 fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> {
     let entries = &folder.manifest().files;
-    let mut sources = Sources {
-        slices: Vec::new(),
-        gd: None,
-        packing: None,
-        fit: None,
-        tir: None,
-        fgd_rarer: None,
-        belcour: None,
-        karis: None,
-    };
+    let mut sources = Sources::default();
     // The slices in the order the CPU evaluator finds them (`model::folder`), which decides among equals.
     for slice in folder.scene_slices(|e| is_slice(e, "fgd") || is_slice(e, "tir"))? {
         let mut table = TableFile::of(&slice.file, &slice.entry);
@@ -976,16 +968,7 @@ mod tests {
     /// The file of the slice the scene shader reads among `slices` at `(mu, alpha)`, run in f32;
     /// `known_alpha` where the generator knows the roughness (an interface's FGD).
     fn chosen(slices: &[TableFile], tir: bool, mu: f32, alpha: f32, known_alpha: Option<f64>) -> String {
-        let sources = Sources {
-            slices: slices.to_vec(),
-            gd: None,
-            packing: None,
-            fit: None,
-            tir: None,
-            fgd_rarer: None,
-            belcour: None,
-            karis: None,
-        };
+        let sources = Sources { slices: slices.to_vec(), ..Sources::default() };
         let mut g = Generator {
             sources: &sources,
             textures: Vec::new(),
