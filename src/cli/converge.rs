@@ -32,11 +32,17 @@ pub struct ConvergeArgs {
     /// Samples per reference cell (a power of two).
     #[arg(long, default_value_t = 1 << 20)]
     reference_samples: u64,
+    /// After the sweep, answer for each method how many samples per cell give this RMS error
+    /// (a positive number, e.g. 1e-4): the smallest swept count that reaches it, or one
+    /// extrapolated from the last points' log-log slope (said so). Also writes converge_TABLE.json.
+    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    target_error: Option<String>,
     #[command(flatten)]
     threads: ThreadsArg,
 }
 
 pub fn exec(args: ConvergeArgs, context: &Context) -> tmlut::Result<()> {
+    let target = args.target_error.as_deref().map(converge::parse_target_error).transpose()?;
     let config = args.config.load()?;
     args.threads.apply()?;
     for (key, n) in [
@@ -58,7 +64,11 @@ pub fn exec(args: ConvergeArgs, context: &Context) -> tmlut::Result<()> {
     let settings = converge::ConvergeSettings { samples, cells: args.cells, reference_samples: args.reference_samples };
     let points = converge::converge(&config, &args.table, &settings, &context.progress())?;
     print!("{}", converge::csv(&points));
-    for path in converge::write(&args.out, &args.table, &points, &settings)? {
+    let answers = target.map(|e| converge::target_answers(&points, e, &settings)).unwrap_or_default();
+    for answer in &answers {
+        println!("{}", answer.line());
+    }
+    for path in converge::write(&args.out, &args.table, &points, &settings, &answers)? {
         println!("wrote {}", path.display());
     }
     Ok(())

@@ -8,7 +8,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::plot::{Series, loglog_png};
+use serde::Serialize;
+
+use super::plot::{Series, loglog_labelled_png};
 use crate::config::{Config, SamplingConfig, TableKind};
 use crate::error::{Error, Result};
 use crate::formats::write_bytes_atomically;
@@ -150,16 +152,245 @@ pub fn csv(points: &[ConvergencePoint]) -> String {
     out
 }
 
-/// Write `converge_<table>.csv` and `converge_<table>.png` into `dir`.
+/// The option that sets the RMS error target, named in its errors.
+pub const TARGET_OPTION: &str = "--target-error";
+
+/// How many of the largest swept sample counts the extrapolation fits (fewer if fewer were swept).
+pub const TARGET_FIT_POINTS: usize = 3;
+
+/// Read `--target-error`: a positive, finite RMS error.
+pub fn parse_target_error(text: &str) -> Result<f64> {
+    const ALLOWED: &str = "allowed: a positive, finite RMS error such as 1e-4";
+    match text.trim().parse::<f64>() {
+        Ok(e) if e.is_finite() && e > 0.0 => Ok(e),
+        Ok(_) => Err(Error::invalid(TARGET_OPTION, format!("`{text}` is not a positive, finite number; {ALLOWED}"))),
+        Err(_) => Err(Error::invalid(TARGET_OPTION, format!("`{text}` is not a number; {ALLOWED}"))),
+    }
+}
+
+/// How an answer to "how many samples per cell for RMS error E" was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TargetStatus {
+    /// A swept sample count measured at or below the target.
+    Reached,
+    /// No swept count reached it; the count comes from the log-log slope of the last points.
+    Extrapolated,
+    /// No swept count reached it and the last points give no count (see `note`).
+    Unreachable,
+}
+
+/// The answer for one method to "how many samples per cell for RMS error `target_rms_error`".
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetAnswer {
+    pub method: &'static str,
+    pub target_rms_error: f64,
+    pub status: TargetStatus,
+    /// The smallest swept count that reached the target, or the extrapolated power of two.
+    pub samples_per_cell: Option<u64>,
+    pub log2_samples_per_cell: Option<u32>,
+    /// Measured at that count, or predicted by the fitted line.
+    pub rms_error: Option<f64>,
+    /// Wall time for the whole table at that count: measured (as in the CSV), or predicted from
+    /// the log-log line of time against samples over the same points.
+    pub wall_s: Option<f64>,
+    pub wall: Option<String>,
+    /// The swept sample counts the lines were fitted to (extrapolated and unreachable answers).
+    pub fitted_samples_per_cell: Vec<u64>,
+    /// Log-log slopes of RMS error and of wall time against samples per cell over those points.
+    pub error_slope: Option<f64>,
+    pub time_slope: Option<f64>,
+    /// Why there is no count, or a caveat on the one given.
+    pub note: Option<String>,
+}
+
+/// Least-squares line `log2 y = a + b log2 x` through the points: `(a, b)`.
+fn loglog_line(points: &[(f64, f64)]) -> (f64, f64) {
+    let n = points.len() as f64;
+    let logs: Vec<(f64, f64)> = points.iter().map(|&(x, y)| (x.log2(), y.log2())).collect();
+    let mx = logs.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = logs.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxy: f64 = logs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = logs.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let slope = sxy / sxx;
+    (my - slope * mx, slope)
+}
+
+/// Answer "how many samples per cell for RMS error `target`" for `method` from the sweep: the
+/// smallest swept count whose RMS error is at most `target`; failing that, the smallest power of
+/// two above the sweep at which the least-squares log-log line through the last
+/// [`TARGET_FIT_POINTS`] points reaches it, with the wall time predicted by the same kind of line
+/// of time against samples. `reference_samples` (the references' own count) is only used for a
+/// caveat: an error predicted at or beyond it cannot be confirmed by those references.
+pub fn target_answer(
+    points: &[ConvergencePoint],
+    method: &'static str,
+    target: f64,
+    reference_samples: u64,
+) -> TargetAnswer {
+    let mut swept: Vec<&ConvergencePoint> = points.iter().filter(|p| p.method == method).collect();
+    swept.sort_by_key(|p| p.samples_per_cell);
+    let mut answer = TargetAnswer {
+        method,
+        target_rms_error: target,
+        status: TargetStatus::Unreachable,
+        samples_per_cell: None,
+        log2_samples_per_cell: None,
+        rms_error: None,
+        wall_s: None,
+        wall: None,
+        fitted_samples_per_cell: Vec::new(),
+        error_slope: None,
+        time_slope: None,
+        note: None,
+    };
+    if let Some(p) = swept.iter().find(|p| p.error.rms <= target) {
+        answer.status = TargetStatus::Reached;
+        answer.samples_per_cell = Some(p.samples_per_cell);
+        answer.log2_samples_per_cell = Some(p.samples_per_cell.trailing_zeros());
+        answer.rms_error = Some(p.error.rms);
+        answer.wall_s = Some(p.wall_s);
+        answer.wall = Some(p.wall_kind.clone());
+        return answer;
+    }
+    let mut tail: Vec<&ConvergencePoint> =
+        swept.iter().rev().filter(|p| p.error.rms > 0.0 && p.wall_s > 0.0).take(TARGET_FIT_POINTS).copied().collect();
+    tail.reverse();
+    answer.fitted_samples_per_cell = tail.iter().map(|p| p.samples_per_cell).collect();
+    if tail.len() < 2 {
+        answer.note = Some(format!(
+            "not reached, and {} swept point(s) with a positive error and time: sweep at least two sample \
+             counts to extrapolate",
+            tail.len()
+        ));
+        return answer;
+    }
+    let (a, slope) = loglog_line(&tail.iter().map(|p| (p.samples_per_cell as f64, p.error.rms)).collect::<Vec<_>>());
+    answer.error_slope = Some(slope);
+    if slope.is_nan() || slope >= 0.0 {
+        answer.note = Some(format!(
+            "not reached, and the RMS error does not fall with samples over the last points (log-log slope \
+             {slope:.2}): no count can be extrapolated"
+        ));
+        return answer;
+    }
+    let last = tail.last().expect("two points").samples_per_cell.trailing_zeros();
+    let needed = (target.log2() - a) / slope;
+    // A power of two, and above the sweep: every swept count was measured short of the target.
+    let k = needed.ceil().max(f64::from(last + 1));
+    if k > 63.0 {
+        answer.note = Some(format!(
+            "not reached; the log-log slope {slope:.2} of the last points needs about 2^{needed:.1} samples per \
+             cell, beyond 2^63"
+        ));
+        return answer;
+    }
+    let k = k as u32;
+    let (b, time_slope) = loglog_line(&tail.iter().map(|p| (p.samples_per_cell as f64, p.wall_s)).collect::<Vec<_>>());
+    answer.status = TargetStatus::Extrapolated;
+    answer.samples_per_cell = Some(1u64 << k);
+    answer.log2_samples_per_cell = Some(k);
+    answer.rms_error = Some((a + slope * f64::from(k)).exp2());
+    answer.wall_s = Some((b + time_slope * f64::from(k)).exp2());
+    answer.time_slope = Some(time_slope);
+    answer.wall = Some(format!(
+        "predicted along the log-log time slope of the fitted points; swept times {}",
+        tail.last().expect("two points").wall_kind
+    ));
+    if 1u64 << k >= reference_samples {
+        answer.note = Some(format!(
+            "2^{k} is at or beyond the references' {reference_samples} samples per cell: they cannot confirm an \
+             error this small; rerun with more --reference-samples"
+        ));
+    }
+    answer
+}
+
+/// The answers of both methods, in the sweep's order.
+pub fn target_answers(points: &[ConvergencePoint], target: f64, settings: &ConvergeSettings) -> Vec<TargetAnswer> {
+    ["fast", "per-cell"].into_iter().map(|m| target_answer(points, m, target, settings.reference_samples)).collect()
+}
+
+/// `2^k = n`, as the answers and the plot write sample counts.
+fn power_of_two(samples: u64) -> String {
+    format!("2^{}", samples.trailing_zeros())
+}
+
+impl TargetAnswer {
+    /// One line a person reads: the count, how it was found, and the wall time.
+    pub fn line(&self) -> String {
+        let head = format!("{}: RMS error <= {:e}", self.method, self.target_rms_error);
+        let counts = |v: &[u64]| v.iter().map(|&n| power_of_two(n)).collect::<Vec<_>>().join(", ");
+        let mut line = match (self.status, self.samples_per_cell) {
+            (TargetStatus::Reached, Some(n)) => format!(
+                "{head} at {} = {n} samples per cell (measured RMS {:.3e}; wall time {:.3} s, {})",
+                power_of_two(n),
+                self.rms_error.unwrap_or(f64::NAN),
+                self.wall_s.unwrap_or(f64::NAN),
+                self.wall.as_deref().unwrap_or("")
+            ),
+            (TargetStatus::Extrapolated, Some(n)) => format!(
+                "{head} needs {} = {n} samples per cell, EXTRAPOLATED (not measured) from {} (log-log error \
+                 slope {:.2}; predicted RMS {:.3e}); predicted wall time {:.3} s (log-log time slope {:.2})",
+                power_of_two(n),
+                counts(&self.fitted_samples_per_cell),
+                self.error_slope.unwrap_or(f64::NAN),
+                self.rms_error.unwrap_or(f64::NAN),
+                self.wall_s.unwrap_or(f64::NAN),
+                self.time_slope.unwrap_or(f64::NAN),
+            ),
+            _ => format!("{head}: no sample count"),
+        };
+        if let Some(note) = &self.note {
+            let _ = write!(line, "; {note}");
+        }
+        line
+    }
+}
+
+/// The companion of the CSV with the target's answers: `converge_<table>.json`.
+pub fn target_json(table: &str, settings: &ConvergeSettings, answers: &[TargetAnswer]) -> String {
+    let value = serde_json::json!({
+        "table": table,
+        "target_rms_error": answers.first().map(|a| a.target_rms_error),
+        "cells": settings.cells,
+        "reference_samples": settings.reference_samples,
+        "swept_samples_per_cell": settings.samples,
+        "fit_points": TARGET_FIT_POINTS,
+        "answers": answers.iter().map(|a| {
+            let mut v = serde_json::to_value(a).expect("answers serialise");
+            v["summary"] = a.line().into();
+            v
+        }).collect::<Vec<_>>(),
+    });
+    serde_json::to_string_pretty(&value).expect("answers serialise") + "\n"
+}
+
+/// Write `converge_<table>.csv` and `converge_<table>.png` into `dir`, and with `answers` (from
+/// `--target-error`) `converge_<table>.json`, the target drawn on the plot as a dashed line.
+/// Without answers a `converge_<table>.json` left by an earlier run is removed, so the folder never
+/// pairs this sweep with another's answers.
 pub fn write(
     dir: &Path,
     table: &str,
     points: &[ConvergencePoint],
     settings: &ConvergeSettings,
+    answers: &[TargetAnswer],
 ) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|source| Error::io(dir, source))?;
     let csv_path = dir.join(format!("converge_{table}.csv"));
     write_bytes_atomically(&csv_path, csv(points).as_bytes())?;
+    let json_path = dir.join(format!("converge_{table}.json"));
+    let mut written = vec![csv_path];
+    if answers.is_empty() {
+        match std::fs::remove_file(&json_path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(Error::io(&json_path, e)),
+            _ => {}
+        }
+    } else {
+        write_bytes_atomically(&json_path, target_json(table, settings, answers).as_bytes())?;
+        written.push(json_path);
+    }
     let series = |method: &str, max: bool| Series {
         name: format!("{method}, {} error", if max { "max" } else { "RMS" }),
         points: points
@@ -169,17 +400,27 @@ pub fn write(
             .collect(),
     };
     let png_path = dir.join(format!("converge_{table}.png"));
-    loglog_png(
+    let all = [series("fast", false), series("fast", true), series("per-cell", false), series("per-cell", true)];
+    // Every point labelled with its samples per cell, in the same order as the series' points.
+    let labels: Vec<Vec<String>> = ["fast", "fast", "per-cell", "per-cell"]
+        .iter()
+        .map(|m| points.iter().filter(|p| p.method == *m).map(|p| power_of_two(p.samples_per_cell)).collect())
+        .collect();
+    let guide_name = answers.first().map(|a| format!("target RMS error {:e}", a.target_rms_error));
+    loglog_labelled_png(
         &png_path,
         &format!(
             "{table}: error against run time ({} cells vs {}-sample references; per-cell time extrapolated)",
             settings.cells, settings.reference_samples
         ),
-        "wall time for the whole table (s)",
+        "wall time for the whole table (s); labels: samples per cell",
         "absolute error",
-        &[series("fast", false), series("fast", true), series("per-cell", false), series("per-cell", true)],
+        &all,
+        &labels,
+        answers.first().map(|a| a.target_rms_error).zip(guide_name.as_deref()),
     )?;
-    Ok(vec![csv_path, png_path])
+    written.push(png_path);
+    Ok(written)
 }
 
 #[cfg(test)]
@@ -196,7 +437,7 @@ mod tests {
         assert!(fast[1].error.rms < fast[0].error.rms, "more samples, less error: {fast:?}");
         assert!(points.iter().all(|p| p.wall_s > 0.0 && p.error.count == 16));
         let dir = tempfile::tempdir().unwrap();
-        let written = write(dir.path(), "gd", &points, &settings).unwrap();
+        let written = write(dir.path(), "gd", &points, &settings, &[]).unwrap();
         let text = std::fs::read_to_string(&written[0]).unwrap();
         assert_eq!(text.lines().count(), 5);
         assert!(text.starts_with("method,samples_per_cell,wall_s,"));
@@ -204,5 +445,118 @@ mod tests {
         assert!(image::open(&written[1]).is_ok());
         let err = converge(&config, "gf", &settings, &()).unwrap_err().to_string();
         assert!(err.contains("unknown table `gf`"), "{err}");
+    }
+
+    /// A sweep of `method` over 2^8..=2^12 with RMS error `N^slope` and wall time `1e-6 N` s.
+    fn synthetic(method: &'static str, slope: f64) -> Vec<ConvergencePoint> {
+        (8..=12)
+            .map(|k| {
+                let n = 1u64 << k;
+                ConvergencePoint {
+                    method,
+                    samples_per_cell: n,
+                    wall_s: 1e-6 * n as f64,
+                    wall_kind: "measured on the whole table".into(),
+                    error: ErrorSummary { count: 16, rms: (n as f64).powf(slope), max: 3.0 * (n as f64).powf(slope) },
+                    replicate_standard_error_rms: 0.0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_target_the_sweep_reaches_is_the_smallest_swept_count_at_or_below_it() {
+        let points = synthetic("fast", -0.5);
+        // RMS 2^-4, 2^-4.5, 2^-5, 2^-5.5, 2^-6 at 2^8..2^12.
+        let answer = target_answer(&points, "fast", 0.03, 1 << 20);
+        assert_eq!(answer.status, TargetStatus::Reached);
+        assert_eq!((answer.samples_per_cell, answer.log2_samples_per_cell), (Some(2048), Some(11)));
+        assert_eq!(answer.rms_error, Some(2f64.powf(-5.5)));
+        assert_eq!(answer.wall_s, Some(1e-6 * 2048.0));
+        assert!(answer.error_slope.is_none() && answer.note.is_none(), "{answer:?}");
+        // At or below: equal to a measured error counts.
+        assert_eq!(target_answer(&points, "fast", 2f64.powi(-5), 1 << 20).samples_per_cell, Some(1024));
+        let line = answer.line();
+        assert!(line.starts_with("fast: RMS error <= 3e-2 at 2^11 = 2048 samples per cell (measured"), "{line}");
+        assert!(!line.contains("EXTRAPOLATED"), "{line}");
+    }
+
+    #[test]
+    fn a_target_beyond_the_sweep_is_extrapolated_from_the_last_points_slope() {
+        let mut points = synthetic("per-cell", -0.5);
+        // Outside the last three points, so ignored by the fit (it would pull the slope to -1.3).
+        points[0].error.rms = 1.0;
+        points[0].wall_s = 1.0;
+        // log2 N = log2(1e-3) / -0.5 = 19.93: 2^20, where the line predicts 2^-10 and 1e-6 * 2^20 s.
+        let answer = target_answer(&points, "per-cell", 1e-3, 1 << 18);
+        assert_eq!(answer.status, TargetStatus::Extrapolated);
+        assert_eq!((answer.samples_per_cell, answer.log2_samples_per_cell), (Some(1 << 20), Some(20)));
+        assert_eq!(answer.fitted_samples_per_cell, vec![1024, 2048, 4096]);
+        assert!((answer.error_slope.unwrap() + 0.5).abs() < 1e-12, "{answer:?}");
+        assert!((answer.time_slope.unwrap() - 1.0).abs() < 1e-12, "{answer:?}");
+        assert!((answer.rms_error.unwrap() / 2f64.powi(-10) - 1.0).abs() < 1e-9, "{answer:?}");
+        assert!((answer.wall_s.unwrap() / (1e-6 * 1048576.0) - 1.0).abs() < 1e-9, "{answer:?}");
+        // 2^20 is beyond the 2^18-sample references: said so.
+        assert!(answer.note.as_deref().unwrap().contains("cannot confirm"), "{answer:?}");
+        let line = answer.line();
+        assert!(line.contains("needs 2^20 = 1048576 samples per cell, EXTRAPOLATED"), "{line}");
+        assert!(line.contains("from 2^10, 2^11, 2^12 (log-log error slope -0.50"), "{line}");
+        assert!(line.contains("predicted wall time 1.049 s (log-log time slope 1.00)"), "{line}");
+        // Just past the last point: the next power of two, never a swept one.
+        let answer = target_answer(&points, "per-cell", 0.0155, 1 << 20);
+        assert_eq!((answer.status, answer.samples_per_cell), (TargetStatus::Extrapolated, Some(8192)));
+        assert!(answer.note.is_none(), "{answer:?}");
+        // Only the named method's points count.
+        assert_eq!(target_answer(&points, "fast", 1e-3, 1 << 18).status, TargetStatus::Unreachable);
+    }
+
+    #[test]
+    fn no_count_when_the_error_does_not_fall_or_one_point_was_swept() {
+        let flat = synthetic("fast", 0.0);
+        let answer = target_answer(&flat, "fast", 0.5, 1 << 20);
+        assert_eq!((answer.status, answer.samples_per_cell), (TargetStatus::Unreachable, None));
+        assert!(answer.note.as_deref().unwrap().contains("does not fall with samples"), "{answer:?}");
+        assert!(answer.line().contains("no sample count"), "{}", answer.line());
+        let one = &synthetic("fast", -0.5)[4..];
+        let answer = target_answer(one, "fast", 1e-3, 1 << 20);
+        assert_eq!(answer.status, TargetStatus::Unreachable);
+        assert!(answer.note.as_deref().unwrap().contains("sweep at least two"), "{answer:?}");
+    }
+
+    #[test]
+    fn the_target_must_be_a_positive_finite_number() {
+        assert_eq!(parse_target_error("1e-4").unwrap(), 1e-4);
+        assert_eq!(parse_target_error(" 0.002 ").unwrap(), 0.002);
+        for bad in ["0", "-1e-4", "NaN", "inf", "abc", "", "1e-4x"] {
+            let err = parse_target_error(bad).unwrap_err().to_string();
+            assert!(err.starts_with("--target-error: `"), "{bad}: {err}");
+            assert!(err.contains("allowed: a positive, finite RMS error"), "{bad}: {err}");
+        }
+        assert!(parse_target_error("abc").unwrap_err().to_string().contains("not a number"));
+        assert!(parse_target_error("-1").unwrap_err().to_string().contains("not a positive, finite number"));
+    }
+
+    #[test]
+    fn the_answers_are_written_beside_the_csv_and_a_stale_file_is_removed() {
+        let mut points = synthetic("fast", -0.5);
+        points.extend(synthetic("per-cell", -0.5));
+        let settings =
+            ConvergeSettings { samples: (8..=12).map(|k| 1 << k).collect(), cells: 16, reference_samples: 1 << 20 };
+        let answers = target_answers(&points, 1e-3, &settings);
+        assert_eq!(answers.iter().map(|a| a.method).collect::<Vec<_>>(), ["fast", "per-cell"]);
+        let dir = tempfile::tempdir().unwrap();
+        let written = write(dir.path(), "gd", &points, &settings, &answers).unwrap();
+        assert_eq!(written.len(), 3);
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&written[1]).unwrap()).unwrap();
+        assert_eq!(json["target_rms_error"], 1e-3);
+        assert_eq!(json["answers"][1]["method"], "per-cell");
+        assert_eq!(json["answers"][1]["status"], "extrapolated");
+        assert_eq!(json["answers"][1]["samples_per_cell"], 1 << 20);
+        assert!(json["answers"][0]["summary"].as_str().unwrap().contains("EXTRAPOLATED"), "{json}");
+        assert!(image::open(&written[2]).is_ok());
+        // A run without a target leaves no answers of another sweep behind.
+        let written = write(dir.path(), "gd", &points, &settings, &[]).unwrap();
+        assert_eq!(written.len(), 2);
+        assert!(!dir.path().join("converge_gd.json").exists());
     }
 }

@@ -150,6 +150,21 @@ pub fn heatmaps_png(path: &Path, title: &str, quantity: &str, panels: &[Panel], 
 
 /// A log-log chart of several series with a legend.
 pub fn loglog_png(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<()> {
+    loglog_labelled_png(path, title, x_label, y_label, series, &[], None)
+}
+
+/// [`loglog_png`] with a text beside each point and an optional dashed horizontal guide line.
+/// `labels[k][i]` is written just above and right of point `i` of series `k` (missing entries draw
+/// nothing); `guide` is `(y, legend name)`, and the y axis is widened to show it.
+pub fn loglog_labelled_png(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    labels: &[Vec<String>],
+    guide: Option<(f64, &str)>,
+) -> Result<()> {
     ensure_font();
     let points: Vec<(f64, f64)> =
         series.iter().flat_map(|s| s.points.iter().copied()).filter(|(x, y)| *x > 0.0 && *y > 0.0).collect();
@@ -162,7 +177,8 @@ pub fn loglog_png(path: &Path, title: &str, x_label: &str, y_label: &str, series
         (lo / 2.0)..(hi * 2.0)
     };
     let x_range = range(points.iter().map(|p| p.0).collect());
-    let y_range = range(points.iter().map(|p| p.1).collect());
+    let guide = guide.filter(|(y, _)| y.is_finite() && *y > 0.0);
+    let y_range = range(points.iter().map(|p| p.1).chain(guide.map(|g| g.0)).collect());
     let (width, height) = (900u32, 600u32);
     let mut rgb = vec![255u8; (width * height * 3) as usize];
     {
@@ -173,7 +189,7 @@ pub fn loglog_png(path: &Path, title: &str, x_label: &str, y_label: &str, series
             .margin(15)
             .x_label_area_size(45)
             .y_label_area_size(70)
-            .build_cartesian_2d(x_range.log_scale(), y_range.log_scale())
+            .build_cartesian_2d(x_range.clone().log_scale(), y_range.log_scale())
             .map_err(|e| plot_error(path, e))?;
         chart
             .configure_mesh()
@@ -196,14 +212,39 @@ pub fn loglog_png(path: &Path, title: &str, x_label: &str, y_label: &str, series
                 .label(&s.name)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
             chart
-                .draw_series(line.into_iter().map(|p| Circle::new(p, 4, colour.filled())))
+                .draw_series(line.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+                .map_err(|e| plot_error(path, e))?;
+            // Each point's label, in the series' colour, just above and right of its marker.
+            let texts = labels.get(k).map(Vec::as_slice).unwrap_or_default();
+            let labelled = s.points.iter().zip(texts).filter(|(p, _)| p.0 > 0.0 && p.1 > 0.0);
+            chart
+                .draw_series(labelled.map(|(&p, text)| {
+                    EmptyElement::at(p) + Text::new(text.clone(), (5, -16), (FONT, 11).into_font().color(&colour))
+                }))
                 .map_err(|e| plot_error(path, e))?;
         }
+        if let Some((y, name)) = guide {
+            // Dashed: short segments evenly spaced on the logarithmic x axis.
+            let (lo, hi) = (x_range.start.ln(), x_range.end.ln());
+            let steps = 60;
+            let at = |i: usize| ((lo + (hi - lo) * i as f64 / steps as f64).exp(), y);
+            let grey = RGBColor(90, 90, 90);
+            chart
+                .draw_series(
+                    (0..steps).step_by(2).map(|i| PathElement::new(vec![at(i), at(i + 1)], grey.stroke_width(1))),
+                )
+                .map_err(|e| plot_error(path, e))?
+                .label(name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 8, y)], grey.stroke_width(1)));
+        }
+        // Labelled charts fall to the right (error against time), so their upper right is taken.
+        let position = if labels.is_empty() { SeriesLabelPosition::UpperRight } else { SeriesLabelPosition::LowerLeft };
         chart
             .configure_series_labels()
             .label_font((FONT, 14))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
+            .position(position)
             .draw()
             .map_err(|e| plot_error(path, e))?;
         root.present().map_err(|e| plot_error(path, e))?;
