@@ -157,18 +157,7 @@ struct Needs {
 pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<SceneShader> {
     let manifest_path = folder.dir().join(MANIFEST_FILE);
     let sources = sources(folder, materials)?;
-    let mut g = Generator {
-        sources: &sources,
-        textures: Vec::new(),
-        used: BTreeMap::new(),
-        reading: Default::default(),
-        reads: Default::default(),
-        manifest_path: manifest_path.display().to_string(),
-        needs: Needs::default(),
-        choosers: BTreeMap::new(),
-        chooser_functions: Vec::new(),
-        forms: Vec::new(),
-    };
+    let mut g = Generator::new(&sources, manifest_path.display().to_string());
     let mut functions = Vec::new();
     let mut described = Vec::new();
     let mut max_lobes = 1;
@@ -389,7 +378,23 @@ fn v3(e: Expr) -> Expr {
     splat3(e)
 }
 
-impl Generator<'_> {
+impl<'a> Generator<'a> {
+    /// A generator over `sources` that has read nothing yet; `manifest_path` for its messages.
+    fn new(sources: &'a Sources, manifest_path: String) -> Self {
+        Generator {
+            sources,
+            textures: Vec::new(),
+            used: BTreeMap::new(),
+            reading: Default::default(),
+            reads: Default::default(),
+            manifest_path,
+            needs: Needs::default(),
+            choosers: BTreeMap::new(),
+            chooser_functions: Vec::new(),
+            forms: Vec::new(),
+        }
+    }
+
     fn refuse(&self, material: &str, what: String) -> Error {
         Error::invalid(format!("tmlut shader, material `{material}`"), what)
     }
@@ -969,18 +974,7 @@ mod tests {
     /// `known_alpha` where the generator knows the roughness (an interface's FGD).
     fn chosen(slices: &[TableFile], tir: bool, mu: f32, alpha: f32, known_alpha: Option<f64>) -> String {
         let sources = Sources { slices: slices.to_vec(), ..Sources::default() };
-        let mut g = Generator {
-            sources: &sources,
-            textures: Vec::new(),
-            used: BTreeMap::new(),
-            reading: Default::default(),
-            reads: Default::default(),
-            manifest_path: String::new(),
-            needs: Needs::default(),
-            choosers: BTreeMap::new(),
-            chooser_functions: Vec::new(),
-            forms: Vec::new(),
-        };
+        let mut g = Generator::new(&sources, String::new());
         let alpha_expr = if known_alpha.is_some() { f(alpha) } else { name("alpha") };
         let read = g.slice(tir, ETA, 0.0, name("mu"), alpha_expr, known_alpha).expect("slices at the index");
         let scope = HashMap::from([("mu".to_string(), Value::F(mu)), ("alpha".to_string(), Value::F(alpha))]);
