@@ -183,9 +183,10 @@ pub const MAX_BUILD_BYTES: u64 = 16 << 30;
 pub const MAX_SAMPLE_EVALUATIONS: u64 = 1 << 44;
 
 /// Bytes per stored value while a table is built: the f32 value, up to four f64 beside it (FGD's
-/// product, and with error maps its running mean, sum of squares and replicate product) and the f32
-/// error map.
-const BUILD_BYTES_PER_VALUE: u128 = 48;
+/// product, and with error maps its running mean, sum of squares and replicate product), the f32
+/// error map, and the encoded file and its read-back for the interpolation check (8 bytes at f32),
+/// which a build holds while the next table integrates.
+const BUILD_BYTES_PER_VALUE: u128 = 56;
 /// What the process holds besides a table's build: the program, its threads, the manifest.
 const BUILD_BYTES_BASE: u128 = 64 << 20;
 /// Bytes per cell estimated on its own: an [`Estimate`] (two vectors of a few f64 each, with their
@@ -204,8 +205,8 @@ pub struct Demand {
 }
 
 /// Estimate what building `recipe`'s table needs, before anything is allocated. The estimate is an
-/// upper bound of the peak resident memory measured (`docs/benchmark.md`, "Memory"): 911 MiB
-/// against 726 MiB for the default FGD table with error maps, 114 MiB against 74 MiB for TIR.
+/// upper bound of the peak resident memory measured (`docs/benchmark.md`, "Memory"): 1,005 MiB
+/// against 882 MiB for the default FGD table with error maps, 93 MiB against 78 MiB for TIR.
 pub fn demand(recipe: &dyn TableRecipe) -> crate::error::Result<Demand> {
     let name = recipe.name();
     let axes = recipe.axes()?;
