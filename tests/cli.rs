@@ -1107,14 +1107,21 @@ fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
     assert_eq!(
         files,
         [
+            "error_map.png",
             "fit.json",
             &format!("{stem}.glsl"),
             &format!("{stem}.hlsl"),
             &format!("{stem}.metal"),
             &format!("{stem}.wgsl"),
-            "report.md"
+            "report.md",
+            "residuals.png"
         ]
     );
+    // The two pictures decode as PNG, at the sizes the plots are drawn.
+    for picture in ["error_map.png", "residuals.png"] {
+        let image = image::open(out.join(picture)).unwrap_or_else(|e| panic!("{picture}: {e}"));
+        assert!((400..=4000).contains(&image.width()) && (300..=4000).contains(&image.height()), "{picture}");
+    }
     let wgsl = std::fs::read_to_string(out.join(format!("{stem}.wgsl"))).unwrap();
     let module = naga::front::wgsl::parse_str(&wgsl).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&wgsl)));
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())

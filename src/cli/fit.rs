@@ -11,10 +11,10 @@ use super::{Context, check_count};
 /// Fit analytic approximations to a table by least squares (NLopt). `tmlut fit tir`: the built-in
 /// TIR forms, error against cost (fit.json, HLSL/WGSL per form, error_vs_cost.png). `tmlut fit
 /// --form FILE --table TABLE_FILE`: a form written as text (docs/fit.md, "Forms as text"), fitted
-/// to any table tmlut writes (fit.json, report.md, WGSL, HLSL, GLSL, MSL). `tmlut fit --scene
-/// SCENE --form A --form B ...`: TIR forms judged in the material (each form file fitted to
-/// --table first, or a `tmlut fit --form` output folder used as fitted), ranked by the furnace's
-/// largest error with each, the TIR table's beside them (ranking.json).
+/// to any table tmlut writes (fit.json, report.md, error_map.png, residuals.png, WGSL, HLSL, GLSL,
+/// MSL). `tmlut fit --scene SCENE --form A --form B ...`: TIR forms judged in the material (each
+/// form file fitted to --table first, or a `tmlut fit --form` output folder used as fitted),
+/// ranked by the furnace's largest error with each, the TIR table's beside them (ranking.json).
 #[derive(Args)]
 pub struct FitArgs {
     /// The built-in forms' table: `tir`. Not with --form.

@@ -46,7 +46,7 @@ pub fn write_error_maps(dir: &Path, build: &TableBuild) -> Result<Vec<PathBuf>> 
 }
 
 /// How an axis reads on a plot: its quantity, direction and spacing.
-fn axis_label(axis: &Axis) -> String {
+pub(crate) fn axis_label(axis: &Axis) -> String {
     let spacing = match axis.mapping {
         crate::table::Mapping::Identity => String::new(),
         mapping => format!(", spaced in {}", mapping.formula(&axis.name)),

@@ -408,6 +408,99 @@ pub fn lines_png(
     write_png(path, rgb, (width, height))
 }
 
+/// A histogram of `counts` over equal bins spanning `range`, counts on a logarithmic axis when
+/// `log_counts` (empty bins then draw nothing), with vertical lines at `marks` (`(legend name,
+/// x, colour)`) and a legend naming those with a name.
+pub fn histogram_png(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    range: (f64, f64),
+    counts: &[usize],
+    log_counts: bool,
+    marks: &[(String, f64, [u8; 3])],
+) -> Result<()> {
+    ensure_font();
+    let (width, height) = (900u32, 600u32);
+    let (lo, hi) = range;
+    let top = counts.iter().copied().max().unwrap_or(1).max(1) as f64;
+    let width_of_bin = (hi - lo) / counts.len().max(1) as f64;
+    let bar_colour = RGBColor(70, 110, 170);
+    let mut rgb = vec![255u8; (width * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+        let (header, body) = root.split_vertically(50);
+        header.titled(title, (FONT, 15)).map_err(|e| plot_error(path, e))?;
+        macro_rules! draw {
+            ($chart:expr, $base:expr) => {{
+                let mut chart = $chart;
+                chart
+                    .configure_mesh()
+                    .x_desc(x_label)
+                    .y_desc(if log_counts { "count (log scale)" } else { "count" })
+                    .y_label_formatter(&|v| format!("{v:.0}"))
+                    .label_style((FONT, 13))
+                    .draw()
+                    .map_err(|e| plot_error(path, e))?;
+                chart
+                    .draw_series(counts.iter().enumerate().filter(|(_, c)| **c > 0).map(|(k, &c)| {
+                        let x0 = lo + k as f64 * width_of_bin;
+                        Rectangle::new([(x0, $base), (x0 + width_of_bin, c as f64)], bar_colour.filled())
+                    }))
+                    .map_err(|e| plot_error(path, e))?;
+                for (name, x, colour) in marks {
+                    let colour = RGBColor(colour[0], colour[1], colour[2]);
+                    let drawn = chart
+                        .draw_series(std::iter::once(PathElement::new(
+                            vec![(*x, $base), (*x, top * if log_counts { 3.0 } else { 1.1 })],
+                            colour.stroke_width(2),
+                        )))
+                        .map_err(|e| plot_error(path, e))?;
+                    if !name.is_empty() {
+                        drawn
+                            .label(name)
+                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+                    }
+                }
+                if !marks.is_empty() {
+                    chart
+                        .configure_series_labels()
+                        .label_font((FONT, 13))
+                        .background_style(WHITE.mix(0.85))
+                        .border_style(BLACK)
+                        .position(SeriesLabelPosition::UpperRight)
+                        .draw()
+                        .map_err(|e| plot_error(path, e))?;
+                }
+            }};
+        }
+        if log_counts {
+            draw!(
+                ChartBuilder::on(&body)
+                    .margin(15)
+                    .x_label_area_size(45)
+                    .y_label_area_size(70)
+                    .build_cartesian_2d(lo..hi, (0.5..top * 3.0).log_scale())
+                    .map_err(|e| plot_error(path, e))?,
+                0.5
+            );
+        } else {
+            draw!(
+                ChartBuilder::on(&body)
+                    .margin(15)
+                    .x_label_area_size(45)
+                    .y_label_area_size(70)
+                    .build_cartesian_2d(lo..hi, 0.0..top * 1.1)
+                    .map_err(|e| plot_error(path, e))?,
+                0.0
+            );
+        }
+        root.present().map_err(|e| plot_error(path, e))?;
+    }
+    write_png(path, rgb, (width, height))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::batch::{Batch, LANES};
 use super::form::{Form, MAX_FORM_BYTES};
+use super::pictures::{ERROR_MAP_FILE, RESIDUALS_FILE, write_pictures};
 use super::shader::{LANGUAGES, function_name, sources};
 use super::tape::Work;
 use crate::commit::{Move, OutputFolder, commit_set};
@@ -28,6 +29,9 @@ pub struct FormData {
     pub values: Vec<f64>,
     /// How the points were chosen, for the report.
     pub description: String,
+    /// Whether point `n` is the table's node `n` (every axis a variable of the form); otherwise
+    /// the points are a uniform grid of [`FIT_GRID_NODES`] per variable, the first fastest.
+    pub on_table_nodes: bool,
 }
 
 impl FormData {
@@ -119,6 +123,7 @@ impl FormData {
             coordinates,
             values,
             description,
+            on_table_nodes: plain,
         })
     }
 }
@@ -255,6 +260,13 @@ pub struct FigureSet {
 /// The form evaluated in f32 with f32 parameters (what its shader computes) against the data.
 /// Refuses a value that is not finite, naming the point.
 pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<FigureSet> {
+    let errors = residuals(form, data, parameters)?;
+    Ok(figure_set(&errors, &data.channels, &data.variables, |n| data.point(n).to_vec()))
+}
+
+/// The residuals behind [`figures`], form minus table, point-major with one per channel. Refuses a
+/// value that is not finite, naming the point.
+pub fn residuals(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Vec<f64>> {
     let p32: Vec<f32> = parameters.iter().map(|&v| v as f32).collect();
     let channels = data.channels.len();
     let errors: Vec<Vec<f64>> = (0..data.len().div_ceil(CHUNK))
@@ -283,7 +295,12 @@ pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Figur
             ),
         ));
     }
-    Ok(figure_set(&errors, &data.channels, &data.variables, |n| data.point(n).to_vec()))
+    Ok(errors)
+}
+
+/// The figures of the residuals of [`residuals`].
+fn figures_of(data: &FormData, errors: &[f64]) -> FigureSet {
+    figure_set(errors, &data.channels, &data.variables, |n| data.point(n).to_vec())
 }
 
 /// The figures of `errors` (point-major, one per channel) per channel and together; `point(n)` is
@@ -659,11 +676,12 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
     let start_figures = figures(&form, &data, &start)?;
     let prepared = Prepared::new(&form, &data);
     let fitted = fit(&form, &prepared, &request.settings)?;
-    let fitted_figures = figures(&form, &data, &fitted.parameters)?;
+    let fitted_residuals = residuals(&form, &data, &fitted.parameters)?;
+    let fitted_figures = figures_of(&data, &fitted_residuals);
     let shaders = sources(&form, &fitted.parameters)?;
     let shader_files: Vec<String> = LANGUAGES.iter().map(|(_, ext)| format!("{}.{ext}", form.name)).collect();
     let mut files = shader_files.clone();
-    files.extend([REPORT_FILE.to_string(), FIT_FILE.to_string()]);
+    files.extend([ERROR_MAP_FILE, RESIDUALS_FILE, REPORT_FILE, FIT_FILE].map(String::from));
     let names = form.parameter_names();
     let report = FormReport {
         form: form.name.clone(),
@@ -692,13 +710,23 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         shader_function: function_name(&form),
         files,
     };
-    write_set(&request.out, &report, &shader_files, &shaders)?;
+    let pictures = |dir: &Path| write_pictures(dir, &report.form, table, &data, &fitted_residuals, &report.figures);
+    write_set(&request.out, &report, &shader_files, &shaders, pictures)?;
     Ok(report)
 }
 
-fn write_set(out: &Path, report: &FormReport, shader_files: &[String], shaders: &[String]) -> Result<()> {
+/// Stage every file (`pictures` draws [`ERROR_MAP_FILE`] and [`RESIDUALS_FILE`] into the folder
+/// it is given) and commit them as one set.
+fn write_set(
+    out: &Path,
+    report: &FormReport,
+    shader_files: &[String],
+    shaders: &[String],
+    pictures: impl FnOnce(&Path) -> Result<()>,
+) -> Result<()> {
     let folder = OutputFolder::take(out, |_| {})?;
     let staging = &mut folder.staging()?;
+    pictures(&staging.dir)?;
     let json = serde_json::to_string_pretty(report).map_err(|e| Error::format(out, e.to_string()))?;
     let mut texts: Vec<(&str, String)> = shader_files.iter().map(String::as_str).zip(shaders.iter().cloned()).collect();
     texts.push((REPORT_FILE, markdown(report)));
@@ -706,9 +734,10 @@ fn write_set(out: &Path, report: &FormReport, shader_files: &[String], shaders: 
     for (file, text) in &texts {
         crate::formats::write_bytes_atomically(&staging.dir.join(file), text.as_bytes())?;
     }
-    let moves: Vec<Move> = texts[..texts.len() - 1]
-        .iter()
-        .map(|(file, _)| Move { staged: file.to_string(), destination: file.to_string() })
+    let moves: Vec<Move> = [ERROR_MAP_FILE, RESIDUALS_FILE]
+        .into_iter()
+        .chain(texts[..texts.len() - 1].iter().map(|(file, _)| *file))
+        .map(|file| Move { staged: file.to_string(), destination: file.to_string() })
         .collect();
     // An earlier set's files this one does not replace (a form of another name).
     let removals = crate::formats::read_text_at_most(&out.join(FIT_FILE), 1 << 24, "fit.json")
@@ -827,5 +856,17 @@ pub fn markdown(report: &FormReport) -> String {
         report.shader_function,
         report.files[..LANGUAGES.len()].join(", ")
     );
+    if report.files.iter().any(|f| f == ERROR_MAP_FILE) {
+        let _ = writeln!(
+            s,
+            "\n![|form - table| over two axes]({ERROR_MAP_FILE})\n\n\
+             [`{ERROR_MAP_FILE}`]({ERROR_MAP_FILE}): |form - table| of the channel with the largest error \
+             over the table's first two axes (over the form's first two variables where the points are a \
+             uniform grid), the max over any other axis, on a logarithmic colour scale.\n\n\
+             ![histogram of the residuals]({RESIDUALS_FILE})\n\n\
+             [`{RESIDUALS_FILE}`]({RESIDUALS_FILE}): every residual (form - table), all points and channels, \
+             with the RMS and 99th percentile of |r| marked."
+        );
+    }
     s
 }

@@ -9,6 +9,7 @@ pub mod expr;
 pub mod fitted;
 pub mod fitting;
 pub mod form;
+pub mod pictures;
 pub mod shader;
 pub mod tape;
 

@@ -366,3 +366,78 @@ fn the_batch_evaluation_is_the_point_by_point_one_to_the_bit() {
         assert!(expected.iter().any(|g| *g != 0.0), "{}: the gradient is not all 0", form.name);
     }
 }
+
+#[test]
+fn the_histogram_counts_every_residual_once() {
+    use super::pictures::histogram;
+    let mut next = uniform(7);
+    let spread: Vec<f64> = (0..10_000).map(|_| (next() - 0.5).powi(3)).collect();
+    for (values, bins) in [
+        (spread.clone(), 80),
+        (spread, 1),
+        (vec![0.25; 17], 80),
+        (vec![-3.0, 0.0, 5.0], 4),
+        (vec![1e-9], 10),
+        (Vec::new(), 80),
+    ] {
+        let ((lo, hi), counts) = histogram(&values, bins);
+        assert_eq!(counts.len(), bins);
+        assert_eq!(counts.iter().sum::<usize>(), values.len(), "{bins} bins");
+        assert!(lo < hi && values.iter().all(|v| (lo..=hi).contains(v)));
+    }
+    // The ends land in the first and last bins.
+    let (_, counts) = histogram(&[-3.0, 0.0, 5.0], 4);
+    assert_eq!(counts, [1, 1, 0, 1]);
+}
+
+#[test]
+fn a_fit_writes_the_error_map_and_the_residual_histogram_in_its_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let form = dir.path().join("form.toml");
+    std::fs::write(&form, GOOD).unwrap();
+    let table = table();
+    let request = FormFitRequest {
+        form,
+        table: dir.path().join("karis.dds"),
+        out: dir.path().join("out"),
+        settings: FitSettings { starts: 2, ..FitSettings::default() },
+        certify: None,
+    };
+    let report = fit_form_file(&table, &request).unwrap();
+    for file in [pictures::ERROR_MAP_FILE, pictures::RESIDUALS_FILE] {
+        assert!(report.files.iter().any(|f| f == file), "{:?}", report.files);
+        let image = image::open(request.out.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert!(image.width() >= 400 && image.height() >= 300, "{file}: {:?}", (image.width(), image.height()));
+        assert!(image.width() <= 4000 && image.height() <= 4000, "{file}");
+        let colours: std::collections::HashSet<[u8; 3]> = image.to_rgb8().pixels().map(|p| p.0).collect();
+        assert!(colours.len() > 10, "{file}: {} colours", colours.len());
+    }
+    let markdown = std::fs::read_to_string(request.out.join("report.md")).unwrap();
+    assert!(markdown.contains("(error_map.png)") && markdown.contains("(residuals.png)"), "{markdown}");
+    // Nothing staged is left behind: the folder holds exactly the set (and no staging folder).
+    let mut listed: Vec<String> = std::fs::read_dir(&request.out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|f| !f.starts_with('.'))
+        .collect();
+    listed.sort();
+    let mut files = report.files.clone();
+    files.sort();
+    assert_eq!(listed, files);
+}
+
+#[test]
+fn the_error_map_is_the_largest_error_at_each_node_of_the_first_two_axes() {
+    let table = table();
+    let form = parse(GOOD).unwrap();
+    let data = FormData::from_table(&table, &form).unwrap();
+    assert!(data.on_table_nodes);
+    let residuals = super::fitting::residuals(&form, &data, &[0.5, 1.0]).unwrap();
+    let panel = pictures::error_panel(&table, &data, &residuals, 1);
+    assert_eq!((panel.nx, panel.ny), (8, 8));
+    for n in 0..data.len() {
+        let index = table.node_index(n);
+        assert_eq!(panel.values[index[0] + 8 * index[1]], residuals[2 * n + 1].abs());
+    }
+    assert!(panel.x.0.starts_with("mu") && panel.y.0.starts_with("alpha"), "{:?}", (&panel.x, &panel.y));
+}
