@@ -370,7 +370,10 @@ impl Form {
             if !read.iter().any(|(n, _)| *n == binding.name) {
                 return Err(at(
                     key,
-                    format!("`{}` in [let] is never used by a channel or a later binding; remove it or use it", binding.name),
+                    format!(
+                        "`{}` in [let] is never used by a channel or a later binding; remove it or use it",
+                        binding.name
+                    ),
                 ));
             }
         }
