@@ -25,9 +25,7 @@ use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::measure::{CosineMeasure, HatBasis, MatrixRef, Projection, cosine_measure, multiply_transposed};
 use crate::integrate::quadrature::VisibleNormalQuadrature;
-use crate::integrate::{
-    Estimate, Method, Progress, estimate_cells, estimate_cosine_functions, estimate_per_cell_blocks,
-};
+use crate::integrate::{Estimate, Method, Progress, estimate_cells, estimate_per_cell_blocks};
 use crate::packing::Packing;
 use crate::physics::{MaskingShadowing, critical_cosine, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
@@ -241,23 +239,11 @@ pub fn fgd_pairs_on_measure(measure: &CosineMeasure, pairs: &[(f64, f64)], proje
     Estimate::from_channels(&per_pair)
 }
 
-/// FGD at one cell on its own, in f64 (the per-cell method and the references).
+/// FGD at one cell on its own, in f64 (the per-cell method, and the references of `bench` and
+/// `converge`).
 pub fn fgd_cell(masking: MaskingShadowing, points: &PointSet, position: &[f64]) -> Estimate {
     let (mu, alpha, eta, kappa) = (position[0], position[1], position[2], position[3]);
     fgd_cells_at_mu_alpha(masking, points, mu, alpha, &[(eta, kappa)]).remove(0)
-}
-
-/// FGD at one cell on its own by plain Monte Carlo on the f32 kernel: Fresnel (in f64) at each
-/// sample's `wi.h`, no hat projection. The interpolation check's exact values
-/// ([`Kernel::exact_value`]).
-pub fn fgd_cell_f32(
-    masking: MaskingShadowing,
-    points: &PointSet,
-    mu: f64,
-    alpha: f64,
-    (eta, kappa): (f64, f64),
-) -> Estimate {
-    estimate_cosine_functions(mu, alpha, masking, Method::Fast, points, |c| [fresnel_reflectance(c, eta, kappa)])
 }
 
 /// FGD at the cells `(mu, alpha, eta, kappa)` for each of `pairs`, in f64 by the per-cell method,

@@ -204,7 +204,8 @@ impl Slices {
         }
     }
 
-    /// Every channel at one `(mu, alpha)` on its own, in f64 (padding included): the references.
+    /// Every channel at one `(mu, alpha)` on its own, in f64 by the per-cell method (padding
+    /// included).
     pub fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
         let (mu, alpha) = (position[0], position[1]);
         let mut estimate = match &self.of {
