@@ -22,7 +22,7 @@ pub struct FitArgs {
     /// A form file (TOML): the table it approximates, its parameters, `let` bindings and one
     /// expression per channel. With --scene, repeated: form files (fitted to --table), folders
     /// written by `tmlut fit --form` (or their fit.json), or folders of form files.
-    #[arg(long, conflicts_with_all = ["target", "forms", "timing_runs"])]
+    #[arg(long, conflicts_with_all = ["target", "forms"])]
     form: Vec<PathBuf>,
     /// Rank the --form candidates (TIR forms) by their error in this scene's materials: a
     /// furnace run with the TIR table, then one per form (tables built once, no random walk).
@@ -43,6 +43,16 @@ pub struct FitArgs {
     /// table's own error there.
     #[arg(long, requires = "form", conflicts_with = "scene")]
     certify: bool,
+    /// With --form, repeatable: keep only the points with LO <= VAR <= HI, for the fit, its
+    /// figures, pictures and certification; VAR a variable of the table (mu, alpha, eta, kappa)
+    /// or roughness (sqrt(alpha)).
+    #[arg(long, value_name = "VAR=LO:HI", requires = "form", conflicts_with = "scene")]
+    range: Vec<String>,
+    /// With --form: each point's weight in the objective and the weighted figures: uniform,
+    /// cosine (mu, the view's cosine), or SCENE.toml (how many of the scene's materials look the
+    /// table up there; docs/fit.md).
+    #[arg(long, default_value = "uniform", value_name = "uniform|cosine|SCENE.toml", requires = "form", conflicts_with = "scene")]
+    weights: String,
     #[command(flatten)]
     config: super::ConfigArg,
     /// Comma-separated forms (default: all).
@@ -60,7 +70,8 @@ pub struct FitArgs {
     /// Starts per fitted form.
     #[arg(long, default_value_t = 6)]
     starts: usize,
-    /// Timed runs per form (the median is reported).
+    /// Timed runs per form (the median is reported); with --form, of the form and of the table's
+    /// lookup over up to 4096 of the points, 0 for none.
     #[arg(long, default_value_t = 21)]
     timing_runs: usize,
 }
@@ -89,8 +100,20 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
     }
     if let Some(form) = args.form.first().cloned() {
         let table = tmlut::loader::load_table(&args.table)?;
+        check_count("--timing-runs", args.timing_runs, 0..=1000)?;
+        let ranges = args.range.iter().map(|r| tmlut::fit::text::Range::parse(r)).collect::<tmlut::Result<Vec<_>>>()?;
+        let weights = tmlut::fit::text::WeightsSpec::parse(&args.weights)?;
         let certify = if args.certify { Some(args.config.load()?) } else { None };
-        let request = tmlut::fit::text::FormFitRequest { form, table: args.table, out: args.out, settings, certify };
+        let request = tmlut::fit::text::FormFitRequest {
+            form,
+            table: args.table,
+            out: args.out,
+            settings,
+            certify,
+            ranges,
+            weights,
+            timing_runs: args.timing_runs,
+        };
         let report = tmlut::fit::text::fit_form_file(&table, &request)?;
         print!("{}", tmlut::fit::text::fitting::markdown(&report));
         println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FIT_FILE).display());
@@ -195,6 +218,9 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
                 out,
                 settings,
                 certify: None,
+                ranges: Vec::new(),
+                weights: tmlut::fit::text::WeightsSpec::Uniform,
+                timing_runs: 0,
             };
             let report = tmlut::fit::text::fit_form_file(table.as_ref().expect("read above"), &request)?;
             eprintln!(

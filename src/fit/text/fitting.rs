@@ -10,8 +10,10 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::batch::{Batch, LANES};
+use super::cost::{Cost, operations, timing};
 use super::form::{Form, MAX_FORM_BYTES};
 use super::pictures::{ERROR_MAP_FILE, RESIDUALS_FILE, write_pictures};
+use super::region::{Range, Region, WeightsSpec, variable_range};
 use super::shader::{LANGUAGES, function_name, sources};
 use super::tape::Work;
 use crate::commit::{Move, OutputFolder, commit_set};
@@ -29,9 +31,17 @@ pub struct FormData {
     pub values: Vec<f64>,
     /// How the points were chosen, for the report.
     pub description: String,
-    /// Whether point `n` is the table's node `n` (every axis a variable of the form); otherwise
-    /// the points are a uniform grid of [`FIT_GRID_NODES`] per variable, the first fastest.
+    /// Whether the points are the table's nodes (every axis a variable of the form); otherwise
+    /// they are a uniform grid of [`FIT_GRID_NODES`] per variable, the first fastest.
     pub on_table_nodes: bool,
+    /// Per point, its number among the table's nodes or the grid's points: the data keeps only
+    /// the points inside the region's ranges ([`Region::contains`]).
+    pub index: Vec<usize>,
+    /// Per point, its weight ([`Region::weight`]) scaled so that the weights' mean is 1 (all 1
+    /// for uniform weights, exactly).
+    pub weights: Vec<f64>,
+    /// Whether the weights are other than uniform.
+    pub weighted: bool,
 }
 
 impl FormData {
@@ -58,11 +68,17 @@ impl FormData {
     /// the table interpolated there, so that an axis whose nodes crowd where the table is steep
     /// (TIR's critical-angle axis) does not weight the fit there.
     pub fn from_table(table: &Table, form: &Form) -> Result<FormData> {
+        FormData::from_table_in(table, form, &Region::everywhere())
+    }
+
+    /// [`FormData::from_table`] keeping the points inside `region`'s ranges, each weighted by it.
+    pub fn from_table_in(table: &Table, form: &Form, region: &Region) -> Result<FormData> {
         let channel_index: Vec<usize> =
             form.channels.iter().map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0)).collect();
         let d = form.variables.len();
         let mut coordinates = Vec::new();
         let mut values = Vec::new();
+        let mut index_of_point = Vec::new();
         let plain = table.axes.iter().all(|a| form.variables.contains(&a.name));
         let description;
         if plain {
@@ -76,17 +92,17 @@ impl FormData {
                 for (k, &v) in order.iter().enumerate() {
                     point[v] = position[k];
                 }
+                if !region.contains(&point) {
+                    continue;
+                }
+                index_of_point.push(n);
                 coordinates.extend(point);
                 let node = table.node(&index);
                 values.extend(channel_index.iter().map(|&c| f64::from(node[c])));
             }
             description = format!("the table's {} nodes", table.node_count());
         } else {
-            let range = |v: &str| match table.axes.iter().find(|a| a.name == v) {
-                Some(a) => (a.start.min(a.end), a.start.max(a.end)),
-                None => (0.0, 1.0),
-            };
-            let ranges: Vec<(f64, f64)> = form.variables.iter().map(|v| range(v)).collect();
+            let ranges: Vec<(f64, f64)> = form.variables.iter().map(|v| variable_range(table, v)).collect();
             let n = FIT_GRID_NODES;
             let total = n.pow(d as u32);
             let mut value = vec![0.0; table.channel_count()];
@@ -96,6 +112,9 @@ impl FormData {
                 for (p, &(lo, hi)) in point.iter_mut().zip(&ranges) {
                     *p = lo + (hi - lo) * (rest % n) as f64 / (n - 1) as f64;
                     rest /= n;
+                }
+                if !region.contains(&point) {
+                    continue;
                 }
                 let get = |name: &str| form.variables.iter().position(|v| v == name).map_or(0.0, |i| point[i]);
                 let at =
@@ -107,6 +126,7 @@ impl FormData {
                             )
                         })?;
                 table.interpolate_into(&at, &mut value).map_err(|e| Error::invalid("fit table", format!("{e:?}")))?;
+                index_of_point.push(k);
                 coordinates.extend(point);
                 values.extend(channel_index.iter().map(|&c| value[c]));
             }
@@ -117,6 +137,31 @@ impl FormData {
         if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
             return Err(Error::invalid("fit table", format!("value {bad} of table `{}` is not finite", table.name)));
         }
+        let count = index_of_point.len();
+        if count == 0 {
+            return Err(Error::invalid(
+                "--range",
+                format!("no point of the data ({description}) lies in {}", region.describe_ranges()),
+            ));
+        }
+        let description = if region.ranges.is_empty() {
+            description
+        } else {
+            format!("{description}; the {count} of them in {}", region.describe_ranges())
+        };
+        let mut weights: Vec<f64> = coordinates.chunks_exact(d.max(1)).map(|p| region.weight(p)).collect();
+        if region.is_weighted() {
+            let total: f64 = weights.iter().sum();
+            if !(total > 0.0 && total.is_finite()) {
+                return Err(Error::invalid(
+                    "--weights",
+                    format!("every point in {} has weight 0 ({})", region.describe_ranges(), region.weights_description),
+                ));
+            }
+            // A mean of 1 keeps the objective on the scale of the unweighted one.
+            let scale = count as f64 / total;
+            weights.iter_mut().for_each(|w| *w *= scale);
+        }
         Ok(FormData {
             variables: form.variables.clone(),
             channels: form.channels.iter().map(|c| c.name.clone()).collect(),
@@ -124,6 +169,9 @@ impl FormData {
             values,
             description,
             on_table_nodes: plain,
+            index: index_of_point,
+            weights,
+            weighted: region.is_weighted(),
         })
     }
 }
@@ -181,7 +229,9 @@ impl<'a> Prepared<'a> {
         point.extend((0..self.width).map(|k| self.columns[k * count + n]));
     }
 
-    /// The mean squared residual over every point and channel, and its gradient when asked for:
+    /// The weighted mean squared residual over every point and channel, `sum_n w_n sum_c r_nc^2 /
+    /// (points x channels)` with the weights' mean 1 ([`FormData::weights`]), and its gradient when
+    /// asked for:
     /// [`LANES`] points at a time ([`Batch`]), the sums of fixed chunks of points added in order,
     /// so the result is the same to the bit whatever the number of threads (and the same as
     /// [`super::tape::Tape::forward`] and [`super::tape::Tape::backward`] point by point give).
@@ -202,11 +252,13 @@ impl<'a> Prepared<'a> {
                         batch.clear_adjoints(tape);
                     }
                     for l in 0..len {
+                        // Weights of 1 leave every product's bits as they were unweighted.
+                        let w = data.weights[first + l];
                         for (&k, &t) in tape.outputs.iter().zip(data.targets(first + l)) {
                             let r = batch.value(k, l) - t;
-                            sum += r * r;
+                            sum += w * r * r;
                             if want {
-                                batch.seed(k, l, 2.0 * r);
+                                batch.seed(k, l, 2.0 * w * r);
                             }
                         }
                     }
@@ -261,7 +313,7 @@ pub struct FigureSet {
 /// Refuses a value that is not finite, naming the point.
 pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<FigureSet> {
     let errors = residuals(form, data, parameters)?;
-    Ok(figure_set(&errors, &data.channels, &data.variables, |n| data.point(n).to_vec()))
+    Ok(figures_of(data, &errors))
 }
 
 /// The residuals behind [`figures`], form minus table, point-major with one per channel. Refuses a
@@ -298,36 +350,63 @@ pub fn residuals(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Vec
     Ok(errors)
 }
 
-/// The figures of the residuals of [`residuals`].
+/// The figures of the residuals of [`residuals`], every point counting once.
 fn figures_of(data: &FormData, errors: &[f64]) -> FigureSet {
-    figure_set(errors, &data.channels, &data.variables, |n| data.point(n).to_vec())
+    figure_set(errors, &data.channels, &data.variables, |n| data.point(n).to_vec(), |_| 1.0)
 }
 
-/// The figures of `errors` (point-major, one per channel) per channel and together; `point(n)` is
-/// point `n`'s coordinates in `variables`.
+/// The figures of the residuals of [`residuals`] with the data's weights, where they are not
+/// uniform: RMS `sqrt(sum w e^2 / sum w)`, the 99th percentile of the weighted distribution of
+/// |e|, the max over the points of positive weight.
+fn weighted_figures_of(data: &FormData, errors: &[f64]) -> Option<FigureSet> {
+    data.weighted
+        .then(|| figure_set(errors, &data.channels, &data.variables, |n| data.point(n).to_vec(), |n| data.weights[n]))
+}
+
+/// The figures of `errors` (point-major, one per channel) per channel and together, point `n`
+/// counting `weight(n)` (a point of weight 0 not at all); `point(n)` is point `n`'s coordinates in
+/// `variables`. With weights of 1 these are the plain RMS, the nearest-rank 99th percentile and the
+/// max.
 fn figure_set(
     errors: &[f64],
     channels: &[String],
     variables: &[String],
     point: impl Fn(usize) -> Vec<f64>,
+    weight: impl Fn(usize) -> f64,
 ) -> FigureSet {
     let count = channels.len();
     let summarise = |selected: &dyn Fn(usize) -> bool, name_channel: bool| -> Figures {
-        let mut abs: Vec<f64> = Vec::new();
-        let (mut sum, mut max, mut max_index) = (0.0, -1.0, 0);
+        let mut abs: Vec<(f64, f64)> = Vec::new();
+        let (mut sum, mut total, mut max, mut max_index) = (0.0, 0.0, -1.0, 0);
         for (k, &e) in errors.iter().enumerate().filter(|(k, _)| selected(*k)) {
-            sum += e * e;
-            abs.push(e.abs());
+            let w = weight(k / count);
+            if w <= 0.0 {
+                continue;
+            }
+            sum += w * e * e;
+            total += w;
+            abs.push((e.abs(), w));
             if e.abs() > max {
                 max = e.abs();
                 max_index = k;
             }
         }
-        abs.sort_by(f64::total_cmp);
-        let rank = ((abs.len() as f64 * 0.99).ceil() as usize).clamp(1, abs.len().max(1)) - 1;
+        abs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Nearest rank: the smallest |e| whose cumulative weight reaches 99 % of the total (with
+        // weights of 1, the ceil(0.99 n)-th smallest).
+        let target = 0.99 * total;
+        let mut cumulative = 0.0;
+        let p99 = abs
+            .iter()
+            .find(|(_, w)| {
+                cumulative += w;
+                cumulative >= target
+            })
+            .or(abs.last())
+            .map_or(0.0, |a| a.0);
         Figures {
-            rms: (sum / abs.len().max(1) as f64).sqrt(),
-            p99: abs.get(rank).copied().unwrap_or(0.0),
+            rms: if total > 0.0 { (sum / total).sqrt() } else { 0.0 },
+            p99,
             max: max.max(0.0),
             max_at: variables.iter().cloned().zip(point(max_index / count)).collect(),
             max_channel: name_channel.then(|| channels[max_index % count].clone()),
@@ -394,13 +473,15 @@ pub fn identifiability(form: &Form, prepared: &Prepared, parameters: &[f64]) -> 
             for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
                 prepared.point_into(n, &mut point);
                 tape.forward(&point, parameters, &mut work);
+                // The weighted least squares' Jacobian is sqrt(w) J: J^T W J.
+                let w = data.weights[n];
                 for c in 0..channels {
                     seeds.iter_mut().enumerate().for_each(|(k, s)| *s = if k == c { 1.0 } else { 0.0 });
                     row.iter_mut().for_each(|r| *r = 0.0);
                     tape.backward(&mut work, &seeds, &mut row);
                     for i in 0..p {
                         for j in 0..p {
-                            jtj[i * p + j] += row[i] * scale[i] * row[j] * scale[j];
+                            jtj[i * p + j] += row[i] * scale[i] * row[j] * scale[j] * w;
                         }
                     }
                 }
@@ -526,17 +607,25 @@ pub struct Certified {
     /// The table, interpolated multilinearly in its axes (`Table::interpolate`, f64 arithmetic on
     /// its stored values), against the same exact values.
     pub table: FigureSet,
+    /// With `--weights` other than uniform: the fitted form's figures with each point weighted
+    /// as the fit weighs it ([`Region::weight`] at the point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub form_weighted: Option<FigureSet>,
+    /// The table's, weighted the same.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub table_weighted: Option<FigureSet>,
 }
 
 /// [`Certified`] for every check domain of the table's recipe in `config` (the configuration the
-/// table was built with: its masking, its points and quadrature for the check).
+/// table was built with: its masking, its points and quadrature for the check), over the points of
+/// each that lie in `region`'s ranges (a domain with none is left out).
 pub fn certify(
     form: &Form,
     table: &Table,
     config: &crate::config::Config,
     seed: u64,
-    start: &[f64],
-    fitted: &[f64],
+    (start, fitted): (&[f64], &[f64]),
+    region: &Region,
 ) -> Result<Vec<Certified>> {
     let recipe = config.recipe_named(&table.name).ok_or_else(|| {
         Error::invalid("certify", format!("table `{}` has no recipe to integrate exactly", table.name))
@@ -555,21 +644,27 @@ pub fn certify(
         else {
             continue;
         };
-        let point = |n: usize| order.iter().map(|&k| exact.lookups[n][k]).collect::<Vec<f64>>();
+        let lookup_point = |n: usize| order.iter().map(|&k| exact.lookups[n][k]).collect::<Vec<f64>>();
+        // The domain's points inside the ranges, in order.
+        let kept: Vec<usize> = (0..exact.exact.len()).filter(|&n| region.contains(&lookup_point(n))).collect();
+        if kept.is_empty() {
+            continue;
+        }
+        let point = |m: usize| lookup_point(kept[m]);
         let form_errors = |parameters: &[f64]| -> Vec<f64> {
             let p32: Vec<f32> = parameters.iter().map(|&v| v as f32).collect();
             let (mut scratch, mut values) = (Vec::new(), vec![0.0f32; channels.len()]);
             let mut errors = Vec::new();
-            for (n, e) in exact.exact.iter().enumerate() {
-                let x: Vec<f32> = point(n).iter().map(|&v| v as f32).collect();
+            for (m, &n) in kept.iter().enumerate() {
+                let x: Vec<f32> = point(m).iter().map(|&v| v as f32).collect();
                 form.tape.eval(&x, &p32, &mut scratch, &mut values);
-                errors.extend(channel_index.iter().zip(&values).map(|(&c, &v)| f64::from(v) - e[c]));
+                errors.extend(channel_index.iter().zip(&values).map(|(&c, &v)| f64::from(v) - exact.exact[n][c]));
             }
             errors
         };
         let mut table_errors = Vec::new();
-        for (position, e) in exact.positions.iter().zip(&exact.exact) {
-            let read = table.interpolate(position);
+        for &n in &kept {
+            let (read, e) = (table.interpolate(&exact.positions[n]), &exact.exact[n]);
             table_errors.extend(channel_index.iter().map(|&c| read[c] - e[c]));
         }
         let (fitted_errors, start_errors) = (form_errors(fitted), form_errors(start));
@@ -579,14 +674,21 @@ pub fn certify(
                 format!("a value that is not finite in domain {}", exact.domain.describe()),
             ));
         }
-        let set = |errors: &[f64]| figure_set(errors, &channels, &form.variables, point);
+        let set = |errors: &[f64]| figure_set(errors, &channels, &form.variables, point, |_| 1.0);
+        let weighted = |errors: &[f64]| {
+            region
+                .is_weighted()
+                .then(|| figure_set(errors, &channels, &form.variables, point, |m| region.weight(&point(m))))
+        };
         out.push(Certified {
             domain: exact.domain.describe(),
-            points: exact.exact.len(),
+            points: kept.len(),
             exact_nodes: exact.nodes,
             form: set(&fitted_errors),
             form_at_start: set(&start_errors),
             table: set(&table_errors),
+            form_weighted: weighted(&fitted_errors),
+            table_weighted: weighted(&table_errors),
         });
     }
     Ok(out)
@@ -636,10 +738,30 @@ pub struct FormReport {
     pub bounds: BTreeMap<String, [f64; 2]>,
     pub points: usize,
     pub points_are: String,
-    /// At the fitted parameters, the form in f32 against the table's values.
+    /// `--range`: the box of the variables the points are kept in; empty for the whole table.
+    #[serde(default)]
+    pub ranges: Vec<Range>,
+    /// `--weights`.
+    #[serde(default)]
+    pub weights: WeightsSpec,
+    /// What the weights are, in words.
+    #[serde(default)]
+    pub weights_are: String,
+    /// At the fitted parameters, the form in f32 against the table's values, every point counting
+    /// once.
     pub figures: FigureSet,
     /// The same at the start values.
     pub start_figures: FigureSet,
+    /// With weights other than uniform: the figures with each point counting its weight (the
+    /// fit's objective is their RMS squared, in f64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weighted_figures: Option<FigureSet>,
+    /// The same at the start values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weighted_start_figures: Option<FigureSet>,
+    /// The form's operations, and its time per evaluation beside the table's lookup.
+    #[serde(default)]
+    pub cost: Option<Cost>,
     pub settings: FitSettings,
     pub search: Option<Minimum>,
     pub identifiability: Identifiability,
@@ -663,6 +785,13 @@ pub struct FormFitRequest {
     /// The table's build configuration, to certify the form against exact integrals; `None`
     /// skips the certification.
     pub certify: Option<crate::config::Config>,
+    /// `--range`: only the points inside every range are fitted, judged, drawn and certified.
+    pub ranges: Vec<Range>,
+    /// `--weights`.
+    pub weights: WeightsSpec,
+    /// Timed runs of the form and of the table's lookup ([`super::cost::timing`]); 0 times
+    /// nothing (the file is then the same bytes on every run).
+    pub timing_runs: usize,
 }
 
 /// Read the form against the table, fit it, and write `fit.json`, `report.md` and the shader
@@ -671,13 +800,18 @@ pub struct FormFitRequest {
 pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormReport> {
     let form_text = crate::formats::read_text_at_most(&request.form, MAX_FORM_BYTES, "form file")?;
     let form = Form::parse(&request.form, &form_text, table)?;
-    let data = FormData::from_table(table, &form)?;
+    let region = Region::new(&request.ranges, &request.weights, table, &form.variables)?;
+    let data = FormData::from_table_in(table, &form, &region)?;
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
-    let start_figures = figures(&form, &data, &start)?;
+    let start_residuals = residuals(&form, &data, &start)?;
     let prepared = Prepared::new(&form, &data);
     let fitted = fit(&form, &prepared, &request.settings)?;
     let fitted_residuals = residuals(&form, &data, &fitted.parameters)?;
     let fitted_figures = figures_of(&data, &fitted_residuals);
+    let timed = match request.timing_runs {
+        0 => None,
+        runs => Some(timing(&form, &fitted.parameters, table, &data.coordinates, runs)?),
+    };
     let shaders = sources(&form, &fitted.parameters)?;
     let shader_files: Vec<String> = LANGUAGES.iter().map(|(_, ext)| format!("{}.{ext}", form.name)).collect();
     let mut files = shader_files.clone();
@@ -698,13 +832,21 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         bounds: form.parameters.iter().map(|p| (p.name.clone(), [p.min, p.max])).collect(),
         points: data.len(),
         points_are: data.description.clone(),
+        ranges: request.ranges.clone(),
+        weights: request.weights.clone(),
+        weights_are: region.weights_description.clone(),
         figures: fitted_figures,
-        start_figures,
+        start_figures: figures_of(&data, &start_residuals),
+        weighted_figures: weighted_figures_of(&data, &fitted_residuals),
+        weighted_start_figures: weighted_figures_of(&data, &start_residuals),
+        cost: Some(Cost { operations: operations(&form.tape), timing: timed }),
         settings: request.settings,
         search: fitted.search,
         identifiability: identifiability(&form, &prepared, &fitted.parameters),
         certified: match &request.certify {
-            Some(config) => certify(&form, table, config, request.settings.seed, &start, &fitted.parameters)?,
+            Some(config) => {
+                certify(&form, table, config, request.settings.seed, (&start, &fitted.parameters), &region)?
+            }
             None => Vec::new(),
         },
         shader_function: function_name(&form),
@@ -759,12 +901,26 @@ pub fn markdown(report: &FormReport) -> String {
         "Form file `{}`, table file `{}`; {} points: {}.\n",
         report.form_file, report.table_file, report.points, report.points_are
     );
+    if !report.ranges.is_empty() || report.weighted_figures.is_some() {
+        let ranges: Vec<String> = report.ranges.iter().map(|r| format!("{} in [{}, {}]", r.variable, r.lo, r.hi)).collect();
+        let _ = writeln!(
+            s,
+            "Region: {}; weights: {}. The fit minimises the weighted mean squared residual; every figure below \
+             is over the region's points, weighted where it says so.\n",
+            if ranges.is_empty() { "the whole table".to_string() } else { ranges.join(", ") },
+            report.weights_are
+        );
+    }
     let _ = writeln!(s, "```text\n{}\n```\n", report.definition.join("\n"));
     let _ = writeln!(s, "| channel | RMS at start | RMS fitted | p99 fitted | max fitted | max at |");
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
     let rows = std::iter::once(("together".to_string(), &report.start_figures.together, &report.figures.together))
         .chain(report.figures.channels.iter().map(|(c, f)| (c.clone(), &report.start_figures.channels[c], f)));
-    for (channel, start, fitted) in rows {
+    let weighted = report.weighted_figures.as_ref().zip(report.weighted_start_figures.as_ref()).map(|(f, st)| {
+        std::iter::once(("together, weighted".to_string(), &st.together, &f.together))
+            .chain(f.channels.iter().map(|(c, x)| (format!("{c}, weighted"), &st.channels[c], x)))
+    });
+    for (channel, start, fitted) in rows.chain(weighted.into_iter().flatten()) {
         let at: Vec<String> = fitted.max_at.iter().map(|(v, x)| format!("{v} {x:.4}")).collect();
         let _ = writeln!(
             s,
@@ -796,7 +952,12 @@ pub fn markdown(report: &FormReport) -> String {
                         .iter()
                         .map(|(k, f)| (k.clone(), &c.form_at_start.channels[k], f, &c.table.channels[k])),
                 );
-        for (channel, start, fitted, table) in rows {
+        // Weighted, the start's figures are not kept: its column repeats the unweighted one's.
+        let weighted = c.form_weighted.as_ref().zip(c.table_weighted.as_ref()).map(|(f, t)| {
+            std::iter::once(("together, weighted".to_string(), &c.form_at_start.together, &f.together, &t.together))
+                .chain(f.channels.iter().map(|(k, x)| (format!("{k}, weighted"), &c.form_at_start.channels[k], x, &t.channels[k])))
+        });
+        for (channel, start, fitted, table) in rows.chain(weighted.into_iter().flatten()) {
             let at: Vec<String> = fitted.max_at.iter().map(|(v, x)| format!("{v} {x:.4}")).collect();
             let _ = writeln!(
                 s,
@@ -849,6 +1010,23 @@ pub fn markdown(report: &FormReport) -> String {
     }
     if !id.at_bounds.is_empty() {
         let _ = writeln!(s, "\nAt a bound: {}.", id.at_bounds.join(", "));
+    }
+    if let Some(cost) = &report.cost {
+        let o = &cost.operations;
+        let _ = writeln!(
+            s,
+            "\nCost: {} arithmetic operations, {} transcendental functions, {} selects (the instructions the channels read).",
+            o.arithmetic, o.transcendental, o.select
+        );
+        if let Some(t) = &cost.timing {
+            let _ = writeln!(
+                s,
+                "CPU time per evaluation, median of {} runs over {} of the points: the form {:.1} ns (f32, the instruction list \
+                 interpreted), the table's lookup {:.1} ns ({}; the GPU emulator's sampling in Rust). Measured, not asserted: \
+                 it depends on the machine and its load.",
+                t.runs, t.batch, t.form_ns, t.lookup_ns, t.lookup
+            );
+        }
     }
     let _ = writeln!(
         s,

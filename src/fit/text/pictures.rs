@@ -43,7 +43,8 @@ pub fn histogram(values: &[f64], bins: usize) -> ((f64, f64), Vec<usize>) {
 /// The error map's panel: `|form - table|` of `channel` (index into the data's channels) at each
 /// node of the table's first two axes, the max over the other axes (a table of one axis gives one
 /// row). Where the data is a uniform grid over the form's variables (a table with a derived axis),
-/// the map is over the form's first two variables on that grid instead.
+/// the map is over the form's first two variables on that grid instead. Cells with no point in the
+/// fit's ranges stay 0 (grey).
 pub fn error_panel(table: &Table, data: &FormData, residuals: &[f64], channel: usize) -> Panel {
     let channels = data.channels.len().max(1);
     let (x, y, nx, ny) = if data.on_table_nodes {
@@ -52,12 +53,8 @@ pub fn error_panel(table: &Table, data: &FormData, residuals: &[f64], channel: u
         (axis_label(ax), y.map_or_else(|| "(one axis)".to_string(), axis_label), ax.count, y.map_or(1, |a| a.count))
     } else {
         let n = crate::fit::FIT_GRID_NODES;
-        let range = |v: &str| match table.axes.iter().find(|a| a.name == v) {
-            Some(a) => (a.start.min(a.end), a.start.max(a.end)),
-            None => (0.0, 1.0),
-        };
         let label = |v: &String| {
-            let (lo, hi) = range(v);
+            let (lo, hi) = super::region::variable_range(table, v);
             format!("{v} ({lo} to {hi}, uniform grid)")
         };
         let y = data.variables.get(1);
@@ -70,11 +67,13 @@ pub fn error_panel(table: &Table, data: &FormData, residuals: &[f64], channel: u
     };
     let mut values = vec![0.0f64; nx * ny];
     for n in 0..data.len() {
+        // The point's place among all the table's nodes (or grid points): a range keeps some.
+        let number = data.index[n];
         let (i, j) = if data.on_table_nodes {
-            let index = table.node_index(n);
+            let index = table.node_index(number);
             (index[0], index.get(1).copied().unwrap_or(0))
         } else {
-            (n % nx, (n / nx) % ny)
+            (number % nx, (number / nx) % ny)
         };
         let e = residuals[n * channels + channel].abs();
         let cell = &mut values[i + nx * j];

@@ -402,6 +402,9 @@ fn a_fit_writes_the_error_map_and_the_residual_histogram_in_its_set() {
         out: dir.path().join("out"),
         settings: FitSettings { starts: 2, ..FitSettings::default() },
         certify: None,
+        ranges: Vec::new(),
+        weights: WeightsSpec::Uniform,
+        timing_runs: 0,
     };
     let report = fit_form_file(&table, &request).unwrap();
     for file in [pictures::ERROR_MAP_FILE, pictures::RESIDUALS_FILE] {
@@ -440,4 +443,144 @@ fn the_error_map_is_the_largest_error_at_each_node_of_the_first_two_axes() {
         assert_eq!(panel.values[index[0] + 8 * index[1]], residuals[2 * n + 1].abs());
     }
     assert!(panel.x.0.starts_with("mu") && panel.y.0.starts_with("alpha"), "{:?}", (&panel.x, &panel.y));
+}
+
+/// One constant per channel, for fits whose optimum is a (weighted) mean.
+const CONSTANT: &str = r#"table = "karis"
+[parameters]
+s = { start = 0.5, min = -2.0, max = 2.0 }
+b = { start = 0.0, min = -2.0, max = 2.0 }
+[channels]
+scale = "s + 0 * mu"
+bias = "b"
+"#;
+
+fn region(ranges: &[&str], weights: WeightsSpec, table: &Table, form: &Form) -> crate::error::Result<Region> {
+    let ranges: Vec<Range> = ranges.iter().map(|r| Range::parse(r).unwrap()).collect();
+    Region::new(&ranges, &weights, table, &form.variables)
+}
+
+#[test]
+fn a_range_keeps_only_its_points_and_fits_the_form_where_it_holds() {
+    // GOOD's table below mu = 0.5; above it, scale departs from the form.
+    let exact = table();
+    let bent = karis_like(9, |mu, alpha| {
+        [1.0 - 0.5 * alpha.sqrt() * mu + 0.3 * (mu - 0.5).max(0.0), 0.1 * (1.0 - mu).powi(5)]
+    });
+    let form = parse(GOOD).unwrap();
+    let settings = FitSettings { starts: 3, ..FitSettings::default() };
+    let rms = |ranges: &[&str]| {
+        let region = region(ranges, WeightsSpec::Uniform, &bent, &form).unwrap();
+        let data = FormData::from_table_in(&bent, &form, &region).unwrap();
+        let fitted = fit(&form, &Prepared::new(&form, &data), &settings).unwrap();
+        let rms = figures(&form, &data, &fitted.parameters).unwrap().together.rms;
+        (data, rms, fitted.parameters)
+    };
+    let (all, rms_all, _) = rms(&[]);
+    let (lower, rms_lower, parameters) = rms(&["mu=0:0.5"]);
+    assert_eq!(all.len(), 81);
+    // Nodes at mu = k / 8: k = 0..=4 of 9, every alpha.
+    assert_eq!(lower.len(), 45);
+    assert!(lower.index.iter().all(|&n| n % 9 <= 4), "{:?}", lower.index);
+    assert!(rms_all > 1e-2 && rms_lower < 1e-5, "{rms_all} {rms_lower}");
+    assert!((parameters[0] - 0.5).abs() < 1e-3 && (parameters[1] - 5.0).abs() < 1e-2, "{parameters:?}");
+    // roughness = sqrt(alpha): alpha in [0, 0.25] keeps the nodes alpha = 0, 1/8, 2/8.
+    let region = region(&["roughness=0:0.5"], WeightsSpec::Uniform, &exact, &form).unwrap();
+    let data = FormData::from_table_in(&exact, &form, &region).unwrap();
+    assert_eq!(data.len(), 8 * 3);
+    assert!(data.coordinates.chunks(2).all(|p| p[1] <= 0.25));
+}
+
+#[test]
+fn cosine_weights_pull_a_constant_toward_the_views_near_the_normal() {
+    // scale = mu^2 at mu = k / 8: a constant fitted to it is its mean, uniform (204 / 576) or
+    // weighted by mu (sum mu^3 / sum mu = 0.5625).
+    let table = karis_like(9, |mu, _| [mu * mu, 0.0]);
+    let form = parse(CONSTANT).unwrap();
+    let settings = FitSettings { starts: 2, ..FitSettings::default() };
+    let fitted = |weights: WeightsSpec| {
+        let region = region(&[], weights, &table, &form).unwrap();
+        let data = FormData::from_table_in(&table, &form, &region).unwrap();
+        let prepared = Prepared::new(&form, &data);
+        let fitted = fit(&form, &prepared, &settings).unwrap().parameters;
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        assert_eq!(one.install(|| fit(&form, &prepared, &settings).unwrap().parameters), fitted);
+        fitted[0]
+    };
+    let (uniform, cosine) = (fitted(WeightsSpec::Uniform), fitted(WeightsSpec::Cosine));
+    assert!((uniform - 204.0 / 576.0).abs() < 1e-6, "{uniform}");
+    assert!((cosine - 0.5625).abs() < 1e-6, "{cosine}");
+}
+
+#[test]
+fn a_bad_range_or_weighting_is_refused_naming_what_is_allowed() {
+    let e = Range::parse("mu=0.5:0.2").unwrap_err().to_string();
+    assert!(e.contains("LO 0.5 must be below HI 0.2"), "{e}");
+    let e = Range::parse("mu0.2:1").unwrap_err().to_string();
+    assert!(e.contains("expected VAR=LO:HI"), "{e}");
+    let (table, form) = (table(), parse(GOOD).unwrap());
+    let e = region(&["rougness=0:0.5"], WeightsSpec::Uniform, &table, &form).unwrap_err().to_string();
+    assert!(e.contains("unknown variable `rougness`; allowed for table `karis`: mu, alpha, roughness"), "{e}");
+    let e = region(&["mu=0.5:1.5"], WeightsSpec::Uniform, &table, &form).unwrap_err().to_string();
+    assert!(e.contains("outside the table's range [0, 1] of mu"), "{e}");
+    let e = region(&["mu=0:0.5", "mu=0.6:1"], WeightsSpec::Uniform, &table, &form).unwrap_err().to_string();
+    assert!(e.contains("`mu` given twice"), "{e}");
+    let e = WeightsSpec::parse("cosin").unwrap_err().to_string();
+    assert!(e.contains("allowed: uniform, cosine, or a scene file SCENE.toml"), "{e}");
+    // A range between the nodes holds no point.
+    let region = region(&["mu=0.01:0.02"], WeightsSpec::Uniform, &table, &form).unwrap();
+    let e = FormData::from_table_in(&table, &form, &region).unwrap_err().to_string();
+    assert!(e.contains("no point of the data"), "{e}");
+}
+
+#[test]
+fn the_report_records_the_region_the_weights_and_the_cost() {
+    let dir = tempfile::tempdir().unwrap();
+    let form = dir.path().join("form.toml");
+    std::fs::write(&form, GOOD).unwrap();
+    let request = FormFitRequest {
+        form,
+        table: dir.path().join("karis.dds"),
+        out: dir.path().join("out"),
+        settings: FitSettings { starts: 2, ..FitSettings::default() },
+        certify: None,
+        ranges: vec![Range::parse("mu=0:0.5").unwrap()],
+        weights: WeightsSpec::Cosine,
+        timing_runs: 3,
+    };
+    // A table the form does not fit, so that weighting changes the figures.
+    let report = fit_form_file(&karis_like(8, |mu, alpha| [mu * mu, 0.2 * alpha]), &request).unwrap();
+    assert_eq!(report.ranges, request.ranges);
+    assert_eq!(report.points, 8 * 4);
+    let weighted = report.weighted_figures.as_ref().expect("weighted figures");
+    assert_ne!(weighted.together.rms, report.figures.together.rms);
+    // scale: sqrt (roughness), two products and a difference; bias: 1 - mu, a product and a
+    // power with a parameter for exponent.
+    let cost = report.cost.as_ref().unwrap();
+    assert_eq!(cost.operations, cost::Operations { arithmetic: 5, transcendental: 2, select: 0 });
+    // Timed (the values are not asserted: they depend on the machine).
+    let timing = cost.timing.as_ref().unwrap();
+    assert_eq!((timing.runs, timing.batch), (3, 32));
+    let text = fitting::markdown(&report);
+    assert!(text.contains("Region: mu in [0, 0.5]; weights: cosine"), "{text}");
+    assert!(text.contains("| together, weighted |") && text.contains("Cost: 5 arithmetic"), "{text}");
+    let json: FormReport =
+        serde_json::from_str(&std::fs::read_to_string(request.out.join(fitting::FIT_FILE)).unwrap()).unwrap();
+    assert_eq!(json.weights, WeightsSpec::Cosine);
+}
+
+#[test]
+fn the_timed_lookup_reads_the_table_as_its_interpolation_does() {
+    let table = table();
+    let texture = cost::TableTexture::new(&table, &["mu".to_string(), "alpha".to_string()]).unwrap();
+    let mut next = uniform(7);
+    let mut read = [0.0f32; 2];
+    for _ in 0..500 {
+        let (mu, alpha) = (next(), next());
+        texture.sample(&[mu as f32, alpha as f32], &mut read);
+        let exact = table.interpolate(&[mu, alpha]);
+        for c in 0..2 {
+            assert!((f64::from(read[c]) - exact[c]).abs() < 1e-5, "{mu} {alpha} {c}: {} {}", read[c], exact[c]);
+        }
+    }
 }
