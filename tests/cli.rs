@@ -1199,7 +1199,11 @@ fn fit_form_fits_a_scene_slice_and_weighs_a_table_by_the_scene() {
     // GD falls with roughness; the pot's materials read it near their own smooth lobes, so a
     // constant weighted by the scene sits higher than one fitted to the whole table.
     let constant = dir.path().join("gd-constant.toml");
-    std::fs::write(&constant, "table = \"gd\"\n[parameters]\nc = { start = 0.5, min = 0.0, max = 2.0 }\n[channels]\ngd = \"c + 0 * mu\"\n").unwrap();
+    std::fs::write(
+        &constant,
+        "table = \"gd\"\n[parameters]\nc = { start = 0.5, min = 0.0, max = 2.0 }\n[channels]\ngd = \"c + 0 * mu\"\n",
+    )
+    .unwrap();
     let (output, uniform) = fit(&constant, "gd.dds", "gd-uniform", &[]);
     assert!(output.status.success(), "{}", stderr(&output));
     let (output, weighted) = fit(&constant, "gd.dds", "gd-scene", &["--weights", &scene]);
@@ -1223,7 +1227,11 @@ fn fit_form_fits_a_scene_slice_and_weighs_a_table_by_the_scene() {
     // A variable the table does not have is refused, naming those it has; nothing is written.
     let (output, json) = fit(&constant, "gd.dds", "gd-bad", &["--range", "eta=0:1"]);
     assert!(!output.status.success() && json.is_none());
-    assert!(stderr(&output).contains("unknown variable `eta`; allowed for table `gd`: mu, alpha, roughness"), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("unknown variable `eta`; allowed for table `gd`: mu, alpha, roughness"),
+        "{}",
+        stderr(&output)
+    );
     let (output, _) = fit(&constant, "gd.dds", "gd-bad", &["--weights", "cosines"]);
     assert!(stderr(&output).contains("allowed: uniform, cosine, or a scene file SCENE.toml"), "{}", stderr(&output));
 }

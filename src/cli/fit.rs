@@ -51,7 +51,13 @@ pub struct FitArgs {
     /// With --form: each point's weight in the objective and the weighted figures: uniform,
     /// cosine (mu, the view's cosine), or SCENE.toml (how many of the scene's materials look the
     /// table up there; docs/fit.md).
-    #[arg(long, default_value = "uniform", value_name = "uniform|cosine|SCENE.toml", requires = "form", conflicts_with = "scene")]
+    #[arg(
+        long,
+        default_value = "uniform",
+        value_name = "uniform|cosine|SCENE.toml",
+        requires = "form",
+        conflicts_with = "scene"
+    )]
     weights: String,
     #[command(flatten)]
     config: super::ConfigArg,

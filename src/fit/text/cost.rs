@@ -128,7 +128,10 @@ impl<'a> TableTexture<'a> {
             })
         };
         if table.axes.is_empty() || table.axes.len() > 4 {
-            return Err(Error::invalid("cost", format!("table `{}` has {} axes; a lookup reads 1 to 4", table.name, table.axes.len())));
+            return Err(Error::invalid(
+                "cost",
+                format!("table `{}` has {} axes; a lookup reads 1 to 4", table.name, table.axes.len()),
+            ));
         }
         let mut stride = 1;
         let mut axes = Vec::new();
@@ -204,7 +207,8 @@ pub fn timing(form: &Form, parameters: &[f64], table: &Table, coordinates: &[f64
     let d = form.variables.len().max(1);
     let count = coordinates.len() / d;
     let step = count.div_ceil(TIMING_BATCH).max(1);
-    let points: Vec<f32> = (0..count).step_by(step).flat_map(|n| &coordinates[n * d..(n + 1) * d]).map(|&v| v as f32).collect();
+    let points: Vec<f32> =
+        (0..count).step_by(step).flat_map(|n| &coordinates[n * d..(n + 1) * d]).map(|&v| v as f32).collect();
     let batch = points.len() / d;
     let texture = TableTexture::new(table, &form.variables)?;
     let p32: Vec<f32> = parameters.iter().map(|&v| v as f32).collect();

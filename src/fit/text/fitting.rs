@@ -155,7 +155,11 @@ impl FormData {
             if !(total > 0.0 && total.is_finite()) {
                 return Err(Error::invalid(
                     "--weights",
-                    format!("every point in {} has weight 0 ({})", region.describe_ranges(), region.weights_description),
+                    format!(
+                        "every point in {} has weight 0 ({})",
+                        region.describe_ranges(),
+                        region.weights_description
+                    ),
                 ));
             }
             // A mean of 1 keeps the objective on the scale of the unweighted one.
@@ -902,7 +906,8 @@ pub fn markdown(report: &FormReport) -> String {
         report.form_file, report.table_file, report.points, report.points_are
     );
     if !report.ranges.is_empty() || report.weighted_figures.is_some() {
-        let ranges: Vec<String> = report.ranges.iter().map(|r| format!("{} in [{}, {}]", r.variable, r.lo, r.hi)).collect();
+        let ranges: Vec<String> =
+            report.ranges.iter().map(|r| format!("{} in [{}, {}]", r.variable, r.lo, r.hi)).collect();
         let _ = writeln!(
             s,
             "Region: {}; weights: {}. The fit minimises the weighted mean squared residual; every figure below \
@@ -936,8 +941,11 @@ pub fn markdown(report: &FormReport) -> String {
     for c in &report.certified {
         let _ = writeln!(
             s,
-            "\nAgainst exact integrals at {} random points (the quadrature, {} Gauss–Legendre nodes per panel), {}:\n",
-            c.points, c.exact_nodes, c.domain
+            "\nAgainst exact integrals at {} random points (the quadrature, {} Gauss–Legendre nodes per panel), {}{}:\n",
+            c.points,
+            c.exact_nodes,
+            c.domain,
+            if report.ranges.is_empty() { "" } else { ", those of them inside the region" }
         );
         let _ = writeln!(
             s,
@@ -955,7 +963,11 @@ pub fn markdown(report: &FormReport) -> String {
         // Weighted, the start's figures are not kept: its column repeats the unweighted one's.
         let weighted = c.form_weighted.as_ref().zip(c.table_weighted.as_ref()).map(|(f, t)| {
             std::iter::once(("together, weighted".to_string(), &c.form_at_start.together, &f.together, &t.together))
-                .chain(f.channels.iter().map(|(k, x)| (format!("{k}, weighted"), &c.form_at_start.channels[k], x, &t.channels[k])))
+                .chain(
+                    f.channels
+                        .iter()
+                        .map(|(k, x)| (format!("{k}, weighted"), &c.form_at_start.channels[k], x, &t.channels[k])),
+                )
         });
         for (channel, start, fitted, table) in rows.chain(weighted.into_iter().flatten()) {
             let at: Vec<String> = fitted.max_at.iter().map(|(v, x)| format!("{v} {x:.4}")).collect();

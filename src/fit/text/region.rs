@@ -214,7 +214,8 @@ impl Region {
         if self.ranges.is_empty() {
             return "the whole table".into();
         }
-        let parts: Vec<String> = self.ranges.iter().map(|r| format!("{} in [{}, {}]", r.variable, r.lo, r.hi)).collect();
+        let parts: Vec<String> =
+            self.ranges.iter().map(|r| format!("{} in [{}, {}]", r.variable, r.lo, r.hi)).collect();
         parts.join(", ")
     }
 }
