@@ -390,22 +390,27 @@ fn the_histogram_counts_every_residual_once() {
     assert_eq!(counts, [1, 1, 0, 1]);
 }
 
-#[test]
-fn a_fit_writes_the_error_map_and_the_residual_histogram_in_its_set() {
-    let dir = tempfile::tempdir().unwrap();
-    let form = dir.path().join("form.toml");
+/// GOOD written into `dir`, fitted from 2 starts into `dir/out`, over the whole table, untimed.
+fn good_request(dir: &Path) -> FormFitRequest {
+    let form = dir.join("form.toml");
     std::fs::write(&form, GOOD).unwrap();
-    let table = table();
-    let request = FormFitRequest {
+    FormFitRequest {
         form,
-        table: dir.path().join("karis.dds"),
-        out: dir.path().join("out"),
+        table: dir.join("karis.dds"),
+        out: dir.join("out"),
         settings: FitSettings { starts: 2, ..FitSettings::default() },
         certify: None,
         ranges: Vec::new(),
         weights: WeightsSpec::Uniform,
         timing_runs: 0,
-    };
+    }
+}
+
+#[test]
+fn a_fit_writes_the_error_map_and_the_residual_histogram_in_its_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = table();
+    let request = good_request(dir.path());
     let report = fit_form_file(&table, &request).unwrap();
     for file in [pictures::ERROR_MAP_FILE, pictures::RESIDUALS_FILE] {
         assert!(report.files.iter().any(|f| f == file), "{:?}", report.files);
@@ -536,17 +541,11 @@ fn a_bad_range_or_weighting_is_refused_naming_what_is_allowed() {
 #[test]
 fn the_report_records_the_region_the_weights_and_the_cost() {
     let dir = tempfile::tempdir().unwrap();
-    let form = dir.path().join("form.toml");
-    std::fs::write(&form, GOOD).unwrap();
     let request = FormFitRequest {
-        form,
-        table: dir.path().join("karis.dds"),
-        out: dir.path().join("out"),
-        settings: FitSettings { starts: 2, ..FitSettings::default() },
-        certify: None,
         ranges: vec![Range::parse("mu=0:0.5").unwrap()],
         weights: WeightsSpec::Cosine,
         timing_runs: 3,
+        ..good_request(dir.path())
     };
     // A table the form does not fit, so that weighting changes the figures.
     let report = fit_form_file(&karis_like(8, |mu, alpha| [mu * mu, 0.2 * alpha]), &request).unwrap();
