@@ -121,6 +121,8 @@ pub struct TableTexture<'a> {
 }
 
 impl<'a> TableTexture<'a> {
+    /// The table's sampler, each axis addressed from the form's `variables` (a derived axis from
+    /// `mu` and `eta`); refuses a table of more than 4 axes or an axis no variable addresses.
     pub fn new(table: &'a Table, variables: &[String]) -> Result<TableTexture<'a>> {
         let var = |name: &str| {
             variables.iter().position(|v| v == name).ok_or_else(|| {
@@ -193,6 +195,7 @@ pub struct Timing {
 /// The cost of a form: its operations and, when measured, its time beside the lookup's.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Cost {
+    /// Counted on the compiled instructions ([`operations`]).
     pub operations: Operations,
     /// `None` with `--timing-runs 0`.
     pub timing: Option<Timing>,

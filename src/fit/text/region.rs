@@ -14,6 +14,7 @@ use crate::table::Table;
 /// One `--range VAR=LO:HI`: the points with `LO <= VAR <= HI` are kept.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Range {
+    /// A variable of the form, or `roughness`.
     pub variable: String,
     pub lo: f64,
     pub hi: f64,
@@ -102,6 +103,7 @@ enum Weighting {
 /// The ranges and the weighting of a fit, resolved against a form's variables.
 #[derive(Debug, Clone)]
 pub struct Region {
+    /// As given, checked against the form and the table.
     pub ranges: Vec<Range>,
     pub weights: WeightsSpec,
     bounds: Vec<Bound>,
