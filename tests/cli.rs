@@ -1099,6 +1099,20 @@ fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
             (c["form"]["together"]["rms"].as_f64().unwrap(), c["table"]["together"]["rms"].as_f64().unwrap());
         assert!(table > 0.0 && table < form && form < 0.1, "{c}");
     }
+    // Over a region, weighted: each domain's points inside the region, and weighted figures beside
+    // the plain ones (the whole domain loses the points of roughness above 0.5; the low-roughness
+    // one loses none).
+    let config_arg = config.to_str().unwrap();
+    let region = fit(
+        &dir.path().join("region"),
+        &["--range", "roughness=0:0.5", "--weights", "cosine", "--certify", "--config", config_arg],
+    );
+    let in_region = region["certified"].as_array().unwrap();
+    let points = |c: &serde_json::Value| c["points"].as_u64().unwrap();
+    assert!(points(&in_region[0]) < points(&certified[0]), "{}", in_region[0]);
+    assert_eq!(points(&in_region[1]), points(&certified[1]));
+    assert!(in_region.iter().all(|c| c["form_weighted"]["together"]["rms"].is_number()), "{region}");
+    assert!(fitted.get("weighted_figures").is_none() && region["weighted_figures"].is_object());
     let out = dir.path().join("fitted");
     let mut files: Vec<String> =
         std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
