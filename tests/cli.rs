@@ -1210,12 +1210,16 @@ fn fit_form_fits_a_scene_slice_and_weighs_a_table_by_the_scene() {
     assert_eq!(json["channels"], serde_json::json!(["fgd0"]));
     assert!(json["cost"]["operations"]["arithmetic"].as_u64().unwrap() > 0, "{}", json["cost"]);
 
-    let constant = dir.path().join("gd-constant.toml");
-    std::fs::write(
-        &constant,
-        "table = \"gd\"\n[parameters]\nc = { start = 0.5, min = 0.0, max = 2.0 }\n[channels]\ngd = \"c + 0 * mu\"\n",
-    )
-    .unwrap();
+    // One constant `c` for a table whose one channel is named as the table.
+    let constant_form = |table: &str| {
+        let path = dir.path().join(format!("{table}-constant.toml"));
+        let text = format!(
+            "table = \"{table}\"\n[parameters]\nc = {{ start = 0.5, min = 0.0, max = 2.0 }}\n[channels]\n{table} = \"c + 0 * mu\"\n"
+        );
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let constant = constant_form("gd");
     let (output, uniform) = fit(&constant, "gd.dds", "gd-uniform", &[]);
     assert!(output.status.success(), "{}", stderr(&output));
     let uniform = uniform.unwrap();
@@ -1223,16 +1227,11 @@ fn fit_form_fits_a_scene_slice_and_weighs_a_table_by_the_scene() {
 
     // The pot reads TIR only inside its varnish (eta = 1/1.1), at views above its critical
     // cosine (0.42), where little is lost: a constant weighted by the scene sits far below the
-    // table's mean over every eta in [0, 1].
-    // Built beside the scene's set, which a build into the same folder would replace.
+    // table's mean over every eta in [0, 1]. The table is built beside the scene's set, which a
+    // build into the same folder would replace.
     let output = build(&config, &dir.path().join("tir-luts"), &["--only", "tir"]);
     assert!(output.status.success(), "{}", stderr(&output));
-    let tir_constant = dir.path().join("tir-constant.toml");
-    std::fs::write(
-        &tir_constant,
-        "table = \"tir\"\n[parameters]\nc = { start = 0.5, min = 0.0, max = 2.0 }\n[channels]\ntir = \"c + 0 * mu\"\n",
-    )
-    .unwrap();
+    let tir_constant = constant_form("tir");
     let (output, tir_uniform) = fit(&tir_constant, "../tir-luts/tir.dds", "tir-uniform", &[]);
     assert!(output.status.success(), "{}", stderr(&output));
     let (output, tir_weighted) = fit(&tir_constant, "../tir-luts/tir.dds", "tir-scene", &["--weights", &scene]);
