@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+pub use super::compile::FormEvaluator;
 use super::form::{Form, TableShape};
-use super::tape::Tape;
 use crate::error::{Error, Result};
 pub use crate::formats::manifest::FittedForm;
 
@@ -69,7 +69,8 @@ impl FittedForm {
                     .into(),
             ));
         }
-        if fit.search.is_none() {
+        // A form without parameters has nothing to search: its definition is its fit.
+        if fit.search.is_none() && !fit.parameter_order.is_empty() {
             return Err(refuse(format!(
                 "holds form `{}` at its start values (fitted with --max-evaluations 0): its parameters are unfitted; \
                  fit it with a search (--max-evaluations above 0)",
@@ -114,24 +115,6 @@ impl FittedForm {
     /// The form compiled for evaluation.
     pub fn evaluator(&self) -> Result<FormEvaluator> {
         let form = self.form()?;
-        Ok(FormEvaluator { tape: form.tape, parameters: self.parameters.iter().map(|&v| v as f32).collect() })
-    }
-}
-
-/// A fitted TIR form compiled once, evaluated in f32 with its parameters rounded to f32 (what
-/// its shader computes).
-#[derive(Debug, Clone)]
-pub struct FormEvaluator {
-    tape: Tape,
-    parameters: Vec<f32>,
-}
-
-impl FormEvaluator {
-    /// `TIR(mu, alpha, eta)`.
-    pub fn tir(&self, mu: f64, alpha: f64, eta: f64) -> f64 {
-        let mut scratch = Vec::with_capacity(self.tape.ins.len());
-        let mut out = [0.0f32];
-        self.tape.eval(&[mu as f32, alpha as f32, eta as f32], &self.parameters, &mut scratch, &mut out);
-        f64::from(out[0])
+        Ok(FormEvaluator::new(form.tape, form.variables, &self.parameters))
     }
 }
