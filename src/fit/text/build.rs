@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::fitted::{FittedForm, tir_shape};
+use super::fitted::tir_shape;
 use super::fitting::{FormData, Prepared, figures_of, fit, residuals};
 use super::form::Form;
 use crate::error::Result;
@@ -50,19 +50,6 @@ fn formula(text: &str) -> String {
     let words: Vec<&str> =
         text.lines().map_while(|l| l.strip_prefix('#')).map(str::trim).filter(|l| !l.is_empty()).collect();
     words.join(" ")
-}
-
-/// A built folder's fitted form as a scene's fitted forms are held, for the scene shader to
-/// print it as `tmlut_tir`. `None` for an entry without form text.
-pub fn as_fitted_form(fit: &FitEntry) -> Option<FittedForm> {
-    (!fit.form_text.is_empty()).then(|| FittedForm {
-        name: BUILD_FORM_NAME.into(),
-        source: fit.form.clone(),
-        form_text: fit.form_text.clone(),
-        definition: fit.definition.clone(),
-        parameter_order: fit.parameter_names.clone(),
-        parameters: fit.parameters.clone(),
-    })
 }
 
 /// Fit the build form to the TIR `table` with one start and `seed`, write `tir_fit.hlsl` and

@@ -25,6 +25,10 @@ pub fn tir_shape() -> TableShape {
     }
 }
 
+/// The name of the form a build fits (`[tir] fit = "best"`): its shader function is `tmlut_tir`,
+/// the function `tir_fit.hlsl` and `.wgsl` hold and a scene shader calls.
+pub const BUILD_FORM_NAME: &str = "tir";
+
 /// What `tir = "fit:PATH"` allows, in the words of the error messages.
 pub const ALLOWED: &str = "\"fit:PATH\" with PATH (relative to the scene file) the output folder of \
     `tmlut fit --form FORM.toml --table TIR_TABLE --out PATH`, or the fit.json in it";
@@ -102,6 +106,19 @@ impl FittedForm {
             )));
         }
         Ok(fitted)
+    }
+
+    /// A built folder's fitted form (its manifest's `fit`), held as a scene's fitted forms are,
+    /// named [`BUILD_FORM_NAME`]. `None` for an entry without form text.
+    pub fn of_build(fit: &crate::formats::manifest::FitEntry) -> Option<FittedForm> {
+        (!fit.form_text.is_empty()).then(|| FittedForm {
+            name: BUILD_FORM_NAME.into(),
+            source: fit.form.clone(),
+            form_text: fit.form_text.clone(),
+            definition: fit.definition.clone(),
+            parameter_order: fit.parameter_names.clone(),
+            parameters: fit.parameters.clone(),
+        })
     }
 
     /// The form, read from its text against the TIR table's shape.

@@ -344,7 +344,7 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
         .values()
         .find_map(|e| e.fit.clone())
         .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
-        .and_then(|fit| crate::fit::text::build::as_fitted_form(&fit));
+        .and_then(|fit| FittedForm::of_build(&fit));
     Ok(sources)
 }
 
