@@ -23,9 +23,9 @@ use std::sync::Mutex;
 
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use crate::error::{Error, Result};
+use crate::fit::text::compile::FormEvaluator;
 #[cfg(feature = "generator")]
-use crate::fit::text::FittedForm;
-use crate::fit::text::FormEvaluator;
+use crate::fit::text::fitted::FittedForm;
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::loader::LutFolder;

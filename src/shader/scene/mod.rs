@@ -130,6 +130,7 @@ struct Sources {
     slices: Vec<TableFile>,
     gd: Option<TableFile>,
     packing: Option<(String, PackedFgd)>,
+    /// The folder's fitted TIR form (its manifest's `fit`), printed as `tmlut_tir`.
     fit: Option<FittedForm>,
     /// The 3D TIR table.
     tir: Option<TableFile>,
