@@ -431,3 +431,33 @@ fn the_error_map_is_the_largest_error_at_each_node_of_the_first_two_axes() {
     }
     assert!(panel.x.0.starts_with("mu") && panel.y.0.starts_with("alpha"), "{:?}", (&panel.x, &panel.y));
 }
+
+/// `tmlut fit --form DIR`: every form file given is fitted into its own folder, and `forms.json`
+/// ranks them by max error, then RMS; a form without parameters is measured, not searched.
+#[test]
+fn a_folder_of_forms_is_fitted_form_by_form_and_ranked_by_max_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = table();
+    let fixed = "table = \"karis\"\n[parameters]\n[channels]\nscale = \"1 - 0.4 * roughness * mu\"\nbias = \"0.0\"\n";
+    let files = [("good.toml", GOOD), ("fixed.toml", fixed)].map(|(name, text)| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    });
+    let out = dir.path().join("out");
+    let settings = FitSettings { starts: 1, ..FitSettings::default() };
+    let ranking = fitting::fit_form_files(&table, &files, Path::new("karis.dds"), &out, settings, None).unwrap();
+    let names: Vec<&str> = ranking.forms.iter().map(|f| f.form.as_str()).collect();
+    assert_eq!(names, ["good", "fixed"], "the fitted form has the lower max error");
+    assert!(ranking.forms[0].figures.max <= ranking.forms[1].figures.max);
+    assert_eq!(ranking.forms[1].parameters, 0);
+    for form in &ranking.forms {
+        let report: FormReport =
+            serde_json::from_slice(&std::fs::read(out.join(&form.folder).join(fitting::FIT_FILE)).unwrap()).unwrap();
+        assert_eq!(report.figures.together, form.figures);
+        assert_eq!(report.search.is_none(), form.parameters == 0);
+    }
+    let written: fitting::FolderFits =
+        serde_json::from_slice(&std::fs::read(out.join(fitting::FORMS_FILE)).unwrap()).unwrap();
+    assert_eq!(written, ranking);
+}
