@@ -208,3 +208,30 @@ fn the_build_fits_its_form_file_reproducibly_and_only_when_asked() {
     assert!(none.files["tir.dds"].fit.is_none());
     assert!(!off.path().join("tir_fit.hlsl").exists());
 }
+
+/// A manifest's definition that is not one the form language states is refused, naming what is
+/// wrong, so that the model never evaluates a form other than the one recorded.
+#[test]
+fn a_definition_the_language_cannot_read_is_refused_naming_the_statement() {
+    let lines = |l: &[&str]| l.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let names = lines(&["a"]);
+    let good = lines(&["table = tir, variables: mu, alpha, eta", "x = a * mu", "channel tir = x + alpha"]);
+    let form = FormEvaluator::from_definition(&good, &names, &[0.5]).unwrap();
+    assert_eq!(form.tir(0.5, 0.25, 0.0), 0.5);
+    let refused = |definition: &[&str], names: &[String], parameters: &[f64], says: &str| {
+        let e = FormEvaluator::from_definition(&lines(definition), names, parameters).unwrap_err();
+        assert!(e.contains(says), "expected `{says}` in: {e}");
+    };
+    refused(&[], &names, &[0.5], "empty");
+    refused(&["TIR = c0 * mu"], &names, &[0.5], "table = NAME, variables");
+    refused(
+        &[good[0].as_str(), "x = c0 * mu", "channel tir = x"],
+        &names,
+        &[0.5],
+        "statement `x = c0 * mu`: unknown name `c0`",
+    );
+    refused(&[good[0].as_str(), "x = a ? mu : 1", "channel tir = x"], &names, &[0.5], "statement `x = a ? mu : 1`");
+    refused(&[good[0].as_str(), "mu = a", "channel tir = mu"], &names, &[0.5], "`mu` is defined twice");
+    refused(&[good[0].as_str(), "x = a"], &names, &[0.5], "no channel");
+    refused(&good.iter().map(String::as_str).collect::<Vec<_>>(), &names, &[], "1 parameter names for 0 parameters");
+}
