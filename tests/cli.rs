@@ -1173,7 +1173,7 @@ fn fit_form_refuses_a_mistake_naming_file_line_and_column_and_writes_nothing() {
         "{message}"
     );
     assert!(!out.exists(), "nothing written for a refused form");
-    // A target and a form at once are refused by the argument parser.
+    // There is no `tmlut fit tir`: every form is a form file, and the argument parser says so.
     let output = tmlut(&["fit", "tir", "--form", form.to_str().unwrap()]);
     assert!(!output.status.success() && stderr(&output).contains("--form"), "{}", stderr(&output));
 }

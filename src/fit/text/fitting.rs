@@ -128,6 +128,33 @@ impl FormData {
     }
 }
 
+impl FormData {
+    /// Every `stride`-th point along each variable (or axis, on the table's nodes) and each one's
+    /// last point: a coarser grid over the same domain, for a faster fit judged on every point.
+    /// `table` is the table the data was read from.
+    pub fn every(&self, table: &Table, stride: usize) -> FormData {
+        let shape: Vec<usize> =
+            if self.on_table_nodes { table.shape() } else { vec![FIT_GRID_NODES; self.variables.len()] };
+        let (d, c) = (self.variables.len(), self.channels.len());
+        let mut kept = FormData { coordinates: Vec::new(), values: Vec::new(), ..self.clone() };
+        for n in 0..self.len() {
+            // The first axis runs fastest, on the table's nodes (Table::node_index) as on the grid.
+            let mut rest = n;
+            let keep = shape.iter().all(|&count| {
+                let i = rest % count;
+                rest /= count;
+                i % stride == 0 || i + 1 == count
+            });
+            if keep {
+                kept.coordinates.extend_from_slice(&self.coordinates[n * d..(n + 1) * d]);
+                kept.values.extend_from_slice(&self.values[n * c..(n + 1) * c]);
+            }
+        }
+        kept.description = format!("every {stride}th point along each variable of {}", self.description);
+        kept
+    }
+}
+
 /// Points per parallel work item: fixed, so that sums are added in the same order whatever the
 /// number of threads.
 const CHUNK: usize = 4096;
@@ -299,7 +326,7 @@ pub fn residuals(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Vec
 }
 
 /// The figures of the residuals of [`residuals`].
-fn figures_of(data: &FormData, errors: &[f64]) -> FigureSet {
+pub(crate) fn figures_of(data: &FormData, errors: &[f64]) -> FigureSet {
     figure_set(errors, &data.channels, &data.variables, |n| data.point(n).to_vec())
 }
 
@@ -605,7 +632,8 @@ pub struct FormFit {
 /// evaluates the form at its start values.
 pub fn fit(form: &Form, prepared: &Prepared, settings: &FitSettings) -> Result<FormFit> {
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
-    if settings.max_evaluations == 0 {
+    // A form without parameters (a published baseline) has nothing to search.
+    if settings.max_evaluations == 0 || start.is_empty() {
         return Ok(FormFit { parameters: start, search: None });
     }
     let lower: Vec<f64> = form.parameters.iter().map(|p| p.min).collect();
@@ -713,6 +741,106 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
     let pictures = |dir: &Path| write_pictures(dir, &report.form, table, &data, &fitted_residuals, &report.figures);
     write_set(&request.out, &report, &shader_files, &shaders, pictures)?;
     Ok(report)
+}
+
+/// The list `tmlut fit --form DIR` writes beside the fits' folders.
+pub const FORMS_FILE: &str = "forms.json";
+
+/// One form of a folder fitted to a table: where its set is, and its figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RankedForm {
+    pub form: String,
+    pub form_file: String,
+    /// The fit's folder (`fit.json` and the rest of its set), relative to `forms.json`.
+    pub folder: String,
+    pub parameters: usize,
+    /// At the fitted parameters, all channels together (the form in f32 against the table).
+    pub figures: Figures,
+}
+
+/// `forms.json`: the forms of a folder fitted to one table, ranked by max error (a formula in
+/// place of a table shows its worst point as an artifact), then by RMS.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FolderFits {
+    pub table: String,
+    pub table_file: String,
+    pub settings: FitSettings,
+    pub rule: String,
+    pub forms: Vec<RankedForm>,
+}
+
+/// Fit every form file of `files` to `table` ([`fit_form_file`], each into `out/<form>/`), rank
+/// them by max error then RMS and write [`FORMS_FILE`] into `out`.
+pub fn fit_form_files(
+    table: &Table,
+    files: &[PathBuf],
+    table_file: &Path,
+    out: &Path,
+    settings: FitSettings,
+    certify: Option<crate::config::Config>,
+) -> Result<FolderFits> {
+    let mut forms = Vec::with_capacity(files.len());
+    for file in files {
+        let folder = super::form::form_name(file);
+        let request = FormFitRequest {
+            form: file.clone(),
+            table: table_file.to_path_buf(),
+            out: out.join(&folder),
+            settings,
+            certify: certify.clone(),
+        };
+        let report = fit_form_file(table, &request)?;
+        forms.push(RankedForm {
+            form: report.form,
+            form_file: report.form_file,
+            folder,
+            parameters: report.parameter_order.len(),
+            figures: report.figures.together,
+        });
+    }
+    forms.sort_by(|a, b| a.figures.max.total_cmp(&b.figures.max).then(a.figures.rms.total_cmp(&b.figures.rms)));
+    let ranking = FolderFits {
+        table: table.name.clone(),
+        table_file: table_file.display().to_string(),
+        settings,
+        rule: "by max |form - table| over the points, then by RMS".into(),
+        forms,
+    };
+    let json = serde_json::to_string_pretty(&ranking).map_err(|e| Error::invalid("forms.json", e.to_string()))?;
+    crate::formats::write_bytes_atomically(&out.join(FORMS_FILE), json.as_bytes())?;
+    Ok(ranking)
+}
+
+/// The ranking as a table, best first.
+pub fn ranking_markdown(ranking: &FolderFits) -> String {
+    use std::fmt::Write as _;
+    let mut s = format!(
+        "# Forms fitted to table `{}` ({})
+
+",
+        ranking.table, ranking.table_file
+    );
+    let _ = writeln!(
+        s,
+        "| rank | form | parameters | RMS | p99 | max | max at | fit |\n|---:|---|---:|---:|---:|---:|---|---|"
+    );
+    for (k, f) in ranking.forms.iter().enumerate() {
+        let at: Vec<String> = f.figures.max_at.iter().map(|(v, x)| format!("{v} {x:.3}")).collect();
+        let _ = writeln!(
+            s,
+            "| {} | `{}` | {} | {:.6} | {:.6} | {:.6} | {} | {}/ |",
+            k + 1,
+            f.form_file,
+            f.parameters,
+            f.figures.rms,
+            f.figures.p99,
+            f.figures.max,
+            at.join(", "),
+            f.folder
+        );
+    }
+    let _ = writeln!(s, "\nRanked {}.", ranking.rule);
+    s
 }
 
 /// Stage every file (`pictures` draws [`ERROR_MAP_FILE`] and [`RESIDUALS_FILE`] into the folder
@@ -831,7 +959,7 @@ pub fn markdown(report: &FormReport) -> String {
             search.objective
         );
     } else {
-        let _ = writeln!(s, "No search (max evaluations 0): the figures are the start values'.");
+        let _ = writeln!(s, "No search (no parameters, or max evaluations 0): the figures are the start values'.");
     }
     if id.ill_determined.is_empty() {
         let _ = writeln!(s, "\nEvery parameter is determined by the data ({}).", id.rule);
