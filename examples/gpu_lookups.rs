@@ -3,8 +3,8 @@
 //!
 //! - `fgd_lossless.wgsl` reading `fgd_lossless.dds`, against 4D multilinear interpolation of
 //!   `fgd.exr` (`FgdLut::sample`);
-//! - `tir_fit.wgsl`, against the fitted form evaluated in f64 from the coefficients in the
-//!   manifest (`Form::eval`).
+//! - `tir_fit.wgsl`, against the fitted form evaluated in f64 from the definition and the
+//!   coefficients in the manifest (`FormEvaluator::from_definition`).
 //!
 //! ```sh
 //! tmlut build --out luts      # or --only fgd,tir
@@ -20,7 +20,7 @@ use std::process::ExitCode;
 
 use rand_pcg::Pcg64Mcg;
 use rand_pcg::rand_core::RngCore;
-use tmlut::fit::Form;
+use tmlut::fit::text::FormEvaluator;
 use tmlut::loader::{FgdLut, LutFolder};
 
 use gpu::Comparison;
@@ -107,7 +107,8 @@ fn check_tir_fit(
         .values()
         .find_map(|e| e.fit.as_ref())
         .ok_or("the folder has no fitted TIR form ([tir] fit = \"best\")")?;
-    let form = Form::from_name(&fit.form).ok_or_else(|| format!("unknown fitted form `{}`", fit.form))?;
+    let form = FormEvaluator::from_definition(&fit.definition, &fit.parameter_names, &fit.parameters)
+        .map_err(|e| format!("the fitted form `{}`: {e}", fit.form))?;
     let function = fit.shaders.iter().find(|s| s.language == "wgsl").ok_or("the fit lists no WGSL function")?;
     let wgsl = format!(
         "{}{}{}",
@@ -121,10 +122,10 @@ fn check_tir_fit(
     );
     let points: Vec<f32> = (0..3 * POINTS).map(|_| uniform([0.0, 1.0])).collect();
     let on_gpu = gpu.run(&gpu.module(&wgsl), "main", &[], &points, POINTS, POINTS);
-    let on_cpu = points.chunks_exact(3).map(|p| form.eval(&fit.parameters, p[0] as f64, p[1] as f64, p[2] as f64));
+    let on_cpu = points.chunks_exact(3).map(|p| form.eval_f64(&[p[0] as f64, p[1] as f64, p[2] as f64]));
     let comparison = Comparison::of(&on_gpu, on_cpu);
     println!(
-        "{} ({}) vs the form in f64 from the manifest's coefficients: {}",
+        "{} ({}) vs the form in f64 from the manifest's definition and coefficients: {}",
         function.file,
         fit.form,
         comparison.summary(TIR_FIT_TOLERANCE)

@@ -22,7 +22,8 @@
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
 //! - [`scene`]: scene files of layer stacks and the plan of the tables they need (generator);
 //! - [`furnace`]: the furnace test: the model with tables, with exact integrals, and a random walk (generator);
-//! - [`fit`]: least-squares fits of analytic TIR forms with NLopt, error and cost side by side (generator).
+//! - [`fit`]: forms written as text, fitted to any table by least squares with NLopt (generator); a
+//!   fitted form compiled from a manifest's definition (loader side).
 //!
 //! Build a renderer against the loader alone with `default-features = false`: that leaves out the
 //! generator's dependencies (rayon, sobol_burley, clap, indicatif, toml, fs4; exr unless its own

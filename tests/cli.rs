@@ -1270,6 +1270,33 @@ fn fit_form_fits_a_scene_slice_and_weighs_a_table_by_the_scene() {
     );
     let (output, _) = fit(&constant, "gd.dds", "gd-bad", &["--weights", "cosines"]);
     assert!(stderr(&output).contains("allowed: uniform, cosine, or a scene file SCENE.toml"), "{}", stderr(&output));
+
+    // A folder of forms: every form fitted over the region with the weights and timed, each
+    // form's fit.json and forms.json recording them.
+    let forms = dir.path().join("gd-forms");
+    std::fs::create_dir(&forms).unwrap();
+    std::fs::copy(&constant, forms.join("constant.toml")).unwrap();
+    let linear = "table = \"gd\"\n[parameters]\nc = { start = 0.5, min = 0.0, max = 2.0 }\n\
+                  d = { start = 0.0, min = -2.0, max = 2.0 }\n[channels]\ngd = \"c + d * mu\"\n";
+    std::fs::write(forms.join("linear.toml"), linear).unwrap();
+    let (output, _) = fit(&forms, "gd.dds", "gd-folder", &["--range", "roughness=0:0.5", "--weights", "cosine"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let ranking: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("gd-folder/forms.json")).unwrap()).unwrap();
+    assert_eq!(ranking["ranges"], ranged["ranges"], "{ranking}");
+    assert_eq!((ranking["weights"].as_str(), ranking["timing_runs"].as_u64()), (Some("cosine"), Some(3)), "{ranking}");
+    let ranked = ranking["forms"].as_array().unwrap();
+    assert_eq!(ranked.len(), 2, "{ranking}");
+    for form in ranked {
+        let folder = dir.path().join("gd-folder").join(form["folder"].as_str().unwrap());
+        let json: serde_json::Value = serde_json::from_slice(&std::fs::read(folder.join("fit.json")).unwrap()).unwrap();
+        assert_eq!(
+            (&json["ranges"], &json["weights"], &json["points"]),
+            (&ranged["ranges"], &ranking["weights"], &ranged["points"])
+        );
+        assert_eq!(json["weighted_figures"]["together"], form["weighted_figures"], "{json}");
+        assert_eq!(json["cost"]["timing"]["runs"].as_u64(), Some(3), "{json}");
+    }
 }
 
 #[test]
@@ -1301,7 +1328,7 @@ fn fit_form_refuses_a_mistake_naming_file_line_and_column_and_writes_nothing() {
         "{message}"
     );
     assert!(!out.exists(), "nothing written for a refused form");
-    // A target and a form at once are refused by the argument parser.
+    // There is no `tmlut fit tir`: every form is a form file, and the argument parser says so.
     let output = tmlut(&["fit", "tir", "--form", form.to_str().unwrap()]);
     assert!(!output.status.success() && stderr(&output).contains("--form"), "{}", stderr(&output));
 }

@@ -258,8 +258,7 @@ fn count_options_beyond_any_machine_are_refused_naming_the_option_and_its_range(
         (vec!["bench", "--only", "gd", "--repeats", huge], "--repeats"),
         (vec!["bench", "--only", "gd", "--per-cell-nodes", huge], "--per-cell-nodes"),
         (vec!["converge", "gd", "--out", out, "--cells", huge], "--cells"),
-        (vec!["fit", "tir", "--out", out, "--starts", huge], "--starts"),
-        (vec!["fit", "tir", "--out", out, "--timing-runs", huge], "--timing-runs"),
+        (vec!["fit", "--form", "luts/forms", "--out", out, "--starts", huge], "--starts"),
         (vec!["pack-report", "--points", huge], "--points"),
         (vec!["pack-report", "--reference-points", huge], "--reference-points"),
     ];

@@ -17,10 +17,12 @@ const LAYERS: &[&[&str]] = &[
     &["stats", "table", "physics", "machine"],
     // Files and the drawing of PNG plots, which are a file format.
     &["formats"],
-    // The form language of `fit/text` (expressions, their compiled tape, form files) and a fitted
-    // TIR form a scene names: the model evaluates it.
+    // The form language of `fit/text` (expressions, their compiled tape, a form compiled from a
+    // manifest's definition, form files) and a fitted TIR form a scene names: the model
+    // evaluates both.
     &["fit/text/expr"],
     &["fit/text/tape"],
+    &["fit/text/compile"],
     &["fit/text/form"],
     &["fit/text/fitted"],
     // The emitter that prints one description of a shader as HLSL and WGSL, and the emulator of
@@ -32,10 +34,6 @@ const LAYERS: &[&[&str]] = &[
     &["loader"],
     &["sampling"],
     &["integrate"],
-    // The analytic forms a fit produces, evaluated by renderers as by the fit.
-    &["fit/real"],
-    &["fit/dual"],
-    &["fit/forms"],
     &["packing"],
     &["model"],
     &["random_walk"],
@@ -43,10 +41,10 @@ const LAYERS: &[&[&str]] = &[
     &["shader/scene"],
     &["recipes"],
     &["config"],
-    // The build's own steps: the locked output folder, the fit a build writes, the error maps.
+    // The build's own steps: the locked output folder, the fit's search, the error maps.
     &["commit", "fit", "report/error_map"],
     // Forms written as text: fitted by the fit's search, certified by the recipes' exact
-    // integrals, written as one set by the commit.
+    // integrals, written as one set by the commit; the form the build fits (`fit/text/build`).
     &["fit/text"],
     &["pipeline"],
     &["scene"],
@@ -59,7 +57,7 @@ fn layer_of(unit: &str) -> Option<usize> {
     LAYERS.iter().position(|layer| layer.contains(&unit))
 }
 
-/// The unit of a module path (`fit/forms/...` -> `fit/forms`, `fit/least_squares` -> `fit`).
+/// The unit of a module path (`fit/text/tape` -> `fit/text/tape`, `fit/least_squares` -> `fit`).
 fn unit_of(module_path: &str) -> Option<&'static str> {
     LAYERS
         .iter()

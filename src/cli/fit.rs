@@ -1,32 +1,32 @@
-//! `tmlut fit`: least-squares fits of analytic forms to a table, error against cost.
+//! `tmlut fit`: least-squares fits of forms written as text to a table.
 
 use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use tmlut::fit::{ALL_FORMS, Form};
-
 use super::{Context, check_count};
 
-/// Fit analytic approximations to a table by least squares (NLopt). `tmlut fit tir`: the built-in
-/// TIR forms, error against cost (fit.json, HLSL/WGSL per form, error_vs_cost.png). `tmlut fit
-/// --form FILE --table TABLE_FILE`: a form written as text (docs/fit.md, "Forms as text"), fitted
-/// to any table tmlut writes (fit.json, report.md, error_map.png, residuals.png, WGSL, HLSL, GLSL,
-/// MSL). `tmlut fit --scene SCENE --form A --form B ...`: TIR forms judged in the material (each
-/// form file fitted to --table first, or a `tmlut fit --form` output folder used as fitted),
-/// ranked by the furnace's largest error with each, the TIR table's beside them (ranking.json).
+/// Fit forms written as text to a table by least squares (NLopt). `tmlut fit --form FILE --table
+/// TABLE_FILE`: a form file (docs/fit.md, "Forms as text") fitted to any table tmlut writes
+/// (fit.json, report.md, error_map.png, residuals.png, WGSL, HLSL, GLSL, MSL). `--form DIR`: every
+/// form file of the folder for that table, each into its own folder of --out, ranked by max error
+/// then RMS (forms.json; `--form luts/forms --table tir.dds` fits every TIR form). For a file
+/// or a folder, --range keeps a box of the table, --weights weighs its points, and each report
+/// states the form's operations and, with --timing-runs, its CPU time beside the table's lookup.
+/// `tmlut fit --scene SCENE --form A --form B ...`: TIR forms judged in the material (each form file fitted
+/// to --table first, or a `tmlut fit --form` output folder used as fitted), ranked by the
+/// furnace's largest error with each, the TIR table's beside them (ranking.json).
 #[derive(Args)]
 pub struct FitArgs {
-    /// The built-in forms' table: `tir`. Not with --form.
-    target: Option<String>,
     /// A form file (TOML): the table it approximates, its parameters, `let` bindings and one
-    /// expression per channel. With --scene, repeated: form files (fitted to --table), folders
-    /// written by `tmlut fit --form` (or their fit.json), or folders of form files.
-    #[arg(long, conflicts_with_all = ["target", "forms"])]
+    /// expression per channel; or a folder of form files. With --scene, repeated: form files
+    /// (fitted to --table), folders written by `tmlut fit --form` (or their fit.json), or folders
+    /// of form files.
+    #[arg(long, required = true)]
     form: Vec<PathBuf>,
     /// Rank the --form candidates (TIR forms) by their error in this scene's materials: a
     /// furnace run with the TIR table, then one per form (tables built once, no random walk).
-    #[arg(long, requires = "form")]
+    #[arg(long)]
     scene: Option<PathBuf>,
     /// With --scene: view cosines per material.
     #[arg(long, default_value_t = tmlut::furnace::FurnaceSettings::default().views, requires = "scene")]
@@ -34,38 +34,29 @@ pub struct FitArgs {
     /// With --scene: Gauss–Legendre nodes per panel of each exact integral (docs/furnace.md).
     #[arg(long, default_value_t = tmlut::furnace::FurnaceSettings::default().exact_nodes, requires = "scene")]
     exact_nodes: usize,
-    /// With --form: the most objective evaluations per start; 0 evaluates the form at its start
-    /// values (the figures of published coefficients).
-    #[arg(long, default_value_t = 2000, requires = "form")]
+    /// The most objective evaluations per start; 0 evaluates the form at its start values (the
+    /// figures of published coefficients).
+    #[arg(long, default_value_t = 2000)]
     max_evaluations: u32,
-    /// With --form: certify the fitted form against exact integrals at the random points of the
-    /// table's interpolation check (its points and samples from the configuration), beside the
-    /// table's own error there.
-    #[arg(long, requires = "form", conflicts_with = "scene")]
+    /// Certify the fitted form against exact integrals at the random points of the table's
+    /// interpolation check (its points and samples from the configuration), beside the table's
+    /// own error there.
+    #[arg(long, conflicts_with = "scene")]
     certify: bool,
-    /// With --form, repeatable: keep only the points with LO <= VAR <= HI, for the fit, its
-    /// figures, pictures and certification; VAR a variable of the table (mu, alpha, eta, kappa)
-    /// or roughness (sqrt(alpha)).
-    #[arg(long, value_name = "VAR=LO:HI", requires = "form", conflicts_with = "scene")]
+    /// Repeatable: keep only the points with LO <= VAR <= HI, for the fit, its figures, pictures
+    /// and certification (of every form, with a folder); VAR a variable of the table (mu, alpha,
+    /// eta, kappa) or roughness (sqrt(alpha)).
+    #[arg(long, value_name = "VAR=LO:HI", conflicts_with = "scene")]
     range: Vec<String>,
-    /// With --form: each point's weight in the objective and the weighted figures: uniform,
-    /// cosine (mu, the view's cosine), or SCENE.toml (how many of the scene's materials look the
-    /// table up there; docs/fit.md).
-    #[arg(
-        long,
-        default_value = "uniform",
-        value_name = "uniform|cosine|SCENE.toml",
-        requires = "form",
-        conflicts_with = "scene"
-    )]
+    /// Each point's weight in the objective and the weighted figures (with a folder, the
+    /// ranking's): uniform, cosine (mu, the view's cosine), or SCENE.toml (how many of the
+    /// scene's materials look the table up there; docs/fit.md).
+    #[arg(long, default_value = "uniform", value_name = "uniform|cosine|SCENE.toml", conflicts_with = "scene")]
     weights: String,
     #[command(flatten)]
     config: super::ConfigArg,
-    /// Comma-separated forms (default: all).
-    #[arg(long, value_delimiter = ',', help = format!("Comma-separated forms (default: all). Known: {}", form_names().join(", ")))]
-    forms: Option<Vec<String>>,
     /// The table: a `.dds` or `.exr` written by `tmlut build` (a DDS reads its axes from the
-    /// manifest.json beside it), or, for TIR, the original `.bin` layout.
+    /// manifest.json beside it).
     #[arg(long, default_value = "luts/tir.dds")]
     table: PathBuf,
     #[arg(long, default_value = "fit")]
@@ -76,18 +67,14 @@ pub struct FitArgs {
     /// Starts per fitted form.
     #[arg(long, default_value_t = 6)]
     starts: usize,
-    /// Timed runs per form (the median is reported); with --form, of the form and of the table's
-    /// lookup over up to 4096 of the points, 0 for none.
-    #[arg(long, default_value_t = 21)]
+    /// Timed runs per form of the form and of the table's lookup, each over up to 4096 of the
+    /// points (the median is reported); 0 for none. Not with --scene.
+    #[arg(long, default_value_t = 21, conflicts_with = "scene")]
     timing_runs: usize,
 }
 
-fn form_names() -> Vec<&'static str> {
-    ALL_FORMS.iter().map(|f| f.name()).collect()
-}
-
 pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
-    // Each start is a whole minimisation and each timing run a pass over 2^14 queries per form.
+    // Each start is a whole minimisation.
     check_count("--starts", args.starts, 1..=1000)?;
     let settings = tmlut::fit::FitSettings {
         starts: args.starts,
@@ -101,69 +88,88 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
     if args.form.len() > 1 {
         return Err(tmlut::Error::invalid(
             "--form",
-            format!("given {} times; one form is fitted at a time, several only with --scene", args.form.len()),
+            format!(
+                "given {} times; one form file or folder is fitted at a time, several only with --scene",
+                args.form.len()
+            ),
         ));
     }
-    if let Some(form) = args.form.first().cloned() {
-        let table = tmlut::loader::load_table(&args.table)?;
-        check_count("--timing-runs", args.timing_runs, 0..=1000)?;
-        let ranges = args.range.iter().map(|r| tmlut::fit::text::Range::parse(r)).collect::<tmlut::Result<Vec<_>>>()?;
-        let weights = tmlut::fit::text::WeightsSpec::parse(&args.weights)?;
-        let certify = if args.certify { Some(args.config.load()?) } else { None };
-        let request = tmlut::fit::text::FormFitRequest {
-            form,
+    let form = args.form[0].clone();
+    let table = tmlut::loader::load_table(&args.table)?;
+    // Each timing run is a pass over up to 4096 points per form and of the table's lookup.
+    check_count("--timing-runs", args.timing_runs, 0..=1000)?;
+    let ranges = args.range.iter().map(|r| tmlut::fit::text::Range::parse(r)).collect::<tmlut::Result<Vec<_>>>()?;
+    let weights = tmlut::fit::text::WeightsSpec::parse(&args.weights)?;
+    // The scene's lookups of the table, read once for every form.
+    let scene = match &weights {
+        tmlut::fit::text::WeightsSpec::Scene(path) => Some(tmlut::scene::lookups::table_lookups(path, &table.name)?),
+        _ => None,
+    };
+    let certify = if args.certify { Some(args.config.load()?) } else { None };
+    if form.is_dir() {
+        let request = tmlut::fit::text::FolderFitRequest {
+            files: form_files(&form, &table.name)?,
             table: args.table,
             out: args.out,
             settings,
             certify,
             ranges,
             weights,
+            scene,
             timing_runs: args.timing_runs,
         };
-        let report = tmlut::fit::text::fit_form_file(&table, &request)?;
-        print!("{}", tmlut::fit::text::fitting::markdown(&report));
-        println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FIT_FILE).display());
+        let fits = tmlut::fit::text::fit_form_files(&table, &request)?;
+        print!("{}", tmlut::fit::text::fitting::ranking_markdown(&fits));
+        println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FORMS_FILE).display());
         return Ok(());
     }
-    match args.target.as_deref() {
-        Some("tir") => {}
-        other => {
-            return Err(tmlut::Error::invalid(
-                "fit target",
-                format!("{}; allowed: tir, or --form FILE --table TABLE_FILE", other.unwrap_or("none given")),
-            ));
-        }
-    }
-    check_count("--timing-runs", args.timing_runs, 1..=1000)?;
-    let forms = match &args.forms {
-        None => ALL_FORMS.to_vec(),
-        Some(names) => names
-            .iter()
-            .map(|n| {
-                Form::from_name(n).ok_or_else(|| {
-                    tmlut::Error::invalid("--forms", format!("{n}; allowed: {}", form_names().join(", ")))
-                })
-            })
-            .collect::<tmlut::Result<Vec<_>>>()?,
-    };
-    // A `.bin` file names no axes; the original layout's are (mu, alpha, eta).
-    let loaded = match tmlut::loader::format_of(&args.table)? {
-        tmlut::formats::FileFormat::Bin => tmlut::formats::bin::read_bin(&args.table, Some(&["mu", "alpha", "eta"]))?,
-        _ => tmlut::loader::load_table(&args.table)?,
-    };
-    let settings =
-        tmlut::fit::FitSettings { starts: args.starts, seed: args.seed, ..tmlut::fit::FitSettings::default() };
-    let request = tmlut::fit::FitRequest {
-        table_path: args.table,
-        forms,
+    let request = tmlut::fit::text::FormFitRequest {
+        form,
+        table: args.table,
         out: args.out,
         settings,
+        certify,
+        ranges,
+        weights,
+        scene,
         timing_runs: args.timing_runs,
-        timing_queries: 1 << 14,
     };
-    let manifest = tmlut::fit::fit_tir(&loaded, &request)?;
-    print!("{}", tmlut::fit::summary::markdown(&manifest, &request.out.join("fit.json")));
+    let report = tmlut::fit::text::fit_form_file(&table, &request)?;
+    print!("{}", tmlut::fit::text::fitting::markdown(&report));
+    println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FIT_FILE).display());
     Ok(())
+}
+
+/// The form files (`.toml`) of the folder `dir` for table `table`, in name order; those for
+/// another table are skipped with a note (luts/forms/ holds forms of several tables).
+fn form_files(dir: &Path, table: &str) -> tmlut::Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|source| tmlut::Error::io(dir, source))?
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    files.retain(|file| {
+        let named = std::fs::read_to_string(file)
+            .ok()
+            .and_then(|text| text.parse::<toml::Table>().ok())
+            .and_then(|t| t.get("table").and_then(|v| v.as_str().map(str::to_string)));
+        match named.as_deref() {
+            Some(other) if other != table => {
+                eprintln!("skipped {}: a form for table `{other}`, not `{table}`", file.display());
+                false
+            }
+            // A file whose table cannot be read is kept, so that reading it names the mistake.
+            _ => true,
+        }
+    });
+    if files.is_empty() {
+        return Err(tmlut::Error::invalid(
+            format!("--form {}", dir.display()),
+            format!("a folder with no form file (.toml) for table `{table}`"),
+        ));
+    }
+    Ok(files)
 }
 
 /// `tmlut fit --scene`: every candidate fitted (or read as fitted), then ranked in the material.
@@ -178,33 +184,7 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
     let mut candidates: Vec<PathBuf> = Vec::new();
     for path in &args.form {
         if path.is_dir() && !path.join(FIT_FILE).is_file() {
-            let mut files: Vec<PathBuf> = std::fs::read_dir(path)
-                .map_err(|source| tmlut::Error::io(path, source))?
-                .filter_map(|entry| entry.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-                .collect();
-            files.sort();
-            // A folder of forms may hold forms of other tables (luts/forms/ does): those are skipped.
-            files.retain(|file| {
-                let table = std::fs::read_to_string(file)
-                    .ok()
-                    .and_then(|text| text.parse::<toml::Table>().ok())
-                    .and_then(|t| t.get("table").and_then(|v| v.as_str().map(str::to_string)));
-                match table.as_deref() {
-                    Some("tir") | None => true,
-                    Some(other) => {
-                        eprintln!("skipped {}: a form for table `{other}`, not `tir`", file.display());
-                        false
-                    }
-                }
-            });
-            if files.is_empty() {
-                return Err(tmlut::Error::invalid(
-                    format!("--form {}", path.display()),
-                    format!("a folder with no {FIT_FILE} and no TIR form file (.toml)"),
-                ));
-            }
-            candidates.extend(files);
+            candidates.extend(form_files(path, "tir")?);
         } else {
             candidates.push(path.clone());
         }
@@ -226,6 +206,7 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
                 certify: None,
                 ranges: Vec::new(),
                 weights: tmlut::fit::text::WeightsSpec::Uniform,
+                scene: None,
                 timing_runs: 0,
             };
             let report = tmlut::fit::text::fit_form_file(table.as_ref().expect("read above"), &request)?;

@@ -339,8 +339,13 @@ pub struct FitEntry {
     pub form: String,
     /// The form in words.
     pub formula: String,
-    /// The form statement by statement, complete: `c0, c1, ...` are `parameters` in order
-    /// (`fit::Form::definition`).
+    /// The form file's text (`luts/forms/`), which the generator reads the form from.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub form_text: String,
+    /// The form statement by statement, complete, in the form language (`docs/fit.md`, "Forms as
+    /// text"): `table = tir, variables: mu, alpha, eta`, then `name = expression` in order, then
+    /// `channel tir = expression`; the expressions read the parameters by `parameter_names`. The
+    /// model evaluates it (`fit::text::compile::FormEvaluator::from_definition`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub definition: Vec<String>,
     /// Why this form: the rule that chose it.

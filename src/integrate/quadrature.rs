@@ -68,6 +68,12 @@ pub enum Cut {
 pub struct VisibleNormalQuadrature {
     /// Per node of the unit panel: the position `S(u)` and the weight `w(u) S'(u)`.
     unit_panel: Vec<(f64, f64)>,
+    /// The plain rule, per node `(u, w(u))`: for [`ReflectedLobe`], whose panels hold no endpoint
+    /// singularity to smooth.
+    plain_panel: Vec<(f64, f64)>,
+    /// Per node of the plain rule, `P_k(2u - 1)` for `k` below the node count: a panel's terms
+    /// projected on the Legendre polynomials ([`ReflectedLobe::share_beyond`]).
+    legendre_at_nodes: Vec<Vec<f64>>,
 }
 
 impl VisibleNormalQuadrature {
@@ -79,11 +85,10 @@ impl VisibleNormalQuadrature {
                 format!("{nodes}: must be from {} to {}", NODES.start(), NODES.end()),
             ));
         }
-        let unit_panel = gauss_legendre_unit(nodes)
-            .into_iter()
-            .map(|(u, w)| (u * u * (3.0 - 2.0 * u), w * 6.0 * u * (1.0 - u)))
-            .collect();
-        Ok(VisibleNormalQuadrature { unit_panel })
+        let plain_panel = gauss_legendre_unit(nodes);
+        let unit_panel = plain_panel.iter().map(|&(u, w)| (u * u * (3.0 - 2.0 * u), w * 6.0 * u * (1.0 - u))).collect();
+        let legendre_at_nodes = plain_panel.iter().map(|&(u, _)| legendre_polynomials(2.0 * u - 1.0, nodes)).collect();
+        Ok(VisibleNormalQuadrature { unit_panel, plain_panel, legendre_at_nodes })
     }
 
     /// Nodes per panel.
@@ -175,6 +180,153 @@ impl VisibleNormalQuadrature {
     }
 }
 
+/// The lobe of directions `wo = reflect(wi, h)`, `h` drawn from the visible normals of a
+/// `(mu, alpha)` cell, weighted by `weight(wi, wo)` (zero below the horizon), integrated in the
+/// polar angle of `wo` itself: [`ReflectedLobe::share_beyond`] is the weighted share of the lobe
+/// past a polar angle, such as the critical angle of total internal reflection, for any number
+/// of angles from one integration over the lobe.
+///
+/// The density of `wo` is that of `h` times `dω_h / dω_o = 1 / (4 wo.h)` (Walter et al. 2007,
+/// eq. 14), and the visible-normal density is `G1(wi) (wi.h) D(h) / mu` (Heitz 2018, eq. 2); with
+/// `wi.h = wo.h` the two cosines cancel, so that `wo` is distributed as `D(h(wo))`, `h(wo) =
+/// normalize(wi + wo)`, over the upper hemisphere. In the polar angles `(theta, phi)` of `wo`
+/// (`phi = 0` towards `wi`) that integrand peaks at the mirror direction `(theta_i, pi)` with the
+/// scale `alpha`; the `theta` panels grow geometrically from `alpha / 2` on both sides of `theta_i`
+/// and the `phi` panels from `pi`, where a `phi` offset moves `wo` by `sqrt(sin(theta)
+/// sin(theta_i))` times itself. The panels depend on the cell alone: a share past one angle is the
+/// sum of the whole panels beyond it plus the part of its own panel, from the polynomial through
+/// that panel's nodes, so it has the same bits whatever other angles are asked, and costs no
+/// evaluation of the integrand.
+pub struct ReflectedLobe<'a, W> {
+    quadrature: &'a VisibleNormalQuadrature,
+    wi: DVec3,
+    alpha: f64,
+    weight: W,
+    /// Panel edges in `theta` over `[0, pi / 2]`.
+    edges: Vec<f64>,
+    /// `beyond[p]`: the integral over the panels from `p` on (`beyond[0]` is the whole lobe).
+    beyond: Vec<f64>,
+    /// Per panel, its quadrature terms projected on `P_k(2u - 1)`, `k` below the node count (in a
+    /// panel's variable `u` before the endpoint-smoothing map).
+    moments: Vec<Vec<f64>>,
+}
+
+impl VisibleNormalQuadrature {
+    /// The reflected lobe at the view of cosine `mu` (taken at least [`GRAZING_COSINE`]) on GGX of
+    /// roughness `alpha > 0`, integrated once over its panels (see [`ReflectedLobe`]).
+    pub fn reflected_lobe<W: Fn(DVec3, DVec3) -> f64>(&self, mu: f64, alpha: f64, weight: W) -> ReflectedLobe<'_, W> {
+        debug_assert!(alpha > 0.0, "a lobe of roughness 0 is the mirror direction alone");
+        let wi = direction_from_cosine(mu.max(GRAZING_COSINE));
+        let theta_i = wi.x.atan2(wi.z);
+        let mut edges = vec![0.0, FRAC_PI_2, theta_i];
+        let mut offset = (0.5 * alpha).min(MAX_PANEL_WIDTH);
+        while offset < FRAC_PI_2 {
+            edges.extend([theta_i - offset, theta_i + offset]);
+            offset = (2.0 * offset).min(offset + MAX_PANEL_WIDTH);
+        }
+        edges.retain(|&e| (0.0..=FRAC_PI_2).contains(&e));
+        edges.sort_by(f64::total_cmp);
+        edges.dedup();
+        let mut lobe =
+            ReflectedLobe { quadrature: self, wi, alpha, weight, edges, beyond: Vec::new(), moments: Vec::new() };
+        let panels = lobe.edges.len() - 1;
+        lobe.beyond = vec![0.0; panels + 1];
+        lobe.moments = Vec::with_capacity(panels);
+        for p in (0..panels).rev() {
+            let terms = lobe.polar_panel(lobe.edges[p], lobe.edges[p + 1]);
+            lobe.beyond[p] = lobe.beyond[p + 1] + terms.iter().sum::<f64>();
+            let moments = (0..terms.len())
+                .map(|k| terms.iter().zip(&self.legendre_at_nodes).map(|(t, legendre)| t * legendre[k]).sum())
+                .collect();
+            lobe.moments.push(moments);
+        }
+        lobe.moments.reverse();
+        lobe
+    }
+}
+
+impl<W: Fn(DVec3, DVec3) -> f64> ReflectedLobe<'_, W> {
+    /// The weighted share of the lobe whose polar angle exceeds `polar_angle` (radians): 1 at or
+    /// below 0, 0 at or beyond `pi / 2`, 0 for a lobe of no weight.
+    ///
+    /// The part of the panel holding the angle is the integral of the polynomial through the
+    /// panel's terms, `G(u) = sum_k (2k + 1) m_k P_k(2u - 1)` over the panel as `[0, 1]`, with the
+    /// moments `m_k = sum_j w_j G(u_j) P_k(2 u_j - 1)` (Gauss–Legendre is exact for their products),
+    /// from `u_c` to 1: with `t = 2u - 1`, `∫ P_0 = (1 - t_c) / 2` and `∫ (2k + 1) P_k = (P_{k-1}(t_c) -
+    /// P_{k+1}(t_c)) / 2` by `(2k + 1) P_k = P'_{k+1} - P'_{k-1}` (Abramowitz and Stegun 22.8.6).
+    pub fn share_beyond(&self, polar_angle: f64) -> f64 {
+        let total = self.beyond[0];
+        if total <= 0.0 || polar_angle >= FRAC_PI_2 {
+            return 0.0;
+        }
+        if polar_angle <= 0.0 {
+            return 1.0;
+        }
+        // The panel holding the angle: edges[p] <= polar_angle < edges[p + 1].
+        let p = self.edges.partition_point(|&e| e <= polar_angle) - 1;
+        let (a, b) = (self.edges[p], self.edges[p + 1]);
+        let t = (2.0 * (polar_angle - a) / (b - a) - 1.0).clamp(-1.0, 1.0);
+        let moments = &self.moments[p];
+        let legendre = legendre_polynomials(t, moments.len() + 1);
+        let mut part = moments[0] * 0.5 * (1.0 - t);
+        for k in 1..moments.len() {
+            part += moments[k] * 0.5 * (legendre[k - 1] - legendre[k + 1]);
+        }
+        ((part + self.beyond[p + 1]) / total).clamp(0.0, 1.0)
+    }
+
+    /// The lobe's quadrature terms over `theta` in `[a, b]`, one per node: their sum is the integral.
+    fn polar_panel(&self, a: f64, b: f64) -> Vec<f64> {
+        self.quadrature
+            .plain_panel
+            .iter()
+            .map(|&(s, w)| {
+                let theta = a + (b - a) * s;
+                let (sin_t, cos_t) = theta.sin_cos();
+                // sin(theta): the solid angle's Jacobian.
+                w * (b - a) * sin_t * self.azimuthal(sin_t, cos_t)
+            })
+            .collect()
+    }
+
+    /// The lobe's integral over `phi` in `[0, pi]` at one `theta` (the half `[pi, 2 pi]` is its
+    /// mirror image and cancels in every share).
+    fn azimuthal(&self, sin_t: f64, cos_t: f64) -> f64 {
+        // D varies with the half vector's tilt, on the scale alpha: at phi = pi (the plane of
+        // incidence) h0 = wi + wo is tilted in the plane by `tilt`, and a step dphi tilts it out
+        // of the plane by sin(theta) dphi / |h0|. A grazing view's |h0| is about 2 mu, where the
+        // lobe of wo is that much narrower across the plane.
+        let h0 = self.wi + DVec3::new(-sin_t, 0.0, cos_t);
+        let tilt = h0.x.abs().atan2(h0.z);
+        let across = self.alpha.max(tilt) * h0.length();
+        let mut width = if sin_t > 0.0 { (0.5 * across / sin_t).min(PI) } else { PI };
+        let alpha2 = self.alpha * self.alpha;
+        let mut sum = 0.0;
+        let mut high = PI;
+        while high > 0.0 {
+            let low = (high - width.min(MAX_INNER_PANEL_WIDTH)).max(0.0);
+            for &(s, v) in &self.quadrature.plain_panel {
+                let (sin_p, cos_p) = (low + (high - low) * s).sin_cos();
+                let wo = DVec3::new(sin_t * cos_p, sin_t * sin_p, cos_t);
+                let weight = (self.weight)(self.wi, wo);
+                if weight == 0.0 {
+                    continue;
+                }
+                // GGX's D(h) for the unnormalised h = wi + wo, up to the constant 1 / pi (Walter et
+                // al. 2007, eq. 33, with cos^2 and sin^2 of h as h.z^2 / |h|^2 and (h.x^2 + h.y^2) / |h|^2).
+                let h = self.wi + wo;
+                let length2 = h.length_squared();
+                let denominator = alpha2 * h.z * h.z + h.x * h.x + h.y * h.y;
+                let d = alpha2 * length2 * length2 / (denominator * denominator);
+                sum += v * (high - low) * weight * d;
+            }
+            high = low;
+            width *= 2.0;
+        }
+        sum
+    }
+}
+
 /// The outer panel edges in `theta` over `[0, pi / 2]`: geometric from `alpha / 2`, no wider than
 /// [`MAX_PANEL_WIDTH`], and every `theta` where an inner split point changes in kind (module
 /// documentation).
@@ -236,6 +388,18 @@ fn inner_edges(sin_t: f64, cos_t: f64, sin_i: f64, cos_i: f64, cuts: &[Cut], edg
     edges.push(phi_max);
     edges.sort_by(f64::total_cmp);
     edges.dedup();
+}
+
+/// `P_0(t) .. P_{count-1}(t)`, the Legendre polynomials by their three-term recurrence
+/// `(k + 1) P_{k+1} = (2k + 1) t P_k - k P_{k-1}`.
+fn legendre_polynomials(t: f64, count: usize) -> Vec<f64> {
+    let mut values = Vec::with_capacity(count.max(2));
+    values.extend([1.0, t]);
+    for k in 1..count.saturating_sub(1) {
+        values.push(((2 * k + 1) as f64 * t * values[k] - k as f64 * values[k - 1]) / (k + 1) as f64);
+    }
+    values.truncate(count);
+    values
 }
 
 /// The Gauss–Legendre nodes and weights of `n` points on `[0, 1]`: the roots of the Legendre

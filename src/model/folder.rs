@@ -23,9 +23,9 @@ use std::sync::Mutex;
 
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use crate::error::{Error, Result};
-use crate::fit::forms::Form;
+use crate::fit::text::compile::FormEvaluator;
 #[cfg(feature = "generator")]
-use crate::fit::text::fitted::{FittedForm, FormEvaluator};
+use crate::fit::text::fitted::FittedForm;
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::loader::LutFolder;
@@ -245,13 +245,8 @@ enum Tir {
         slices: Slices,
         full: Option<SampledTable>,
     },
-    Fit {
-        form: Form,
-        parameters: Vec<f32>,
-    },
-    /// A form the material names (`tir = "fit:PATH"`); forms are read by the generator's form
-    /// language, so a loader-only build has none.
-    #[cfg(feature = "generator")]
+    /// The folder's fitted form (compiled from the manifest's definition), or a form the
+    /// material names (`tir = "fit:PATH"`, read by the generator's form files).
     Form(FormEvaluator),
     Off,
     /// The folder holds no TIR table or fitted form: every TIR lookup misses.
@@ -512,10 +507,6 @@ impl FolderTables {
                     None => self.miss(lookup),
                 }
             }
-            Tir::Fit { form, parameters } => {
-                form.eval::<f32>(parameters, lookup.mu as f32, lookup.alpha as f32, lookup.eta as f32) as f64
-            }
-            #[cfg(feature = "generator")]
             Tir::Form(form) => form.tir(lookup.mu, lookup.alpha, lookup.eta),
             Tir::Off => 0.0,
             Tir::Absent => self.miss(lookup),
@@ -581,22 +572,16 @@ fn packed_fgd(folder: &LutFolder, file: &str, entry: &FileEntry) -> Result<Packe
     PackedFgd::with_texture(texels, packing, entry.precision, &axes).map_err(|e| Error::format(&path, e.to_string()))
 }
 
+/// The folder's fitted TIR form, compiled from the definition its manifest states.
 fn fitted_form(folder: &LutFolder, fit: &FitEntry) -> Result<Tir> {
     let where_ = folder.dir().join(crate::formats::manifest::MANIFEST_FILE);
-    let form = Form::from_name(&fit.form)
-        .ok_or_else(|| Error::format(&where_, format!("names an unknown TIR form `{}`", fit.form)))?;
-    if fit.parameters.len() != form.parameter_names().len() {
-        return Err(Error::format(
-            &where_,
-            format!(
-                "gives {} parameters for the form `{}`, which takes {}",
-                fit.parameters.len(),
-                fit.form,
-                form.parameter_names().len()
-            ),
-        ));
+    let refuse = |reason: String| Error::format(&where_, format!("the fitted TIR form `{}`: {reason}", fit.form));
+    let form =
+        FormEvaluator::from_definition(&fit.definition, &fit.parameter_names, &fit.parameters).map_err(refuse)?;
+    if form.variables != ["mu", "alpha", "eta"] {
+        return Err(refuse(format!("reads {}; allowed: mu, alpha, eta", form.variables.join(", "))));
     }
-    Ok(Tir::Fit { form, parameters: fit.parameters.iter().map(|&p| p as f32).collect() })
+    Ok(Tir::Form(form))
 }
 
 #[cfg(test)]

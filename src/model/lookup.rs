@@ -107,7 +107,7 @@ impl AlbedoPath {
 pub enum TirPath {
     /// The TIR table (or its specialised slices).
     Table,
-    /// A fitted analytic form (`tmlut fit tir`): no table.
+    /// The fitted analytic form of the folder (`[tir] fit = "best"`, `tir_fit.wgsl`): no table.
     Fit,
     /// A form file fitted by `tmlut fit --form` that the material names (`tir = "fit:PATH"`,
     /// [`crate::fit::text::fitted::FittedForm`]): no table.

@@ -43,6 +43,10 @@ pub trait Kernel: Sync {
     /// channel, by the deterministic visible-normal `quadrature` with every jump and kink of the
     /// integrand a panel edge. What the reference nodes and the interpolation check compare with.
     fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64>;
+    /// How the manifest records the integration on `points`: the method and the point set.
+    fn sampling_record(&self, points: &PointSet) -> SamplingRecord {
+        sampling_record(self.method(), &self.metadata().sampler, points)
+    }
     /// Compare the built table with the exact integral at random nodes
     /// ([`super::compare_nodes_to_reference`]).
     fn check_reference(
@@ -204,7 +208,7 @@ pub fn build<K: Kernel + ?Sized>(kernel: &K, seed: u64, progress: &dyn Progress)
         integrand: metadata.integrand,
         masking: metadata.masking,
         notes: metadata.notes,
-        sampling: sampling_record(kernel.method(), &metadata.sampler, &points),
+        sampling: kernel.sampling_record(&points),
         error: ErrorRecord { replicate_standard_error: integrated.replicate_standard_error, reference },
         wall_time_s,
         fresnel_basis: metadata.fresnel_basis,

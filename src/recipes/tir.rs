@@ -96,8 +96,9 @@ pub const OFFSET_SCALE: f64 = 1e-3;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TirFit {
-    /// [`crate::fit::BUILD_FORM`]: the most accurate form measured no costlier than thesis eq. 5.6,
-    /// written as `tir_fit.hlsl`, `tir_fit.wgsl` and the table's manifest entry.
+    /// The form file `luts/forms/tir-cauchy-slope.toml` ([`crate::fit::text::build`]): the most
+    /// accurate form measured no costlier than thesis eq. 5.6, written as `tir_fit.hlsl`,
+    /// `tir_fit.wgsl` and the table's manifest entry.
     Best,
     Off,
 }
@@ -289,38 +290,6 @@ pub(crate) fn tir_column(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -
     combine_replicates(&replicate_means, etas.len())
 }
 
-/// [`tir_column`] with every weight summed exactly, as an integer count of `2^-52` (a weight is at
-/// most 1): each value is then the same whatever other `etas` share the pass, since integer sums do
-/// not depend on how the samples were split into buckets. Slices integrated together
-/// ([`super::slices::integrate_batch`]) rely on it: a slice is bit-identical built alone or beside
-/// thousands of others. `etas` must be ascending.
-pub(crate) fn tir_column_exact_sums(mu: f64, alpha: f64, etas: &[f64], points: &PointSet) -> Estimate {
-    const UNIT: f64 = (1u64 << 52) as f64;
-    let eta_squared = ThresholdCounter::new(etas.iter().map(|eta| eta * eta).collect());
-    let replicate_means: Vec<Vec<f64>> = points
-        .replicates_f32()
-        .iter()
-        .map(|replicate| {
-            let mut buckets = vec![0u128; etas.len() + 1];
-            for_each_reflected_sin2(mu, alpha, replicate, |sin2, w| {
-                let j = eta_squared.count_below(sin2);
-                // A weight (G1(wo) <= 1) in units fits a u64; truncating it is the one rounding,
-                // the same in any batch.
-                buckets[j] += u128::from((w as f64 * UNIT) as u64);
-            });
-            let total: u128 = buckets.iter().sum();
-            let mut above = 0u128;
-            let mut column = vec![0.0; etas.len()];
-            for i in (0..etas.len()).rev() {
-                above += buckets[i + 1];
-                column[i] = if total > 0 { above as f64 / total as f64 } else { 0.0 };
-            }
-            column
-        })
-        .collect();
-    combine_replicates(&replicate_means, etas.len())
-}
-
 /// Call `f(sin2, weight)` for every weighted sample of `replicate` at `(mu, alpha)`: the
 /// `sin^2(theta_w)` of the reflected direction `w` and its visible-normal weight (zero weights
 /// skipped), both as the f32 kernel computes them.
@@ -408,6 +377,19 @@ pub(crate) fn tir_by_quadrature(quadrature: &VisibleNormalQuadrature, mu: f64, a
         [if past_critical_angle(sin2, eta) { weight } else { 0.0 }, weight]
     });
     if all > 0.0 { past / all } else { 0.0 }
+}
+
+/// TIR at `(mu, alpha)` for each of `etas` (any order), deterministic: the share of the lobe
+/// past each critical angle `asin(eta)`, from one integration over the lobe in the polar angle of
+/// the reflected direction ([`VisibleNormalQuadrature::reflected_lobe`]), where each index's
+/// indicator is the one cut `theta_w > asin(eta)`. Each value has the same bits whatever other
+/// indices share the call.
+pub(crate) fn tir_column_by_lobe(quadrature: &VisibleNormalQuadrature, mu: f64, alpha: f64, etas: &[f64]) -> Vec<f64> {
+    let alpha = alpha.max(LIMIT_ROUGHNESS);
+    let lobe = quadrature
+        .reflected_lobe(mu, alpha, |wi, wo| MaskingShadowing::SmithSeparable.visible_normal_weight(wi, wo, alpha));
+    // Past the critical angle where sin(theta_w) > eta, that is theta_w > asin(eta) (none at eta >= 1).
+    etas.iter().map(|&eta| lobe.share_beyond(eta.clamp(0.0, 1.0).asin())).collect()
 }
 
 impl TableRecipe for TirSettings {
@@ -725,6 +707,41 @@ mod tests {
             assert_eq!(column.mean, vec![1.0, 0.0], "alpha {alpha}");
             assert_eq!(tir_cell(1.0, alpha, 0.0, &points).mean[0], 1.0, "alpha {alpha}");
         }
+    }
+
+    #[test]
+    fn the_lobe_column_agrees_with_the_quadrature_over_normals() {
+        // Two quadratures of the same integral, over the microfacet normal (cut at the critical
+        // cosine) and over the reflected direction's polar angle: random cells, and views at the
+        // critical angle of narrow lobes, where TIR steps.
+        let lobe_rule = VisibleNormalQuadrature::new(crate::recipes::slices::TIR_LOBE_NODES).unwrap();
+        let reference = VisibleNormalQuadrature::new(16).unwrap();
+        let mut state = 0x1234_5678_9abc_def0u64;
+        let mut uniform = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // Each cell's column: its own index, and four random ones from the same integration.
+        let mut cells: Vec<(f64, f64, f64)> = (0..300).map(|_| (uniform(), uniform().powi(2), uniform())).collect();
+        for eta in [0.3_f64, 0.7, 0.95] {
+            let mu = ((1.0 - eta) * (1.0 + eta)).sqrt();
+            for alpha in [1e-7, 1e-4, 1e-2, 0.1] {
+                cells.push((mu, alpha, eta));
+                cells.push(((mu + 0.5 * alpha).min(1.0), alpha, eta));
+            }
+        }
+        let mut worst = (0.0, (0.0, 0.0, 0.0));
+        for &(mu, alpha, eta) in &cells {
+            let etas = [eta, uniform(), uniform(), uniform(), uniform()];
+            let column = tir_column_by_lobe(&lobe_rule, mu, alpha, &etas);
+            for (&lobe, &eta) in column.iter().zip(&etas) {
+                let normals = tir_by_quadrature(&reference, mu, alpha, eta);
+                if (lobe - normals).abs() > worst.0 {
+                    worst = ((lobe - normals).abs(), (mu, alpha, eta));
+                }
+            }
+        }
+        assert!(worst.0 < 5e-6, "{worst:?}");
     }
 
     #[test]

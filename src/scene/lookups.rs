@@ -265,3 +265,30 @@ fn note_index_matched(material: &Material, left_out: &mut Vec<LeftOutRecord>) {
         eta_above = interface.eta;
     }
 }
+
+/// The lookups of table `table` that the scene file `path` makes ([`lookups`]), per material:
+/// what `tmlut fit --form --weights SCENE.toml` weighs the table's points by. A lookup reads the
+/// table when its kind does: FGD albedo `fgd`, `fgd_rarer` and the scene's `fgd_...` slices; TIR
+/// `tir` and `tir_...`; GD `gd`; the split-sum paths `karis` and `belcour`.
+pub fn table_lookups(path: &std::path::Path, table: &str) -> Result<crate::fit::text::region::SceneLookups> {
+    let (scene, _) = Scene::read(path)?;
+    let (lookups, _) = lookups(&scene)?;
+    let is = |name: &str| table == name || table.starts_with(&format!("{name}_"));
+    let reads = |kind: LookupKind| match kind {
+        LookupKind::Albedo(AlbedoPath::Fgd) => is("fgd"),
+        LookupKind::Albedo(AlbedoPath::Karis) => table == "karis",
+        LookupKind::Albedo(AlbedoPath::Belcour) => table == "belcour",
+        LookupKind::Tir(TirPath::Off) => false,
+        LookupKind::Tir(_) => is("tir"),
+        LookupKind::Gd => is("gd"),
+    };
+    let mut materials: Vec<(String, Vec<crate::fit::text::region::LookupHull>)> = Vec::new();
+    for lookup in lookups.iter().filter(|l| reads(l.kind)) {
+        let hull = [lookup.mu, lookup.alpha, lookup.eta, lookup.kappa].map(|i| (i.lo, i.hi));
+        match materials.iter_mut().find(|(m, _)| *m == lookup.material) {
+            Some((_, hulls)) => hulls.push(hull),
+            None => materials.push((lookup.material.clone(), vec![hull])),
+        }
+    }
+    Ok(crate::fit::text::region::SceneLookups { scene: path.to_path_buf(), table: table.to_string(), materials })
+}

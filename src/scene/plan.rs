@@ -244,10 +244,13 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             .collect();
         let record = PlannedTableRecord {
             name: "tir_fit".into(),
-            kind: format!("TIR fitted form `{}` (tir_fit.hlsl, .wgsl; no table)", crate::fit::BUILD_FORM.name()),
+            kind: format!(
+                "TIR fitted form `{}` (tir_fit.hlsl, .wgsl; no table)",
+                crate::fit::text::build::BUILD_FORM_FILE.trim_end_matches(".toml")
+            ),
             shape: format!(
                 "{} coefficients, fitted to the full {} TIR table",
-                crate::fit::BUILD_FORM.parameter_names().len(),
+                crate::fit::text::build::build_form().map_or(0, |form| form.parameters.len()),
                 full_tir_axes.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x ")
             ),
             bytes: 0,

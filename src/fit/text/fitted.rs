@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+pub use super::compile::FormEvaluator;
 use super::form::{Form, TableShape};
-use super::tape::Tape;
 use crate::error::{Error, Result};
 pub use crate::formats::manifest::FittedForm;
 
@@ -24,6 +24,10 @@ pub fn tir_shape() -> TableShape {
         channels: vec!["tir".to_string()],
     }
 }
+
+/// The name of the form a build fits (`[tir] fit = "best"`): its shader function is `tmlut_tir`,
+/// the function `tir_fit.hlsl` and `.wgsl` hold and a scene shader calls.
+pub const BUILD_FORM_NAME: &str = "tir";
 
 /// What `tir = "fit:PATH"` allows, in the words of the error messages.
 pub const ALLOWED: &str = "\"fit:PATH\" with PATH (relative to the scene file) the output folder of \
@@ -69,7 +73,8 @@ impl FittedForm {
                     .into(),
             ));
         }
-        if fit.search.is_none() {
+        // A form without parameters has nothing to search: its definition is its fit.
+        if fit.search.is_none() && !fit.parameter_order.is_empty() {
             return Err(refuse(format!(
                 "holds form `{}` at its start values (fitted with --max-evaluations 0): its parameters are unfitted; \
                  fit it with a search (--max-evaluations above 0)",
@@ -103,6 +108,19 @@ impl FittedForm {
         Ok(fitted)
     }
 
+    /// A built folder's fitted form (its manifest's `fit`), held as a scene's fitted forms are,
+    /// named [`BUILD_FORM_NAME`]. `None` for an entry without form text.
+    pub fn of_build(fit: &crate::formats::manifest::FitEntry) -> Option<FittedForm> {
+        (!fit.form_text.is_empty()).then(|| FittedForm {
+            name: BUILD_FORM_NAME.into(),
+            source: fit.form.clone(),
+            form_text: fit.form_text.clone(),
+            definition: fit.definition.clone(),
+            parameter_order: fit.parameter_names.clone(),
+            parameters: fit.parameters.clone(),
+        })
+    }
+
     /// The form, read from its text against the TIR table's shape.
     pub fn form(&self) -> Result<Form> {
         let path = PathBuf::from(format!("{}.toml", self.name));
@@ -114,24 +132,6 @@ impl FittedForm {
     /// The form compiled for evaluation.
     pub fn evaluator(&self) -> Result<FormEvaluator> {
         let form = self.form()?;
-        Ok(FormEvaluator { tape: form.tape, parameters: self.parameters.iter().map(|&v| v as f32).collect() })
-    }
-}
-
-/// A fitted TIR form compiled once, evaluated in f32 with its parameters rounded to f32 (what
-/// its shader computes).
-#[derive(Debug, Clone)]
-pub struct FormEvaluator {
-    tape: Tape,
-    parameters: Vec<f32>,
-}
-
-impl FormEvaluator {
-    /// `TIR(mu, alpha, eta)`.
-    pub fn tir(&self, mu: f64, alpha: f64, eta: f64) -> f64 {
-        let mut scratch = Vec::with_capacity(self.tape.ins.len());
-        let mut out = [0.0f32];
-        self.tape.eval(&[mu as f32, alpha as f32, eta as f32], &self.parameters, &mut scratch, &mut out);
-        f64::from(out[0])
+        Ok(FormEvaluator::new(form.tape, form.variables, &self.parameters))
     }
 }

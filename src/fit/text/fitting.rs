@@ -13,7 +13,7 @@ use super::batch::{Batch, LANES};
 use super::cost::{Cost, operations, timing};
 use super::form::{Form, MAX_FORM_BYTES};
 use super::pictures::{ERROR_MAP_FILE, RESIDUALS_FILE, write_pictures};
-use super::region::{Range, Region, WeightsSpec, variable_range};
+use super::region::{Range, Region, SceneLookups, WeightsSpec, variable_range};
 use super::shader::{LANGUAGES, function_name, sources};
 use super::tape::Work;
 use crate::commit::{Move, OutputFolder, commit_set};
@@ -177,6 +177,49 @@ impl FormData {
             weights,
             weighted: region.is_weighted(),
         })
+    }
+}
+
+impl FormData {
+    /// Every `stride`-th point along each variable (or axis, on the table's nodes) and each one's
+    /// last point, of those the data holds (the region's): a coarser grid over the same domain,
+    /// for a faster fit judged on every point. `table` is the table the data was read from. The
+    /// weights kept are scaled again to a mean of 1.
+    pub fn every(&self, table: &Table, stride: usize) -> FormData {
+        let shape: Vec<usize> =
+            if self.on_table_nodes { table.shape() } else { vec![FIT_GRID_NODES; self.variables.len()] };
+        let (d, c) = (self.variables.len(), self.channels.len());
+        let mut kept = FormData {
+            coordinates: Vec::new(),
+            values: Vec::new(),
+            index: Vec::new(),
+            weights: Vec::new(),
+            ..self.clone()
+        };
+        for (n, &number) in self.index.iter().enumerate() {
+            // The first axis runs fastest, on the table's nodes (Table::node_index) as on the grid.
+            let mut rest = number;
+            let keep = shape.iter().all(|&count| {
+                let i = rest % count;
+                rest /= count;
+                i % stride == 0 || i + 1 == count
+            });
+            if keep {
+                kept.coordinates.extend_from_slice(&self.coordinates[n * d..(n + 1) * d]);
+                kept.values.extend_from_slice(&self.values[n * c..(n + 1) * c]);
+                kept.index.push(number);
+                kept.weights.push(self.weights[n]);
+            }
+        }
+        if self.weighted {
+            let total: f64 = kept.weights.iter().sum();
+            if total > 0.0 {
+                let scale = kept.weights.len() as f64 / total;
+                kept.weights.iter_mut().for_each(|w| *w *= scale);
+            }
+        }
+        kept.description = format!("every {stride}th point along each variable of {}", self.description);
+        kept
     }
 }
 
@@ -355,7 +398,7 @@ pub fn residuals(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Vec
 }
 
 /// The figures of the residuals of [`residuals`], every point counting once.
-fn figures_of(data: &FormData, errors: &[f64]) -> FigureSet {
+pub(crate) fn figures_of(data: &FormData, errors: &[f64]) -> FigureSet {
     figure_set(errors, &data.channels, &data.variables, |n| data.point(n).to_vec(), |_| 1.0)
 }
 
@@ -711,7 +754,8 @@ pub struct FormFit {
 /// evaluates the form at its start values.
 pub fn fit(form: &Form, prepared: &Prepared, settings: &FitSettings) -> Result<FormFit> {
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
-    if settings.max_evaluations == 0 {
+    // A form without parameters (a published baseline) has nothing to search.
+    if settings.max_evaluations == 0 || start.is_empty() {
         return Ok(FormFit { parameters: start, search: None });
     }
     let lower: Vec<f64> = form.parameters.iter().map(|p| p.min).collect();
@@ -793,6 +837,9 @@ pub struct FormFitRequest {
     pub ranges: Vec<Range>,
     /// `--weights`.
     pub weights: WeightsSpec,
+    /// With `--weights SCENE.toml`: the scene's lookups of the table
+    /// ([`crate::scene::lookups::table_lookups`]).
+    pub scene: Option<SceneLookups>,
     /// Timed runs of the form and of the table's lookup ([`super::cost::timing`]); 0 times
     /// nothing (the file is then the same bytes on every run).
     pub timing_runs: usize,
@@ -804,7 +851,7 @@ pub struct FormFitRequest {
 pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormReport> {
     let form_text = crate::formats::read_text_at_most(&request.form, MAX_FORM_BYTES, "form file")?;
     let form = Form::parse(&request.form, &form_text, table)?;
-    let region = Region::new(&request.ranges, &request.weights, table, &form.variables)?;
+    let region = Region::new(&request.ranges, &request.weights, request.scene.as_ref(), table, &form.variables)?;
     let data = FormData::from_table_in(table, &form, &region)?;
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
     let start_residuals = residuals(&form, &data, &start)?;
@@ -859,6 +906,186 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
     let pictures = |dir: &Path| write_pictures(dir, &report.form, table, &data, &fitted_residuals, &report.figures);
     write_set(&request.out, &report, &shader_files, &shaders, pictures)?;
     Ok(report)
+}
+
+/// The list `tmlut fit --form DIR` writes beside the fits' folders.
+pub const FORMS_FILE: &str = "forms.json";
+
+/// One form of a folder fitted to a table: where its set is, its figures and its cost.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RankedForm {
+    pub form: String,
+    pub form_file: String,
+    /// The fit's folder (`fit.json` and the rest of its set), relative to `forms.json`.
+    pub folder: String,
+    pub parameters: usize,
+    /// At the fitted parameters, all channels together (the form in f32 against the table), over
+    /// the region's points, every point counting once.
+    pub figures: Figures,
+    /// With weights other than uniform: the same with each point counting its weight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weighted_figures: Option<Figures>,
+    /// The form's operations, and its time per evaluation beside the table's lookup where timed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost: Option<Cost>,
+}
+
+impl RankedForm {
+    /// The figures the ranking reads: the weighted ones where the points are weighted.
+    pub fn ranked_by(&self) -> &Figures {
+        self.weighted_figures.as_ref().unwrap_or(&self.figures)
+    }
+}
+
+/// `forms.json`: the forms of a folder fitted to one table, ranked by max error (a formula in
+/// place of a table shows its worst point as an artifact), then by RMS; with weights other than
+/// uniform, by the weighted figures (the max over the points of positive weight, the weighted
+/// RMS the fit minimised).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FolderFits {
+    pub table: String,
+    pub table_file: String,
+    pub settings: FitSettings,
+    /// `--range`: the box every form was fitted and judged in; empty for the whole table.
+    #[serde(default)]
+    pub ranges: Vec<Range>,
+    /// `--weights`.
+    #[serde(default)]
+    pub weights: WeightsSpec,
+    /// `--timing-runs` (0: no form was timed).
+    #[serde(default)]
+    pub timing_runs: usize,
+    pub rule: String,
+    pub forms: Vec<RankedForm>,
+}
+
+/// What `tmlut fit --form DIR` is asked: every form file of `files` fitted to the table as a
+/// [`FormFitRequest`] with the same settings, certification, region, weights and timing, each
+/// into `out/<form>/`.
+pub struct FolderFitRequest {
+    pub files: Vec<PathBuf>,
+    pub table: PathBuf,
+    pub out: PathBuf,
+    pub settings: FitSettings,
+    pub certify: Option<crate::config::Config>,
+    pub ranges: Vec<Range>,
+    pub weights: WeightsSpec,
+    pub scene: Option<SceneLookups>,
+    pub timing_runs: usize,
+}
+
+/// Fit every form file of the request to `table` ([`fit_form_file`], each into `out/<form>/`),
+/// rank them by max error then RMS (weighted, where the weights are not uniform) and write
+/// [`FORMS_FILE`] into `out`.
+pub fn fit_form_files(table: &Table, request: &FolderFitRequest) -> Result<FolderFits> {
+    let mut forms = Vec::with_capacity(request.files.len());
+    for file in &request.files {
+        let folder = super::form::form_name(file);
+        let one = FormFitRequest {
+            form: file.clone(),
+            table: request.table.clone(),
+            out: request.out.join(&folder),
+            settings: request.settings,
+            certify: request.certify.clone(),
+            ranges: request.ranges.clone(),
+            weights: request.weights.clone(),
+            scene: request.scene.clone(),
+            timing_runs: request.timing_runs,
+        };
+        let report = fit_form_file(table, &one)?;
+        forms.push(RankedForm {
+            form: report.form,
+            form_file: report.form_file,
+            folder,
+            parameters: report.parameter_order.len(),
+            figures: report.figures.together,
+            weighted_figures: report.weighted_figures.map(|w| w.together),
+            cost: report.cost,
+        });
+    }
+    forms.sort_by(|a, b| {
+        let (a, b) = (a.ranked_by(), b.ranked_by());
+        a.max.total_cmp(&b.max).then(a.rms.total_cmp(&b.rms))
+    });
+    let weighted = forms.iter().any(|f| f.weighted_figures.is_some());
+    let ranking = FolderFits {
+        table: table.name.clone(),
+        table_file: request.table.display().to_string(),
+        settings: request.settings,
+        ranges: request.ranges.clone(),
+        weights: request.weights.clone(),
+        timing_runs: request.timing_runs,
+        rule: if weighted {
+            "by the weighted figures: max |form - table| over the points of positive weight, then by the weighted RMS"
+                .into()
+        } else {
+            "by max |form - table| over the points, then by RMS".into()
+        },
+        forms,
+    };
+    let json = serde_json::to_string_pretty(&ranking).map_err(|e| Error::invalid("forms.json", e.to_string()))?;
+    crate::formats::write_bytes_atomically(&request.out.join(FORMS_FILE), json.as_bytes())?;
+    Ok(ranking)
+}
+
+/// The ranking as a table, best first, with each form's cost.
+pub fn ranking_markdown(ranking: &FolderFits) -> String {
+    use std::fmt::Write as _;
+    let mut s = format!("# Forms fitted to table `{}` ({})\n\n", ranking.table, ranking.table_file);
+    let weighted = ranking.forms.iter().any(|f| f.weighted_figures.is_some());
+    if !ranking.ranges.is_empty() || weighted {
+        let ranges: Vec<String> =
+            ranking.ranges.iter().map(|r| format!("{} in [{}, {}]", r.variable, r.lo, r.hi)).collect();
+        let _ = writeln!(
+            s,
+            "Region: {}; weights: {}. Each form's report.md has its figures in full.\n",
+            if ranges.is_empty() { "the whole table".to_string() } else { ranges.join(", ") },
+            ranking.weights
+        );
+    }
+    let timed = ranking.forms.iter().any(|f| f.cost.as_ref().is_some_and(|c| c.timing.is_some()));
+    let figures = if weighted { "weighted RMS | weighted p99 | weighted max" } else { "RMS | p99 | max" };
+    let _ = writeln!(
+        s,
+        "| rank | form | parameters | {figures} | max at | operations (arith, transc, select) |{} fit |",
+        if timed { " ns, form / lookup |" } else { "" }
+    );
+    let _ = writeln!(s, "|---:|---|---:|---:|---:|---:|---|---|{}---|", if timed { "---|" } else { "" });
+    for (k, f) in ranking.forms.iter().enumerate() {
+        let figures = f.ranked_by();
+        let at: Vec<String> = figures.max_at.iter().map(|(v, x)| format!("{v} {x:.3}")).collect();
+        let operations = f.cost.as_ref().map_or("-".to_string(), |c| {
+            let o = &c.operations;
+            format!("{}, {}, {}", o.arithmetic, o.transcendental, o.select)
+        });
+        let time = match f.cost.as_ref().and_then(|c| c.timing.as_ref()) {
+            Some(t) => format!(" {:.1} / {:.1} |", t.form_ns, t.lookup_ns),
+            None if timed => " - |".to_string(),
+            None => String::new(),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | `{}` | {} | {:.6} | {:.6} | {:.6} | {} | {operations} |{time} {}/ |",
+            k + 1,
+            f.form_file,
+            f.parameters,
+            figures.rms,
+            figures.p99,
+            figures.max,
+            at.join(", "),
+            f.folder
+        );
+    }
+    let _ = writeln!(s, "\nRanked {}.", ranking.rule);
+    if timed {
+        let _ = writeln!(
+            s,
+            "CPU times per evaluation: medians of {} runs (the form in f32, the table's lookup as a GPU samples it); \
+             measured, not asserted.",
+            ranking.timing_runs
+        );
+    }
+    s
 }
 
 /// Stage every file (`pictures` draws [`ERROR_MAP_FILE`] and [`RESIDUALS_FILE`] into the folder
@@ -1004,7 +1231,7 @@ pub fn markdown(report: &FormReport) -> String {
             search.objective
         );
     } else {
-        let _ = writeln!(s, "No search (max evaluations 0): the figures are the start values'.");
+        let _ = writeln!(s, "No search (no parameters, or max evaluations 0): the figures are the start values'.");
     }
     if id.ill_determined.is_empty() {
         let _ = writeln!(s, "\nEvery parameter is determined by the data ({}).", id.rule);

@@ -10,8 +10,10 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
-use super::expr::{self, BinOp, ExprError, Node};
-use super::tape::{Ins, MAX_INTEGER_POWER, Tape};
+use super::compile::Scope;
+pub use super::compile::integer_exponent;
+use super::expr::{self, ExprError, Node};
+use super::tape::{Ins, Tape};
 use crate::error::{Error, Result};
 use crate::table::Table;
 
@@ -131,50 +133,6 @@ fn text_start(file: &str, value: &Spanned<String>) -> (usize, bool) {
     }
 }
 
-/// Everything resolved so far: the names an expression may read and the tape positions of their
-/// values.
-struct Scope {
-    names: BTreeMap<String, usize>,
-    tape: Tape,
-}
-
-impl Scope {
-    fn compile(&mut self, node: &Node) -> std::result::Result<usize, ExprError> {
-        let ins = match node {
-            Node::Number(v) => Ins::Const(*v),
-            Node::Name(name, span) => {
-                return self.names.get(name).copied().ok_or_else(|| ExprError {
-                    at: span.start,
-                    message: format!(
-                        "unknown name `{name}`; allowed here: {}",
-                        self.names.keys().cloned().collect::<Vec<_>>().join(", ")
-                    ),
-                });
-            }
-            Node::Neg(a) => Ins::Neg(self.compile(a)?),
-            Node::Binary(BinOp::Pow, a, b) if integer_exponent(b).is_some() => {
-                Ins::PowInt(self.compile(a)?, integer_exponent(b).unwrap_or(1))
-            }
-            Node::Binary(op, a, b) => Ins::Bin(*op, self.compile(a)?, self.compile(b)?),
-            Node::Call(f, args) => {
-                let mut operands = [0; 3];
-                for (slot, arg) in operands.iter_mut().zip(args) {
-                    *slot = self.compile(arg)?;
-                }
-                Ins::Call(*f, operands)
-            }
-            Node::Select { otherwise, then, compare, left, right } => Ins::Select {
-                otherwise: self.compile(otherwise)?,
-                then: self.compile(then)?,
-                compare: *compare,
-                left: self.compile(left)?,
-                right: self.compile(right)?,
-            },
-        };
-        Ok(self.tape.push(ins))
-    }
-}
-
 /// The name of a form: its file's stem with every character a shader identifier cannot hold
 /// replaced by `_` (`karis-env-brdf-approx.toml` is `karis_env_brdf_approx`).
 pub fn form_name(path: &Path) -> String {
@@ -188,14 +146,6 @@ pub fn form_name(path: &Path) -> String {
     }
     let name = name.trim_end_matches('_').to_string();
     if name.is_empty() { "form".into() } else { name }
-}
-
-/// The exponent of `x ^ n` when `n` is an integer literal small enough to multiply out.
-pub fn integer_exponent(node: &Node) -> Option<i32> {
-    match node {
-        Node::Number(v) if v.fract() == 0.0 && v.abs() <= f64::from(MAX_INTEGER_POWER) => Some(*v as i32),
-        _ => None,
-    }
 }
 
 impl Form {
@@ -278,9 +228,9 @@ impl Form {
         let mut parameter_keys = Vec::new();
         let mut entries: Vec<_> = file.parameters.iter().collect();
         entries.sort_by_key(|(k, _)| k.span().start);
-        if entries.is_empty() {
-            return Err(at(0, "[parameters] is empty; a form has at least one parameter to fit".into()));
-        }
+        // An empty [parameters] is a form with nothing to fit (a published baseline, such as
+        // thesis eq. 5.6): it is measured at its definition, and the table is still required so
+        // that every form file has the same shape.
         for (k, (key, value)) in entries.into_iter().enumerate() {
             check_name(key, &scope)?;
             let p = value.get_ref();

@@ -1,25 +1,46 @@
 //! Forms written as text: a form file names a table, its parameters and one expression per
 //! channel ([`form`], in the language of [`expr`]); it is compiled once ([`tape`]) and evaluated
-//! in f32 or f64 with an exact gradient, fitted by the same search as the built-in forms
-//! ([`fitting`]) over a region of the table with weights ([`region`]), costed beside the table's
-//! fetch ([`cost`]), and printed as WGSL, HLSL, GLSL and MSL ([`shader`]). `docs/fit.md`, "Forms as
-//! text", describes the language and the command.
+//! in f32 or f64 with an exact gradient, fitted by least squares ([`fitting`]) over a region of
+//! the table with weights ([`region`]), costed beside the table's fetch ([`cost`]), and printed as
+//! WGSL, HLSL, GLSL and MSL ([`shader`]). `docs/fit.md`, "Forms as text", describes the language
+//! and the command; [`build`] is the TIR form the default build fits.
+//!
+//! The expressions, the tape and a form compiled from the definition a manifest states
+//! ([`compile`]) build without the generator, so that the model evaluates a built folder's fitted
+//! form as the fit judged it; reading form files (TOML), fitting, regions, weights, costs and
+//! printing are the generator's.
 
+#[cfg(feature = "generator")]
 pub mod batch;
+#[cfg(feature = "generator")]
+pub mod build;
+pub mod compile;
+#[cfg(feature = "generator")]
 pub mod cost;
 pub mod expr;
+#[cfg(feature = "generator")]
 pub mod fitted;
+#[cfg(feature = "generator")]
 pub mod fitting;
+#[cfg(feature = "generator")]
 pub mod form;
+#[cfg(feature = "generator")]
 pub mod pictures;
+#[cfg(feature = "generator")]
 pub mod region;
+#[cfg(feature = "generator")]
 pub mod shader;
 pub mod tape;
 
-pub use fitted::{FittedForm, FormEvaluator};
-pub use fitting::{FormFitRequest, FormReport, fit_form_file};
+pub use compile::FormEvaluator;
+#[cfg(feature = "generator")]
+pub use fitted::FittedForm;
+#[cfg(feature = "generator")]
+pub use fitting::{FolderFitRequest, FormFitRequest, FormReport, fit_form_file, fit_form_files};
+#[cfg(feature = "generator")]
 pub use form::Form;
-pub use region::{Range, Region, WeightsSpec};
+#[cfg(feature = "generator")]
+pub use region::{Range, Region, SceneLookups, WeightsSpec};
 
-#[cfg(test)]
+#[cfg(all(test, feature = "generator"))]
 mod tests;

@@ -4,7 +4,7 @@
 //! there). The objective, the figures, the pictures and the certification all read the same
 //! [`Region`]; `docs/fit.md`, "Forms as text", defines each.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
@@ -67,6 +67,17 @@ impl WeightsSpec {
     }
 }
 
+/// In words: `uniform`, `cosine`, or `scene PATH`.
+impl std::fmt::Display for WeightsSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WeightsSpec::Uniform => write!(f, "uniform"),
+            WeightsSpec::Cosine => write!(f, "cosine"),
+            WeightsSpec::Scene(path) => write!(f, "scene {}", path.display()),
+        }
+    }
+}
+
 /// The range a variable takes in a table's data: its axis's, or [0, 1] for a variable that no
 /// axis samples (`eta` of the TIR table, whose axis is the critical-angle offset).
 pub fn variable_range(table: &Table, variable: &str) -> (f64, f64) {
@@ -85,6 +96,23 @@ struct Bound {
     sqrt: bool,
     lo: f64,
     hi: f64,
+}
+
+/// A lookup's parameter hull: `(lo, hi)` of mu, alpha, eta and kappa.
+pub type LookupHull = [(f64, f64); 4];
+
+/// A scene's lookups of one table, what `--weights SCENE.toml` counts: read by the scene's
+/// planner ([`crate::scene::lookups::table_lookups`]; the scene is a layer above the fit, which
+/// is given them).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneLookups {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// The table whose lookups these are.
+    pub table: String,
+    /// Per material with at least one lookup of the table, in the order first met: its name and
+    /// each lookup's parameter hull.
+    pub materials: Vec<(String, Vec<LookupHull>)>,
 }
 
 /// The lookups of one material of a scene, as boxes in the form's variables.
@@ -126,8 +154,15 @@ impl Region {
 
     /// Resolve `ranges` and `weights` against the form's `variables` on `table`: each range names
     /// one of them or `roughness` (where `alpha` is one), once, and lies inside the table's range
-    /// of it; `cosine` needs `mu`; a scene must read the table.
-    pub fn new(ranges: &[Range], weights: &WeightsSpec, table: &Table, variables: &[String]) -> Result<Region> {
+    /// of it; `cosine` needs `mu`; a scene must read the table, its lookups given as `scene`
+    /// (read by [`crate::scene::lookups::table_lookups`]).
+    pub fn new(
+        ranges: &[Range],
+        weights: &WeightsSpec,
+        scene: Option<&SceneLookups>,
+        table: &Table,
+        variables: &[String],
+    ) -> Result<Region> {
         let alpha = variables.iter().position(|v| v == "alpha");
         let mut allowed: Vec<String> = variables.to_vec();
         if alpha.is_some() {
@@ -180,7 +215,15 @@ impl Region {
                 })?;
                 (Weighting::Cosine { mu }, "cosine: each point counts mu, the cosine of its view".to_string())
             }
-            WeightsSpec::Scene(path) => scene_weighting(path, table, variables)?,
+            WeightsSpec::Scene(path) => {
+                let lookups = scene.filter(|s| s.scene == *path && s.table == table.name).ok_or_else(|| {
+                    Error::invalid(
+                        "--weights",
+                        format!("scene {}: its lookups of table `{}` were not read", path.display(), table.name),
+                    )
+                })?;
+                scene_weighting(lookups, table, variables)?
+            }
         };
         Ok(Region { ranges: ranges.to_vec(), weights: weights.clone(), bounds, weighting, weights_description })
     }
@@ -222,22 +265,6 @@ impl Region {
     }
 }
 
-/// The kinds of lookup that read a table, by the table's name: the full tables by their names, a
-/// scene's slices (`fgd_<site>`, `tir_<site>`) by their prefix.
-fn reads_table(kind: crate::scene::lookups::LookupKind, table: &str) -> bool {
-    use crate::scene::lookups::LookupKind;
-    use crate::scene::{AlbedoPath, TirPath};
-    let is = |name: &str| table == name || table.starts_with(&format!("{name}_"));
-    match kind {
-        LookupKind::Albedo(AlbedoPath::Fgd) => is("fgd"),
-        LookupKind::Albedo(AlbedoPath::Karis) => table == "karis",
-        LookupKind::Albedo(AlbedoPath::Belcour) => table == "belcour",
-        LookupKind::Tir(TirPath::Off) => false,
-        LookupKind::Tir(_) => is("tir"),
-        LookupKind::Gd => is("gd"),
-    }
-}
-
 /// The values a variable takes at the data's points, ascending: its axis's nodes where the points
 /// are the table's nodes, otherwise the fit grid's ([`crate::fit::text::fitting::FormData`]).
 fn point_values(table: &Table, variables: &[String], variable: &str) -> Vec<f64> {
@@ -255,35 +282,34 @@ fn point_values(table: &Table, variables: &[String], variable: &str) -> Vec<f64>
 }
 
 /// The scene weighting: a point's weight is the number of the scene's materials with at least one
-/// lookup of this table whose parameter hull ([`crate::scene::lookups::lookups`]), widened outward
-/// to the nearest data point on each side in each variable, contains it in every variable of the
-/// form: the points whose values a lookup inside the hull interpolates between (a lookup at one
-/// fixed `eta` reaches the two grid values around it, not none).
-fn scene_weighting(path: &Path, table: &Table, variables: &[String]) -> Result<(Weighting, String)> {
-    let (scene, _) = crate::scene::Scene::read(path)?;
-    let (lookups, _) = crate::scene::lookups::lookups(&scene)?;
+/// lookup of this table whose parameter hull ([`SceneLookups`]), widened outward to the nearest
+/// data point on each side in each variable, contains it in every variable of the form: the points
+/// whose values a lookup inside the hull interpolates between (a lookup at one fixed `eta` reaches
+/// the two grid values around it, not none).
+fn scene_weighting(scene: &SceneLookups, table: &Table, variables: &[String]) -> Result<(Weighting, String)> {
+    let path = &scene.scene;
     let values: Vec<Vec<f64>> = variables.iter().map(|v| point_values(table, variables, v)).collect();
     let mut materials: Vec<(String, MaterialHulls)> = Vec::new();
-    for lookup in lookups.iter().filter(|l| reads_table(l.kind, &table.name)) {
+    for (material, lookup) in scene.materials.iter().flat_map(|(m, hulls)| hulls.iter().map(move |h| (m, h))) {
         let hull: Vec<(f64, f64)> = variables
             .iter()
             .zip(&values)
             .map(|(v, values)| {
-                let interval = match v.as_str() {
-                    "mu" => lookup.mu,
-                    "alpha" => lookup.alpha,
-                    "eta" => lookup.eta,
-                    _ => lookup.kappa,
+                let (lo, hi) = match v.as_str() {
+                    "mu" => lookup[0],
+                    "alpha" => lookup[1],
+                    "eta" => lookup[2],
+                    _ => lookup[3],
                 };
-                let (lo, hi) = (interval.lo.min(interval.hi), interval.lo.max(interval.hi));
+                let (lo, hi) = (lo.min(hi), lo.max(hi));
                 let below = values.iter().rev().find(|&&x| x <= lo).or(values.first()).copied().unwrap_or(lo);
                 let above = values.iter().find(|&&x| x >= hi).or(values.last()).copied().unwrap_or(hi);
                 (below.min(lo), above.max(hi))
             })
             .collect();
-        match materials.iter_mut().find(|(m, _)| *m == lookup.material) {
+        match materials.iter_mut().find(|(m, _)| m == material) {
             Some((_, hulls)) => hulls.boxes.push(hull),
-            None => materials.push((lookup.material.clone(), MaterialHulls { boxes: vec![hull] })),
+            None => materials.push((material.clone(), MaterialHulls { boxes: vec![hull] })),
         }
     }
     if materials.is_empty() {

@@ -137,9 +137,8 @@ pub fn module(form: &Form, parameters: &[f64]) -> Module {
 
     let mut m = Module::new(Parens::Minimal);
     let mut header = format!(
-        "tmlut fit --form {}: form '{}' fitted to table '{}'; returns {} in that order.\n",
+        "Form file {} fitted to table '{}'; returns {} in that order.\n",
         form.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-        form.name,
         form.table,
         form.channels.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
     );

@@ -2,9 +2,8 @@
 //! reading earlier ones, so that a `let` binding used twice is computed once. Values are computed
 //! in f32 (as a shader does) or f64 ([`Scalar`]); the gradient with respect to the parameters is
 //! exact, by reverse-mode differentiation over the tape in f64: one backward pass per point costs
-//! about one evaluation whatever the number of parameters (forward-mode dual numbers,
-//! [`crate::fit::dual`], carry one derivative per parameter through every operation and stop at
-//! ten parameters).
+//! about one evaluation whatever the number of parameters, where forward-mode dual numbers would
+//! carry one derivative per parameter through every operation.
 
 use super::expr::{BinOp, Compare, Func};
 

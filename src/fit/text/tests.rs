@@ -229,15 +229,23 @@ fn tables_with_a_derived_axis_are_fitted_on_a_uniform_grid_of_the_lookup_variabl
     crate::shader::validate::wgsl(&wgsl).unwrap();
 }
 
-/// The built-in TIR forms of `tmlut fit tir` with parameters, each as the form file of
-/// `luts/forms/` that writes it (`cauchy-cap` has none yet).
-const FORM_FILES: [(&str, crate::fit::Form); 5] = [
-    ("tir-logistic.toml", crate::fit::Form::Logistic),
-    ("tir-smoothstep.toml", crate::fit::Form::Smoothstep),
-    ("tir-algebraic.toml", crate::fit::Form::Algebraic),
-    ("tir-rational.toml", crate::fit::Form::Rational),
-    ("tir-cauchy-slope.toml", crate::fit::Form::CauchySlope),
-];
+/// The TIR form files of `luts/forms/` (`tir-*.toml`), in name order: a form added there is
+/// tested with no list to update.
+fn tir_form_files() -> Vec<String> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms");
+    let mut files: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("tir-") && n.ends_with(".toml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 8, "{files:?}");
+    files
+}
+
+fn read_form_file(file: &str, table: &Table) -> Form {
+    Form::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms").join(file), table).unwrap()
+}
 
 /// Numbers uniform in [0, 1) from a 64-bit linear congruential stream started at `state`.
 fn uniform(mut state: u64) -> impl FnMut() -> f64 {
@@ -247,66 +255,48 @@ fn uniform(mut state: u64) -> impl FnMut() -> f64 {
     }
 }
 
-/// A TIR-shaped table on a uniform `(mu, alpha, eta)` grid: the built-in `cauchy-slope` form at
-/// the coefficients docs/fit.md reports for the TIR table.
+/// A TIR-shaped table on a uniform `(mu, alpha, eta)` grid: `tir-cauchy-slope.toml` at the
+/// coefficients docs/fit.md reports for the TIR table.
 fn tir_shaped(nodes: usize) -> Table {
     let axes = ["mu", "alpha", "eta"].map(|a| Axis::node_aligned(a, 0.0, 1.0, nodes).unwrap()).to_vec();
     let mut tir = Table::zeros("tir", axes, vec![Channel::new("tir", "test")]).unwrap();
+    let form = read_form_file("tir-cauchy-slope.toml", &tir);
     let c = [1.3606, -0.0525, -0.4440, 0.7608, -0.6821, 0.8040, 0.6046, 0.4777, 0.5700, 15.8816];
+    let (mut scratch, mut out) = (Vec::new(), [0.0]);
     for node in 0..tir.node_count() {
         let p = tir.node_position(&tir.node_index(node));
-        tir.data[node] = crate::fit::Form::CauchySlope.eval(&c, p[0], p[1], p[2]) as f32;
+        form.tape.eval(&p, &c, &mut scratch, &mut out);
+        tir.data[node] = out[0] as f32;
     }
     tir
 }
 
-/// Each form file of `luts/forms/` computes its built-in form, with its parameters in the
-/// same order and the same starts: one form, two ways to write it, the same numbers; and fitted
-/// to the same table from the same starts, the file's fit is as good as the built-in's.
+/// Every TIR form file of `luts/forms/` reads, is finite at the domain's corners at its start, and
+/// fitted to a TIR-shaped table from two starts ends no worse than it started (the baselines,
+/// with no parameter, at their definition); the build's form recovers the table it made to 1e-3.
 #[test]
-fn the_form_files_compute_the_built_in_tir_forms_and_fit_as_well() {
+fn every_tir_form_file_fits_a_tir_shaped_table() {
     let tir = tir_shaped(12);
-    let data = crate::fit::FitData::from_table(&tir).unwrap();
     let settings = FitSettings { starts: 2, ..FitSettings::default() };
-    for (file, built_in) in FORM_FILES {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms").join(file);
-        let form = Form::read(&path, &tir).unwrap();
-        let (start, lower, upper) = built_in.start_and_bounds();
-        assert_eq!(form.parameters.iter().map(|p| p.start).collect::<Vec<_>>(), start, "{file}");
-        assert_eq!(form.parameters.iter().map(|p| p.min).collect::<Vec<_>>(), lower, "{file}");
-        assert_eq!(form.parameters.iter().map(|p| p.max).collect::<Vec<_>>(), upper, "{file}");
-        let mut unit = uniform(7);
+    for file in tir_form_files() {
+        let form = read_form_file(&file, &tir);
+        let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
         let (mut scratch, mut out) = (Vec::new(), [0.0]);
-        for _ in 0..2000 {
-            let p: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
-            let (mu, alpha, eta) = (unit(), unit(), unit());
-            form.tape.eval(&[mu, alpha, eta], &p, &mut scratch, &mut out);
-            let expected = built_in.eval(&p, mu, alpha, eta);
-            assert!(
-                (out[0] - expected).abs() <= 1e-12,
-                "{file}: {p:?} at ({mu}, {alpha}, {eta}): {} against {expected}",
-                out[0]
-            );
+        for corner in [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0], [1.0, 0.0, 0.0]] {
+            form.tape.eval(&corner, &start, &mut scratch, &mut out);
+            assert!(out[0].is_finite(), "{file} at {corner:?}: {}", out[0]);
         }
-
-        // The RMSE over the table's nodes of the form (either way of computing it) at each fit.
-        let rmse = |p: &[f64]| {
-            let squares: f64 = data
-                .points
-                .iter()
-                .zip(&data.values)
-                .map(|(x, v)| (built_in.eval(p, x[0], x[1], x[2]) - v).powi(2))
-                .sum();
-            (squares / data.values.len() as f64).sqrt()
-        };
-        let compiled = crate::fit::least_squares::fit_form(built_in, &data, &settings).unwrap();
-        let form_data = FormData::from_table(&tir, &form).unwrap();
-        assert_eq!(form_data.len(), data.values.len(), "{file}: the same nodes");
-        let text = fit(&form, &Prepared::new(&form, &form_data), &settings).unwrap();
-        let (from_file, built) = (rmse(&text.parameters), rmse(&compiled.parameters));
-        assert!(from_file.is_finite() && from_file < 0.2, "{file}: {from_file}");
-        // Equal or better, up to the searches' own stopping tolerance (1e-9 relative).
-        assert!(from_file <= built * (1.0 + 1e-9), "{file}: the file's fit {from_file}, the built-in's {built}");
+        let data = FormData::from_table(&tir, &form).unwrap();
+        let fitted = fit(&form, &Prepared::new(&form, &data), &settings).unwrap();
+        assert_eq!(fitted.search.is_none(), form.parameters.is_empty(), "{file}");
+        let (at_start, at_end) = (
+            figures(&form, &data, &start).unwrap().together.rms,
+            figures(&form, &data, &fitted.parameters).unwrap().together.rms,
+        );
+        assert!(at_end.is_finite() && at_end <= at_start * (1.0 + 1e-6), "{file}: {at_start} to {at_end}");
+        if file == "tir-cauchy-slope.toml" {
+            assert!(at_end < 1e-3, "{file}: {at_end}");
+        }
     }
 }
 
@@ -332,8 +322,8 @@ fn the_batch_evaluation_is_the_point_by_point_one_to_the_bit() {
     let karis = karis_like(4, |_, _| [0.0, 0.0]);
     let tir = tir_shaped(4);
     let mut forms = vec![Form::parse(Path::new("all.toml"), ALL_FUNCTIONS, &karis).unwrap()];
-    for (file, _) in FORM_FILES {
-        forms.push(Form::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms").join(file), &tir).unwrap());
+    for file in tir_form_files() {
+        forms.push(read_form_file(&file, &tir));
     }
     let count = 2 * batch::LANES + 44;
     for form in &forms {
@@ -363,7 +353,7 @@ fn the_batch_evaluation_is_the_point_by_point_one_to_the_bit() {
             let bits = |g: &[f64]| g.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&gradient), bits(&expected), "{}: {gradient:?} against {expected:?}", form.name);
         }
-        assert!(expected.iter().any(|g| *g != 0.0), "{}: the gradient is not all 0", form.name);
+        assert!(p == 0 || expected.iter().any(|g| *g != 0.0), "{}: the gradient is not all 0", form.name);
     }
 }
 
@@ -402,6 +392,7 @@ fn good_request(dir: &Path) -> FormFitRequest {
         certify: None,
         ranges: Vec::new(),
         weights: WeightsSpec::Uniform,
+        scene: None,
         timing_runs: 0,
     }
 }
@@ -462,7 +453,7 @@ bias = "b"
 
 fn region(ranges: &[&str], weights: WeightsSpec, table: &Table, form: &Form) -> crate::error::Result<Region> {
     let ranges: Vec<Range> = ranges.iter().map(|r| Range::parse(r).unwrap()).collect();
-    Region::new(&ranges, &weights, table, &form.variables)
+    Region::new(&ranges, &weights, None, table, &form.variables)
 }
 
 #[test]
@@ -582,4 +573,91 @@ fn the_timed_lookup_reads_the_table_as_its_interpolation_does() {
             assert!((f64::from(read[c]) - exact[c]).abs() < 1e-5, "{mu} {alpha} {c}: {} {}", read[c], exact[c]);
         }
     }
+}
+
+/// `tmlut fit --form DIR`: every form file given is fitted into its own folder, and `forms.json`
+/// ranks them by max error, then RMS; a form without parameters is measured, not searched.
+#[test]
+fn a_folder_of_forms_is_fitted_form_by_form_and_ranked_by_max_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = table();
+    let fixed = "table = \"karis\"\n[parameters]\n[channels]\nscale = \"1 - 0.4 * roughness * mu\"\nbias = \"0.0\"\n";
+    let files = [("good.toml", GOOD), ("fixed.toml", fixed)].map(|(name, text)| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    });
+    let request = folder_request(dir.path(), files.to_vec());
+    let out = request.out.clone();
+    let ranking = fitting::fit_form_files(&table, &request).unwrap();
+    let names: Vec<&str> = ranking.forms.iter().map(|f| f.form.as_str()).collect();
+    assert_eq!(names, ["good", "fixed"], "the fitted form has the lower max error");
+    assert!(ranking.forms[0].figures.max <= ranking.forms[1].figures.max);
+    assert_eq!(ranking.forms[1].parameters, 0);
+    assert!(ranking.ranges.is_empty() && ranking.weights == WeightsSpec::Uniform);
+    assert!(ranking.forms.iter().all(|f| f.weighted_figures.is_none() && f.cost.as_ref().unwrap().timing.is_none()));
+    for form in &ranking.forms {
+        let report: FormReport =
+            serde_json::from_slice(&std::fs::read(out.join(&form.folder).join(fitting::FIT_FILE)).unwrap()).unwrap();
+        assert_eq!(report.figures.together, form.figures);
+        assert_eq!(report.search.is_none(), form.parameters == 0);
+    }
+    let written: fitting::FolderFits =
+        serde_json::from_slice(&std::fs::read(out.join(fitting::FORMS_FILE)).unwrap()).unwrap();
+    assert_eq!(written, ranking);
+}
+
+/// A folder request for the forms `files` into `dir/out`: one start, whole table, uniform
+/// weights, no timing.
+fn folder_request(dir: &Path, files: Vec<std::path::PathBuf>) -> FolderFitRequest {
+    FolderFitRequest {
+        files,
+        table: Path::new("karis.dds").to_path_buf(),
+        out: dir.join("out"),
+        settings: FitSettings { starts: 1, ..FitSettings::default() },
+        certify: None,
+        ranges: Vec::new(),
+        weights: WeightsSpec::Uniform,
+        scene: None,
+        timing_runs: 0,
+    }
+}
+
+/// `--form DIR` with `--range`, `--weights` and `--timing-runs`: every form of the folder is
+/// fitted over the region with the weights and timed, its report records them, and the ranking
+/// reads the weighted figures.
+#[test]
+fn a_folder_of_forms_is_fitted_over_a_region_with_weights_and_timed() {
+    let dir = tempfile::tempdir().unwrap();
+    // A table neither form fits, so that the weights change the figures.
+    let table = karis_like(8, |mu, alpha| [mu * mu, 0.2 * alpha]);
+    let files = [("good.toml", GOOD), ("constant.toml", CONSTANT)].map(|(name, text)| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    });
+    let request = FolderFitRequest {
+        ranges: vec![Range::parse("mu=0:0.5").unwrap()],
+        weights: WeightsSpec::Cosine,
+        timing_runs: 2,
+        ..folder_request(dir.path(), files.to_vec())
+    };
+    let ranking = fitting::fit_form_files(&table, &request).unwrap();
+    assert_eq!((&ranking.ranges, &ranking.weights, ranking.timing_runs), (&request.ranges, &request.weights, 2));
+    assert!(ranking.rule.contains("weighted"), "{}", ranking.rule);
+    let weighted: Vec<&fitting::Figures> = ranking.forms.iter().map(|f| f.ranked_by()).collect();
+    assert!(weighted[0].max <= weighted[1].max, "{weighted:?}");
+    for form in &ranking.forms {
+        let report: FormReport =
+            serde_json::from_slice(&std::fs::read(request.out.join(&form.folder).join(fitting::FIT_FILE)).unwrap())
+                .unwrap();
+        assert_eq!((&report.ranges, &report.weights), (&request.ranges, &request.weights));
+        assert_eq!(report.points, 8 * 4);
+        assert_eq!(report.weighted_figures.as_ref().map(|w| &w.together), form.weighted_figures.as_ref());
+        assert_eq!(report.cost, form.cost);
+        assert_eq!(report.cost.as_ref().and_then(|c| c.timing.as_ref()).map(|t| t.runs), Some(2));
+    }
+    let text = fitting::ranking_markdown(&ranking);
+    assert!(text.contains("Region: mu in [0, 0.5]; weights: cosine"), "{text}");
+    assert!(text.contains("weighted RMS") && text.contains("ns, form / lookup"), "{text}");
 }

@@ -39,7 +39,6 @@ use std::collections::BTreeMap;
 
 use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, select, splat3};
 use crate::error::{Error, Result};
-use crate::fit::forms::Form;
 use crate::fit::text::fitted::FittedForm;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::ArrayPlace;
@@ -131,7 +130,8 @@ struct Sources {
     slices: Vec<TableFile>,
     gd: Option<TableFile>,
     packing: Option<(String, PackedFgd)>,
-    fit: Option<(Form, Vec<f64>)>,
+    /// The folder's fitted TIR form (its manifest's `fit`), printed as `tmlut_tir`.
+    fit: Option<FittedForm>,
     /// The 3D TIR table.
     tir: Option<TableFile>,
     /// The 3D table of FGD onto a rarer medium.
@@ -246,18 +246,12 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     if g.needs.six_flux {
         helpers::six_flux(&mut module);
     }
-    if g.needs.fit
-        && let Some((form, parameters)) = &sources.fit
-    {
-        let fit = crate::fit::forms::module(*form, parameters).ok_or_else(|| {
-            Error::format(&manifest_path, format!("the fitted TIR form `{}` has no shader", form.name()))
-        })?;
-        module.items.extend(fit.items);
-    }
-    // The forms materials name, each after the helpers it needs; a helper two forms share
-    // (`tmlut_pow_2`, `tmlut_asinh`: the same code whoever prints it) is printed once.
-    for fitted in &g.forms {
-        if g.needs.fit && crate::fit::text::shader::function_name(&fitted.form()?) == "tmlut_tir" {
+    // The folder's fitted form (`tmlut_tir`), then the forms materials name, each after the helpers
+    // it needs; a helper two forms share (`tmlut_pow_2`, `tmlut_asinh`: the same code whoever
+    // prints it) is printed once.
+    let folder_fit = sources.fit.iter().filter(|_| g.needs.fit).map(|fitted| (fitted, true));
+    for (fitted, is_folder_fit) in folder_fit.chain(g.forms.iter().map(|fitted| (fitted, false))) {
+        if !is_folder_fit && g.needs.fit && crate::fit::text::shader::function_name(&fitted.form()?) == "tmlut_tir" {
             return Err(Error::invalid(
                 format!("fit:{}", fitted.source),
                 "form `tir` has the shader function of the built-in fitted form (tmlut_tir), which another material's \
@@ -351,7 +345,7 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
         .values()
         .find_map(|e| e.fit.clone())
         .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
-        .and_then(|fit| Form::from_name(&fit.form).map(|form| (form, fit.parameters)));
+        .and_then(|fit| FittedForm::of_build(&fit));
     Ok(sources)
 }
 
