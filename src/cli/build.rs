@@ -9,6 +9,7 @@ use tmlut::pipeline::{self, BuildRequest};
 use tmlut::scene::Scene;
 use tmlut::scene::build::{SceneBuildRequest, Shard, SliceChecks, SliceLayout, build_scene};
 use tmlut::scene::library;
+use tmlut::scene::{cache, plan::human_bytes};
 
 use super::{ConfigArg, Context, ThreadsArg, one_of};
 
@@ -132,6 +133,28 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
 /// written beside a folder's tables.
 pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut::Result<()> {
     let progress = context.progress();
+    // An unchanged build is restored whole from the cache: nothing planned, integrated or read.
+    let whole = request.whole_build_key().zip(request.cache.as_deref());
+    if let Some((key, cache)) = &whole {
+        let started = std::time::Instant::now();
+        match cache::restore_build(cache, key, &request.out, |message| eprintln!("{message}"))? {
+            Ok(restored) => {
+                println!(
+                    "{} materials: restored whole from the table cache {} (build {}): {} files ({}), every one verified by its SHA-256; {:.2} s",
+                    request.scene.materials.len(),
+                    cache.display(),
+                    &key[..12],
+                    restored.files,
+                    human_bytes(restored.bytes),
+                    started.elapsed().as_secs_f64()
+                );
+                return Ok(());
+            }
+            // No record yet is the common case; anything else is worth a word.
+            Err(why) if why != cache::NO_RECORD => eprintln!("note: not restored whole from the cache: {why}"),
+            Err(_) => {}
+        }
+    }
     let (plan, written, summary) = build_scene(request, &progress)?;
     println!("{}", plan.summary());
     for warning in &plan.warnings {
@@ -139,6 +162,11 @@ pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut
     }
     if request.shard.is_none() {
         write_scene_shader(&request.scene, &request.out);
+        if let Some((key, cache)) = &whole
+            && let Err(e) = cache::store_build(cache, key, &request.out)
+        {
+            eprintln!("warning: the build is not kept whole in the table cache: {e}");
+        }
         // A library's files are listed in its manifest; one line per file would bury the summary.
         if written.len() <= MAX_FILES_LISTED {
             print!("{}", pipeline::summary(&written));

@@ -447,6 +447,29 @@ impl Manifest {
     pub fn entry(&self, file: &str) -> Option<&FileEntry> {
         self.files.get(file)
     }
+
+    /// Every shader file the manifest lists (a packing's lookups, a fitted form's functions, a
+    /// scene's fitted TIR form, a scene shader's files) with the SHA-256 stated for it and, where
+    /// the manifest states it, its length; a file listed by several entries once per statement.
+    pub fn shader_files(&self) -> std::collections::BTreeSet<(&str, &str, Option<u64>)> {
+        let listed = self
+            .files
+            .values()
+            .flat_map(|e| {
+                let packing = e.packing.iter().flat_map(|p| &p.shaders);
+                packing.chain(e.fit.iter().flat_map(|f| &f.shaders))
+            })
+            .chain(self.scene.iter().flat_map(|s| s.plan.tir_fit.iter().flat_map(|f| &f.shaders)))
+            .map(|shader| (shader.file.as_str(), shader.sha256.as_str(), None));
+        let scene_shader = self.scene_shader.iter().flat_map(|s| &s.files);
+        listed.chain(scene_shader.map(|f| (f.file.as_str(), f.sha256.as_str(), Some(f.bytes)))).collect()
+    }
+
+    /// Every file the manifest lists, tables and shaders, with the SHA-256 stated for it.
+    pub fn listed_files(&self) -> std::collections::BTreeSet<(&str, &str)> {
+        let tables = self.files.iter().map(|(name, e)| (name.as_str(), e.sha256.as_str()));
+        tables.chain(self.shader_files().into_iter().map(|(file, sha256, _)| (file, sha256))).collect()
+    }
 }
 
 #[cfg(test)]

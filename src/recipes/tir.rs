@@ -723,7 +723,7 @@ mod tests {
         };
         // Each cell's column: its own index, and four random ones from the same integration.
         let mut cells: Vec<(f64, f64, f64)> = (0..300).map(|_| (uniform(), uniform().powi(2), uniform())).collect();
-        for eta in [0.3_f64, 0.7, 0.95] {
+        for eta in [0.3f64, 0.7, 0.95] {
             let mu = ((1.0 - eta) * (1.0 + eta)).sqrt();
             for alpha in [1e-7, 1e-4, 1e-2, 0.1] {
                 cells.push((mu, alpha, eta));

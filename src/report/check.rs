@@ -659,19 +659,9 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, f
 /// shader's files), once each: inside the folder, present, with the SHA-256 stated and, where the
 /// manifest states it, the length.
 fn check_shaders(dir: &Path, manifest: &Manifest, findings: &mut Vec<Finding>) {
-    let entries = manifest.files.values();
-    let listed = entries
-        .flat_map(|e| {
-            let packing = e.packing.iter().flat_map(|p| &p.shaders);
-            packing.chain(e.fit.iter().flat_map(|f| &f.shaders))
-        })
-        .chain(manifest.scene.iter().flat_map(|s| s.plan.tir_fit.iter().flat_map(|f| &f.shaders)))
-        .map(|shader| (shader.file.as_str(), shader.sha256.as_str(), None));
-    let scene_shader = manifest.scene_shader.iter().flat_map(|s| &s.files);
-    let listed = listed.chain(scene_shader.map(|f| (f.file.as_str(), f.sha256.as_str(), Some(f.bytes))));
     // A shader listed by several entries (the DDS and KTX2 textures of one packing) is checked
     // once per SHA-256 stated for it: an entry that misstates it fails even beside one that does not.
-    let seen: std::collections::BTreeSet<(&str, &str, Option<u64>)> = listed.collect();
+    let seen = manifest.shader_files();
     for (file, stated, stated_bytes) in seen {
         let mut record = |check: &str, value: String, limit: String, pass: bool| {
             findings.push(Finding {

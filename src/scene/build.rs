@@ -46,6 +46,25 @@ pub struct SceneBuildRequest {
     pub merge_from: Vec<PathBuf>,
 }
 
+impl SceneBuildRequest {
+    /// The key under which the table cache keeps this build whole ([`super::cache::store_build`]):
+    /// the SHA-256 of everything its output folder's files depend on (the scenes as parsed, their
+    /// sources and texts as the manifest records them, the configuration with its seed, the
+    /// options, the cache format and the version). None where a build is not kept whole: no
+    /// cache, a shard or a merge, or error maps (files outside the manifest's list).
+    pub fn whole_build_key(&self) -> Option<String> {
+        if self.cache.is_none() || self.shard.is_some() || !self.merge_from.is_empty() || self.error_maps {
+            return None;
+        }
+        let options = format!("{:?} {:?}", self.slice_checks, self.slice_layout);
+        let scene = format!("{:?}", self.scene);
+        let source = self.source.display().to_string();
+        let fields =
+            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, &self.config, options);
+        Some(sha256_hex(&serde_json::to_vec(&fields).expect("plain data")))
+    }
+}
+
 /// One of `count` parts of a build (`--shard index/count`, `index` from 1; [`Shard::owned`] says
 /// which tables). Every shard plans the whole library, so the shards of a plan partition its
 /// tables, and checks drawn across the build's slices are drawn alike in every shard

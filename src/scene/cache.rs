@@ -17,6 +17,14 @@
 //! - A cache folder that cannot be created, read or written (read-only, full, not a folder)
 //!   degrades to building, with one warning.
 //!
+//! A whole build is kept too ([`store_build`], [`restore_build`]): the record `<key>.build` lists
+//! every file of the output folder it left (tables, shaders, the manifest) by SHA-256, and each
+//! file is kept once as `<sha256>.object`. Its key covers everything the files depend on (the
+//! scenes as parsed and as written, the configuration, the seed, the options, [`CACHE_FORMAT`] and
+//! the version), so a build of an unchanged library restores that folder whole, every file
+//! verified by its hash, without planning or reading a table: the slices' entries serve a library
+//! that changed.
+//!
 //! tmlut touches nothing outside the folders it is given, so the cache is used only when asked
 //! for: `--cache DIR`, or `--cache` alone for the default folder ([`default_dir`]).
 
@@ -40,6 +48,12 @@ pub const CACHE_FORMAT: u32 = 6;
 
 /// The extension of an entry.
 pub const ENTRY_EXTENSION: &str = "slice";
+/// The extension of a whole build's record ([`store_build`]).
+pub const BUILD_EXTENSION: &str = "build";
+/// The extension of a file a build record lists, named by its SHA-256.
+pub const OBJECT_EXTENSION: &str = "object";
+/// Every extension of the cache's files: what `tmlut cache` counts and prunes.
+const EXTENSIONS: [&str; 3] = [ENTRY_EXTENSION, BUILD_EXTENSION, OBJECT_EXTENSION];
 
 /// The note a slice from the cache carries in the manifest.
 pub const FROM_CACHE_NOTE: &str = "From the table cache: built in an earlier run with the same settings, axes, indices and seed (the same bytes); its checks are those of that run.";
@@ -338,6 +352,151 @@ fn into_build(axes: &[crate::table::Axis], entry: Entry) -> std::result::Result<
     })
 }
 
+/// A whole build's record: every file of the output folder it left, the manifest among them.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct BuildRecord {
+    key: String,
+    files: Vec<RecordedFile>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct RecordedFile {
+    name: String,
+    sha256: String,
+    bytes: u64,
+}
+
+/// Why [`restore_build`] restored nothing where the cache has never kept the build.
+pub const NO_RECORD: &str = "no record of this build";
+
+/// What [`restore_build`] put into the output folder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Restored {
+    pub files: usize,
+    pub bytes: u64,
+}
+
+fn build_record_path(dir: &Path, key: &str) -> PathBuf {
+    dir.join(format!("{key}.{BUILD_EXTENSION}"))
+}
+
+fn object_path(dir: &Path, sha256: &str) -> PathBuf {
+    dir.join(format!("{sha256}.{OBJECT_EXTENSION}"))
+}
+
+/// Keep the files of the output folder `out` in the cache at `dir` under the whole build's `key`
+/// ([`restore_build`]): every file its manifest lists and the manifest, each checked against the
+/// SHA-256 the manifest states, taken under the folder's lock.
+pub fn store_build(dir: &Path, key: &str, out: &Path) -> Result<()> {
+    let _folder = crate::commit::OutputFolder::take(out, |_| {})?;
+    let manifest_bytes = crate::formats::read_bytes_at_most(
+        &out.join(crate::formats::manifest::MANIFEST_FILE),
+        crate::formats::MAX_MANIFEST_BYTES,
+        "a manifest",
+    )?;
+    let manifest: crate::formats::manifest::Manifest = serde_json::from_slice(&manifest_bytes)
+        .map_err(|e| Error::format(out, format!("not a tmlut manifest: {e}")))?;
+    std::fs::create_dir_all(dir).map_err(|source| Error::io(dir, source))?;
+    let mut files = Vec::new();
+    let mut keep = |name: &str, bytes: &[u8]| -> Result<()> {
+        let sha256 = sha256_hex(bytes);
+        let object = object_path(dir, &sha256);
+        // A file kept by an earlier build is written again where it is not intact.
+        if std::fs::read(&object).ok().is_none_or(|kept| sha256_hex(&kept) != sha256) {
+            crate::formats::write_bytes_atomically(&object, bytes)?;
+        }
+        files.push(RecordedFile { name: name.to_string(), sha256, bytes: bytes.len() as u64 });
+        Ok(())
+    };
+    for (name, stated) in manifest.listed_files() {
+        let path = out.join(name);
+        let bytes = std::fs::read(&path).map_err(|source| Error::io(&path, source))?;
+        if sha256_hex(&bytes) != stated {
+            return Err(Error::format(&path, "its SHA-256 is not the one its manifest states: not kept"));
+        }
+        keep(name, &bytes)?;
+    }
+    keep(crate::formats::manifest::MANIFEST_FILE, &manifest_bytes)?;
+    let record = BuildRecord { key: key.to_string(), files };
+    let body = serde_json::to_vec(&record).expect("plain data");
+    let mut bytes = format!("{}\n", sha256_hex(&body)).into_bytes();
+    bytes.extend_from_slice(&body);
+    crate::formats::write_bytes_atomically(&build_record_path(dir, key), &bytes)
+}
+
+/// Restore the output folder a build with `key` left ([`store_build`]) into `out`, as one commit:
+/// `Ok(None)` where the cache holds no intact record and files of it (a file missing or not of
+/// its SHA-256: the build goes on, `why` says what was wrong), or where `out` holds files that
+/// the record does not (a build into that folder would keep them beside its own).
+pub fn restore_build(
+    dir: &Path,
+    key: &str,
+    out: &Path,
+    on_wait: impl FnOnce(&str),
+) -> Result<std::result::Result<Restored, String>> {
+    let record_path = build_record_path(dir, key);
+    let Ok(bytes) = std::fs::read(&record_path) else {
+        return Ok(Err(NO_RECORD.into()));
+    };
+    let record = match decode_record(&bytes, key) {
+        Ok(record) => record,
+        Err(why) => return Ok(Err(format!("{}: {why}", record_path.display()))),
+    };
+    let folder = crate::commit::OutputFolder::take(out, on_wait)?;
+    let manifest = crate::formats::manifest::Manifest::read_or_default(out)?;
+    if let Some((name, _)) =
+        manifest.listed_files().into_iter().find(|(name, _)| !record.files.iter().any(|f| f.name == *name))
+    {
+        return Ok(Err(format!("{} holds `{name}`, which that build did not write", out.display())));
+    }
+    let mut staging = folder.staging()?;
+    let mut moves = Vec::new();
+    let mut total = 0;
+    for file in &record.files {
+        let object = object_path(dir, &file.sha256);
+        let bytes = match std::fs::read(&object) {
+            Ok(bytes) if bytes.len() as u64 == file.bytes && sha256_hex(&bytes) == file.sha256 => bytes,
+            Ok(_) => return Ok(Err(format!("{} does not hold the bytes of its name", object.display()))),
+            Err(e) => return Ok(Err(format!("{}: {e}", object.display()))),
+        };
+        crate::formats::manifest::check_file_name(&file.name)
+            .map_err(|why| Error::format(&record_path, format!("lists `{}`: {why}", file.name)))?;
+        let staged = staging.dir.join(&file.name);
+        if let Some(parent) = staged.parent() {
+            std::fs::create_dir_all(parent).map_err(|source| Error::io(parent, source))?;
+        }
+        std::fs::write(&staged, &bytes).map_err(|source| Error::io(&staged, source))?;
+        total += file.bytes;
+        if file.name != crate::formats::manifest::MANIFEST_FILE {
+            moves.push(crate::commit::Move { staged: file.name.clone(), destination: file.name.clone() });
+        }
+    }
+    crate::commit::commit(&folder, &mut staging, moves, Vec::new())?;
+    // Pruning removes the oldest files first: a record just used, and its files, are the newest.
+    let now = std::time::SystemTime::now();
+    for path in std::iter::once(record_path).chain(record.files.iter().map(|f| object_path(dir, &f.sha256))) {
+        let _ = std::fs::File::options().append(true).open(&path).and_then(|f| f.set_modified(now));
+    }
+    Ok(Ok(Restored { files: record.files.len(), bytes: total }))
+}
+
+/// The record of `bytes`, if its hash and key are intact.
+fn decode_record(bytes: &[u8], key: &str) -> std::result::Result<BuildRecord, String> {
+    let newline = bytes.iter().position(|&b| b == b'\n').ok_or("no hash line")?;
+    let (hash, body) = (&bytes[..newline], &bytes[newline + 1..]);
+    if hash != sha256_hex(body).as_bytes() {
+        return Err("its SHA-256 does not match its contents".into());
+    }
+    let record: BuildRecord = serde_json::from_slice(body).map_err(|e| e.to_string())?;
+    if record.key != key {
+        return Err("it is the record of another build".into());
+    }
+    if !record.files.iter().any(|f| f.name == crate::formats::manifest::MANIFEST_FILE) {
+        return Err("it lists no manifest".into());
+    }
+    Ok(record)
+}
+
 /// What a cache folder holds: entries and their bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct CacheUsage {
@@ -350,7 +509,7 @@ fn entries(dir: &Path) -> Result<Vec<(PathBuf, u64, std::time::SystemTime)>> {
     let listing = std::fs::read_dir(dir).map_err(|source| Error::io(dir, source))?;
     let mut entries: Vec<(PathBuf, u64, std::time::SystemTime)> = listing
         .filter_map(|e| e.ok())
-        .filter(|e| e.path().extension().is_some_and(|x| x == ENTRY_EXTENSION))
+        .filter(|e| e.path().extension().is_some_and(|x| EXTENSIONS.iter().any(|&known| x == known)))
         .filter_map(|e| {
             let metadata = e.metadata().ok().filter(|m| m.is_file())?;
             Some((e.path(), metadata.len(), metadata.modified().unwrap_or(std::time::UNIX_EPOCH)))
