@@ -106,27 +106,8 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
         _ => None,
     };
     let certify = if args.certify { Some(args.config.load()?) } else { None };
-    if form.is_dir() {
-        let request = tmlut::fit::text::FolderFitRequest {
-            files: form_files(&form, &table.name)?,
-            table: args.table,
-            out: args.out,
-            settings,
-            certify,
-            ranges,
-            weights,
-            scene,
-            timing_runs: args.timing_runs,
-        };
-        let fits = tmlut::fit::text::fit_form_files(&table, &request)?;
-        print!("{}", tmlut::fit::text::fitting::ranking_markdown(&fits));
-        println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FORMS_FILE).display());
-        return Ok(());
-    }
-    let request = tmlut::fit::text::FormFitRequest {
-        form,
+    let options = tmlut::fit::text::FitOptions {
         table: args.table,
-        out: args.out,
         settings,
         certify,
         ranges,
@@ -134,6 +115,15 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
         scene,
         timing_runs: args.timing_runs,
     };
+    if form.is_dir() {
+        let request =
+            tmlut::fit::text::FolderFitRequest { files: form_files(&form, &table.name)?, out: args.out, options };
+        let fits = tmlut::fit::text::fit_form_files(&table, &request)?;
+        print!("{}", tmlut::fit::text::fitting::ranking_markdown(&fits));
+        println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FORMS_FILE).display());
+        return Ok(());
+    }
+    let request = tmlut::fit::text::FormFitRequest { form, out: args.out, options };
     let report = tmlut::fit::text::fit_form_file(&table, &request)?;
     print!("{}", tmlut::fit::text::fitting::markdown(&report));
     println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FIT_FILE).display());
@@ -198,10 +188,8 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
             }
             let name = tmlut::fit::text::form::form_name(&path);
             let out = args.out.join("fits").join(&name);
-            let request = tmlut::fit::text::FormFitRequest {
-                form: path.clone(),
+            let options = tmlut::fit::text::FitOptions {
                 table: args.table.clone(),
-                out,
                 settings,
                 certify: None,
                 ranges: Vec::new(),
@@ -209,6 +197,7 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
                 scene: None,
                 timing_runs: 0,
             };
+            let request = tmlut::fit::text::FormFitRequest { form: path.clone(), out, options };
             let report = tmlut::fit::text::fit_form_file(table.as_ref().expect("read above"), &request)?;
             eprintln!(
                 "fitted {} to {}: RMS {:.3e}, max {:.3e} over the table's points",

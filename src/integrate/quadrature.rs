@@ -192,8 +192,9 @@ impl VisibleNormalQuadrature {
 /// normalize(wi + wo)`, over the upper hemisphere. In the polar angles `(theta, phi)` of `wo`
 /// (`phi = 0` towards `wi`) that integrand peaks at the mirror direction `(theta_i, pi)` with the
 /// scale `alpha`; the `theta` panels grow geometrically from `alpha / 2` on both sides of `theta_i`
-/// and the `phi` panels from `pi`, where a `phi` offset moves `wo` by `sqrt(sin(theta)
-/// sin(theta_i))` times itself. The panels depend on the cell alone: a share past one angle is the
+/// and the `phi` panels from `pi`, from the width that tilts the half vector by the larger of
+/// `alpha` and its tilt in the plane of incidence ([`ReflectedLobe::azimuthal`]); plain
+/// Gauss–Legendre rules, since no panel ends at a singularity. The panels depend on the cell alone: a share past one angle is the
 /// sum of the whole panels beyond it plus the part of its own panel, from the polynomial through
 /// that panel's nodes, so it has the same bits whatever other angles are asked, and costs no
 /// evaluation of the integrand.
@@ -206,8 +207,8 @@ pub struct ReflectedLobe<'a, W> {
     edges: Vec<f64>,
     /// `beyond[p]`: the integral over the panels from `p` on (`beyond[0]` is the whole lobe).
     beyond: Vec<f64>,
-    /// Per panel, its quadrature terms projected on `P_k(2u - 1)`, `k` below the node count (in a
-    /// panel's variable `u` before the endpoint-smoothing map).
+    /// Per panel, its quadrature terms projected on `P_k(2u - 1)`, `k` below the node count, with
+    /// `u` the panel mapped onto `[0, 1]`.
     moments: Vec<Vec<f64>>,
 }
 
@@ -253,7 +254,8 @@ impl<W: Fn(DVec3, DVec3) -> f64> ReflectedLobe<'_, W> {
     /// panel's terms, `G(u) = sum_k (2k + 1) m_k P_k(2u - 1)` over the panel as `[0, 1]`, with the
     /// moments `m_k = sum_j w_j G(u_j) P_k(2 u_j - 1)` (Gauss–Legendre is exact for their products),
     /// from `u_c` to 1: with `t = 2u - 1`, `∫ P_0 = (1 - t_c) / 2` and `∫ (2k + 1) P_k = (P_{k-1}(t_c) -
-    /// P_{k+1}(t_c)) / 2` by `(2k + 1) P_k = P'_{k+1} - P'_{k-1}` (Abramowitz and Stegun 22.8.6).
+    /// P_{k+1}(t_c)) / 2` by `(2k + 1) P_k = P'_{k+1} - P'_{k-1}` and `P_k(1) = 1` (Abramowitz and
+    /// Stegun, ch. 22, the recurrences of the Legendre polynomials).
     pub fn share_beyond(&self, polar_angle: f64) -> f64 {
         let total = self.beyond[0];
         if total <= 0.0 || polar_angle >= FRAC_PI_2 {

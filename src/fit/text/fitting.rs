@@ -824,11 +824,18 @@ pub struct FormReport {
 pub const FIT_FILE: &str = super::fitted::FIT_FILE;
 pub const REPORT_FILE: &str = "report.md";
 
-/// What `tmlut fit --form` is asked.
+/// What `tmlut fit --form FILE` is asked: one form file, fitted into `out`.
 pub struct FormFitRequest {
     pub form: PathBuf,
-    pub table: PathBuf,
     pub out: PathBuf,
+    pub options: FitOptions,
+}
+
+/// How a form is fitted and judged, the same for every form of a `--form DIR`.
+#[derive(Clone)]
+pub struct FitOptions {
+    /// The table file, as the report names it.
+    pub table: PathBuf,
     pub settings: FitSettings,
     /// The table's build configuration, to certify the form against exact integrals; `None`
     /// skips the certification.
@@ -851,15 +858,21 @@ pub struct FormFitRequest {
 pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormReport> {
     let form_text = crate::formats::read_text_at_most(&request.form, MAX_FORM_BYTES, "form file")?;
     let form = Form::parse(&request.form, &form_text, table)?;
-    let region = Region::new(&request.ranges, &request.weights, request.scene.as_ref(), table, &form.variables)?;
+    let region = Region::new(
+        &request.options.ranges,
+        &request.options.weights,
+        request.options.scene.as_ref(),
+        table,
+        &form.variables,
+    )?;
     let data = FormData::from_table_in(table, &form, &region)?;
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
     let start_residuals = residuals(&form, &data, &start)?;
     let prepared = Prepared::new(&form, &data);
-    let fitted = fit(&form, &prepared, &request.settings)?;
+    let fitted = fit(&form, &prepared, &request.options.settings)?;
     let fitted_residuals = residuals(&form, &data, &fitted.parameters)?;
     let fitted_figures = figures_of(&data, &fitted_residuals);
-    let timed = match request.timing_runs {
+    let timed = match request.options.timing_runs {
         0 => None,
         runs => Some(timing(&form, &fitted.parameters, table, &data.coordinates, runs)?),
     };
@@ -872,7 +885,7 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         form: form.name.clone(),
         form_file: request.form.display().to_string(),
         table: table.name.clone(),
-        table_file: request.table.display().to_string(),
+        table_file: request.options.table.display().to_string(),
         variables: form.variables.clone(),
         channels: data.channels.clone(),
         definition: form.definition(),
@@ -883,20 +896,20 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         bounds: form.parameters.iter().map(|p| (p.name.clone(), [p.min, p.max])).collect(),
         points: data.len(),
         points_are: data.description.clone(),
-        ranges: request.ranges.clone(),
-        weights: request.weights.clone(),
+        ranges: request.options.ranges.clone(),
+        weights: request.options.weights.clone(),
         weights_are: region.weights_description.clone(),
         figures: fitted_figures,
         start_figures: figures_of(&data, &start_residuals),
         weighted_figures: weighted_figures_of(&data, &fitted_residuals),
         weighted_start_figures: weighted_figures_of(&data, &start_residuals),
         cost: Some(Cost { operations: operations(&form.tape), timing: timed }),
-        settings: request.settings,
+        settings: request.options.settings,
         search: fitted.search,
         identifiability: identifiability(&form, &prepared, &fitted.parameters),
-        certified: match &request.certify {
+        certified: match &request.options.certify {
             Some(config) => {
-                certify(&form, table, config, request.settings.seed, (&start, &fitted.parameters), &region)?
+                certify(&form, table, config, request.options.settings.seed, (&start, &fitted.parameters), &region)?
             }
             None => Vec::new(),
         },
@@ -959,19 +972,12 @@ pub struct FolderFits {
     pub forms: Vec<RankedForm>,
 }
 
-/// What `tmlut fit --form DIR` is asked: every form file of `files` fitted to the table as a
-/// [`FormFitRequest`] with the same settings, certification, region, weights and timing, each
-/// into `out/<form>/`.
+/// What `tmlut fit --form DIR` is asked: every form file of `files` fitted to the table with the
+/// same options, each into `out/<form>/`.
 pub struct FolderFitRequest {
     pub files: Vec<PathBuf>,
-    pub table: PathBuf,
     pub out: PathBuf,
-    pub settings: FitSettings,
-    pub certify: Option<crate::config::Config>,
-    pub ranges: Vec<Range>,
-    pub weights: WeightsSpec,
-    pub scene: Option<SceneLookups>,
-    pub timing_runs: usize,
+    pub options: FitOptions,
 }
 
 /// Fit every form file of the request to `table` ([`fit_form_file`], each into `out/<form>/`),
@@ -981,17 +987,8 @@ pub fn fit_form_files(table: &Table, request: &FolderFitRequest) -> Result<Folde
     let mut forms = Vec::with_capacity(request.files.len());
     for file in &request.files {
         let folder = super::form::form_name(file);
-        let one = FormFitRequest {
-            form: file.clone(),
-            table: request.table.clone(),
-            out: request.out.join(&folder),
-            settings: request.settings,
-            certify: request.certify.clone(),
-            ranges: request.ranges.clone(),
-            weights: request.weights.clone(),
-            scene: request.scene.clone(),
-            timing_runs: request.timing_runs,
-        };
+        let one =
+            FormFitRequest { form: file.clone(), out: request.out.join(&folder), options: request.options.clone() };
         let report = fit_form_file(table, &one)?;
         forms.push(RankedForm {
             form: report.form,
@@ -1010,11 +1007,11 @@ pub fn fit_form_files(table: &Table, request: &FolderFitRequest) -> Result<Folde
     let weighted = forms.iter().any(|f| f.weighted_figures.is_some());
     let ranking = FolderFits {
         table: table.name.clone(),
-        table_file: request.table.display().to_string(),
-        settings: request.settings,
-        ranges: request.ranges.clone(),
-        weights: request.weights.clone(),
-        timing_runs: request.timing_runs,
+        table_file: request.options.table.display().to_string(),
+        settings: request.options.settings,
+        ranges: request.options.ranges.clone(),
+        weights: request.options.weights.clone(),
+        timing_runs: request.options.timing_runs,
         rule: if weighted {
             "by the weighted figures: max |form - table| over the points of positive weight, then by the weighted RMS"
                 .into()

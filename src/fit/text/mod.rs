@@ -36,7 +36,7 @@ pub use compile::FormEvaluator;
 #[cfg(feature = "generator")]
 pub use fitted::FittedForm;
 #[cfg(feature = "generator")]
-pub use fitting::{FolderFitRequest, FormFitRequest, FormReport, fit_form_file, fit_form_files};
+pub use fitting::{FitOptions, FolderFitRequest, FormFitRequest, FormReport, fit_form_file, fit_form_files};
 #[cfg(feature = "generator")]
 pub use form::Form;
 #[cfg(feature = "generator")]

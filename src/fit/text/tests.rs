@@ -386,14 +386,16 @@ fn good_request(dir: &Path) -> FormFitRequest {
     std::fs::write(&form, GOOD).unwrap();
     FormFitRequest {
         form,
-        table: dir.join("karis.dds"),
         out: dir.join("out"),
-        settings: FitSettings { starts: 2, ..FitSettings::default() },
-        certify: None,
-        ranges: Vec::new(),
-        weights: WeightsSpec::Uniform,
-        scene: None,
-        timing_runs: 0,
+        options: FitOptions {
+            table: dir.join("karis.dds"),
+            settings: FitSettings { starts: 2, ..FitSettings::default() },
+            certify: None,
+            ranges: Vec::new(),
+            weights: WeightsSpec::Uniform,
+            scene: None,
+            timing_runs: 0,
+        },
     }
 }
 
@@ -532,15 +534,13 @@ fn a_bad_range_or_weighting_is_refused_naming_what_is_allowed() {
 #[test]
 fn the_report_records_the_region_the_weights_and_the_cost() {
     let dir = tempfile::tempdir().unwrap();
-    let request = FormFitRequest {
-        ranges: vec![Range::parse("mu=0:0.5").unwrap()],
-        weights: WeightsSpec::Cosine,
-        timing_runs: 3,
-        ..good_request(dir.path())
-    };
+    let mut request = good_request(dir.path());
+    request.options.ranges = vec![Range::parse("mu=0:0.5").unwrap()];
+    request.options.weights = WeightsSpec::Cosine;
+    request.options.timing_runs = 3;
     // A table the form does not fit, so that weighting changes the figures.
     let report = fit_form_file(&karis_like(8, |mu, alpha| [mu * mu, 0.2 * alpha]), &request).unwrap();
-    assert_eq!(report.ranges, request.ranges);
+    assert_eq!(report.ranges, request.options.ranges);
     assert_eq!(report.points, 8 * 4);
     let weighted = report.weighted_figures.as_ref().expect("weighted figures");
     assert_ne!(weighted.together.rms, report.figures.together.rms);
@@ -612,14 +612,16 @@ fn a_folder_of_forms_is_fitted_form_by_form_and_ranked_by_max_error() {
 fn folder_request(dir: &Path, files: Vec<std::path::PathBuf>) -> FolderFitRequest {
     FolderFitRequest {
         files,
-        table: Path::new("karis.dds").to_path_buf(),
         out: dir.join("out"),
-        settings: FitSettings { starts: 1, ..FitSettings::default() },
-        certify: None,
-        ranges: Vec::new(),
-        weights: WeightsSpec::Uniform,
-        scene: None,
-        timing_runs: 0,
+        options: FitOptions {
+            table: Path::new("karis.dds").to_path_buf(),
+            settings: FitSettings { starts: 1, ..FitSettings::default() },
+            certify: None,
+            ranges: Vec::new(),
+            weights: WeightsSpec::Uniform,
+            scene: None,
+            timing_runs: 0,
+        },
     }
 }
 
@@ -636,14 +638,15 @@ fn a_folder_of_forms_is_fitted_over_a_region_with_weights_and_timed() {
         std::fs::write(&path, text).unwrap();
         path
     });
-    let request = FolderFitRequest {
-        ranges: vec![Range::parse("mu=0:0.5").unwrap()],
-        weights: WeightsSpec::Cosine,
-        timing_runs: 2,
-        ..folder_request(dir.path(), files.to_vec())
-    };
+    let mut request = folder_request(dir.path(), files.to_vec());
+    request.options.ranges = vec![Range::parse("mu=0:0.5").unwrap()];
+    request.options.weights = WeightsSpec::Cosine;
+    request.options.timing_runs = 2;
     let ranking = fitting::fit_form_files(&table, &request).unwrap();
-    assert_eq!((&ranking.ranges, &ranking.weights, ranking.timing_runs), (&request.ranges, &request.weights, 2));
+    assert_eq!(
+        (&ranking.ranges, &ranking.weights, ranking.timing_runs),
+        (&request.options.ranges, &request.options.weights, 2)
+    );
     assert!(ranking.rule.contains("weighted"), "{}", ranking.rule);
     let weighted: Vec<&fitting::Figures> = ranking.forms.iter().map(|f| f.ranked_by()).collect();
     assert!(weighted[0].max <= weighted[1].max, "{weighted:?}");
@@ -651,7 +654,7 @@ fn a_folder_of_forms_is_fitted_over_a_region_with_weights_and_timed() {
         let report: FormReport =
             serde_json::from_slice(&std::fs::read(request.out.join(&form.folder).join(fitting::FIT_FILE)).unwrap())
                 .unwrap();
-        assert_eq!((&report.ranges, &report.weights), (&request.ranges, &request.weights));
+        assert_eq!((&report.ranges, &report.weights), (&request.options.ranges, &request.options.weights));
         assert_eq!(report.points, 8 * 4);
         assert_eq!(report.weighted_figures.as_ref().map(|w| &w.together), form.weighted_figures.as_ref());
         assert_eq!(report.cost, form.cost);
