@@ -380,23 +380,24 @@ fn the_histogram_counts_every_residual_once() {
     assert_eq!(counts, [1, 1, 0, 1]);
 }
 
+/// Fits from `starts` starts over the whole table, uniform weights, untimed, uncertified.
+fn whole_table_options(table: std::path::PathBuf, starts: usize) -> FitOptions {
+    FitOptions {
+        table,
+        settings: FitSettings { starts, ..FitSettings::default() },
+        certify: None,
+        ranges: Vec::new(),
+        weights: WeightsSpec::Uniform,
+        scene: None,
+        timing_runs: 0,
+    }
+}
+
 /// GOOD written into `dir`, fitted from 2 starts into `dir/out`, over the whole table, untimed.
 fn good_request(dir: &Path) -> FormFitRequest {
     let form = dir.join("form.toml");
     std::fs::write(&form, GOOD).unwrap();
-    FormFitRequest {
-        form,
-        out: dir.join("out"),
-        options: FitOptions {
-            table: dir.join("karis.dds"),
-            settings: FitSettings { starts: 2, ..FitSettings::default() },
-            certify: None,
-            ranges: Vec::new(),
-            weights: WeightsSpec::Uniform,
-            scene: None,
-            timing_runs: 0,
-        },
-    }
+    FormFitRequest { form, out: dir.join("out"), options: whole_table_options(dir.join("karis.dds"), 2) }
 }
 
 #[test]
@@ -610,19 +611,7 @@ fn a_folder_of_forms_is_fitted_form_by_form_and_ranked_by_max_error() {
 /// A folder request for the forms `files` into `dir/out`: one start, whole table, uniform
 /// weights, no timing.
 fn folder_request(dir: &Path, files: Vec<std::path::PathBuf>) -> FolderFitRequest {
-    FolderFitRequest {
-        files,
-        out: dir.join("out"),
-        options: FitOptions {
-            table: Path::new("karis.dds").to_path_buf(),
-            settings: FitSettings { starts: 1, ..FitSettings::default() },
-            certify: None,
-            ranges: Vec::new(),
-            weights: WeightsSpec::Uniform,
-            scene: None,
-            timing_runs: 0,
-        },
-    }
+    FolderFitRequest { files, out: dir.join("out"), options: whole_table_options("karis.dds".into(), 1) }
 }
 
 /// `--form DIR` with `--range`, `--weights` and `--timing-runs`: every form of the folder is
