@@ -291,9 +291,7 @@ impl SliceCache {
             sampling: p.sampling.clone(),
             wall_time_s: p.wall_time_s,
         };
-        let body = serde_json::to_vec(&entry).expect("plain data");
-        let mut bytes = format!("{}\n", sha256_hex(&body)).into_bytes();
-        bytes.extend_from_slice(&body);
+        let bytes = sealed(&entry);
         let path = self.entry_path(&key);
         // A temporary name of this writer's own, then a rename: readers see a whole entry or none.
         let temporary = self.dir.join(format!(".{key}.tmp-{}-{:?}", std::process::id(), std::thread::current().id()));
@@ -305,13 +303,27 @@ impl SliceCache {
     }
 }
 
-/// The entry of `bytes`, if its hash, key and layout are intact.
-fn decode(bytes: &[u8], key: &str) -> std::result::Result<Entry, String> {
+/// `value` as the cache stores it: one line with the SHA-256 of its JSON, then the JSON.
+fn sealed(value: &impl Serialize) -> Vec<u8> {
+    let body = serde_json::to_vec(value).expect("plain data");
+    let mut bytes = format!("{}\n", sha256_hex(&body)).into_bytes();
+    bytes.extend_from_slice(&body);
+    bytes
+}
+
+/// The JSON of [`sealed`] `bytes`, if it matches its SHA-256 line.
+fn unsealed(bytes: &[u8]) -> std::result::Result<&[u8], String> {
     let newline = bytes.iter().position(|&b| b == b'\n').ok_or("no hash line")?;
     let (hash, body) = (&bytes[..newline], &bytes[newline + 1..]);
     if hash != sha256_hex(body).as_bytes() {
         return Err("its SHA-256 does not match its contents".into());
     }
+    Ok(body)
+}
+
+/// The entry of `bytes`, if its hash, key and layout are intact.
+fn decode(bytes: &[u8], key: &str) -> std::result::Result<Entry, String> {
+    let body = unsealed(bytes)?;
     let entry: Entry = serde_json::from_slice(body).map_err(|e| format!("not an entry: {e}"))?;
     if entry.key != key {
         return Err(format!("it holds key {}", entry.key));
@@ -418,10 +430,7 @@ pub fn store_build(dir: &Path, key: &str, out: &Path) -> Result<()> {
     }
     keep(crate::formats::manifest::MANIFEST_FILE, &manifest_bytes)?;
     let record = BuildRecord { key: key.to_string(), files };
-    let body = serde_json::to_vec(&record).expect("plain data");
-    let mut bytes = format!("{}\n", sha256_hex(&body)).into_bytes();
-    bytes.extend_from_slice(&body);
-    crate::formats::write_bytes_atomically(&build_record_path(dir, key), &bytes)
+    crate::formats::write_bytes_atomically(&build_record_path(dir, key), &sealed(&record))
 }
 
 /// Restore the output folder a build with `key` left ([`store_build`]) into `out`, as one commit:
@@ -482,11 +491,7 @@ pub fn restore_build(
 
 /// The record of `bytes`, if its hash and key are intact.
 fn decode_record(bytes: &[u8], key: &str) -> std::result::Result<BuildRecord, String> {
-    let newline = bytes.iter().position(|&b| b == b'\n').ok_or("no hash line")?;
-    let (hash, body) = (&bytes[..newline], &bytes[newline + 1..]);
-    if hash != sha256_hex(body).as_bytes() {
-        return Err("its SHA-256 does not match its contents".into());
-    }
+    let body = unsealed(bytes)?;
     let record: BuildRecord = serde_json::from_slice(body).map_err(|e| e.to_string())?;
     if record.key != key {
         return Err("it is the record of another build".into());
