@@ -1552,12 +1552,11 @@ fn an_unchanged_scene_build_is_restored_whole_from_the_cache_and_a_damaged_one_i
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(!stdout(&output).contains("restored whole"));
     // A kept file damaged: noticed by its hash, never restored; the build runs and keeps it again.
-    let object = std::fs::read_dir(&cache)
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .find(|p| p.extension().is_some_and(|x| x == "object") && std::fs::metadata(p).unwrap().len() > 100)
-        .unwrap();
+    // The first build's manifest, as the cache keeps it (by its SHA-256): a file of that build's
+    // record, whatever other builds the cache holds.
+    let manifest_sha256 = tmlut::loader::sha256_hex(&std::fs::read(first.join(MANIFEST_FILE)).unwrap());
+    let object = cache.join(format!("{manifest_sha256}.object"));
+    assert!(object.is_file(), "{}", object.display());
     let mut bytes = std::fs::read(&object).unwrap();
     bytes[50] ^= 1;
     std::fs::write(&object, &bytes).unwrap();
