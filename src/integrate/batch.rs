@@ -32,19 +32,9 @@ pub struct CellWarp {
     alpha32: f32,
     wi_x: f32,
     wi_z: f32,
-    /// Which offset from the view the kernel fills besides the plain quantities.
-    offsets: Offsets,
-}
-
-/// The cancellation-free offsets from the view a [`CellWarp`] can fill; each costs a division
-/// per sample, so a cell asks only for the one it reads.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Offsets {
-    None,
-    /// [`SampleArrays::cos_offset`] (FGD's narrow lobes).
-    Cosine,
-    /// [`SampleArrays::wo_sin2`] and [`SampleArrays::wo_sin2_offset`] (TIR).
-    Sin2,
+    /// Whether the kernel fills [`SampleArrays::cos_offset`] (FGD's narrow lobes): it costs a
+    /// division per sample, so only a cell that reads it asks for it.
+    cosine_offset: bool,
 }
 
 impl CellWarp {
@@ -63,22 +53,17 @@ impl CellWarp {
             alpha32: alpha as f32,
             wi_x: wi.x as f32,
             wi_z: wi.z as f32,
-            offsets: Offsets::None,
+            cosine_offset: false,
         }
     }
 
     /// [`CellWarp::new`], also filling [`SampleArrays::cos_offset`].
     pub fn with_offsets(mu: f64, alpha: f64) -> Self {
-        CellWarp { offsets: Offsets::Cosine, ..Self::new(mu, alpha) }
+        CellWarp { cosine_offset: true, ..Self::new(mu, alpha) }
     }
 
-    /// [`CellWarp::new`], also filling [`SampleArrays::wo_sin2`] and [`SampleArrays::wo_sin2_offset`].
-    pub fn with_sin2_offsets(mu: f64, alpha: f64) -> Self {
-        CellWarp { offsets: Offsets::Sin2, ..Self::new(mu, alpha) }
-    }
-
-    /// `wi.h` and `wo.z` of each point, `wo = reflect(wi, h)`, and the offset from the view that
-    /// the warp was made for ([`CellWarp::with_offsets`], [`CellWarp::with_sin2_offsets`]).
+    /// `wi.h` and `wo.z` of each point, `wo = reflect(wi, h)`, and `wi.h - mu` where the warp was
+    /// made for it ([`CellWarp::with_offsets`]).
     pub fn warp(&self, points: &DiskPointsF32, range: std::ops::Range<usize>, out: &mut SampleArrays) {
         #[cfg(target_arch = "x86_64")]
         {
@@ -99,16 +84,16 @@ impl CellWarp {
 
     #[inline(always)]
     fn warp_portable(&self, points: &DiskPointsF32, range: std::ops::Range<usize>, out: &mut SampleArrays) {
-        // One loop per kind of offset, so that each is vectorised without a branch inside.
-        match self.offsets {
-            Offsets::None => self.warp_loop::<false, false>(points, range, out),
-            Offsets::Cosine => self.warp_loop::<true, false>(points, range, out),
-            Offsets::Sin2 => self.warp_loop::<false, true>(points, range, out),
+        // One loop with the offset and one without, so that each is vectorised without a branch inside.
+        if self.cosine_offset {
+            self.warp_loop::<true>(points, range, out)
+        } else {
+            self.warp_loop::<false>(points, range, out)
         }
     }
 
     #[inline(always)]
-    fn warp_loop<const COSINE_OFFSET: bool, const SIN2_OFFSET: bool>(
+    fn warp_loop<const COSINE_OFFSET: bool>(
         &self,
         points: &DiskPointsF32,
         range: std::ops::Range<usize>,
@@ -118,7 +103,6 @@ impl CellWarp {
         let (x, y, half_chord) = (&points.x[range.clone()], &points.y[range.clone()], &points.half_chord[range]);
         let (cos_wi_h, wo_z) = (&mut out.cos_wi_h[..n], &mut out.wo_z[..n]);
         let cos_offset = &mut out.cos_offset[..n];
-        let (wo_sin2, wo_sin2_offset) = (&mut out.wo_sin2[..n], &mut out.wo_sin2_offset[..n]);
         let one_minus_s = 1.0 - self.s;
         for i in 0..n {
             let p2 = one_minus_s * half_chord[i] + self.s * y[i];
@@ -134,26 +118,12 @@ impl CellWarp {
             let c = (self.wi_x * unit_hx + self.wi_z * unit_hz).clamp(0.0, 1.0);
             cos_wi_h[i] = c;
             wo_z[i] = 2.0 * c * unit_hz - self.wi_z;
-            // Offsets from the view without forming the quantity itself: hz - |h| =
+            // The offset from the view without forming wi.h itself: hz - |h| =
             // -(hx^2 + hy^2) / (hz + |h|), and with wi.z = mu, wi.h - mu = (wi.x hx + mu (hz - |h|)) / |h|.
             // Every term keeps its relative precision, so a lobe narrower than the f32 spacing of c
-            // or of sin^2 (6e-8 near 1) keeps its shape.
+            // (6e-8 near 1) keeps its shape.
             if COSINE_OFFSET {
                 cos_offset[i] = (self.wi_x * hx - self.wi_z * tangential2 / (hz + length)) * inverse_length;
-            }
-            if SIN2_OFFSET {
-                // sin^2(theta_o) from the tangential components rather than as 1 - wo.z^2, which
-                // cancels to nothing near the normal (in f32, a mirror reflection straight up would
-                // come out at 1e-7 from the normal, past every critical angle of eta = 0). |wo| is 1
-                // up to f32 rounding: keep sin^2 in its range.
-                let (ox, oy) = (2.0 * c * unit_hx - self.wi_x, 2.0 * c * (hy * inverse_length));
-                wo_sin2[i] = (ox * ox + oy * oy).min(1.0);
-                // wo.z - mu = 2 (c h.z / |h| - mu) = 2 (c (h.z / |h| - 1) + (c - mu))
-                // = 2 (wi.x hx - (mu + c) (|h| - hz)) / |h|, a sum of small terms; then
-                // sin^2(theta_o) - sin^2(theta_i) = mu^2 - wo.z^2 = -(wo.z - mu) (2 mu + (wo.z - mu)).
-                let rim = tangential2 / (hz + length);
-                let wo_z_offset = 2.0 * (self.wi_x * hx - (self.wi_z + c) * rim) * inverse_length;
-                wo_sin2_offset[i] = -wo_z_offset * (2.0 * self.wi_z + wo_z_offset);
             }
         }
     }
@@ -243,27 +213,13 @@ pub struct SampleArrays {
     pub cos_offset: [f32; BLOCK],
     /// `wo.z` of the reflected direction (may be negative).
     pub wo_z: [f32; BLOCK],
-    /// `sin^2(theta_o) - sin^2(theta_i) = mu^2 - wo.z^2`, the reflected direction's `sin^2` as an
-    /// offset from the view's, computed without cancellation (for lobes narrower than the f32
-    /// spacing of `sin^2`; see [`CellWarp::warp`]); only from a [`CellWarp::with_sin2_offsets`].
-    pub wo_sin2_offset: [f32; BLOCK],
-    /// `sin^2(theta_o) = wo.x^2 + wo.y^2` itself, precise near the normal (where the offset is
-    /// `-sin^2(theta_i)` to f32 rounding); only from a [`CellWarp::with_sin2_offsets`].
-    pub wo_sin2: [f32; BLOCK],
     /// `G2 / G1(wi)` of the chosen masking-shadowing model; 0 below the horizon.
     pub weight: [f32; BLOCK],
 }
 
 impl SampleArrays {
     pub fn new() -> Self {
-        SampleArrays {
-            cos_wi_h: [0.0; BLOCK],
-            cos_offset: [0.0; BLOCK],
-            wo_z: [0.0; BLOCK],
-            wo_sin2_offset: [0.0; BLOCK],
-            wo_sin2: [0.0; BLOCK],
-            weight: [0.0; BLOCK],
-        }
+        SampleArrays { cos_wi_h: [0.0; BLOCK], cos_offset: [0.0; BLOCK], wo_z: [0.0; BLOCK], weight: [0.0; BLOCK] }
     }
 }
 
@@ -279,8 +235,6 @@ pub struct SampleBlock<'a> {
     pub cos_wi_h: &'a [f32],
     pub cos_offset: &'a [f32],
     pub wo_z: &'a [f32],
-    pub wo_sin2_offset: &'a [f32],
-    pub wo_sin2: &'a [f32],
     pub weight: &'a [f32],
 }
 
@@ -303,8 +257,6 @@ pub fn for_each_block(
             cos_wi_h: &arrays.cos_wi_h[..n],
             cos_offset: &arrays.cos_offset[..n],
             wo_z: &arrays.wo_z[..n],
-            wo_sin2_offset: &arrays.wo_sin2_offset[..n],
-            wo_sin2: &arrays.wo_sin2[..n],
             weight: &arrays.weight[..n],
         });
         start = end;
@@ -376,7 +328,7 @@ mod tests {
         let wi = direction_from_cosine(mu);
         let sampler = VisibleNormalSampler::new(wi, alpha);
         let mut out = SampleArrays::new();
-        let warp = CellWarp::with_sin2_offsets(mu, alpha);
+        let warp = CellWarp::new(mu, alpha);
         for start in (0..1000).step_by(BLOCK) {
             let end = (start + BLOCK).min(1000);
             warp.warp(&soa, start..end, &mut out);
@@ -385,9 +337,6 @@ mod tests {
                 let wo = reflect(wi, h);
                 assert!((wi.dot(h) - out.cos_wi_h[i - start] as f64).abs() < 1e-5, "sample {i}");
                 assert!((wo.z - out.wo_z[i - start] as f64).abs() < 1e-5, "sample {i}");
-                let sin2_offset = wo.x * wo.x + wo.y * wo.y - wi.x * wi.x;
-                assert!((sin2_offset - out.wo_sin2_offset[i - start] as f64).abs() < 1e-5, "sample {i}");
-                assert!((wo.x * wo.x + wo.y * wo.y - out.wo_sin2[i - start] as f64).abs() < 1e-5, "sample {i}");
             }
         }
     }
@@ -416,56 +365,6 @@ mod tests {
             let ((m64, s64), (m32, s32)) = (spread(&f64_offsets), spread(&f32_offsets));
             assert!(s64 > 0.0 && (s32 - s64).abs() < 0.05 * s64, "mu {mu}: spread {s32:e} vs {s64:e}");
             assert!((m32 - m64).abs() < 0.05 * s64, "mu {mu}: mean {m32:e} vs {m64:e}");
-        }
-    }
-
-    #[test]
-    fn the_sin2_offset_keeps_its_precision_in_a_narrow_lobe() {
-        // alpha = 1e-7: sin^2(theta_o) - sin^2(theta_i) is of order 1e-7 or less, below the f32
-        // spacing of sin^2 near 1 (6e-8); each sample's offset must match the f64 sampler's to a
-        // small fraction of the lobe's spread. The views are off the normal, where the f32 and f64
-        // frames coincide: at the critical cosine of eta = 0.5 and of eta = 1e-3, mid-range, grazing.
-        let (f64_points, soa) = points(256);
-        for mu in [0.75f64.sqrt(), 1.0 - 5e-7, 0.5, 1e-6] {
-            let alpha = 1e-7;
-            let wi = direction_from_cosine(mu);
-            let sampler = VisibleNormalSampler::new(wi, alpha);
-            let mut out = SampleArrays::new();
-            CellWarp::with_sin2_offsets(mu, alpha).warp(&soa, 0..256, &mut out);
-            let f64_offsets: Vec<f64> = f64_points
-                .iter()
-                .map(|point| {
-                    // mu^2 - wo.z^2 as a product, so that the f64 reference does not cancel either.
-                    let wo = reflect(wi, sampler.sample(point));
-                    (wi.z - wo.z) * (wi.z + wo.z)
-                })
-                .collect();
-            // Root mean square: the lobe's scale (GGX's slopes have heavy tails, so not the max).
-            let spread = (f64_offsets.iter().map(|o| o * o).sum::<f64>() / 256.0).sqrt();
-            assert!(spread > 0.0 && spread < 1e-5, "mu {mu}: spread {spread:e}");
-            for (i, &offset) in f64_offsets.iter().enumerate() {
-                let f32_offset = out.wo_sin2_offset[i] as f64;
-                // Measured: within 3.2e-5 relative, or 6.1e-5 of the spread (4.8e-4 at mu = 1e-6,
-                // where the f32 rounding of the disk point itself moves the far-tail samples).
-                let tolerance = 1e-4 * offset.abs() + 1e-4 * spread;
-                assert!((f32_offset - offset).abs() < tolerance, "mu {mu} sample {i}: {f32_offset:e} vs {offset:e}");
-            }
-        }
-    }
-
-    #[test]
-    fn a_mirror_reflection_has_no_sin2_offset() {
-        // alpha = 0: wo is the mirror direction, so its sin^2 is the view's exactly, and TIR at a
-        // critical view is decided by the f64 threshold alone. Straight up (mu = 1) sin^2 itself
-        // must be 0, not the 1e-7 of 1 - z^2 in f32 (past every critical angle of eta = 0).
-        let (_, soa) = points(64);
-        for mu in [1.0, 0.75f64.sqrt(), 0.3, 1e-6] {
-            let mut out = SampleArrays::new();
-            CellWarp::with_sin2_offsets(mu, 0.0).warp(&soa, 0..64, &mut out);
-            assert!(out.wo_sin2_offset[..64].iter().all(|&s| s == 0.0), "mu {mu}: {:?}", &out.wo_sin2_offset[..8]);
-            if mu == 1.0 {
-                assert!(out.wo_sin2[..64].iter().all(|&s| s == 0.0), "{:?}", &out.wo_sin2[..8]);
-            }
         }
     }
 

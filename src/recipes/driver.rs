@@ -114,6 +114,15 @@ impl Integrated {
         }
     }
 
+    /// The errors of a table computed without random points: no replicate spread, and no map of it.
+    pub fn deterministic() -> Integrated {
+        Integrated {
+            replicate_standard_error: ErrorSummary::of_differences(std::iter::empty()),
+            standard_error: None,
+            accuracy: Vec::new(),
+        }
+    }
+
     /// [`Integrated::of`] from the standard error of every value alone, in the table's layout
     /// (node after node, the channels of a node together).
     pub fn of_standard_errors(standard_errors: &[f64]) -> Integrated {
@@ -232,6 +241,18 @@ pub(crate) fn sampling_record(method: Method, description: &str, points: &PointS
         samples_per_cell: plan.total(),
         replicates: plan.replicates,
         seed: points.seed(),
+    }
+}
+
+/// The record of a table integrated by a deterministic quadrature (`description`), with no random
+/// points: the seed is kept for the checks that draw them.
+pub(crate) fn quadrature_record(description: &str, seed: u64) -> SamplingRecord {
+    SamplingRecord {
+        method: format!("quadrature ({description})"),
+        sampler: "none: no random points".into(),
+        samples_per_cell: 0,
+        replicates: 0,
+        seed,
     }
 }
 

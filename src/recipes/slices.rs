@@ -11,7 +11,7 @@
 //! An FGD slice is computed exactly as its full table computes a node
 //! ([`super::fgd::fgd_pairs_fast`]), with the full table's settings, so that a slice node equals
 //! the full table's node at the same parameters up to rounding. A TIR slice is integrated
-//! deterministically over the reflected lobe ([`super::tir::tir_column_by_lobe`], [`TIR_LOBE_NODES`]):
+//! deterministically over the reflected lobe ([`super::tir::tir_column_by_lobe`], [`super::tir::TIR_LOBE_NODES`]):
 //! its indicator needs many more Monte Carlo samples than the full table's for the error a
 //! material allows, and the lobe quadrature answers every index of a node from one integration.
 //! The `mu` and `alpha` axes are sub-ranges of the full table's grid (the planner picks them), so
@@ -22,7 +22,10 @@ use serde::{Deserialize, Serialize};
 use super::driver::{Provenance, TableBuild};
 use super::fgd::{FgdSettings, fgd_by_quadrature, fgd_pairs_on_measure, projected_fresnel};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
-use super::tir::{TirSettings, tir_by_quadrature, tir_cell, tir_column_by_lobe};
+use super::tir::{
+    TIR_LOBE_NODES, TirSettings, deterministic, lobe_quadrature_description, tir_by_quadrature, tir_cell,
+    tir_column_by_lobe,
+};
 use super::{Integrated, Kernel, Metadata, fill_mu_alpha_nodes};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
@@ -262,13 +265,7 @@ impl Slices {
         let sampler = self.metadata().sampler;
         match &self.of {
             SliceOf::Fgd(_) => super::driver::sampling_record(Method::Fast, &sampler, points),
-            SliceOf::Tir(_) => super::driver::SamplingRecord {
-                method: format!("quadrature ({sampler})"),
-                sampler: "none: no random points".into(),
-                samples_per_cell: 0,
-                replicates: 0,
-                seed: points.seed(),
-            },
+            SliceOf::Tir(_) => super::driver::quadrature_record(&sampler, points.seed()),
         }
     }
 
@@ -299,22 +296,12 @@ impl SharedNode {
                     users.iter().flat_map(|s| s.channels.iter().map(|c| s.evaluated_eta(c.eta))).collect();
                 etas.sort_by(f64::total_cmp);
                 etas.dedup();
-                let values = tir_column_by_lobe(&points.lobe, mu, alpha, &etas);
-                // Deterministic: no replicate spread.
-                let column = Estimate { standard_error: vec![0.0; values.len()], mean: values };
+                let column = deterministic(tir_column_by_lobe(&points.lobe, mu, alpha, &etas));
                 SharedNode::Tir { etas, column }
             }
         }
     }
 }
-
-/// Gauss–Legendre nodes per panel of a TIR slice's lobe quadrature
-/// ([`super::tir::tir_column_by_lobe`]): within 1.7e-6 of the 16-node quadrature over the
-/// microfacet normals at random cells and indices and at the critical views of narrow lobes (4
-/// nodes: 4.3e-5, 5: 1.2e-5, 8: 3.0e-7; `the_lobe_column_agrees_with_the_quadrature_over_normals`).
-/// Monte Carlo at the table's 2^15 samples left TIR slice values up to 1.5e-3 off (an indicator's
-/// error falls slowly), and one material of the 1,000 library 1.1e-3 off in the material.
-pub const TIR_LOBE_NODES: usize = 6;
 
 /// What a slice node is integrated with: the table's points (FGD), and TIR's lobe quadrature.
 pub struct NodePoints {
@@ -366,9 +353,7 @@ impl Kernel for Slices {
             ),
             SliceOf::Tir(_) => (
                 "TIR(mu, alpha; eta_k) = Σ G1(w) [1 - w.z^2 > eta_k^2] / Σ G1(w), w = reflect(wi, h), h ~ VNDF(wi), one channel per eta_k",
-                format!(
-                    "deterministic: Gauss–Legendre quadrature, {TIR_LOBE_NODES} nodes per panel, over the polar angles of w with its density D(h(w)) (panels graded from the mirror direction by alpha), each eta_k the share past its critical angle asin(eta_k)"
-                ),
+                lobe_quadrature_description(),
             ),
         };
         Metadata {

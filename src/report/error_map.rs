@@ -133,12 +133,12 @@ mod tests {
     #[test]
     fn maps_of_a_small_build_are_written_and_read_back() {
         use crate::config::{ReferenceConfig, SamplingConfig};
-        let settings = crate::recipes::tir::TirSettings {
+        let settings = crate::recipes::gd::GdSettings {
             mu_count: 6,
             alpha_count: 5,
-            eta_count: 9,
             sampling: SamplingConfig { samples: 1024, replicates: 4 },
             reference: ReferenceConfig { cells: 0, nodes: 8 },
+            interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 },
             ..Default::default()
         };
         let build = crate::recipes::driver::build(&settings, 1, &()).unwrap();
@@ -146,10 +146,21 @@ mod tests {
         let written = write_error_maps(dir.path(), &build).unwrap();
         assert_eq!(written.len(), 2);
         let map = crate::formats::exr::read_exr(&written[0]).unwrap();
-        assert_eq!(map.name, "tir_error");
+        assert_eq!(map.name, "gd_error");
         assert_eq!(map.axes, build.table.axes);
         assert_eq!(&map.data, build.provenance.standard_error.as_ref().unwrap());
         assert!(map.data.iter().any(|&s| s > 0.0) && map.data.iter().all(|s| s.is_finite() && *s >= 0.0));
         assert!(image::open(&written[1]).unwrap().width() > 0);
+        // A table integrated without random points has no replicate spread to map.
+        let tir = crate::recipes::tir::TirSettings {
+            mu_count: 6,
+            alpha_count: 5,
+            eta_count: 9,
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
+            interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 },
+            ..Default::default()
+        };
+        let build = crate::recipes::driver::build(&tir, 1, &()).unwrap();
+        assert!(write_error_maps(dir.path(), &build).unwrap().is_empty());
     }
 }

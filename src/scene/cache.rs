@@ -44,7 +44,7 @@ use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
 
 /// The layout of an entry and of what its key covers; a change to either, or to how a slice is
 /// integrated, changes it (and the crate's version is in every key besides).
-pub const CACHE_FORMAT: u32 = 6;
+pub const CACHE_FORMAT: u32 = 7;
 
 /// The extension of an entry.
 pub const ENTRY_EXTENSION: &str = "slice";
