@@ -76,13 +76,17 @@ pub fn summary(written: &[WrittenFile]) -> String {
         let reference = e.error.integration.reference.as_ref().map_or(String::new(), |r| {
             format!(", reference max |diff| {:.2e} ({} values)", r.difference.max, r.difference.count)
         });
+        // A table integrated by quadrature has no replicates to spread.
+        let spread = match e.samples_per_cell {
+            0 => "quadrature".to_string(),
+            _ => format!("replicate s.e. max {:.2e}", e.error.integration.replicate_standard_error.max),
+        };
         let _ = writeln!(
             out,
-            "{}  {} bytes  built in {:.2} s, replicate s.e. max {:.2e}{reference}",
+            "{}  {} bytes  built in {:.2} s, {spread}{reference}",
             file.path.display(),
             e.bytes,
             e.wall_time_s,
-            e.error.integration.replicate_standard_error.max,
         );
         for interpolation in &e.error.interpolation {
             let _ = writeln!(
@@ -168,7 +172,7 @@ pub fn write_jobs(
     let mut moves = Vec::new();
     let mut rebuilt = std::collections::BTreeSet::new();
     // Each table's files are written, hashed, read back for the interpolation check and (TIR)
-    // fitted on a thread of their own while the next table integrates: that work runs on one core
+    // fitted on a thread of their own while the next tables integrate: that work runs on one core
     // and would otherwise leave the integration's other core idle. Tables are still collected in
     // job order, so the staged files and the manifest do not depend on which finishes first.
     std::thread::scope(|scope| -> Result<()> {
@@ -183,20 +187,22 @@ pub fn write_jobs(
         let join = |writing: std::thread::ScopedJoinHandle<'_, Result<StagedFiles>>| {
             writing.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
         };
-        let mut writing = None;
+        let mut writing = std::collections::VecDeque::new();
         for job in jobs {
             let Job { run, output, packings, packing_formats, fit_seed, slice_array } = job;
             let build = run(progress)?;
             rebuilt.insert(build.table.name.clone());
-            if let Some(previous) = writing.take() {
-                collect(join(previous)?);
+            // A large table's files can take longer to write than the next small tables take to
+            // integrate: waiting for them would idle a core, so a few writings stay in flight.
+            if writing.len() == WRITINGS_IN_FLIGHT {
+                collect(join(writing.pop_front().expect("a writing is in flight"))?);
             }
             let (dir, maps) = (&staging.dir, &staged_maps);
             let files = JobFiles { build, output, packings, packing_formats, fit_seed, slice_array, error_maps };
-            writing = Some(scope.spawn(move || files.write(dir, maps)));
+            writing.push_back(scope.spawn(move || files.write(dir, maps)));
         }
-        if let Some(last) = writing {
-            collect(join(last)?);
+        for previous in writing {
+            collect(join(previous)?);
         }
         Ok(())
     })?;
@@ -234,6 +240,11 @@ pub fn write_jobs(
     crate::commit::commit(&folder, &mut staging, moves, removals)?;
     Ok(written)
 }
+
+/// Tables whose files are being written while the next one integrates: enough for the 4D FGD
+/// table's files to finish under the small tables after it, few enough that the tables held in
+/// memory stay bounded in a build of thousands of slices.
+const WRITINGS_IN_FLIGHT: usize = 3;
 
 /// One table as built and what its job asks to write of it ([`Job`]).
 struct JobFiles {
