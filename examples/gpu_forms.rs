@@ -33,9 +33,9 @@ use gpu::Comparison;
 /// Random points per form.
 const POINTS: usize = 10_000;
 /// The GPU against the CPU computing the same f32 operations: what is left is the difference of
-/// their transcendental functions (WGSL allows a few ulp more than correct rounding) and of
-/// `a * b + c` that a GPU compiler may fuse into one rounding (SPIR-V allows it; lavapipe's LLVM
-/// does), a few ulp of values of order 1.
+/// their transcendental functions (WGSL allows a few ulp more than correct rounding) and the
+/// intermediate roundings a GPU compiler fuses away (SPIR-V allows it for an operation not marked
+/// NoContraction, naga marks none, and Mesa's lavapipe does), a few ulp of values of order 1.
 ///
 /// Where a form amplifies rounding (a difference that cancels, then divides by a small width;
 /// `1 - c^2` near `c = 1`), one ulp apart in an operation is more than this apart in the value,
