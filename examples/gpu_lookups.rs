@@ -110,18 +110,8 @@ fn check_tir_fit(
     let form = FormEvaluator::from_definition(&fit.definition, &fit.parameter_names, &fit.parameters)
         .map_err(|e| format!("the fitted form `{}`: {e}", fit.form))?;
     let function = fit.shaders.iter().find(|s| s.language == "wgsl").ok_or("the fit lists no WGSL function")?;
-    let wgsl = format!(
-        "{}{}{}",
-        luts.shader(function)?,
-        gpu::BUFFERS,
-        gpu::entry_point(
-            "main",
-            3,
-            &format!("outputs[i] = {}(inputs[3u * i], inputs[3u * i + 1u], inputs[3u * i + 2u]);", function.function)
-        )
-    );
     let points: Vec<f32> = (0..3 * POINTS).map(|_| uniform([0.0, 1.0])).collect();
-    let on_gpu = gpu.run(&gpu.module(&wgsl), "main", &[], &points, POINTS, POINTS);
+    let on_gpu = gpu.run_form(&luts.shader(function)?, &function.function, 3, 1, &points);
     let on_cpu = points.chunks_exact(3).map(|p| form.eval_f64(&[p[0] as f64, p[1] as f64, p[2] as f64]));
     let comparison = Comparison::of(&on_gpu, on_cpu);
     println!(

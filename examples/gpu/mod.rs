@@ -2,6 +2,9 @@
 //! loader's texel bytes and descriptor, and one compute pass from an f32 input array to an f32
 //! output array.
 
+// Each example uses a part of these helpers: what one leaves out is not dead.
+#![allow(dead_code)]
+
 use tmlut::loader::{TextureData, TextureDimension, TextureFormat};
 
 pub struct Gpu {
@@ -11,10 +14,13 @@ pub struct Gpu {
     pub adapter: String,
 }
 
-/// GPU values against the CPU's: the largest difference and the GPU values that are not finite.
+/// GPU values against the CPU's: the largest difference, where it is, and the values (on either
+/// side) that are not finite.
 #[derive(Debug, Default)]
 pub struct Comparison {
     pub worst: f64,
+    /// The index of the value with the largest difference.
+    pub worst_at: usize,
     pub not_finite: usize,
     pub values: usize,
 }
@@ -30,11 +36,13 @@ impl Comparison {
     }
 
     fn add(&mut self, gpu: f32, cpu: f64) {
-        self.values += 1;
-        match gpu.is_finite() {
-            true => self.worst = self.worst.max((gpu as f64 - cpu).abs()),
-            false => self.not_finite += 1,
+        let difference = (gpu as f64 - cpu).abs();
+        if !gpu.is_finite() || !cpu.is_finite() {
+            self.not_finite += 1;
+        } else if difference > self.worst {
+            (self.worst, self.worst_at) = (difference, self.values);
         }
+        self.values += 1;
     }
 
     pub fn passes(&self, tolerance: f64) -> bool {
@@ -224,6 +232,32 @@ impl Gpu {
         device.poll(wgpu::PollType::wait_indefinitely()).expect("the GPU finishes the compute pass");
         let bytes = readback.get_mapped_range(..);
         bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+    }
+
+    /// The WGSL function `function` of a fitted form (`source`, its file), of `variables` f32
+    /// arguments, returning `channels` f32 values (`f32` for one, `vecN<f32>` for more), at each
+    /// point of `points` (`variables` values a point): `channels` values a point, in order.
+    pub fn run_form(
+        &self,
+        source: &str,
+        function: &str,
+        variables: usize,
+        channels: usize,
+        points: &[f32],
+    ) -> Vec<f32> {
+        let arguments: Vec<String> = (0..variables).map(|k| format!("inputs[{variables}u * i + {k}u]")).collect();
+        let call = format!("{function}({})", arguments.join(", "));
+        let body = match channels {
+            1 => format!("outputs[i] = {call};"),
+            _ => {
+                let stores: String =
+                    (0..channels).map(|c| format!(" outputs[{channels}u * i + {c}u] = r[{c}];")).collect();
+                format!("let r = {call};{stores}")
+            }
+        };
+        let wgsl = format!("{source}{BUFFERS}{}", entry_point("main", variables, &body));
+        let items = points.len() / variables;
+        self.run(&self.module(&wgsl), "main", &[], points, items, items * channels)
     }
 
     /// A WGSL module; wgpu (naga) reports an invalid one.

@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 
 use super::expr::{self, BinOp, ExprError, Node};
-use super::tape::{Ins, MAX_INTEGER_POWER, Tape};
+use super::tape::{Ins, MAX_INTEGER_POWER, Scalar, Tape};
 
 /// The exponent of `x ^ n` when `n` is an integer literal small enough to multiply out.
 pub fn integer_exponent(node: &Node) -> Option<i32> {
@@ -139,23 +139,27 @@ impl FormEvaluator {
         Ok(FormEvaluator::new(scope.tape, variables, parameters))
     }
 
-    /// The first channel at one point, the variables in [`FormEvaluator::variables`] order.
-    pub fn eval(&self, point: &[f64]) -> f64 {
+    /// Every channel at one point, in the definition's channel order, the variables in
+    /// [`FormEvaluator::variables`] order, computed in `T` with the parameters as the shader holds
+    /// them (rounded to f32): in f32 the shader's own operations in its order, in f64 a reference
+    /// for them.
+    pub fn channels<T: Scalar>(&self, point: &[T]) -> Vec<T> {
         let mut scratch = Vec::with_capacity(self.tape.ins.len());
-        let mut out = vec![0.0f32; self.tape.outputs.len()];
-        let point: Vec<f32> = point.iter().map(|&v| v as f32).collect();
-        self.tape.eval(&point, &self.parameters, &mut scratch, &mut out);
-        f64::from(out[0])
+        let mut out = vec![T::of(0.0); self.tape.outputs.len()];
+        let parameters: Vec<T> = self.parameters.iter().map(|&v| T::of(f64::from(v))).collect();
+        self.tape.eval(point, &parameters, &mut scratch, &mut out);
+        out
     }
 
-    /// The first channel at one point evaluated in f64, with the parameters as the shader holds
-    /// them (rounded to f32): a reference for the f32 shader.
+    /// The first channel at one point in f32, the variables in [`FormEvaluator::variables`] order.
+    pub fn eval(&self, point: &[f64]) -> f64 {
+        let point: Vec<f32> = point.iter().map(|&v| v as f32).collect();
+        f64::from(self.channels(&point)[0])
+    }
+
+    /// The first channel at one point evaluated in f64 ([`FormEvaluator::channels`]).
     pub fn eval_f64(&self, point: &[f64]) -> f64 {
-        let mut scratch = Vec::with_capacity(self.tape.ins.len());
-        let mut out = vec![0.0f64; self.tape.outputs.len()];
-        let parameters: Vec<f64> = self.parameters.iter().map(|&v| f64::from(v)).collect();
-        self.tape.eval(point, &parameters, &mut scratch, &mut out);
-        out[0]
+        self.channels(point)[0]
     }
 
     /// `TIR(mu, alpha, eta)` of a form of the TIR table's variables.

@@ -228,6 +228,19 @@ impl Region {
         Ok(Region { ranges: ranges.to_vec(), weights: weights.clone(), bounds, weighting, weights_description })
     }
 
+    /// The box the region spans in each of the form's `variables` on `table`: the table's range
+    /// of each ([`variable_range`]) narrowed by the ranges (a `roughness` range bounds `alpha` by
+    /// its squares).
+    pub fn extent(&self, table: &Table, variables: &[String]) -> Vec<(f64, f64)> {
+        let mut extent: Vec<(f64, f64)> = variables.iter().map(|v| variable_range(table, v)).collect();
+        for b in &self.bounds {
+            let (lo, hi) = if b.sqrt { (b.lo * b.lo, b.hi * b.hi) } else { (b.lo, b.hi) };
+            let range = &mut extent[b.variable];
+            *range = (range.0.max(lo), range.1.min(hi));
+        }
+        extent
+    }
+
     /// Whether the point (in the form's variables) lies inside every range.
     pub fn contains(&self, point: &[f64]) -> bool {
         self.bounds.iter().all(|b| {

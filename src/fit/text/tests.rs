@@ -653,3 +653,27 @@ fn a_folder_of_forms_is_fitted_over_a_region_with_weights_and_timed() {
     assert!(text.contains("Region: mu in [0, 0.5]; weights: cosine"), "{text}");
     assert!(text.contains("weighted RMS") && text.contains("ns, form / lookup"), "{text}");
 }
+
+#[test]
+fn every_channel_evaluates_in_f32_as_the_shader_orders_it_and_in_f64() {
+    let form = parse(GOOD).unwrap();
+    let evaluator = FormEvaluator::new(form.tape.clone(), form.variables.clone(), &[0.5, 2.0]);
+    let (mu, alpha) = (0.3f32, 0.7f32);
+    let in_f32 = evaluator.channels(&[mu, alpha]);
+    assert_eq!(in_f32, vec![1.0 - 0.5 * alpha.sqrt() * mu, 0.1 * (1.0 - mu).powf(2.0)]);
+    let (mu, alpha) = (f64::from(mu), f64::from(alpha));
+    let in_f64 = evaluator.channels(&[mu, alpha]);
+    assert_eq!(in_f64, vec![1.0 - 0.5 * alpha.sqrt() * mu, 0.1 * (1.0 - mu).powf(2.0)]);
+    assert_eq!((evaluator.eval(&[mu, alpha]), evaluator.eval_f64(&[mu, alpha])), (f64::from(in_f32[0]), in_f64[0]));
+}
+
+#[test]
+fn a_region_s_extent_is_the_table_s_ranges_narrowed_by_its_own() {
+    let (exact, form) = (table(), parse(GOOD).unwrap());
+    let extent =
+        |ranges: &[&str]| region(ranges, WeightsSpec::Uniform, &exact, &form).unwrap().extent(&exact, &form.variables);
+    assert_eq!(form.variables, ["mu", "alpha"]);
+    assert_eq!(extent(&[]), [(0.0, 1.0), (0.0, 1.0)]);
+    // roughness = sqrt(alpha): its range bounds alpha by the squares.
+    assert_eq!(extent(&["mu=0.25:1", "roughness=0.5:0.75"]), [(0.25, 1.0), (0.25, 0.5625)]);
+}
