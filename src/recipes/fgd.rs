@@ -408,10 +408,8 @@ pub(crate) fn mu_alpha_measures(
     basis: HatBasis,
     progress: &dyn Progress,
 ) -> std::sync::Arc<Vec<CosineMeasure>> {
-    type Key = (Vec<u64>, Vec<u64>, MaskingShadowing, usize, crate::sampling::sequence::SamplePlan, u64);
-    static LAST: std::sync::Mutex<Option<(Key, std::sync::Arc<Vec<CosineMeasure>>)>> = std::sync::Mutex::new(None);
     let bits = |axis: &Axis| axis.node_values().iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
-    let key: Key = (bits(mu_axis), bits(alpha_axis), masking, basis.intervals, points.plan(), points.seed());
+    let key: MeasuresKey = (bits(mu_axis), bits(alpha_axis), masking, basis.intervals, points.plan(), points.seed());
     // A panic elsewhere while the lock was held leaves at worst a complete set or none.
     if let Some((_, measures)) =
         LAST.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).as_ref().filter(|(k, _)| *k == key)
@@ -425,6 +423,16 @@ pub(crate) fn mu_alpha_measures(
     }));
     *LAST.lock().unwrap_or_else(|poisoned| poisoned.into_inner()) = Some((key, measures.clone()));
     measures
+}
+
+type MeasuresKey = (Vec<u64>, Vec<u64>, MaskingShadowing, usize, crate::sampling::sequence::SamplePlan, u64);
+/// The measures [`mu_alpha_measures`] built last, with what they depend on.
+static LAST: std::sync::Mutex<Option<(MeasuresKey, std::sync::Arc<Vec<CosineMeasure>>)>> = std::sync::Mutex::new(None);
+
+/// Drop the measures [`mu_alpha_measures`] keeps, so that the next build estimates its own (a
+/// benchmark times each build from scratch).
+pub fn forget_kept_measures() {
+    *LAST.lock().unwrap_or_else(|poisoned| poisoned.into_inner()) = None;
 }
 
 /// The fast path: measures, projected Fresnel, one matrix product. Returns the replicate spread

@@ -11,9 +11,9 @@ use std::time::Instant;
 use crate::config::{Config, TableKind};
 use crate::error::Result;
 use crate::integrate::{Progress, estimate_cells};
+use crate::recipes::driver::TableBuild;
 use crate::recipes::{TableRecipe, random_cells, reference_points, table_points};
 use crate::stats::ErrorSummary;
-use crate::table::Table;
 
 /// What to measure.
 #[derive(Debug, Clone)]
@@ -43,6 +43,7 @@ impl Default for BenchSettings {
 pub struct BenchRow {
     pub table: String,
     pub nodes: usize,
+    /// Points per sampled cell of the fast build; 0 where it integrates by quadrature (TIR).
     pub samples_per_cell: u64,
     /// Cells that are sampled (`(mu, alpha)` pairs for the fast path).
     pub sampled_cells: usize,
@@ -86,14 +87,17 @@ pub fn bench_table(
     progress: &dyn Progress,
 ) -> Result<BenchRow> {
     let mut fast_seconds = Vec::new();
-    let mut table: Option<Table> = None;
+    let mut last: Option<TableBuild> = None;
     for _ in 0..settings.repeats.max(1) {
+        // Every build from scratch: FGD and fgd_rarer would otherwise take the measures the last
+        // build kept.
+        crate::recipes::fgd::forget_kept_measures();
         let started = Instant::now();
         let build = recipe.build(seed, progress)?;
         fast_seconds.push(started.elapsed().as_secs_f64());
-        table = Some(build.table);
+        last = Some(build);
     }
-    let table = table.expect("at least one build");
+    let TableBuild { table, provenance } = last.expect("at least one build");
 
     // Nodes away from grazing and from a smooth surface, drawn reproducibly.
     let mut nodes: Vec<u64> = Vec::new();
@@ -143,7 +147,7 @@ pub fn bench_table(
     Ok(BenchRow {
         table: recipe.name().to_string(),
         nodes: table.node_count(),
-        samples_per_cell: recipe.sampling().samples,
+        samples_per_cell: provenance.sampling.samples_per_cell,
         sampled_cells: table.axes[0].count * table.axes[1].count,
         fast_seconds,
         fast_error,
@@ -182,14 +186,16 @@ pub fn markdown(rows: &[BenchRow], settings: &BenchSettings, threads: usize) -> 
     );
     let _ = writeln!(out, "|---|---:|---:|---:|---:|---|---|---:|---:|");
     for r in rows {
+        let (samples, rate) = match r.samples_per_cell {
+            0 => ("quadrature".to_string(), "-".to_string()),
+            samples => (samples.to_string(), format!("{:.2e}", r.fast_samples_per_s())),
+        };
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {:.2} | {:.2e} | {:.1e} / {:.1e} ({} values) | {:.1e} / {:.1e} (fast: {:.1e} / {:.1e}, {} values) | {:.0} | {:.0}x |",
+            "| {} | {} | {samples} | {:.2} | {rate} | {:.1e} / {:.1e} ({} values) | {:.1e} / {:.1e} (fast: {:.1e} / {:.1e}, {} values) | {:.0} | {:.0}x |",
             r.table,
             r.nodes,
-            r.samples_per_cell,
             r.fast_median_s(),
-            r.fast_samples_per_s(),
             r.fast_error.rms,
             r.fast_error.max,
             r.fast_error.count,
