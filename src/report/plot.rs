@@ -52,9 +52,13 @@ fn write_png(path: &Path, rgb: Vec<u8>, (width, height): (u32, u32)) -> Result<(
     write_bytes_atomically(path, &bytes)
 }
 
-/// The colour of `log10(v)` on `[lo, hi]` (viridis); zero and negative values are grey.
+/// The colour of `log10(v)` on `[lo, hi]` (viridis); zero and negative values are grey, NaN (no
+/// value: outside what was computed) white.
 fn colour_of(v: f64, lo: f64, hi: f64) -> RGBColor {
-    if v.is_nan() || v <= 0.0 {
+    if v.is_nan() {
+        return RGBColor(255, 255, 255);
+    }
+    if v <= 0.0 {
         return RGBColor(150, 150, 150);
     }
     let t = if hi > lo { ((v.log10() - lo) / (hi - lo)).clamp(0.0, 1.0) } else { 0.5 };
@@ -63,7 +67,7 @@ fn colour_of(v: f64, lo: f64, hi: f64) -> RGBColor {
 
 /// Heatmaps side by side in a grid of `columns`, sharing one logarithmic colour bar labelled
 /// `quantity` (at most six decades, down from the largest value). Values of 0 (exact cells) are
-/// drawn grey. Grids of more than 16 panels draw them small, without axes: say in `title` what
+/// drawn grey, NaN (cells without a value, such as those outside a fit's range) white. Grids of more than 16 panels draw them small, without axes: say in `title` what
 /// the axes are.
 pub fn heatmaps_png(path: &Path, title: &str, quantity: &str, panels: &[Panel], columns: usize) -> Result<()> {
     ensure_font();
@@ -143,6 +147,10 @@ pub fn heatmaps_png(path: &Path, title: &str, quantity: &str, panels: &[Panel], 
             .map_err(|e| plot_error(path, e))?;
         bar.draw(&Text::new("grey: 0 (exact)", (5, (height - 70) as i32), (FONT, 11)))
             .map_err(|e| plot_error(path, e))?;
+        if panels.iter().any(|p| p.values.iter().any(|v| v.is_nan())) {
+            bar.draw(&Text::new("white: no value", (5, (height - 56) as i32), (FONT, 11)))
+                .map_err(|e| plot_error(path, e))?;
+        }
         root.present().map_err(|e| plot_error(path, e))?;
     }
     write_png(path, rgb, (width, height))

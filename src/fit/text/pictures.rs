@@ -44,7 +44,7 @@ pub fn histogram(values: &[f64], bins: usize) -> ((f64, f64), Vec<usize>) {
 /// node of the table's first two axes, the max over the other axes (a table of one axis gives one
 /// row). Where the data is a uniform grid over the form's variables (a table with a derived axis),
 /// the map is over the form's first two variables on that grid instead. Cells with no point in the
-/// fit's ranges stay 0 (grey).
+/// fit's ranges are NaN, drawn apart from exact ones (0, grey): the form was not fitted there.
 pub fn error_panel(table: &Table, data: &FormData, residuals: &[f64], channel: usize) -> Panel {
     let channels = data.channels.len().max(1);
     let (x, y, nx, ny) = if data.on_table_nodes {
@@ -65,7 +65,7 @@ pub fn error_panel(table: &Table, data: &FormData, residuals: &[f64], channel: u
             if y.is_some() { n } else { 1 },
         )
     };
-    let mut values = vec![0.0f64; nx * ny];
+    let mut values = vec![f64::NAN; nx * ny];
     for n in 0..data.len() {
         // The point's place among all the table's nodes (or grid points): a range keeps some.
         let number = data.index[n];
@@ -77,6 +77,7 @@ pub fn error_panel(table: &Table, data: &FormData, residuals: &[f64], channel: u
         };
         let e = residuals[n * channels + channel].abs();
         let cell = &mut values[i + nx * j];
+        // `max` takes the number over a cell's NaN: the first point of a cell sets it.
         *cell = cell.max(e);
     }
     Panel { title: format!("channel `{}`", data.channels[channel]), x: (x, 0.0, 1.0), y: (y, 0.0, 1.0), nx, ny, values }

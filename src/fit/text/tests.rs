@@ -442,6 +442,18 @@ fn the_error_map_is_the_largest_error_at_each_node_of_the_first_two_axes() {
         assert_eq!(panel.values[index[0] + 8 * index[1]], residuals[2 * n + 1].abs());
     }
     assert!(panel.x.0.starts_with("mu") && panel.y.0.starts_with("alpha"), "{:?}", (&panel.x, &panel.y));
+    // With a range, the nodes outside it have no value (not an exact 0).
+    let region = region(&["mu=0:0.5"], WeightsSpec::Uniform, &table, &form).unwrap();
+    let kept = FormData::from_table_in(&table, &form, &region).unwrap();
+    let residuals = super::fitting::residuals(&form, &kept, &[0.5, 1.0]).unwrap();
+    let panel = pictures::error_panel(&table, &kept, &residuals, 1);
+    for j in 0..8 {
+        for i in 0..8 {
+            let mu = table.axes[0].node_value(i);
+            let value = panel.values[i + 8 * j];
+            assert_eq!(value.is_nan(), mu > 0.5, "mu {mu}: {value}");
+        }
+    }
 }
 
 /// One constant per channel, for fits whose optimum is a (weighted) mean.
