@@ -1573,4 +1573,16 @@ fn an_unchanged_scene_build_is_restored_whole_from_the_cache_and_a_damaged_one_i
     let output = build(&config, &other, &args);
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(stderr(&output).contains("which that build did not write"), "{}", stderr(&output));
+    // A scene's warnings are its own, not the build's: a restored build states them too.
+    let warned = dir.path().join("warned.toml");
+    let text = std::fs::read_to_string(&scene).unwrap()
+        + "\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n";
+    std::fs::write(&warned, text).unwrap();
+    let warned_args = ["--scene", warned.to_str().unwrap(), "--cache", cache.to_str().unwrap()];
+    for (out, restored) in [("warned-first", false), ("warned-second", true)] {
+        let output = build(&config, &dir.path().join(out), &warned_args);
+        assert!(output.status.success(), "{}", stderr(&output));
+        assert_eq!(stdout(&output).contains("restored whole"), restored, "{out}: {}", stdout(&output));
+        assert!(stderr(&output).contains("below the opaque conductor"), "{out}: {}", stderr(&output));
+    }
 }

@@ -139,6 +139,10 @@ pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut
         let started = std::time::Instant::now();
         match cache::restore_build(cache, key, &request.out, |message| eprintln!("{message}"))? {
             Ok(restored) => {
+                // The scene's own warnings, which a planned build prints with its plan.
+                for warning in &request.scene.warnings {
+                    eprintln!("warning: {warning}");
+                }
                 println!(
                     "{} materials: restored whole from the table cache {} (build {}): {} files ({}), every one verified by its SHA-256; {:.2} s",
                     request.scene.materials.len(),
