@@ -241,7 +241,7 @@ pub fn write_jobs(
     Ok(written)
 }
 
-/// Tables whose files are being written while the next one integrates: enough for the 4D FGD
+/// Tables whose files are being written while the next ones integrate: enough for the 4D FGD
 /// table's files to finish under the small tables after it, few enough that the tables held in
 /// memory stay bounded in a build of thousands of slices.
 const WRITINGS_IN_FLIGHT: usize = 3;

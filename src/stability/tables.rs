@@ -299,7 +299,7 @@ fn gd(evaluation: &Evaluation, report: &mut Report) {
 /// deviation is O(alpha) plus the sampling error of a half-split (4 standard errors of 2^12 samples).
 const LIMIT_HALF_TOLERANCE: f64 = 0.01;
 
-/// The fast path (exact to 1e-6) against Monte Carlo with [`SAMPLES`] points: up to 1.8e-3 at the
+/// The fast path (exact to 2e-6) against Monte Carlo with [`SAMPLES`] points: up to 1.8e-3 at the
 /// normal view of the roughest lobe, where the replicates' spread (6e-6) understates the error.
 const TIR_MONTE_CARLO_TOLERANCE: f64 = 5e-3;
 /// The lobe quadrature against the quadrature over microfacet normals (16 nodes per panel): two
