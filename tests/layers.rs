@@ -5,8 +5,9 @@
 //! path. `docs/architecture.md` explains the order.
 //!
 //! A unit is a module or a file path under `src/` (`report/plot`); a file belongs to the unit of
-//! its longest matching prefix. Test code (`tests.rs`, `*_tests.rs`, `proptests.rs` and everything
-//! from `#[cfg(test)]` on) may use any layer.
+//! its longest matching prefix. Test code (`tests.rs`, `*_tests.rs`, `proptests.rs` and the items
+//! under `#[cfg(test)]`, such as a `mod tests { ... }` or a test-only helper) may use any layer;
+//! the code around such an item is read.
 
 use std::path::{Path, PathBuf};
 
@@ -77,13 +78,179 @@ fn source_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// The code of a file without comments and test sections.
+/// The code of a file without its comments, the contents of its string and character literals,
+/// and its test-only items (those under `#[cfg(test)]` or `#[cfg(all(test, ...))]`); the code after
+/// a test-only item is kept.
 fn library_code(text: &str) -> String {
-    let text = match text.find("#[cfg(test)]") {
-        Some(at) => &text[..at],
-        None => text,
+    strip_test_items(&strip_comments_and_literals(text))
+}
+
+/// `text` without its comments (`//` to the end of the line, nested `/* */`) and with its string,
+/// raw string and character literals emptied (`"..."` becomes `""`), so that neither a comment
+/// nor a literal's `//`, braces, quotes or `crate::` can be taken for code. Lifetimes (`'a`) stay.
+fn strip_comments_and_literals(text: &str) -> String {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    let ident = |c: char| c.is_alphanumeric() || c == '_';
+    while i < chars.len() {
+        let c = chars[i];
+        let next = chars.get(i + 1).copied();
+        if c == '/' && next == Some('/') {
+            while i < chars.len() && chars[i] != '\n' {
+                i += 1;
+            }
+        } else if c == '/' && next == Some('*') {
+            let mut depth = 0;
+            while i < chars.len() {
+                if chars[i] == '/' && chars.get(i + 1) == Some(&'*') {
+                    depth += 1;
+                    i += 2;
+                } else if chars[i] == '*' && chars.get(i + 1) == Some(&'/') {
+                    depth -= 1;
+                    i += 2;
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    if chars[i] == '\n' {
+                        out.push('\n');
+                    }
+                    i += 1;
+                }
+            }
+            out.push(' ');
+        } else if c == 'r'
+            && (i == 0 || !ident(chars[i - 1]) || (chars[i - 1] == 'b' && (i == 1 || !ident(chars[i - 2]))))
+            && matches!(next, Some('"' | '#'))
+            && chars[i + 1..].iter().find(|&&c| c != '#') == Some(&'"')
+        {
+            // A raw string: `r"..."`, `r#"..."#`, `br##"..."##`; no escapes.
+            let hashes = chars[i + 1..].iter().take_while(|&&c| c == '#').count();
+            i += 1 + hashes + 1;
+            while i < chars.len() {
+                if chars[i] == '"' && chars[i + 1..].iter().take(hashes).filter(|&&c| c == '#').count() == hashes {
+                    i += 1 + hashes;
+                    break;
+                }
+                i += 1;
+            }
+            out.push_str("r\"\"");
+        } else if c == '"' {
+            i += 1;
+            while i < chars.len() && chars[i] != '"' {
+                i += if chars[i] == '\\' { 2 } else { 1 };
+            }
+            i += 1;
+            out.push_str("\"\"");
+        } else if c == '\'' && (next == Some('\\') || chars.get(i + 2) == Some(&'\'')) {
+            // A character literal (`'x'`, `'\n'`, `'\u{7d}'`); `'a` without a closing quote is a
+            // lifetime or a label.
+            i += 1;
+            while i < chars.len() && chars[i] != '\'' {
+                i += if chars[i] == '\\' { 2 } else { 1 };
+            }
+            i += 1;
+            out.push_str("' '");
+        } else {
+            out.push(c);
+            i += 1;
+        }
+    }
+    out
+}
+
+/// Whether an attribute's text (`#[cfg(test)]`, `#[cfg(all(test, feature = "x"))]`) makes the
+/// item under it test-only.
+fn is_test_only(attribute: &str) -> bool {
+    let inner: String = attribute.chars().filter(|c| !c.is_whitespace()).collect();
+    let Some(condition) = inner.strip_prefix("#[cfg(").and_then(|rest| rest.strip_suffix(")]")) else {
+        return false;
     };
-    text.lines().map(|line| line.split("//").next().unwrap_or_default()).collect::<Vec<_>>().join("\n")
+    if condition == "test" {
+        return true;
+    }
+    // `all(...)` with `test` among its own arguments; `any(test, ...)` and `not(test)` are not
+    // test-only.
+    let Some(arguments) = condition.strip_prefix("all(").and_then(|rest| rest.strip_suffix(')')) else {
+        return false;
+    };
+    let mut depth = 0;
+    let mut start = 0;
+    let mut parts = Vec::new();
+    for (at, c) in arguments.char_indices() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            ',' if depth == 0 => {
+                parts.push(&arguments[start..at]);
+                start = at + 1;
+            }
+            _ => {}
+        }
+    }
+    parts.push(&arguments[start..]);
+    parts.contains(&"test")
+}
+
+/// The end (exclusive) of the bracketed group opening at `open` (`[`, `(` or `{`), or the end of
+/// `code` if it is not closed. `code` has no comments or literal contents.
+fn group_end(code: &[char], open: usize) -> usize {
+    let mut depth = 0;
+    for (at, &c) in code.iter().enumerate().skip(open) {
+        match c {
+            '(' | '[' | '{' => depth += 1,
+            ')' | ']' | '}' => {
+                depth -= 1;
+                if depth == 0 {
+                    return at + 1;
+                }
+            }
+            _ => {}
+        }
+    }
+    code.len()
+}
+
+/// `code` (without comments or literal contents) without its test-only items: each attribute
+/// that makes an item test-only, the attributes beside it, and the item up to its `;` or `,`, or
+/// through the `}` that closes its body (`mod tests { ... }`, a `fn`, an `impl`). The code after
+/// the item stays.
+fn strip_test_items(code: &str) -> String {
+    let chars: Vec<char> = code.chars().collect();
+    let mut out = String::with_capacity(code.len());
+    let mut i = 0;
+    while i < chars.len() {
+        if chars[i] == '#' && chars.get(i + 1) == Some(&'[') {
+            let end = group_end(&chars, i + 1);
+            let attribute: String = chars[i..end].iter().collect();
+            if is_test_only(&attribute) {
+                i = item_end(&chars, end);
+                out.push(' ');
+                continue;
+            }
+        }
+        out.push(chars[i]);
+        i += 1;
+    }
+    out
+}
+
+/// The end (exclusive) of the item that starts at `start`, after an attribute: further attributes,
+/// then everything up to a `;` or `,` outside brackets, or through the first `{ ... }` outside
+/// brackets, or up to a closing bracket of the code around the item.
+fn item_end(code: &[char], start: usize) -> usize {
+    let mut i = start;
+    while i < code.len() {
+        match code[i] {
+            ';' | ',' => return i + 1,
+            '{' => return group_end(code, i),
+            '(' | '[' => i = group_end(code, i),
+            ')' | ']' | '}' => return i,
+            _ => i += 1,
+        }
+    }
+    code.len()
 }
 
 /// The module paths a file names: `crate::a::b::C` gives `a/b/C`; `super::x` is resolved against
@@ -180,5 +347,62 @@ fn every_top_level_module_has_a_layer() {
         if let Some(name) = line.trim().strip_prefix("pub mod ").and_then(|rest| rest.strip_suffix(';')) {
             assert!(unit_of(name).is_some(), "module `{name}` of lib.rs is in no layer of tests/layers.rs");
         }
+    }
+}
+
+#[test]
+fn library_code_drops_comments_literals_and_test_items_only() {
+    let text = r####"//! Docs naming crate::docs.
+#[cfg(test)]
+mod tests;
+
+use crate::x::Y; // a comment naming crate::comment
+/* a block /* nested */ naming crate::block */
+const S: &str = "// crate::in_string { \" }";
+const C: char = '{';
+#[cfg(test)]
+#[allow(dead_code)]
+fn helper<'a>(s: &'a str) -> [u8; 2] { let _ = "{"; [0; 2] }
+pub fn f<'a>(s: &'a str) -> &'a str { let _ = '}'; crate::after_helper::g(s) }
+struct P {
+    #[cfg(test)]
+    probe: crate::probe::Probe,
+    kept_field: crate::field::F,
+}
+#[cfg(test)]
+mod tests {
+    use crate::test_only;
+    fn g() { let s = "}"; let r = r#"}"#; let c = '}'; if true { crate::nested(); } }
+}
+#[cfg(all(test, feature = "generator"))]
+mod more_tests;
+#[cfg(any(test, feature = "x"))]
+use crate::kept;
+#[cfg(not(test))]
+use crate::not_test;
+pub fn last() { crate::end::h(); }
+"####;
+    let code = library_code(text);
+    assert_eq!(
+        named_paths(&code, "m"),
+        ["x/Y", "after_helper/g", "field/F", "kept", "not_test", "end/h"],
+        "the library code read:\n{code}"
+    );
+    for gone in [
+        "mod tests",
+        "more_tests",
+        "fn helper",
+        "probe",
+        "test_only",
+        "nested",
+        "in_string",
+        "comment",
+        "block",
+        "docs",
+    ] {
+        assert!(!code.contains(gone), "`{gone}` left in:\n{code}");
+    }
+    for kept in ["struct P {", "kept_field", "pub fn f<'a>(s: &'a str)", "pub fn last()"] {
+        assert!(code.contains(kept), "`{kept}` lost from:\n{code}");
     }
 }
