@@ -1506,7 +1506,7 @@ fn converge_answers_a_target_error_and_refuses_a_bad_one() {
     let out = dir.path().join("reports");
     let (config, out) = (config.to_str().unwrap(), out.to_str().unwrap());
     let sweep = ["converge", "gd", "-q", "--config", config, "--out", out, "--samples-from", "256"];
-    let small = ["--samples-to", "1024", "--cells", "4", "--reference-samples", "16384"];
+    let small = ["--samples-to", "1024", "--cells", "4", "--nodes-to", "4", "--reference-nodes", "32"];
     for bad in ["0", "-1e-4", "NaN", "abc"] {
         let output = tmlut(&[&sweep[..], &small, &["--target-error", bad]].concat());
         assert_clean_failure(&output, &["--target-error", "allowed: a positive, finite RMS error"]);

@@ -8,9 +8,10 @@ use tmlut::report::converge;
 
 use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count};
 
-/// Error against run time: sweep the samples per cell (powers of two) for the fast build and
-/// the per-cell method, measure error on a fixed random subset against high-sample references,
-/// and write converge_TABLE.csv and converge_TABLE.png (log-log, one line per method).
+/// Error against run time: sweep the samples per cell (powers of two) for the fast build and the
+/// per-cell Monte Carlo method, and the Gauss–Legendre nodes per panel of the per-cell quadrature;
+/// measure error on a fixed random subset of cells against the exact integral, and write
+/// converge_TABLE.csv and converge_TABLE.png (log-log, one line per method, every point labelled).
 #[derive(Args)]
 pub struct ConvergeArgs {
     /// The table to sweep.
@@ -29,12 +30,20 @@ pub struct ConvergeArgs {
     /// Cells of the fixed random subset the error is measured on.
     #[arg(long, default_value_t = 64)]
     cells: usize,
-    /// Samples per reference cell (a power of two).
-    #[arg(long, default_value_t = 1 << 20)]
-    reference_samples: u64,
-    /// After the sweep, answer for each method how many samples per cell give this RMS error
-    /// (a positive number, e.g. 1e-4): the smallest swept count that reaches it, or one
-    /// extrapolated from the last points' log-log slope (said so). Also writes converge_TABLE.json.
+    /// Smallest and largest Gauss–Legendre nodes per panel of the per-cell quadrature (the counts
+    /// 2, 3, 4, 6, 8, 12, 16, 24, 32, 48 between them), each below --reference-nodes.
+    #[arg(long, default_value_t = 2)]
+    nodes_from: usize,
+    #[arg(long, default_value_t = 32)]
+    nodes_to: usize,
+    /// Gauss–Legendre nodes per panel of each reference cell: the exact integral, by the
+    /// deterministic quadrature (2 to 64).
+    #[arg(long, default_value_t = 64)]
+    reference_nodes: usize,
+    /// After the sweep, answer for each method how many samples per cell (or, for the quadrature,
+    /// nodes per panel) give this RMS error (a positive number, e.g. 1e-4): the smallest swept
+    /// count that reaches it, or for Monte Carlo one extrapolated from the last points' log-log
+    /// slope (said so). Also writes converge_TABLE.json.
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     target_error: Option<String>,
     #[command(flatten)]
@@ -45,11 +54,7 @@ pub fn exec(args: ConvergeArgs, context: &Context) -> tmlut::Result<()> {
     let target = args.target_error.as_deref().map(converge::parse_target_error).transpose()?;
     let config = args.config.load()?;
     args.threads.apply()?;
-    for (key, n) in [
-        ("--samples-from", args.samples_from),
-        ("--samples-to", args.samples_to),
-        ("--reference-samples", args.reference_samples),
-    ] {
+    for (key, n) in [("--samples-from", args.samples_from), ("--samples-to", args.samples_to)] {
         check_sample_count(key, n)?;
     }
     // Every cell is a reference integral and one per-cell run per sample count.
@@ -61,10 +66,22 @@ pub fn exec(args: ConvergeArgs, context: &Context) -> tmlut::Result<()> {
         ));
     }
     let samples = (args.samples_from.trailing_zeros()..=args.samples_to.trailing_zeros()).map(|k| 1u64 << k).collect();
-    let settings = converge::ConvergeSettings { samples, cells: args.cells, reference_samples: args.reference_samples };
+    if args.nodes_from > args.nodes_to {
+        return Err(tmlut::Error::invalid(
+            "--nodes-from/--nodes-to",
+            format!("{} > {}; allowed: nodes-from <= nodes-to", args.nodes_from, args.nodes_to),
+        ));
+    }
+    let settings = converge::ConvergeSettings {
+        samples,
+        nodes: converge::node_counts(args.nodes_from, args.nodes_to),
+        cells: args.cells,
+        reference_nodes: args.reference_nodes,
+    };
+    settings.validate()?;
     let points = converge::converge(&config, &args.table, &settings, &context.progress())?;
     print!("{}", converge::csv(&points));
-    let answers = target.map(|e| converge::target_answers(&points, e, &settings)).unwrap_or_default();
+    let answers = target.map(|e| converge::target_answers(&points, e)).unwrap_or_default();
     for answer in &answers {
         println!("{}", answer.line());
     }

@@ -1,8 +1,11 @@
-//! `tmlut converge TABLE`: error against run time. For a sweep of sample counts (powers of two),
-//! the fast build of the whole table and the per-cell method are timed and their error measured on
-//! one fixed random subset of cells against high-sample per-cell references; the replicate spread
-//! is recorded beside it. The per-cell method is timed on the subset and its whole-table time
-//! extrapolated (the 64^4 table would take hours per point), which the CSV says in its `wall` column.
+//! `tmlut converge TABLE`: error against run time. On one fixed random subset of cells, three ways
+//! to make the table are timed and their error measured against the exact integral (the
+//! deterministic visible-normal quadrature at `reference_nodes` Gauss–Legendre nodes per panel):
+//! the fast build of the whole table and the per-cell Monte Carlo method over a sweep of sample
+//! counts (powers of two), and the per-cell quadrature over a sweep of node counts. Per-cell times
+//! are measured on the subset and extrapolated to the whole table (the 64^4 table would take
+//! hours per point), which the CSV says in its `wall` column. A fast build that is itself a
+//! quadrature (TIR's) does not depend on samples: it is built and measured once.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -14,39 +17,105 @@ use super::plot::{Series, loglog_labelled_png};
 use crate::config::{Config, SamplingConfig, TableKind};
 use crate::error::{Error, Result};
 use crate::formats::write_bytes_atomically;
+use crate::integrate::quadrature::{NODES, VisibleNormalQuadrature};
 use crate::integrate::{Progress, estimate_cells};
-use crate::recipes::{random_cells, reference_points, table_points};
+use crate::recipes::{random_cells, table_points};
 use crate::sampling::sequence::PointSet;
 use crate::stats::ErrorSummary;
+
+/// The fast build of the whole table.
+pub const FAST: &str = "fast";
+/// The per-cell Monte Carlo estimator, timed on the subset.
+pub const PER_CELL: &str = "per-cell";
+/// The per-cell quadrature at a node count, timed on the subset.
+pub const QUADRATURE: &str = "quadrature";
+
+/// The node counts a quadrature sweep takes between its ends: each power of two and the count
+/// halfway to the next (1.5 times it), so that the sweep shows the rule's fast fall without a
+/// point per integer.
+pub const NODE_STEPS: [usize; 11] = [2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64];
+
+/// The swept node counts from `from` to `to`, both included where they are steps.
+pub fn node_counts(from: usize, to: usize) -> Vec<usize> {
+    NODE_STEPS.iter().copied().filter(|&n| n >= from && n <= to).collect()
+}
 
 /// What to sweep.
 #[derive(Debug, Clone)]
 pub struct ConvergeSettings {
     /// Sample counts per cell, each a power of two.
     pub samples: Vec<u64>,
+    /// Gauss–Legendre nodes per panel of the per-cell quadrature; each below `reference_nodes`.
+    pub nodes: Vec<usize>,
     /// Cells of the fixed subset the error is measured on.
     pub cells: usize,
-    /// Samples of each reference cell.
-    pub reference_samples: u64,
+    /// Gauss–Legendre nodes per panel of each reference, the exact integral.
+    pub reference_nodes: usize,
 }
 
 impl Default for ConvergeSettings {
     fn default() -> Self {
-        ConvergeSettings { samples: (8..=16).map(|k| 1u64 << k).collect(), cells: 64, reference_samples: 1 << 20 }
+        ConvergeSettings {
+            samples: (8..=16).map(|k| 1u64 << k).collect(),
+            nodes: node_counts(2, 32),
+            cells: 64,
+            reference_nodes: *NODES.end(),
+        }
+    }
+}
+
+impl ConvergeSettings {
+    /// Refuse a sweep that cannot be measured: node counts outside [`NODES`] or not below the
+    /// references' (whose error against themselves is 0, which a log-log plot cannot draw).
+    pub fn validate(&self) -> Result<()> {
+        if !NODES.contains(&self.reference_nodes) {
+            return Err(Error::invalid(
+                "--reference-nodes",
+                format!("{}; allowed: {} to {}", self.reference_nodes, NODES.start(), NODES.end()),
+            ));
+        }
+        if let Some(&n) = self.nodes.iter().find(|&&n| !NODES.contains(&n) || n >= self.reference_nodes) {
+            return Err(Error::invalid(
+                "--nodes-from/--nodes-to",
+                format!(
+                    "{n} nodes per panel; allowed: {} to {} and below --reference-nodes ({})",
+                    NODES.start(),
+                    NODES.end(),
+                    self.reference_nodes
+                ),
+            ));
+        }
+        Ok(())
     }
 }
 
 /// One point of the sweep.
 #[derive(Debug, Clone)]
 pub struct ConvergencePoint {
+    /// [`FAST`], [`PER_CELL`] or [`QUADRATURE`].
     pub method: &'static str,
+    /// Monte Carlo samples per cell; 0 for a quadrature.
     pub samples_per_cell: u64,
+    /// Gauss–Legendre nodes per panel of the per-cell quadrature; 0 for the other methods.
+    pub nodes_per_panel: usize,
     pub wall_s: f64,
     /// `measured` for the whole table, or how the per-cell time was extrapolated.
     pub wall_kind: String,
     pub error: ErrorSummary,
-    /// RMS over the subset of the replicate standard error.
+    /// RMS over the subset of the replicate standard error (0 for a quadrature).
     pub replicate_standard_error_rms: f64,
+}
+
+impl ConvergencePoint {
+    /// How the point's plot label and answers name its cost: `2^12` samples, `n = 8` nodes per
+    /// panel, or `quadrature` for a fast build that takes no samples.
+    pub fn label(&self) -> String {
+        match (self.samples_per_cell, self.nodes_per_panel) {
+            (0, 0) => "quadrature".into(),
+            (0, n) => format!("n = {n}"),
+            (samples, _) => power_of_two(samples),
+        }
+    }
 }
 
 /// Run the sweep for one table.
@@ -56,6 +125,7 @@ pub fn converge(
     settings: &ConvergeSettings,
     progress: &dyn Progress,
 ) -> Result<Vec<ConvergencePoint>> {
+    settings.validate()?;
     let mut config = config.clone();
     config.disable_reference_checks();
     let kind = TableKind::named(table).ok_or_else(|| {
@@ -67,14 +137,21 @@ pub fn converge(
     let shape = crate::table::Table::zeros("shape", axes, vec![crate::table::Channel::new("v", "")])?;
     let cells = random_cells(node_count, settings.cells, config.seed ^ 0xC0DE);
     let positions: Vec<Vec<f64>> = cells.iter().map(|&n| shape.node_position(&shape.node_index(n as usize))).collect();
-    let references = reference_points(settings.reference_samples, config.seed)?;
     // Work lists run over positions in the subset, not node numbers.
     let subset: Vec<u64> = (0..cells.len() as u64).collect();
+    let exact = VisibleNormalQuadrature::new(settings.reference_nodes)?;
     let reference: Vec<Vec<f64>> = estimate_cells(&subset, &format!("{table} references"), progress, |k| {
-        recipe.estimate_node(&references, &positions[k as usize]).mean
+        recipe.exact_value(&exact, &positions[k as usize])
     });
+    let errors_of = |values: &[Vec<f64>]| {
+        ErrorSummary::of_differences(
+            values.iter().zip(&reference).flat_map(|(v, r)| v.iter().zip(r).map(|(a, b)| a - b).collect::<Vec<_>>()),
+        )
+    };
+    let extrapolated = format!("extrapolated from {} cells", cells.len());
 
     let mut points = Vec::new();
+    let mut fast_takes_samples = true;
     for &samples in &settings.samples {
         let mut config = config.clone();
         let sampling = SamplingConfig { samples, replicates: recipe.sampling().replicates.min(samples as u32) };
@@ -82,31 +159,35 @@ pub fn converge(
         let recipe = config.recipe(kind);
         sampling.validate(table)?;
 
-        // The fast build of the whole table.
-        let started = Instant::now();
-        let build = recipe.build(config.seed, progress)?;
-        let wall_s = started.elapsed().as_secs_f64();
-        let differences = cells.iter().zip(&reference).flat_map(|(&n, r)| {
-            let stored = build.table.node(&build.table.node_index(n as usize)).to_vec();
-            stored.into_iter().zip(r.clone()).map(|(s, r)| s as f64 - r).collect::<Vec<_>>()
-        });
-        let subset_spread = build.provenance.standard_error.as_ref().map_or(
-            build.provenance.error.replicate_standard_error.rms,
-            |se| {
-                let channels = build.table.channel_count();
-                let values =
-                    cells.iter().flat_map(|&n| se[n as usize * channels..(n as usize + 1) * channels].to_vec());
-                ErrorSummary::of_differences(values.map(|v| v as f64)).rms
-            },
-        );
-        points.push(ConvergencePoint {
-            method: "fast",
-            samples_per_cell: samples,
-            wall_s,
-            wall_kind: "measured on the whole table".into(),
-            error: ErrorSummary::of_differences(differences),
-            replicate_standard_error_rms: subset_spread,
-        });
+        // The fast build of the whole table, once if it takes no samples.
+        if fast_takes_samples {
+            let started = Instant::now();
+            let build = recipe.build(config.seed, progress)?;
+            let wall_s = started.elapsed().as_secs_f64();
+            fast_takes_samples = build.provenance.sampling.samples_per_cell != 0;
+            let stored: Vec<Vec<f64>> = cells
+                .iter()
+                .map(|&n| build.table.node(&build.table.node_index(n as usize)).iter().map(|&v| f64::from(v)).collect())
+                .collect();
+            let subset_spread = build.provenance.standard_error.as_ref().map_or(
+                build.provenance.error.replicate_standard_error.rms,
+                |se| {
+                    let channels = build.table.channel_count();
+                    let values =
+                        cells.iter().flat_map(|&n| se[n as usize * channels..(n as usize + 1) * channels].to_vec());
+                    ErrorSummary::of_differences(values.map(f64::from)).rms
+                },
+            );
+            points.push(ConvergencePoint {
+                method: FAST,
+                samples_per_cell: if fast_takes_samples { samples } else { 0 },
+                nodes_per_panel: 0,
+                wall_s,
+                wall_kind: "measured on the whole table".into(),
+                error: errors_of(&stored),
+                replicate_standard_error_rms: if fast_takes_samples { subset_spread } else { 0.0 },
+            });
+        }
 
         // The per-cell method on the subset, extrapolated to the whole table.
         let table_points: PointSet = table_points(&sampling, config.seed)?;
@@ -115,33 +196,52 @@ pub fn converge(
             recipe.estimate_node(&table_points, &positions[k as usize])
         });
         let per_cell_s = started.elapsed().as_secs_f64() / cells.len() as f64;
-        let differences = estimates
-            .iter()
-            .zip(&reference)
-            .flat_map(|(e, r)| e.mean.iter().zip(r).map(|(a, b)| a - b).collect::<Vec<_>>());
+        let means: Vec<Vec<f64>> = estimates.iter().map(|e| e.mean.clone()).collect();
         let spread = ErrorSummary::of_differences(estimates.iter().flat_map(|e| e.standard_error.clone())).rms;
         points.push(ConvergencePoint {
-            method: "per-cell",
+            method: PER_CELL,
             samples_per_cell: samples,
+            nodes_per_panel: 0,
             wall_s: per_cell_s * node_count as f64,
-            wall_kind: format!("extrapolated from {} cells", cells.len()),
-            error: ErrorSummary::of_differences(differences),
+            wall_kind: extrapolated.clone(),
+            error: errors_of(&means),
             replicate_standard_error_rms: spread,
+        });
+    }
+
+    // The per-cell quadrature on the subset, extrapolated to the whole table.
+    for &nodes in &settings.nodes {
+        let quadrature = VisibleNormalQuadrature::new(nodes)?;
+        let started = Instant::now();
+        let values = estimate_cells(&subset, &format!("{table} quadrature, {nodes} nodes"), progress, |k| {
+            recipe.exact_value(&quadrature, &positions[k as usize])
+        });
+        let per_cell_s = started.elapsed().as_secs_f64() / cells.len() as f64;
+        points.push(ConvergencePoint {
+            method: QUADRATURE,
+            samples_per_cell: 0,
+            nodes_per_panel: nodes,
+            wall_s: per_cell_s * node_count as f64,
+            wall_kind: extrapolated.clone(),
+            error: errors_of(&values),
+            replicate_standard_error_rms: 0.0,
         });
     }
     Ok(points)
 }
 
-/// The sweep as CSV, one row per method and sample count.
+/// The sweep as CSV, one row per method and sample or node count.
 pub fn csv(points: &[ConvergencePoint]) -> String {
-    let mut out =
-        String::from("method,samples_per_cell,wall_s,wall,rms_error,max_error,replicate_standard_error_rms\n");
+    let mut out = String::from(
+        "method,samples_per_cell,nodes_per_panel,wall_s,wall,rms_error,max_error,replicate_standard_error_rms\n",
+    );
     for p in points {
         let _ = writeln!(
             out,
-            "{},{},{:.6},{},{:.6e},{:.6e},{:.6e}",
+            "{},{},{},{:.6},{},{:.6e},{:.6e},{:.6e}",
             p.method,
             p.samples_per_cell,
+            p.nodes_per_panel,
             p.wall_s,
             p.wall_kind,
             p.error.rms,
@@ -189,6 +289,8 @@ pub struct TargetAnswer {
     /// The smallest swept count that reached the target, or the extrapolated power of two.
     pub samples_per_cell: Option<u64>,
     pub log2_samples_per_cell: Option<u32>,
+    /// For the per-cell quadrature: the smallest swept node count per panel that reached it.
+    pub nodes_per_panel: Option<usize>,
     /// Measured at that count, or predicted by the fitted line.
     pub rms_error: Option<f64>,
     /// Wall time for the whole table at that count: measured (as in the CSV), or predicted from
@@ -220,22 +322,19 @@ fn loglog_line(points: &[(f64, f64)]) -> (f64, f64) {
 /// smallest swept count whose RMS error is at most `target`; failing that, the smallest power of
 /// two above the sweep at which the least-squares log-log line through the last
 /// [`TARGET_FIT_POINTS`] points reaches it, with the wall time predicted by the same kind of line
-/// of time against samples. `reference_samples` (the references' own count) is only used for a
-/// caveat: an error predicted at or beyond it cannot be confirmed by those references.
-pub fn target_answer(
-    points: &[ConvergencePoint],
-    method: &'static str,
-    target: f64,
-    reference_samples: u64,
-) -> TargetAnswer {
+/// of time against samples. A method that takes no samples (the per-cell quadrature, or a fast
+/// build that is a quadrature) is answered by the smallest swept node count that reached it, and
+/// never extrapolated: Gauss–Legendre's error falls by no fixed slope.
+pub fn target_answer(points: &[ConvergencePoint], method: &'static str, target: f64) -> TargetAnswer {
     let mut swept: Vec<&ConvergencePoint> = points.iter().filter(|p| p.method == method).collect();
-    swept.sort_by_key(|p| p.samples_per_cell);
+    swept.sort_by_key(|p| (p.samples_per_cell, p.nodes_per_panel));
     let mut answer = TargetAnswer {
         method,
         target_rms_error: target,
         status: TargetStatus::Unreachable,
         samples_per_cell: None,
         log2_samples_per_cell: None,
+        nodes_per_panel: None,
         rms_error: None,
         wall_s: None,
         wall: None,
@@ -246,11 +345,28 @@ pub fn target_answer(
     };
     if let Some(p) = swept.iter().find(|p| p.error.rms <= target) {
         answer.status = TargetStatus::Reached;
-        answer.samples_per_cell = Some(p.samples_per_cell);
-        answer.log2_samples_per_cell = Some(p.samples_per_cell.trailing_zeros());
+        if p.samples_per_cell > 0 {
+            answer.samples_per_cell = Some(p.samples_per_cell);
+            answer.log2_samples_per_cell = Some(p.samples_per_cell.trailing_zeros());
+        }
+        answer.nodes_per_panel = (p.nodes_per_panel > 0).then_some(p.nodes_per_panel);
         answer.rms_error = Some(p.error.rms);
         answer.wall_s = Some(p.wall_s);
         answer.wall = Some(p.wall_kind.clone());
+        return answer;
+    }
+    if let Some(last) = swept.last().filter(|p| p.samples_per_cell == 0) {
+        answer.note = Some(match last.nodes_per_panel {
+            0 => format!(
+                "the fast build is a quadrature, whose error does not fall with samples: measured RMS {:.3e}",
+                last.error.rms
+            ),
+            n => format!(
+                "no swept node count reaches it (RMS {:.3e} at n = {n}); sweep more with --nodes-to, below \
+                 --reference-nodes",
+                last.error.rms
+            ),
+        });
         return answer;
     }
     let mut tail: Vec<&ConvergencePoint> =
@@ -297,18 +413,16 @@ pub fn target_answer(
         "predicted along the log-log time slope of the fitted points; swept times {}",
         tail.last().expect("two points").wall_kind
     ));
-    if 1u64 << k >= reference_samples {
-        answer.note = Some(format!(
-            "2^{k} is at or beyond the references' {reference_samples} samples per cell: they cannot confirm an \
-             error this small; rerun with more --reference-samples"
-        ));
-    }
     answer
 }
 
-/// The answers of both methods, in the sweep's order.
-pub fn target_answers(points: &[ConvergencePoint], target: f64, settings: &ConvergeSettings) -> Vec<TargetAnswer> {
-    ["fast", "per-cell"].into_iter().map(|m| target_answer(points, m, target, settings.reference_samples)).collect()
+/// The answers of every method the sweep measured, fast build first.
+pub fn target_answers(points: &[ConvergencePoint], target: f64) -> Vec<TargetAnswer> {
+    [FAST, PER_CELL, QUADRATURE]
+        .into_iter()
+        .filter(|m| points.iter().any(|p| p.method == *m))
+        .map(|m| target_answer(points, m, target))
+        .collect()
 }
 
 /// `2^k = n`, as the answers and the plot write sample counts.
@@ -321,7 +435,17 @@ impl TargetAnswer {
     pub fn line(&self) -> String {
         let head = format!("{}: RMS error <= {:e}", self.method, self.target_rms_error);
         let counts = |v: &[u64]| v.iter().map(|&n| power_of_two(n)).collect::<Vec<_>>().join(", ");
+        let measured = format!(
+            "measured RMS {:.3e}; wall time {:.3} s, {}",
+            self.rms_error.unwrap_or(f64::NAN),
+            self.wall_s.unwrap_or(f64::NAN),
+            self.wall.as_deref().unwrap_or("")
+        );
         let mut line = match (self.status, self.samples_per_cell) {
+            (TargetStatus::Reached, None) => match self.nodes_per_panel {
+                Some(n) => format!("{head} at n = {n} Gauss–Legendre nodes per panel ({measured})"),
+                None => format!("{head} by the fast build's quadrature, which takes no samples ({measured})"),
+            },
             (TargetStatus::Reached, Some(n)) => format!(
                 "{head} at {} = {n} samples per cell (measured RMS {:.3e}; wall time {:.3} s, {})",
                 power_of_two(n),
@@ -339,6 +463,7 @@ impl TargetAnswer {
                 self.wall_s.unwrap_or(f64::NAN),
                 self.time_slope.unwrap_or(f64::NAN),
             ),
+            _ if self.method == QUADRATURE => format!("{head}: no node count"),
             _ => format!("{head}: no sample count"),
         };
         if let Some(note) = &self.note {
@@ -354,8 +479,9 @@ pub fn target_json(table: &str, settings: &ConvergeSettings, answers: &[TargetAn
         "table": table,
         "target_rms_error": answers.first().map(|a| a.target_rms_error),
         "cells": settings.cells,
-        "reference_samples": settings.reference_samples,
+        "reference_nodes_per_panel": settings.reference_nodes,
         "swept_samples_per_cell": settings.samples,
+        "swept_nodes_per_panel": settings.nodes,
         "fit_points": TARGET_FIT_POINTS,
         "answers": answers.iter().map(|a| {
             let mut v = serde_json::to_value(a).expect("answers serialise");
@@ -391,31 +517,33 @@ pub fn write(
         write_bytes_atomically(&json_path, target_json(table, settings, answers).as_bytes())?;
         written.push(json_path);
     }
-    let series = |method: &str, max: bool| Series {
-        name: format!("{method}, {} error", if max { "max" } else { "RMS" }),
-        points: points
-            .iter()
-            .filter(|p| p.method == method)
-            .map(|p| (p.wall_s, if max { p.error.max } else { p.error.rms }))
-            .collect(),
-    };
+    let methods: Vec<&str> =
+        [FAST, PER_CELL, QUADRATURE].into_iter().filter(|m| points.iter().any(|p| p.method == *m)).collect();
+    let mut series = Vec::new();
+    // Every point labelled with its cost (samples per cell or nodes per panel), in the same order
+    // as the series' points.
+    let mut labels = Vec::new();
+    for method in methods {
+        let swept: Vec<&ConvergencePoint> = points.iter().filter(|p| p.method == method).collect();
+        for max in [false, true] {
+            series.push(Series {
+                name: format!("{method}, {} error", if max { "max" } else { "RMS" }),
+                points: swept.iter().map(|p| (p.wall_s, if max { p.error.max } else { p.error.rms })).collect(),
+            });
+            labels.push(swept.iter().map(|p| p.label()).collect::<Vec<_>>());
+        }
+    }
     let png_path = dir.join(format!("converge_{table}.png"));
-    let all = [series("fast", false), series("fast", true), series("per-cell", false), series("per-cell", true)];
-    // Every point labelled with its samples per cell, in the same order as the series' points.
-    let labels: Vec<Vec<String>> = ["fast", "fast", "per-cell", "per-cell"]
-        .iter()
-        .map(|m| points.iter().filter(|p| p.method == *m).map(|p| power_of_two(p.samples_per_cell)).collect())
-        .collect();
     let guide_name = answers.first().map(|a| format!("target RMS error {:e}", a.target_rms_error));
     loglog_labelled_png(
         &png_path,
         &format!(
-            "{table}: error against run time ({} cells vs {}-sample references; per-cell time extrapolated)",
-            settings.cells, settings.reference_samples
+            "{table}: error against run time ({} cells; exact: {} nodes per panel)",
+            settings.cells, settings.reference_nodes
         ),
-        "wall time for the whole table (s); labels: samples per cell",
+        "wall time for the whole table (s; per-cell methods extrapolated); labels: samples per cell, n = nodes per panel",
         "absolute error",
-        &all,
+        &series,
         &labels,
         answers.first().map(|a| a.target_rms_error).zip(guide_name.as_deref()),
     )?;
@@ -430,21 +558,95 @@ mod tests {
     #[test]
     fn a_small_sweep_converges_and_writes_csv_and_plot() {
         let config = Config::from_toml("[gd]\nmu_count = 8\nalpha_count = 8\n", "test").unwrap();
-        let settings = ConvergeSettings { samples: vec![256, 4096], cells: 16, reference_samples: 1 << 18 };
+        let settings = ConvergeSettings { samples: vec![256, 4096], nodes: vec![2, 8], cells: 16, reference_nodes: 32 };
         let points = converge(&config, "gd", &settings, &()).unwrap();
-        assert_eq!(points.len(), 4);
-        let fast: Vec<&ConvergencePoint> = points.iter().filter(|p| p.method == "fast").collect();
-        assert!(fast[1].error.rms < fast[0].error.rms, "more samples, less error: {fast:?}");
+        assert_eq!(points.len(), 6);
+        for method in [FAST, PER_CELL, QUADRATURE] {
+            let swept: Vec<&ConvergencePoint> = points.iter().filter(|p| p.method == method).collect();
+            assert_eq!(swept.len(), 2, "{points:?}");
+            assert!(swept[1].error.rms < swept[0].error.rms, "more samples or nodes, less error: {swept:?}");
+        }
+        // Against the exact integral, the quadrature at 8 nodes is far closer than 4096 samples.
+        let (quadrature, fast) = (&points[5], &points[2]);
+        assert_eq!(
+            (quadrature.nodes_per_panel, quadrature.samples_per_cell, quadrature.label()),
+            (8, 0, "n = 8".into())
+        );
+        assert!(quadrature.error.rms < 0.1 * fast.error.rms, "{points:?}");
         assert!(points.iter().all(|p| p.wall_s > 0.0 && p.error.count == 16));
         let dir = tempfile::tempdir().unwrap();
         let written = write(dir.path(), "gd", &points, &settings, &[]).unwrap();
         let text = std::fs::read_to_string(&written[0]).unwrap();
-        assert_eq!(text.lines().count(), 5);
-        assert!(text.starts_with("method,samples_per_cell,wall_s,"));
-        assert!(text.lines().all(|l| l.split(',').count() == 7), "{text}");
+        assert_eq!(text.lines().count(), 7);
+        assert!(text.starts_with("method,samples_per_cell,nodes_per_panel,wall_s,"));
+        assert!(text.lines().all(|l| l.split(',').count() == 8), "{text}");
+        assert!(text.contains("\nquadrature,0,8,"), "{text}");
         assert!(image::open(&written[1]).is_ok());
         let err = converge(&config, "gf", &settings, &()).unwrap_err().to_string();
         assert!(err.contains("unknown table `gf`"), "{err}");
+    }
+
+    #[test]
+    fn a_fast_build_that_is_a_quadrature_is_measured_once() {
+        let config = Config::from_toml("[tir]\nmu_count = 8\nalpha_count = 4\neta_count = 4\n", "test").unwrap();
+        let settings = ConvergeSettings { samples: vec![256, 1024], nodes: vec![4], cells: 8, reference_nodes: 32 };
+        let points = converge(&config, "tir", &settings, &()).unwrap();
+        let fast: Vec<&ConvergencePoint> = points.iter().filter(|p| p.method == FAST).collect();
+        assert_eq!(fast.len(), 1, "{points:?}");
+        assert_eq!((fast[0].samples_per_cell, fast[0].label()), (0, "quadrature".into()));
+        assert!(fast[0].error.max < 1e-5, "{fast:?}");
+        assert_eq!(points.iter().filter(|p| p.method == PER_CELL).count(), 2);
+        let answers = target_answers(&points, 1e-4);
+        assert_eq!(answers[0].status, TargetStatus::Reached, "{answers:?}");
+        assert!(answers[0].line().contains("by the fast build's quadrature, which takes no samples"), "{answers:?}");
+        // Below what the quadrature reaches: no count, and why.
+        let below = target_answer(&points, FAST, fast[0].error.rms / 2.0);
+        assert_eq!(below.status, TargetStatus::Unreachable);
+        assert!(below.note.as_deref().unwrap().contains("does not fall with samples"), "{below:?}");
+    }
+
+    #[test]
+    fn node_counts_must_lie_below_the_references() {
+        assert_eq!(node_counts(2, 32), vec![2, 3, 4, 6, 8, 12, 16, 24, 32]);
+        assert_eq!(node_counts(5, 7), vec![6]);
+        let settings =
+            |nodes: Vec<usize>, reference_nodes| ConvergeSettings { nodes, reference_nodes, ..Default::default() };
+        assert!(settings(vec![2, 48], 64).validate().is_ok());
+        let err = settings(vec![2, 64], 64).validate().unwrap_err().to_string();
+        assert!(err.contains("64 nodes per panel") && err.contains("below --reference-nodes (64)"), "{err}");
+        let err = settings(vec![1], 64).validate().unwrap_err().to_string();
+        assert!(err.contains("allowed: 2 to 64"), "{err}");
+        let err = settings(vec![2], 65).validate().unwrap_err().to_string();
+        assert!(err.starts_with("--reference-nodes: 65; allowed: 2 to 64"), "{err}");
+    }
+
+    #[test]
+    fn a_quadrature_target_is_the_smallest_swept_node_count_that_reaches_it() {
+        let points: Vec<ConvergencePoint> = [(2, 1e-2), (4, 1e-4), (8, 1e-9)]
+            .into_iter()
+            .map(|(n, rms)| ConvergencePoint {
+                method: QUADRATURE,
+                samples_per_cell: 0,
+                nodes_per_panel: n,
+                wall_s: 1e-3 * n as f64,
+                wall_kind: "extrapolated from 16 cells".into(),
+                error: ErrorSummary { count: 16, rms, max: 2.0 * rms },
+                replicate_standard_error_rms: 0.0,
+            })
+            .collect();
+        let answer = target_answer(&points, QUADRATURE, 1e-3);
+        assert_eq!(
+            (answer.status, answer.nodes_per_panel, answer.samples_per_cell),
+            (TargetStatus::Reached, Some(4), None)
+        );
+        assert!(
+            answer.line().contains("at n = 4 Gauss–Legendre nodes per panel (measured RMS 1.000e-4"),
+            "{}",
+            answer.line()
+        );
+        let answer = target_answer(&points, QUADRATURE, 1e-12);
+        assert_eq!((answer.status, answer.nodes_per_panel), (TargetStatus::Unreachable, None));
+        assert!(answer.line().contains("no node count") && answer.line().contains("--nodes-to"), "{}", answer.line());
     }
 
     /// A sweep of `method` over 2^8..=2^12 with RMS error `N^slope` and wall time `1e-6 N` s.
@@ -455,6 +657,7 @@ mod tests {
                 ConvergencePoint {
                     method,
                     samples_per_cell: n,
+                    nodes_per_panel: 0,
                     wall_s: 1e-6 * n as f64,
                     wall_kind: "measured on the whole table".into(),
                     error: ErrorSummary { count: 16, rms: (n as f64).powf(slope), max: 3.0 * (n as f64).powf(slope) },
@@ -468,14 +671,14 @@ mod tests {
     fn a_target_the_sweep_reaches_is_the_smallest_swept_count_at_or_below_it() {
         let points = synthetic("fast", -0.5);
         // RMS 2^-4, 2^-4.5, 2^-5, 2^-5.5, 2^-6 at 2^8..2^12.
-        let answer = target_answer(&points, "fast", 0.03, 1 << 20);
+        let answer = target_answer(&points, "fast", 0.03);
         assert_eq!(answer.status, TargetStatus::Reached);
         assert_eq!((answer.samples_per_cell, answer.log2_samples_per_cell), (Some(2048), Some(11)));
         assert_eq!(answer.rms_error, Some(2f64.powf(-5.5)));
         assert_eq!(answer.wall_s, Some(1e-6 * 2048.0));
         assert!(answer.error_slope.is_none() && answer.note.is_none(), "{answer:?}");
         // At or below: equal to a measured error counts.
-        assert_eq!(target_answer(&points, "fast", 2f64.powi(-5), 1 << 20).samples_per_cell, Some(1024));
+        assert_eq!(target_answer(&points, "fast", 2f64.powi(-5)).samples_per_cell, Some(1024));
         let line = answer.line();
         assert!(line.starts_with("fast: RMS error <= 3e-2 at 2^11 = 2048 samples per cell (measured"), "{line}");
         assert!(!line.contains("EXTRAPOLATED"), "{line}");
@@ -488,7 +691,7 @@ mod tests {
         points[0].error.rms = 1.0;
         points[0].wall_s = 1.0;
         // log2 N = log2(1e-3) / -0.5 = 19.93: 2^20, where the line predicts 2^-10 and 1e-6 * 2^20 s.
-        let answer = target_answer(&points, "per-cell", 1e-3, 1 << 18);
+        let answer = target_answer(&points, "per-cell", 1e-3);
         assert_eq!(answer.status, TargetStatus::Extrapolated);
         assert_eq!((answer.samples_per_cell, answer.log2_samples_per_cell), (Some(1 << 20), Some(20)));
         assert_eq!(answer.fitted_samples_per_cell, vec![1024, 2048, 4096]);
@@ -496,29 +699,28 @@ mod tests {
         assert!((answer.time_slope.unwrap() - 1.0).abs() < 1e-12, "{answer:?}");
         assert!((answer.rms_error.unwrap() / 2f64.powi(-10) - 1.0).abs() < 1e-9, "{answer:?}");
         assert!((answer.wall_s.unwrap() / (1e-6 * 1048576.0) - 1.0).abs() < 1e-9, "{answer:?}");
-        // 2^20 is beyond the 2^18-sample references: said so.
-        assert!(answer.note.as_deref().unwrap().contains("cannot confirm"), "{answer:?}");
+        assert!(answer.note.is_none(), "{answer:?}");
         let line = answer.line();
         assert!(line.contains("needs 2^20 = 1048576 samples per cell, EXTRAPOLATED"), "{line}");
         assert!(line.contains("from 2^10, 2^11, 2^12 (log-log error slope -0.50"), "{line}");
         assert!(line.contains("predicted wall time 1.049 s (log-log time slope 1.00)"), "{line}");
         // Just past the last point: the next power of two, never a swept one.
-        let answer = target_answer(&points, "per-cell", 0.0155, 1 << 20);
+        let answer = target_answer(&points, "per-cell", 0.0155);
         assert_eq!((answer.status, answer.samples_per_cell), (TargetStatus::Extrapolated, Some(8192)));
         assert!(answer.note.is_none(), "{answer:?}");
         // Only the named method's points count.
-        assert_eq!(target_answer(&points, "fast", 1e-3, 1 << 18).status, TargetStatus::Unreachable);
+        assert_eq!(target_answer(&points, "fast", 1e-3).status, TargetStatus::Unreachable);
     }
 
     #[test]
     fn no_count_when_the_error_does_not_fall_or_one_point_was_swept() {
         let flat = synthetic("fast", 0.0);
-        let answer = target_answer(&flat, "fast", 0.5, 1 << 20);
+        let answer = target_answer(&flat, "fast", 0.5);
         assert_eq!((answer.status, answer.samples_per_cell), (TargetStatus::Unreachable, None));
         assert!(answer.note.as_deref().unwrap().contains("does not fall with samples"), "{answer:?}");
         assert!(answer.line().contains("no sample count"), "{}", answer.line());
         let one = &synthetic("fast", -0.5)[4..];
-        let answer = target_answer(one, "fast", 1e-3, 1 << 20);
+        let answer = target_answer(one, "fast", 1e-3);
         assert_eq!(answer.status, TargetStatus::Unreachable);
         assert!(answer.note.as_deref().unwrap().contains("sweep at least two"), "{answer:?}");
     }
@@ -540,9 +742,13 @@ mod tests {
     fn the_answers_are_written_beside_the_csv_and_a_stale_file_is_removed() {
         let mut points = synthetic("fast", -0.5);
         points.extend(synthetic("per-cell", -0.5));
-        let settings =
-            ConvergeSettings { samples: (8..=12).map(|k| 1 << k).collect(), cells: 16, reference_samples: 1 << 20 };
-        let answers = target_answers(&points, 1e-3, &settings);
+        let settings = ConvergeSettings {
+            samples: (8..=12).map(|k| 1 << k).collect(),
+            nodes: Vec::new(),
+            cells: 16,
+            reference_nodes: 64,
+        };
+        let answers = target_answers(&points, 1e-3);
         assert_eq!(answers.iter().map(|a| a.method).collect::<Vec<_>>(), ["fast", "per-cell"]);
         let dir = tempfile::tempdir().unwrap();
         let written = write(dir.path(), "gd", &points, &settings, &answers).unwrap();

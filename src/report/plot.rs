@@ -208,9 +208,15 @@ pub fn loglog_labelled_png(
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
             .map_err(|e| plot_error(path, e))?;
-        // Dark, distinct colours that read on white (the first four of Tableau 10).
-        const COLOURS: [RGBColor; 4] =
-            [RGBColor(31, 119, 180), RGBColor(23, 190, 207), RGBColor(214, 39, 40), RGBColor(255, 127, 14)];
+        // Dark, distinct colours that read on white (six of Tableau 10).
+        const COLOURS: [RGBColor; 6] = [
+            RGBColor(31, 119, 180),
+            RGBColor(23, 190, 207),
+            RGBColor(214, 39, 40),
+            RGBColor(255, 127, 14),
+            RGBColor(44, 160, 44),
+            RGBColor(148, 103, 189),
+        ];
         for (k, s) in series.iter().enumerate() {
             let colour = COLOURS.get(k).copied().map_or_else(|| Palette99::pick(k).to_rgba(), |c| c.to_rgba());
             let line: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| *x > 0.0 && *y > 0.0).collect();
