@@ -1209,6 +1209,22 @@ fn fit_form_fits_a_scene_slice_and_weighs_a_table_by_the_scene() {
     assert!(rms(&json, "figures") < 0.5 * rms(&json, "start_figures"), "{json}");
     assert_eq!(json["channels"], serde_json::json!(["fgd0"]));
     assert!(json["cost"]["operations"]["arithmetic"].as_u64().unwrap() > 0, "{}", json["cost"]);
+    assert_eq!(json["certified"], serde_json::json!([]), "no certification unless asked");
+
+    // Certified where the scene's lookups of the slice are made: the slice planned again from the
+    // scene the folder's manifest records, the form's error beside the slice's own.
+    let config_arg = config.to_str().unwrap();
+    let (output, certified) =
+        fit(&form, &format!("{slice}.dds"), "slice-certified", &["--certify", "--config", config_arg]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let certified = certified.unwrap();
+    let domains = certified["certified"].as_array().unwrap();
+    assert_eq!(domains.len(), 1, "{certified}");
+    assert!(domains[0]["domain"].as_str().unwrap().starts_with("uniform over mu ["), "{certified}");
+    let together = |set: &str| domains[0][set]["together"]["rms"].as_f64().unwrap();
+    // The fitted Schlick-like form is within a few percent; the slice's interpolation far closer.
+    assert!(together("form") < 0.1 && together("form") < together("form_at_start"), "{certified}");
+    assert!(together("table") < 1e-3 && together("table") < together("form"), "{certified}");
 
     // One constant `c` for a table whose one channel is named as the table.
     let constant_form = |table: &str| {

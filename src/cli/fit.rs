@@ -40,7 +40,8 @@ pub struct FitArgs {
     max_evaluations: u32,
     /// Certify the fitted form against exact integrals at the random points of the table's
     /// interpolation check (its points and samples from the configuration), beside the table's
-    /// own error there.
+    /// own error there. A scene's slice is certified where the scene's lookups of it are made, the
+    /// slice planned again from the scene its folder's manifest records.
     #[arg(long, conflicts_with = "scene")]
     certify: bool,
     /// Repeatable: keep only the points with LO <= VAR <= HI, for the fit, its figures, pictures
@@ -105,7 +106,17 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
         tmlut::fit::text::WeightsSpec::Scene(path) => Some(tmlut::scene::lookups::table_lookups(path, &table.name)?),
         _ => None,
     };
-    let certify = if args.certify { Some(args.config.load()?) } else { None };
+    // The exact integrals every form is certified against, computed once.
+    let certify = match args.certify {
+        true => Some(std::sync::Arc::new(tmlut::scene::certify::exact_values_for(
+            &args.table,
+            &table.name,
+            &args.config.load()?,
+            settings.seed,
+            &context.progress(),
+        )?)),
+        false => None,
+    };
     let options = tmlut::fit::text::FitOptions {
         table: args.table,
         settings,

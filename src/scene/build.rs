@@ -642,7 +642,7 @@ pub fn sampled_exact_values(
 }
 
 /// The exact integral at `config.points` random points where a slice's lookups are made.
-fn lookup_exact_values(
+pub fn lookup_exact_values(
     slices: &Slices,
     config: &InterpolationConfig,
     seed: u64,

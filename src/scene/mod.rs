@@ -30,6 +30,7 @@
 
 pub mod build;
 pub mod cache;
+pub mod certify;
 pub mod library;
 pub mod lookups;
 mod parse;

@@ -19,6 +19,7 @@ use super::tape::Work;
 use crate::commit::{Move, OutputFolder, commit_set};
 use crate::error::{Error, Result};
 use crate::fit::{FIT_GRID_NODES, FitSettings, Minimum, minimise};
+use crate::recipes::interpolation::ExactValues;
 use crate::table::Table;
 
 /// The points a form is fitted and judged on: coordinates in the form's variables and the
@@ -663,25 +664,22 @@ pub struct Certified {
     pub table_weighted: Option<FigureSet>,
 }
 
-/// [`Certified`] for every check domain of the table's recipe in `config` (the configuration the
-/// table was built with: its masking, its points and quadrature for the check), over the points of
-/// each that lie in `region`'s ranges (a domain with none is left out).
+/// [`Certified`] for every domain of `exact` (the exact integrals at random points of the table's
+/// domains: [`crate::recipes::interpolation::exact_values_of`] for a full table, where a scene's
+/// lookups are made for a slice), over the points of each that lie in `region`'s ranges (a domain
+/// with none is left out).
 pub fn certify(
     form: &Form,
     table: &Table,
-    config: &crate::config::Config,
-    seed: u64,
+    exact_values: &[ExactValues],
     (start, fitted): (&[f64], &[f64]),
     region: &Region,
 ) -> Result<Vec<Certified>> {
-    let recipe = config.recipe_named(&table.name).ok_or_else(|| {
-        Error::invalid("certify", format!("table `{}` has no recipe to integrate exactly", table.name))
-    })?;
     let channel_index: Vec<usize> =
         form.channels.iter().map(|c| table.channels.iter().position(|t| t.name == c.name).unwrap_or(0)).collect();
     let channels: Vec<String> = form.channels.iter().map(|c| c.name.clone()).collect();
     let mut out = Vec::new();
-    for exact in recipe.exact_values(seed, &())? {
+    for exact in exact_values {
         // The form's variables from the domain's lookup parameters, by name.
         let Some(order) = form
             .variables
@@ -837,9 +835,9 @@ pub struct FitOptions {
     /// The table file, as the report names it.
     pub table: PathBuf,
     pub settings: FitSettings,
-    /// The table's build configuration, to certify the form against exact integrals; `None`
-    /// skips the certification.
-    pub certify: Option<crate::config::Config>,
+    /// The exact integrals to certify the form against (computed once for every form of a
+    /// folder); `None` skips the certification.
+    pub certify: Option<std::sync::Arc<Vec<ExactValues>>>,
     /// `--range`: only the points inside every range are fitted, judged, drawn and certified.
     pub ranges: Vec<Range>,
     /// `--weights`.
@@ -908,9 +906,7 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         search: fitted.search,
         identifiability: identifiability(&form, &prepared, &fitted.parameters),
         certified: match &request.options.certify {
-            Some(config) => {
-                certify(&form, table, config, request.options.settings.seed, (&start, &fitted.parameters), &region)?
-            }
+            Some(exact) => certify(&form, table, exact, (&start, &fitted.parameters), &region)?,
             None => Vec::new(),
         },
         shader_function: function_name(&form),
