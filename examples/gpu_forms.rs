@@ -23,7 +23,6 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use rand_pcg::Pcg64Mcg;
-use rand_pcg::rand_core::RngCore;
 use serde::Deserialize;
 use tmlut::fit::text::{FormEvaluator, Range, Region, WeightsSpec};
 use tmlut::loader::LutFolder;
@@ -131,7 +130,7 @@ fn check_form(gpu: &gpu::Gpu, folder: &Path, random: &mut Pcg64Mcg) -> Result<bo
     let wgsl = std::fs::read_to_string(folder.join(wgsl_file))?;
 
     let points: Vec<f32> = (0..POINTS)
-        .flat_map(|_| extent.iter().map(|&(lo, hi)| lo as f32 + unit(random) * (hi - lo) as f32).collect::<Vec<_>>())
+        .flat_map(|_| extent.iter().map(|&(lo, hi)| gpu::uniform_f32(random, lo, hi)).collect::<Vec<_>>())
         .collect();
     let (variables, channels) = (fit.variables.len(), fit.channels.len());
     let on_gpu = gpu.run_form(&wgsl, &fit.shader_function, variables, channels, &points);
@@ -195,9 +194,4 @@ fn fitted_extent(fit: &Fit) -> Result<Vec<(f64, f64)>, Box<dyn std::error::Error
     let table = LutFolder::open(table_folder)?.load(table_name)?;
     let region = Region::new(&fit.ranges, &WeightsSpec::Uniform, None, &table, &fit.variables)?;
     Ok(region.extent(&table, &fit.variables))
-}
-
-/// A uniform value in [0, 1) with the 24 bits an f32 holds.
-fn unit(random: &mut Pcg64Mcg) -> f32 {
-    (random.next_u32() >> 8) as f32 / (1u32 << 24) as f32
 }

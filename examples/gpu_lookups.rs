@@ -19,7 +19,6 @@ mod gpu;
 use std::process::ExitCode;
 
 use rand_pcg::Pcg64Mcg;
-use rand_pcg::rand_core::RngCore;
 use tmlut::fit::text::FormEvaluator;
 use tmlut::loader::{FgdLut, LutFolder};
 
@@ -48,10 +47,7 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     let gpu = gpu::Gpu::new()?;
     println!("adapter: {}", gpu.adapter);
     let mut random = Pcg64Mcg::new(0x7e1e_c0de);
-    let mut uniform = move |range: [f64; 2]| {
-        let u = (random.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
-        range[0] as f32 + u * (range[1] - range[0]) as f32
-    };
+    let mut uniform = move |range: [f64; 2]| gpu::uniform_f32(&mut random, range[0], range[1]);
     let fgd_ok = check_fgd(&gpu, &luts, &mut uniform)?;
     let tir_ok = check_tir_fit(&gpu, &luts, &mut uniform)?;
     Ok(fgd_ok && tir_ok)

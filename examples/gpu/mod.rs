@@ -58,6 +58,14 @@ impl Comparison {
     }
 }
 
+/// A uniform value in `[lo, hi)` from 24 random bits, the precision an f32 holds: the points both
+/// GPU examples evaluate at.
+pub fn uniform_f32(random: &mut rand_pcg::Pcg64Mcg, lo: f64, hi: f64) -> f32 {
+    use rand_pcg::rand_core::RngCore;
+    let u = (random.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+    lo as f32 + u * (hi - lo) as f32
+}
+
 /// The exit code of an example: 0 when every comparison passed, 1 when one did not, 2 on an error
 /// (printed).
 pub fn exit_code(example: &str, result: Result<bool, Box<dyn std::error::Error>>) -> std::process::ExitCode {
