@@ -217,9 +217,9 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
                 report.figures.together.rms,
                 report.figures.together.max
             );
-            FittedForm::read(&request.out, &request.out.display().to_string())?
+            FittedForm::read(&request.out, &request.out.display().to_string(), tmlut::fit::text::fitted::TIR_TABLES)?
         } else {
-            FittedForm::read(&path, &path.display().to_string())?
+            FittedForm::read(&path, &path.display().to_string(), tmlut::fit::text::fitted::TIR_TABLES)?
         };
         forms.push(fitted);
     }

@@ -120,6 +120,10 @@ pub struct PlanRecord {
     /// shader holds each as `tmlut_<name>`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub tir_forms: Vec<FittedForm>,
+    /// The fitted forms the materials name in place of an albedo table (`albedo = "fit:PATH"`),
+    /// each once. The scene shader holds each as `tmlut_<name>`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub albedo_forms: Vec<FittedForm>,
 }
 
 /// A form fitted to the TIR table by `tmlut fit --form`, which a scene's material names in place
@@ -129,6 +133,10 @@ pub struct PlanRecord {
 pub struct FittedForm {
     /// The form's name (its file's stem): its shader function is `tmlut_<name>`.
     pub name: String,
+    /// The table the form was fitted to and replaces: `tir` (a material's `tir = "fit:PATH"`), or
+    /// an albedo table, `karis` or `fgd` (`albedo = "fit:PATH"`).
+    #[serde(default = "tir_table", skip_serializing_if = "is_tir_table")]
+    pub table: String,
     /// The path as the scene gives it, after `fit:`.
     pub source: String,
     /// The form file's text.
@@ -139,6 +147,15 @@ pub struct FittedForm {
     pub parameter_order: Vec<String>,
     /// The fitted values, in that order.
     pub parameters: Vec<f64>,
+}
+
+/// The table of a [`FittedForm`] recorded before forms replaced albedo tables: TIR.
+fn tir_table() -> String {
+    "tir".into()
+}
+
+fn is_tir_table(table: &str) -> bool {
+    table == "tir"
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -218,6 +218,7 @@ mod tests {
         let form_text = std::fs::read_to_string(path).unwrap();
         let mut fitted = FittedForm {
             name: name.into(),
+            table: "tir".into(),
             source: format!("{name}/fit.json"),
             form_text,
             definition: Vec::new(),

@@ -308,12 +308,13 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         request.scene.materials.iter().map(|m| Ok(Material::new(m.model, m.stack()?))).collect::<Result<_>>()?;
     // Opening reads and verifies every table of the folder that the paths read (a library's
     // thousands of slices): once per pair of paths, shared by the materials that read them.
-    // A material's own TIR form (`tir = "fit:PATH"`) answers its TIR lookups in place of the folder.
-    type Paths<'a> = (AlbedoPath, TirPath, Option<&'a FittedForm>);
+    // A material's own forms (`tir = "fit:PATH"`, `albedo = "fit:PATH"`) answer its TIR or albedo
+    // lookups in place of the folder.
+    type Paths<'a> = (AlbedoPath, TirPath, Option<&'a FittedForm>, Option<&'a FittedForm>);
     let mut opened: Vec<(Paths, FolderTables)> = Vec::new();
     let mut tables_of = Vec::with_capacity(count);
     for material in &request.scene.materials {
-        let paths = (material.albedo, material.tir, material.tir_form.as_ref());
+        let paths = (material.albedo, material.tir, material.tir_form.as_ref(), material.albedo_form.as_ref());
         let index = match opened.iter().position(|(p, _)| *p == paths) {
             Some(index) => index,
             None => {
@@ -323,6 +324,9 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
                         .map_err(in_material)?;
                 if let Some(form) = &material.tir_form {
                     tables = tables.with_tir_form(form).map_err(in_material)?;
+                }
+                if let Some(form) = &material.albedo_form {
+                    tables = tables.with_albedo_form(form).map_err(in_material)?;
                 }
                 opened.push((paths, tables));
                 opened.len() - 1

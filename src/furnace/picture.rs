@@ -137,7 +137,7 @@ pub fn write_material_pictures(dir: &Path, report: &MaterialReport, size: usize)
         "{}: furnace of radiance {ENVIRONMENT_RADIANCE} ({}, albedo {}, TIR {})",
         report.name,
         report.model.name(),
-        report.albedo_path.name(),
+        report.albedo_label(),
         report.tir_label()
     );
     images_png(

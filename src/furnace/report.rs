@@ -94,6 +94,9 @@ pub struct MaterialReport {
     /// path the scene gives, its definition and fitted parameters.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tir_form: Option<crate::fit::text::FittedForm>,
+    /// The fitted form read in place of the albedo table (`albedo = "fit:PATH"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo_form: Option<crate::fit::text::FittedForm>,
     /// The stack at the values evaluated (the scene's, or the middle of a range it varies).
     pub stack: Stack,
     /// View cosines, from the normal to grazing.
@@ -164,6 +167,14 @@ impl MaterialReport {
         }
     }
 
+    /// The albedo path as the scene writes it: `fit:PATH` for a named form.
+    pub fn albedo_label(&self) -> String {
+        match &self.albedo_form {
+            Some(form) => format!("fit:{}", form.source),
+            None => self.albedo_path.name().to_string(),
+        }
+    }
+
     /// `walk`: the random walk's curve and its wall time, where it ran.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -184,6 +195,7 @@ impl MaterialReport {
             albedo_path: material.albedo,
             tir_path: material.tir,
             tir_form: material.tir_form.clone(),
+            albedo_form: material.albedo_form.clone(),
             stack: material.stack().expect("evaluated above"),
             mu: mus.to_vec(),
             albedo_tables,
@@ -377,7 +389,7 @@ pub fn markdown_rows(report: &FurnaceReport) -> String {
             m.scene_or(&report.scene),
             m.name,
             m.model.name(),
-            m.albedo_path.name(),
+            m.albedo_label(),
             m.tir_label(),
             e.table.max_all,
             e.table.rms_all,

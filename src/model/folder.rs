@@ -235,6 +235,14 @@ enum Albedo {
     Karis {
         texture: SampledTable,
     },
+    /// A form the material names in place of the table (`albedo = "fit:PATH"`): fitted to Karis's
+    /// split sum (`split_sum`: its channels weighed by F0 as the table's are) or to FGD. Read by
+    /// the generator's form files only.
+    #[cfg(feature = "generator")]
+    Form {
+        form: FormEvaluator,
+        split_sum: bool,
+    },
     /// The folder holds no table of the path: every albedo lookup misses.
     Absent,
 }
@@ -387,6 +395,14 @@ impl FolderTables {
         Ok(self)
     }
 
+    /// The same tables with every albedo lookup answered by `form` (a material's
+    /// `albedo = "fit:PATH"`), evaluated in f32 as its shader computes it.
+    #[cfg(feature = "generator")]
+    pub fn with_albedo_form(mut self, form: &FittedForm) -> Result<Self> {
+        self.albedo = Albedo::Form { form: form.evaluator()?, split_sum: form.table == "karis" };
+        Ok(self)
+    }
+
     /// Lookups the folder holds no table for (each read 0).
     pub fn misses(&self) -> Misses {
         self.misses.lock().map(|m| m.clone()).unwrap_or_default()
@@ -487,6 +503,16 @@ impl FolderTables {
                 let point = [lookup.mu, lookup.alpha];
                 f0 * texture.sample(0, &point) as f64 + texture.sample(1, &point) as f64
             }
+            #[cfg(feature = "generator")]
+            Albedo::Form { form, split_sum: true } => {
+                let f0 = normal_incidence_reflectance(lookup.eta, lookup.kappa);
+                let [scale, bias] = form.channels(&[lookup.mu as f32, lookup.alpha as f32])[..] else {
+                    unreachable!("a split-sum form has the Karis table's two channels")
+                };
+                f0 * f64::from(scale) + f64::from(bias)
+            }
+            #[cfg(feature = "generator")]
+            Albedo::Form { form, split_sum: false } => form.eval(&[lookup.mu, lookup.alpha, lookup.eta, lookup.kappa]),
             Albedo::Absent => self.miss(lookup),
         }
     }

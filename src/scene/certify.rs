@@ -145,6 +145,7 @@ mod tests {
                 default_set_bytes: 0,
                 tir_fit: None,
                 tir_forms: Vec::new(),
+                albedo_forms: Vec::new(),
             },
         };
         let parsed = recorded_scene(&record).unwrap();

@@ -132,6 +132,10 @@ pub struct Material {
     pub name: String,
     pub model: FluxModel,
     pub albedo: AlbedoPath,
+    /// The fitted form read in place of the albedo table of `albedo` (`albedo = "fit:PATH"`: a
+    /// form fitted to `karis` or `fgd`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo_form: Option<crate::fit::text::FittedForm>,
     pub tir: TirPath,
     /// The fitted form read in place of the TIR table where `tir` is [`TirPath::Form`]
     /// (`tir = "fit:PATH"`).

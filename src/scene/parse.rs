@@ -43,9 +43,9 @@ const MEDIUM_KEYS: &[&str] = &["type", "sigma_s", "sigma_k", "depth", "g"];
 #[derive(Clone)]
 struct Paths<'a> {
     model: FluxModel,
-    albedo: AlbedoPath,
+    albedo: (AlbedoPath, Option<FittedForm>),
     tir: (TirPath, Option<FittedForm>),
-    /// The scene file's folder, which `tir = "fit:PATH"` is relative to.
+    /// The scene file's folder, which `tir = "fit:PATH"` and `albedo = "fit:PATH"` are relative to.
     dir: &'a Path,
 }
 
@@ -58,7 +58,7 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str, dir: &P
     check_name(&name, &format!("{origin}: name"), "scene")?;
     let defaults = Paths {
         model: choice(document, "model", origin)?.unwrap_or(FluxModel::TwoFlux),
-        albedo: choice(document, "albedo", origin)?.unwrap_or(AlbedoPath::Fgd),
+        albedo: albedo_choice(document, origin, dir)?.unwrap_or((AlbedoPath::Fgd, None)),
         tir: tir_choice(document, origin, dir)?.unwrap_or((TirPath::Table, None)),
         dir,
     };
@@ -129,7 +129,10 @@ fn parse_material(
     check_name(&name, &format!("{where_}: name"), "material")?;
     let where_ = format!("{where_} (`{name}`)");
     let model = choice(table, "model", &where_)?.unwrap_or(defaults.model);
-    let albedo = choice(table, "albedo", &where_)?.unwrap_or(defaults.albedo);
+    let (albedo, albedo_form) = match albedo_choice(table, &where_, defaults.dir)? {
+        Some(chosen) => chosen,
+        None => defaults.albedo.clone(),
+    };
     let (tir, tir_form) = match tir_choice(table, &where_, defaults.dir)? {
         Some(chosen) => chosen,
         None => defaults.tir.clone(),
@@ -201,7 +204,7 @@ fn parse_material(
             }
         }
     }
-    Ok(Material { name, model, albedo, tir, tir_form, layers: parsed })
+    Ok(Material { name, model, albedo, albedo_form, tir, tir_form, layers: parsed })
 }
 
 fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
@@ -390,7 +393,7 @@ fn choice<T: serde::de::DeserializeOwned>(table: &toml::Table, key: &str, where_
     let Some(value) = table.get(key) else { return Ok(None) };
     let allowed = match key {
         "model" => "\"2-flux\", \"6-flux\"",
-        "albedo" => "\"fgd\", \"belcour\", \"karis\"",
+        "albedo" => "\"fgd\", \"belcour\", \"karis\", \"fit:PATH\"",
         _ => "\"table\", \"fit\", \"off\", \"fit:PATH\"",
     };
     T::deserialize(value.clone())
@@ -398,24 +401,44 @@ fn choice<T: serde::de::DeserializeOwned>(table: &toml::Table, key: &str, where_
         .map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
 }
 
+/// The fitted form `key = "fit:PATH"` names (PATH read relative to `dir`), fitted to one of
+/// `tables`; `None` where `key` is not written `fit:...`.
+fn named_form(table: &toml::Table, key: &str, where_: &str, dir: &Path, tables: &[&str]) -> Result<Option<FittedForm>> {
+    let Some(path) = table.get(key).and_then(|v| v.as_str()).and_then(|t| t.strip_prefix("fit:")) else {
+        return Ok(None);
+    };
+    let key = format!("{where_}: {key}");
+    if path.is_empty() {
+        return Err(Error::invalid(key, format!("\"fit:\" names no form; allowed: {}", fitted::ALLOWED)));
+    }
+    let form = FittedForm::read(&dir.join(path), path, tables).map_err(|e| Error::invalid(key, e.to_string()))?;
+    Ok(Some(form))
+}
+
 /// `tir`: a path, or `fit:PATH` with the fitted form it names (read relative to `dir`).
 fn tir_choice(table: &toml::Table, where_: &str, dir: &Path) -> Result<Option<(TirPath, Option<FittedForm>)>> {
-    let key = format!("{where_}: tir");
-    if let Some(path) = table.get("tir").and_then(|v| v.as_str()).and_then(|t| t.strip_prefix("fit:")) {
-        if path.is_empty() {
-            return Err(Error::invalid(key, format!("\"fit:\" names no form; allowed: {}", fitted::ALLOWED)));
-        }
-        let form = FittedForm::read(&dir.join(path), path).map_err(|e| Error::invalid(key, e.to_string()))?;
+    if let Some(form) = named_form(table, "tir", where_, dir, fitted::TIR_TABLES)? {
         return Ok(Some((TirPath::Form, Some(form))));
     }
     match choice(table, "tir", where_)? {
         // The path of a named form is only ever written `fit:PATH`.
         Some(TirPath::Form) => Err(Error::invalid(
-            key,
+            format!("{where_}: tir"),
             format!("\"form\" names no form; allowed: \"table\", \"fit\", \"off\", {}", fitted::ALLOWED),
         )),
         other => Ok(other.map(|path| (path, None))),
     }
+}
+
+/// `albedo`: a path, or `fit:PATH` with the fitted form it names (read relative to `dir`), whose
+/// table sets the path: a form fitted to `karis` is read on the Karis path (its channels weighed by
+/// the interface's F0), one fitted to `fgd` on the FGD path.
+fn albedo_choice(table: &toml::Table, where_: &str, dir: &Path) -> Result<Option<(AlbedoPath, Option<FittedForm>)>> {
+    if let Some(form) = named_form(table, "albedo", where_, dir, fitted::ALBEDO_TABLES)? {
+        let path = if form.table == "karis" { AlbedoPath::Karis } else { AlbedoPath::Fgd };
+        return Ok(Some((path, Some(form))));
+    }
+    Ok(choice(table, "albedo", where_)?.map(|path| (path, None)))
 }
 
 /// A number as a person wrote it: `1e20` rather than its 21 digits.

@@ -91,6 +91,8 @@ pub struct Plan {
     /// The fitted forms the materials name in place of the TIR table (`tir = "fit:PATH"`), each
     /// once.
     pub tir_forms: Vec<FittedForm>,
+    /// Those they name in place of an albedo table (`albedo = "fit:PATH"`), each once.
+    pub albedo_forms: Vec<FittedForm>,
 }
 
 impl Plan {
@@ -115,6 +117,7 @@ impl Plan {
             default_set_bytes: self.default_set_bytes,
             tir_fit: None,
             tir_forms: self.tir_forms.clone(),
+            albedo_forms: self.albedo_forms.clone(),
         }
     }
 }
@@ -139,8 +142,23 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let full_fgd_axes = config.fgd.axes()?;
     let full_tir_axes = config.tir.axes()?;
 
+    // Albedo read by a fitted form (`albedo = "fit:PATH"`): no table.
+    let albedo_forms_of: std::collections::HashMap<&str, &FittedForm> =
+        scene.materials.iter().filter_map(|m| m.albedo_form.as_ref().map(|f| (m.name.as_str(), f))).collect();
+    let by_table = |l: &&Lookup| !albedo_forms_of.contains_key(l.material.as_str());
+    let albedo_form_users: Vec<&Lookup> =
+        lookups.iter().filter(|l| matches!(l.kind, LookupKind::Albedo(_)) && !by_table(l)).collect();
+    for site in sites(&albedo_form_users) {
+        let form = albedo_forms_of[site[0].material.as_str()];
+        left_out.push(LeftOutRecord {
+            what: format!("albedo lookups of {}", site_label(&site)),
+            reason: format!("albedo = \"fit:{}\": the fitted form `{}` replaces the table", form.source, form.name),
+        });
+    }
+
     // Albedo on the FGD path: a slice per site of fixed indices, the 4D table over the hull of the rest.
-    let fgd_lookups: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Albedo(AlbedoPath::Fgd)).collect();
+    let fgd_lookups: Vec<&Lookup> =
+        lookups.iter().filter(|l| l.kind == LookupKind::Albedo(AlbedoPath::Fgd)).filter(by_table).collect();
     let (fixed, varying) = split_by_fixed_sites(&fgd_lookups);
     for site in sites(&fixed) {
         let slices = slice_of("fgd", SliceOf::Fgd(config.fgd.clone()), &site)?;
@@ -194,7 +212,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     } else {
         let bytes = recipe_texel_bytes(&config.fgd)?;
         let reason = if fgd_lookups.is_empty() {
-            "no material reads albedo on the FGD path".to_string()
+            by_form_or_none(&albedo_form_users, AlbedoPath::Fgd)
         } else {
             format!("every FGD lookup is at fixed (eta, kappa): {}", replaced_by_slices(tables.len()))
         };
@@ -206,12 +224,13 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         (AlbedoPath::Belcour, PlannedBuild::Belcour(config.belcour.clone()), "Belcour split-sum, whole"),
         (AlbedoPath::Karis, PlannedBuild::Karis(config.karis.clone()), "Karis split-sum, whole"),
     ] {
-        let users: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Albedo(path)).collect();
+        let users: Vec<&Lookup> =
+            lookups.iter().filter(|l| l.kind == LookupKind::Albedo(path)).filter(by_table).collect();
         let settings = recipe.recipe().expect("a full table");
         if users.is_empty() {
             left_out.push(LeftOutRecord {
                 what: format!("{} ({})", settings.name(), human_bytes(recipe_texel_bytes(settings)?)),
-                reason: format!("no material reads albedo on the {} path", settings.name()),
+                reason: by_form_or_none(&albedo_form_users, path),
             });
             continue;
         }
@@ -280,7 +299,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             },
         });
     }
-    let tir_forms = tir_forms(scene)?;
+    let (tir_forms, albedo_forms) = named_forms(scene)?;
     let (fixed, varying) = split_by_fixed_sites(&tir_lookups);
     let slices_before = tables.len();
     for site in sites(&fixed) {
@@ -341,20 +360,37 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         default_set_bytes,
         merged_slices,
         tir_forms,
+        albedo_forms,
     })
 }
 
-/// The fitted forms the scene's materials name, each once; two different forms of one name (one
-/// shader function name) are refused.
-fn tir_forms(scene: &Scene) -> Result<Vec<FittedForm>> {
+/// Why no table of albedo path `path` is built: its lookups are all read by fitted forms, or there
+/// are none.
+fn by_form_or_none(form_users: &[&Lookup], path: AlbedoPath) -> String {
+    let name = if path == AlbedoPath::Fgd { "FGD" } else { path.name() };
+    if form_users.iter().any(|l| l.kind == LookupKind::Albedo(path)) {
+        format!("every albedo lookup on the {name} path is read by a fitted form (albedo = \"fit:PATH\")")
+    } else {
+        format!("no material reads albedo on the {name} path")
+    }
+}
+
+/// The fitted forms the scene's materials name, each once: those in place of the TIR table, then
+/// those in place of an albedo table. Two different forms of one name (one shader function name)
+/// are refused, whichever tables they replace.
+fn named_forms(scene: &Scene) -> Result<(Vec<FittedForm>, Vec<FittedForm>)> {
     let mut forms: Vec<FittedForm> = Vec::new();
-    for material in &scene.materials {
-        let Some(form) = &material.tir_form else { continue };
+    let named = scene.materials.iter().flat_map(|m| {
+        [("tir", &m.tir_form), ("albedo", &m.albedo_form)]
+            .into_iter()
+            .filter_map(move |(key, f)| Some((m, key, f.as_ref()?)))
+    });
+    for (material, key, form) in named {
         match forms.iter().find(|f| f.name == form.name) {
             Some(other) if other == form => {}
             Some(other) => {
                 return Err(Error::invalid(
-                    format!("scene `{}`, material `{}`: tir", scene.name, material.name),
+                    format!("scene `{}`, material `{}`: {key}", scene.name, material.name),
                     format!(
                         "fit:{} holds form `{}`, and another material's fit:{} holds a different form of that name; \
                          one scene's forms need different names (their shader function is tmlut_<name>)",
@@ -365,7 +401,7 @@ fn tir_forms(scene: &Scene) -> Result<Vec<FittedForm>> {
             None => forms.push(form.clone()),
         }
     }
-    Ok(forms)
+    Ok(forms.into_iter().partition(|f| f.table == "tir"))
 }
 
 /// "N slice table(s) replace(s) it".

@@ -28,6 +28,7 @@ pub fn shader_materials(scene: &Scene) -> Result<Vec<ShaderMaterial>> {
                 name: m.name.clone(),
                 model: m.model,
                 albedo: m.albedo,
+                albedo_form: m.albedo_form.clone(),
                 tir: m.tir,
                 tir_form: m.tir_form.clone(),
                 stack: m.stack()?,
@@ -99,6 +100,9 @@ pub fn reference(
         let mut tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?;
         if let Some(form) = &material.tir_form {
             tables = tables.with_tir_form(form)?;
+        }
+        if let Some(form) = &material.albedo_form {
+            tables = tables.with_albedo_form(form)?;
         }
         let model = Material::new(material.model, material.stack.clone());
         for mu in reference_views(views) {

@@ -1,7 +1,8 @@
-//! A fitted TIR form as a scene names it: `tir = "fit:PATH"`, PATH the output folder of
-//! `tmlut fit --form FILE --table TIR_TABLE` or its `fit.json`, which holds the form's text and
-//! its fitted parameters ([`FittedForm`], a record of the manifest). The model evaluates it in
-//! f32 with the parameters rounded to f32, as the scene shader computes it.
+//! A fitted form as a scene names it in place of a table: `tir = "fit:PATH"` for the TIR table,
+//! `albedo = "fit:PATH"` for an albedo table (Karis's split sum, or FGD), PATH the output folder of
+//! `tmlut fit --form FILE --table TABLE` or its `fit.json`, which holds the form's text and its
+//! fitted parameters ([`FittedForm`], a record of the manifest). The model evaluates it in f32 with
+//! the parameters rounded to f32, as the scene shader computes it.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -18,20 +19,35 @@ pub const FIT_FILE: &str = "fit.json";
 
 /// The table a scene's form replaces: TIR, its variables and its one channel.
 pub fn tir_shape() -> TableShape {
-    TableShape {
-        name: "tir".to_string(),
-        variables: ["mu", "alpha", "eta"].map(String::from).to_vec(),
-        channels: vec!["tir".to_string()],
-    }
+    shape_of("tir").expect("a table a form replaces")
+}
+
+/// The tables a scene's `tir = "fit:PATH"` form may replace.
+pub const TIR_TABLES: &[&str] = &["tir"];
+/// The tables a scene's `albedo = "fit:PATH"` form may replace: Karis's split sum (its two
+/// channels weighed by the interface's F0 as the table's are) and the 4D FGD table.
+pub const ALBEDO_TABLES: &[&str] = &["karis", "fgd"];
+
+/// The variables and channels of a table a scene's form may replace, in the order the model and
+/// the scene shader pass and read them; `None` for another table.
+pub fn shape_of(table: &str) -> Option<TableShape> {
+    let (variables, channels): (&[&str], &[&str]) = match table {
+        "tir" => (&["mu", "alpha", "eta"], &["tir"]),
+        "karis" => (&["mu", "alpha"], &["scale", "bias"]),
+        "fgd" => (&["mu", "alpha", "eta", "kappa"], &["fgd"]),
+        _ => return None,
+    };
+    let strings = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
+    Some(TableShape { name: table.to_string(), variables: strings(variables), channels: strings(channels) })
 }
 
 /// The name of the form a build fits (`[tir] fit = "best"`): its shader function is `tmlut_tir`,
 /// the function `tir_fit.hlsl` and `.wgsl` hold and a scene shader calls.
 pub const BUILD_FORM_NAME: &str = "tir";
 
-/// What `tir = "fit:PATH"` allows, in the words of the error messages.
+/// What `tir = "fit:PATH"` and `albedo = "fit:PATH"` allow, in the words of the error messages.
 pub const ALLOWED: &str = "\"fit:PATH\" with PATH (relative to the scene file) the output folder of \
-    `tmlut fit --form FORM.toml --table TIR_TABLE --out PATH`, or the fit.json in it";
+    `tmlut fit --form FORM.toml --table TABLE --out PATH`, or the fit.json in it";
 
 /// The parts of `fit.json` a scene reads.
 #[derive(Deserialize)]
@@ -49,9 +65,10 @@ struct FitFile {
 
 impl FittedForm {
     /// The fitted form at `path` (a folder holding `fit.json`, or the file), `source` being the
-    /// path as the scene wrote it. Refuses a missing file, a form of another table, a fit.json
-    /// with no form text, and parameters no search fitted.
-    pub fn read(path: &Path, source: &str) -> Result<FittedForm> {
+    /// path as the scene wrote it, fitted to one of `tables` ([`TIR_TABLES`], [`ALBEDO_TABLES`]).
+    /// Refuses a missing file, a form of another table, a fit.json with no form text, and
+    /// parameters no search fitted.
+    pub fn read(path: &Path, source: &str, tables: &[&str]) -> Result<FittedForm> {
         let file: PathBuf = if path.is_dir() { path.join(FIT_FILE) } else { path.to_path_buf() };
         let refuse = |reason: String| Error::invalid(format!("fit:{source} ({})", file.display()), reason);
         if !file.is_file() {
@@ -60,11 +77,13 @@ impl FittedForm {
         let text = crate::formats::read_text_at_most(&file, 1 << 24, "fit.json")?;
         let fit: FitFile = serde_json::from_str(&text)
             .map_err(|e| refuse(format!("is not the fit.json of `tmlut fit --form` ({e}); allowed: {ALLOWED}")))?;
-        let shape = tir_shape();
-        if fit.table != shape.name {
+        if !tables.contains(&fit.table.as_str()) {
+            let key = if tables == TIR_TABLES { "tir" } else { "albedo" };
             return Err(refuse(format!(
-                "holds form `{}` fitted to table `{}`; a scene's `tir` reads a form fitted to table `{}`",
-                fit.form, fit.table, shape.name
+                "holds form `{}` fitted to table `{}`; a scene's `{key}` reads a form fitted to table `{}`",
+                fit.form,
+                fit.table,
+                tables.join("` or `")
             )));
         }
         if fit.form_text.is_empty() {
@@ -91,6 +110,7 @@ impl FittedForm {
         }
         let fitted = FittedForm {
             name: fit.form,
+            table: fit.table,
             source: source.to_string(),
             form_text: fit.form_text,
             definition: fit.definition,
@@ -113,6 +133,7 @@ impl FittedForm {
     pub fn of_build(fit: &crate::formats::manifest::FitEntry) -> Option<FittedForm> {
         (!fit.form_text.is_empty()).then(|| FittedForm {
             name: BUILD_FORM_NAME.into(),
+            table: "tir".into(),
             source: fit.form.clone(),
             form_text: fit.form_text.clone(),
             definition: fit.definition.clone(),
@@ -121,10 +142,16 @@ impl FittedForm {
         })
     }
 
-    /// The form, read from its text against the TIR table's shape.
+    /// The form, read from its text against the shape of the table it replaces.
     pub fn form(&self) -> Result<Form> {
         let path = PathBuf::from(format!("{}.toml", self.name));
-        let mut form = Form::parse_for(&path, &self.form_text, &tir_shape())?;
+        let shape = shape_of(&self.table).ok_or_else(|| {
+            Error::invalid(
+                format!("form `{}`", self.name),
+                format!("replaces table `{}`; allowed: tir, {}", self.table, ALBEDO_TABLES.join(", ")),
+            )
+        })?;
+        let mut form = Form::parse_for(&path, &self.form_text, &shape)?;
         form.name = self.name.clone();
         Ok(form)
     }

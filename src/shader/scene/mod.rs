@@ -59,6 +59,9 @@ pub struct ShaderMaterial {
     pub name: String,
     pub model: FluxModel,
     pub albedo: AlbedoPath,
+    /// The fitted form read in place of the albedo table (`albedo = "fit:PATH"`: a form fitted to
+    /// `karis`, its channels weighed by F0 as the table's are, or to `fgd`).
+    pub albedo_form: Option<FittedForm>,
     pub tir: TirPath,
     /// The fitted form read in place of the TIR table where `tir` is [`TirPath::Form`].
     pub tir_form: Option<FittedForm>,
@@ -596,6 +599,22 @@ impl<'a> Generator<'a> {
     /// The directional albedo of an interface of roughness `alpha` and relative index
     /// `(eta, kappa)` at cosine `mu`, on material `m`'s albedo path.
     fn albedo(&mut self, m: &ShaderMaterial, mu: Expr, alpha: f64, eta: f64, kappa: f64) -> Result<Expr> {
+        if let Some(fitted) = &m.albedo_form {
+            if !self.forms.contains(fitted) {
+                self.forms.push(fitted.clone());
+            }
+            self.reads.insert("albedo form");
+            let function = format!("tmlut_{}", fitted.name);
+            return Ok(match m.albedo {
+                // FGD ~ F0 scale + bias, as the Karis table is read.
+                AlbedoPath::Karis => {
+                    let f0 = normal_incidence_reflectance(eta, kappa);
+                    let weights = Expr::Construct(Ty::Vec(2), vec![f(f0 as f32), f(1.0)]);
+                    call(Builtin::Dot, vec![weights, func(&function, vec![mu, f(alpha as f32)])])
+                }
+                _ => func(&function, vec![mu, f(alpha as f32), f(eta as f32), f(kappa as f32)]),
+            });
+        }
         match m.albedo {
             AlbedoPath::Fgd => self.fgd(m, mu, alpha, eta, kappa),
             AlbedoPath::Belcour => {
