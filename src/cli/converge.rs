@@ -30,8 +30,8 @@ pub struct ConvergeArgs {
     /// Cells of the fixed random subset the error is measured on.
     #[arg(long, default_value_t = 64)]
     cells: usize,
-    /// Smallest and largest Gauss–Legendre nodes per panel of the per-cell quadrature (the counts
-    /// 2, 3, 4, 6, 8, 12, 16, 24, 32, 48 between them), each below --reference-nodes.
+    /// Smallest and largest Gauss–Legendre nodes per panel of the per-cell quadrature (2 to 63,
+    /// below --reference-nodes): both, and the counts 3, 4, 6, 8, 12, 16, 24, 32, 48 between them.
     #[arg(long, default_value_t = 2)]
     nodes_from: usize,
     #[arg(long, default_value_t = 32)]
@@ -66,6 +66,9 @@ pub fn exec(args: ConvergeArgs, context: &Context) -> tmlut::Result<()> {
         ));
     }
     let samples = (args.samples_from.trailing_zeros()..=args.samples_to.trailing_zeros()).map(|k| 1u64 << k).collect();
+    for (key, n) in [("--nodes-from", args.nodes_from), ("--nodes-to", args.nodes_to)] {
+        check_count(key, n, tmlut::integrate::quadrature::NODES)?;
+    }
     if args.nodes_from > args.nodes_to {
         return Err(tmlut::Error::invalid(
             "--nodes-from/--nodes-to",

@@ -35,9 +35,14 @@ pub const QUADRATURE: &str = "quadrature";
 /// point per integer.
 pub const NODE_STEPS: [usize; 11] = [2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64];
 
-/// The swept node counts from `from` to `to`, both included where they are steps.
+/// The swept node counts from `from` to `to`: both ends, and the [`NODE_STEPS`] between them.
 pub fn node_counts(from: usize, to: usize) -> Vec<usize> {
-    NODE_STEPS.iter().copied().filter(|&n| n >= from && n <= to).collect()
+    let mut counts: Vec<usize> = NODE_STEPS.iter().copied().filter(|&n| n > from && n < to).collect();
+    counts.push(from);
+    counts.push(to);
+    counts.sort_unstable();
+    counts.dedup();
+    counts
 }
 
 /// What to sweep.
@@ -608,7 +613,8 @@ mod tests {
     #[test]
     fn node_counts_must_lie_below_the_references() {
         assert_eq!(node_counts(2, 32), vec![2, 3, 4, 6, 8, 12, 16, 24, 32]);
-        assert_eq!(node_counts(5, 7), vec![6]);
+        assert_eq!(node_counts(5, 7), vec![5, 6, 7]);
+        assert_eq!(node_counts(5, 5), vec![5]);
         let settings =
             |nodes: Vec<usize>, reference_nodes| ConvergeSettings { nodes, reference_nodes, ..Default::default() };
         assert!(settings(vec![2, 48], 64).validate().is_ok());
