@@ -5,10 +5,10 @@ use clap::Args;
 use tmlut::pipeline;
 use tmlut::report::bench::{self, BenchSettings};
 
-use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count};
+use super::{ConfigArg, Context, ThreadsArg, check_count};
 
-/// Time each table's build and measure its error against per-cell references, beside the
-/// per-cell method on the same nodes. Prints a Markdown table.
+/// Time each table's build and measure its error against the exact integral at random nodes,
+/// beside the per-cell method on the same nodes. Prints a Markdown table.
 #[derive(Args)]
 pub struct BenchArgs {
     #[command(flatten)]
@@ -22,9 +22,9 @@ pub struct BenchArgs {
     /// Random nodes compared with references.
     #[arg(long, default_value_t = 300)]
     nodes: usize,
-    /// Samples per reference node (a power of two).
-    #[arg(long, default_value_t = 1 << 22)]
-    reference_samples: u64,
+    /// Gauss–Legendre nodes per panel of each reference node's exact integral (2 to 64).
+    #[arg(long, default_value_t = 64)]
+    reference_nodes: usize,
     /// Nodes the per-cell method runs on (the first of the compared nodes).
     #[arg(long, default_value_t = 300)]
     per_cell_nodes: usize,
@@ -35,7 +35,7 @@ pub struct BenchArgs {
 pub fn exec(args: BenchArgs, context: &Context) -> tmlut::Result<()> {
     let config = args.config.load()?;
     args.threads.apply()?;
-    check_sample_count("--reference-samples", args.reference_samples)?;
+    check_count("--reference-nodes", args.reference_nodes, tmlut::integrate::quadrature::NODES)?;
     // Each repeat is a whole build, and each node a reference integral: beyond these a bench runs
     // for days, and the nodes' arithmetic overflows.
     check_count("--repeats", args.repeats, 1..=100)?;
@@ -45,7 +45,7 @@ pub fn exec(args: BenchArgs, context: &Context) -> tmlut::Result<()> {
     let settings = BenchSettings {
         repeats: args.repeats,
         nodes: args.nodes,
-        reference_samples: args.reference_samples,
+        reference_nodes: args.reference_nodes,
         per_cell_nodes: args.per_cell_nodes,
         ..BenchSettings::default()
     };

@@ -1,6 +1,7 @@
 //! `tmlut bench`: for each table, the fast build's wall time (median of repeats) and throughput,
-//! its error at random nodes against high-sample per-cell references, and the per-cell method on
-//! the same nodes with the same samples per cell, for a side-by-side ratio at equal error.
+//! its error at random nodes against the exact integral (the deterministic quadrature), and the
+//! per-cell method on the same nodes with the same samples per cell, for a side-by-side ratio at
+//! equal error.
 //!
 //! Timings on shared machines are noisy: every figure here comes from one run, side by side, and
 //! the build time is a median.
@@ -10,9 +11,10 @@ use std::time::Instant;
 
 use crate::config::{Config, TableKind};
 use crate::error::Result;
+use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Progress, estimate_cells};
 use crate::recipes::driver::TableBuild;
-use crate::recipes::{TableRecipe, random_cells, reference_points, table_points};
+use crate::recipes::{TableRecipe, random_cells, table_points};
 use crate::stats::ErrorSummary;
 
 /// What to measure.
@@ -23,8 +25,8 @@ pub struct BenchSettings {
     /// Random nodes (with `mu` and `alpha` at least [`BenchSettings::min_mu_alpha`]) compared with
     /// references.
     pub nodes: usize,
-    /// Samples of each reference node.
-    pub reference_samples: u64,
+    /// Gauss–Legendre nodes per panel of each reference node's exact integral.
+    pub reference_nodes: usize,
     /// Nodes the per-cell method runs on: the first of the compared nodes (all of them by default,
     /// so that both methods' errors are measured on the same nodes).
     pub per_cell_nodes: usize,
@@ -34,7 +36,7 @@ pub struct BenchSettings {
 
 impl Default for BenchSettings {
     fn default() -> Self {
-        BenchSettings { repeats: 3, nodes: 300, reference_samples: 1 << 22, per_cell_nodes: 300, min_mu_alpha: 0.05 }
+        BenchSettings { repeats: 3, nodes: 300, reference_nodes: 64, per_cell_nodes: 300, min_mu_alpha: 0.05 }
     }
 }
 
@@ -53,7 +55,7 @@ pub struct BenchRow {
     pub fast_error_on_timed: ErrorSummary,
     pub per_cell_seconds_per_node: f64,
     pub per_cell_error: ErrorSummary,
-    pub reference_samples: u64,
+    pub reference_nodes: usize,
 }
 
 impl BenchRow {
@@ -111,9 +113,9 @@ pub fn bench_table(
     let stride = (nodes.len() / settings.nodes.max(1)).max(1);
     let nodes: Vec<u64> = nodes.into_iter().step_by(stride).take(settings.nodes).collect();
 
-    let references = reference_points(settings.reference_samples, seed)?;
+    let exact = VisibleNormalQuadrature::new(settings.reference_nodes)?;
     let reference: Vec<Vec<f64>> = estimate_cells(&nodes, &format!("{} references", recipe.name()), progress, |n| {
-        recipe.estimate_node(&references, &table.node_position(&table.node_index(n as usize))).mean
+        recipe.exact_value(&exact, &table.node_position(&table.node_index(n as usize)))
     });
     let stored = |n: u64| table.node(&table.node_index(n as usize)).iter().map(|&v| v as f64).collect::<Vec<f64>>();
     let fast_error = ErrorSummary::of_differences(
@@ -154,7 +156,7 @@ pub fn bench_table(
         fast_error_on_timed,
         per_cell_seconds_per_node,
         per_cell_error,
-        reference_samples: settings.reference_samples,
+        reference_nodes: settings.reference_nodes,
     })
 }
 
@@ -176,9 +178,10 @@ pub fn markdown(rows: &[BenchRow], settings: &BenchSettings, threads: usize) -> 
     let _ = writeln!(
         out,
         "Fast build: median of {} builds, {threads} threads, no reference checks. Error: stored f32 values against \
-         {}-sample per-cell f64 references at up to {} random nodes with mu, alpha >= {}. Per-cell: the f64 per-cell \
-         method with the table's own samples per cell, run and timed on {} of those nodes, extrapolated to the whole table.\n",
-        settings.repeats, settings.reference_samples, settings.nodes, settings.min_mu_alpha, settings.per_cell_nodes,
+         the exact integral (the quadrature, {} Gauss–Legendre nodes per panel) at up to {} random nodes with mu, alpha \
+         >= {}. Per-cell: the f64 per-cell method with the table's own samples per cell, run and timed on {} of those \
+         nodes, extrapolated to the whole table.\n",
+        settings.repeats, settings.reference_nodes, settings.nodes, settings.min_mu_alpha, settings.per_cell_nodes,
     );
     let _ = writeln!(
         out,
@@ -239,7 +242,7 @@ mod tests {
         )
         .unwrap();
         let settings =
-            BenchSettings { repeats: 1, nodes: 20, reference_samples: 1 << 18, per_cell_nodes: 4, min_mu_alpha: 0.05 };
+            BenchSettings { repeats: 1, nodes: 20, reference_nodes: 32, per_cell_nodes: 4, min_mu_alpha: 0.05 };
         let row = bench(&config, &[crate::config::TableKind::Gd], &settings, &()).unwrap().remove(0);
         assert_eq!(row.fast_error.count, 20);
         assert!(row.fast_error.max < 1e-3 && row.per_cell_error.max < 1e-3, "{row:?}");
