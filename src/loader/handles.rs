@@ -11,14 +11,17 @@
 //!   take the texture coordinates themselves.
 //!
 //! Karis and Belcour take perceptual roughness, as Unreal Engine 4 and Filament pass it
-//! (`alpha = roughness^2`); GD, TIR and FGD take GGX `alpha`, the quantity of their axes.
+//! (`alpha = roughness^2`); GD, TIR, FGD and `fgd_rarer` take GGX `alpha`, the quantity of their
+//! axes.
 
 use super::texture::{TextureData, sample_texture, texture_coordinate};
 use super::{FileEntry, LutFolder, Precision, Table};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::formats::manifest::MANIFEST_FILE;
-use crate::table::derived::{CRITICAL_ANGLE_OFFSET, critical_angle_offset};
+use crate::table::derived::{
+    CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, critical_angle_fraction, critical_angle_offset,
+};
 
 /// A verified table with the shape a handle needs.
 #[derive(Debug, Clone)]
@@ -41,6 +44,8 @@ const BELCOUR: Shape = Shape { kind: "belcour", axes: &[&["mu"], &["alpha"]], ch
 const GD: Shape = Shape { kind: "gd", axes: &[&["mu"], &["alpha"]], channels: 1 };
 const TIR: Shape = Shape { kind: "tir", axes: &[&["mu"], &["alpha"], &["eta", CRITICAL_ANGLE_OFFSET]], channels: 1 };
 const FGD: Shape = Shape { kind: "fgd", axes: &[&["mu"], &["alpha"], &["eta"], &["kappa"]], channels: 1 };
+const FGD_RARER: Shape =
+    Shape { kind: "fgd_rarer", axes: &[&["mu"], &["alpha"], &[CRITICAL_ANGLE_FRACTION]], channels: 1 };
 
 impl Shape {
     fn describe(&self) -> String {
@@ -304,5 +309,37 @@ impl FgdLut {
     pub fn sample(&self, mu: f32, alpha: f32, eta: f32, kappa: f32) -> f32 {
         let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64, eta as f64, kappa as f64]);
         v
+    }
+}
+
+/// FGD of a dielectric onto a rarer medium (`kappa = 0`, `eta < 1`: a layer's light crossing up
+/// into a lower index), over `(mu, alpha)` and the critical-angle fraction (`docs/tables.md`),
+/// which the handle computes from `(mu, eta)`: a grid that follows the critical angle, where the 4D
+/// table's separate `eta` axis cannot.
+#[derive(Debug, Clone)]
+pub struct FgdRarerLut(Checked);
+common!(FgdRarerLut, FGD_RARER);
+texture!(FgdRarerLut, 1, 3);
+
+impl FgdRarerLut {
+    /// At `mu`, GGX `alpha` and the relative index `eta` (below 1; clamped to [0, 1]).
+    pub fn sample(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+        let (mu, eta) = (mu as f64, eta as f64);
+        let [v] = interpolate(&self.0.table, [mu, alpha as f64, critical_angle_fraction(mu, eta)]);
+        v
+    }
+
+    /// [`FgdRarerLut::sample`] as a shader reads the texture: the fraction computed in f64, then
+    /// every texture coordinate in f32 from the manifest's formulas.
+    pub fn sample_gpu(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+        let table = &self.0.table;
+        let (mu, eta) = (mu as f64, eta as f64);
+        let [u, v] = uv(table, mu, alpha as f64);
+        self.filter([u, v, texture_coordinate(&table.axes[2], critical_angle_fraction(mu, eta))])[0]
+    }
+
+    /// The texture sampled at texture coordinate `(u, v, w)`.
+    pub fn sample_uvw(&self, u: f32, v: f32, w: f32) -> f32 {
+        self.filter([u, v, w])[0]
     }
 }

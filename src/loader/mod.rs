@@ -4,8 +4,9 @@
 //!
 //! - [`LutFolder`]: an output folder and its read-only manifest; every file is loaded verified
 //!   against its entry (length, SHA-256, axes, channels, value range).
-//! - Typed handles ([`KarisLut`], [`BelcourLut`], [`GdLut`], [`TirLut`], [`FgdLut`]): sampled with
-//!   plain arguments, allocation-free, as the CPU interpolates or as a GPU filters.
+//! - Typed handles ([`KarisLut`], [`BelcourLut`], [`GdLut`], [`TirLut`], [`FgdLut`],
+//!   [`FgdRarerLut`]): sampled with plain arguments, allocation-free, as the CPU interpolates or
+//!   as a GPU filters.
 //! - [`TextureData`]: a table's texel bytes with the extent, dimension and format of the texture
 //!   that holds them, named as WebGPU names them.
 //! - [`Table`]: any table, interpolated in its axes' own quantities
@@ -43,7 +44,7 @@ pub use crate::error::{Error, Result};
 pub use crate::formats::manifest::{FileEntry, Manifest, ShaderFile};
 pub use crate::formats::{FileFormat, Precision, sha256_hex};
 pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Table};
-pub use handles::{BelcourLut, FgdLut, GdLut, KarisLut, TirLut};
+pub use handles::{BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, TirLut};
 pub use shader::{MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
 pub use texture::{
     Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,

@@ -9,7 +9,9 @@ use crate::formats::manifest::{AxisEntry, ErrorEntry, MANIFEST_FILE};
 use crate::formats::{bin, dds, ktx2};
 use crate::model::folder::SampledTable;
 use crate::stats::{ErrorRecord, ErrorSummary};
-use crate::table::derived::{CRITICAL_ANGLE_OFFSET, critical_angle_offset};
+use crate::table::derived::{
+    CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, critical_angle_fraction, critical_angle_offset,
+};
 
 /// Length of a DDS file's headers: magic, `DDS_HEADER`, `DDS_HEADER_DXT10`.
 const DDS_HEADERS: usize = 4 + 124 + 20;
@@ -46,14 +48,24 @@ fn gd_table() -> Table {
     fill(vec![mu, alpha], 1, "gd")
 }
 
-fn tir_table() -> Table {
-    let mu = Axis::node_aligned("mu", 0.0, 1.0, 7).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
-    let alpha = Axis::node_aligned("alpha", 0.0, 1.0, 5).unwrap().with_mapping(Mapping::Sqrt).unwrap();
-    let offset = Axis::node_aligned(CRITICAL_ANGLE_OFFSET, -1.5, 1.5, 6)
+/// A table over `(mu, alpha)` and a third axis `third` over `[lo, hi]` spaced as the critical-angle
+/// axes are (asinh about 0): TIR's and `fgd_rarer`'s shape.
+fn critical_axis_table(name: &str, counts: [usize; 3], third: &str, [lo, hi]: [f64; 2]) -> Table {
+    let mu = Axis::node_aligned("mu", 0.0, 1.0, counts[0]).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
+    let alpha = Axis::node_aligned("alpha", 0.0, 1.0, counts[1]).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+    let third = Axis::node_aligned(third, lo, hi, counts[2])
         .unwrap()
         .with_mapping(Mapping::Asinh { scale: 0.05, centre: 0.0 })
         .unwrap();
-    fill(vec![mu, alpha, offset], 1, "tir")
+    fill(vec![mu, alpha, third], 1, name)
+}
+
+fn tir_table() -> Table {
+    critical_axis_table("tir", [7, 5, 6], CRITICAL_ANGLE_OFFSET, [-1.5, 1.5])
+}
+
+fn fgd_rarer_table() -> Table {
+    critical_axis_table("fgd_rarer", [6, 5, 7], CRITICAL_ANGLE_FRACTION, [-1.0, 1.0])
 }
 
 fn fgd_table() -> Table {
@@ -129,6 +141,7 @@ fn folder() -> (tempfile::TempDir, LutFolder) {
         write(d, "gd.dds", &gd_table(), FileFormat::Dds, Precision::F16),
         write(d, "tir.dds", &tir_table(), FileFormat::Dds, Precision::F32),
         write(d, "fgd.bin", &fgd_table(), FileFormat::Bin, Precision::F32),
+        write(d, "fgd_rarer.dds", &fgd_rarer_table(), FileFormat::Dds, Precision::F32),
     ]);
     Manifest { generator: "tmlut test".into(), files, ..Default::default() }.write(d).unwrap();
     let folder = LutFolder::open(d).unwrap();
@@ -166,6 +179,7 @@ fn each_handle_samples_as_its_table_interpolates() {
     let gd = GdLut::from_folder(&luts).unwrap();
     let tir = TirLut::from_folder(&luts).unwrap();
     let fgd = FgdLut::from_folder(&luts).unwrap();
+    let rarer = FgdRarerLut::from_folder(&luts).unwrap();
     for &a in &PARAMETERS {
         for &b in &PARAMETERS {
             let at = format!("({a}, {b})");
@@ -177,6 +191,9 @@ fn each_handle_samples_as_its_table_interpolates() {
                 let offset = critical_angle_offset(a as f64, eta as f64);
                 let expected = tir.table().interpolate(&[a as f64, b as f64, offset]);
                 assert_same([tir.sample(a, b, eta)], expected, &format!("{at}, eta {eta}"));
+                let fraction = critical_angle_fraction(a as f64, eta as f64);
+                let expected = rarer.table().interpolate(&[a as f64, b as f64, fraction]);
+                assert_same([rarer.sample(a, b, eta)], expected, &format!("{at}, eta {eta}"));
                 let eta = eta * 3.0;
                 let expected = fgd.table().interpolate(&[a as f64, b as f64, eta as f64, 0.5]);
                 assert_same([fgd.sample(a, b, eta, 0.5)], expected, &format!("{at}, eta {eta}"));
@@ -192,6 +209,8 @@ fn gpu_sampling_is_the_emulators_bit_for_bit() {
     let belcour = BelcourLut::from_folder(&luts).unwrap();
     let gd = GdLut::from_folder(&luts).unwrap();
     let tir = TirLut::from_folder(&luts).unwrap();
+    let rarer = FgdRarerLut::from_folder(&luts).unwrap();
+    let rarer_gpu = SampledTable::new(rarer.table()).unwrap();
     let emulated = |table: &Table| SampledTable::new(table).unwrap();
     let (karis_gpu, belcour_gpu, gd_gpu, tir_gpu) =
         (emulated(karis.table()), emulated(belcour.table()), emulated(gd.table()), emulated(tir.table()));
@@ -210,6 +229,9 @@ fn gpu_sampling_is_the_emulators_bit_for_bit() {
                 let point = [a as f64, b as f64, critical_angle_offset(a as f64, eta as f64)];
                 let expected = tir_gpu.sample(0, &point);
                 assert_eq!(tir.sample_gpu(a, b, eta).to_bits(), expected.to_bits(), "tir at ({a}, {b}, {eta})");
+                let point = [a as f64, b as f64, critical_angle_fraction(a as f64, eta as f64)];
+                let expected = rarer_gpu.sample(0, &point);
+                assert_eq!(rarer.sample_gpu(a, b, eta).to_bits(), expected.to_bits(), "fgd_rarer at ({a}, {b}, {eta})");
             }
         }
     }
@@ -309,6 +331,8 @@ fn a_file_of_another_kind_is_refused_naming_the_file_and_the_axes_allowed() {
     assert!(err.contains("2 channels; a gd table has the axes (mu, alpha) and 1 channel"), "{err}");
     let err = TirLut::open(&luts, "gd.dds").unwrap_err().to_string();
     assert!(err.contains("a tir table has the axes (mu, alpha, eta or critical_angle_offset)"), "{err}");
+    let err = FgdRarerLut::open(&luts, "tir.dds").unwrap_err().to_string();
+    assert!(err.contains("a fgd_rarer table has the axes (mu, alpha, critical_angle_fraction)"), "{err}");
     let err = KarisLut::from_table(gd_table(), Precision::F16).unwrap_err().to_string();
     assert!(err.contains("table `gd`"), "{err}");
 }
@@ -339,7 +363,7 @@ fn paths_are_taken_as_any_path_like_value() {
     for folder in [LutFolder::open(as_str), LutFolder::open(&as_string), LutFolder::open(as_path_buf)] {
         assert_eq!(
             folder.unwrap().files().collect::<Vec<_>>(),
-            ["belcour.dds", "fgd.bin", "gd.dds", "karis.dds", "tir.dds"]
+            ["belcour.dds", "fgd.bin", "fgd_rarer.dds", "gd.dds", "karis.dds", "tir.dds"]
         );
     }
     assert_eq!(load_table(dir.path().join("gd.dds")).unwrap(), load_table(format!("{as_str}/gd.dds")).unwrap());
