@@ -1396,14 +1396,18 @@ fn fit_tir_logistic(dir: &Path, config: &Path, out: &str, extra: &[&str]) -> Pat
         assert!(output.status.success(), "{}", stderr(&output));
     }
     let form = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms/tir-logistic.toml");
-    let fitted = dir.join(out);
-    let mut args = vec!["fit", "--form", form.to_str().unwrap(), "--table"];
-    let table = tables.join("tir.dds");
-    args.extend([table.to_str().unwrap(), "--out", fitted.to_str().unwrap(), "--starts", "1"]);
+    fit_form(&form, &tables.join("tir.dds"), &dir.join(out), extra)
+}
+
+/// `tmlut fit --form FORM --table TABLE --out OUT --starts 1` with `extra`, which must succeed;
+/// returns `OUT`.
+fn fit_form(form: &Path, table: &Path, out: &Path, extra: &[&str]) -> PathBuf {
+    let mut args = vec!["fit", "--form", form.to_str().unwrap(), "--table", table.to_str().unwrap()];
+    args.extend(["--out", out.to_str().unwrap(), "--starts", "1"]);
     args.extend_from_slice(extra);
     let output = tmlut(&args);
     assert!(output.status.success(), "{}", stderr(&output));
-    fitted
+    out.to_path_buf()
 }
 
 /// The copper pot with `tir = TIR`, written into `dir/name.toml`.
@@ -1499,23 +1503,7 @@ fn a_scene_naming_an_albedo_form_reads_it_in_place_of_the_karis_table() {
     // UE4's mobile approximation of the split sum, fitted to the Karis table.
     let form = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/forms/karis-env-brdf-approx.toml");
     let fitted = dir.path().join("env-brdf");
-    let table = karis.join("karis.dds");
-    let output = tmlut(&[
-        "fit",
-        "--form",
-        form.to_str().unwrap(),
-        "--table",
-        table.to_str().unwrap(),
-        "--out",
-        fitted.to_str().unwrap(),
-        "--starts",
-        "1",
-        "--max-evaluations",
-        "300",
-        "--timing-runs",
-        "0",
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
+    fit_form(&form, &karis.join("karis.dds"), &fitted, &["--max-evaluations", "300", "--timing-runs", "0"]);
     let pot = |name: &str, albedo: &str| {
         let scene = dir.path().join(format!("{name}.toml"));
         let text = std::fs::read_to_string(scene_path("copper-pot")).unwrap();
@@ -1595,12 +1583,7 @@ fn a_scene_naming_an_albedo_form_reads_it_in_place_of_the_karis_table() {
          f0 = \"((eta - 1)^2 + kappa^2) / ((eta + 1)^2 + kappa^2)\"\n[channels]\nfgd = \"f0 + (1 - f0) * (1 - mu)^5 * p\"\n",
     )
     .unwrap();
-    let fgd_table = fgd.join("fgd.exr");
-    let fitted_fgd = dir.path().join("schlick");
-    let mut args = vec!["fit", "--form", schlick.to_str().unwrap(), "--table", fgd_table.to_str().unwrap()];
-    args.extend(["--out", fitted_fgd.to_str().unwrap(), "--starts", "1", "--timing-runs", "0"]);
-    let output = tmlut(&args);
-    assert!(output.status.success(), "{}", stderr(&output));
+    fit_form(&schlick, &fgd.join("fgd.exr"), &dir.path().join("schlick"), &["--timing-runs", "0"]);
     let (luts, report, printed) = furnace(&pot("schlick-pot", "fit:schlick"), "schlick");
     assert!(printed.contains("fit:schlick / table"), "{printed}");
     let m = &report.materials[0];

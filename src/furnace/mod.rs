@@ -167,13 +167,7 @@ impl FurnaceSettings {
                 format!("{}; allowed: {} to {}", self.views, VIEWS.start(), VIEWS.end()),
             ));
         }
-        let nodes = crate::integrate::quadrature::NODES;
-        if !nodes.contains(&self.exact_nodes) {
-            return Err(Error::invalid(
-                "exact nodes",
-                format!("{}; allowed: {} to {}", self.exact_nodes, nodes.start(), nodes.end()),
-            ));
-        }
+        crate::recipes::settings::check_quadrature_nodes("exact nodes", self.exact_nodes)?;
         if !(self.walk.target_standard_error > 0.0 && self.walk.target_standard_error.is_finite()) {
             return Err(Error::invalid(
                 "walk standard error",
@@ -319,15 +313,9 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
             Some(index) => index,
             None => {
                 let in_material = |e: Error| Error::invalid(format!("material `{}`", material.name), e.to_string());
-                let mut tables =
-                    FolderTables::open(&folder, material.albedo, material.tir, request.settings.fgd_source)
-                        .map_err(in_material)?;
-                if let Some(form) = &material.tir_form {
-                    tables = tables.with_tir_form(form).map_err(in_material)?;
-                }
-                if let Some(form) = &material.albedo_form {
-                    tables = tables.with_albedo_form(form).map_err(in_material)?;
-                }
+                let tables = FolderTables::open(&folder, material.albedo, material.tir, request.settings.fgd_source)
+                    .and_then(|t| t.with_material_forms(material.tir_form.as_ref(), material.albedo_form.as_ref()))
+                    .map_err(in_material)?;
                 opened.push((paths, tables));
                 opened.len() - 1
             }

@@ -403,6 +403,20 @@ impl FolderTables {
         Ok(self)
     }
 
+    /// The same tables with the forms a material names in place of its TIR table
+    /// ([`FolderTables::with_tir_form`]) and its albedo table ([`FolderTables::with_albedo_form`]).
+    #[cfg(feature = "generator")]
+    pub fn with_material_forms(self, tir: Option<&FittedForm>, albedo: Option<&FittedForm>) -> Result<Self> {
+        let tables = match tir {
+            Some(form) => self.with_tir_form(form)?,
+            None => self,
+        };
+        match albedo {
+            Some(form) => tables.with_albedo_form(form),
+            None => Ok(tables),
+        }
+    }
+
     /// Lookups the folder holds no table for (each read 0).
     pub fn misses(&self) -> Misses {
         self.misses.lock().map(|m| m.clone()).unwrap_or_default()

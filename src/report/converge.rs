@@ -73,12 +73,7 @@ impl ConvergeSettings {
     /// Refuse a sweep that cannot be measured: node counts outside [`NODES`] or not below the
     /// references' (whose error against themselves is 0, which a log-log plot cannot draw).
     pub fn validate(&self) -> Result<()> {
-        if !NODES.contains(&self.reference_nodes) {
-            return Err(Error::invalid(
-                "--reference-nodes",
-                format!("{}; allowed: {} to {}", self.reference_nodes, NODES.start(), NODES.end()),
-            ));
-        }
+        crate::recipes::settings::check_quadrature_nodes("--reference-nodes", self.reference_nodes)?;
         if let Some(&n) = self.nodes.iter().find(|&&n| !NODES.contains(&n) || n >= self.reference_nodes) {
             return Err(Error::invalid(
                 "--nodes-from/--nodes-to",

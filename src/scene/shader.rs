@@ -97,13 +97,8 @@ pub fn reference(
     check_reference_views(views, materials.len())?;
     let mut points = Vec::with_capacity(materials.len() * (views + STIFF_VIEWS.len()));
     for (material, function) in materials.iter().zip(&shader.materials) {
-        let mut tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?;
-        if let Some(form) = &material.tir_form {
-            tables = tables.with_tir_form(form)?;
-        }
-        if let Some(form) = &material.albedo_form {
-            tables = tables.with_albedo_form(form)?;
-        }
+        let tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?
+            .with_material_forms(material.tir_form.as_ref(), material.albedo_form.as_ref())?;
         let model = Material::new(material.model, material.stack.clone());
         for mu in reference_views(views) {
             points.push(ReferencePoint {

@@ -596,15 +596,21 @@ impl<'a> Generator<'a> {
         function
     }
 
+    /// The shader function of a form a material names, printed once in the module whoever calls
+    /// it; `read` says what it answers.
+    fn form_function(&mut self, fitted: &FittedForm, read: &'static str) -> String {
+        if !self.forms.contains(fitted) {
+            self.forms.push(fitted.clone());
+        }
+        self.reads.insert(read);
+        format!("tmlut_{}", fitted.name)
+    }
+
     /// The directional albedo of an interface of roughness `alpha` and relative index
     /// `(eta, kappa)` at cosine `mu`, on material `m`'s albedo path.
     fn albedo(&mut self, m: &ShaderMaterial, mu: Expr, alpha: f64, eta: f64, kappa: f64) -> Result<Expr> {
         if let Some(fitted) = &m.albedo_form {
-            if !self.forms.contains(fitted) {
-                self.forms.push(fitted.clone());
-            }
-            self.reads.insert("albedo form");
-            let function = format!("tmlut_{}", fitted.name);
+            let function = self.form_function(fitted, "albedo form");
             return Ok(match m.albedo {
                 // FGD ~ F0 scale + bias, as the Karis table is read.
                 AlbedoPath::Karis => {
@@ -685,11 +691,8 @@ impl<'a> Generator<'a> {
                 let Some(fitted) = &m.tir_form else {
                     return Err(self.refuse(&m.name, "names a TIR form (tir = \"fit:PATH\") and none was given".into()));
                 };
-                if !self.forms.contains(fitted) {
-                    self.forms.push(fitted.clone());
-                }
-                self.reads.insert("tir form");
-                Ok(func(&format!("tmlut_{}", fitted.name), vec![mu, alpha, f(eta as f32)]))
+                let function = self.form_function(fitted, "tir form");
+                Ok(func(&function, vec![mu, alpha, f(eta as f32)]))
             }
             TirPath::Fit => {
                 if self.sources.fit.is_none() {
