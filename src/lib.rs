@@ -25,23 +25,21 @@
 //! - [`fit`]: forms written as text, fitted to any table by least squares with NLopt (generator); a
 //!   fitted form compiled from a manifest's definition (loader side).
 //!
-//! Build a renderer against the loader alone with `default-features = false`: that leaves out the
-//! generator's dependencies (rayon, sobol_burley, clap, indicatif, toml, fs4; exr unless its own
-//! `exr` feature is enabled).
+//! The lowest layers (`error`, `stats`, `table`, `physics`, `formats`, the shader emitter, the
+//! packings' lookups and `loader`) are the `tmlut-loader` crate (`crates/loader`), which a renderer
+//! depends on alone; this crate re-exports them under the same names. Without the default
+//! `generator` feature this crate is the model and the form language over that loader.
 
-pub mod error;
+// The loader crate's modules, as this crate's own: the layers every module here builds on.
+pub use tmlut_loader::{error, formats, loader, physics, stats, table};
+
 pub mod fit;
-pub mod formats;
-pub mod loader;
 pub mod model;
 pub mod packing;
-pub mod physics;
 #[cfg(feature = "generator")]
 pub mod report;
 pub mod sampling;
 pub mod shader;
-pub mod stats;
-pub mod table;
 
 #[cfg(feature = "generator")]
 pub mod commit;

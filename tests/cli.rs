@@ -1421,6 +1421,7 @@ fn copper_pot_with_tir(dir: &Path, name: &str, tir: &str) -> PathBuf {
 #[test]
 fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
     use tmlut::fit::text::FittedForm;
+    use tmlut::fit::text::fitted::FittedFormExt;
     use tmlut::furnace::report::FurnaceReport;
     use tmlut::model::folder::{FgdSource, FolderTables};
     use tmlut::model::{AlbedoPath, Lookup, Material, Quantity, Tables, TirPath};
@@ -1491,6 +1492,7 @@ fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
 #[test]
 fn a_scene_naming_an_albedo_form_reads_it_in_place_of_the_karis_table() {
     use tmlut::fit::text::FittedForm;
+    use tmlut::fit::text::fitted::FittedFormExt;
     use tmlut::furnace::report::FurnaceReport;
     use tmlut::model::folder::{FgdSource, FolderTables};
     use tmlut::model::{AlbedoPath, Lookup, Material, Quantity, Tables, TirPath};

@@ -296,45 +296,52 @@ fn named_paths(code: &str, module: &str) -> Vec<String> {
     paths
 }
 
+/// The source folders the layers cover: the loader crate's, whose modules this crate re-exports
+/// under the same names (so its `crate::` paths name the same units), and this crate's.
+const SOURCE_ROOTS: [&str; 2] = ["crates/loader/src", "src"];
+
 #[test]
 fn every_module_uses_only_the_layers_below_it() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    source_files(&src, &mut files);
     let mut violations = Vec::new();
     let mut checked = 0;
-    for file in &files {
-        let relative = file.strip_prefix(&src).unwrap().with_extension("");
-        let relative = relative.to_string_lossy().replace('\\', "/");
-        let name = relative.rsplit('/').next().unwrap();
-        // The binary and the crate root sit above every layer; tests may use any of them.
-        if relative == "main" || relative == "lib" || relative.starts_with("cli/") {
-            continue;
-        }
-        if name == "tests" || name.ends_with("_tests") || name == "proptests" {
-            continue;
-        }
-        // `a/mod.rs` is module `a`.
-        let module = relative.strip_suffix("/mod").unwrap_or(&relative).to_string();
-        let unit = unit_of(&module).unwrap_or_else(|| panic!("src/{relative}.rs is in no layer; add it to LAYERS"));
-        let layer = layer_of(unit).unwrap();
-        checked += 1;
-        let code = library_code(&std::fs::read_to_string(file).unwrap());
-        for path in named_paths(&code, &module) {
-            let Some(used) = unit_of(&path) else { continue };
-            if used == unit {
+    for root in SOURCE_ROOTS {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join(root);
+        let mut files = Vec::new();
+        source_files(&src, &mut files);
+        for file in &files {
+            let relative = file.strip_prefix(&src).unwrap().with_extension("");
+            let relative = relative.to_string_lossy().replace('\\', "/");
+            let name = relative.rsplit('/').next().unwrap();
+            // The binary and the crate root sit above every layer; tests may use any of them.
+            if relative == "main" || relative == "lib" || relative.starts_with("cli/") {
                 continue;
             }
-            let used_layer = layer_of(used).unwrap();
-            if used_layer >= layer {
-                violations.push(format!(
-                    "src/{relative}.rs ({unit}, layer {layer}) uses crate::{} ({used}, layer {used_layer})",
-                    path.replace('/', "::")
-                ));
+            if name == "tests" || name.ends_with("_tests") || name == "proptests" {
+                continue;
+            }
+            // `a/mod.rs` is module `a`.
+            let module = relative.strip_suffix("/mod").unwrap_or(&relative).to_string();
+            let unit =
+                unit_of(&module).unwrap_or_else(|| panic!("{root}/{relative}.rs is in no layer; add it to LAYERS"));
+            let layer = layer_of(unit).unwrap();
+            checked += 1;
+            let code = library_code(&std::fs::read_to_string(file).unwrap());
+            for path in named_paths(&code, &module) {
+                let Some(used) = unit_of(&path) else { continue };
+                if used == unit {
+                    continue;
+                }
+                let used_layer = layer_of(used).unwrap();
+                if used_layer >= layer {
+                    violations.push(format!(
+                        "{root}/{relative}.rs ({unit}, layer {layer}) uses crate::{} ({used}, layer {used_layer})",
+                        path.replace('/', "::")
+                    ));
+                }
             }
         }
     }
-    assert!(checked > 50, "only {checked} files read from {}", src.display());
+    assert!(checked > 50, "only {checked} files read from {SOURCE_ROOTS:?}");
     violations.sort();
     violations.dedup();
     assert!(violations.is_empty(), "modules reaching up or sideways:\n{}", violations.join("\n"));
@@ -342,10 +349,12 @@ fn every_module_uses_only_the_layers_below_it() {
 
 #[test]
 fn every_top_level_module_has_a_layer() {
-    let lib = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/lib.rs")).unwrap();
-    for line in lib.lines() {
-        if let Some(name) = line.trim().strip_prefix("pub mod ").and_then(|rest| rest.strip_suffix(';')) {
-            assert!(unit_of(name).is_some(), "module `{name}` of lib.rs is in no layer of tests/layers.rs");
+    for root in SOURCE_ROOTS {
+        let lib = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(root).join("lib.rs")).unwrap();
+        for line in lib.lines() {
+            if let Some(name) = line.trim().strip_prefix("pub mod ").and_then(|rest| rest.strip_suffix(';')) {
+                assert!(unit_of(name).is_some(), "module `{name}` of {root}/lib.rs is in no layer of tests/layers.rs");
+            }
         }
     }
 }

@@ -176,6 +176,7 @@ fn form_files(dir: &Path, table: &str) -> tmlut::Result<Vec<PathBuf>> {
 /// `tmlut fit --scene`: every candidate fitted (or read as fitted), then ranked in the material.
 fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context: &Context) -> tmlut::Result<()> {
     use tmlut::fit::text::FittedForm;
+    use tmlut::fit::text::fitted::FittedFormExt;
     use tmlut::fit::text::fitting::FIT_FILE;
     check_count("--views", args.views, tmlut::furnace::VIEWS)?;
     check_count("--exact-nodes", args.exact_nodes, tmlut::integrate::quadrature::NODES)?;

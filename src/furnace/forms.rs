@@ -203,6 +203,7 @@ mod tests {
     use std::cell::Cell;
 
     use super::*;
+    use crate::fit::text::fitted::FittedFormExt;
     use crate::loader::LutFolder;
     use crate::model::folder::{FgdSource, FolderTables};
     use crate::model::{AlbedoPath, Lookup, Material, Quantity, Tables};

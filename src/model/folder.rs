@@ -25,76 +25,15 @@ use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use crate::error::{Error, Result};
 use crate::fit::text::compile::FormEvaluator;
 #[cfg(feature = "generator")]
-use crate::fit::text::fitted::FittedForm;
+use crate::fit::text::fitted::{FittedForm, FittedFormExt};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::loader::LutFolder;
-use crate::packing::{Filter, PackedFgd, Packing, Texture3D};
+pub use crate::loader::texture::SampledTable;
+use crate::packing::{Filter, PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::point_of;
 use crate::table::{Axis, Table};
-
-/// A table of one to three axes bound as a texture: one single-channel volume per channel.
-#[derive(Debug, Clone)]
-pub struct SampledTable {
-    pub name: String,
-    pub axes: Vec<Axis>,
-    channels: Vec<Texture3D>,
-}
-
-impl SampledTable {
-    /// The texture of `table` (at most three axes), its values as stored.
-    pub fn new(table: &Table) -> Result<Self> {
-        if table.dimension() > 3 {
-            return Err(Error::invalid(
-                format!("table `{}`", table.name),
-                format!("has {} axes; a texture has at most 3", table.dimension()),
-            ));
-        }
-        let count = |d: usize| table.axes.get(d).map_or(1, |a| a.count);
-        let channels = (0..table.channel_count())
-            .map(|c| Texture3D {
-                width: count(0),
-                height: count(1),
-                depth: count(2),
-                texels: table.channel_values(c).collect(),
-            })
-            .collect();
-        Ok(SampledTable { name: table.name.clone(), axes: table.axes.clone(), channels })
-    }
-
-    pub fn channel_count(&self) -> usize {
-        self.channels.len()
-    }
-
-    /// The texture of channel `channel` (empty where there is none).
-    pub fn into_channel(self, channel: usize) -> Texture3D {
-        self.channels.into_iter().nth(channel).unwrap_or(Texture3D {
-            width: 0,
-            height: 0,
-            depth: 0,
-            texels: Vec::new(),
-        })
-    }
-
-    /// Channel `channel` at `point` (one value per axis), filtered as a GPU does.
-    pub fn sample(&self, channel: usize, point: &[f64]) -> f32 {
-        let mut uvw = [0.5f32; 3];
-        for (d, axis) in self.axes.iter().enumerate() {
-            uvw[d] = texture_coordinate_f32(axis, point[d]);
-        }
-        self.channels[channel].sample_trilinear(uvw[0], uvw[1], uvw[2], Filter::Exact)
-    }
-
-    /// Whether `point` lies in the range of every axis (within rounding).
-    pub fn covers(&self, point: &[f64]) -> bool {
-        self.axes.iter().zip(point).all(|(axis, &x)| {
-            let (lo, hi) = if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
-            let slack = 1e-9 * (hi - lo);
-            x >= lo - slack && x <= hi + slack
-        })
-    }
-}
 
 /// How far outside a slice's range (in units of the range) a lookup may lie and still count as
 /// inside it, when slices holding the same index compete. A scene's slices end exactly at the
@@ -607,7 +546,10 @@ fn packed_fgd(folder: &LutFolder, file: &str, entry: &FileEntry) -> Result<Packe
     let packing = Packing::parse(&packing_entry.name)?;
     let path = folder.dir().join(file);
     let sampled = SampledTable::new(&folder.load(file)?)?;
-    let texels = sampled.channels.into_iter().next().ok_or_else(|| Error::format(&path, "has no channel"))?;
+    if sampled.channel_count() == 0 {
+        return Err(Error::format(&path, "has no channel"));
+    }
+    let texels = sampled.into_channel(0);
     let axes: Vec<Axis> = packing_entry.source_axes.iter().map(|a| a.axis.clone()).collect();
     PackedFgd::with_texture(texels, packing, entry.precision, &axes).map_err(|e| Error::format(&path, e.to_string()))
 }
@@ -627,6 +569,7 @@ fn fitted_form(folder: &LutFolder, fit: &FitEntry) -> Result<Tir> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::packing::Texture3D;
     use crate::table::Mapping;
 
     /// Lattice node 80 of the slices' alpha axis, `(80/128)^2`, exact in f32 and f64.

@@ -281,3 +281,33 @@ pub fn markdown(report: &Report) -> String {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table::{Axis, Channel};
+
+    /// The thesis packing read with the correct coordinates reproduces a multilinear function
+    /// (`tmlut_loader`'s packing tests); the shader as shipped does not.
+    #[test]
+    fn the_thesis_shader_as_shipped_misses_a_multilinear_function() {
+        let f = |p: [f64; 4]| 0.1 + 0.2 * p[0] + 0.1 * p[1] * p[2] + 0.05 * p[2] * p[3] + 0.03 * p[3];
+        let axes = vec![
+            Axis::node_aligned("mu", 0.0, 1.0, 8).unwrap(),
+            Axis::node_aligned("alpha", 0.0, 1.0, 8).unwrap(),
+            Axis::node_aligned("eta", 0.0, 4.0, 6).unwrap(),
+            Axis::node_aligned("kappa", 0.0, 4.0, 10).unwrap(),
+        ];
+        let mut t = Table::zeros("fgd", axes, vec![Channel::new("fgd", "test")]).unwrap();
+        for n in 0..t.node_count() {
+            let p = t.node_position(&t.node_index(n));
+            t.data[n] = f([p[0], p[1], p[2], p[3]]) as f32;
+        }
+        let packed = PackedFgd::pack(&t, Packing::Thesis, Precision::F32).unwrap();
+        let shipped = thesis_as_shipped(&packed);
+        let q = [0.37f32, 0.61, 1.3, 2.2];
+        let shipped_error =
+            (shipped.evaluate(&q, &packed.texture, Filter::Exact) as f64 - f(q.map(|v| v as f64))).abs();
+        assert!(shipped_error > 1e-3, "{shipped_error:e}");
+    }
+}

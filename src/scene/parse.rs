@@ -7,6 +7,7 @@ use super::{
     AlbedoPath, DEFAULT_MARGIN_NODES, FluxModel, Interface, Interval, Layer, Material, Medium, Rgb, Scene, TirPath,
 };
 use crate::error::{Error, Result};
+use crate::fit::text::fitted::FittedFormExt;
 use crate::fit::text::{FittedForm, fitted};
 
 impl Scene {

@@ -63,12 +63,28 @@ struct FitFile {
     search: Option<serde::de::IgnoredAny>,
 }
 
-impl FittedForm {
+/// Reading, compiling and evaluating a fitted form: the generator's side of the manifest's
+/// [`FittedForm`] record (the form language is not the loader's).
+pub trait FittedFormExt: Sized {
     /// The fitted form at `path` (a folder holding `fit.json`, or the file), `source` being the
     /// path as the scene wrote it, fitted to one of `tables` ([`TIR_TABLES`], [`ALBEDO_TABLES`]).
     /// Refuses a missing file, a form of another table, a fit.json with no form text, and
     /// parameters no search fitted.
-    pub fn read(path: &Path, source: &str, tables: &[&str]) -> Result<FittedForm> {
+    fn read(path: &Path, source: &str, tables: &[&str]) -> Result<FittedForm>;
+
+    /// A built folder's fitted form (its manifest's `fit`), held as a scene's fitted forms are,
+    /// named [`BUILD_FORM_NAME`]. `None` for an entry without form text.
+    fn of_build(fit: &crate::formats::manifest::FitEntry) -> Option<FittedForm>;
+
+    /// The form, read from its text against the shape of the table it replaces.
+    fn form(&self) -> Result<Form>;
+
+    /// The form compiled for evaluation.
+    fn evaluator(&self) -> Result<FormEvaluator>;
+}
+
+impl FittedFormExt for FittedForm {
+    fn read(path: &Path, source: &str, tables: &[&str]) -> Result<FittedForm> {
         let file: PathBuf = if path.is_dir() { path.join(FIT_FILE) } else { path.to_path_buf() };
         let refuse = |reason: String| Error::invalid(format!("fit:{source} ({})", file.display()), reason);
         if !file.is_file() {
@@ -128,9 +144,7 @@ impl FittedForm {
         Ok(fitted)
     }
 
-    /// A built folder's fitted form (its manifest's `fit`), held as a scene's fitted forms are,
-    /// named [`BUILD_FORM_NAME`]. `None` for an entry without form text.
-    pub fn of_build(fit: &crate::formats::manifest::FitEntry) -> Option<FittedForm> {
+    fn of_build(fit: &crate::formats::manifest::FitEntry) -> Option<FittedForm> {
         (!fit.form_text.is_empty()).then(|| FittedForm {
             name: BUILD_FORM_NAME.into(),
             table: "tir".into(),
@@ -142,8 +156,7 @@ impl FittedForm {
         })
     }
 
-    /// The form, read from its text against the shape of the table it replaces.
-    pub fn form(&self) -> Result<Form> {
+    fn form(&self) -> Result<Form> {
         let path = PathBuf::from(format!("{}.toml", self.name));
         let shape = shape_of(&self.table).ok_or_else(|| {
             Error::invalid(
@@ -156,8 +169,7 @@ impl FittedForm {
         Ok(form)
     }
 
-    /// The form compiled for evaluation.
-    pub fn evaluator(&self) -> Result<FormEvaluator> {
+    fn evaluator(&self) -> Result<FormEvaluator> {
         let form = self.form()?;
         Ok(FormEvaluator::new(form.tape, form.variables, &self.parameters))
     }

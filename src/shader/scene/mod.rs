@@ -39,7 +39,7 @@ use std::collections::BTreeMap;
 
 use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, select, splat3};
 use crate::error::{Error, Result};
-use crate::fit::text::fitted::FittedForm;
+use crate::fit::text::fitted::{FittedForm, FittedFormExt};
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::ArrayPlace;
 use crate::loader::LutFolder;

@@ -3,7 +3,7 @@
 //! evaluates which material (`docs/shaders.md`).
 //!
 //! ```no_run
-//! use tmlut::loader::{LutFolder, SceneShaderFiles};
+//! use tmlut_loader::{LutFolder, SceneShaderFiles};
 //!
 //! let luts = LutFolder::open("luts/copper-pot")?; // tmlut build --scene: the shader lies beside the tables
 //! let shader = SceneShaderFiles::open(luts.dir())?; // verified against the manifest, which lists it
@@ -13,7 +13,7 @@
 //! }
 //! let wgsl: &str = &shader.wgsl; // one function per material: shader.description.materials
 //! # let _ = wgsl;
-//! # Ok::<(), tmlut::Error>(())
+//! # Ok::<(), tmlut_loader::Error>(())
 //! ```
 
 use std::borrow::Cow;

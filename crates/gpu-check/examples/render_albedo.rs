@@ -14,7 +14,7 @@
 //! non-zero where GPU and CPU differ by more than 1e-5 or the GPU returns a value that is not
 //! finite. The wgpu plumbing (device, texture upload, one compute pass) is in `gpu/mod.rs`.
 
-mod gpu;
+use tmlut_gpu_check as gpu;
 
 use std::process::ExitCode;
 

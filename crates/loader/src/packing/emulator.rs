@@ -50,7 +50,7 @@ pub struct Texture3D {
 
 /// Texel-space position along one axis of `n` texels: the two texels clamp addressing reads and
 /// the weight of the second.
-pub(crate) fn linear_taps(u: f32, n: usize, filter: Filter) -> (usize, usize, f32) {
+pub fn linear_taps(u: f32, n: usize, filter: Filter) -> (usize, usize, f32) {
     let a = u * n as f32 - 0.5;
     // A NaN coordinate reads texel 0 (clamp of an undefined address); never a NaN weight.
     let a = if a.is_nan() { 0.0 } else { a };
@@ -62,7 +62,8 @@ pub(crate) fn linear_taps(u: f32, n: usize, filter: Filter) -> (usize, usize, f3
     (lower, upper, f)
 }
 
-pub(crate) fn lerp(a: f32, b: f32, f: f32) -> f32 {
+/// `a` to `b` by `f`, in f32 as a GPU's linear filter blends two texels.
+pub fn lerp(a: f32, b: f32, f: f32) -> f32 {
     (1.0 - f) * a + f * b
 }
 

@@ -1,9 +1,10 @@
-//! The wgpu plumbing the examples share: a headless device, a table uploaded as a texture from the
-//! loader's texel bytes and descriptor, and one compute pass from an f32 input array to an f32
-//! output array.
-
-// Each example uses a part of these helpers: what one leaves out is not dead.
-#![allow(dead_code)]
+//! tmlut's shaders and lookups run on a GPU API (wgpu: Vulkan, lavapipe in CI, Metal, DX12) and
+//! compared with the CPU evaluation; `scripts/gpu-check` runs its examples (`examples/`). Its own
+//! crate, so that only this check compiles wgpu.
+//!
+//! This file is the wgpu plumbing the examples share: a headless device, a table uploaded as a
+//! texture from the loader's texel bytes and descriptor, and one compute pass from an f32 input
+//! array to an f32 output array.
 
 use tmlut::loader::{TextureData, TextureDimension, TextureFormat};
 

@@ -1,5 +1,5 @@
 //! Reading what tmlut wrote, for renderer crates: built without the generator's dependencies
-//! (`default-features = false`; add the `exr` feature to read OpenEXR files, `bytemuck` to borrow
+//! (the `tmlut-loader` crate; add the `exr` feature to read OpenEXR files, `bytemuck` to borrow
 //! texel bytes without a copy). `docs/loader.md` walks through it.
 //!
 //! - [`LutFolder`]: an output folder and its read-only manifest; every file is loaded verified
@@ -11,19 +11,6 @@
 //!   that holds them, named as WebGPU names them.
 //! - [`Table`]: any table, interpolated in its axes' own quantities
 //!   ([`Table::interpolate_into`] returns an error on a wrong number of coordinates).
-//!
-//! ```no_run
-//! use tmlut::loader::{KarisLut, LutFolder, TirLut};
-//!
-//! let luts = LutFolder::open("luts")?;
-//! let karis = KarisLut::from_folder(&luts)?; // karis.dds, verified against manifest.json
-//! let [scale, bias] = karis.sample(0.5, 0.3); // (n.v, perceptual roughness)
-//! let tir = TirLut::open(&luts, "tir.dds")?;
-//! let lost = tir.sample(0.7, 0.01, 0.9); // (mu, alpha, eta): the handle computes the axes' quantities
-//! let texture = karis.texture()?; // bytes and descriptor of a `rg16float` 2D texture
-//! assert_eq!(texture.to_bytes().len(), texture.descriptor().byte_len());
-//! # Ok::<(), tmlut::Error>(())
-//! ```
 //!
 //! DDS files carry no description of their axes: the folder's `manifest.json` supplies it. EXR
 //! and KTX2 files written by tmlut carry their own; `.bin` files carry ranges and node counts but not axis
@@ -37,7 +24,7 @@ pub mod texture;
 
 // The examples of `docs/loader.md` compile with the doctests.
 #[cfg(doctest)]
-#[doc = include_str!("../../docs/loader.md")]
+#[doc = include_str!("../../../../docs/loader.md")]
 pub struct Guide;
 
 pub use crate::error::{Error, Result};

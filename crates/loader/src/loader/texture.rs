@@ -22,7 +22,7 @@
 
 use super::{Precision, Table};
 use crate::error::{Error, Result};
-use crate::packing::emulator::Filter;
+use crate::packing::emulator::{Filter, Texture3D};
 use crate::packing::emulator::{lerp, linear_taps};
 use crate::table::{Axis, InterpolationError, Placement};
 
@@ -268,4 +268,68 @@ pub fn sample_texture(table: &Table, coordinate: &[f32], out: &mut [f32]) -> Res
         *value = lerp(plane(z0), plane(z1), fz);
     }
     Ok(())
+}
+
+/// A table of one to three axes bound as a texture: one single-channel volume per channel,
+/// sampled by the GPU emulator ([`crate::packing::emulator`]) as [`sample_texture`] samples it.
+#[derive(Debug, Clone)]
+pub struct SampledTable {
+    pub name: String,
+    pub axes: Vec<Axis>,
+    /// One volume per channel, each of the axes' node counts (1 along a missing axis).
+    pub channels: Vec<Texture3D>,
+}
+
+impl SampledTable {
+    /// The texture of `table` (at most three axes), its values as stored.
+    pub fn new(table: &Table) -> Result<Self> {
+        if table.dimension() > 3 {
+            return Err(Error::invalid(
+                format!("table `{}`", table.name),
+                format!("has {} axes; a texture has at most 3", table.dimension()),
+            ));
+        }
+        let count = |d: usize| table.axes.get(d).map_or(1, |a| a.count);
+        let channels = (0..table.channel_count())
+            .map(|c| Texture3D {
+                width: count(0),
+                height: count(1),
+                depth: count(2),
+                texels: table.channel_values(c).collect(),
+            })
+            .collect();
+        Ok(SampledTable { name: table.name.clone(), axes: table.axes.clone(), channels })
+    }
+
+    pub fn channel_count(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// The texture of channel `channel` (empty where there is none).
+    pub fn into_channel(self, channel: usize) -> Texture3D {
+        self.channels.into_iter().nth(channel).unwrap_or(Texture3D {
+            width: 0,
+            height: 0,
+            depth: 0,
+            texels: Vec::new(),
+        })
+    }
+
+    /// Channel `channel` at `point` (one value per axis), filtered as a GPU does.
+    pub fn sample(&self, channel: usize, point: &[f64]) -> f32 {
+        let mut uvw = [0.5f32; 3];
+        for (d, axis) in self.axes.iter().enumerate() {
+            uvw[d] = texture_coordinate(axis, point[d]);
+        }
+        self.channels[channel].sample_trilinear(uvw[0], uvw[1], uvw[2], Filter::Exact)
+    }
+
+    /// Whether `point` lies in the range of every axis (within rounding).
+    pub fn covers(&self, point: &[f64]) -> bool {
+        self.axes.iter().zip(point).all(|(axis, &x)| {
+            let (lo, hi) = if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
+            let slack = 1e-9 * (hi - lo);
+            x >= lo - slack && x <= hi + slack
+        })
+    }
 }

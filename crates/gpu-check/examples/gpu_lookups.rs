@@ -14,7 +14,7 @@
 //! Each shader file is the one the manifest lists, verified against its SHA-256. Exits non-zero
 //! beyond the tolerances below or on a value that is not finite.
 
-mod gpu;
+use tmlut_gpu_check as gpu;
 
 use std::process::ExitCode;
 

@@ -435,7 +435,7 @@ pub fn binding(axes: &[Axis], channels: usize, precision: Precision, format: Fil
 
 /// A table or axis refused while reading means the file, not an argument, is wrong: re-raise an
 /// `Invalid` error as a `Format` error of `path`, keeping what was invalid and why.
-pub(crate) fn as_format_error(error: Error, path: &Path) -> Error {
+pub fn as_format_error(error: Error, path: &Path) -> Error {
     match error {
         Error::Invalid { key, reason } => Error::format(path, format!("{key}: {reason}")),
         other => other,

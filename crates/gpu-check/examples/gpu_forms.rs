@@ -16,7 +16,7 @@
 //! Exits non-zero beyond the tolerance, on a value that is not finite on the GPU or the CPU, when
 //! no form is found, or when `--expect N` is given and N forms are not.
 
-mod gpu;
+use tmlut_gpu_check as gpu;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

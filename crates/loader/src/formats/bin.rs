@@ -278,8 +278,9 @@ fn shape_text(sizes: &[usize]) -> String {
 mod tests {
     use super::*;
 
-    const GD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_GD.bin");
-    const TIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_TIR.bin");
+    // The original tables, in the repository's test data (two folders up: the workspace root).
+    const GD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/tmblm/tm_GD.bin");
+    const TIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/tmblm/tm_TIR.bin");
 
     fn sample_table(shape: &[usize]) -> Table {
         let axes = shape

@@ -7,7 +7,7 @@ use std::path::Path;
 use super::*;
 use crate::formats::manifest::{AxisEntry, ErrorEntry, MANIFEST_FILE};
 use crate::formats::{bin, dds, ktx2};
-use crate::model::folder::SampledTable;
+use crate::loader::texture::SampledTable;
 use crate::stats::{ErrorRecord, ErrorSummary};
 use crate::table::derived::{
     CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, critical_angle_fraction, critical_angle_offset,

@@ -1,0 +1,43 @@
+//! tmlut-loader: read and sample the lookup tables tmlut writes, for renderer crates. Its
+//! dependencies are few and pure Rust (serde, sha2, half, glam, ktx2; `exr` and `bytemuck` on
+//! request); the generator (`tmlut`) depends on it, never the reverse. `docs/loader.md` walks
+//! through it.
+//!
+//! ```no_run
+//! use tmlut_loader::{KarisLut, LutFolder, TirLut};
+//!
+//! let luts = LutFolder::open("luts")?;
+//! let karis = KarisLut::from_folder(&luts)?; // karis.dds, verified against manifest.json
+//! let [scale, bias] = karis.sample(0.5, 0.3); // (n.v, perceptual roughness)
+//! let tir = TirLut::open(&luts, "tir.dds")?;
+//! let lost = tir.sample(0.7, 0.01, 0.9); // (mu, alpha, eta): the handle computes the axes' quantities
+//! let texture = karis.texture()?; // bytes and descriptor of a `rg16float` 2D texture
+//! assert_eq!(texture.to_bytes().len(), texture.descriptor().byte_len());
+//! # Ok::<(), tmlut_loader::Error>(())
+//! ```
+//!
+//! The modules, lowest first:
+//! - [`error`]: the one error type, naming the file or key and what is allowed;
+//! - [`stats`], [`table`], [`physics`]: error records, axes with multilinear interpolation, and
+//!   the optics the tables integrate (the Fresnel basis a Belcour table is read with among them);
+//! - [`formats`]: DDS, KTX2, OpenEXR, the original `.bin` layout and the manifest;
+//! - [`shader`]: one emitter that prints a shader description as HLSL and WGSL;
+//! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and
+//!   an emulator of a GPU's texture filtering;
+//! - [`loader`]: an output folder and its manifest, typed handles, texture descriptors.
+
+pub mod error;
+pub mod formats;
+pub mod loader;
+pub mod packing;
+pub mod physics;
+pub mod shader;
+pub mod stats;
+pub mod table;
+
+pub use error::{Error, Result};
+pub use loader::{
+    BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, LutFolder, MaterialFunction, SceneShaderFiles, ShaderDescription,
+    TextureBinding, TextureData, TextureDescriptor, TextureDimension, TextureFormat, TirLut,
+};
+pub use table::{Axis, Channel, Mapping, Placement, Table};

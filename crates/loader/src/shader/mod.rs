@@ -1,0 +1,857 @@
+//! One shader emitter: a small typed description of shader code (types, expressions, statements,
+//! functions, structs, bindings) printed as HLSL and as WGSL. Every shader tmlut writes — the
+//! lookups of the GPU packings ([`crate::packing`]), the fitted forms and the
+//! transfer-matrix evaluation of a scene (both in `tmlut`) — is built as one [`Module`] and printed
+//! twice, so the two languages cannot drift apart: a change is made once, in the description.
+//!
+//! The description holds only what both languages spell the same way up to syntax: f32/i32
+//! arithmetic, comparisons, a fixed list of builtins ([`Builtin`]), vectors, structs, fixed-size
+//! arrays, `select`, texel loads and filtered samples. Where they differ in meaning the emitter
+//! does not paper over it: HLSL's `precise` has no WGSL counterpart (WGSL forbids reassociation
+//! anyway), and WGSL has no `isnan`, so the evaluation code tests finiteness with comparisons.
+
+use std::fmt::Write as _;
+
+/// A shading language the emitter prints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Lang {
+    Hlsl,
+    Wgsl,
+}
+
+impl Lang {
+    pub fn extension(self) -> &'static str {
+        match self {
+            Lang::Hlsl => "hlsl",
+            Lang::Wgsl => "wgsl",
+        }
+    }
+}
+
+/// A type.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Ty {
+    F32,
+    I32,
+    Bool,
+    /// `vecN<f32>` / `floatN`, N in 2..=4.
+    Vec(u8),
+    /// `vecN<i32>` / `intN`.
+    IVec(u8),
+    /// A struct declared in the module.
+    Named(String),
+    /// A fixed-size array (struct fields only).
+    Array(Box<Ty>, usize),
+    /// A sampled float texture of `dims` (2 or 3) dimensions; `scalar` makes HLSL's element type
+    /// `float` (its loads and samples return a scalar) instead of `float4`.
+    Texture {
+        dims: u8,
+        scalar: bool,
+    },
+    /// An array of 2D float textures of four channels, addressed by an integer layer.
+    TextureArray,
+    Sampler,
+}
+
+impl Ty {
+    fn text(&self, lang: Lang) -> String {
+        match (self, lang) {
+            (Ty::F32, Lang::Hlsl) => "float".into(),
+            (Ty::F32, Lang::Wgsl) => "f32".into(),
+            (Ty::I32, Lang::Hlsl) => "int".into(),
+            (Ty::I32, Lang::Wgsl) => "i32".into(),
+            (Ty::Bool, _) => "bool".into(),
+            (Ty::Vec(n), Lang::Hlsl) => format!("float{n}"),
+            (Ty::Vec(n), Lang::Wgsl) => format!("vec{n}<f32>"),
+            (Ty::IVec(n), Lang::Hlsl) => format!("int{n}"),
+            (Ty::IVec(n), Lang::Wgsl) => format!("vec{n}<i32>"),
+            (Ty::Named(name), _) => name.clone(),
+            (Ty::Array(t, n), Lang::Wgsl) => format!("array<{}, {n}>", t.text(lang)),
+            (Ty::Array(t, _), Lang::Hlsl) => t.text(lang),
+            (Ty::Texture { dims, scalar }, Lang::Hlsl) => {
+                format!("Texture{dims}D<{}>", if *scalar { "float" } else { "float4" })
+            }
+            (Ty::Texture { dims, .. }, Lang::Wgsl) => format!("texture_{dims}d<f32>"),
+            (Ty::TextureArray, Lang::Hlsl) => "Texture2DArray<float4>".into(),
+            (Ty::TextureArray, Lang::Wgsl) => "texture_2d_array<f32>".into(),
+            (Ty::Sampler, Lang::Hlsl) => "SamplerState".into(),
+            (Ty::Sampler, Lang::Wgsl) => "sampler".into(),
+        }
+    }
+
+    /// `TYPE name` (HLSL, with an array's extent after the name) or `name: TYPE` (WGSL).
+    fn declare(&self, name: &str, lang: Lang) -> String {
+        match lang {
+            Lang::Hlsl => match self {
+                Ty::Array(_, n) => format!("{} {name}[{n}]", self.text(lang)),
+                _ => format!("{} {name}", self.text(lang)),
+            },
+            Lang::Wgsl => format!("{name}: {}", self.text(lang)),
+        }
+    }
+}
+
+/// A builtin function both languages define with the same meaning.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Builtin {
+    Abs,
+    Sqrt,
+    Floor,
+    Min,
+    Max,
+    Clamp,
+    Exp,
+    Log,
+    Pow,
+    Smoothstep,
+    Dot,
+    Sign,
+    Saturate,
+    /// HLSL `frac`.
+    Fract,
+    /// WGSL `inverseSqrt`, HLSL `rsqrt`.
+    InverseSqrt,
+    Exp2,
+    Log2,
+    Sin,
+    Cos,
+    Tan,
+    Asin,
+    Acos,
+    Atan,
+    Atan2,
+    Sinh,
+    Cosh,
+    Tanh,
+    Step,
+    /// HLSL `lerp`.
+    Mix,
+}
+
+impl Builtin {
+    fn name(self, lang: Lang) -> &'static str {
+        match (self, lang) {
+            (Builtin::Fract, Lang::Hlsl) => return "frac",
+            (Builtin::InverseSqrt, Lang::Hlsl) => return "rsqrt",
+            (Builtin::InverseSqrt, Lang::Wgsl) => return "inverseSqrt",
+            (Builtin::Mix, Lang::Hlsl) => return "lerp",
+            _ => {}
+        }
+        match self {
+            Builtin::Abs => "abs",
+            Builtin::Sqrt => "sqrt",
+            Builtin::Floor => "floor",
+            Builtin::Min => "min",
+            Builtin::Max => "max",
+            Builtin::Clamp => "clamp",
+            Builtin::Exp => "exp",
+            Builtin::Log => "log",
+            Builtin::Pow => "pow",
+            Builtin::Smoothstep => "smoothstep",
+            Builtin::Dot => "dot",
+            Builtin::Sign => "sign",
+            Builtin::Saturate => "saturate",
+            Builtin::Fract => "fract",
+            Builtin::InverseSqrt => "inverseSqrt",
+            Builtin::Exp2 => "exp2",
+            Builtin::Log2 => "log2",
+            Builtin::Sin => "sin",
+            Builtin::Cos => "cos",
+            Builtin::Tan => "tan",
+            Builtin::Asin => "asin",
+            Builtin::Acos => "acos",
+            Builtin::Atan => "atan",
+            Builtin::Atan2 => "atan2",
+            Builtin::Sinh => "sinh",
+            Builtin::Cosh => "cosh",
+            Builtin::Tanh => "tanh",
+            Builtin::Step => "step",
+            Builtin::Mix => "mix",
+        }
+    }
+}
+
+/// A binary operator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Op {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+    And,
+    Or,
+}
+
+impl Op {
+    fn text(self) -> &'static str {
+        match self {
+            Op::Add => "+",
+            Op::Sub => "-",
+            Op::Mul => "*",
+            Op::Div => "/",
+            Op::Lt => "<",
+            Op::Le => "<=",
+            Op::Gt => ">",
+            Op::Ge => ">=",
+            Op::Eq => "==",
+            Op::Ne => "!=",
+            Op::And => "&&",
+            Op::Or => "||",
+        }
+    }
+
+    /// Binding strength, as C, HLSL and WGSL agree for the operators used here (WGSL refuses to
+    /// mix `&&` with comparisons unparenthesised, which the printer never does: comparisons bind
+    /// tighter and are parenthesised inside `&&` by [`Style::Minimal`] too).
+    fn precedence(self) -> u8 {
+        match self {
+            Op::Or => 1,
+            Op::And => 2,
+            Op::Eq | Op::Ne | Op::Lt | Op::Le | Op::Gt | Op::Ge => 3,
+            Op::Add | Op::Sub => 4,
+            Op::Mul | Op::Div => 5,
+        }
+    }
+}
+
+/// An expression.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Expr {
+    /// A parameter, local, global or constant by name.
+    Name(String),
+    F32(f32),
+    I32(i32),
+    Binary(Op, Box<Expr>, Box<Expr>),
+    Neg(Box<Expr>),
+    Call(Builtin, Vec<Expr>),
+    /// A function of the module.
+    Function(String, Vec<Expr>),
+    /// A vector or scalar constructor / conversion: `vec3<f32>(a, b, c)`, `float3(a, b, c)`,
+    /// `i32(x)`, `int(x)`.
+    Construct(Ty, Vec<Expr>),
+    /// Parentheses the author wants for the reader, where precedence would not need them.
+    Paren(Box<Expr>),
+    /// A struct member or swizzle.
+    Member(Box<Expr>, String),
+    /// An array element at a constant index.
+    Index(Box<Expr>, usize),
+    /// `condition ? then : otherwise` / `select(otherwise, then, condition)`.
+    Select {
+        condition: Box<Expr>,
+        then: Box<Expr>,
+        otherwise: Box<Expr>,
+    },
+    /// One texel of mip level 0 at integer coordinates: `textureLoad(t, c, 0)` / `t.Load(intN(c, 0))`.
+    /// `swizzle` is applied in WGSL always (whose loads return four channels) and in HLSL where
+    /// the texture is declared with four channels.
+    Load {
+        texture: String,
+        scalar_texture: bool,
+        coordinates: Vec<Expr>,
+        /// The layer of a texture array (an `i32`): `textureLoad(t, c, layer, 0)` /
+        /// `t.Load(int4(c, layer, 0))`.
+        layer: Option<Box<Expr>>,
+        swizzle: &'static str,
+    },
+    /// A filtered sample at mip level 0: `textureSampleLevel(t, s, c, 0.0)` / `t.SampleLevel(s, c, 0)`.
+    SampleLevel {
+        texture: String,
+        scalar_texture: bool,
+        sampler: String,
+        coordinates: Vec<Expr>,
+        swizzle: &'static str,
+    },
+}
+
+/// Shorthands for building expressions.
+pub fn name(n: &str) -> Expr {
+    Expr::Name(n.to_string())
+}
+/// An f32 constant, as a shader can hold it: an infinity (a value past f32's range, folded from
+/// f64) becomes the largest finite f32 of its sign, since neither language has an infinite
+/// literal (naga refuses `inf`), and a subnormal becomes 0 of its sign, as GPUs that flush
+/// subnormals read it anyway, so that the CPU side of a program (the packing's emulated lookup)
+/// computes with the value the GPU sees.
+pub fn f(v: f32) -> Expr {
+    Expr::F32(representable(v))
+}
+
+/// `v` as [`f`] stores it.
+pub fn representable(v: f32) -> f32 {
+    if v.is_infinite() {
+        f32::MAX.copysign(v)
+    } else if v.is_subnormal() {
+        0.0f32.copysign(v)
+    } else {
+        v
+    }
+}
+pub fn call(b: Builtin, args: Vec<Expr>) -> Expr {
+    Expr::Call(b, args)
+}
+pub fn func(n: &str, args: Vec<Expr>) -> Expr {
+    Expr::Function(n.to_string(), args)
+}
+pub fn vec3(a: Expr, b: Expr, c: Expr) -> Expr {
+    Expr::Construct(Ty::Vec(3), vec![a, b, c])
+}
+pub fn splat3(a: Expr) -> Expr {
+    Expr::Construct(Ty::Vec(3), vec![a])
+}
+pub fn select(condition: Expr, then: Expr, otherwise: Expr) -> Expr {
+    Expr::Select { condition: Box::new(condition), then: Box::new(then), otherwise: Box::new(otherwise) }
+}
+
+macro_rules! binary_operator {
+    ($trait:ident, $method:ident, $op:expr) => {
+        impl std::ops::$trait for Expr {
+            type Output = Expr;
+            fn $method(self, o: Expr) -> Expr {
+                Expr::Binary($op, Box::new(self), Box::new(o))
+            }
+        }
+    };
+}
+binary_operator!(Add, add, Op::Add);
+binary_operator!(Sub, sub, Op::Sub);
+binary_operator!(Mul, mul, Op::Mul);
+binary_operator!(Div, div, Op::Div);
+
+impl std::ops::Neg for Expr {
+    type Output = Expr;
+    fn neg(self) -> Expr {
+        Expr::Neg(Box::new(self))
+    }
+}
+
+impl Expr {
+    pub fn op(self, op: Op, o: Expr) -> Expr {
+        Expr::Binary(op, Box::new(self), Box::new(o))
+    }
+    pub fn lt(self, o: Expr) -> Expr {
+        self.op(Op::Lt, o)
+    }
+    pub fn gt(self, o: Expr) -> Expr {
+        self.op(Op::Gt, o)
+    }
+    pub fn le(self, o: Expr) -> Expr {
+        self.op(Op::Le, o)
+    }
+    pub fn ne(self, o: Expr) -> Expr {
+        self.op(Op::Ne, o)
+    }
+    pub fn and(self, o: Expr) -> Expr {
+        self.op(Op::And, o)
+    }
+    pub fn min(self, o: Expr) -> Expr {
+        call(Builtin::Min, vec![self, o])
+    }
+    pub fn max(self, o: Expr) -> Expr {
+        call(Builtin::Max, vec![self, o])
+    }
+    pub fn clamp(self, lo: Expr, hi: Expr) -> Expr {
+        call(Builtin::Clamp, vec![self, lo, hi])
+    }
+    pub fn sqrt(self) -> Expr {
+        call(Builtin::Sqrt, vec![self])
+    }
+    pub fn abs(self) -> Expr {
+        call(Builtin::Abs, vec![self])
+    }
+    pub fn floor(self) -> Expr {
+        call(Builtin::Floor, vec![self])
+    }
+    pub fn member(self, m: &str) -> Expr {
+        Expr::Member(Box::new(self), m.to_string())
+    }
+    pub fn index(self, i: usize) -> Expr {
+        Expr::Index(Box::new(self), i)
+    }
+
+    fn precedence(&self) -> u8 {
+        match self {
+            Expr::Binary(op, ..) => op.precedence(),
+            Expr::Select { .. } => 0,
+            Expr::Neg(_) => 6,
+            // A negative literal prints with its sign: it binds as a unary minus.
+            Expr::F32(v) if v.is_sign_negative() => 6,
+            Expr::I32(v) if *v < 0 => 6,
+            _ => 7,
+        }
+    }
+}
+
+/// f32 literal text both languages parse to the same value: Rust's shortest round-trip form,
+/// which always has a `.` or an exponent (`63.0`, `0.0078125`, `1e-7`).
+pub fn literal(v: f32) -> String {
+    let text = format!("{v:?}");
+    if text.contains('.') || text.contains('e') || text.contains("inf") || text.contains("NaN") {
+        text
+    } else {
+        format!("{text}.0")
+    }
+}
+
+/// How binary expressions are parenthesised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Parens {
+    /// Every binary operation in parentheses: `(a + (b * c))`, so a reader sees the order of the
+    /// f32 operations without knowing precedence (the packing lookups).
+    Full,
+    /// Only where precedence needs them: `a + b * c`.
+    Minimal,
+}
+
+/// A statement.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Stmt {
+    /// An immutable local: WGSL `let name[: T] = v;`, HLSL `[precise ]T name = v;`.
+    Let {
+        name: String,
+        ty: Ty,
+        value: Expr,
+        typed: bool,
+        precise: bool,
+    },
+    /// A mutable local: WGSL `var name: T = v;` (or zero-initialised `var name: T;`), HLSL
+    /// `T name = v;` (or `T name = (T)0;`).
+    Var {
+        name: String,
+        ty: Ty,
+        value: Option<Expr>,
+    },
+    /// `target = value;`
+    Assign(Expr, Expr),
+    If {
+        condition: Expr,
+        then: Vec<Stmt>,
+        otherwise: Vec<Stmt>,
+    },
+    Return(Expr),
+    Comment(String),
+}
+
+pub fn let_(n: &str, ty: Ty, value: Expr) -> Stmt {
+    Stmt::Let { name: n.to_string(), ty, value, typed: true, precise: false }
+}
+pub fn var(n: &str, ty: Ty, value: Expr) -> Stmt {
+    Stmt::Var { name: n.to_string(), ty, value: Some(value) }
+}
+pub fn assign(target: Expr, value: Expr) -> Stmt {
+    Stmt::Assign(target, value)
+}
+
+/// A function.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Function {
+    pub name: String,
+    pub params: Vec<(String, Ty)>,
+    pub returns: Ty,
+    pub body: Vec<Stmt>,
+}
+
+/// A top-level item.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Item {
+    /// Comment lines (`// ` prefixed; an empty line prints as `//`).
+    Comment(String),
+    Function(Function),
+    Struct {
+        name: String,
+        fields: Vec<(String, Ty)>,
+    },
+    /// A resource: WGSL `@group(G) @binding(B) var name: T;`, HLSL `T name : register(tB[, spaceG]);`.
+    Binding {
+        group: u32,
+        binding: u32,
+        name: String,
+        ty: Ty,
+    },
+    /// A blank line.
+    Blank,
+}
+
+/// A module: items printed in order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Module {
+    pub items: Vec<Item>,
+    pub parens: Parens,
+    /// HLSL functions open their brace on the line after the signature (the packing lookups'
+    /// layout); otherwise on the same line.
+    pub hlsl_brace_on_next_line: bool,
+}
+
+impl Module {
+    pub fn new(parens: Parens) -> Self {
+        Module { items: Vec::new(), parens, hlsl_brace_on_next_line: false }
+    }
+
+    pub fn push(&mut self, item: Item) {
+        self.items.push(item);
+    }
+
+    pub fn function(&mut self, name: &str, params: Vec<(&str, Ty)>, returns: Ty, body: Vec<Stmt>) {
+        self.items.push(Item::Function(Function {
+            name: name.to_string(),
+            params: params.into_iter().map(|(n, t)| (n.to_string(), t)).collect(),
+            returns,
+            body,
+        }));
+    }
+
+    pub fn comment(&mut self, text: &str) {
+        self.items.push(Item::Comment(text.to_string()));
+    }
+
+    /// The module's text in `lang`.
+    pub fn print(&self, lang: Lang) -> String {
+        let p = Printer { lang, parens: self.parens };
+        let mut s = String::new();
+        for item in &self.items {
+            match item {
+                Item::Comment(text) => s.push_str(&comment_block("//", text)),
+                Item::Blank => s.push('\n'),
+                Item::Struct { name, fields } => {
+                    let _ = writeln!(s, "struct {name} {{");
+                    for (field, ty) in fields {
+                        let _ = match lang {
+                            Lang::Hlsl => writeln!(s, "    {};", ty.declare(field, lang)),
+                            Lang::Wgsl => writeln!(s, "    {},", ty.declare(field, lang)),
+                        };
+                    }
+                    s.push_str(if lang == Lang::Hlsl { "};\n" } else { "}\n" });
+                }
+                Item::Binding { group, binding, name, ty } => {
+                    let _ = match lang {
+                        Lang::Wgsl => writeln!(s, "@group({group}) @binding({binding}) var {name}: {};", ty.text(lang)),
+                        Lang::Hlsl => {
+                            let register = if *ty == Ty::Sampler { 's' } else { 't' };
+                            let space = if *group == 0 { String::new() } else { format!(", space{group}") };
+                            writeln!(s, "{} : register({register}{binding}{space});", ty.declare(name, lang))
+                        }
+                    };
+                }
+                Item::Function(function) => {
+                    let params: Vec<String> = function.params.iter().map(|(n, t)| t.declare(n, lang)).collect();
+                    let _ = match lang {
+                        Lang::Hlsl => {
+                            let brace = if self.hlsl_brace_on_next_line { "\n{" } else { " {" };
+                            writeln!(
+                                s,
+                                "{} {}({}){brace}",
+                                function.returns.text(lang),
+                                function.name,
+                                params.join(", ")
+                            )
+                        }
+                        Lang::Wgsl => writeln!(
+                            s,
+                            "fn {}({}) -> {} {{",
+                            function.name,
+                            params.join(", "),
+                            function.returns.text(lang)
+                        ),
+                    };
+                    for stmt in &function.body {
+                        p.stmt(stmt, 1, &mut s);
+                    }
+                    s.push_str("}\n");
+                }
+            }
+        }
+        s
+    }
+}
+
+struct Printer {
+    lang: Lang,
+    parens: Parens,
+}
+
+impl Printer {
+    fn stmt(&self, stmt: &Stmt, depth: usize, s: &mut String) {
+        let pad = "    ".repeat(depth);
+        let lang = self.lang;
+        match stmt {
+            Stmt::Let { name, ty, value, typed, precise } => {
+                let value = self.expr(value);
+                let _ = match lang {
+                    Lang::Hlsl => {
+                        let precise = if *precise { "precise " } else { "" };
+                        writeln!(s, "{pad}{precise}{} = {value};", ty.declare(name, lang))
+                    }
+                    Lang::Wgsl if *typed => writeln!(s, "{pad}let {name}: {} = {value};", ty.text(lang)),
+                    Lang::Wgsl => writeln!(s, "{pad}let {name} = {value};"),
+                };
+            }
+            Stmt::Var { name, ty, value } => {
+                let _ = match (lang, value) {
+                    (Lang::Hlsl, Some(v)) => writeln!(s, "{pad}{} = {};", ty.declare(name, lang), self.expr(v)),
+                    (Lang::Hlsl, None) => {
+                        writeln!(s, "{pad}{} = ({})0;", ty.declare(name, lang), ty.text(lang))
+                    }
+                    (Lang::Wgsl, Some(v)) => writeln!(s, "{pad}var {name}: {} = {};", ty.text(lang), self.expr(v)),
+                    (Lang::Wgsl, None) => writeln!(s, "{pad}var {name}: {};", ty.text(lang)),
+                };
+            }
+            Stmt::Assign(target, value) => {
+                let _ = writeln!(s, "{pad}{} = {};", self.expr(target), self.expr(value));
+            }
+            Stmt::If { condition, then, otherwise } => {
+                let _ = writeln!(s, "{pad}if ({}) {{", self.expr(condition));
+                for t in then {
+                    self.stmt(t, depth + 1, s);
+                }
+                if otherwise.is_empty() {
+                    let _ = writeln!(s, "{pad}}}");
+                } else {
+                    let _ = writeln!(s, "{pad}}} else {{");
+                    for t in otherwise {
+                        self.stmt(t, depth + 1, s);
+                    }
+                    let _ = writeln!(s, "{pad}}}");
+                }
+            }
+            Stmt::Return(e) => {
+                let _ = writeln!(s, "{pad}return {};", self.expr(e));
+            }
+            Stmt::Comment(text) => s.push_str(&comment_block(&format!("{pad}//"), text)),
+        }
+    }
+
+    fn expr(&self, e: &Expr) -> String {
+        let mut out = String::new();
+        self.write(e, &mut out);
+        out
+    }
+
+    fn list(&self, args: &[Expr]) -> String {
+        args.iter().map(|a| self.expr(a)).collect::<Vec<_>>().join(", ")
+    }
+
+    /// `e` as an operand of an operator of precedence `outer`; `right` marks the right operand,
+    /// which needs parentheses at equal precedence (`a - (b - c)`).
+    fn operand(&self, e: &Expr, outer: u8, right: bool, out: &mut String) {
+        let inner = e.precedence();
+        // A comparison inside `&&`/`||` is parenthesised: WGSL requires it for mixed operators.
+        let needs = match self.parens {
+            Parens::Minimal => inner < outer || (right && inner == outer) || (outer <= 2 && inner == 3),
+            // Binary operations carry their own parentheses; a selection still needs them.
+            Parens::Full => inner == 0,
+        };
+        if needs {
+            out.push('(');
+            self.write(e, out);
+            out.push(')');
+        } else {
+            self.write(e, out);
+        }
+    }
+
+    fn write(&self, e: &Expr, out: &mut String) {
+        let lang = self.lang;
+        match e {
+            Expr::Name(n) => out.push_str(n),
+            Expr::F32(v) => out.push_str(&literal(*v)),
+            Expr::I32(v) => {
+                let _ = write!(out, "{v}");
+            }
+            Expr::Binary(op, a, b) => {
+                let full = self.parens == Parens::Full;
+                if full {
+                    out.push('(');
+                }
+                self.operand(a, op.precedence(), false, out);
+                let _ = write!(out, " {} ", op.text());
+                self.operand(b, op.precedence(), true, out);
+                if full {
+                    out.push(')');
+                }
+            }
+            Expr::Neg(a) => {
+                out.push('-');
+                self.operand(a, 6, true, out);
+            }
+            Expr::Call(b, args) => {
+                let _ = write!(out, "{}({})", b.name(lang), self.list(args));
+            }
+            Expr::Function(n, args) => {
+                let _ = write!(out, "{n}({})", self.list(args));
+            }
+            Expr::Construct(ty, args) => {
+                // HLSL has no splat constructor: `float3(x)` is written `(float3)x`... which is
+                // also a cast; spell the splat out instead.
+                let args = if lang == Lang::Hlsl && args.len() == 1 {
+                    match ty {
+                        Ty::Vec(n) | Ty::IVec(n) => vec![args[0].clone(); *n as usize],
+                        _ => args.clone(),
+                    }
+                } else {
+                    args.clone()
+                };
+                let _ = write!(out, "{}({})", ty.text(lang), self.list(&args));
+            }
+            Expr::Paren(a) => {
+                out.push('(');
+                self.write(a, out);
+                out.push(')');
+            }
+            Expr::Member(a, m) => {
+                self.operand(a, 7, false, out);
+                let _ = write!(out, ".{m}");
+            }
+            Expr::Index(a, i) => {
+                self.operand(a, 7, false, out);
+                let _ = write!(out, "[{i}]");
+            }
+            Expr::Select { condition, then, otherwise } => match lang {
+                Lang::Hlsl => {
+                    let _ = write!(out, "{} ? {} : {}", self.expr(condition), self.expr(then), self.expr(otherwise));
+                }
+                Lang::Wgsl => {
+                    let _ =
+                        write!(out, "select({}, {}, {})", self.expr(otherwise), self.expr(then), self.expr(condition));
+                }
+            },
+            Expr::Load { texture, scalar_texture, coordinates, layer, swizzle } => {
+                let n = coordinates.len() as u8;
+                match lang {
+                    Lang::Wgsl => {
+                        let layer = layer
+                            .as_ref()
+                            .map(|l| format!("{}, ", self.list(std::slice::from_ref(l))))
+                            .unwrap_or_default();
+                        let _ = write!(
+                            out,
+                            "textureLoad({texture}, {}({}), {layer}0).{swizzle}",
+                            Ty::IVec(n).text(lang),
+                            self.list(coordinates)
+                        );
+                    }
+                    Lang::Hlsl => {
+                        let mut all = coordinates.clone();
+                        all.extend(layer.iter().map(|l| (**l).clone()));
+                        let _ = write!(
+                            out,
+                            "{texture}.Load({}({}, 0))",
+                            Ty::IVec(all.len() as u8 + 1).text(lang),
+                            self.list(&all)
+                        );
+                        if !scalar_texture {
+                            let _ = write!(out, ".{swizzle}");
+                        }
+                    }
+                }
+            }
+            Expr::SampleLevel { texture, scalar_texture, sampler, coordinates, swizzle } => {
+                let n = coordinates.len() as u8;
+                match lang {
+                    Lang::Wgsl => {
+                        let _ = write!(
+                            out,
+                            "textureSampleLevel({texture}, {sampler}, {}({}), 0.0).{swizzle}",
+                            Ty::Vec(n).text(lang),
+                            self.list(coordinates)
+                        );
+                    }
+                    Lang::Hlsl => {
+                        let _ = write!(
+                            out,
+                            "{texture}.SampleLevel({sampler}, {}({}), 0)",
+                            Ty::Vec(n).text(lang),
+                            self.list(coordinates)
+                        );
+                        if !scalar_texture {
+                            let _ = write!(out, ".{swizzle}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// `text` as comment lines with `prefix`; an empty line prints as the bare prefix.
+pub fn comment_block(prefix: &str, text: &str) -> String {
+    text.lines().map(|l| if l.is_empty() { format!("{prefix}\n") } else { format!("{prefix} {l}\n") }).collect()
+}
+
+// The tests of every crate that emits shaders validate them (tmlut's through the `validate` feature).
+#[cfg(any(test, feature = "validate"))]
+pub mod validate;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn minimal_parentheses_follow_precedence() {
+        let mut m = Module::new(Parens::Minimal);
+        let (a, b, c) = (name("a"), name("b"), name("c"));
+        let e = a.clone() * (b.clone() + c.clone()) - (a.clone() - b.clone() * c.clone());
+        m.function("g", vec![("a", Ty::F32), ("b", Ty::F32), ("c", Ty::F32)], Ty::F32, vec![Stmt::Return(e)]);
+        let wgsl = m.print(Lang::Wgsl);
+        assert!(wgsl.contains("return a * (b + c) - (a - b * c);"), "{wgsl}");
+        let hlsl = m.print(Lang::Hlsl);
+        assert!(hlsl.starts_with("float g(float a, float b, float c) {\n"), "{hlsl}");
+    }
+
+    #[test]
+    fn selects_and_splats_print_in_each_language() {
+        let e = select(name("x").gt(f(0.0)).and(name("y").lt(f(1.0))), splat3(f(1.0)), splat3(f(-2.0)));
+        let p = |lang| Printer { lang, parens: Parens::Minimal }.expr(&e);
+        assert_eq!(p(Lang::Wgsl), "select(vec3<f32>(-2.0), vec3<f32>(1.0), (x > 0.0) && (y < 1.0))");
+        assert_eq!(p(Lang::Hlsl), "(x > 0.0) && (y < 1.0) ? float3(1.0, 1.0, 1.0) : float3(-2.0, -2.0, -2.0)");
+    }
+
+    #[test]
+    fn structs_bindings_and_vars_print_in_each_language() {
+        let mut m = Module::new(Parens::Minimal);
+        m.push(Item::Struct {
+            name: "S".into(),
+            fields: vec![("a".into(), Ty::Vec(3)), ("b".into(), Ty::Array(Box::new(Ty::F32), 2))],
+        });
+        m.push(Item::Binding { group: 0, binding: 3, name: "t".into(), ty: Ty::Texture { dims: 2, scalar: false } });
+        m.function(
+            "h",
+            vec![],
+            Ty::Named("S".into()),
+            vec![
+                Stmt::Var { name: "s".into(), ty: Ty::Named("S".into()), value: None },
+                assign(name("s").member("b").index(1), f(2.0)),
+                Stmt::Return(name("s")),
+            ],
+        );
+        let wgsl = m.print(Lang::Wgsl);
+        assert!(wgsl.contains("struct S {\n    a: vec3<f32>,\n    b: array<f32, 2>,\n}\n"), "{wgsl}");
+        assert!(wgsl.contains("@group(0) @binding(3) var t: texture_2d<f32>;"), "{wgsl}");
+        assert!(wgsl.contains("    var s: S;\n    s.b[1] = 2.0;\n"), "{wgsl}");
+        let hlsl = m.print(Lang::Hlsl);
+        assert!(hlsl.contains("struct S {\n    float3 a;\n    float b[2];\n};\n"), "{hlsl}");
+        assert!(hlsl.contains("Texture2D<float4> t : register(t3);"), "{hlsl}");
+        assert!(hlsl.contains("    S s = (S)0;\n"), "{hlsl}");
+        super::validate::wgsl(&wgsl).unwrap();
+    }
+
+    #[test]
+    fn constants_past_f32_print_as_values_a_shader_holds() {
+        // Folded from f64 (a medium's depth of 3.4e38, a tau limit of 45 / 1e-40), these printed
+        // `inf` (no such literal in WGSL or HLSL) or a subnormal a GPU flushes behind the CPU's back.
+        let mut m = Module::new(Parens::Minimal);
+        let values = [1e39f64 as f32, -1e39f64 as f32, 1e-40f64 as f32, -1e-45f64 as f32, 3.4e38f32];
+        let body = values.iter().enumerate().map(|(k, &v)| let_(&format!("v{k}"), Ty::F32, f(v))).collect();
+        m.function("h", vec![], Ty::F32, [body, vec![Stmt::Return(f(0.0))]].concat());
+        let wgsl = m.print(Lang::Wgsl);
+        for text in ["inf", "e-40", "e-45"] {
+            assert!(!wgsl.contains(text), "{text} in {wgsl}");
+        }
+        assert!(wgsl.contains("3.4028235e38") && wgsl.contains("-3.4028235e38") && wgsl.contains("-0.0"), "{wgsl}");
+        super::validate::wgsl(&wgsl).unwrap_or_else(|e| panic!("{e}\n{wgsl}"));
+    }
+}
