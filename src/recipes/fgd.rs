@@ -15,10 +15,8 @@
 
 use rayon::prelude::*;
 
-use super::settings::{
-    OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_counts, check_unit_range,
-};
-use super::spacing::{CosineAxis, ExtinctionAxis, IndexAxis, RoughnessAxis, mu_alpha_axes};
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_counts};
+use super::spacing::{CosineAxis, ExtinctionAxis, IndexAxis, RoughnessAxis};
 use super::{Integrated, Kernel, Metadata, TableRecipe, random_cells};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -47,13 +45,7 @@ table_settings! {
         pub alpha_count: usize,
         pub eta_count: usize,
         pub kappa_count: usize,
-        /// Sub-ranges of the unit axes (a scene's plan narrows them to what its lookups reach).
-        pub mu_range: [f64; 2],
-        pub alpha_range: [f64; 2],
-        /// How the `mu` nodes are spaced.
-        pub mu_axis: CosineAxis,
-        /// How the `alpha` nodes are spaced.
-        pub roughness_axis: RoughnessAxis,
+        ..mu_alpha_axes,
         pub eta_range: [f64; 2],
         pub kappa_range: [f64; 2],
         /// How the `eta` nodes are spaced.
@@ -133,8 +125,7 @@ impl FgdSettings {
     pub fn validate(&self) -> Result<()> {
         let counts = [self.mu_count, self.alpha_count, self.eta_count, self.kappa_count];
         check_counts(NAME, COUNT_KEYS, &counts)?;
-        check_unit_range("fgd.mu_range", self.mu_range)?;
-        check_unit_range("fgd.alpha_range", self.alpha_range)?;
+        self.validate_mu_alpha_ranges(NAME)?;
         check_index_range("fgd.eta_range", self.eta_range)?;
         check_index_range("fgd.kappa_range", self.kappa_range)?;
         check_cosine_intervals("fgd.cosine_intervals", self.cosine_intervals)?;
@@ -154,12 +145,7 @@ impl FgdSettings {
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
-        let [mu, alpha] = mu_alpha_axes(
-            [self.mu_count, self.alpha_count],
-            [self.mu_range, self.alpha_range],
-            self.mu_axis,
-            self.roughness_axis,
-        )?;
+        let [mu, alpha] = self.mu_alpha_axes([self.mu_count, self.alpha_count])?;
         Ok(vec![
             mu,
             alpha,

@@ -3,10 +3,53 @@
 
 /// A table's settings struct: its own keys, and where `..shared` stands, the keys every table
 /// has (`sampling`, `reference`, `interpolation`, `output`), with the check of those keys
-/// (`validate_shared`). The keys stay in one flat TOML section, in the order written (which the
-/// scene cache's keys hash). A macro and not a flattened struct: serde reports a bad value inside
-/// a flattened field under the section's name alone (`in `gd``, not `in `gd.output.precision``).
+/// (`validate_shared`); where `..mu_alpha_axes` stands (before `..shared`), the sub-ranges and
+/// spacings of the `mu` and `alpha` axes of a table whose plan may narrow them. The keys stay in
+/// one flat TOML section, in the order written (which the scene cache's keys hash). A macro and
+/// not a flattened struct: serde reports a bad value inside a flattened field under the section's
+/// name alone (`in `gd``, not `in `gd.output.precision``).
 macro_rules! table_settings {
+    (
+        $(#[$attr:meta])*
+        pub struct $name:ident {
+            $($(#[$before_attr:meta])* pub $before:ident: $before_ty:ty,)*
+            ..mu_alpha_axes,
+            $($(#[$between_attr:meta])* pub $between:ident: $between_ty:ty,)*
+            ..shared,
+            $($(#[$after_attr:meta])* pub $after:ident: $after_ty:ty,)*
+        }
+    ) => {
+        table_settings! {
+            $(#[$attr])*
+            pub struct $name {
+                $($(#[$before_attr])* pub $before: $before_ty,)*
+                /// Sub-ranges of the unit axes (a scene's plan narrows them to what its lookups reach).
+                pub mu_range: [f64; 2],
+                pub alpha_range: [f64; 2],
+                /// How the `mu` nodes are spaced.
+                pub mu_axis: $crate::recipes::spacing::CosineAxis,
+                /// How the `alpha` nodes are spaced.
+                pub roughness_axis: $crate::recipes::spacing::RoughnessAxis,
+                $($(#[$between_attr])* pub $between: $between_ty,)*
+                ..shared,
+                $($(#[$after_attr])* pub $after: $after_ty,)*
+            }
+        }
+
+        impl $name {
+            /// Check the sub-ranges of `mu` and `alpha`; `table` names the section in errors.
+            pub fn validate_mu_alpha_ranges(&self, table: &str) -> $crate::error::Result<()> {
+                $crate::recipes::settings::check_unit_range(&format!("{table}.mu_range"), self.mu_range)?;
+                $crate::recipes::settings::check_unit_range(&format!("{table}.alpha_range"), self.alpha_range)
+            }
+
+            /// The `mu` and `alpha` axes of `counts` nodes over their sub-ranges, spaced as set.
+            pub fn mu_alpha_axes(&self, counts: [usize; 2]) -> $crate::error::Result<[$crate::table::Axis; 2]> {
+                let ranges = [self.mu_range, self.alpha_range];
+                $crate::recipes::spacing::mu_alpha_axes(counts, ranges, self.mu_axis, self.roughness_axis)
+            }
+        }
+    };
     (
         $(#[$attr:meta])*
         pub struct $name:ident $(<$param:ident>)? {

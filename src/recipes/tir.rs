@@ -19,8 +19,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::driver::SamplingRecord;
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts, check_unit_range};
-use super::spacing::{CosineAxis, RoughnessAxis, mu_alpha_axes};
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts};
+use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{Integrated, Kernel, Metadata, TableRecipe, estimate_mu_alpha_columns};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -46,13 +46,7 @@ table_settings! {
         pub alpha_count: usize,
         /// Nodes of the third axis: `eta`, or the critical-angle offset that stands for it.
         pub eta_count: usize,
-        /// Sub-ranges of `mu` and `alpha` (a scene's plan narrows them to what its lookups reach).
-        pub mu_range: [f64; 2],
-        pub alpha_range: [f64; 2],
-        /// How the `mu` nodes are spaced.
-        pub mu_axis: CosineAxis,
-        /// How the `alpha` nodes are spaced.
-        pub roughness_axis: RoughnessAxis,
+        ..mu_alpha_axes,
         /// What the third axis samples.
         pub eta_axis: EtaAxis,
         /// The relative index the last `eta` node (eta = 1) is evaluated at. 1 gives the exact value
@@ -121,8 +115,7 @@ impl Default for TirSettings {
 impl TirSettings {
     pub fn validate(&self) -> Result<()> {
         check_counts(NAME, COUNT_KEYS, &[self.mu_count, self.alpha_count, self.eta_count])?;
-        check_unit_range("tir.mu_range", self.mu_range)?;
-        check_unit_range("tir.alpha_range", self.alpha_range)?;
+        self.validate_mu_alpha_ranges(NAME)?;
         match self.eta_axis {
             EtaAxis::Eta => {
                 let below_top = Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?.node_value(self.eta_count - 2);
@@ -157,12 +150,7 @@ impl TirSettings {
                     .with_mapping(Mapping::Asinh { scale: OFFSET_SCALE, centre: 0.0 })?
             }
         };
-        let [mu, alpha] = mu_alpha_axes(
-            [self.mu_count, self.alpha_count],
-            [self.mu_range, self.alpha_range],
-            self.mu_axis,
-            self.roughness_axis,
-        )?;
+        let [mu, alpha] = self.mu_alpha_axes([self.mu_count, self.alpha_count])?;
         Ok(vec![mu, alpha, third])
     }
 
