@@ -9,7 +9,6 @@
 //! (height-correlated Smith does not). Defaults follow that file: 64 x 64 node-aligned nodes,
 //! `mu` and `alpha` over [0, 1], f32 `.bin`.
 
-
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts};
 use super::spacing::{CosineAxis, RoughnessAxis, mu_alpha_axes};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
