@@ -62,24 +62,11 @@ impl CellWarp {
         CellWarp { cosine_offset: true, ..Self::new(mu, alpha) }
     }
 
-    /// `wi.h` and `wo.z` of each point, `wo = reflect(wi, h)`, and `wi.h - mu` where the warp was
-    /// made for it ([`CellWarp::with_offsets`]).
-    pub fn warp(&self, points: &DiskPointsF32, range: std::ops::Range<usize>, out: &mut SampleArrays) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { self.warp_avx2(points, range, out) };
-                return;
-            }
-        }
-        self.warp_portable(points, range, out);
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn warp_avx2(&self, points: &DiskPointsF32, range: std::ops::Range<usize>, out: &mut SampleArrays) {
-        self.warp_portable(points, range, out);
+    avx2_dispatch! {
+        /// `wi.h` and `wo.z` of each point, `wo = reflect(wi, h)`, and `wi.h - mu` where the warp was
+        /// made for it ([`CellWarp::with_offsets`]).
+        pub fn warp(&self, points: &DiskPointsF32, range: std::ops::Range<usize>, out: &mut SampleArrays)
+            => warp_avx2, warp_portable
     }
 
     #[inline(always)]
@@ -128,25 +115,12 @@ impl CellWarp {
         }
     }
 
-    /// The visible-normal weight `G2(wi, wo) / G1(wi)` of each sample (see
-    /// [`MaskingShadowing::visible_normal_weight`]), from `wo.z` alone: the tables' integrands are
-    /// isotropic, so the weight depends on the direction only through its cosine.
-    pub fn weights(&self, masking: MaskingShadowing, wo_z: &[f32], weight: &mut [f32]) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { self.weights_avx2(masking, wo_z, weight) };
-                return;
-            }
-        }
-        self.weights_portable(masking, wo_z, weight);
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn weights_avx2(&self, masking: MaskingShadowing, wo_z: &[f32], weight: &mut [f32]) {
-        self.weights_portable(masking, wo_z, weight);
+    avx2_dispatch! {
+        /// The visible-normal weight `G2(wi, wo) / G1(wi)` of each sample (see
+        /// [`MaskingShadowing::visible_normal_weight`]), from `wo.z` alone: the tables' integrands are
+        /// isotropic, so the weight depends on the direction only through its cosine.
+        pub fn weights(&self, masking: MaskingShadowing, wo_z: &[f32], weight: &mut [f32])
+            => weights_avx2, weights_portable
     }
 
     #[inline(always)]

@@ -10,6 +10,52 @@
 //! Determinism: every cell uses the same [`PointSet`], which depends only on the seed, and each
 //! cell's sums run in a fixed order, so the result is bit-identical whatever the thread count.
 
+/// A function that runs `$portable`, an `#[inline(always)]` loop, compiled for AVX2 where the CPU
+/// has it (in `$avx2`, which the loop is inlined into and vectorised for) and as it is elsewhere.
+/// `fn name(&self, ...)` for a method, `fn name(...)` for a free function.
+macro_rules! avx2_dispatch {
+    ($(#[$attr:meta])* $vis:vis fn $name:ident(&self $(, $arg:ident: $ty:ty)*) => $avx2:ident, $portable:ident) => {
+        $(#[$attr])*
+        $vis fn $name(&self $(, $arg: $ty)*) {
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2, checked just above.
+                    unsafe { self.$avx2($($arg),*) };
+                    return;
+                }
+            }
+            self.$portable($($arg),*);
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        unsafe fn $avx2(&self $(, $arg: $ty)*) {
+            self.$portable($($arg),*);
+        }
+    };
+    ($(#[$attr:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),*) => $avx2:ident, $portable:ident) => {
+        $(#[$attr])*
+        $vis fn $name($($arg: $ty),*) {
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2, checked just above.
+                    unsafe { $avx2($($arg),*) };
+                    return;
+                }
+            }
+            $portable($($arg),*);
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        unsafe fn $avx2($($arg: $ty),*) {
+            $portable($($arg),*);
+        }
+    };
+}
+
 pub mod batch;
 pub mod measure;
 pub mod quadrature;
@@ -151,13 +197,14 @@ pub fn estimate_per_cell_blocks(
 ) -> Estimate {
     let wi = direction_from_cosine(mu.max(GRAZING_COSINE));
     let sampler = VisibleNormalSampler::new(wi, alpha);
+    let lobe = CellLobe { wi, sampler: &sampler, alpha, masking };
     let (mut cos_wi_h, mut weight) = ([0.0; PER_CELL_BLOCK], [0.0; PER_CELL_BLOCK]);
     let mut means = Vec::with_capacity(points.plan().replicates as usize);
     for replicate in points.replicates() {
         let mut sums = vec![0.0; channels];
         for block in replicate.chunks(PER_CELL_BLOCK) {
             let n = block.len();
-            cosines_and_weights(wi, &sampler, alpha, masking, block, &mut cos_wi_h[..n], &mut weight[..n]);
+            cosines_and_weights(&lobe, block, &mut cos_wi_h[..n], &mut weight[..n]);
             accumulate(&cos_wi_h[..n], &weight[..n], &mut sums);
         }
         means.push(sums.iter().map(|s| s / replicate.len() as f64).collect());
@@ -165,80 +212,50 @@ pub fn estimate_per_cell_blocks(
     combine_replicates(&means, channels)
 }
 
-/// `wi.h` and `G2 / G1(wi)` of each point of a block, by the scalar sampler.
-fn cosines_and_weights(
+/// What every sample of one cell shares: its view direction, the sampler of its visible normals,
+/// its roughness and its masking model.
+struct CellLobe<'a> {
     wi: DVec3,
-    sampler: &VisibleNormalSampler,
+    sampler: &'a VisibleNormalSampler,
     alpha: f64,
     masking: MaskingShadowing,
-    points: &[DiskPoint],
-    cos_wi_h: &mut [f64],
-    weight: &mut [f64],
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { cosines_and_weights_avx2(wi, sampler, alpha, masking, points, cos_wi_h, weight) };
-            return;
-        }
-    }
-    cosines_and_weights_portable(wi, sampler, alpha, masking, points, cos_wi_h, weight);
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn cosines_and_weights_avx2(
-    wi: DVec3,
-    sampler: &VisibleNormalSampler,
-    alpha: f64,
-    masking: MaskingShadowing,
-    points: &[DiskPoint],
-    cos_wi_h: &mut [f64],
-    weight: &mut [f64],
-) {
-    cosines_and_weights_portable(wi, sampler, alpha, masking, points, cos_wi_h, weight);
+avx2_dispatch! {
+    /// `wi.h` and `G2 / G1(wi)` of each point of a block, by the scalar sampler.
+    fn cosines_and_weights(lobe: &CellLobe, points: &[DiskPoint], cos_wi_h: &mut [f64], weight: &mut [f64])
+        => cosines_and_weights_avx2, cosines_and_weights_portable
 }
 
 /// [`cosines_and_weights`] with the masking model fixed outside the loop, so that the loop body
 /// has no branch left the compiler cannot turn into a select (and vectorises). The arithmetic is
 /// that of the scalar functions, element by element: the same bits.
 #[inline(always)]
-fn cosines_and_weights_portable(
-    wi: DVec3,
-    sampler: &VisibleNormalSampler,
-    alpha: f64,
-    masking: MaskingShadowing,
-    points: &[DiskPoint],
-    cos_wi_h: &mut [f64],
-    weight: &mut [f64],
-) {
+fn cosines_and_weights_portable(lobe: &CellLobe, points: &[DiskPoint], cos_wi_h: &mut [f64], weight: &mut [f64]) {
     #[inline(always)]
     fn fill(
-        wi: DVec3,
-        sampler: &VisibleNormalSampler,
+        lobe: &CellLobe,
         points: &[DiskPoint],
         cos_wi_h: &mut [f64],
         weight: &mut [f64],
         weight_of: impl Fn(DVec3) -> f64,
     ) {
         for ((point, c), w) in points.iter().zip(cos_wi_h.iter_mut()).zip(weight.iter_mut()) {
-            let sample = MicrofacetSample::new(wi, sampler, point);
+            let sample = MicrofacetSample::new(lobe.wi, lobe.sampler, point);
             *c = sample.cos_wi_h;
             *w = weight_of(sample.wo);
         }
     }
+    let &CellLobe { wi, alpha, masking, .. } = lobe;
     use MaskingShadowing::*;
     match masking {
         SmithSeparable => {
-            fill(wi, sampler, points, cos_wi_h, weight, |wo| SmithSeparable.visible_normal_weight(wi, wo, alpha))
+            fill(lobe, points, cos_wi_h, weight, |wo| SmithSeparable.visible_normal_weight(wi, wo, alpha))
         }
         SmithHeightCorrelated => {
-            fill(wi, sampler, points, cos_wi_h, weight, |wo| SmithHeightCorrelated.visible_normal_weight(wi, wo, alpha))
+            fill(lobe, points, cos_wi_h, weight, |wo| SmithHeightCorrelated.visible_normal_weight(wi, wo, alpha))
         }
-        SchlickSmith => {
-            fill(wi, sampler, points, cos_wi_h, weight, |wo| SchlickSmith.visible_normal_weight(wi, wo, alpha))
-        }
+        SchlickSmith => fill(lobe, points, cos_wi_h, weight, |wo| SchlickSmith.visible_normal_weight(wi, wo, alpha)),
     }
 }
 

@@ -36,7 +36,7 @@ pub const DESCRIPTION: &str = "Belcour-Bati-Barla 2020 split-sum with a Fresnel 
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 4;
 /// The configuration keys of the node counts, axis 0 first.
-pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
+pub const COUNT_KEYS: &[&str] = super::split_sum::COUNT_KEYS;
 
 /// The Belcour table's settings: the split-sum ones and its own.
 pub type BelcourSettings = SplitSumSettings<BelcourOwn>;
@@ -65,8 +65,8 @@ impl Default for BelcourSettings {
             orientation: Orientation::SmoothFirst,
             masking: MaskingShadowing::SmithHeightCorrelated,
             method: Method::Fast,
-            sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
+            sampling: SamplingConfig::replicated(1 << 14),
+            reference: ReferenceConfig::default(),
             // Height-correlated masking at grazing views of rough lobes needs 8 nodes per panel (6
             // are 1.7e-4 off 16 there; `docs/integration.md`, "Error estimates").
             interpolation: super::interpolation::InterpolationConfig { points: 2048, nodes: 8 },
@@ -78,7 +78,7 @@ impl Default for BelcourSettings {
 
 impl BelcourSettings {
     pub fn validate(&self) -> Result<()> {
-        self.validate_shared(NAME, &FileFormat::for_table(2, false))?;
+        self.validate_split_sum(NAME, &FileFormat::for_table(2, false))?;
         super::settings::check_cosine_intervals("belcour.cosine_intervals", self.own.cosine_intervals)?;
         Ok(())
     }
@@ -465,7 +465,7 @@ mod tests {
         let settings = BelcourSettings {
             mu_count: 8,
             roughness_count: 8,
-            sampling: SamplingConfig { samples: 1 << 14, replicates: 4 },
+            sampling: SamplingConfig::replicated(1 << 14),
             reference: ReferenceConfig { cells: 64, nodes: 8 },
             ..BelcourSettings::default()
         };

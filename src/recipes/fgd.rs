@@ -14,11 +14,8 @@
 //! `mu`, `alpha` over [0, 1], `eta`, `kappa` over [0, 4], separable Smith, f32 `.bin`.
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use super::settings::{
-    OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_count, check_unit_range,
-};
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_counts};
 use super::spacing::{CosineAxis, ExtinctionAxis, IndexAxis, RoughnessAxis};
 use super::{Integrated, Kernel, Metadata, TableRecipe, random_cells};
 use crate::error::{Error, Result};
@@ -42,44 +39,34 @@ pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count", "kappa
 /// The interpolation domain of dielectric interfaces onto a rarer medium: `eta < 1`, `kappa = 0`.
 pub const DIELECTRIC_ONTO_RARER: &str = "a dielectric onto a rarer medium (eta < 1, kappa = 0)";
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct FgdSettings {
-    pub mu_count: usize,
-    pub alpha_count: usize,
-    pub eta_count: usize,
-    pub kappa_count: usize,
-    /// Sub-ranges of the unit axes (a scene's plan narrows them to what its lookups reach).
-    pub mu_range: [f64; 2],
-    pub alpha_range: [f64; 2],
-    /// How the `mu` nodes are spaced.
-    pub mu_axis: CosineAxis,
-    /// How the `alpha` nodes are spaced.
-    pub roughness_axis: RoughnessAxis,
-    pub eta_range: [f64; 2],
-    pub kappa_range: [f64; 2],
-    /// How the `eta` nodes are spaced.
-    pub eta_axis: IndexAxis,
-    /// How the `kappa` nodes are spaced.
-    pub kappa_axis: ExtinctionAxis,
-    pub masking: MaskingShadowing,
-    pub method: Method,
-    /// Intervals of the hat basis in `c = wi.h` (fast method).
-    pub cosine_intervals: usize,
-    /// `(eta, kappa)` columns whose replicate spread is computed (all of them costs one matrix
-    /// product per replicate).
-    pub replicate_error_columns: usize,
-    pub sampling: SamplingConfig,
-    pub reference: ReferenceConfig,
-    /// The check between nodes: random points against the exact integral.
-    pub interpolation: super::interpolation::InterpolationConfig,
-    pub output: OutputConfig,
-    /// Volume-texture packings written beside the 4D table (`fgd_<packing>.dds` or `.ktx2`, see
-    /// `packing_formats`, with its HLSL and WGSL lookup), in the precision of `output.precision`;
-    /// see `docs/packing.md`.
-    pub packings: Vec<Packing>,
-    /// The files each packing's texture is written to: `fgd_<packing>.dds`, `.ktx2` or both.
-    pub packing_formats: Vec<FileFormat>,
+table_settings! {
+    pub struct FgdSettings {
+        pub mu_count: usize,
+        pub alpha_count: usize,
+        pub eta_count: usize,
+        pub kappa_count: usize,
+        ..mu_alpha_axes,
+        pub eta_range: [f64; 2],
+        pub kappa_range: [f64; 2],
+        /// How the `eta` nodes are spaced.
+        pub eta_axis: IndexAxis,
+        /// How the `kappa` nodes are spaced.
+        pub kappa_axis: ExtinctionAxis,
+        pub masking: MaskingShadowing,
+        pub method: Method,
+        /// Intervals of the hat basis in `c = wi.h` (fast method).
+        pub cosine_intervals: usize,
+        /// `(eta, kappa)` columns whose replicate spread is computed (all of them costs one matrix
+        /// product per replicate).
+        pub replicate_error_columns: usize,
+        ..shared,
+        /// Volume-texture packings written beside the 4D table (`fgd_<packing>.dds` or `.ktx2`, see
+        /// `packing_formats`, with its HLSL and WGSL lookup), in the precision of `output.precision`;
+        /// see `docs/packing.md`.
+        pub packings: Vec<Packing>,
+        /// The files each packing's texture is written to: `fgd_<packing>.dds`, `.ktx2` or both.
+        pub packing_formats: Vec<FileFormat>,
+    }
 }
 
 impl Default for FgdSettings {
@@ -103,8 +90,8 @@ impl Default for FgdSettings {
             replicate_error_columns: 256,
             // 2^17: the worst cell's replicate standard error is 5.5e-5, within the 1e-4 target
             // (`docs/benchmark.md`); 2^16 reaches 1.01e-4 on the default `eta` nodes.
-            sampling: SamplingConfig { samples: 1 << 17, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
+            sampling: SamplingConfig::replicated(1 << 17),
+            reference: ReferenceConfig::default(),
             // Five domains (`interpolation_domains`): half the points of the other tables keeps
             // the check at the cost of theirs.
             interpolation: super::interpolation::InterpolationConfig {
@@ -136,20 +123,13 @@ fn check_index_range(key: &str, [lo, hi]: [f64; 2]) -> Result<()> {
 
 impl FgdSettings {
     pub fn validate(&self) -> Result<()> {
-        check_count("fgd.mu_count", self.mu_count)?;
-        check_count("fgd.alpha_count", self.alpha_count)?;
-        check_count("fgd.eta_count", self.eta_count)?;
-        check_count("fgd.kappa_count", self.kappa_count)?;
-        check_unit_range("fgd.mu_range", self.mu_range)?;
-        check_unit_range("fgd.alpha_range", self.alpha_range)?;
+        let counts = [self.mu_count, self.alpha_count, self.eta_count, self.kappa_count];
+        check_counts(NAME, COUNT_KEYS, &counts)?;
+        self.validate_mu_alpha_ranges(NAME)?;
         check_index_range("fgd.eta_range", self.eta_range)?;
         check_index_range("fgd.kappa_range", self.kappa_range)?;
         check_cosine_intervals("fgd.cosine_intervals", self.cosine_intervals)?;
-        self.sampling.validate("fgd.sampling")?;
-        self.reference.validate("fgd.reference")?;
-        self.interpolation.validate("fgd.interpolation")?;
-        self.output.validate("fgd.output", &FileFormat::for_table(4, true))?;
-        let counts = [self.mu_count, self.alpha_count, self.eta_count, self.kappa_count];
+        self.validate_shared(NAME, &FileFormat::for_table(4, true))?;
         for (k, packing) in self.packings.iter().enumerate() {
             if self.packings[..k].contains(packing) {
                 return Err(Error::invalid("fgd.packings", format!("`{}` is listed twice", packing.name())));
@@ -165,11 +145,10 @@ impl FgdSettings {
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
+        let [mu, alpha] = self.mu_alpha_axes([self.mu_count, self.alpha_count])?;
         Ok(vec![
-            Axis::node_aligned("mu", self.mu_range[0], self.mu_range[1], self.mu_count)?
-                .with_mapping(self.mu_axis.mapping())?,
-            Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?
-                .with_mapping(self.roughness_axis.mapping())?,
+            mu,
+            alpha,
             Axis::node_aligned("eta", self.eta_range[0], self.eta_range[1], self.eta_count)?
                 .with_mapping(self.eta_axis.mapping())?,
             Axis::node_aligned("kappa", self.kappa_range[0], self.kappa_range[1], self.kappa_count)?
@@ -577,8 +556,17 @@ mod tests {
     use crate::recipes::driver::build;
     use crate::recipes::{random_cells, reference_points};
 
-    fn small(settings: FgdSettings) -> FgdSettings {
-        FgdSettings { reference: ReferenceConfig { cells: 0, nodes: 8 }, replicate_error_columns: 16, ..settings }
+    /// A table of `counts` nodes (mu, alpha, eta, kappa), without the reference check.
+    fn small([mu_count, alpha_count, eta_count, kappa_count]: [usize; 4]) -> FgdSettings {
+        FgdSettings {
+            mu_count,
+            alpha_count,
+            eta_count,
+            kappa_count,
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
+            replicate_error_columns: 16,
+            ..FgdSettings::default()
+        }
     }
 
     #[test]
@@ -586,13 +574,7 @@ mod tests {
         // A reduced grid at the default 2^16 samples, against 2^20-sample per-cell f64 references
         // with independent scrambles, at nodes with mu and alpha away from 0 (the bench runs the
         // full 300-node, 2^22-sample version).
-        let settings = small(FgdSettings {
-            mu_count: 12,
-            alpha_count: 12,
-            eta_count: 9,
-            kappa_count: 7,
-            ..FgdSettings::default()
-        });
+        let settings = small([12, 12, 9, 7]);
         let table = build(&settings, 5, &()).unwrap().table;
         let points = reference_points(1 << 20, 5).unwrap();
         let differences: Vec<f64> = random_cells(table.node_count(), 400, 9)
@@ -642,14 +624,7 @@ mod tests {
 
     #[test]
     fn edges_match_their_limits() {
-        let settings = small(FgdSettings {
-            mu_count: 9,
-            alpha_count: 5,
-            eta_count: 9,
-            kappa_count: 5,
-            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            ..FgdSettings::default()
-        });
+        let settings = FgdSettings { sampling: SamplingConfig::replicated(1 << 12), ..small([9, 5, 9, 5]) };
         let table = build(&settings, 6, &()).unwrap().table;
         let stats = table.stats();
         assert_eq!(stats.nan_count + stats.infinite_count, 0);
@@ -673,14 +648,7 @@ mod tests {
 
     #[test]
     fn both_methods_agree() {
-        let base = small(FgdSettings {
-            mu_count: 4,
-            alpha_count: 3,
-            eta_count: 4,
-            kappa_count: 3,
-            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            ..FgdSettings::default()
-        });
+        let base = FgdSettings { sampling: SamplingConfig::replicated(1 << 12), ..small([4, 3, 4, 3]) };
         let fast = build(&base, 7, &()).unwrap().table;
         let per_cell = build(&FgdSettings { method: Method::PerCell, ..base }, 7, &()).unwrap().table;
         for (n, (a, b)) in fast.data.iter().zip(&per_cell.data).enumerate() {

@@ -18,14 +18,13 @@
 //! against Fresnel projected per `(mu, fraction)` node.
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 use super::fgd::{
     fgd_by_quadrature, fgd_cells_at_mu_alpha, fgd_pairs_fast, fgd_pairs_on_measure, mu_alpha_measures,
     projected_fresnel,
 };
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_count};
-use super::spacing::{CosineAxis, RoughnessAxis};
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_counts};
+use super::spacing::{CosineAxis, RoughnessAxis, mu_alpha_axes};
 use super::{Integrated, Kernel, Metadata, TableRecipe, estimate_mu_alpha_columns};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
@@ -50,26 +49,22 @@ pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "fraction_count"];
 /// lobes narrower than 0.01 between nodes (max 9.8e-2 at `alpha 0.002`).
 pub const FRACTION_SCALE: f64 = 0.01;
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct FgdRarerSettings {
-    pub mu_count: usize,
-    pub alpha_count: usize,
-    /// Nodes of the critical-angle fraction over [-1, 1]; an odd count puts a node on the cusp.
-    pub fraction_count: usize,
-    /// How the `mu` nodes are spaced.
-    pub mu_axis: CosineAxis,
-    /// How the `alpha` nodes are spaced.
-    pub roughness_axis: RoughnessAxis,
-    pub masking: MaskingShadowing,
-    pub method: Method,
-    /// Intervals of the hat basis in `c = wi.h` (fast method).
-    pub cosine_intervals: usize,
-    pub sampling: SamplingConfig,
-    pub reference: ReferenceConfig,
-    /// The check between nodes: random points against the exact integral.
-    pub interpolation: super::interpolation::InterpolationConfig,
-    pub output: OutputConfig,
+table_settings! {
+    pub struct FgdRarerSettings {
+        pub mu_count: usize,
+        pub alpha_count: usize,
+        /// Nodes of the critical-angle fraction over [-1, 1]; an odd count puts a node on the cusp.
+        pub fraction_count: usize,
+        /// How the `mu` nodes are spaced.
+        pub mu_axis: CosineAxis,
+        /// How the `alpha` nodes are spaced.
+        pub roughness_axis: RoughnessAxis,
+        pub masking: MaskingShadowing,
+        pub method: Method,
+        /// Intervals of the hat basis in `c = wi.h` (fast method).
+        pub cosine_intervals: usize,
+        ..shared,
+    }
 }
 
 impl Default for FgdRarerSettings {
@@ -85,8 +80,8 @@ impl Default for FgdRarerSettings {
             cosine_intervals: 256,
             // FGD's samples on FGD's (mu, alpha) nodes: a build of both estimates the measures once
             // ([`mu_alpha_measures`]); 2^16 of its own cost more than sharing 2^17.
-            sampling: SamplingConfig { samples: 1 << 17, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
+            sampling: SamplingConfig::replicated(1 << 17),
+            reference: ReferenceConfig::default(),
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
         }
@@ -95,20 +90,17 @@ impl Default for FgdRarerSettings {
 
 impl FgdRarerSettings {
     pub fn validate(&self) -> Result<()> {
-        check_count("fgd_rarer.mu_count", self.mu_count)?;
-        check_count("fgd_rarer.alpha_count", self.alpha_count)?;
-        check_count("fgd_rarer.fraction_count", self.fraction_count)?;
+        check_counts(NAME, COUNT_KEYS, &[self.mu_count, self.alpha_count, self.fraction_count])?;
         check_cosine_intervals("fgd_rarer.cosine_intervals", self.cosine_intervals)?;
-        self.sampling.validate("fgd_rarer.sampling")?;
-        self.reference.validate("fgd_rarer.reference")?;
-        self.interpolation.validate("fgd_rarer.interpolation")?;
-        self.output.validate("fgd_rarer.output", &FileFormat::for_table(3, false))
+        self.validate_shared(NAME, &FileFormat::for_table(3, false))
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
+        let counts = [self.mu_count, self.alpha_count];
+        let [mu, alpha] = mu_alpha_axes(counts, [[0.0, 1.0]; 2], self.mu_axis, self.roughness_axis)?;
         Ok(vec![
-            Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?.with_mapping(self.mu_axis.mapping())?,
-            Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?.with_mapping(self.roughness_axis.mapping())?,
+            mu,
+            alpha,
             Axis::node_aligned(derived::CRITICAL_ANGLE_FRACTION, -1.0, 1.0, self.fraction_count)?
                 .with_mapping(Mapping::Asinh { scale: FRACTION_SCALE, centre: 0.0 })?,
         ])
@@ -150,8 +142,7 @@ impl TableRecipe for FgdRarerSettings {
     }
 
     fn position_of(&self, lookup: &[f64]) -> Vec<f64> {
-        let axes = self.axes().expect("validated settings have axes");
-        derived::point_of(&axes, lookup[0], lookup[1], lookup[2], 0.0).expect("the axes are known quantities")
+        super::position_of_eta_lookup(self, lookup)
     }
 }
 
@@ -247,7 +238,7 @@ mod tests {
             alpha_count: 5,
             fraction_count: 9,
             method,
-            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
+            sampling: SamplingConfig::replicated(1 << 12),
             reference: ReferenceConfig { cells: 0, nodes: 8 },
             interpolation: InterpolationConfig { points: 0, nodes: 6 },
             ..FgdRarerSettings::default()
@@ -271,7 +262,7 @@ mod tests {
         // where renderers read it, against the exact integral at random points of eta < 1.
         use crate::recipes::fgd::FgdSettings;
         use crate::recipes::interpolation::random_points;
-        let sampling = SamplingConfig { samples: 1 << 12, replicates: 4 };
+        let sampling = SamplingConfig::replicated(1 << 12);
         let quiet = InterpolationConfig { points: 0, nodes: 6 };
         let no_reference = ReferenceConfig { cells: 0, nodes: 8 };
         let rarer = FgdRarerSettings {

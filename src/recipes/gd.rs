@@ -9,10 +9,8 @@
 //! (height-correlated Smith does not). Defaults follow that file: 64 x 64 node-aligned nodes,
 //! `mu` and `alpha` over [0, 1], f32 `.bin`.
 
-use serde::{Deserialize, Serialize};
-
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count};
-use super::spacing::{CosineAxis, RoughnessAxis};
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts};
+use super::spacing::{CosineAxis, RoughnessAxis, mu_alpha_axes};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision};
@@ -30,22 +28,18 @@ pub const CHANNEL_COUNT: usize = 1;
 /// The configuration keys of the node counts, axis 0 first.
 pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count"];
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct GdSettings {
-    pub mu_count: usize,
-    pub alpha_count: usize,
-    /// How the `mu` nodes are spaced.
-    pub mu_axis: CosineAxis,
-    /// How the `alpha` nodes are spaced.
-    pub roughness_axis: RoughnessAxis,
-    pub masking: MaskingShadowing,
-    pub method: Method,
-    pub sampling: SamplingConfig,
-    pub reference: ReferenceConfig,
-    /// The check between nodes: random points against the exact integral.
-    pub interpolation: super::interpolation::InterpolationConfig,
-    pub output: OutputConfig,
+table_settings! {
+    pub struct GdSettings {
+        pub mu_count: usize,
+        pub alpha_count: usize,
+        /// How the `mu` nodes are spaced.
+        pub mu_axis: CosineAxis,
+        /// How the `alpha` nodes are spaced.
+        pub roughness_axis: RoughnessAxis,
+        pub masking: MaskingShadowing,
+        pub method: Method,
+        ..shared,
+    }
 }
 
 impl Default for GdSettings {
@@ -57,8 +51,8 @@ impl Default for GdSettings {
             roughness_axis: RoughnessAxis::Perceptual,
             masking: MaskingShadowing::SmithSeparable,
             method: Method::Fast,
-            sampling: SamplingConfig { samples: 1 << 16, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
+            sampling: SamplingConfig::replicated(1 << 16),
+            reference: ReferenceConfig::default(),
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
         }
@@ -67,19 +61,13 @@ impl Default for GdSettings {
 
 impl GdSettings {
     pub fn validate(&self) -> Result<()> {
-        check_count("gd.mu_count", self.mu_count)?;
-        check_count("gd.alpha_count", self.alpha_count)?;
-        self.sampling.validate("gd.sampling")?;
-        self.reference.validate("gd.reference")?;
-        self.interpolation.validate("gd.interpolation")?;
-        self.output.validate("gd.output", &FileFormat::for_table(2, true))
+        check_counts(NAME, COUNT_KEYS, &[self.mu_count, self.alpha_count])?;
+        self.validate_shared(NAME, &FileFormat::for_table(2, true))
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
-        Ok(vec![
-            Axis::node_aligned("mu", 0.0, 1.0, self.mu_count)?.with_mapping(self.mu_axis.mapping())?,
-            Axis::node_aligned("alpha", 0.0, 1.0, self.alpha_count)?.with_mapping(self.roughness_axis.mapping())?,
-        ])
+        let counts = [self.mu_count, self.alpha_count];
+        Ok(mu_alpha_axes(counts, [[0.0, 1.0]; 2], self.mu_axis, self.roughness_axis)?.into())
     }
 }
 
@@ -99,8 +87,7 @@ impl TableRecipe for GdSettings {
     table_recipe_accessors!();
 
     fn companions(&self) -> super::Companions {
-        use super::Companions;
-        Companions::default()
+        super::Companions::default()
     }
 }
 
@@ -149,6 +136,18 @@ mod tests {
     use super::*;
     use crate::formats::bin::read_bin;
 
+    /// A table of `counts` nodes (mu, alpha) with 2^12 samples per node, `reference_cells` of them
+    /// checked.
+    fn small([mu_count, alpha_count]: [usize; 2], reference_cells: usize) -> GdSettings {
+        GdSettings {
+            mu_count,
+            alpha_count,
+            sampling: SamplingConfig::replicated(1 << 12),
+            reference: ReferenceConfig { cells: reference_cells, nodes: 8 },
+            ..GdSettings::default()
+        }
+    }
+
     fn original() -> Table {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tmblm/tm_GD.bin");
         read_bin(std::path::Path::new(path), Some(&["mu", "alpha"])).unwrap()
@@ -161,10 +160,8 @@ mod tests {
         let settings = GdSettings {
             mu_axis: CosineAxis::Uniform,
             roughness_axis: RoughnessAxis::Alpha,
-            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            reference: ReferenceConfig { cells: 0, nodes: 8 },
             interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 },
-            ..GdSettings::default()
+            ..small([64, 64], 0)
         };
         let ours = settings.build(1, &()).unwrap().table;
         let original = original();
@@ -178,13 +175,7 @@ mod tests {
 
     #[test]
     fn edges_are_finite_and_physical() {
-        let settings = GdSettings {
-            mu_count: 9,
-            alpha_count: 9,
-            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            reference: ReferenceConfig { cells: 81, nodes: 8 },
-            ..GdSettings::default()
-        };
+        let settings = small([9, 9], 81);
         let build = settings.build(2, &()).unwrap();
         let table = &build.table;
         let stats = table.stats();
@@ -203,13 +194,7 @@ mod tests {
 
     #[test]
     fn both_methods_agree() {
-        let base = GdSettings {
-            mu_count: 6,
-            alpha_count: 5,
-            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
-            reference: ReferenceConfig { cells: 0, nodes: 8 },
-            ..GdSettings::default()
-        };
+        let base = small([6, 5], 0);
         let fast = base.build(3, &()).unwrap().table;
         let per_cell = GdSettings { method: Method::PerCell, ..base }.build(3, &()).unwrap().table;
         for (a, b) in fast.data.iter().zip(&per_cell.data) {

@@ -386,17 +386,16 @@ mod tests {
         assert_eq!(standard_domains(&["x"], &[[0.0, 1.0]]).len(), 1);
     }
 
+    /// Exact values `exact` at the random points 0.1 and 0.7 of the box [0, 1] in `x`, and `peaks`.
+    fn two_points(exact: Vec<Vec<f64>>, peaks: Vec<PeakPoint>) -> ExactValues {
+        let domain = Domain { name: "box".into(), parameters: vec!["x".into()], ranges: vec![[0.0, 1.0]] };
+        let points = vec![vec![0.1], vec![0.7]];
+        ExactValues { domain, lookups: points.clone(), positions: points, exact, nodes: 6, peaks }
+    }
+
     #[test]
     fn compare_finds_the_worst_point_and_channel() {
-        let domain = Domain { name: "box".into(), parameters: vec!["x".into()], ranges: vec![[0.0, 1.0]] };
-        let exact = ExactValues {
-            domain,
-            lookups: vec![vec![0.1], vec![0.7]],
-            positions: vec![vec![0.1], vec![0.7]],
-            exact: vec![vec![1.0, 2.0], vec![3.0, 4.0]],
-            nodes: 6,
-            peaks: Vec::new(),
-        };
+        let exact = two_points(vec![vec![1.0, 2.0], vec![3.0, 4.0]], Vec::new());
         let names = vec!["a".to_string(), "b".to_string()];
         let error = compare(&exact, "test", &names, |p| if p[0] < 0.5 { vec![1.0, 2.5] } else { vec![3.0, 4.0] });
         assert_eq!(error.error.count, 4);
@@ -408,15 +407,10 @@ mod tests {
 
     #[test]
     fn a_point_where_the_error_peaks_adds_to_the_max_and_not_to_the_rms_or_percentile() {
-        let domain = Domain { name: "box".into(), parameters: vec!["x".into()], ranges: vec![[0.0, 1.0]] };
-        let exact = ExactValues {
-            domain,
-            lookups: vec![vec![0.1], vec![0.7]],
-            positions: vec![vec![0.1], vec![0.7]],
-            exact: vec![vec![1.0], vec![2.0]],
-            nodes: 6,
-            peaks: vec![PeakPoint { lookup: vec![0.5], position: vec![0.5], exact: vec![0.0] }],
-        };
+        let exact = two_points(
+            vec![vec![1.0], vec![2.0]],
+            vec![PeakPoint { lookup: vec![0.5], position: vec![0.5], exact: vec![0.0] }],
+        );
         // Read 0.1 above exact at the random points, 0.9 at the peak.
         let read = |p: &[f64]| {
             vec![if p[0] == 0.5 {

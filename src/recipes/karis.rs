@@ -33,7 +33,7 @@ pub const DESCRIPTION: &str =
 /// Channels of the table.
 pub const CHANNEL_COUNT: usize = 2;
 /// The configuration keys of the node counts, axis 0 first.
-pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
+pub const COUNT_KEYS: &[&str] = super::split_sum::COUNT_KEYS;
 
 /// The Karis table's settings: the split-sum ones and its own.
 pub type KarisSettings = SplitSumSettings<KarisOwn>;
@@ -63,8 +63,8 @@ impl Default for KarisSettings {
             orientation: Orientation::SmoothFirst,
             masking: MaskingShadowing::SchlickSmith,
             method: Method::Fast,
-            sampling: SamplingConfig { samples: 4096, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
+            sampling: SamplingConfig::replicated(4096),
+            reference: ReferenceConfig::default(),
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
             own: KarisOwn::default(),
@@ -74,7 +74,7 @@ impl Default for KarisSettings {
 
 impl KarisSettings {
     pub fn validate(&self) -> Result<()> {
-        self.validate_shared(NAME, &FileFormat::for_table(2, false))
+        self.validate_split_sum(NAME, &FileFormat::for_table(2, false))
     }
 }
 
@@ -100,8 +100,7 @@ impl TableRecipe for KarisSettings {
     table_recipe_accessors!();
 
     fn companions(&self) -> super::Companions {
-        use super::Companions;
-        Companions::default()
+        super::Companions::default()
     }
 }
 
@@ -160,7 +159,7 @@ mod tests {
         KarisSettings {
             mu_count: 16,
             roughness_count: 16,
-            sampling: SamplingConfig { samples: 1024, replicates: 4 },
+            sampling: SamplingConfig::replicated(1024),
             reference: ReferenceConfig { cells: 8, nodes: 8 },
             ..KarisSettings::default()
         }

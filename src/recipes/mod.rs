@@ -86,6 +86,10 @@ macro_rules! table_recipe_accessors {
     };
 }
 
+// First, for its macro (`table_settings!`).
+#[macro_use]
+pub mod settings;
+
 pub mod belcour;
 pub mod driver;
 pub mod fgd;
@@ -93,7 +97,6 @@ pub mod fgd_rarer;
 pub mod gd;
 pub mod interpolation;
 pub mod karis;
-pub mod settings;
 pub mod slices;
 pub mod spacing;
 pub mod split_sum;
@@ -171,6 +174,13 @@ pub trait TableRecipe: Kernel {
     fn position_of(&self, lookup: &[f64]) -> Vec<f64> {
         lookup.to_vec()
     }
+}
+
+/// [`TableRecipe::position_of`] for a table over `(mu, alpha, q)` whose third axis `q` is derived
+/// from a lookup's `(mu, alpha, eta)`.
+fn position_of_eta_lookup(recipe: &dyn TableRecipe, lookup: &[f64]) -> Vec<f64> {
+    let axes = recipe.axes().expect("validated settings have axes");
+    crate::table::derived::point_of(&axes, lookup[0], lookup[1], lookup[2], 0.0).expect("the axes are known quantities")
 }
 
 /// The most memory the build of one table may ask for: 16 GiB, two thirds of the project's
@@ -432,7 +442,7 @@ mod tests {
             alpha_count: 5,
             eta_count: 4,
             kappa_count: 3,
-            sampling: settings::SamplingConfig { samples: 1 << 10, replicates: 4 },
+            sampling: settings::SamplingConfig::replicated(1 << 10),
             reference: settings::ReferenceConfig { cells: 13, nodes: 4 },
             replicate_error_columns: 4,
             ..fgd::FgdSettings::default()

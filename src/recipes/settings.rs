@@ -1,6 +1,89 @@
 //! The settings every table shares: its samples, its reference check, its output files, and the
 //! checks of node counts and ranges that every table's validation uses.
 
+/// A table's settings struct: its own keys, and where `..shared` stands, the keys every table
+/// has (`sampling`, `reference`, `interpolation`, `output`), with the check of those keys
+/// (`validate_shared`); where `..mu_alpha_axes` stands (before `..shared`), the sub-ranges and
+/// spacings of the `mu` and `alpha` axes of a table whose plan may narrow them. The keys stay in
+/// one flat TOML section, in the order written (which the scene cache's keys hash). A macro and
+/// not a flattened struct: serde reports a bad value inside a flattened field under the section's
+/// name alone (`in `gd``, not `in `gd.output.precision``).
+macro_rules! table_settings {
+    (
+        $(#[$attr:meta])*
+        pub struct $name:ident {
+            $($(#[$before_attr:meta])* pub $before:ident: $before_ty:ty,)*
+            ..mu_alpha_axes,
+            $($(#[$between_attr:meta])* pub $between:ident: $between_ty:ty,)*
+            ..shared,
+            $($(#[$after_attr:meta])* pub $after:ident: $after_ty:ty,)*
+        }
+    ) => {
+        table_settings! {
+            $(#[$attr])*
+            pub struct $name {
+                $($(#[$before_attr])* pub $before: $before_ty,)*
+                /// Sub-ranges of the unit axes (a scene's plan narrows them to what its lookups reach).
+                pub mu_range: [f64; 2],
+                pub alpha_range: [f64; 2],
+                /// How the `mu` nodes are spaced.
+                pub mu_axis: $crate::recipes::spacing::CosineAxis,
+                /// How the `alpha` nodes are spaced.
+                pub roughness_axis: $crate::recipes::spacing::RoughnessAxis,
+                $($(#[$between_attr])* pub $between: $between_ty,)*
+                ..shared,
+                $($(#[$after_attr])* pub $after: $after_ty,)*
+            }
+        }
+
+        impl $name {
+            /// Check the sub-ranges of `mu` and `alpha`; `table` names the section in errors.
+            pub fn validate_mu_alpha_ranges(&self, table: &str) -> $crate::error::Result<()> {
+                $crate::recipes::settings::check_unit_range(&format!("{table}.mu_range"), self.mu_range)?;
+                $crate::recipes::settings::check_unit_range(&format!("{table}.alpha_range"), self.alpha_range)
+            }
+
+            /// The `mu` and `alpha` axes of `counts` nodes over their sub-ranges, spaced as set.
+            pub fn mu_alpha_axes(&self, counts: [usize; 2]) -> $crate::error::Result<[$crate::table::Axis; 2]> {
+                let ranges = [self.mu_range, self.alpha_range];
+                $crate::recipes::spacing::mu_alpha_axes(counts, ranges, self.mu_axis, self.roughness_axis)
+            }
+        }
+    };
+    (
+        $(#[$attr:meta])*
+        pub struct $name:ident $(<$param:ident>)? {
+            $($(#[$before_attr:meta])* pub $before:ident: $before_ty:ty,)*
+            ..shared,
+            $($(#[$after_attr:meta])* pub $after:ident: $after_ty:ty,)*
+        }
+    ) => {
+        $(#[$attr])*
+        #[derive(Debug, Clone, PartialEq, ::serde::Serialize, ::serde::Deserialize)]
+        #[serde(deny_unknown_fields, default)]
+        pub struct $name $(<$param>)? {
+            $($(#[$before_attr])* pub $before: $before_ty,)*
+            pub sampling: $crate::recipes::settings::SamplingConfig,
+            pub reference: $crate::recipes::settings::ReferenceConfig,
+            /// The check between nodes: random points against the exact integral.
+            pub interpolation: $crate::recipes::interpolation::InterpolationConfig,
+            pub output: $crate::recipes::settings::OutputConfig,
+            $($(#[$after_attr])* pub $after: $after_ty,)*
+        }
+
+        impl $(<$param>)? $name $(<$param>)? {
+            /// Check the keys every table has; `table` names the section in errors, `formats` are
+            /// the file formats that can hold the table.
+            pub fn validate_shared(&self, table: &str, formats: &[$crate::formats::FileFormat]) -> $crate::error::Result<()> {
+                self.sampling.validate(&format!("{table}.sampling"))?;
+                self.reference.validate(&format!("{table}.reference"))?;
+                self.interpolation.validate(&format!("{table}.interpolation"))?;
+                self.output.validate(&format!("{table}.output"), formats)
+            }
+        }
+    };
+}
+
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -20,7 +103,16 @@ pub struct SamplingConfig {
     pub replicates: u32,
 }
 
+/// Replicates of every table's default sampling: enough for a spread, few enough to keep each
+/// replicate's points many.
+pub const REPLICATES: u32 = 4;
+
 impl SamplingConfig {
+    /// `samples` per cell in [`REPLICATES`] replicates.
+    pub const fn replicated(samples: u64) -> Self {
+        SamplingConfig { samples, replicates: REPLICATES }
+    }
+
     pub fn validate(&self, key: &str) -> Result<()> {
         crate::sampling::sequence::SamplePlan::new(self.samples, self.replicates)
             .map_err(|e| Error::invalid(format!("{key}.samples"), strip_key(&e)))?;
@@ -55,6 +147,12 @@ pub struct ReferenceConfig {
 /// Quadrature nodes per panel of a reference node's exact integral: far below the tables' replicate
 /// standard errors (`docs/integration.md`, "Error estimates", measured per table).
 pub const REFERENCE_NODES: usize = 8;
+
+impl Default for ReferenceConfig {
+    fn default() -> Self {
+        ReferenceConfig { cells: 32, nodes: REFERENCE_NODES }
+    }
+}
 
 impl ReferenceConfig {
     pub fn validate(&self, key: &str) -> Result<()> {
@@ -136,6 +234,15 @@ pub fn check_cosine_intervals(key: &str, intervals: usize) -> Result<()> {
 pub fn check_count(key: &str, count: usize) -> Result<()> {
     if !(2..=MAX_NODES_PER_AXIS).contains(&count) {
         return Err(Error::invalid(key, format!("{count}; allowed: 2 to {MAX_NODES_PER_AXIS} nodes")));
+    }
+    Ok(())
+}
+
+/// The node counts of `table`, `counts[k]` under `keys[k]` (a recipe's `COUNT_KEYS`), each by
+/// [`check_count`].
+pub fn check_counts(table: &str, keys: &[&str], counts: &[usize]) -> Result<()> {
+    for (key, &count) in keys.iter().zip(counts) {
+        check_count(&format!("{table}.{key}"), count)?;
     }
     Ok(())
 }

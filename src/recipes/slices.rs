@@ -679,8 +679,7 @@ mod tests {
             lookup_alpha: [0.25, 0.75],
             channels: etas.iter().map(|&eta| SliceChannel { eta, kappa: 0.0, used_by: "test".into() }).collect(),
         };
-        let points =
-            NodePoints::new(table_points(&SamplingConfig { samples: 1 << 12, replicates: 4 }, 3).unwrap()).unwrap();
+        let points = NodePoints::new(table_points(&SamplingConfig::replicated(1 << 12), 3).unwrap()).unwrap();
         // Descending, as R, G, B of a coat whose index falls with wavelength.
         let both = slices(&[0.9, 0.6]).estimate_fast(&points, 0.5, 0.5, &[]);
         for (k, eta) in [0.9, 0.6].into_iter().enumerate() {
@@ -730,11 +729,9 @@ mod tests {
 
     #[test]
     fn a_slice_is_bit_identical_built_alone_or_in_a_batch_that_shares_its_nodes() {
-        let mut fgd =
-            FgdSettings { sampling: SamplingConfig { samples: 1 << 10, replicates: 4 }, ..FgdSettings::default() };
+        let mut fgd = FgdSettings { sampling: SamplingConfig::replicated(1 << 10), ..FgdSettings::default() };
         fgd.reference.cells = 0;
-        let mut tir =
-            TirSettings { sampling: SamplingConfig { samples: 1 << 10, replicates: 4 }, ..TirSettings::default() };
+        let mut tir = TirSettings { sampling: SamplingConfig::replicated(1 << 10), ..TirSettings::default() };
         tir.reference.cells = 0;
         let (fgd, tir) = (SliceOf::Fgd(fgd), SliceOf::Tir(tir));
         let copper = [(0.27, 3.61), (0.68, 2.63), (1.22, 2.29)];

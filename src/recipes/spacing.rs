@@ -4,7 +4,23 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::table::Mapping;
+use crate::error::Result;
+use crate::table::{Axis, Mapping};
+
+/// The first two axes of a table over `(mu, alpha, ...)`: `counts` nodes, node-aligned over
+/// `ranges`, spaced as `mu_axis` and `roughness_axis` say.
+pub fn mu_alpha_axes(
+    counts: [usize; 2],
+    [mu_range, alpha_range]: [[f64; 2]; 2],
+    mu_axis: CosineAxis,
+    roughness_axis: RoughnessAxis,
+) -> Result<[Axis; 2]> {
+    Ok([
+        Axis::node_aligned("mu", mu_range[0], mu_range[1], counts[0])?.with_mapping(mu_axis.mapping())?,
+        Axis::node_aligned("alpha", alpha_range[0], alpha_range[1], counts[1])?
+            .with_mapping(roughness_axis.mapping())?,
+    ])
+}
 
 /// How the nodes of an `alpha` axis follow roughness.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -5,14 +5,16 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::interpolation::InterpolationConfig;
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
+use super::settings::{check_counts, check_unit_range};
 pub use super::spacing::RoughnessAxis;
 use crate::error::Result;
 use crate::formats::FileFormat;
 use crate::integrate::Method;
 use crate::physics::MaskingShadowing;
 use crate::table::Axis;
+
+/// The configuration keys of the node counts, axis 0 first.
+pub const COUNT_KEYS: &[&str] = &["mu_count", "roughness_count"];
 
 /// Which end of the roughness axis is row 0 (the first row in memory and in the file).
 ///
@@ -34,47 +36,39 @@ pub enum Orientation {
     BottomUpImage,
 }
 
-/// The settings both split-sum tables have, and `Own`, the keys only one of them has (Karis's
-/// f16 rounding, Belcour's hat intervals). In the TOML file they are one section: `Own`'s keys sit
-/// beside these (`[karis] storage_rounding`), so `Own` is flattened in. serde cannot refuse
-/// unknown keys through a flattened field with its own message; `Config::from_toml` refuses them
-/// before deserialising, naming the key and the section's allowed keys, and the
-/// `deny_unknown_fields` below still refuses them (by name only) when these settings are read on
-/// their own.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SplitSumSettings<Own> {
-    /// Nodes along `x = n.v`, one per texel, at its centre.
-    pub mu_count: usize,
-    /// Nodes along roughness, one per texel, at its centre.
-    pub roughness_count: usize,
-    /// Range of GGX alpha covered, before orientation.
-    pub alpha_range: [f64; 2],
-    pub roughness_axis: RoughnessAxis,
-    pub orientation: Orientation,
-    pub masking: MaskingShadowing,
-    pub method: Method,
-    pub sampling: SamplingConfig,
-    pub reference: ReferenceConfig,
-    /// The check between nodes: random points against the exact integral.
-    pub interpolation: InterpolationConfig,
-    pub output: OutputConfig,
-    /// The settings of this table only.
-    #[serde(flatten)]
-    pub own: Own,
+table_settings! {
+    /// The settings both split-sum tables have, and `Own`, the keys only one of them has (Karis's
+    /// f16 rounding, Belcour's hat intervals). In the TOML file they are one section: `Own`'s keys sit
+    /// beside these (`[karis] storage_rounding`), so `Own` is flattened in. serde cannot refuse
+    /// unknown keys through a flattened field with its own message; `Config::from_toml` refuses them
+    /// before deserialising, naming the key and the section's allowed keys, and serde's
+    /// `deny_unknown_fields` still refuses them (by name only) when these settings are read on
+    /// their own.
+    pub struct SplitSumSettings<Own> {
+        /// Nodes along `x = n.v`, one per texel, at its centre.
+        pub mu_count: usize,
+        /// Nodes along roughness, one per texel, at its centre.
+        pub roughness_count: usize,
+        /// Range of GGX alpha covered, before orientation.
+        pub alpha_range: [f64; 2],
+        pub roughness_axis: RoughnessAxis,
+        pub orientation: Orientation,
+        pub masking: MaskingShadowing,
+        pub method: Method,
+        ..shared,
+        /// The settings of this table only.
+        #[serde(flatten)]
+        pub own: Own,
+    }
 }
 
 impl<Own> SplitSumSettings<Own> {
     /// Check the settings both tables have; `table` names the configuration section in errors,
     /// `formats` the file formats that can hold the table.
-    pub fn validate_shared(&self, table: &str, formats: &[FileFormat]) -> Result<()> {
-        check_count(&format!("{table}.mu_count"), self.mu_count)?;
-        check_count(&format!("{table}.roughness_count"), self.roughness_count)?;
+    pub fn validate_split_sum(&self, table: &str, formats: &[FileFormat]) -> Result<()> {
+        check_counts(table, COUNT_KEYS, &[self.mu_count, self.roughness_count])?;
         check_unit_range(&format!("{table}.alpha_range"), self.alpha_range)?;
-        self.sampling.validate(&format!("{table}.sampling"))?;
-        self.reference.validate(&format!("{table}.reference"))?;
-        self.interpolation.validate(&format!("{table}.interpolation"))?;
-        self.output.validate(&format!("{table}.output"), formats)
+        self.validate_shared(table, formats)
     }
 
     /// The table's axes: `mu` cell-centred over [0, 1]; `alpha` cell-centred, spaced and ordered

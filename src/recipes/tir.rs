@@ -19,7 +19,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::driver::SamplingRecord;
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range};
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts};
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{Integrated, Kernel, Metadata, TableRecipe, estimate_mu_alpha_columns};
 use crate::error::{Error, Result};
@@ -40,33 +40,23 @@ pub const CHANNEL_COUNT: usize = 1;
 /// The configuration keys of the node counts, axis 0 first.
 pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count"];
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct TirSettings {
-    pub mu_count: usize,
-    pub alpha_count: usize,
-    /// Nodes of the third axis: `eta`, or the critical-angle offset that stands for it.
-    pub eta_count: usize,
-    /// Sub-ranges of `mu` and `alpha` (a scene's plan narrows them to what its lookups reach).
-    pub mu_range: [f64; 2],
-    pub alpha_range: [f64; 2],
-    /// How the `mu` nodes are spaced.
-    pub mu_axis: CosineAxis,
-    /// How the `alpha` nodes are spaced.
-    pub roughness_axis: RoughnessAxis,
-    /// What the third axis samples.
-    pub eta_axis: EtaAxis,
-    /// The relative index the last `eta` node (eta = 1) is evaluated at. 1 gives the exact value
-    /// there, 0 (no critical angle); the original `tm_TIR.bin` behaves as if it were 0.999.
-    pub top_eta: f64,
-    pub method: Method,
-    pub sampling: SamplingConfig,
-    pub reference: ReferenceConfig,
-    /// The check between nodes: random points against the exact integral.
-    pub interpolation: super::interpolation::InterpolationConfig,
-    pub output: OutputConfig,
-    /// Fit an analytic approximation to the built table and write it beside the table.
-    pub fit: TirFit,
+table_settings! {
+    pub struct TirSettings {
+        pub mu_count: usize,
+        pub alpha_count: usize,
+        /// Nodes of the third axis: `eta`, or the critical-angle offset that stands for it.
+        pub eta_count: usize,
+        ..mu_alpha_axes,
+        /// What the third axis samples.
+        pub eta_axis: EtaAxis,
+        /// The relative index the last `eta` node (eta = 1) is evaluated at. 1 gives the exact value
+        /// there, 0 (no critical angle); the original `tm_TIR.bin` behaves as if it were 0.999.
+        pub top_eta: f64,
+        pub method: Method,
+        ..shared,
+        /// Fit an analytic approximation to the built table and write it beside the table.
+        pub fit: TirFit,
+    }
 }
 
 /// What the third axis of the TIR table samples.
@@ -113,8 +103,8 @@ impl Default for TirSettings {
             eta_axis: EtaAxis::CriticalAngleOffset,
             top_eta: 1.0,
             method: Method::Fast,
-            sampling: SamplingConfig { samples: 1 << 15, replicates: 4 },
-            reference: ReferenceConfig { cells: 32, nodes: super::settings::REFERENCE_NODES },
+            sampling: SamplingConfig::replicated(1 << 15),
+            reference: ReferenceConfig::default(),
             interpolation: super::interpolation::InterpolationConfig::default(),
             output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
             fit: TirFit::Best,
@@ -124,11 +114,8 @@ impl Default for TirSettings {
 
 impl TirSettings {
     pub fn validate(&self) -> Result<()> {
-        check_count("tir.mu_count", self.mu_count)?;
-        check_count("tir.alpha_count", self.alpha_count)?;
-        check_count("tir.eta_count", self.eta_count)?;
-        check_unit_range("tir.mu_range", self.mu_range)?;
-        check_unit_range("tir.alpha_range", self.alpha_range)?;
+        check_counts(NAME, COUNT_KEYS, &[self.mu_count, self.alpha_count, self.eta_count])?;
+        self.validate_mu_alpha_ranges(NAME)?;
         match self.eta_axis {
             EtaAxis::Eta => {
                 let below_top = Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?.node_value(self.eta_count - 2);
@@ -151,10 +138,7 @@ impl TirSettings {
             }
             EtaAxis::CriticalAngleOffset => {}
         }
-        self.sampling.validate("tir.sampling")?;
-        self.reference.validate("tir.reference")?;
-        self.interpolation.validate("tir.interpolation")?;
-        self.output.validate("tir.output", &FileFormat::for_table(3, true))
+        self.validate_shared(NAME, &FileFormat::for_table(3, true))
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
@@ -166,13 +150,8 @@ impl TirSettings {
                     .with_mapping(Mapping::Asinh { scale: OFFSET_SCALE, centre: 0.0 })?
             }
         };
-        Ok(vec![
-            Axis::node_aligned("mu", self.mu_range[0], self.mu_range[1], self.mu_count)?
-                .with_mapping(self.mu_axis.mapping())?,
-            Axis::node_aligned("alpha", self.alpha_range[0], self.alpha_range[1], self.alpha_count)?
-                .with_mapping(self.roughness_axis.mapping())?,
-            third,
-        ])
+        let [mu, alpha] = self.mu_alpha_axes([self.mu_count, self.alpha_count])?;
+        Ok(vec![mu, alpha, third])
     }
 
     /// The relative index a node of the third axis stands for at view cosine `mu`, before
@@ -316,8 +295,7 @@ impl TableRecipe for TirSettings {
     }
 
     fn position_of(&self, lookup: &[f64]) -> Vec<f64> {
-        let axes = self.axes().expect("validated settings have axes");
-        derived::point_of(&axes, lookup[0], lookup[1], lookup[2], 0.0).expect("TIR axes are known quantities")
+        super::position_of_eta_lookup(self, lookup)
     }
 }
 
@@ -453,7 +431,7 @@ mod tests {
 
     fn quick(settings: TirSettings) -> TirSettings {
         TirSettings {
-            sampling: SamplingConfig { samples: 1 << 12, replicates: 4 },
+            sampling: SamplingConfig::replicated(1 << 12),
             reference: ReferenceConfig { cells: 0, nodes: 8 },
             interpolation: InterpolationConfig { points: 0, nodes: 6 },
             ..settings

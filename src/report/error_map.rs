@@ -136,7 +136,7 @@ mod tests {
         let settings = crate::recipes::gd::GdSettings {
             mu_count: 6,
             alpha_count: 5,
-            sampling: SamplingConfig { samples: 1024, replicates: 4 },
+            sampling: SamplingConfig::replicated(1024),
             reference: ReferenceConfig { cells: 0, nodes: 8 },
             interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 },
             ..Default::default()

@@ -5,6 +5,7 @@
 use std::path::Path;
 use std::sync::Once;
 
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
@@ -52,6 +53,40 @@ fn write_png(path: &Path, rgb: Vec<u8>, (width, height): (u32, u32)) -> Result<(
     write_bytes_atomically(path, &bytes)
 }
 
+/// A `width x height` picture on white, drawn by `draw` and written as PNG.
+fn draw_png(
+    path: &Path,
+    (width, height): (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<()>,
+) -> Result<()> {
+    ensure_font();
+    let mut rgb = vec![255u8; (width * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+        draw(&root)?;
+        root.present().map_err(|e| plot_error(path, e))?;
+    }
+    write_png(path, rgb, (width, height))
+}
+
+/// A chart's legend, in a box of translucent white at `position`.
+fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    path: &Path,
+    font_size: u32,
+    position: SeriesLabelPosition,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .label_font((FONT, font_size))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(position)
+        .draw()
+        .map_err(|e| plot_error(path, e))
+}
+
 /// The colour of `log10(v)` on `[lo, hi]` (viridis); zero and negative values are grey, NaN (no
 /// value: outside what was computed) white.
 fn colour_of(v: f64, lo: f64, hi: f64) -> RGBColor {
@@ -70,7 +105,6 @@ fn colour_of(v: f64, lo: f64, hi: f64) -> RGBColor {
 /// drawn grey, NaN (cells without a value, such as those outside a fit's range) white. Grids of more than 16 panels draw them small, without axes: say in `title` what
 /// the axes are.
 pub fn heatmaps_png(path: &Path, title: &str, quantity: &str, panels: &[Panel], columns: usize) -> Result<()> {
-    ensure_font();
     let columns = columns.clamp(1, panels.len().max(1));
     let rows = panels.len().div_ceil(columns);
     let panel_size = if panels.len() > 16 { 150 } else { 330 };
@@ -83,10 +117,7 @@ pub fn heatmaps_png(path: &Path, title: &str, quantity: &str, panels: &[Panel], 
     let lo = lo.max(hi - 6.0);
     let (lo, hi) = if positive.is_empty() { (0.0, 0.0) } else { (lo.floor(), hi.ceil().max(lo.floor() + 1.0)) };
 
-    let mut rgb = vec![255u8; (width * height * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+    draw_png(path, (width, height), |root| {
         let (header, body) = root.split_vertically(40);
         header.titled(title, (FONT, 20)).map_err(|e| plot_error(path, e))?;
         let (grid, bar) = body.split_horizontally((columns * panel_size) as u32);
@@ -151,9 +182,8 @@ pub fn heatmaps_png(path: &Path, title: &str, quantity: &str, panels: &[Panel], 
             bar.draw(&Text::new("white: no value", (5, (height - 56) as i32), (FONT, 11)))
                 .map_err(|e| plot_error(path, e))?;
         }
-        root.present().map_err(|e| plot_error(path, e))?;
-    }
-    write_png(path, rgb, (width, height))
+        Ok(())
+    })
 }
 
 /// A log-log chart of several series with a legend.
@@ -173,7 +203,6 @@ pub fn loglog_labelled_png(
     labels: &[Vec<String>],
     guide: Option<(f64, &str)>,
 ) -> Result<()> {
-    ensure_font();
     let points: Vec<(f64, f64)> =
         series.iter().flat_map(|s| s.points.iter().copied()).filter(|(x, y)| *x > 0.0 && *y > 0.0).collect();
     if points.is_empty() {
@@ -188,11 +217,8 @@ pub fn loglog_labelled_png(
     let guide = guide.filter(|(y, _)| y.is_finite() && *y > 0.0);
     let y_range = range(points.iter().map(|p| p.1).chain(guide.map(|g| g.0)).collect());
     let (width, height) = (900u32, 600u32);
-    let mut rgb = vec![255u8; (width * height * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
-        let mut chart = ChartBuilder::on(&root)
+    draw_png(path, (width, height), |root| {
+        let mut chart = ChartBuilder::on(root)
             .caption(title, (FONT, 20))
             .margin(15)
             .x_label_area_size(45)
@@ -253,17 +279,9 @@ pub fn loglog_labelled_png(
         }
         // Labelled charts fall to the right (error against time), so their upper right is taken.
         let position = if labels.is_empty() { SeriesLabelPosition::UpperRight } else { SeriesLabelPosition::LowerLeft };
-        chart
-            .configure_series_labels()
-            .label_font((FONT, 14))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(position)
-            .draw()
-            .map_err(|e| plot_error(path, e))?;
-        root.present().map_err(|e| plot_error(path, e))?;
-    }
-    write_png(path, rgb, (width, height))
+        draw_legend(&mut chart, path, 14, position)?;
+        Ok(())
+    })
 }
 
 /// An RGB picture (8 bits per channel, rows top first) with a title, for [`images_png`].
@@ -290,16 +308,12 @@ pub fn viridis(t: f64) -> [u8; 3] {
 
 /// Pictures side by side under a title, each captioned, with an optional colour bar at the right.
 pub fn images_png(path: &Path, title: &str, pictures: &[Picture], bar: Option<&ColourBar>) -> Result<()> {
-    ensure_font();
     let gap = 12u32;
     let picture_width: u32 = pictures.iter().map(|p| p.width + gap).sum::<u32>() + gap;
     let bar_width = if bar.is_some() { 110 } else { 0 };
     let tallest = pictures.iter().map(|p| p.height).max().unwrap_or(0);
     let (width, height) = (picture_width + bar_width, tallest + 80);
-    let mut rgb = vec![255u8; (width * height * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+    draw_png(path, (width, height), |root| {
         root.draw(&Text::new(title.to_string(), (gap as i32, 8), (FONT, 17))).map_err(|e| plot_error(path, e))?;
         let mut x = gap;
         for picture in pictures {
@@ -338,9 +352,8 @@ pub fn images_png(path: &Path, title: &str, pictures: &[Picture], bar: Option<&C
                 }))
                 .map_err(|e| plot_error(path, e))?;
         }
-        root.present().map_err(|e| plot_error(path, e))?;
-    }
-    write_png(path, rgb, (width, height))
+        Ok(())
+    })
 }
 
 /// A line of a linear chart: a colour, and whether it is drawn dashed or as markers only.
@@ -367,13 +380,9 @@ pub fn lines_png(
     (y_label, y_range): (&str, std::ops::Range<f64>),
     lines: &[Line],
 ) -> Result<()> {
-    ensure_font();
     let (width, height) = (900u32, 600u32);
-    let mut rgb = vec![255u8; (width * height * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
-        let mut chart = ChartBuilder::on(&root)
+    draw_png(path, (width, height), |root| {
+        let mut chart = ChartBuilder::on(root)
             .caption(title, (FONT, 18))
             .margin(15)
             .x_label_area_size(45)
@@ -409,17 +418,9 @@ pub fn lines_png(
                 _ => PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)),
             });
         }
-        chart
-            .configure_series_labels()
-            .label_font((FONT, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerLeft)
-            .draw()
-            .map_err(|e| plot_error(path, e))?;
-        root.present().map_err(|e| plot_error(path, e))?;
-    }
-    write_png(path, rgb, (width, height))
+        draw_legend(&mut chart, path, 13, SeriesLabelPosition::LowerLeft)?;
+        Ok(())
+    })
 }
 
 /// A histogram of `counts` over equal bins spanning `range`, counts on a logarithmic axis when
@@ -434,16 +435,12 @@ pub fn histogram_png(
     log_counts: bool,
     marks: &[(String, f64, [u8; 3])],
 ) -> Result<()> {
-    ensure_font();
     let (width, height) = (900u32, 600u32);
     let (lo, hi) = range;
     let top = counts.iter().copied().max().unwrap_or(1).max(1) as f64;
     let width_of_bin = (hi - lo) / counts.len().max(1) as f64;
     let bar_colour = RGBColor(70, 110, 170);
-    let mut rgb = vec![255u8; (width * height * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(path, e))?;
+    draw_png(path, (width, height), |root| {
         let (header, body) = root.split_vertically(50);
         header.titled(title, (FONT, 15)).map_err(|e| plot_error(path, e))?;
         macro_rules! draw {
@@ -478,14 +475,7 @@ pub fn histogram_png(
                     }
                 }
                 if !marks.is_empty() {
-                    chart
-                        .configure_series_labels()
-                        .label_font((FONT, 13))
-                        .background_style(WHITE.mix(0.85))
-                        .border_style(BLACK)
-                        .position(SeriesLabelPosition::UpperRight)
-                        .draw()
-                        .map_err(|e| plot_error(path, e))?;
+                    draw_legend(&mut chart, path, 13, SeriesLabelPosition::UpperRight)?;
                 }
             }};
         }
@@ -510,9 +500,8 @@ pub fn histogram_png(
                 0.0
             );
         }
-        root.present().map_err(|e| plot_error(path, e))?;
-    }
-    write_png(path, rgb, (width, height))
+        Ok(())
+    })
 }
 
 #[cfg(test)]

@@ -565,8 +565,7 @@ mod tests {
     use crate::table::{Axis, Mapping};
 
     fn slice(name: &str, eta: f64) -> Slices {
-        let mut settings =
-            FgdSettings { sampling: SamplingConfig { samples: 1 << 10, replicates: 4 }, ..FgdSettings::default() };
+        let mut settings = FgdSettings { sampling: SamplingConfig::replicated(1 << 10), ..FgdSettings::default() };
         settings.reference.cells = 4;
         settings.reference.nodes = 4;
         let mu = Axis::node_aligned("mu", 0.5, 0.5 + 4.0 / 128.0, 5).unwrap();

@@ -80,20 +80,16 @@ pub fn merge(files: &[SceneFile]) -> Result<Scene> {
     };
     // Names are compared as the files they become (`Copper` and `copper` are one file), as a
     // scene's own materials are.
-    let mut material_at: std::collections::HashMap<String, (&str, &Path)> = std::collections::HashMap::new();
-    let mut scene_at: std::collections::HashMap<String, (&str, &Path)> = std::collections::HashMap::new();
+    let mut material_at = FileNames::default();
+    let mut scene_at = FileNames::default();
     for file in files {
         let scene = &file.scene;
-        if let Some((other_name, other)) = scene_at.insert(file_name_part(&scene.name), (&scene.name, &file.path)) {
-            return Err(Error::invalid(
-                file.path.display().to_string(),
-                format!(
-                    "scene `{}` and scene `{other_name}` of {} give one file name; the scenes of one build must have names that differ as file names",
-                    scene.name,
-                    other.display()
-                ),
-            ));
-        }
+        scene_at.claim(
+            "scene",
+            &scene.name,
+            &file.path,
+            "the scenes of one build must have names that differ as file names",
+        )?;
         if scene.margin_nodes != library.margin_nodes {
             return Err(Error::invalid(
                 file.path.display().to_string(),
@@ -106,23 +102,35 @@ pub fn merge(files: &[SceneFile]) -> Result<Scene> {
             ));
         }
         for material in &scene.materials {
-            if let Some((other_name, other)) =
-                material_at.insert(file_name_part(&material.name), (&material.name, &file.path))
-            {
-                return Err(Error::invalid(
-                    file.path.display().to_string(),
-                    format!(
-                        "material `{}` and material `{other_name}` of {} give one file name; a material name may appear in one scene of a build only (rename one)",
-                        material.name,
-                        other.display()
-                    ),
-                ));
-            }
+            material_at.claim(
+                "material",
+                &material.name,
+                &file.path,
+                "a material name may appear in one scene of a build only (rename one)",
+            )?;
             library.materials.push(material.clone());
         }
         library.warnings.extend(scene.warnings.iter().map(|w| format!("scene `{}`: {w}", scene.name)));
     }
     Ok(library)
+}
+
+/// The names given so far as the files they become, each with the file that gave it.
+#[derive(Default)]
+struct FileNames<'a>(std::collections::HashMap<String, (&'a str, &'a Path)>);
+
+impl<'a> FileNames<'a> {
+    /// Take the file name of `name` (a `kind` of `path`), refused where another name took it, with
+    /// `rule` saying why.
+    fn claim(&mut self, kind: &str, name: &'a str, path: &'a Path, rule: &str) -> Result<()> {
+        if let Some((other_name, other)) = self.0.insert(file_name_part(name), (name, path)) {
+            return Err(Error::invalid(
+                path.display().to_string(),
+                format!("{kind} `{name}` and {kind} `{other_name}` of {} give one file name; {rule}", other.display()),
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The text a build records of its scenes: the one file as it is, or every file after a comment

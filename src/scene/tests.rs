@@ -1,6 +1,6 @@
 use super::plan::{Plan, PlannedBuild, plan};
 use super::*;
-use crate::config::Config;
+use crate::config::{Config, TableKind};
 use crate::error::Result;
 use crate::recipes::slices::{SliceOf, Slices};
 
@@ -284,20 +284,15 @@ fn an_index_matched_interface_needs_no_lookup() {
 /// (eta spacing 0.5 over [0, 4], kappa spacing 1 over [0, 4], TIR eta spacing 1/6).
 fn small_config() -> Config {
     let mut config = Config::default();
-    config.fgd.mu_count = 9;
-    config.fgd.alpha_count = 9;
-    config.fgd.eta_count = 9;
-    config.fgd.kappa_count = 5;
-    config.fgd.sampling.samples = 1 << 12;
-    config.fgd.reference.cells = 8;
-    config.fgd.reference.nodes = 4;
-    config.fgd.packings = Vec::new();
-    config.tir.mu_count = 9;
-    config.tir.alpha_count = 9;
-    config.tir.eta_count = 7;
-    config.tir.sampling.samples = 1 << 12;
-    config.tir.reference.cells = 8;
-    config.tir.reference.nodes = 4;
+    let (fgd, tir) = (&mut config.fgd, &mut config.tir);
+    [fgd.mu_count, fgd.alpha_count, fgd.eta_count, fgd.kappa_count] = [9, 9, 9, 5];
+    fgd.packings = Vec::new();
+    [tir.mu_count, tir.alpha_count, tir.eta_count] = [9, 9, 7];
+    for kind in [TableKind::Fgd, TableKind::Tir] {
+        let recipe = config.recipe_mut(kind);
+        recipe.sampling_mut().samples = 1 << 12;
+        *recipe.reference_mut() = crate::recipes::settings::ReferenceConfig { cells: 8, nodes: 4 };
+    }
     config.seed = 11;
     config
 }

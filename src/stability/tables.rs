@@ -406,20 +406,50 @@ fn fgd_rarer(evaluation: &Evaluation, report: &mut Report) {
     report.precision.push(paths);
 }
 
-fn belcour(evaluation: &Evaluation, report: &mut Report) {
-    let settings = &evaluation.belcour;
-    let points = &evaluation.points;
-    let basis = belcour::basis();
-    let mut paths = PrecisionDifference::new("belcour: fast f32 kernel vs per-cell f64", 1e-3);
-    let mut storage = PrecisionDifference::new("belcour: f16 storage vs f32 values", 6.1e-5);
+/// The cases of a split-sum table stored in f16 (`table`, channels `names`, those in [0, 1]
+/// marked in `in_unit_interval`) at every `(mu, alpha)`: both paths (`fast` the f32 kernel), the
+/// checks every table has, the table's own (`own_checks(case, node, mu, alpha)`) and those of its
+/// half-float storage.
+fn split_sum_cases(
+    evaluation: &Evaluation,
+    report: &mut Report,
+    recipe: &dyn TableRecipe,
+    fast: impl Fn(&PointSet, &[f64]) -> Estimate,
+    names: &[&str],
+    in_unit_interval: &[bool],
+    own_checks: impl Fn(&mut Case, &NodeResult, f64, f64),
+) {
+    let table = recipe.name();
+    let mut paths = PrecisionDifference::new(format!("{table}: fast f32 kernel vs per-cell f64"), 1e-3);
+    let mut storage = PrecisionDifference::new(format!("{table}: f16 storage vs f32 values"), 6.1e-5);
     for &alpha in &ALPHAS {
         for &mu in &COSINES {
-            let position = [mu, alpha];
-            let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
+            let node = both_paths(recipe, &fast, &evaluation.points, &[mu, alpha]);
             let at = format!("mu={} alpha={}", label(mu), label(alpha));
-            let mut case = Case::new("belcour", &at, values(&node));
-            let names = ["b0", "b1", "b2", "b3"];
-            case.checks = common_checks(&node, &names, &[true, true, false, false], &mut paths, &at);
+            let mut case = Case::new(table, &at, values(&node));
+            case.checks = common_checks(&node, names, in_unit_interval, &mut paths, &at);
+            own_checks(&mut case, &node, mu, alpha);
+            case.checks.extend(half_float_checks(&node.fast.mean, names, &mut storage, &at));
+            report.cases.push(case);
+        }
+    }
+    report.precision.push(paths);
+    report.precision.push(storage);
+}
+
+fn belcour(evaluation: &Evaluation, report: &mut Report) {
+    let settings = &evaluation.belcour;
+    let basis = belcour::basis();
+    let names = ["b0", "b1", "b2", "b3"];
+    let fast = |pts: &PointSet, pos: &[f64]| settings.estimate_node_fast(pts, pos);
+    split_sum_cases(
+        evaluation,
+        report,
+        settings,
+        fast,
+        &names,
+        &[true, true, false, false],
+        |case, node, mu, alpha| {
             let b0 = node.per_cell.mean[0];
             for (k, name) in names.iter().enumerate().skip(1) {
                 // |b_k| <= 1 pointwise, so each channel is bounded by the albedo b0.
@@ -445,53 +475,31 @@ fn belcour(evaluation: &Evaluation, report: &mut Report) {
                     ));
                 }
             }
-            case.checks.extend(half_float_checks(&node.fast.mean, &names, &mut storage, &at));
-            report.cases.push(case);
-        }
-    }
-    report.precision.push(paths);
-    report.precision.push(storage);
+        },
+    );
 }
 
 fn karis(evaluation: &Evaluation, report: &mut Report) {
     let settings = &evaluation.karis;
-    let points = &evaluation.points;
-    let mut paths = PrecisionDifference::new("karis: fast f32 kernel vs per-cell f64", 1e-3);
-    let mut storage = PrecisionDifference::new("karis: f16 storage vs f32 values", 6.1e-5);
-    for &alpha in &ALPHAS {
-        for &mu in &COSINES {
-            let position = [mu, alpha];
-            let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
-            let at = format!("mu={} alpha={}", label(mu), label(alpha));
-            let mut case = Case::new("karis", &at, values(&node));
-            let names = ["scale", "bias"];
-            // Schlick–Smith is an approximation of Smith, and its albedo scale + bias may exceed 1
-            // slightly; each term on its own is in [0, 1] only up to that.
-            case.checks = common_checks(&node, &names, &[false, true], &mut paths, &at);
-            let total = node.per_cell.mean[0] + node.per_cell.mean[1];
-            case.checks.push(p::within("scale + bias in [0, 1.05] (Schlick–Smith albedo)", total, 0.0, 1.05));
-            if alpha == 0.0 {
-                let fc = schlick_weight(evaluated_cosine(mu));
-                // The f32 kernel rounds c = wi.h to f32: 1e-6 is what that allows.
-                for (path, estimate, tolerance) in [("f64", &node.per_cell, 1e-12), ("f32", &node.fast, 1e-6)] {
-                    case.checks.push(named(
-                        p::close("alpha = 0: 1 - Fc(mu)", estimate.mean[0], 1.0 - fc, tolerance),
-                        "scale",
-                        path,
-                    ));
-                    case.checks.push(named(
-                        p::close("alpha = 0: Fc(mu)", estimate.mean[1], fc, tolerance),
-                        "bias",
-                        path,
-                    ));
-                }
+    let fast = |pts: &PointSet, pos: &[f64]| settings.estimate_node_fast(pts, pos);
+    // Schlick–Smith is an approximation of Smith, and its albedo scale + bias may exceed 1
+    // slightly; each term on its own is in [0, 1] only up to that.
+    split_sum_cases(evaluation, report, settings, fast, &["scale", "bias"], &[false, true], |case, node, mu, alpha| {
+        let total = node.per_cell.mean[0] + node.per_cell.mean[1];
+        case.checks.push(p::within("scale + bias in [0, 1.05] (Schlick–Smith albedo)", total, 0.0, 1.05));
+        if alpha == 0.0 {
+            let fc = schlick_weight(evaluated_cosine(mu));
+            // The f32 kernel rounds c = wi.h to f32: 1e-6 is what that allows.
+            for (path, estimate, tolerance) in [("f64", &node.per_cell, 1e-12), ("f32", &node.fast, 1e-6)] {
+                case.checks.push(named(
+                    p::close("alpha = 0: 1 - Fc(mu)", estimate.mean[0], 1.0 - fc, tolerance),
+                    "scale",
+                    path,
+                ));
+                case.checks.push(named(p::close("alpha = 0: Fc(mu)", estimate.mean[1], fc, tolerance), "bias", path));
             }
-            case.checks.extend(half_float_checks(&node.fast.mean, &names, &mut storage, &at));
-            report.cases.push(case);
         }
-    }
-    report.precision.push(paths);
-    report.precision.push(storage);
+    });
 }
 
 /// What storing values as half floats does to them: still finite, never moved out of [0, 1] if

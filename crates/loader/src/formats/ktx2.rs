@@ -210,10 +210,8 @@ fn level_alignment(texel_bytes: usize) -> usize {
 /// The bytes of [`write_ktx2`]'s file.
 pub fn encode_ktx2(table: &Table, precision: Precision) -> Result<Vec<u8>> {
     let key = format!("table `{}`", table.name);
-    let ([width, height, depth], shape) = texture_extents(table, precision, "KTX2")?;
+    let ([width, height, depth], shape, format) = texture_extents(table, precision, "KTX2", vk_format)?;
     let volume = shape == TextureShape::Volume;
-    let format = vk_format(table.channel_count(), precision)
-        .ok_or_else(|| Error::invalid(&key, format!("has {} channels", table.channel_count())))?;
 
     let (dfd, type_size) = data_format_descriptor(format)?;
     let kvd = key_value_bytes(&Description::of(table, precision, volume).pairs()?);

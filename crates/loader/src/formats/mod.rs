@@ -231,15 +231,16 @@ impl TextureShape {
     }
 }
 
-/// The extents of the texture that holds `table` in a `container` (`DDS`, `KTX2`), and its shape:
-/// 2 axes make a 2D texture, 3 a volume or, where the third is [`LAYER_AXIS`], an array; the table
-/// must have 1, 2 or 4 channels and values that `precision` stores as finite numbers
-/// ([`check_storable_values`]).
-pub(crate) fn texture_extents(
+/// The extents of the texture that holds `table` in a `container` (`DDS`, `KTX2`), its shape and
+/// its texel format (`format_of` the table's channel count and `precision`): 2 axes make a 2D
+/// texture, 3 a volume or, where the third is [`LAYER_AXIS`], an array; the table must have 1, 2
+/// or 4 channels and values that `precision` stores as finite numbers ([`check_storable_values`]).
+pub(crate) fn texture_extents<F>(
     table: &Table,
     precision: Precision,
     container: &str,
-) -> Result<([u32; 3], TextureShape)> {
+    format_of: impl Fn(usize, Precision) -> Option<F>,
+) -> Result<([u32; 3], TextureShape, F)> {
     let key = format!("table `{}`", table.name);
     if ![1, 2, 4].contains(&table.channel_count()) {
         return Err(Error::invalid(
@@ -269,7 +270,9 @@ pub(crate) fn texture_extents(
         })?;
     }
     check_storable_values(table, precision)?;
-    Ok((extents, TextureShape::of(table)))
+    let format = format_of(table.channel_count(), precision)
+        .ok_or_else(|| Error::invalid(&key, format!("has {} channels", table.channel_count())))?;
+    Ok((extents, TextureShape::of(table), format))
 }
 
 /// `values` in `precision`, little-endian (the byte order of DDS, KTX2 and every GPU), appended

@@ -180,6 +180,31 @@ macro_rules! texture {
     };
 }
 
+/// The sampling methods of a split-sum handle, whose `$channels` channels (`$values`) lie over
+/// `(n.v, alpha)` and are looked up by perceptual roughness.
+macro_rules! split_sum {
+    ($handle:ident, $channels:expr, $values:literal) => {
+        impl $handle {
+            #[doc = concat!("`", $values, "` at `n_dot_v` and perceptual `roughness` (`alpha = roughness^2`).")]
+            pub fn sample(&self, n_dot_v: f32, roughness: f32) -> [f32; $channels] {
+                let roughness = roughness as f64;
+                interpolate(&self.0.table, [n_dot_v as f64, roughness * roughness])
+            }
+
+            /// [`Self::sample`] as a shader reads the texture.
+            pub fn sample_gpu(&self, n_dot_v: f32, roughness: f32) -> [f32; $channels] {
+                let roughness = roughness as f64;
+                self.filter(uv(&self.0.table, n_dot_v as f64, roughness * roughness))
+            }
+
+            /// The texture sampled at texture coordinate `(u, v)`.
+            pub fn sample_uv(&self, u: f32, v: f32) -> [f32; $channels] {
+                self.filter([u, v])
+            }
+        }
+    };
+}
+
 fn interpolate<const D: usize, const C: usize>(table: &Table, point: [f64; D]) -> [f32; C] {
     let mut out = [0.0f64; C];
     // The shape was checked at opening: the counts agree.
@@ -193,25 +218,7 @@ fn interpolate<const D: usize, const C: usize>(table: &Table, point: [f64; D]) -
 pub struct KarisLut(Checked);
 common!(KarisLut, KARIS);
 texture!(KarisLut, 2, 2);
-
-impl KarisLut {
-    /// `[scale, bias]` at `n_dot_v` and perceptual `roughness` (`alpha = roughness^2`).
-    pub fn sample(&self, n_dot_v: f32, roughness: f32) -> [f32; 2] {
-        let roughness = roughness as f64;
-        interpolate(&self.0.table, [n_dot_v as f64, roughness * roughness])
-    }
-
-    /// [`KarisLut::sample`] as a shader reads the texture.
-    pub fn sample_gpu(&self, n_dot_v: f32, roughness: f32) -> [f32; 2] {
-        let roughness = roughness as f64;
-        self.filter(uv(&self.0.table, n_dot_v as f64, roughness * roughness))
-    }
-
-    /// The texture sampled at texture coordinate `(u, v)`.
-    pub fn sample_uv(&self, u: f32, v: f32) -> [f32; 2] {
-        self.filter([u, v])
-    }
-}
+split_sum!(KarisLut, 2, "[scale, bias]");
 
 /// Belcour's Fresnel-basis split sum: four channels `b0..b3` over `(n.v, roughness)`; the albedo
 /// is `Σ c_k b_k` with the coefficients of the manifest's `fresnel_basis`.
@@ -219,25 +226,7 @@ impl KarisLut {
 pub struct BelcourLut(Checked);
 common!(BelcourLut, BELCOUR);
 texture!(BelcourLut, 4, 2);
-
-impl BelcourLut {
-    /// `[b0, b1, b2, b3]` at `n_dot_v` and perceptual `roughness` (`alpha = roughness^2`).
-    pub fn sample(&self, n_dot_v: f32, roughness: f32) -> [f32; 4] {
-        let roughness = roughness as f64;
-        interpolate(&self.0.table, [n_dot_v as f64, roughness * roughness])
-    }
-
-    /// [`BelcourLut::sample`] as a shader reads the texture.
-    pub fn sample_gpu(&self, n_dot_v: f32, roughness: f32) -> [f32; 4] {
-        let roughness = roughness as f64;
-        self.filter(uv(&self.0.table, n_dot_v as f64, roughness * roughness))
-    }
-
-    /// The texture sampled at texture coordinate `(u, v)`.
-    pub fn sample_uv(&self, u: f32, v: f32) -> [f32; 4] {
-        self.filter([u, v])
-    }
-}
+split_sum!(BelcourLut, 4, "[b0, b1, b2, b3]");
 
 /// The albedo of the GGX lobe without Fresnel, over `(mu, alpha)`.
 #[derive(Debug, Clone)]

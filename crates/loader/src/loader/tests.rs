@@ -133,32 +133,36 @@ fn write(dir: &Path, file: &str, table: &Table, format: FileFormat, precision: P
 
 /// A folder with one table of each kind, its files in the formats and precisions a build writes.
 fn folder() -> (tempfile::TempDir, LutFolder) {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let files = BTreeMap::from([
-        write(d, "karis.dds", &karis_table(), FileFormat::Dds, Precision::F16),
-        write(d, "belcour.dds", &belcour_table(), FileFormat::Dds, Precision::F16),
-        write(d, "gd.dds", &gd_table(), FileFormat::Dds, Precision::F16),
-        write(d, "tir.dds", &tir_table(), FileFormat::Dds, Precision::F32),
-        write(d, "fgd.bin", &fgd_table(), FileFormat::Bin, Precision::F32),
-        write(d, "fgd_rarer.dds", &fgd_rarer_table(), FileFormat::Dds, Precision::F32),
-    ]);
-    Manifest { generator: "tmlut test".into(), files, ..Default::default() }.write(d).unwrap();
-    let folder = LutFolder::open(d).unwrap();
-    (dir, folder)
+    let fgd = [("fgd.bin", fgd_table(), FileFormat::Bin), ("fgd_rarer.dds", fgd_rarer_table(), FileFormat::Dds)];
+    folder_of(FileFormat::Dds, fgd.into_iter().map(|(file, table, format)| (file, table, format, Precision::F32)))
 }
 
 /// A folder of the same tables as KTX2 files only, as `[T.output] formats = ["ktx2"]` builds it.
 fn ktx2_folder() -> (tempfile::TempDir, LutFolder) {
+    folder_of(FileFormat::Ktx2, [])
+}
+
+/// A folder of the 2D tables and TIR as `textures` files in a build's precisions, and `others`.
+fn folder_of(
+    textures: FileFormat,
+    others: impl IntoIterator<Item = (&'static str, Table, FileFormat, Precision)>,
+) -> (tempfile::TempDir, LutFolder) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let files = BTreeMap::from([
-        write(d, "karis.ktx2", &karis_table(), FileFormat::Ktx2, Precision::F16),
-        write(d, "belcour.ktx2", &belcour_table(), FileFormat::Ktx2, Precision::F16),
-        write(d, "gd.ktx2", &gd_table(), FileFormat::Ktx2, Precision::F16),
-        write(d, "tir.ktx2", &tir_table(), FileFormat::Ktx2, Precision::F32),
-    ]);
-    Manifest { generator: "tmlut test".into(), files, scene: None, scene_shader: None }.write(d).unwrap();
+    let tables = [
+        ("karis", karis_table(), Precision::F16),
+        ("belcour", belcour_table(), Precision::F16),
+        ("gd", gd_table(), Precision::F16),
+        ("tir", tir_table(), Precision::F32),
+    ];
+    let mut files: BTreeMap<String, FileEntry> = tables
+        .into_iter()
+        .map(|(name, table, precision)| {
+            write(d, &format!("{name}.{}", textures.extension()), &table, textures, precision)
+        })
+        .collect();
+    files.extend(others.into_iter().map(|(file, table, format, precision)| write(d, file, &table, format, precision)));
+    Manifest { generator: "tmlut test".into(), files, ..Default::default() }.write(d).unwrap();
     let folder = LutFolder::open(d).unwrap();
     (dir, folder)
 }
@@ -390,27 +394,20 @@ fn the_loader_uses_only_tables_formats_errors_and_the_gpu_sampler() {
 fn ktx2_files_open_as_their_dds_twins_with_the_same_texels_and_descriptors() {
     let (_dds_dir, dds) = folder();
     let (dir, ktx) = ktx2_folder();
+    macro_rules! textures {
+        ($handle:ident, $file:literal) => {
+            (
+                $handle::from_folder(&dds).unwrap().texture().unwrap(),
+                $handle::from_folder(&ktx).unwrap().texture().unwrap(),
+                $file,
+            )
+        };
+    }
     let pairs = [
-        (
-            KarisLut::from_folder(&dds).unwrap().texture().unwrap(),
-            KarisLut::from_folder(&ktx).unwrap().texture().unwrap(),
-            "karis.ktx2",
-        ),
-        (
-            BelcourLut::from_folder(&dds).unwrap().texture().unwrap(),
-            BelcourLut::from_folder(&ktx).unwrap().texture().unwrap(),
-            "belcour.ktx2",
-        ),
-        (
-            GdLut::from_folder(&dds).unwrap().texture().unwrap(),
-            GdLut::from_folder(&ktx).unwrap().texture().unwrap(),
-            "gd.ktx2",
-        ),
-        (
-            TirLut::from_folder(&dds).unwrap().texture().unwrap(),
-            TirLut::from_folder(&ktx).unwrap().texture().unwrap(),
-            "tir.ktx2",
-        ),
+        textures!(KarisLut, "karis.ktx2"),
+        textures!(BelcourLut, "belcour.ktx2"),
+        textures!(GdLut, "gd.ktx2"),
+        textures!(TirLut, "tir.ktx2"),
     ];
     for (from_dds, from_ktx2, file) in pairs {
         assert_eq!(from_ktx2.descriptor(), from_dds.descriptor(), "{file}");

@@ -284,6 +284,26 @@ fn index_formula(axis: &Axis) -> String {
     format!("{}; i_{} = u_{} * {}", unit_formula(axis), axis.name, axis.name, axis.count - 1)
 }
 
+/// The manifest entries of the four source axes: axis `d` stored along `stored_along[d]`, its node
+/// index by `formula`, then `addresses[d]`, its place in the texture.
+fn axis_entries_of(
+    axes: &[Axis],
+    formula: fn(&Axis) -> String,
+    stored_along: [String; 4],
+    addresses: [String; 4],
+) -> Vec<AxisEntry> {
+    axes.iter()
+        .zip(stored_along)
+        .zip(addresses)
+        .map(|((axis, stored_along), address)| AxisEntry {
+            axis: axis.clone(),
+            definition: None,
+            stored_along,
+            texture_coordinate: format!("{}; {address}", formula(axis)),
+        })
+        .collect()
+}
+
 fn bracket_formula(axis: &Axis) -> String {
     let (name, n) = (&axis.name, axis.count);
     if n.is_power_of_two() {
@@ -449,33 +469,25 @@ impl PackedFgd {
                     ),
                     "eta node e is depth slice e.".into(),
                 ];
-                let tile_text = format!("tile: column k mod {columns} along x, row floor(k / {columns}) along y");
+                let stored_along = [
+                    format!("x within a kappa tile ({n_mu} texels)"),
+                    format!("y within a kappa tile ({n_alpha} texels)"),
+                    "z".into(),
+                    format!("tile: column k mod {columns} along x, row floor(k / {columns}) along y"),
+                ];
                 if packing == Packing::Lossless {
                     load_lookup(&mut program, axes, columns);
                     layout.extend([
                         "No hardware filtering: the lookup computes the 4D interpolation weights in f32 (exact to 2^-25 for power-of-two node counts), loads the 16 texels of the cell and lerps them, mu, alpha, eta, then kappa.".to_string(),
                         "So it reproduces 4D multilinear interpolation to f32 rounding on any GPU (no 8-bit filter weights, no coordinate rounding), and needs no sampler; r32float needs no float32-filterable feature in WebGPU.".into(),
                     ]);
-                    let entry = |d: usize, stored_along: String, address: String| AxisEntry {
-                        axis: axes[d].clone(),
-                        definition: None,
-                        stored_along,
-                        texture_coordinate: format!("{}; {address}", bracket_formula(&axes[d])),
-                    };
-                    axis_entries = vec![
-                        entry(
-                            0,
-                            format!("x within a kappa tile ({n_mu} texels)"),
-                            format!("texel x = column * {n_mu} + k_mu (+ 1), lerp by t_mu"),
-                        ),
-                        entry(
-                            1,
-                            format!("y within a kappa tile ({n_alpha} texels)"),
-                            format!("texel y = row * {n_alpha} + k_alpha (+ 1), lerp by t_alpha"),
-                        ),
-                        entry(2, "z".into(), "texel z = k_eta (+ 1), lerp by t_eta".into()),
-                        entry(3, tile_text, "tiles of kappa nodes k_kappa and k_kappa + 1, lerp by t_kappa".into()),
+                    let addresses = [
+                        format!("texel x = column * {n_mu} + k_mu (+ 1), lerp by t_mu"),
+                        format!("texel y = row * {n_alpha} + k_alpha (+ 1), lerp by t_alpha"),
+                        "texel z = k_eta (+ 1), lerp by t_eta".into(),
+                        "tiles of kappa nodes k_kappa and k_kappa + 1, lerp by t_kappa".into(),
                     ];
+                    axis_entries = axis_entries_of(axes, bracket_formula, stored_along, addresses);
                 } else {
                     let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(&mut program, &axes[d]));
                     // The two kappa nodes around kappa and the weight of the upper one.
@@ -501,42 +513,13 @@ impl PackedFgd {
                         "x and y are clamped to the first and last texel centres of the tile, where linear filtering gives the neighbouring tile weight 0: filtering never blends across tiles.".into(),
                         "Hardware filtering limits accuracy: f32 coordinates place the filter to an ulp of the texel index (3e-5 texel at texel 448), and GPUs round filter weights to 8 bits; use `lossless` for 4D interpolation to f32 rounding.".into(),
                     ]);
-                    axis_entries = vec![
-                        AxisEntry {
-                            axis: axes[0].clone(),
-                            definition: None,
-                            stored_along: format!("x within a kappa tile ({n_mu} texels)"),
-                            texture_coordinate: format!(
-                                "{}; x = (column * {n_mu} + i_mu + 0.5) / {width}",
-                                index_formula(&axes[0])
-                            ),
-                        },
-                        AxisEntry {
-                            axis: axes[1].clone(),
-                            definition: None,
-                            stored_along: format!("y within a kappa tile ({n_alpha} texels)"),
-                            texture_coordinate: format!(
-                                "{}; y = (row * {n_alpha} + i_alpha + 0.5) / {height}",
-                                index_formula(&axes[1])
-                            ),
-                        },
-                        AxisEntry {
-                            axis: axes[2].clone(),
-                            definition: None,
-                            stored_along: "z".into(),
-                            texture_coordinate: format!("{}; z = (i_eta + 0.5) / {depth}", index_formula(&axes[2])),
-                        },
-                        AxisEntry {
-                            axis: axes[3].clone(),
-                            definition: None,
-                            stored_along: tile_text,
-                            texture_coordinate: format!(
-                                "{}; k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0",
-                                index_formula(&axes[3]),
-                                n_kappa - 2
-                            ),
-                        },
+                    let addresses = [
+                        format!("x = (column * {n_mu} + i_mu + 0.5) / {width}"),
+                        format!("y = (row * {n_alpha} + i_alpha + 0.5) / {height}"),
+                        format!("z = (i_eta + 0.5) / {depth}"),
+                        format!("k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0", n_kappa - 2),
                     ];
+                    axis_entries = axis_entries_of(axes, index_formula, stored_along, addresses);
                 }
             }
             Packing::Thesis => {
@@ -562,40 +545,22 @@ impl PackedFgd {
                     format!("depth slice = eta_index * {n_half} + h: each eta node is a block of {n_half} slices."),
                     "The hardware interpolates mu, alpha and kappa (inside the eta block, h clamped to its first and last slice centres); two fetches, at the eta nodes around eta, lerped by hand.".into(),
                 ];
-                axis_entries = vec![
-                    AxisEntry {
-                        axis: axes[0].clone(),
-                        definition: None,
-                        stored_along: "x".into(),
-                        texture_coordinate: format!("{}; x = (i_mu + 0.5) / {width}", index_formula(&axes[0])),
-                    },
-                    AxisEntry {
-                        axis: axes[1].clone(),
-                        definition: None,
-                        stored_along: "y".into(),
-                        texture_coordinate: format!("{}; y = (i_alpha + 0.5) / {height}", index_formula(&axes[1])),
-                    },
-                    AxisEntry {
-                        axis: axes[2].clone(),
-                        definition: None,
-                        stored_along: format!("z, block of {n_half} slices per eta node"),
-                        texture_coordinate: format!(
-                            "{}; e0 = min(floor(i_eta), {}), e1 = e0 + 1, lerp by i_eta - e0",
-                            index_formula(&axes[2]),
-                            n_eta - 2
-                        ),
-                    },
-                    AxisEntry {
-                        axis: axes[3].clone(),
-                        definition: None,
-                        stored_along: format!("z within an eta block ({n_half} averaged pairs)"),
-                        texture_coordinate: format!(
-                            "{}; h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}",
-                            index_formula(&axes[3]),
-                            n_half - 1
-                        ),
-                    },
+                let stored_along = [
+                    "x".into(),
+                    "y".into(),
+                    format!("z, block of {n_half} slices per eta node"),
+                    format!("z within an eta block ({n_half} averaged pairs)"),
                 ];
+                let addresses = [
+                    format!("x = (i_mu + 0.5) / {width}"),
+                    format!("y = (i_alpha + 0.5) / {height}"),
+                    format!("e0 = min(floor(i_eta), {}), e1 = e0 + 1, lerp by i_eta - e0", n_eta - 2),
+                    format!(
+                        "h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}",
+                        n_half - 1
+                    ),
+                ];
+                axis_entries = axis_entries_of(axes, index_formula, stored_along, addresses);
             }
         }
         Ok(PackedFgd {

@@ -57,19 +57,25 @@ fn max_error_vs_interpolation(packed: &PackedFgd, t: &Table, pts: &[[f32; 4]]) -
 
 const LOSSLESS_PACKINGS: [Packing; 2] = [Packing::Lossless, Packing::LosslessFiltered];
 
-#[test]
-fn lossless_matches_4d_interpolation_to_1e6_at_random_points_even_for_rough_tables() {
-    // Rough node values in [0, 1) (neighbours differ by up to 1: the hardest case), with 64 x 64
-    // tiles and power-of-two counts as in the default table, and an odd shape whose counts and
-    // extents are not powers of two (plain index formula there).
+/// `packing` of rough node values in [0, 1) (neighbours differ by up to 1: the hardest case), over
+/// 64 x 64 tiles with power-of-two counts as in the default table and over an odd shape whose
+/// counts and extents are not powers of two, is lossless and within `tolerance` of the table's
+/// interpolation at random points.
+fn assert_rough_tables_within(packing: Packing, tolerance: f64) {
     for counts in [[64, 64, 8, 8], [8, 7, 6, 5]] {
         let t = noise(counts);
-        let packed = PackedFgd::pack(&t, Packing::Lossless, Precision::F32).unwrap();
+        let packed = PackedFgd::pack(&t, packing, Precision::F32).unwrap();
         assert!(packed.lossless);
         let max = max_error_vs_interpolation(&packed, &t, &points(&t, 4000, 7));
-        // Weights exact to 2^-25 (2^-22 for the odd counts), 15 f32 lerps of values below 1.
-        assert!(max < 1e-6, "{counts:?}: max {max:e}");
+        assert!(max < tolerance, "{packing:?} {counts:?}: max {max:e}");
     }
+}
+
+#[test]
+fn lossless_matches_4d_interpolation_to_1e6_at_random_points_even_for_rough_tables() {
+    // The odd shape takes the plain index formula.
+    // Weights exact to 2^-25 (2^-22 for the odd counts), 15 f32 lerps of values below 1.
+    assert_rough_tables_within(Packing::Lossless, 1e-6);
 }
 
 #[test]
@@ -117,13 +123,7 @@ fn lossless_filtered_meets_1e6_only_for_smooth_tables() {
     // f32 coordinate arithmetic places a texel-space position of magnitude up to the width
     // (256 here) to within width * 2^-24 = 1.5e-5 texel; node values jumping by up to 1 between
     // neighbours turn that into errors of 1e-5.
-    for counts in [[64, 64, 8, 8], [8, 7, 6, 5]] {
-        let t = noise(counts);
-        let packed = PackedFgd::pack(&t, Packing::LosslessFiltered, Precision::F32).unwrap();
-        assert!(packed.lossless);
-        let max = max_error_vs_interpolation(&packed, &t, &points(&t, 4000, 7));
-        assert!(max < 1.6e-5, "{counts:?}: max {max:e}");
-    }
+    assert_rough_tables_within(Packing::LosslessFiltered, 1.6e-5);
     // Smooth (neighbouring nodes differ by a few hundredths): the rounding is then below 1e-6.
     let f = |p: [f64; 4]| {
         0.04 + 0.9 * (1.0 - p[0]).powi(5) * (1.0 - 0.5 * p[1]) + 0.1 * (p[2] * 0.7).sin() * (0.2 * p[3]).cos()

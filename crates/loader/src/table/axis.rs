@@ -60,6 +60,51 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
+/// The arithmetic of [`Mapping::forward`], in f64 and in f32.
+trait Real:
+    Copy
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+{
+    /// `value` rounded to this precision.
+    fn of(value: f64) -> Self;
+    fn max(self, other: Self) -> Self;
+    fn min(self, other: Self) -> Self;
+    fn clamp(self, lo: Self, hi: Self) -> Self;
+    fn sqrt(self) -> Self;
+    fn asinh(self) -> Self;
+}
+
+macro_rules! real {
+    ($t:ident) => {
+        impl Real for $t {
+            fn of(value: f64) -> Self {
+                value as $t
+            }
+            fn max(self, other: Self) -> Self {
+                $t::max(self, other)
+            }
+            fn min(self, other: Self) -> Self {
+                $t::min(self, other)
+            }
+            fn clamp(self, lo: Self, hi: Self) -> Self {
+                $t::clamp(self, lo, hi)
+            }
+            fn sqrt(self) -> Self {
+                $t::sqrt(self)
+            }
+            fn asinh(self) -> Self {
+                $t::asinh(self)
+            }
+        }
+    };
+}
+
+real!(f64);
+real!(f32);
+
 impl Mapping {
     /// `(scale, centre, slope_below)` of either `asinh` mapping (slope 0 for [`Mapping::Asinh`]):
     /// every evaluation of the two is one formula.
@@ -72,35 +117,29 @@ impl Mapping {
     }
 
     pub fn forward(self, x: f64) -> f64 {
-        match self {
-            Mapping::Identity => x,
-            Mapping::Sqrt => x.max(0.0).sqrt(),
-            Mapping::SqrtOneMinus => (1.0 - x).max(0.0).sqrt(),
-            Mapping::SqrtEnds => {
-                let x = x.clamp(0.0, 1.0);
-                0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
-            }
-            Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
-                let (scale, centre, slope_below) = self.asinh_parts().unwrap_or_default();
-                ((x - centre) / scale).asinh() + slope_below * (x - centre).min(0.0)
-            }
-        }
+        self.forward_in(x)
     }
 
     /// [`Mapping::forward`] in f32, as a shader evaluates it.
     pub fn forward_f32(self, x: f32) -> f32 {
+        self.forward_in(x)
+    }
+
+    /// [`Mapping::forward`] in the precision of `x`, the parameters rounded to it first.
+    fn forward_in<T: Real>(self, x: T) -> T {
+        let [zero, half, one] = [0.0, 0.5, 1.0].map(T::of);
         match self {
             Mapping::Identity => x,
-            Mapping::Sqrt => x.max(0.0).sqrt(),
-            Mapping::SqrtOneMinus => (1.0 - x).max(0.0).sqrt(),
+            Mapping::Sqrt => x.max(zero).sqrt(),
+            Mapping::SqrtOneMinus => (one - x).max(zero).sqrt(),
             Mapping::SqrtEnds => {
-                let x = x.clamp(0.0, 1.0);
-                0.5 * (x.sqrt() - (1.0 - x).sqrt() + 1.0)
+                let x = x.clamp(zero, one);
+                half * (x.sqrt() - (one - x).sqrt() + one)
             }
             Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
                 let (scale, centre, slope_below) = self.asinh_parts().unwrap_or_default();
-                let from_centre = x - centre as f32;
-                (from_centre / scale as f32).asinh() + slope_below as f32 * from_centre.min(0.0)
+                let from_centre = x - T::of(centre);
+                (from_centre / T::of(scale)).asinh() + T::of(slope_below) * from_centre.min(zero)
             }
         }
     }
