@@ -511,11 +511,9 @@ fn rgb_values(value: &Numbers, key: &str, bound: Bound) -> Result<Rgb<f64>> {
 fn range(value: Option<Numbers>, key: &str, where_: &str, bound: Bound) -> Result<Option<Interval>> {
     let Some(value) = value else { return Ok(None) };
     let key = format!("{where_}: vary.{key}");
-    let &[lo, hi] = (match &value {
-        Numbers::Many(xs) => xs.as_slice(),
-        Numbers::One(_) => &[],
-    }) else {
-        return Err(Error::invalid(&key, format!("{value}; give a range [lo, hi]")));
+    let (lo, hi) = match &value {
+        Numbers::Many(xs) if xs.len() == 2 => (xs[0], xs[1]),
+        _ => return Err(Error::invalid(&key, format!("{value}; give a range [lo, hi]"))),
     };
     for x in [lo, hi] {
         if !bound.admits(x) {
