@@ -82,6 +82,7 @@ enum RawLayer {
 struct RawInterface {
     eta: Option<Numbers>,
     kappa: Option<Numbers>,
+    #[serde(default, deserialize_with = "number")]
     alpha: Option<f64>,
     #[serde(default)]
     vary: RawVary,
@@ -101,17 +102,43 @@ struct RawVary {
 struct RawMedium {
     sigma_s: Option<Numbers>,
     sigma_k: Option<Numbers>,
+    #[serde(default, deserialize_with = "number")]
     depth: Option<f64>,
+    #[serde(default, deserialize_with = "number")]
     g: Option<f64>,
 }
 
 /// One number or an array of them, as written: how many a key takes (`[r, g, b]`, a range
 /// `[lo, hi]`) is checked with the values, naming the key's own form.
-#[derive(Deserialize)]
-#[serde(untagged, expecting = "must be a number or an array of numbers")]
 enum Numbers {
     One(f64),
     Many(Vec<f64>),
+}
+
+impl<'de> Deserialize<'de> for Numbers {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        match toml::Value::deserialize(deserializer)? {
+            toml::Value::Array(items) => {
+                items.into_iter().map(number_in).collect::<std::result::Result<_, _>>().map(Numbers::Many)
+            }
+            value @ (toml::Value::Float(_) | toml::Value::Integer(_)) => number_in(value).map(Numbers::One),
+            other => Err(serde::de::Error::custom(format!("{other}; must be a number or an array of numbers"))),
+        }
+    }
+}
+
+/// A number: TOML writes `1` and `1.0` apart, a scene means the same by both.
+fn number_in<E: serde::de::Error>(value: toml::Value) -> std::result::Result<f64, E> {
+    match value {
+        toml::Value::Float(x) => Ok(x),
+        toml::Value::Integer(n) => Ok(n as f64),
+        other => Err(E::custom(format!("{other}; must be a number"))),
+    }
+}
+
+/// An optional number, for `#[serde(deserialize_with)]`: refused as the scene's other numbers are.
+fn number<'de, D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Option<f64>, D::Error> {
+    number_in(toml::Value::deserialize(deserializer)?).map(Some)
 }
 
 impl std::fmt::Display for Numbers {
@@ -294,9 +321,11 @@ fn parse_material(
 }
 
 fn parse_layer(raw: Item<RawLayer>, where_: &str) -> Result<Layer> {
-    let raw = raw.0.map_err(|reason| match reason.as_str() {
-        "missing field `type`" => Error::invalid(where_, "has no `type`; allowed: \"interface\", \"medium\""),
-        _ => Error::invalid(where_, reason),
+    let raw = raw.0.map_err(|reason| {
+        let reason = if reason == "missing field `type`" { "has no `type`".to_string() } else { reason };
+        // serde names the types allowed only where `type` is a string that names none.
+        let allowed = if reason.contains("interface") { "" } else { "; allowed: \"interface\", \"medium\"" };
+        Error::invalid(where_, format!("{reason}{allowed}"))
     })?;
     match raw {
         RawLayer::Interface(raw) => {

@@ -80,13 +80,19 @@ fn bad_input_names_the_material_the_layer_and_what_is_allowed() {
 #[test]
 fn values_of_the_wrong_kind_are_refused_naming_the_material_the_layer_and_the_key() {
     for (from, to, says) in [
-        ("alpha = 0.1", "alpha = \"rough\"", "material 1 (`m`), layer 1: alpha: invalid type: string \"rough\""),
-        ("eta = 1.5", "eta = \"glass\"", "layer 1: eta: must be a number or an array of numbers"),
+        ("alpha = 0.1", "alpha = \"rough\"", "material 1 (`m`), layer 1: alpha: \"rough\"; must be a number"),
+        ("eta = 1.5", "eta = \"glass\"", "layer 1: eta: \"glass\"; must be a number or an array of numbers"),
         ("alpha = 0.1", "vary = { alpha = 0.3 }", "layer 1: vary.alpha: 0.3; give a range [lo, hi]"),
         ("alpha = 0.1", "vary = { alpha = [0.1, 0.2, 0.3] }", "vary.alpha: [0.1, 0.2, 0.3]; give a range [lo, hi]"),
         ("alpha = 0.1", "alpha = 0.1\nvary = { beta = [0.1, 0.2] }", "layer 1: vary: unknown field `beta`"),
         ("alpha = 0.1", "alpha = 0.1\nvary = 2", "layer 1: vary: invalid type: integer `2`, expected a table"),
         ("type = \"interface\"\n", "", "layer 1: has no `type`; allowed: \"interface\", \"medium\""),
+        (
+            "type = \"interface\"",
+            "type = 5",
+            "type: invalid type: integer `5`, expected variant identifier; allowed: \"interface\", \"medium\"",
+        ),
+        ("eta = 1.5", "eta = [1.5, \"x\", 1.5]", "layer 1: eta: \"x\"; must be a number"),
         ("name = \"m\"", "name = 5", "material 1: name: invalid type: integer `5`, expected a string"),
         ("name = \"m\"", "name = \"m\"\nlayers = 1", "material 1: unknown field `layers`, expected one of"),
         ("name = \"m\"", "name = \"m\"\ntir = \"fitted\"", "(`m`): tir: \"fitted\"; allowed: \"table\", \"fit\""),
