@@ -42,16 +42,16 @@ impl Scene {
     }
 }
 
-/// A scene file as written. `model`, `albedo` and `tir` are strings here: `"fit:PATH"` names a file,
-/// and the allowed values are named with it where one is refused.
+/// A scene file as written. `model`, `albedo`, `tir` and `margin_nodes` are read with the values
+/// (`"fit:PATH"` names a file), so that a value of any kind refused names the values allowed.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawScene {
     name: Option<String>,
-    model: Option<String>,
-    albedo: Option<String>,
-    tir: Option<String>,
-    margin_nodes: Option<i64>,
+    model: Option<toml::Value>,
+    albedo: Option<toml::Value>,
+    tir: Option<toml::Value>,
+    margin_nodes: Option<toml::Value>,
     material: Option<Vec<Item<RawMaterial>>>,
 }
 
@@ -59,9 +59,9 @@ struct RawScene {
 #[serde(deny_unknown_fields, expecting = "a table ([[material]])")]
 struct RawMaterial {
     name: Option<String>,
-    model: Option<String>,
-    albedo: Option<String>,
-    tir: Option<String>,
+    model: Option<toml::Value>,
+    albedo: Option<toml::Value>,
+    tir: Option<toml::Value>,
     #[serde(default)]
     layer: Vec<Item<RawLayer>>,
 }
@@ -191,15 +191,17 @@ fn parse_scene(raw: RawScene, origin: &str, default_name: &str, dir: &Path) -> R
     let name = raw.name.unwrap_or_else(|| default_name.to_string());
     check_name(&name, &format!("{origin}: name"), "scene")?;
     let defaults = Paths {
-        model: raw.model.as_deref().map(|v| choice(v, "model", origin)).transpose()?.unwrap_or(FluxModel::TwoFlux),
-        albedo: albedo_choice(raw.albedo.as_deref(), origin, dir)?.unwrap_or((AlbedoPath::Fgd, None)),
-        tir: tir_choice(raw.tir.as_deref(), origin, dir)?.unwrap_or((TirPath::Table, None)),
+        model: raw.model.as_ref().map(|v| choice(v, "model", origin)).transpose()?.unwrap_or(FluxModel::TwoFlux),
+        albedo: albedo_choice(raw.albedo.as_ref(), origin, dir)?.unwrap_or((AlbedoPath::Fgd, None)),
+        tir: tir_choice(raw.tir.as_ref(), origin, dir)?.unwrap_or((TirPath::Table, None)),
         dir,
     };
     let margin_nodes = match raw.margin_nodes {
         None => DEFAULT_MARGIN_NODES,
-        Some(n @ 0..=8) => n as usize,
-        Some(n) => return Err(Error::invalid(format!("{origin}: margin_nodes"), format!("{n}; allowed: 0 to 8"))),
+        Some(value) => match value.as_integer() {
+            Some(n @ 0..=8) => n as usize,
+            _ => return Err(Error::invalid(format!("{origin}: margin_nodes"), format!("{value}; allowed: 0 to 8"))),
+        },
     };
     let materials = raw.material.unwrap_or_default();
     if materials.is_empty() {
@@ -250,12 +252,12 @@ fn parse_material(
     let name = raw.name.unwrap_or_else(|| format!("material-{}", index + 1));
     check_name(&name, &format!("{where_}: name"), "material")?;
     let where_ = format!("{where_} (`{name}`)");
-    let model = raw.model.as_deref().map(|v| choice(v, "model", &where_)).transpose()?.unwrap_or(defaults.model);
-    let (albedo, albedo_form) = match albedo_choice(raw.albedo.as_deref(), &where_, defaults.dir)? {
+    let model = raw.model.as_ref().map(|v| choice(v, "model", &where_)).transpose()?.unwrap_or(defaults.model);
+    let (albedo, albedo_form) = match albedo_choice(raw.albedo.as_ref(), &where_, defaults.dir)? {
         Some(chosen) => chosen,
         None => defaults.albedo.clone(),
     };
-    let (tir, tir_form) = match tir_choice(raw.tir.as_deref(), &where_, defaults.dir)? {
+    let (tir, tir_form) = match tir_choice(raw.tir.as_ref(), &where_, defaults.dir)? {
         Some(chosen) => chosen,
         None => defaults.tir.clone(),
     };
@@ -466,20 +468,20 @@ impl Bound {
 }
 
 /// A kebab-case choice (`model`, `albedo`, `tir`), read through its serde names.
-fn choice<T: DeserializeOwned>(value: &str, key: &str, where_: &str) -> Result<T> {
+fn choice<T: DeserializeOwned>(value: &toml::Value, key: &str, where_: &str) -> Result<T> {
     let allowed = match key {
         "model" => "\"2-flux\", \"6-flux\"",
         "albedo" => "\"fgd\", \"belcour\", \"karis\", \"fit:PATH\"",
         _ => "\"table\", \"fit\", \"off\", \"fit:PATH\"",
     };
-    T::deserialize(serde::de::value::StrDeserializer::<serde::de::value::Error>::new(value))
-        .map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value:?}; allowed: {allowed}")))
+    T::deserialize(value.clone())
+        .map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
 }
 
 /// The fitted form `key = "fit:PATH"` names (PATH read relative to `dir`), fitted to one of
 /// `tables`; `None` where `value` is not written `fit:...`.
-fn named_form(value: &str, key: &str, where_: &str, dir: &Path, tables: &[&str]) -> Result<Option<FittedForm>> {
-    let Some(path) = value.strip_prefix("fit:") else {
+fn named_form(value: &toml::Value, key: &str, where_: &str, dir: &Path, tables: &[&str]) -> Result<Option<FittedForm>> {
+    let Some(path) = value.as_str().and_then(|v| v.strip_prefix("fit:")) else {
         return Ok(None);
     };
     let key = format!("{where_}: {key}");
@@ -491,7 +493,7 @@ fn named_form(value: &str, key: &str, where_: &str, dir: &Path, tables: &[&str])
 }
 
 /// `tir`: a path, or `fit:PATH` with the fitted form it names (read relative to `dir`).
-fn tir_choice(value: Option<&str>, where_: &str, dir: &Path) -> Result<Option<(TirPath, Option<FittedForm>)>> {
+fn tir_choice(value: Option<&toml::Value>, where_: &str, dir: &Path) -> Result<Option<(TirPath, Option<FittedForm>)>> {
     let Some(value) = value else { return Ok(None) };
     if let Some(form) = named_form(value, "tir", where_, dir, fitted::TIR_TABLES)? {
         return Ok(Some((TirPath::Form, Some(form))));
@@ -509,7 +511,11 @@ fn tir_choice(value: Option<&str>, where_: &str, dir: &Path) -> Result<Option<(T
 /// `albedo`: a path, or `fit:PATH` with the fitted form it names (read relative to `dir`), whose
 /// table sets the path: a form fitted to `karis` is read on the Karis path (its channels weighed by
 /// the interface's F0), one fitted to `fgd` on the FGD path.
-fn albedo_choice(value: Option<&str>, where_: &str, dir: &Path) -> Result<Option<(AlbedoPath, Option<FittedForm>)>> {
+fn albedo_choice(
+    value: Option<&toml::Value>,
+    where_: &str,
+    dir: &Path,
+) -> Result<Option<(AlbedoPath, Option<FittedForm>)>> {
     let Some(value) = value else { return Ok(None) };
     if let Some(form) = named_form(value, "albedo", where_, dir, fitted::ALBEDO_TABLES)? {
         let path = if form.table == "karis" { AlbedoPath::Karis } else { AlbedoPath::Fgd };

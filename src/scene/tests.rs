@@ -100,8 +100,12 @@ fn values_of_the_wrong_kind_are_refused_naming_the_material_the_layer_and_the_ke
         let e = error(&ONE_LAYER.replace(from, to));
         assert!(e.contains(says), "{says}: {e}");
     }
-    let e = error(&format!("margin_nodes = 9\n{ONE_LAYER}"));
-    assert!(e.contains("test.toml: margin_nodes: 9; allowed: 0 to 8"), "{e}");
+    for value in ["9", "1.5"] {
+        let e = error(&format!("margin_nodes = {value}\n{ONE_LAYER}"));
+        assert!(e.contains(&format!("test.toml: margin_nodes: {value}; allowed: 0 to 8")), "{e}");
+    }
+    let e = error(&ONE_LAYER.replace("name = \"m\"", "name = \"m\"\nmodel = 2"));
+    assert!(e.contains("material 1 (`m`): model: 2; allowed: \"2-flux\", \"6-flux\""), "{e}");
     let e = error(&format!("{ONE_LAYER}[[material.layer]]\ntype = \"medium\"\ndepth = 1.0\neta = 1.5\n"));
     assert!(e.contains("layer 2: unknown field `eta`, expected one of `sigma_s`, `sigma_k`, `depth`, `g`"), "{e}");
     let e = error("material = [1]\n");
