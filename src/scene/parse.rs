@@ -51,19 +51,22 @@ struct RawScene {
     model: Option<toml::Value>,
     albedo: Option<toml::Value>,
     tir: Option<toml::Value>,
+    /// Nodes of the full grid kept beyond each needed sub-range.
     margin_nodes: Option<toml::Value>,
-    material: Option<Vec<Item<RawMaterial>>>,
+    #[serde(default, deserialize_with = "materials")]
+    material: Vec<Item<RawMaterial>>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a table ([[material]])")]
 struct RawMaterial {
     name: Option<String>,
+    #[serde(default, deserialize_with = "layers")]
+    layer: Vec<Item<RawLayer>>,
+    /// Each in place of the scene's own.
     model: Option<toml::Value>,
     albedo: Option<toml::Value>,
     tir: Option<toml::Value>,
-    #[serde(default)]
-    layer: Vec<Item<RawLayer>>,
 }
 
 #[derive(Deserialize)]
@@ -150,6 +153,26 @@ impl std::fmt::Display for Numbers {
     }
 }
 
+/// `[[material]]`: an array of tables, said so where it is not.
+fn materials<'de, D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Vec<Item<RawMaterial>>, D::Error> {
+    array_of_tables(deserializer, "[[material]]")
+}
+
+/// `[[material.layer]]`: an array of tables, said so where it is not.
+fn layers<'de, D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Vec<Item<RawLayer>>, D::Error> {
+    array_of_tables(deserializer, "[[material.layer]]")
+}
+
+fn array_of_tables<'de, D: Deserializer<'de>, T: DeserializeOwned>(
+    deserializer: D,
+    header: &str,
+) -> std::result::Result<Vec<Item<T>>, D::Error> {
+    match toml::Value::deserialize(deserializer)? {
+        value @ toml::Value::Array(_) => Vec::deserialize(value).map_err(serde::de::Error::custom),
+        other => Err(serde::de::Error::custom(format!("{other}; must be an array of tables ({header})"))),
+    }
+}
+
 /// A material or a layer read on its own: what serde refuses in it is kept and reported with
 /// where it is (which material, which layer), which serde's message cannot say.
 struct Item<T>(std::result::Result<T, String>);
@@ -203,7 +226,7 @@ fn parse_scene(raw: RawScene, origin: &str, default_name: &str, dir: &Path) -> R
             _ => return Err(Error::invalid(format!("{origin}: margin_nodes"), format!("{value}; allowed: 0 to 8"))),
         },
     };
-    let materials = raw.material.unwrap_or_default();
+    let materials = raw.material;
     if materials.is_empty() {
         return Err(Error::invalid(origin, "no [[material]]; a scene needs at least one material"));
     }

@@ -108,6 +108,10 @@ fn values_of_the_wrong_kind_are_refused_naming_the_material_the_layer_and_the_ke
     assert!(e.contains("material 1 (`m`): model: 2; allowed: \"2-flux\", \"6-flux\""), "{e}");
     let e = error(&format!("{ONE_LAYER}[[material.layer]]\ntype = \"medium\"\ndepth = 1.0\neta = 1.5\n"));
     assert!(e.contains("layer 2: unknown field `eta`, expected one of `sigma_s`, `sigma_k`, `depth`, `g`"), "{e}");
+    let e = error("material = 1\n");
+    assert!(e.contains("test.toml: material: 1; must be an array of tables ([[material]])"), "{e}");
+    let e = error("[[material]]\nname = \"m\"\nlayer = 3\n");
+    assert!(e.contains("material 1: layer: 3; must be an array of tables ([[material.layer]])"), "{e}");
     let e = error("material = [1]\n");
     assert!(e.contains("material 1: invalid type: integer `1`, expected a table ([[material]])"), "{e}");
 }
