@@ -185,7 +185,7 @@ pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut
 /// The scene's shader beside its tables, where the shader covers the scene; a note where it does
 /// not (the tables are built either way).
 fn write_scene_shader(scene: &Scene, out: &std::path::Path) {
-    match tmlut::scene::shader::write_scene_shader(scene, out, out, 0) {
+    match tmlut::scene::shader_files::write_scene_shader(scene, out, out, 0) {
         Ok(paths) => {
             for path in paths {
                 println!("{}", path.display());

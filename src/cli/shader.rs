@@ -28,9 +28,9 @@ pub struct ShaderArgs {
 
 pub fn exec(args: ShaderArgs, _: &Context) -> tmlut::Result<()> {
     // Bounded before the scene is read: a count past memory aborted on its allocation.
-    tmlut::scene::shader::check_reference_views(args.reference_views, 1)?;
+    tmlut::scene::shader_files::check_reference_views(args.reference_views, 1)?;
     let (scene, _) = Scene::read(&args.scene)?;
-    for path in tmlut::scene::shader::write_scene_shader(&scene, &args.luts, &args.out, args.reference_views)? {
+    for path in tmlut::scene::shader_files::write_scene_shader(&scene, &args.luts, &args.out, args.reference_views)? {
         println!("{}", path.display());
     }
     Ok(())

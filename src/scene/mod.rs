@@ -35,8 +35,12 @@ pub mod library;
 pub mod lookups;
 mod parse;
 pub mod plan;
-pub mod shader;
+pub mod shader_files;
 mod stacks;
+
+/// `examples/render_albedo.rs` names [`shader_files`] by this path.
+#[doc(hidden)]
+pub use shader_files as shader;
 
 use serde::{Deserialize, Serialize};
 

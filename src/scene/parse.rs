@@ -1,7 +1,11 @@
-//! Reading a scene file: the TOML of the module docs of [`super`], checked key by key, every error
+//! Reading a scene file: the TOML of the module docs of [`super`] read by serde into raw structs
+//! (which refuse an unknown key or a value of the wrong type), then the values checked, every error
 //! naming the material and layer it is about.
 
 use std::path::Path;
+
+use serde::Deserialize;
+use serde::de::{DeserializeOwned, Deserializer};
 
 use super::{
     AlbedoPath, DEFAULT_MARGIN_NODES, FluxModel, Interface, Interval, Layer, Material, Medium, Rgb, Scene, TirPath,
@@ -28,17 +32,174 @@ impl Scene {
 
     /// [`Scene::from_toml`] with `tir = "fit:PATH"` read relative to `dir` (the scene file's folder).
     pub fn from_toml_in(text: &str, origin: &str, default_name: &str, dir: &Path) -> Result<Self> {
+        // Read from a TOML table rather than from the text: toml's errors then name the keys they
+        // are under (which `reason` puts first) in place of an excerpt of the source, as the
+        // material and layer an error is in are named.
         let document: toml::Table =
             text.parse().map_err(|e: toml::de::Error| Error::invalid(origin, crate::config::clean_toml_error(&e)))?;
-        parse_scene(&document, origin, default_name, dir)
+        let raw =
+            RawScene::deserialize(toml::Value::Table(document)).map_err(|e| Error::invalid(origin, reason(&e)))?;
+        parse_scene(raw, origin, default_name, dir)
     }
 }
 
-const SCENE_KEYS: &[&str] = &["name", "model", "albedo", "tir", "margin_nodes", "material"];
-const MATERIAL_KEYS: &[&str] = &["name", "model", "albedo", "tir", "layer"];
-const INTERFACE_KEYS: &[&str] = &["type", "eta", "kappa", "alpha", "vary"];
-const INTERFACE_VARY_KEYS: &[&str] = &["eta", "kappa", "alpha"];
-const MEDIUM_KEYS: &[&str] = &["type", "sigma_s", "sigma_k", "depth", "g"];
+/// A scene file as written. `model`, `albedo`, `tir` and `margin_nodes` are read with the values
+/// (`"fit:PATH"` names a file), so that a value of any kind refused names the values allowed.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: Option<String>,
+    model: Option<toml::Value>,
+    albedo: Option<toml::Value>,
+    tir: Option<toml::Value>,
+    /// Nodes of the full grid kept beyond each needed sub-range.
+    margin_nodes: Option<toml::Value>,
+    #[serde(default, deserialize_with = "materials")]
+    material: Vec<Item<RawMaterial>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table ([[material]])")]
+struct RawMaterial {
+    name: Option<String>,
+    #[serde(default, deserialize_with = "layers")]
+    layer: Vec<Item<RawLayer>>,
+    /// Each in place of the scene's own.
+    model: Option<toml::Value>,
+    albedo: Option<toml::Value>,
+    tir: Option<toml::Value>,
+}
+
+#[derive(Deserialize)]
+#[serde(
+    tag = "type",
+    rename_all = "lowercase",
+    expecting = "a table ([[material.layer]]) with type = \"interface\" or \"medium\""
+)]
+enum RawLayer {
+    Interface(Item<RawInterface>),
+    Medium(Item<RawMedium>),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawInterface {
+    eta: Option<Numbers>,
+    kappa: Option<Numbers>,
+    #[serde(default, deserialize_with = "number")]
+    alpha: Option<f64>,
+    #[serde(default)]
+    vary: RawVary,
+}
+
+/// The ranges a texture varies an interface's parameters over.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields, expecting = "a table, e.g. vary = { alpha = [0.1, 0.4] }")]
+struct RawVary {
+    eta: Option<Numbers>,
+    kappa: Option<Numbers>,
+    alpha: Option<Numbers>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMedium {
+    sigma_s: Option<Numbers>,
+    sigma_k: Option<Numbers>,
+    #[serde(default, deserialize_with = "number")]
+    depth: Option<f64>,
+    #[serde(default, deserialize_with = "number")]
+    g: Option<f64>,
+}
+
+/// One number or an array of them, as written: how many a key takes (`[r, g, b]`, a range
+/// `[lo, hi]`) is checked with the values, naming the key's own form.
+enum Numbers {
+    One(f64),
+    Many(Vec<f64>),
+}
+
+impl<'de> Deserialize<'de> for Numbers {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        match toml::Value::deserialize(deserializer)? {
+            toml::Value::Array(items) => {
+                items.into_iter().map(number_in).collect::<std::result::Result<_, _>>().map(Numbers::Many)
+            }
+            value @ (toml::Value::Float(_) | toml::Value::Integer(_)) => number_in(value).map(Numbers::One),
+            other => Err(serde::de::Error::custom(format!("{other}; must be a number or an array of numbers"))),
+        }
+    }
+}
+
+/// A number: TOML writes `1` and `1.0` apart, a scene means the same by both.
+fn number_in<E: serde::de::Error>(value: toml::Value) -> std::result::Result<f64, E> {
+    match value {
+        toml::Value::Float(x) => Ok(x),
+        toml::Value::Integer(n) => Ok(n as f64),
+        other => Err(E::custom(format!("{other}; must be a number"))),
+    }
+}
+
+/// An optional number, for `#[serde(deserialize_with)]`: refused as the scene's other numbers are.
+fn number<'de, D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Option<f64>, D::Error> {
+    number_in(toml::Value::deserialize(deserializer)?).map(Some)
+}
+
+impl std::fmt::Display for Numbers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Numbers::One(x) => f.write_str(&number_text(*x)),
+            Numbers::Many(xs) => write!(f, "[{}]", xs.iter().map(|x| number_text(*x)).collect::<Vec<_>>().join(", ")),
+        }
+    }
+}
+
+/// `[[material]]`: an array of tables, said so where it is not.
+fn materials<'de, D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Vec<Item<RawMaterial>>, D::Error> {
+    array_of_tables(deserializer, "[[material]]")
+}
+
+/// `[[material.layer]]`: an array of tables, said so where it is not.
+fn layers<'de, D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Vec<Item<RawLayer>>, D::Error> {
+    array_of_tables(deserializer, "[[material.layer]]")
+}
+
+fn array_of_tables<'de, D: Deserializer<'de>, T: DeserializeOwned>(
+    deserializer: D,
+    header: &str,
+) -> std::result::Result<Vec<Item<T>>, D::Error> {
+    match toml::Value::deserialize(deserializer)? {
+        value @ toml::Value::Array(_) => Vec::deserialize(value).map_err(serde::de::Error::custom),
+        other => Err(serde::de::Error::custom(format!("{other}; must be an array of tables ({header})"))),
+    }
+}
+
+/// A material or a layer read on its own: what serde refuses in it is kept and reported with
+/// where it is (which material, which layer), which serde's message cannot say.
+struct Item<T>(std::result::Result<T, String>);
+
+impl<'de, T: DeserializeOwned> Deserialize<'de> for Item<T> {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        let value = toml::Value::deserialize(deserializer)?;
+        Ok(Item(T::deserialize(value).map_err(|e| reason(&e))))
+    }
+}
+
+impl<T> Item<T> {
+    fn at(self, where_: &str) -> Result<T> {
+        self.0.map_err(|reason| Error::invalid(where_, reason))
+    }
+}
+
+/// What serde refused, after the keys it lies under (`vary.alpha: ...`). toml names them only in
+/// its error's text, on a last line "in `KEYS`", where the error has no source excerpt.
+fn reason(error: &toml::de::Error) -> String {
+    let text = error.to_string();
+    match text.lines().last().and_then(|l| l.strip_prefix("in `")).and_then(|l| l.strip_suffix('`')) {
+        Some(keys) => format!("{keys}: {}", error.message()),
+        None => error.message().to_string(),
+    }
+}
 
 /// The scene-wide choices a material inherits unless it states its own.
 #[derive(Clone)]
@@ -50,32 +211,23 @@ struct Paths<'a> {
     dir: &'a Path,
 }
 
-fn parse_scene(document: &toml::Table, origin: &str, default_name: &str, dir: &Path) -> Result<Scene> {
-    check_keys(document, SCENE_KEYS, origin)?;
-    let name = match document.get("name") {
-        Some(value) => string(value, &format!("{origin}: name"))?.to_string(),
-        None => default_name.to_string(),
-    };
+fn parse_scene(raw: RawScene, origin: &str, default_name: &str, dir: &Path) -> Result<Scene> {
+    let name = raw.name.unwrap_or_else(|| default_name.to_string());
     check_name(&name, &format!("{origin}: name"), "scene")?;
     let defaults = Paths {
-        model: choice(document, "model", origin)?.unwrap_or(FluxModel::TwoFlux),
-        albedo: albedo_choice(document, origin, dir)?.unwrap_or((AlbedoPath::Fgd, None)),
-        tir: tir_choice(document, origin, dir)?.unwrap_or((TirPath::Table, None)),
+        model: raw.model.as_ref().map(|v| choice(v, "model", origin)).transpose()?.unwrap_or(FluxModel::TwoFlux),
+        albedo: albedo_choice(raw.albedo.as_ref(), origin, dir)?.unwrap_or((AlbedoPath::Fgd, None)),
+        tir: tir_choice(raw.tir.as_ref(), origin, dir)?.unwrap_or((TirPath::Table, None)),
         dir,
     };
-    let margin_nodes = match document.get("margin_nodes") {
+    let margin_nodes = match raw.margin_nodes {
         None => DEFAULT_MARGIN_NODES,
         Some(value) => match value.as_integer() {
             Some(n @ 0..=8) => n as usize,
             _ => return Err(Error::invalid(format!("{origin}: margin_nodes"), format!("{value}; allowed: 0 to 8"))),
         },
     };
-    let Some(materials) = document.get("material") else {
-        return Err(Error::invalid(origin, "no [[material]]; a scene needs at least one material"));
-    };
-    let Some(materials) = materials.as_array() else {
-        return Err(Error::invalid(format!("{origin}: material"), "must be an array of tables ([[material]])"));
-    };
+    let materials = raw.material;
     if materials.is_empty() {
         return Err(Error::invalid(origin, "no [[material]]; a scene needs at least one material"));
     }
@@ -90,10 +242,9 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str, dir: &P
     // after it, as `file_name_part` maps it: two names that map to one would overwrite each other's
     // files, or fail the build after `plan` passed them.
     let mut names: std::collections::HashMap<String, (usize, String)> = std::collections::HashMap::new();
-    for (index, value) in materials.iter().enumerate() {
+    for (index, raw) in materials.into_iter().enumerate() {
         let where_ = format!("{origin}: material {}", index + 1);
-        let table = value.as_table().ok_or_else(|| Error::invalid(&where_, "must be a table ([[material]])"))?;
-        let material = parse_material(table, &where_, index, &defaults, &mut scene.warnings)?;
+        let material = parse_material(raw.at(&where_)?, &where_, index, &defaults, &mut scene.warnings)?;
         let part = file_name_part(&material.name);
         if let Some((other, other_name)) = names.get(&part) {
             let reason = if *other_name == material.name {
@@ -116,37 +267,25 @@ fn parse_scene(document: &toml::Table, origin: &str, default_name: &str, dir: &P
 }
 
 fn parse_material(
-    table: &toml::Table,
+    raw: RawMaterial,
     where_: &str,
     index: usize,
     defaults: &Paths,
     warnings: &mut Vec<String>,
 ) -> Result<Material> {
-    check_keys(table, MATERIAL_KEYS, where_)?;
-    let name = match table.get("name") {
-        Some(value) => string(value, &format!("{where_}: name"))?.to_string(),
-        None => format!("material-{}", index + 1),
-    };
+    let name = raw.name.unwrap_or_else(|| format!("material-{}", index + 1));
     check_name(&name, &format!("{where_}: name"), "material")?;
     let where_ = format!("{where_} (`{name}`)");
-    let model = choice(table, "model", &where_)?.unwrap_or(defaults.model);
-    let (albedo, albedo_form) = match albedo_choice(table, &where_, defaults.dir)? {
+    let model = raw.model.as_ref().map(|v| choice(v, "model", &where_)).transpose()?.unwrap_or(defaults.model);
+    let (albedo, albedo_form) = match albedo_choice(raw.albedo.as_ref(), &where_, defaults.dir)? {
         Some(chosen) => chosen,
         None => defaults.albedo.clone(),
     };
-    let (tir, tir_form) = match tir_choice(table, &where_, defaults.dir)? {
+    let (tir, tir_form) = match tir_choice(raw.tir.as_ref(), &where_, defaults.dir)? {
         Some(chosen) => chosen,
         None => defaults.tir.clone(),
     };
-    let layers = match table.get("layer") {
-        None => Vec::new(),
-        Some(value) => value
-            .as_array()
-            .ok_or_else(|| {
-                Error::invalid(format!("{where_}: layer"), "must be an array of tables ([[material.layer]])")
-            })?
-            .clone(),
-    };
+    let layers = raw.layer;
     if layers.is_empty() {
         return Err(Error::invalid(
             &where_,
@@ -164,10 +303,9 @@ fn parse_material(
         ));
     }
     let mut parsed = Vec::new();
-    for (k, value) in layers.iter().enumerate() {
+    for (k, raw) in layers.into_iter().enumerate() {
         let layer_where = format!("{where_}, layer {}", k + 1);
-        let table = value.as_table().ok_or_else(|| Error::invalid(&layer_where, "must be a table"))?;
-        parsed.push(parse_layer(table, &layer_where)?);
+        parsed.push(parse_layer(raw, &layer_where)?);
     }
     if !parsed.iter().any(|l| matches!(l, Layer::Interface(_))) {
         return Err(Error::invalid(&where_, "has no interface layer; a material needs at least one interface"));
@@ -208,47 +346,38 @@ fn parse_material(
     Ok(Material { name, model, albedo, albedo_form, tir, tir_form, layers: parsed })
 }
 
-fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
-    let kind = match table.get("type") {
-        Some(value) => string(value, &format!("{where_}: type"))?,
-        None => return Err(Error::invalid(where_, "has no `type`; allowed: \"interface\", \"medium\"")),
-    };
-    match kind {
-        "interface" => {
-            check_keys(table, INTERFACE_KEYS, where_)?;
-            let vary = match table.get("vary") {
-                None => toml::Table::new(),
-                Some(value) => {
-                    let vary = value
-                        .as_table()
-                        .ok_or_else(|| {
-                            Error::invalid(
-                                format!("{where_}: vary"),
-                                "must be a table, e.g. vary = { alpha = [0.1, 0.4] }",
-                            )
-                        })?
-                        .clone();
-                    check_keys(&vary, INTERFACE_VARY_KEYS, &format!("{where_}: vary"))?;
-                    vary
-                }
-            };
-            let (eta, eta_nominal) = rgb_or_range(table, &vary, "eta", None, where_, Bound::Index)?;
-            let (kappa, kappa_nominal) = rgb_or_range(table, &vary, "kappa", Some(0.0), where_, Bound::Extinction)?;
-            let (alpha, alpha_nominal) = scalar_or_range(table, &vary, "alpha", where_)?;
+fn parse_layer(raw: Item<RawLayer>, where_: &str) -> Result<Layer> {
+    let raw = raw.0.map_err(|reason| {
+        let reason = if reason == "missing field `type`" { "has no `type`".to_string() } else { reason };
+        // serde names the types allowed only where `type` is a string that names none.
+        let allowed = if reason.contains("interface") { "" } else { "; allowed: \"interface\", \"medium\"" };
+        Error::invalid(where_, format!("{reason}{allowed}"))
+    })?;
+    match raw {
+        RawLayer::Interface(raw) => {
+            let raw = raw.at(where_)?;
+            let vary = raw.vary;
+            let (eta, eta_nominal) = rgb_or_range(raw.eta, vary.eta, "eta", None, where_, Bound::Index)?;
+            let (kappa, kappa_nominal) =
+                rgb_or_range(raw.kappa, vary.kappa, "kappa", Some(0.0), where_, Bound::Extinction)?;
+            let (alpha, alpha_nominal) = scalar_or_range(raw.alpha, vary.alpha, "alpha", where_)?;
             let nominal = crate::model::Interface { eta: eta_nominal, kappa: kappa_nominal, alpha: alpha_nominal };
             Ok(Layer::Interface(Interface { eta, kappa, alpha, nominal }))
         }
-        "medium" => {
-            check_keys(table, MEDIUM_KEYS, where_)?;
-            let sigma_s = rgb(table, "sigma_s", where_)?.unwrap_or([0.0; 3]);
-            let sigma_k = rgb(table, "sigma_k", where_)?.unwrap_or([0.0; 3]);
-            let Some(depth) = table.get("depth") else {
+        RawLayer::Medium(raw) => {
+            let raw = raw.at(where_)?;
+            let rgb = |value: Option<Numbers>, key: &str| match value {
+                Some(value) => rgb_values(&value, &format!("{where_}: {key}"), Bound::NonNegative),
+                None => Ok([0.0; 3]),
+            };
+            let sigma_s = rgb(raw.sigma_s, "sigma_s")?;
+            let sigma_k = rgb(raw.sigma_k, "sigma_k")?;
+            let Some(depth) = raw.depth else {
                 return Err(Error::invalid(
                     where_,
                     "a medium without `depth`; give its thickness, a finite number > 0",
                 ));
             };
-            let depth = number(depth, &format!("{where_}: depth"))?;
             if !(depth.is_finite() && depth > 0.0 && shader_holds(depth)) {
                 return Err(Error::invalid(
                     format!("{where_}: depth"),
@@ -259,10 +388,7 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
                     ),
                 ));
             }
-            let g = match table.get("g") {
-                None => 0.0,
-                Some(value) => number(value, &format!("{where_}: g"))?,
-            };
+            let g = raw.g.unwrap_or(0.0);
             if !((-1.0..=1.0).contains(&g) && shader_holds(g)) {
                 return Err(Error::invalid(
                     format!("{where_}: g"),
@@ -270,9 +396,6 @@ fn parse_layer(table: &toml::Table, where_: &str) -> Result<Layer> {
                 ));
             }
             Ok(Layer::Medium(Medium { sigma_s, sigma_k, depth, g }))
-        }
-        other => {
-            Err(Error::invalid(format!("{where_}: type"), format!("`{other}`; allowed: \"interface\", \"medium\"")))
         }
     }
 }
@@ -368,44 +491,21 @@ impl Bound {
     }
 }
 
-fn check_keys(table: &toml::Table, allowed: &[&str], where_: &str) -> Result<()> {
-    for key in table.keys() {
-        if !allowed.contains(&key.as_str()) {
-            return Err(Error::invalid(where_, format!("unknown key `{key}`; allowed: {}", allowed.join(", "))));
-        }
-    }
-    Ok(())
-}
-
-fn string<'a>(value: &'a toml::Value, key: &str) -> Result<&'a str> {
-    value.as_str().ok_or_else(|| Error::invalid(key, format!("{value}; must be a string")))
-}
-
-fn number(value: &toml::Value, key: &str) -> Result<f64> {
-    match value {
-        toml::Value::Float(x) => Ok(*x),
-        toml::Value::Integer(n) => Ok(*n as f64),
-        other => Err(Error::invalid(key, format!("{other}; must be a number"))),
-    }
-}
-
 /// A kebab-case choice (`model`, `albedo`, `tir`), read through its serde names.
-fn choice<T: serde::de::DeserializeOwned>(table: &toml::Table, key: &str, where_: &str) -> Result<Option<T>> {
-    let Some(value) = table.get(key) else { return Ok(None) };
+fn choice<T: DeserializeOwned>(value: &toml::Value, key: &str, where_: &str) -> Result<T> {
     let allowed = match key {
         "model" => "\"2-flux\", \"6-flux\"",
         "albedo" => "\"fgd\", \"belcour\", \"karis\", \"fit:PATH\"",
         _ => "\"table\", \"fit\", \"off\", \"fit:PATH\"",
     };
     T::deserialize(value.clone())
-        .map(Some)
         .map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
 }
 
 /// The fitted form `key = "fit:PATH"` names (PATH read relative to `dir`), fitted to one of
-/// `tables`; `None` where `key` is not written `fit:...`.
-fn named_form(table: &toml::Table, key: &str, where_: &str, dir: &Path, tables: &[&str]) -> Result<Option<FittedForm>> {
-    let Some(path) = table.get(key).and_then(|v| v.as_str()).and_then(|t| t.strip_prefix("fit:")) else {
+/// `tables`; `None` where `value` is not written `fit:...`.
+fn named_form(value: &toml::Value, key: &str, where_: &str, dir: &Path, tables: &[&str]) -> Result<Option<FittedForm>> {
+    let Some(path) = value.as_str().and_then(|v| v.strip_prefix("fit:")) else {
         return Ok(None);
     };
     let key = format!("{where_}: {key}");
@@ -417,29 +517,35 @@ fn named_form(table: &toml::Table, key: &str, where_: &str, dir: &Path, tables: 
 }
 
 /// `tir`: a path, or `fit:PATH` with the fitted form it names (read relative to `dir`).
-fn tir_choice(table: &toml::Table, where_: &str, dir: &Path) -> Result<Option<(TirPath, Option<FittedForm>)>> {
-    if let Some(form) = named_form(table, "tir", where_, dir, fitted::TIR_TABLES)? {
+fn tir_choice(value: Option<&toml::Value>, where_: &str, dir: &Path) -> Result<Option<(TirPath, Option<FittedForm>)>> {
+    let Some(value) = value else { return Ok(None) };
+    if let Some(form) = named_form(value, "tir", where_, dir, fitted::TIR_TABLES)? {
         return Ok(Some((TirPath::Form, Some(form))));
     }
-    match choice(table, "tir", where_)? {
+    match choice(value, "tir", where_)? {
         // The path of a named form is only ever written `fit:PATH`.
-        Some(TirPath::Form) => Err(Error::invalid(
+        TirPath::Form => Err(Error::invalid(
             format!("{where_}: tir"),
             format!("\"form\" names no form; allowed: \"table\", \"fit\", \"off\", {}", fitted::ALLOWED),
         )),
-        other => Ok(other.map(|path| (path, None))),
+        path => Ok(Some((path, None))),
     }
 }
 
 /// `albedo`: a path, or `fit:PATH` with the fitted form it names (read relative to `dir`), whose
 /// table sets the path: a form fitted to `karis` is read on the Karis path (its channels weighed by
 /// the interface's F0), one fitted to `fgd` on the FGD path.
-fn albedo_choice(table: &toml::Table, where_: &str, dir: &Path) -> Result<Option<(AlbedoPath, Option<FittedForm>)>> {
-    if let Some(form) = named_form(table, "albedo", where_, dir, fitted::ALBEDO_TABLES)? {
+fn albedo_choice(
+    value: Option<&toml::Value>,
+    where_: &str,
+    dir: &Path,
+) -> Result<Option<(AlbedoPath, Option<FittedForm>)>> {
+    let Some(value) = value else { return Ok(None) };
+    if let Some(form) = named_form(value, "albedo", where_, dir, fitted::ALBEDO_TABLES)? {
         let path = if form.table == "karis" { AlbedoPath::Karis } else { AlbedoPath::Fgd };
         return Ok(Some((path, Some(form))));
     }
-    Ok(choice(table, "albedo", where_)?.map(|path| (path, None)))
+    Ok(Some((choice(value, "albedo", where_)?, None)))
 }
 
 /// A number as a person wrote it: `1e20` rather than its 21 digits.
@@ -448,19 +554,11 @@ fn number_text(x: f64) -> String {
 }
 
 /// One number for all channels, or `[r, g, b]`, each admitted by `bound`.
-fn rgb_values(value: &toml::Value, key: &str, bound: Bound) -> Result<Rgb<f64>> {
+fn rgb_values(value: &Numbers, key: &str, bound: Bound) -> Result<Rgb<f64>> {
     let values = match value {
-        toml::Value::Array(items) if items.len() == 3 => {
-            let mut v = [0.0; 3];
-            for (slot, item) in v.iter_mut().zip(items) {
-                *slot = number(item, key)?;
-            }
-            v
-        }
-        toml::Value::Array(items) => {
-            return Err(Error::invalid(key, format!("has {} values; give one number or [r, g, b]", items.len())));
-        }
-        other => [number(other, key)?; 3],
+        Numbers::One(x) => [*x; 3],
+        Numbers::Many(xs) => <Rgb<f64>>::try_from(xs.as_slice())
+            .map_err(|_| Error::invalid(key, format!("has {} values; give one number or [r, g, b]", xs.len())))?,
     };
     if let Some(bad) = values.iter().find(|x| !bound.admits(**x)) {
         return Err(Error::invalid(key, format!("{}; allowed: {}", number_text(*bad), bound.allowed())));
@@ -468,19 +566,14 @@ fn rgb_values(value: &toml::Value, key: &str, bound: Bound) -> Result<Rgb<f64>> 
     Ok(values)
 }
 
-fn rgb(table: &toml::Table, key: &str, where_: &str) -> Result<Option<Rgb<f64>>> {
-    table.get(key).map(|v| rgb_values(v, &format!("{where_}: {key}"), Bound::NonNegative)).transpose()
-}
-
 /// A `vary` range `[lo, hi]`, admitted by `bound`.
-fn range(vary: &toml::Table, key: &str, where_: &str, bound: Bound) -> Result<Option<Interval>> {
-    let Some(value) = vary.get(key) else { return Ok(None) };
+fn range(value: Option<Numbers>, key: &str, where_: &str, bound: Bound) -> Result<Option<Interval>> {
+    let Some(value) = value else { return Ok(None) };
     let key = format!("{where_}: vary.{key}");
-    let items = value
-        .as_array()
-        .filter(|a| a.len() == 2)
-        .ok_or_else(|| Error::invalid(&key, format!("{value}; give a range [lo, hi]")))?;
-    let (lo, hi) = (number(&items[0], &key)?, number(&items[1], &key)?);
+    let (lo, hi) = match &value {
+        Numbers::Many(xs) if xs.len() == 2 => (xs[0], xs[1]),
+        _ => return Err(Error::invalid(&key, format!("{value}; give a range [lo, hi]"))),
+    };
     for x in [lo, hi] {
         if !bound.admits(x) {
             return Err(Error::invalid(&key, format!("{}; allowed: {}", number_text(x), bound.allowed())));
@@ -495,17 +588,14 @@ fn range(vary: &toml::Table, key: &str, where_: &str, bound: Bound) -> Result<Op
 /// An RGB parameter, or the range a texture varies it over (the same for every channel), with its
 /// nominal value: the one given beside the range (which must lie inside it), or the range's middle.
 fn rgb_or_range(
-    table: &toml::Table,
-    vary: &toml::Table,
+    given: Option<Numbers>,
+    vary: Option<Numbers>,
     key: &str,
     default: Option<f64>,
     where_: &str,
     bound: Bound,
 ) -> Result<(Rgb<Interval>, Rgb<f64>)> {
-    let given = match table.get(key) {
-        Some(value) => Some(rgb_values(value, &format!("{where_}: {key}"), bound)?),
-        None => None,
-    };
+    let given = given.map(|value| rgb_values(&value, &format!("{where_}: {key}"), bound)).transpose()?;
     if let Some(range) = range(vary, key, where_, bound)? {
         let nominal = match given {
             Some(values) => {
@@ -545,18 +635,15 @@ fn nominal_inside(values: &[f64], range: Interval, key: &str, where_: &str) -> R
 
 /// A scalar parameter in [0, 1] (roughness), or the range a texture varies it over, with its nominal
 /// value as in [`rgb_or_range`].
-fn scalar_or_range(table: &toml::Table, vary: &toml::Table, key: &str, where_: &str) -> Result<(Interval, f64)> {
-    let given = match table.get(key) {
-        Some(value) => {
-            let key = format!("{where_}: {key}");
-            let x = number(value, &key)?;
-            if !Bound::Unit.admits(x) {
-                return Err(Error::invalid(&key, format!("{}; allowed: {}", number_text(x), Bound::Unit.allowed())));
-            }
-            Some(x)
-        }
-        None => None,
-    };
+fn scalar_or_range(given: Option<f64>, vary: Option<Numbers>, key: &str, where_: &str) -> Result<(Interval, f64)> {
+    if let Some(x) = given
+        && !Bound::Unit.admits(x)
+    {
+        return Err(Error::invalid(
+            format!("{where_}: {key}"),
+            format!("{}; allowed: {}", number_text(x), Bound::Unit.allowed()),
+        ));
+    }
     if let Some(range) = range(vary, key, where_, Bound::Unit)? {
         let nominal = match given {
             Some(x) => {
