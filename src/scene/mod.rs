@@ -38,10 +38,6 @@ pub mod plan;
 pub mod shader_files;
 mod stacks;
 
-/// `examples/render_albedo.rs` names [`shader_files`] by this path.
-#[doc(hidden)]
-pub use shader_files as shader;
-
 use serde::{Deserialize, Serialize};
 
 pub use crate::model::{AlbedoPath, FluxModel, Medium, TirPath};

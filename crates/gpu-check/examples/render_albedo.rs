@@ -75,7 +75,7 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     let record =
         luts.manifest().scene.as_ref().ok_or("the folder records no scene: build it with `tmlut build --scene`")?;
     let scene = tmlut::scene::Scene::from_toml(&record.text, &format!("{luts_dir}/manifest.json"), &record.name)?;
-    let materials = tmlut::scene::shader::shader_materials(&scene)?;
+    let materials = tmlut::scene::shader_files::shader_materials(&scene)?;
 
     let (mut on_gpu, mut on_cpu) = (Vec::new(), Vec::new());
     let mut pictures_pass = true;
