@@ -5,6 +5,7 @@
 use std::path::Path;
 use std::sync::Once;
 
+use plotters::coord::ranged1d::AsRangedCoord;
 use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -84,6 +85,25 @@ fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .border_style(BLACK)
         .position(position)
         .draw()
+        .map_err(|e| plot_error(path, e))
+}
+
+type CartesianChart<'a, DB, X, Y> = ChartContext<'a, DB, Cartesian2d<X, Y>>;
+
+/// A titled chart filling `area`, with the margin and x label area of the full-size charts.
+fn titled_chart<'a, DB: DrawingBackend, X: AsRangedCoord, Y: AsRangedCoord>(
+    area: &'a DrawingArea<DB, Shift>,
+    path: &Path,
+    (title, title_size): (&str, u32),
+    y_label_area: u32,
+    (x_range, y_range): (X, Y),
+) -> Result<CartesianChart<'a, DB, X::CoordDescType, Y::CoordDescType>> {
+    ChartBuilder::on(area)
+        .caption(title, (FONT, title_size))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(y_label_area)
+        .build_cartesian_2d(x_range, y_range)
         .map_err(|e| plot_error(path, e))
 }
 
@@ -218,13 +238,8 @@ pub fn loglog_labelled_png(
     let y_range = range(points.iter().map(|p| p.1).chain(guide.map(|g| g.0)).collect());
     let (width, height) = (900u32, 600u32);
     draw_png(path, (width, height), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 20))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x_range.clone().log_scale(), y_range.log_scale())
-            .map_err(|e| plot_error(path, e))?;
+        let axes = (x_range.clone().log_scale(), y_range.log_scale());
+        let mut chart = titled_chart(root, path, (title, 20), 70, axes)?;
         chart
             .configure_mesh()
             .x_desc(x_label)
@@ -382,13 +397,7 @@ pub fn lines_png(
 ) -> Result<()> {
     let (width, height) = (900u32, 600u32);
     draw_png(path, (width, height), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 18))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
-            .build_cartesian_2d(x_range, y_range)
-            .map_err(|e| plot_error(path, e))?;
+        let mut chart = titled_chart(root, path, (title, 18), 60, (x_range, y_range))?;
         chart
             .configure_mesh()
             .x_desc(x_label)
