@@ -244,11 +244,6 @@ pub fn basis() -> &'static FresnelBasis {
 impl TableRecipe for BelcourSettings {
     table_recipe_accessors!();
 
-    fn companions(&self) -> super::Companions {
-        use super::Companions;
-        Companions::default()
-    }
-
     fn kept_measure_intervals(&self) -> Option<usize> {
         Some(self.own.cosine_intervals)
     }

@@ -20,7 +20,7 @@ use crate::integrate::{Estimate, Method, Progress};
 use crate::physics::{FresnelBasis, MaskingShadowing};
 use crate::sampling::sequence::{PointSet, SamplePlan};
 use crate::stats::{AccuracyReport, ErrorRecord, ErrorSummary, ReferenceComparison};
-use crate::table::Table;
+use crate::table::{Axis, Channel, Table};
 
 /// What the driver needs of a table: its settings, metadata and kernel.
 pub trait Kernel: Sync {
@@ -74,6 +74,16 @@ pub trait Kernel: Sync {
 /// needs the half-texel correction its manifest gives per axis.
 pub const NODE_ALIGNED_NOTE: &str =
     "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.";
+
+/// The note of every table with a `mu` axis from 0: its grazing nodes are not evaluated at 0.
+pub fn grazing_note() -> String {
+    format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.", crate::integrate::GRAZING_COSINE)
+}
+
+/// The empty table of a kernel that stores one channel.
+pub fn one_channel_table(name: &str, axes: Vec<Axis>, channel: &str, meaning: &str) -> Result<Table> {
+    Table::zeros(name, axes, vec![Channel::new(channel, meaning)])
+}
 
 /// What a table states of itself, whatever its values.
 #[derive(Debug, Clone, Default)]

@@ -15,6 +15,7 @@
 
 use rayon::prelude::*;
 
+use super::driver::one_channel_table;
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_counts};
 use super::spacing::{CosineAxis, ExtinctionAxis, IndexAxis, RoughnessAxis};
 use super::{Integrated, Kernel, Metadata, TableRecipe, random_cells};
@@ -27,7 +28,7 @@ use crate::packing::Packing;
 use crate::physics::{MaskingShadowing, critical_cosine, fresnel_reflectance};
 use crate::sampling::sequence::PointSet;
 use crate::stats::ErrorSummary;
-use crate::table::{Axis, Channel, Table};
+use crate::table::{Axis, Table};
 
 pub const NAME: &str = "fgd";
 /// One line for `tmlut list`.
@@ -323,9 +324,8 @@ impl Kernel for FgdSettings {
     kernel_settings!();
 
     fn empty_table(&self) -> Result<Table> {
-        let channel =
-            Channel::new("fgd", "∫ F(wi.h; eta, kappa) D G2 / (4 mu) dwo: directional albedo with exact Fresnel");
-        Table::zeros(NAME, self.axes()?, vec![channel])
+        let meaning = "∫ F(wi.h; eta, kappa) D G2 / (4 mu) dwo: directional albedo with exact Fresnel";
+        one_channel_table(NAME, self.axes()?, "fgd", meaning)
     }
 
     fn metadata(&self) -> Metadata {
@@ -335,7 +335,7 @@ impl Kernel for FgdSettings {
             notes: vec![
                 super::driver::NODE_ALIGNED_NOTE.into(),
                 "eta and kappa are relative to the medium above the interface; lookups outside the range clamp (kappa > 4 reads as 4).".into(),
-                format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.", crate::integrate::GRAZING_COSINE),
+                super::driver::grazing_note(),
             ],
             sampler: format!(
                 "visible-normal measure per (mu, alpha) on {} hat intervals in wi.h, times projected Fresnel",

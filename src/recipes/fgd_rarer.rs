@@ -19,6 +19,7 @@
 
 use rayon::prelude::*;
 
+use super::driver::one_channel_table;
 use super::fgd::{
     fgd_by_quadrature, fgd_cells_at_mu_alpha, fgd_pairs_fast, fgd_pairs_on_measure, mu_alpha_measures,
     projected_fresnel,
@@ -33,7 +34,7 @@ use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, GRAZING_COSINE, Method, Progress};
 use crate::physics::MaskingShadowing;
 use crate::sampling::sequence::PointSet;
-use crate::table::{Axis, Channel, Mapping, Table, derived};
+use crate::table::{Axis, Mapping, Table, derived};
 
 pub const NAME: &str = "fgd_rarer";
 /// One line for `tmlut list`.
@@ -128,10 +129,6 @@ impl FgdRarerSettings {
 impl TableRecipe for FgdRarerSettings {
     table_recipe_accessors!();
 
-    fn companions(&self) -> super::Companions {
-        super::Companions::default()
-    }
-
     fn kept_measure_intervals(&self) -> Option<usize> {
         (self.method == Method::Fast).then_some(self.cosine_intervals)
     }
@@ -150,11 +147,9 @@ impl Kernel for FgdRarerSettings {
     kernel_settings!();
 
     fn empty_table(&self) -> Result<Table> {
-        let channel = Channel::new(
-            "fgd",
-            "∫ F(wi.h; eta, 0) D G2 / (4 mu) dwo: directional albedo of a dielectric interface onto a rarer medium",
-        );
-        Table::zeros(NAME, self.axes()?, vec![channel])
+        let meaning =
+            "∫ F(wi.h; eta, 0) D G2 / (4 mu) dwo: directional albedo of a dielectric interface onto a rarer medium";
+        one_channel_table(NAME, self.axes()?, "fgd", meaning)
     }
 
     fn metadata(&self) -> Metadata {
@@ -165,7 +160,7 @@ impl Kernel for FgdRarerSettings {
                 super::driver::NODE_ALIGNED_NOTE.into(),
                 "The third axis stands for eta: each node is evaluated at eta = sin(v (1 + f)) for f < 0 and sin(v + f (pi/2 - v)) for f >= 0, v = acos(mu); lookups compute f from (mu, eta) by the axis's definition.".into(),
                 "eta is relative to the medium above the interface (the denser one); for eta >= 1 or kappa > 0 read the 4D FGD table.".into(),
-                format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {GRAZING_COSINE}."),
+                super::driver::grazing_note(),
             ],
             sampler: format!(
                 "visible-normal measure per (mu, alpha) on {} hat intervals in wi.h, times Fresnel projected per (mu, fraction)",

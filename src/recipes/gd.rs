@@ -9,6 +9,7 @@
 //! (height-correlated Smith does not). Defaults follow that file: 64 x 64 node-aligned nodes,
 //! `mu` and `alpha` over [0, 1], f32 `.bin`.
 
+use super::driver::one_channel_table;
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts};
 use super::spacing::{CosineAxis, RoughnessAxis, mu_alpha_axes};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
@@ -18,7 +19,7 @@ use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
 use crate::sampling::sequence::PointSet;
-use crate::table::{Axis, Channel, Table};
+use crate::table::{Axis, Table};
 
 pub const NAME: &str = "gd";
 /// One line for `tmlut list`.
@@ -85,18 +86,18 @@ fn albedo(settings: &GdSettings, method: Method, points: &PointSet, mu: f64, alp
 
 impl TableRecipe for GdSettings {
     table_recipe_accessors!();
-
-    fn companions(&self) -> super::Companions {
-        super::Companions::default()
-    }
 }
 
 impl Kernel for GdSettings {
     kernel_settings!();
 
     fn empty_table(&self) -> Result<Table> {
-        let channel = Channel::new("gd", "∫ D G2 / (4 mu) dwo: the albedo of the microfacet lobe without Fresnel");
-        Table::zeros(NAME, self.axes()?, vec![channel])
+        one_channel_table(
+            NAME,
+            self.axes()?,
+            "gd",
+            "∫ D G2 / (4 mu) dwo: the albedo of the microfacet lobe without Fresnel",
+        )
     }
 
     fn metadata(&self) -> Metadata {
@@ -104,13 +105,7 @@ impl Kernel for GdSettings {
             integrand: "GD = E_{h~VNDF(wi)}[G2(wi,wo) / G1(wi)], wo = reflect(wi, h); with separable Smith, E[G1(wo)]"
                 .into(),
             masking: Some(self.masking),
-            notes: vec![
-                super::driver::NODE_ALIGNED_NOTE.into(),
-                format!(
-                    "The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.",
-                    crate::integrate::GRAZING_COSINE
-                ),
-            ],
+            notes: vec![super::driver::NODE_ALIGNED_NOTE.into(), super::driver::grazing_note()],
             sampler: "visible-normal measure per (mu, alpha)".into(),
             ..Metadata::default()
         }

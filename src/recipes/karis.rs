@@ -98,10 +98,6 @@ fn split_sum_weights(c: f64) -> [f64; 2] {
 
 impl TableRecipe for KarisSettings {
     table_recipe_accessors!();
-
-    fn companions(&self) -> super::Companions {
-        super::Companions::default()
-    }
 }
 
 impl Kernel for KarisSettings {

@@ -137,8 +137,10 @@ pub trait TableRecipe: Kernel {
     fn name(&self) -> &'static str;
     /// One line for `tmlut list`.
     fn description(&self) -> &'static str;
-    /// Files written beside the table's own.
-    fn companions(&self) -> Companions;
+    /// Files written beside the table's own: none unless a table's settings ask for some.
+    fn companions(&self) -> Companions {
+        Companions::default()
+    }
     /// The axes of the table these settings describe.
     fn axes(&self) -> crate::error::Result<Vec<crate::table::Axis>>;
     fn output(&self) -> &settings::OutputConfig;

@@ -18,7 +18,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::driver::SamplingRecord;
+use super::driver::{SamplingRecord, one_channel_table};
 use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts};
 use super::spacing::{CosineAxis, RoughnessAxis};
 use super::{Integrated, Kernel, Metadata, TableRecipe, estimate_mu_alpha_columns};
@@ -26,11 +26,11 @@ use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::quadrature::{Cut, VisibleNormalQuadrature};
 use crate::integrate::{
-    Estimate, GRAZING_COSINE, Method, Progress, combine_replicates, estimate_cells, visible_normal_replicate_means,
+    Estimate, Method, Progress, combine_replicates, estimate_cells, visible_normal_replicate_means,
 };
 use crate::physics::{MaskingShadowing, critical_cosine};
 use crate::sampling::sequence::PointSet;
-use crate::table::{Axis, Channel, Mapping, Table, derived};
+use crate::table::{Axis, Mapping, Table, derived};
 
 pub const NAME: &str = "tir";
 /// One line for `tmlut list`.
@@ -303,11 +303,8 @@ impl Kernel for TirSettings {
     kernel_settings!();
 
     fn empty_table(&self) -> Result<Table> {
-        let channel = Channel::new(
-            "tir",
-            "share of the energy transmitted through the interface that arrives past the critical angle and is reflected back",
-        );
-        Table::zeros(NAME, self.axes()?, vec![channel])
+        let meaning = "share of the energy transmitted through the interface that arrives past the critical angle and is reflected back";
+        one_channel_table(NAME, self.axes()?, "tir", meaning)
     }
 
     fn metadata(&self) -> Metadata {
@@ -324,7 +321,7 @@ impl Kernel for TirSettings {
                     "The eta = 1 node is evaluated at eta = {} (1: exact, no total internal reflection; the original behaves as 0.999).",
                     self.top_eta
                 ),
-                format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {GRAZING_COSINE}."),
+                super::driver::grazing_note(),
                 format!(
                     "The alpha = 0 nodes are the limit alpha -> 0+, evaluated at alpha = {LIMIT_ROUGHNESS}: the mirror step, 1 at (mu = 1, eta = 0)."
                 ),
@@ -388,6 +385,7 @@ impl Kernel for TirSettings {
 mod tests {
     use super::*;
     use crate::formats::bin::read_bin;
+    use crate::integrate::GRAZING_COSINE;
     use crate::recipes::driver::build;
     use crate::recipes::interpolation::InterpolationConfig;
     use crate::sampling::sequence::SamplePlan;

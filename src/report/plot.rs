@@ -5,6 +5,7 @@
 use std::path::Path;
 use std::sync::Once;
 
+use plotters::coord::ranged1d::AsRangedCoord;
 use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -87,6 +88,58 @@ fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .map_err(|e| plot_error(path, e))
 }
 
+type CartesianChart<'a, DB, X, Y> = ChartContext<'a, DB, Cartesian2d<X, Y>>;
+
+/// A titled chart filling `area`, with the margin and x label area of the full-size charts.
+fn titled_chart<'a, DB: DrawingBackend, X: AsRangedCoord, Y: AsRangedCoord>(
+    area: &'a DrawingArea<DB, Shift>,
+    path: &Path,
+    (title, title_size): (&str, u32),
+    y_label_area: u32,
+    (x_range, y_range): (X, Y),
+) -> Result<CartesianChart<'a, DB, X::CoordDescType, Y::CoordDescType>> {
+    ChartBuilder::on(area)
+        .caption(title, (FONT, title_size))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(y_label_area)
+        .build_cartesian_2d(x_range, y_range)
+        .map_err(|e| plot_error(path, e))
+}
+
+/// Bands in a colour bar.
+const COLOUR_BAR_STEPS: usize = 100;
+
+/// A vertical colour bar, captioned `caption`, on the chart `builder` lays out: bands from `lo` to
+/// `hi`, band `k` over `[a, b]` in `colour(k, a, b)`, under a y axis to `top`, its labels written
+/// by `y_label` where given.
+fn draw_colour_bar<DB: DrawingBackend>(
+    mut builder: ChartBuilder<'_, '_, DB>,
+    path: &Path,
+    caption: &str,
+    ((lo, hi), top): ((f64, f64), f64),
+    y_label: Option<&dyn Fn(&f64) -> String>,
+    colour: impl Fn(usize, f64, f64) -> RGBColor,
+) -> Result<()> {
+    let mut chart =
+        builder.caption(caption, (FONT, 12)).build_cartesian_2d(0.0..1.0, lo..top).map_err(|e| plot_error(path, e))?;
+    let mut mesh = chart.configure_mesh();
+    mesh.disable_x_mesh().disable_x_axis().label_style((FONT, 12));
+    if let Some(y_label) = y_label {
+        mesh.y_label_formatter(y_label);
+    }
+    mesh.draw().map_err(|e| plot_error(path, e))?;
+    let steps = COLOUR_BAR_STEPS;
+    chart
+        .draw_series((0..steps).map(|k| {
+            let a = lo + (hi - lo) * k as f64 / steps as f64;
+            let b = lo + (hi - lo) * (k + 1) as f64 / steps as f64;
+            Rectangle::new([(0.0, a), (1.0, b)], colour(k, a, b).filled())
+        }))
+        .map_err(|e| plot_error(path, e))?;
+    Ok(())
+}
+
 /// The colour of `log10(v)` on `[lo, hi]` (viridis); zero and negative values are grey, NaN (no
 /// value: outside what was computed) white.
 fn colour_of(v: f64, lo: f64, hi: f64) -> RGBColor {
@@ -153,29 +206,12 @@ pub fn heatmaps_png(path: &Path, title: &str, quantity: &str, panels: &[Panel], 
                 .map_err(|e| plot_error(path, e))?;
         }
         // The colour bar: log10 of the quantity.
-        let mut chart = ChartBuilder::on(&bar)
-            .margin_top(10)
-            .margin_bottom(40)
-            .margin_right(10)
-            .y_label_area_size(60)
-            .caption(format!("log10 {quantity}"), (FONT, 12))
-            .build_cartesian_2d(0.0..1.0, lo..hi.max(lo + 1.0))
-            .map_err(|e| plot_error(path, e))?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .disable_x_axis()
-            .label_style((FONT, 12))
-            .draw()
-            .map_err(|e| plot_error(path, e))?;
-        let steps = 100;
-        chart
-            .draw_series((0..steps).map(|k| {
-                let a = lo + (hi - lo) * k as f64 / steps as f64;
-                let b = lo + (hi - lo) * (k + 1) as f64 / steps as f64;
-                Rectangle::new([(0.0, a), (1.0, b)], colour_of(10f64.powf(0.5 * (a + b)), lo, hi).filled())
-            }))
-            .map_err(|e| plot_error(path, e))?;
+        let mut builder = ChartBuilder::on(&bar);
+        builder.margin_top(10).margin_bottom(40).margin_right(10).y_label_area_size(60);
+        let bar_title = format!("log10 {quantity}");
+        draw_colour_bar(builder, path, &bar_title, ((lo, hi), hi.max(lo + 1.0)), None, |_, a, b| {
+            colour_of(10f64.powf(0.5 * (a + b)), lo, hi)
+        })?;
         bar.draw(&Text::new("grey: 0 (exact)", (5, (height - 70) as i32), (FONT, 11)))
             .map_err(|e| plot_error(path, e))?;
         if panels.iter().any(|p| p.values.iter().any(|v| v.is_nan())) {
@@ -218,13 +254,8 @@ pub fn loglog_labelled_png(
     let y_range = range(points.iter().map(|p| p.1).chain(guide.map(|g| g.0)).collect());
     let (width, height) = (900u32, 600u32);
     draw_png(path, (width, height), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 20))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x_range.clone().log_scale(), y_range.log_scale())
-            .map_err(|e| plot_error(path, e))?;
+        let axes = (x_range.clone().log_scale(), y_range.log_scale());
+        let mut chart = titled_chart(root, path, (title, 20), 70, axes)?;
         chart
             .configure_mesh()
             .x_desc(x_label)
@@ -330,27 +361,13 @@ pub fn images_png(path: &Path, title: &str, pictures: &[Picture], bar: Option<&C
         }
         if let Some(bar) = bar {
             let area = root.margin(60, 20, picture_width as i32, 10);
-            let mut chart = ChartBuilder::on(&area)
-                .y_label_area_size(62)
-                .caption(&bar.label, (FONT, 12))
-                .build_cartesian_2d(0.0..1.0, 0.0..bar.max)
-                .map_err(|e| plot_error(path, e))?;
-            chart
-                .configure_mesh()
-                .disable_x_mesh()
-                .disable_x_axis()
-                .label_style((FONT, 12))
-                .y_label_formatter(&|v| format!("{v:.1e}"))
-                .draw()
-                .map_err(|e| plot_error(path, e))?;
-            let steps = 100;
-            chart
-                .draw_series((0..steps).map(|k| {
-                    let (a, b) = (bar.max * k as f64 / steps as f64, bar.max * (k + 1) as f64 / steps as f64);
-                    let [r, g, bl] = viridis((k as f64 + 0.5) / steps as f64);
-                    Rectangle::new([(0.0, a), (1.0, b)], RGBColor(r, g, bl).filled())
-                }))
-                .map_err(|e| plot_error(path, e))?;
+            let mut builder = ChartBuilder::on(&area);
+            builder.y_label_area_size(62);
+            let label = |v: &f64| format!("{v:.1e}");
+            draw_colour_bar(builder, path, &bar.label, ((0.0, bar.max), bar.max), Some(&label), |k, _, _| {
+                let [r, g, bl] = viridis((k as f64 + 0.5) / COLOUR_BAR_STEPS as f64);
+                RGBColor(r, g, bl)
+            })?;
         }
         Ok(())
     })
@@ -382,13 +399,7 @@ pub fn lines_png(
 ) -> Result<()> {
     let (width, height) = (900u32, 600u32);
     draw_png(path, (width, height), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, 18))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
-            .build_cartesian_2d(x_range, y_range)
-            .map_err(|e| plot_error(path, e))?;
+        let mut chart = titled_chart(root, path, (title, 18), 60, (x_range, y_range))?;
         chart
             .configure_mesh()
             .x_desc(x_label)
