@@ -122,7 +122,7 @@ impl Gpu {
         // Rows are packed: `write_texture` takes them so (a buffer copy would pad them to 256 bytes).
         self.queue.write_texture(
             texture.as_image_copy(),
-            &data.to_bytes(),
+            data.bytes(),
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(d.bytes_per_row),
