@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-mod common;
+use crate::common;
 
 use common::SMALL_SET;
 use tmlut::formats::manifest::{MANIFEST_FILE, Manifest};

@@ -8,7 +8,7 @@
 //!
 //! `FUZZ_CASES` sets the number of cases (default 3000), `FUZZ_SEED` the seed.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! be written. Every run is a separate process under a memory and time limit (`common`), so that a
 //! reader that aborts or hangs fails its test instead of the test runner.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

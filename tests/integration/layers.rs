@@ -353,7 +353,10 @@ fn every_top_level_module_has_a_layer() {
         let lib = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(root).join("lib.rs")).unwrap();
         for line in lib.lines() {
             if let Some(name) = line.trim().strip_prefix("pub mod ").and_then(|rest| rest.strip_suffix(';')) {
-                assert!(unit_of(name).is_some(), "module `{name}` of {root}/lib.rs is in no layer of tests/layers.rs");
+                assert!(
+                    unit_of(name).is_some(),
+                    "module `{name}` of {root}/lib.rs is in no layer of tests/integration/layers.rs"
+                );
             }
         }
     }
