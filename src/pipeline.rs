@@ -18,7 +18,7 @@ use crate::formats::manifest::{
 use crate::formats::slice_array::{ArraySlice, SliceArrayEntry, Slot};
 use crate::formats::{self, FileFormat, Precision, SumRounding};
 use crate::integrate::Progress;
-use crate::model::folder::SampledTable;
+use crate::loader::texture::SampledTable;
 use crate::packing::{Filter, PackedFgd, Packing};
 use crate::recipes::{Provenance, TableBuild, interpolation};
 use crate::stats::InterpolationError;

@@ -29,7 +29,7 @@ use crate::fit::text::fitted::{FittedForm, FittedFormExt};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::loader::LutFolder;
-pub use crate::loader::texture::SampledTable;
+use crate::loader::texture::SampledTable;
 use crate::packing::{Filter, PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::point_of;

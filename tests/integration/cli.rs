@@ -982,7 +982,8 @@ fn bad_scenes_are_refused_naming_material_and_layer() {
 
 #[test]
 fn the_model_reads_a_dielectric_onto_a_rarer_medium_from_fgd_rarer_and_everything_else_as_before() {
-    use tmlut::model::folder::{FgdSource, FolderTables, SampledTable};
+    use tmlut::loader::texture::SampledTable;
+    use tmlut::model::folder::{FgdSource, FolderTables};
     use tmlut::model::{AlbedoPath, Tables, TirPath};
     use tmlut::table::derived::point_of;
 

@@ -315,7 +315,7 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
                     .as_ref()
                     .map(|p| p.source_axes.iter().map(|a| a.axis.clone()).collect())
                     .unwrap_or_default();
-                let texture = crate::model::folder::SampledTable::new(&table)?.into_channel(0);
+                let texture = crate::loader::texture::SampledTable::new(&table)?.into_channel(0);
                 let packed = PackedFgd::with_texture(texture, Packing::Lossless, entry.precision, &source_axes)
                     .map_err(|e| Error::format(folder.dir().join(file), e.to_string()))?;
                 sources.packing = Some((file.to_string(), packed));
