@@ -9,6 +9,7 @@
 
 use super::lookup::{Lookup, Quantity, Site, Tables};
 use super::stack::{Interface, Layer, Medium, Rgb, Stack};
+use crate::physics::real::{Compare, Real};
 use crate::physics::{ggx_to_hg, hg_backward_share};
 
 /// Relative indices closer to 1 than this are no interface at all (the reference's `dielectric_transfer_factors`).
@@ -21,110 +22,123 @@ pub const NEARLY_INDEX_MATCHED: f64 = 1e-3;
 pub const EXPONENT_LIMIT: f64 = 45.0;
 
 /// One transfer statistic: energy per channel and asymmetry.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Flux {
-    pub energy: Rgb,
-    pub g: f64,
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Flux<R = f64> {
+    pub energy: [R; 3],
+    pub g: R,
 }
 
-impl Flux {
-    pub fn of(energy: f64, g: f64) -> Self {
+impl<R: Real> Flux<R> {
+    pub fn of(energy: R, g: R) -> Self {
         Flux { energy: [energy; 3], g }
     }
 
     /// The asymmetry weighted by the mean energy, the entries of the asymmetry matrices
     /// (the reference's `asymmetry_matrix`).
-    pub fn weighted_g(&self) -> f64 {
+    pub fn weighted_g(&self) -> R {
         self.g * average(&self.energy)
     }
 }
 
-pub fn average(v: &Rgb) -> f64 {
+pub fn average<R: Real>(v: &[R; 3]) -> R {
     (v[0] + v[1] + v[2]) / 3.0
 }
 
 /// A dielectric interface seen by a lobe of cosine `cos_in` arriving from above.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DielectricFactors {
+pub struct DielectricFactors<R = f64> {
     /// Relative index below over above, averaged over the channels (the reference's
     /// `components_transfer_factors`: a dielectric interface is evaluated at one index).
     pub eta: f64,
     /// Cosine of the incident lobe's mean direction (and of the reflected one).
-    pub cos_in: f64,
+    pub cos_in: R,
     /// Cosine of the refracted mean direction below; 0 where the mean direction is totally
     /// reflected (its limit: the refracted direction reaches the horizon at the critical angle).
-    pub cos_below: f64,
+    pub cos_below: R,
     /// Downward reflection, downward transmission, upward reflection, upward transmission.
-    pub r: Flux,
-    pub t: Flux,
-    pub rp: Flux,
-    pub tp: Flux,
+    pub r: Flux<R>,
+    pub t: Flux<R>,
+    pub rp: Flux<R>,
+    pub tp: Flux<R>,
 }
 
 /// A participating medium's factors: the primary (unscattered) flux's transmission, and the
 /// secondary (scattered) flux's backward reflection and forward transmission.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MediumFactors {
-    pub t: Flux,
-    pub r_fb: Flux,
-    pub t_ff: Flux,
+pub struct MediumFactors<R = f64> {
+    pub t: Flux<R>,
+    pub r_fb: Flux<R>,
+    pub t_ff: Flux<R>,
+    /// Whether it scatters backward in some channel (`sigma_s` times the backward share of its
+    /// phase function above 0), so that `r_fb` is above 0: a property of the medium, not the view.
+    pub scatters_back: bool,
 }
 
 /// What one layer of the stack is to the model.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Component {
+pub enum Component<R = f64> {
     /// Light passes unchanged: an index-matched interface, or a medium that neither absorbs nor
     /// scatters, or has no depth.
     Pass,
-    Dielectric(DielectricFactors),
+    Dielectric(DielectricFactors<R>),
     /// An opaque conductor: only its reflection.
     Conductor {
-        r: Flux,
+        r: Flux<R>,
     },
-    Medium(MediumFactors),
+    Medium(MediumFactors<R>),
 }
 
 /// Cosine of a direction of cosine `cos_in` refracted into a medium of relative index `eta`
 /// (Snell's law), or 0 where it is totally reflected.
-pub fn refracted_cosine(cos_in: f64, eta: f64) -> f64 {
+pub fn refracted_cosine<R: Real>(cos_in: R, eta: f64) -> R {
     if eta == 1.0 {
         return cos_in;
     }
     // 1 - (1 - c^2) / eta^2 without cancelling near c = 1.
-    let sin2_in = (1.0 - cos_in) * (1.0 + cos_in);
-    let cos2 = 1.0 - sin2_in / (eta * eta);
-    if cos2 > 0.0 { cos2.sqrt() } else { 0.0 }
+    let sin2_in = (R::of(1.0) - cos_in) * (cos_in + 1.0);
+    let cos2 = R::of(1.0) - sin2_in / (eta * eta);
+    R::choose(Compare::Gt, cos2, R::of(0.0), || cos2.sqrt(), || R::of(0.0))
 }
 
 /// Asymmetry of a transmission lobe of an interface of roughness `alpha` whose roughness the
-/// refraction scales by `scale` (the reference's `hg_from_ggx(0.5 s alpha)`); an infinite scale (a mean
-/// direction at the horizon) gives the roughest lobe unless the interface is smooth.
-fn transmission_asymmetry(scale: f64, alpha: f64) -> f64 {
-    if alpha == 0.0 { ggx_to_hg(0.0) } else { ggx_to_hg(0.5 * scale * alpha) }
-}
-
-/// `|numerator / denominator|`, infinite where the denominator vanishes (the scale of a
-/// transmission lobe whose mean direction lies at the horizon).
-fn scale_ratio(numerator: f64, denominator: f64) -> f64 {
-    if denominator == 0.0 { f64::INFINITY } else { (numerator / denominator).abs() }
+/// refraction scales by `|numerator / denominator|` (the reference's `hg_from_ggx(0.5 s alpha)`); an
+/// infinite scale (a mean direction at the horizon, `denominator = 0`) gives the roughest lobe
+/// unless the interface is smooth.
+fn transmission_asymmetry<R: Real>(numerator: R, denominator: R, alpha: f64) -> R {
+    if alpha == 0.0 {
+        return ggx_to_hg(R::of(0.0));
+    }
+    R::choose(
+        Compare::Eq,
+        denominator,
+        R::of(0.0),
+        || ggx_to_hg(R::of(0.5 * f64::INFINITY * alpha)),
+        || ggx_to_hg((numerator / denominator).abs() * 0.5 * alpha),
+    )
 }
 
 /// The factors of a dielectric interface of layer `layer` (1-based) with relative index `eta`
 /// (scalar) and roughness `alpha`, for a lobe of cosine `cos_in` from above (the
 /// reference's `dielectric_transfer_factors` and `albedos`). `None` for an index-matched interface.
-pub fn dielectric(layer: usize, eta: f64, alpha: f64, cos_in: f64, tables: &dyn Tables) -> Option<DielectricFactors> {
+pub fn dielectric<R: Real>(
+    layer: usize,
+    eta: f64,
+    alpha: f64,
+    cos_in: R,
+    tables: &dyn Tables<R>,
+) -> Option<DielectricFactors<R>> {
     if (eta - 1.0).abs() < INDEX_MATCHED {
         return None;
     }
     let cos_below = refracted_cosine(cos_in, eta);
-    let g = ggx_to_hg(alpha);
+    let g = ggx_to_hg(R::of(alpha));
     // Fake rough transmissions: the lobe's roughness scaled as a refracted ray's angular spread
     // (the reference's s_ij = |(eta_ji r.z + rp.z) / rp.z|, s_ji = |(eta_ij rp.z + r.z) / r.z| with
     // r.z = cos_in and rp.z = -cos_below).
-    let scale_down = scale_ratio(cos_in / eta - cos_below, cos_below);
-    let scale_up = scale_ratio(cos_in - eta * cos_below, cos_in);
+    let t_g = transmission_asymmetry(cos_in / eta - cos_below, cos_below, alpha);
+    let tp_g = transmission_asymmetry(cos_in - cos_below * eta, cos_in, alpha);
     let albedo = if (eta - 1.0).abs() < NEARLY_INDEX_MATCHED {
-        0.0
+        R::of(0.0)
     } else {
         tables.value(&Lookup {
             quantity: Quantity::Albedo,
@@ -132,27 +146,34 @@ pub fn dielectric(layer: usize, eta: f64, alpha: f64, cos_in: f64, tables: &dyn 
             layer,
             channel: None,
             mu: cos_in,
-            alpha,
-            eta,
-            kappa: 0.0,
+            alpha: R::of(alpha),
+            eta: R::of(eta),
+            kappa: R::of(0.0),
         })
     };
     // The reference reads one albedo for both sides: r_ji = r_ij, t_ji = t_ij.
-    let (r, t) = (albedo, 1.0 - albedo);
+    let (r, t) = (albedo, R::of(1.0) - albedo);
     Some(DielectricFactors {
         eta,
         cos_in,
         cos_below,
         r: Flux::of(r, g),
-        t: Flux::of(t, transmission_asymmetry(scale_down, alpha)),
+        t: Flux::of(t, t_g),
         rp: Flux::of(r, g),
-        tp: Flux::of(t, transmission_asymmetry(scale_up, alpha)),
+        tp: Flux::of(t, tp_g),
     })
 }
 
 /// The reflection of a conductor of layer `layer` with relative indices `eta`, `kappa` per
 /// channel (the reference's `conductor_transfer_factors`).
-pub fn conductor(layer: usize, eta: Rgb, kappa: Rgb, alpha: f64, cos_in: f64, tables: &dyn Tables) -> Flux {
+pub fn conductor<R: Real>(
+    layer: usize,
+    eta: Rgb,
+    kappa: Rgb,
+    alpha: f64,
+    cos_in: R,
+    tables: &dyn Tables<R>,
+) -> Flux<R> {
     let energy = std::array::from_fn(|c| {
         tables.value(&Lookup {
             quantity: Quantity::Albedo,
@@ -160,17 +181,17 @@ pub fn conductor(layer: usize, eta: Rgb, kappa: Rgb, alpha: f64, cos_in: f64, ta
             layer,
             channel: Some(c),
             mu: cos_in,
-            alpha,
-            eta: eta[c],
-            kappa: kappa[c],
+            alpha: R::of(alpha),
+            eta: R::of(eta[c]),
+            kappa: R::of(kappa[c]),
         })
     });
-    Flux { energy, g: ggx_to_hg(alpha) }
+    Flux { energy, g: ggx_to_hg(R::of(alpha)) }
 }
 
 /// `sinh(x) / x`, 1 at 0 without dividing.
-fn sinhc(x: f64) -> f64 {
-    if x.abs() < 1e-4 { 1.0 + x * x / 6.0 } else { x.sinh() / x }
+fn sinhc<R: Real>(x: R) -> R {
+    R::choose(Compare::Lt, x.abs(), R::of(1e-4), || R::of(1.0) + x * x / 6.0, || x.sinh() / x)
 }
 
 /// The two-flux solution of a slab for coefficients `a` (attenuation of a flux), `b` (its
@@ -181,27 +202,24 @@ fn sinhc(x: f64) -> f64 {
 /// slab (`gamma = 0`, where the reference divides `0 / 0` and so forces `sigma_k >= 1e-7`) gets its
 /// limit `r = tau b / (1 + tau a)`, `t = 1 / (1 + tau a)`. `a^2 - b^2` is given factored, as
 /// `(a - b)(a + b)`, both non-negative, so that it cannot round below zero.
-fn slab(a: f64, b: f64, a_minus_b_times_a_plus_b: f64, tau: f64) -> (f64, f64) {
+fn slab<R: Real>(a: f64, b: f64, a_minus_b_times_a_plus_b: f64, tau: R) -> (R, R) {
     let gamma = a_minus_b_times_a_plus_b.max(0.0).sqrt();
-    let sinh_over_gamma = tau * sinhc(gamma * tau);
-    let sinh = gamma * sinh_over_gamma;
-    let cosh = (1.0 + sinh * sinh).sqrt();
+    let sinh_over_gamma = tau * sinhc(tau * gamma);
+    let sinh = sinh_over_gamma * gamma;
+    let cosh = (sinh * sinh + 1.0).sqrt();
     let denominator = cosh + sinh_over_gamma * a;
-    (sinh_over_gamma * b / denominator, 1.0 / denominator)
+    (sinh_over_gamma * b / denominator, R::of(1.0) / denominator)
 }
 
 /// The factors of a medium crossed by a lobe of cosine `cos` (the reference's `medium_transfer_factors`),
 /// or `None` where it changes nothing (no depth, or neither absorption nor scattering). In the
 /// 2-flux model (`scatters == false`) a medium only absorbs: `t = exp(-sigma_k tau)`.
-pub fn medium(medium: &Medium, cos: f64, scatters: bool) -> Option<MediumFactors> {
+pub fn medium<R: Real>(medium: &Medium, cos: R, scatters: bool) -> Option<MediumFactors<R>> {
     let sigma_s = if scatters { medium.sigma_s } else { [0.0; 3] };
     let sigma_k = medium.sigma_k;
     if medium.depth == 0.0 || (sigma_s.iter().all(|&s| s == 0.0) && sigma_k.iter().all(|&k| k == 0.0)) {
         return None;
     }
-    // Path length through the slab along the mean direction; a horizontal direction (cos = 0)
-    // has an infinite one, which the exponent limit below cuts.
-    let tau_along = if cos > 0.0 { medium.depth / cos } else { f64::INFINITY };
     let g = medium.g;
     let backward = hg_backward_share(g);
     let sigma_sb: Rgb = std::array::from_fn(|c| sigma_s[c] * backward);
@@ -211,20 +229,23 @@ pub fn medium(medium: &Medium, cos: f64, scatters: bool) -> Option<MediumFactors
     // a + b = 2 sigma_sb + sigma_k.
     let gamma: Rgb = std::array::from_fn(|c| (sigma_k[c] * (2.0 * sigma_sb[c] + sigma_k[c])).sqrt());
     let largest = |v: &Rgb| v.iter().copied().fold(0.0, f64::max);
-    let mut tau = tau_along;
+    // The optical path is cut where an exponent would pass the limit; `sigma_ext > 0` in some
+    // channel (the medium is not empty), so the cut is finite.
+    let mut limit = f64::INFINITY;
     if largest(&gamma) > 0.0 {
-        tau = tau.min(EXPONENT_LIMIT / largest(&gamma));
+        limit = limit.min(EXPONENT_LIMIT / largest(&gamma));
     }
     if largest(&sigma_ext) > 0.0 {
-        tau = tau.min(EXPONENT_LIMIT / largest(&sigma_ext));
+        limit = limit.min(EXPONENT_LIMIT / largest(&sigma_ext));
     }
-    let mut t = [0.0; 3];
-    let mut r_fb = [0.0; 3];
-    let mut t_ff = [0.0; 3];
-    let mut r_fb_g = [0.0; 3];
-    let mut t_ff_g = [0.0; 3];
+    // Path length through the slab along the mean direction; a horizontal direction (cos = 0)
+    // has an infinite one, which the limit cuts.
+    let tau =
+        R::choose(Compare::Gt, cos, R::of(0.0), || (R::of(medium.depth) / cos).min(R::of(limit)), || R::of(limit));
+    let zero = [R::of(0.0); 3];
+    let (mut t, mut r_fb, mut t_ff, mut r_fb_g, mut t_ff_g) = (zero, zero, zero, zero, zero);
     for c in 0..3 {
-        t[c] = (-sigma_ext[c] * tau).exp();
+        t[c] = (tau * -sigma_ext[c]).exp();
         let a = sigma_sb[c] + sigma_k[c];
         let (r, tf) = slab(a, sigma_sb[c], sigma_k[c] * (2.0 * sigma_sb[c] + sigma_k[c]), tau);
         r_fb[c] = r;
@@ -241,21 +262,27 @@ pub fn medium(medium: &Medium, cos: f64, scatters: bool) -> Option<MediumFactors
         t_ff_g[c] = safe_ratio(tg, tf);
     }
     Some(MediumFactors {
-        t: Flux { energy: t, g: 1.0 },
+        t: Flux { energy: t, g: R::of(1.0) },
         r_fb: Flux { energy: r_fb, g: average(&r_fb_g) },
         t_ff: Flux { energy: t_ff, g: average(&t_ff_g) },
+        scatters_back: sigma_sb.iter().any(|&s| s > 0.0),
     })
 }
 
 /// `n / d`, or 0 where `|d| <= 1e-7` (the reference's `safe_div`).
-pub fn safe_ratio(n: f64, d: f64) -> f64 {
-    if d.abs() > 1e-7 { n / d } else { 0.0 }
+pub fn safe_ratio<R: Real>(n: R, d: R) -> R {
+    R::choose(Compare::Gt, d.abs(), R::of(1e-7), || n / d, || R::of(0.0))
 }
 
 /// The components of `stack` for a view of cosine `mu`, top first, one per reachable layer, with
 /// the layer numbers their lookups carry. `scattering` selects the 6-flux medium factors; the
 /// 2-flux model's media only absorb.
-pub fn components(stack: &Stack, mu: f64, scattering: bool, tables: &dyn Tables) -> Vec<(usize, Component)> {
+pub fn components<R: Real>(
+    stack: &Stack,
+    mu: R,
+    scattering: bool,
+    tables: &dyn Tables<R>,
+) -> Vec<(usize, Component<R>)> {
     let layers = stack.reachable_layers();
     let mut out = Vec::with_capacity(layers.len());
     let mut eta_above: Rgb = [1.0; 3];
@@ -272,13 +299,13 @@ pub fn components(stack: &Stack, mu: f64, scattering: bool, tables: &dyn Tables)
     out
 }
 
-fn interface_component(
+fn interface_component<R: Real>(
     number: usize,
     interface: &Interface,
     eta_above: &mut Rgb,
-    cos: &mut f64,
-    tables: &dyn Tables,
-) -> Component {
+    cos: &mut R,
+    tables: &dyn Tables<R>,
+) -> Component<R> {
     let eta: Rgb = std::array::from_fn(|c| interface.eta[c] / eta_above[c]);
     if interface.is_conductor() {
         let kappa: Rgb = std::array::from_fn(|c| interface.kappa[c] / eta_above[c]);

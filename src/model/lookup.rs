@@ -46,9 +46,10 @@ impl Site {
     }
 }
 
-/// One value the model needs.
+/// One value the model needs; its coordinates are of the model's number type (`f64` on the
+/// CPU; see [`crate::physics::real::Real`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Lookup {
+pub struct Lookup<R = f64> {
     pub quantity: Quantity,
     pub site: Site,
     /// 1-based position in the stack's layers, top first (media count); for a lobe's GD, the
@@ -58,23 +59,23 @@ pub struct Lookup {
     /// serves all three (a dielectric's albedo and TIR, GD).
     pub channel: Option<usize>,
     /// Cosine of the incident direction (for TIR, of the lobe's mean direction).
-    pub mu: f64,
+    pub mu: R,
     /// GGX roughness (for TIR and GD, of the lobe).
-    pub alpha: f64,
+    pub alpha: R,
     /// Relative real index (1 for GD).
-    pub eta: f64,
+    pub eta: R,
     /// Relative extinction index (0 for TIR and GD).
-    pub kappa: f64,
+    pub kappa: R,
 }
 
 /// The answers to the model's lookups.
-pub trait Tables {
-    fn value(&self, lookup: &Lookup) -> f64;
+pub trait Tables<R = f64> {
+    fn value(&self, lookup: &Lookup<R>) -> R;
 }
 
 /// A closure answers lookups: `|lookup: &Lookup| ...` is a [`Tables`].
-impl<F: Fn(&Lookup) -> f64> Tables for F {
-    fn value(&self, lookup: &Lookup) -> f64 {
+impl<R, F: Fn(&Lookup<R>) -> R> Tables<R> for F {
+    fn value(&self, lookup: &Lookup<R>) -> R {
         self(lookup)
     }
 }

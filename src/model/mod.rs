@@ -77,6 +77,7 @@ pub use lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 pub use stack::{FluxModel, Interface, Layer, MAX_LAYERS, Medium, Rgb, Stack};
 
 use crate::physics::hg_to_ggx;
+use crate::physics::real::{Real, choose_if_any_nonzero};
 
 /// View cosines where the model is stiff: the horizon, a rounding step above it, grazing, the
 /// middle, the normal (the stability matrix evaluates every stiff stack at these; the scene
@@ -97,49 +98,49 @@ pub enum LobeKind {
 
 /// A lobe as the matrices give it: its energy per channel and Henyey–Greenstein asymmetry.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RawLobe {
+pub struct RawLobe<R = f64> {
     pub layer: usize,
     pub kind: LobeKind,
-    pub energy: Rgb,
-    pub g: f64,
+    pub energy: [R; 3],
+    pub g: R,
 }
 
 /// One outgoing lobe of a material.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Lobe {
+pub struct Lobe<R = f64> {
     /// 1-based layer whose component produced it.
     pub layer: usize,
     pub kind: LobeKind,
     /// Energy per channel (the increment of the cumulative reflectance it stands for).
-    pub energy: Rgb,
+    pub energy: [R; 3],
     /// Henyey–Greenstein asymmetry.
-    pub asymmetry: f64,
+    pub asymmetry: R,
     /// GGX roughness of the lobe, `alpha(g)` clamped to [1e-4, 1].
-    pub roughness: f64,
+    pub roughness: R,
     /// The direction its microfacet distribution is evaluated from (the reference's `lobes_wi`): the
     /// view direction, or its mirror image about the normal for a backward lobe.
-    pub incident: [f64; 3],
+    pub incident: [R; 3],
     /// Its mean outgoing direction: the mirror direction of `incident`.
-    pub mean_direction: [f64; 3],
+    pub mean_direction: [R; 3],
     /// Whether it is the top interface's own reflection, which the BSDF replaces with the exact
     /// Fresnel-weighted microfacet term of that interface (Bati et al. 2019's top correction).
     pub is_top: bool,
     /// `GD(mu, roughness)`: in the 2-flux model the lobe's albedo is `energy * gd`; the 6-flux
     /// model normalises its lobes by it, so their albedo is `energy` (0 for the top lobe, whose
     /// albedo is the interface's own FGD, and for lobes without energy, which read nothing).
-    pub gd: f64,
+    pub gd: R,
 }
 
 /// The model's result at one view cosine.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Evaluation {
-    pub mu: f64,
-    pub lobes: Vec<Lobe>,
+pub struct Evaluation<R = f64> {
+    pub mu: R,
+    pub lobes: Vec<Lobe<R>>,
     /// `FGD(mu, alpha_1, eta_01, kappa_01)` per channel: the albedo of the top term (0 where it is
     /// absent: an index-matched top interface, or a 6-flux top lobe without energy).
-    pub top_albedo: Rgb,
+    pub top_albedo: [R; 3],
     /// The directional albedo `A(mu)` per channel: the top term plus every other lobe's albedo.
-    pub albedo: Rgb,
+    pub albedo: [R; 3],
 }
 
 /// A material: a layer stack evaluated with a flux model.
@@ -155,9 +156,10 @@ impl Material {
     }
 
     /// The lobes and directional albedo at view cosine `mu` (clamped to [0, 1]; NaN reads as 0,
-    /// grazing), every integral read from `tables`.
-    pub fn evaluate(&self, mu: f64, tables: &dyn Tables) -> Evaluation {
-        let mu = if mu.is_nan() { 0.0 } else { mu.clamp(0.0, 1.0) };
+    /// grazing), every integral read from `tables`. Generic over the number type: `f64` evaluates
+    /// it; the scene shader's recorder writes the same steps as shader code.
+    pub fn evaluate<R: Real>(&self, mu: R, tables: &dyn Tables<R>) -> Evaluation<R> {
+        let mu = mu.or_if_nan(0.0).clamp(0.0, 1.0);
         let scattering = self.model == FluxModel::SixFlux;
         let components = components(&self.stack, mu, scattering, tables);
         let raw = match self.model {
@@ -165,31 +167,35 @@ impl Material {
             FluxModel::SixFlux => tm6::lobes(&components, tables),
         };
         let top_flux = components.first().and_then(|(_, c)| top_reflection(c));
-        let incident = [(1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu];
-        let mirror = |w: [f64; 3]| [-w[0], -w[1], w[2]];
-        let mut top_albedo = [0.0; 3];
-        let mut albedo = [0.0; 3];
+        let zero = R::of(0.0);
+        let incident = [(R::of(1.0) - mu * mu).max(zero).sqrt(), zero, mu];
+        let mirror = |w: [R; 3]| [-w[0], -w[1], w[2]];
+        let mut top_albedo = [zero; 3];
+        let mut albedo = [zero; 3];
         let mut lobes = Vec::with_capacity(raw.len());
         for lobe in raw {
             let is_top = lobe.layer == 1 && lobe.kind == LobeKind::Primary;
-            let has_energy = lobe.energy.iter().any(|&e| e != 0.0);
             let roughness = hg_to_ggx(lobe.g);
-            let mut gd = 0.0;
+            let mut gd = zero;
             if is_top {
                 // The 2-flux BSDF always adds the top term; the 6-flux one only where the top lobe
                 // carries energy (the reference's 6-flux `eval`).
-                if let Some(r) = top_flux
-                    && (self.model == FluxModel::TwoFlux || has_energy)
-                {
-                    top_albedo = r.energy;
+                if let Some(r) = top_flux {
+                    top_albedo = match self.model {
+                        FluxModel::TwoFlux => r.energy,
+                        FluxModel::SixFlux => r.energy.map(|e| choose_if_any_nonzero(lobe.energy, || e, || zero)),
+                    };
                 }
-            } else if has_energy {
-                gd = gd_lookup(lobe.layer, mu, roughness, tables);
+            } else {
+                // A lobe without energy reads nothing and adds nothing.
+                gd = choose_if_any_nonzero(lobe.energy, || gd_lookup(lobe.layer, mu, roughness, tables), || zero);
                 for (a, e) in albedo.iter_mut().zip(lobe.energy) {
-                    *a += match self.model {
+                    let before = *a;
+                    let added = match self.model {
                         FluxModel::TwoFlux => e * gd,
                         FluxModel::SixFlux => e,
                     };
+                    *a = choose_if_any_nonzero(lobe.energy, || before + added, || before);
                 }
             }
             let incident = if lobe.kind == LobeKind::Backward { mirror(incident) } else { incident };
@@ -206,7 +212,7 @@ impl Material {
             });
         }
         for c in 0..3 {
-            albedo[c] += top_albedo[c];
+            albedo[c] = albedo[c] + top_albedo[c];
         }
         Evaluation { mu, lobes, top_albedo, albedo }
     }
@@ -218,7 +224,7 @@ impl Material {
 }
 
 /// The top interface's reflection before any TIR correction: its FGD at the view cosine.
-fn top_reflection(component: &Component) -> Option<Flux> {
+fn top_reflection<R: Real>(component: &Component<R>) -> Option<Flux<R>> {
     match component {
         Component::Dielectric(f) => Some(f.r),
         Component::Conductor { r } => Some(*r),
@@ -227,7 +233,7 @@ fn top_reflection(component: &Component) -> Option<Flux> {
 }
 
 /// The GD lookup of lobe `layer`.
-fn gd_lookup(layer: usize, mu: f64, alpha: f64, tables: &dyn Tables) -> f64 {
+fn gd_lookup<R: Real>(layer: usize, mu: R, alpha: R, tables: &dyn Tables<R>) -> R {
     tables.value(&Lookup {
         quantity: Quantity::Gd,
         site: Site::Lobe,
@@ -235,8 +241,8 @@ fn gd_lookup(layer: usize, mu: f64, alpha: f64, tables: &dyn Tables) -> f64 {
         channel: None,
         mu,
         alpha,
-        eta: 1.0,
-        kappa: 0.0,
+        eta: R::of(1.0),
+        kappa: R::of(0.0),
     })
 }
 
@@ -245,44 +251,44 @@ fn gd_lookup(layer: usize, mu: f64, alpha: f64, tables: &dyn Tables) -> f64 {
 /// asymmetries of the media crossed to reach it (6-flux secondary flux), and whether anything
 /// below sends light back up at all.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Below {
-    pub reflection_g: f64,
-    pub media_forward_g: f64,
+pub struct Below<R = f64> {
+    pub reflection_g: R,
+    pub media_forward_g: R,
     pub returns_light: bool,
 }
 
 /// [`Below`] for the components under a dielectric; index-matched interfaces and empty media are
 /// skipped as absent.
-pub fn below(components: &[(usize, Component)]) -> Below {
-    let mut media_forward_g = 1.0;
+pub fn below<R: Real>(components: &[(usize, Component<R>)]) -> Below<R> {
+    let mut media_forward_g = R::of(1.0);
     let mut scatters = false;
     for (_, component) in components {
         match component {
             Component::Pass => {}
             Component::Medium(m) => {
-                media_forward_g *= m.t_ff.g;
-                scatters |= m.r_fb.energy.iter().any(|&r| r > 0.0);
+                media_forward_g = media_forward_g * m.t_ff.g;
+                scatters |= m.scatters_back;
             }
             Component::Dielectric(f) => return Below { reflection_g: f.r.g, media_forward_g, returns_light: true },
             Component::Conductor { r } => return Below { reflection_g: r.g, media_forward_g, returns_light: true },
         }
     }
-    Below { reflection_g: 1.0, media_forward_g, returns_light: scatters }
+    Below { reflection_g: R::of(1.0), media_forward_g, returns_light: scatters }
 }
 
 /// The TIR correction of one crossing (the reference's 2-flux `outgoing_lobes`): the share of the transmitted
 /// lobe (roughness `alpha(g_lobe)`, mean cosine `mu`) past the critical angle of relative index
 /// `eta < 1` is reflected instead: `tir = TIR(mu, alpha(g), eta) t; r += tir; t -= tir`.
 #[allow(clippy::too_many_arguments)]
-pub fn first_order_tir(
-    r: &mut Flux,
-    t: &mut Flux,
+pub fn first_order_tir<R: Real>(
+    r: &mut Flux<R>,
+    t: &mut Flux<R>,
     layer: usize,
     site: Site,
-    mu: f64,
-    g_lobe: f64,
+    mu: R,
+    g_lobe: R,
     eta: f64,
-    tables: &dyn Tables,
+    tables: &dyn Tables<R>,
 ) {
     let share = tables.value(&Lookup {
         quantity: Quantity::Tir,
@@ -291,13 +297,13 @@ pub fn first_order_tir(
         channel: None,
         mu,
         alpha: hg_to_ggx(g_lobe),
-        eta,
-        kappa: 0.0,
+        eta: R::of(eta),
+        kappa: R::of(0.0),
     });
     for c in 0..3 {
         let moved = share * t.energy[c];
-        r.energy[c] += moved;
-        t.energy[c] -= moved;
+        r.energy[c] = r.energy[c] + moved;
+        t.energy[c] = t.energy[c] - moved;
     }
 }
 

@@ -6,42 +6,64 @@
 
 use super::factors::{Component, DielectricFactors, average};
 use super::lookup::{Site, Tables};
-use super::stack::Rgb;
 use super::{LobeKind, RawLobe, below, first_order_tir};
 use crate::physics::hg_refract;
+use crate::physics::real::{Compare, Real};
 
 /// Transmissions below this are read as this in `1 / t`: a lobe totally reflected (TIR = 1) or an
-/// asymmetry of 0 gives the limit where nothing crosses, where the reference divides by zero.
+/// asymmetry of 0 gives the limit where nothing crosses, where the reference divides by zero
+/// (the f64 value of [`Real::smallest_transmission`]).
 pub const SMALLEST_TRANSMISSION: f64 = 1e-150;
+
+/// `1 / t`, with `t` floored at the number type's smallest transmission.
+pub fn inverse<R: Real>(t: R) -> R {
+    R::of(1.0) / t.max(R::smallest_transmission())
+}
+
+/// What a transfer matrix is divided by to keep its entries finite: its largest entry in
+/// magnitude, or 1 where that is 0 or not finite. The reflectances are ratios of entries, so the
+/// scale is free, and removing it keeps a product of many strongly attenuating layers finite.
+pub fn normalising_scale<R: Real>(largest: R) -> R {
+    let one = R::of(1.0);
+    R::choose(
+        Compare::Gt,
+        largest,
+        R::of(0.0),
+        || R::choose(Compare::Le, largest, R::largest_finite(), || largest, || one),
+        || one,
+    )
+}
 
 /// `[[m11, m12], [m21, m22]]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Matrix2 {
-    pub m11: f64,
-    pub m12: f64,
-    pub m21: f64,
-    pub m22: f64,
+pub struct Matrix2<R = f64> {
+    pub m11: R,
+    pub m12: R,
+    pub m21: R,
+    pub m22: R,
 }
 
-impl Matrix2 {
-    pub const IDENTITY: Matrix2 = Matrix2 { m11: 1.0, m12: 0.0, m21: 0.0, m22: 1.0 };
+impl<R: Real> Matrix2<R> {
+    pub fn identity() -> Self {
+        let (zero, one) = (R::of(0.0), R::of(1.0));
+        Matrix2 { m11: one, m12: zero, m21: zero, m22: one }
+    }
 
     /// The transfer matrix of an interface from its reflections and transmissions down (`r`, `t`)
     /// and up (`rp`, `tp`): `(1 / t) [[1, -rp], [r, t tp - r rp]]`.
-    pub fn interface(r: f64, t: f64, rp: f64, tp: f64) -> Self {
-        let inverse = 1.0 / t.max(SMALLEST_TRANSMISSION);
+    pub fn interface(r: R, t: R, rp: R, tp: R) -> Self {
+        let inverse = inverse(t);
         Matrix2 { m11: inverse, m12: -rp * inverse, m21: r * inverse, m22: (t * tp - r * rp) * inverse }
     }
 
     /// A medium that only attenuates, by `t` each way: `diag(1 / t, t)`.
-    pub fn attenuation(t: f64) -> Self {
-        Matrix2 { m11: 1.0 / t.max(SMALLEST_TRANSMISSION), m12: 0.0, m21: 0.0, m22: t }
+    pub fn attenuation(t: R) -> Self {
+        let zero = R::of(0.0);
+        Matrix2 { m11: inverse(t), m12: zero, m21: zero, m22: t }
     }
 
-    /// `self * other`, divided by its largest entry: the reflectances below are ratios of entries,
-    /// so the scale is free, and removing it keeps a product of many strongly attenuating layers
-    /// finite.
-    pub fn then(&self, other: &Matrix2) -> Self {
+    /// `self * other`, divided by its [`normalising_scale`].
+    pub fn then(&self, other: &Matrix2<R>) -> Self {
         let m = Matrix2 {
             m11: self.m11 * other.m11 + self.m12 * other.m21,
             m12: self.m11 * other.m12 + self.m12 * other.m22,
@@ -49,34 +71,32 @@ impl Matrix2 {
             m22: self.m21 * other.m12 + self.m22 * other.m22,
         };
         let largest = m.m11.abs().max(m.m12.abs()).max(m.m21.abs()).max(m.m22.abs());
-        if largest > 0.0 && largest.is_finite() {
-            Matrix2 { m11: m.m11 / largest, m12: m.m12 / largest, m21: m.m21 / largest, m22: m.m22 / largest }
-        } else {
-            m
-        }
+        let scale = normalising_scale(largest);
+        Matrix2 { m11: m.m11 / scale, m12: m.m12 / scale, m21: m.m21 / scale, m22: m.m22 / scale }
     }
 
     /// Reflectance of the stack the matrix describes: `m21 / m11`.
-    pub fn reflectance(&self) -> f64 {
+    pub fn reflectance(&self) -> R {
         self.m21 / self.m11
     }
 
     /// Reflectance over a base of reflectance `base`: `(m21 + m22 base) / (m11 + m12 base)`.
-    pub fn reflectance_over(&self, base: f64) -> f64 {
+    pub fn reflectance_over(&self, base: R) -> R {
         (self.m21 + self.m22 * base) / (self.m11 + self.m12 * base)
     }
 }
 
 /// The outgoing lobes of the 2-flux model for a view of cosine `mu`, one per component.
-pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawLobe> {
-    let mut energy_matrix = [Matrix2::IDENTITY; 3];
-    let mut asymmetry_matrix = Matrix2::IDENTITY;
-    let (mut r_above, mut g_above): (Rgb, f64) = ([0.0; 3], 0.0);
+pub fn lobes<R: Real>(components: &[(usize, Component<R>)], tables: &dyn Tables<R>) -> Vec<RawLobe<R>> {
+    let zero = R::of(0.0);
+    let mut energy_matrix = [Matrix2::identity(); 3];
+    let mut asymmetry_matrix = Matrix2::identity();
+    let (mut r_above, mut g_above) = ([zero; 3], zero);
     // First-order transmission asymmetry of the lobe arriving at the current interface.
-    let mut g_transmitted = 1.0;
+    let mut g_transmitted = R::of(1.0);
     let mut lobes = Vec::with_capacity(components.len());
     for (index, &(layer, component)) in components.iter().enumerate() {
-        let (r_total, g_total): (Rgb, f64) = match component {
+        let (r_total, g_total): ([R; 3], R) = match component {
             Component::Pass => continue,
             Component::Dielectric(mut f) => {
                 let below = below(&components[index + 1..]);
@@ -114,12 +134,12 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
         };
         // Where nothing crosses to what lies below (both sides reflecting totally), the ratios are
         // 0 / 0; their limit adds nothing to the light reflected above.
-        let r_total: Rgb = std::array::from_fn(|c| if r_total[c].is_finite() { r_total[c] } else { r_above[c] });
-        let g_total = if g_total.is_finite() { g_total } else { g_above };
-        let energy: Rgb = std::array::from_fn(|c| r_total[c] - r_above[c]);
+        let r_total: [R; 3] = std::array::from_fn(|c| r_total[c].finite_or(r_above[c]));
+        let g_total = g_total.finite_or(g_above);
+        let energy: [R; 3] = std::array::from_fn(|c| r_total[c] - r_above[c]);
         let mean = average(&energy);
         // As the reference: g = min((G_0i - G_0h) / avg(e), 1) where the lobe carries energy, else 0.
-        let g = if mean > 0.0 { ((g_total - g_above) / mean).min(1.0) } else { 0.0 };
+        let g = R::choose(Compare::Gt, mean, zero, || ((g_total - g_above) / mean).min(R::of(1.0)), || zero);
         lobes.push(RawLobe { layer, kind: LobeKind::Primary, energy, g });
         r_above = r_total;
         g_above = g_total;
@@ -137,20 +157,21 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
 /// times the media's crossed on the way for the 6-flux secondary flux). The upward correction is
 /// made only where something below sends light back up: otherwise nothing crosses upward, and the
 /// reflectances do not depend on it.
-pub fn transmission_asymmetries(
-    f: &mut DielectricFactors,
-    g_arriving: f64,
-    g_next_reflection: f64,
+pub fn transmission_asymmetries<R: Real>(
+    f: &mut DielectricFactors<R>,
+    g_arriving: R,
+    g_next_reflection: R,
     light_returns: bool,
     layer: usize,
-    tables: &dyn Tables,
-) -> f64 {
+    tables: &dyn Tables<R>,
+) -> R {
     let (eta_down, eta_up) = (f.eta, 1.0 / f.eta);
-    let g_below = hg_refract(g_arriving, eta_up) * f.t.g;
+    let zero = R::of(0.0);
+    let g_below = hg_refract(g_arriving, R::of(eta_up)) * f.t.g;
     let g_reflected_below = g_below * g_next_reflection;
-    let g_back_up = hg_refract(g_reflected_below, eta_down) * f.tp.g;
-    f.t.g = if g_arriving != 0.0 { g_below / g_arriving } else { 0.0 };
-    f.tp.g = if g_reflected_below != 0.0 { g_back_up / g_reflected_below } else { 0.0 };
+    let g_back_up = hg_refract(g_reflected_below, R::of(eta_down)) * f.tp.g;
+    f.t.g = R::choose(Compare::Ne, g_arriving, zero, || g_below / g_arriving, || zero);
+    f.tp.g = R::choose(Compare::Ne, g_reflected_below, zero, || g_back_up / g_reflected_below, || zero);
     if eta_down < 1.0 {
         first_order_tir(&mut f.r, &mut f.t, layer, Site::Down, f.cos_in, g_arriving, eta_down, tables);
     } else if light_returns {

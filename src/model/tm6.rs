@@ -9,86 +9,108 @@
 
 use super::factors::{Component, DielectricFactors, Flux, MediumFactors, safe_ratio};
 use super::lookup::Tables;
-use super::stack::Rgb;
-use super::tm2::{SMALLEST_TRANSMISSION, transmission_asymmetries};
+use super::tm2::{inverse, normalising_scale, transmission_asymmetries};
 use super::{LobeKind, RawLobe, below};
+use crate::physics::real::Real;
 
 /// The non-zero entries of a 6-flux transfer matrix.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Matrix6 {
-    pub m11: f64,
-    pub m12: f64,
-    pub m21: f64,
-    pub m22: f64,
-    pub m31: f64,
-    pub m32: f64,
-    pub m33: f64,
-    pub m34: f64,
-    pub m35: f64,
-    pub m36: f64,
-    pub m41: f64,
-    pub m42: f64,
-    pub m43: f64,
-    pub m44: f64,
-    pub m45: f64,
-    pub m46: f64,
-    pub m51: f64,
-    pub m52: f64,
-    pub m61: f64,
-    pub m62: f64,
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Matrix6<R = f64> {
+    pub m11: R,
+    pub m12: R,
+    pub m21: R,
+    pub m22: R,
+    pub m31: R,
+    pub m32: R,
+    pub m33: R,
+    pub m34: R,
+    pub m35: R,
+    pub m36: R,
+    pub m41: R,
+    pub m42: R,
+    pub m43: R,
+    pub m44: R,
+    pub m45: R,
+    pub m46: R,
+    pub m51: R,
+    pub m52: R,
+    pub m61: R,
+    pub m62: R,
 }
 
 /// Which reflectances the stack so far has (the reference's `ETransferFactorRequest`): the primary one from
 /// the first interface on, the backward-scattered one from the first medium on, the forward one
 /// once both exist.
-///
-/// The scene shader follows the same request, known when it is generated.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct Requested {
-    pub(crate) primary: bool,
-    pub(crate) forward: bool,
-    pub(crate) backward: bool,
+struct Requested {
+    primary: bool,
+    forward: bool,
+    backward: bool,
 }
 
 impl Requested {
-    pub(crate) fn add_interface(&mut self) {
+    fn add_interface(&mut self) {
         self.primary = true;
         self.forward |= self.backward;
     }
 
-    pub(crate) fn add_medium(&mut self) {
+    fn add_medium(&mut self) {
         self.backward = true;
         self.forward |= self.primary;
-    }
-
-    /// The kinds of lobe, in the model's order, with whether each is requested (the scene
-    /// shader's).
-    #[cfg(feature = "generator")]
-    pub(crate) fn kinds(self) -> [(&'static str, bool); 3] {
-        [("primary", self.primary), ("forward", self.forward), ("backward", self.backward)]
     }
 }
 
 /// The three reflectances of a stack.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-struct Reflectances {
-    primary: f64,
-    forward: f64,
-    backward: f64,
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Reflectances<R> {
+    primary: R,
+    forward: R,
+    backward: R,
 }
 
-fn inverse(t: f64) -> f64 {
-    1.0 / t.max(SMALLEST_TRANSMISSION)
+impl<R: Real> Reflectances<R> {
+    fn zero() -> Self {
+        let zero = R::of(0.0);
+        Reflectances { primary: zero, forward: zero, backward: zero }
+    }
 }
 
-impl Matrix6 {
+impl<R: Real> Matrix6<R> {
+    /// Every entry 0.
+    fn zero() -> Self {
+        let z = R::of(0.0);
+        Matrix6 {
+            m11: z,
+            m12: z,
+            m21: z,
+            m22: z,
+            m31: z,
+            m32: z,
+            m33: z,
+            m34: z,
+            m35: z,
+            m36: z,
+            m41: z,
+            m42: z,
+            m43: z,
+            m44: z,
+            m45: z,
+            m46: z,
+            m51: z,
+            m52: z,
+            m61: z,
+            m62: z,
+        }
+    }
+
     pub fn identity() -> Self {
-        Matrix6 { m11: 1.0, m22: 1.0, m33: 1.0, m44: 1.0, ..Default::default() }
+        let one = R::of(1.0);
+        Matrix6 { m11: one, m22: one, m33: one, m44: one, ..Self::zero() }
     }
 
     /// An interface's matrix from its primary `[r, t, rp, tp]` and secondary `[r, t, rp, tp]`
     /// reflections and transmissions (the reference's `energy_matrix` for `EDielectricInterface`).
-    pub fn interface(primary: [f64; 4], secondary: [f64; 4]) -> Self {
+    pub fn interface(primary: [R; 4], secondary: [R; 4]) -> Self {
         let [r, t, rp, tp] = primary;
         let [r_ff, t_ff, rp_ff, tp_ff] = secondary;
         let m11 = inverse(t);
@@ -102,13 +124,13 @@ impl Matrix6 {
             m34: -rp_ff * m33,
             m43: r_ff * m33,
             m44: -r_ff * rp_ff * m33 + tp_ff,
-            ..Default::default()
+            ..Self::zero()
         }
     }
 
     /// A medium's matrix from its primary transmission `t`, secondary backward reflection `r_fb`
     /// and forward transmission `t_ff` (the reference's `energy_matrix` for `EHomogeneousMedium`).
-    pub fn medium(t: f64, r_fb: f64, t_ff: f64) -> Self {
+    pub fn medium(t: R, r_fb: R, t_ff: R) -> Self {
         let m11 = inverse(t);
         let m33 = inverse(t_ff);
         let m44 = -(r_fb * r_fb) * m33 + t_ff;
@@ -124,12 +146,12 @@ impl Matrix6 {
             m42: m44 - t,
             m61: -m36,
             m45: -m36,
-            ..Default::default()
+            ..Self::zero()
         }
     }
 
     /// `self * e` for an interface `e`.
-    fn then_interface(&self, e: &Matrix6) -> Self {
+    fn then_interface(&self, e: &Matrix6<R>) -> Self {
         let m = self;
         Matrix6 {
             m11: m.m11 * e.m11 + m.m12 * e.m21,
@@ -157,7 +179,7 @@ impl Matrix6 {
     }
 
     /// `self * e` for a medium `e`.
-    fn then_medium(&self, e: &Matrix6) -> Self {
+    fn then_medium(&self, e: &Matrix6<R>) -> Self {
         let m = self;
         Matrix6 {
             m11: m.m11 * e.m11,
@@ -185,7 +207,7 @@ impl Matrix6 {
     }
 
     /// Every entry through `f`.
-    fn map(self, mut f: impl FnMut(f64) -> f64) -> Self {
+    fn map(self, mut f: impl FnMut(R) -> R) -> Self {
         let m = self;
         Matrix6 {
             m11: f(m.m11),
@@ -215,25 +237,23 @@ impl Matrix6 {
     /// common scale (each is a ratio of products of equal degree in the entries), so this changes
     /// none, and keeps the product of many strongly attenuating layers finite.
     fn normalised(self) -> Self {
-        let mut largest = 0.0f64;
+        let mut largest = R::of(0.0);
         self.map(|v| {
             largest = largest.max(v.abs());
             v
         });
-        if !(largest > 0.0 && largest.is_finite()) {
-            return self;
-        }
-        self.map(|v| v / largest)
+        let scale = normalising_scale(largest);
+        self.map(|v| v / scale)
     }
 
     /// The requested reflectances of the stack, over a conductor of reflectance `base` or over
     /// nothing (the reference's two `factors`); entries not requested keep the values in `previous`.
-    fn reflectances(&self, base: Option<f64>, requested: Requested, previous: Reflectances) -> Reflectances {
+    fn reflectances(&self, base: Option<R>, requested: Requested, previous: Reflectances<R>) -> Reflectances<R> {
         let m = self;
         let mut out = previous;
         match base {
             None => {
-                let x0 = 1.0 / m.m11;
+                let x0 = R::of(1.0) / m.m11;
                 if requested.backward {
                     let x1 = -m.m31 * m.m33 + m.m35 * m.m51;
                     let x2 = m.m31 * m.m35 - m.m33 * m.m51;
@@ -250,7 +270,7 @@ impl Matrix6 {
                 }
             }
             Some(rc) => {
-                let x0 = 1.0 / (m.m11 + m.m12 * rc);
+                let x0 = R::of(1.0) / (m.m11 + m.m12 * rc);
                 if requested.backward {
                     let x1 = m.m45 + m.m46 * rc;
                     let x2 = m.m31 + m.m32 * rc;
@@ -273,31 +293,32 @@ impl Matrix6 {
         }
         // Where nothing crosses (0 / 0), the limit adds nothing to what was reflected above.
         Reflectances {
-            primary: finite_or(out.primary, previous.primary),
-            forward: finite_or(out.forward, previous.forward),
-            backward: finite_or(out.backward, previous.backward),
+            primary: out.primary.finite_or(previous.primary),
+            forward: out.forward.finite_or(previous.forward),
+            backward: out.backward.finite_or(previous.backward),
         }
     }
 }
 
-fn finite_or(value: f64, fallback: f64) -> f64 {
-    if value.is_finite() { value } else { fallback }
-}
-
 /// Energy or weighted asymmetry of a flux in channel `c`: the energy matrices take the first, the
 /// asymmetry matrices the second (the reference's `asymmetry_matrix`: `norm * g` per channel).
-fn entry(flux: &Flux, c: usize, asymmetry: bool) -> f64 {
+fn entry<R: Real>(flux: &Flux<R>, c: usize, asymmetry: bool) -> R {
     if asymmetry { flux.energy[c] * flux.g } else { flux.energy[c] }
 }
 
-fn interface_matrix(primary: &DielectricFactors, secondary: &DielectricFactors, c: usize, asymmetry: bool) -> Matrix6 {
-    let four = |f: &DielectricFactors| {
+fn interface_matrix<R: Real>(
+    primary: &DielectricFactors<R>,
+    secondary: &DielectricFactors<R>,
+    c: usize,
+    asymmetry: bool,
+) -> Matrix6<R> {
+    let four = |f: &DielectricFactors<R>| {
         [entry(&f.r, c, asymmetry), entry(&f.t, c, asymmetry), entry(&f.rp, c, asymmetry), entry(&f.tp, c, asymmetry)]
     };
     Matrix6::interface(four(primary), four(secondary))
 }
 
-fn medium_matrix(m: &MediumFactors, c: usize, asymmetry: bool) -> Matrix6 {
+fn medium_matrix<R: Real>(m: &MediumFactors<R>, c: usize, asymmetry: bool) -> Matrix6<R> {
     Matrix6::medium(entry(&m.t, c, asymmetry), entry(&m.r_fb, c, asymmetry), entry(&m.t_ff, c, asymmetry))
 }
 
@@ -305,16 +326,16 @@ fn medium_matrix(m: &MediumFactors, c: usize, asymmetry: bool) -> Matrix6 {
 /// been crossed, a backward-scattered lobe once a medium has, and a forward-scattered one once
 /// both have (the reference's 6-flux `outgoing_lobes`). Energies are clamped at 0 and asymmetries are the
 /// channel mean of `safe_div(delta G, delta E)`, as there.
-pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawLobe> {
+pub fn lobes<R: Real>(components: &[(usize, Component<R>)], tables: &dyn Tables<R>) -> Vec<RawLobe<R>> {
     let mut energy = [Matrix6::identity(); 3];
     let mut asymmetry = [Matrix6::identity(); 3];
     let mut requested = Requested::default();
-    let mut r_above = [Reflectances::default(); 3];
-    let mut g_above = [Reflectances::default(); 3];
-    let (mut g_primary, mut g_secondary) = (1.0, 1.0);
+    let mut r_above = [Reflectances::zero(); 3];
+    let mut g_above = [Reflectances::zero(); 3];
+    let (mut g_primary, mut g_secondary) = (R::of(1.0), R::of(1.0));
     let mut lobes = Vec::with_capacity(3 * components.len());
     for (index, &(layer, component)) in components.iter().enumerate() {
-        let base: Option<(Rgb, Rgb)> = match component {
+        let base: Option<([R; 3], [R; 3])> = match component {
             Component::Pass => continue,
             Component::Dielectric(mut primary) => {
                 // The secondary factors start as copies of the primary ones (as in the reference), and get their
@@ -347,22 +368,24 @@ pub fn lobes(components: &[(usize, Component)], tables: &dyn Tables) -> Vec<RawL
                 Some((r.energy, std::array::from_fn(|c| r.energy[c] * r.g)))
             }
         };
-        let r_total: [Reflectances; 3] =
+        let r_total: [Reflectances<R>; 3] =
             std::array::from_fn(|c| energy[c].reflectances(base.map(|(e, _)| e[c]), requested, r_above[c]));
-        let g_total: [Reflectances; 3] =
+        let g_total: [Reflectances<R>; 3] =
             std::array::from_fn(|c| asymmetry[c].reflectances(base.map(|(_, g)| g[c]), requested, g_above[c]));
         for (kind, wanted, pick) in [
-            (LobeKind::Primary, requested.primary, (|r: &Reflectances| r.primary) as fn(&Reflectances) -> f64),
-            (LobeKind::Forward, requested.forward, |r: &Reflectances| r.forward),
-            (LobeKind::Backward, requested.backward, |r: &Reflectances| r.backward),
+            (LobeKind::Primary, requested.primary, (|r: &Reflectances<R>| r.primary) as fn(&Reflectances<R>) -> R),
+            (LobeKind::Forward, requested.forward, |r: &Reflectances<R>| r.forward),
+            (LobeKind::Backward, requested.backward, |r: &Reflectances<R>| r.backward),
         ] {
             if !wanted {
                 continue;
             }
-            let delta: Rgb = std::array::from_fn(|c| pick(&r_total[c]) - pick(&r_above[c]));
-            let g_delta: Rgb = std::array::from_fn(|c| pick(&g_total[c]) - pick(&g_above[c]));
-            let g = (0..3).map(|c| safe_ratio(g_delta[c], delta[c])).sum::<f64>() / 3.0;
-            lobes.push(RawLobe { layer, kind, energy: delta.map(|e| e.max(0.0)), g });
+            let delta: [R; 3] = std::array::from_fn(|c| pick(&r_total[c]) - pick(&r_above[c]));
+            let g_delta: [R; 3] = std::array::from_fn(|c| pick(&g_total[c]) - pick(&g_above[c]));
+            // The channel mean of the ratios (a sum from -0.0, as `Iterator::sum` adds).
+            let ratios: [R; 3] = std::array::from_fn(|c| safe_ratio(g_delta[c], delta[c]));
+            let g = (ratios[0] + ratios[1] + ratios[2]) / 3.0;
+            lobes.push(RawLobe { layer, kind, energy: delta.map(|e| e.max(R::of(0.0))), g });
         }
         r_above = r_total;
         g_above = g_total;

@@ -19,11 +19,11 @@ const LAYERS: &[&[&str]] = &[
     // Files and the drawing of PNG plots, which are a file format.
     &["formats"],
     // The form language of `fit/text` (expressions, their compiled tape, a form compiled from a
-    // manifest's definition, form files) and a fitted TIR form a scene names: the model
-    // evaluates both.
+    // manifest's definition, code over the model's number type recorded on a tape, form files)
+    // and a fitted TIR form a scene names: the model evaluates both.
     &["fit/text/expr"],
     &["fit/text/tape"],
-    &["fit/text/compile"],
+    &["fit/text/compile", "fit/text/record"],
     &["fit/text/form"],
     &["fit/text/fitted"],
     // The emitter that prints one description of a shader as HLSL and WGSL, and the emulator of

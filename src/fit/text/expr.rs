@@ -104,7 +104,8 @@ impl Func {
         FUNCTIONS.iter().find(|(_, f, _)| *f == self).map(|(n, ..)| *n).unwrap_or("?")
     }
 
-    fn arity(self) -> usize {
+    /// How many arguments it takes.
+    pub fn arity(self) -> usize {
         FUNCTIONS.iter().find(|(_, f, _)| *f == self).map(|(.., a)| *a).unwrap_or(0)
     }
 }
@@ -116,40 +117,8 @@ pub fn function_names() -> String {
     names.join(", ")
 }
 
-/// A comparison, the condition of a `select`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Compare {
-    Lt,
-    Le,
-    Gt,
-    Ge,
-    Eq,
-    Ne,
-}
-
-impl Compare {
-    pub fn holds(self, a: f64, b: f64) -> bool {
-        match self {
-            Compare::Lt => a < b,
-            Compare::Le => a <= b,
-            Compare::Gt => a > b,
-            Compare::Ge => a >= b,
-            Compare::Eq => a == b,
-            Compare::Ne => a != b,
-        }
-    }
-
-    pub fn text(self) -> &'static str {
-        match self {
-            Compare::Lt => "<",
-            Compare::Le => "<=",
-            Compare::Gt => ">",
-            Compare::Ge => ">=",
-            Compare::Eq => "==",
-            Compare::Ne => "!=",
-        }
-    }
-}
+/// A comparison, the condition of a `select` (the model's branches use the same one).
+pub use crate::physics::real::Compare;
 
 /// An arithmetic operator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

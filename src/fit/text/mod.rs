@@ -5,6 +5,9 @@
 //! WGSL, HLSL, GLSL and MSL ([`shader`]). `docs/fit.md`, "Forms as text", describes the language
 //! and the command; [`build`] is the TIR form the default build fits.
 //!
+//! Code written over the model's number type is recorded on the same tape ([`record`]): the scene
+//! shader is the transfer-matrix model recorded and printed.
+//!
 //! The expressions, the tape and a form compiled from the definition a manifest states
 //! ([`compile`]) build without the generator, so that the model evaluates a built folder's fitted
 //! form as the fit judged it; reading form files (TOML), fitting, regions, weights, costs and
@@ -26,6 +29,7 @@ pub mod fitting;
 pub mod form;
 #[cfg(feature = "generator")]
 pub mod pictures;
+pub mod record;
 #[cfg(feature = "generator")]
 pub mod region;
 #[cfg(feature = "generator")]

@@ -20,7 +20,8 @@ pub fn function_name(form: &Form) -> String {
     format!("tmlut_{}", form.name)
 }
 
-fn builtin(f: Func) -> Option<Builtin> {
+/// The shader builtin of a function of the language; `None` for `asinh`, which HLSL lacks.
+pub(crate) fn builtin(f: Func) -> Option<Builtin> {
     Some(match f {
         Func::Abs => Builtin::Abs,
         Func::Sign => Builtin::Sign,
@@ -53,6 +54,18 @@ fn builtin(f: Func) -> Option<Builtin> {
         // HLSL has no asinh: a helper function of the module ([`ASINH`]).
         Func::Asinh => return None,
     })
+}
+
+/// The shader operator of a comparison.
+pub(crate) fn comparison(compare: Compare) -> Op {
+    match compare {
+        Compare::Lt => Op::Lt,
+        Compare::Le => Op::Le,
+        Compare::Gt => Op::Gt,
+        Compare::Ge => Op::Ge,
+        Compare::Eq => Op::Eq,
+        Compare::Ne => Op::Ne,
+    }
 }
 
 const ASINH: &str = "tmlut_asinh";
@@ -103,15 +116,7 @@ fn translate(node: &Node, helpers: &mut Helpers) -> Expr {
             }
         }
         Node::Select { otherwise, then, compare, left, right } => {
-            let op = match compare {
-                Compare::Lt => Op::Lt,
-                Compare::Le => Op::Le,
-                Compare::Gt => Op::Gt,
-                Compare::Ge => Op::Ge,
-                Compare::Eq => Op::Eq,
-                Compare::Ne => Op::Ne,
-            };
-            let condition = translate(left, helpers).op(op, translate(right, helpers));
+            let condition = translate(left, helpers).op(comparison(*compare), translate(right, helpers));
             select(condition, translate(then, helpers), translate(otherwise, helpers))
         }
     }

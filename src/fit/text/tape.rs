@@ -161,6 +161,20 @@ impl Tape {
         }
     }
 
+    /// Every instruction's value, each variable `Var(k)` answered by `variable(k, values so far)`:
+    /// recorded code ([`super::record`]) reads values from outside, table lookups, whose
+    /// coordinates are earlier instructions. It has no parameters.
+    pub fn values_with<T: Scalar>(&self, mut variable: impl FnMut(usize, &[T]) -> T, values: &mut Vec<T>) {
+        values.clear();
+        for ins in &self.ins {
+            let value = match *ins {
+                Ins::Var(k) => variable(k, values),
+                _ => value_of(ins, |k| values[k], &[], &[]),
+            };
+            values.push(value);
+        }
+    }
+
     /// The channels' values at one point.
     pub fn eval<T: Scalar>(&self, vars: &[T], params: &[T], scratch: &mut Vec<T>, out: &mut [T]) {
         self.values(vars, params, scratch);

@@ -1,12 +1,11 @@
 //! The transfer-matrix evaluation of a scene's materials as a shader: one function per material,
-//! `tm_<material>(mu)`, specialised to its layer stack (layers unrolled, every index, roughness and
-//! medium coefficient baked in, index-matched layers and empty media dropped) and to the tables of
-//! a built folder, read with the manifest's coordinates. It returns the lobes (energy per channel,
-//! GGX roughness, cosine of the mean direction, GD) and the directional albedo `A(mu)`, computing
-//! what [`crate::model::Material::evaluate`] computes, step for step, in f32: the 2-flux model
-//! ([`tm2`]) or the 6-flux one with scattering media ([`tm6`]), over the same per-layer transfer
-//! factors ([`layers`]).
-//!
+//! `tm_<material>(mu)`, specialised to its layer stack and to the tables of a built folder, read
+//! with the manifest's coordinates. It returns the lobes (energy per channel, GGX roughness,
+//! cosine of the mean direction, GD) and the directional albedo `A(mu)`. Its body is
+//! [`crate::model::Material::evaluate`] itself, recorded ([`material`]): what the stack decides
+//! (index-matched layers and empty media dropped, every index, roughness and medium coefficient)
+//! is computed while recording, in f64, and printed as constants; what the view decides is
+//! computed in the shader, in f32, by the same operations in the same order as the CPU.//!
 //! Tables are read by hand-filtered texel loads (four or eight `textureLoad`s and lerps in f32, as
 //! [`crate::packing::emulator`] filters with `Filter::Exact`), not by the sampler: hardware
 //! filtering weighs texels with 8 fractional bits on most GPUs, which alone moves a value by up to
@@ -17,7 +16,8 @@
 //! form, or off; GD from its 2D table.
 //!
 //! What the generated code guards, that the thesis's hand-written HLSL did not (the project notes'
-//! list of its defects): `1 / t` with `t` floored (never a division by 0 when TIR takes everything),
+//! list of its defects), it guards because the model does: `1 / t` with `t` floored (never a
+//! division by 0 when TIR takes everything; the floor is 1e-30 in f32, `Real::smallest_transmission`),
 //! ratios that are not finite fall back to the reflectance above (a comparison, so NaN included),
 //! the transmission lobes' roughness scale `|(eta_ji r.z + rp.z) / rp.z|` taken whole in `abs`,
 //! the top index of every interface that of the layer above (air 1.0, never 1.003), and no read
@@ -25,19 +25,17 @@
 //!
 //! Names: a material's function is `tm_` and the material's name ([`material_function`]); every
 //! other name the generator makes at module scope begins otherwise (`tmh_` for helpers, texture
-//! bindings and slice choosers, `tm6_` for the 6-flux helpers, `tmlut_` for the fitted TIR form,
-//! `fgd_lossless` for the packing's lookup, `TmResult`), so that no material name can give the
-//! name of a helper (`finite-or` once redefined `tm_finite_or`).
+//! bindings and slice choosers, `tmlut_` for the fitted TIR form, `fgd_lossless` for the packing's
+//! lookup, `TmResult`), so that no material name can give the name of a helper (`finite-or` once
+//! redefined `tm_finite_or`). A function's locals are `result` and `v<instruction>`.
 
 mod helpers;
-mod layers;
-mod tm2;
-mod tm6;
+mod material;
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 
-use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, select, splat3};
+use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, select};
 use crate::error::{Error, Result};
 use crate::fit::text::fitted::{FittedForm, FittedFormExt};
 use crate::formats::manifest::MANIFEST_FILE;
@@ -51,7 +49,7 @@ use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
 use crate::table::{Axis, Mapping, Placement};
 
-pub use helpers::SMALLEST_TRANSMISSION_F32;
+pub use material::{RecordedMaterial, RunResult};
 
 /// A material the shader evaluates.
 #[derive(Debug, Clone)]
@@ -153,7 +151,6 @@ struct Needs {
     layers: bool,
     asinh: bool,
     acos: bool,
-    six_flux: bool,
 }
 
 /// The shader of `materials` over the tables of `folder`.
@@ -167,13 +164,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     for material in materials {
         g.reading.clear();
         g.reads.clear();
-        let (function, lobes) = match material.model {
-            FluxModel::TwoFlux => tm2::function(&mut g, material)?,
-            FluxModel::SixFlux => {
-                g.needs.six_flux = true;
-                tm6::function(&mut g, material)?
-            }
-        };
+        let (function, lobes) = material::function(&mut g, material)?;
         if let Some(other) = described.iter().find(|d: &&MaterialFunction| d.function == function.name) {
             return Err(g.refuse(
                 &material.name,
@@ -245,9 +236,6 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     }
     if g.needs.acos {
         helpers::acos(&mut module);
-    }
-    if g.needs.six_flux {
-        helpers::six_flux(&mut module);
     }
     // The folder's fitted form (`tmlut_tir`), then the forms materials name, each after the helpers
     // it needs; a helper two forms share (`tmlut_pow_2`, `tmlut_asinh`: the same code whoever
@@ -367,12 +355,6 @@ struct Generator<'a> {
     chooser_functions: Vec<super::Function>,
     /// The fitted forms the materials name (`tir = "fit:PATH"`), in first use.
     forms: Vec<FittedForm>,
-}
-
-/// A value per channel: energies of interfaces are equal in all three, so kept as one scalar
-/// expression splatted where a vector is needed.
-fn v3(e: Expr) -> Expr {
-    splat3(e)
 }
 
 impl<'a> Generator<'a> {

@@ -11,6 +11,8 @@
 //! direction, exact reversal), which every function here returns exactly.
 
 use glam::DVec3;
+
+use super::real::Real;
 use std::f64::consts::PI;
 
 /// Below this asymmetry a lobe counts as fully rough: the model reads `g < 0.2` as 0.2, which maps
@@ -23,26 +25,26 @@ pub const MAX_ROUGHNESS: f64 = 1.0;
 /// Henyey–Greenstein asymmetry `g` of a GGX lobe with roughness `alpha`, clamped to [0, 1]; a
 /// roughness above 1 (the model scales transmission roughness by a factor that can exceed 2) reads
 /// as 1, as in the reference code.
-pub fn ggx_to_hg(alpha: f64) -> f64 {
-    let alpha = if alpha.is_nan() { 1.0 } else { alpha.clamp(0.0, 1.0) };
-    (-0.085 + 1.085 / (1.0 + (alpha / 0.5).powf(1.3))).clamp(0.0, 1.0)
+pub fn ggx_to_hg<R: Real>(alpha: R) -> R {
+    let alpha = alpha.or_if_nan(1.0).clamp(0.0, 1.0);
+    (R::of(1.085) / ((alpha / 0.5).powf(R::of(1.3)) + 1.0) - 0.085).clamp(0.0, 1.0)
 }
 
 /// GGX roughness of a Henyey–Greenstein lobe with asymmetry `g`: the inverse of [`ggx_to_hg`],
 /// `alpha = 0.5 (1.085 / (g + 0.085) - 1)^(1 / 1.3)`, with `g` first clamped to [0.2, 1] (so the
 /// base of the power is never negative) and the result clamped to [1e-4, 1].
-pub fn hg_to_ggx(g: f64) -> f64 {
-    let g = if g.is_nan() { MIN_ASYMMETRY } else { g.clamp(MIN_ASYMMETRY, 1.0) };
-    let base = (1.085 / (g + 0.085) - 1.0).max(0.0);
-    (0.5 * base.powf(1.0 / 1.3)).clamp(MIN_ROUGHNESS, MAX_ROUGHNESS)
+pub fn hg_to_ggx<R: Real>(g: R) -> R {
+    let g = g.or_if_nan(MIN_ASYMMETRY).clamp(MIN_ASYMMETRY, 1.0);
+    let base = (R::of(1.085) / (g + 0.085) - 1.0).max(R::of(0.0));
+    (base.powf(R::of(1.0 / 1.3)) * 0.5).clamp(MIN_ROUGHNESS, MAX_ROUGHNESS)
 }
 
 /// Asymmetry of a lobe of asymmetry `g` after refraction into a medium of relative index `eta`
 /// (index behind over index in front), `min(sqrt(max(1 - (1 - g^2) eta^(3/4), 0)), 1)` (the
 /// transfer-matrix reference's `hg_refract`). Entering a denser medium (`eta < 1`) narrows a lobe; leaving one widens it,
 /// to 0 when the lobe is wide enough to be totally reflected.
-pub fn hg_refract(g: f64, eta: f64) -> f64 {
-    (1.0 - (1.0 - g * g) * eta.powf(0.75)).max(0.0).sqrt().min(1.0)
+pub fn hg_refract<R: Real>(g: R, eta: R) -> R {
+    (R::of(1.0) - (R::of(1.0) - g * g) * eta.powf(R::of(0.75))).max(R::of(0.0)).sqrt().min(R::of(1.0))
 }
 
 /// The share of a Henyey–Greenstein phase function of asymmetry `g` scattered into the backward

@@ -1,12 +1,14 @@
 //! The optics every table integrates: the GGX microfacet distribution with its Smith terms,
 //! reflection and refraction about a normal, Fresnel reflectance, and the Henyey–Greenstein phase
 //! function with the roughness mapping of the transfer-matrix model.
-//! All in f64; each function is named by the quantity it returns and cites its source.
+//! All in f64 but the lobe statistics the transfer-matrix model reads, which are generic over
+//! its number type ([`real::Real`]); each function is named by the quantity it returns and cites its source.
 
 pub mod fresnel;
 pub mod fresnel_basis;
 pub mod henyey_greenstein;
 pub mod microfacet;
+pub mod real;
 
 pub use fresnel::{
     critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance, schlick_weight,

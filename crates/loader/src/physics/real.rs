@@ -1,0 +1,189 @@
+//! The number type the transfer-matrix model is written over, so that one piece of code serves
+//! both as the CPU evaluator (`f64`) and as the source of the scene shader (the generator's
+//! recorder, which writes each operation into an expression instead of computing it).
+//!
+//! A branch whose condition depends on the view is written as a [`Real::choose`]: `f64` takes one
+//! side, as an `if` would; a recorder, which cannot know the side, records a `select` of both.
+//! A condition on a material's constants (its indices, roughness, depth) is known to a recorder
+//! too ([`Real::known`]), so the recorded code keeps only the side the material takes, as the
+//! CPU evaluator does.
+
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// A comparison, the condition of a [`Real::choose`] (and of a `select` in a shader).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Compare {
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+}
+
+impl Compare {
+    /// Whether `a <compare> b` holds, with IEEE semantics (every comparison with NaN is false but
+    /// `!=`).
+    pub fn holds(self, a: f64, b: f64) -> bool {
+        match self {
+            Compare::Lt => a < b,
+            Compare::Le => a <= b,
+            Compare::Gt => a > b,
+            Compare::Ge => a >= b,
+            Compare::Eq => a == b,
+            Compare::Ne => a != b,
+        }
+    }
+
+    pub fn text(self) -> &'static str {
+        match self {
+            Compare::Lt => "<",
+            Compare::Le => "<=",
+            Compare::Gt => ">",
+            Compare::Ge => ">=",
+            Compare::Eq => "==",
+            Compare::Ne => "!=",
+        }
+    }
+}
+
+/// The arithmetic the model needs. Every method has the meaning `f64`'s method of that name has.
+pub trait Real:
+    Copy
+    + std::fmt::Debug
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + Add<f64, Output = Self>
+    + Sub<f64, Output = Self>
+    + Mul<f64, Output = Self>
+    + Div<f64, Output = Self>
+{
+    /// A constant.
+    fn of(value: f64) -> Self;
+    /// The value, where it is known now: always for `f64`; for a recorder, where it depends on
+    /// constants alone.
+    fn known(self) -> Option<f64>;
+    /// The least transmission `1 / t` divides by: the largest reciprocal that stays finite with
+    /// headroom in this type's precision (f32 in a shader).
+    fn smallest_transmission() -> Self;
+    /// The largest finite value of this type's precision.
+    fn largest_finite() -> Self;
+
+    fn sqrt(self) -> Self;
+    fn exp(self) -> Self;
+    fn sinh(self) -> Self;
+    fn abs(self) -> Self;
+    fn powf(self, exponent: Self) -> Self;
+    fn min(self, other: Self) -> Self;
+    fn max(self, other: Self) -> Self;
+    /// `f64::clamp`: NaN stays NaN.
+    fn clamp(self, lo: f64, hi: f64) -> Self;
+
+    /// `then` where `left <compare> right`, else `otherwise`, both given.
+    fn select(compare: Compare, left: Self, right: Self, then: Self, otherwise: Self) -> Self;
+
+    /// `then()` where `left <compare> right` holds, else `otherwise()`: only the side taken is
+    /// computed where the condition is known ([`Real::known`]), both otherwise.
+    fn choose(
+        compare: Compare,
+        left: Self,
+        right: Self,
+        then: impl FnOnce() -> Self,
+        otherwise: impl FnOnce() -> Self,
+    ) -> Self {
+        match (left.known(), right.known()) {
+            (Some(a), Some(b)) => {
+                if compare.holds(a, b) {
+                    then()
+                } else {
+                    otherwise()
+                }
+            }
+            _ => Self::select(compare, left, right, then(), otherwise()),
+        }
+    }
+
+    /// `self` where it is finite, else `fallback` (NaN included).
+    fn finite_or(self, fallback: Self) -> Self {
+        Self::choose(Compare::Le, self.abs(), Self::largest_finite(), || self, || fallback)
+    }
+
+    /// `self` where it is not NaN, else `fallback`.
+    fn or_if_nan(self, fallback: f64) -> Self {
+        Self::choose(Compare::Ne, self, self, || Self::of(fallback), || self)
+    }
+}
+
+/// `then()` where any of `values` is not 0, else `otherwise()` (a lobe that carries energy in some
+/// channel).
+pub fn choose_if_any_nonzero<R: Real>(values: [R; 3], then: impl Fn() -> R, otherwise: impl Fn() -> R) -> R {
+    let zero = R::of(0.0);
+    R::choose(Compare::Ne, values[0], zero, &then, || {
+        R::choose(Compare::Ne, values[1], zero, &then, || R::choose(Compare::Ne, values[2], zero, &then, &otherwise))
+    })
+}
+
+impl Real for f64 {
+    fn of(value: f64) -> Self {
+        value
+    }
+
+    fn known(self) -> Option<f64> {
+        Some(self)
+    }
+
+    fn smallest_transmission() -> Self {
+        1e-150
+    }
+
+    fn largest_finite() -> Self {
+        f64::MAX
+    }
+
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+
+    fn exp(self) -> Self {
+        f64::exp(self)
+    }
+
+    fn sinh(self) -> Self {
+        f64::sinh(self)
+    }
+
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+
+    fn powf(self, exponent: Self) -> Self {
+        f64::powf(self, exponent)
+    }
+
+    fn min(self, other: Self) -> Self {
+        f64::min(self, other)
+    }
+
+    fn max(self, other: Self) -> Self {
+        f64::max(self, other)
+    }
+
+    fn clamp(self, lo: f64, hi: f64) -> Self {
+        f64::clamp(self, lo, hi)
+    }
+
+    fn select(compare: Compare, left: Self, right: Self, then: Self, otherwise: Self) -> Self {
+        if compare.holds(left, right) { then } else { otherwise }
+    }
+
+    fn finite_or(self, fallback: Self) -> Self {
+        if self.is_finite() { self } else { fallback }
+    }
+
+    fn or_if_nan(self, fallback: f64) -> Self {
+        if self.is_nan() { fallback } else { self }
+    }
+}
