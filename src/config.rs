@@ -30,13 +30,16 @@ use crate::recipes::TableRecipe;
 pub use crate::recipes::settings::{
     MAX_NODES_PER_AXIS, OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range,
 };
+pub use crate::table::TableKind;
 
-/// The registry of tables: one line per table, in build order, as `section: Kind => module::Settings`.
-/// The section is the table's name, its TOML section and its recipe module under `recipes/`.
+/// The registry of tables: one line per table, in build order, as `section: Kind => module::Settings`,
+/// pairing each [`TableKind`] of the loader's list (`tmlut_loader::table::kind`, which every reader
+/// shares) with its recipe. The section is the table's name, its TOML section and its recipe
+/// module under `recipes/`.
 ///
-/// From this list come the [`Config`] fields, [`TableKind`] (whose matches are exhaustive, so a
-/// table added here and forgotten elsewhere does not compile) and the iteration over every
-/// table's recipe that validation, the pipeline, the reports and the CLI use.
+/// From this list come the [`Config`] fields and the recipe of each kind, in matches that are
+/// exhaustive: a kind without a recipe here does not compile. A test holds the sections to the
+/// kinds' names and order.
 macro_rules! table_registry {
     ($($section:ident: $kind:ident => $settings:ty),+ $(,)?) => {
         #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -50,24 +53,6 @@ macro_rules! table_registry {
         impl Default for Config {
             fn default() -> Self {
                 Config { seed: DEFAULT_SEED, $($section: <$settings>::default(),)+ }
-            }
-        }
-
-        /// One table tmlut knows.
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-        pub enum TableKind {
-            $($kind,)+
-        }
-
-        impl TableKind {
-            /// Every table, in build order.
-            pub const ALL: &'static [TableKind] = &[$(TableKind::$kind,)+];
-
-            /// The table's name: its TOML section, its file stem and its `--only` name.
-            pub fn name(self) -> &'static str {
-                match self {
-                    $(TableKind::$kind => stringify!($section),)+
-                }
             }
         }
 
@@ -86,6 +71,10 @@ macro_rules! table_registry {
                 }
             }
         }
+
+        /// The registry's sections, in its order.
+        #[cfg(test)]
+        const REGISTRY_SECTIONS: &[&str] = &[$(stringify!($section),)+];
     };
 }
 
@@ -100,24 +89,6 @@ table_registry! {
 
 /// The seed of a configuration that names none.
 pub const DEFAULT_SEED: u64 = 2021;
-
-impl TableKind {
-    /// The table called `name`.
-    pub fn named(name: &str) -> Option<TableKind> {
-        TableKind::ALL.iter().copied().find(|kind| kind.name() == name)
-    }
-
-    /// Every table's name, in build order.
-    pub fn names() -> Vec<&'static str> {
-        TableKind::ALL.iter().map(|kind| kind.name()).collect()
-    }
-}
-
-impl std::fmt::Display for TableKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
 
 impl Config {
     /// Parse a TOML configuration; `origin` names it in errors.
@@ -239,6 +210,15 @@ mod tests {
 
     fn error_of(text: &str) -> String {
         Config::from_toml(text, "test.toml").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn the_registry_pairs_every_kind_of_the_loaders_list_with_its_recipe_in_order() {
+        assert_eq!(REGISTRY_SECTIONS, TableKind::names().as_slice());
+        let config = Config::default();
+        for &kind in TableKind::ALL {
+            assert_eq!(config.recipe(kind).name(), kind.name());
+        }
     }
 
     #[test]

@@ -33,7 +33,7 @@ use crate::loader::texture::SampledTable;
 use crate::packing::{Filter, PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::point_of;
-use crate::table::{Axis, Table};
+use crate::table::{Axis, Table, TableKind};
 
 /// How far outside a slice's range (in units of the range) a lookup may lie and still count as
 /// inside it, when slices holding the same index compete. A scene's slices end exactly at the
@@ -231,9 +231,9 @@ impl FolderTables {
         let missing = |what: &str| {
             Error::format(folder.dir().join(crate::formats::manifest::MANIFEST_FILE), format!("lists no {what}"))
         };
-        let slices_of = |prefix: &str, quantity: Quantity| -> Result<Slices> {
+        let slices_of = |kind: TableKind, quantity: Quantity| -> Result<Slices> {
             let slices = folder
-                .scene_slices(|entry| is_slice(entry, prefix))?
+                .scene_slices(|entry| is_slice(entry, kind))?
                 .into_iter()
                 .map(|slice| {
                     let indices = slice_indices(&slice.entry);
@@ -242,18 +242,18 @@ impl FolderTables {
                 .collect::<Result<Vec<_>>>()?;
             Ok(Slices::new(slices))
         };
-        let find = |table: &str, format: FileFormat| {
-            entries.iter().find(|(_, e)| e.table == table && e.format == format && e.packing.is_none())
+        let find = |table: TableKind, format: FileFormat| {
+            entries.iter().find(|(_, e)| e.table == table.name() && e.format == format && e.packing.is_none())
         };
         // The texture of a table a GPU binds: its DDS file, else its KTX2 file.
-        let texture = |table: &str| FileFormat::TEXTURES.iter().find_map(|&format| find(table, format));
+        let texture = |table: TableKind| FileFormat::TEXTURES.iter().find_map(|&format| find(table, format));
         let albedo = match albedo {
             AlbedoPath::Fgd => {
-                let slices = slices_of("fgd", Quantity::Albedo)?;
+                let slices = slices_of(TableKind::Fgd, Quantity::Albedo)?;
                 let packed = entries
                     .iter()
                     .find(|(_, e)| e.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()));
-                let table = find("fgd", FileFormat::Exr).or_else(|| find("fgd", FileFormat::Bin));
+                let table = find(TableKind::Fgd, FileFormat::Exr).or_else(|| find(TableKind::Fgd, FileFormat::Bin));
                 let full = match (fgd, packed, table) {
                     (FgdSource::Packing, Some((file, entry)), _) => {
                         Some(FullFgd::Packed(Box::new(packed_fgd(folder, file, entry)?)))
@@ -264,13 +264,13 @@ impl FolderTables {
                     }
                     (_, None, None) => None,
                 };
-                let rarer = match texture("fgd_rarer") {
+                let rarer = match texture(TableKind::FgdRarer) {
                     Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
                     None => None,
                 };
                 Albedo::Fgd { slices, full, rarer }
             }
-            AlbedoPath::Belcour => match texture("belcour") {
+            AlbedoPath::Belcour => match texture(TableKind::Belcour) {
                 Some((file, entry)) => {
                     let basis =
                         entry.fresnel_basis.clone().ok_or_else(|| missing("Fresnel basis beside belcour.dds"))?;
@@ -278,15 +278,15 @@ impl FolderTables {
                 }
                 None => Albedo::Absent,
             },
-            AlbedoPath::Karis => match texture("karis") {
+            AlbedoPath::Karis => match texture(TableKind::Karis) {
                 Some((file, _)) => Albedo::Karis { texture: SampledTable::new(&folder.load(file)?)? },
                 None => Albedo::Absent,
             },
         };
         let tir = match tir {
             TirPath::Table => {
-                let slices = slices_of("tir", Quantity::Tir)?;
-                let full = match texture("tir").or_else(|| find("tir", FileFormat::Bin)) {
+                let slices = slices_of(TableKind::Tir, Quantity::Tir)?;
+                let full = match texture(TableKind::Tir).or_else(|| find(TableKind::Tir, FileFormat::Bin)) {
                     Some((file, _)) => {
                         let texture = SampledTable::new(&folder.load(file)?)?;
                         if point_of(&texture.axes, 0.5, 0.5, 0.5, 0.0).is_none() {
@@ -319,7 +319,7 @@ impl FolderTables {
             TirPath::Form => Tir::Absent,
             TirPath::Off => Tir::Off,
         };
-        let gd = match texture("gd").or_else(|| find("gd", FileFormat::Bin)) {
+        let gd = match texture(TableKind::Gd).or_else(|| find(TableKind::Gd, FileFormat::Bin)) {
             Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
             None => None,
         };
@@ -338,7 +338,7 @@ impl FolderTables {
     /// `albedo = "fit:PATH"`), evaluated in f32 as its shader computes it.
     #[cfg(feature = "generator")]
     pub fn with_albedo_form(mut self, form: &FittedForm) -> Result<Self> {
-        self.albedo = Albedo::Form { form: form.evaluator()?, split_sum: form.table == "karis" };
+        self.albedo = Albedo::Form { form: form.evaluator()?, split_sum: form.table == TableKind::Karis.name() };
         Ok(self)
     }
 
@@ -521,11 +521,11 @@ pub fn describe(lookup: &Lookup) -> String {
     )
 }
 
-/// Whether a file is a scene slice of `prefix` (`fgd` or `tir`): two axes, and channels that state
-/// the indices they hold fixed.
-pub(crate) fn is_slice(entry: &FileEntry, prefix: &str) -> bool {
+/// Whether a file is a scene slice of table `kind` (FGD or TIR): two axes, and channels that
+/// state the indices they hold fixed.
+pub(crate) fn is_slice(entry: &FileEntry, kind: TableKind) -> bool {
     entry.axes.len() == 2
-        && entry.table.starts_with(&format!("{prefix}_"))
+        && entry.table.starts_with(&format!("{}_", kind.name()))
         && entry.channels.iter().any(|c| !c.fixed.is_empty())
 }
 

@@ -8,6 +8,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::table::TableKind;
+
 /// Which precomputed integral a lookup reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -95,9 +97,9 @@ pub enum AlbedoPath {
 impl AlbedoPath {
     pub fn name(self) -> &'static str {
         match self {
-            AlbedoPath::Fgd => "fgd",
-            AlbedoPath::Belcour => "belcour",
-            AlbedoPath::Karis => "karis",
+            AlbedoPath::Fgd => TableKind::Fgd.name(),
+            AlbedoPath::Belcour => TableKind::Belcour.name(),
+            AlbedoPath::Karis => TableKind::Karis.name(),
         }
     }
 }

@@ -30,7 +30,7 @@ use crate::table::{Axis, Channel, Table};
 
 use super::fgd::{fresnel_kinks, projected_fresnel};
 
-pub const NAME: &str = "belcour";
+pub const NAME: &str = crate::table::TableKind::Belcour.name();
 /// One line for `tmlut list`.
 pub const DESCRIPTION: &str = "Belcour-Bati-Barla 2020 split-sum with a Fresnel basis, 2D (n.v, roughness), 4 channels";
 /// Channels of the table.

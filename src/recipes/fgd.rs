@@ -30,7 +30,7 @@ use crate::sampling::sequence::PointSet;
 use crate::stats::ErrorSummary;
 use crate::table::{Axis, Table};
 
-pub const NAME: &str = "fgd";
+pub const NAME: &str = crate::table::TableKind::Fgd.name();
 /// One line for `tmlut list`.
 pub const DESCRIPTION: &str = "directional albedo with exact Fresnel, 4D (mu, alpha, eta, kappa)";
 /// Channels of the table.

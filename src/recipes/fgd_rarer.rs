@@ -36,7 +36,7 @@ use crate::physics::MaskingShadowing;
 use crate::sampling::sequence::PointSet;
 use crate::table::{Axis, Mapping, Table, derived};
 
-pub const NAME: &str = "fgd_rarer";
+pub const NAME: &str = crate::table::TableKind::FgdRarer.name();
 /// One line for `tmlut list`.
 pub const DESCRIPTION: &str =
     "FGD of a dielectric onto a rarer medium (eta < 1, kappa = 0), 3D (mu, alpha, critical-angle fraction)";

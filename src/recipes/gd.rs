@@ -21,7 +21,7 @@ use crate::physics::MaskingShadowing;
 use crate::sampling::sequence::PointSet;
 use crate::table::{Axis, Table};
 
-pub const NAME: &str = "gd";
+pub const NAME: &str = crate::table::TableKind::Gd.name();
 /// One line for `tmlut list`.
 pub const DESCRIPTION: &str = "microfacet albedo without Fresnel (separable Smith), 2D (mu, alpha)";
 /// Channels of the table.

@@ -26,7 +26,7 @@ use crate::physics::{MaskingShadowing, schlick_weight};
 use crate::sampling::sequence::PointSet;
 use crate::table::{Axis, Channel, Table};
 
-pub const NAME: &str = "karis";
+pub const NAME: &str = crate::table::TableKind::Karis.name();
 /// One line for `tmlut list`.
 pub const DESCRIPTION: &str =
     "Karis split-sum environment BRDF (UE4): scale and bias of F0 under Schlick Fresnel, 2D (n.v, roughness)";

@@ -32,7 +32,7 @@ use crate::physics::{MaskingShadowing, critical_cosine};
 use crate::sampling::sequence::PointSet;
 use crate::table::{Axis, Mapping, Table, derived};
 
-pub const NAME: &str = "tir";
+pub const NAME: &str = crate::table::TableKind::Tir.name();
 /// One line for `tmlut list`.
 pub const DESCRIPTION: &str = "share of a lobe lost to total internal reflection, 3D (mu, alpha, eta < 1)";
 /// Channels of the table.

@@ -14,6 +14,7 @@ use crate::formats::manifest::LeftOutRecord;
 use crate::integrate::GRAZING_COSINE;
 use crate::model::{Lookup as ModelLookup, Quantity};
 use crate::physics::fresnel_reflectance;
+use crate::table::TableKind;
 
 /// What a lookup reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -273,14 +274,14 @@ fn note_index_matched(material: &Material, left_out: &mut Vec<LeftOutRecord>) {
 pub fn table_lookups(path: &std::path::Path, table: &str) -> Result<crate::fit::text::region::SceneLookups> {
     let (scene, _) = Scene::read(path)?;
     let (lookups, _) = lookups(&scene)?;
-    let is = |name: &str| table == name || table.starts_with(&format!("{name}_"));
+    let is = |kind: TableKind| table == kind.name() || table.starts_with(&format!("{}_", kind.name()));
     let reads = |kind: LookupKind| match kind {
-        LookupKind::Albedo(AlbedoPath::Fgd) => is("fgd"),
-        LookupKind::Albedo(AlbedoPath::Karis) => table == "karis",
-        LookupKind::Albedo(AlbedoPath::Belcour) => table == "belcour",
+        LookupKind::Albedo(AlbedoPath::Fgd) => is(TableKind::Fgd),
+        LookupKind::Albedo(AlbedoPath::Karis) => table == TableKind::Karis.name(),
+        LookupKind::Albedo(AlbedoPath::Belcour) => table == TableKind::Belcour.name(),
         LookupKind::Tir(TirPath::Off) => false,
-        LookupKind::Tir(_) => is("tir"),
-        LookupKind::Gd => is("gd"),
+        LookupKind::Tir(_) => is(TableKind::Tir),
+        LookupKind::Gd => is(TableKind::Gd),
     };
     let mut materials: Vec<(String, Vec<crate::fit::text::region::LookupHull>)> = Vec::new();
     for lookup in lookups.iter().filter(|l| reads(l.kind)) {

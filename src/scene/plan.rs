@@ -29,7 +29,7 @@ use crate::recipes::gd::GdSettings;
 use crate::recipes::karis::KarisSettings;
 use crate::recipes::slices::{SliceChannel, SliceOf, Slices, lattice_value};
 use crate::recipes::tir::TirSettings;
-use crate::table::{Axis, Mapping};
+use crate::table::{Axis, Mapping, TableKind};
 
 const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 
@@ -161,7 +161,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         lookups.iter().filter(|l| l.kind == LookupKind::Albedo(AlbedoPath::Fgd)).filter(by_table).collect();
     let (fixed, varying) = split_by_fixed_sites(&fgd_lookups);
     for site in sites(&fixed) {
-        let slices = slice_of("fgd", SliceOf::Fgd(config.fgd.clone()), &site)?;
+        let slices = slice_of(TableKind::Fgd.name(), SliceOf::Fgd(config.fgd.clone()), &site)?;
         merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site, "FGD"));
     }
     if !varying.is_empty() {
@@ -303,7 +303,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let (fixed, varying) = split_by_fixed_sites(&tir_lookups);
     let slices_before = tables.len();
     for site in sites(&fixed) {
-        let slices = slice_of("tir", SliceOf::Tir(config.tir.clone()), &site)?;
+        let slices = slice_of(TableKind::Tir.name(), SliceOf::Tir(config.tir.clone()), &site)?;
         merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site, "TIR"));
     }
     let tir_slices = tables.len() - slices_before;
@@ -401,7 +401,7 @@ fn named_forms(scene: &Scene) -> Result<(Vec<FittedForm>, Vec<FittedForm>)> {
             None => forms.push(form.clone()),
         }
     }
-    Ok(forms.into_iter().partition(|f| f.table == "tir"))
+    Ok(forms.into_iter().partition(|f| f.table == TableKind::Tir.name()))
 }
 
 /// "N slice table(s) replace(s) it".

@@ -47,7 +47,7 @@ use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
-use crate::table::{Axis, Mapping, Placement};
+use crate::table::{Axis, Mapping, Placement, TableKind};
 
 pub use material::{RecordedMaterial, RunResult};
 
@@ -118,9 +118,13 @@ impl TableFile {
             place: None,
             axes: entry.axes.iter().map(|a| a.axis.clone()).collect(),
             channels: padded(entry.channels.len()),
-            is_tir: is_slice(entry, "tir"),
-            is_fgd: is_slice(entry, "fgd"),
-            indices: if is_slice(entry, "tir") || is_slice(entry, "fgd") { indices } else { Vec::new() },
+            is_tir: is_slice(entry, TableKind::Tir),
+            is_fgd: is_slice(entry, TableKind::Fgd),
+            indices: if is_slice(entry, TableKind::Tir) || is_slice(entry, TableKind::Fgd) {
+                indices
+            } else {
+                Vec::new()
+            },
         }
     }
 }
@@ -286,7 +290,7 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
     let entries = &folder.manifest().files;
     let mut sources = Sources::default();
     // The slices in the order the CPU evaluator finds them (`model::folder`), which decides among equals.
-    for slice in folder.scene_slices(|e| is_slice(e, "fgd") || is_slice(e, "tir"))? {
+    for slice in folder.scene_slices(|e| is_slice(e, TableKind::Fgd) || is_slice(e, TableKind::Tir))? {
         let mut table = TableFile::of(&slice.file, &slice.entry);
         table.place = slice.place;
         sources.slices.push(table);
@@ -314,22 +318,24 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
             continue;
         }
         let table = TableFile::of(file, entry);
-        let dimension = table.axes.len();
-        if table.is_fgd || table.is_tir {
+        // A table the shader reads has its kind's shape; a file of another shape (a scene's
+        // slice, the 4D FGD table, which the shader reads by its packing) is read otherwise.
+        let Some(kind) = TableKind::named(&entry.table) else { continue };
+        if table.axes.len() != kind.shape().axes.len() {
             continue;
-        } else if entry.table == "gd" && dimension == 2 {
-            sources.gd = Some(table);
-        } else if entry.table == "tir" && dimension == 3 {
-            sources.tir = Some(table);
-        } else if entry.table == "fgd_rarer" && dimension == 3 {
-            sources.fgd_rarer = Some(table);
-        } else if entry.table == "karis" && dimension == 2 {
-            sources.karis = Some(table);
-        } else if entry.table == "belcour"
-            && dimension == 2
-            && let Some(basis) = &entry.fresnel_basis
-        {
-            sources.belcour = Some((table, basis.clone()));
+        }
+        match kind {
+            TableKind::Gd => sources.gd = Some(table),
+            TableKind::Tir => sources.tir = Some(table),
+            TableKind::FgdRarer => sources.fgd_rarer = Some(table),
+            TableKind::Karis => sources.karis = Some(table),
+            TableKind::Belcour => {
+                if let Some(basis) = &entry.fresnel_basis {
+                    sources.belcour = Some((table, basis.clone()));
+                }
+            }
+            // Not a texture: the shader reads the 4D table by its lossless packing (above).
+            TableKind::Fgd => {}
         }
     }
     sources.fit = entries

@@ -19,6 +19,7 @@ use super::{FileEntry, LutFolder, Precision, Table};
 use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::formats::manifest::MANIFEST_FILE;
+use crate::table::TableKind;
 use crate::table::derived::{
     CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, critical_angle_fraction, critical_angle_offset,
 };
@@ -31,38 +32,34 @@ struct Checked {
     entry: Option<FileEntry>,
 }
 
-/// What a handle requires of a table: axis names (each position allows one of a few) and a
-/// channel count.
-struct Shape {
-    kind: &'static str,
-    axes: &'static [&'static [&'static str]],
-    channels: usize,
-}
+/// What a handle requires of a table: the shape of its kind ([`TableKind::shape`]).
+struct Shape(TableKind);
 
-const KARIS: Shape = Shape { kind: "karis", axes: &[&["mu"], &["alpha"]], channels: 2 };
-const BELCOUR: Shape = Shape { kind: "belcour", axes: &[&["mu"], &["alpha"]], channels: 4 };
-const GD: Shape = Shape { kind: "gd", axes: &[&["mu"], &["alpha"]], channels: 1 };
-const TIR: Shape = Shape { kind: "tir", axes: &[&["mu"], &["alpha"], &["eta", CRITICAL_ANGLE_OFFSET]], channels: 1 };
-const FGD: Shape = Shape { kind: "fgd", axes: &[&["mu"], &["alpha"], &["eta"], &["kappa"]], channels: 1 };
-const FGD_RARER: Shape =
-    Shape { kind: "fgd_rarer", axes: &[&["mu"], &["alpha"], &[CRITICAL_ANGLE_FRACTION]], channels: 1 };
+const KARIS: Shape = Shape(TableKind::Karis);
+const BELCOUR: Shape = Shape(TableKind::Belcour);
+const GD: Shape = Shape(TableKind::Gd);
+const TIR: Shape = Shape(TableKind::Tir);
+const FGD: Shape = Shape(TableKind::Fgd);
+const FGD_RARER: Shape = Shape(TableKind::FgdRarer);
 
 impl Shape {
     fn describe(&self) -> String {
-        let axes: Vec<String> = self.axes.iter().map(|names| names.join(" or ")).collect();
+        let shape = self.0.shape();
+        let axes: Vec<String> = shape.axes.iter().map(|names| names.join(" or ")).collect();
         format!(
             "a {} table has the axes ({}) and {} channel{}",
-            self.kind,
+            self.0,
             axes.join(", "),
-            self.channels,
-            if self.channels == 1 { "" } else { "s" }
+            shape.channels,
+            if shape.channels == 1 { "" } else { "s" }
         )
     }
 
     fn fits(&self, table: &Table) -> bool {
-        table.axes.len() == self.axes.len()
-            && table.axes.iter().zip(self.axes).all(|(axis, allowed)| allowed.contains(&axis.name.as_str()))
-            && table.channel_count() == self.channels
+        let shape = self.0.shape();
+        table.axes.len() == shape.axes.len()
+            && table.axes.iter().zip(shape.axes).all(|(axis, allowed)| allowed.contains(&axis.name.as_str()))
+            && table.channel_count() == shape.channels
     }
 
     fn check(&self, table: Table, precision: Precision, entry: Option<FileEntry>, path: &str) -> Result<Checked> {
@@ -100,13 +97,13 @@ impl Shape {
             .find_map(|&format| {
                 files
                     .iter()
-                    .find(|(_, e)| e.table == self.kind && e.format == format && e.packing.is_none())
+                    .find(|(_, e)| e.table == self.0.name() && e.format == format && e.packing.is_none())
                     .map(|(file, _)| file.as_str())
             })
             .ok_or_else(|| {
                 Error::format(
                     folder.dir().join(MANIFEST_FILE),
-                    format!("lists no `{}` table (a file whose entry has \"table\": \"{}\")", self.kind, self.kind),
+                    format!("lists no `{}` table (a file whose entry has \"table\": \"{}\")", self.0, self.0),
                 )
             })
     }

@@ -6,8 +6,10 @@
 
 mod axis;
 pub mod derived;
+pub mod kind;
 
 pub use axis::{Axis, Mapping, Placement};
+pub use kind::{TableKind, TableShape};
 
 use serde::{Deserialize, Serialize};
 

@@ -1,0 +1,80 @@
+//! The tables tmlut builds, as every reader knows them: one list, [`TableKind::ALL`], with each
+//! table's name (its manifest `table`, its file stem, its TOML section) and the shape a reader
+//! requires of it (axis names and channel count). The generator's registry (`tmlut::config`)
+//! pairs each kind with its recipe in an exhaustive `match`, so a kind without a recipe, or a
+//! recipe without a kind, does not compile; the loader's handles, the model's folder tables and
+//! the scene shader's sources find each table by its kind.
+
+use super::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
+
+/// One table tmlut knows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TableKind {
+    /// `FGD(mu, alpha, eta, kappa)`: an interface's directional albedo, the 4D table.
+    Fgd,
+    /// `GD(mu, alpha)`: a GGX lobe's directional albedo without Fresnel.
+    Gd,
+    /// `TIR(mu, alpha, eta)`: the share of a lobe lost to total internal reflection.
+    Tir,
+    /// The Belcour–Bati–Barla 2020 split-sum table over a Fresnel basis.
+    Belcour,
+    /// The Karis split-sum table (Schlick Fresnel).
+    Karis,
+    /// FGD of a dielectric onto a rarer medium, over the critical-angle fraction.
+    FgdRarer,
+}
+
+/// What a reader requires of a table: the names each axis may have, in order, and the channels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TableShape {
+    pub axes: &'static [&'static [&'static str]],
+    pub channels: usize,
+}
+
+impl TableKind {
+    /// Every table, in build order.
+    pub const ALL: &'static [TableKind] =
+        &[TableKind::Fgd, TableKind::Gd, TableKind::Tir, TableKind::Belcour, TableKind::Karis, TableKind::FgdRarer];
+
+    /// The table's name: its manifest `table`, its file stem, its TOML section and `--only` name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            TableKind::Fgd => "fgd",
+            TableKind::Gd => "gd",
+            TableKind::Tir => "tir",
+            TableKind::Belcour => "belcour",
+            TableKind::Karis => "karis",
+            TableKind::FgdRarer => "fgd_rarer",
+        }
+    }
+
+    /// The table called `name`.
+    pub fn named(name: &str) -> Option<TableKind> {
+        TableKind::ALL.iter().copied().find(|kind| kind.name() == name)
+    }
+
+    /// Every table's name, in build order.
+    pub fn names() -> Vec<&'static str> {
+        TableKind::ALL.iter().map(|kind| kind.name()).collect()
+    }
+
+    /// The axes and channels a reader requires of the whole table (a scene's slices of FGD and
+    /// TIR are tables of their own, `fgd_*` and `tir_*`, over `mu` and `alpha`).
+    pub fn shape(self) -> TableShape {
+        const MU_ALPHA: [&[&str]; 2] = [&["mu"], &["alpha"]];
+        match self {
+            TableKind::Fgd => TableShape { axes: &[&["mu"], &["alpha"], &["eta"], &["kappa"]], channels: 1 },
+            TableKind::Gd => TableShape { axes: &MU_ALPHA, channels: 1 },
+            TableKind::Tir => TableShape { axes: &[&["mu"], &["alpha"], &["eta", CRITICAL_ANGLE_OFFSET]], channels: 1 },
+            TableKind::Belcour => TableShape { axes: &MU_ALPHA, channels: 4 },
+            TableKind::Karis => TableShape { axes: &MU_ALPHA, channels: 2 },
+            TableKind::FgdRarer => TableShape { axes: &[&["mu"], &["alpha"], &[CRITICAL_ANGLE_FRACTION]], channels: 1 },
+        }
+    }
+}
+
+impl std::fmt::Display for TableKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
