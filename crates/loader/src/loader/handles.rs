@@ -20,9 +20,7 @@ use crate::error::{Error, Result};
 use crate::formats::FileFormat;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::table::TableKind;
-use crate::table::derived::{
-    CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, critical_angle_fraction, critical_angle_offset,
-};
+use crate::table::derived::{CRITICAL_ANGLE_OFFSET, critical_angle_fraction, critical_angle_offset};
 
 /// A verified table with the shape a handle needs.
 #[derive(Debug, Clone)]
