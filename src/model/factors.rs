@@ -202,13 +202,30 @@ fn sinhc<R: Real>(x: R) -> R {
 /// slab (`gamma = 0`, where the reference divides `0 / 0` and so forces `sigma_k >= 1e-7`) gets its
 /// limit `r = tau b / (1 + tau a)`, `t = 1 / (1 + tau a)`. `a^2 - b^2` is given factored, as
 /// `(a - b)(a + b)`, both non-negative, so that it cannot round below zero.
+///
+/// From `gamma tau = 40` on, the same solution divided through by `S / gamma`: with
+/// `q = gamma / S = 2 gamma e^-x / (1 - e^-2x)`, `r = b / (sqrt(q^2 + gamma^2) + a)` and
+/// `t = q / (sqrt(q^2 + gamma^2) + a)`, since `S^2` passes the f32 maximum at `x = 44.4` and the
+/// asymmetry's slab reaches `x = 48` (its `gamma` is up to 1.066 `sigma_ext`, at `g = -0.26`, and
+/// the exponent limit holds `sigma_ext tau` to 45).
 fn slab<R: Real>(a: f64, b: f64, a_minus_b_times_a_plus_b: f64, tau: R) -> (R, R) {
     let gamma = a_minus_b_times_a_plus_b.max(0.0).sqrt();
-    let sinh_over_gamma = tau * sinhc(tau * gamma);
-    let sinh = sinh_over_gamma * gamma;
-    let cosh = (sinh * sinh + 1.0).sqrt();
-    let denominator = cosh + sinh_over_gamma * a;
-    (sinh_over_gamma * b / denominator, R::of(1.0) / denominator)
+    let x = tau * gamma;
+    let direct = || {
+        let sinh_over_gamma = tau * sinhc(x);
+        let sinh = sinh_over_gamma * gamma;
+        let cosh = (sinh * sinh + 1.0).sqrt();
+        let denominator = cosh + sinh_over_gamma * a;
+        (sinh_over_gamma * b / denominator, R::of(1.0) / denominator)
+    };
+    let divided = || {
+        let e = (-x).exp();
+        let q = e * (2.0 * gamma) / (R::of(1.0) - e * e);
+        let denominator = (q * q + gamma * gamma).sqrt() + a;
+        (R::of(b) / denominator, q / denominator)
+    };
+    const DIVIDED_FROM: f64 = 40.0;
+    R::choose_pair(Compare::Lt, x, R::of(DIVIDED_FROM), direct, divided)
 }
 
 /// The factors of a medium crossed by a lobe of cosine `cos` (the reference's `medium_transfer_factors`),

@@ -238,3 +238,24 @@ fn stiff_stacks_give_finite_lobes_and_albedos() {
         }
     }
 }
+
+/// A medium's factors recorded and run in f32 (as the scene shader computes them) against f64,
+/// where its asymmetry's slab reaches `gamma tau = 47.7`, past where `sinh^2` overflows f32
+/// (`x = 44.4`): the slab's divided form keeps them finite and within f32 rounding.
+#[test]
+fn a_mediums_factors_in_f32_stay_finite_where_the_slabs_sinh_squared_would_overflow() {
+    use crate::fit::text::record::{Recorded, record};
+    let thick = Medium { sigma_s: [2.0; 3], sigma_k: [0.01; 3], depth: 1e3, g: -0.3 };
+    let cpu = factors::medium(&thick, 1.0, true).expect("a scattering medium");
+    let (recorded, tape) = record(|| factors::medium(&thick, Recorded::variable(0), true).expect("the same"));
+    let mut values: Vec<f32> = Vec::new();
+    tape.values_with(|_, _| 1.0f32, &mut values);
+    let run = |r: Recorded| r.known_value().map_or_else(|| f64::from(values[r.instruction()]), |v| v);
+    for (f32_flux, f64_flux) in [(recorded.r_fb, cpu.r_fb), (recorded.t_ff, cpu.t_ff), (recorded.t, cpu.t)] {
+        for (r, e) in f32_flux.energy.iter().zip(f64_flux.energy) {
+            assert!((run(*r) - e).abs() <= 1e-6 * e.abs().max(1e-30), "energy {} against {e}", run(*r));
+        }
+        let g = run(f32_flux.g);
+        assert!(g.is_finite() && (g - f64_flux.g).abs() <= 1e-5, "asymmetry {g} against {}", f64_flux.g);
+    }
+}

@@ -306,7 +306,7 @@ mod tests {
         // Thick media whose slabs reach the exponent limit, the asymmetry's slab twice it.
         let coat = Layer::Interface(Interface { eta: [1.5; 3], kappa: [0.0; 3], alpha: 0.2 });
         let copper = Layer::Interface(Interface { eta: [0.2, 0.9, 1.1], kappa: [3.0, 2.6, 2.3], alpha: 0.1 });
-        for g in [-0.999, -0.5, 0.0, 0.9] {
+        for g in [-0.999, -0.5, -0.3, 0.0, 0.9] {
             let thick = Layer::Medium(Medium { sigma_s: [2.0, 1.0, 0.5], sigma_k: [0.05, 0.1, 0.0], depth: 100.0, g });
             stacks.push(("a thick scattering medium", vec![coat, thick, copper]));
         }

@@ -24,6 +24,7 @@ pub enum Compare {
 impl Compare {
     /// Whether `a <compare> b` holds, with IEEE semantics (every comparison with NaN is false but
     /// `!=`).
+    #[inline(always)]
     pub fn holds(self, a: f64, b: f64) -> bool {
         match self {
             Compare::Lt => a < b,
@@ -87,6 +88,7 @@ pub trait Real:
 
     /// `then()` where `left <compare> right` holds, else `otherwise()`: only the side taken is
     /// computed where the condition is known ([`Real::known`]), both otherwise.
+    #[inline(always)]
     fn choose(
         compare: Compare,
         left: Self,
@@ -106,6 +108,31 @@ pub trait Real:
         }
     }
 
+    /// [`Real::choose`] of a pair: `then()` where `left <compare> right` holds, else
+    /// `otherwise()`, each side computed once.
+    #[inline(always)]
+    fn choose_pair(
+        compare: Compare,
+        left: Self,
+        right: Self,
+        then: impl FnOnce() -> (Self, Self),
+        otherwise: impl FnOnce() -> (Self, Self),
+    ) -> (Self, Self) {
+        match (left.known(), right.known()) {
+            (Some(a), Some(b)) => {
+                if compare.holds(a, b) {
+                    then()
+                } else {
+                    otherwise()
+                }
+            }
+            _ => {
+                let ((a, b), (c, d)) = (then(), otherwise());
+                (Self::select(compare, left, right, a, c), Self::select(compare, left, right, b, d))
+            }
+        }
+    }
+
     /// `self` where it is finite, else `fallback` (NaN included).
     fn finite_or(self, fallback: Self) -> Self {
         Self::choose(Compare::Le, self.abs(), Self::largest_finite(), || self, || fallback)
@@ -119,6 +146,7 @@ pub trait Real:
 
 /// `then()` where any of `values` is not 0, else `otherwise()` (a lobe that carries energy in some
 /// channel).
+#[inline(always)]
 pub fn choose_if_any_nonzero<R: Real>(values: [R; 3], then: impl Fn() -> R, otherwise: impl Fn() -> R) -> R {
     let zero = R::of(0.0);
     R::choose(Compare::Ne, values[0], zero, &then, || {
@@ -127,62 +155,77 @@ pub fn choose_if_any_nonzero<R: Real>(values: [R; 3], then: impl Fn() -> R, othe
 }
 
 impl Real for f64 {
+    #[inline(always)]
     fn of(value: f64) -> Self {
         value
     }
 
+    #[inline(always)]
     fn known(self) -> Option<f64> {
         Some(self)
     }
 
+    #[inline(always)]
     fn smallest_transmission() -> Self {
         1e-150
     }
 
+    #[inline(always)]
     fn largest_finite() -> Self {
         f64::MAX
     }
 
+    #[inline(always)]
     fn sqrt(self) -> Self {
         f64::sqrt(self)
     }
 
+    #[inline(always)]
     fn exp(self) -> Self {
         f64::exp(self)
     }
 
+    #[inline(always)]
     fn sinh(self) -> Self {
         f64::sinh(self)
     }
 
+    #[inline(always)]
     fn abs(self) -> Self {
         f64::abs(self)
     }
 
+    #[inline(always)]
     fn powf(self, exponent: Self) -> Self {
         f64::powf(self, exponent)
     }
 
+    #[inline(always)]
     fn min(self, other: Self) -> Self {
         f64::min(self, other)
     }
 
+    #[inline(always)]
     fn max(self, other: Self) -> Self {
         f64::max(self, other)
     }
 
+    #[inline(always)]
     fn clamp(self, lo: f64, hi: f64) -> Self {
         f64::clamp(self, lo, hi)
     }
 
+    #[inline(always)]
     fn select(compare: Compare, left: Self, right: Self, then: Self, otherwise: Self) -> Self {
         if compare.holds(left, right) { then } else { otherwise }
     }
 
+    #[inline(always)]
     fn finite_or(self, fallback: Self) -> Self {
         if self.is_finite() { self } else { fallback }
     }
 
+    #[inline(always)]
     fn or_if_nan(self, fallback: f64) -> Self {
         if self.is_nan() { fallback } else { self }
     }
