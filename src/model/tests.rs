@@ -250,7 +250,7 @@ fn a_mediums_factors_in_f32_stay_finite_where_the_slabs_sinh_squared_would_overf
     let (recorded, tape) = record(|| factors::medium(&thick, Recorded::variable(0), true).expect("the same"));
     let mut values: Vec<f32> = Vec::new();
     tape.values_with(|_, _| 1.0f32, &mut values);
-    let run = |r: Recorded| r.known_value().map_or_else(|| f64::from(values[r.instruction()]), |v| v);
+    let run = |r: Recorded| r.known_value().unwrap_or_else(|| f64::from(values[r.instruction()]));
     for (f32_flux, f64_flux) in [(recorded.r_fb, cpu.r_fb), (recorded.t_ff, cpu.t_ff), (recorded.t, cpu.t)] {
         for (r, e) in f32_flux.energy.iter().zip(f64_flux.energy) {
             assert!((run(*r) - e).abs() <= 1e-6 * e.abs().max(1e-30), "energy {} against {e}", run(*r));
