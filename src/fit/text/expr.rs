@@ -104,8 +104,7 @@ impl Func {
         FUNCTIONS.iter().find(|(_, f, _)| *f == self).map(|(n, ..)| *n).unwrap_or("?")
     }
 
-    /// How many arguments it takes.
-    pub fn arity(self) -> usize {
+    fn arity(self) -> usize {
         FUNCTIONS.iter().find(|(_, f, _)| *f == self).map(|(.., a)| *a).unwrap_or(0)
     }
 }

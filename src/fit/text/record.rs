@@ -233,8 +233,8 @@ impl Real for Recorded {
     }
 
     fn select(compare: Compare, left: Self, right: Self, then: Self, otherwise: Self) -> Self {
-        if let (Some(a), Some(b)) = (left.known, right.known) {
-            return if compare.holds(a, b) { then } else { otherwise };
+        if let Some(holds) = Self::decided(compare, left, right) {
+            return if holds { then } else { otherwise };
         }
         if then == otherwise {
             return then;

@@ -384,7 +384,7 @@ fn operand_slots(ins: &mut Ins) -> Vec<&mut usize> {
 }
 
 /// Every instruction an instruction reads ([`operand_slots`]).
-pub(super) fn reads(ins: &Ins) -> Vec<usize> {
+pub(crate) fn reads(ins: &Ins) -> Vec<usize> {
     let mut ins = *ins;
     operand_slots(&mut ins).into_iter().map(|k| *k).collect()
 }

@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 use crate::fit::text::expr::BinOp;
 use crate::fit::text::record::{Recorded, record};
 use crate::fit::text::shader::{builtin, comparison};
-use crate::fit::text::tape::{Ins, Scalar, Tape};
+use crate::fit::text::tape::{Ins, Scalar, Tape, reads};
 use crate::model::{Evaluation, FluxModel, Lookup, Material, Quantity, Stack, Tables};
 
 /// A material's model as recorded code: its evaluation at the view cosine (the tape's variable 0),
@@ -178,10 +178,10 @@ fn print(
 ) -> Result<Printed> {
     let tape = &recorded.tape;
     let n = tape.ins.len();
+    // What an instruction reads: a lookup, its coordinates that depend on the view.
     let operands = |i: usize| -> Vec<usize> {
         match tape.ins[i] {
-            Ins::Const(_) | Ins::Param(_) | Ins::Var(0) => Vec::new(),
-            Ins::Var(k) => {
+            Ins::Var(k) if k > 0 => {
                 let l = &recorded.lookups[k - 1];
                 [l.mu, l.alpha, l.eta, l.kappa]
                     .iter()
@@ -189,10 +189,7 @@ fn print(
                     .map(|r| r.instruction())
                     .collect()
             }
-            Ins::Neg(a) | Ins::PowInt(a, _) => vec![a],
-            Ins::Bin(_, a, b) => vec![a, b],
-            Ins::Call(function, arguments) => arguments[..function.arity()].to_vec(),
-            Ins::Select { otherwise, then, left, right, .. } => vec![otherwise, then, left, right],
+            ref ins => reads(ins),
         }
     };
     // Which instructions are read, and how often.

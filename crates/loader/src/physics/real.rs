@@ -86,8 +86,14 @@ pub trait Real:
     /// `then` where `left <compare> right`, else `otherwise`, both given.
     fn select(compare: Compare, left: Self, right: Self, then: Self, otherwise: Self) -> Self;
 
+    /// Whether `left <compare> right` holds, where both are known now ([`Real::known`]).
+    #[inline(always)]
+    fn decided(compare: Compare, left: Self, right: Self) -> Option<bool> {
+        Some(compare.holds(left.known()?, right.known()?))
+    }
+
     /// `then()` where `left <compare> right` holds, else `otherwise()`: only the side taken is
-    /// computed where the condition is known ([`Real::known`]), both otherwise.
+    /// computed where the condition is [`Real::decided`], both otherwise.
     #[inline(always)]
     fn choose(
         compare: Compare,
@@ -96,15 +102,10 @@ pub trait Real:
         then: impl FnOnce() -> Self,
         otherwise: impl FnOnce() -> Self,
     ) -> Self {
-        match (left.known(), right.known()) {
-            (Some(a), Some(b)) => {
-                if compare.holds(a, b) {
-                    then()
-                } else {
-                    otherwise()
-                }
-            }
-            _ => Self::select(compare, left, right, then(), otherwise()),
+        match Self::decided(compare, left, right) {
+            Some(true) => then(),
+            Some(false) => otherwise(),
+            None => Self::select(compare, left, right, then(), otherwise()),
         }
     }
 
@@ -118,15 +119,10 @@ pub trait Real:
         then: impl FnOnce() -> (Self, Self),
         otherwise: impl FnOnce() -> (Self, Self),
     ) -> (Self, Self) {
-        match (left.known(), right.known()) {
-            (Some(a), Some(b)) => {
-                if compare.holds(a, b) {
-                    then()
-                } else {
-                    otherwise()
-                }
-            }
-            _ => {
+        match Self::decided(compare, left, right) {
+            Some(true) => then(),
+            Some(false) => otherwise(),
+            None => {
                 let ((a, b), (c, d)) = (then(), otherwise());
                 (Self::select(compare, left, right, a, c), Self::select(compare, left, right, b, d))
             }
