@@ -6,3 +6,5 @@ pub use tmlut_loader::shader::*;
 // The scene shader reads materials' fitted forms through the generator's form language.
 #[cfg(feature = "generator")]
 pub mod scene;
+#[cfg(feature = "generator")]
+pub mod tape;

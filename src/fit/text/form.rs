@@ -51,6 +51,8 @@ pub struct Binding {
     pub name: String,
     pub text: String,
     pub node: Node,
+    /// The instruction of [`Form::tape`] that holds its value.
+    pub slot: usize,
 }
 
 /// A form read against a table.
@@ -209,7 +211,7 @@ impl Form {
                 let node = expr::parse(definition).map_err(|e| Error::invalid("derived variable", e.message))?;
                 let slot = scope.compile(&node).map_err(|e| Error::invalid("derived variable", e.message))?;
                 scope.names.insert(name.to_string(), slot);
-                derived_all.push(Binding { name: name.to_string(), text: definition.to_string(), node });
+                derived_all.push(Binding { name: name.to_string(), text: definition.to_string(), node, slot });
             }
         }
 
@@ -266,12 +268,12 @@ impl Form {
             check_name(key, &scope)?;
             let (node, slot) = compile(&mut scope, value)?;
             scope.names.insert(key.get_ref().clone(), slot);
-            lets.push(Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node });
+            lets.push(Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node, slot });
             let_keys.push(key.span().start);
         }
 
         let table_channels: Vec<&str> = table.channels.iter().map(String::as_str).collect();
-        let mut channels: Vec<(usize, Binding, usize)> = Vec::new();
+        let mut channels: Vec<(usize, Binding)> = Vec::new();
         for (key, value) in &file.channels {
             let Some(index) = table_channels.iter().position(|c| c == key.get_ref()) else {
                 return Err(at(
@@ -285,7 +287,7 @@ impl Form {
                 ));
             };
             let (node, slot) = compile(&mut scope, value)?;
-            channels.push((index, Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node }, slot));
+            channels.push((index, Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node, slot }));
         }
         if channels.is_empty() || channels.len() > MAX_CHANNELS {
             return Err(at(
@@ -299,7 +301,7 @@ impl Form {
             ));
         }
         channels.sort_by_key(|(index, ..)| *index);
-        scope.tape.outputs = channels.iter().map(|(.., slot)| *slot).collect();
+        scope.tape.outputs = channels.iter().map(|(_, b)| b.slot).collect();
 
         for (k, used) in scope.tape.parameters_used(parameters.len()).into_iter().enumerate() {
             if !used {
@@ -313,7 +315,7 @@ impl Form {
         // The names any binding or channel reads: a binding none reads is a mistake (a channel
         // that was meant to use it), as an unused parameter is.
         let mut read = Vec::new();
-        for binding in lets.iter().chain(channels.iter().map(|(_, b, _)| b)) {
+        for binding in lets.iter().chain(channels.iter().map(|(_, b)| b)) {
             binding.node.names(&mut read);
         }
         for (binding, &key) in lets.iter().zip(&let_keys) {
@@ -338,7 +340,7 @@ impl Form {
             derived,
             parameters,
             lets,
-            channels: channels.into_iter().map(|(_, b, _)| b).collect(),
+            channels: channels.into_iter().map(|(_, b)| b).collect(),
             tape: scope.tape,
         })
     }

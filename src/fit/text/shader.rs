@@ -3,14 +3,17 @@
 //! validated it.
 //!
 //! The function is `tmlut_<form>(variables...)`, returning `f32` for one channel and `vecN<f32>`
-//! for N, in the table's channel order. Its body states the form as written: the derived
-//! variables it reads, each parameter as a local holding its fitted value (f32, shortest
-//! round-trip text), each `let`, then the channels.
+//! for N, in the table's channel order. Its body is the form's tape ([`Form::tape`], which the fit
+//! evaluates) printed by the one tape printer ([`crate::shader::tape`]) that prints the scene
+//! model, with the form's names: the derived variables it reads, each parameter as a local holding
+//! its fitted value (f32, shortest round-trip text), each `let`, then the channels.
 
-use super::expr::{BinOp, Compare, Func, Node};
-use super::form::{Form, integer_exponent};
+use super::expr::Func;
+use super::form::Form;
+use super::tape::Ins;
 use crate::error::{Error, Result};
-use crate::shader::{Builtin, Expr, Lang, Module, Op, Parens, Stmt, Ty, call, f, func, let_, name, select};
+use crate::shader::tape::{Leaves, Printed, print};
+use crate::shader::{Builtin, Expr, Lang, Module, Parens, Stmt, Ty, call, f, func, let_, name};
 
 /// The shading languages a fitted form is written in, with each file's extension.
 pub const LANGUAGES: &[(&str, &str)] = &[("WGSL", "wgsl"), ("HLSL", "hlsl"), ("GLSL", "glsl"), ("MSL", "metal")];
@@ -20,122 +23,66 @@ pub fn function_name(form: &Form) -> String {
     format!("tmlut_{}", form.name)
 }
 
-/// The shader builtin of a function of the language; `None` for `asinh`, which HLSL lacks.
-pub(crate) fn builtin(f: Func) -> Option<Builtin> {
-    Some(match f {
-        Func::Abs => Builtin::Abs,
-        Func::Sign => Builtin::Sign,
-        Func::Min => Builtin::Min,
-        Func::Max => Builtin::Max,
-        Func::Clamp => Builtin::Clamp,
-        Func::Saturate => Builtin::Saturate,
-        Func::Floor => Builtin::Floor,
-        Func::Fract => Builtin::Fract,
-        Func::Sqrt => Builtin::Sqrt,
-        Func::Rsqrt => Builtin::InverseSqrt,
-        Func::Exp => Builtin::Exp,
-        Func::Exp2 => Builtin::Exp2,
-        Func::Log => Builtin::Log,
-        Func::Log2 => Builtin::Log2,
-        Func::Pow => Builtin::Pow,
-        Func::Sin => Builtin::Sin,
-        Func::Cos => Builtin::Cos,
-        Func::Tan => Builtin::Tan,
-        Func::Asin => Builtin::Asin,
-        Func::Acos => Builtin::Acos,
-        Func::Atan => Builtin::Atan,
-        Func::Atan2 => Builtin::Atan2,
-        Func::Sinh => Builtin::Sinh,
-        Func::Cosh => Builtin::Cosh,
-        Func::Tanh => Builtin::Tanh,
-        Func::Smoothstep => Builtin::Smoothstep,
-        Func::Step => Builtin::Step,
-        Func::Mix => Builtin::Mix,
-        // HLSL has no asinh: a helper function of the module ([`ASINH`]).
-        Func::Asinh => return None,
-    })
-}
-
-/// The shader operator of a comparison.
-pub(crate) fn comparison(compare: Compare) -> Op {
-    match compare {
-        Compare::Lt => Op::Lt,
-        Compare::Le => Op::Le,
-        Compare::Gt => Op::Gt,
-        Compare::Ge => Op::Ge,
-        Compare::Eq => Op::Eq,
-        Compare::Ne => Op::Ne,
-    }
-}
-
 const ASINH: &str = "tmlut_asinh";
 
 fn power_helper(n: i32) -> String {
     if n < 0 { format!("tmlut_pow_m{}", n.unsigned_abs()) } else { format!("tmlut_pow_{n}") }
 }
 
-/// The helpers an expression needs: `asinh`, and `x ^ n` multiplied out.
-#[derive(Default)]
-struct Helpers {
+/// The leaves of a form's tape: its variables are the function's arguments, its parameters locals
+/// holding their fitted values, its derived variables and `let` bindings named as written; and the
+/// helpers its expressions need: `asinh`, and `x ^ n` multiplied out.
+struct FormLeaves<'a> {
+    form: &'a Form,
+    parameters: &'a [f64],
     asinh: bool,
     powers: Vec<i32>,
 }
 
-fn translate(node: &Node, helpers: &mut Helpers) -> Expr {
-    match node {
-        Node::Number(v) => f(*v as f32),
-        Node::Name(n, _) => name(n),
-        Node::Neg(a) => -translate(a, helpers),
-        Node::Binary(BinOp::Pow, a, b) => match integer_exponent(b) {
-            Some(n) => {
-                if !helpers.powers.contains(&n) {
-                    helpers.powers.push(n);
-                }
-                func(&power_helper(n), vec![translate(a, helpers)])
-            }
-            None => call(Builtin::Pow, vec![translate(a, helpers), translate(b, helpers)]),
-        },
-        Node::Binary(op, a, b) => {
-            let (a, b) = (translate(a, helpers), translate(b, helpers));
-            match op {
-                BinOp::Add => a + b,
-                BinOp::Sub => a - b,
-                BinOp::Mul => a * b,
-                BinOp::Div => a / b,
-                BinOp::Pow => unreachable!("handled above"),
-            }
+impl Leaves for FormLeaves<'_> {
+    fn leaf(&mut self, _: usize, ins: Ins, _: &Printed) -> Result<(Expr, Option<String>)> {
+        Ok(match ins {
+            Ins::Var(k) => (name(&self.form.variables[k]), None),
+            Ins::Param(k) => (f(self.parameters[k] as f32), Some(self.form.parameters[k].name.clone())),
+            Ins::Const(v) => (f(v as f32), None),
+            _ => unreachable!("`print` passes leaves only"),
+        })
+    }
+
+    fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr> {
+        debug_assert_eq!(function, Func::Asinh, "the one function without a builtin");
+        self.asinh = true;
+        Ok(func(ASINH, args))
+    }
+
+    fn power(&mut self, x: Expr, n: i32) -> Result<Expr> {
+        if !self.powers.contains(&n) {
+            self.powers.push(n);
         }
-        Node::Call(function, args) => {
-            let args: Vec<Expr> = args.iter().map(|a| translate(a, helpers)).collect();
-            match builtin(*function) {
-                Some(b) => call(b, args),
-                None => {
-                    helpers.asinh = true;
-                    func(ASINH, args)
-                }
-            }
-        }
-        Node::Select { otherwise, then, compare, left, right } => {
-            let condition = translate(left, helpers).op(comparison(*compare), translate(right, helpers));
-            select(condition, translate(then, helpers), translate(otherwise, helpers))
-        }
+        Ok(func(&power_helper(n), vec![x]))
+    }
+
+    fn named(&self, i: usize) -> Option<String> {
+        let form = self.form;
+        form.derived.iter().chain(&form.lets).find(|b| b.slot == i).map(|b| b.name.clone())
+    }
+
+    fn out_of_order(&self, i: usize) -> Error {
+        Error::invalid(format!("form `{}`", self.form.name), format!("its tape reads instruction {i} before it"))
     }
 }
 
 /// The fitted form as a module: helpers first, then `tmlut_<form>`.
-pub fn module(form: &Form, parameters: &[f64]) -> Module {
-    let mut helpers = Helpers::default();
+pub fn module(form: &Form, parameters: &[f64]) -> Result<Module> {
+    let mut leaves = FormLeaves { form, parameters, asinh: false, powers: Vec::new() };
     let mut body = Vec::new();
-    for d in &form.derived {
-        body.push(let_(&d.name, Ty::F32, translate(&d.node, &mut helpers)));
-    }
-    for (p, &v) in form.parameters.iter().zip(parameters) {
-        body.push(let_(&p.name, Ty::F32, f(v as f32)));
-    }
-    for b in &form.lets {
-        body.push(let_(&b.name, Ty::F32, translate(&b.node, &mut helpers)));
-    }
-    let channels: Vec<Expr> = form.channels.iter().map(|c| translate(&c.node, &mut helpers)).collect();
+    let printed = print(&form.tape, &form.tape.outputs, &mut leaves, &mut body)?;
+    let channels: Vec<Expr> = form
+        .tape
+        .outputs
+        .iter()
+        .map(|&k| printed.get(k).ok_or_else(|| leaves.out_of_order(k)))
+        .collect::<Result<_>>()?;
     let returns = if channels.len() == 1 { Ty::F32 } else { Ty::Vec(channels.len() as u8) };
     let result = if channels.len() == 1 { channels[0].clone() } else { Expr::Construct(returns.clone(), channels) };
     body.push(Stmt::Return(result));
@@ -151,7 +98,7 @@ pub fn module(form: &Form, parameters: &[f64]) -> Module {
         header.push_str(&format!("  {line}\n"));
     }
     m.comment(header.trim_end());
-    if helpers.asinh {
+    if leaves.asinh {
         // asinh(x) = sign(x) ln(|x| + sqrt(x^2 + 1)), odd by construction, so that large negative
         // arguments do not cancel.
         let x = name("x");
@@ -169,8 +116,8 @@ pub fn module(form: &Form, parameters: &[f64]) -> Module {
             ],
         );
     }
-    helpers.powers.sort_unstable();
-    for &n in &helpers.powers {
+    leaves.powers.sort_unstable();
+    for &n in &leaves.powers {
         let mut product = f(1.0);
         for k in 0..n.unsigned_abs() {
             product = if k == 0 { name("x") } else { product * name("x") };
@@ -180,14 +127,14 @@ pub fn module(form: &Form, parameters: &[f64]) -> Module {
     }
     let params: Vec<(&str, Ty)> = form.variables.iter().map(|v| (v.as_str(), Ty::F32)).collect();
     m.function(&function_name(form), params, returns, body);
-    m
+    Ok(m)
 }
 
 /// The form's code in every language of [`LANGUAGES`], in that order. The WGSL is validated by
 /// naga, and GLSL and MSL are naga's translations of the validated module; GLSL needs an entry
 /// point, so its file is a compute shader whose `main` calls the function once.
 pub fn sources(form: &Form, parameters: &[f64]) -> Result<Vec<String>> {
-    let m = module(form, parameters);
+    let m = module(form, parameters)?;
     let (wgsl, hlsl) = (m.print(Lang::Wgsl), m.print(Lang::Hlsl));
     let refused = |what: &str, e: String| Error::invalid("form shader", format!("naga refused the {what}: {e}"));
     let arguments = vec!["0.5"; form.variables.len()].join(", ");

@@ -224,7 +224,7 @@ fn tables_with_a_derived_axis_are_fitted_on_a_uniform_grid_of_the_lookup_variabl
     let fitted =
         fit(&form, &Prepared::new(&form, &data), &FitSettings { starts: 1, ..FitSettings::default() }).unwrap();
     assert!((fitted.parameters[0] - 0.25).abs() < 1e-4, "{:?}", fitted.parameters);
-    let wgsl = module(&form, &fitted.parameters).print(crate::shader::Lang::Wgsl);
+    let wgsl = module(&form, &fitted.parameters).unwrap().print(crate::shader::Lang::Wgsl);
     assert!(wgsl.contains("fn tmlut_tir_line(mu: f32, alpha: f32, eta: f32) -> f32"), "{wgsl}");
     crate::shader::validate::wgsl(&wgsl).unwrap();
 }

@@ -9,12 +9,12 @@
 
 use std::cell::RefCell;
 
-use super::super::{Expr, Function, Stmt, Ty, assign, call, f, func, let_, name, select, vec3};
+use super::super::tape::{Leaves, Printed, print};
+use super::super::{Expr, Function, Stmt, Ty, assign, f, name, vec3};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
-use crate::fit::text::expr::BinOp;
+use crate::fit::text::expr::Func;
 use crate::fit::text::record::{Recorded, record};
-use crate::fit::text::shader::{builtin, comparison};
 use crate::fit::text::tape::{Ins, Scalar, Tape, reads};
 use crate::model::{Evaluation, FluxModel, Lookup, Material, Quantity, Stack, Tables};
 
@@ -109,10 +109,11 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
         )),
         Stmt::Var { name: "result".into(), ty: Ty::Named("TmResult".into()), value: None },
     ];
-    let printed = print(g, m, &recorded, &roots, &mut body)?;
-    let value = |r: &Recorded| printed.value(*r);
+    let unknown: Vec<usize> = roots.iter().filter(|r| r.known_value().is_none()).map(|r| r.instruction()).collect();
+    let mut leaves = MaterialLeaves { generator: g, material: m, recorded: &recorded };
+    let printed = print(&recorded.tape, &unknown, &mut leaves, &mut body)?;
     for (target, values) in &outputs {
-        let v: Vec<Expr> = values.iter().map(value).collect::<Result<_>>()?;
+        let v: Vec<Expr> = values.iter().map(|r| value(&printed, *r, &m.name)).collect::<Result<_>>()?;
         let v = match <[Expr; 3]>::try_from(v) {
             Ok([x, y, z]) => vec3(x, y, z),
             Err(mut single) => single.remove(0),
@@ -129,30 +130,19 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
     Ok((function, e.lobes.len()))
 }
 
-/// The instructions' expressions as printed: a name for each bound with `let`, the expression
-/// itself for those used once, inline.
-struct Printed {
-    exprs: Vec<Option<Expr>>,
-    material: String,
+/// Recorded value `r` as printed: a constant, or its instruction.
+fn value(printed: &Printed, r: Recorded, material: &str) -> Result<Expr> {
+    match r.known_value() {
+        Some(v) => constant(v, material),
+        None => printed.get(r.instruction()).ok_or_else(|| out_of_order(material, r.instruction())),
+    }
 }
 
-impl Printed {
-    fn value(&self, r: Recorded) -> Result<Expr> {
-        match r.known_value() {
-            Some(v) => constant(v, &self.material),
-            None => self.instruction(r.instruction()),
-        }
-    }
-
-    /// Instruction `k`, printed before what reads it (the tape's order).
-    fn instruction(&self, k: usize) -> Result<Expr> {
-        self.exprs[k].clone().ok_or_else(|| {
-            Error::invalid(
-                format!("tmlut shader, material `{}`", self.material),
-                format!("its recorded model reads instruction {k} before it is printed"),
-            )
-        })
-    }
+fn out_of_order(material: &str, k: usize) -> Error {
+    Error::invalid(
+        format!("tmlut shader, material `{material}`"),
+        format!("its recorded model reads instruction {k} before it is printed"),
+    )
 }
 
 /// A constant as an f32 literal (past f32's range the largest finite f32, as [`f`] prints every
@@ -167,22 +157,20 @@ fn constant(v: f64, material: &str) -> Result<Expr> {
     Ok(f(v as f32))
 }
 
-/// Print the instructions `roots` depend on into `body`, in the tape's order: a lookup and an
-/// instruction read more than once as `let v<i>`, the others inline where they are read.
-fn print(
-    g: &mut Generator,
-    m: &ShaderMaterial,
-    recorded: &RecordedMaterial,
-    roots: &[Recorded],
-    body: &mut Vec<Stmt>,
-) -> Result<Printed> {
-    let tape = &recorded.tape;
-    let n = tape.ins.len();
-    // What an instruction reads: a lookup, its coordinates that depend on the view.
-    let operands = |i: usize| -> Vec<usize> {
+/// The leaves of a material's recorded model: the view cosine `mu_in`, each lookup the read of
+/// its table (bound with `let`, as a texture read is worth naming), constants as f32 literals.
+struct MaterialLeaves<'a, 'g> {
+    generator: &'a mut Generator<'g>,
+    material: &'a ShaderMaterial,
+    recorded: &'a RecordedMaterial,
+}
+
+impl Leaves for MaterialLeaves<'_, '_> {
+    /// A lookup reads its coordinates that depend on the view.
+    fn operands(&self, tape: &Tape, i: usize) -> Vec<usize> {
         match tape.ins[i] {
             Ins::Var(k) if k > 0 => {
-                let l = &recorded.lookups[k - 1];
+                let l = &self.recorded.lookups[k - 1];
                 [l.mu, l.alpha, l.eta, l.kappa]
                     .iter()
                     .filter(|r| r.known_value().is_none())
@@ -191,69 +179,32 @@ fn print(
             }
             ref ins => reads(ins),
         }
-    };
-    // Which instructions are read, and how often.
-    let mut uses = vec![0usize; n];
-    let mut live = vec![false; n];
-    for r in roots.iter().filter(|r| r.known_value().is_none()) {
-        live[r.instruction()] = true;
-        uses[r.instruction()] += 1;
     }
-    for i in (0..n).rev() {
-        if live[i] {
-            for k in operands(i) {
-                live[k] = true;
-                uses[k] += 1;
+
+    fn leaf(&mut self, i: usize, ins: Ins, printed: &Printed) -> Result<(Expr, Option<String>)> {
+        let m = self.material;
+        match ins {
+            Ins::Const(v) => Ok((constant(v, &m.name)?, None)),
+            Ins::Var(0) => Ok((name("mu_in"), None)),
+            Ins::Var(k) => {
+                Ok((lookup(self.generator, m, &self.recorded.lookups[k - 1], printed)?, Some(format!("v{i}"))))
             }
+            _ => Err(self.generator.refuse(&m.name, "its recorded model holds a form's parameter".into())),
         }
     }
-    let mut printed = Printed { exprs: vec![None; n], material: m.name.clone() };
-    for i in 0..n {
-        if !live[i] {
-            continue;
-        }
-        let x = |k: usize| printed.instruction(k);
-        let (expr, bind) = match tape.ins[i] {
-            Ins::Const(v) => (constant(v, &m.name)?, false),
-            Ins::Var(0) => (name("mu_in"), false),
-            Ins::Var(k) => (lookup(g, m, &recorded.lookups[k - 1], &printed)?, true),
-            Ins::Neg(a) => (-x(a)?, uses[i] > 1),
-            Ins::Bin(op, a, b) => {
-                let (a, b) = (x(a)?, x(b)?);
-                let e = match op {
-                    BinOp::Add => a + b,
-                    BinOp::Sub => a - b,
-                    BinOp::Mul => a * b,
-                    BinOp::Div => a / b,
-                    BinOp::Pow => func("pow", vec![a, b]),
-                };
-                (e, uses[i] > 1)
-            }
-            Ins::Call(function, _) => {
-                let args: Vec<Expr> = operands(i).into_iter().map(x).collect::<Result<_>>()?;
-                let Some(b) = builtin(function) else {
-                    return Err(
-                        g.refuse(&m.name, format!("its model calls `{}`, which has no builtin", function.name()))
-                    );
-                };
-                (call(b, args), uses[i] > 1)
-            }
-            Ins::Select { otherwise, then, compare, left, right } => {
-                (select(x(left)?.op(comparison(compare), x(right)?), x(then)?, x(otherwise)?), uses[i] > 1)
-            }
-            Ins::Param(_) | Ins::PowInt(..) => {
-                return Err(g.refuse(&m.name, "its recorded model holds a form's instruction".into()));
-            }
-        };
-        printed.exprs[i] = Some(if bind {
-            let variable = format!("v{i}");
-            body.push(let_(&variable, Ty::F32, expr));
-            name(&variable)
-        } else {
-            expr
-        });
+
+    fn helper(&mut self, function: Func, _: Vec<Expr>) -> Result<Expr> {
+        let reason = format!("its model calls `{}`, which has no builtin", function.name());
+        Err(self.generator.refuse(&self.material.name, reason))
     }
-    Ok(printed)
+
+    fn power(&mut self, _: Expr, _: i32) -> Result<Expr> {
+        Err(self.generator.refuse(&self.material.name, "its recorded model holds a form's power".into()))
+    }
+
+    fn out_of_order(&self, i: usize) -> Error {
+        out_of_order(&self.material.name, i)
+    }
 }
 
 /// The read answering lookup `l`, its coordinates as printed so far.
@@ -262,16 +213,17 @@ fn lookup(g: &mut Generator, m: &ShaderMaterial, l: &Lookup<Recorded>, printed: 
         v.known_value()
             .ok_or_else(|| g.refuse(&m.name, format!("its model reads a table at a {what} that depends on the view")))
     };
+    let at = |r: Recorded| value(printed, r, &m.name);
     match l.quantity {
         Quantity::Albedo => {
             let (alpha, eta, kappa) = (baked(l.alpha, "roughness")?, baked(l.eta, "index")?, baked(l.kappa, "index")?);
-            g.albedo(m, printed.value(l.mu)?, alpha, eta, kappa)
+            g.albedo(m, at(l.mu)?, alpha, eta, kappa)
         }
         Quantity::Tir => {
             let eta = baked(l.eta, "index")?;
-            g.tir(m, printed.value(l.mu)?, printed.value(l.alpha)?, eta)
+            g.tir(m, at(l.mu)?, at(l.alpha)?, eta)
         }
-        Quantity::Gd => g.gd(m, printed.value(l.mu)?, printed.value(l.alpha)?),
+        Quantity::Gd => g.gd(m, at(l.mu)?, at(l.alpha)?),
     }
 }
 

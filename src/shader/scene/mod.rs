@@ -253,7 +253,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
                  tir = \"fit\" reads; rename the form file",
             ));
         }
-        let items = crate::fit::text::shader::module(&fitted.form()?, &fitted.parameters).items;
+        let items = crate::fit::text::shader::module(&fitted.form()?, &fitted.parameters)?.items;
         for item in items {
             let printed = |name: &str| {
                 module.items.iter().any(|i| matches!(i, Item::Function(function) if function.name == name))

@@ -1,0 +1,225 @@
+//! A [`Tape`] printed as shader statements: the one printer of the recorded scene model
+//! ([`super::scene`]) and of the fitted forms ([`crate::fit::text::shader`]), so that the code a
+//! shader runs is, instruction for instruction, the code [`Tape::values_with`] evaluates on the CPU.
+//! What differs between the two is only how the tape's leaves (constants, variables, parameters)
+//! and the functions a language lacks are printed: the [`Leaves`] a caller passes.
+
+use super::{Builtin, Expr, Stmt, Ty, call, let_, name, select};
+use crate::error::{Error, Result};
+use crate::fit::text::expr::{BinOp, Compare, Func};
+use crate::fit::text::tape::{Ins, Tape, reads};
+use crate::shader::Op;
+
+/// How a tape's leaves are printed, and the calls it makes that have no builtin.
+pub trait Leaves {
+    /// The instructions `i` reads: its operands ([`reads`]) unless a leaf reads more (a table
+    /// lookup reads its coordinates).
+    fn operands(&self, tape: &Tape, i: usize) -> Vec<usize> {
+        reads(&tape.ins[i])
+    }
+
+    /// Leaf `i` (`Const`, `Var` or `Param`) as an expression over what is printed so far, and the
+    /// name to bind it with `let` under, if any.
+    fn leaf(&mut self, i: usize, ins: Ins, printed: &Printed) -> Result<(Expr, Option<String>)>;
+
+    /// A call of `function`, which no shading language has as a builtin ([`builtin`]).
+    fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr>;
+
+    /// `x ^ n` multiplied out (`Ins::PowInt`).
+    fn power(&mut self, x: Expr, n: i32) -> Result<Expr>;
+
+    /// The name instruction `i` is bound with, where the tape's author named it (a form's `let`);
+    /// otherwise an instruction read more than once is bound as `v<i>`.
+    fn named(&self, _i: usize) -> Option<String> {
+        None
+    }
+
+    /// The error of an instruction read before it is printed, which a tape in order never holds.
+    fn out_of_order(&self, i: usize) -> Error;
+}
+
+/// The instructions' expressions as printed: a name for each bound with `let`, the expression
+/// itself for those used once, inline; `None` for what no root reads.
+pub struct Printed {
+    exprs: Vec<Option<Expr>>,
+}
+
+impl Printed {
+    /// Instruction `k`, or `None` where it is not printed (yet).
+    pub fn get(&self, k: usize) -> Option<Expr> {
+        self.exprs.get(k).cloned().flatten()
+    }
+}
+
+/// Print the instructions `roots` depend on into `body`, in the tape's order; `Ok` holds every
+/// instruction's expression.
+pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut Vec<Stmt>) -> Result<Printed> {
+    let n = tape.ins.len();
+    let mut uses = vec![0usize; n];
+    let mut live = vec![false; n];
+    for &r in roots {
+        live[r] = true;
+        uses[r] += 1;
+    }
+    for i in (0..n).rev() {
+        if live[i] {
+            for k in leaves.operands(tape, i) {
+                live[k] = true;
+                uses[k] += 1;
+            }
+        }
+    }
+    let mut printed = Printed { exprs: vec![None; n] };
+    for i in (0..n).filter(|&i| live[i]) {
+        let x = |k: usize| printed.get(k).ok_or_else(|| leaves.out_of_order(i));
+        let (expr, bound) = match tape.ins[i] {
+            leaf @ (Ins::Const(_) | Ins::Var(_) | Ins::Param(_)) => leaves.leaf(i, leaf, &printed)?,
+            ref ins => {
+                let expr = match *ins {
+                    Ins::Neg(a) => -x(a)?,
+                    Ins::Bin(BinOp::Pow, a, b) => call(Builtin::Pow, vec![x(a)?, x(b)?]),
+                    Ins::Bin(op, a, b) => {
+                        let (a, b) = (x(a)?, x(b)?);
+                        match op {
+                            BinOp::Add => a + b,
+                            BinOp::Sub => a - b,
+                            BinOp::Mul => a * b,
+                            BinOp::Div => a / b,
+                            BinOp::Pow => unreachable!("matched above"),
+                        }
+                    }
+                    Ins::PowInt(a, n) => {
+                        let a = x(a)?;
+                        leaves.power(a, n)?
+                    }
+                    Ins::Call(function, _) => {
+                        let args: Vec<Expr> = reads(ins).into_iter().map(x).collect::<Result<_>>()?;
+                        match builtin(function) {
+                            Some(b) => call(b, args),
+                            None => leaves.helper(function, args)?,
+                        }
+                    }
+                    Ins::Select { otherwise, then, compare, left, right } => {
+                        select(x(left)?.op(comparison(compare), x(right)?), x(then)?, x(otherwise)?)
+                    }
+                    Ins::Const(_) | Ins::Var(_) | Ins::Param(_) => unreachable!("leaves matched above"),
+                };
+                let bound = leaves.named(i).or_else(|| (uses[i] > 1).then(|| format!("v{i}")));
+                (expr, bound)
+            }
+        };
+        printed.exprs[i] = Some(match bound {
+            Some(variable) => {
+                body.push(let_(&variable, Ty::F32, expr));
+                name(&variable)
+            }
+            None => expr,
+        });
+    }
+    Ok(printed)
+}
+
+/// The shader builtin of a function of the language; `None` for `asinh`, which HLSL lacks.
+pub fn builtin(f: Func) -> Option<Builtin> {
+    Some(match f {
+        Func::Abs => Builtin::Abs,
+        Func::Sign => Builtin::Sign,
+        Func::Min => Builtin::Min,
+        Func::Max => Builtin::Max,
+        Func::Clamp => Builtin::Clamp,
+        Func::Saturate => Builtin::Saturate,
+        Func::Floor => Builtin::Floor,
+        Func::Fract => Builtin::Fract,
+        Func::Sqrt => Builtin::Sqrt,
+        Func::Rsqrt => Builtin::InverseSqrt,
+        Func::Exp => Builtin::Exp,
+        Func::Exp2 => Builtin::Exp2,
+        Func::Log => Builtin::Log,
+        Func::Log2 => Builtin::Log2,
+        Func::Pow => Builtin::Pow,
+        Func::Sin => Builtin::Sin,
+        Func::Cos => Builtin::Cos,
+        Func::Tan => Builtin::Tan,
+        Func::Asin => Builtin::Asin,
+        Func::Acos => Builtin::Acos,
+        Func::Atan => Builtin::Atan,
+        Func::Atan2 => Builtin::Atan2,
+        Func::Sinh => Builtin::Sinh,
+        Func::Cosh => Builtin::Cosh,
+        Func::Tanh => Builtin::Tanh,
+        Func::Smoothstep => Builtin::Smoothstep,
+        Func::Step => Builtin::Step,
+        Func::Mix => Builtin::Mix,
+        Func::Asinh => return None,
+    })
+}
+
+/// The shader operator of a comparison.
+fn comparison(compare: Compare) -> Op {
+    match compare {
+        Compare::Lt => Op::Lt,
+        Compare::Le => Op::Le,
+        Compare::Gt => Op::Gt,
+        Compare::Ge => Op::Ge,
+        Compare::Eq => Op::Eq,
+        Compare::Ne => Op::Ne,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Leaves, Printed, print};
+    use crate::error::{Error, Result};
+    use crate::fit::text::expr::{BinOp, Compare, Func};
+    use crate::fit::text::tape::{Ins, Tape};
+    use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, f, func, name};
+
+    /// Variables `x0, x1, ...`, instruction 3 named `named`, helpers as plain calls.
+    struct Plain;
+
+    impl Leaves for Plain {
+        fn leaf(&mut self, _: usize, ins: Ins, _: &Printed) -> Result<(Expr, Option<String>)> {
+            Ok(match ins {
+                Ins::Var(k) => (name(&format!("x{k}")), None),
+                Ins::Const(v) => (f(v as f32), None),
+                _ => return Err(Error::invalid("test tape", "a parameter")),
+            })
+        }
+        fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr> {
+            Ok(func(function.name(), args))
+        }
+        fn power(&mut self, x: Expr, n: i32) -> Result<Expr> {
+            Ok(func(&format!("pow_{n}"), vec![x]))
+        }
+        fn named(&self, i: usize) -> Option<String> {
+            (i == 3).then(|| "named".into())
+        }
+        fn out_of_order(&self, i: usize) -> Error {
+            Error::invalid("test tape", format!("instruction {i}"))
+        }
+    }
+
+    #[test]
+    fn what_is_read_twice_or_named_is_bound_once_and_what_no_root_reads_is_not_printed() {
+        let mut tape = Tape::default();
+        let x = tape.push(Ins::Var(0));
+        let y = tape.push(Ins::Var(1));
+        let sum = tape.push(Ins::Bin(BinOp::Add, x, y)); // read twice: `v2`
+        let named = tape.push(Ins::PowInt(sum, 3)); // named by the caller
+        let _dead = tape.push(Ins::Call(Func::Asinh, [x, 0, 0]));
+        let half = tape.push(Ins::Const(0.5));
+        let choice =
+            tape.push(Ins::Select { otherwise: sum, then: named, compare: Compare::Gt, left: sum, right: half });
+        let mut body = Vec::new();
+        let printed = print(&tape, &[choice], &mut Plain, &mut body).expect("an ordered tape prints");
+        body.push(Stmt::Return(printed.get(choice).expect("the root is printed")));
+        let mut module = Module::new(Parens::Minimal);
+        module.function("f", vec![("x0", Ty::F32), ("x1", Ty::F32)], Ty::F32, body);
+        let wgsl = module.print(Lang::Wgsl);
+        assert!(wgsl.contains("let v2: f32 = x0 + x1;"), "{wgsl}");
+        assert!(wgsl.contains("let named: f32 = pow_3(v2);"), "{wgsl}");
+        assert!(wgsl.contains("return select(v2, named, v2 > 0.5);"), "{wgsl}");
+        assert!(!wgsl.contains("asinh"), "an instruction no root reads is printed: {wgsl}");
+        assert!(printed.get(4).is_none());
+    }
+}
