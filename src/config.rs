@@ -1,5 +1,6 @@
 //! The build configuration: a TOML file with one section per table. Every key has a default, so
 //! an empty file (or none) builds the default LUT set; an unknown key is an error that names it.
+//! [`Config`] itself, a field per table, is declared by the table registry (`crate::recipes`).
 //!
 //! ```toml
 //! seed = 2021
@@ -23,72 +24,12 @@
 
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
-
 use crate::error::{Error, Result};
-use crate::recipes::TableRecipe;
 pub use crate::recipes::settings::{
     MAX_NODES_PER_AXIS, OutputConfig, ReferenceConfig, SamplingConfig, check_count, check_unit_range,
 };
+pub use crate::recipes::{Config, DEFAULT_SEED, TableRecipe, TableSettings};
 pub use crate::table::TableKind;
-
-/// The registry of tables: one line per table, in build order, as `section: Kind => module::Settings`,
-/// pairing each [`TableKind`] of the loader's list (`tmlut_loader::table::kind`, which every reader
-/// shares) with its recipe. The section is the table's name, its TOML section and its recipe
-/// module under `recipes/`.
-///
-/// From this list come the [`Config`] fields and the recipe of each kind, in matches that are
-/// exhaustive: a kind without a recipe here does not compile. A test holds the sections to the
-/// kinds' names and order.
-macro_rules! table_registry {
-    ($($section:ident: $kind:ident => $settings:ty),+ $(,)?) => {
-        #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-        #[serde(deny_unknown_fields, default)]
-        pub struct Config {
-            /// Seed of every Monte Carlo estimate: the same configuration and seed give bit-identical files.
-            pub seed: u64,
-            $(pub $section: $settings,)+
-        }
-
-        impl Default for Config {
-            fn default() -> Self {
-                Config { seed: DEFAULT_SEED, $($section: <$settings>::default(),)+ }
-            }
-        }
-
-        impl Config {
-            /// The settings of one table.
-            pub fn recipe(&self, kind: TableKind) -> &dyn TableRecipe {
-                match kind {
-                    $(TableKind::$kind => &self.$section,)+
-                }
-            }
-
-            /// The settings of one table, to change.
-            pub fn recipe_mut(&mut self, kind: TableKind) -> &mut dyn TableRecipe {
-                match kind {
-                    $(TableKind::$kind => &mut self.$section,)+
-                }
-            }
-        }
-
-        /// The registry's sections, in its order.
-        #[cfg(test)]
-        const REGISTRY_SECTIONS: &[&str] = &[$(stringify!($section),)+];
-    };
-}
-
-table_registry! {
-    fgd: Fgd => crate::recipes::fgd::FgdSettings,
-    gd: Gd => crate::recipes::gd::GdSettings,
-    tir: Tir => crate::recipes::tir::TirSettings,
-    belcour: Belcour => crate::recipes::belcour::BelcourSettings,
-    karis: Karis => crate::recipes::karis::KarisSettings,
-    fgd_rarer: FgdRarer => crate::recipes::fgd_rarer::FgdRarerSettings,
-}
-
-/// The seed of a configuration that names none.
-pub const DEFAULT_SEED: u64 = 2021;
 
 impl Config {
     /// Parse a TOML configuration; `origin` names it in errors.
@@ -214,7 +155,7 @@ mod tests {
 
     #[test]
     fn the_registry_pairs_every_kind_of_the_loaders_list_with_its_recipe_in_order() {
-        assert_eq!(REGISTRY_SECTIONS, TableKind::names().as_slice());
+        assert_eq!(crate::recipes::REGISTRY_SECTIONS, TableKind::names().as_slice());
         let config = Config::default();
         for &kind in TableKind::ALL {
             assert_eq!(config.recipe(kind).name(), kind.name());

@@ -110,6 +110,102 @@ pub use crate::stats::{AccuracyReport, ErrorRecord, ErrorSummary, ReferenceCompa
 use crate::table::Table;
 pub(crate) use driver::table_points;
 pub use driver::{Integrated, Kernel, Metadata, Provenance, SamplingRecord, TableBuild};
+use serde::{Deserialize, Serialize};
+
+use crate::table::TableKind;
+
+/// The registry of tables: one line per table, in build order, as `section: Kind => module::Settings`,
+/// pairing each [`TableKind`] of the loader's list (`tmlut_loader::table::kind`, which every reader
+/// shares) with its recipe. The section is the table's name, its TOML section and its recipe
+/// module here, declared beside it.
+///
+/// From this list come the [`Config`] fields, the recipe of each kind, and [`TableSettings`] (one
+/// table's settings, what a scene's plan builds), in matches that are exhaustive: a kind without a
+/// recipe here does not compile. A test holds the sections to the kinds' names and order.
+macro_rules! table_registry {
+    ($($section:ident: $kind:ident => $settings:ty),+ $(,)?) => {
+        #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+        #[serde(deny_unknown_fields, default)]
+        pub struct Config {
+            /// Seed of every Monte Carlo estimate: the same configuration and seed give bit-identical files.
+            pub seed: u64,
+            $(pub $section: $settings,)+
+        }
+
+        impl Default for Config {
+            fn default() -> Self {
+                Config { seed: DEFAULT_SEED, $($section: <$settings>::default(),)+ }
+            }
+        }
+
+        impl Config {
+            /// The settings of one table.
+            pub fn recipe(&self, kind: TableKind) -> &dyn TableRecipe {
+                match kind {
+                    $(TableKind::$kind => &self.$section,)+
+                }
+            }
+
+            /// The settings of one table, to change.
+            pub fn recipe_mut(&mut self, kind: TableKind) -> &mut dyn TableRecipe {
+                match kind {
+                    $(TableKind::$kind => &mut self.$section,)+
+                }
+            }
+        }
+
+        /// One table's settings, owned: a whole table a scene's plan builds, or one over a
+        /// sub-range of its axes. Serialised as the settings themselves (the cache's keys).
+        #[derive(Debug, Clone, PartialEq, Serialize)]
+        #[serde(untagged)]
+        pub enum TableSettings {
+            $($kind($settings),)+
+        }
+
+        impl TableSettings {
+            /// The settings of `kind` in `config`.
+            pub fn of(config: &Config, kind: TableKind) -> Self {
+                match kind {
+                    $(TableKind::$kind => TableSettings::$kind(config.$section.clone()),)+
+                }
+            }
+
+            pub fn kind(&self) -> TableKind {
+                match self {
+                    $(TableSettings::$kind(_) => TableKind::$kind,)+
+                }
+            }
+
+            pub fn recipe(&self) -> &dyn TableRecipe {
+                match self {
+                    $(TableSettings::$kind(s) => s,)+
+                }
+            }
+
+            pub fn recipe_mut(&mut self) -> &mut dyn TableRecipe {
+                match self {
+                    $(TableSettings::$kind(s) => s,)+
+                }
+            }
+        }
+
+        /// The registry's sections, in its order.
+        #[cfg(test)]
+        pub(crate) const REGISTRY_SECTIONS: &[&str] = &[$(stringify!($section),)+];
+    };
+}
+
+table_registry! {
+    fgd: Fgd => fgd::FgdSettings,
+    gd: Gd => gd::GdSettings,
+    tir: Tir => tir::TirSettings,
+    belcour: Belcour => belcour::BelcourSettings,
+    karis: Karis => karis::KarisSettings,
+    fgd_rarer: FgdRarer => fgd_rarer::FgdRarerSettings,
+}
+
+/// The seed of a configuration that names none.
+pub const DEFAULT_SEED: u64 = 2021;
 
 /// Files a table writes beside its own, each from the table as built.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -131,8 +227,8 @@ impl Companions {
 }
 
 /// What the configuration, the pipeline, the reports and the CLI need of every table, beyond what
-/// the driver needs ([`Kernel`]). Each table's settings implement it; the registry in
-/// [`crate::config`] lists them.
+/// the driver needs ([`Kernel`]). Each table's settings implement it; the registry above lists
+/// them.
 pub trait TableRecipe: Kernel {
     fn name(&self) -> &'static str;
     /// One line for `tmlut list`.

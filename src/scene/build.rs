@@ -19,10 +19,10 @@ use crate::formats::manifest::SceneRecord;
 use crate::formats::slice_array::{self, SliceArrayEntry};
 use crate::integrate::Progress;
 use crate::pipeline::{Job, WrittenFile, sha256_hex, write_jobs};
-use crate::recipes::TableRecipe;
 use crate::recipes::driver::TableBuild;
 use crate::recipes::interpolation::{self, Domain, ExactValues, InterpolationConfig};
 use crate::recipes::slices::{SliceOf, Slices, integrate_batch_among};
+use crate::recipes::{Companions, TableRecipe};
 use crate::stats::AccuracyReport;
 use crate::table::{Channel, Table, derived};
 
@@ -419,10 +419,7 @@ pub fn build_scene(
                 }
                 other => {
                     let recipe = other.recipe().expect("every other planned build is a full recipe");
-                    let (packings, packing_formats) = match other {
-                        PlannedBuild::Fgd(settings) => (settings.packings.clone(), settings.packing_formats.clone()),
-                        _ => (Vec::new(), Vec::new()),
-                    };
+                    let Companions { packings, packing_formats, .. } = recipe.companions();
                     // A TIR table over a sub-range is not what the analytic forms are fitted to: only
                     // the full table of the fitted-form item is, and that table is not written.
                     let (output, fit_seed) = match other {
@@ -594,15 +591,10 @@ fn slice_array_build(
 /// The cache key of a planned full (or sub-range) table; `None` for the fitted form, whose fit
 /// the cache does not keep.
 fn table_key(build: &PlannedBuild, seed: u64) -> Option<String> {
-    Some(match build {
-        PlannedBuild::Fgd(s) => SliceCache::table_key("fgd", s, seed),
-        PlannedBuild::Gd(s) => SliceCache::table_key("gd", s, seed),
-        PlannedBuild::Tir(s) => SliceCache::table_key("tir", s, seed),
-        PlannedBuild::Belcour(s) => SliceCache::table_key("belcour", s, seed),
-        PlannedBuild::Karis(s) => SliceCache::table_key("karis", s, seed),
-        PlannedBuild::FgdRarer(s) => SliceCache::table_key("fgd_rarer", s, seed),
-        PlannedBuild::TirFit(_) | PlannedBuild::Slices(_) => return None,
-    })
+    match build {
+        PlannedBuild::Table(settings) => Some(SliceCache::table_key(settings.kind().name(), settings, seed)),
+        PlannedBuild::TirFit(_) | PlannedBuild::Slices(_) => None,
+    }
 }
 
 /// Points of the interpolation check drawn across every slice of a build ([`SliceChecks::Sampled`]):

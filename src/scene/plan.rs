@@ -13,7 +13,7 @@ use std::fmt;
 
 use super::lookups::{Lookup, LookupKind, lookups};
 use super::{AlbedoPath, Interval, Scene, TirPath, short};
-use crate::config::{Config, MAX_NODES_PER_AXIS};
+use crate::config::{Config, MAX_NODES_PER_AXIS, TableSettings};
 use crate::error::{Error, Result};
 use crate::fit::text::FittedForm;
 use crate::formats::FileFormat;
@@ -22,11 +22,6 @@ use crate::integrate::GRAZING_COSINE;
 use crate::model::folder::reads_fgd_rarer;
 use crate::packing::Packing;
 use crate::recipes::TableRecipe;
-use crate::recipes::belcour::BelcourSettings;
-use crate::recipes::fgd::FgdSettings;
-use crate::recipes::fgd_rarer::FgdRarerSettings;
-use crate::recipes::gd::GdSettings;
-use crate::recipes::karis::KarisSettings;
 use crate::recipes::slices::{SliceChannel, SliceOf, Slices, lattice_value};
 use crate::recipes::tir::TirSettings;
 use crate::table::{Axis, Mapping, TableKind};
@@ -38,12 +33,8 @@ const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum PlannedBuild {
-    Fgd(FgdSettings),
-    Gd(GdSettings),
-    Tir(TirSettings),
-    Belcour(BelcourSettings),
-    Karis(KarisSettings),
-    FgdRarer(FgdRarerSettings),
+    /// A table of the registry ([`TableSettings`]), whole or over a sub-range of its axes.
+    Table(TableSettings),
     Slices(Slices),
     /// The analytic TIR form fitted to the full TIR table of these settings; only its shaders
     /// and coefficients are written.
@@ -55,12 +46,7 @@ impl PlannedBuild {
     /// `None` for slices.
     pub fn recipe(&self) -> Option<&dyn TableRecipe> {
         match self {
-            PlannedBuild::Fgd(s) => Some(s),
-            PlannedBuild::Gd(s) => Some(s),
-            PlannedBuild::Tir(s) => Some(s),
-            PlannedBuild::Belcour(s) => Some(s),
-            PlannedBuild::Karis(s) => Some(s),
-            PlannedBuild::FgdRarer(s) => Some(s),
+            PlannedBuild::Table(settings) => Some(settings.recipe()),
             PlannedBuild::TirFit(s) => Some(s),
             PlannedBuild::Slices(_) => None,
         }
@@ -195,7 +181,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             .collect();
         let record =
             record_of(&settings, "FGD 4D over the sub-range the lookups reach, on the full table's grid", reasons)?;
-        tables.push(PlannedTable { record, build: PlannedBuild::Fgd(settings) });
+        tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::Fgd(settings)) });
         // Dielectrics onto a rarer medium among them (an index below 1 somewhere in their range,
         // kappa 0 throughout) read the table whose grid follows the critical angle, as a folder of
         // the default set answers them (`model::folder`).
@@ -207,7 +193,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
                 .collect();
             let settings = config.fgd_rarer.clone();
             let record = record_of(&settings, "FGD onto a rarer medium (eta < 1, kappa = 0), whole", reasons)?;
-            tables.push(PlannedTable { record, build: PlannedBuild::FgdRarer(settings) });
+            tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::FgdRarer(settings)) });
         }
     } else {
         let bytes = recipe_texel_bytes(&config.fgd)?;
@@ -220,13 +206,13 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     }
 
     // Split-sum paths: their tables are 2D and answer every index through coefficients computed in the shader.
-    for (path, recipe, description) in [
-        (AlbedoPath::Belcour, PlannedBuild::Belcour(config.belcour.clone()), "Belcour split-sum, whole"),
-        (AlbedoPath::Karis, PlannedBuild::Karis(config.karis.clone()), "Karis split-sum, whole"),
+    for (path, kind, description) in [
+        (AlbedoPath::Belcour, TableKind::Belcour, "Belcour split-sum, whole"),
+        (AlbedoPath::Karis, TableKind::Karis, "Karis split-sum, whole"),
     ] {
         let users: Vec<&Lookup> =
             lookups.iter().filter(|l| l.kind == LookupKind::Albedo(path)).filter(by_table).collect();
-        let settings = recipe.recipe().expect("a full table");
+        let settings = config.recipe(kind);
         if users.is_empty() {
             left_out.push(LeftOutRecord {
                 what: format!("{} ({})", settings.name(), human_bytes(recipe_texel_bytes(settings)?)),
@@ -249,7 +235,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             );
         }
         let record = record_of(settings, description, reasons)?;
-        tables.push(PlannedTable { record, build: recipe });
+        tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::of(config, kind)) });
     }
 
     // TIR.
@@ -321,7 +307,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             .map(|site| format!("{}: eta varies, {}; the eta axis stays whole", site_label(site), ranges_label(site)))
             .collect();
         let record = record_of(&settings, "TIR 3D over the mu and alpha the lookups reach", reasons)?;
-        tables.push(PlannedTable { record, build: PlannedBuild::Tir(settings) });
+        tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::Tir(settings)) });
     } else {
         let bytes = recipe_texel_bytes(&config.tir)?;
         let reason = if tir_lookups.is_empty() {
@@ -345,7 +331,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             .map(|m| format!("{m}: every internal lobe reads GD at its own roughness (2-flux: the lobe's albedo is its energy times GD; 6-flux: lobes are normalised by it); kept whole"))
             .collect();
         let record = record_of(&config.gd, "GD 2D, whole", reasons)?;
-        tables.push(PlannedTable { record, build: PlannedBuild::Gd(config.gd.clone()) });
+        tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::of(config, TableKind::Gd)) });
     }
 
     let bytes = tables.iter().map(|t| t.record.bytes).sum();

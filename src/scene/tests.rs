@@ -265,7 +265,9 @@ fn textured_ranges_give_sub_ranges_and_a_varying_index_the_4d_table() {
     let plan = plan(&example("textured"), &Config::default()).unwrap();
     let coat = slices(&plan, "fgd_worn-gold_l1_from-above");
     assert!(coat.alpha.start <= 0.1 && coat.alpha.end >= 0.4 && coat.alpha.end < 0.45, "{:?}", coat.alpha);
-    let Some(PlannedBuild::Fgd(fgd)) = plan.tables.iter().find(|t| t.record.name == "fgd").map(|t| &t.build) else {
+    let Some(PlannedBuild::Table(crate::config::TableSettings::Fgd(fgd))) =
+        plan.tables.iter().find(|t| t.record.name == "fgd").map(|t| &t.build)
+    else {
         panic!("the glaze's varying index needs the 4D table: {:?}", table_names(&plan));
     };
     // eta over [1.4, 1.7] and kappa 0 only, between nodes of the default grid at most two cells

@@ -1,6 +1,6 @@
 //! The tables tmlut builds, as every reader knows them: one list, [`TableKind::ALL`], with each
 //! table's name (its manifest `table`, its file stem, its TOML section) and the shape a reader
-//! requires of it (axis names and channel count). The generator's registry (`tmlut::config`)
+//! requires of it (axis names and channel count). The generator's registry (`tmlut::recipes`)
 //! pairs each kind with its recipe in an exhaustive `match`, so a kind without a recipe, or a
 //! recipe without a kind, does not compile; the loader's handles, the model's folder tables and
 //! the scene shader's sources find each table by its kind.
