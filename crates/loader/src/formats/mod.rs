@@ -158,14 +158,9 @@ impl FileFormat {
         }
     }
 
+    /// The format whose [`FileFormat::extension`] `extension` is, in any case.
     pub fn from_extension(extension: &str) -> Option<Self> {
-        match extension.to_ascii_lowercase().as_str() {
-            "dds" => Some(FileFormat::Dds),
-            "exr" => Some(FileFormat::Exr),
-            "bin" => Some(FileFormat::Bin),
-            "ktx2" => Some(FileFormat::Ktx2),
-            _ => None,
-        }
+        FileFormat::ALL.into_iter().find(|format| format.extension().eq_ignore_ascii_case(extension))
     }
 }
 

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::*;
 use crate::formats::manifest::{AxisEntry, ErrorEntry, MANIFEST_FILE};
-use crate::formats::{bin, dds, ktx2};
+use crate::formats::{dds, ktx2};
 use crate::loader::texture::SampledTable;
 use crate::stats::{ErrorRecord, ErrorSummary};
 use crate::table::derived::{
@@ -80,13 +80,8 @@ fn fgd_table() -> Table {
 
 /// Write `table` as `file` into `dir` and return its manifest entry, as a build states it.
 fn write(dir: &Path, file: &str, table: &Table, format: FileFormat, precision: Precision) -> (String, FileEntry) {
-    let bytes = match format {
-        FileFormat::Dds => dds::encode_dds(table, precision).unwrap(),
-        FileFormat::Bin => bin::encode_bin(table).unwrap(),
-        FileFormat::Ktx2 => ktx2::encode_ktx2(table, precision).unwrap(),
-        FileFormat::Exr => unreachable!("the tests write DDS, KTX2 and .bin files"),
-    };
-    std::fs::write(dir.join(file), &bytes).unwrap();
+    crate::formats::write_table(&dir.join(file), table, format, precision).unwrap();
+    let bytes = std::fs::read(dir.join(file)).unwrap();
     let stored: Vec<f32> = table.data.iter().map(|&v| precision.round(v)).collect();
     let min = stored.iter().copied().fold(f32::INFINITY, f32::min);
     let max = stored.iter().copied().fold(f32::NEG_INFINITY, f32::max);
