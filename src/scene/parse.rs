@@ -13,6 +13,7 @@ use super::{
 use crate::error::{Error, Result};
 use crate::fit::text::fitted::FittedFormExt;
 use crate::fit::text::{FittedForm, fitted};
+use crate::table::TableKind;
 
 impl Scene {
     /// Read a scene file; returns the scene and the file's text (which a build records).
@@ -215,7 +216,7 @@ fn parse_scene(raw: RawScene, origin: &str, default_name: &str, dir: &Path) -> R
     let name = raw.name.unwrap_or_else(|| default_name.to_string());
     check_name(&name, &format!("{origin}: name"), "scene")?;
     let defaults = Paths {
-        model: raw.model.as_ref().map(|v| choice(v, "model", origin)).transpose()?.unwrap_or(FluxModel::TwoFlux),
+        model: raw.model.as_ref().map(|v| choice(v, origin)).transpose()?.unwrap_or(FluxModel::TwoFlux),
         albedo: albedo_choice(raw.albedo.as_ref(), origin, dir)?.unwrap_or((AlbedoPath::Fgd, None)),
         tir: tir_choice(raw.tir.as_ref(), origin, dir)?.unwrap_or((TirPath::Table, None)),
         dir,
@@ -276,7 +277,7 @@ fn parse_material(
     let name = raw.name.unwrap_or_else(|| format!("material-{}", index + 1));
     check_name(&name, &format!("{where_}: name"), "material")?;
     let where_ = format!("{where_} (`{name}`)");
-    let model = raw.model.as_ref().map(|v| choice(v, "model", &where_)).transpose()?.unwrap_or(defaults.model);
+    let model = raw.model.as_ref().map(|v| choice(v, &where_)).transpose()?.unwrap_or(defaults.model);
     let (albedo, albedo_form) = match albedo_choice(raw.albedo.as_ref(), &where_, defaults.dir)? {
         Some(chosen) => chosen,
         None => defaults.albedo.clone(),
@@ -491,15 +492,31 @@ impl Bound {
     }
 }
 
-/// A kebab-case choice (`model`, `albedo`, `tir`), read through its serde names.
-fn choice<T: DeserializeOwned>(value: &toml::Value, key: &str, where_: &str) -> Result<T> {
-    let allowed = match key {
-        "model" => "\"2-flux\", \"6-flux\"",
-        "albedo" => "\"fgd\", \"belcour\", \"karis\", \"fit:PATH\"",
-        _ => "\"table\", \"fit\", \"off\", \"fit:PATH\"",
-    };
+/// A kebab-case choice of a material, read through its serde names: its key and the values it
+/// allows, as its error states them.
+trait Choice: DeserializeOwned {
+    const KEY: &'static str;
+    const ALLOWED: &'static str;
+}
+
+impl Choice for FluxModel {
+    const KEY: &'static str = "model";
+    const ALLOWED: &'static str = "\"2-flux\", \"6-flux\"";
+}
+
+impl Choice for AlbedoPath {
+    const KEY: &'static str = "albedo";
+    const ALLOWED: &'static str = "\"fgd\", \"belcour\", \"karis\", \"fit:PATH\"";
+}
+
+impl Choice for TirPath {
+    const KEY: &'static str = "tir";
+    const ALLOWED: &'static str = "\"table\", \"fit\", \"off\", \"fit:PATH\"";
+}
+
+fn choice<T: Choice>(value: &toml::Value, where_: &str) -> Result<T> {
     T::deserialize(value.clone())
-        .map_err(|_| Error::invalid(format!("{where_}: {key}"), format!("{value}; allowed: {allowed}")))
+        .map_err(|_| Error::invalid(format!("{where_}: {}", T::KEY), format!("{value}; allowed: {}", T::ALLOWED)))
 }
 
 /// The fitted form `key = "fit:PATH"` names (PATH read relative to `dir`), fitted to one of
@@ -522,7 +539,7 @@ fn tir_choice(value: Option<&toml::Value>, where_: &str, dir: &Path) -> Result<O
     if let Some(form) = named_form(value, "tir", where_, dir, fitted::TIR_TABLES)? {
         return Ok(Some((TirPath::Form, Some(form))));
     }
-    match choice(value, "tir", where_)? {
+    match choice(value, where_)? {
         // The path of a named form is only ever written `fit:PATH`.
         TirPath::Form => Err(Error::invalid(
             format!("{where_}: tir"),
@@ -542,10 +559,18 @@ fn albedo_choice(
 ) -> Result<Option<(AlbedoPath, Option<FittedForm>)>> {
     let Some(value) = value else { return Ok(None) };
     if let Some(form) = named_form(value, "albedo", where_, dir, fitted::ALBEDO_TABLES)? {
-        let path = if form.table == "karis" { AlbedoPath::Karis } else { AlbedoPath::Fgd };
+        let path = match TableKind::named(&form.table) {
+            Some(TableKind::Karis) => AlbedoPath::Karis,
+            Some(TableKind::Fgd) => AlbedoPath::Fgd,
+            _ => {
+                let allowed = fitted::ALBEDO_TABLES.join(", ");
+                let reason = format!("a form fitted to `{}` reads on no albedo path; allowed: {allowed}", form.table);
+                return Err(Error::invalid(format!("{where_}: albedo"), reason));
+            }
+        };
         return Ok(Some((path, Some(form))));
     }
-    Ok(Some((choice(value, "albedo", where_)?, None)))
+    Ok(Some((choice(value, where_)?, None)))
 }
 
 /// A number as a person wrote it: `1e20` rather than its 21 digits.

@@ -148,7 +148,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let (fixed, varying) = split_by_fixed_sites(&fgd_lookups);
     for site in sites(&fixed) {
         let slices = slice_of(TableKind::Fgd.name(), SliceOf::Fgd(config.fgd.clone()), &site)?;
-        merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site, "FGD"));
+        merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site));
     }
     if !varying.is_empty() {
         let who = sites_label(&scene.name, &varying, "FGD");
@@ -290,7 +290,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     let slices_before = tables.len();
     for site in sites(&fixed) {
         let slices = slice_of(TableKind::Tir.name(), SliceOf::Tir(config.tir.clone()), &site)?;
-        merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site, "TIR"));
+        merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site));
     }
     let tir_slices = tables.len() - slices_before;
     if !varying.is_empty() {
@@ -490,16 +490,19 @@ fn add_slices(
     planned_slices: &mut std::collections::HashMap<String, usize>,
     slices: Slices,
     site: &[&Lookup],
-    what: &str,
 ) -> bool {
     let indices = slices.channels.iter().map(|c| format!("({}, {})", short(c.eta), short(c.kappa))).collect::<Vec<_>>();
-    let reason = match what {
-        "TIR" => format!(
+    let what = match slices.of {
+        SliceOf::Fgd(_) => "FGD",
+        SliceOf::Tir(_) => "TIR",
+    };
+    let reason = match slices.of {
+        SliceOf::Tir(_) => format!(
             "{}: TIR at eta {} (crossing towards the lower index)",
             site_label(site),
             slices.channels.iter().map(|c| short(c.eta)).collect::<Vec<_>>().join(", ")
         ),
-        _ => format!("{}: FGD at (eta, kappa) = {}", site_label(site), indices.join(", ")),
+        SliceOf::Fgd(_) => format!("{}: FGD at (eta, kappa) = {}", site_label(site), indices.join(", ")),
     };
     // Identical slices (same table, grid and indices) are one table; found by a key of their exact
     // values, in constant time, so that the plan stays linear in the number of sites.

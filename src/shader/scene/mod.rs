@@ -606,7 +606,11 @@ impl<'a> Generator<'a> {
                     let weights = Expr::Construct(Ty::Vec(2), vec![f(f0 as f32), f(1.0)]);
                     call(Builtin::Dot, vec![weights, func(&function, vec![mu, f(alpha as f32)])])
                 }
-                _ => func(&function, vec![mu, f(alpha as f32), f(eta as f32), f(kappa as f32)]),
+                // A form of the lookup's own variables (fitted to `fgd`; the scene parser sets the
+                // Karis path for a form fitted to `karis` and the FGD path for any other).
+                AlbedoPath::Fgd | AlbedoPath::Belcour => {
+                    func(&function, vec![mu, f(alpha as f32), f(eta as f32), f(kappa as f32)])
+                }
             });
         }
         match m.albedo {

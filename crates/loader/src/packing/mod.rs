@@ -275,7 +275,7 @@ fn unit_formula(axis: &Axis) -> String {
     let mapped = match axis.mapping {
         Mapping::Sqrt => axis.mapping.formula(&format!("max({}, 0)", axis.name)),
         Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => axis.mapping.formula(&axis.name),
-        _ => axis.mapping.formula(&clamped),
+        Mapping::Identity | Mapping::SqrtOneMinus | Mapping::SqrtEnds => axis.mapping.formula(&clamped),
     };
     format!("u_{} = clamp(({mapped} - {m0}) / ({m1} - {m0}), 0, 1)", axis.name)
 }
