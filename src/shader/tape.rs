@@ -6,7 +6,7 @@
 
 use super::{Builtin, Expr, Stmt, Ty, call, let_, name, select};
 use crate::error::{Error, Result};
-use crate::fit::text::expr::{BinOp, Compare, Func};
+use crate::fit::text::expr::{BinOp, Func};
 use crate::fit::text::tape::{Ins, Tape, reads};
 use crate::shader::Op;
 
@@ -100,7 +100,7 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
                         }
                     }
                     Ins::Select { otherwise, then, compare, left, right } => {
-                        select(x(left)?.op(comparison(compare), x(right)?), x(then)?, x(otherwise)?)
+                        select(x(left)?.op(Op::Compare(compare), x(right)?), x(then)?, x(otherwise)?)
                     }
                     Ins::Const(_) | Ins::Var(_) | Ins::Param(_) => unreachable!("leaves matched above"),
                 };
@@ -152,18 +152,6 @@ pub fn builtin(f: Func) -> Option<Builtin> {
         Func::Mix => Builtin::Mix,
         Func::Asinh => return None,
     })
-}
-
-/// The shader operator of a comparison.
-fn comparison(compare: Compare) -> Op {
-    match compare {
-        Compare::Lt => Op::Lt,
-        Compare::Le => Op::Le,
-        Compare::Gt => Op::Gt,
-        Compare::Ge => Op::Ge,
-        Compare::Eq => Op::Eq,
-        Compare::Ne => Op::Ne,
-    }
 }
 
 #[cfg(test)]

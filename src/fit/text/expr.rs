@@ -438,15 +438,7 @@ impl Parser {
 }
 
 fn comparison(symbol: &str) -> Option<Compare> {
-    Some(match symbol {
-        "<" => Compare::Lt,
-        "<=" => Compare::Le,
-        ">" => Compare::Gt,
-        ">=" => Compare::Ge,
-        "==" => Compare::Eq,
-        "!=" => Compare::Ne,
-        _ => return None,
-    })
+    Compare::ALL.into_iter().find(|compare| compare.text() == symbol)
 }
 
 /// Parse one expression.

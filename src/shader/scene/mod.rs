@@ -916,12 +916,7 @@ mod tests {
                     Op::Sub => Value::F(a.f() - b.f()),
                     Op::Mul => Value::F(a.f() * b.f()),
                     Op::Div => Value::F(a.f() / b.f()),
-                    Op::Lt => Value::B(a.f() < b.f()),
-                    Op::Le => Value::B(a.f() <= b.f()),
-                    Op::Gt => Value::B(a.f() > b.f()),
-                    Op::Ge => Value::B(a.f() >= b.f()),
-                    Op::Eq => Value::B(a.f() == b.f()),
-                    Op::Ne => Value::B(a.f() != b.f()),
+                    Op::Compare(compare) => Value::B(compare.holds(f64::from(a.f()), f64::from(b.f()))),
                     Op::And => Value::B(a.b() && b.b()),
                     Op::Or => Value::B(a.b() || b.b()),
                 }

@@ -22,6 +22,8 @@ pub enum Compare {
 }
 
 impl Compare {
+    pub const ALL: [Compare; 6] = [Compare::Lt, Compare::Le, Compare::Gt, Compare::Ge, Compare::Eq, Compare::Ne];
+
     /// Whether `a <compare> b` holds, with IEEE semantics (every comparison with NaN is false but
     /// `!=`).
     #[inline(always)]
@@ -36,6 +38,7 @@ impl Compare {
         }
     }
 
+    /// The operator as the shading languages and the form language write it.
     pub fn text(self) -> &'static str {
         match self {
             Compare::Lt => "<",

@@ -12,6 +12,8 @@
 
 use std::fmt::Write as _;
 
+pub use crate::physics::real::Compare;
+
 /// A shading language the emitter prints.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Lang {
@@ -178,12 +180,7 @@ pub enum Op {
     Sub,
     Mul,
     Div,
-    Lt,
-    Le,
-    Gt,
-    Ge,
-    Eq,
-    Ne,
+    Compare(Compare),
     And,
     Or,
 }
@@ -195,12 +192,7 @@ impl Op {
             Op::Sub => "-",
             Op::Mul => "*",
             Op::Div => "/",
-            Op::Lt => "<",
-            Op::Le => "<=",
-            Op::Gt => ">",
-            Op::Ge => ">=",
-            Op::Eq => "==",
-            Op::Ne => "!=",
+            Op::Compare(compare) => compare.text(),
             Op::And => "&&",
             Op::Or => "||",
         }
@@ -213,7 +205,7 @@ impl Op {
         match self {
             Op::Or => 1,
             Op::And => 2,
-            Op::Eq | Op::Ne | Op::Lt | Op::Le | Op::Gt | Op::Ge => 3,
+            Op::Compare(_) => 3,
             Op::Add | Op::Sub => 4,
             Op::Mul | Op::Div => 5,
         }
@@ -335,16 +327,16 @@ impl Expr {
         Expr::Binary(op, Box::new(self), Box::new(o))
     }
     pub fn lt(self, o: Expr) -> Expr {
-        self.op(Op::Lt, o)
+        self.op(Op::Compare(Compare::Lt), o)
     }
     pub fn gt(self, o: Expr) -> Expr {
-        self.op(Op::Gt, o)
+        self.op(Op::Compare(Compare::Gt), o)
     }
     pub fn le(self, o: Expr) -> Expr {
-        self.op(Op::Le, o)
+        self.op(Op::Compare(Compare::Le), o)
     }
     pub fn ne(self, o: Expr) -> Expr {
-        self.op(Op::Ne, o)
+        self.op(Op::Compare(Compare::Ne), o)
     }
     pub fn and(self, o: Expr) -> Expr {
         self.op(Op::And, o)
