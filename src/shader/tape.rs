@@ -4,11 +4,10 @@
 //! What differs between the two is only how the tape's leaves (constants, variables, parameters)
 //! and the functions a language lacks are printed: the [`Leaves`] a caller passes.
 
-use super::{Builtin, Expr, Stmt, Ty, call, let_, name, select};
+use super::{Builtin, Expr, Op, Stmt, Ty, call, let_, name, select};
 use crate::error::{Error, Result};
 use crate::fit::text::expr::{BinOp, Func};
 use crate::fit::text::tape::{Ins, Tape, reads};
-use crate::shader::Op;
 
 /// How a tape's leaves are printed, and the calls it makes that have no builtin.
 pub trait Leaves {
