@@ -181,12 +181,6 @@ macro_rules! table_registry {
                     $(TableSettings::$kind(s) => s,)+
                 }
             }
-
-            pub fn recipe_mut(&mut self) -> &mut dyn TableRecipe {
-                match self {
-                    $(TableSettings::$kind(s) => s,)+
-                }
-            }
         }
 
         /// The registry's sections, in its order.

@@ -491,18 +491,16 @@ fn add_slices(
     slices: Slices,
     site: &[&Lookup],
 ) -> bool {
-    let indices = slices.channels.iter().map(|c| format!("({}, {})", short(c.eta), short(c.kappa))).collect::<Vec<_>>();
-    let what = match slices.of {
-        SliceOf::Fgd(_) => "FGD",
-        SliceOf::Tir(_) => "TIR",
-    };
-    let reason = match slices.of {
-        SliceOf::Tir(_) => format!(
-            "{}: TIR at eta {} (crossing towards the lower index)",
-            site_label(site),
-            slices.channels.iter().map(|c| short(c.eta)).collect::<Vec<_>>().join(", ")
-        ),
-        SliceOf::Fgd(_) => format!("{}: FGD at (eta, kappa) = {}", site_label(site), indices.join(", ")),
+    let (what, reason) = match slices.of {
+        SliceOf::Fgd(_) => {
+            let indices: Vec<String> =
+                slices.channels.iter().map(|c| format!("({}, {})", short(c.eta), short(c.kappa))).collect();
+            ("FGD", format!("{}: FGD at (eta, kappa) = {}", site_label(site), indices.join(", ")))
+        }
+        SliceOf::Tir(_) => {
+            let etas: Vec<String> = slices.channels.iter().map(|c| short(c.eta)).collect();
+            ("TIR", format!("{}: TIR at eta {} (crossing towards the lower index)", site_label(site), etas.join(", ")))
+        }
     };
     // Identical slices (same table, grid and indices) are one table; found by a key of their exact
     // values, in constant time, so that the plan stays linear in the number of sites.

@@ -17,9 +17,9 @@ pub trait Leaves {
         reads(&tape.ins[i])
     }
 
-    /// Leaf `i` (`Const`, `Var` or `Param`) as an expression over what is printed so far, and the
-    /// name to bind it with `let` under, if any.
-    fn leaf(&mut self, i: usize, ins: Ins, printed: &Printed) -> Result<(Expr, Option<String>)>;
+    /// Leaf `i` as an expression over what is printed so far, and the name to bind it with `let`
+    /// under, if any.
+    fn leaf(&mut self, i: usize, leaf: Leaf, printed: &Printed) -> Result<(Expr, Option<String>)>;
 
     /// A call of `function`, which no shading language has as a builtin ([`builtin`]).
     fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr>;
@@ -35,6 +35,16 @@ pub trait Leaves {
 
     /// The error of an instruction read before it is printed, which a tape in order never holds.
     fn out_of_order(&self, i: usize) -> Error;
+}
+
+/// An instruction that reads no other: what [`Leaves::leaf`] prints.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Leaf {
+    Const(f64),
+    /// The tape's variable `k`.
+    Var(usize),
+    /// The form's parameter `k`.
+    Param(usize),
 }
 
 /// The instructions' expressions as printed: a name for each bound with `let`, the expression
@@ -72,11 +82,12 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
     for i in (0..n).filter(|&i| live[i]) {
         let x = |k: usize| printed.get(k).ok_or_else(|| leaves.out_of_order(i));
         let (expr, bound) = match tape.ins[i] {
-            leaf @ (Ins::Const(_) | Ins::Var(_) | Ins::Param(_)) => leaves.leaf(i, leaf, &printed)?,
+            Ins::Const(v) => leaves.leaf(i, Leaf::Const(v), &printed)?,
+            Ins::Var(k) => leaves.leaf(i, Leaf::Var(k), &printed)?,
+            Ins::Param(k) => leaves.leaf(i, Leaf::Param(k), &printed)?,
             ref ins => {
                 let expr = match *ins {
                     Ins::Neg(a) => -x(a)?,
-                    Ins::Bin(BinOp::Pow, a, b) => call(Builtin::Pow, vec![x(a)?, x(b)?]),
                     Ins::Bin(op, a, b) => {
                         let (a, b) = (x(a)?, x(b)?);
                         match op {
@@ -84,7 +95,7 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
                             BinOp::Sub => a - b,
                             BinOp::Mul => a * b,
                             BinOp::Div => a / b,
-                            BinOp::Pow => unreachable!("matched above"),
+                            BinOp::Pow => call(Builtin::Pow, vec![a, b]),
                         }
                     }
                     Ins::PowInt(a, n) => {
@@ -155,7 +166,7 @@ pub fn builtin(f: Func) -> Option<Builtin> {
 
 #[cfg(test)]
 mod tests {
-    use super::{Leaves, Printed, print};
+    use super::{Leaf, Leaves, Printed, print};
     use crate::error::{Error, Result};
     use crate::fit::text::expr::{BinOp, Compare, Func};
     use crate::fit::text::tape::{Ins, Tape};
@@ -165,11 +176,11 @@ mod tests {
     struct Plain;
 
     impl Leaves for Plain {
-        fn leaf(&mut self, _: usize, ins: Ins, _: &Printed) -> Result<(Expr, Option<String>)> {
-            Ok(match ins {
-                Ins::Var(k) => (name(&format!("x{k}")), None),
-                Ins::Const(v) => (f(v as f32), None),
-                _ => return Err(Error::invalid("test tape", "a parameter")),
+        fn leaf(&mut self, _: usize, leaf: Leaf, _: &Printed) -> Result<(Expr, Option<String>)> {
+            Ok(match leaf {
+                Leaf::Var(k) => (name(&format!("x{k}")), None),
+                Leaf::Const(v) => (f(v as f32), None),
+                Leaf::Param(_) => return Err(Error::invalid("test tape", "a parameter")),
             })
         }
         fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr> {

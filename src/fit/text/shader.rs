@@ -10,9 +10,8 @@
 
 use super::expr::Func;
 use super::form::Form;
-use super::tape::Ins;
 use crate::error::{Error, Result};
-use crate::shader::tape::{Leaves, Printed, print};
+use crate::shader::tape::{Leaf, Leaves, Printed, print};
 use crate::shader::{Builtin, Expr, Lang, Module, Parens, Stmt, Ty, call, f, func, let_, name};
 
 /// The shading languages a fitted form is written in, with each file's extension.
@@ -40,19 +39,25 @@ struct FormLeaves<'a> {
 }
 
 impl Leaves for FormLeaves<'_> {
-    fn leaf(&mut self, _: usize, ins: Ins, _: &Printed) -> Result<(Expr, Option<String>)> {
-        Ok(match ins {
-            Ins::Var(k) => (name(&self.form.variables[k]), None),
-            Ins::Param(k) => (f(self.parameters[k] as f32), Some(self.form.parameters[k].name.clone())),
-            Ins::Const(v) => (f(v as f32), None),
-            _ => unreachable!("`print` passes leaves only"),
+    fn leaf(&mut self, _: usize, leaf: Leaf, _: &Printed) -> Result<(Expr, Option<String>)> {
+        Ok(match leaf {
+            Leaf::Var(k) => (name(&self.form.variables[k]), None),
+            Leaf::Param(k) => (f(self.parameters[k] as f32), Some(self.form.parameters[k].name.clone())),
+            Leaf::Const(v) => (f(v as f32), None),
         })
     }
 
     fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr> {
-        debug_assert_eq!(function, Func::Asinh, "the one function without a builtin");
-        self.asinh = true;
-        Ok(func(ASINH, args))
+        match function {
+            Func::Asinh => {
+                self.asinh = true;
+                Ok(func(ASINH, args))
+            }
+            other => Err(Error::invalid(
+                format!("form `{}`", self.form.name),
+                format!("`{}` has no builtin and no helper", other.name()),
+            )),
+        }
     }
 
     fn power(&mut self, x: Expr, n: i32) -> Result<Expr> {

@@ -9,7 +9,7 @@
 
 use std::cell::RefCell;
 
-use super::super::tape::{Leaves, Printed, print};
+use super::super::tape::{Leaf, Leaves, Printed, print};
 use super::super::{Expr, Function, Stmt, Ty, assign, f, name, vec3};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
@@ -181,15 +181,15 @@ impl Leaves for MaterialLeaves<'_, '_> {
         }
     }
 
-    fn leaf(&mut self, i: usize, ins: Ins, printed: &Printed) -> Result<(Expr, Option<String>)> {
+    fn leaf(&mut self, i: usize, leaf: Leaf, printed: &Printed) -> Result<(Expr, Option<String>)> {
         let m = self.material;
-        match ins {
-            Ins::Const(v) => Ok((constant(v, &m.name)?, None)),
-            Ins::Var(0) => Ok((name("mu_in"), None)),
-            Ins::Var(k) => {
+        match leaf {
+            Leaf::Const(v) => Ok((constant(v, &m.name)?, None)),
+            Leaf::Var(0) => Ok((name("mu_in"), None)),
+            Leaf::Var(k) => {
                 Ok((lookup(self.generator, m, &self.recorded.lookups[k - 1], printed)?, Some(format!("v{i}"))))
             }
-            _ => Err(self.generator.refuse(&m.name, "its recorded model holds a form's parameter".into())),
+            Leaf::Param(_) => Err(self.generator.refuse(&m.name, "its recorded model holds a form's parameter".into())),
         }
     }
 

@@ -606,8 +606,8 @@ impl<'a> Generator<'a> {
                     let weights = Expr::Construct(Ty::Vec(2), vec![f(f0 as f32), f(1.0)]);
                     call(Builtin::Dot, vec![weights, func(&function, vec![mu, f(alpha as f32)])])
                 }
-                // A form of the lookup's own variables (fitted to `fgd`; the scene parser sets the
-                // Karis path for a form fitted to `karis` and the FGD path for any other).
+                // A form of the lookup's own variables: the scene parser sets the FGD path for a
+                // form fitted to `fgd`, and no form reads on the Belcour path.
                 AlbedoPath::Fgd | AlbedoPath::Belcour => {
                     func(&function, vec![mu, f(alpha as f32), f(eta as f32), f(kappa as f32)])
                 }
