@@ -108,18 +108,18 @@ impl Recorded {
         }
     }
 
-    fn unary(self, f: Func, compute: fn(f64) -> f64) -> Self {
-        match self.known {
-            Some(v) => Recorded::of(compute(v)),
-            None => push(Ins::Call(f, [self.at, 0, 0])),
+    /// `f` of `args`: computed now where every argument is known, else recorded (a known argument
+    /// as a constant).
+    fn call<const N: usize>(f: Func, args: [Self; N], compute: impl Fn([f64; N]) -> f64) -> Self {
+        let known = args.map(|a| a.known);
+        if known.iter().all(Option::is_some) {
+            return Recorded::of(compute(known.map(Option::unwrap_or_default)));
         }
-    }
-
-    fn call2(self, f: Func, other: Self, compute: fn(f64, f64) -> f64) -> Self {
-        match (self.known, other.known) {
-            (Some(a), Some(b)) => Recorded::of(compute(a, b)),
-            _ => push(Ins::Call(f, [self.instruction(), other.instruction(), 0])),
+        let mut operands = [0; 3];
+        for (operand, a) in operands.iter_mut().zip(args) {
+            *operand = a.instruction();
         }
+        push(Ins::Call(f, operands))
     }
 
     fn binary(self, op: BinOp, other: Self) -> Self {
@@ -196,40 +196,35 @@ impl Real for Recorded {
     }
 
     fn sqrt(self) -> Self {
-        self.unary(Func::Sqrt, f64::sqrt)
+        Self::call(Func::Sqrt, [self], |[x]| x.sqrt())
     }
 
     fn exp(self) -> Self {
-        self.unary(Func::Exp, f64::exp)
+        Self::call(Func::Exp, [self], |[x]| x.exp())
     }
 
     fn sinh(self) -> Self {
-        self.unary(Func::Sinh, f64::sinh)
+        Self::call(Func::Sinh, [self], |[x]| x.sinh())
     }
 
     fn abs(self) -> Self {
-        self.unary(Func::Abs, f64::abs)
+        Self::call(Func::Abs, [self], |[x]| x.abs())
     }
 
     fn powf(self, exponent: Self) -> Self {
-        self.call2(Func::Pow, exponent, f64::powf)
+        Self::call(Func::Pow, [self, exponent], |[x, e]| x.powf(e))
     }
 
     fn min(self, other: Self) -> Self {
-        self.call2(Func::Min, other, f64::min)
+        Self::call(Func::Min, [self, other], |[x, y]| x.min(y))
     }
 
     fn max(self, other: Self) -> Self {
-        self.call2(Func::Max, other, f64::max)
+        Self::call(Func::Max, [self, other], |[x, y]| x.max(y))
     }
 
     fn clamp(self, lo: f64, hi: f64) -> Self {
-        match self.known {
-            Some(v) => Recorded::of(v.clamp(lo, hi)),
-            None => {
-                push(Ins::Call(Func::Clamp, [self.at, Recorded::of(lo).instruction(), Recorded::of(hi).instruction()]))
-            }
-        }
+        Self::call(Func::Clamp, [self, Recorded::of(lo), Recorded::of(hi)], |[x, lo, hi]| x.clamp(lo, hi))
     }
 
     fn select(compare: Compare, left: Self, right: Self, then: Self, otherwise: Self) -> Self {

@@ -15,7 +15,7 @@ use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
 use crate::fit::text::expr::Func;
 use crate::fit::text::record::{Recorded, record};
-use crate::fit::text::tape::{Ins, Scalar, Tape, reads};
+use crate::fit::text::tape::{Ins, Tape, reads};
 use crate::model::{Evaluation, FluxModel, Lookup, Material, Quantity, Stack, Tables};
 
 /// A material's model as recorded code: its evaluation at the view cosine (the tape's variable 0),
@@ -42,48 +42,6 @@ impl RecordedMaterial {
         let (evaluation, tape) = record(|| material.evaluate(Recorded::variable(0), &tables as &dyn Tables<Recorded>));
         RecordedMaterial { evaluation, lookups: lookups.into_inner(), tape }
     }
-
-    /// The recorded code run in `T` (f32 as a shader runs it) at view cosine `mu`, each lookup
-    /// answered by `tables` at its coordinates in `T`: the albedo, and per lobe its energy,
-    /// roughness and GD.
-    pub fn run<T: Scalar>(&self, mu: T, tables: &dyn Tables) -> RunResult<T> {
-        let mut values = Vec::with_capacity(self.tape.ins.len());
-        self.tape.values_with(
-            |k, values: &[T]| {
-                if k == 0 {
-                    return mu;
-                }
-                let l = &self.lookups[k - 1];
-                let at = |r: Recorded| r.known_value().unwrap_or_else(|| values[r.instruction()].to_f64());
-                let lookup = Lookup {
-                    quantity: l.quantity,
-                    site: l.site,
-                    layer: l.layer,
-                    channel: l.channel,
-                    mu: at(l.mu),
-                    alpha: at(l.alpha),
-                    eta: at(l.eta),
-                    kappa: at(l.kappa),
-                };
-                T::of(tables.value(&lookup))
-            },
-            &mut values,
-        );
-        let value = |r: Recorded| r.known_value().map_or_else(|| values[r.instruction()], T::of);
-        let e = &self.evaluation;
-        RunResult {
-            albedo: e.albedo.map(value),
-            lobes: e.lobes.iter().map(|l| (l.energy.map(value), value(l.roughness), value(l.gd))).collect(),
-        }
-    }
-}
-
-/// What [`RecordedMaterial::run`] computes.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RunResult<T> {
-    pub albedo: [T; 3],
-    /// Per lobe: energy, roughness, GD.
-    pub lobes: Vec<([T; 3], T, T)>,
 }
 
 /// The function of material `m` and its lobe count.
@@ -230,8 +188,52 @@ fn lookup(g: &mut Generator, m: &ShaderMaterial, l: &Lookup<Recorded>, printed: 
 #[cfg(test)]
 mod tests {
     use super::RecordedMaterial;
-    use crate::model::{FluxModel, Interface, Layer, Lookup, Material, Medium, Quantity, STIFF_VIEWS, Stack};
+    use crate::fit::text::record::Recorded;
+    use crate::fit::text::tape::Scalar;
+    use crate::model::{FluxModel, Interface, Layer, Lookup, Material, Medium, Quantity, STIFF_VIEWS, Stack, Tables};
     use crate::physics::fresnel_reflectance;
+
+    /// The recorded code run in `T` (f32 as a shader runs it) at view cosine `mu`, each lookup
+    /// answered by `tables` at its coordinates in `T`: the albedo, and per lobe its energy,
+    /// roughness and GD.
+    fn run<T: Scalar>(recorded: &RecordedMaterial, mu: T, tables: &dyn Tables) -> RunResult<T> {
+        let mut values = Vec::with_capacity(recorded.tape.ins.len());
+        recorded.tape.values_with(
+            |k, values: &[T]| {
+                if k == 0 {
+                    return mu;
+                }
+                let l = &recorded.lookups[k - 1];
+                let at = |r: Recorded| r.known_value().unwrap_or_else(|| values[r.instruction()].to_f64());
+                let lookup = Lookup {
+                    quantity: l.quantity,
+                    site: l.site,
+                    layer: l.layer,
+                    channel: l.channel,
+                    mu: at(l.mu),
+                    alpha: at(l.alpha),
+                    eta: at(l.eta),
+                    kappa: at(l.kappa),
+                };
+                T::of(tables.value(&lookup))
+            },
+            &mut values,
+        );
+        let value = |r: Recorded| r.known_value().map_or_else(|| values[r.instruction()], T::of);
+        let e = &recorded.evaluation;
+        RunResult {
+            albedo: e.albedo.map(value),
+            lobes: e.lobes.iter().map(|l| (l.energy.map(value), value(l.roughness), value(l.gd))).collect(),
+        }
+    }
+
+    /// What [`run`] computes.
+    #[derive(Debug, Clone, PartialEq)]
+    struct RunResult<T> {
+        albedo: [T; 3],
+        /// Per lobe: energy, roughness, GD.
+        lobes: Vec<([T; 3], T, T)>,
+    }
 
     /// Smooth tables with every quantity in [0, 1] and depending on every coordinate.
     fn tables(l: &Lookup) -> f64 {
@@ -248,7 +250,7 @@ mod tests {
     /// roughness and GD weighed by their energy (a lobe's shape is a ratio of its energy's
     /// increments, ill-conditioned where it carries almost nothing, and then it weighs almost
     /// nothing).
-    fn largest_differences<T: crate::fit::text::tape::Scalar>() -> [(f64, String); 2] {
+    fn largest_differences<T: Scalar>() -> [(f64, String); 2] {
         let mut worst = [(0.0f64, String::new()), (0.0f64, String::new())];
         let views: Vec<f64> = STIFF_VIEWS.iter().copied().chain((1..20).map(|k| k as f64 / 20.0)).collect();
         let mut stacks = crate::stability::model::stacks();
@@ -266,7 +268,7 @@ mod tests {
                 let cpu = Material::new(model, stack.clone());
                 for &mu in &views {
                     let expected = cpu.evaluate(mu, &tables);
-                    let run = recorded.run(T::of(mu), &tables);
+                    let run = run(&recorded, T::of(mu), &tables);
                     assert_eq!(run.lobes.len(), expected.lobes.len(), "{name}, {}", model.name());
                     let mut pairs: Vec<(usize, f64, f64)> =
                         expected.albedo.iter().zip(&run.albedo).map(|(&e, r)| (0, e, r.to_f64())).collect();

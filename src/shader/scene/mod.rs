@@ -49,7 +49,7 @@ use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
 use crate::table::{Axis, Mapping, Placement, TableKind};
 
-pub use material::{RecordedMaterial, RunResult};
+pub use material::RecordedMaterial;
 
 /// A material the shader evaluates.
 #[derive(Debug, Clone)]
