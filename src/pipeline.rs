@@ -479,7 +479,8 @@ fn write_table_file_named(
     let precision = if format == FileFormat::Bin { Precision::F32 } else { precision };
     // Channels that add up to an albedo are rounded together; the writers' own rounding then
     // leaves those values as they are (each is already a value of the precision).
-    let stored = provenance.channel_sum.map(|rounding| stored_with_sum(table, rounding, precision)).transpose()?;
+    let stored =
+        provenance.metadata.channel_sum.map(|rounding| stored_with_sum(table, rounding, precision)).transpose()?;
     formats::write_table(&path, stored.as_ref().unwrap_or(table), format, precision)?;
     let bytes = formats::read_bytes(&path)?;
     let stats = table.stats();
@@ -493,9 +494,9 @@ fn write_table_file_named(
             .then(|| formats::ktx2::vk_format_name(table.channel_count(), precision)),
         axes: table.axes.iter().zip(stored_along(table, format)).map(|(a, s)| AxisEntry::new(a, s)).collect(),
         channels: table.channels.clone(),
-        integrand: provenance.integrand.clone(),
-        masking: provenance.masking.map(|m| m.name().to_string()),
-        notes: provenance.notes.clone(),
+        integrand: provenance.metadata.integrand.clone(),
+        masking: provenance.metadata.masking.map(|m| m.name().to_string()),
+        notes: provenance.metadata.notes.clone(),
         method: provenance.sampling.method.clone(),
         sampler: provenance.sampling.sampler.clone(),
         samples_per_cell: provenance.sampling.samples_per_cell,
@@ -510,12 +511,13 @@ fn write_table_file_named(
                 None => storage_rounding(table, precision),
             },
             storage_channel_sum: provenance
+                .metadata
                 .channel_sum
                 .zip(stored.as_ref())
                 .map(|(r, s)| channel_sum_storage(table, s, r)),
             interpolation: Vec::new(),
         },
-        fresnel_basis: provenance.fresnel_basis.clone(),
+        fresnel_basis: provenance.metadata.fresnel_basis.clone(),
         accuracy: provenance.accuracy.clone(),
         sha256: sha256_hex(&bytes),
         bytes: bytes.len() as u64,

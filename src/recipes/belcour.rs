@@ -479,7 +479,7 @@ mod tests {
             [0, 1, 2].map(|i| build.provenance.accuracy[i].error.rms);
         assert!(dielectrics < 0.01 && conductors < 0.01, "{:?}", build.provenance.accuracy);
         assert!(total_internal_reflection > 10.0 * dielectrics, "{:?}", build.provenance.accuracy);
-        assert_eq!(build.provenance.fresnel_basis.as_ref(), Some(basis()));
+        assert_eq!(build.provenance.metadata.fresnel_basis.as_ref(), Some(basis()));
     }
 
     #[test]

@@ -166,16 +166,11 @@ pub struct TableBuild {
 /// How a table was made: everything the manifest publishes beside its values.
 #[derive(Debug, Clone)]
 pub struct Provenance {
-    /// The integral, in words and symbols, as the manifest states it.
-    pub integrand: String,
-    pub masking: Option<MaskingShadowing>,
-    /// Conventions a user must know to read the table right.
-    pub notes: Vec<String>,
+    /// What the table states of itself (its recipe's [`Kernel::metadata`]).
+    pub metadata: Metadata,
     pub sampling: SamplingRecord,
     pub error: ErrorRecord,
     pub wall_time_s: f64,
-    /// The tabulated Fresnel basis a shader needs to use the table (Belcour only).
-    pub fresnel_basis: Option<FresnelBasis>,
     /// Further measured accuracy figures (for instance, how well a split-sum reproduces FGD).
     pub accuracy: Vec<AccuracyReport>,
     /// The replicate standard error of every stored value, in the table's layout, where it was
@@ -184,9 +179,6 @@ pub struct Provenance {
     /// The exact integral at random points of the table's domains: each written file is read
     /// there as a renderer reads it and compared ([`super::interpolation::compare`]).
     pub interpolation: Vec<ExactValues>,
-    /// For a table whose channels add up to an albedo (Karis): how storage rounds them; the
-    /// manifest then states what storage does to their sum.
-    pub channel_sum: Option<SumRounding>,
 }
 
 impl Provenance {
@@ -196,17 +188,13 @@ impl Provenance {
     /// sum).
     pub fn of_derived_table(&self) -> Provenance {
         Provenance {
-            integrand: self.integrand.clone(),
-            masking: self.masking,
-            notes: self.notes.clone(),
+            metadata: Metadata { fresnel_basis: None, channel_sum: None, ..self.metadata.clone() },
             sampling: self.sampling.clone(),
             error: self.error.clone(),
             wall_time_s: self.wall_time_s,
-            fresnel_basis: None,
             accuracy: Vec::new(),
             standard_error: None,
             interpolation: Vec::new(),
-            channel_sum: None,
         }
     }
 }
@@ -222,19 +210,14 @@ pub fn build<K: Kernel + ?Sized>(kernel: &K, seed: u64, progress: &dyn Progress)
     let integrated = kernel.integrate(&mut table, &points, progress)?;
     let reference = kernel.check_reference(&table, seed, progress)?;
     let wall_time_s = started.elapsed().as_secs_f64();
-    let metadata = kernel.metadata();
     let provenance = Provenance {
-        integrand: metadata.integrand,
-        masking: metadata.masking,
-        notes: metadata.notes,
+        metadata: kernel.metadata(),
         sampling: kernel.sampling_record(&points),
         error: ErrorRecord { replicate_standard_error: integrated.replicate_standard_error, reference },
         wall_time_s,
-        fresnel_basis: metadata.fresnel_basis,
         accuracy: integrated.accuracy,
         standard_error: integrated.standard_error,
         interpolation: kernel.exact_values(seed, progress)?,
-        channel_sum: metadata.channel_sum,
     };
     Ok(TableBuild { table, provenance })
 }

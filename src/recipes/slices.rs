@@ -550,23 +550,18 @@ pub fn integrate_batch_among(
         .zip(records)
         .map(|((((slice, table), standard_errors), reference), sampling)| {
             let integrated = Integrated::of_standard_errors(&standard_errors);
-            let metadata = slice.metadata();
-            let mut notes = metadata.notes;
-            notes.push(BATCH_CHECK_NOTE.into());
+            let mut metadata = slice.metadata();
+            metadata.notes.push(BATCH_CHECK_NOTE.into());
             TableBuild {
                 table,
                 provenance: Provenance {
-                    integrand: metadata.integrand,
-                    masking: metadata.masking,
-                    notes,
+                    metadata,
                     sampling,
                     error: ErrorRecord { replicate_standard_error: integrated.replicate_standard_error, reference },
                     wall_time_s,
-                    fresnel_basis: None,
                     accuracy: Vec::new(),
                     standard_error: integrated.standard_error,
                     interpolation: Vec::new(),
-                    channel_sum: None,
                 },
             }
         })

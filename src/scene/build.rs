@@ -578,7 +578,7 @@ fn slice_array_build(
     }
     // Slices integrated together each state the batch's wall time: the array took that long, not their sum.
     provenance.wall_time_s = builds.iter().map(|b| b.provenance.wall_time_s).fold(0.0, f64::max);
-    provenance.notes.push(format!(
+    provenance.metadata.notes.push(format!(
         "A texture array of {} slices: each slice's own axes, channels, layer, texel origin and error are in \
          slice_array.slices; error here pools them.",
         builds.len()

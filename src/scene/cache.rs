@@ -37,7 +37,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::loader::sha256_hex;
 use crate::recipes::Kernel;
-use crate::recipes::driver::{Provenance, SamplingRecord, TableBuild};
+use crate::recipes::driver::{Metadata, Provenance, SamplingRecord, TableBuild};
 use crate::recipes::interpolation::ExactValues;
 use crate::recipes::slices::Slices;
 use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
@@ -248,7 +248,7 @@ impl SliceCache {
         match decode(&bytes, key).and_then(|entry| into_build(axes, entry)) {
             Ok(mut build) => {
                 if !self.note_reads {
-                    build.provenance.notes.retain(|n| n != FROM_CACHE_NOTE);
+                    build.provenance.metadata.notes.retain(|n| n != FROM_CACHE_NOTE);
                 }
                 self.hits.fetch_add(1, Ordering::Relaxed);
                 Some(build)
@@ -270,15 +270,16 @@ impl SliceCache {
     /// Fresnel basis, a channel-sum rounding: the split-sum tables) is not stored.
     pub fn put_by_key(&self, key: &str, build: &TableBuild) {
         let p = &build.provenance;
-        if !self.usable() || p.fresnel_basis.is_some() || p.channel_sum.is_some() {
+        let metadata = &p.metadata;
+        if !self.usable() || metadata.fresnel_basis.is_some() || metadata.channel_sum.is_some() {
             return;
         }
         let key = key.to_string();
         let entry = Entry {
             key: key.clone(),
-            integrand: p.integrand.clone(),
-            masking: p.masking,
-            notes: p.notes.iter().filter(|n| n.as_str() != FROM_CACHE_NOTE).cloned().collect(),
+            integrand: metadata.integrand.clone(),
+            masking: metadata.masking,
+            notes: metadata.notes.iter().filter(|n| n.as_str() != FROM_CACHE_NOTE).cloned().collect(),
             accuracy: p.accuracy.clone(),
             table: build.table.name.clone(),
             axes: build.table.axes.clone(),
@@ -349,17 +350,13 @@ fn into_build(axes: &[crate::table::Axis], entry: Entry) -> std::result::Result<
     Ok(TableBuild {
         table,
         provenance: Provenance {
-            integrand: entry.integrand,
-            masking: entry.masking,
-            notes,
+            metadata: Metadata { integrand: entry.integrand, masking: entry.masking, notes, ..Metadata::default() },
             sampling: entry.sampling,
             error: ErrorRecord { replicate_standard_error: entry.replicate_standard_error, reference: entry.reference },
             wall_time_s: entry.wall_time_s,
-            fresnel_basis: None,
             accuracy: entry.accuracy,
             standard_error: entry.standard_error,
             interpolation: entry.interpolation,
-            channel_sum: None,
         },
     })
 }
