@@ -166,7 +166,8 @@ pub struct TableBuild {
 /// How a table was made: everything the manifest publishes beside its values.
 #[derive(Debug, Clone)]
 pub struct Provenance {
-    /// What the table states of itself (its recipe's [`Kernel::metadata`]).
+    /// What the table states of itself (its recipe's [`Kernel::metadata`]). A build read from the
+    /// scene cache has only what the cache stores: integrand, masking and notes.
     pub metadata: Metadata,
     pub sampling: SamplingRecord,
     pub error: ErrorRecord,
