@@ -10,6 +10,8 @@
 //!   interpolated on the CPU in 4D as the reference plugin does.
 //! - A scene folder's slices are found by the indices their channels hold fixed, and the slice
 //!   whose `(mu, alpha)` range holds the lookup answers it.
+//! - A stand-in table ([`super::lookup::stand_in`]: `fgd_rarer`) answers its quantity's lookups at
+//!   the indices of its region where no slice holds them, ahead of the quantity's full table.
 //! - The split-sum paths compute their Fresnel coefficients as a shader does: Belcour's from the
 //!   basis in the manifest, Karis's `F0` from the relative index at normal incidence.
 //! - The fitted TIR form is evaluated in f32 with the manifest's coefficients, as its shader; a
@@ -21,7 +23,7 @@
 
 use std::sync::Mutex;
 
-use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
+use super::lookup::{AlbedoPath, Lookup, Quantity, Site, StandIn, Tables, TirPath};
 use crate::error::{Error, Result};
 use crate::fit::text::compile::FormEvaluator;
 #[cfg(feature = "generator")]
@@ -72,12 +74,6 @@ pub fn slice_choice_distance(axes: &[Axis], point: &[f64]) -> f64 {
             (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
         })
         .sum()
-}
-
-/// Whether an FGD lookup at `(eta, kappa)` reads `fgd_rarer` where a folder has it (and no slice
-/// holds the index): a dielectric onto a rarer medium. The scene's shader chooses by the same rule.
-pub fn reads_fgd_rarer(eta: f64, kappa: f64) -> bool {
-    kappa == 0.0 && eta < 1.0
 }
 
 /// The texture coordinate of value `x` along `axis`, in f32 as a shader computes the manifest's
@@ -160,12 +156,9 @@ pub enum FgdSource {
 
 #[derive(Debug, Clone)]
 enum Albedo {
-    /// `rarer`: the table of a dielectric onto a rarer medium (`fgd_rarer`), which answers
-    /// `kappa = 0, eta < 1` in place of the full table where the folder has it.
     Fgd {
         slices: Slices,
         full: Option<FullFgd>,
-        rarer: Option<SampledTable>,
     },
     Belcour {
         texture: SampledTable,
@@ -214,6 +207,9 @@ pub struct FolderTables {
     albedo: Albedo,
     tir: Tir,
     gd: Option<SampledTable>,
+    /// The folder's stand-in tables ([`super::lookup::stand_in`]), each answering its quantity's
+    /// lookups in its region ahead of the quantity's own table, where no slice holds the index.
+    stand_ins: Vec<(StandIn, SampledTable)>,
     misses: Mutex<Misses>,
     /// Lookups answered by a table whose range did not hold them (read clamped).
     clamped: Mutex<Misses>,
@@ -264,11 +260,7 @@ impl FolderTables {
                     }
                     (_, None, None) => None,
                 };
-                let rarer = match texture(TableKind::FgdRarer) {
-                    Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
-                    None => None,
-                };
-                Albedo::Fgd { slices, full, rarer }
+                Albedo::Fgd { slices, full }
             }
             AlbedoPath::Belcour => match texture(TableKind::Belcour) {
                 Some((file, entry)) => {
@@ -323,7 +315,13 @@ impl FolderTables {
             Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
             None => None,
         };
-        Ok(FolderTables { albedo, tir, gd, misses: Mutex::default(), clamped: Mutex::default() })
+        let mut stand_ins = Vec::new();
+        for stand_in in super::lookup::stand_ins() {
+            if let Some((file, _)) = texture(stand_in.table) {
+                stand_ins.push((stand_in, SampledTable::new(&folder.load(file)?)?));
+            }
+        }
+        Ok(FolderTables { albedo, tir, gd, stand_ins, misses: Mutex::default(), clamped: Mutex::default() })
     }
 
     /// The same tables with every TIR lookup answered by `form` (a material's `tir = "fit:PATH"`),
@@ -401,6 +399,20 @@ impl FolderTables {
         Some(slice.texture.sample(channel, &point) as f64)
     }
 
+    /// The first stand-in of the lookup's quantity whose region holds its index, read at the point
+    /// its axes name.
+    fn stand_in_value(&self, lookup: &Lookup) -> Option<f64> {
+        self.stand_ins
+            .iter()
+            .filter(|(stand_in, _)| {
+                stand_in.quantity == lookup.quantity && stand_in.region.holds(lookup.eta, lookup.kappa)
+            })
+            .find_map(|(_, texture)| {
+                let point = point_of(&texture.axes, lookup.mu, lookup.alpha, lookup.eta, lookup.kappa)?;
+                Some(self.full(texture, &point, lookup))
+            })
+    }
+
     fn full(&self, texture: &SampledTable, point: &[f64], lookup: &Lookup) -> f64 {
         if !texture.covers(point) {
             Self::note(&self.clamped, lookup);
@@ -410,14 +422,9 @@ impl FolderTables {
 
     fn albedo(&self, lookup: &Lookup) -> f64 {
         match &self.albedo {
-            Albedo::Fgd { slices, full, rarer } => {
-                if let Some(value) = self.slice_value(slices, lookup) {
+            Albedo::Fgd { slices, full } => {
+                if let Some(value) = self.slice_value(slices, lookup).or_else(|| self.stand_in_value(lookup)) {
                     return value;
-                }
-                if let Some(texture) = rarer.as_ref().filter(|_| reads_fgd_rarer(lookup.eta, lookup.kappa))
-                    && let Some(point) = point_of(&texture.axes, lookup.mu, lookup.alpha, lookup.eta, 0.0)
-                {
-                    return self.full(texture, &point, lookup);
                 }
                 let point = [lookup.mu, lookup.alpha, lookup.eta, lookup.kappa];
                 match full {
@@ -473,7 +480,7 @@ impl FolderTables {
     fn tir(&self, lookup: &Lookup) -> f64 {
         match &self.tir {
             Tir::Table { slices, full } => {
-                if let Some(value) = self.slice_value(slices, lookup) {
+                if let Some(value) = self.slice_value(slices, lookup).or_else(|| self.stand_in_value(lookup)) {
                     return value;
                 }
                 // The third axis is eta, or the critical-angle offset computed from mu and eta.
@@ -596,6 +603,7 @@ mod tests {
             albedo: Albedo::Absent,
             tir: Tir::Table { slices: Slices::new(slices), full: None },
             gd: None,
+            stand_ins: Vec::new(),
             misses: Mutex::default(),
             clamped: Mutex::default(),
         }

@@ -129,3 +129,63 @@ impl TirPath {
         }
     }
 }
+
+/// A table that answers, whole, the lookups of one quantity at the relative indices of its
+/// region, ahead of the quantity's own table (where no slice of a scene holds the index): a
+/// narrower integral where the quantity's own grid cannot follow it. Which kinds stand in is
+/// decided once, by [`stand_in`]; the folder's lookups ([`super::folder`]), the scene shader, the
+/// planner and a fit's scene weights all follow it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StandIn {
+    pub table: TableKind,
+    /// The quantity whose lookups it answers: albedo on the FGD path, or TIR on the table path.
+    pub quantity: Quantity,
+    pub region: IndexRegion,
+    /// What the table is, as the planner names it.
+    pub what: &'static str,
+    /// Why a lookup of its region reads it, as the planner gives it.
+    pub why: &'static str,
+}
+
+/// Relative indices `eta < eta_below` and `kappa <= kappa_at_most`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IndexRegion {
+    pub eta_below: f64,
+    pub kappa_at_most: f64,
+}
+
+impl IndexRegion {
+    /// Whether the index `(eta, kappa)` lies in the region.
+    pub fn holds(&self, eta: f64, kappa: f64) -> bool {
+        eta < self.eta_below && kappa <= self.kappa_at_most
+    }
+
+    /// Whether some index of the ranges `eta` and `kappa` (each `[lo, hi]`) lies in the region:
+    /// the region is bounded above only, so their lower ends decide.
+    pub fn meets(&self, eta: [f64; 2], kappa: [f64; 2]) -> bool {
+        self.holds(eta[0], kappa[0])
+    }
+}
+
+/// The stand-in a table of kind `kind` is, or `None` for a quantity's own table (read by its path:
+/// FGD's slices, packing and 4D table, TIR's slices, 3D table and forms, GD, the split-sum
+/// tables). Every kind is decided here: a kind added to the registry does not compile until it is.
+pub fn stand_in(kind: TableKind) -> Option<StandIn> {
+    match kind {
+        TableKind::Fgd | TableKind::Gd | TableKind::Tir | TableKind::Belcour | TableKind::Karis => None,
+        // A dielectric onto a rarer medium: FGD over an axis that follows the critical angle,
+        // which the 4D table's separate axes cannot (docs/tables.md).
+        TableKind::FgdRarer => Some(StandIn {
+            table: kind,
+            quantity: Quantity::Albedo,
+            region: IndexRegion { eta_below: 1.0, kappa_at_most: 0.0 },
+            what: "FGD onto a rarer medium (eta < 1, kappa = 0)",
+            why: "a dielectric onto a rarer medium",
+        }),
+    }
+}
+
+/// The stand-ins among the registry's tables, in its order.
+pub fn stand_ins() -> impl Iterator<Item = StandIn> {
+    TableKind::ALL.iter().filter_map(|&kind| stand_in(kind))
+}

@@ -73,7 +73,7 @@ pub mod tm6;
 use serde::{Deserialize, Serialize};
 
 use factors::{Component, Flux, components};
-pub use lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
+pub use lookup::{AlbedoPath, IndexRegion, Lookup, Quantity, Site, StandIn, Tables, TirPath, stand_in, stand_ins};
 pub use stack::{FluxModel, Interface, Layer, MAX_LAYERS, Medium, Rgb, Stack};
 
 use crate::physics::hg_to_ggx;

@@ -259,3 +259,51 @@ fn a_mediums_factors_in_f32_stay_finite_where_the_slabs_sinh_squared_would_overf
         assert!(g.is_finite() && (g - f64_flux.g).abs() <= 1e-5, "asymmetry {g} against {}", f64_flux.g);
     }
 }
+
+#[test]
+fn a_stand_in_region_holds_its_indices_and_meets_every_range_that_reaches_them() {
+    let rarer = stand_in(crate::table::TableKind::FgdRarer).expect("fgd_rarer stands in for FGD");
+    assert_eq!(rarer.quantity, Quantity::Albedo);
+    let region = rarer.region;
+    assert!(region.holds(0.7, 0.0) && region.holds(0.0, 0.0));
+    assert!(
+        !region.holds(1.0, 0.0) && !region.holds(1.5, 0.0) && !region.holds(0.7, 0.1) && !region.holds(f64::NAN, 0.0)
+    );
+    // Some index of the ranges in the region: eta below 1 somewhere, kappa 0 somewhere.
+    assert!(region.meets([0.9, 1.2], [0.0, 0.0]));
+    assert!(region.meets([0.8, 0.9], [0.0, 0.5]));
+    assert!(!region.meets([1.0, 1.2], [0.0, 0.0]));
+    assert!(!region.meets([0.8, 0.9], [0.1, 0.5]));
+    // Every range meets the region exactly where one of its corners lies in it.
+    for eta in [[0.5, 0.8], [0.9, 1.1], [1.0, 1.3]] {
+        for kappa in [[0.0, 0.0], [0.0, 2.0], [0.5, 2.0]] {
+            let corners = eta.iter().any(|&e| kappa.iter().any(|&k| region.holds(e, k)));
+            assert_eq!(region.meets(eta, kappa), corners, "eta {eta:?}, kappa {kappa:?}");
+        }
+    }
+}
+
+#[test]
+fn every_stand_in_is_a_3d_table_whose_axes_a_lookup_addresses() {
+    // The folder reads a stand-in at the point its axes name and the scene shader reads it as a
+    // 3D texture: a stand-in of another shape would be refused by the shader at generation time.
+    let mut count = 0;
+    for stand_in in stand_ins() {
+        let axes: Vec<crate::table::Axis> = stand_in
+            .table
+            .shape()
+            .axes
+            .iter()
+            .map(|names| crate::table::Axis::node_aligned(names[0], 0.0, 0.5, 2).unwrap())
+            .collect();
+        assert_eq!(axes.len(), 3, "{}", stand_in.table.name());
+        assert!(
+            crate::table::derived::point_of(&axes, 0.5, 0.1, 0.7, 0.0).is_some(),
+            "{}: an axis no lookup addresses",
+            stand_in.table.name()
+        );
+        assert!(matches!(stand_in.quantity, Quantity::Albedo | Quantity::Tir), "{}", stand_in.table.name());
+        count += 1;
+    }
+    assert!(count >= 1);
+}

@@ -12,7 +12,7 @@ use super::{AlbedoPath, Interval, Layer, Material, Scene, TirPath};
 use crate::error::{Error, Result};
 use crate::formats::manifest::LeftOutRecord;
 use crate::integrate::GRAZING_COSINE;
-use crate::model::{Lookup as ModelLookup, Quantity};
+use crate::model::{Lookup as ModelLookup, Quantity, StandIn};
 use crate::physics::fresnel_reflectance;
 use crate::table::TableKind;
 
@@ -239,6 +239,11 @@ fn check_planning_work(scene: &Scene) -> Result<()> {
     ))
 }
 
+/// Whether some index of `lookup`'s ranges lies in the region of stand-in `stand_in`.
+pub fn reaches(stand_in: &StandIn, lookup: &Lookup) -> bool {
+    stand_in.region.meets([lookup.eta.lo, lookup.eta.hi], [lookup.kappa.lo, lookup.kappa.hi])
+}
+
 /// View cosines the planner evaluates each material at, uniform in angle from the normal to
 /// grazing (both included): 0.35 degrees apart.
 pub const PLANNING_VIEWS: usize = 257;
@@ -269,22 +274,27 @@ fn note_index_matched(material: &Material, left_out: &mut Vec<LeftOutRecord>) {
 
 /// The lookups of table `table` that the scene file `path` makes ([`lookups`]), per material:
 /// what `tmlut fit --form --weights SCENE.toml` weighs the table's points by. A lookup reads the
-/// table when its kind does: FGD albedo `fgd`, `fgd_rarer` and the scene's `fgd_...` slices; TIR
-/// `tir` and `tir_...`; GD `gd`; the split-sum paths `karis` and `belcour`.
+/// table when its kind does: FGD albedo `fgd` and the scene's `fgd_...` slices; TIR `tir` and
+/// `tir_...`; GD `gd`; the split-sum paths `karis` and `belcour`; a stand-in (`fgd_rarer`,
+/// [`crate::model::stand_in`]) the lookups of its quantity that reach its region.
 pub fn table_lookups(path: &std::path::Path, table: &str) -> Result<crate::fit::text::region::SceneLookups> {
     let (scene, _) = Scene::read(path)?;
     let (lookups, _) = lookups(&scene)?;
+    let stand_in = TableKind::named(table).and_then(crate::model::stand_in);
     let is = |kind: TableKind| table == kind.name() || table.starts_with(&format!("{}_", kind.name()));
-    let reads = |kind: LookupKind| match kind {
-        LookupKind::Albedo(AlbedoPath::Fgd) => is(TableKind::Fgd),
-        LookupKind::Albedo(AlbedoPath::Karis) => table == TableKind::Karis.name(),
-        LookupKind::Albedo(AlbedoPath::Belcour) => table == TableKind::Belcour.name(),
-        LookupKind::Tir(TirPath::Off) => false,
-        LookupKind::Tir(_) => is(TableKind::Tir),
-        LookupKind::Gd => is(TableKind::Gd),
+    let reads = |lookup: &Lookup| match (stand_in, lookup.kind) {
+        (Some(s), LookupKind::Albedo(AlbedoPath::Fgd)) => s.quantity == Quantity::Albedo && reaches(&s, lookup),
+        (Some(s), LookupKind::Tir(TirPath::Table)) => s.quantity == Quantity::Tir && reaches(&s, lookup),
+        (Some(_), _) => false,
+        (None, LookupKind::Albedo(AlbedoPath::Fgd)) => is(TableKind::Fgd),
+        (None, LookupKind::Albedo(AlbedoPath::Karis)) => table == TableKind::Karis.name(),
+        (None, LookupKind::Albedo(AlbedoPath::Belcour)) => table == TableKind::Belcour.name(),
+        (None, LookupKind::Tir(TirPath::Off)) => false,
+        (None, LookupKind::Tir(_)) => is(TableKind::Tir),
+        (None, LookupKind::Gd) => is(TableKind::Gd),
     };
     let mut materials: Vec<(String, Vec<crate::fit::text::region::LookupHull>)> = Vec::new();
-    for lookup in lookups.iter().filter(|l| reads(l.kind)) {
+    for lookup in lookups.iter().filter(|l| reads(l)) {
         let hull = [lookup.mu, lookup.alpha, lookup.eta, lookup.kappa].map(|i| (i.lo, i.hi));
         match materials.iter_mut().find(|(m, _)| *m == lookup.material) {
             Some((_, hulls)) => hulls.push(hull),

@@ -11,7 +11,7 @@
 
 use std::fmt;
 
-use super::lookups::{Lookup, LookupKind, lookups};
+use super::lookups::{Lookup, LookupKind, lookups, reaches};
 use super::{AlbedoPath, Interval, Scene, TirPath, short};
 use crate::config::{Config, MAX_NODES_PER_AXIS, TableSettings};
 use crate::error::{Error, Result};
@@ -19,7 +19,7 @@ use crate::fit::text::FittedForm;
 use crate::formats::FileFormat;
 use crate::formats::manifest::{LeftOutRecord, PlanRecord, PlannedTableRecord};
 use crate::integrate::GRAZING_COSINE;
-use crate::model::folder::reads_fgd_rarer;
+use crate::model::Quantity;
 use crate::packing::Packing;
 use crate::recipes::TableRecipe;
 use crate::recipes::slices::{SliceChannel, SliceOf, Slices, lattice_value};
@@ -182,19 +182,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         let record =
             record_of(&settings, "FGD 4D over the sub-range the lookups reach, on the full table's grid", reasons)?;
         tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::Fgd(settings)) });
-        // Dielectrics onto a rarer medium among them (an index below 1 somewhere in their range,
-        // kappa 0 throughout) read the table whose grid follows the critical angle, as a folder of
-        // the default set answers them (`model::folder`).
-        let rarer: Vec<&Lookup> = varying.iter().copied().filter(|l| reads_fgd_rarer(l.eta.lo, l.kappa.hi)).collect();
-        if !rarer.is_empty() {
-            let reasons = sites(&rarer)
-                .iter()
-                .map(|site| format!("{}: a dielectric onto a rarer medium, {}", site_label(site), ranges_label(site)))
-                .collect();
-            let settings = config.fgd_rarer.clone();
-            let record = record_of(&settings, "FGD onto a rarer medium (eta < 1, kappa = 0), whole", reasons)?;
-            tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::FgdRarer(settings)) });
-        }
+        plan_stand_ins(&mut tables, config, Quantity::Albedo, &varying)?;
     } else {
         let bytes = recipe_texel_bytes(&config.fgd)?;
         let reason = if fgd_lookups.is_empty() {
@@ -308,6 +296,7 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             .collect();
         let record = record_of(&settings, "TIR 3D over the mu and alpha the lookups reach", reasons)?;
         tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::Tir(settings)) });
+        plan_stand_ins(&mut tables, config, Quantity::Tir, &varying)?;
     } else {
         let bytes = recipe_texel_bytes(&config.tir)?;
         let reason = if tir_lookups.is_empty() {
@@ -348,6 +337,30 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
         tir_forms,
         albedo_forms,
     })
+}
+
+/// The stand-ins of `quantity` ([`crate::model::stand_in`]) that some of `varying` (the lookups no
+/// slice answers) reach, whole: a folder answers those lookups from them ahead of the full table.
+fn plan_stand_ins(
+    tables: &mut Vec<PlannedTable>,
+    config: &Config,
+    quantity: Quantity,
+    varying: &[&Lookup],
+) -> Result<()> {
+    for stand_in in crate::model::stand_ins().filter(|s| s.quantity == quantity) {
+        let reached: Vec<&Lookup> = varying.iter().copied().filter(|l| reaches(&stand_in, l)).collect();
+        if reached.is_empty() {
+            continue;
+        }
+        let reasons = sites(&reached)
+            .iter()
+            .map(|site| format!("{}: {}, {}", site_label(site), stand_in.why, ranges_label(site)))
+            .collect();
+        let settings = TableSettings::of(config, stand_in.table);
+        let record = record_of(settings.recipe(), &format!("{}, whole", stand_in.what), reasons)?;
+        tables.push(PlannedTable { record, build: PlannedBuild::Table(settings) });
+    }
+    Ok(())
 }
 
 /// Why no table of albedo path `path` is built: its lookups are all read by fitted forms, or there

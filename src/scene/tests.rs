@@ -579,3 +579,38 @@ fn shards_partition_a_plan_and_anything_but_i_of_n_is_refused() {
         assert!(Shard::parse(bad).unwrap_err().contains("I/N"), "{bad}");
     }
 }
+
+#[test]
+fn a_stand_in_is_planned_and_weighed_for_the_lookups_of_its_region_only() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/scenes/gpu-check/varied-coats.toml");
+    let (scene, _) = Scene::read(&path).unwrap();
+    let plan = plan(&scene, &Config::default()).unwrap();
+    let rarer: Vec<_> = plan.tables.iter().filter(|t| t.record.name == TableKind::FgdRarer.name()).collect();
+    assert_eq!(rarer.len(), 1);
+    assert!(matches!(&rarer[0].build, PlannedBuild::Table(settings) if settings.kind() == TableKind::FgdRarer));
+    assert_eq!(rarer[0].record.reasons.len(), 1, "{:?}", rarer[0].record.reasons);
+    assert!(
+        rarer[0].record.reasons[0].starts_with("lower-index-under-a-coat, layer 2"),
+        "{:?}",
+        rarer[0].record.reasons
+    );
+    // A scene with no dielectric onto a rarer medium plans none.
+    let copper = super::plan::plan(&example("copper-pot"), &Config::default()).unwrap();
+    assert!(copper.tables.iter().all(|t| t.record.name != TableKind::FgdRarer.name()));
+
+    // The fit's scene weights: the stand-in's lookups are those that reach its region, a subset
+    // of FGD's.
+    let weights = super::lookups::table_lookups(&path, TableKind::FgdRarer.name()).unwrap();
+    let fgd = super::lookups::table_lookups(&path, TableKind::Fgd.name()).unwrap();
+    let names =
+        |l: &crate::fit::text::region::SceneLookups| l.materials.iter().map(|(m, _)| m.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&weights), ["lower-index-under-a-coat"]);
+    assert_eq!(names(&fgd).len(), 3, "{:?}", names(&fgd));
+    for (_, hulls) in &weights.materials {
+        for [_, _, eta, kappa] in hulls {
+            assert!(eta.0 < 1.0 && kappa.0 == 0.0, "eta {eta:?}, kappa {kappa:?}");
+        }
+    }
+    let count = |l: &crate::fit::text::region::SceneLookups| l.materials.iter().map(|(_, h)| h.len()).sum::<usize>();
+    assert!(count(&weights) < count(&fgd));
+}

@@ -42,8 +42,8 @@ use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::ArrayPlace;
 use crate::loader::LutFolder;
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
-use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, reads_fgd_rarer, slice_indices};
-use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
+use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, slice_indices};
+use crate::model::{AlbedoPath, FluxModel, Quantity, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
@@ -105,6 +105,8 @@ struct TableFile {
     channels: usize,
     /// `(eta, kappa)` per channel, for slices.
     indices: Vec<(f64, f64)>,
+    /// The Fresnel basis its manifest entry states (Belcour's).
+    fresnel_basis: Option<FresnelBasis>,
     is_tir: bool,
     is_fgd: bool,
 }
@@ -118,6 +120,7 @@ impl TableFile {
             place: None,
             axes: entry.axes.iter().map(|a| a.axis.clone()).collect(),
             channels: padded(entry.channels.len()),
+            fresnel_basis: entry.fresnel_basis.clone(),
             is_tir: is_slice(entry, TableKind::Tir),
             is_fgd: is_slice(entry, TableKind::Fgd),
             indices: if is_slice(entry, TableKind::Tir) || is_slice(entry, TableKind::Fgd) {
@@ -133,16 +136,18 @@ impl TableFile {
 #[derive(Default)]
 struct Sources {
     slices: Vec<TableFile>,
-    gd: Option<TableFile>,
+    /// The tables a GPU binds whole, each of its kind's shape: GD, the 3D TIR table, the split-sum
+    /// tables, the stand-ins.
+    tables: Vec<(TableKind, TableFile)>,
     packing: Option<(String, PackedFgd)>,
     /// The folder's fitted TIR form (its manifest's `fit`), printed as `tmlut_tir`.
     fit: Option<FittedForm>,
-    /// The 3D TIR table.
-    tir: Option<TableFile>,
-    /// The 3D table of FGD onto a rarer medium.
-    fgd_rarer: Option<TableFile>,
-    belcour: Option<(TableFile, FresnelBasis)>,
-    karis: Option<TableFile>,
+}
+
+impl Sources {
+    fn table(&self, kind: TableKind) -> Option<TableFile> {
+        self.tables.iter().find(|(k, _)| *k == kind).map(|(_, table)| table.clone())
+    }
 }
 
 /// What the generated functions call beyond the helpers every scene shader has.
@@ -186,7 +191,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             lobes,
             textures: g.reading.iter().copied().collect(),
             model: material.model.name().to_string(),
-            reads: g.reads.iter().map(|read| read.to_string()).collect(),
+            reads: g.reads.iter().cloned().collect(),
         });
         functions.push(function);
     }
@@ -319,23 +324,10 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
         }
         let table = TableFile::of(file, entry);
         // A table the shader reads has its kind's shape; a file of another shape (a scene's
-        // slice, the 4D FGD table, which the shader reads by its packing) is read otherwise.
+        // slice) is read otherwise. The 4D FGD table is no texture: the shader reads its packing.
         let Some(kind) = TableKind::named(&entry.table) else { continue };
-        if table.axes.len() != kind.shape().axes.len() {
-            continue;
-        }
-        match kind {
-            TableKind::Gd => sources.gd = Some(table),
-            TableKind::Tir => sources.tir = Some(table),
-            TableKind::FgdRarer => sources.fgd_rarer = Some(table),
-            TableKind::Karis => sources.karis = Some(table),
-            TableKind::Belcour => {
-                if let Some(basis) = &entry.fresnel_basis {
-                    sources.belcour = Some((table, basis.clone()));
-                }
-            }
-            // Not a texture: the shader reads the 4D table by its lossless packing (above).
-            TableKind::Fgd => {}
+        if table.axes.len() == kind.shape().axes.len() && !sources.tables.iter().any(|(k, _)| *k == kind) {
+            sources.tables.push((kind, table));
         }
     }
     sources.fit = entries
@@ -353,7 +345,7 @@ struct Generator<'a> {
     used: BTreeMap<String, u32>,
     /// The bindings the material being generated reads, and what kinds of table.
     reading: std::collections::BTreeSet<u32>,
-    reads: std::collections::BTreeSet<&'static str>,
+    reads: std::collections::BTreeSet<String>,
     manifest_path: String,
     needs: Needs,
     /// The functions choosing among slices ([`Self::slice`]), by their candidates.
@@ -508,7 +500,7 @@ impl<'a> Generator<'a> {
             None => candidates,
         };
         if !candidates.is_empty() {
-            self.reads.insert(if tir { "tir slice" } else { "fgd slice" });
+            self.reads.insert(if tir { "tir slice" } else { "fgd slice" }.into());
         }
         match candidates.len() {
             0 => None,
@@ -590,7 +582,7 @@ impl<'a> Generator<'a> {
         if !self.forms.contains(fitted) {
             self.forms.push(fitted.clone());
         }
-        self.reads.insert(read);
+        self.reads.insert(read.into());
         format!("tmlut_{}", fitted.name)
     }
 
@@ -616,19 +608,23 @@ impl<'a> Generator<'a> {
         match m.albedo {
             AlbedoPath::Fgd => self.fgd(m, mu, alpha, eta, kappa),
             AlbedoPath::Belcour => {
-                let Some((table, basis)) = self.sources.belcour.clone() else {
+                let Some((table, basis)) = self
+                    .sources
+                    .table(TableKind::Belcour)
+                    .and_then(|table| Some((table.clone(), table.fresnel_basis?)))
+                else {
                     return Err(self.missing(m, "the Belcour split-sum table (belcour.dds with its Fresnel basis)"));
                 };
-                self.reads.insert("belcour");
+                self.reads.insert("belcour".into());
                 Ok(self.split_sum(&table, basis.coefficients(eta, kappa), mu, alpha))
             }
             AlbedoPath::Karis => {
-                let Some(table) = self.sources.karis.clone() else {
+                let Some(table) = self.sources.table(TableKind::Karis) else {
                     return Err(self.missing(m, "the Karis split-sum table (karis.dds)"));
                 };
                 // FGD ~ F0 scale + bias, with F0 at the relative index (model::folder).
                 let f0 = normal_incidence_reflectance(eta, kappa);
-                self.reads.insert("karis");
+                self.reads.insert("karis".into());
                 Ok(self.split_sum(&table, [f0, 1.0, 0.0, 0.0], mu, alpha))
             }
         }
@@ -644,17 +640,14 @@ impl<'a> Generator<'a> {
         Error::format(&self.manifest_path, format!("lists no {what}, which material `{}` reads", m.name))
     }
 
-    /// `FGD(mu, alpha, eta, kappa)`: the slice holding the index, else for a dielectric onto a
-    /// rarer medium (`kappa = 0`, `eta < 1`) the `fgd_rarer` table, else the lossless packing (as
-    /// `model::folder` reads them).
+    /// `FGD(mu, alpha, eta, kappa)`: the slice holding the index, else a stand-in whose region
+    /// holds it (`fgd_rarer`), else the lossless packing (as `model::folder` reads them).
     fn fgd(&mut self, m: &ShaderMaterial, mu: Expr, alpha: f64, eta: f64, kappa: f64) -> Result<Expr> {
         if let Some(value) = self.slice(false, eta, kappa, mu.clone(), f(alpha as f32), Some(alpha)) {
             return Ok(value);
         }
-        if reads_fgd_rarer(eta, kappa)
-            && let Some(table) = self.sources.fgd_rarer.clone()
-        {
-            return self.volume(m, &table, mu, f(alpha as f32), eta, "fgd_rarer table");
+        if let Some(value) = self.stand_in(m, Quantity::Albedo, mu.clone(), f(alpha as f32), eta, kappa) {
+            return value;
         }
         match &self.sources.packing {
             Some((file, packed)) => {
@@ -662,7 +655,7 @@ impl<'a> Generator<'a> {
                 let extent = [packed.texture.width, packed.texture.height, packed.texture.depth];
                 let variable = self.bind(&file, extent, 3, 1, false);
                 self.needs.packing = true;
-                self.reads.insert("fgd packing");
+                self.reads.insert("fgd packing".into());
                 Ok(func(&function, vec![name(&variable), mu, f(alpha as f32), f(eta as f32), f(kappa as f32)]))
             }
             None => Err(Error::format(
@@ -694,14 +687,17 @@ impl<'a> Generator<'a> {
                     ));
                 }
                 self.needs.fit = true;
-                self.reads.insert("tir fit");
+                self.reads.insert("tir fit".into());
                 Ok(func("tmlut_tir", vec![mu, alpha, f(eta as f32)]))
             }
             TirPath::Table => {
                 if let Some(value) = self.slice(true, eta, 0.0, mu.clone(), alpha.clone(), None) {
                     return Ok(value);
                 }
-                let Some(table) = self.sources.tir.clone() else {
+                if let Some(value) = self.stand_in(m, Quantity::Tir, mu.clone(), alpha.clone(), eta, 0.0) {
+                    return value;
+                }
+                let Some(table) = self.sources.table(TableKind::Tir) else {
                     return Err(self.refuse(
                         &m.name,
                         format!(
@@ -710,12 +706,29 @@ impl<'a> Generator<'a> {
                         ),
                     ));
                 };
-                self.volume(m, &table, mu, alpha, eta, "tir table")
+                self.volume(m, &table, mu, alpha, eta, "tir table".into())
             }
         }
     }
 
-    /// A 3D table (TIR, or FGD onto a rarer medium) at the point
+    /// The first stand-in of `quantity` the folder holds whose region holds `(eta, kappa)`
+    /// ([`crate::model::stand_in`]), read at `(mu, alpha)`.
+    fn stand_in(
+        &mut self,
+        m: &ShaderMaterial,
+        quantity: Quantity,
+        mu: Expr,
+        alpha: Expr,
+        eta: f64,
+        kappa: f64,
+    ) -> Option<Result<Expr>> {
+        let (stand_in, table) = crate::model::stand_ins()
+            .filter(|s| s.quantity == quantity && s.region.holds(eta, kappa))
+            .find_map(|s| Some((s, self.sources.table(s.table)?)))?;
+        Some(self.volume(m, &table, mu, alpha, eta, format!("{} table", stand_in.table.name())))
+    }
+
+    /// A 3D table (TIR, or a stand-in such as FGD onto a rarer medium) at the point
     /// [`crate::table::derived::point_of`] gives: each axis's quantity by name, `eta` itself, the
     /// critical-angle offset `asin(eta) - acos(mu)` or the critical-angle fraction (`asin(eta)`
     /// folded to a constant; `acos` by [`helpers::acos`], not the builtin, whose error Vulkan
@@ -728,8 +741,14 @@ impl<'a> Generator<'a> {
         mu: Expr,
         alpha: Expr,
         eta: f64,
-        what: &'static str,
+        what: String,
     ) -> Result<Expr> {
+        if t.axes.len() != 3 {
+            return Err(self.refuse(
+                &m.name,
+                format!("reads {what} {}, which has {} axes; the shader reads a 3D table here", t.file, t.axes.len()),
+            ));
+        }
         let mut point = Vec::with_capacity(3);
         let critical = f(eta.clamp(0.0, 1.0).asin() as f32);
         for axis in &t.axes {
@@ -775,9 +794,9 @@ impl<'a> Generator<'a> {
 
     /// `GD(mu, alpha)`.
     fn gd(&mut self, m: &ShaderMaterial, mu: Expr, alpha: Expr) -> Result<Expr> {
-        match self.sources.gd.clone() {
+        match self.sources.table(TableKind::Gd) {
             Some(t) => {
-                self.reads.insert("gd");
+                self.reads.insert("gd".into());
                 Ok(self.read2(&t, mu, alpha).member("x"))
             }
             None => Err(self.missing(m, "2D GD table (gd.dds)")),
@@ -968,6 +987,7 @@ mod tests {
             ],
             channels: 1,
             indices: vec![(ETA, 0.0)],
+            fresnel_basis: None,
             is_tir: tir,
             is_fgd: !tir,
         }
