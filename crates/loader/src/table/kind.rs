@@ -3,7 +3,8 @@
 //! requires of it (axis names and channel count). The generator's registry (`tmlut::recipes`)
 //! pairs each kind with its recipe in an exhaustive `match`, so a kind without a recipe, or a
 //! recipe without a kind, does not compile; the loader's handles, the model's folder tables and
-//! the scene shader's sources find each table by its kind.
+//! the scene shader's sources find each table by its kind, and the model decides for every kind
+//! whether it stands in for a quantity's own table (`tmlut::model::stand_in`).
 
 use super::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
 
