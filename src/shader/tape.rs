@@ -6,7 +6,7 @@
 
 use super::{Builtin, Expr, Op, Stmt, Ty, call, let_, name, select};
 use crate::error::{Error, Result};
-use crate::fit::text::expr::{BinOp, Func};
+use crate::fit::text::expr::{BinOp, Intrinsic};
 use crate::fit::text::tape::{Ins, Tape, reads};
 
 /// How a tape's leaves are printed, and the calls it makes that have no builtin.
@@ -22,7 +22,7 @@ pub trait Leaves {
     fn leaf(&mut self, i: usize, leaf: Leaf, printed: &Printed) -> Result<(Expr, Option<String>)>;
 
     /// A call of `function`, which no shading language has as a builtin ([`builtin`]).
-    fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr>;
+    fn helper(&mut self, function: Intrinsic, args: Vec<Expr>) -> Result<Expr>;
 
     /// `x ^ n` multiplied out (`Ins::PowInt`).
     fn power(&mut self, x: Expr, n: i32) -> Result<Expr>;
@@ -95,7 +95,7 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
                             BinOp::Sub => a - b,
                             BinOp::Mul => a * b,
                             BinOp::Div => a / b,
-                            BinOp::Pow => call(Builtin::Pow, vec![a, b]),
+                            BinOp::Pow => call(Intrinsic::Pow, vec![a, b]),
                         }
                     }
                     Ins::PowInt(a, n) => {
@@ -130,45 +130,15 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
 }
 
 /// The shader builtin of a function of the language; `None` for `asinh`, which HLSL lacks.
-pub fn builtin(f: Func) -> Option<Builtin> {
-    Some(match f {
-        Func::Abs => Builtin::Abs,
-        Func::Sign => Builtin::Sign,
-        Func::Min => Builtin::Min,
-        Func::Max => Builtin::Max,
-        Func::Clamp => Builtin::Clamp,
-        Func::Saturate => Builtin::Saturate,
-        Func::Floor => Builtin::Floor,
-        Func::Fract => Builtin::Fract,
-        Func::Sqrt => Builtin::Sqrt,
-        Func::Rsqrt => Builtin::InverseSqrt,
-        Func::Exp => Builtin::Exp,
-        Func::Exp2 => Builtin::Exp2,
-        Func::Log => Builtin::Log,
-        Func::Log2 => Builtin::Log2,
-        Func::Pow => Builtin::Pow,
-        Func::Sin => Builtin::Sin,
-        Func::Cos => Builtin::Cos,
-        Func::Tan => Builtin::Tan,
-        Func::Asin => Builtin::Asin,
-        Func::Acos => Builtin::Acos,
-        Func::Atan => Builtin::Atan,
-        Func::Atan2 => Builtin::Atan2,
-        Func::Sinh => Builtin::Sinh,
-        Func::Cosh => Builtin::Cosh,
-        Func::Tanh => Builtin::Tanh,
-        Func::Smoothstep => Builtin::Smoothstep,
-        Func::Step => Builtin::Step,
-        Func::Mix => Builtin::Mix,
-        Func::Asinh => return None,
-    })
+pub fn builtin(f: Intrinsic) -> Option<Builtin> {
+    (f != Intrinsic::Asinh).then_some(Builtin::Intrinsic(f))
 }
 
 #[cfg(test)]
 mod tests {
     use super::{Leaf, Leaves, Printed, print};
     use crate::error::{Error, Result};
-    use crate::fit::text::expr::{BinOp, Compare, Func};
+    use crate::fit::text::expr::{BinOp, Compare, Intrinsic};
     use crate::fit::text::tape::{Ins, Tape};
     use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, f, func, name};
 
@@ -183,8 +153,8 @@ mod tests {
                 Leaf::Param(_) => return Err(Error::invalid("test tape", "a parameter")),
             })
         }
-        fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr> {
-            Ok(func(function.name(), args))
+        fn helper(&mut self, function: Intrinsic, args: Vec<Expr>) -> Result<Expr> {
+            Ok(func(function.wgsl_name(), args))
         }
         fn power(&mut self, x: Expr, n: i32) -> Result<Expr> {
             Ok(func(&format!("pow_{n}"), vec![x]))
@@ -204,7 +174,7 @@ mod tests {
         let y = tape.push(Ins::Var(1));
         let sum = tape.push(Ins::Bin(BinOp::Add, x, y)); // read twice: `v2`
         let named = tape.push(Ins::PowInt(sum, 3)); // named by the caller
-        let _dead = tape.push(Ins::Call(Func::Asinh, [x, 0, 0]));
+        let _dead = tape.push(Ins::Call(Intrinsic::Asinh, [x, 0, 0]));
         let half = tape.push(Ins::Const(0.5));
         let choice =
             tape.push(Ins::Select { otherwise: sum, then: named, compare: Compare::Gt, left: sum, right: half });

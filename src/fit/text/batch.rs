@@ -8,7 +8,7 @@
 //! skipped where its derivative or the adjoint is 0, a parameter's adjoints added point by point),
 //! so values and gradients are the same to the bit, and a fit is the same whichever evaluates it.
 
-use super::expr::{BinOp, Func};
+use super::expr::{BinOp, Intrinsic};
 use super::tape::{Ins, Scalar, Tape, operands, partials, pow_int, value_of};
 
 /// Points per row.
@@ -69,11 +69,11 @@ impl Batch {
                         *o = pow_int(a, n);
                     }
                 }
-                Ins::Call(Func::Min, [a, b, _]) => binary(out, a, b, <f64 as Scalar>::min),
-                Ins::Call(Func::Max, [a, b, _]) => binary(out, a, b, <f64 as Scalar>::max),
-                Ins::Call(Func::Exp, [a, _, _]) => unary(out, a, f64::exp),
-                Ins::Call(Func::Sqrt, [a, _, _]) => unary(out, a, f64::sqrt),
-                Ins::Call(Func::Abs, [a, _, _]) => unary(out, a, f64::abs),
+                Ins::Call(Intrinsic::Min, [a, b, _]) => binary(out, a, b, <f64 as Scalar>::min),
+                Ins::Call(Intrinsic::Max, [a, b, _]) => binary(out, a, b, <f64 as Scalar>::max),
+                Ins::Call(Intrinsic::Exp, [a, _, _]) => unary(out, a, f64::exp),
+                Ins::Call(Intrinsic::Sqrt, [a, _, _]) => unary(out, a, f64::sqrt),
+                Ins::Call(Intrinsic::Abs, [a, _, _]) => unary(out, a, f64::abs),
                 _ => {
                     for (l, o) in out.iter_mut().enumerate() {
                         *o = value_of(ins, |k| done[k * LANES + l], &[], params);
@@ -145,24 +145,24 @@ impl Batch {
                         edge(&mut lower[a * LANES + l], s, f64::from(n) * pow_int(x(a, l), n - 1));
                     }
                 }
-                Ins::Call(Func::Exp, [a, _, _]) => {
+                Ins::Call(Intrinsic::Exp, [a, _, _]) => {
                     for (l, &s) in adjoint.iter().enumerate() {
                         edge(&mut lower[a * LANES + l], s, v[l]);
                     }
                 }
-                Ins::Call(Func::Min, [a, b, _]) => {
+                Ins::Call(Intrinsic::Min, [a, b, _]) => {
                     for (l, &s) in adjoint.iter().enumerate() {
                         let to = if x(b, l) < x(a, l) { b } else { a };
                         edge(&mut lower[to * LANES + l], s, 1.0);
                     }
                 }
-                Ins::Call(Func::Max, [a, b, _]) => {
+                Ins::Call(Intrinsic::Max, [a, b, _]) => {
                     for (l, &s) in adjoint.iter().enumerate() {
                         let to = if x(b, l) > x(a, l) { b } else { a };
                         edge(&mut lower[to * LANES + l], s, 1.0);
                     }
                 }
-                Ins::Call(Func::Sqrt, [a, _, _]) => {
+                Ins::Call(Intrinsic::Sqrt, [a, _, _]) => {
                     for (l, &s) in adjoint.iter().enumerate() {
                         edge(&mut lower[a * LANES + l], s, if v[l] > 0.0 { 0.5 / v[l] } else { 0.0 });
                     }

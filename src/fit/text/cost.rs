@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::expr::{BinOp, Func};
+use super::expr::{BinOp, Intrinsic};
 use super::form::Form;
 use super::tape::{Ins, Tape, reads};
 use crate::error::{Error, Result};
@@ -53,17 +53,17 @@ pub fn operations(tape: &Tape) -> Operations {
             Ins::Bin(..) => count.arithmetic += 1,
             Ins::PowInt(_, n) => count.arithmetic += (n.unsigned_abs() as usize).saturating_sub(1) + usize::from(n < 0),
             Ins::Call(f, _) => match f {
-                Func::Abs
-                | Func::Sign
-                | Func::Min
-                | Func::Max
-                | Func::Clamp
-                | Func::Saturate
-                | Func::Floor
-                | Func::Fract
-                | Func::Step
-                | Func::Mix
-                | Func::Smoothstep => count.arithmetic += 1,
+                Intrinsic::Abs
+                | Intrinsic::Sign
+                | Intrinsic::Min
+                | Intrinsic::Max
+                | Intrinsic::Clamp
+                | Intrinsic::Saturate
+                | Intrinsic::Floor
+                | Intrinsic::Fract
+                | Intrinsic::Step
+                | Intrinsic::Mix
+                | Intrinsic::Smoothstep => count.arithmetic += 1,
                 _ => count.transcendental += 1,
             },
             Ins::Select { .. } => count.select += 1,

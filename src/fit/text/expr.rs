@@ -1,5 +1,5 @@
 //! The expression language of form files: numbers, names, `+ - * / ^`, unary minus, and calls of
-//! the functions WGSL and HLSL both have ([`Func`]); comparisons only as the condition of
+//! the functions WGSL and HLSL both have ([`Intrinsic`]); comparisons only as the condition of
 //! `select(a, b, condition)`, which is `b` where the condition holds (WGSL's argument order), so
 //! that every expression is a number and every condition a comparison, as in a shader.
 //!
@@ -28,90 +28,25 @@ fn error<T>(at: usize, message: impl Into<String>) -> Result<T, ExprError> {
     Err(ExprError { at, message: message.into() })
 }
 
-/// The functions of the language, each with the meaning WGSL gives it (HLSL's is the same; where
-/// HLSL spells it differently, the printer says so: `frac`, `lerp`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Func {
-    Abs,
-    Sign,
-    Min,
-    Max,
-    Clamp,
-    Saturate,
-    Floor,
-    Fract,
-    Sqrt,
-    Rsqrt,
-    Exp,
-    Exp2,
-    Log,
-    Log2,
-    Pow,
-    Sin,
-    Cos,
-    Tan,
-    Asin,
-    Acos,
-    Atan,
-    Atan2,
-    Sinh,
-    Cosh,
-    Tanh,
-    Asinh,
-    Smoothstep,
-    Step,
-    Mix,
-}
-
-/// Every function: its name in a form and its argument count.
-pub const FUNCTIONS: &[(&str, Func, usize)] = &[
-    ("abs", Func::Abs, 1),
-    ("sign", Func::Sign, 1),
-    ("min", Func::Min, 2),
-    ("max", Func::Max, 2),
-    ("clamp", Func::Clamp, 3),
-    ("saturate", Func::Saturate, 1),
-    ("floor", Func::Floor, 1),
-    ("fract", Func::Fract, 1),
-    ("sqrt", Func::Sqrt, 1),
-    ("rsqrt", Func::Rsqrt, 1),
-    ("exp", Func::Exp, 1),
-    ("exp2", Func::Exp2, 1),
-    ("log", Func::Log, 1),
-    ("log2", Func::Log2, 1),
-    ("pow", Func::Pow, 2),
-    ("sin", Func::Sin, 1),
-    ("cos", Func::Cos, 1),
-    ("tan", Func::Tan, 1),
-    ("asin", Func::Asin, 1),
-    ("acos", Func::Acos, 1),
-    ("atan", Func::Atan, 1),
-    ("atan2", Func::Atan2, 2),
-    ("sinh", Func::Sinh, 1),
-    ("cosh", Func::Cosh, 1),
-    ("tanh", Func::Tanh, 1),
-    ("asinh", Func::Asinh, 1),
-    ("smoothstep", Func::Smoothstep, 3),
-    ("step", Func::Step, 2),
-    ("mix", Func::Mix, 3),
-];
+/// The functions of the language: the intrinsics both shading languages have, with the meaning
+/// WGSL gives them ([`Intrinsic`]).
+pub use crate::physics::real::Intrinsic;
 
 /// The one function that takes a condition: `select(a, b, condition)`.
 pub const SELECT: &str = "select";
 
-impl Func {
-    pub fn name(self) -> &'static str {
-        FUNCTIONS.iter().find(|(_, f, _)| *f == self).map(|(n, ..)| *n).unwrap_or("?")
-    }
-
-    fn arity(self) -> usize {
-        FUNCTIONS.iter().find(|(_, f, _)| *f == self).map(|(.., a)| *a).unwrap_or(0)
+/// A function's name in a form: WGSL's, but `rsqrt` for `inverseSqrt` (HLSL's name, and the
+/// shorter).
+pub fn form_name(function: Intrinsic) -> &'static str {
+    match function {
+        Intrinsic::InverseSqrt => "rsqrt",
+        other => other.wgsl_name(),
     }
 }
 
 /// Every function name the language knows, `select` included, for error messages.
 pub fn function_names() -> String {
-    let mut names: Vec<&str> = FUNCTIONS.iter().map(|(n, ..)| *n).collect();
+    let mut names: Vec<&str> = Intrinsic::ALL.iter().map(|&(f, ..)| form_name(f)).collect();
     names.push(SELECT);
     names.join(", ")
 }
@@ -137,7 +72,7 @@ pub enum Node {
     Name(String, Span),
     Neg(Box<Node>),
     Binary(BinOp, Box<Node>, Box<Node>),
-    Call(Func, Vec<Node>),
+    Call(Intrinsic, Vec<Node>),
     /// `select(otherwise, then, left compare right)`.
     Select {
         otherwise: Box<Node>,
@@ -375,7 +310,7 @@ impl Parser {
     fn call(&mut self, name: String, span: Span) -> Result<Node, ExprError> {
         self.take();
         let is_select = name == SELECT;
-        let func = FUNCTIONS.iter().find(|(n, ..)| *n == name).map(|(_, f, _)| *f);
+        let func = Intrinsic::ALL.iter().map(|&(f, ..)| f).find(|&f| form_name(f) == name);
         if func.is_none() && !is_select {
             return error(span.start, format!("unknown function `{name}`; allowed: {}", function_names()));
         }
@@ -396,7 +331,7 @@ impl Parser {
             }
         }
         self.expect(")", &format!("or `,` in the arguments of `{name}`"))?;
-        let (given, wanted) = (args.len() + usize::from(condition.is_some()), func.map_or(3, Func::arity));
+        let (given, wanted) = (args.len() + usize::from(condition.is_some()), func.map_or(3, Intrinsic::arity));
         if given != wanted {
             let signature =
                 if is_select { "select(a, b, condition)".to_string() } else { format!("{name} takes {wanted}") };
@@ -472,7 +407,7 @@ pub fn check_identifier(name: &str) -> Result<(), String> {
     if !valid {
         return Err(format!("`{name}` is not a name: a letter, then letters, digits or single underscores"));
     }
-    if FUNCTIONS.iter().any(|(n, ..)| *n == name) || name == SELECT {
+    if Intrinsic::ALL.iter().any(|&(f, ..)| form_name(f) == name) || name == SELECT {
         return Err(format!("`{name}` is a function of the language"));
     }
     if RESERVED.contains(&name) || name.starts_with("tmlut") {

@@ -12,7 +12,7 @@
 use std::cell::RefCell;
 use std::collections::HashMap;
 
-use super::expr::{BinOp, Func};
+use super::expr::{BinOp, Intrinsic};
 use super::tape::{Ins, Tape};
 use crate::physics::real::{Compare, Real};
 
@@ -110,7 +110,7 @@ impl Recorded {
 
     /// `f` of `args`: computed now where every argument is known, else recorded (a known argument
     /// as a constant).
-    fn call<const N: usize>(f: Func, args: [Self; N], compute: impl Fn([f64; N]) -> f64) -> Self {
+    fn call<const N: usize>(f: Intrinsic, args: [Self; N], compute: impl Fn([f64; N]) -> f64) -> Self {
         let known = args.map(|a| a.known);
         if known.iter().all(Option::is_some) {
             return Recorded::of(compute(known.map(Option::unwrap_or_default)));
@@ -196,35 +196,35 @@ impl Real for Recorded {
     }
 
     fn sqrt(self) -> Self {
-        Self::call(Func::Sqrt, [self], |[x]| x.sqrt())
+        Self::call(Intrinsic::Sqrt, [self], |[x]| x.sqrt())
     }
 
     fn exp(self) -> Self {
-        Self::call(Func::Exp, [self], |[x]| x.exp())
+        Self::call(Intrinsic::Exp, [self], |[x]| x.exp())
     }
 
     fn sinh(self) -> Self {
-        Self::call(Func::Sinh, [self], |[x]| x.sinh())
+        Self::call(Intrinsic::Sinh, [self], |[x]| x.sinh())
     }
 
     fn abs(self) -> Self {
-        Self::call(Func::Abs, [self], |[x]| x.abs())
+        Self::call(Intrinsic::Abs, [self], |[x]| x.abs())
     }
 
     fn powf(self, exponent: Self) -> Self {
-        Self::call(Func::Pow, [self, exponent], |[x, e]| x.powf(e))
+        Self::call(Intrinsic::Pow, [self, exponent], |[x, e]| x.powf(e))
     }
 
     fn min(self, other: Self) -> Self {
-        Self::call(Func::Min, [self, other], |[x, y]| x.min(y))
+        Self::call(Intrinsic::Min, [self, other], |[x, y]| x.min(y))
     }
 
     fn max(self, other: Self) -> Self {
-        Self::call(Func::Max, [self, other], |[x, y]| x.max(y))
+        Self::call(Intrinsic::Max, [self, other], |[x, y]| x.max(y))
     }
 
     fn clamp(self, lo: f64, hi: f64) -> Self {
-        Self::call(Func::Clamp, [self, Recorded::of(lo), Recorded::of(hi)], |[x, lo, hi]| x.clamp(lo, hi))
+        Self::call(Intrinsic::Clamp, [self, Recorded::of(lo), Recorded::of(hi)], |[x, lo, hi]| x.clamp(lo, hi))
     }
 
     fn select(compare: Compare, left: Self, right: Self, then: Self, otherwise: Self) -> Self {

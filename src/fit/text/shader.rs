@@ -8,11 +8,11 @@
 //! model, with the form's names: the derived variables it reads, each parameter as a local holding
 //! its fitted value (f32, shortest round-trip text), each `let`, then the channels.
 
-use super::expr::Func;
+use super::expr::{Intrinsic, form_name};
 use super::form::Form;
 use crate::error::{Error, Result};
 use crate::shader::tape::{Leaf, Leaves, Printed, print};
-use crate::shader::{Builtin, Expr, Lang, Module, Parens, Stmt, Ty, call, f, func, let_, name};
+use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, call, f, func, let_, name};
 
 /// The shading languages a fitted form is written in, with each file's extension.
 pub const LANGUAGES: &[(&str, &str)] = &[("WGSL", "wgsl"), ("HLSL", "hlsl"), ("GLSL", "glsl"), ("MSL", "metal")];
@@ -47,15 +47,15 @@ impl Leaves for FormLeaves<'_> {
         })
     }
 
-    fn helper(&mut self, function: Func, args: Vec<Expr>) -> Result<Expr> {
+    fn helper(&mut self, function: Intrinsic, args: Vec<Expr>) -> Result<Expr> {
         match function {
-            Func::Asinh => {
+            Intrinsic::Asinh => {
                 self.asinh = true;
                 Ok(func(ASINH, args))
             }
             other => Err(Error::invalid(
                 format!("form `{}`", self.form.name),
-                format!("`{}` has no builtin and no helper", other.name()),
+                format!("`{}` has no builtin and no helper", form_name(other)),
             )),
         }
     }
@@ -115,8 +115,8 @@ pub fn module(form: &Form, parameters: &[f64]) -> Result<Module> {
             vec![
                 let_("a", Ty::F32, x.clone().abs()),
                 Stmt::Return(
-                    call(Builtin::Sign, vec![x])
-                        * call(Builtin::Log, vec![a.clone() + (a.clone() * a + f(1.0)).sqrt()]),
+                    call(Intrinsic::Sign, vec![x])
+                        * call(Intrinsic::Log, vec![a.clone() + (a.clone() * a + f(1.0)).sqrt()]),
                 ),
             ],
         );

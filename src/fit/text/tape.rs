@@ -5,7 +5,7 @@
 //! about one evaluation whatever the number of parameters, where forward-mode dual numbers would
 //! carry one derivative per parameter through every operation.
 
-use super::expr::{BinOp, Compare, Func};
+use super::expr::{BinOp, Compare, Intrinsic};
 
 /// One instruction; operands are indices of earlier instructions.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -20,7 +20,7 @@ pub enum Ins {
     /// `x ^ n` for an integer literal `n` (|n| <= [`MAX_INTEGER_POWER`]): repeated
     /// multiplication, defined for a negative base, as the shaders compute it.
     PowInt(usize, i32),
-    Call(Func, [usize; 3]),
+    Call(Intrinsic, [usize; 3]),
     Select {
         otherwise: usize,
         then: usize,
@@ -53,7 +53,7 @@ pub trait Scalar:
 {
     fn of(v: f64) -> Self;
     fn to_f64(self) -> f64;
-    fn unary(f: Func, x: Self) -> Self;
+    fn unary(f: Intrinsic, x: Self) -> Self;
     fn powf(self, e: Self) -> Self;
     fn atan2(self, x: Self) -> Self;
     fn min(self, o: Self) -> Self;
@@ -69,10 +69,10 @@ macro_rules! scalar {
             fn to_f64(self) -> f64 {
                 self as f64
             }
-            fn unary(f: Func, x: Self) -> Self {
+            fn unary(f: Intrinsic, x: Self) -> Self {
                 match f {
-                    Func::Abs => x.abs(),
-                    Func::Sign => {
+                    Intrinsic::Abs => x.abs(),
+                    Intrinsic::Sign => {
                         if x > 0.0 {
                             1.0
                         } else if x < 0.0 {
@@ -81,26 +81,26 @@ macro_rules! scalar {
                             0.0
                         }
                     }
-                    Func::Saturate => x.max(0.0).min(1.0),
-                    Func::Floor => x.floor(),
-                    Func::Fract => x - x.floor(),
-                    Func::Sqrt => x.sqrt(),
-                    Func::Rsqrt => 1.0 / x.sqrt(),
-                    Func::Exp => x.exp(),
-                    Func::Exp2 => x.exp2(),
-                    Func::Log => x.ln(),
-                    Func::Log2 => x.log2(),
-                    Func::Sin => x.sin(),
-                    Func::Cos => x.cos(),
-                    Func::Tan => x.tan(),
-                    Func::Asin => x.asin(),
-                    Func::Acos => x.acos(),
-                    Func::Atan => x.atan(),
-                    Func::Sinh => x.sinh(),
-                    Func::Cosh => x.cosh(),
-                    Func::Tanh => x.tanh(),
+                    Intrinsic::Saturate => x.max(0.0).min(1.0),
+                    Intrinsic::Floor => x.floor(),
+                    Intrinsic::Fract => x - x.floor(),
+                    Intrinsic::Sqrt => x.sqrt(),
+                    Intrinsic::InverseSqrt => 1.0 / x.sqrt(),
+                    Intrinsic::Exp => x.exp(),
+                    Intrinsic::Exp2 => x.exp2(),
+                    Intrinsic::Log => x.ln(),
+                    Intrinsic::Log2 => x.log2(),
+                    Intrinsic::Sin => x.sin(),
+                    Intrinsic::Cos => x.cos(),
+                    Intrinsic::Tan => x.tan(),
+                    Intrinsic::Asin => x.asin(),
+                    Intrinsic::Acos => x.acos(),
+                    Intrinsic::Atan => x.atan(),
+                    Intrinsic::Sinh => x.sinh(),
+                    Intrinsic::Cosh => x.cosh(),
+                    Intrinsic::Tanh => x.tanh(),
                     // As the shaders compute it (`asinh_of`): HLSL has no asinh.
-                    Func::Asinh => {
+                    Intrinsic::Asinh => {
                         let a = x.abs();
                         let s = if x > 0.0 {
                             1.0
@@ -321,20 +321,20 @@ pub(super) fn value_of<T: Scalar>(ins: &Ins, v: impl Fn(usize) -> T, vars: &[T],
         },
         Ins::PowInt(a, n) => pow_int(v(a), n),
         Ins::Call(f, [a, b, c]) => match f {
-            Func::Min => v(a).min(v(b)),
-            Func::Max => v(a).max(v(b)),
-            Func::Pow => v(a).powf(v(b)),
-            Func::Atan2 => v(a).atan2(v(b)),
-            Func::Step => {
+            Intrinsic::Min => v(a).min(v(b)),
+            Intrinsic::Max => v(a).max(v(b)),
+            Intrinsic::Pow => v(a).powf(v(b)),
+            Intrinsic::Atan2 => v(a).atan2(v(b)),
+            Intrinsic::Step => {
                 if v(a) <= v(b) {
                     T::of(1.0)
                 } else {
                     T::of(0.0)
                 }
             }
-            Func::Clamp => clamp(v(a), v(b), v(c)),
-            Func::Mix => v(a) * (T::of(1.0) - v(c)) + v(b) * v(c),
-            Func::Smoothstep => {
+            Intrinsic::Clamp => clamp(v(a), v(b), v(c)),
+            Intrinsic::Mix => v(a) * (T::of(1.0) - v(c)) + v(b) * v(c),
+            Intrinsic::Smoothstep => {
                 let t = clamp((v(c) - v(a)) / (v(b) - v(a)), T::of(0.0), T::of(1.0));
                 t * t * (T::of(3.0) - T::of(2.0) * t)
             }
@@ -375,8 +375,8 @@ fn operand_slots(ins: &mut Ins) -> Vec<&mut usize> {
         Ins::Neg(a) | Ins::PowInt(a, _) => vec![a],
         Ins::Bin(_, a, b) => vec![a, b],
         Ins::Call(f, [a, b, c]) => match f {
-            Func::Clamp | Func::Mix | Func::Smoothstep => vec![a, b, c],
-            Func::Min | Func::Max | Func::Pow | Func::Atan2 | Func::Step => vec![a, b],
+            Intrinsic::Clamp | Intrinsic::Mix | Intrinsic::Smoothstep => vec![a, b, c],
+            Intrinsic::Min | Intrinsic::Max | Intrinsic::Pow | Intrinsic::Atan2 | Intrinsic::Step => vec![a, b],
             _ => vec![a],
         },
         Ins::Select { otherwise, then, left, right, .. } => vec![otherwise, then, left, right],
@@ -396,8 +396,10 @@ pub(super) fn operands(ins: &Ins) -> [Option<usize>; 4] {
         Ins::Neg(a) | Ins::PowInt(a, _) => [Some(a), None, None, None],
         Ins::Bin(_, a, b) => [Some(a), Some(b), None, None],
         Ins::Call(f, [a, b, c]) => match f {
-            Func::Clamp | Func::Mix | Func::Smoothstep => [Some(a), Some(b), Some(c), None],
-            Func::Min | Func::Max | Func::Pow | Func::Atan2 | Func::Step => [Some(a), Some(b), None, None],
+            Intrinsic::Clamp | Intrinsic::Mix | Intrinsic::Smoothstep => [Some(a), Some(b), Some(c), None],
+            Intrinsic::Min | Intrinsic::Max | Intrinsic::Pow | Intrinsic::Atan2 | Intrinsic::Step => {
+                [Some(a), Some(b), None, None]
+            }
             _ => [Some(a), None, None, None],
         },
         // The condition is piecewise constant: no derivative flows into it.
@@ -425,54 +427,54 @@ pub(super) fn partials(ins: &Ins, x: impl Fn(usize) -> f64, v: f64) -> [f64; 4] 
             let (a, b, c) = (x(a), x(b), x(c));
             let one = |d: f64| [d, 0.0, 0.0, 0.0];
             match f {
-                Func::Abs => one(if a > 0.0 {
+                Intrinsic::Abs => one(if a > 0.0 {
                     1.0
                 } else if a < 0.0 {
                     -1.0
                 } else {
                     0.0
                 }),
-                Func::Sign | Func::Floor => one(0.0),
-                Func::Fract => one(1.0),
-                Func::Saturate => one(if (0.0..=1.0).contains(&a) { 1.0 } else { 0.0 }),
-                Func::Sqrt => one(if v > 0.0 { 0.5 / v } else { 0.0 }),
-                Func::Rsqrt => one(-0.5 * v * v * v),
-                Func::Exp => one(v),
-                Func::Exp2 => one(v * std::f64::consts::LN_2),
-                Func::Log => one(1.0 / a),
-                Func::Log2 => one(1.0 / (a * std::f64::consts::LN_2)),
-                Func::Sin => one(a.cos()),
-                Func::Cos => one(-a.sin()),
-                Func::Tan => one(1.0 + v * v),
-                Func::Asin => one(1.0 / (1.0 - a * a).sqrt()),
-                Func::Acos => one(-1.0 / (1.0 - a * a).sqrt()),
-                Func::Atan => one(1.0 / (1.0 + a * a)),
-                Func::Sinh => one(a.cosh()),
-                Func::Cosh => one(a.sinh()),
-                Func::Tanh => one(1.0 - v * v),
-                Func::Asinh => one(1.0 / (a * a + 1.0).sqrt()),
-                Func::Min => {
+                Intrinsic::Sign | Intrinsic::Floor => one(0.0),
+                Intrinsic::Fract => one(1.0),
+                Intrinsic::Saturate => one(if (0.0..=1.0).contains(&a) { 1.0 } else { 0.0 }),
+                Intrinsic::Sqrt => one(if v > 0.0 { 0.5 / v } else { 0.0 }),
+                Intrinsic::InverseSqrt => one(-0.5 * v * v * v),
+                Intrinsic::Exp => one(v),
+                Intrinsic::Exp2 => one(v * std::f64::consts::LN_2),
+                Intrinsic::Log => one(1.0 / a),
+                Intrinsic::Log2 => one(1.0 / (a * std::f64::consts::LN_2)),
+                Intrinsic::Sin => one(a.cos()),
+                Intrinsic::Cos => one(-a.sin()),
+                Intrinsic::Tan => one(1.0 + v * v),
+                Intrinsic::Asin => one(1.0 / (1.0 - a * a).sqrt()),
+                Intrinsic::Acos => one(-1.0 / (1.0 - a * a).sqrt()),
+                Intrinsic::Atan => one(1.0 / (1.0 + a * a)),
+                Intrinsic::Sinh => one(a.cosh()),
+                Intrinsic::Cosh => one(a.sinh()),
+                Intrinsic::Tanh => one(1.0 - v * v),
+                Intrinsic::Asinh => one(1.0 / (a * a + 1.0).sqrt()),
+                Intrinsic::Min => {
                     if b < a {
                         [0.0, 1.0, 0.0, 0.0]
                     } else {
                         [1.0, 0.0, 0.0, 0.0]
                     }
                 }
-                Func::Max => {
+                Intrinsic::Max => {
                     if b > a {
                         [0.0, 1.0, 0.0, 0.0]
                     } else {
                         [1.0, 0.0, 0.0, 0.0]
                     }
                 }
-                Func::Pow => pow_partials(a, b, v),
+                Intrinsic::Pow => pow_partials(a, b, v),
                 // atan2(y, x): d/dy = x / r^2, d/dx = -y / r^2.
-                Func::Atan2 => {
+                Intrinsic::Atan2 => {
                     let r2 = a * a + b * b;
                     [b / r2, -a / r2, 0.0, 0.0]
                 }
-                Func::Step => [0.0; 4],
-                Func::Clamp => {
+                Intrinsic::Step => [0.0; 4],
+                Intrinsic::Clamp => {
                     if a.max(b) > c {
                         [0.0, 0.0, 1.0, 0.0]
                     } else if b > a {
@@ -481,10 +483,10 @@ pub(super) fn partials(ins: &Ins, x: impl Fn(usize) -> f64, v: f64) -> [f64; 4] 
                         [1.0, 0.0, 0.0, 0.0]
                     }
                 }
-                Func::Mix => [1.0 - c, c, b - a, 0.0],
+                Intrinsic::Mix => [1.0 - c, c, b - a, 0.0],
                 // smoothstep(e0, e1, x) = s(t), t = (x - e0) / (e1 - e0), s = t^2 (3 - 2t) inside
                 // [0, 1], constant outside.
-                Func::Smoothstep => {
+                Intrinsic::Smoothstep => {
                     let width = b - a;
                     let t = (c - a) / width;
                     if (0.0..=1.0).contains(&t) {

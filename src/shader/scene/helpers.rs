@@ -2,7 +2,7 @@
 //! (bilinear, from a texture array's layer, trilinear), and the `asinh` and `acos` an axis's
 //! coordinate needs. The model's own arithmetic is recorded inline ([`super::material`]).
 
-use super::super::{Builtin, Expr, Module, Stmt, Ty, call, f, let_, name, select};
+use super::super::{Expr, Intrinsic, Module, Stmt, Ty, call, f, let_, name, select};
 
 /// The helper functions every scene shader shares: the bilinear read of a 2D table.
 pub(super) fn common(module: &mut Module) {
@@ -134,7 +134,7 @@ pub(super) fn asinh(module: &mut Module) {
         Ty::F32,
         vec![
             let_("a", Ty::F32, name("x").abs()),
-            let_("r", Ty::F32, call(Builtin::Log, vec![a.clone() + (a.clone() * a + f(1.0)).sqrt()])),
+            let_("r", Ty::F32, call(Intrinsic::Log, vec![a.clone() + (a.clone() * a + f(1.0)).sqrt()])),
             Stmt::Return(select(name("x").lt(f(0.0)), -name("r"), name("r"))),
         ],
     );

@@ -13,7 +13,7 @@ use super::super::tape::{Leaf, Leaves, Printed, print};
 use super::super::{Expr, Function, Stmt, Ty, assign, f, name, vec3};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
-use crate::fit::text::expr::Func;
+use crate::fit::text::expr::Intrinsic;
 use crate::fit::text::record::{Recorded, record};
 use crate::fit::text::tape::{Ins, Tape, reads};
 use crate::model::{Evaluation, FluxModel, Lookup, Material, Quantity, Stack, Tables};
@@ -151,8 +151,8 @@ impl Leaves for MaterialLeaves<'_, '_> {
         }
     }
 
-    fn helper(&mut self, function: Func, _: Vec<Expr>) -> Result<Expr> {
-        let reason = format!("its model calls `{}`, which has no builtin", function.name());
+    fn helper(&mut self, function: Intrinsic, _: Vec<Expr>) -> Result<Expr> {
+        let reason = format!("its model calls `{}`, which has no builtin", function.wgsl_name());
         Err(self.generator.refuse(&self.material.name, reason))
     }
 

@@ -876,7 +876,7 @@ pub fn texts(shader: &SceneShader) -> [(Lang, String); 2] {
 mod tests {
     use std::collections::HashMap;
 
-    use super::super::{Function, Op, Stmt};
+    use super::super::{Function, Intrinsic, Op, Stmt};
     use super::*;
 
     /// A value of the chooser functions' f32 arithmetic.
@@ -920,7 +920,9 @@ mod tests {
                     called.params.iter().zip(args).map(|((p, _), a)| (p.clone(), eval(a))).collect();
                 run(&called.body, &mut inner, functions).expect("the chooser returns")
             }
-            Expr::Call(Builtin::Max, args) => Value::F(eval(&args[0]).f().max(eval(&args[1]).f())),
+            Expr::Call(Builtin::Intrinsic(Intrinsic::Max), args) => {
+                Value::F(eval(&args[0]).f().max(eval(&args[1]).f()))
+            }
             Expr::Select { condition, then, otherwise } => {
                 if eval(condition).b() {
                     eval(then)

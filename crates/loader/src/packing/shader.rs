@@ -324,7 +324,7 @@ impl Program {
 
     /// `e` as an expression of the shader emitter.
     pub fn emitted(&self, e: &Expr) -> shader::Expr {
-        use shader::Builtin;
+        use shader::Intrinsic;
         let two = |a: &Expr, b: &Expr| vec![self.emitted(a), self.emitted(b)];
         match e {
             Expr::Input(i) => shader::name(self.inputs[*i]),
@@ -333,12 +333,12 @@ impl Program {
             Expr::Add(a, b) => self.emitted(a) + self.emitted(b),
             Expr::Sub(a, b) => self.emitted(a) - self.emitted(b),
             Expr::Mul(a, b) => self.emitted(a) * self.emitted(b),
-            Expr::Floor(a) => shader::call(Builtin::Floor, vec![self.emitted(a)]),
-            Expr::Min(a, b) => shader::call(Builtin::Min, two(a, b)),
-            Expr::Max(a, b) => shader::call(Builtin::Max, two(a, b)),
-            Expr::Sqrt(a) => shader::call(Builtin::Sqrt, vec![self.emitted(a)]),
-            Expr::Log(a) => shader::call(Builtin::Log, vec![self.emitted(a)]),
-            Expr::Abs(a) => shader::call(Builtin::Abs, vec![self.emitted(a)]),
+            Expr::Floor(a) => shader::call(Intrinsic::Floor, vec![self.emitted(a)]),
+            Expr::Min(a, b) => shader::call(Intrinsic::Min, two(a, b)),
+            Expr::Max(a, b) => shader::call(Intrinsic::Max, two(a, b)),
+            Expr::Sqrt(a) => shader::call(Intrinsic::Sqrt, vec![self.emitted(a)]),
+            Expr::Log(a) => shader::call(Intrinsic::Log, vec![self.emitted(a)]),
+            Expr::Abs(a) => shader::call(Intrinsic::Abs, vec![self.emitted(a)]),
             Expr::WithSignOf(a, s) => {
                 let negative = self.emitted(s).lt(shader::f(0.0));
                 shader::select(negative, -self.emitted(a), self.emitted(a))

@@ -51,6 +51,89 @@ impl Compare {
     }
 }
 
+/// The functions the shading languages and the form language both call, each with the meaning
+/// WGSL gives it: one list for the shader printer (`shader::Builtin`), the form language's parser,
+/// its evaluator and its recorder. HLSL has the same functions (spelling `fract`, `inverseSqrt`
+/// and `mix` as `frac`, `rsqrt` and `lerp`) but for `asinh`, which the printers of tapes write as a
+/// helper function in both languages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Intrinsic {
+    Abs,
+    Sign,
+    Min,
+    Max,
+    Clamp,
+    Saturate,
+    Floor,
+    Fract,
+    Sqrt,
+    InverseSqrt,
+    Exp,
+    Exp2,
+    Log,
+    Log2,
+    Pow,
+    Sin,
+    Cos,
+    Tan,
+    Asin,
+    Acos,
+    Atan,
+    Atan2,
+    Sinh,
+    Cosh,
+    Tanh,
+    Asinh,
+    Smoothstep,
+    Step,
+    Mix,
+}
+
+impl Intrinsic {
+    /// Every function with its WGSL name and its argument count.
+    pub const ALL: [(Intrinsic, &'static str, usize); 29] = [
+        (Intrinsic::Abs, "abs", 1),
+        (Intrinsic::Sign, "sign", 1),
+        (Intrinsic::Min, "min", 2),
+        (Intrinsic::Max, "max", 2),
+        (Intrinsic::Clamp, "clamp", 3),
+        (Intrinsic::Saturate, "saturate", 1),
+        (Intrinsic::Floor, "floor", 1),
+        (Intrinsic::Fract, "fract", 1),
+        (Intrinsic::Sqrt, "sqrt", 1),
+        (Intrinsic::InverseSqrt, "inverseSqrt", 1),
+        (Intrinsic::Exp, "exp", 1),
+        (Intrinsic::Exp2, "exp2", 1),
+        (Intrinsic::Log, "log", 1),
+        (Intrinsic::Log2, "log2", 1),
+        (Intrinsic::Pow, "pow", 2),
+        (Intrinsic::Sin, "sin", 1),
+        (Intrinsic::Cos, "cos", 1),
+        (Intrinsic::Tan, "tan", 1),
+        (Intrinsic::Asin, "asin", 1),
+        (Intrinsic::Acos, "acos", 1),
+        (Intrinsic::Atan, "atan", 1),
+        (Intrinsic::Atan2, "atan2", 2),
+        (Intrinsic::Sinh, "sinh", 1),
+        (Intrinsic::Cosh, "cosh", 1),
+        (Intrinsic::Tanh, "tanh", 1),
+        (Intrinsic::Asinh, "asinh", 1),
+        (Intrinsic::Smoothstep, "smoothstep", 3),
+        (Intrinsic::Step, "step", 2),
+        (Intrinsic::Mix, "mix", 3),
+    ];
+
+    /// Its name in WGSL.
+    pub fn wgsl_name(self) -> &'static str {
+        Intrinsic::ALL.iter().find(|(f, ..)| *f == self).map_or("?", |(_, name, _)| name)
+    }
+
+    /// How many arguments it takes.
+    pub fn arity(self) -> usize {
+        Intrinsic::ALL.iter().find(|(f, ..)| *f == self).map_or(0, |(.., arity)| *arity)
+    }
+}
+
 /// The arithmetic the model needs. Every method has the meaning `f64`'s method of that name has.
 pub trait Real:
     Copy

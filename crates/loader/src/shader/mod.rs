@@ -12,7 +12,7 @@
 
 use std::fmt::Write as _;
 
-pub use crate::physics::real::Compare;
+pub use crate::physics::real::{Compare, Intrinsic};
 
 /// A shading language the emitter prints.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -93,82 +93,30 @@ impl Ty {
     }
 }
 
-/// A builtin function both languages define with the same meaning.
+/// A builtin function both languages define with the same meaning: one of the intrinsics the
+/// form language shares ([`Intrinsic`]), or `dot` of two vectors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Builtin {
-    Abs,
-    Sqrt,
-    Floor,
-    Min,
-    Max,
-    Clamp,
-    Exp,
-    Log,
-    Pow,
-    Smoothstep,
+    Intrinsic(Intrinsic),
     Dot,
-    Sign,
-    Saturate,
-    /// HLSL `frac`.
-    Fract,
-    /// WGSL `inverseSqrt`, HLSL `rsqrt`.
-    InverseSqrt,
-    Exp2,
-    Log2,
-    Sin,
-    Cos,
-    Tan,
-    Asin,
-    Acos,
-    Atan,
-    Atan2,
-    Sinh,
-    Cosh,
-    Tanh,
-    Step,
-    /// HLSL `lerp`.
-    Mix,
+}
+
+impl From<Intrinsic> for Builtin {
+    fn from(intrinsic: Intrinsic) -> Self {
+        Builtin::Intrinsic(intrinsic)
+    }
 }
 
 impl Builtin {
+    /// Its name in `lang`. HLSL has no `asinh`: the printers of tapes call a helper for it
+    /// (`tmlut::shader::tape`), and a call of it here would print WGSL's name.
     fn name(self, lang: Lang) -> &'static str {
         match (self, lang) {
-            (Builtin::Fract, Lang::Hlsl) => return "frac",
-            (Builtin::InverseSqrt, Lang::Hlsl) => return "rsqrt",
-            (Builtin::InverseSqrt, Lang::Wgsl) => return "inverseSqrt",
-            (Builtin::Mix, Lang::Hlsl) => return "lerp",
-            _ => {}
-        }
-        match self {
-            Builtin::Abs => "abs",
-            Builtin::Sqrt => "sqrt",
-            Builtin::Floor => "floor",
-            Builtin::Min => "min",
-            Builtin::Max => "max",
-            Builtin::Clamp => "clamp",
-            Builtin::Exp => "exp",
-            Builtin::Log => "log",
-            Builtin::Pow => "pow",
-            Builtin::Smoothstep => "smoothstep",
-            Builtin::Dot => "dot",
-            Builtin::Sign => "sign",
-            Builtin::Saturate => "saturate",
-            Builtin::Fract => "fract",
-            Builtin::InverseSqrt => "inverseSqrt",
-            Builtin::Exp2 => "exp2",
-            Builtin::Log2 => "log2",
-            Builtin::Sin => "sin",
-            Builtin::Cos => "cos",
-            Builtin::Tan => "tan",
-            Builtin::Asin => "asin",
-            Builtin::Acos => "acos",
-            Builtin::Atan => "atan",
-            Builtin::Atan2 => "atan2",
-            Builtin::Sinh => "sinh",
-            Builtin::Cosh => "cosh",
-            Builtin::Tanh => "tanh",
-            Builtin::Step => "step",
-            Builtin::Mix => "mix",
+            (Builtin::Dot, _) => "dot",
+            (Builtin::Intrinsic(Intrinsic::Fract), Lang::Hlsl) => "frac",
+            (Builtin::Intrinsic(Intrinsic::InverseSqrt), Lang::Hlsl) => "rsqrt",
+            (Builtin::Intrinsic(Intrinsic::Mix), Lang::Hlsl) => "lerp",
+            (Builtin::Intrinsic(intrinsic), _) => intrinsic.wgsl_name(),
         }
     }
 }
@@ -284,8 +232,8 @@ pub fn representable(v: f32) -> f32 {
         v
     }
 }
-pub fn call(b: Builtin, args: Vec<Expr>) -> Expr {
-    Expr::Call(b, args)
+pub fn call(b: impl Into<Builtin>, args: Vec<Expr>) -> Expr {
+    Expr::Call(b.into(), args)
 }
 pub fn func(n: &str, args: Vec<Expr>) -> Expr {
     Expr::Function(n.to_string(), args)
@@ -342,22 +290,22 @@ impl Expr {
         self.op(Op::And, o)
     }
     pub fn min(self, o: Expr) -> Expr {
-        call(Builtin::Min, vec![self, o])
+        call(Intrinsic::Min, vec![self, o])
     }
     pub fn max(self, o: Expr) -> Expr {
-        call(Builtin::Max, vec![self, o])
+        call(Intrinsic::Max, vec![self, o])
     }
     pub fn clamp(self, lo: Expr, hi: Expr) -> Expr {
-        call(Builtin::Clamp, vec![self, lo, hi])
+        call(Intrinsic::Clamp, vec![self, lo, hi])
     }
     pub fn sqrt(self) -> Expr {
-        call(Builtin::Sqrt, vec![self])
+        call(Intrinsic::Sqrt, vec![self])
     }
     pub fn abs(self) -> Expr {
-        call(Builtin::Abs, vec![self])
+        call(Intrinsic::Abs, vec![self])
     }
     pub fn floor(self) -> Expr {
-        call(Builtin::Floor, vec![self])
+        call(Intrinsic::Floor, vec![self])
     }
     pub fn member(self, m: &str) -> Expr {
         Expr::Member(Box::new(self), m.to_string())
