@@ -404,9 +404,7 @@ impl FolderTables {
     fn stand_in_value(&self, lookup: &Lookup) -> Option<f64> {
         self.stand_ins
             .iter()
-            .filter(|(stand_in, _)| {
-                stand_in.quantity == lookup.quantity && stand_in.region.holds(lookup.eta, lookup.kappa)
-            })
+            .filter(|(stand_in, _)| stand_in.answers(lookup.quantity, lookup.eta, lookup.kappa))
             .find_map(|(_, texture)| {
                 let point = point_of(&texture.axes, lookup.mu, lookup.alpha, lookup.eta, lookup.kappa)?;
                 Some(self.full(texture, &point, lookup))

@@ -147,6 +147,14 @@ pub struct StandIn {
     pub why: &'static str,
 }
 
+impl StandIn {
+    /// Whether it answers a lookup of `quantity` at the index `(eta, kappa)`: the rule the folder's
+    /// lookups and the scene shader both choose by.
+    pub fn answers(&self, quantity: Quantity, eta: f64, kappa: f64) -> bool {
+        self.quantity == quantity && self.region.holds(eta, kappa)
+    }
+}
+
 /// Relative indices `eta < eta_below` and `kappa <= kappa_at_most`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IndexRegion {

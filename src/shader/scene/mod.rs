@@ -608,10 +608,10 @@ impl<'a> Generator<'a> {
         match m.albedo {
             AlbedoPath::Fgd => self.fgd(m, mu, alpha, eta, kappa),
             AlbedoPath::Belcour => {
-                let Some((table, basis)) = self
+                let Some((basis, table)) = self
                     .sources
                     .table(TableKind::Belcour)
-                    .and_then(|table| Some((table.clone(), table.fresnel_basis?)))
+                    .and_then(|table| Some((table.fresnel_basis.clone()?, table)))
                 else {
                     return Err(self.missing(m, "the Belcour split-sum table (belcour.dds with its Fresnel basis)"));
                 };
@@ -723,7 +723,7 @@ impl<'a> Generator<'a> {
         kappa: f64,
     ) -> Option<Result<Expr>> {
         let (stand_in, table) = crate::model::stand_ins()
-            .filter(|s| s.quantity == quantity && s.region.holds(eta, kappa))
+            .filter(|s| s.answers(quantity, eta, kappa))
             .find_map(|s| Some((s, self.sources.table(s.table)?)))?;
         Some(self.volume(m, &table, mu, alpha, eta, format!("{} table", stand_in.table.name())))
     }
