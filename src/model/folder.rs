@@ -59,9 +59,8 @@ pub const SLICE_CHOICE_SLACK: f64 = 1e-5;
 /// slack read it clamped at the first slice's edge (`absorbing-coat-00482` of the generated
 /// library, TIR at `alpha = (80/128)^2` minus a rounding).
 pub fn slice_choice_distance(axes: &[Axis], point: &[f64]) -> f64 {
-    let range = |axis: &Axis| if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
     let holds = axes.iter().zip(point).all(|(axis, &x)| {
-        let (lo, hi) = range(axis);
+        let (lo, hi) = axis.bounds();
         lo <= x && x <= hi
     });
     if holds {
@@ -70,7 +69,7 @@ pub fn slice_choice_distance(axes: &[Axis], point: &[f64]) -> f64 {
     axes.iter()
         .zip(point)
         .map(|(axis, &x)| {
-            let (lo, hi) = range(axis);
+            let (lo, hi) = axis.bounds();
             (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
         })
         .sum()
@@ -431,7 +430,7 @@ impl FolderTables {
                             .axes
                             .iter()
                             .zip(&point)
-                            .all(|(a, &x)| x >= a.start.min(a.end) - 1e-12 && x <= a.start.max(a.end) + 1e-12)
+                            .all(|(a, &x)| x >= a.bounds().0 - 1e-12 && x <= a.bounds().1 + 1e-12)
                         {
                             Self::note(&self.clamped, lookup);
                         }

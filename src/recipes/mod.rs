@@ -258,7 +258,7 @@ pub trait TableRecipe: Kernel {
     fn interpolation_domains(&self) -> crate::error::Result<Vec<interpolation::Domain>> {
         let axes = self.axes()?;
         let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
-        let ranges: Vec<[f64; 2]> = axes.iter().map(|a| [a.start.min(a.end), a.start.max(a.end)]).collect();
+        let ranges: Vec<[f64; 2]> = axes.iter().map(|a| a.bounds().into()).collect();
         Ok(interpolation::standard_domains(&names, &ranges))
     }
     /// A point of lookup parameters (in the order of [`TableRecipe::interpolation_domains`]) in

@@ -565,7 +565,7 @@ fn record_of(recipe: &dyn TableRecipe, kind: &str, reasons: Vec<String>) -> Resu
 }
 
 fn range_label(axis: &Axis) -> String {
-    let (lo, hi) = if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
+    let (lo, hi) = axis.bounds();
     Interval::new(lo, hi).to_string()
 }
 

@@ -82,7 +82,7 @@ impl std::fmt::Display for WeightsSpec {
 /// axis samples (`eta` of the TIR table, whose axis is the critical-angle offset).
 pub fn variable_range(table: &Table, variable: &str) -> (f64, f64) {
     match table.axes.iter().find(|a| a.name == variable) {
-        Some(a) => (a.start.min(a.end), a.start.max(a.end)),
+        Some(a) => a.bounds(),
         None => (0.0, 1.0),
     }
 }

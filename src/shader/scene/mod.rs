@@ -47,7 +47,7 @@ use crate::model::{AlbedoPath, FluxModel, Quantity, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
-use crate::table::{Axis, Mapping, Placement, TableKind};
+use crate::table::{Arithmetic, Axis, TableKind};
 
 pub use material::RecordedMaterial;
 
@@ -470,20 +470,19 @@ impl<'a> Generator<'a> {
             .filter(|s| if tir { s.is_tir } else { s.is_fgd })
             .filter_map(|s| s.indices.iter().position(|&(e, k)| same(e, eta) && same(k, kappa)).map(|c| (s.clone(), c)))
             .collect();
-        let range = |axis: &Axis| if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
         let outside = |axis: &Axis, x: f64| {
-            let (lo, hi) = range(axis);
+            let (lo, hi) = axis.bounds();
             (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
         };
         let candidates = match known_alpha {
             Some(alpha) => {
                 // Holds alpha as the chooser compares it, in f32 (the lattice's ends are exact in f32).
                 let holds_alpha = |axis: &Axis| {
-                    let (lo, hi) = range(axis);
+                    let (lo, hi) = axis.bounds();
                     lo as f32 <= alpha as f32 && alpha as f32 <= hi as f32
                 };
                 let always_chosen = candidates.iter().position(|(t, _)| {
-                    let (lo, hi) = range(&t.axes[0]);
+                    let (lo, hi) = t.axes[0].bounds();
                     holds_alpha(&t.axes[1]) && lo <= 0.0 && hi >= 1.0
                 });
                 match always_chosen {
@@ -527,11 +526,7 @@ impl<'a> Generator<'a> {
             // `slice_choice_distance` in f32: -1 where the range holds (mu, alpha), so that such a
             // slice beats one the lookup merely lies within the slack of.
             let ranges = [0, 1].map(|d| {
-                let (lo, hi) = if t.axes[d].start <= t.axes[d].end {
-                    (t.axes[d].start, t.axes[d].end)
-                } else {
-                    (t.axes[d].end, t.axes[d].start)
-                };
+                let (lo, hi) = t.axes[d].bounds();
                 (if d == 0 { "mu" } else { "alpha" }, lo, hi)
             });
             let outside = ranges
@@ -826,45 +821,63 @@ pub fn identifier(s: &str) -> String {
     s.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' }).collect()
 }
 
-/// The manifest's texture coordinate of `x` along `axis` as [`crate::model::folder::texture_coordinate_f32`]
-/// computes it: the mapping in f32, its ends folded to f32 constants here, then the half-texel
-/// correction of a node-aligned axis.
+/// The manifest's texture coordinate of `x` along `axis`, as the CPU's f32 sampler computes it
+/// ([`Axis::texture_coordinate_in`]), printed.
 fn coordinate(axis: &Axis, x: Expr) -> Expr {
-    let (u, n) = (unit_coordinate(axis, x), axis.count as f32);
-    match axis.placement {
-        Placement::NodeAligned => (u * f(n - 1.0) + f(0.5)) / f(n),
-        Placement::CellCentred => u,
-    }
+    axis.texture_coordinate_in(InShader(x)).0
 }
 
 /// The texture coordinate of `x` along node-aligned `axis` of a slice whose first node is texel
-/// `origin` of a texture array `extent` texels wide along it: its node position clamped to the
-/// slice (`formats::slice_array::texture_coordinate`).
+/// `origin` of a texture array `extent` texels wide along it
+/// ([`crate::formats::slice_array::texture_coordinate_in`]), printed.
 fn array_coordinate(axis: &Axis, origin: u32, extent: u32, x: Expr) -> Expr {
-    let t = unit_coordinate(axis, x).clamp(f(0.0), f(1.0));
-    (f(origin as f32 + 0.5) + t * f((axis.count - 1) as f32)) / f(extent as f32)
+    crate::formats::slice_array::texture_coordinate_in(axis, origin, extent as usize, InShader(x)).0
 }
 
-/// `x` along `axis` mapped to `[0, 1]` over its range.
-fn unit_coordinate(axis: &Axis, x: Expr) -> Expr {
-    let m0 = axis.mapping.forward_f32(axis.start as f32);
-    let m1 = axis.mapping.forward_f32(axis.end as f32);
-    let mapped = match axis.mapping {
-        Mapping::Identity => x,
-        Mapping::Sqrt => x.max(f(0.0)).sqrt(),
-        Mapping::SqrtOneMinus => (f(1.0) - x).max(f(0.0)).sqrt(),
-        Mapping::SqrtEnds => {
-            let x = x.clamp(f(0.0), f(1.0));
-            f(0.5) * (x.clone().sqrt() - (f(1.0) - x).sqrt() + f(1.0))
-        }
-        Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
-            let (scale, centre, slope_below) = axis.mapping.asinh_parts().unwrap_or_default();
-            let from_centre = if centre == 0.0 { x } else { x - f(centre as f32) };
-            let asinh = func("tmh_asinh", vec![from_centre.clone() / f(scale as f32)]);
-            if slope_below == 0.0 { asinh } else { asinh + f(slope_below as f32) * from_centre.min(f(0.0)) }
+/// A shader expression in the arithmetic of an axis's coordinates ([`Arithmetic`]), so that the
+/// formulas the CPU computes in f32 are printed from the same code: its constants are those f32
+/// values, and its `asinh` the helper's ([`helpers::asinh`]).
+#[derive(Clone)]
+struct InShader(Expr);
+
+macro_rules! in_shader_operator {
+    ($trait:ident, $method:ident) => {
+        impl std::ops::$trait for InShader {
+            type Output = InShader;
+            fn $method(self, other: InShader) -> InShader {
+                InShader(std::ops::$trait::$method(self.0, other.0))
+            }
         }
     };
-    (mapped - f(m0)) / f(m1 - m0)
+}
+in_shader_operator!(Add, add);
+in_shader_operator!(Sub, sub);
+in_shader_operator!(Mul, mul);
+in_shader_operator!(Div, div);
+
+impl Arithmetic for InShader {
+    type Constant = f32;
+    fn constant(value: f32) -> Self {
+        InShader(f(value))
+    }
+    fn of(value: f64) -> Self {
+        InShader(f(value as f32))
+    }
+    fn max(self, other: Self) -> Self {
+        InShader(self.0.max(other.0))
+    }
+    fn min(self, other: Self) -> Self {
+        InShader(self.0.min(other.0))
+    }
+    fn clamp(self, lo: Self, hi: Self) -> Self {
+        InShader(self.0.clamp(lo.0, hi.0))
+    }
+    fn sqrt(self) -> Self {
+        InShader(self.0.sqrt())
+    }
+    fn asinh(self) -> Self {
+        InShader(func("tmh_asinh", vec![self.0]))
+    }
 }
 
 /// Print `shader` in both languages.
@@ -878,6 +891,7 @@ mod tests {
 
     use super::super::{Function, Intrinsic, Op, Stmt};
     use super::*;
+    use crate::table::Mapping;
 
     /// A value of the chooser functions' f32 arithmetic.
     #[derive(Debug, Clone, Copy)]
@@ -901,7 +915,7 @@ mod tests {
         }
     }
 
-    /// Evaluates a slice read's expression in f32, as a GPU computes it: a chooser of
+    /// Evaluates a slice read's or a texture coordinate's expression in f32, as a GPU computes it: a chooser of
     /// `functions` it calls is run. A texture read (`tmh_bilinear(tmh_tableN, ...)`) stands for the
     /// slice it reads: it is `N`, the binding.
     fn evaluate(e: &Expr, scope: &HashMap<String, Value>, functions: &[Function]) -> Value {
@@ -914,14 +928,24 @@ mod tests {
                 Expr::Name(texture) => Value::F(texture.trim_start_matches("tmh_table").parse::<f32>().unwrap()),
                 other => panic!("a texture read of {other:?}"),
             },
+            // The axis arithmetic's helper, as the CPU's f32 arithmetic computes it (the helper's
+            // own body is the GPU's, which the GPU check runs).
+            Expr::Function(function, args) if function == "tmh_asinh" => Value::F(eval(&args[0]).f().asinh()),
             Expr::Function(function, args) => {
                 let called = functions.iter().find(|f| &f.name == function).expect("a chooser of the module");
                 let mut inner: HashMap<String, Value> =
                     called.params.iter().zip(args).map(|((p, _), a)| (p.clone(), eval(a))).collect();
                 run(&called.body, &mut inner, functions).expect("the chooser returns")
             }
-            Expr::Call(Builtin::Intrinsic(Intrinsic::Max), args) => {
-                Value::F(eval(&args[0]).f().max(eval(&args[1]).f()))
+            Expr::Call(Builtin::Intrinsic(intrinsic), args) => {
+                let x: Vec<f32> = args.iter().map(|a| eval(a).f()).collect();
+                Value::F(match intrinsic {
+                    Intrinsic::Max => x[0].max(x[1]),
+                    Intrinsic::Min => x[0].min(x[1]),
+                    Intrinsic::Clamp => x[0].clamp(x[1], x[2]),
+                    Intrinsic::Sqrt => x[0].sqrt(),
+                    other => panic!("the evaluator reads no {other:?}"),
+                })
             }
             Expr::Select { condition, then, otherwise } => {
                 if eval(condition).b() {
@@ -970,6 +994,42 @@ mod tests {
             }
         }
         None
+    }
+
+    /// The texture coordinates the shader prints are the CPU's f32 ones bit for bit, for every
+    /// mapping and placement and in a texture array: the printed expression run in f32.
+    #[test]
+    fn printed_texture_coordinates_are_the_cpus_f32_ones() {
+        let mappings = [
+            Mapping::Identity,
+            Mapping::Sqrt,
+            Mapping::SqrtOneMinus,
+            Mapping::SqrtEnds,
+            Mapping::Asinh { scale: 0.001, centre: 0.0 },
+            Mapping::Asinh { scale: 0.05, centre: 0.3 },
+            Mapping::AsinhRampBelow { scale: 0.01, centre: 0.2, slope_below: 2.0 },
+        ];
+        for mapping in mappings {
+            for node_aligned in [true, false] {
+                let axis = if node_aligned {
+                    Axis::node_aligned("x", 0.05, 0.95, 33)
+                } else {
+                    Axis::cell_centred("x", 0.95, 0.05, 33)
+                };
+                let axis = axis.unwrap().with_mapping(mapping).unwrap();
+                for x in [0.0, 0.05, 0.123456789, 0.3, 0.5001, 0.95, 1.0] {
+                    let scope = HashMap::from([("x".to_string(), Value::F(x as f32))]);
+                    let printed = evaluate(&coordinate(&axis, name("x")), &scope, &[]).f();
+                    let cpu = crate::loader::texture_coordinate(&axis, x);
+                    assert_eq!(printed.to_bits(), cpu.to_bits(), "{mapping:?} at {x}: printed {printed}, CPU {cpu}");
+                    if node_aligned {
+                        let printed = evaluate(&array_coordinate(&axis, 7, 100, name("x")), &scope, &[]).f();
+                        let cpu = crate::formats::slice_array::texture_coordinate(&axis, 7, 100, x);
+                        assert_eq!(printed.to_bits(), cpu.to_bits(), "{mapping:?} at {x} in an array");
+                    }
+                }
+            }
+        }
     }
 
     /// Lattice node 80 of the slices' alpha axis, `(80/128)^2`, exact in f32 and f64.

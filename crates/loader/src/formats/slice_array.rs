@@ -20,7 +20,7 @@ use super::LAYER_AXIS;
 use super::manifest::{AxisEntry, ErrorEntry};
 use crate::error::{Error, Result};
 use crate::stats::AccuracyReport;
-use crate::table::{Axis, Channel, Table};
+use crate::table::{Arithmetic, Axis, Channel, Table};
 
 /// Layers per array: WebGPU's default `maxTextureArrayLayers`, which every adapter supports
 /// (Direct3D 11 allows 2048, Vulkan at least 256).
@@ -247,10 +247,13 @@ pub fn texture_coordinate_formula(axis: &Axis, origin: u32, extent: usize) -> St
 /// The texture coordinate of value `x` along `axis` of a slice in an array, as
 /// [`texture_coordinate_formula`] states it, in f32 as a shader computes it.
 pub fn texture_coordinate(axis: &Axis, origin: u32, extent: usize, x: f64) -> f32 {
-    let m0 = axis.mapping.forward_f32(axis.start as f32);
-    let m1 = axis.mapping.forward_f32(axis.end as f32);
-    let t = ((axis.mapping.forward_f32(x as f32) - m0) / (m1 - m0)).clamp(0.0, 1.0);
-    (origin as f32 + 0.5 + t * (axis.count - 1) as f32) / extent as f32
+    texture_coordinate_in(axis, origin, extent, x as f32)
+}
+
+/// [`texture_coordinate`] in the arithmetic of `x` (the scene shader prints it).
+pub fn texture_coordinate_in<T: Arithmetic>(axis: &Axis, origin: u32, extent: usize, x: T) -> T {
+    let t = axis.coordinate_in(x).clamp(T::of(0.0), T::of(1.0));
+    (T::of(origin as f64 + 0.5) + t * T::of((axis.count - 1) as f64)) / T::of(extent as f64)
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@ use super::{Precision, Table};
 use crate::error::{Error, Result};
 use crate::packing::emulator::{Filter, Texture3D};
 use crate::packing::emulator::{lerp, linear_taps};
-use crate::table::{Axis, InterpolationError, Placement};
+use crate::table::{Axis, InterpolationError};
 
 /// Texel formats a table is stored in, named as WebGPU names them (all linear, all filterable
 /// except the 32-bit ones without the `float32-filterable` feature).
@@ -225,17 +225,11 @@ impl TextureData {
 }
 
 /// The texture coordinate of value `x` along `axis`, in f32 as a shader computes the manifest's
-/// formula: `u = (m(x) - m(start)) / (m(end) - m(start))`, then `(u (N - 1) + 0.5) / N` for a
-/// node-aligned axis.
+/// formula ([`Axis::texture_coordinate_in`], which the scene shader prints):
+/// `u = (m(x) - m(start)) / (m(end) - m(start))`, then `(u (N - 1) + 0.5) / N` for a node-aligned
+/// axis.
 pub fn texture_coordinate(axis: &Axis, x: f64) -> f32 {
-    let m = |v: f32| axis.mapping.forward_f32(v);
-    let (m0, m1) = (m(axis.start as f32), m(axis.end as f32));
-    let u = (m(x as f32) - m0) / (m1 - m0);
-    let n = axis.count as f32;
-    match axis.placement {
-        Placement::NodeAligned => (u * (n - 1.0) + 0.5) / n,
-        Placement::CellCentred => u,
-    }
+    axis.texture_coordinate_in(x as f32)
 }
 
 /// `SampleLevel(sampler, coordinate, 0)` of `table` bound as a texture (one to three axes): a
@@ -327,7 +321,7 @@ impl SampledTable {
     /// Whether `point` lies in the range of every axis (within rounding).
     pub fn covers(&self, point: &[f64]) -> bool {
         self.axes.iter().zip(point).all(|(axis, &x)| {
-            let (lo, hi) = if axis.start <= axis.end { (axis.start, axis.end) } else { (axis.end, axis.start) };
+            let (lo, hi) = axis.bounds();
             let slack = 1e-9 * (hi - lo);
             x >= lo - slack && x <= hi + slack
         })

@@ -60,14 +60,22 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-/// The arithmetic of [`Mapping::forward`], in f64 and in f32.
-trait Real:
-    Copy
+/// The arithmetic of an axis's mapping and coordinates, written once for every type that
+/// computes them: f64 (the tables' own), f32 (as a shader computes the manifest's formulas), and
+/// the scene shader's expressions, which print them ([`crate::shader`] builds those). Constants,
+/// the mapping of an axis's ends among them, are computed in [`Arithmetic::Constant`] and then
+/// become values: a shader prints the very f32 constants the CPU's f32 sampler computes.
+pub trait Arithmetic:
+    Clone
     + std::ops::Add<Output = Self>
     + std::ops::Sub<Output = Self>
     + std::ops::Mul<Output = Self>
     + std::ops::Div<Output = Self>
 {
+    /// The precision constants are computed in: the type itself for f64 and f32, f32 for a
+    /// shader's expression.
+    type Constant: Arithmetic + Copy;
+    fn constant(value: Self::Constant) -> Self;
     /// `value` rounded to this precision.
     fn of(value: f64) -> Self;
     fn max(self, other: Self) -> Self;
@@ -77,9 +85,13 @@ trait Real:
     fn asinh(self) -> Self;
 }
 
-macro_rules! real {
+macro_rules! arithmetic {
     ($t:ident) => {
-        impl Real for $t {
+        impl Arithmetic for $t {
+            type Constant = $t;
+            fn constant(value: $t) -> Self {
+                value
+            }
             fn of(value: f64) -> Self {
                 value as $t
             }
@@ -102,8 +114,8 @@ macro_rules! real {
     };
 }
 
-real!(f64);
-real!(f32);
+arithmetic!(f64);
+arithmetic!(f32);
 
 impl Mapping {
     /// `(scale, centre, slope_below)` of either `asinh` mapping (slope 0 for [`Mapping::Asinh`]):
@@ -125,21 +137,23 @@ impl Mapping {
         self.forward_in(x)
     }
 
-    /// [`Mapping::forward`] in the precision of `x`, the parameters rounded to it first.
-    fn forward_in<T: Real>(self, x: T) -> T {
+    /// [`Mapping::forward`] in the arithmetic of `x`, the parameters rounded to its precision
+    /// first. A centre or ramp of 0 is left out, which changes no finite value.
+    pub fn forward_in<T: Arithmetic>(self, x: T) -> T {
         let [zero, half, one] = [0.0, 0.5, 1.0].map(T::of);
         match self {
             Mapping::Identity => x,
             Mapping::Sqrt => x.max(zero).sqrt(),
             Mapping::SqrtOneMinus => (one - x).max(zero).sqrt(),
             Mapping::SqrtEnds => {
-                let x = x.clamp(zero, one);
-                half * (x.sqrt() - (one - x).sqrt() + one)
+                let x = x.clamp(zero, one.clone());
+                half * (x.clone().sqrt() - (one.clone() - x).sqrt() + one)
             }
             Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
                 let (scale, centre, slope_below) = self.asinh_parts().unwrap_or_default();
-                let from_centre = x - T::of(centre);
-                (from_centre / T::of(scale)).asinh() + T::of(slope_below) * from_centre.min(zero)
+                let from_centre = if centre == 0.0 { x } else { x - T::of(centre) };
+                let asinh = (from_centre.clone() / T::of(scale)).asinh();
+                if slope_below == 0.0 { asinh } else { asinh + T::of(slope_below) * from_centre.min(zero) }
             }
         }
     }
@@ -295,11 +309,22 @@ impl Axis {
         Ok(())
     }
 
+    /// The range's ends, the lower first: an axis may run from its larger end.
+    pub fn bounds(&self) -> (f64, f64) {
+        if self.start <= self.end { (self.start, self.end) } else { (self.end, self.start) }
+    }
+
     /// Axis coordinate `u` of a value, linear in the mapped quantity; not clamped.
     pub fn coordinate(&self, x: f64) -> f64 {
-        let m0 = self.mapping.forward(self.start);
-        let m1 = self.mapping.forward(self.end);
-        (self.mapping.forward(x) - m0) / (m1 - m0)
+        self.coordinate_in(x)
+    }
+
+    /// [`Axis::coordinate`] in the arithmetic of `x`: `(m(x) - m(start)) / (m(end) - m(start))`,
+    /// the ends mapped in its constants' precision.
+    pub fn coordinate_in<T: Arithmetic>(&self, x: T) -> T {
+        let m = |v: f64| self.mapping.forward_in(T::Constant::of(v));
+        let (m0, m1) = (m(self.start), m(self.end));
+        (self.mapping.forward_in(x) - T::constant(m0)) / T::constant(m1 - m0)
     }
 
     /// The value at axis coordinate `u`; the inverse of [`Axis::coordinate`].
@@ -355,10 +380,16 @@ impl Axis {
     /// The texture coordinate a GPU sampler (cell-centred, clamp addressing) must be given so that
     /// hardware filtering reproduces this axis's interpolation.
     pub fn texture_coordinate(&self, x: f64) -> f64 {
-        let u = self.coordinate(x);
+        self.texture_coordinate_in(x)
+    }
+
+    /// [`Axis::texture_coordinate`] in the arithmetic of `x`: in f32, what a shader computes from
+    /// the manifest's formula; as a shader expression, that formula printed.
+    pub fn texture_coordinate_in<T: Arithmetic>(&self, x: T) -> T {
+        let u = self.coordinate_in(x);
         let n = self.count as f64;
         match self.placement {
-            Placement::NodeAligned => (u * (n - 1.0) + 0.5) / n,
+            Placement::NodeAligned => (u * T::of(n - 1.0) + T::of(0.5)) / T::of(n),
             Placement::CellCentred => u,
         }
     }

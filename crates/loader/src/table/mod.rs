@@ -8,7 +8,7 @@ mod axis;
 pub mod derived;
 pub mod kind;
 
-pub use axis::{Axis, Mapping, Placement};
+pub use axis::{Arithmetic, Axis, Mapping, Placement};
 pub use kind::{TableKind, TableShape};
 
 use serde::{Deserialize, Serialize};
