@@ -35,7 +35,7 @@ use crate::loader::texture::SampledTable;
 use crate::packing::{Filter, PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
 use crate::table::derived::point_of;
-use crate::table::{Axis, Table, TableKind};
+use crate::table::{Arithmetic, Axis, Table, TableKind};
 
 /// How far outside a slice's range (in units of the range) a lookup may lie and still count as
 /// inside it, when slices holding the same index compete. A scene's slices end exactly at the
@@ -50,8 +50,8 @@ pub const SLICE_CHOICE_SLACK: f64 = 1e-5;
 /// The distance by which slices holding a lookup's index compete for it (the least wins, the
 /// first of equals): -1 where every axis's range holds `point` (`lo <= x <= hi`), else the sum
 /// over the axes of how far outside the range it lies, in units of the range, less
-/// [`SLICE_CHOICE_SLACK`] per axis (so 0 within the slack). The scene's shader chooses by the same
-/// rule in f32 ([`crate::shader::scene`]).
+/// [`SLICE_CHOICE_SLACK`] per axis (so 0 within the slack). The scene's shader prints the same
+/// code ([`slice_choice_distance_in`]) and chooses by it in f32 ([`crate::shader::scene`]).
 ///
 /// A slice that holds the lookup beats one that merely lies within the slack of it: slices of
 /// different materials end on the same lattice nodes, so a lookup a rounding below the node where
@@ -59,20 +59,58 @@ pub const SLICE_CHOICE_SLACK: f64 = 1e-5;
 /// slack read it clamped at the first slice's edge (`absorbing-coat-00482` of the generated
 /// library, TIR at `alpha = (80/128)^2` minus a rounding).
 pub fn slice_choice_distance(axes: &[Axis], point: &[f64]) -> f64 {
-    let holds = axes.iter().zip(point).all(|(axis, &x)| {
+    slice_choice_distance_in(axes, point)
+}
+
+/// [`slice_choice_distance`] in the arithmetic of `point`.
+pub fn slice_choice_distance_in<T: ChoiceArithmetic>(axes: &[Axis], point: &[T]) -> T {
+    let zero = T::of(0.0);
+    let mut holds: Option<T::Condition> = None;
+    let mut outside: Option<T> = None;
+    for (axis, x) in axes.iter().zip(point) {
         let (lo, hi) = axis.bounds();
-        lo <= x && x <= hi
-    });
-    if holds {
-        return -1.0;
+        for condition in [T::of(lo).at_most(x.clone()), x.clone().at_most(T::of(hi))] {
+            holds = Some(match holds {
+                Some(held) => T::both(held, condition),
+                None => condition,
+            });
+        }
+        let below_and_above = (T::of(lo) - x.clone()).max(zero.clone()) + (x.clone() - T::of(hi)).max(zero.clone());
+        let beyond = (below_and_above / T::of(hi - lo) - T::of(SLICE_CHOICE_SLACK)).max(zero.clone());
+        outside = Some(match outside {
+            Some(sum) => sum + beyond,
+            None => beyond,
+        });
     }
-    axes.iter()
-        .zip(point)
-        .map(|(axis, &x)| {
-            let (lo, hi) = axis.bounds();
-            (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
-        })
-        .sum()
+    match (holds, outside) {
+        (Some(holds), Some(outside)) => T::select(holds, T::of(-1.0), outside),
+        _ => T::of(-1.0),
+    }
+}
+
+/// The arithmetic [`slice_choice_distance_in`] runs in: f64 on the CPU, and the scene shader's
+/// expressions, which print it.
+pub trait ChoiceArithmetic: Arithmetic {
+    type Condition;
+    /// `self <= other`.
+    fn at_most(self, other: Self) -> Self::Condition;
+    /// Both conditions hold.
+    fn both(a: Self::Condition, b: Self::Condition) -> Self::Condition;
+    /// `then` where `condition` holds, else `otherwise`.
+    fn select(condition: Self::Condition, then: Self, otherwise: Self) -> Self;
+}
+
+impl ChoiceArithmetic for f64 {
+    type Condition = bool;
+    fn at_most(self, other: f64) -> bool {
+        self <= other
+    }
+    fn both(a: bool, b: bool) -> bool {
+        a && b
+    }
+    fn select(condition: bool, then: f64, otherwise: f64) -> f64 {
+        if condition { then } else { otherwise }
+    }
 }
 
 /// The texture coordinate of value `x` along `axis`, in f32 as a shader computes the manifest's

@@ -42,7 +42,9 @@ use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::ArrayPlace;
 use crate::loader::LutFolder;
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
-use crate::model::folder::{SLICE_CHOICE_SLACK, is_slice, slice_indices};
+use crate::model::folder::{
+    ChoiceArithmetic, is_slice, slice_choice_distance, slice_choice_distance_in, slice_indices,
+};
 use crate::model::{AlbedoPath, FluxModel, Quantity, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
@@ -443,11 +445,10 @@ impl<'a> Generator<'a> {
 
     /// The value of the slice answering a lookup at `(eta, kappa)`, as
     /// [`crate::model::folder::FolderTables`] chooses it: of the slices with a channel at those
-    /// indices (in the manifest's order), the one with the least
-    /// [`slice_choice_distance`](crate::model::folder::slice_choice_distance) (-1 where its
-    /// `(mu, alpha)` range holds the lookup, else the sum over both axes of the distance outside
-    /// the range, in units of the range, less [`SLICE_CHOICE_SLACK`]), the first of equals: the
-    /// first that holds it, else the nearest. `None` where no slice has those indices.
+    /// indices (in the manifest's order), the one with the least [`slice_choice_distance`] (-1
+    /// where its `(mu, alpha)` range holds the lookup, else the sum over both axes of the distance
+    /// outside the range, in units of the range, less the slack), the first of equals: the first
+    /// that holds it, else the nearest. `None` where no slice has those indices.
     ///
     /// One candidate is read directly. Where several are, the ones that can never be chosen are
     /// dropped when `alpha` is known here (a slice whose alpha range misses it by more than the
@@ -470,10 +471,6 @@ impl<'a> Generator<'a> {
             .filter(|s| if tir { s.is_tir } else { s.is_fgd })
             .filter_map(|s| s.indices.iter().position(|&(e, k)| same(e, eta) && same(k, kappa)).map(|c| (s.clone(), c)))
             .collect();
-        let outside = |axis: &Axis, x: f64| {
-            let (lo, hi) = axis.bounds();
-            (((lo - x).max(0.0) + (x - hi).max(0.0)) / (hi - lo) - SLICE_CHOICE_SLACK).max(0.0)
-        };
         let candidates = match known_alpha {
             Some(alpha) => {
                 // Holds alpha as the chooser compares it, in f32 (the lattice's ends are exact in f32).
@@ -490,7 +487,7 @@ impl<'a> Generator<'a> {
                         .into_iter()
                         .take(k + 1)
                         .enumerate()
-                        .filter(|(i, (t, _))| *i == k || outside(&t.axes[1], alpha) == 0.0)
+                        .filter(|(i, (t, _))| *i == k || slice_choice_distance(&t.axes[1..2], &[alpha]) <= 0.0)
                         .map(|(_, c)| c)
                         .collect(),
                     None => candidates,
@@ -525,26 +522,7 @@ impl<'a> Generator<'a> {
         for (k, (t, c)) in candidates.iter().enumerate() {
             // `slice_choice_distance` in f32: -1 where the range holds (mu, alpha), so that such a
             // slice beats one the lookup merely lies within the slack of.
-            let ranges = [0, 1].map(|d| {
-                let (lo, hi) = t.axes[d].bounds();
-                (if d == 0 { "mu" } else { "alpha" }, lo, hi)
-            });
-            let outside = ranges
-                .map(|(x, lo, hi)| {
-                    (((f(lo as f32) - name(x)).max(f(0.0)) + (name(x) - f(hi as f32)).max(f(0.0)))
-                        / f((hi - lo) as f32)
-                        - f(SLICE_CHOICE_SLACK as f32))
-                    .max(f(0.0))
-                })
-                .into_iter()
-                .reduce(|a, b| a + b)
-                .expect("two axes");
-            let holds = ranges
-                .into_iter()
-                .flat_map(|(x, lo, hi)| [f(lo as f32).le(name(x)), name(x).le(f(hi as f32))])
-                .reduce(Expr::and)
-                .expect("two axes");
-            let distance = select(holds, f(-1.0), outside);
+            let distance = slice_choice_distance_in(&t.axes[..2], &[InShader(name("mu")), InShader(name("alpha"))]).0;
             let value = self.read2(t, name("mu"), name("alpha")).member(CHANNELS[*c]);
             if k == 0 {
                 body.push(super::var("nearest", Ty::F32, distance));
@@ -854,6 +832,19 @@ in_shader_operator!(Add, add);
 in_shader_operator!(Sub, sub);
 in_shader_operator!(Mul, mul);
 in_shader_operator!(Div, div);
+
+impl ChoiceArithmetic for InShader {
+    type Condition = Expr;
+    fn at_most(self, other: Self) -> Expr {
+        self.0.le(other.0)
+    }
+    fn both(a: Expr, b: Expr) -> Expr {
+        a.and(b)
+    }
+    fn select(condition: Expr, then: Self, otherwise: Self) -> Self {
+        InShader(select(condition, then.0, otherwise.0))
+    }
+}
 
 impl Arithmetic for InShader {
     type Constant = f32;
