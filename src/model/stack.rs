@@ -1,6 +1,6 @@
 //! A layer stack at one point of a surface: interfaces and the media between them, top first, with
-//! air (index 1) above. The transfer-matrix model ([`super::evaluate`]) and the random walk that
-//! checks it read the same description.
+//! air (index 1) above. The transfer-matrix model ([`super::Material::evaluate`]) and the random
+//! walk that checks it read the same description.
 //!
 //! An interface states the absolute complex index `eta + i kappa` of the medium *below* it and its
 //! GGX roughness; a medium states what lies between the interface above it and the next one. Any

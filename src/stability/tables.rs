@@ -1,8 +1,9 @@
 //! The matrix over the table recipes: every table evaluated at the stiff `(mu, alpha, eta, kappa)`
-//! points by both of its paths — the per-cell f64 estimator ([`TableRecipe::estimate_node`]) and
-//! the fast f32 kernel the build uses — on the same points, and held to its limits; then what
-//! half-float storage does to the values. TIR's fast path is a deterministic quadrature over the
-//! reflected lobe: it is held to the quadrature over microfacet normals, and Monte Carlo to it.
+//! points by both of its paths — the per-cell f64 estimator
+//! ([`crate::recipes::driver::Kernel::estimate_node`]) and the fast f32 kernel the build uses — on
+//! the same points, and held to its limits; then what half-float storage does to the values.
+//! TIR's fast path is a deterministic quadrature over the reflected lobe: it is held to the
+//! quadrature over microfacet normals, and Monte Carlo to it.
 //!
 //! Both paths evaluate `mu = 0` as the limit `mu -> 0+` at [`GRAZING_COSINE`], by design, so the
 //! limits below are taken at `max(mu, GRAZING_COSINE)`.

@@ -91,8 +91,10 @@ struct SampledAxis {
 }
 
 impl SampledAxis {
-    /// The texture coordinate of a point ([`Axis::texture_coordinate`], in f32 as a shader
-    /// computes it).
+    /// The texture coordinate of a point ([`Axis::texture_coordinate`] in f32) with the ends'
+    /// mapping computed once, as a shader holds them as constants, and the half-texel correction
+    /// multiplied out: the timed fetch costs what a shader's does, its coordinate within an ulp
+    /// or two of the one a shader computes ([`Axis::texture_coordinate_in`]).
     fn coordinate(&self, point: &[f32]) -> f32 {
         let x = match self.quantity {
             Quantity::Variable(k) => point[k],

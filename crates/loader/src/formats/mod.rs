@@ -203,7 +203,7 @@ pub struct StoredTexture {
 }
 
 /// The third axis of a table stored as an array of 2D textures rather than a volume: the texel
-/// layers of a library's slices ([`crate::scene::arrays`]). A renderer binds it as `Texture2DArray`
+/// layers of a library's slices (`tmlut`'s `scene::build`). A renderer binds it as `Texture2DArray`
 /// (HLSL) or `texture_2d_array` (WGSL), addressing the layer by its integer index.
 pub const LAYER_AXIS: &str = "layer";
 
@@ -473,7 +473,7 @@ pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
 }
 
 /// The largest table file tmlut reads: 4 GiB, above the largest table a build may make
-/// ([`crate::config::MAX_BUILD_BYTES`] bounds what one table needs in memory, well below it).
+/// (`tmlut`'s `recipes::MAX_BUILD_BYTES` bounds what one table needs in memory, well below it).
 pub const MAX_TABLE_FILE_BYTES: u64 = 1 << 32;
 
 /// The largest `manifest.json` or furnace report tmlut reads: 64 MiB (the default set's manifest is

@@ -9,7 +9,7 @@
 //!
 //! - [`Packing::Lossless`] (the default): every node kept. Each kappa node is one `mu x alpha`
 //!   tile, tiles in a near-square grid in x and y, eta along z. The lookup computes the 4D
-//!   interpolation weights itself, exactly (see [`node_bracket`]), `Load`s the 16 texels of the
+//!   interpolation weights itself, exactly (its `node_bracket`), `Load`s the 16 texels of the
 //!   cell and lerps them in f32: no hardware filtering, so it matches 4D multilinear interpolation
 //!   to f32 rounding (below 1e-6 for values in [0, 1]) on any GPU.
 //! - [`Packing::LosslessFiltered`]: the same texture read with two trilinear fetches (the kappa
