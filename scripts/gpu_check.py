@@ -7,7 +7,9 @@ CPU evaluation.
 For each scene shader (<scene>.wgsl, <scene>.shader.json, <scene>.reference.json from
 `tmlut shader --reference-views N`), every texture of the shader is created from the table file's
 texels as stored (the DDS header gives format and extent) and each material's function is run
-once per reference view in a compute shader. With `--hlsl`, the same again with <scene>.hlsl:
+once per reference view in a compute shader: one module and one dispatch per run of materials
+whose textures a shader stage can bind together (a whole library is one run), which compiles a
+scene's text a few times rather than once per material. With `--hlsl`, the same again with <scene>.hlsl:
 compiled by glslang's HLSL front end to SPIR-V (`register(tN)` becomes binding N of set 0, as the
 WGSL's group 0), which wgpu takes as the shader module. Prints the largest |GPU - CPU| over albedo, top
 albedo, lobe energies and cosines; over lobe roughnesses and GD, each weighted by its lobe's
@@ -85,15 +87,25 @@ class Worst:
         self.record(other.difference, other.where)
 
 
-def wgsl_module(dev, text, function, stride, lobes):
+def wgsl_module(dev, text, functions, stride, lobes):
+    """The scene's WGSL with an entry point that runs, at point `i`, material
+    `harness_material[i]` (an index into `functions`) at view cosine `harness_views[i]`."""
+    cases = "\n".join(
+        f"        case {k}u{', default' if k == len(functions) - 1 else ''}: {{ r = {function}(harness_views[i]); }}"
+        for k, function in enumerate(functions)
+    )
     entry = f"""
 @group(1) @binding(0) var<storage, read> harness_views: array<f32>;
 @group(1) @binding(1) var<storage, read_write> harness_out: array<f32>;
+@group(1) @binding(2) var<storage, read> harness_material: array<u32>;
 @compute @workgroup_size(64)
 fn harness_main(@builtin(global_invocation_id) id: vec3<u32>) {{
     let i = id.x;
     if (i >= arrayLength(&harness_views)) {{ return; }}
-    let r = {function}(harness_views[i]);
+    var r: TmResult;
+    switch harness_material[i] {{
+{cases}
+    }}
     let o = i * {stride}u;
     harness_out[o + 0u] = r.albedo.x; harness_out[o + 1u] = r.albedo.y; harness_out[o + 2u] = r.albedo.z;
     harness_out[o + 3u] = r.top_albedo.x; harness_out[o + 4u] = r.top_albedo.y; harness_out[o + 5u] = r.top_albedo.z;
@@ -107,20 +119,28 @@ fn harness_main(@builtin(global_invocation_id) id: vec3<u32>) {{
     return dev.create_shader_module(code=text + entry)
 
 
-def hlsl_module(dev, text, function, stride, lobes, glslang):
+def hlsl_module(dev, text, functions, stride, lobes, glslang):
     """The same entry point in HLSL, compiled to SPIR-V by glslang. wgpu's SPIR-V reader (naga)
     warns once per `precise` value (the SPIR-V decoration NoContraction) that it does not keep
     the decoration; the warnings are silenced and `main` says so once."""
+    cases = "\n".join(
+        f"        {'default' if k == len(functions) - 1 else f'case {k}'}: r = {function}(harness_views[i]); break;"
+        for k, function in enumerate(functions)
+    )
     entry = f"""
 StructuredBuffer<float> harness_views : register(t0, space1);
 RWStructuredBuffer<float> harness_out : register(u1, space1);
+StructuredBuffer<uint> harness_material : register(t2, space1);
 [numthreads(64, 1, 1)]
 void harness_main(uint3 id : SV_DispatchThreadID) {{
     uint count, element_stride;
     harness_views.GetDimensions(count, element_stride);
     uint i = id.x;
     if (i >= count) {{ return; }}
-    TmResult r = {function}(harness_views[i]);
+    TmResult r;
+    switch (harness_material[i]) {{
+{cases}
+    }}
     uint o = i * {stride};
     harness_out[o + 0] = r.albedo.x; harness_out[o + 1] = r.albedo.y; harness_out[o + 2] = r.albedo.z;
     harness_out[o + 3] = r.top_albedo.x; harness_out[o + 4] = r.top_albedo.y; harness_out[o + 5] = r.top_albedo.z;
@@ -140,7 +160,7 @@ void harness_main(uint3 id : SV_DispatchThreadID) {{
             text=True,
         )
         if result.returncode != 0:
-            raise SystemExit(f"glslang could not compile the HLSL of {function}:\n{result.stdout}{result.stderr}")
+            raise SystemExit(f"glslang could not compile the HLSL of {', '.join(functions)}:\n{result.stdout}{result.stderr}")
         quiet = logging.getLogger("wgpu")
         level = quiet.level
         quiet.setLevel(logging.ERROR)
@@ -148,6 +168,21 @@ void harness_main(uint3 id : SV_DispatchThreadID) {{
             return dev.create_shader_module(code=spirv.read_bytes())
         finally:
             quiet.setLevel(level)
+
+
+def batches(materials, limit):
+    """The materials in order, in runs whose functions read at most `limit` textures together
+    (the device's textures per shader stage): one module and one dispatch per run, so that a
+    scene's text is compiled once per run rather than once per material."""
+    runs, run, textures = [], [], set()
+    for material in materials:
+        reads = set(material["textures"])
+        if run and len(textures | reads) > limit:
+            runs.append(run)
+            run, textures = [], set()
+        run.append(material)
+        textures |= reads
+    return runs + [run] if run else runs
 
 
 def check_scene(dev, shader_dir, luts, language, glslang):
@@ -181,36 +216,45 @@ def check_scene(dev, shader_dir, luts, language, glslang):
         group1_layout = dev.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.read_only_storage}},
             {"binding": 1, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.storage}},
+            {"binding": 2, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.read_only_storage}},
         ])
-        for material in description["materials"]:
-            # Only the textures the material's function reads: WebGPU bounds textures per stage.
+        for run in batches(description["materials"], dev.limits["max-sampled-textures-per-shader-stage"]):
+            bindings = sorted({b for material in run for b in material["textures"]})
             group0_layout = dev.create_bind_group_layout(entries=[
                 {
                     "binding": b,
                     "visibility": wgpu.ShaderStage.COMPUTE,
                     "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float, "view_dimension": textures[b][0]},
                 }
-                for b in material["textures"]
+                for b in bindings
             ])
             layout = dev.create_pipeline_layout(bind_group_layouts=[group0_layout, group1_layout])
-            views = [p["evaluation"] for p in reference if p["function"] == material["function"]]
-            mus = np.array([v["mu"] for v in views], dtype=np.float32)
+            functions = [material["function"] for material in run]
+            views = {function: [] for function in functions}
+            for p in reference:
+                if p["function"] in views:
+                    views[p["function"]].append(p["evaluation"])
+            mus = np.array([v["mu"] for f in functions for v in views[f]], dtype=np.float32)
+            which = np.array([k for k, f in enumerate(functions) for _ in views[f]], dtype=np.uint32)
             if language == "wgsl":
-                module = wgsl_module(dev, text, material["function"], stride, lobes)
+                module = wgsl_module(dev, text, functions, stride, lobes)
             else:
-                module = hlsl_module(dev, text, material["function"], stride, lobes, glslang)
+                module = hlsl_module(dev, text, functions, stride, lobes, glslang)
             pipeline = dev.create_compute_pipeline(layout=layout, compute={"module": module, "entry_point": "harness_main"})
             views_buffer = dev.create_buffer_with_data(data=mus.tobytes(), usage=wgpu.BufferUsage.STORAGE)
+            material_buffer = dev.create_buffer_with_data(data=which.tobytes(), usage=wgpu.BufferUsage.STORAGE)
             out_buffer = dev.create_buffer(size=len(mus) * stride * 4, usage=wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_SRC)
             group0 = dev.create_bind_group(
                 layout=group0_layout,
-                entries=[{"binding": b, "resource": textures[b][1]} for b in material["textures"]],
+                entries=[{"binding": b, "resource": textures[b][1]} for b in bindings],
             )
+            whole = lambda buffer: {"buffer": buffer, "offset": 0, "size": buffer.size}
             group1 = dev.create_bind_group(
                 layout=group1_layout,
                 entries=[
-                    {"binding": 0, "resource": {"buffer": views_buffer, "offset": 0, "size": views_buffer.size}},
-                    {"binding": 1, "resource": {"buffer": out_buffer, "offset": 0, "size": out_buffer.size}},
+                    {"binding": 0, "resource": whole(views_buffer)},
+                    {"binding": 1, "resource": whole(out_buffer)},
+                    {"binding": 2, "resource": whole(material_buffer)},
                 ],
             )
             encoder = dev.create_command_encoder()
@@ -223,31 +267,36 @@ def check_scene(dev, shader_dir, luts, language, glslang):
             dev.queue.submit([encoder.finish()])
             out = np.frombuffer(dev.queue.read_buffer(out_buffer), dtype=np.float32).reshape(len(mus), stride)
             nans += int(np.count_nonzero(~np.isfinite(out)))
-            mine = {"values": Worst(), "weighted shape": Worst(), "shape": Worst()}
-            for row, view in zip(out, views):
-                at = f"{stem} / {material['material']}, mu {view['mu']:.6g}"
-                values = list(zip(list(view["albedo"]) + list(view["top_albedo"]), row[:6]))
-                for k, lobe in enumerate(view["lobes"]):
-                    b = 6 + 6 * k
-                    values += list(zip(list(lobe["energy"]) + [lobe["incident"][2]], list(row[b : b + 3]) + [row[b + 4]]))
-                    energy = max(lobe["energy"])
-                    for name, expected, got in [("roughness", lobe["roughness"], row[b + 3]), ("GD", lobe["gd"], row[b + 5])]:
+            start = 0
+            for material in run:
+                material_views = views[material["function"]]
+                rows = out[start : start + len(material_views)]
+                start += len(material_views)
+                mine = {"values": Worst(), "weighted shape": Worst(), "shape": Worst()}
+                for row, view in zip(rows, material_views):
+                    at = f"{stem} / {material['material']}, mu {view['mu']:.6g}"
+                    values = list(zip(list(view["albedo"]) + list(view["top_albedo"]), row[:6]))
+                    for k, lobe in enumerate(view["lobes"]):
+                        b = 6 + 6 * k
+                        values += list(zip(list(lobe["energy"]) + [lobe["incident"][2]], list(row[b : b + 3]) + [row[b + 4]]))
+                        energy = max(lobe["energy"])
+                        for name, expected, got in [("roughness", lobe["roughness"], row[b + 3]), ("GD", lobe["gd"], row[b + 5])]:
+                            if math.isfinite(got):
+                                where = f"{at}, lobe {k} {name} (energy {energy:.3g})"
+                                mine["shape"].record(abs(float(got) - expected), where)
+                                mine["weighted shape"].record(energy * abs(float(got) - expected), where)
+                    for expected, got in values:
                         if math.isfinite(got):
-                            where = f"{at}, lobe {k} {name} (energy {energy:.3g})"
-                            mine["shape"].record(abs(float(got) - expected), where)
-                            mine["weighted shape"].record(energy * abs(float(got) - expected), where)
-                for expected, got in values:
-                    if math.isfinite(got):
-                        mine["values"].record(abs(float(got) - expected), at)
-                points += 1
-            for kind in worst:
-                worst[kind].merge(mine[kind])
-            for group in [material.get("model", "?")] + material.get("reads", []):
-                count, values, weighted = groups.get(group, (0, Worst(), Worst()))
-                values.merge(mine["values"])
-                weighted.merge(mine["weighted shape"])
-                groups[group] = (count + len(mus), values, weighted)
-            print(f"  {language}: {stem} / {material['material']}: {len(mus)} views")
+                            mine["values"].record(abs(float(got) - expected), at)
+                    points += 1
+                for kind in worst:
+                    worst[kind].merge(mine[kind])
+                for group in [material.get("model", "?")] + material.get("reads", []):
+                    count, values, weighted = groups.get(group, (0, Worst(), Worst()))
+                    values.merge(mine["values"])
+                    weighted.merge(mine["weighted shape"])
+                    groups[group] = (count + len(material_views), values, weighted)
+                print(f"  {language}: {stem} / {material['material']}: {len(material_views)} views")
     return worst, nans, points, groups
 
 
