@@ -113,12 +113,6 @@ impl ChoiceArithmetic for f64 {
     }
 }
 
-/// The texture coordinate of value `x` along `axis`, in f32 as a shader computes the manifest's
-/// formula ([`crate::loader::texture_coordinate`]).
-pub fn texture_coordinate_f32(axis: &Axis, x: f64) -> f32 {
-    crate::loader::texture_coordinate(axis, x)
-}
-
 /// A scene's slice: a 2D `(mu, alpha)` table with one channel per fixed relative index.
 #[derive(Debug, Clone)]
 struct Slice {
