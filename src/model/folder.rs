@@ -254,7 +254,6 @@ impl FolderTables {
     /// instead and [`FolderTables::misses`] names the first, for the caller to refuse. Fails on a
     /// table that is listed but cannot be read as its path needs.
     pub fn open(folder: &LutFolder, albedo: AlbedoPath, tir: TirPath, fgd: FgdSource) -> Result<Self> {
-        let entries = &folder.manifest().files;
         let missing = |what: &str| {
             Error::format(folder.dir().join(crate::formats::manifest::MANIFEST_FILE), format!("lists no {what}"))
         };
@@ -269,18 +268,16 @@ impl FolderTables {
                 .collect::<Result<Vec<_>>>()?;
             Ok(Slices::new(slices))
         };
-        let find = |table: TableKind, format: FileFormat| {
-            entries.iter().find(|(_, e)| e.table == table.name() && e.format == format && e.packing.is_none())
-        };
-        // The texture of a table a GPU binds: its DDS file, else its KTX2 file.
-        let texture = |table: TableKind| FileFormat::TEXTURES.iter().find_map(|&format| find(table, format));
+        // The texture of a table a GPU binds: its DDS file, else its KTX2 file; else, for a table
+        // of up to three axes, its `.bin` file, which a renderer uploads as a texture too.
+        let texture = |table: TableKind| folder.table_file(table.name(), &FileFormat::TEXTURES);
+        let texture_or_bin =
+            |table: TableKind| folder.table_file(table.name(), &[FileFormat::Dds, FileFormat::Ktx2, FileFormat::Bin]);
         let albedo = match albedo {
             AlbedoPath::Fgd => {
                 let slices = slices_of(TableKind::Fgd, Quantity::Albedo)?;
-                let packed = entries
-                    .iter()
-                    .find(|(_, e)| e.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()));
-                let table = find(TableKind::Fgd, FileFormat::Exr).or_else(|| find(TableKind::Fgd, FileFormat::Bin));
+                let packed = folder.packing_file(Packing::Lossless.name(), &FileFormat::TEXTURES);
+                let table = folder.table_file(TableKind::Fgd.name(), &[FileFormat::Exr, FileFormat::Bin]);
                 let full = match (fgd, packed, table) {
                     (FgdSource::Packing, Some((file, entry)), _) => {
                         Some(FullFgd::Packed(Box::new(packed_fgd(folder, file, entry)?)))
@@ -309,7 +306,7 @@ impl FolderTables {
         let tir = match tir {
             TirPath::Table => {
                 let slices = slices_of(TableKind::Tir, Quantity::Tir)?;
-                let full = match texture(TableKind::Tir).or_else(|| find(TableKind::Tir, FileFormat::Bin)) {
+                let full = match texture_or_bin(TableKind::Tir) {
                     Some((file, _)) => {
                         let texture = SampledTable::new(&folder.load(file)?)?;
                         if point_of(&texture.axes, 0.5, 0.5, 0.5, 0.0).is_none() {
@@ -328,21 +325,15 @@ impl FolderTables {
                 };
                 Tir::Table { slices, full }
             }
-            TirPath::Fit => {
-                let fit = entries
-                    .values()
-                    .find_map(|e| e.fit.clone())
-                    .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()));
-                match fit {
-                    Some(fit) => fitted_form(folder, &fit)?,
-                    None => Tir::Absent,
-                }
-            }
+            TirPath::Fit => match folder.tir_fit() {
+                Some(fit) => fitted_form(folder, fit)?,
+                None => Tir::Absent,
+            },
             // The form is the material's, not the folder's: [`FolderTables::with_tir_form`].
             TirPath::Form => Tir::Absent,
             TirPath::Off => Tir::Off,
         };
-        let gd = match texture(TableKind::Gd).or_else(|| find(TableKind::Gd, FileFormat::Bin)) {
+        let gd = match texture_or_bin(TableKind::Gd) {
             Some((file, _)) => Some(SampledTable::new(&folder.load(file)?)?),
             None => None,
         };
@@ -577,7 +568,7 @@ pub(crate) fn slice_indices(entry: &FileEntry) -> Vec<(f64, f64)> {
 }
 
 /// The packed FGD texture of `file` with the lookup of its packing.
-fn packed_fgd(folder: &LutFolder, file: &str, entry: &FileEntry) -> Result<PackedFgd> {
+pub(crate) fn packed_fgd(folder: &LutFolder, file: &str, entry: &FileEntry) -> Result<PackedFgd> {
     let packing_entry = entry.packing.as_ref().expect("chosen for its packing");
     let packing = Packing::parse(&packing_entry.name)?;
     let path = folder.dir().join(file);

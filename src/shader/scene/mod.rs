@@ -38,6 +38,7 @@ use std::collections::BTreeMap;
 use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, select};
 use crate::error::{Error, Result};
 use crate::fit::text::fitted::{FittedForm, FittedFormExt};
+use crate::formats::FileFormat;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::ArrayPlace;
 use crate::loader::LutFolder;
@@ -294,7 +295,6 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
 }
 
 fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> {
-    let entries = &folder.manifest().files;
     let mut sources = Sources::default();
     // The slices in the order the CPU evaluator finds them (`model::folder`), which decides among equals.
     for slice in folder.scene_slices(|e| is_slice(e, TableKind::Fgd) || is_slice(e, TableKind::Tir))? {
@@ -302,41 +302,22 @@ fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> 
         table.place = slice.place;
         sources.slices.push(table);
     }
-    for (file, entry) in folder.gpu_textures() {
-        if entry.slice_array.is_some() {
-            continue;
-        }
-        if entry.packing.as_ref().is_some_and(|p| p.name == Packing::Lossless.name()) {
-            if materials.iter().any(|m| m.albedo == AlbedoPath::Fgd) {
-                let table = folder.load(file)?;
-                let source_axes: Vec<Axis> = entry
-                    .packing
-                    .as_ref()
-                    .map(|p| p.source_axes.iter().map(|a| a.axis.clone()).collect())
-                    .unwrap_or_default();
-                let texture = crate::loader::texture::SampledTable::new(&table)?.into_channel(0);
-                let packed = PackedFgd::with_texture(texture, Packing::Lossless, entry.precision, &source_axes)
-                    .map_err(|e| Error::format(folder.dir().join(file), e.to_string()))?;
-                sources.packing = Some((file.to_string(), packed));
-            }
-            continue;
-        }
-        if entry.packing.is_some() {
-            continue;
-        }
-        let table = TableFile::of(file, entry);
-        // A table the shader reads has its kind's shape; a file of another shape (a scene's
-        // slice) is read otherwise. The 4D FGD table is no texture: the shader reads its packing.
-        let Some(kind) = TableKind::named(&entry.table) else { continue };
-        if table.axes.len() == kind.shape().axes.len() && !sources.tables.iter().any(|(k, _)| *k == kind) {
-            sources.tables.push((kind, table));
+    // The tables a GPU binds whole, found as the CPU evaluator finds them. A table of another
+    // shape than its kind's is not read (the 4D FGD table is no texture: the shader reads its
+    // packing).
+    for &kind in TableKind::ALL {
+        if let Some((file, entry)) = folder.table_file(kind.name(), &FileFormat::TEXTURES)
+            && entry.axes.len() == kind.shape().axes.len()
+        {
+            sources.tables.push((kind, TableFile::of(file, entry)));
         }
     }
-    sources.fit = entries
-        .values()
-        .find_map(|e| e.fit.clone())
-        .or_else(|| folder.manifest().scene.as_ref().and_then(|s| s.plan.tir_fit.clone()))
-        .and_then(|fit| FittedForm::of_build(&fit));
+    if materials.iter().any(|m| m.albedo == AlbedoPath::Fgd)
+        && let Some((file, entry)) = folder.packing_file(Packing::Lossless.name(), &FileFormat::TEXTURES)
+    {
+        sources.packing = Some((file.to_string(), crate::model::folder::packed_fgd(folder, file, entry)?));
+    }
+    sources.fit = folder.tir_fit().and_then(FittedForm::of_build);
     Ok(sources)
 }
 

@@ -88,22 +88,13 @@ impl Shape {
     /// table's name, not a packing; a DDS file before a KTX2 one before an OpenEXR one before a
     /// `.bin` one.
     fn find<'a>(&self, folder: &'a LutFolder) -> Result<&'a str> {
-        let files = &folder.manifest().files;
-        FileFormat::TEXTURES
-            .iter()
-            .chain(&[FileFormat::Exr, FileFormat::Bin])
-            .find_map(|&format| {
-                files
-                    .iter()
-                    .find(|(_, e)| e.table == self.0.name() && e.format == format && e.packing.is_none())
-                    .map(|(file, _)| file.as_str())
-            })
-            .ok_or_else(|| {
-                Error::format(
-                    folder.dir().join(MANIFEST_FILE),
-                    format!("lists no `{}` table (a file whose entry has \"table\": \"{}\")", self.0, self.0),
-                )
-            })
+        const PREFERENCE: [FileFormat; 4] = [FileFormat::Dds, FileFormat::Ktx2, FileFormat::Exr, FileFormat::Bin];
+        folder.table_file(self.0.name(), &PREFERENCE).map(|(file, _)| file).ok_or_else(|| {
+            Error::format(
+                folder.dir().join(MANIFEST_FILE),
+                format!("lists no `{}` table (a file whose entry has \"table\": \"{}\")", self.0, self.0),
+            )
+        })
     }
 }
 

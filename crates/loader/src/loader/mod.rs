@@ -39,7 +39,7 @@ pub use texture::{
 
 use std::path::{Path, PathBuf};
 
-use crate::formats::manifest::{MANIFEST_FILE, check_file_name, pending_commit, pending_commit_error};
+use crate::formats::manifest::{FitEntry, MANIFEST_FILE, check_file_name, pending_commit, pending_commit_error};
 use crate::formats::{bin, dds, ktx2, read_bytes};
 
 /// An output folder of tmlut and its manifest, read once and never changed: every file loaded
@@ -72,6 +72,35 @@ impl LutFolder {
     /// The names of the files the manifest lists, sorted.
     pub fn files(&self) -> impl Iterator<Item = &str> {
         self.manifest.files.keys().map(String::as_str)
+    }
+
+    /// The file holding table `table` whole (not a packing of it): of the manifest's files of
+    /// that table, the first in `formats`' order, the first by name within a format. Every reader
+    /// finds a table's file this way: the typed handles, the model's folder tables and the scene
+    /// shader.
+    pub fn table_file(&self, table: &str, formats: &[FileFormat]) -> Option<(&str, &FileEntry)> {
+        self.first_file(formats, |e| e.table == table && e.packing.is_none())
+    }
+
+    /// The file holding the packing named `packing` (`lossless`), found as [`LutFolder::table_file`]
+    /// finds a table's.
+    pub fn packing_file(&self, packing: &str, formats: &[FileFormat]) -> Option<(&str, &FileEntry)> {
+        self.first_file(formats, |e| e.packing.as_ref().is_some_and(|p| p.name == packing))
+    }
+
+    /// The first file in `formats`' order, then by name, whose entry is `wanted`.
+    fn first_file(&self, formats: &[FileFormat], wanted: impl Fn(&FileEntry) -> bool) -> Option<(&str, &FileEntry)> {
+        formats.iter().find_map(|&format| {
+            let mut files = self.manifest.files.iter();
+            files.find(|(_, e)| e.format == format && wanted(e)).map(|(file, entry)| (file.as_str(), entry))
+        })
+    }
+
+    /// The fitted TIR form the folder states: the one beside its TIR table (`[tir] fit`), else its
+    /// scene plan's (a scene whose materials read only the form has no TIR table).
+    pub fn tir_fit(&self) -> Option<&FitEntry> {
+        let beside_a_table = self.manifest.files.values().find_map(|e| e.fit.as_ref());
+        beside_a_table.or_else(|| self.manifest.scene.as_ref().and_then(|s| s.plan.tir_fit.as_ref()))
     }
 
     /// The files a GPU binds as textures, sorted: a table (or packing of it) written in several
