@@ -1474,6 +1474,8 @@ fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
     let hlsl = std::fs::read_to_string(luts.join("copper_pot.hlsl")).unwrap();
     assert!(hlsl.contains(" = tmlut_tir_logistic("), "{hlsl}");
     assert_eq!(shader_functions(&wgsl), shader_functions(&hlsl), "the two languages define different functions");
+    // The shader run on the CPU reads the form as the CPU evaluator does.
+    super::shader::shader_against_the_cpu(&luts, std::slice::from_ref(&scene), 16).assert_agrees(&["tir form"]);
 
     // Ranked in the material: the same error for the form, the table's beside it.
     let ranked = dir.path().join("ranked");
@@ -1529,6 +1531,8 @@ fn a_scene_naming_an_albedo_form_reads_it_in_place_of_the_karis_table() {
     };
     let (luts, report, printed) = furnace(&with_form, "form");
     assert!(printed.contains("fit:env-brdf / table"), "{printed}");
+    // The shader run on the CPU reads the form as the CPU evaluator does.
+    super::shader::shader_against_the_cpu(&luts, std::slice::from_ref(&with_form), 16).assert_agrees(&["albedo form"]);
 
     // The furnace reads the form for every albedo lookup (F0 scale + bias, in f32 as the shader
     // computes it) and the folder for the rest.
@@ -1587,8 +1591,11 @@ fn a_scene_naming_an_albedo_form_reads_it_in_place_of_the_karis_table() {
     )
     .unwrap();
     fit_form(&schlick, &fgd.join("fgd.exr"), &dir.path().join("schlick"), &["--timing-runs", "0"]);
-    let (luts, report, printed) = furnace(&pot("schlick-pot", "fit:schlick"), "schlick");
+    let schlick_pot = pot("schlick-pot", "fit:schlick");
+    let (luts, report, printed) = furnace(&schlick_pot, "schlick");
     assert!(printed.contains("fit:schlick / table"), "{printed}");
+    super::shader::shader_against_the_cpu(&luts, std::slice::from_ref(&schlick_pot), 16)
+        .assert_agrees(&["albedo form"]);
     let m = &report.materials[0];
     assert_eq!(m.albedo_path, AlbedoPath::Fgd);
     assert!(m.errors.table.max_all.is_finite() && m.errors.table.max_all > 0.0, "{:?}", m.errors.table);

@@ -1,0 +1,139 @@
+//! The scene shader run on the CPU ([`super::emulator`]) against the CPU evaluator, as
+//! `scripts/gpu-check` runs it on a GPU API: the same values on any machine, Vulkan or not.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use super::common::{SMALL_SET, build_config};
+use super::emulator::{Emulator, Value};
+use tmlut::loader::LutFolder;
+use tmlut::scene::library::{merge, read_scene_files};
+use tmlut::scene::shader_files::{reference, shader_materials};
+use tmlut::shader::Lang;
+use tmlut::shader::scene::generate;
+
+/// The largest difference `gpu_check.py` allows: of the albedo, top albedo, lobe energies and
+/// cosines, and of the lobes' roughness and GD weighed by their energy.
+const TOLERANCE: f64 = 1e-5;
+
+fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/scenes").join(format!("{name}.toml"))
+}
+
+/// How far the scene shader of a folder, run in the emulator, is from the CPU evaluator.
+pub struct Comparison {
+    /// The largest difference of the albedo, top albedo, lobe energies and cosines, and where.
+    pub values: (f64, String),
+    /// The largest difference of the lobes' roughness and GD weighed by their energy, and where.
+    pub shapes: (f64, String),
+    /// What the materials read (`MaterialFunction::reads`).
+    pub reads: BTreeSet<String>,
+}
+
+impl Comparison {
+    /// Both differences within [`TOLERANCE`], and every one of `reads` read by some material.
+    pub fn assert_agrees(&self, reads: &[&str]) {
+        for read in reads {
+            assert!(self.reads.contains(*read), "no material reads {read}: {:?}", self.reads);
+        }
+        assert!(self.values.0 <= TOLERANCE, "values: {:?}", self.values);
+        assert!(self.shapes.0 <= TOLERANCE, "lobe shapes weighed by energy: {:?}", self.shapes);
+    }
+}
+
+/// The shader of `scenes` (one library) over their build `luts`, run in the emulator, against the
+/// CPU evaluator's reference at `views` views and the stiff ones per material. Checks that the
+/// module run is the one the build wrote beside its tables; panics on a value that is not finite.
+pub fn shader_against_the_cpu(luts: &Path, scenes: &[PathBuf], views: usize) -> Comparison {
+    let library = merge(&read_scene_files(scenes).unwrap()).unwrap();
+    let materials = shader_materials(&library).unwrap();
+    let folder = LutFolder::open(luts).unwrap();
+    let shader = generate(&folder, &materials).unwrap();
+    let described: Vec<PathBuf> = std::fs::read_dir(luts)
+        .unwrap()
+        .map(|entry| entry.unwrap().path())
+        .filter(|path| path.to_string_lossy().ends_with(".shader.json"))
+        .collect();
+    let [description] = &described[..] else { panic!("{described:?}: one scene shader") };
+    let written = description.to_string_lossy().replace(".shader.json", ".wgsl");
+    assert_eq!(std::fs::read_to_string(&written).unwrap(), shader.module.print(Lang::Wgsl), "{written}");
+    let points = reference(&folder, &shader, &materials, views).unwrap();
+    let emulator = Emulator::new(&shader, &folder);
+    let mut worst = [(0.0, String::new()), (0.0, String::new())];
+    let mut record = |k: usize, got: f32, expected: f64, weight: f64, at: String| {
+        assert!(got.is_finite(), "{at}: {got}");
+        let difference = weight * (got as f64 - expected).abs();
+        if difference > worst[k].0 {
+            worst[k] = (difference, at);
+        }
+    };
+    for point in &points {
+        let e = &point.evaluation;
+        let result = emulator.call(&point.function, vec![Value::F(e.mu as f32)]);
+        let at = |what: &str| format!("{} at mu {}: {what}", point.material, e.mu);
+        for (name, expected) in [("albedo", e.albedo), ("top_albedo", e.top_albedo)] {
+            for (c, got) in result.field(name).v().into_iter().enumerate() {
+                record(0, got, expected[c], 1.0, at(&format!("{name}[{c}]")));
+            }
+        }
+        let field = |name: &str, k: usize| match result.field(name) {
+            Value::Array(lobes) => lobes[k].clone(),
+            other => panic!("{name} is {other:?}"),
+        };
+        for (k, lobe) in e.lobes.iter().enumerate() {
+            for (c, got) in field("lobe_energy", k).v().into_iter().enumerate() {
+                record(0, got, lobe.energy[c], 1.0, at(&format!("lobe {k} energy[{c}]")));
+            }
+            record(0, field("lobe_cos", k).f(), lobe.mean_direction[2], 1.0, at(&format!("lobe {k} cosine")));
+            let energy = lobe.energy.into_iter().fold(0.0, f64::max);
+            record(1, field("lobe_roughness", k).f(), lobe.roughness, energy, at(&format!("lobe {k} roughness")));
+            record(1, field("lobe_gd", k).f(), lobe.gd, energy, at(&format!("lobe {k} GD")));
+        }
+    }
+    let [values, shapes] = worst;
+    eprintln!("{}: {} points, largest differences {values:?}, {shapes:?}", luts.display(), points.len());
+    let reads = shader.materials.iter().flat_map(|m| m.reads.iter().cloned()).collect();
+    Comparison { values, shapes, reads }
+}
+
+/// [`shader_against_the_cpu`] over a build of `scenes` of `luts/scenes` with [`SMALL_SET`], its
+/// slices laid out as `layout` says.
+fn built_and_emulated(scenes: &[&str], layout: &str, views: usize) -> Comparison {
+    let dir = tempfile::tempdir().unwrap();
+    let paths: Vec<PathBuf> = scenes.iter().map(|s| scene(s)).collect();
+    let mut extra = vec!["--slice-layout", layout];
+    for path in &paths {
+        extra.extend(["--scene", path.to_str().unwrap()]);
+    }
+    let luts = build_config(dir.path(), SMALL_SET, &extra);
+    shader_against_the_cpu(&luts, &paths, views)
+}
+
+/// Every scene of `luts/scenes` as one library with its slices in texture arrays: slices, the FGD
+/// packing, the Belcour and Karis split sums, the folder's fitted TIR form and GD, in both flux
+/// models and the stiff stacks.
+#[test]
+fn a_library_shader_run_on_the_cpu_gives_the_cpu_evaluators_values() {
+    let scenes = [
+        "copper-pot",
+        "profiling",
+        "scattering",
+        "textured",
+        "gpu-check/stiff-stacks",
+        "gpu-check/varied-coats",
+        "thesis/layers",
+        "thesis/scattering-variants",
+        "thesis/split-sum",
+        "thesis/tir",
+    ];
+    let reads = ["fgd slice", "tir slice", "fgd packing", "belcour", "karis", "tir fit", "gd"];
+    built_and_emulated(&scenes, "arrays", 16).assert_agrees(&reads);
+}
+
+/// A scene whose lookups its slices do not hold, each slice a file: the 3D TIR table at its
+/// critical-angle axis, the `fgd_rarer` stand-in and the FGD packing.
+#[test]
+fn a_scene_shader_reading_3d_tables_run_on_the_cpu_gives_the_cpu_evaluators_values() {
+    let reads = ["tir table", "fgd_rarer table", "fgd packing", "fgd slice"];
+    built_and_emulated(&["gpu-check/varied-coats"], "files", 256).assert_agrees(&reads);
+}
