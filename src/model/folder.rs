@@ -63,7 +63,7 @@ pub fn slice_choice_distance(axes: &[Axis], point: &[f64]) -> f64 {
 }
 
 /// [`slice_choice_distance`] in the arithmetic of `point`.
-pub fn slice_choice_distance_in<T: ChoiceArithmetic>(axes: &[Axis], point: &[T]) -> T {
+pub fn slice_choice_distance_in<T: Arithmetic>(axes: &[Axis], point: &[T]) -> T {
     let zero = T::of(0.0);
     let mut holds: Option<T::Condition> = None;
     let mut outside: Option<T> = None;
@@ -85,31 +85,6 @@ pub fn slice_choice_distance_in<T: ChoiceArithmetic>(axes: &[Axis], point: &[T])
     match (holds, outside) {
         (Some(holds), Some(outside)) => T::select(holds, T::of(-1.0), outside),
         _ => T::of(-1.0),
-    }
-}
-
-/// The arithmetic [`slice_choice_distance_in`] runs in: f64 on the CPU, and the scene shader's
-/// expressions, which print it.
-pub trait ChoiceArithmetic: Arithmetic {
-    type Condition;
-    /// `self <= other`.
-    fn at_most(self, other: Self) -> Self::Condition;
-    /// Both conditions hold.
-    fn both(a: Self::Condition, b: Self::Condition) -> Self::Condition;
-    /// `then` where `condition` holds, else `otherwise`.
-    fn select(condition: Self::Condition, then: Self, otherwise: Self) -> Self;
-}
-
-impl ChoiceArithmetic for f64 {
-    type Condition = bool;
-    fn at_most(self, other: f64) -> bool {
-        self <= other
-    }
-    fn both(a: bool, b: bool) -> bool {
-        a && b
-    }
-    fn select(condition: bool, then: f64, otherwise: f64) -> f64 {
-        if condition { then } else { otherwise }
     }
 }
 

@@ -43,13 +43,11 @@ use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::ArrayPlace;
 use crate::loader::LutFolder;
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
-use crate::model::folder::{
-    ChoiceArithmetic, is_slice, slice_choice_distance, slice_choice_distance_in, slice_indices,
-};
+use crate::model::folder::{is_slice, slice_choice_distance, slice_choice_distance_in, slice_indices};
 use crate::model::{AlbedoPath, FluxModel, Quantity, Stack, TirPath};
 use crate::packing::{PackedFgd, Packing};
 use crate::physics::{FresnelBasis, normal_incidence_reflectance};
-use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
+use crate::table::derived::{self, CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, point_in};
 use crate::table::{Arithmetic, Axis, TableKind};
 
 pub use material::RecordedMaterial;
@@ -660,7 +658,7 @@ impl<'a> Generator<'a> {
                         ),
                     ));
                 };
-                self.volume(m, &table, mu, alpha, eta, "tir table".into())
+                self.volume(m, &table, (mu, alpha), (eta, 0.0), "tir table".into())
             }
         }
     }
@@ -679,69 +677,43 @@ impl<'a> Generator<'a> {
         let (stand_in, table) = crate::model::stand_ins()
             .filter(|s| s.answers(quantity, eta, kappa))
             .find_map(|s| Some((s, self.sources.table(s.table)?)))?;
-        Some(self.volume(m, &table, mu, alpha, eta, format!("{} table", stand_in.table.name())))
+        Some(self.volume(m, &table, (mu, alpha), (eta, kappa), format!("{} table", stand_in.table.name())))
     }
 
-    /// A 3D table (TIR, or a stand-in such as FGD onto a rarer medium) at the point
-    /// [`crate::table::derived::point_of`] gives: each axis's quantity by name, `eta` itself, the
-    /// critical-angle offset `asin(eta) - acos(mu)` or the critical-angle fraction (`asin(eta)`
-    /// folded to a constant; `acos` by [`helpers::acos`], not the builtin, whose error Vulkan
-    /// bounds only loosely and which the axes' asinh spacing magnifies up to a thousandfold near
-    /// the critical angle).
+    /// A 3D table (TIR, or a stand-in such as FGD onto a rarer medium) at the point the CPU
+    /// computes ([`crate::table::derived::point_in`], printed): each axis's quantity by name, the
+    /// critical-angle offset or fraction with `asin(eta)` folded to a constant and `acos` by
+    /// [`helpers::acos`], not the builtin, whose error Vulkan bounds only loosely and which the
+    /// axes' asinh spacing magnifies up to a thousandfold near the critical angle.
     fn volume(
         &mut self,
         m: &ShaderMaterial,
         t: &TableFile,
-        mu: Expr,
-        alpha: Expr,
-        eta: f64,
+        (mu, alpha): (Expr, Expr),
+        (eta, kappa): (f64, f64),
         what: String,
     ) -> Result<Expr> {
-        if t.axes.len() != 3 {
-            return Err(self.refuse(
-                &m.name,
-                format!("reads {what} {}, which has {} axes; the shader reads a 3D table here", t.file, t.axes.len()),
-            ));
-        }
-        let mut point = Vec::with_capacity(3);
-        let critical = f(eta.clamp(0.0, 1.0).asin() as f32);
-        for axis in &t.axes {
-            point.push(match axis.name.as_str() {
-                "mu" => mu.clone(),
-                "alpha" => alpha.clone(),
-                "eta" => f(eta as f32),
-                CRITICAL_ANGLE_OFFSET => {
-                    self.needs.acos = true;
-                    critical.clone() - func("tmh_acos", vec![mu.clone().clamp(f(0.0), f(1.0))])
-                }
-                CRITICAL_ANGLE_FRACTION => {
-                    // (c - v) / v below the view's angle v, (c - v) / (pi/2 - v) above it.
-                    self.needs.acos = true;
-                    let view = func("tmh_acos", vec![mu.clone().clamp(f(0.0), f(1.0))]);
-                    let offset = critical.clone() - view.clone();
-                    select(
-                        critical.clone().lt(view.clone()),
-                        offset.clone() / view.clone(),
-                        offset / (f(std::f32::consts::FRAC_PI_2) - view).max(f(1e-7)),
-                    )
-                }
-                other => {
-                    return Err(self.refuse(
-                        &m.name,
-                        format!(
-                            "reads {what} {}, which has an axis `{other}`; the shader reads mu, alpha, and eta, \
-                             {CRITICAL_ANGLE_OFFSET} or {CRITICAL_ANGLE_FRACTION}",
-                            t.file
-                        ),
-                    ));
-                }
-            });
-        }
+        let names: Vec<&str> = t.axes.iter().map(|a| a.name.as_str()).collect();
+        let point = match point_in(&t.axes, InShader(mu), InShader(alpha), eta, kappa) {
+            Some(point) if point.len() == 3 => point,
+            _ => {
+                return Err(self.refuse(
+                    &m.name,
+                    format!(
+                        "reads {what} {} of axes ({}); the shader reads a 3D table of mu, alpha, and eta, kappa, \
+                         {CRITICAL_ANGLE_OFFSET} or {CRITICAL_ANGLE_FRACTION}",
+                        t.file,
+                        names.join(", ")
+                    ),
+                ));
+            }
+        };
+        self.needs.acos |= names.iter().any(|name| derived::definition(name).is_some());
         let variable = self.bind_table(t);
         self.needs.trilinear = true;
         self.reads.insert(what);
         let mut arguments = vec![name(&variable)];
-        arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x)));
+        arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x.0)));
         arguments.extend(t.axes.iter().map(|axis| f(axis.count as f32)));
         Ok(func("tmh_trilinear", arguments))
     }
@@ -814,19 +786,6 @@ in_shader_operator!(Sub, sub);
 in_shader_operator!(Mul, mul);
 in_shader_operator!(Div, div);
 
-impl ChoiceArithmetic for InShader {
-    type Condition = Expr;
-    fn at_most(self, other: Self) -> Expr {
-        self.0.le(other.0)
-    }
-    fn both(a: Expr, b: Expr) -> Expr {
-        a.and(b)
-    }
-    fn select(condition: Expr, then: Self, otherwise: Self) -> Self {
-        InShader(select(condition, then.0, otherwise.0))
-    }
-}
-
 impl Arithmetic for InShader {
     type Constant = f32;
     fn constant(value: f32) -> Self {
@@ -849,6 +808,22 @@ impl Arithmetic for InShader {
     }
     fn asinh(self) -> Self {
         InShader(func("tmh_asinh", vec![self.0]))
+    }
+    fn acos(self) -> Self {
+        InShader(func("tmh_acos", vec![self.0]))
+    }
+    type Condition = Expr;
+    fn less_than(self, other: Self) -> Expr {
+        self.0.lt(other.0)
+    }
+    fn at_most(self, other: Self) -> Expr {
+        self.0.le(other.0)
+    }
+    fn both(a: Expr, b: Expr) -> Expr {
+        a.and(b)
+    }
+    fn select(condition: Expr, then: Self, otherwise: Self) -> Self {
+        InShader(select(condition, then.0, otherwise.0))
     }
 }
 

@@ -83,6 +83,17 @@ pub trait Arithmetic:
     fn clamp(self, lo: Self, hi: Self) -> Self;
     fn sqrt(self) -> Self;
     fn asinh(self) -> Self;
+    fn acos(self) -> Self;
+    /// A comparison's outcome: `bool`, or a shader's boolean expression.
+    type Condition;
+    /// `self < other`.
+    fn less_than(self, other: Self) -> Self::Condition;
+    /// `self <= other`.
+    fn at_most(self, other: Self) -> Self::Condition;
+    /// Both conditions hold.
+    fn both(a: Self::Condition, b: Self::Condition) -> Self::Condition;
+    /// `then` where `condition` holds, else `otherwise`: a shader's `select`, both sides computed.
+    fn select(condition: Self::Condition, then: Self, otherwise: Self) -> Self;
 }
 
 macro_rules! arithmetic {
@@ -109,6 +120,22 @@ macro_rules! arithmetic {
             }
             fn asinh(self) -> Self {
                 $t::asinh(self)
+            }
+            fn acos(self) -> Self {
+                $t::acos(self)
+            }
+            type Condition = bool;
+            fn less_than(self, other: Self) -> bool {
+                self < other
+            }
+            fn at_most(self, other: Self) -> bool {
+                self <= other
+            }
+            fn both(a: bool, b: bool) -> bool {
+                a && b
+            }
+            fn select(condition: bool, then: Self, otherwise: Self) -> Self {
+                if condition { then } else { otherwise }
             }
         }
     };

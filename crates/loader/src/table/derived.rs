@@ -9,7 +9,7 @@
 //! `asin(eta) - acos(mu)` the step lies at offset 0 for every `mu` and every `eta`, and an axis
 //! dense around 0 resolves it at any roughness.
 
-use super::Axis;
+use super::{Arithmetic, Axis};
 
 /// The angle between the critical angle of total internal reflection and the view, in radians:
 /// `asin(eta) - acos(mu)`. Positive when the view lies inside the critical cone (a narrow lobe
@@ -18,7 +18,23 @@ pub const CRITICAL_ANGLE_OFFSET: &str = "critical_angle_offset";
 
 /// [`CRITICAL_ANGLE_OFFSET`] at `(mu, eta)`, both clamped to [0, 1].
 pub fn critical_angle_offset(mu: f64, eta: f64) -> f64 {
-    eta.clamp(0.0, 1.0).asin() - mu.clamp(0.0, 1.0).acos()
+    critical_angle_offset_in(mu, eta)
+}
+
+/// [`critical_angle_offset`] in the arithmetic of `mu`, which the scene shader prints; the
+/// critical angle of `eta`, a material's constant, computed in f64 and then rounded to it.
+pub fn critical_angle_offset_in<T: Arithmetic>(mu: T, eta: f64) -> T {
+    critical_angle::<T>(eta) - view_angle(mu)
+}
+
+/// `asin(eta)`, `eta` clamped to [0, 1], in `T`'s precision.
+fn critical_angle<T: Arithmetic>(eta: f64) -> T {
+    T::of(eta.clamp(0.0, 1.0).asin())
+}
+
+/// `acos(mu)`, `mu` clamped to [0, 1].
+fn view_angle<T: Arithmetic>(mu: T) -> T {
+    mu.clamp(T::of(0.0), T::of(1.0)).acos()
 }
 
 /// The relative index whose critical angle lies `offset` radians from the view of cosine `mu`:
@@ -41,18 +57,19 @@ pub const CRITICAL_ANGLE_OFFSET_FORMULA: &str = "asin(clamp(eta, 0, 1)) - acos(c
 /// nodes on `eta < 1`.
 pub const CRITICAL_ANGLE_FRACTION: &str = "critical_angle_fraction";
 
-/// [`CRITICAL_ANGLE_FRACTION`] at `(mu, eta)`, both clamped to [0, 1]; 0 at the one point where
-/// both ranges are empty (`mu = 0`, `eta = 1`).
+/// [`CRITICAL_ANGLE_FRACTION`] at `(mu, eta)`, both clamped to [0, 1], as
+/// [`CRITICAL_ANGLE_FRACTION_FORMULA`] states it: the range above the view is taken at least 1e-7
+/// wide, so the fraction is 0 at the one point where both ranges are empty (`mu = 0`, `eta = 1`).
 pub fn critical_angle_fraction(mu: f64, eta: f64) -> f64 {
-    let half_pi = std::f64::consts::FRAC_PI_2;
-    let (view, critical) = (mu.clamp(0.0, 1.0).acos(), eta.clamp(0.0, 1.0).asin());
-    if critical < view {
-        (critical - view) / view
-    } else if view < half_pi {
-        (critical - view) / (half_pi - view)
-    } else {
-        0.0
-    }
+    critical_angle_fraction_in(mu, eta)
+}
+
+/// [`critical_angle_fraction`] in the arithmetic of `mu`, which the scene shader prints.
+pub fn critical_angle_fraction_in<T: Arithmetic>(mu: T, eta: f64) -> T {
+    let (view, critical) = (view_angle(mu), critical_angle::<T>(eta));
+    let offset = critical.clone() - view.clone();
+    let above = offset.clone() / (T::of(std::f64::consts::FRAC_PI_2) - view.clone()).max(T::of(1e-7));
+    T::select(critical.less_than(view.clone()), offset / view, above)
 }
 
 /// The relative index at [`CRITICAL_ANGLE_FRACTION`] `fraction` (clamped to [-1, 1]) for the view
@@ -72,14 +89,20 @@ pub const CRITICAL_ANGLE_FRACTION_FORMULA: &str = "with v = acos(clamp(mu, 0, 1)
 /// The point a lookup at `(mu, alpha, eta, kappa)` reads in a table of `axes`: each axis's
 /// quantity, by name. `None` when an axis samples a quantity this module does not know.
 pub fn point_of(axes: &[Axis], mu: f64, alpha: f64, eta: f64, kappa: f64) -> Option<Vec<f64>> {
+    point_in(axes, mu, alpha, eta, kappa)
+}
+
+/// [`point_of`] in the arithmetic of `mu` and `alpha`, which the scene shader prints; the indices
+/// are a material's constants.
+pub fn point_in<T: Arithmetic>(axes: &[Axis], mu: T, alpha: T, eta: f64, kappa: f64) -> Option<Vec<T>> {
     axes.iter()
         .map(|axis| match axis.name.as_str() {
-            "mu" => Some(mu),
-            "alpha" => Some(alpha),
-            "eta" => Some(eta),
-            "kappa" => Some(kappa),
-            CRITICAL_ANGLE_OFFSET => Some(critical_angle_offset(mu, eta)),
-            CRITICAL_ANGLE_FRACTION => Some(critical_angle_fraction(mu, eta)),
+            "mu" => Some(mu.clone()),
+            "alpha" => Some(alpha.clone()),
+            "eta" => Some(T::of(eta)),
+            "kappa" => Some(T::of(kappa)),
+            CRITICAL_ANGLE_OFFSET => Some(critical_angle_offset_in(mu.clone(), eta)),
+            CRITICAL_ANGLE_FRACTION => Some(critical_angle_fraction_in(mu.clone(), eta)),
             _ => None,
         })
         .collect()
