@@ -485,8 +485,8 @@ fn build_fast(
     for (column, cell, values) in &corrections {
         product[column * plane + cell] += values.iter().sum::<f64>() / values.len() as f64;
     }
-    // Next to a critical angle the projected Fresnel may overshoot its range by a few 1e-6 (an L2
-    // projection of a kink); the albedo itself cannot leave [0, 1].
+    // Next to a critical angle the projected Fresnel may overshoot its range (an L2 projection of
+    // a kink; down to -9.4e-6, `docs/stability.md`); the albedo itself cannot leave [0, 1].
     for (value, p) in table.data.iter_mut().zip(&product) {
         *value = p.clamp(0.0, 1.0) as f32;
     }

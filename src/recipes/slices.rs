@@ -641,8 +641,10 @@ fn integrate_tables(slices: &[&Slices], seed: u64, progress: &dyn Progress) -> R
                 let channels = tables[s].channel_count();
                 let (means, errors) = rest[..2 * channels].split_at(channels);
                 let range = node * channels..(node + 1) * channels;
+                // FGD and TIR are shares of energy: a fast-path FGD next to a critical angle may
+                // overshoot [0, 1] (an L2 projection of a kink), which the 4D table clamps too.
                 for (value, &mean) in tables[s].data[range.clone()].iter_mut().zip(means) {
-                    *value = mean as f32;
+                    *value = mean.clamp(0.0, 1.0) as f32;
                 }
                 standard_errors[s][range].copy_from_slice(errors);
                 rest = &rest[2 * channels..];
@@ -755,6 +757,29 @@ mod tests {
             assert!(by_itself.table.data.iter().all(|v| v.is_finite()), "{}", slice.name);
             assert!(by_itself.table.data.iter().any(|&v| v > 0.0), "{}", slice.name);
         }
+    }
+
+    #[test]
+    fn an_fgd_slice_stores_no_overshoot_of_its_fast_path_below_0() {
+        // A dielectric onto a barely rarer medium seen at grazing views: the fast path's L2
+        // projection of Fresnel, whose kink lies at the critical cosine 0.0014, overshoots below 0.
+        let mut settings = FgdSettings { sampling: SamplingConfig::replicated(1 << 10), ..FgdSettings::default() };
+        settings.reference.cells = 0;
+        let slice = lattice_slices("fgd_grazing", SliceOf::Fgd(settings), [0.0, 2.0], [56.0, 60.0], &[(0.999999, 0.0)]);
+        let (points, projections) =
+            (NodePoints::new(table_points(&slice.sampling(), 7).unwrap()).unwrap(), slice.projections());
+        let raw: Vec<f64> = slice
+            .alpha
+            .node_values()
+            .into_iter()
+            .flat_map(|alpha| slice.mu.node_values().into_iter().map(move |mu| (mu, alpha)))
+            .map(|(mu, alpha)| slice.estimate_fast(&points, mu, alpha, &projections).mean[0])
+            .collect();
+        let lowest = raw.iter().copied().fold(f64::INFINITY, f64::min);
+        eprintln!("the fast path's lowest estimate: {lowest:e}");
+        assert!(lowest < 0.0, "no overshoot to clamp: {raw:?}");
+        let built = integrate_batch(&[&slice], 7, &()).unwrap().remove(0);
+        assert!(built.table.data.iter().all(|v| (0.0..=1.0).contains(v)), "{:?}", built.table.data);
     }
 
     #[test]

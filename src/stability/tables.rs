@@ -43,6 +43,12 @@ pub const PATH_ABSOLUTE_TOLERANCE: f64 = 2e-4;
 /// Monte Carlo estimates of an albedo may leave [0, 1] by rounding of the weights only.
 const RANGE_SLACK: f64 = 1e-6;
 
+/// The fast path's estimates may leave [0, 1] by as much as they may differ from the per-cell
+/// path's: next to a critical angle its L2 projection of Fresnel on the hat basis overshoots
+/// (FGD at `eta` 0.999999 and grazing views: down to -9.4e-6), which the tables clamp when they
+/// store a value.
+pub const FAST_PATH_RANGE_SLACK: f64 = PATH_ABSOLUTE_TOLERANCE;
+
 /// Settings and points shared by every table's cases.
 pub struct Evaluation {
     pub points: PointSet,
@@ -136,7 +142,7 @@ fn common_checks(
         checks.push(named(p::finite(v32), name, "f32"));
         if in_unit_interval[j] {
             checks.push(named(p::unit_interval(v64, RANGE_SLACK), name, "f64"));
-            checks.push(named(p::unit_interval(v32, RANGE_SLACK), name, "f32"));
+            checks.push(named(p::unit_interval(v32, FAST_PATH_RANGE_SLACK), name, "f32"));
         }
         let (property, tolerance) = match node.agreement {
             Agreement::SamePoints => {
