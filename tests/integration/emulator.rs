@@ -199,7 +199,7 @@ impl<'a> Emulator<'a> {
                 construct(ty, values)
             }
             Expr::Member(base, field) => match self.evaluate(base, scope) {
-                Value::Struct(_) => self.evaluate(base, scope).field(field).clone(),
+                structure @ Value::Struct(_) => structure.field(field).clone(),
                 vector => swizzle(&vector.v(), field),
             },
             Expr::Index(base, k) => match self.evaluate(base, scope) {
