@@ -60,11 +60,13 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-/// The arithmetic of an axis's mapping and coordinates, written once for every type that
-/// computes them: f64 (the tables' own), f32 (as a shader computes the manifest's formulas), and
-/// the scene shader's expressions, which print them ([`crate::shader`] builds those). Constants,
-/// the mapping of an axis's ends among them, are computed in [`Arithmetic::Constant`] and then
-/// become values: a shader prints the very f32 constants the CPU's f32 sampler computes.
+/// The arithmetic of a table read, written once for every type that computes it: an axis's
+/// mapping and coordinates, the point of a derived axis ([`crate::table::derived::point_in`]) and
+/// the choice among a scene's slices. Its types: f64 (the tables' own), f32 (as a shader computes
+/// the manifest's formulas), and the scene shader's expressions, which print them
+/// ([`crate::shader`] builds those). Constants, the mapping of an axis's ends among them, are
+/// computed in [`Arithmetic::Constant`] and then become values: a shader prints the very f32
+/// constants the CPU's f32 sampler computes.
 pub trait Arithmetic:
     Clone
     + std::ops::Add<Output = Self>
@@ -83,6 +85,7 @@ pub trait Arithmetic:
     fn clamp(self, lo: Self, hi: Self) -> Self;
     fn sqrt(self) -> Self;
     fn asinh(self) -> Self;
+    /// `acos(self)` (a shader's is its own polynomial: the builtin's error is loosely bounded).
     fn acos(self) -> Self;
     /// A comparison's outcome: `bool`, or a shader's boolean expression.
     type Condition;
