@@ -424,12 +424,11 @@ impl FolderTables {
                 let point = [lookup.mu, lookup.alpha, lookup.eta, lookup.kappa];
                 match full {
                     Some(FullFgd::Table(table)) => {
-                        if !table
-                            .axes
-                            .iter()
-                            .zip(&point)
-                            .all(|(a, &x)| x >= a.bounds().0 - 1e-12 && x <= a.bounds().1 + 1e-12)
-                        {
+                        let holds = |axis: &Axis, x: f64| {
+                            let (lo, hi) = axis.bounds();
+                            x >= lo - 1e-12 && x <= hi + 1e-12
+                        };
+                        if !table.axes.iter().zip(&point).all(|(axis, &x)| holds(axis, x)) {
                             Self::note(&self.clamped, lookup);
                         }
                         table.interpolate(&point)[0]
