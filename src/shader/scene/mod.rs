@@ -767,7 +767,7 @@ fn array_coordinate(axis: &Axis, origin: u32, extent: u32, x: Expr) -> Expr {
 
 /// A shader expression in the arithmetic of an axis's coordinates ([`Arithmetic`]), so that the
 /// formulas the CPU computes in f32 are printed from the same code: its constants are those f32
-/// values, and its `asinh` the helper's ([`helpers::asinh`]).
+/// values, and its `asinh` and `acos` the helpers' ([`helpers::asinh`], [`helpers::acos`]).
 #[derive(Clone)]
 struct InShader(Expr);
 
