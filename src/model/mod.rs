@@ -66,6 +66,7 @@
 pub mod factors;
 pub mod folder;
 pub mod lookup;
+pub mod routes;
 pub mod stack;
 pub mod tm2;
 pub mod tm6;

@@ -2,7 +2,7 @@
 //! recorded ([`crate::fit::text::record`]) over the material's stack and flux model, then printed.
 //! The view cosine is the recorded code's variable 0 and each table lookup the model makes is a
 //! variable after it, printed as the read of the table the folder answers it with
-//! ([`Generator::albedo`], [`Generator::tir`], [`Generator::gd`]). Everything the stack alone
+//! ([`Generator::read`]). Everything the stack alone
 //! decides (which layers count, every index, roughness and medium coefficient) was computed in
 //! f64 while recording, as the CPU evaluator computes it, and is printed as a constant; what the
 //! view decides is a `select`.
@@ -165,24 +165,20 @@ impl Leaves for MaterialLeaves<'_, '_> {
     }
 }
 
-/// The read answering lookup `l`, its coordinates as printed so far.
+/// The read answering lookup `l`, its coordinates as printed so far. The index is the stack's,
+/// and so is an interface's roughness for its albedo; a lobe's roughness may depend on the view.
 fn lookup(g: &mut Generator, m: &ShaderMaterial, l: &Lookup<Recorded>, printed: &Printed) -> Result<Expr> {
     let baked = |v: Recorded, what: &str| {
         v.known_value()
             .ok_or_else(|| g.refuse(&m.name, format!("its model reads a table at a {what} that depends on the view")))
     };
+    let (eta, kappa) = (baked(l.eta, "index")?, baked(l.kappa, "index")?);
+    let known_alpha = match l.quantity {
+        Quantity::Albedo => Some(baked(l.alpha, "roughness")?),
+        Quantity::Tir | Quantity::Gd => None,
+    };
     let at = |r: Recorded| value(printed, r, &m.name);
-    match l.quantity {
-        Quantity::Albedo => {
-            let (alpha, eta, kappa) = (baked(l.alpha, "roughness")?, baked(l.eta, "index")?, baked(l.kappa, "index")?);
-            g.albedo(m, at(l.mu)?, alpha, eta, kappa)
-        }
-        Quantity::Tir => {
-            let eta = baked(l.eta, "index")?;
-            g.tir(m, at(l.mu)?, at(l.alpha)?, eta)
-        }
-        Quantity::Gd => g.gd(m, at(l.mu)?, at(l.alpha)?),
-    }
+    g.read(m, l.quantity, (at(l.mu)?, at(l.alpha)?), known_alpha, (eta, kappa))
 }
 
 #[cfg(test)]

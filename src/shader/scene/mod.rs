@@ -39,14 +39,14 @@ use super::{Builtin, Expr, Item, Lang, Module, Parens, Ty, call, f, func, name, 
 use crate::error::{Error, Result};
 use crate::fit::text::fitted::{FittedForm, FittedFormExt};
 use crate::formats::FileFormat;
-use crate::formats::manifest::MANIFEST_FILE;
-use crate::loader::ArrayPlace;
-use crate::loader::LutFolder;
+use crate::formats::manifest::{FileEntry, FitEntry, MANIFEST_FILE};
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
-use crate::model::folder::{is_slice, slice_choice_distance, slice_choice_distance_in, slice_indices};
+use crate::loader::{ArrayPlace, FolderSlice, LutFolder};
+use crate::model::folder::{slice_choice_distance, slice_choice_distance_in};
+use crate::model::routes::{Answer, Paths, Reader, Routes};
 use crate::model::{AlbedoPath, FluxModel, Quantity, Stack, TirPath};
-use crate::packing::{PackedFgd, Packing};
-use crate::physics::{FresnelBasis, normal_incidence_reflectance};
+use crate::packing::PackedFgd;
+use crate::physics::normal_incidence_reflectance;
 use crate::table::derived::{self, CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, point_in};
 use crate::table::{Arithmetic, Axis, TableKind};
 
@@ -93,8 +93,7 @@ impl SceneShader {
     }
 }
 
-/// A table file the shader reads: its axes, channels as stored, and for a slice the `(eta, kappa)`
-/// its channels hold fixed.
+/// A table file the shader reads: its axes and channels as stored, and where it lies.
 #[derive(Debug, Clone)]
 struct TableFile {
     file: String,
@@ -104,58 +103,62 @@ struct TableFile {
     place: Option<ArrayPlace>,
     axes: Vec<Axis>,
     channels: usize,
-    /// `(eta, kappa)` per channel, for slices.
-    indices: Vec<(f64, f64)>,
-    /// The Fresnel basis its manifest entry states (Belcour's).
-    fresnel_basis: Option<FresnelBasis>,
-    is_tir: bool,
-    is_fgd: bool,
 }
 
 impl TableFile {
-    fn of(file: &str, entry: &crate::formats::manifest::FileEntry) -> Self {
-        let indices = slice_indices(entry);
+    fn of(file: &str, entry: &FileEntry, place: Option<ArrayPlace>) -> Self {
         TableFile {
             file: file.to_string(),
             table: entry.table.clone(),
-            place: None,
+            place,
             axes: entry.axes.iter().map(|a| a.axis.clone()).collect(),
             channels: padded(entry.channels.len()),
-            fresnel_basis: entry.fresnel_basis.clone(),
-            is_tir: is_slice(entry, TableKind::Tir),
-            is_fgd: is_slice(entry, TableKind::Fgd),
-            indices: if is_slice(entry, TableKind::Tir) || is_slice(entry, TableKind::Fgd) {
-                indices
-            } else {
-                Vec::new()
-            },
         }
     }
 }
 
-/// Everything the materials read, found in the folder.
-#[derive(Default)]
-struct Sources {
-    slices: Vec<TableFile>,
-    /// The tables a GPU binds whole, each of its kind's shape: GD, the 3D TIR table, the split-sum
-    /// tables, the stand-ins.
-    tables: Vec<(TableKind, TableFile)>,
-    packing: Option<(String, PackedFgd)>,
-    /// The folder's fitted TIR form (its manifest's `fit`), printed as `tmlut_tir`.
-    fit: Option<FittedForm>,
+/// The scene shader's [`Reader`]: of each file, what its reads print. It binds textures only (a
+/// `.bin` table is no texture), and reads the 4D FGD table through its lossless packing.
+struct Printing;
+
+impl Reader for Printing {
+    type Table = TableFile;
+    type FullFgd = (String, PackedFgd);
+    type Form = FittedForm;
+    const FORMATS: &'static [FileFormat] = &FileFormat::TEXTURES;
+
+    fn slice(&self, slice: FolderSlice) -> Result<TableFile> {
+        Ok(TableFile::of(&slice.file, &slice.entry, slice.place))
+    }
+
+    fn table(&self, _: &LutFolder, file: &str, entry: &FileEntry) -> Result<TableFile> {
+        Ok(TableFile::of(file, entry, None))
+    }
+
+    fn full_fgd(
+        &self,
+        folder: &LutFolder,
+        packing: Option<(&str, &FileEntry)>,
+        _: Option<(&str, &FileEntry)>,
+    ) -> Result<Option<(String, PackedFgd)>> {
+        packing
+            .map(|(file, entry)| Ok((file.to_string(), crate::model::folder::packed_fgd(folder, file, entry)?)))
+            .transpose()
+    }
+
+    fn fit(&self, _: &LutFolder, fit: &FitEntry) -> Result<Option<FittedForm>> {
+        Ok(FittedForm::of_build(fit))
+    }
 }
 
-impl Sources {
-    fn table(&self, kind: TableKind) -> Option<TableFile> {
-        self.tables.iter().find(|(k, _)| *k == kind).map(|(_, table)| table.clone())
-    }
+/// How material `m` reads its tables.
+fn paths(m: &ShaderMaterial) -> Paths {
+    Paths { albedo: m.albedo, albedo_form: m.albedo_form.is_some(), tir: m.tir }
 }
 
 /// What the generated functions call beyond the helpers every scene shader has.
 #[derive(Debug, Clone, Copy, Default)]
 struct Needs {
-    packing: bool,
-    fit: bool,
     trilinear: bool,
     /// A slice is read from a texture array.
     layers: bool,
@@ -166,8 +169,8 @@ struct Needs {
 /// The shader of `materials` over the tables of `folder`.
 pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<SceneShader> {
     let manifest_path = folder.dir().join(MANIFEST_FILE);
-    let sources = sources(folder, materials)?;
-    let mut g = Generator::new(&sources, manifest_path.display().to_string());
+    let routes = Routes::open(folder, &materials.iter().map(paths).collect::<Vec<_>>(), &Printing)?;
+    let mut g = Generator::new(&routes, manifest_path.display().to_string());
     let mut functions = Vec::new();
     let mut described = Vec::new();
     let mut max_lobes = 1;
@@ -250,9 +253,12 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     // The folder's fitted form (`tmlut_tir`), then the forms materials name, each after the helpers
     // it needs; a helper two forms share (`tmlut_pow_2`, `tmlut_asinh`: the same code whoever
     // prints it) is printed once.
-    let folder_fit = sources.fit.iter().filter(|_| g.needs.fit).map(|fitted| (fitted, true));
-    for (fitted, is_folder_fit) in folder_fit.chain(g.forms.iter().map(|fitted| (fitted, false))) {
-        if !is_folder_fit && g.needs.fit && crate::fit::text::shader::function_name(&fitted.form()?) == "tmlut_tir" {
+    let folder_fit = g.folder_form.map(|fitted| (fitted, true));
+    for (fitted, is_folder_fit) in folder_fit.into_iter().chain(g.forms.iter().map(|fitted| (fitted, false))) {
+        if !is_folder_fit
+            && g.folder_form.is_some()
+            && crate::fit::text::shader::function_name(&fitted.form()?) == "tmlut_tir"
+        {
             return Err(Error::invalid(
                 format!("fit:{}", fitted.source),
                 "form `tir` has the shader function of the built-in fitted form (tmlut_tir), which another material's \
@@ -272,9 +278,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             module.items.push(item);
         }
     }
-    if g.needs.packing
-        && let Some((_, packed)) = &sources.packing
-    {
+    if let Some(packed) = g.packing {
         // The packing's lookup prints fully parenthesised; as a function of this module it takes
         // the module's style, which changes only redundant parentheses, not the operations.
         module.items.extend(packed.program.module("The lossless FGD packing's exact lookup (docs/packing.md).").items);
@@ -292,35 +296,8 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     Ok(SceneShader { module, textures, materials: described, max_lobes })
 }
 
-fn sources(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Sources> {
-    let mut sources = Sources::default();
-    // The slices in the order the CPU evaluator finds them (`model::folder`), which decides among equals.
-    for slice in folder.scene_slices(|e| is_slice(e, TableKind::Fgd) || is_slice(e, TableKind::Tir))? {
-        let mut table = TableFile::of(&slice.file, &slice.entry);
-        table.place = slice.place;
-        sources.slices.push(table);
-    }
-    // The tables a GPU binds whole, found as the CPU evaluator finds them. A table of another
-    // shape than its kind's is not read (the 4D FGD table is no texture: the shader reads its
-    // packing).
-    for &kind in TableKind::ALL {
-        if let Some((file, entry)) = folder.table_file(kind.name(), &FileFormat::TEXTURES)
-            && entry.axes.len() == kind.shape().axes.len()
-        {
-            sources.tables.push((kind, TableFile::of(file, entry)));
-        }
-    }
-    if materials.iter().any(|m| m.albedo == AlbedoPath::Fgd)
-        && let Some((file, entry)) = folder.packing_file(Packing::Lossless.name(), &FileFormat::TEXTURES)
-    {
-        sources.packing = Some((file.to_string(), crate::model::folder::packed_fgd(folder, file, entry)?));
-    }
-    sources.fit = folder.tir_fit().and_then(FittedForm::of_build);
-    Ok(sources)
-}
-
 struct Generator<'a> {
-    sources: &'a Sources,
+    routes: &'a Routes<Printing>,
     textures: Vec<TextureBinding>,
     /// File -> binding of the textures bound so far.
     used: BTreeMap<String, u32>,
@@ -334,13 +311,17 @@ struct Generator<'a> {
     chooser_functions: Vec<super::Function>,
     /// The fitted forms the materials name (`tir = "fit:PATH"`), in first use.
     forms: Vec<FittedForm>,
+    /// The folder's fitted TIR form, printed as `tmlut_tir` where a material reads it.
+    folder_form: Option<&'a FittedForm>,
+    /// The lossless FGD packing, whose lookup is printed where a material reads it.
+    packing: Option<&'a PackedFgd>,
 }
 
 impl<'a> Generator<'a> {
     /// A generator over `sources` that has read nothing yet; `manifest_path` for its messages.
-    fn new(sources: &'a Sources, manifest_path: String) -> Self {
+    fn new(routes: &'a Routes<Printing>, manifest_path: String) -> Self {
         Generator {
-            sources,
+            routes,
             textures: Vec::new(),
             used: BTreeMap::new(),
             reading: Default::default(),
@@ -350,6 +331,8 @@ impl<'a> Generator<'a> {
             choosers: BTreeMap::new(),
             chooser_functions: Vec::new(),
             forms: Vec::new(),
+            folder_form: None,
+            packing: None,
         }
     }
 
@@ -422,34 +405,17 @@ impl<'a> Generator<'a> {
         func("tmh_bilinear", vec![name(&variable), u, v, f(t.axes[0].count as f32), f(t.axes[1].count as f32)])
     }
 
-    /// The value of the slice answering a lookup at `(eta, kappa)`, as
-    /// [`crate::model::folder::FolderTables`] chooses it: of the slices with a channel at those
-    /// indices (in the manifest's order), the one with the least [`slice_choice_distance`] (-1
-    /// where its `(mu, alpha)` range holds the lookup, else the sum over both axes of the distance
-    /// outside the range, in units of the range, less the slack), the first of equals: the first
-    /// that holds it, else the nearest. `None` where no slice has those indices.
+    /// The value of the slice among `candidates` (a lookup's [`Answer::Slices`]) that
+    /// [`crate::model::folder::FolderTables`] chooses: the one with the least
+    /// [`slice_choice_distance`] (-1 where its `(mu, alpha)` range holds the lookup, else the sum
+    /// over both axes of the distance outside the range, in units of the range, less the slack),
+    /// the first of equals: the first that holds it, else the nearest.
     ///
     /// One candidate is read directly. Where several are, the ones that can never be chosen are
     /// dropped when `alpha` is known here (a slice whose alpha range misses it by more than the
     /// slack loses to one that holds it and every `mu`, and so does any slice after that one); the
     /// rest are compared in a function of their own, `tmh_slice<N>(mu, alpha)`.
-    fn slice(
-        &mut self,
-        tir: bool,
-        eta: f64,
-        kappa: f64,
-        mu: Expr,
-        alpha: Expr,
-        known_alpha: Option<f64>,
-    ) -> Option<Expr> {
-        let same = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
-        let candidates: Vec<(TableFile, usize)> = self
-            .sources
-            .slices
-            .iter()
-            .filter(|s| if tir { s.is_tir } else { s.is_fgd })
-            .filter_map(|s| s.indices.iter().position(|&(e, k)| same(e, eta) && same(k, kappa)).map(|c| (s.clone(), c)))
-            .collect();
+    fn slice(&mut self, candidates: Vec<(&TableFile, usize)>, mu: Expr, alpha: Expr, known_alpha: Option<f64>) -> Expr {
         let candidates = match known_alpha {
             Some(alpha) => {
                 // Holds alpha as the chooser compares it, in f32 (the lattice's ends are exact in f32).
@@ -474,21 +440,14 @@ impl<'a> Generator<'a> {
             }
             None => candidates,
         };
-        if !candidates.is_empty() {
-            self.reads.insert(if tir { "tir slice" } else { "fgd slice" }.into());
-        }
-        match candidates.len() {
-            0 => None,
-            1 => {
-                let (t, c) = &candidates[0];
-                Some(self.read2(t, mu, alpha).member(CHANNELS[*c]))
-            }
-            _ => Some(func(&self.slice_chooser(&candidates), vec![mu, alpha])),
+        match &candidates[..] {
+            [(t, c)] => self.read2(t, mu, alpha).member(CHANNELS[*c]),
+            _ => func(&self.slice_chooser(&candidates), vec![mu, alpha]),
         }
     }
 
     /// The function choosing among slice `candidates` at `(mu, alpha)` as [`Self::slice`] says.
-    fn slice_chooser(&mut self, candidates: &[(TableFile, usize)]) -> String {
+    fn slice_chooser(&mut self, candidates: &[(&TableFile, usize)]) -> String {
         let key = candidates.iter().map(|(t, c)| format!("{}/{}#{c}", t.file, t.table)).collect::<Vec<_>>().join(",");
         if let Some(function) = self.choosers.get(&key).cloned() {
             for (t, _) in candidates {
@@ -538,146 +497,103 @@ impl<'a> Generator<'a> {
         format!("tmlut_{}", fitted.name)
     }
 
-    /// The directional albedo of an interface of roughness `alpha` and relative index
-    /// `(eta, kappa)` at cosine `mu`, on material `m`'s albedo path.
-    fn albedo(&mut self, m: &ShaderMaterial, mu: Expr, alpha: f64, eta: f64, kappa: f64) -> Result<Expr> {
-        if let Some(fitted) = &m.albedo_form {
-            let function = self.form_function(fitted, "albedo form");
-            return Ok(match m.albedo {
-                // FGD ~ F0 scale + bias, as the Karis table is read.
-                AlbedoPath::Karis => {
-                    let f0 = normal_incidence_reflectance(eta, kappa);
-                    let weights = Expr::Construct(Ty::Vec(2), vec![f(f0 as f32), f(1.0)]);
-                    call(Builtin::Dot, vec![weights, func(&function, vec![mu, f(alpha as f32)])])
-                }
-                // A form of the lookup's own variables: the scene parser sets the FGD path for a
-                // form fitted to `fgd`, and no form reads on the Belcour path.
-                AlbedoPath::Fgd | AlbedoPath::Belcour => {
-                    func(&function, vec![mu, f(alpha as f32), f(eta as f32), f(kappa as f32)])
-                }
-            });
-        }
-        match m.albedo {
-            AlbedoPath::Fgd => self.fgd(m, mu, alpha, eta, kappa),
-            AlbedoPath::Belcour => {
-                let Some((basis, table)) = self
-                    .sources
-                    .table(TableKind::Belcour)
-                    .and_then(|table| Some((table.fresnel_basis.clone()?, table)))
-                else {
-                    return Err(self.missing(m, "the Belcour split-sum table (belcour.dds with its Fresnel basis)"));
-                };
-                self.reads.insert("belcour".into());
-                Ok(self.split_sum(&table, basis.coefficients(eta, kappa), mu, alpha))
-            }
-            AlbedoPath::Karis => {
-                let Some(table) = self.sources.table(TableKind::Karis) else {
-                    return Err(self.missing(m, "the Karis split-sum table (karis.dds)"));
-                };
-                // FGD ~ F0 scale + bias, with F0 at the relative index (model::folder).
-                let f0 = normal_incidence_reflectance(eta, kappa);
-                self.reads.insert("karis".into());
-                Ok(self.split_sum(&table, [f0, 1.0, 0.0, 0.0], mu, alpha))
-            }
-        }
-    }
-
-    /// A split-sum table's channels weighed by `coefficients`, constants for the interface's index.
-    fn split_sum(&mut self, table: &TableFile, coefficients: [f64; 4], mu: Expr, alpha: f64) -> Expr {
-        let c = Expr::Construct(Ty::Vec(4), coefficients.iter().map(|&c| f(c as f32)).collect());
-        call(Builtin::Dot, vec![c, self.read2(table, mu, f(alpha as f32))])
-    }
-
-    fn missing(&self, m: &ShaderMaterial, what: &str) -> Error {
-        Error::format(&self.manifest_path, format!("lists no {what}, which material `{}` reads", m.name))
-    }
-
-    /// `FGD(mu, alpha, eta, kappa)`: the slice holding the index, else a stand-in whose region
-    /// holds it (`fgd_rarer`), else the lossless packing (as `model::folder` reads them).
-    fn fgd(&mut self, m: &ShaderMaterial, mu: Expr, alpha: f64, eta: f64, kappa: f64) -> Result<Expr> {
-        if let Some(value) = self.slice(false, eta, kappa, mu.clone(), f(alpha as f32), Some(alpha)) {
-            return Ok(value);
-        }
-        if let Some(value) = self.stand_in(m, Quantity::Albedo, mu.clone(), f(alpha as f32), eta, kappa) {
-            return value;
-        }
-        match &self.sources.packing {
-            Some((file, packed)) => {
-                let (file, function) = (file.clone(), packed.program.function.clone());
-                let extent = [packed.texture.width, packed.texture.height, packed.texture.depth];
-                let variable = self.bind(&file, extent, 3, 1, false);
-                self.needs.packing = true;
-                self.reads.insert("fgd packing".into());
-                Ok(func(&function, vec![name(&variable), mu, f(alpha as f32), f(eta as f32), f(kappa as f32)]))
-            }
-            None => Err(Error::format(
-                &self.manifest_path,
-                format!(
-                    "holds no FGD slice at (eta, kappa) = ({eta}, {kappa}) and no lossless FGD packing, which material `{}` reads",
-                    m.name
-                ),
-            )),
-        }
-    }
-
-    /// `TIR(mu, alpha, eta)` for material `m`; `alpha` is a shader expression (a lobe's roughness).
-    fn tir(&mut self, m: &ShaderMaterial, mu: Expr, alpha: Expr, eta: f64) -> Result<Expr> {
-        match m.tir {
-            TirPath::Off => Ok(f(0.0)),
-            TirPath::Form => {
-                let Some(fitted) = &m.tir_form else {
-                    return Err(self.refuse(&m.name, "names a TIR form (tir = \"fit:PATH\") and none was given".into()));
-                };
-                let function = self.form_function(fitted, "tir form");
-                Ok(func(&function, vec![mu, alpha, f(eta as f32)]))
-            }
-            TirPath::Fit => {
-                if self.sources.fit.is_none() {
-                    return Err(Error::format(
-                        &self.manifest_path,
-                        "lists no fitted TIR form, which the scene's TIR path `fit` reads",
-                    ));
-                }
-                self.needs.fit = true;
-                self.reads.insert("tir fit".into());
-                Ok(func("tmlut_tir", vec![mu, alpha, f(eta as f32)]))
-            }
-            TirPath::Table => {
-                if let Some(value) = self.slice(true, eta, 0.0, mu.clone(), alpha.clone(), None) {
-                    return Ok(value);
-                }
-                if let Some(value) = self.stand_in(m, Quantity::Tir, mu.clone(), alpha.clone(), eta, 0.0) {
-                    return value;
-                }
-                let Some(table) = self.sources.table(TableKind::Tir) else {
-                    return Err(self.refuse(
-                        &m.name,
-                        format!(
-                            "reads TIR at eta {eta}, which neither a TIR slice of the folder holds nor a 3D TIR table \
-                             (tir.dds) answers"
-                        ),
-                    ));
-                };
-                self.volume(m, &table, (mu, alpha), (eta, 0.0), "tir table".into())
-            }
-        }
-    }
-
-    /// The first stand-in of `quantity` the folder holds whose region holds `(eta, kappa)`
-    /// ([`crate::model::stand_in`]), read at `(mu, alpha)`.
-    fn stand_in(
+    /// The value of a lookup of `quantity` by material `m` at `(mu, alpha)` (`known_alpha` where
+    /// its roughness is the stack's, not the view's) and relative index `(eta, kappa)`: the read
+    /// of what the folder's routes say answers it ([`Routes::answer`]), as the CPU evaluator
+    /// samples it.
+    fn read(
         &mut self,
         m: &ShaderMaterial,
         quantity: Quantity,
-        mu: Expr,
-        alpha: Expr,
-        eta: f64,
-        kappa: f64,
-    ) -> Option<Result<Expr>> {
-        let (stand_in, table) = crate::model::stand_ins()
-            .filter(|s| s.answers(quantity, eta, kappa))
-            .find_map(|s| Some((s, self.sources.table(s.table)?)))?;
-        Some(self.volume(m, &table, (mu, alpha), (eta, kappa), format!("{} table", stand_in.table.name())))
+        (mu, alpha): (Expr, Expr),
+        known_alpha: Option<f64>,
+        (eta, kappa): (f64, f64),
+    ) -> Result<Expr> {
+        let routes = self.routes;
+        Ok(match routes.answer(paths(m), quantity, eta, kappa) {
+            Answer::Slices(candidates) => {
+                self.reads.insert(format!("{} slice", if quantity == Quantity::Tir { "tir" } else { "fgd" }));
+                self.slice(candidates, mu, alpha, known_alpha)
+            }
+            Answer::Table(TableKind::Gd, t) => {
+                self.reads.insert("gd".into());
+                self.read2(t, mu, alpha).member("x")
+            }
+            Answer::Table(kind, t) => self.volume(m, t, (mu, alpha), (eta, kappa), format!("{} table", kind.name()))?,
+            Answer::SplitSum(kind, t, coefficients) => {
+                self.reads.insert(kind.name().into());
+                let c = Expr::Construct(Ty::Vec(4), coefficients.iter().map(|&c| f(c as f32)).collect());
+                call(Builtin::Dot, vec![c, self.read2(t, mu, alpha)])
+            }
+            Answer::FullFgd((file, packed)) => {
+                let extent = [packed.texture.width, packed.texture.height, packed.texture.depth];
+                let variable = self.bind(file, extent, 3, 1, false);
+                self.packing = Some(packed);
+                self.reads.insert("fgd packing".into());
+                func(&packed.program.function, vec![name(&variable), mu, alpha, f(eta as f32), f(kappa as f32)])
+            }
+            Answer::FolderForm(fitted) => {
+                self.folder_form = Some(fitted);
+                self.reads.insert("tir fit".into());
+                func("tmlut_tir", vec![mu, alpha, f(eta as f32)])
+            }
+            Answer::MaterialForm => match (quantity, &m.albedo_form, &m.tir_form) {
+                (Quantity::Albedo, Some(fitted), _) => {
+                    let function = self.form_function(fitted, "albedo form");
+                    match m.albedo {
+                        // FGD ~ F0 scale + bias, as the Karis table is read.
+                        AlbedoPath::Karis => {
+                            let f0 = normal_incidence_reflectance(eta, kappa);
+                            let weights = Expr::Construct(Ty::Vec(2), vec![f(f0 as f32), f(1.0)]);
+                            call(Builtin::Dot, vec![weights, func(&function, vec![mu, alpha])])
+                        }
+                        // A form of the lookup's own variables: the scene parser sets the FGD path
+                        // for a form fitted to `fgd`, and no form reads on the Belcour path.
+                        AlbedoPath::Fgd | AlbedoPath::Belcour => {
+                            func(&function, vec![mu, alpha, f(eta as f32), f(kappa as f32)])
+                        }
+                    }
+                }
+                (Quantity::Tir, _, Some(fitted)) => {
+                    let function = self.form_function(fitted, "tir form");
+                    func(&function, vec![mu, alpha, f(eta as f32)])
+                }
+                _ => {
+                    return Err(self.refuse(&m.name, "names a TIR form (tir = \"fit:PATH\") and none was given".into()));
+                }
+            },
+            Answer::Zero => f(0.0),
+            Answer::Missing => return Err(self.missing(m, quantity, eta, kappa)),
+        })
+    }
+
+    /// The error of a lookup the folder holds nothing for.
+    fn missing(&self, m: &ShaderMaterial, quantity: Quantity, eta: f64, kappa: f64) -> Error {
+        let reads = |what: &str| format!("lists no {what}, which material `{}` reads", m.name);
+        let what = match (quantity, m.albedo, m.tir) {
+            (Quantity::Albedo, AlbedoPath::Fgd, _) => format!(
+                "holds no FGD slice at (eta, kappa) = ({eta}, {kappa}) and no lossless FGD packing, which material `{}` reads",
+                m.name
+            ),
+            (Quantity::Albedo, AlbedoPath::Belcour, _) => {
+                reads("the Belcour split-sum table (belcour.dds with its Fresnel basis)")
+            }
+            (Quantity::Albedo, AlbedoPath::Karis, _) => reads("the Karis split-sum table (karis.dds)"),
+            (Quantity::Tir, _, TirPath::Fit) => {
+                "lists no fitted TIR form, which the scene's TIR path `fit` reads".into()
+            }
+            (Quantity::Tir, _, _) => {
+                return self.refuse(
+                    &m.name,
+                    format!(
+                        "reads TIR at eta {eta}, which neither a TIR slice of the folder holds nor a 3D TIR table \
+                         (tir.dds) answers"
+                    ),
+                );
+            }
+            (Quantity::Gd, _, _) => reads("2D GD table (gd.dds)"),
+        };
+        Error::format(&self.manifest_path, what)
     }
 
     /// A 3D table (TIR, or a stand-in such as FGD onto a rarer medium) at the point the CPU
@@ -716,17 +632,6 @@ impl<'a> Generator<'a> {
         arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x.0)));
         arguments.extend(t.axes.iter().map(|axis| f(axis.count as f32)));
         Ok(func("tmh_trilinear", arguments))
-    }
-
-    /// `GD(mu, alpha)`.
-    fn gd(&mut self, m: &ShaderMaterial, mu: Expr, alpha: Expr) -> Result<Expr> {
-        match self.sources.table(TableKind::Gd) {
-            Some(t) => {
-                self.reads.insert("gd".into());
-                Ok(self.read2(&t, mu, alpha).member("x"))
-            }
-            None => Err(self.missing(m, "2D GD table (gd.dds)")),
-        }
     }
 }
 
@@ -981,11 +886,9 @@ mod tests {
 
     /// Lattice node 80 of the slices' alpha axis, `(80/128)^2`, exact in f32 and f64.
     const NODE: f64 = 0.390625;
-    const ETA: f64 = 0.7122507122507123;
 
-    /// A slice file (TIR, or FGD at `kappa = 0`) at [`ETA`] over `mu` from `mu_start` to 1 and
-    /// `alpha` in `alpha`.
-    fn slice_file(file: &str, tir: bool, mu_start: f64, alpha: (f64, f64)) -> TableFile {
+    /// A slice file over `mu` from `mu_start` to 1 and `alpha` in `alpha`.
+    fn slice_file(file: &str, mu_start: f64, alpha: (f64, f64)) -> TableFile {
         TableFile {
             file: file.into(),
             table: file.trim_end_matches(".dds").into(),
@@ -995,20 +898,17 @@ mod tests {
                 Axis::node_aligned("alpha", alpha.0, alpha.1, 12).unwrap().with_mapping(Mapping::Sqrt).unwrap(),
             ],
             channels: 1,
-            indices: vec![(ETA, 0.0)],
-            fresnel_basis: None,
-            is_tir: tir,
-            is_fgd: !tir,
         }
     }
 
-    /// The file of the slice the scene shader reads among `slices` at `(mu, alpha)`, run in f32;
-    /// `known_alpha` where the generator knows the roughness (an interface's FGD).
-    fn chosen(slices: &[TableFile], tir: bool, mu: f32, alpha: f32, known_alpha: Option<f64>) -> String {
-        let sources = Sources { slices: slices.to_vec(), ..Sources::default() };
-        let mut g = Generator::new(&sources, String::new());
+    /// The file of the slice the scene shader reads among `slices` (those at a lookup's index) at
+    /// `(mu, alpha)`, run in f32; `known_alpha` where the generator knows the roughness (an
+    /// interface's FGD).
+    fn chosen(slices: &[TableFile], mu: f32, alpha: f32, known_alpha: Option<f64>) -> String {
+        let routes = Routes::of_tir_slices(Vec::new());
+        let mut g = Generator::new(&routes, String::new());
         let alpha_expr = if known_alpha.is_some() { f(alpha) } else { name("alpha") };
-        let read = g.slice(tir, ETA, 0.0, name("mu"), alpha_expr, known_alpha).expect("slices at the index");
+        let read = g.slice(slices.iter().map(|s| (s, 0)).collect(), name("mu"), alpha_expr, known_alpha);
         let scope = HashMap::from([("mu".to_string(), Value::F(mu)), ("alpha".to_string(), Value::F(alpha))]);
         let binding = evaluate(&read, &scope, &g.chooser_functions).f();
         g.textures[binding as usize].file.clone()
@@ -1020,29 +920,29 @@ mod tests {
         // `model::folder::tests`): TIR at alpha a rounding below lattice node 80, where another
         // material's slice at the index begins; the material's own slice holds it inside. The
         // printed chooser, run in f32, reads the slice that holds it, in either order.
-        let other = slice_file("other.dds", true, 0.701171875, (NODE, 1.0));
-        let own = slice_file("own.dds", true, 0.701171875, (0.32525634765625, 0.4306640625));
+        let other = slice_file("other.dds", 0.701171875, (NODE, 1.0));
+        let own = slice_file("own.dds", 0.701171875, (0.32525634765625, 0.4306640625));
         let below = |ulps: u32| f32::from_bits((NODE as f32).to_bits() - ulps);
         for (slices, first) in [([other.clone(), own.clone()], "other.dds"), ([own, other], "own.dds")] {
             for alpha in [below(1), below(8), (NODE - 5e-6) as f32] {
-                assert_eq!(chosen(&slices, true, 0.723594, alpha, None), "own.dds", "alpha {alpha}");
+                assert_eq!(chosen(&slices, 0.723594, alpha, None), "own.dds", "alpha {alpha}");
             }
             // Held by both, or by neither and within the slack of both: the first listed; past
             // the own slice's end, the other slice, which holds it.
-            assert_eq!(chosen(&slices, true, 0.723594, 0.42, None), first);
-            assert_eq!(chosen(&slices, true, 1.0 + 2.0 * f32::EPSILON, 0.42, None), first);
-            assert_eq!(chosen(&slices, true, 0.723594, 0.5, None), "other.dds");
+            assert_eq!(chosen(&slices, 0.723594, 0.42, None), first);
+            assert_eq!(chosen(&slices, 1.0 + 2.0 * f32::EPSILON, 0.42, None), first);
+            assert_eq!(chosen(&slices, 0.723594, 0.5, None), "other.dds");
         }
         // An interface's FGD, whose roughness the generator knows: a slice over every mu that
         // holds it is always chosen, and the slices that cannot beat it are left out, but not one
         // whose end merely lies within the slack of it (the other slice, listed first).
-        let other = slice_file("other.dds", false, 0.0, (NODE, 1.0));
-        let own = slice_file("own.dds", false, 0.0, (0.32525634765625, 0.4306640625));
+        let other = slice_file("other.dds", 0.0, (NODE, 1.0));
+        let own = slice_file("own.dds", 0.0, (0.32525634765625, 0.4306640625));
         let slices = [other, own];
         for alpha in [NODE - 1e-6, 0.38] {
-            assert_eq!(chosen(&slices, false, 0.5, alpha as f32, Some(alpha)), "own.dds", "alpha {alpha}");
+            assert_eq!(chosen(&slices, 0.5, alpha as f32, Some(alpha)), "own.dds", "alpha {alpha}");
         }
-        assert_eq!(chosen(&slices, false, 0.5, NODE as f32, Some(NODE)), "other.dds");
-        assert_eq!(chosen(&slices, false, 0.5, 0.42, Some(0.42)), "other.dds");
+        assert_eq!(chosen(&slices, 0.5, NODE as f32, Some(NODE)), "other.dds");
+        assert_eq!(chosen(&slices, 0.5, 0.42, Some(0.42)), "other.dds");
     }
 }
