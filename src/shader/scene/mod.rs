@@ -47,7 +47,7 @@ use crate::model::routes::{Answer, Paths, Reader, Routes};
 use crate::model::{AlbedoPath, FluxModel, Quantity, Stack, TirPath};
 use crate::packing::PackedFgd;
 use crate::physics::normal_incidence_reflectance;
-use crate::table::derived::{self, CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, point_in};
+use crate::table::derived::{self, point_in};
 use crate::table::{Arithmetic, Axis, TableKind};
 
 pub use material::RecordedMaterial;
@@ -515,11 +515,10 @@ impl<'a> Generator<'a> {
                 self.reads.insert(format!("{} slice", if quantity == Quantity::Tir { "tir" } else { "fgd" }));
                 self.slice(candidates, mu, alpha, known_alpha)
             }
-            Answer::Table(TableKind::Gd, t) => {
-                self.reads.insert("gd".into());
-                self.read2(t, mu, alpha).member("x")
+            Answer::Table(kind, t) => {
+                let what = if kind == TableKind::Gd { "gd".into() } else { format!("{} table", kind.name()) };
+                self.table(t, (mu, alpha), (eta, kappa), what)
             }
-            Answer::Table(kind, t) => self.volume(m, t, (mu, alpha), (eta, kappa), format!("{} table", kind.name()))?,
             Answer::SplitSum(kind, t, coefficients) => {
                 self.reads.insert(kind.name().into());
                 let c = Expr::Construct(Ty::Vec(4), coefficients.iter().map(|&c| f(c as f32)).collect());
@@ -596,42 +595,26 @@ impl<'a> Generator<'a> {
         Error::format(&self.manifest_path, what)
     }
 
-    /// A 3D table (TIR, or a stand-in such as FGD onto a rarer medium) at the point the CPU
-    /// computes ([`crate::table::derived::point_in`], printed): each axis's quantity by name, the
-    /// critical-angle offset or fraction with `asin(eta)` folded to a constant and `acos` by
-    /// [`helpers::acos`], not the builtin, whose error Vulkan bounds only loosely and which the
-    /// axes' asinh spacing magnifies up to a thousandfold near the critical angle.
-    fn volume(
-        &mut self,
-        m: &ShaderMaterial,
-        t: &TableFile,
-        (mu, alpha): (Expr, Expr),
-        (eta, kappa): (f64, f64),
-        what: String,
-    ) -> Result<Expr> {
-        let names: Vec<&str> = t.axes.iter().map(|a| a.name.as_str()).collect();
-        let point = match point_in(&t.axes, InShader(mu), InShader(alpha), eta, kappa) {
-            Some(point) if point.len() == 3 => point,
-            _ => {
-                return Err(self.refuse(
-                    &m.name,
-                    format!(
-                        "reads {what} {} of axes ({}); the shader reads a 3D table of mu, alpha, and eta, kappa, \
-                         {CRITICAL_ANGLE_OFFSET} or {CRITICAL_ANGLE_FRACTION}",
-                        t.file,
-                        names.join(", ")
-                    ),
-                ));
-            }
-        };
-        self.needs.acos |= names.iter().any(|name| derived::definition(name).is_some());
+    /// Channel 0 of a table of two or three axes (GD, the 3D TIR table, a stand-in such as FGD
+    /// onto a rarer medium) at the point the CPU computes ([`crate::table::derived::point_in`],
+    /// printed): each axis's quantity by name, the critical-angle offset or fraction with
+    /// `asin(eta)` folded to a constant and `acos` by [`helpers::acos`], not the builtin, whose
+    /// error Vulkan bounds only loosely and which the axes' asinh spacing magnifies up to a
+    /// thousandfold near the critical angle.
+    fn table(&mut self, t: &TableFile, (mu, alpha): (Expr, Expr), (eta, kappa): (f64, f64), what: String) -> Expr {
+        let point = point_in(&t.axes, InShader(mu), InShader(alpha), eta, kappa)
+            .expect("a table's axes are checked when the folder is opened (Routes::open)");
+        self.reads.insert(what);
+        if let [u, v] = &point[..] {
+            return self.read2(t, u.0.clone(), v.0.clone()).member("x");
+        }
+        self.needs.acos |= t.axes.iter().any(|axis| derived::definition(&axis.name).is_some());
         let variable = self.bind_table(t);
         self.needs.trilinear = true;
-        self.reads.insert(what);
         let mut arguments = vec![name(&variable)];
         arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x.0)));
         arguments.extend(t.axes.iter().map(|axis| f(axis.count as f32)));
-        Ok(func("tmh_trilinear", arguments))
+        func("tmh_trilinear", arguments)
     }
 }
 
