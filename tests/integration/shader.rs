@@ -6,7 +6,10 @@ use std::path::{Path, PathBuf};
 
 use super::common::{SMALL_SET, build_config};
 use super::emulator::{Emulator, Value};
+use tmlut::formats::manifest::Manifest;
 use tmlut::loader::LutFolder;
+use tmlut::model::folder::{FgdSource, FolderTables};
+use tmlut::model::{AlbedoPath, TirPath};
 use tmlut::scene::library::{merge, read_scene_files};
 use tmlut::scene::shader_files::{reference, shader_materials};
 use tmlut::shader::Lang;
@@ -136,4 +139,35 @@ fn a_library_shader_run_on_the_cpu_gives_the_cpu_evaluators_values() {
 fn a_scene_shader_reading_3d_tables_run_on_the_cpu_gives_the_cpu_evaluators_values() {
     let reads = ["tir table", "fgd_rarer table", "fgd packing", "fgd slice"];
     built_and_emulated(&["gpu-check/varied-coats"], "files", 256).assert_agrees(&reads);
+}
+
+/// Which file answers a lookup is decided once for both readers (`model::routes`): a table of
+/// another shape than its kind's (here a 2D table listed as `tir`) is refused by the CPU evaluator
+/// and the scene shader alike, naming the file, and neither reads it as if it were what its kind
+/// promises.
+#[test]
+fn a_table_of_another_shape_than_its_kinds_is_refused_by_both_readers_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let luts = build_config(dir.path(), SMALL_SET, &["--only", "gd"]);
+    // The GD table listed as the TIR table, sealed as a build seals it: the folder is consistent
+    // (the same bytes, the entry's claims sealed), only the table's shape is wrong for its name.
+    let mut manifest = Manifest::read(&luts.join("manifest.json")).unwrap();
+    let mut entry = manifest.files.remove("gd.dds").unwrap();
+    entry.table = "tir".into();
+    entry.seal();
+    manifest.files.insert("tir.dds".into(), entry);
+    manifest.write(&luts).unwrap();
+    std::fs::rename(luts.join("gd.dds"), luts.join("tir.dds")).unwrap();
+    let folder = LutFolder::open(&luts).unwrap();
+    folder.load("tir.dds").unwrap();
+
+    let cpu = FolderTables::open(&folder, AlbedoPath::Fgd, TirPath::Table, FgdSource::Packing).unwrap_err().to_string();
+    let materials = shader_materials(&merge(&read_scene_files(&[scene("copper-pot")]).unwrap()).unwrap()).unwrap();
+    let shader = generate(&folder, &materials).unwrap_err().to_string();
+    for error in [cpu, shader] {
+        assert!(error.contains("tir.dds") && error.contains("has axes (mu, alpha)"), "{error}");
+        assert!(error.contains("addresses mu, alpha, eta or critical_angle_offset"), "{error}");
+    }
+    // Read by a path that does not look it up, the folder opens.
+    FolderTables::open(&folder, AlbedoPath::Fgd, TirPath::Off, FgdSource::Packing).unwrap();
 }
