@@ -25,11 +25,10 @@ use rayon::prelude::*;
 use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::fit::text::FittedForm;
 use crate::integrate::{GRAZING_COSINE, Progress};
 use crate::loader::LutFolder;
-use crate::model::folder::{FgdSource, FolderTables};
-use crate::model::{AlbedoPath, Lookup, Material, Rgb, Tables, TirPath};
+use crate::model::folder::{FgdSource, FolderTables, LibraryTables, MaterialReads};
+use crate::model::{Lookup, Material, Rgb, Tables};
 use crate::random_walk::{self, WalkSettings};
 use crate::scene::Scene;
 use crate::scene::build::{SceneBuildRequest, SliceChecks, SliceLayout, build_scene};
@@ -300,33 +299,21 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
     let mus = request.settings.view_cosines();
     let models: Vec<Material> =
         request.scene.materials.iter().map(|m| Ok(Material::new(m.model, m.stack()?))).collect::<Result<_>>()?;
-    // Opening reads and verifies every table of the folder that the paths read (a library's
-    // thousands of slices): once per pair of paths, shared by the materials that read them.
     // A material's own forms (`tir = "fit:PATH"`, `albedo = "fit:PATH"`) answer its TIR or albedo
     // lookups in place of the folder.
-    type Paths<'a> = (AlbedoPath, TirPath, Option<&'a FittedForm>, Option<&'a FittedForm>);
-    let mut opened: Vec<(Paths, FolderTables)> = Vec::new();
-    let mut tables_of = Vec::with_capacity(count);
-    for material in &request.scene.materials {
-        let paths = (material.albedo, material.tir, material.tir_form.as_ref(), material.albedo_form.as_ref());
-        let index = match opened.iter().position(|(p, _)| *p == paths) {
-            Some(index) => index,
-            None => {
-                let in_material = |e: Error| Error::invalid(format!("material `{}`", material.name), e.to_string());
-                let tables = FolderTables::open(&folder, material.albedo, material.tir, request.settings.fgd_source)
-                    .and_then(|t| t.with_material_forms(material.tir_form.as_ref(), material.albedo_form.as_ref()))
-                    .map_err(in_material)?;
-                opened.push((paths, tables));
-                opened.len() - 1
-            }
-        };
-        tables_of.push(index);
-    }
+    let reads = request.scene.materials.iter().map(|m| MaterialReads {
+        name: &m.name,
+        albedo: m.albedo,
+        tir: m.tir,
+        tir_form: m.tir_form.as_ref(),
+        albedo_form: m.albedo_form.as_ref(),
+    });
+    let library = LibraryTables::open(&folder, request.settings.fgd_source, reads)?;
     // The model with the tables, material after material: each material's misses and clamped
     // lookups are its own (the counts are taken after it).
     let mut with_tables = Vec::with_capacity(count);
-    for ((material, model), &index) in request.scene.materials.iter().zip(&models).zip(&tables_of) {
-        let tables = &opened[index].1;
+    for (index, (material, model)) in request.scene.materials.iter().zip(&models).enumerate() {
+        let tables = library.of(index);
         tables.take_counts();
         let curve: Vec<Rgb> = mus.iter().map(|&mu| model.albedo(mu, tables)).collect();
         let (misses, clamped) = tables.take_counts();
@@ -346,13 +333,13 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
     // timings would otherwise be the run's longest phase on one core.
     let costs: Vec<f64> = models
         .par_iter()
-        .zip(&tables_of)
-        .map(|(model, &index)| time_model(model, &opened[index].1, &mus, request.settings.timing_rounds))
+        .enumerate()
+        .map(|(index, model)| time_model(model, library.of(index), &mus, request.settings.timing_rounds))
         .collect();
     times.model_with_tables = started.elapsed().as_secs_f64();
 
     let started = Instant::now();
-    let proxies: Vec<&FolderTables> = tables_of.iter().map(|&i| &opened[i].1).collect();
+    let proxies: Vec<&FolderTables> = (0..count).map(|index| library.of(index)).collect();
     let with_exact = exact_curves(&models, &proxies, &mus, &exact, progress);
     times.exact = started.elapsed().as_secs_f64();
 

@@ -354,6 +354,67 @@ impl std::fmt::Debug for FolderTables {
     }
 }
 
+/// How one material of a library reads a folder: its paths and the forms it names in place of
+/// tables ([`FolderTables::with_material_forms`]), with its name for messages.
+#[cfg(feature = "generator")]
+pub struct MaterialReads<'a> {
+    pub name: &'a str,
+    pub albedo: AlbedoPath,
+    pub tir: TirPath,
+    pub tir_form: Option<&'a FittedForm>,
+    pub albedo_form: Option<&'a FittedForm>,
+}
+
+/// A folder's tables for each material of a library, opened once per way the materials read it:
+/// opening reads and verifies every table the paths read (a library's thousands of slices), so
+/// opening it per material costs the square of the library's size. The materials that read alike
+/// share one [`FolderTables`]; take its counts ([`FolderTables::take_counts`]) around each
+/// material's lookups for that material's own.
+#[cfg(feature = "generator")]
+pub struct LibraryTables {
+    opened: Vec<FolderTables>,
+    /// Each material's index in `opened`.
+    of_material: Vec<usize>,
+}
+
+#[cfg(feature = "generator")]
+impl LibraryTables {
+    /// The tables of `folder` for `materials`, in their order; `fgd` as [`FolderTables::open`]
+    /// takes it. An error names the first material whose tables could not be opened.
+    pub fn open<'a>(
+        folder: &LutFolder,
+        fgd: FgdSource,
+        materials: impl IntoIterator<Item = MaterialReads<'a>>,
+    ) -> Result<Self> {
+        let mut ways: Vec<MaterialReads<'a>> = Vec::new();
+        let mut opened = Vec::new();
+        let mut of_material = Vec::new();
+        for m in materials {
+            let alike = |w: &MaterialReads| {
+                (w.albedo, w.tir, w.tir_form, w.albedo_form) == (m.albedo, m.tir, m.tir_form, m.albedo_form)
+            };
+            let index = match ways.iter().position(alike) {
+                Some(index) => index,
+                None => {
+                    let tables = FolderTables::open(folder, m.albedo, m.tir, fgd)
+                        .and_then(|t| t.with_material_forms(m.tir_form, m.albedo_form))
+                        .map_err(|e| Error::invalid(format!("material `{}`", m.name), e.to_string()))?;
+                    opened.push(tables);
+                    ways.push(m);
+                    opened.len() - 1
+                }
+            };
+            of_material.push(index);
+        }
+        Ok(LibraryTables { opened, of_material })
+    }
+
+    /// The tables of material `index` (its place in the order opened).
+    pub fn of(&self, index: usize) -> &FolderTables {
+        &self.opened[self.of_material[index]]
+    }
+}
+
 /// A lookup in words, for messages.
 pub fn describe(lookup: &Lookup) -> String {
     let what = match lookup.quantity {

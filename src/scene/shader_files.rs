@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::formats::manifest::{MANIFEST_FILE, Manifest, SceneShaderFile, SceneShaderRecord};
 use crate::formats::write_bytes_atomically;
 use crate::loader::{LutFolder, sha256_hex};
-use crate::model::folder::{FgdSource, FolderTables};
+use crate::model::folder::{FgdSource, LibraryTables, MaterialReads};
 use crate::model::{Evaluation, Material, STIFF_VIEWS};
 use crate::shader::scene::{SceneShader, ShaderMaterial, generate, texts};
 
@@ -95,19 +95,26 @@ pub fn reference(
     views: usize,
 ) -> Result<Vec<ReferencePoint>> {
     check_reference_views(views, materials.len())?;
+    let reads = materials.iter().map(|m| MaterialReads {
+        name: &m.name,
+        albedo: m.albedo,
+        tir: m.tir,
+        tir_form: m.tir_form.as_ref(),
+        albedo_form: m.albedo_form.as_ref(),
+    });
+    let library = LibraryTables::open(folder, FgdSource::Packing, reads)?;
     let mut points = Vec::with_capacity(materials.len() * (views + STIFF_VIEWS.len()));
-    for (material, function) in materials.iter().zip(&shader.materials) {
-        let tables = FolderTables::open(folder, material.albedo, material.tir, FgdSource::Packing)?
-            .with_material_forms(material.tir_form.as_ref(), material.albedo_form.as_ref())?;
+    for (index, (material, function)) in materials.iter().zip(&shader.materials).enumerate() {
+        let tables = library.of(index);
         let model = Material::new(material.model, material.stack.clone());
         for mu in reference_views(views) {
             points.push(ReferencePoint {
                 material: material.name.clone(),
                 function: function.function.clone(),
-                evaluation: model.evaluate(mu, &tables),
+                evaluation: model.evaluate(mu, tables),
             });
         }
-        let misses = tables.misses();
+        let (misses, _) = tables.take_counts();
         if misses.count > 0 {
             return Err(Error::invalid(
                 format!("material `{}`", material.name),
