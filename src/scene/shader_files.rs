@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::formats::manifest::{MANIFEST_FILE, Manifest, SceneShaderFile, SceneShaderRecord};
 use crate::formats::write_bytes_atomically;
 use crate::loader::{LutFolder, sha256_hex};
-use crate::model::folder::{FgdSource, LibraryTables, MaterialReads};
+use crate::model::folder::{FgdSource, LibraryTables};
 use crate::model::{Evaluation, Material, STIFF_VIEWS};
 use crate::shader::scene::{SceneShader, ShaderMaterial, generate, texts};
 
@@ -95,14 +95,7 @@ pub fn reference(
     views: usize,
 ) -> Result<Vec<ReferencePoint>> {
     check_reference_views(views, materials.len())?;
-    let reads = materials.iter().map(|m| MaterialReads {
-        name: &m.name,
-        albedo: m.albedo,
-        tir: m.tir,
-        tir_form: m.tir_form.as_ref(),
-        albedo_form: m.albedo_form.as_ref(),
-    });
-    let library = LibraryTables::open(folder, FgdSource::Packing, reads)?;
+    let library = LibraryTables::open(folder, FgdSource::Packing, materials.iter().map(ShaderMaterial::reads))?;
     let mut points = Vec::with_capacity(materials.len() * (views + STIFF_VIEWS.len()));
     for (index, (material, function)) in materials.iter().zip(&shader.materials).enumerate() {
         let tables = library.of(index);

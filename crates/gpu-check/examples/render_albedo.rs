@@ -20,7 +20,7 @@ use std::process::ExitCode;
 
 use tmlut::loader::{LutFolder, SceneShaderFiles};
 use tmlut::model::Material;
-use tmlut::model::folder::{FgdSource, FolderTables};
+use tmlut::model::folder::{FgdSource, FolderTables, LibraryTables};
 
 /// View cosines `mu = k / (VIEWS - 1)` per material.
 const VIEWS: usize = 17;
@@ -77,16 +77,18 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     let scene = tmlut::scene::Scene::from_toml(&record.text, &format!("{luts_dir}/manifest.json"), &record.name)?;
     let materials = tmlut::scene::shader_files::shader_materials(&scene)?;
 
+    let library = LibraryTables::open(&luts, FgdSource::Packing, materials.iter().map(|m| m.reads()))?;
     let (mut on_gpu, mut on_cpu) = (Vec::new(), Vec::new());
     let mut pictures_pass = true;
     for function in shader.description.materials.iter() {
         let albedo = gpu.run(&module, &format!("albedo_{}", function.function), &textures, &views, VIEWS, 3 * VIEWS);
-        let m = materials.iter().find(|m| m.name == function.material).ok_or("a shader material not in the scene")?;
-        let tables = FolderTables::open(&luts, m.albedo, m.tir, FgdSource::Packing)?;
+        let index =
+            materials.iter().position(|m| m.name == function.material).ok_or("a shader material not in the scene")?;
+        let (m, tables) = (&materials[index], library.of(index));
         let cpu = Material::new(m.model, m.stack.clone());
         println!("{} ({}): A(mu) on the GPU, R G B", function.material, function.function);
         for (k, &mu) in views.iter().enumerate() {
-            on_cpu.extend(cpu.evaluate(mu as f64, &tables).albedo);
+            on_cpu.extend(cpu.evaluate(mu as f64, tables).albedo);
             if k % 4 == 0 {
                 println!("  mu {mu:.2}: {:.6} {:.6} {:.6}", albedo[3 * k], albedo[3 * k + 1], albedo[3 * k + 2]);
             }
@@ -94,7 +96,7 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
         on_gpu.extend(albedo);
         if let Some(dir) = &picture_dir {
             let entry = format!("albedo_{}", function.function);
-            let drawn = draw_furnace(&gpu, &module, &entry, &textures, (&cpu, &tables), dir, &function.material)?;
+            let drawn = draw_furnace(&gpu, &module, &entry, &textures, (&cpu, tables), dir, &function.material)?;
             pictures_pass &= drawn.passes(TOLERANCE);
             println!("  furnace picture: {}", drawn.summary(TOLERANCE));
         }

@@ -42,7 +42,7 @@ use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry, MANIFEST_FILE};
 pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
 use crate::loader::{ArrayPlace, FolderSlice, LutFolder};
-use crate::model::folder::{slice_choice_distance, slice_choice_distance_in};
+use crate::model::folder::{MaterialReads, slice_choice_distance, slice_choice_distance_in};
 use crate::model::routes::{Answer, Paths, Reader, Routes};
 use crate::model::{AlbedoPath, FluxModel, Quantity, Stack, TirPath};
 use crate::packing::PackedFgd;
@@ -65,6 +65,19 @@ pub struct ShaderMaterial {
     /// The fitted form read in place of the TIR table where `tir` is [`TirPath::Form`].
     pub tir_form: Option<FittedForm>,
     pub stack: Stack,
+}
+
+impl ShaderMaterial {
+    /// How it reads a folder, for the CPU evaluator's tables ([`crate::model::folder::LibraryTables`]).
+    pub fn reads(&self) -> MaterialReads<'_> {
+        MaterialReads {
+            name: &self.name,
+            albedo: self.albedo,
+            tir: self.tir,
+            tir_form: self.tir_form.as_ref(),
+            albedo_form: self.albedo_form.as_ref(),
+        }
+    }
 }
 
 /// The shader of a scene: its module (print it with [`Module::print`]) and what a renderer binds.
