@@ -153,8 +153,8 @@ pub struct Routes<R: Reader> {
 }
 
 impl<R: Reader> Routes<R> {
-    /// The files of `folder` that materials reading by `paths` look up, kept by `reader`; GD and
-    /// the stand-ins whatever the paths. A path the folder holds no file for is not refused here:
+    /// The files of `folder` that materials reading by `paths` look up, kept by `reader`; GD
+    /// whatever the paths. A path the folder holds no file for is not refused here:
     /// a scene's plan leaves out what its materials never look up (a bare conductor makes no TIR
     /// lookup), so its lookups are [`Answer::Missing`] instead, for the reader to refuse. Fails on
     /// a file that is listed but cannot be read as its path needs.
@@ -217,8 +217,15 @@ impl<R: Reader> Routes<R> {
             (true, Some(fit)) => reader.fit(folder, fit)?,
             _ => None,
         };
+        // A stand-in answers ahead of its quantity's own table, on the path that reads that table
+        // ([`Routes::answer`]; albedo on the FGD path, TIR on the table path: `StandIn::quantity`).
+        let read = |quantity: Quantity| match quantity {
+            Quantity::Albedo => reads_albedo(AlbedoPath::Fgd),
+            Quantity::Tir => reads_tir(TirPath::Table),
+            Quantity::Gd => false,
+        };
         let mut stand_ins = Vec::new();
-        for stand_in in super::lookup::stand_ins() {
+        for stand_in in super::lookup::stand_ins().filter(|stand_in| read(stand_in.quantity)) {
             if let Some((table, _)) = table(stand_in.table)? {
                 stand_ins.push((stand_in, table));
             }
