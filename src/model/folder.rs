@@ -37,7 +37,7 @@ use crate::packing::{Filter, PackedFgd, Packing};
 use crate::physics::normal_incidence_reflectance;
 #[cfg(feature = "generator")]
 use crate::table::TableKind;
-use crate::table::derived::point_of;
+use crate::table::derived::quantity_in;
 use crate::table::{Arithmetic, Axis, Table};
 
 /// How far outside a slice's range (in units of the range) a lookup may lie and still count as
@@ -332,9 +332,14 @@ impl Tables for FolderTables {
                 self.sample(slice, channel, &point, lookup)
             }
             Answer::Table(_, table) => {
-                let point = point_of(&table.axes, lookup.mu, lookup.alpha, lookup.eta, lookup.kappa)
-                    .expect("checked when the folder was opened");
-                self.sample(table, 0, &point, lookup)
+                // Two or three axes, each of a known quantity (checked when the folder was
+                // opened): the point stays off the heap, as GD is read for every lobe.
+                let mut point = [0.0; 3];
+                for (x, axis) in point.iter_mut().zip(&table.axes) {
+                    *x = quantity_in(&axis.name, lookup.mu, lookup.alpha, lookup.eta, lookup.kappa)
+                        .expect("checked when the folder was opened");
+                }
+                self.sample(table, 0, &point[..table.axes.len()], lookup)
             }
             Answer::SplitSum(_, table, c) => {
                 (0..table.channel_count().min(4)).map(|k| c[k] * table.sample(k, &point) as f64).sum()

@@ -95,17 +95,22 @@ pub fn point_of(axes: &[Axis], mu: f64, alpha: f64, eta: f64, kappa: f64) -> Opt
 /// [`point_of`] in the arithmetic of `mu` and `alpha`, which the scene shader prints; the indices
 /// are a material's constants.
 pub fn point_in<T: Arithmetic>(axes: &[Axis], mu: T, alpha: T, eta: f64, kappa: f64) -> Option<Vec<T>> {
-    axes.iter()
-        .map(|axis| match axis.name.as_str() {
-            "mu" => Some(mu.clone()),
-            "alpha" => Some(alpha.clone()),
-            "eta" => Some(T::of(eta)),
-            "kappa" => Some(T::of(kappa)),
-            CRITICAL_ANGLE_OFFSET => Some(critical_angle_offset_in(mu.clone(), eta)),
-            CRITICAL_ANGLE_FRACTION => Some(critical_angle_fraction_in(mu.clone(), eta)),
-            _ => None,
-        })
-        .collect()
+    axes.iter().map(|axis| quantity_in(&axis.name, mu.clone(), alpha.clone(), eta, kappa)).collect()
+}
+
+/// The quantity an axis named `name` samples, at the lookup `(mu, alpha, eta, kappa)`: one
+/// coordinate of [`point_in`], for a reader that keeps the point off the heap (the CPU evaluator,
+/// once per lookup). `None` for a quantity this module does not know.
+pub fn quantity_in<T: Arithmetic>(name: &str, mu: T, alpha: T, eta: f64, kappa: f64) -> Option<T> {
+    match name {
+        "mu" => Some(mu),
+        "alpha" => Some(alpha),
+        "eta" => Some(T::of(eta)),
+        "kappa" => Some(T::of(kappa)),
+        CRITICAL_ANGLE_OFFSET => Some(critical_angle_offset_in(mu, eta)),
+        CRITICAL_ANGLE_FRACTION => Some(critical_angle_fraction_in(mu, eta)),
+        _ => None,
+    }
 }
 
 /// The definition of an axis's quantity in the lookup's parameters, where it is derived.
