@@ -7,13 +7,13 @@ use std::path::{Path, PathBuf};
 use super::common::{SMALL_SET, build_config};
 use super::emulator::{Emulator, Value};
 use tmlut::formats::manifest::Manifest;
-use tmlut::loader::LutFolder;
+use tmlut::loader::{LutFolder, sample_texture};
 use tmlut::model::folder::{FgdSource, FolderTables};
 use tmlut::model::{AlbedoPath, TirPath};
 use tmlut::scene::library::{merge, read_scene_files};
 use tmlut::scene::shader_files::{reference, shader_materials};
-use tmlut::shader::Lang;
-use tmlut::shader::scene::generate;
+use tmlut::shader::scene::{SceneShader, generate};
+use tmlut::shader::{Item, Lang};
 
 /// The largest difference `gpu_check.py` allows: of the albedo, top albedo, lobe energies and
 /// cosines, and of the lobes' roughness and GD weighed by their energy.
@@ -62,6 +62,7 @@ pub fn shader_against_the_cpu(luts: &Path, scenes: &[PathBuf], views: usize) -> 
     assert_eq!(std::fs::read_to_string(&written).unwrap(), shader.module.print(Lang::Wgsl), "{written}");
     let points = reference(&folder, &shader, &materials, views).unwrap();
     let emulator = Emulator::new(&shader, &folder);
+    assert_filters_are_the_cpu_samplers(&shader, &folder, &emulator);
     let mut worst = [(0.0, String::new()), (0.0, String::new())];
     let mut record = |k: usize, got: f32, expected: f64, weight: f64, at: String| {
         assert!(got.is_finite(), "{at}: {got}");
@@ -97,6 +98,48 @@ pub fn shader_against_the_cpu(luts: &Path, scenes: &[PathBuf], views: usize) -> 
     eprintln!("{}: {} points, largest differences {values:?}, {shapes:?}", luts.display(), points.len());
     let reads = shader.materials.iter().flat_map(|m| m.reads.iter().cloned()).collect();
     Comparison { values, shapes, reads }
+}
+
+/// The module's filtering helpers (`tmh_bilinear`, `tmh_trilinear`), run in the emulator on every
+/// texture bound whole (not a layer of a texture array) at coordinates inside, on and past its
+/// edges, give the loader's sampler's values bit for bit: both are the filter of
+/// `packing::emulator`, one printed, one run in f32.
+fn assert_filters_are_the_cpu_samplers(shader: &SceneShader, folder: &LutFolder, emulator: &Emulator) {
+    let helpers: BTreeSet<&str> = shader
+        .module
+        .items
+        .iter()
+        .filter_map(|item| match item {
+            Item::Function(function) => Some(function.name.as_str()),
+            _ => None,
+        })
+        .collect();
+    let along = [-0.3f32, 0.0, 0.013, 0.25, 0.5, 0.618034, 0.999, 1.0, 1.7];
+    let mut compared = 0;
+    for binding in shader.textures.iter().filter(|b| !b.layered) {
+        let dimension = binding.dimension as usize;
+        let helper = match (dimension, binding.channels) {
+            (2, _) => "tmh_bilinear",
+            (3, 1) if helpers.contains("tmh_trilinear") => "tmh_trilinear",
+            _ => continue,
+        };
+        let table = folder.load(&binding.file).unwrap();
+        let points = (0..along.len().pow(dimension as u32))
+            .map(|k| (0..dimension).map(|d| along[k / along.len().pow(d as u32) % along.len()]).collect::<Vec<_>>());
+        for point in points {
+            let mut expected = vec![0.0; table.channel_count()];
+            sample_texture(&table, &point, &mut expected).unwrap();
+            let mut arguments = vec![Value::Texture(binding.variable.clone())];
+            arguments.extend(point.iter().map(|&x| Value::F(x)));
+            arguments.extend(binding.extent[..dimension].iter().map(|&n| Value::F(n as f32)));
+            let got = emulator.call(helper, arguments).v();
+            for (c, value) in expected.iter().enumerate() {
+                assert_eq!(got[c].to_bits(), value.to_bits(), "{helper} of {} at {point:?}, channel {c}", binding.file);
+            }
+            compared += 1;
+        }
+    }
+    assert!(compared > 0, "no texture bound whole");
 }
 
 /// [`shader_against_the_cpu`] over a build of `scenes` of `luts/scenes` with [`SMALL_SET`], its

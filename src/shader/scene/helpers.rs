@@ -1,8 +1,15 @@
 //! The functions the materials' functions call to read their tables: texel filtering by hand
 //! (bilinear, from a texture array's layer, trilinear), and the `asinh` and `acos` an axis's
 //! coordinate needs. The model's own arithmetic is recorded inline ([`super::material`]).
+//!
+//! The filters are the CPU's own ([`crate::packing::emulator`]'s `linear_taps_in`, `bilinear` and
+//! `trilinear`, generic over their arithmetic), printed through [`InShader`]: the CPU evaluator's
+//! sampler runs them in f32 on the same texels. A 2D table is filtered by `bilinear`, the plane
+//! the CPU's `trilinear` reads a 2D texture in (a volume one texel deep, whose z weight is 0).
 
 use super::super::{Expr, Intrinsic, Module, Stmt, Ty, call, f, let_, name, select};
+use super::reads::InShader;
+use crate::packing::emulator::{self, bilinear, linear_taps_in};
 
 /// The helper functions every scene shader shares: the bilinear read of a 2D table.
 pub(super) fn common(module: &mut Module) {
@@ -44,70 +51,57 @@ pub(super) fn bilinear_layer(module: &mut Module) {
     );
 }
 
-/// Four texels around `(u, v)` of `tex` (of layer `layer` where `layered`), weighed bilinearly.
+/// Four texels around `(u, v)` of `tex` (of layer `layer` where `layered`), weighed bilinearly
+/// ([`crate::packing::emulator::bilinear`], the CPU's filter).
 fn bilinear_body(layered: bool) -> Vec<Stmt> {
-    let load = |x: &str, y: &str| Expr::Load {
-        texture: "tex".into(),
-        scalar_texture: false,
-        coordinates: vec![name(x), name(y)],
-        layer: layered.then(|| Box::new(name("layer"))),
-        swizzle: "xyzw",
+    let load = |x: Expr, y: Expr| {
+        InShader(Expr::Load {
+            texture: "tex".into(),
+            scalar_texture: false,
+            coordinates: vec![x, y],
+            layer: layered.then(|| Box::new(name("layer"))),
+            swizzle: "xyzw",
+        })
     };
-    let lerp4 = |a: Expr, b: Expr, w: &str| (v4(f(1.0)) - v4(name(w))) * a + v4(name(w)) * b;
-    let mut body = taps("u", "width");
-    body.extend(taps("v", "height"));
-    body.push(let_("row0", Ty::Vec(4), lerp4(load("u0", "v0"), load("u1", "v0"), "fu")));
-    body.push(let_("row1", Ty::Vec(4), lerp4(load("u0", "v1"), load("u1", "v1"), "fu")));
-    body.push(Stmt::Return(lerp4(name("row0"), name("row1"), "fv")));
+    let mut body = Vec::new();
+    let taps = [taps(&mut body, "u", "width"), taps(&mut body, "v", "height")];
+    body.push(Stmt::Return(bilinear(taps, load).0));
     body
 }
 
-/// The two taps of a clamp-addressed linear filter along one axis: the texel coordinate of `c` in
-/// `[0, 1]` over `n` texels, its lower and upper texel (`{c}0`, `{c}1`) and the weight `f{c}` of
-/// the upper one, as [`crate::packing::emulator`] computes them.
-fn taps(c: &str, n: &str) -> Vec<Stmt> {
-    let a = format!("a{c}");
-    vec![
-        let_(&a, Ty::F32, name(c) * name(n) - f(0.5)),
-        let_(&format!("i{c}"), Ty::F32, name(&a).floor()),
-        let_(&format!("f{c}"), Ty::F32, name(&a) - name(&format!("i{c}"))),
-        let_(
-            &format!("{c}0"),
-            Ty::I32,
-            Expr::Construct(Ty::I32, vec![name(&format!("i{c}")).clamp(f(0.0), name(n) - f(1.0))]),
-        ),
-        let_(
-            &format!("{c}1"),
-            Ty::I32,
-            Expr::Construct(Ty::I32, vec![(name(&format!("i{c}")) + f(1.0)).clamp(f(0.0), name(n) - f(1.0))]),
-        ),
-    ]
+/// The taps of the CPU's linear filter along one axis ([`linear_taps_in`]), printed: for the
+/// texture coordinate `c` in `[0, 1]` over `n` texels, its texel-space position `a{c}`, lower
+/// texel `i{c}` and weight `f{c}` of the upper one, and the two texels `{c}0` and `{c}1` (i32).
+fn taps(body: &mut Vec<Stmt>, c: &str, n: &str) -> (Expr, Expr, InShader) {
+    let (lower, upper, weight) = linear_taps_in(InShader(name(c)), InShader(name(n)), |part, value| {
+        let variable = format!("{part}{c}");
+        body.push(let_(&variable, Ty::F32, value.0));
+        InShader(name(&variable))
+    });
+    let mut texel = |k: usize, value: InShader| {
+        let variable = format!("{c}{k}");
+        body.push(let_(&variable, Ty::I32, Expr::Construct(Ty::I32, vec![value.0])));
+        name(&variable)
+    };
+    (texel(0, lower), texel(1, upper), weight)
 }
 
-/// `(1 - w) a + w b`, the emulator's lerp.
-fn lerp(a: Expr, b: Expr, w: Expr) -> Expr {
-    (f(1.0) - w.clone()) * a + w * b
-}
-
-/// The 3D table read: trilinear filtering by hand of a one-channel volume (x, then y, then z, as
-/// the emulator filters).
+/// The 3D table read: trilinear filtering by hand of a one-channel volume
+/// ([`crate::packing::emulator::trilinear`], the CPU's filter: x, then y, then z).
 pub(super) fn trilinear(module: &mut Module) {
     module.comment("The single channel of a 3D table at texture coordinates (u, v, w), filtered by hand.");
-    let load = |x: &str, y: &str, z: &str| Expr::Load {
-        texture: "tex".into(),
-        scalar_texture: true,
-        coordinates: vec![name(x), name(y), name(z)],
-        layer: None,
-        swizzle: "x",
+    let load = |x: Expr, y: Expr, z: Expr| {
+        InShader(Expr::Load {
+            texture: "tex".into(),
+            scalar_texture: true,
+            coordinates: vec![x, y, z],
+            layer: None,
+            swizzle: "x",
+        })
     };
-    let mut body = taps("u", "width");
-    body.extend(taps("v", "height"));
-    body.extend(taps("w", "depth"));
-    for z in ["w0", "w1"] {
-        let row = |y: &str| lerp(load("u0", y, z), load("u1", y, z), name("fu"));
-        body.push(let_(&format!("plane_{z}"), Ty::F32, lerp(row("v0"), row("v1"), name("fv"))));
-    }
-    body.push(Stmt::Return(lerp(name("plane_w0"), name("plane_w1"), name("fw"))));
+    let mut body = Vec::new();
+    let taps = [taps(&mut body, "u", "width"), taps(&mut body, "v", "height"), taps(&mut body, "w", "depth")];
+    body.push(Stmt::Return(emulator::trilinear(taps, load).0));
     module.function(
         "tmh_trilinear",
         vec![
@@ -166,8 +160,4 @@ pub(super) fn acos(module: &mut Module) {
         Ty::F32,
         vec![Stmt::Return((f(1.0) - x.clone()).max(f(0.0)).sqrt() * polynomial)],
     );
-}
-
-fn v4(e: Expr) -> Expr {
-    Expr::Construct(Ty::Vec(4), vec![e])
 }

@@ -4,10 +4,11 @@
 //! ([`Axis::texture_coordinate_in`], [`point_in`], [`slice_choice_distance_in`]) through
 //! [`InShader`], an [`Arithmetic`] of shader expressions.
 //!
-//! Tables are read by hand-filtered texel loads (four or eight `textureLoad`s and lerps in f32, as
-//! [`crate::packing::emulator`] filters with `Filter::Exact`), not by the sampler: hardware
-//! filtering weighs texels with 8 fractional bits on most GPUs, which alone moves a value by up to
-//! 1/512 of a texel step, and float32 textures are not filterable in WebGPU without a feature.
+//! Tables are read by texel loads filtered in the shader (four or eight `textureLoad`s and lerps
+//! in f32: [`crate::packing::emulator`]'s filter, printed by [`super::helpers`]), not by the
+//! sampler: hardware filtering weighs texels with 8 fractional bits on most GPUs, which alone
+//! moves a value by up to 1/512 of a texel step, and float32 textures are not filterable in
+//! WebGPU without a feature.
 //! Every lookup the plan can choose is read: albedo from FGD slices, the lossless FGD packing, or
 //! the Belcour and Karis split-sum tables with their Fresnel coefficients folded to constants; TIR
 //! from slices, the 3D TIR table (its third axis `eta` or the critical-angle offset), the fitted
@@ -398,7 +399,7 @@ fn array_coordinate(axis: &Axis, origin: u32, extent: u32, x: Expr) -> Expr {
 /// formulas the CPU computes in f32 are printed from the same code: its constants are those f32
 /// values, and its `asinh` and `acos` the helpers' ([`helpers::asinh`], [`helpers::acos`]).
 #[derive(Clone)]
-struct InShader(Expr);
+pub(super) struct InShader(pub(super) Expr);
 
 macro_rules! in_shader_operator {
     ($trait:ident, $method:ident) => {
@@ -434,6 +435,9 @@ impl Arithmetic for InShader {
     }
     fn sqrt(self) -> Self {
         InShader(self.0.sqrt())
+    }
+    fn floor(self) -> Self {
+        InShader(self.0.floor())
     }
     fn asinh(self) -> Self {
         InShader(func("tmh_asinh", vec![self.0]))

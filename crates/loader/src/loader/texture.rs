@@ -23,7 +23,7 @@
 use super::{Precision, Table};
 use crate::error::{Error, Result};
 use crate::packing::emulator::{Filter, Texture3D};
-use crate::packing::emulator::{lerp, linear_taps};
+use crate::packing::emulator::{linear_taps, trilinear};
 use crate::table::{Axis, InterpolationError};
 
 /// Texel formats a table is stored in, named as WebGPU names them (all linear, all filterable
@@ -252,14 +252,9 @@ pub fn sample_texture(table: &Table, coordinate: &[f32], out: &mut [f32]) -> Res
     let (width, height) = (count(0), count(1));
     // A missing axis is one texel wide, read at its centre, as a 2D texture is a volume of depth 1.
     let taps = |d: usize| linear_taps(coordinate.get(d).copied().unwrap_or(0.5), count(d), Filter::Exact);
-    let ((x0, x1, fx), (y0, y1, fy), (z0, z1, fz)) = (taps(0), taps(1), taps(2));
+    let taps = [taps(0), taps(1), taps(2)];
     for (k, value) in out.iter_mut().enumerate() {
-        let texel = |x: usize, y: usize, z: usize| table.data[(x + width * (y + height * z)) * channels + k];
-        let plane = |z| {
-            let row = |y| lerp(texel(x0, y, z), texel(x1, y, z), fx);
-            lerp(row(y0), row(y1), fy)
-        };
-        *value = lerp(plane(z0), plane(z1), fz);
+        *value = trilinear(taps, |x, y, z| table.data[(x + width * (y + height * z)) * channels + k]);
     }
     Ok(())
 }

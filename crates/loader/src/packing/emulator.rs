@@ -17,6 +17,8 @@
 //! [`Texture3D::load`]: a lookup that loads texels and computes its weights itself gets the same
 //! result on any GPU.
 
+use crate::table::Arithmetic;
+
 /// How the filter weight `f` is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Filter {
@@ -48,23 +50,51 @@ pub struct Texture3D {
     pub texels: Vec<f32>,
 }
 
-/// Texel-space position along one axis of `n` texels: the two texels clamp addressing reads and
-/// the weight of the second.
-pub fn linear_taps(u: f32, n: usize, filter: Filter) -> (usize, usize, f32) {
-    let a = u * n as f32 - 0.5;
-    // A NaN coordinate reads texel 0 (clamp of an undefined address); never a NaN weight.
-    let a = if a.is_nan() { 0.0 } else { a };
-    let i0 = a.floor();
-    let f = filter.weight(a - i0);
-    let last = (n - 1) as f32;
-    let lower = i0.clamp(0.0, last) as usize;
-    let upper = (i0 + 1.0).clamp(0.0, last) as usize;
-    (lower, upper, f)
+/// One axis of the linear filter, over any arithmetic: the texel-space position `a = u N - 0.5`,
+/// the lower and upper texels clamp addressing reads (`floor(a)` and `floor(a) + 1` clamped to
+/// `[0, N - 1]`, as values of the arithmetic) and the upper one's weight `a - floor(a)`. Written
+/// once: the CPU's sampler computes it in f32 ([`linear_taps`]) and the scene shader prints it, its
+/// intermediate values named through `bind` (the CPU's binds nothing).
+pub fn linear_taps_in<A: Arithmetic>(u: A, n: A, mut bind: impl FnMut(&'static str, A) -> A) -> (A, A, A) {
+    let a = bind("a", u * n.clone() - A::of(0.5));
+    let i0 = bind("i", a.clone().floor());
+    let weight = bind("f", a - i0.clone());
+    let last = n - A::of(1.0);
+    let lower = i0.clone().clamp(A::of(0.0), last.clone());
+    let upper = (i0 + A::of(1.0)).clamp(A::of(0.0), last);
+    (lower, upper, weight)
 }
 
-/// `a` to `b` by `f`, in f32 as a GPU's linear filter blends two texels.
-pub fn lerp(a: f32, b: f32, f: f32) -> f32 {
-    (1.0 - f) * a + f * b
+/// Texel-space position along one axis of `n` texels: the two texels clamp addressing reads and
+/// the weight of the second ([`linear_taps_in`] in f32).
+pub fn linear_taps(u: f32, n: usize, filter: Filter) -> (usize, usize, f32) {
+    if u.is_nan() {
+        // A NaN coordinate reads texel 0 (clamp of an undefined address); never a NaN weight.
+        return (0, 1.min(n - 1), 0.0);
+    }
+    let (lower, upper, f) = linear_taps_in(u, n as f32, |_, value| value);
+    (lower as usize, upper as usize, filter.weight(f))
+}
+
+/// `a` to `b` by `f`, in the arithmetic a GPU's linear filter blends two texels in: `(1 - f) a + f b`.
+pub fn lerp<A: Arithmetic>(a: A, b: A, f: A) -> A {
+    (A::of(1.0) - f.clone()) * a + f * b
+}
+
+/// The texels `texel(x, y)` around a point, weighed bilinearly by its taps along each axis
+/// ([`linear_taps_in`]), x first: the filter of a 2D texture, over any arithmetic.
+pub fn bilinear<A: Arithmetic, I: Clone>(taps: [(I, I, A); 2], texel: impl Fn(I, I) -> A) -> A {
+    let [(x0, x1, fx), (y0, y1, fy)] = taps;
+    let row = |y: I| lerp(texel(x0.clone(), y.clone()), texel(x1.clone(), y), fx.clone());
+    lerp(row(y0), row(y1), fy)
+}
+
+/// [`bilinear`] in each of the two planes around a point, then between them: the filter of a
+/// volume texture, x first, then y, then z.
+pub fn trilinear<A: Arithmetic, I: Clone>(taps: [(I, I, A); 3], texel: impl Fn(I, I, I) -> A) -> A {
+    let [x, y, (z0, z1, fz)] = taps;
+    let plane = |z: I| bilinear([x.clone(), y.clone()], |x, y| texel(x, y, z.clone()));
+    lerp(plane(z0), plane(z1), fz)
 }
 
 impl Texture3D {
@@ -88,14 +118,8 @@ impl Texture3D {
 
     /// `SampleLevel(sampler, float3(u, v, w), 0)` with a linear, clamp-addressed sampler.
     pub fn sample_trilinear(&self, u: f32, v: f32, w: f32, filter: Filter) -> f32 {
-        let (x0, x1, fx) = linear_taps(u, self.width, filter);
-        let (y0, y1, fy) = linear_taps(v, self.height, filter);
-        let (z0, z1, fz) = linear_taps(w, self.depth, filter);
-        let plane = |z| {
-            let row = |y| lerp(self.texel(x0, y, z), self.texel(x1, y, z), fx);
-            lerp(row(y0), row(y1), fy)
-        };
-        lerp(plane(z0), plane(z1), fz)
+        let taps = [(u, self.width), (v, self.height), (w, self.depth)].map(|(c, n)| linear_taps(c, n, filter));
+        trilinear(taps, |x, y, z| self.texel(x, y, z))
     }
 }
 

@@ -84,6 +84,7 @@ pub trait Arithmetic:
     fn min(self, other: Self) -> Self;
     fn clamp(self, lo: Self, hi: Self) -> Self;
     fn sqrt(self) -> Self;
+    fn floor(self) -> Self;
     fn asinh(self) -> Self;
     /// `acos(self)` (a shader's is its own polynomial: the builtin's error is loosely bounded).
     fn acos(self) -> Self;
@@ -120,6 +121,9 @@ macro_rules! arithmetic {
             }
             fn sqrt(self) -> Self {
                 $t::sqrt(self)
+            }
+            fn floor(self) -> Self {
+                $t::floor(self)
             }
             fn asinh(self) -> Self {
                 $t::asinh(self)
