@@ -129,6 +129,7 @@ impl Reader for Sampling {
     type Form = FormEvaluator;
     // A renderer uploads the `.bin` tables of up to three axes as textures too.
     const FORMATS: &'static [FileFormat] = &[FileFormat::Dds, FileFormat::Ktx2, FileFormat::Bin];
+    const FULL_FGD: &'static str = "4D FGD table or lossless FGD packing";
 
     fn slice(&self, slice: FolderSlice) -> Result<SampledTable> {
         SampledTable::new(&slice.table)
@@ -248,24 +249,27 @@ impl FolderTables {
         (take(&self.misses), take(&self.clamped))
     }
 
-    fn note(record: &Mutex<Misses>, lookup: &Lookup) {
+    /// One more lookup in `record`; the first described, with `why` it is noted.
+    fn note(record: &Mutex<Misses>, lookup: &Lookup, why: impl FnOnce() -> String) {
         if let Ok(mut m) = record.lock() {
             m.count += 1;
             if m.first.is_none() {
-                m.first = Some(describe(lookup));
+                let why = why();
+                m.first = Some(if why.is_empty() { describe(lookup) } else { format!("{}: {why}", describe(lookup)) });
             }
         }
     }
 
-    fn miss(&self, lookup: &Lookup) -> f64 {
-        Self::note(&self.misses, lookup);
+    /// 0 for a lookup the folder holds nothing for, noted with what it lacks.
+    fn miss(&self, lookup: &Lookup, lacks: impl FnOnce() -> String) -> f64 {
+        Self::note(&self.misses, lookup, lacks);
         0.0
     }
 
     /// Channel `channel` of `texture` at `point`, noted where its range does not hold the point.
     fn sample(&self, texture: &SampledTable, channel: usize, point: &[f64], lookup: &Lookup) -> f64 {
         if !texture.covers(point) {
-            Self::note(&self.clamped, lookup);
+            Self::note(&self.clamped, lookup, String::new);
         }
         texture.sample(channel, point) as f64
     }
@@ -277,13 +281,13 @@ impl FolderTables {
         match full {
             FullFgd::Table(table) => {
                 if !table.axes.iter().zip(&point).all(|(axis, &x)| holds(axis.bounds(), x)) {
-                    Self::note(&self.clamped, lookup);
+                    Self::note(&self.clamped, lookup, String::new);
                 }
                 table.interpolate(&point)[0]
             }
             FullFgd::Packed(packed) => {
                 if !packed.source_axes.iter().zip(&point).all(|(a, &x)| holds((a.start, a.end), x)) {
-                    Self::note(&self.clamped, lookup);
+                    Self::note(&self.clamped, lookup, String::new);
                 }
                 packed.lookup(point.map(|v| v as f32), Filter::Exact) as f64
             }
@@ -346,9 +350,14 @@ impl Tables for FolderTables {
             }
             Answer::FullFgd(full) => self.full_fgd(full, lookup),
             Answer::FolderForm(form) => form.tir(lookup.mu, lookup.alpha, lookup.eta),
-            Answer::MaterialForm => self.material_form(lookup).unwrap_or_else(|| self.miss(lookup)),
+            Answer::MaterialForm => self
+                .material_form(lookup)
+                .unwrap_or_else(|| self.miss(lookup, || "the material names a form for it, and none was given".into())),
             Answer::Zero => 0.0,
-            Answer::Missing => self.miss(lookup),
+            Answer::Missing => self.miss(lookup, || {
+                let lacks = Routes::<Sampling>::missing(self.paths, lookup.quantity, lookup.eta, lookup.kappa);
+                format!("the folder lists {lacks}")
+            }),
         }
     }
 }

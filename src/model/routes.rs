@@ -34,6 +34,8 @@ pub trait Reader {
     type Form;
     /// The formats it reads a table of two or three axes from, the preferred first.
     const FORMATS: &'static [FileFormat];
+    /// The full FGD table as it reads it, in words: what the folder lacks where it lacks it.
+    const FULL_FGD: &'static str;
 
     /// A scene's slice, found with its texels (a file of its own or a region of a texture array).
     fn slice(&self, slice: FolderSlice) -> Result<Self::Table>;
@@ -272,6 +274,23 @@ impl<R: Reader> Routes<R> {
             Quantity::Gd => self.gd.as_ref().map(|table| Answer::Table(TableKind::Gd, table)),
         };
         answer.unwrap_or(Answer::Missing)
+    }
+
+    /// What the folder lacks where [`Routes::answer`] finds nothing ([`Answer::Missing`]), in words
+    /// ("no ..."): the table the path reads.
+    pub fn missing(paths: Paths, quantity: Quantity, eta: f64, kappa: f64) -> String {
+        match (quantity, paths.albedo, paths.tir) {
+            (Quantity::Albedo, AlbedoPath::Fgd, _) => {
+                format!("no FGD slice at (eta, kappa) = ({eta}, {kappa}) and no {}", R::FULL_FGD)
+            }
+            (Quantity::Albedo, AlbedoPath::Belcour, _) => {
+                "no Belcour split-sum table (belcour.dds with its Fresnel basis)".into()
+            }
+            (Quantity::Albedo, AlbedoPath::Karis, _) => "no Karis split-sum table (karis.dds)".into(),
+            (Quantity::Tir, _, TirPath::Fit) => "no fitted TIR form, which the TIR path `fit` reads".into(),
+            (Quantity::Tir, _, _) => format!("no TIR slice at eta {eta} and no 3D TIR table (tir.dds)"),
+            (Quantity::Gd, _, _) => "no 2D GD table (gd.dds)".into(),
+        }
     }
 
     /// The slices holding the index, else the first stand-in whose region holds it.

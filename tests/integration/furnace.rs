@@ -185,7 +185,8 @@ fn bad_input_is_refused_with_what_is_allowed() {
         assert!(text(&output).contains(says), "{extra:?}: {}", text(&output));
         assert!(!text(&output).contains("panicked"));
     }
-    // A folder built for another scene has no table for these lookups: refused, naming one.
+    // A folder built for another scene has no table for these lookups: refused, naming one and
+    // what the folder lacks for it.
     let output = tmlut(&[
         "furnace",
         &repo("luts/scenes/profiling.toml"),
@@ -198,6 +199,7 @@ fn bad_input_is_refused_with_what_is_allowed() {
     assert!(!output.status.success());
     let said = text(&output);
     assert!(said.contains("has no table for") && said.contains("FGD of layer 1"), "{said}");
+    assert!(said.contains("the folder lists no FGD slice at (eta, kappa)"), "{said}");
 }
 
 #[test]

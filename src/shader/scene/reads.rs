@@ -22,8 +22,8 @@ use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::loader::{ArrayPlace, FolderSlice, LutFolder, TextureBinding};
 use crate::model::folder::{slice_choice_distance, slice_choice_distance_in};
-use crate::model::routes::{Answer, Paths, Reader};
-use crate::model::{AlbedoPath, Quantity, TirPath};
+use crate::model::routes::{Answer, Paths, Reader, Routes};
+use crate::model::{AlbedoPath, Quantity};
 use crate::packing::PackedFgd;
 use crate::physics::normal_incidence_reflectance;
 use crate::table::derived::{self, point_in};
@@ -62,6 +62,7 @@ impl Reader for Printing {
     type FullFgd = (String, PackedFgd);
     type Form = FittedForm;
     const FORMATS: &'static [FileFormat] = &FileFormat::TEXTURES;
+    const FULL_FGD: &'static str = "lossless FGD packing (the shader reads the 4D table through it)";
 
     fn slice(&self, slice: FolderSlice) -> Result<TableFile> {
         Ok(TableFile::of(&slice.file, &slice.entry, slice.place))
@@ -321,31 +322,8 @@ impl Generator<'_> {
 
     /// The error of a lookup the folder holds nothing for.
     fn missing(&self, m: &ShaderMaterial, quantity: Quantity, eta: f64, kappa: f64) -> Error {
-        let reads = |what: &str| format!("lists no {what}, which material `{}` reads", m.name);
-        let what = match (quantity, m.albedo, m.tir) {
-            (Quantity::Albedo, AlbedoPath::Fgd, _) => format!(
-                "holds no FGD slice at (eta, kappa) = ({eta}, {kappa}) and no lossless FGD packing, which material `{}` reads",
-                m.name
-            ),
-            (Quantity::Albedo, AlbedoPath::Belcour, _) => {
-                reads("the Belcour split-sum table (belcour.dds with its Fresnel basis)")
-            }
-            (Quantity::Albedo, AlbedoPath::Karis, _) => reads("the Karis split-sum table (karis.dds)"),
-            (Quantity::Tir, _, TirPath::Fit) => {
-                "lists no fitted TIR form, which the scene's TIR path `fit` reads".into()
-            }
-            (Quantity::Tir, _, _) => {
-                return self.refuse(
-                    &m.name,
-                    format!(
-                        "reads TIR at eta {eta}, which neither a TIR slice of the folder holds nor a 3D TIR table \
-                         (tir.dds) answers"
-                    ),
-                );
-            }
-            (Quantity::Gd, _, _) => reads("2D GD table (gd.dds)"),
-        };
-        Error::format(&self.manifest_path, what)
+        let lacks = Routes::<Printing>::missing(paths(m), quantity, eta, kappa);
+        Error::format(&self.manifest_path, format!("lists {lacks}, which material `{}` reads", m.name))
     }
 
     /// Channel 0 of a table of two or three axes (GD, the 3D TIR table, a stand-in such as FGD
