@@ -7,7 +7,7 @@
 //! is computed while recording, in f64, and printed as constants; what the view decides is
 //! computed in the shader, in f32, by the same operations in the same order as the CPU. Each
 //! table lookup the model makes is printed as the read of the file the folder answers it with
-//! ([`reads`]), through the filtering helpers ([`helpers`]).
+//! (`reads.rs`), through the filtering helpers (`helpers.rs`).
 //!
 //! What the generated code guards, that the thesis's hand-written HLSL did not (the project notes'
 //! list of its defects), it guards because the model does: `1 / t` with `t` floored (never a
