@@ -249,27 +249,31 @@ impl FolderTables {
         (take(&self.misses), take(&self.clamped))
     }
 
-    /// One more lookup in `record`; the first described, with `why` it is noted.
-    fn note(record: &Mutex<Misses>, lookup: &Lookup, why: impl FnOnce() -> String) {
+    /// One more lookup in `record`, the first kept as `first` says it (made only for the first).
+    fn note(record: &Mutex<Misses>, first: impl FnOnce() -> String) {
         if let Ok(mut m) = record.lock() {
             m.count += 1;
             if m.first.is_none() {
-                let why = why();
-                m.first = Some(if why.is_empty() { describe(lookup) } else { format!("{}: {why}", describe(lookup)) });
+                m.first = Some(first());
             }
         }
     }
 
+    /// A lookup answered at the edge of a range that does not hold it.
+    fn clamp(&self, lookup: &Lookup) {
+        Self::note(&self.clamped, || describe(lookup));
+    }
+
     /// 0 for a lookup the folder holds nothing for, noted with what it lacks.
     fn miss(&self, lookup: &Lookup, lacks: impl FnOnce() -> String) -> f64 {
-        Self::note(&self.misses, lookup, lacks);
+        Self::note(&self.misses, || format!("{}: {}", describe(lookup), lacks()));
         0.0
     }
 
     /// Channel `channel` of `texture` at `point`, noted where its range does not hold the point.
     fn sample(&self, texture: &SampledTable, channel: usize, point: &[f64], lookup: &Lookup) -> f64 {
         if !texture.covers(point) {
-            Self::note(&self.clamped, lookup, String::new);
+            self.clamp(lookup);
         }
         texture.sample(channel, point) as f64
     }
@@ -281,13 +285,13 @@ impl FolderTables {
         match full {
             FullFgd::Table(table) => {
                 if !table.axes.iter().zip(&point).all(|(axis, &x)| holds(axis.bounds(), x)) {
-                    Self::note(&self.clamped, lookup, String::new);
+                    self.clamp(lookup);
                 }
                 table.interpolate(&point)[0]
             }
             FullFgd::Packed(packed) => {
                 if !packed.source_axes.iter().zip(&point).all(|(a, &x)| holds((a.start, a.end), x)) {
-                    Self::note(&self.clamped, lookup, String::new);
+                    self.clamp(lookup);
                 }
                 packed.lookup(point.map(|v| v as f32), Filter::Exact) as f64
             }
