@@ -19,24 +19,22 @@
 //! a journal. The loader and `tmlut check` refuse a folder with a journal, and verify every file
 //! against the manifest's SHA-256 besides; the next build completes the commit.
 
-use std::fs::{File, OpenOptions};
+use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::formats::files::{is_temporary, open_lock_file, unpredictable_name};
 use crate::formats::manifest::{COMMIT_JOURNAL, MANIFEST_FILE, check_file_name};
 use crate::formats::{MAX_MANIFEST_BYTES, read_bytes_at_most, write_bytes_atomically};
 
 /// The lock file of an output folder.
 pub const LOCK_FILE: &str = ".tmlut.lock";
 
-/// Folders a build writes its files into before the commit: `.tmlut-staging-<pid>`.
+/// Folders a build writes its files into before the commit: `.tmlut-staging-<unpredictable>`.
 const STAGING_PREFIX: &str = ".tmlut-staging-";
-
-/// The temporary files of [`crate::formats::write_atomically`] are `.<name>.tmp-<pid>`.
-const TEMPORARY_MARKER: &str = ".tmp-";
 
 /// The subfolder of an output folder that holds error maps.
 pub const MAPS_FOLDER: &str = "maps";
@@ -65,13 +63,9 @@ impl OutputFolder {
         let path = dir.join(LOCK_FILE);
         let mut on_wait = Some(on_wait);
         let lock = loop {
-            let lock = OpenOptions::new()
-                .read(true)
-                .write(true)
-                .create(true)
-                .truncate(false)
-                .open(&path)
-                .map_err(|source| Error::io(&path, source))?;
+            // Never through a link, nor into a file of several links: the lock's holder line is
+            // the one write tmlut makes in place.
+            let lock = open_lock_file(&path)?;
             match fs4::FileExt::try_lock(&lock) {
                 Ok(()) => {}
                 Err(fs4::TryLockError::WouldBlock) => {
@@ -101,11 +95,17 @@ impl OutputFolder {
         Ok(folder)
     }
 
-    /// A new staging folder for this build.
+    /// A new staging folder for this build, created exclusively under a name no other process
+    /// can predict: nothing planted in the folder can be where the build writes its files.
     pub fn staging(&self) -> Result<Staging> {
-        let dir = self.dir.join(format!("{STAGING_PREFIX}{}", std::process::id()));
-        std::fs::create_dir_all(&dir).map_err(|source| Error::io(&dir, source))?;
-        Ok(Staging { dir, keep: false })
+        loop {
+            let dir = self.dir.join(format!("{STAGING_PREFIX}{}", unpredictable_name()));
+            match std::fs::create_dir(&dir) {
+                Ok(()) => return Ok(Staging { dir, keep: false }),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                Err(source) => return Err(Error::io(&dir, source)),
+            }
+        }
     }
 }
 
@@ -426,7 +426,7 @@ fn remove_abandoned(out: &Path) {
         let name = entry.file_name().to_string_lossy().into_owned();
         if name.starts_with(STAGING_PREFIX) {
             let _ = std::fs::remove_dir_all(entry.path());
-        } else if name.starts_with('.') && name.contains(TEMPORARY_MARKER) {
+        } else if is_temporary(&name) {
             let _ = std::fs::remove_file(entry.path());
         }
     }
@@ -592,6 +592,7 @@ mod tests {
                 commit_set(&folder, &mut staging, vec![listing], Vec::new(), "furnace.json").unwrap_err().to_string();
             assert!(error.contains("Furnace.json") && error.contains("two files"), "{error}");
         }
+        drop(staging);
         assert!(leftovers(dir.path()).iter().all(|n| n == LOCK_FILE), "{:?}", leftovers(dir.path()));
     }
 

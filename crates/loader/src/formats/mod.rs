@@ -3,26 +3,28 @@
 //!
 //! Every writer goes through [`write_atomically`]: the bytes land in a temporary file beside the
 //! target and are renamed over it only once complete, so a failed or interrupted build never
-//! leaves a half-written table where a renderer would load it.
+//! leaves a half-written table where a renderer would load it; every reader through
+//! [`read_bytes_at_most`]. [`files`] says how both meet the file system.
 
 pub mod bin;
 pub mod dds;
 #[cfg(feature = "exr")]
 pub mod exr;
+pub mod files;
 pub mod ktx2;
 pub mod manifest;
 pub mod slice_array;
 #[cfg(test)]
 mod test_tables;
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::table::{Axis, Channel, Table};
+
+pub use files::{read_bytes_at_most, read_text_at_most, write_atomically, write_bytes_atomically};
 
 /// Precision a table's values are stored in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -440,38 +442,6 @@ pub fn as_format_error(error: Error, path: &Path) -> Error {
     }
 }
 
-/// Write a file through a temporary sibling and an atomic rename. The temporary file is removed
-/// if writing fails.
-pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let file_name =
-        path.file_name().ok_or_else(|| Error::invalid("output path", format!("{} names no file", path.display())))?;
-    let temporary = dir.join(format!(".{}.tmp-{}", file_name.to_string_lossy(), std::process::id()));
-    let result = (|| {
-        let file = File::create(&temporary)?;
-        let mut writer = BufWriter::new(file);
-        write(&mut writer)?;
-        let file = writer.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()
-    })();
-    if let Err(source) = result {
-        let _ = std::fs::remove_file(&temporary);
-        return Err(Error::io(path, source));
-    }
-    std::fs::rename(&temporary, path).map_err(|source| {
-        let _ = std::fs::remove_file(&temporary);
-        Error::io(path, source)
-    })
-}
-
-/// Write a byte buffer atomically.
-pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomically(path, |w| w.write_all(bytes))
-}
-
 /// The largest table file tmlut reads: 4 GiB, above the largest table a build may make
 /// (`tmlut`'s `recipes::MAX_BUILD_BYTES` bounds what one table needs in memory, well below it).
 pub const MAX_TABLE_FILE_BYTES: u64 = 1 << 32;
@@ -486,43 +456,6 @@ pub const MAX_TEXT_INPUT_BYTES: u64 = 16 << 20;
 /// Read a table file, naming it in the error. See [`read_bytes_at_most`].
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     read_bytes_at_most(path, MAX_TABLE_FILE_BYTES, "a table file")
-}
-
-/// Read a whole regular file of at most `limit` bytes; `what` names the kind of file in the error.
-///
-/// A device, a pipe or a folder is refused before reading (`/dev/urandom` would never end), and so
-/// is a file longer than `limit`; a file that grows while it is read stops at `limit + 1` bytes
-/// and is refused too, so that no input makes tmlut allocate more than its limit.
-pub fn read_bytes_at_most(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>> {
-    use std::io::Read;
-    let file = File::open(path).map_err(|source| Error::io(path, source))?;
-    let metadata = file.metadata().map_err(|source| Error::io(path, source))?;
-    if !metadata.is_file() {
-        let kind = if metadata.is_dir() { "a folder" } else { "not a regular file (a device, pipe or socket)" };
-        return Err(Error::format(path, format!("is {kind}; {what} must be a regular file")));
-    }
-    let too_long =
-        |length: u64| Error::format(path, format!("is {length} bytes long; {what} may be at most {limit} bytes"));
-    if metadata.len() > limit {
-        return Err(too_long(metadata.len()));
-    }
-    let mut bytes = Vec::with_capacity(metadata.len() as usize);
-    file.take(limit + 1).read_to_end(&mut bytes).map_err(|source| Error::io(path, source))?;
-    if bytes.len() as u64 > limit {
-        return Err(too_long(bytes.len() as u64));
-    }
-    Ok(bytes)
-}
-
-/// Read a UTF-8 text file of at most `limit` bytes (see [`read_bytes_at_most`]).
-pub fn read_text_at_most(path: &Path, limit: u64, what: &str) -> Result<String> {
-    let bytes = read_bytes_at_most(path, limit, what)?;
-    String::from_utf8(bytes).map_err(|e| {
-        Error::format(
-            path,
-            format!("is not UTF-8 text (invalid byte at offset {}); {what} is text", e.utf8_error().valid_up_to()),
-        )
-    })
 }
 
 /// Refuse a table whose stored values a reader would not get back as finite numbers.

@@ -465,9 +465,8 @@ pub fn format_of_bytes(path: &Path, bytes: &[u8]) -> Result<FileFormat> {
 pub fn format_of(path: impl AsRef<Path>) -> Result<FileFormat> {
     let path = path.as_ref();
     let mut magic = [0u8; 4];
-    let read = std::fs::File::open(path)
-        .and_then(|mut f| std::io::Read::read(&mut f, &mut magic))
-        .map_err(|source| Error::io(path, source))?;
+    let (mut file, _) = crate::formats::files::open_regular(path, "a table file")?;
+    let read = std::io::Read::read(&mut file, &mut magic).map_err(|source| Error::io(path, source))?;
     format_of_magic(path, magic, read == 4)
 }
 
