@@ -10,7 +10,7 @@
 use std::path::PathBuf;
 
 use super::Scene;
-use super::cache::SliceCache;
+use super::cache::{CacheKey, SliceCache};
 use super::plan::{Plan, PlannedBuild, plan};
 use crate::config::{Config, OutputConfig};
 use crate::error::{Error, Result};
@@ -62,6 +62,19 @@ impl SceneBuildRequest {
         let fields =
             (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, &self.config, options);
         Some(sha256_hex(&serde_json::to_vec(&fields).expect("plain data")))
+    }
+
+    /// The key of the library a shard holds part of, which `tmlut merge` must be given again:
+    /// the SHA-256 of the scenes as parsed and as written, the configuration with its seed, the
+    /// slice checks (which decide what each slice's entry holds), the cache format and the
+    /// version; not the slice layout, which only the merged folder has.
+    pub fn library_key(&self) -> String {
+        let scene = format!("{:?}", self.scene);
+        let source = self.source.display().to_string();
+        let checks = format!("{:?}", self.slice_checks);
+        let fields =
+            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, &self.config, checks);
+        sha256_hex(&serde_json::to_vec(&fields).expect("plain data"))
     }
 }
 
@@ -271,9 +284,9 @@ pub fn build_scene(
         })
         .collect();
     let cache = if merging {
-        Some(SliceCache::shards(&request.merge_from)?)
+        Some(SliceCache::shards(&request.merge_from, &request.library_key())?)
     } else {
-        request.cache.as_deref().map(SliceCache::open)
+        request.cache.as_deref().map(SliceCache::open).transpose()?
     };
     let shard_folder_failed = |cache: &SliceCache| {
         Error::invalid("--shard", format!("the shard's folder is incomplete: {}", cache.warnings().join("; ")))
@@ -284,6 +297,10 @@ pub fn build_scene(
         return Err(shard_folder_failed(cache));
     }
     let not_in_shards = |table: &str| {
+        // A shard entry read but refused (its values, its inputs) is named: a merge integrates nothing.
+        if let Some(refused) = cache.as_ref().and_then(|c| c.warnings().into_iter().next()) {
+            return Error::invalid("tmlut merge", format!("{refused}: rebuild the shard that holds it"));
+        }
         Error::invalid(
             "tmlut merge",
             format!(
@@ -337,10 +354,14 @@ pub fn build_scene(
         for (place, planned) in plan.tables.iter().enumerate() {
             let Some(key) = table_key(&planned.build, seed).filter(|_| owned(place)) else { continue };
             let recipe = planned.build.recipe().expect("a full table");
-            if cache.get_by_key(&key, &recipe.axes()?).is_none() {
+            if cache.get_by_key(&key, recipe).is_none() {
                 cache.put_by_key(&key, &recipe.build(seed, progress)?);
             }
             tables += 1;
+        }
+        // Which library and part the folder holds, for the merge to hold it to.
+        if let Err(e) = cache.put_shard_record(&request.library_key(), shard) {
+            return Err(Error::invalid("--shard", format!("the shard's folder is incomplete: {e}")));
         }
         // The folder is the shard's only output: a table it could not keep is a failed shard.
         if cache.failed() {
@@ -435,7 +456,7 @@ pub fn build_scene(
                     Job {
                         run: Box::new(move |progress| {
                             let (Some(cache), Some(key)) = (cache, &key) else { return recipe.build(seed, progress) };
-                            if let Some(build) = cache.get_by_key(key, &recipe.axes()?) {
+                            if let Some(build) = cache.get_by_key(key, recipe) {
                                 return Ok(build);
                             }
                             if merging {
@@ -590,9 +611,9 @@ fn slice_array_build(
 
 /// The cache key of a planned full (or sub-range) table; `None` for the fitted form, whose fit
 /// the cache does not keep.
-fn table_key(build: &PlannedBuild, seed: u64) -> Option<String> {
+fn table_key(build: &PlannedBuild, seed: u64) -> Option<CacheKey> {
     match build {
-        PlannedBuild::Table(settings) => Some(SliceCache::table_key(settings.kind().name(), settings, seed)),
+        PlannedBuild::Table(settings) => Some(CacheKey::of_table(settings.kind().name(), settings, seed)),
         PlannedBuild::TirFit(_) | PlannedBuild::Slices(_) => None,
     }
 }

@@ -602,6 +602,34 @@ fn manifest_without_wall_times(dir: &Path) -> serde_json::Value {
     value
 }
 
+/// The largest slice entry of a cache folder (a table's values make up most of an entry).
+fn largest_entry(dir: &Path) -> PathBuf {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "slice"))
+        .max_by_key(|p| (std::fs::metadata(p).unwrap().len(), p.clone()))
+        .unwrap()
+}
+
+/// Edit a cache entry as someone with write access to the folder can: every value raised by
+/// `by`, the marker line's SHA-256 recomputed.
+fn reseal_raising_values(entry: &Path, by: f64) {
+    let bytes = std::fs::read(entry).unwrap();
+    let newline = bytes.iter().position(|&b| b == b'\n').unwrap();
+    let line = std::str::from_utf8(&bytes[..newline]).unwrap();
+    let mut value: serde_json::Value = serde_json::from_slice(&bytes[newline + 1..]).unwrap();
+    for v in value["values"].as_array_mut().unwrap() {
+        *v = serde_json::json!(v.as_f64().unwrap() + by);
+    }
+    let body = serde_json::to_vec(&value).unwrap();
+    let marker = &line[..line.rfind(' ').unwrap()];
+    let mut resealed = format!("{marker} {}\n", tmlut::loader::sha256_hex(&body)).into_bytes();
+    resealed.extend_from_slice(&body);
+    std::fs::write(entry, resealed).unwrap();
+}
+
 #[test]
 fn shards_merged_give_the_files_of_one_build_and_a_missing_or_damaged_shard_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -652,11 +680,35 @@ fn shards_merged_give_the_files_of_one_build_and_a_missing_or_damaged_shard_is_r
     }
     assert_eq!(manifest_without_wall_times(&whole), manifest_without_wall_times(&merged));
 
-    // Without one shard, the merge names a table none of the others holds and writes nothing.
+    // Without one shard, the merge names the missing part and writes nothing.
     let incomplete = dir.path().join("incomplete");
     let output = merge(&shard_dirs[..2], &incomplete);
-    assert_clean_failure(&output, &["in none of the 2 shard folder(s)", "--shard I/N"]);
+    assert_clean_failure(&output, &["shard(s) 3/3 of this library", "--shard I/N"]);
     assert!(!incomplete.join(MANIFEST_FILE).exists());
+    // Shards of a library of three scenes are not those of one of them, though they hold its tables.
+    let mut one_scene = vec!["merge", "--quiet", "--config", config.to_str().unwrap(), "--scene", scenes[0].as_str()];
+    let other_library = dir.path().join("other-library");
+    one_scene.extend(["--out", other_library.to_str().unwrap()]);
+    one_scene.extend(shard_dirs.iter().map(|s| s.to_str().unwrap()));
+    assert_clean_failure(&tmlut(&one_scene), &["no shard of this library", "the shards were built with"]);
+    assert!(!other_library.exists());
+    // An entry re-sealed around other values (its hash line recomputed) is refused by the values
+    // themselves, naming it: every value raised, so that whichever nodes are drawn disagree.
+    let resealed = dir.path().join("resealed");
+    std::fs::create_dir(&resealed).unwrap();
+    for shard in &shard_dirs {
+        let copy = resealed.join(shard.file_name().unwrap());
+        std::fs::create_dir(&copy).unwrap();
+        for file in std::fs::read_dir(shard).unwrap().flatten() {
+            std::fs::copy(file.path(), copy.join(file.file_name())).unwrap();
+        }
+    }
+    let resealed_dirs: Vec<PathBuf> = shard_dirs.iter().map(|s| resealed.join(s.file_name().unwrap())).collect();
+    let entry = largest_entry(&resealed_dirs[0]);
+    reseal_raising_values(&entry, 0.25);
+    let output = merge(&resealed_dirs, &dir.path().join("poisoned"));
+    assert_clean_failure(&output, &[entry.file_name().unwrap().to_str().unwrap(), "exact integral"]);
+    assert!(!dir.path().join("poisoned").join(MANIFEST_FILE).exists());
     // A damaged entry is refused, naming its file, rather than built again.
     let entry = std::fs::read_dir(&shard_dirs[0])
         .unwrap()
@@ -1709,7 +1761,8 @@ fn an_unchanged_scene_build_is_restored_whole_from_the_cache_and_a_damaged_one_i
     let object = cache.join(format!("{manifest_sha256}.object"));
     assert!(object.is_file(), "{}", object.display());
     let mut bytes = std::fs::read(&object).unwrap();
-    bytes[50] ^= 1;
+    let last = bytes.len() - 2;
+    bytes[last] ^= 1;
     std::fs::write(&object, &bytes).unwrap();
     let third = dir.path().join("third");
     let output = build(&config, &third, &args);
