@@ -70,7 +70,8 @@ impl OutputFolder {
                 Ok(()) => {}
                 Err(fs4::TryLockError::WouldBlock) => {
                     if let Some(on_wait) = on_wait.take() {
-                        let holder = std::fs::read_to_string(&path).unwrap_or_default();
+                        let mut holder = String::new();
+                        let _ = std::io::Read::read_to_string(&mut std::io::Read::take(&lock, 256), &mut holder);
                         on_wait(&format!(
                             "waiting for the build that holds {} ({}) to finish",
                             path.display(),

@@ -151,7 +151,7 @@ fn form_files(dir: &Path, table: &str) -> tmlut::Result<Vec<PathBuf>> {
         .collect();
     files.sort();
     files.retain(|file| {
-        let named = std::fs::read_to_string(file)
+        let named = tmlut::formats::read_text_at_most(file, tmlut::fit::text::form::MAX_FORM_BYTES, "form file")
             .ok()
             .and_then(|text| text.parse::<toml::Table>().ok())
             .and_then(|t| t.get("table").and_then(|v| v.as_str().map(str::to_string)));
@@ -191,6 +191,10 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
             candidates.push(path.clone());
         }
     }
+    // Each form file is fitted into `fits/<form>`: two files of one form name would share it.
+    let form_files_given: Vec<PathBuf> =
+        candidates.iter().filter(|p| p.extension().is_some_and(|e| e == "toml")).cloned().collect();
+    tmlut::fit::text::form::distinct_form_names(&form_files_given)?;
     let mut table = None;
     let mut forms = Vec::with_capacity(candidates.len());
     for path in candidates {

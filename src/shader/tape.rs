@@ -78,6 +78,25 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
             }
         }
     }
+    // Which instructions are constants of the form's text: WGSL types an expression of literals
+    // alone as an abstract float, which naga accepts only where it folds it (`3.0 + 4.0`, not
+    // `mix(3.0, 4.0, 0.5)`); such a builtin call gets an f32 first argument.
+    let mut constant = vec![false; n];
+    for i in 0..n {
+        constant[i] = match tape.ins[i] {
+            Ins::Const(_) => true,
+            Ins::Var(_) | Ins::Param(_) => false,
+            _ => leaves.operands(tape, i).iter().all(|&k| constant[k]),
+        };
+    }
+    let concrete = |mut args: Vec<Expr>, i: usize| {
+        if constant[i]
+            && let Some(first) = args.first_mut()
+        {
+            *first = Expr::Construct(Ty::F32, vec![first.clone()]);
+        }
+        args
+    };
     let mut printed = Printed { exprs: vec![None; n] };
     for i in (0..n).filter(|&i| live[i]) {
         let x = |k: usize| printed.get(k).ok_or_else(|| leaves.out_of_order(i));
@@ -95,7 +114,7 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
                             BinOp::Sub => a - b,
                             BinOp::Mul => a * b,
                             BinOp::Div => a / b,
-                            BinOp::Pow => call(Intrinsic::Pow, vec![a, b]),
+                            BinOp::Pow => call(Intrinsic::Pow, concrete(vec![a, b], i)),
                         }
                     }
                     Ins::PowInt(a, n) => {
@@ -105,7 +124,7 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
                     Ins::Call(function, _) => {
                         let args: Vec<Expr> = reads(ins).into_iter().map(x).collect::<Result<_>>()?;
                         match builtin(function) {
-                            Some(b) => call(b, args),
+                            Some(b) => call(b, concrete(args, i)),
                             None => leaves.helper(function, args)?,
                         }
                     }

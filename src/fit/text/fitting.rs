@@ -981,8 +981,8 @@ pub struct FolderFitRequest {
 /// [`FORMS_FILE`] into `out`.
 pub fn fit_form_files(table: &Table, request: &FolderFitRequest) -> Result<FolderFits> {
     let mut forms = Vec::with_capacity(request.files.len());
-    for file in &request.files {
-        let folder = super::form::form_name(file);
+    let folders = super::form::distinct_form_names(&request.files)?;
+    for (file, folder) in request.files.iter().zip(folders) {
         let one =
             FormFitRequest { form: file.clone(), out: request.out.join(&folder), options: request.options.clone() };
         let report = fit_form_file(table, &one)?;

@@ -150,6 +150,27 @@ pub fn form_name(path: &Path) -> String {
     if name.is_empty() { "form".into() } else { name }
 }
 
+/// The [`form_name`] of each of `files`, refused where two files give one name (`a-b.toml` and
+/// `a_b.toml`, or names that differ only in case, one folder on a case-insensitive file system):
+/// each form's files go into a folder of its name, and the second would replace the first's.
+pub fn distinct_form_names(files: &[std::path::PathBuf]) -> Result<Vec<String>> {
+    let names: Vec<String> = files.iter().map(|f| form_name(f)).collect();
+    for (i, name) in names.iter().enumerate() {
+        if let Some(j) = names[..i].iter().position(|other| other.eq_ignore_ascii_case(name)) {
+            return Err(Error::invalid(
+                "--form",
+                format!(
+                    "form files {} and {} are both form `{name}` (a name as a shader identifier holds only letters, \
+                     digits and `_`, and a folder name is compared without case): rename one",
+                    files[j].display(),
+                    files[i].display()
+                ),
+            ));
+        }
+    }
+    Ok(names)
+}
+
 impl Form {
     /// Read the form file at `path` against `table` (the table file it is fitted to).
     pub fn read(path: &Path, table: &Table) -> Result<Form> {

@@ -144,6 +144,19 @@ fn the_gradient_is_the_finite_difference_of_the_value_for_every_function() {
 }
 
 #[test]
+fn a_builtin_of_literals_alone_prints_as_wgsl_naga_accepts() {
+    // WGSL types `mix(3.0, 4.0, 0.5)` as an abstract float, which naga refuses outside a constant
+    // expression: the printer makes the first argument an f32.
+    let table = karis_like(4, |_, _| [0.0, 0.0]);
+    let text = "table = \"karis\"\n[parameters]\na = { start = 0.1, min = -4.0, max = 4.0 }\n[channels]\n\
+                scale = \"a + mix(3, 4, 0.5) + pow(2, 0.5) + atan2(1, 2 ^ 3)\"\nbias = \"a * max(1, min(2, 3))\"\n";
+    let form = Form::parse(Path::new("literals.toml"), text, &table).unwrap();
+    let texts = sources(&form, &[0.1]).unwrap();
+    assert!(texts[0].contains("mix(f32(3.0), 4.0, 0.5)"), "{}", texts[0]);
+    crate::shader::validate::wgsl(&texts[0]).unwrap();
+}
+
+#[test]
 fn the_mean_squared_residual_s_gradient_matches_finite_differences() {
     let form = parse(GOOD).unwrap();
     let data = FormData::from_table(&table(), &form).unwrap();
@@ -688,4 +701,19 @@ fn a_region_s_extent_is_the_table_s_ranges_narrowed_by_its_own() {
     assert_eq!(extent(&[]), [(0.0, 1.0), (0.0, 1.0)]);
     // roughness = sqrt(alpha): its range bounds alpha by the squares.
     assert_eq!(extent(&["mu=0.25:1", "roughness=0.5:0.75"]), [(0.25, 1.0), (0.25, 0.5625)]);
+}
+
+#[test]
+fn two_form_files_of_one_form_name_are_refused_before_either_is_fitted() {
+    use std::path::PathBuf;
+    let names = super::form::distinct_form_names(&[PathBuf::from("d/a-b.toml"), PathBuf::from("d/c.toml")]).unwrap();
+    assert_eq!(names, ["a_b", "c"]);
+    for clash in [["d/a-b.toml", "d/a_b.toml"], ["d/Karis.toml", "e/karis.toml"]] {
+        let files: Vec<PathBuf> = clash.iter().map(PathBuf::from).collect();
+        let refused = super::form::distinct_form_names(&files).unwrap_err().to_string();
+        assert!(
+            refused.contains(clash[0]) && refused.contains(clash[1]) && refused.contains("rename one"),
+            "{refused}"
+        );
+    }
 }
