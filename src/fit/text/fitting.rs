@@ -240,6 +240,32 @@ pub struct Prepared<'a> {
 }
 
 impl<'a> Prepared<'a> {
+    /// Refuse a form whose prepared data (every point's inputs of the split tape, held three
+    /// times while they are gathered and transposed) this process has no memory for, naming the
+    /// limit and its source.
+    pub fn check_memory(form: &Form, data: &FormData) -> Result<()> {
+        let (_, split_off) = form.tape.split(data.variables.len());
+        let bytes = data.len() as u128 * (data.variables.len() + split_off.len()) as u128 * 24;
+        if let Some(limit) = crate::machine::memory_limit()
+            && bytes > limit.bytes as u128
+        {
+            return Err(Error::invalid(
+                format!("form `{}`", form.name),
+                format!(
+                    "fitting it to {} points needs {:.1} GiB for the values of its {} parameter-free instructions at \
+                     every point; this process may use at most {:.1} GiB ({}): fit a region (--range) or share \
+                     sub-expressions in [let]",
+                    data.len(),
+                    bytes as f64 / (1u64 << 30) as f64,
+                    split_off.len(),
+                    limit.bytes as f64 / (1u64 << 30) as f64,
+                    limit.source
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     pub fn new(form: &Form, data: &'a FormData) -> Prepared<'a> {
         let d = data.variables.len();
         let (tape, split_off) = form.tape.split(d);
@@ -509,30 +535,54 @@ pub fn identifiability(form: &Form, prepared: &Prepared, parameters: &[f64]) -> 
     let p = parameters.len();
     let channels = data.channels.len();
     let scale: Vec<f64> = form.parameters.iter().map(|q| q.max - q.min).collect();
-    // J^T J, summed in fixed chunks in order.
+    // J^T J, summed in fixed chunks in order: each chunk's rows of J (scaled by the bound ranges)
+    // and of W J, then one matrix product (matrixmultiply's blocked GEMM; a rank-one update per
+    // row took the time of the whole fit at 100 parameters).
     let per_chunk: Vec<Vec<f64>> = (0..data.len().div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
             let mut work = Work::default();
-            let mut jtj = vec![0.0; p * p];
-            let mut row = vec![0.0; p];
+            let points = chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len());
+            let rows = points.len() * channels;
+            let mut jacobian = vec![0.0; rows * p];
+            let mut weighted = vec![0.0; rows * p];
             let mut seeds = vec![0.0; channels];
             let mut point = Vec::new();
-            for n in chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len()) {
-                prepared.point_into(n, &mut point);
-                tape.forward(&point, parameters, &mut work);
-                // The weighted least squares' Jacobian is sqrt(w) J: J^T W J.
-                let w = data.weights[n];
-                for c in 0..channels {
-                    seeds.iter_mut().enumerate().for_each(|(k, s)| *s = if k == c { 1.0 } else { 0.0 });
-                    row.iter_mut().for_each(|r| *r = 0.0);
-                    tape.backward(&mut work, &seeds, &mut row);
-                    for i in 0..p {
-                        for j in 0..p {
-                            jtj[i * p + j] += row[i] * scale[i] * row[j] * scale[j] * w;
-                        }
-                    }
+            for (r, n) in points.clone().flat_map(|n| std::iter::repeat_n(n, channels)).enumerate() {
+                let c = r % channels;
+                if c == 0 {
+                    prepared.point_into(n, &mut point);
+                    tape.forward(&point, parameters, &mut work);
                 }
+                seeds.iter_mut().enumerate().for_each(|(k, s)| *s = if k == c { 1.0 } else { 0.0 });
+                let row = &mut jacobian[r * p..(r + 1) * p];
+                tape.backward(&mut work, &seeds, row);
+                // The weighted least squares' Jacobian is sqrt(w) J: J^T W J.
+                for (i, (x, y)) in row.iter_mut().zip(&mut weighted[r * p..(r + 1) * p]).enumerate() {
+                    *x *= scale[i];
+                    *y = *x * data.weights[n];
+                }
+            }
+            let mut jtj = vec![0.0; p * p];
+            // SAFETY: `jacobian` and `weighted` hold `rows x p` row-major elements, `jtj` `p x p`,
+            // as the dimensions and strides passed state; the output does not alias the inputs.
+            unsafe {
+                matrixmultiply::dgemm(
+                    p,
+                    rows,
+                    p,
+                    1.0,
+                    jacobian.as_ptr(),
+                    1,
+                    p as isize,
+                    weighted.as_ptr(),
+                    p as isize,
+                    1,
+                    0.0,
+                    jtj.as_mut_ptr(),
+                    p as isize,
+                    1,
+                );
             }
             jtj
         })
@@ -866,6 +916,7 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
     let data = FormData::from_table_in(table, &form, &region)?;
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
     let start_residuals = residuals(&form, &data, &start)?;
+    Prepared::check_memory(&form, &data)?;
     let prepared = Prepared::new(&form, &data);
     let fitted = fit(&form, &prepared, &request.options.settings)?;
     let fitted_residuals = residuals(&form, &data, &fitted.parameters)?;

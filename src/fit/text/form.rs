@@ -36,6 +36,11 @@ pub const MAX_FORM_BYTES: u64 = 1 << 20;
 /// The most channels one form computes: a shader returns them as one `f32` or `vecN<f32>`.
 pub const MAX_CHANNELS: usize = 4;
 
+/// The most parameters one form fits. Published approximations of these tables have at most a
+/// few dozen (EnvBRDFApprox 8); a fit's cost grows with the parameters times the points, and its
+/// identifiability analysis with their cube.
+pub const MAX_PARAMETERS: usize = 256;
+
 /// A parameter as the file gives it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Parameter {
@@ -251,6 +256,12 @@ impl Form {
         let mut parameter_keys = Vec::new();
         let mut entries: Vec<_> = file.parameters.iter().collect();
         entries.sort_by_key(|(k, _)| k.span().start);
+        if let Some((key, _)) = entries.get(MAX_PARAMETERS) {
+            return Err(at(
+                key.span().start,
+                format!("[parameters] holds {} parameters; allowed: at most {MAX_PARAMETERS}", entries.len()),
+            ));
+        }
         // An empty [parameters] is a form with nothing to fit (a published baseline, such as
         // thesis eq. 5.6): it is measured at its definition, and the table is still required so
         // that every form file has the same shape.

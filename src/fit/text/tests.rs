@@ -717,3 +717,20 @@ fn two_form_files_of_one_form_name_are_refused_before_either_is_fitted() {
         );
     }
 }
+
+#[test]
+fn a_form_of_more_parameters_than_any_fit_needs_is_refused_naming_the_limit() {
+    use super::form::MAX_PARAMETERS;
+    let table = karis_like(4, |_, _| [0.0, 0.0]);
+    let form_of = |n: usize| {
+        let parameters: String = (0..n).map(|k| format!("p{k} = {{ start = 0.0, min = -1.0, max = 1.0 }}\n")).collect();
+        let sum: Vec<String> = (0..n).map(|k| format!("p{k} * mu")).collect();
+        format!(
+            "table = \"karis\"\n[parameters]\n{parameters}[channels]\nscale = \"{}\"\nbias = \"p0\"\n",
+            sum.join(" + ")
+        )
+    };
+    assert!(Form::parse(Path::new("most.toml"), &form_of(MAX_PARAMETERS), &table).is_ok());
+    let refused = Form::parse(Path::new("more.toml"), &form_of(MAX_PARAMETERS + 1), &table).unwrap_err().to_string();
+    assert!(refused.contains(&format!("allowed: at most {MAX_PARAMETERS}")), "{refused}");
+}
