@@ -31,7 +31,7 @@
 //! `generator` feature this crate is the model and the form language over that loader.
 
 // The loader crate's modules, as this crate's own: the layers every module here builds on.
-pub use tmlut_loader::{error, formats, loader, physics, stats, table};
+pub use tmlut_loader::{error, formats, loader, machine, physics, stats, table};
 
 pub mod fit;
 pub mod model;
@@ -49,8 +49,6 @@ pub mod config;
 pub mod furnace;
 #[cfg(feature = "generator")]
 pub mod integrate;
-#[cfg(feature = "generator")]
-pub mod machine;
 #[cfg(feature = "generator")]
 pub mod pipeline;
 #[cfg(feature = "generator")]

@@ -137,19 +137,21 @@ pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut
     let whole = request.whole_build_key().zip(request.cache.as_deref());
     if let Some((key, cache)) = &whole {
         let started = std::time::Instant::now();
-        match cache::restore_build(cache, key, &request.out, |message| eprintln!("{message}"))? {
+        let verify = |staged: &std::path::Path| tmlut::scene::build::verify_restored(request, staged);
+        match cache::restore_build(cache, key, &request.out, |message| eprintln!("{message}"), verify)? {
             Ok(restored) => {
                 // The scene's own warnings, which a planned build prints with its plan.
                 for warning in &request.scene.warnings {
                     eprintln!("warning: {warning}");
                 }
                 println!(
-                    "{} materials: restored whole from the table cache {} (build {}): {} files ({}), every one verified by its SHA-256; {:.2} s",
+                    "{} materials: restored whole from the table cache {} (build {}): {} files ({}), every one verified by its SHA-256 and every table at {} nodes against the exact integral; {:.2} s",
                     request.scene.materials.len(),
                     cache.display(),
                     &key[..12],
                     restored.files,
                     human_bytes(restored.bytes),
+                    cache::VERIFIED_NODES,
                     started.elapsed().as_secs_f64()
                 );
                 return Ok(());

@@ -19,9 +19,14 @@ pub struct CacheArgs {
     /// Remove the oldest entries until the cache holds at most this many bytes (0 empties it).
     #[arg(long)]
     prune_to: Option<u64>,
+    /// Integrate every entry again from the inputs it records and compare its values bit for bit:
+    /// the full audit of a cache (every read checks an entry at a few nodes only). Costs what
+    /// building every entry costs; exits 1 naming each entry whose values differ.
+    #[arg(long, conflicts_with = "prune_to")]
+    verify: bool,
 }
 
-pub fn exec(args: CacheArgs, _: &Context) -> tmlut::Result<()> {
+pub fn exec(args: CacheArgs, context: &Context) -> tmlut::Result<()> {
     let dir = super::build::cache_folder(Some(args.dir.unwrap_or_default()))?.expect("a folder or an error");
     if !dir.exists() {
         println!("table cache {}: no cache there yet (a build with --cache creates it)", dir.display());
@@ -29,6 +34,31 @@ pub fn exec(args: CacheArgs, _: &Context) -> tmlut::Result<()> {
     }
     let shown = |usage: CacheUsage| format!("{} entries, {}", usage.entries, human_bytes(usage.bytes));
     let before = cache::usage(&dir)?;
+    if args.verify {
+        let verified = cache::verify(&dir, &context.progress())?;
+        println!(
+            "table cache {}: {} entries integrated again, {} identical to the bit, {} of another tmlut version (not \
+             compared), {} refused",
+            dir.display(),
+            verified.identical + verified.refused.len() + verified.other_version,
+            verified.identical,
+            verified.other_version,
+            verified.refused.len()
+        );
+        if !verified.refused.is_empty() {
+            return Err(tmlut::Error::invalid(
+                "tmlut cache --verify",
+                format!(
+                    "{} entries of {} hold values their inputs do not integrate to, or are damaged; remove them, or \
+                     prune the cache (--prune-to 0):\n  {}",
+                    verified.refused.len(),
+                    dir.display(),
+                    verified.refused.join("\n  ")
+                ),
+            ));
+        }
+        return Ok(());
+    }
     match args.prune_to {
         Some(max_bytes) => {
             let after = cache::prune(&dir, max_bytes)?;

@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::formats::manifest::{
     COMMIT_JOURNAL, FileEntry, MANIFEST_FILE, Manifest, check_file_name, pending_commit, pending_commit_error,
 };
-use crate::formats::{MAX_MANIFEST_BYTES, read_bytes};
+use crate::formats::read_bytes;
 use crate::furnace::report::{FURNACE_FILE, FurnaceReport};
 use crate::loader::{sha256_hex, table_disagreements};
 
@@ -274,8 +274,12 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
             at_most: None,
         });
     }
+    // What the manifest lists, for the files it does not ([`report_unlisted`]).
+    let mut listed = std::collections::BTreeSet::new();
     if manifest_path.exists() {
         let manifest = Manifest::read(&manifest_path)?;
+        listed.extend(manifest.files.keys().cloned());
+        listed.extend(manifest.shader_files().into_iter().map(|(file, ..)| file.to_string()));
         // A scene's slices are named per material; a budget may hold every slice of a kind
         // (`[fgd_slice]`, `[tir_slice]`: the plan's kind in lower case, words joined by `_`).
         let kinds: BTreeMap<&str, String> = manifest
@@ -336,7 +340,59 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
     if !reports.is_empty() {
         check_furnace(dir, &reports, budgets, &mut findings);
     }
+    report_unlisted(dir, &listed, budgets.strict, &mut findings);
     Ok(findings)
+}
+
+/// Name every entry of the folder that neither its manifest nor its furnace report lists (nor
+/// the lock a build holds): a file a build did not write, or a table of an earlier build that
+/// was left beside the manifest. Under `--strict` each fails. Subfolders are not read (error
+/// maps, a furnace run's own folder); the commit journal is reported apart.
+fn report_unlisted(
+    dir: &Path,
+    listed_by_manifest: &std::collections::BTreeSet<String>,
+    strict: bool,
+    findings: &mut Vec<Finding>,
+) {
+    let mut listed = listed_by_manifest.clone();
+    listed.extend([MANIFEST_FILE, FURNACE_FILE, COMMIT_JOURNAL, crate::commit::LOCK_FILE].map(String::from));
+    if let Ok(report) = FurnaceReport::read(&dir.join(FURNACE_FILE)) {
+        listed.extend(report.materials.iter().flat_map(|m| m.files.iter().cloned()));
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    let mut unlisted: Vec<(String, &str)> = entries
+        .flatten()
+        .filter_map(|entry| {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let file_type = entry.file_type().ok()?;
+            let what = if file_type.is_dir() {
+                return None;
+            } else if file_type.is_symlink() {
+                "a symbolic link"
+            } else if file_type.is_file() {
+                "a file"
+            } else {
+                "not a regular file (a FIFO, socket or device)"
+            };
+            (!listed.contains(&name)).then_some((name, what))
+        })
+        .collect();
+    unlisted.sort();
+    for (name, what) in unlisted {
+        findings.push(Finding {
+            file: name,
+            check: "listed".into(),
+            value: format!("{what} that neither the manifest nor a furnace report lists"),
+            limit: if strict {
+                "every file of the folder listed (--strict)".into()
+            } else {
+                "reported; --strict fails it".into()
+            },
+            pass: !strict,
+            measured: None,
+            at_most: None,
+        });
+    }
 }
 
 /// The furnace reports in `dir` and its immediate subfolders, sorted by path.
@@ -678,7 +734,11 @@ fn check_shaders(dir: &Path, manifest: &Manifest, findings: &mut Vec<Finding>) {
             record("shader sha256", reason, stated.into(), false);
             continue;
         }
-        match crate::formats::read_bytes_at_most(&dir.join(file), MAX_MANIFEST_BYTES, "a shader file") {
+        match crate::formats::read_bytes_at_most(
+            &dir.join(file),
+            crate::formats::MAX_SHADER_FILE_BYTES,
+            "a shader file",
+        ) {
             Ok(bytes) => {
                 if let Some(stated_bytes) = stated_bytes {
                     let length = bytes.len() as u64;

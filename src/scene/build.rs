@@ -7,7 +7,7 @@
 //! the same configuration would have given at the same points (interpolated across `eta` and
 //! `kappa` too, and clamped at its range's end) into its `accuracy`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::Scene;
 use super::cache::{CacheKey, SliceCache};
@@ -216,13 +216,7 @@ pub fn build_scene(
     progress: &dyn Progress,
 ) -> Result<(Plan, Vec<WrittenFile>, SceneBuildSummary)> {
     let started = std::time::Instant::now();
-    let mut config = request.config.clone();
-    if request.error_maps {
-        config.fgd.replicate_error_columns = usize::MAX;
-    }
-    if request.slice_checks == SliceChecks::None {
-        config.disable_interpolation_checks();
-    }
+    let config = planning_config(request);
     let merging = !request.merge_from.is_empty();
     if (request.shard.is_some() || merging) && request.slice_checks == SliceChecks::Full {
         return Err(Error::invalid(
@@ -607,6 +601,57 @@ fn slice_array_build(
     let entry =
         SliceArrayEntry { layer_extent: layout.layer_extent.map(|e| e as u32), layers: layout.layers as u32, slices };
     Ok((TableBuild { table, provenance }, entry))
+}
+
+/// The configuration a request's plan is made with: its own, with what its options change.
+fn planning_config(request: &SceneBuildRequest) -> Config {
+    let mut config = request.config.clone();
+    if request.error_maps {
+        config.fgd.replicate_error_columns = usize::MAX;
+    }
+    if request.slice_checks == SliceChecks::None {
+        config.disable_interpolation_checks();
+    }
+    config
+}
+
+/// Verify the folder `staged` that the table cache restores whole for `request`
+/// ([`super::cache::restore_build`]) as its entries are verified: every table the request's plan
+/// holds (every slice, unpacked from its texture array, and every full table) compared with the
+/// exact integral at [`super::cache::VERIFIED_NODES`] nodes no one can predict. A restored folder
+/// is otherwise taken on the word of the record and files in the cache.
+pub fn verify_restored(request: &SceneBuildRequest, staged: &Path) -> std::result::Result<(), String> {
+    use rayon::prelude::*;
+    let plan = plan(&request.scene, &planning_config(request)).map_err(|e| e.to_string())?;
+    let folder = crate::loader::LutFolder::open(staged).map_err(|e| e.to_string())?;
+    let slices: std::collections::HashMap<String, Table> = folder
+        .scene_slices(|_| true)
+        .map_err(|e| e.to_string())?
+        .into_iter()
+        .map(|slice| (slice.entry.table, slice.table))
+        .collect();
+    plan.tables.par_iter().try_for_each(|planned| {
+        let refused = |why: String| format!("table `{}` of the restored folder: {why}", planned.record.name);
+        match &planned.build {
+            PlannedBuild::Slices(kernel) => {
+                let table = slices.get(&kernel.name).ok_or_else(|| refused("not in the folder".into()))?;
+                super::cache::verify_values(kernel, table).map_err(refused)
+            }
+            PlannedBuild::Table(settings) => {
+                let name = settings.kind().name();
+                let (file, _) = folder
+                    .manifest()
+                    .files
+                    .iter()
+                    .find(|(_, entry)| entry.table == name)
+                    .ok_or_else(|| refused("not in the folder".into()))?;
+                let table = folder.load(file).map_err(|e| refused(e.to_string()))?;
+                super::cache::verify_values(settings.recipe(), &table).map_err(refused)
+            }
+            // A fitted form is a least-squares fit, not an integral: the build fits it again.
+            PlannedBuild::TirFit(_) => Ok(()),
+        }
+    })
 }
 
 /// The cache key of a planned full (or sub-range) table; `None` for the fitted form, whose fit

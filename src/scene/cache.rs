@@ -429,7 +429,7 @@ const VERIFY_QUADRATURE_NODES: usize = 8;
 /// chosen nodes cannot know to spare them. Allowed: 0.01 plus the scale of a Monte Carlo estimate
 /// of `n` samples, `1 / sqrt(n)`; an honest entry's error is orders of magnitude below that
 /// (`budgets.toml` holds references to 1e-4 to 1e-3).
-fn verify_values<K: Kernel + ?Sized>(kernel: &K, table: &Table) -> std::result::Result<(), String> {
+pub(crate) fn verify_values<K: Kernel + ?Sized>(kernel: &K, table: &Table) -> std::result::Result<(), String> {
     let quadrature = VisibleNormalQuadrature::new(VERIFY_QUADRATURE_NODES).map_err(|e| e.to_string())?;
     let sampling = kernel.sampling();
     let samples = (sampling.samples as f64 * f64::from(sampling.replicates.max(1))).max(1.0);
@@ -720,15 +720,18 @@ fn read_object(object: &Path, sha256: &str, bytes: u64) -> std::result::Result<V
     Ok(body.to_vec())
 }
 
-/// Restore the output folder a build with `key` left ([`store_build`]) into `out`, as one commit:
-/// `Ok(None)` where the cache holds no intact record and files of it (a file missing or not of
-/// its SHA-256: the build goes on, `why` says what was wrong), or where `out` holds files that
-/// the record does not (a build into that folder would keep them beside its own).
+/// Restore the output folder a build with `key` left ([`store_build`]) into `out`, as one commit
+/// once `verify` accepts the staged folder (the values of its tables: see
+/// [`crate::scene::build::verify_restored`]): `Ok(Err(why))` where the cache holds no intact
+/// record and files of it (a file missing or not of its SHA-256), where `verify` refuses them
+/// (the build goes on, `why` says what was wrong), or where `out` holds files that the record
+/// does not (a build into that folder would keep them beside its own).
 pub fn restore_build(
     dir: &Path,
     key: &str,
     out: &Path,
     on_wait: impl FnOnce(&str),
+    verify: impl FnOnce(&Path) -> std::result::Result<(), String>,
 ) -> Result<std::result::Result<Restored, String>> {
     let record_path = build_record_path(dir, key);
     if !is_tagged(dir) {
@@ -777,6 +780,9 @@ pub fn restore_build(
             moves.push(crate::commit::Move { staged: file.name.clone(), destination: file.name.clone() });
         }
     }
+    if let Err(why) = verify(&staging.dir) {
+        return Ok(Err(format!("the build {key} it keeps is damaged: {why}")));
+    }
     crate::commit::commit(&folder, &mut staging, moves, Vec::new())?;
     // Pruning removes the oldest files first: a record just used, and its files, are the newest.
     let now = std::time::SystemTime::now();
@@ -799,6 +805,113 @@ fn decode_record(bytes: &[u8], key: &str) -> std::result::Result<BuildRecord, St
         return Err("it lists no manifest".into());
     }
     Ok(record)
+}
+
+/// The inputs of a slice's key, read back from an entry ([`KeyFields`], owned).
+#[derive(Deserialize)]
+struct SliceInputs {
+    format: u32,
+    version: String,
+    of: crate::recipes::slices::SliceOf,
+    mu: crate::table::Axis,
+    alpha: crate::table::Axis,
+    indices: Vec<(u64, u64)>,
+    seed: u64,
+}
+
+/// What [`verify`] found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Verified {
+    /// Entries integrated again from their recorded inputs, equal to the bit.
+    pub identical: usize,
+    /// Entries of another cache format or tmlut version, which this one does not integrate alike.
+    pub other_version: usize,
+    /// Each entry refused, with why: damaged, or integrated to other values.
+    pub refused: Vec<String>,
+}
+
+/// Integrate every slice and table entry of the cache at `dir` again from the inputs it records,
+/// and compare its values bit for bit (a build is deterministic: the same inputs give the same
+/// bits). The full audit that the sampled check of every read ([`VERIFIED_NODES`]) is not: it
+/// costs what building every entry costs.
+pub fn verify(dir: &Path, progress: &dyn crate::integrate::Progress) -> Result<Verified> {
+    use rayon::prelude::*;
+    claim(dir)?;
+    let slice_entries: Vec<PathBuf> = entries(dir)?
+        .into_iter()
+        .map(|(path, ..)| path)
+        .filter(|path| path.extension().is_some_and(|e| e == ENTRY_EXTENSION))
+        .collect();
+    let outcomes: Vec<std::result::Result<bool, String>> = slice_entries
+        .par_iter()
+        .map(|path| {
+            let named = |why: String| format!("{}: {why}", path.display());
+            let bytes = crate::formats::read_bytes(path).map_err(|e| e.to_string())?;
+            let key = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            let entry = decode(&bytes, &key).map_err(named)?;
+            let Some(built) = rebuild(&entry.inputs, progress).map_err(named)? else { return Ok(false) };
+            let same = built.data.len() == entry.values.len()
+                && built.data.iter().zip(&entry.values).all(|(a, b)| a.to_bits() == b.to_bits());
+            if !same {
+                let differing =
+                    built.data.iter().zip(&entry.values).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+                return Err(named(format!(
+                    "{differing} of its {} values are not those its recorded inputs integrate to",
+                    entry.values.len()
+                )));
+            }
+            Ok(true)
+        })
+        .collect();
+    let mut verified = Verified::default();
+    for outcome in outcomes {
+        match outcome {
+            Ok(true) => verified.identical += 1,
+            Ok(false) => verified.other_version += 1,
+            Err(why) => verified.refused.push(why),
+        }
+    }
+    Ok(verified)
+}
+
+/// The table an entry's recorded `inputs` integrate to, or `None` where they are another cache
+/// format's or tmlut version's.
+fn rebuild(inputs: &str, progress: &dyn crate::integrate::Progress) -> std::result::Result<Option<Table>, String> {
+    let current = |format: u32, version: &str| format == CACHE_FORMAT && version == env!("CARGO_PKG_VERSION");
+    if let Ok(slice) = serde_json::from_str::<SliceInputs>(inputs) {
+        if !current(slice.format, &slice.version) {
+            return Ok(None);
+        }
+        let slices = Slices {
+            name: "verified".into(),
+            of: slice.of,
+            lookup_mu: [slice.mu.start, slice.mu.end],
+            lookup_alpha: [slice.alpha.start, slice.alpha.end],
+            mu: slice.mu,
+            alpha: slice.alpha,
+            channels: slice
+                .indices
+                .iter()
+                .map(|&(eta, kappa)| crate::recipes::slices::SliceChannel {
+                    eta: f64::from_bits(eta),
+                    kappa: f64::from_bits(kappa),
+                    used_by: String::new(),
+                })
+                .collect(),
+        };
+        let built = crate::recipes::driver::build(&slices, slice.seed, progress).map_err(|e| e.to_string())?;
+        return Ok(Some(built.table));
+    }
+    let (format, version, table, settings, seed): (u32, String, String, serde_json::Value, u64) =
+        serde_json::from_str(inputs)
+            .map_err(|e| format!("its recorded inputs are neither a slice's nor a table's: {e}"))?;
+    if !current(format, &version) {
+        return Ok(None);
+    }
+    let config: crate::config::Config = serde_json::from_value(serde_json::json!({ table.as_str(): settings }))
+        .map_err(|e| format!("its recorded settings of `{table}` are not this tmlut's: {e}"))?;
+    let recipe = config.recipe_named(&table).ok_or_else(|| format!("no table is named `{table}`"))?;
+    Ok(Some(recipe.build(seed, progress).map_err(|e| e.to_string())?.table))
 }
 
 /// What a cache folder holds: entries and their bytes.

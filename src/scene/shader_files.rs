@@ -167,6 +167,20 @@ pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_view
             .into(),
         json(&shader.description()),
     ));
+    // What every reader refuses is never written.
+    if let Some((file, _, bytes)) =
+        files.iter().find(|(_, _, b)| b.len() as u64 > crate::formats::MAX_SHADER_FILE_BYTES)
+    {
+        return Err(Error::invalid(
+            format!("scene `{}`", scene.name),
+            format!(
+                "its shader file {file} would be {} bytes; tmlut's readers take at most {} bytes: shade fewer materials \
+                 in one scene",
+                bytes.len(),
+                crate::formats::MAX_SHADER_FILE_BYTES
+            ),
+        ));
+    }
     if reference_views > 0 {
         let points = reference(&folder, &shader, &materials, reference_views)?;
         let what = format!(

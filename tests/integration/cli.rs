@@ -709,6 +709,15 @@ fn shards_merged_give_the_files_of_one_build_and_a_missing_or_damaged_shard_is_r
     let output = merge(&resealed_dirs, &dir.path().join("poisoned"));
     assert_clean_failure(&output, &[entry.file_name().unwrap().to_str().unwrap(), "exact integral"]);
     assert!(!dir.path().join("poisoned").join(MANIFEST_FILE).exists());
+    // The full audit integrates every entry again: an intact folder is the same to the bit, the
+    // edited one is named.
+    let verify = |folder: &Path| tmlut(&["cache", "--quiet", "--verify", "--dir", folder.to_str().unwrap()]);
+    let output = verify(&shard_dirs[1]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stdout(&output).contains("0 refused"), "{}", stdout(&output));
+    let output = verify(&resealed_dirs[0]);
+    assert_clean_failure(&output, &["tmlut cache --verify", "1 entries"]);
+    assert!(stderr(&output).contains(entry.file_name().unwrap().to_str().unwrap()), "{}", stderr(&output));
     // A damaged entry is refused, naming its file, rather than built again.
     let entry = std::fs::read_dir(&shard_dirs[0])
         .unwrap()
@@ -1789,4 +1798,40 @@ fn an_unchanged_scene_build_is_restored_whole_from_the_cache_and_a_damaged_one_i
         assert_eq!(stdout(&output).contains("restored whole"), restored, "{out}: {}", stdout(&output));
         assert!(stderr(&output).contains("below the opaque conductor"), "{out}: {}", stderr(&output));
     }
+}
+
+#[test]
+fn a_build_the_cache_keeps_whole_is_restored_only_once_its_tables_agree_with_the_exact_integral() {
+    use tmlut::scene::build::{SceneBuildRequest, SliceLayout, build_scene, verify_restored};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("luts");
+    let files = tmlut::scene::library::read_scene_files(&[PathBuf::from(scene_path("copper-pot"))]).unwrap();
+    let config = tmlut::config::Config::from_toml(SMALL_SET, "small").unwrap();
+    // A file per slice, so that one slice is forged with its entry alone.
+    let request = SceneBuildRequest {
+        slice_layout: SliceLayout::Files,
+        ..tmlut::scene::library::build_request(&files, config, out.clone()).unwrap()
+    };
+    build_scene(&request, &()).unwrap();
+    verify_restored(&request, &out).unwrap();
+
+    // A slice's every value raised by 0.25, its file, entry and seal made consistent again: what
+    // an editor of the cache's objects and record can write. The loader and `check` see a
+    // consistent folder; the exact integral does not.
+    let mut manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
+    let (file, entry) =
+        manifest.files.iter_mut().find(|(f, e)| e.table.starts_with("fgd_") && f.ends_with(".dds")).unwrap();
+    let (file, slice) = (file.clone(), entry.table.clone());
+    let path = out.join(&file);
+    let mut table = tmlut::loader::load_table(&path).unwrap();
+    table.data.iter_mut().for_each(|v| *v += 0.25);
+    tmlut::formats::dds::write_dds(&path, &table, entry.precision).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    entry.sha256 = tmlut::loader::sha256_hex(&bytes);
+    entry.value_range = entry.value_range.map(|v| v + 0.25);
+    entry.seal();
+    manifest.write(&out).unwrap();
+    assert!(LutFolder::open(&out).unwrap().load(&file).is_ok());
+    let refused = verify_restored(&request, &out).unwrap_err();
+    assert!(refused.contains(&slice) && refused.contains("exact integral"), "{refused}");
 }

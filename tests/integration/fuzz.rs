@@ -3,8 +3,14 @@
 //! formats, its manifest made to lie about the files — and `tmlut check` and `tmlut inspect` read
 //! it, each run in its own process under a memory and a time limit (`common`). Configurations and
 //! scenes are mutated and planned the same way; commit journals that name paths outside the folder
-//! are handed to `tmlut build`, which must refuse them and touch nothing. Nothing may panic, abort
-//! or hang, and no damaged table may pass `check`.
+//! are handed to `tmlut build`, which must refuse them and touch nothing. Links are planted under
+//! the names a build writes (its lock, a table, its staging folder and temporaries, the error
+//! maps' folder), pointing at a file and a folder outside: neither may change. FIFOs take the
+//! place of every kind of input (manifest, table, configuration, scene, budgets, form, journal,
+//! cache entry): no run may wait on one. A scene build's cache is handed hostile entries (values
+//! edited and the hash line recomputed, another entry's contents under a key, links in place of
+//! entries and temporaries): its tables must be those of a build without the cache. Nothing may
+//! panic, abort or hang, and no damaged table may pass `check`.
 //!
 //! `FUZZ_CASES` sets the number of cases (default 3000), `FUZZ_SEED` the seed.
 
@@ -34,6 +40,12 @@ enum Reader {
     HostileJournal,
     Config,
     Scene,
+    /// A link planted under a name a build writes.
+    Link,
+    /// A FIFO in place of an input.
+    Fifo,
+    /// A hostile entry in a scene build's cache.
+    HostileCache,
 }
 
 /// One damaged input and what must follow.
@@ -46,7 +58,39 @@ struct Case {
     /// `check` must report the folder: every byte of a table is covered by its SHA-256, and every
     /// manifest lie of these cases is about something the file states.
     check_must_fail: bool,
+    /// Which plant, FIFO or hostile entry of [`LINKS`], [`FIFOS`] and [`HOSTILE_ENTRIES`].
+    variant: usize,
 }
+
+/// Names a build writes, with what is planted there: a symbolic link to a file outside the
+/// folder, one to a folder outside it, or a hard link to that file.
+const LINKS: [(&str, &str); 11] = [
+    (".tmlut.lock", "symlink to a file"),
+    (".tmlut.lock", "hard link to a file"),
+    ("gd.dds", "symlink to a file"),
+    ("gd.dds", "hard link to a file"),
+    ("manifest.json", "symlink to a file"),
+    ("manifest.json", "hard link to a file"),
+    ("maps", "symlink to a folder"),
+    (".tmlut-staging-1", "symlink to a folder"),
+    (".gd.dds.tmp-1", "symlink to a file"),
+    (".manifest.json.tmp-1", "symlink to a file"),
+    (".tmlut-commit.json", "symlink to a file"),
+];
+
+/// Inputs a FIFO takes the place of, each with the command that reads it.
+const FIFOS: [&str; 9] =
+    ["manifest.json", "gd.dds", "karis.exr", "config", "scene", "budgets", "form", ".tmlut-commit.json", "cache entry"];
+
+/// Hostile edits of a cache a scene build reads.
+const HOSTILE_ENTRIES: [&str; 6] = [
+    "every value of an entry raised by 0.25, its hash line recomputed",
+    "every value of an entry lowered by 0.05, its hash line recomputed",
+    "an entry's contents under another entry's key",
+    "an entry replaced by a symbolic link to a file outside",
+    "links to a file outside planted under names of temporaries",
+    "an entry's recorded inputs replaced, its hash line recomputed",
+];
 
 /// How each run of a case ended, and whether a damaged folder passed.
 #[derive(Default, Debug, Clone)]
@@ -387,7 +431,23 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
     let mut all = Vec::with_capacity(count);
     while all.len() < count {
         let roll = next(&mut rng, 100);
-        let case = if roll < 60 {
+        let case = if roll >= 88 {
+            let (reader, variant, what) = match roll {
+                88..=91 => {
+                    let variant = next(&mut rng, LINKS.len());
+                    (Reader::Link, variant, format!("{} at {}", LINKS[variant].1, LINKS[variant].0))
+                }
+                92..=95 => {
+                    let variant = next(&mut rng, FIFOS.len());
+                    (Reader::Fifo, variant, format!("a FIFO as {}", FIFOS[variant]))
+                }
+                _ => {
+                    let variant = next(&mut rng, HOSTILE_ENTRIES.len());
+                    (Reader::HostileCache, variant, HOSTILE_ENTRIES[variant].to_string())
+                }
+            };
+            Case { reader, what, file: String::new(), check_must_fail: false, bytes: Vec::new(), variant }
+        } else if roll < 52 {
             let file = *pick(&mut rng, &tables);
             let original = read(file);
             let (reader, (what, bytes)) = match (file.rsplit('.').next().unwrap(), next(&mut rng, 2)) {
@@ -403,16 +463,30 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
                 ("exr", _) => (Reader::Exr, damage(&mut rng, &original)),
                 _ => (Reader::Bin, damage(&mut rng, &original)),
             };
-            Case { reader, what, file: file.into(), check_must_fail: bytes != original, bytes }
-        } else if roll < 78 {
+            Case { reader, what, file: file.into(), check_must_fail: bytes != original, bytes, variant: 0 }
+        } else if roll < 68 {
             if next(&mut rng, 3) == 0 {
                 let (what, bytes) = manifest_text_damage(&mut rng, &manifest_bytes);
-                Case { reader: Reader::Manifest, what, file: "manifest.json".into(), check_must_fail: false, bytes }
+                Case {
+                    reader: Reader::Manifest,
+                    what,
+                    file: "manifest.json".into(),
+                    check_must_fail: false,
+                    bytes,
+                    variant: 0,
+                }
             } else {
                 let (what, bytes, _) = manifest_lie(&mut rng, &manifest);
-                Case { reader: Reader::Manifest, what, file: "manifest.json".into(), check_must_fail: true, bytes }
+                Case {
+                    reader: Reader::Manifest,
+                    what,
+                    file: "manifest.json".into(),
+                    check_must_fail: true,
+                    bytes,
+                    variant: 0,
+                }
             }
-        } else if roll < 80 {
+        } else if roll < 70 {
             let (what, bytes) = hostile_journal(&mut rng);
             Case {
                 reader: Reader::HostileJournal,
@@ -420,26 +494,41 @@ fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> V
                 file: ".tmlut-commit.json".into(),
                 check_must_fail: true,
                 bytes,
+                variant: 0,
             }
-        } else if roll < 81 {
+        } else if roll < 71 {
             let journal =
                 serde_json::json!({"staging": ".tmlut-staging-1", "moves": [{"staged": "x", "destination": "gd.bin"}]});
             let (what, bytes) = damage(&mut rng, &serde_json::to_vec(&journal).unwrap());
-            Case { reader: Reader::Journal, what, file: ".tmlut-commit.json".into(), check_must_fail: true, bytes }
-        } else if roll < 85 {
+            Case {
+                reader: Reader::Journal,
+                what,
+                file: ".tmlut-commit.json".into(),
+                check_must_fail: true,
+                bytes,
+                variant: 0,
+            }
+        } else if roll < 75 {
             let file = *pick(&mut rng, &shaders);
             let original = read(file);
             let (what, bytes) = damage(&mut rng, &original);
-            Case { reader: Reader::Shader, what, file: file.into(), check_must_fail: bytes != original, bytes }
-        } else if roll < 93 {
+            Case {
+                reader: Reader::Shader,
+                what,
+                file: file.into(),
+                check_must_fail: bytes != original,
+                bytes,
+                variant: 0,
+            }
+        } else if roll < 82 {
             let (what, bytes) = toml_damage(&mut rng, config);
-            Case { reader: Reader::Config, what, file: "config.toml".into(), check_must_fail: false, bytes }
+            Case { reader: Reader::Config, what, file: "config.toml".into(), check_must_fail: false, bytes, variant: 0 }
         } else if next(&mut rng, 3) == 0 {
             let (what, bytes) = hostile_names(&mut rng, scene);
-            Case { reader: Reader::Scene, what, file: "scene.toml".into(), check_must_fail: false, bytes }
+            Case { reader: Reader::Scene, what, file: "scene.toml".into(), check_must_fail: false, bytes, variant: 0 }
         } else {
             let (what, bytes) = toml_damage(&mut rng, scene);
-            Case { reader: Reader::Scene, what, file: "scene.toml".into(), check_must_fail: false, bytes }
+            Case { reader: Reader::Scene, what, file: "scene.toml".into(), check_must_fail: false, bytes, variant: 0 }
         };
         all.push(case);
     }
@@ -511,11 +600,243 @@ fn hostile_journal(rng: &mut Pcg64Mcg) -> (String, Vec<u8>) {
     (format!("{place} {path}"), serde_json::to_vec(&journal).unwrap())
 }
 
+/// What the cases of the cache share: a small scene, a cache its build filled, and the files of
+/// that build (the cache's honest output).
+struct SceneCache {
+    scene: PathBuf,
+    config: PathBuf,
+    cache: PathBuf,
+    clean: PathBuf,
+}
+
+/// The bytes a run must leave alone: `work/victim.txt` and the folder `work/victim`, created
+/// anew for each case.
+fn victims(work: &Path) -> (PathBuf, PathBuf) {
+    let (file, folder) = (work.join("victim.txt"), work.join("victim"));
+    std::fs::write(&file, "not tmlut's").unwrap();
+    let _ = std::fs::remove_dir_all(&folder);
+    std::fs::create_dir(&folder).unwrap();
+    std::fs::write(folder.join("kept"), "not tmlut's").unwrap();
+    (file, folder)
+}
+
+/// Whether a run changed either victim.
+fn victims_touched(file: &Path, folder: &Path) -> bool {
+    std::fs::read(file).ok().as_deref() != Some(b"not tmlut's".as_slice())
+        || snapshot(folder) != [("kept".into(), b"not tmlut's".to_vec())]
+}
+
+/// Plant `what` at `at`: a symbolic link to the victim file or folder, or a hard link to the file.
+fn plant(at: &Path, what: &str, file: &Path, folder: &Path) {
+    let _ = std::fs::remove_file(at);
+    let _ = std::fs::remove_dir_all(at);
+    match what {
+        "symlink to a file" => std::os::unix::fs::symlink(file, at).unwrap(),
+        "symlink to a folder" => std::os::unix::fs::symlink(folder, at).unwrap(),
+        _ => std::fs::hard_link(file, at).unwrap(),
+    }
+}
+
+fn mkfifo(path: &Path) {
+    let _ = std::fs::remove_file(path);
+    let made = std::process::Command::new("mkfifo").arg(path).status().unwrap();
+    assert!(made.success(), "mkfifo {}", path.display());
+}
+
+/// A cache entry's marker line and JSON body.
+fn entry_parts(bytes: &[u8]) -> (String, serde_json::Value) {
+    let newline = bytes.iter().position(|&b| b == b'\n').unwrap();
+    let line = String::from_utf8(bytes[..newline].to_vec()).unwrap();
+    (line, serde_json::from_slice(&bytes[newline + 1..]).unwrap())
+}
+
+/// `body` sealed under the marker of `line`, its SHA-256 recomputed: what an editor of the cache
+/// can write.
+fn resealed(line: &str, body: &serde_json::Value) -> Vec<u8> {
+    let body = serde_json::to_vec(body).unwrap();
+    let marker = &line[..line.rfind(' ').unwrap()];
+    let mut bytes = format!("{marker} {}\n", tmlut::loader::sha256_hex(&body)).into_bytes();
+    bytes.extend_from_slice(&body);
+    bytes
+}
+
+/// The slice entries of a cache folder, in name order.
+fn slice_entries(cache: &Path) -> Vec<PathBuf> {
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(cache)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "slice"))
+        .collect();
+    entries.sort();
+    entries
+}
+
 /// Run one case in `work` (a copy of the folder, with `config.toml` and `scene.toml` beside it)
 /// and put the file back. Returns each run's ending and whether a damaged folder was accepted.
-fn run_case(case: &Case, work: &Path, folder: &Path, built: &Path, budgets: &Path) -> (Vec<common::Run>, bool) {
+fn run_case(
+    case: &Case,
+    work: &Path,
+    folder: &Path,
+    built: &Path,
+    budgets: &Path,
+    scene_cache: &SceneCache,
+) -> (Vec<common::Run>, bool) {
     let folder_arg = folder.to_str().unwrap();
+    let config = work.join("config.toml");
+    let config_arg = config.to_str().unwrap();
     match case.reader {
+        Reader::Link => {
+            let (file, outside) = victims(work);
+            let (name, what) = LINKS[case.variant];
+            plant(&folder.join(name), what, &file, &outside);
+            let mut args = vec!["build", "-q", "--only", "gd", "--config", config_arg, "--out", folder_arg];
+            if name == "maps" {
+                args.push("--error-maps");
+            }
+            let build = run_limited(&args, TIME_LIMIT);
+            let lost = victims_touched(&file, &outside);
+            std::fs::remove_dir_all(folder).unwrap();
+            copy_folder(built, folder);
+            (vec![build], lost)
+        }
+        Reader::Fifo => {
+            let target = FIFOS[case.variant];
+            let fifo = match target {
+                "config" | "scene" | "budgets" | "form" => work.join(format!("fifo-{target}.toml")),
+                "cache entry" => work.join("cache"),
+                name => folder.join(name),
+            };
+            let fifo_arg = fifo.to_str().unwrap().to_string();
+            if target != "cache entry" {
+                mkfifo(&fifo);
+            }
+            let runs = match target {
+                "config" => vec![run_limited(
+                    &["build", "-q", "--only", "gd", "--config", &fifo_arg, "--out", folder_arg],
+                    TIME_LIMIT,
+                )],
+                "scene" => vec![run_limited(&["plan", &fifo_arg, "--config", config_arg], TIME_LIMIT)],
+                "budgets" => vec![run_limited(&["check", folder_arg, "--budgets", &fifo_arg], TIME_LIMIT)],
+                "form" => {
+                    let table = folder.join("karis.exr");
+                    let out = work.join("fit-out");
+                    vec![run_limited(
+                        &[
+                            "fit",
+                            "--form",
+                            &fifo_arg,
+                            "--table",
+                            table.to_str().unwrap(),
+                            "--out",
+                            out.to_str().unwrap(),
+                        ],
+                        TIME_LIMIT,
+                    )]
+                }
+                "cache entry" => {
+                    let _ = std::fs::remove_dir_all(&fifo);
+                    copy_folder(&scene_cache.cache, &fifo);
+                    mkfifo(&slice_entries(&fifo)[0]);
+                    let out = work.join("scene-out");
+                    let (scene, config) = (scene_cache.scene.to_str().unwrap(), scene_cache.config.to_str().unwrap());
+                    vec![run_limited(
+                        &[
+                            "build",
+                            "-q",
+                            "--scene",
+                            scene,
+                            "--config",
+                            config,
+                            "--cache",
+                            &fifo_arg,
+                            "--out",
+                            out.to_str().unwrap(),
+                        ],
+                        TIME_LIMIT,
+                    )]
+                }
+                ".tmlut-commit.json" => {
+                    vec![run_limited(
+                        &["build", "-q", "--only", "gd", "--config", config_arg, "--out", folder_arg],
+                        TIME_LIMIT,
+                    )]
+                }
+                _ => {
+                    let inspected = if target == "manifest.json" { folder.join("gd.dds") } else { fifo.clone() };
+                    vec![
+                        run_limited(&["check", folder_arg, "--budgets", budgets.to_str().unwrap()], TIME_LIMIT),
+                        run_limited(&["inspect", inspected.to_str().unwrap()], TIME_LIMIT),
+                    ]
+                }
+            };
+            let _ = std::fs::remove_file(work.join(format!("fifo-{target}.toml")));
+            std::fs::remove_dir_all(folder).unwrap();
+            copy_folder(built, folder);
+            (runs, false)
+        }
+        Reader::HostileCache => {
+            let (file, outside) = victims(work);
+            let cache = work.join("cache");
+            let _ = std::fs::remove_dir_all(&cache);
+            copy_folder(&scene_cache.cache, &cache);
+            // Without the whole build's record, the build reads the slices' entries one by one.
+            for record in std::fs::read_dir(&cache).unwrap().flatten().map(|e| e.path()) {
+                if record.extension().is_some_and(|e| e == "build") {
+                    std::fs::remove_file(record).unwrap();
+                }
+            }
+            let entries = slice_entries(&cache);
+            let first = &entries[0];
+            let (line, mut body) = entry_parts(&std::fs::read(first).unwrap());
+            match case.variant {
+                0 | 1 => {
+                    let by = if case.variant == 0 { 0.25 } else { -0.05 };
+                    for v in body["values"].as_array_mut().unwrap() {
+                        *v = serde_json::json!(v.as_f64().unwrap() + by);
+                    }
+                    std::fs::write(first, resealed(&line, &body)).unwrap();
+                }
+                2 => std::fs::copy(&entries[1], first).map(|_| ()).unwrap(),
+                3 => plant(first, "symlink to a file", &file, &outside),
+                4 => {
+                    for (k, entry) in entries.iter().enumerate() {
+                        let name = entry.file_name().unwrap().to_str().unwrap();
+                        plant(&cache.join(format!(".{name}.tmp-{k}")), "symlink to a file", &file, &outside);
+                    }
+                }
+                _ => {
+                    let (_, other) = entry_parts(&std::fs::read(&entries[1]).unwrap());
+                    body["inputs"] = other["inputs"].clone();
+                    std::fs::write(first, resealed(&line, &body)).unwrap();
+                }
+            }
+            let out = work.join("scene-out");
+            let _ = std::fs::remove_dir_all(&out);
+            let (scene, config) = (scene_cache.scene.to_str().unwrap(), scene_cache.config.to_str().unwrap());
+            let build = run_limited(
+                &[
+                    "build",
+                    "-q",
+                    "--scene",
+                    scene,
+                    "--config",
+                    config,
+                    "--cache",
+                    cache.to_str().unwrap(),
+                    "--out",
+                    out.to_str().unwrap(),
+                ],
+                TIME_LIMIT,
+            );
+            // Every file but the manifest (its wall times and cache notes) as a build without the
+            // cache wrote it.
+            let tables = |dir: &Path| -> Vec<_> {
+                snapshot(dir).into_iter().filter(|(name, _)| name != "manifest.json").collect()
+            };
+            let poisoned = build.ending == Ending::Success && tables(&out) != tables(&scene_cache.clean);
+            (vec![build], poisoned || victims_touched(&file, &outside))
+        }
         Reader::HostileJournal => {
             // A build completes a journal before it builds: it must refuse this one and touch
             // nothing outside the folder (nor, refusing, inside it).
@@ -619,6 +940,27 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
     let cases = cases(seed, count, &built, &config, &scene);
     let budgets = dir.path().join("budgets.toml");
     std::fs::write(&budgets, "").unwrap();
+    // A one-material scene built twice from the small set: into a cache, and without one (what
+    // a build reading a hostile cache must still write).
+    let scene_config = dir.path().join("scene-config.toml");
+    std::fs::write(&scene_config, common::SMALL_SET).unwrap();
+    let scene_cache = SceneCache {
+        scene: PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/luts/scenes/copper-pot.toml")),
+        config: scene_config,
+        cache: dir.path().join("scene-cache"),
+        clean: dir.path().join("scene-clean"),
+    };
+    for (out, cache) in [(dir.path().join("scene-cached"), Some(&scene_cache.cache)), (scene_cache.clean.clone(), None)]
+    {
+        let mut args = vec!["build", "-q", "--scene", scene_cache.scene.to_str().unwrap()];
+        args.extend(["--config", scene_cache.config.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        if let Some(cache) = cache {
+            args.extend(["--cache", cache.to_str().unwrap()]);
+        }
+        let run = run_limited(&args, TIME_LIMIT);
+        assert_eq!(run.ending, Ending::Success, "{}", run.stderr);
+    }
+    assert!(slice_entries(&scene_cache.cache).len() >= 2);
 
     // Two workers, each with its own copy of the folder; cases are dealt out in order.
     let workers = 2;
@@ -626,6 +968,7 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
     std::thread::scope(|scope| {
         for worker in 0..workers {
             let (cases, tallies, budgets, built, scene, config) = (&cases, &tallies, &budgets, &built, &scene, &config);
+            let scene_cache = &scene_cache;
             let work: PathBuf = dir.path().join(format!("worker{worker}"));
             scope.spawn(move || {
                 let folder = work.join("luts");
@@ -633,7 +976,7 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
                 std::fs::write(work.join("config.toml"), config).unwrap();
                 std::fs::write(work.join("scene.toml"), scene).unwrap();
                 for case in cases.iter().skip(worker).step_by(workers) {
-                    let (runs, lost) = run_case(case, &work, &folder, built, budgets);
+                    let (runs, lost) = run_case(case, &work, &folder, built, budgets, scene_cache);
                     let mut tallies = tallies.lock().unwrap();
                     let tally = tallies.entry(case.reader).or_default();
                     tally.cases += 1;

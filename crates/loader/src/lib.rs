@@ -20,6 +20,7 @@
 //! - [`error`]: the one error type, naming the file or key and what is allowed;
 //! - [`stats`], [`table`], [`physics`]: error records, axes with multilinear interpolation, and
 //!   the optics the tables integrate (the Fresnel basis a Belcour table is read with among them);
+//! - [`machine`]: the memory this process may use, read before a large file is decoded;
 //! - [`formats`]: DDS, KTX2, OpenEXR, the original `.bin` layout and the manifest;
 //! - [`shader`]: one emitter that prints a shader description as HLSL and WGSL;
 //! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and
@@ -29,6 +30,7 @@
 pub mod error;
 pub mod formats;
 pub mod loader;
+pub mod machine;
 pub mod packing;
 pub mod physics;
 pub mod shader;

@@ -458,6 +458,17 @@ impl Manifest {
     pub fn write(&self, dir: &Path) -> Result<()> {
         let mut text = serde_json::to_string_pretty(self).expect("a manifest is plain data and always serialises");
         text.push('\n');
+        // What every reader refuses is never written.
+        if text.len() as u64 > MAX_MANIFEST_BYTES {
+            return Err(Error::format(
+                dir.join(MANIFEST_FILE),
+                format!(
+                    "would be {} bytes long; a manifest may be at most {MAX_MANIFEST_BYTES} bytes, which tmlut's readers \
+                     hold it to: build fewer materials into one folder",
+                    text.len()
+                ),
+            ));
+        }
         write_bytes_atomically(&dir.join(MANIFEST_FILE), text.as_bytes())
     }
 

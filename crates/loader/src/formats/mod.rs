@@ -446,15 +446,32 @@ pub fn as_format_error(error: Error, path: &Path) -> Error {
 /// (`tmlut`'s `recipes::MAX_BUILD_BYTES` bounds what one table needs in memory, well below it).
 pub const MAX_TABLE_FILE_BYTES: u64 = 1 << 32;
 
-/// The largest `manifest.json` or furnace report tmlut reads: 64 MiB (the default set's manifest is
-/// about 1 MiB; a scene's carries its text and plan).
-pub const MAX_MANIFEST_BYTES: u64 = 64 << 20;
+/// The largest `manifest.json` or furnace report tmlut reads or writes: 256 MiB. The default set's
+/// manifest is about 1 MiB; a scene's carries its text, its plan and an entry per slice, and the
+/// largest library a build plans (10,240 materials, `scene::library::MAX_LIBRARY_MATERIALS`) writes
+/// about 90 MB (`docs/scenes.md`).
+pub const MAX_MANIFEST_BYTES: u64 = 256 << 20;
+
+/// The largest shader file tmlut reads or writes: 512 MiB. A library's shader has a function per
+/// material in each language, about 8 KiB of WGSL each: the largest library's is about 90 MB.
+pub const MAX_SHADER_FILE_BYTES: u64 = 512 << 20;
 
 /// The largest configuration, scene or budgets file tmlut reads: 16 MiB.
 pub const MAX_TEXT_INPUT_BYTES: u64 = 16 << 20;
 
 /// Read a table file, naming it in the error. See [`read_bytes_at_most`].
+///
+/// A table is read whole and then decoded to f32 values: up to three times the file's length
+/// (an f16 file's values double). A file above 64 MiB is first held to the memory this process
+/// may use ([`crate::machine::beyond_limit`]), so that a reader under a memory limit refuses it
+/// rather than abort on the allocation.
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    if let Ok(metadata) = std::fs::metadata(path)
+        && metadata.len() >= 64 << 20
+        && let Some(words) = crate::machine::beyond_limit(3 * u128::from(metadata.len()), "reading and decoding it")
+    {
+        return Err(Error::format(path, words));
+    }
     read_bytes_at_most(path, MAX_TABLE_FILE_BYTES, "a table file")
 }
 

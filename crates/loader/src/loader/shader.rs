@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 use super::{Manifest, sha256_hex};
 use crate::error::{Error, Result};
 use crate::formats::manifest::{MANIFEST_FILE, check_file_name};
-use crate::formats::{MAX_MANIFEST_BYTES, read_bytes_at_most};
+use crate::formats::{MAX_SHADER_FILE_BYTES, read_bytes_at_most};
 
 /// The suffix of a scene shader's description file: `<scene>.shader.json`.
 pub const DESCRIPTION_SUFFIX: &str = ".shader.json";
@@ -146,7 +146,7 @@ pub(crate) fn read_text_verified(
 ) -> Result<String> {
     check_file_name(file).map_err(|reason| Error::format(dir.join(MANIFEST_FILE), reason))?;
     let path = dir.join(file);
-    let bytes = read_bytes_at_most(&path, MAX_MANIFEST_BYTES, "a shader file")?;
+    let bytes = read_bytes_at_most(&path, MAX_SHADER_FILE_BYTES, "a shader file")?;
     let mut disagreements = Vec::new();
     if let Some(stated) = stated_bytes
         && stated != bytes.len() as u64

@@ -4,7 +4,7 @@
 //! Three limits can end a build: the physical memory, the address-space limit of the process
 //! (`ulimit -v`, `RLIMIT_AS`) and the memory limit of its control group (a container's or a
 //! systemd unit's `MemoryMax`). Each is read where Linux states it; a limit that cannot be read is
-//! treated as absent, so other systems build as before, bounded by [`crate::recipes::MAX_BUILD_BYTES`].
+//! treated as absent, so other systems build as before, bounded by `tmlut`'s `recipes::MAX_BUILD_BYTES`.
 
 use std::path::Path;
 
@@ -31,6 +31,25 @@ pub fn memory_limit() -> Option<MemoryLimit> {
         limits.push(limit);
     }
     limits.into_iter().min_by_key(|l| l.bytes)
+}
+
+/// Where `needed` bytes are more than this process may use ([`memory_limit`]), the words that
+/// say so: `{what} needs about N GiB; this process may use at most M GiB ({source})`.
+pub fn beyond_limit(needed: u128, what: &str) -> Option<String> {
+    let limit = memory_limit()?;
+    (needed > u128::from(limit.bytes)).then(|| {
+        format!(
+            "{what} needs about {}; this process may use at most {} ({})",
+            gib(needed),
+            gib(u128::from(limit.bytes)),
+            limit.source
+        )
+    })
+}
+
+/// Bytes as GiB, one decimal.
+pub fn gib(bytes: u128) -> String {
+    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
 
 /// `MemTotal` of `/proc/meminfo`, in bytes.
