@@ -261,6 +261,12 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
             format!("{} scene names for {count} materials; one per material", scenes.len()),
         ));
     }
+    crate::scene::memory::check(
+        &format!("scene `{}`", request.scene.name),
+        &format!("the furnace of its {count} materials"),
+        crate::scene::memory::BASE_BYTES + crate::scene::memory::FURNACE_BYTES_PER_MATERIAL * count as u128,
+        "measure fewer materials at a time",
+    )?;
     // Taken before anything is read or built: a second run into the folder waits, and what an
     // interrupted run left (a commit half done, staging folders) is completed or removed first.
     let folder_lock = OutputFolder::take(&request.out, |message| progress.note(message))?;

@@ -228,6 +228,18 @@ pub fn build_scene(
         return Err(Error::invalid("--shard", "a shard writes its tables into a cache folder: give --cache DIR"));
     }
     let plan = plan(&request.scene, &config)?;
+    // The slices' builds are held until the arrays are written; the scene's shader follows a
+    // build that is not a shard.
+    let slice_count = plan.tables.iter().filter(|t| matches!(t.build, PlannedBuild::Slices(_))).count();
+    let shader = if request.shard.is_none() { request.scene.materials.len() as u128 } else { 0 };
+    super::memory::check(
+        &format!("scene `{}`", request.scene.name),
+        &format!("building its {slice_count} slices and the shader of its {} materials", request.scene.materials.len()),
+        super::memory::BASE_BYTES
+            + super::memory::BYTES_PER_SLICE * slice_count as u128
+            + super::memory::SHADER_BYTES_PER_MATERIAL * shader,
+        "build fewer materials at a time (split the library, or --shard)",
+    )?;
     let plan_s = started.elapsed().as_secs_f64();
     let owned_places = request.shard.map(|shard| shard.owned(&plan));
     let owned = |place: usize| owned_places.as_ref().is_none_or(|o| o[place]);

@@ -33,6 +33,7 @@ pub mod cache;
 pub mod certify;
 pub mod library;
 pub mod lookups;
+pub mod memory;
 mod parse;
 pub mod plan;
 pub mod shader_files;

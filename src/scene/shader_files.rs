@@ -131,6 +131,12 @@ pub fn reference(
 /// scene shader it listed before; elsewhere the files are committed as one set, `.shader.json` last.
 pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_views: usize) -> Result<Vec<PathBuf>> {
     check_reference_views(reference_views, scene.materials.len())?;
+    super::memory::check(
+        &format!("scene `{}`", scene.name),
+        &format!("the shader of its {} materials", scene.materials.len()),
+        super::memory::BASE_BYTES + super::memory::SHADER_BYTES_PER_MATERIAL * scene.materials.len() as u128,
+        "shade fewer materials in one scene",
+    )?;
     std::fs::create_dir_all(out).map_err(|source| Error::io(out, source))?;
     // Taken before the tables are read: into the folder of `luts`, no build changes them between
     // the reading and the commit.

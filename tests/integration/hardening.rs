@@ -272,3 +272,33 @@ fn count_options_beyond_any_machine_are_refused_naming_the_option_and_its_range(
     }
     assert!(!std::path::Path::new(out).exists(), "nothing is created for a refused command");
 }
+
+#[test]
+fn a_library_or_a_table_file_beyond_the_memory_limit_is_refused_before_it_is_allocated() {
+    let dir = tempfile::tempdir().unwrap();
+    // 5,000 generated materials need about 2.5 GiB of address space to build with their shader:
+    // under the tests' 2 GiB the build is refused once planned, naming the limit, where it
+    // aborted on an allocation after a minute.
+    let library = dir.path().join("lib5000");
+    let made = std::process::Command::new("python3")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/make-library"))
+        .args(["5000", "1", library.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
+    let out = dir.path().join("out");
+    let run = run_limited(
+        &["build", "-q", "--scene", library.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        Duration::from_secs(120),
+    );
+    assert_clean_error(&run, &["5000 materials needs about", "address-space limit (ulimit -v)", "--shard"]);
+    assert!(!out.exists(), "nothing is created for a refused build");
+
+    // A table file of 1.5 GiB (sparse: no disk used) read and decoded needs three times that.
+    let big = dir.path().join("big.dds");
+    let mut file = std::fs::File::create(&big).unwrap();
+    std::io::Write::write_all(&mut file, b"DDS ").unwrap();
+    file.set_len(1536 << 20).unwrap();
+    let run = run_limited(&["inspect", big.to_str().unwrap()], QUICK);
+    assert_clean_error(&run, &["big.dds", "reading and decoding it needs about 4.5 GiB"]);
+}
