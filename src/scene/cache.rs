@@ -441,7 +441,8 @@ pub(crate) fn verify_values<K: Kernel + ?Sized>(kernel: &K, table: &Table) -> st
         let exact = kernel.exact_value(&quadrature, &position);
         for (channel, (&stored, exact)) in table.node(&index).iter().zip(exact).enumerate() {
             let difference = (f64::from(stored) - exact).abs();
-            if !(difference <= allowed) {
+            // A NaN stored or integrated fails too.
+            if difference.is_nan() || difference > allowed {
                 return Err(format!(
                     "its value at node {position:?}, channel {channel}, is {stored}, the exact integral {exact:.6}: \
                      they differ by {difference:.3e}, more than the {allowed:.3e} any honest build differs by"

@@ -616,18 +616,11 @@ fn largest_entry(dir: &Path) -> PathBuf {
 /// Edit a cache entry as someone with write access to the folder can: every value raised by
 /// `by`, the marker line's SHA-256 recomputed.
 fn reseal_raising_values(entry: &Path, by: f64) {
-    let bytes = std::fs::read(entry).unwrap();
-    let newline = bytes.iter().position(|&b| b == b'\n').unwrap();
-    let line = std::str::from_utf8(&bytes[..newline]).unwrap();
-    let mut value: serde_json::Value = serde_json::from_slice(&bytes[newline + 1..]).unwrap();
-    for v in value["values"].as_array_mut().unwrap() {
+    let (line, mut body) = common::entry_parts(&std::fs::read(entry).unwrap());
+    for v in body["values"].as_array_mut().unwrap() {
         *v = serde_json::json!(v.as_f64().unwrap() + by);
     }
-    let body = serde_json::to_vec(&value).unwrap();
-    let marker = &line[..line.rfind(' ').unwrap()];
-    let mut resealed = format!("{marker} {}\n", tmlut::loader::sha256_hex(&body)).into_bytes();
-    resealed.extend_from_slice(&body);
-    std::fs::write(entry, resealed).unwrap();
+    std::fs::write(entry, common::resealed(&line, &body)).unwrap();
 }
 
 #[test]

@@ -229,3 +229,20 @@ pub fn validate_wgsl_files(dir: &Path) -> usize {
     }
     count
 }
+
+/// A cache entry's marker line and JSON body.
+pub fn entry_parts(bytes: &[u8]) -> (String, serde_json::Value) {
+    let newline = bytes.iter().position(|&b| b == b'\n').unwrap();
+    let line = String::from_utf8(bytes[..newline].to_vec()).unwrap();
+    (line, serde_json::from_slice(&bytes[newline + 1..]).unwrap())
+}
+
+/// `body` sealed under the marker of `line`, its SHA-256 recomputed: what an editor of the cache
+/// can write.
+pub fn resealed(line: &str, body: &serde_json::Value) -> Vec<u8> {
+    let body = serde_json::to_vec(body).unwrap();
+    let marker = &line[..line.rfind(' ').unwrap()];
+    let mut bytes = format!("{marker} {}\n", tmlut::loader::sha256_hex(&body)).into_bytes();
+    bytes.extend_from_slice(&body);
+    bytes
+}

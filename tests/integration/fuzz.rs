@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Duration;
 
-use common::{Ending, run_limited};
+use common::{Ending, entry_parts, resealed, run_limited};
 use rand_pcg::Pcg64Mcg;
 use rand_pcg::rand_core::RngCore;
 
@@ -83,13 +83,15 @@ const FIFOS: [&str; 9] =
     ["manifest.json", "gd.dds", "karis.exr", "config", "scene", "budgets", "form", ".tmlut-commit.json", "cache entry"];
 
 /// Hostile edits of a cache a scene build reads.
-const HOSTILE_ENTRIES: [&str; 6] = [
+const HOSTILE_ENTRIES: [&str; 8] = [
     "every value of an entry raised by 0.25, its hash line recomputed",
     "every value of an entry lowered by 0.05, its hash line recomputed",
     "an entry's contents under another entry's key",
     "an entry replaced by a symbolic link to a file outside",
     "links to a file outside planted under names of temporaries",
     "an entry's recorded inputs replaced, its hash line recomputed",
+    "every value of a shard's entry raised by 0.25, its hash line recomputed, then merged",
+    "a shard's entry under another entry's key, then merged",
 ];
 
 /// How each run of a case ended, and whether a damaged folder passed.
@@ -403,7 +405,8 @@ fn toml_damage(rng: &mut Pcg64Mcg, original: &str) -> (String, Vec<u8>) {
 /// Every case, from `seed`: tables of every format most, then the manifest, the commit journal,
 /// shaders, configurations and scenes.
 fn cases(seed: u64, count: usize, folder: &Path, config: &str, scene: &str) -> Vec<Case> {
-    let mut rng = Pcg64Mcg::new(seed as u128 | 1);
+    // Odd, as the generator needs, and distinct for every seed (`seed | 1` made 2 and 3 one stream).
+    let mut rng = Pcg64Mcg::new((seed as u128) << 1 | 1);
     let read = |name: &str| std::fs::read(folder.join(name)).unwrap();
     let manifest_bytes = read("manifest.json");
     let manifest: serde_json::Value = serde_json::from_slice(&manifest_bytes).unwrap();
@@ -607,6 +610,8 @@ struct SceneCache {
     config: PathBuf,
     cache: PathBuf,
     clean: PathBuf,
+    /// The scene built as two shards (`--shard 1/2`, `2/2`), for `tmlut merge`.
+    shards: [PathBuf; 2],
 }
 
 /// The bytes a run must leave alone: `work/victim.txt` and the folder `work/victim`, created
@@ -641,23 +646,6 @@ fn mkfifo(path: &Path) {
     let _ = std::fs::remove_file(path);
     let made = std::process::Command::new("mkfifo").arg(path).status().unwrap();
     assert!(made.success(), "mkfifo {}", path.display());
-}
-
-/// A cache entry's marker line and JSON body.
-fn entry_parts(bytes: &[u8]) -> (String, serde_json::Value) {
-    let newline = bytes.iter().position(|&b| b == b'\n').unwrap();
-    let line = String::from_utf8(bytes[..newline].to_vec()).unwrap();
-    (line, serde_json::from_slice(&bytes[newline + 1..]).unwrap())
-}
-
-/// `body` sealed under the marker of `line`, its SHA-256 recomputed: what an editor of the cache
-/// can write.
-fn resealed(line: &str, body: &serde_json::Value) -> Vec<u8> {
-    let body = serde_json::to_vec(body).unwrap();
-    let marker = &line[..line.rfind(' ').unwrap()];
-    let mut bytes = format!("{marker} {}\n", tmlut::loader::sha256_hex(&body)).into_bytes();
-    bytes.extend_from_slice(&body);
-    bytes
 }
 
 /// The slice entries of a cache folder, in name order.
@@ -777,9 +765,10 @@ fn run_case(
         }
         Reader::HostileCache => {
             let (file, outside) = victims(work);
+            let merging = case.variant >= 6;
             let cache = work.join("cache");
             let _ = std::fs::remove_dir_all(&cache);
-            copy_folder(&scene_cache.cache, &cache);
+            copy_folder(if merging { &scene_cache.shards[0] } else { &scene_cache.cache }, &cache);
             // Without the whole build's record, the build reads the slices' entries one by one.
             for record in std::fs::read_dir(&cache).unwrap().flatten().map(|e| e.path()) {
                 if record.extension().is_some_and(|e| e == "build") {
@@ -790,14 +779,14 @@ fn run_case(
             let first = &entries[0];
             let (line, mut body) = entry_parts(&std::fs::read(first).unwrap());
             match case.variant {
-                0 | 1 => {
-                    let by = if case.variant == 0 { 0.25 } else { -0.05 };
+                0 | 1 | 6 => {
+                    let by = if case.variant == 1 { -0.05 } else { 0.25 };
                     for v in body["values"].as_array_mut().unwrap() {
                         *v = serde_json::json!(v.as_f64().unwrap() + by);
                     }
                     std::fs::write(first, resealed(&line, &body)).unwrap();
                 }
-                2 => std::fs::copy(&entries[1], first).map(|_| ()).unwrap(),
+                2 | 7 => std::fs::copy(&entries[1], first).map(|_| ()).unwrap(),
                 3 => plant(first, "symlink to a file", &file, &outside),
                 4 => {
                     for (k, entry) in entries.iter().enumerate() {
@@ -814,21 +803,14 @@ fn run_case(
             let out = work.join("scene-out");
             let _ = std::fs::remove_dir_all(&out);
             let (scene, config) = (scene_cache.scene.to_str().unwrap(), scene_cache.config.to_str().unwrap());
-            let build = run_limited(
-                &[
-                    "build",
-                    "-q",
-                    "--scene",
-                    scene,
-                    "--config",
-                    config,
-                    "--cache",
-                    cache.to_str().unwrap(),
-                    "--out",
-                    out.to_str().unwrap(),
-                ],
-                TIME_LIMIT,
-            );
+            let (cache, out_arg) = (cache.to_str().unwrap(), out.to_str().unwrap());
+            let args: Vec<&str> = if merging {
+                let second = scene_cache.shards[1].to_str().unwrap();
+                vec!["merge", "-q", "--scene", scene, "--config", config, "--out", out_arg, cache, second]
+            } else {
+                vec!["build", "-q", "--scene", scene, "--config", config, "--cache", cache, "--out", out_arg]
+            };
+            let build = run_limited(&args, TIME_LIMIT);
             // Every file but the manifest (its wall times and cache notes) as a build without the
             // cache wrote it.
             let tables = |dir: &Path| -> Vec<_> {
@@ -949,7 +931,15 @@ fn every_reader_survives_thousands_of_damaged_inputs() {
         config: scene_config,
         cache: dir.path().join("scene-cache"),
         clean: dir.path().join("scene-clean"),
+        shards: [dir.path().join("shard-1"), dir.path().join("shard-2")],
     };
+    for (k, shard) in scene_cache.shards.iter().enumerate() {
+        let part = format!("{}/2", k + 1);
+        let mut args = vec!["build", "-q", "--scene", scene_cache.scene.to_str().unwrap(), "--shard", &part];
+        args.extend(["--config", scene_cache.config.to_str().unwrap(), "--cache", shard.to_str().unwrap()]);
+        let run = run_limited(&args, TIME_LIMIT);
+        assert_eq!(run.ending, Ending::Success, "{}", run.stderr);
+    }
     for (out, cache) in [(dir.path().join("scene-cached"), Some(&scene_cache.cache)), (scene_cache.clean.clone(), None)]
     {
         let mut args = vec!["build", "-q", "--scene", scene_cache.scene.to_str().unwrap()];
