@@ -99,11 +99,13 @@ impl OutputFolder {
     /// A new staging folder for this build, created exclusively under a name no other process
     /// can predict: nothing planted in the folder can be where the build writes its files.
     pub fn staging(&self) -> Result<Staging> {
+        let mut tries = 0;
         loop {
             let dir = self.dir.join(format!("{STAGING_PREFIX}{}", unpredictable_name()));
             match std::fs::create_dir(&dir) {
                 Ok(()) => return Ok(Staging { dir, keep: false }),
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                // A name taken (by chance, or planted) is passed over for another.
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && tries < 16 => tries += 1,
                 Err(source) => return Err(Error::io(&dir, source)),
             }
         }

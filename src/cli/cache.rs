@@ -32,7 +32,16 @@ pub fn exec(args: CacheArgs, context: &Context) -> tmlut::Result<()> {
         println!("table cache {}: no cache there yet (a build with --cache creates it)", dir.display());
         return Ok(());
     }
-    let shown = |usage: CacheUsage| format!("{} entries, {}", usage.entries, human_bytes(usage.bytes));
+    let shown = |usage: CacheUsage| {
+        let unmarked = match usage.unmarked {
+            0 => String::new(),
+            n => format!(
+                " ({n} files named as entries are not this tmlut's: an earlier cache format's, neither counted nor \
+                 pruned; remove them by hand)"
+            ),
+        };
+        format!("{} entries, {}{unmarked}", usage.entries, human_bytes(usage.bytes))
+    };
     let before = cache::usage(&dir)?;
     if args.verify {
         let verified = cache::verify(&dir, &context.progress())?;

@@ -920,6 +920,9 @@ fn rebuild(inputs: &str, progress: &dyn crate::integrate::Progress) -> std::resu
 pub struct CacheUsage {
     pub entries: usize,
     pub bytes: u64,
+    /// Files named as entries that do not begin with this tmlut's marker (an earlier cache
+    /// format's, or not a cache's): neither counted nor pruned.
+    pub unmarked: usize,
 }
 
 /// The files of the cache at `dir` that are provably its own, oldest first, with their sizes:
@@ -949,7 +952,22 @@ fn entries(dir: &Path) -> Result<Vec<(PathBuf, u64, std::time::SystemTime)>> {
 pub fn usage(dir: &Path) -> Result<CacheUsage> {
     claim(dir)?;
     let entries = entries(dir)?;
-    Ok(CacheUsage { entries: entries.len(), bytes: entries.iter().map(|e| e.1).sum() })
+    Ok(CacheUsage {
+        entries: entries.len(),
+        bytes: entries.iter().map(|e| e.1).sum(),
+        unmarked: unmarked(dir, &entries),
+    })
+}
+
+/// Regular files of `dir` named as entries that [`entries`] did not find its own.
+fn unmarked(dir: &Path, own: &[(PathBuf, u64, std::time::SystemTime)]) -> usize {
+    let Ok(listing) = std::fs::read_dir(dir) else { return 0 };
+    listing
+        .flatten()
+        .filter(|e| is_entry_name(&e.file_name().to_string_lossy()))
+        .filter(|e| e.path().symlink_metadata().is_ok_and(|m| m.is_file()))
+        .filter(|e| !own.iter().any(|(path, ..)| *path == e.path()))
+        .count()
 }
 
 /// Remove the oldest entries of the cache at `dir` until it holds at most `max_bytes` (0 empties
@@ -958,10 +976,10 @@ pub fn usage(dir: &Path) -> Result<CacheUsage> {
 pub fn prune(dir: &Path, max_bytes: u64) -> Result<CacheUsage> {
     claim(dir)?;
     remove_abandoned_temporaries(dir);
-    let entries = entries(dir)?;
-    let mut total: u64 = entries.iter().map(|e| e.1).sum();
-    let mut left = entries.len();
-    for (path, bytes, _) in &entries {
+    let oldest_first = entries(dir)?;
+    let mut total: u64 = oldest_first.iter().map(|e| e.1).sum();
+    let mut left = oldest_first.len();
+    for (path, bytes, _) in &oldest_first {
         if total <= max_bytes {
             break;
         }
@@ -969,7 +987,8 @@ pub fn prune(dir: &Path, max_bytes: u64) -> Result<CacheUsage> {
         total -= bytes;
         left -= 1;
     }
-    Ok(CacheUsage { entries: left, bytes: total })
+    let kept = entries(dir)?;
+    Ok(CacheUsage { entries: left, bytes: total, unmarked: unmarked(dir, &kept) })
 }
 #[cfg(test)]
 mod tests {
@@ -1028,6 +1047,11 @@ mod tests {
         assert_eq!(usage(dir.path()).unwrap().entries, 1);
         assert_eq!(prune(dir.path(), 0).unwrap(), CacheUsage::default());
         assert!(cache.get(&slice("a", 1.5), 3).is_none());
+        // An entry of an earlier format (no marker line) is the folder's by name only: left alone, and said.
+        let old_format = dir.path().join(format!("{}.slice", "a".repeat(64)));
+        std::fs::write(&old_format, format!("{}\n{{}}", "b".repeat(64))).unwrap();
+        assert_eq!(prune(dir.path(), 0).unwrap(), CacheUsage { unmarked: 1, ..CacheUsage::default() });
+        assert!(old_format.exists());
     }
 
     #[test]
@@ -1105,7 +1129,7 @@ mod tests {
         let impostor = cache_dir.join(format!("{}.object", "0".repeat(64)));
         std::fs::write(&impostor, b"a user's file").unwrap();
         assert_eq!(usage(&cache_dir).unwrap().entries, 1);
-        assert_eq!(prune(&cache_dir, 0).unwrap(), CacheUsage::default());
+        assert_eq!(prune(&cache_dir, 0).unwrap(), CacheUsage { unmarked: 1, ..CacheUsage::default() });
         assert!(impostor.exists() && cache_dir.join(TAG_FILE).exists());
     }
 
