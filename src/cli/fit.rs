@@ -203,7 +203,8 @@ fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context
                 table = Some(tmlut::loader::load_table(&args.table)?);
             }
             let name = tmlut::fit::text::form::form_name(&path);
-            let out = args.out.join("fits").join(&name);
+            // Folders tmlut makes inside the given one: never a link planted there.
+            let out = tmlut::formats::files::create_folders_inside(&args.out, &Path::new("fits").join(&name))?;
             let options = tmlut::fit::text::FitOptions {
                 table: args.table.clone(),
                 settings,

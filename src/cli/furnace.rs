@@ -145,8 +145,11 @@ pub fn exec(args: FurnaceArgs, context: &Context) -> tmlut::Result<()> {
         for warning in &run.scene.warnings {
             eprintln!("warning: {warning}");
         }
+        // Each scene's folder is one tmlut makes inside the given one: never a link planted there.
+        let stem = tmlut::furnace::report::file_stem(&run.scene.name);
+        let out = tmlut::formats::files::create_folders_inside(&args.out, std::path::Path::new(&stem))?;
         let request = tmlut::furnace::FurnaceRequest {
-            out: args.out.join(tmlut::furnace::report::file_stem(&run.scene.name)),
+            out,
             scene: run.scene,
             material_scenes: run.material_scenes,
             source: run.source,

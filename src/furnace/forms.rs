@@ -132,7 +132,8 @@ pub fn rank_forms(request: &FormRankRequest, progress: &dyn Progress) -> Result<
             source: request.source.clone(),
             text: request.text.clone(),
             luts,
-            out: request.out.join(folder),
+            // Folders tmlut makes inside the given one: never a link planted there.
+            out: crate::formats::files::create_folders_inside(&request.out, folder)?,
             config: request.config.clone(),
             settings: settings.clone(),
         };

@@ -275,7 +275,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
     let luts = match &request.luts {
         Some(dir) => dir.clone(),
         None => {
-            let dir = request.out.join("luts");
+            let dir = crate::formats::files::create_folders_inside(&request.out, Path::new("luts"))?;
             // The furnace measures the tables in the material itself: the tables' own reference
             // checks and the slices' accuracy reports would only repeat it, slower.
             let mut config = request.config.clone();

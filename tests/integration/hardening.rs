@@ -302,3 +302,31 @@ fn a_library_or_a_table_file_beyond_the_memory_limit_is_refused_before_it_is_all
     let run = run_limited(&["inspect", big.to_str().unwrap()], QUICK);
     assert_clean_error(&run, &["big.dds", "reading and decoding it needs about 4.5 GiB"]);
 }
+
+#[test]
+fn a_link_planted_where_a_command_makes_its_own_folder_is_refused_not_followed() {
+    let dir = tempfile::tempdir().unwrap();
+    let victim = dir.path().join("victim");
+    std::fs::create_dir(&victim).unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    // `tmlut furnace` writes each scene into a folder of its name inside --out.
+    std::os::unix::fs::symlink(&victim, out.join("copper-pot")).unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/luts/scenes/copper-pot.toml");
+    let run = run_limited(&["furnace", scene, "--walk", "none", "--out", out.to_str().unwrap()], QUICK);
+    assert_clean_error(&run, &["copper-pot", "symbolic link", "never writes through a link"]);
+    // `tmlut fit --form DIR` writes each form into a folder of its name.
+    let built = small_build(dir.path(), &["--only", "karis"]);
+    std::os::unix::fs::symlink(&victim, out.join("karis_env_brdf_approx")).unwrap();
+    let form = concat!(env!("CARGO_MANIFEST_DIR"), "/luts/forms/karis-env-brdf-approx.toml");
+    let forms = dir.path().join("forms");
+    std::fs::create_dir(&forms).unwrap();
+    std::fs::copy(form, forms.join("karis-env-brdf-approx.toml")).unwrap();
+    let table = built.join("karis.dds");
+    let run = run_limited(
+        &["fit", "--form", forms.to_str().unwrap(), "--table", table.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        QUICK,
+    );
+    assert_clean_error(&run, &["karis_env_brdf_approx", "symbolic link"]);
+    assert_eq!(std::fs::read_dir(&victim).unwrap().count(), 0, "nothing was written through a link");
+}

@@ -1034,6 +1034,8 @@ pub fn fit_form_files(table: &Table, request: &FolderFitRequest) -> Result<Folde
     let mut forms = Vec::with_capacity(request.files.len());
     let folders = super::form::distinct_form_names(&request.files)?;
     for (file, folder) in request.files.iter().zip(folders) {
+        // Each form's folder is one tmlut makes inside the given one: never a link planted there.
+        crate::formats::files::create_folders_inside(&request.out, Path::new(&folder))?;
         let one =
             FormFitRequest { form: file.clone(), out: request.out.join(&folder), options: request.options.clone() };
         let report = fit_form_file(table, &one)?;

@@ -236,6 +236,27 @@ pub fn create_folder_inside(path: &Path) -> Result<()> {
     }
 }
 
+/// Create the folder `base/relative` for tmlut's own use: `base`, a folder tmlut was given, is
+/// created if missing (a link the user named there is theirs to name), and each component of
+/// `relative` below it by [`create_folder_inside`], so that a link planted there is refused.
+pub fn create_folders_inside(base: &Path, relative: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(base).map_err(|source| Error::io(base, source))?;
+    let mut path = base.to_path_buf();
+    for component in relative.components() {
+        match component {
+            std::path::Component::Normal(name) => path.push(name),
+            other => {
+                return Err(Error::invalid(
+                    "output folder",
+                    format!("`{}` is not a plain name ({other:?}) inside {}", relative.display(), base.display()),
+                ));
+            }
+        }
+        create_folder_inside(&path)?;
+    }
+    Ok(path)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -287,6 +308,10 @@ mod tests {
         assert!(create_folder_inside(&out.join("maps")).unwrap_err().to_string().contains("symbolic link"));
         create_folder_inside(&out.join("real")).unwrap();
         create_folder_inside(&out.join("real")).unwrap();
+        assert!(create_folders_inside(&out, Path::new("maps/x")).is_err());
+        assert!(!dir.path().join("x").exists());
+        assert_eq!(create_folders_inside(&out, Path::new("a/b")).unwrap(), out.join("a/b"));
+        assert!(create_folders_inside(&out, Path::new("../c")).is_err());
     }
 
     #[cfg(unix)]
