@@ -340,7 +340,7 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
     if !reports.is_empty() {
         check_furnace(dir, &reports, budgets, &mut findings);
     }
-    report_unlisted(dir, &listed, budgets.strict, &mut findings);
+    report_unlisted(dir, listed, budgets.strict, &mut findings);
     Ok(findings)
 }
 
@@ -350,11 +350,10 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
 /// maps, a furnace run's own folder); the commit journal is reported apart.
 fn report_unlisted(
     dir: &Path,
-    listed_by_manifest: &std::collections::BTreeSet<String>,
+    mut listed: std::collections::BTreeSet<String>,
     strict: bool,
     findings: &mut Vec<Finding>,
 ) {
-    let mut listed = listed_by_manifest.clone();
     listed.extend([MANIFEST_FILE, FURNACE_FILE, COMMIT_JOURNAL, crate::commit::LOCK_FILE].map(String::from));
     if let Ok(report) = FurnaceReport::read(&dir.join(FURNACE_FILE)) {
         listed.extend(report.materials.iter().flat_map(|m| m.files.iter().cloned()));

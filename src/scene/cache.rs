@@ -327,7 +327,7 @@ impl SliceCache {
     pub fn get(&self, slices: &Slices, seed: u64) -> Option<TableBuild> {
         let expected = slices.empty_table().ok()?;
         // The channels' descriptions name the materials that read them: this build's.
-        let mut build = self.get_by_key(&CacheKey::of_slices(slices, seed), slices)?;
+        let mut build = self.read_verified(&CacheKey::of_slices(slices, seed), slices, &expected.axes)?;
         build.table.name = expected.name;
         build.table.channels = expected.channels;
         Some(build)
@@ -337,6 +337,16 @@ impl SliceCache {
     /// inputs, its axes, and its values against the exact integral at [`VERIFIED_NODES`] nodes
     /// no one can predict.
     pub fn get_by_key<K: Kernel + ?Sized>(&self, key: &CacheKey, kernel: &K) -> Option<TableBuild> {
+        self.read_verified(key, kernel, &kernel.empty_table().ok()?.axes)
+    }
+
+    /// [`SliceCache::get_by_key`] of a table whose axes must be `axes`.
+    fn read_verified<K: Kernel + ?Sized>(
+        &self,
+        key: &CacheKey,
+        kernel: &K,
+        axes: &[crate::table::Axis],
+    ) -> Option<TableBuild> {
         if !self.usable() {
             return None;
         }
@@ -355,13 +365,12 @@ impl SliceCache {
                 return None;
             }
         };
-        let expected = kernel.empty_table().ok()?;
         let verified = decode(&bytes, &key.hex)
             .and_then(|entry| {
                 if entry.inputs != key.inputs {
                     return Err("its recorded inputs are not this table's".into());
                 }
-                into_build(&expected.axes, entry)
+                into_build(axes, entry)
             })
             .and_then(|build| verify_values(kernel, &build.table).map(|()| build));
         match verified {
