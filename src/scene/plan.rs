@@ -9,6 +9,7 @@
 //! node exactly at its value instead, so that it is read with no interpolation in alpha. GD, read
 //! at every lobe roughness, is kept whole.
 
+use std::collections::HashMap;
 use std::fmt;
 
 use super::lookups::{Lookup, LookupKind, lookups, reaches};
@@ -117,94 +118,166 @@ pub fn recipe_texel_bytes(recipe: &dyn TableRecipe) -> Result<u64> {
     Ok((nodes * recipe.channel_count() * value_bytes) as u64)
 }
 
-/// The plan of `scene`, with the table settings (samples, masking, precision) of `config`.
+/// The plan of `scene`, with the table settings (samples, masking, precision) of `config`: the
+/// lookups, then each quantity's planner in [`PLANNERS`] order, which is the order of the plan's
+/// tables and of what it leaves out.
 pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     config.validate()?;
-    let (lookups, mut left_out) = lookups(scene)?;
-    let margin = scene.margin_nodes;
-    let mut tables: Vec<PlannedTable> = Vec::new();
-    let mut planned_slices = std::collections::HashMap::new();
-    let mut merged_slices = 0;
-    let full_fgd_axes = config.fgd.axes()?;
-    let full_tir_axes = config.tir.axes()?;
-
-    // Albedo read by a fitted form (`albedo = "fit:PATH"`): no table.
-    let albedo_forms_of: std::collections::HashMap<&str, &FittedForm> =
+    let (lookups, left_out) = lookups(scene)?;
+    let albedo_forms_of: HashMap<&str, &FittedForm> =
         scene.materials.iter().filter_map(|m| m.albedo_form.as_ref().map(|f| (m.name.as_str(), f))).collect();
-    let by_table = |l: &&Lookup| !albedo_forms_of.contains_key(l.material.as_str());
-    let albedo_form_users: Vec<&Lookup> =
-        lookups.iter().filter(|l| matches!(l.kind, LookupKind::Albedo(_)) && !by_table(l)).collect();
-    for site in sites(&albedo_form_users) {
-        let form = albedo_forms_of[site[0].material.as_str()];
-        left_out.push(LeftOutRecord {
+    let albedo_form_users = lookups
+        .iter()
+        .filter(|l| matches!(l.kind, LookupKind::Albedo(_)) && albedo_forms_of.contains_key(l.material.as_str()))
+        .collect();
+    let inputs = PlanInputs { scene, config, lookups: &lookups, albedo_forms_of, albedo_form_users };
+    let mut parts = PlanParts { left_out, ..PlanParts::default() };
+    for planner in PLANNERS {
+        planner(&inputs, &mut parts)?;
+    }
+    let (tir_forms, albedo_forms) = named_forms(scene)?;
+    let bytes = parts.tables.iter().map(|t| t.record.bytes).sum();
+    let default_set_bytes = config.recipes().map(recipe_texel_bytes).sum::<Result<u64>>()?;
+    Ok(Plan {
+        scene: scene.name.clone(),
+        lookups,
+        tables: parts.tables,
+        left_out: parts.left_out,
+        warnings: scene.warnings.clone(),
+        bytes,
+        default_set_bytes,
+        merged_slices: parts.merged_slices,
+        tir_forms,
+        albedo_forms,
+    })
+}
+
+/// A quantity's planner: the tables, slices or forms that answer its lookups, added to `parts`,
+/// and what it leaves out, with why. A new lookup path is a new planner and a line of [`PLANNERS`].
+pub type Planner = fn(&PlanInputs, &mut PlanParts) -> Result<()>;
+
+/// The planners, in the order of the plan's tables and of what it leaves out.
+pub const PLANNERS: [Planner; 5] = [plan_albedo_forms, plan_fgd, plan_split_sums, plan_tir, plan_gd];
+
+/// What every planner reads: the scene, its lookups and the configuration, and which materials
+/// read albedo by a fitted form (`albedo = "fit:PATH"`), whose lookups no table answers.
+pub struct PlanInputs<'a> {
+    scene: &'a Scene,
+    config: &'a Config,
+    lookups: &'a [Lookup],
+    albedo_forms_of: HashMap<&'a str, &'a FittedForm>,
+    albedo_form_users: Vec<&'a Lookup>,
+}
+
+impl<'a> PlanInputs<'a> {
+    /// The lookups of `kind`, those a table answers.
+    fn by_table(&self, kind: LookupKind) -> Vec<&'a Lookup> {
+        self.lookups
+            .iter()
+            .filter(|l| l.kind == kind && !self.albedo_forms_of.contains_key(l.material.as_str()))
+            .collect()
+    }
+}
+
+/// What the planners add to: the tables, identical slices found once, what is left out.
+#[derive(Default)]
+pub struct PlanParts {
+    tables: Vec<PlannedTable>,
+    /// Each planned slice's place in `tables`, by a key of its exact grid and indices.
+    planned_slices: HashMap<String, usize>,
+    merged_slices: usize,
+    left_out: Vec<LeftOutRecord>,
+}
+
+impl PlanParts {
+    /// A slice per site of `fixed` (lookups at fixed indices), identical ones once; returns how
+    /// many tables were added.
+    fn add_site_slices(&mut self, fixed: &[&Lookup], prefix: &str, of: &SliceOf) -> Result<usize> {
+        let before = self.tables.len();
+        for site in sites(fixed) {
+            let slices = slice_of(prefix, of.clone(), &site)?;
+            self.merged_slices += usize::from(add_slices(&mut self.tables, &mut self.planned_slices, slices, &site));
+        }
+        Ok(self.tables.len() - before)
+    }
+}
+
+/// Albedo read by a fitted form (`albedo = "fit:PATH"`): no table.
+fn plan_albedo_forms(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
+    for site in sites(&inputs.albedo_form_users) {
+        let form = inputs.albedo_forms_of[site[0].material.as_str()];
+        parts.left_out.push(LeftOutRecord {
             what: format!("albedo lookups of {}", site_label(&site)),
             reason: format!("albedo = \"fit:{}\": the fitted form `{}` replaces the table", form.source, form.name),
         });
     }
+    Ok(())
+}
 
-    // Albedo on the FGD path: a slice per site of fixed indices, the 4D table over the hull of the rest.
-    let fgd_lookups: Vec<&Lookup> =
-        lookups.iter().filter(|l| l.kind == LookupKind::Albedo(AlbedoPath::Fgd)).filter(by_table).collect();
+/// Albedo on the FGD path: a slice per site of fixed indices, the 4D table over the hull of the rest.
+fn plan_fgd(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
+    let (scene, config, margin) = (inputs.scene, inputs.config, inputs.scene.margin_nodes);
+    let fgd_lookups = inputs.by_table(LookupKind::Albedo(AlbedoPath::Fgd));
     let (fixed, varying) = split_by_fixed_sites(&fgd_lookups);
-    for site in sites(&fixed) {
-        let slices = slice_of(TableKind::Fgd.name(), SliceOf::Fgd(config.fgd.clone()), &site)?;
-        merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site));
-    }
-    if !varying.is_empty() {
-        let who = sites_label(&scene.name, &varying, "FGD");
-        let mu = covering_axis(&full_fgd_axes[0], hull(&varying, |l| l.mu), margin, false, &who)?;
-        let alpha = covering_axis(&full_fgd_axes[1], hull(&varying, |l| l.alpha), margin, false, &who)?;
-        let eta = covering_axis(&full_fgd_axes[2], hull(&varying, |l| l.eta), margin, true, &who)?;
-        let kappa = covering_axis(&full_fgd_axes[3], hull(&varying, |l| l.kappa), margin, true, &who)?;
-        let mut settings = config.fgd.clone();
-        settings.mu_range = [mu.start, mu.end];
-        settings.alpha_range = [alpha.start, alpha.end];
-        settings.eta_range = [eta.start, eta.end];
-        settings.kappa_range = [kappa.start, kappa.end];
-        settings.mu_count = mu.count;
-        settings.alpha_count = alpha.count;
-        settings.eta_count = eta.count;
-        settings.kappa_count = kappa.count;
-        let counts = [mu.count, alpha.count, eta.count, kappa.count];
-        let (kept, dropped): (Vec<Packing>, Vec<Packing>) =
-            settings.packings.iter().partition(|p| p.extent(counts).is_ok());
-        for packing in dropped {
-            left_out.push(LeftOutRecord {
-                what: format!("fgd packing `{}`", packing.name()),
-                reason: format!("does not fit the sub-range table's {counts:?} nodes"),
-            });
-        }
-        settings.packings = kept;
-        let reasons = sites(&varying)
-            .iter()
-            .map(|site| format!("{}: an index varies, {}", site_label(site), ranges_label(site)))
-            .collect();
-        let record =
-            record_of(&settings, "FGD 4D over the sub-range the lookups reach, on the full table's grid", reasons)?;
-        tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::Fgd(settings)) });
-        plan_stand_ins(&mut tables, config, Quantity::Albedo, &varying)?;
-    } else {
+    let slices = parts.add_site_slices(&fixed, TableKind::Fgd.name(), &SliceOf::Fgd(config.fgd.clone()))?;
+    if varying.is_empty() {
         let bytes = recipe_texel_bytes(&config.fgd)?;
         let reason = if fgd_lookups.is_empty() {
-            by_form_or_none(&albedo_form_users, AlbedoPath::Fgd)
+            by_form_or_none(&inputs.albedo_form_users, AlbedoPath::Fgd)
         } else {
-            format!("every FGD lookup is at fixed (eta, kappa): {}", replaced_by_slices(tables.len()))
+            format!("every FGD lookup is at fixed (eta, kappa): {}", replaced_by_slices(slices))
         };
-        left_out.push(LeftOutRecord { what: format!("fgd (4D, {})", human_bytes(bytes)), reason });
+        parts.left_out.push(LeftOutRecord { what: format!("fgd (4D, {})", human_bytes(bytes)), reason });
+        return Ok(());
     }
+    let full = config.fgd.axes()?;
+    let who = sites_label(&scene.name, &varying, "FGD");
+    let mu = covering_axis(&full[0], hull(&varying, |l| l.mu), margin, false, &who)?;
+    let alpha = covering_axis(&full[1], hull(&varying, |l| l.alpha), margin, false, &who)?;
+    let eta = covering_axis(&full[2], hull(&varying, |l| l.eta), margin, true, &who)?;
+    let kappa = covering_axis(&full[3], hull(&varying, |l| l.kappa), margin, true, &who)?;
+    let mut settings = config.fgd.clone();
+    settings.mu_range = [mu.start, mu.end];
+    settings.alpha_range = [alpha.start, alpha.end];
+    settings.eta_range = [eta.start, eta.end];
+    settings.kappa_range = [kappa.start, kappa.end];
+    settings.mu_count = mu.count;
+    settings.alpha_count = alpha.count;
+    settings.eta_count = eta.count;
+    settings.kappa_count = kappa.count;
+    let counts = [mu.count, alpha.count, eta.count, kappa.count];
+    let (kept, dropped): (Vec<Packing>, Vec<Packing>) =
+        settings.packings.iter().partition(|p| p.extent(counts).is_ok());
+    for packing in dropped {
+        parts.left_out.push(LeftOutRecord {
+            what: format!("fgd packing `{}`", packing.name()),
+            reason: format!("does not fit the sub-range table's {counts:?} nodes"),
+        });
+    }
+    settings.packings = kept;
+    let reasons = sites(&varying)
+        .iter()
+        .map(|site| format!("{}: an index varies, {}", site_label(site), ranges_label(site)))
+        .collect();
+    let record =
+        record_of(&settings, "FGD 4D over the sub-range the lookups reach, on the full table's grid", reasons)?;
+    parts.tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::Fgd(settings)) });
+    plan_stand_ins(&mut parts.tables, config, Quantity::Albedo, &varying)
+}
 
-    // Split-sum paths: their tables are 2D and answer every index through coefficients computed in the shader.
+/// Split-sum paths: their tables are 2D and answer every index through coefficients computed in the shader.
+fn plan_split_sums(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
+    let config = inputs.config;
     for (path, kind, description) in [
         (AlbedoPath::Belcour, TableKind::Belcour, "Belcour split-sum, whole"),
         (AlbedoPath::Karis, TableKind::Karis, "Karis split-sum, whole"),
     ] {
-        let users: Vec<&Lookup> =
-            lookups.iter().filter(|l| l.kind == LookupKind::Albedo(path)).filter(by_table).collect();
+        let users = inputs.by_table(LookupKind::Albedo(path));
         let settings = config.recipe(kind);
         if users.is_empty() {
-            left_out.push(LeftOutRecord {
+            parts.left_out.push(LeftOutRecord {
                 what: format!("{} ({})", settings.name(), human_bytes(recipe_texel_bytes(settings)?)),
-                reason: by_form_or_none(&albedo_form_users, path),
+                reason: by_form_or_none(&inputs.albedo_form_users, path),
             });
             continue;
         }
@@ -223,13 +296,20 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             );
         }
         let record = record_of(settings, description, reasons)?;
-        tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::of(config, kind)) });
+        parts.tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::of(config, kind)) });
     }
+    Ok(())
+}
 
-    // TIR.
-    let tir_lookups: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(TirPath::Table)).collect();
+/// TIR: the fitted form where a material asks for it, what `off` and named forms leave out, a
+/// slice per site of a fixed index, the 3D table over the `mu` and `alpha` the rest reach.
+fn plan_tir(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
+    let (scene, config, margin) = (inputs.scene, inputs.config, inputs.scene.margin_nodes);
+    let of_path =
+        |path: TirPath| -> Vec<&Lookup> { inputs.lookups.iter().filter(|l| l.kind == LookupKind::Tir(path)).collect() };
+    let full = config.tir.axes()?;
     // The fitted form: fitted to the full TIR table, which is integrated but not written.
-    let fit_users: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(TirPath::Fit)).collect();
+    let fit_users = of_path(TirPath::Fit);
     if !fit_users.is_empty() {
         let reasons = sites(&fit_users)
             .iter()
@@ -244,26 +324,26 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             shape: format!(
                 "{} coefficients, fitted to the full {} TIR table",
                 crate::fit::text::build::build_form().map_or(0, |form| form.parameters.len()),
-                full_tir_axes.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x ")
+                full.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x ")
             ),
             bytes: 0,
             reasons,
         };
-        tables.push(PlannedTable { record, build: PlannedBuild::TirFit(config.tir.clone()) });
+        parts.tables.push(PlannedTable { record, build: PlannedBuild::TirFit(config.tir.clone()) });
     }
     for (path, why) in [
         (TirPath::Fit, "tir = \"fit\": the fitted analytic form (tir_fit) replaces the table"),
         (TirPath::Off, "tir = \"off\""),
     ] {
-        let skipped: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(path)).collect();
-        for site in sites(&skipped) {
-            left_out.push(LeftOutRecord { what: format!("TIR lookups of {}", site_label(&site)), reason: why.into() });
+        for site in sites(&of_path(path)) {
+            parts
+                .left_out
+                .push(LeftOutRecord { what: format!("TIR lookups of {}", site_label(&site)), reason: why.into() });
         }
     }
-    let form_users: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Tir(TirPath::Form)).collect();
-    for site in sites(&form_users) {
+    for site in sites(&of_path(TirPath::Form)) {
         let form = scene.materials.iter().find(|m| m.name == site[0].material).and_then(|m| m.tir_form.as_ref());
-        left_out.push(LeftOutRecord {
+        parts.left_out.push(LeftOutRecord {
             what: format!("TIR lookups of {}", site_label(&site)),
             reason: match form {
                 Some(form) => {
@@ -273,70 +353,54 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
             },
         });
     }
-    let (tir_forms, albedo_forms) = named_forms(scene)?;
+    let tir_lookups = of_path(TirPath::Table);
     let (fixed, varying) = split_by_fixed_sites(&tir_lookups);
-    let slices_before = tables.len();
-    for site in sites(&fixed) {
-        let slices = slice_of(TableKind::Tir.name(), SliceOf::Tir(config.tir.clone()), &site)?;
-        merged_slices += usize::from(add_slices(&mut tables, &mut planned_slices, slices, &site));
-    }
-    let tir_slices = tables.len() - slices_before;
-    if !varying.is_empty() {
-        let who = sites_label(&scene.name, &varying, "TIR");
-        let mu = covering_axis(&full_tir_axes[0], hull(&varying, |l| l.mu), margin, false, &who)?;
-        let alpha = covering_axis(&full_tir_axes[1], hull(&varying, |l| l.alpha), margin, false, &who)?;
-        let mut settings = config.tir.clone();
-        settings.mu_range = [mu.start, mu.end];
-        settings.alpha_range = [alpha.start, alpha.end];
-        settings.mu_count = mu.count;
-        settings.alpha_count = alpha.count;
-        let reasons = sites(&varying)
-            .iter()
-            .map(|site| format!("{}: eta varies, {}; the eta axis stays whole", site_label(site), ranges_label(site)))
-            .collect();
-        let record = record_of(&settings, "TIR 3D over the mu and alpha the lookups reach", reasons)?;
-        tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::Tir(settings)) });
-        plan_stand_ins(&mut tables, config, Quantity::Tir, &varying)?;
-    } else {
+    let slices = parts.add_site_slices(&fixed, TableKind::Tir.name(), &SliceOf::Tir(config.tir.clone()))?;
+    if varying.is_empty() {
         let bytes = recipe_texel_bytes(&config.tir)?;
         let reason = if tir_lookups.is_empty() {
             "no lookup reads the TIR table (no crossing towards a lower index, or tir = \"fit\" / \"off\")".to_string()
         } else {
-            format!("every TIR lookup is at a fixed eta: {}", replaced_by_slices(tir_slices))
+            format!("every TIR lookup is at a fixed eta: {}", replaced_by_slices(slices))
         };
-        left_out.push(LeftOutRecord { what: format!("tir (3D, {})", human_bytes(bytes)), reason });
+        parts.left_out.push(LeftOutRecord { what: format!("tir (3D, {})", human_bytes(bytes)), reason });
+        return Ok(());
     }
+    let who = sites_label(&scene.name, &varying, "TIR");
+    let mu = covering_axis(&full[0], hull(&varying, |l| l.mu), margin, false, &who)?;
+    let alpha = covering_axis(&full[1], hull(&varying, |l| l.alpha), margin, false, &who)?;
+    let mut settings = config.tir.clone();
+    settings.mu_range = [mu.start, mu.end];
+    settings.alpha_range = [alpha.start, alpha.end];
+    settings.mu_count = mu.count;
+    settings.alpha_count = alpha.count;
+    let reasons = sites(&varying)
+        .iter()
+        .map(|site| format!("{}: eta varies, {}; the eta axis stays whole", site_label(site), ranges_label(site)))
+        .collect();
+    let record = record_of(&settings, "TIR 3D over the mu and alpha the lookups reach", reasons)?;
+    parts.tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::Tir(settings)) });
+    plan_stand_ins(&mut parts.tables, config, Quantity::Tir, &varying)
+}
 
-    // GD: the 6-flux model's lobe normalisation.
-    let gd_users: Vec<&Lookup> = lookups.iter().filter(|l| l.kind == LookupKind::Gd).collect();
+/// GD: the 6-flux model's lobe normalisation, and the 2-flux lobes' albedo; kept whole.
+fn plan_gd(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
+    let config = inputs.config;
+    let gd_users: Vec<&Lookup> = inputs.lookups.iter().filter(|l| l.kind == LookupKind::Gd).collect();
     if gd_users.is_empty() {
-        left_out.push(LeftOutRecord {
+        parts.left_out.push(LeftOutRecord {
             what: format!("gd ({})", human_bytes(recipe_texel_bytes(&config.gd)?)),
             reason: "no material uses the 6-flux model".into(),
         });
-    } else {
-        let reasons = materials_of(&gd_users)
-            .into_iter()
-            .map(|m| format!("{m}: every internal lobe reads GD at its own roughness (2-flux: the lobe's albedo is its energy times GD; 6-flux: lobes are normalised by it); kept whole"))
-            .collect();
-        let record = record_of(&config.gd, "GD 2D, whole", reasons)?;
-        tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::of(config, TableKind::Gd)) });
+        return Ok(());
     }
-
-    let bytes = tables.iter().map(|t| t.record.bytes).sum();
-    let default_set_bytes = config.recipes().map(recipe_texel_bytes).sum::<Result<u64>>()?;
-    Ok(Plan {
-        scene: scene.name.clone(),
-        lookups,
-        tables,
-        left_out,
-        warnings: scene.warnings.clone(),
-        bytes,
-        default_set_bytes,
-        merged_slices,
-        tir_forms,
-        albedo_forms,
-    })
+    let reasons = materials_of(&gd_users)
+        .into_iter()
+        .map(|m| format!("{m}: every internal lobe reads GD at its own roughness (2-flux: the lobe's albedo is its energy times GD; 6-flux: lobes are normalised by it); kept whole"))
+        .collect();
+    let record = record_of(&config.gd, "GD 2D, whole", reasons)?;
+    parts.tables.push(PlannedTable { record, build: PlannedBuild::Table(TableSettings::of(config, TableKind::Gd)) });
+    Ok(())
 }
 
 /// The stand-ins of `quantity` ([`crate::model::stand_in`]) that some of `varying` (the lookups no
