@@ -56,12 +56,7 @@ impl SceneBuildRequest {
         if self.cache.is_none() || self.shard.is_some() || !self.merge_from.is_empty() || self.error_maps {
             return None;
         }
-        let options = format!("{:?} {:?}", self.slice_checks, self.slice_layout);
-        let scene = format!("{:?}", self.scene);
-        let source = self.source.display().to_string();
-        let fields =
-            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, &self.config, options);
-        Some(sha256_hex(&serde_json::to_vec(&fields).expect("plain data")))
+        Some(self.key_with(format!("{:?} {:?}", self.slice_checks, self.slice_layout)))
     }
 
     /// The key of the library a shard holds part of, which `tmlut merge` must be given again:
@@ -69,11 +64,16 @@ impl SceneBuildRequest {
     /// slice checks (which decide what each slice's entry holds), the cache format and the
     /// version; not the slice layout, which only the merged folder has.
     pub fn library_key(&self) -> String {
+        self.key_with(format!("{:?}", self.slice_checks))
+    }
+
+    /// The SHA-256 of the scenes as parsed and as written, the configuration with its seed,
+    /// `options` (what of the request's options the key covers), the cache format and the version.
+    fn key_with(&self, options: String) -> String {
         let scene = format!("{:?}", self.scene);
         let source = self.source.display().to_string();
-        let checks = format!("{:?}", self.slice_checks);
         let fields =
-            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, &self.config, checks);
+            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, &self.config, options);
         sha256_hex(&serde_json::to_vec(&fields).expect("plain data"))
     }
 }

@@ -125,14 +125,14 @@ struct Entry {
     wall_time_s: f64,
 }
 
-/// What a slice's key covers, as hashed.
-#[derive(Serialize)]
-struct KeyFields<'a> {
+/// What a slice's key covers, as hashed, and as [`verify`] reads it back from an entry.
+#[derive(Serialize, Deserialize)]
+struct SliceInputs {
     format: u32,
-    version: &'a str,
-    of: &'a crate::recipes::slices::SliceOf,
-    mu: &'a crate::table::Axis,
-    alpha: &'a crate::table::Axis,
+    version: String,
+    of: crate::recipes::slices::SliceOf,
+    mu: crate::table::Axis,
+    alpha: crate::table::Axis,
     /// The channels' indices, to the bit.
     indices: Vec<(u64, u64)>,
     seed: u64,
@@ -154,12 +154,12 @@ impl CacheKey {
 
     /// The key of `slices` built with `seed`.
     pub fn of_slices(slices: &Slices, seed: u64) -> CacheKey {
-        let fields = KeyFields {
+        let fields = SliceInputs {
             format: CACHE_FORMAT,
-            version: env!("CARGO_PKG_VERSION"),
-            of: &slices.of,
-            mu: &slices.mu,
-            alpha: &slices.alpha,
+            version: env!("CARGO_PKG_VERSION").into(),
+            of: slices.of.clone(),
+            mu: slices.mu.clone(),
+            alpha: slices.alpha.clone(),
             indices: slices.channels.iter().map(|c| (c.eta.to_bits(), c.kappa.to_bits())).collect(),
             seed,
         };
@@ -283,8 +283,7 @@ impl SliceCache {
     /// Record in the folder that it holds part `shard` of the library whose key is `library`.
     pub fn put_shard_record(&self, library: &str, shard: Shard) -> Result<()> {
         let record = ShardRecord { library: library.to_string(), index: shard.index, count: shard.count };
-        let name = sha256_hex(format!("{library} {}/{}", shard.index, shard.count).as_bytes());
-        let path = self.dir.join(format!("{name}.{SHARD_EXTENSION}"));
+        let path = self.dir.join(format!("{}.{SHARD_EXTENSION}", record.file_stem()));
         write_cache_file(&path, &sealed(&record)).map_err(|source| Error::io(&path, source))
     }
 
@@ -301,6 +300,12 @@ impl SliceCache {
         if self.usable.swap(false, Ordering::Relaxed) {
             self.warn(format!("table cache {}: {why}; building without it", self.dir.display()));
         }
+    }
+
+    /// What follows an entry refused: a build integrates the table again; a merge's shards are
+    /// read, never built again (the merge names the entry).
+    fn then_built_again(&self) -> &'static str {
+        if self.note_reads { "; built again" } else { "" }
     }
 
     fn warn(&self, warning: String) {
@@ -360,8 +365,7 @@ impl SliceCache {
             Ok(bytes) => bytes,
             Err(Error::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => return None,
             Err(e) => {
-                let then = if self.note_reads { "; built again" } else { "" };
-                self.warn(format!("table cache entry: {e}{then}"));
+                self.warn(format!("table cache entry: {e}{}", self.then_built_again()));
                 return None;
             }
         };
@@ -382,9 +386,11 @@ impl SliceCache {
                 Some(build)
             }
             Err(why) => {
-                // A merge's shards are read, never built again (the merge names the entry).
-                let then = if self.note_reads { "; built again" } else { "" };
-                self.warn(format!("table cache entry {} is damaged ({why}){then}", path.display()));
+                self.warn(format!(
+                    "table cache entry {} is damaged ({why}){}",
+                    path.display(),
+                    self.then_built_again()
+                ));
                 None
             }
         }
@@ -540,9 +546,16 @@ struct ShardRecord {
     count: usize,
 }
 
+impl ShardRecord {
+    /// Its file's name before the extension: the SHA-256 of the library and the part.
+    fn file_stem(&self) -> String {
+        sha256_hex(format!("{} {}/{}", self.library, self.index, self.count).as_bytes())
+    }
+}
+
 fn decode_shard_record(bytes: &[u8], name: &str) -> std::result::Result<ShardRecord, String> {
     let record: ShardRecord = serde_json::from_slice(unsealed(bytes)?).map_err(|e| e.to_string())?;
-    if sha256_hex(format!("{} {}/{}", record.library, record.index, record.count).as_bytes()) != name {
+    if record.file_stem() != name {
         return Err("it is not the record its name says".into());
     }
     Ok(record)
@@ -782,9 +795,7 @@ pub fn restore_build(
         {
             crate::formats::files::create_folder_inside(parent)?;
         }
-        crate::formats::files::create_new(&staged)
-            .and_then(|mut f| std::io::Write::write_all(&mut f, &bytes).and_then(|()| f.sync_all()))
-            .map_err(|source| Error::io(&staged, source))?;
+        crate::formats::write_bytes_atomically(&staged, &bytes)?;
         total += file.bytes;
         if file.name != crate::formats::manifest::MANIFEST_FILE {
             moves.push(crate::commit::Move { staged: file.name.clone(), destination: file.name.clone() });
@@ -815,18 +826,6 @@ fn decode_record(bytes: &[u8], key: &str) -> std::result::Result<BuildRecord, St
         return Err("it lists no manifest".into());
     }
     Ok(record)
-}
-
-/// The inputs of a slice's key, read back from an entry ([`KeyFields`], owned).
-#[derive(Deserialize)]
-struct SliceInputs {
-    format: u32,
-    version: String,
-    of: crate::recipes::slices::SliceOf,
-    mu: crate::table::Axis,
-    alpha: crate::table::Axis,
-    indices: Vec<(u64, u64)>,
-    seed: u64,
 }
 
 /// What [`verify`] found.
@@ -860,11 +859,8 @@ pub fn verify(dir: &Path, progress: &dyn crate::integrate::Progress) -> Result<V
             let key = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
             let entry = decode(&bytes, &key).map_err(named)?;
             let Some(built) = rebuild(&entry.inputs, progress).map_err(named)? else { return Ok(false) };
-            let same = built.data.len() == entry.values.len()
-                && built.data.iter().zip(&entry.values).all(|(a, b)| a.to_bits() == b.to_bits());
-            if !same {
-                let differing =
-                    built.data.iter().zip(&entry.values).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+            let differing = built.data.iter().zip(&entry.values).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+            if differing > 0 || built.data.len() != entry.values.len() {
                 return Err(named(format!(
                     "{differing} of its {} values are not those its recorded inputs integrate to",
                     entry.values.len()

@@ -246,21 +246,15 @@ impl<'a> Prepared<'a> {
     pub fn check_memory(form: &Form, data: &FormData) -> Result<()> {
         let (_, split_off) = form.tape.split(data.variables.len());
         let bytes = data.len() as u128 * (data.variables.len() + split_off.len()) as u128 * 24;
-        if let Some(limit) = crate::machine::memory_limit()
-            && bytes > limit.bytes as u128
-        {
+        let what = format!(
+            "fitting it to {} points, the values of its {} parameter-free instructions at every point,",
+            data.len(),
+            split_off.len()
+        );
+        if let Some(words) = crate::machine::beyond_limit(bytes, &what) {
             return Err(Error::invalid(
                 format!("form `{}`", form.name),
-                format!(
-                    "fitting it to {} points needs {:.1} GiB for the values of its {} parameter-free instructions at \
-                     every point; this process may use at most {:.1} GiB ({}): fit a region (--range) or share \
-                     sub-expressions in [let]",
-                    data.len(),
-                    bytes as f64 / (1u64 << 30) as f64,
-                    split_off.len(),
-                    limit.bytes as f64 / (1u64 << 30) as f64,
-                    limit.source
-                ),
+                format!("{words}: fit a region (--range) or share sub-expressions in [let]"),
             ));
         }
         Ok(())

@@ -452,12 +452,7 @@ impl Manifest {
     pub fn read(path: &Path) -> Result<Self> {
         // Parsed, a manifest takes about four times its text (`tmlut check` of the largest
         // library's, 89 MB, peaked at 387 MB): a large one is held to the process's memory first.
-        if let Ok(metadata) = std::fs::metadata(path)
-            && metadata.len() >= 16 << 20
-            && let Some(words) = crate::machine::beyond_limit(6 * u128::from(metadata.len()), "reading it")
-        {
-            return Err(Error::format(path, words));
-        }
+        super::files::hold_to_memory(path, 16 << 20, 6, "reading it")?;
         let bytes = read_bytes_at_most(path, MAX_MANIFEST_BYTES, "a manifest")?;
         serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
     }

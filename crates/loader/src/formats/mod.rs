@@ -466,12 +466,7 @@ pub const MAX_TEXT_INPUT_BYTES: u64 = 16 << 20;
 /// may use ([`crate::machine::beyond_limit`]), so that a reader under a memory limit refuses it
 /// rather than abort on the allocation.
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    if let Ok(metadata) = std::fs::metadata(path)
-        && metadata.len() >= 64 << 20
-        && let Some(words) = crate::machine::beyond_limit(3 * u128::from(metadata.len()), "reading and decoding it")
-    {
-        return Err(Error::format(path, words));
-    }
+    files::hold_to_memory(path, 64 << 20, 3, "reading and decoding it")?;
     read_bytes_at_most(path, MAX_TABLE_FILE_BYTES, "a table file")
 }
 
