@@ -31,11 +31,14 @@
 //! `generator` feature this crate is the model and the form language over that loader.
 
 // The loader crate's modules, as this crate's own: the layers every module here builds on.
-pub use tmlut_loader::{error, formats, loader, machine, physics, stats, table};
+pub use tmlut_loader::{error, filter, formats, loader, machine, stats, table};
+// The expression IR every shader and every recorded evaluation lowers to.
+pub use tmlut_ir as ir;
 
 pub mod fit;
 pub mod model;
 pub mod packing;
+pub mod physics;
 #[cfg(feature = "generator")]
 pub mod report;
 pub mod sampling;

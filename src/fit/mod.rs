@@ -1,7 +1,7 @@
 //! Analytic forms fitted to tables by least squares. A form exists as a form file only
 //! (`luts/forms/`, [`text`]): read, compiled, fitted, certified and printed as shader code by the
 //! generator, and evaluated from a manifest's definition by the loader-side model
-//! ([`text::compile`]). The search itself ([`least_squares`]: NLopt) is the generator's.
+//! ([`crate::ir::compile`]). The search itself ([`least_squares`]: NLopt) is the generator's.
 
 #[cfg(feature = "generator")]
 pub mod least_squares;

@@ -1,7 +1,7 @@
 use std::path::Path;
 
 use super::*;
-use crate::fit::text::compile::FormEvaluator;
+use crate::ir::compile::FormEvaluator;
 use crate::fit::text::fitted::tir_shape;
 use crate::fit::text::form::Form;
 

@@ -9,7 +9,7 @@
 
 use super::lookup::{Lookup, Quantity, Site, Tables};
 use super::stack::{Interface, Layer, Medium, Rgb, Stack};
-use crate::physics::real::{Compare, Real};
+use crate::ir::real::{Compare, Real};
 use crate::physics::{ggx_to_hg, hg_backward_share};
 
 /// Relative indices closer to 1 than this are no interface at all (the reference's `dielectric_transfer_factors`).

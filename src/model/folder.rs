@@ -6,7 +6,7 @@
 //!   up to three axes, which a renderer uploads as textures too) are sampled the way a GPU samples
 //!   them: the manifest's texture coordinate computed in f32, cell-centred linear filtering with
 //!   clamp addressing in f32, texels as stored (f16 widened exactly), through
-//!   [`crate::packing::emulator`].
+//!   [`crate::filter`].
 //! - The 4D FGD table has no texture: its GPU packing (`fgd_lossless.dds` or `.ktx2`) is read
 //!   through the very lookup program its shader files print ([`crate::packing::PackedFgd`]), or
 //!   the 4D table (`fgd.exr`, or `fgd.bin` in the original layout) is interpolated on the CPU in
@@ -25,7 +25,7 @@ use std::sync::Mutex;
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use super::routes::{Answer, Paths, Reader, Routes};
 use crate::error::{Error, Result};
-use crate::fit::text::compile::FormEvaluator;
+use crate::ir::compile::FormEvaluator;
 #[cfg(feature = "generator")]
 use crate::fit::text::fitted::{FittedForm, FittedFormExt};
 use crate::formats::FileFormat;

@@ -49,7 +49,7 @@ impl Site {
 }
 
 /// One value the model needs; its coordinates are of the model's number type (`f64` on the
-/// CPU; see [`crate::physics::real::Real`]).
+/// CPU; see [`crate::ir::real::Real`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Lookup<R = f64> {
     pub quantity: Quantity,

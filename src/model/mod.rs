@@ -78,7 +78,7 @@ pub use lookup::{AlbedoPath, IndexRegion, Lookup, Quantity, Site, StandIn, Table
 pub use stack::{FluxModel, Interface, Layer, MAX_LAYERS, Medium, Rgb, Stack};
 
 use crate::physics::hg_to_ggx;
-use crate::physics::real::{Real, choose_if_any_nonzero};
+use crate::ir::real::{Real, choose_if_any_nonzero};
 
 /// View cosines where the model is stiff: the horizon, a rounding step above it, grazing, the
 /// middle, the normal (the stability matrix evaluates every stiff stack at these; the scene

@@ -244,7 +244,7 @@ fn stiff_stacks_give_finite_lobes_and_albedos() {
 /// (`x = 44.4`): the slab's divided form keeps them finite and within f32 rounding.
 #[test]
 fn a_mediums_factors_in_f32_stay_finite_where_the_slabs_sinh_squared_would_overflow() {
-    use crate::fit::text::record::{Recorded, record};
+    use crate::ir::record::{Recorded, record};
     let thick = Medium { sigma_s: [2.0; 3], sigma_k: [0.01; 3], depth: 1e3, g: -0.3 };
     let cpu = factors::medium(&thick, 1.0, true).expect("a scattering medium");
     let (recorded, tape) = record(|| factors::medium(&thick, Recorded::variable(0), true).expect("the same"));

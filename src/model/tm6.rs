@@ -11,7 +11,7 @@ use super::factors::{Component, DielectricFactors, Flux, MediumFactors, safe_rat
 use super::lookup::Tables;
 use super::tm2::{inverse, normalising_scale, transmission_asymmetries};
 use super::{LobeKind, RawLobe, below};
-use crate::physics::real::Real;
+use crate::ir::real::Real;
 
 /// The non-zero entries of a 6-flux transfer matrix.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,10 +1,7 @@
-//! The shader emitter of the loader crate ([`tmlut_loader::shader`]: one description printed as
-//! HLSL and WGSL), and the transfer-matrix evaluation of a scene's materials built with it.
+//! The shader description of the IR crate ([`tmlut_ir::shader`]: one description printed as HLSL
+//! and WGSL), and the transfer-matrix evaluation of a scene's materials built with it.
 
-pub use tmlut_loader::shader::*;
+pub use tmlut_ir::shader::*;
 
-// The scene shader reads materials' fitted forms through the generator's form language.
 #[cfg(feature = "generator")]
 pub mod scene;
-#[cfg(feature = "generator")]
-pub mod tape;

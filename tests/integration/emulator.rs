@@ -6,7 +6,7 @@
 
 use std::collections::HashMap;
 
-use tmlut::fit::text::tape::Scalar;
+use tmlut::ir::tape::Scalar;
 use tmlut::loader::LutFolder;
 use tmlut::shader::scene::SceneShader;
 use tmlut::shader::{Builtin, Expr, Function, Intrinsic, Item, Op, Stmt, Ty};

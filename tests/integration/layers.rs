@@ -14,21 +14,24 @@ use std::path::{Path, PathBuf};
 /// The layers, lowest first. Units of one layer do not use each other.
 const LAYERS: &[&[&str]] = &[
     &["error"],
-    // What the process may use of the machine (its memory limits) stands beside them: std alone.
-    &["stats", "table", "physics", "machine"],
+    // What the process may use of the machine (its memory limits) stands beside them: std alone;
+    // and the number type the model is written over.
+    &["stats", "table", "machine", "ir/real"],
+    // The optics: the Fresnel equations (the loader's) and GGX, Smith, Henyey–Greenstein over
+    // the model's number type; a GPU's texture filter, emulated over a table's arithmetic.
+    &["physics", "filter"],
     // Files and the drawing of PNG plots, which are a file format.
     &["formats"],
-    // The form language of `fit/text` (expressions, their compiled tape, a form compiled from a
-    // manifest's definition, code over the model's number type recorded on a tape, form files)
-    // and a fitted TIR form a scene names: the model evaluates both.
-    &["fit/text/expr"],
-    &["fit/text/tape"],
-    &["fit/text/compile", "fit/text/record"],
+    // The IR crate: the form language, its tape, compiled from a form or recorded from code over
+    // the model's number type, the shader description and the tape printed into it.
+    &["ir/text"],
+    &["ir/tape"],
+    &["ir/compile", "ir/record"],
+    &["ir/shader", "shader"],
+    &["ir/print"],
+    // Form files, and a fitted TIR form a scene names: the model evaluates both.
     &["fit/text/form"],
     &["fit/text/fitted"],
-    // The emitter that prints one description of a shader as HLSL and WGSL, and the emulator of
-    // a GPU's texture filtering, which the loader samples with.
-    &["shader", "packing/emulator"],
     // A form printed as a shader: the scene shader prints the forms its materials name.
     &["fit/text/shader"],
     &["report/plot"],
@@ -58,7 +61,7 @@ fn layer_of(unit: &str) -> Option<usize> {
     LAYERS.iter().position(|layer| layer.contains(&unit))
 }
 
-/// The unit of a module path (`fit/text/tape` -> `fit/text/tape`, `fit/least_squares` -> `fit`).
+/// The unit of a module path (`fit/text/form` -> `fit/text/form`, `fit/least_squares` -> `fit`).
 fn unit_of(module_path: &str) -> Option<&'static str> {
     LAYERS
         .iter()
@@ -253,9 +256,9 @@ fn item_end(code: &[char], start: usize) -> usize {
     code.len()
 }
 
-/// The module paths a file names: `crate::a::b::C` gives `a/b/C`; `super::x` is resolved against
-/// the file's own module.
-fn named_paths(code: &str, module: &str) -> Vec<String> {
+/// The module paths a file names: `crate::a::b::C` gives `a/b/C` after the crate's `prefix`;
+/// `super::x` is resolved against the file's own module.
+fn named_paths(code: &str, module: &str, prefix: &str) -> Vec<String> {
     let mut paths = Vec::new();
     // The identifiers of a path up to the first character that ends it (`{`, `;`, `(`, space).
     let words = |rest: &str| -> Vec<String> {
@@ -277,7 +280,7 @@ fn named_paths(code: &str, module: &str) -> Vec<String> {
         if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
             continue;
         }
-        paths.push(words(&code[at + "crate::".len()..]).join("/"));
+        paths.push(format!("{prefix}{}", words(&code[at + "crate::".len()..]).join("/")));
     }
     for (at, _) in code.match_indices("super::") {
         if code[..at].ends_with("super::") {
@@ -296,15 +299,17 @@ fn named_paths(code: &str, module: &str) -> Vec<String> {
     paths
 }
 
-/// The source folders the layers cover: the loader crate's, whose modules this crate re-exports
-/// under the same names (so its `crate::` paths name the same units), and this crate's.
-const SOURCE_ROOTS: [&str; 2] = ["crates/loader/src", "src"];
+/// The source folders the layers cover, each with the prefix its modules' units take: the loader
+/// crate's, whose modules this crate re-exports under the same names (so its `crate::` paths name
+/// the same units), the IR crate's, re-exported as `ir` (its `crate::tape` is this crate's
+/// `crate::ir::tape`), and this crate's.
+const SOURCE_ROOTS: [(&str, &str); 3] = [("crates/loader/src", ""), ("crates/ir/src", "ir/"), ("src", "")];
 
 #[test]
 fn every_module_uses_only_the_layers_below_it() {
     let mut violations = Vec::new();
     let mut checked = 0;
-    for root in SOURCE_ROOTS {
+    for (root, prefix) in SOURCE_ROOTS {
         let src = Path::new(env!("CARGO_MANIFEST_DIR")).join(root);
         let mut files = Vec::new();
         source_files(&src, &mut files);
@@ -320,13 +325,13 @@ fn every_module_uses_only_the_layers_below_it() {
                 continue;
             }
             // `a/mod.rs` is module `a`.
-            let module = relative.strip_suffix("/mod").unwrap_or(&relative).to_string();
+            let module = format!("{prefix}{}", relative.strip_suffix("/mod").unwrap_or(&relative));
             let unit =
                 unit_of(&module).unwrap_or_else(|| panic!("{root}/{relative}.rs is in no layer; add it to LAYERS"));
             let layer = layer_of(unit).unwrap();
             checked += 1;
             let code = library_code(&std::fs::read_to_string(file).unwrap());
-            for path in named_paths(&code, &module) {
+            for path in named_paths(&code, &module, prefix) {
                 let Some(used) = unit_of(&path) else { continue };
                 if used == unit {
                     continue;
@@ -349,12 +354,12 @@ fn every_module_uses_only_the_layers_below_it() {
 
 #[test]
 fn every_top_level_module_has_a_layer() {
-    for root in SOURCE_ROOTS {
+    for (root, prefix) in SOURCE_ROOTS {
         let lib = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(root).join("lib.rs")).unwrap();
         for line in lib.lines() {
             if let Some(name) = line.trim().strip_prefix("pub mod ").and_then(|rest| rest.strip_suffix(';')) {
                 assert!(
-                    unit_of(name).is_some(),
+                    unit_of(&format!("{prefix}{name}")).is_some(),
                     "module `{name}` of {root}/lib.rs is in no layer of tests/integration/layers.rs"
                 );
             }
@@ -396,7 +401,7 @@ pub fn last() { crate::end::h(); }
 "####;
     let code = library_code(text);
     assert_eq!(
-        named_paths(&code, "m"),
+        named_paths(&code, "m", ""),
         ["x/Y", "after_helper/g", "field/F", "kept", "not_test", "end/h"],
         "the library code read:\n{code}"
     );

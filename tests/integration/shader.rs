@@ -103,7 +103,7 @@ pub fn shader_against_the_cpu(luts: &Path, scenes: &[PathBuf], views: usize) -> 
 /// The module's filtering helpers (`tmh_bilinear`, `tmh_trilinear`), run in the emulator on every
 /// texture bound whole (not a layer of a texture array) at coordinates inside, on and past its
 /// edges, give the loader's sampler's values bit for bit: both are the filter of
-/// `packing::emulator`, one printed, one run in f32.
+/// `filter`, one printed, one run in f32.
 fn assert_filters_are_the_cpu_samplers(shader: &SceneShader, folder: &LutFolder, emulator: &Emulator) {
     let helpers: BTreeSet<&str> = shader
         .module

@@ -1,5 +1,5 @@
 //! tmlut-loader: read and sample the lookup tables tmlut writes, for renderer crates. Its
-//! dependencies are few and pure Rust (serde, sha2, half, glam, ktx2; `exr` and `bytemuck` on
+//! dependencies are few and pure Rust (serde, sha2, half, ktx2; `exr` and `bytemuck` on
 //! request); the generator (`tmlut`) depends on it, never the reverse. `docs/loader.md` walks
 //! through it.
 //!
@@ -19,21 +19,19 @@
 //! The modules, lowest first:
 //! - [`error`]: the one error type, naming the file or key and what is allowed;
 //! - [`stats`], [`table`], [`physics`]: error records, axes with multilinear interpolation, and
-//!   the optics the tables integrate (the Fresnel basis a Belcour table is read with among them);
+//!   the Fresnel equations a Belcour table is read with (its Fresnel basis);
 //! - [`machine`]: the memory this process may use, read before a large file is decoded;
 //! - [`formats`]: DDS, KTX2, OpenEXR, the original `.bin` layout and the manifest;
-//! - [`shader`]: one emitter that prints a shader description as HLSL and WGSL;
-//! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and
-//!   an emulator of a GPU's texture filtering;
+//! - [`filter`]: a GPU's texture filtering, emulated exactly in f32 (the handles sample with it;
+//!   the generator prints the same filter into its shaders);
 //! - [`loader`]: an output folder and its manifest, typed handles, texture descriptors.
 
 pub mod error;
+pub mod filter;
 pub mod formats;
 pub mod loader;
 pub mod machine;
-pub mod packing;
 pub mod physics;
-pub mod shader;
 pub mod stats;
 pub mod table;
 

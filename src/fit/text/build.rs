@@ -3,7 +3,7 @@
 //! fitted to the TIR table just built by [`super::fitting`] and printed by [`super::shader`] as
 //! `tir_fit.hlsl` and `tir_fit.wgsl`, holding `tmlut_tir(mu, alpha, eta)`. The manifest entry
 //! states the form's text, its definition statement by statement and its fitted parameters; the
-//! model evaluates that definition ([`super::compile::FormEvaluator::from_definition`]).
+//! model evaluates that definition ([`crate::ir::compile::FormEvaluator::from_definition`]).
 
 use std::path::{Path, PathBuf};
 

@@ -1,7 +1,7 @@
 //! What a form costs beside the texture fetch it replaces: its operations by kind, counted on the
-//! compiled instruction list ([`super::tape`]), and the CPU time of one evaluation in f32 beside
+//! compiled instruction list ([`crate::ir::tape`]), and the CPU time of one evaluation in f32 beside
 //! the CPU time of the table's own lookup, read as a GPU sampler reads it (the texture
-//! coordinates in f32, exact linear filtering with clamp addressing: [`crate::packing::emulator`]).
+//! coordinates in f32, exact linear filtering with clamp addressing: [`crate::filter`]).
 //! The times are measured, reported and never asserted: they depend on the machine and its load.
 
 use std::hint::black_box;
@@ -9,11 +9,11 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::expr::{BinOp, Intrinsic};
+use crate::ir::text::{BinOp, Intrinsic};
 use super::form::Form;
-use super::tape::{Ins, Tape, reads};
+use crate::ir::tape::{Ins, Tape, reads};
 use crate::error::{Error, Result};
-use crate::packing::emulator::{Filter, lerp, linear_taps};
+use crate::filter::{Filter, lerp, linear_taps};
 use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
 use crate::table::{Axis, Placement, Table};
 

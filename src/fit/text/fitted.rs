@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-pub use super::compile::FormEvaluator;
+pub use crate::ir::compile::FormEvaluator;
 use super::form::{Form, TableShape};
 use crate::error::{Error, Result};
 pub use crate::formats::manifest::FittedForm;

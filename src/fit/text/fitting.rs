@@ -15,7 +15,7 @@ use super::form::{Form, MAX_FORM_BYTES};
 use super::pictures::{ERROR_MAP_FILE, RESIDUALS_FILE, write_pictures};
 use super::region::{Range, Region, SceneLookups, WeightsSpec, variable_range};
 use super::shader::{LANGUAGES, function_name, sources};
-use super::tape::Work;
+use crate::ir::tape::Work;
 use crate::commit::{Move, OutputFolder, commit_set};
 use crate::error::{Error, Result};
 use crate::fit::{FIT_GRID_NODES, FitSettings, Minimum, minimise};
@@ -228,11 +228,11 @@ impl FormData {
 /// number of threads.
 const CHUNK: usize = 4096;
 
-/// The data as a search reads it: the form's tape split ([`super::tape::Tape::split`]) so that
+/// The data as a search reads it: the form's tape split ([`crate::ir::tape::Tape::split`]) so that
 /// everything that does not depend on the parameters is computed once per point, here.
 pub struct Prepared<'a> {
     data: &'a FormData,
-    tape: super::tape::Tape,
+    tape: crate::ir::tape::Tape,
     /// Per input of the split tape (the variables, then the values of the split-off
     /// instructions), its value at every point: one column each, for [`Batch`] to read rows of.
     columns: Vec<f64>,
@@ -302,7 +302,7 @@ impl<'a> Prepared<'a> {
     /// asked for:
     /// [`LANES`] points at a time ([`Batch`]), the sums of fixed chunks of points added in order,
     /// so the result is the same to the bit whatever the number of threads (and the same as
-    /// [`super::tape::Tape::forward`] and [`super::tape::Tape::backward`] point by point give).
+    /// [`crate::ir::tape::Tape::forward`] and [`crate::ir::tape::Tape::backward`] point by point give).
     pub fn objective(&self, parameters: &[f64], gradient: Option<&mut [f64]>) -> f64 {
         let (data, tape) = (self.data, &self.tape);
         let (count, p) = (data.len(), parameters.len());

@@ -1,7 +1,7 @@
 //! Form files: a TOML file that names the table a form approximates, its parameters (start and
 //! bounds), optional `let` bindings (in file order, each over the ones before it) and one
-//! expression per fitted channel ([`super::expr`]). Read against a table, a form file becomes a
-//! [`Form`]: the expressions with every name resolved and compiled ([`super::tape`]). Every
+//! expression per fitted channel ([`crate::ir::text`]). Read against a table, a form file becomes a
+//! [`Form`]: the expressions with every name resolved and compiled ([`crate::ir::tape`]). Every
 //! mistake is an [`Error::At`] naming the file, line and column.
 
 use std::collections::BTreeMap;
@@ -10,10 +10,10 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
-use super::compile::Scope;
-pub use super::compile::integer_exponent;
-use super::expr::{self, ExprError, Node};
-use super::tape::{Ins, Tape};
+use crate::ir::compile::Scope;
+pub use crate::ir::compile::integer_exponent;
+use crate::ir::text::{self, ExprError, Node};
+use crate::ir::tape::{Ins, Tape};
 use crate::error::{Error, Result};
 use crate::table::Table;
 
@@ -219,7 +219,7 @@ impl Form {
                 let offset = if exact { start + e.at } else { start };
                 at(offset, e.message)
             };
-            let node = expr::parse(value.get_ref()).map_err(place)?;
+            let node = text::parse(value.get_ref()).map_err(place)?;
             let slot = scope.compile(&node).map_err(place)?;
             Ok((node, slot))
         };
@@ -234,7 +234,7 @@ impl Form {
         let mut derived_all = Vec::new();
         for (name, definition, needs) in DERIVED_VARIABLES {
             if needs.iter().all(|n| variables.iter().any(|v| v == n)) {
-                let node = expr::parse(definition).map_err(|e| Error::invalid("derived variable", e.message))?;
+                let node = text::parse(definition).map_err(|e| Error::invalid("derived variable", e.message))?;
                 let slot = scope.compile(&node).map_err(|e| Error::invalid("derived variable", e.message))?;
                 scope.names.insert(name.to_string(), slot);
                 derived_all.push(Binding { name: name.to_string(), text: definition.to_string(), node, slot });
@@ -242,7 +242,7 @@ impl Form {
         }
 
         let check_name = |key: &Spanned<String>, scope: &Scope| -> Result<()> {
-            expr::check_identifier(key.get_ref()).map_err(|reason| at(key.span().start, reason))?;
+            text::check_identifier(key.get_ref()).map_err(|reason| at(key.span().start, reason))?;
             if scope.names.contains_key(key.get_ref()) {
                 return Err(at(
                     key.span().start,

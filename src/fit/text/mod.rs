@@ -1,26 +1,22 @@
 //! Forms written as text: a form file names a table, its parameters and one expression per
-//! channel ([`form`], in the language of [`expr`]); it is compiled once ([`tape`]) and evaluated
-//! in f32 or f64 with an exact gradient, fitted by least squares ([`fitting`]) over a region of
-//! the table with weights ([`region`]), costed beside the table's fetch ([`cost`]), and printed as
-//! WGSL, HLSL, GLSL and MSL ([`shader`]). `docs/fit.md`, "Forms as text", describes the language
-//! and the command; [`build`] is the TIR form the default build fits.
+//! channel ([`form`], in the language of [`crate::ir::text`]); it is compiled once onto the IR's
+//! tape ([`crate::ir::compile`]) and evaluated in f32 or f64 with an exact gradient, fitted by
+//! least squares ([`fitting`]) over a region of the table with weights ([`region`]), costed beside
+//! the table's fetch ([`cost`]), and printed as WGSL, HLSL, GLSL and MSL ([`shader`]).
+//! `docs/fit.md`, "Forms as text", describes the language and the command; [`build`] is the TIR
+//! form the default build fits.
 //!
-//! Code written over the model's number type is recorded on the same tape ([`record`]): the scene
-//! shader is the transfer-matrix model recorded and printed.
-//!
-//! The expressions, the tape and a form compiled from the definition a manifest states
-//! ([`compile`]) build without the generator, so that the model evaluates a built folder's fitted
-//! form as the fit judged it; reading form files (TOML), fitting, regions, weights, costs and
-//! printing are the generator's.
+//! The expression language, the tape and a form compiled from the definition a manifest states are
+//! the IR crate's ([`crate::ir`]), so that the model evaluates a built folder's fitted form as the
+//! fit judged it without the generator; reading form files (TOML), fitting, regions, weights,
+//! costs and printing are the generator's, here.
 
 #[cfg(feature = "generator")]
 pub mod batch;
 #[cfg(feature = "generator")]
 pub mod build;
-pub mod compile;
 #[cfg(feature = "generator")]
 pub mod cost;
-pub mod expr;
 #[cfg(feature = "generator")]
 pub mod fitted;
 #[cfg(feature = "generator")]
@@ -29,14 +25,12 @@ pub mod fitting;
 pub mod form;
 #[cfg(feature = "generator")]
 pub mod pictures;
-pub mod record;
 #[cfg(feature = "generator")]
 pub mod region;
 #[cfg(feature = "generator")]
 pub mod shader;
-pub mod tape;
 
-pub use compile::FormEvaluator;
+pub use crate::ir::compile::FormEvaluator;
 #[cfg(feature = "generator")]
 pub use fitted::FittedForm;
 #[cfg(feature = "generator")]

@@ -4,14 +4,14 @@
 //!
 //! The function is `tmlut_<form>(variables...)`, returning `f32` for one channel and `vecN<f32>`
 //! for N, in the table's channel order. Its body is the form's tape ([`Form::tape`], which the fit
-//! evaluates) printed by the one tape printer ([`crate::shader::tape`]) that prints the scene
+//! evaluates) printed by the one tape printer ([`crate::ir::print`]) that prints the scene
 //! model, with the form's names: the derived variables it reads, each parameter as a local holding
 //! its fitted value (f32, shortest round-trip text), each `let`, then the channels.
 
-use super::expr::{Intrinsic, form_name};
+use crate::ir::text::{Intrinsic, form_name};
 use super::form::Form;
 use crate::error::{Error, Result};
-use crate::shader::tape::{Leaf, Leaves, Printed, print};
+use crate::ir::print::{Leaf, Leaves, Printed, print};
 use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, call, f, func, let_, name};
 
 /// The shading languages a fitted form is written in, with each file's extension.

@@ -105,7 +105,7 @@ fn the_gradient_is_the_finite_difference_of_the_value_for_every_function() {
     let table = karis_like(4, |_, _| [0.0, 0.0]);
     let text = ALL_FUNCTIONS;
     let form = Form::parse(Path::new("all.toml"), text, &table).unwrap();
-    let mut work = tape::Work::default();
+    let mut work = crate::ir::tape::Work::default();
     let mut scratch = Vec::new();
     for (point, params) in
         [([0.3, 0.6], [0.3, 0.7, 1.3]), ([0.9, 0.1], [-0.4, 0.2, 0.6]), ([0.5, 0.5], [1.1, -0.3, 1.7])]
@@ -344,7 +344,7 @@ fn the_batch_evaluation_is_the_point_by_point_one_to_the_bit() {
         let columns: Vec<Vec<f64>> = (0..d).map(|_| (0..count).map(|_| 1.4 * unit() - 0.2).collect()).collect();
         let params: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
         let seeds: Vec<Vec<f64>> = (0..count).map(|_| (0..channels).map(|_| unit() - 0.5).collect()).collect();
-        let (mut work, mut expected) = (tape::Work::default(), vec![0.0; p]);
+        let (mut work, mut expected) = (crate::ir::tape::Work::default(), vec![0.0; p]);
         let (mut batch, mut gradient) = (batch::Batch::default(), vec![0.0; p]);
         for first in (0..count).step_by(batch::LANES) {
             let len = batch::LANES.min(count - first);

@@ -2,14 +2,14 @@
 //! (bilinear, from a texture array's layer, trilinear), and the `asinh` and `acos` an axis's
 //! coordinate needs. The model's own arithmetic is recorded inline ([`super::material`]).
 //!
-//! The filters are the CPU's own ([`crate::packing::emulator`]'s `linear_taps_in`, `bilinear` and
+//! The filters are the CPU's own ([`crate::filter`]'s `linear_taps_in`, `bilinear` and
 //! `trilinear`, generic over their arithmetic), printed through [`InShader`]: the CPU evaluator's
 //! sampler runs them in f32 on the same texels. A 2D table is filtered by `bilinear`, the plane
 //! the CPU's `trilinear` reads a 2D texture in (a volume one texel deep, whose z weight is 0).
 
 use super::super::{Expr, Intrinsic, Module, Stmt, Ty, call, f, let_, name, select};
 use super::reads::InShader;
-use crate::packing::emulator::{self, bilinear, linear_taps_in};
+use crate::filter::{self, bilinear, linear_taps_in};
 
 /// The helper functions every scene shader shares: the bilinear read of a 2D table.
 pub(super) fn common(module: &mut Module) {
@@ -52,7 +52,7 @@ pub(super) fn bilinear_layer(module: &mut Module) {
 }
 
 /// Four texels around `(u, v)` of `tex` (of layer `layer` where `layered`), weighed bilinearly
-/// ([`crate::packing::emulator::bilinear`], the CPU's filter).
+/// ([`crate::filter::bilinear`], the CPU's filter).
 fn bilinear_body(layered: bool) -> Vec<Stmt> {
     let load = |x: Expr, y: Expr| {
         InShader(Expr::Load {
@@ -87,7 +87,7 @@ fn taps(body: &mut Vec<Stmt>, c: &str, n: &str) -> (Expr, Expr, InShader) {
 }
 
 /// The 3D table read: trilinear filtering by hand of a one-channel volume
-/// ([`crate::packing::emulator::trilinear`], the CPU's filter: x, then y, then z).
+/// ([`crate::filter::trilinear`], the CPU's filter: x, then y, then z).
 pub(super) fn trilinear(module: &mut Module) {
     module.comment("The single channel of a 3D table at texture coordinates (u, v, w), filtered by hand.");
     let load = |x: Expr, y: Expr, z: Expr| {
@@ -101,7 +101,7 @@ pub(super) fn trilinear(module: &mut Module) {
     };
     let mut body = Vec::new();
     let taps = [taps(&mut body, "u", "width"), taps(&mut body, "v", "height"), taps(&mut body, "w", "depth")];
-    body.push(Stmt::Return(emulator::trilinear(taps, load).0));
+    body.push(Stmt::Return(filter::trilinear(taps, load).0));
     module.function(
         "tmh_trilinear",
         vec![

@@ -1,5 +1,5 @@
 //! A material's function: the transfer-matrix model itself ([`crate::model::Material::evaluate`])
-//! recorded ([`crate::fit::text::record`]) over the material's stack and flux model, then printed.
+//! recorded ([`crate::ir::record`]) over the material's stack and flux model, then printed.
 //! The view cosine is the recorded code's variable 0 and each table lookup the model makes is a
 //! variable after it, printed as the read of the table the folder answers it with
 //! ([`Generator::read`]). Everything the stack alone
@@ -9,13 +9,13 @@
 
 use std::cell::RefCell;
 
-use super::super::tape::{Leaf, Leaves, Printed, print};
+use crate::ir::print::{Leaf, Leaves, Printed, print};
 use super::super::{Expr, Function, Stmt, Ty, assign, f, name, vec3};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
-use crate::fit::text::expr::Intrinsic;
-use crate::fit::text::record::{Recorded, record};
-use crate::fit::text::tape::{Ins, Tape, reads};
+use crate::ir::text::Intrinsic;
+use crate::ir::record::{Recorded, record};
+use crate::ir::tape::{Ins, Tape, reads};
 use crate::model::{Evaluation, FluxModel, Lookup, Material, Quantity, Stack, Tables};
 
 /// A material's model as recorded code: its evaluation at the view cosine (the tape's variable 0),
@@ -184,8 +184,8 @@ fn lookup(g: &mut Generator, m: &ShaderMaterial, l: &Lookup<Recorded>, printed: 
 #[cfg(test)]
 mod tests {
     use super::RecordedMaterial;
-    use crate::fit::text::record::Recorded;
-    use crate::fit::text::tape::Scalar;
+    use crate::ir::record::Recorded;
+    use crate::ir::tape::Scalar;
     use crate::model::{FluxModel, Interface, Layer, Lookup, Material, Medium, Quantity, STIFF_VIEWS, Stack, Tables};
     use crate::physics::fresnel_reflectance;
 

@@ -5,7 +5,7 @@
 //! [`InShader`], an [`Arithmetic`] of shader expressions.
 //!
 //! Tables are read by texel loads filtered in the shader (four or eight `textureLoad`s and lerps
-//! in f32: [`crate::packing::emulator`]'s filter, printed by [`super::helpers`]), not by the
+//! in f32: [`crate::filter`]'s filter, printed by [`super::helpers`]), not by the
 //! sampler: hardware filtering weighs texels with 8 fractional bits on most GPUs, which alone
 //! moves a value by up to 1/512 of a texel step, and float32 textures are not filterable in
 //! WebGPU without a feature.

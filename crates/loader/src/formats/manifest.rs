@@ -362,7 +362,7 @@ pub struct FitEntry {
     /// The form statement by statement, complete, in the form language (`docs/fit.md`, "Forms as
     /// text"): `table = tir, variables: mu, alpha, eta`, then `name = expression` in order, then
     /// `channel tir = expression`; the expressions read the parameters by `parameter_names`. The
-    /// model evaluates it (`fit::text::compile::FormEvaluator::from_definition`).
+    /// model evaluates it (`tmlut_ir::compile::FormEvaluator::from_definition`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub definition: Vec<String>,
     /// Why this form: the rule that chose it.

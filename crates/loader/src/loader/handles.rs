@@ -275,7 +275,7 @@ impl TirLut {
 
 /// The directional albedo with exact Fresnel of a conductor or dielectric, over
 /// `(mu, alpha, eta, kappa)`. Four axes: no texture holds it as it is (the GPU packings of
-/// `docs/packing.md` do, read through [`crate::packing`]); it is interpolated on the CPU.
+/// `docs/packing.md` do, read through `tmlut::packing`); it is interpolated on the CPU.
 #[derive(Debug, Clone)]
 pub struct FgdLut(Checked);
 common!(FgdLut, FGD);

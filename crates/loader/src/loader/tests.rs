@@ -371,7 +371,7 @@ fn paths_are_taken_as_any_path_like_value() {
 #[test]
 fn the_loader_uses_only_tables_formats_errors_and_the_gpu_sampler() {
     // What a renderer links: the model and the generator build on the loader, never the reverse.
-    let allowed = ["error", "formats", "table", "packing"];
+    let allowed = ["error", "formats", "table", "filter"];
     let sources = [
         ("mod.rs", include_str!("mod.rs")),
         ("handles.rs", include_str!("handles.rs")),

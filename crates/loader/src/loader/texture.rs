@@ -22,8 +22,8 @@
 
 use super::{Precision, Table};
 use crate::error::{Error, Result};
-use crate::packing::emulator::{Filter, Texture3D};
-use crate::packing::emulator::{linear_taps, trilinear};
+use crate::filter::{Filter, Texture3D};
+use crate::filter::{linear_taps, trilinear};
 use crate::table::{Axis, InterpolationError};
 
 /// Texel formats a table is stored in, named as WebGPU names them (all linear, all filterable
@@ -235,7 +235,7 @@ pub fn texture_coordinate(axis: &Axis, x: f64) -> f32 {
 /// `SampleLevel(sampler, coordinate, 0)` of `table` bound as a texture (one to three axes): a
 /// linear, clamp-addressed sampler, filtering in f32 x first, then y, then z, over the values as
 /// stored, one value per channel into `out`. Bit for bit the sampler of
-/// [`crate::packing::emulator`] with [`Filter::Exact`]; allocates nothing.
+/// [`crate::filter`] with [`Filter::Exact`]; allocates nothing.
 pub fn sample_texture(table: &Table, coordinate: &[f32], out: &mut [f32]) -> Result<(), InterpolationError> {
     let dimension = table.dimension();
     if coordinate.len() != dimension {
@@ -260,7 +260,7 @@ pub fn sample_texture(table: &Table, coordinate: &[f32], out: &mut [f32]) -> Res
 }
 
 /// A table of one to three axes bound as a texture: one single-channel volume per channel,
-/// sampled by the GPU emulator ([`crate::packing::emulator`]) as [`sample_texture`] samples it.
+/// sampled by the GPU emulator ([`crate::filter`]) as [`sample_texture`] samples it.
 #[derive(Debug, Clone)]
 pub struct SampledTable {
     pub name: String,

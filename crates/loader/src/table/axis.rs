@@ -64,7 +64,7 @@ fn is_zero(x: &f64) -> bool {
 /// mapping and coordinates, the point of a derived axis ([`crate::table::derived::point_in`]) and
 /// the choice among a scene's slices. Its types: f64 (the tables' own), f32 (as a shader computes
 /// the manifest's formulas), and the scene shader's expressions, which print them
-/// ([`crate::shader`] builds those). Constants, the mapping of an axis's ends among them, are
+/// (`tmlut_ir::shader` builds those). Constants, the mapping of an axis's ends among them, are
 /// computed in [`Arithmetic::Constant`] and then become values: a shader prints the very f32
 /// constants the CPU's f32 sampler computes.
 pub trait Arithmetic:

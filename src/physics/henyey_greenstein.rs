@@ -12,7 +12,7 @@
 
 use glam::DVec3;
 
-use super::real::Real;
+use crate::ir::real::Real;
 use std::f64::consts::PI;
 
 /// Below this asymmetry a lobe counts as fully rough: the model reads `g < 0.2` as 0.2, which maps

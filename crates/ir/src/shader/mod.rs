@@ -1,7 +1,7 @@
 //! One shader emitter: a small typed description of shader code (types, expressions, statements,
 //! functions, structs, bindings) printed as HLSL and as WGSL. Every shader tmlut writes — the
-//! lookups of the GPU packings ([`crate::packing`]), the fitted forms and the
-//! transfer-matrix evaluation of a scene (both in `tmlut`) — is built as one [`Module`] and printed
+//! lookups of the GPU packings, the fitted forms and the transfer-matrix evaluation of a scene
+//! (all in `tmlut`) — is built as one [`Module`] and printed
 //! twice, so the two languages cannot drift apart: a change is made once, in the description.
 //!
 //! The description holds only what both languages spell the same way up to syntax: f32/i32
@@ -12,7 +12,7 @@
 
 use std::fmt::Write as _;
 
-pub use crate::physics::real::{Compare, Intrinsic};
+pub use crate::real::{Compare, Intrinsic};
 
 /// A shading language the emitter prints.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

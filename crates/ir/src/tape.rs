@@ -5,7 +5,7 @@
 //! about one evaluation whatever the number of parameters, where forward-mode dual numbers would
 //! carry one derivative per parameter through every operation.
 
-use super::expr::{BinOp, Compare, Intrinsic};
+use crate::text::{BinOp, Compare, Intrinsic};
 
 /// One instruction; operands are indices of earlier instructions.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -138,7 +138,7 @@ fn clamp<T: Scalar>(x: T, lo: T, hi: T) -> T {
 }
 
 /// `x^n` by repeated multiplication, left to right, as the shader helper computes it.
-pub(super) fn pow_int<T: Scalar>(x: T, n: i32) -> T {
+pub fn pow_int<T: Scalar>(x: T, n: i32) -> T {
     let mut product = T::of(1.0);
     for k in 0..n.unsigned_abs() {
         product = if k == 0 { x } else { product * x };
@@ -304,9 +304,9 @@ impl Tape {
 
 /// One instruction's value, given the values of earlier ones (`v(k)`), the point's variables and
 /// the parameters: the arithmetic of [`Tape::values`], shared with the evaluation over many points
-/// at once ([`super::batch`]) so that both compute the same bits.
+/// at once (`tmlut::fit::text::batch`) so that both compute the same bits.
 #[inline]
-pub(super) fn value_of<T: Scalar>(ins: &Ins, v: impl Fn(usize) -> T, vars: &[T], params: &[T]) -> T {
+pub fn value_of<T: Scalar>(ins: &Ins, v: impl Fn(usize) -> T, vars: &[T], params: &[T]) -> T {
     match *ins {
         Ins::Const(c) => T::of(c),
         Ins::Var(k) => vars[k],
@@ -383,14 +383,14 @@ fn operand_slots(ins: &mut Ins) -> Vec<&mut usize> {
     }
 }
 
-/// Every instruction an instruction reads ([`operand_slots`]).
-pub(crate) fn reads(ins: &Ins) -> Vec<usize> {
+/// Every instruction an instruction reads (`operand_slots`).
+pub fn reads(ins: &Ins) -> Vec<usize> {
     let mut ins = *ins;
     operand_slots(&mut ins).into_iter().map(|k| *k).collect()
 }
 
 /// The operands of an instruction, in the order of [`partials`].
-pub(super) fn operands(ins: &Ins) -> [Option<usize>; 4] {
+pub fn operands(ins: &Ins) -> [Option<usize>; 4] {
     match *ins {
         Ins::Const(_) | Ins::Var(_) | Ins::Param(_) => [None; 4],
         Ins::Neg(a) | Ins::PowInt(a, _) => [Some(a), None, None, None],
@@ -411,7 +411,7 @@ pub(super) fn operands(ins: &Ins) -> [Option<usize>; 4] {
 /// values of all earlier instructions (`x(k)`) and its own `v`. At the kinks of `abs`, `min`, `max`,
 /// `clamp` the derivative of the side the value comes from; where a derivative is infinite
 /// (`sqrt` at 0) or the value is not a number, 0, so that the search is never handed a NaN slope.
-pub(super) fn partials(ins: &Ins, x: impl Fn(usize) -> f64, v: f64) -> [f64; 4] {
+pub fn partials(ins: &Ins, x: impl Fn(usize) -> f64, v: f64) -> [f64; 4] {
     let d = match *ins {
         Ins::Const(_) | Ins::Var(_) | Ins::Param(_) => [0.0; 4],
         Ins::Neg(_) => [-1.0, 0.0, 0.0, 0.0],

@@ -1,13 +1,13 @@
-//! A [`Tape`] printed as shader statements: the one printer of the recorded scene model
-//! ([`super::scene`]) and of the fitted forms ([`crate::fit::text::shader`]), so that the code a
+//! A [`Tape`] printed as shader statements ([`crate::shader`]): the one printer of the recorded
+//! scene model (`tmlut::shader::scene`) and of the fitted forms (`tmlut::fit::text::shader`), so that the code a
 //! shader runs is, instruction for instruction, the code [`Tape::values_with`] evaluates on the CPU.
 //! What differs between the two is only how the tape's leaves (constants, variables, parameters)
 //! and the functions a language lacks are printed: the [`Leaves`] a caller passes.
 
-use super::{Builtin, Expr, Op, Stmt, Ty, call, let_, name, select};
-use crate::error::{Error, Result};
-use crate::fit::text::expr::{BinOp, Intrinsic};
-use crate::fit::text::tape::{Ins, Tape, reads};
+use crate::shader::{Builtin, Expr, Op, Stmt, Ty, call, let_, name, select};
+use tmlut_loader::error::{Error, Result};
+use crate::text::{BinOp, Intrinsic};
+use crate::tape::{Ins, Tape, reads};
 
 /// How a tape's leaves are printed, and the calls it makes that have no builtin.
 pub trait Leaves {
@@ -156,9 +156,9 @@ pub fn builtin(f: Intrinsic) -> Option<Builtin> {
 #[cfg(test)]
 mod tests {
     use super::{Leaf, Leaves, Printed, print};
-    use crate::error::{Error, Result};
-    use crate::fit::text::expr::{BinOp, Compare, Intrinsic};
-    use crate::fit::text::tape::{Ins, Tape};
+    use tmlut_loader::error::{Error, Result};
+    use crate::text::{BinOp, Compare, Intrinsic};
+    use crate::tape::{Ins, Tape};
     use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, f, func, name};
 
     /// Variables `x0, x1, ...`, instruction 3 named `named`, helpers as plain calls.

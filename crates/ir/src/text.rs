@@ -30,7 +30,7 @@ fn error<T>(at: usize, message: impl Into<String>) -> Result<T, ExprError> {
 
 /// The functions of the language: the intrinsics both shading languages have, with the meaning
 /// WGSL gives them ([`Intrinsic`]).
-pub use crate::physics::real::Intrinsic;
+pub use crate::real::Intrinsic;
 
 /// The one function that takes a condition: `select(a, b, condition)`.
 pub const SELECT: &str = "select";
@@ -52,7 +52,7 @@ pub fn function_names() -> String {
 }
 
 /// A comparison, the condition of a `select` (the model's branches use the same one).
-pub use crate::physics::real::Compare;
+pub use crate::real::Compare;
 
 /// An arithmetic operator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -529,5 +529,5 @@ const RESERVED: &[&str] = &[
 ];
 
 #[cfg(test)]
-#[path = "expr_tests.rs"]
+#[path = "text_tests.rs"]
 mod tests;

@@ -5,8 +5,8 @@
 
 use std::collections::BTreeMap;
 
-use super::expr::{self, BinOp, ExprError, Node};
-use super::tape::{Ins, MAX_INTEGER_POWER, Scalar, Tape};
+use crate::text::{self, BinOp, ExprError, Node};
+use crate::tape::{Ins, MAX_INTEGER_POWER, Scalar, Tape};
 
 /// The exponent of `x ^ n` when `n` is an integer literal small enough to multiply out.
 pub fn integer_exponent(node: &Node) -> Option<i32> {
@@ -124,7 +124,7 @@ impl FormEvaluator {
             };
             let (name, text) =
                 rest.split_once(" = ").ok_or_else(|| format!("statement `{statement}` is not `name = expression`"))?;
-            let compiled = expr::parse(text).and_then(|node| scope.compile(&node));
+            let compiled = text::parse(text).and_then(|node| scope.compile(&node));
             let slot = compiled.map_err(|e| format!("statement `{statement}`: {}", e.message))?;
             if channel {
                 scope.tape.outputs.push(slot);
