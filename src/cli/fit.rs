@@ -127,8 +127,9 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
         timing_runs: args.timing_runs,
     };
     if form.is_dir() {
-        let request =
-            tmlut::fit::text::FolderFitRequest { files: form_files(&form, &table.name)?, out: args.out, options };
+        let (files, skipped) = tmlut::fit::text::form::form_files_for(&form, &table.name)?;
+        skipped.iter().for_each(|note| eprintln!("{note}"));
+        let request = tmlut::fit::text::FolderFitRequest { files, out: args.out, options };
         let fits = tmlut::fit::text::fit_form_files(&table, &request)?;
         print!("{}", tmlut::fit::text::fitting::ranking_markdown(&fits));
         println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FORMS_FILE).display());
@@ -141,94 +142,28 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
     Ok(())
 }
 
-/// The form files (`.toml`) of the folder `dir` for table `table`, in name order; those for
-/// another table are skipped with a note (luts/forms/ holds forms of several tables).
-fn form_files(dir: &Path, table: &str) -> tmlut::Result<Vec<PathBuf>> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|source| tmlut::Error::io(dir, source))?
-        .filter_map(|entry| entry.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
-    files.retain(|file| {
-        let named = tmlut::formats::read_text_at_most(file, tmlut::fit::text::form::MAX_FORM_BYTES, "form file")
-            .ok()
-            .and_then(|text| text.parse::<toml::Table>().ok())
-            .and_then(|t| t.get("table").and_then(|v| v.as_str().map(str::to_string)));
-        match named.as_deref() {
-            Some(other) if other != table => {
-                eprintln!("skipped {}: a form for table `{other}`, not `{table}`", file.display());
-                false
-            }
-            // A file whose table cannot be read is kept, so that reading it names the mistake.
-            _ => true,
-        }
-    });
-    if files.is_empty() {
-        return Err(tmlut::Error::invalid(
-            format!("--form {}", dir.display()),
-            format!("a folder with no form file (.toml) for table `{table}`"),
-        ));
-    }
-    Ok(files)
-}
-
 /// `tmlut fit --scene`: every candidate fitted (or read as fitted), then ranked in the material.
 fn rank(args: &FitArgs, scene: &Path, settings: tmlut::fit::FitSettings, context: &Context) -> tmlut::Result<()> {
-    use tmlut::fit::text::FittedForm;
-    use tmlut::fit::text::fitted::FittedFormExt;
-    use tmlut::fit::text::fitting::FIT_FILE;
     check_count("--views", args.views, tmlut::furnace::VIEWS)?;
     check_count("--exact-nodes", args.exact_nodes, tmlut::integrate::quadrature::NODES)?;
     let config = args.config.load()?;
     let (scene_read, text) = tmlut::scene::Scene::read(scene)?;
-    // Form files first found, then fitted in order (the table read once, where one is needed).
-    let mut candidates: Vec<PathBuf> = Vec::new();
-    for path in &args.form {
-        if path.is_dir() && !path.join(FIT_FILE).is_file() {
-            candidates.extend(form_files(path, "tir")?);
-        } else {
-            candidates.push(path.clone());
-        }
-    }
-    // Each form file is fitted into `fits/<form>`: two files of one form name would share it.
-    let form_files_given: Vec<PathBuf> =
-        candidates.iter().filter(|p| p.extension().is_some_and(|e| e == "toml")).cloned().collect();
-    tmlut::fit::text::form::distinct_form_names(&form_files_given)?;
-    let mut table = None;
-    let mut forms = Vec::with_capacity(candidates.len());
-    for path in candidates {
-        let fitted = if path.extension().is_some_and(|e| e == "toml") {
-            if table.is_none() {
-                table = Some(tmlut::loader::load_table(&args.table)?);
-            }
-            let name = tmlut::fit::text::form::form_name(&path);
-            // Folders tmlut makes inside the given one: never a link planted there.
-            let out = tmlut::formats::files::create_folders_inside(&args.out, &Path::new("fits").join(&name))?;
-            let options = tmlut::fit::text::FitOptions {
-                table: args.table.clone(),
-                settings,
-                certify: None,
-                ranges: Vec::new(),
-                weights: tmlut::fit::text::WeightsSpec::Uniform,
-                scene: None,
-                timing_runs: 0,
-            };
-            let request = tmlut::fit::text::FormFitRequest { form: path.clone(), out, options };
-            let report = tmlut::fit::text::fit_form_file(table.as_ref().expect("read above"), &request)?;
+    let forms = tmlut::furnace::forms::fitted_candidates(
+        &args.form,
+        &args.table,
+        &args.out,
+        settings,
+        &mut |path, report| {
             eprintln!(
                 "fitted {} to {}: RMS {:.3e}, max {:.3e} over the table's points",
                 path.display(),
                 args.table.display(),
                 report.figures.together.rms,
                 report.figures.together.max
-            );
-            FittedForm::read(&request.out, &request.out.display().to_string(), tmlut::fit::text::fitted::TIR_TABLES)?
-        } else {
-            FittedForm::read(&path, &path.display().to_string(), tmlut::fit::text::fitted::TIR_TABLES)?
-        };
-        forms.push(fitted);
-    }
+            )
+        },
+        &mut |note| eprintln!("{note}"),
+    )?;
     let request = tmlut::furnace::forms::FormRankRequest {
         scene: scene_read,
         source: scene.display().to_string(),

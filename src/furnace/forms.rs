@@ -16,10 +16,72 @@ use super::report::{FurnaceReport, file_stem};
 use super::{FurnaceRequest, FurnaceSettings, Selection, run};
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::fit::text::fitted::FittedForm;
+use crate::fit::FitSettings;
+use crate::fit::text::fitted::{FittedForm, FittedFormExt, TIR_TABLES};
+use crate::fit::text::fitting::FIT_FILE;
+use crate::fit::text::form::{distinct_form_names, form_files_for, form_name};
+use crate::fit::text::{FitOptions, FormFitRequest, FormReport, WeightsSpec, fit_form_file};
 use crate::integrate::Progress;
 use crate::model::TirPath;
 use crate::scene::Scene;
+use crate::table::TableKind;
+
+/// The candidates of a ranking, fitted where they are form files: each path a form file (fitted
+/// to the table `table` into `out/fits/<form>`, the table read once), a folder `tmlut fit --form`
+/// wrote (or its `fit.json`), or a folder of TIR form files (each fitted). `fitted` hears of each
+/// form file fitted, with its report. Two form files of one name are refused before any fit.
+pub fn fitted_candidates(
+    paths: &[PathBuf],
+    table: &Path,
+    out: &Path,
+    settings: FitSettings,
+    fitted: &mut dyn FnMut(&Path, &FormReport),
+    skipped: &mut dyn FnMut(&str),
+) -> Result<Vec<FittedForm>> {
+    let mut candidates: Vec<PathBuf> = Vec::new();
+    for path in paths {
+        if path.is_dir() && !path.join(FIT_FILE).is_file() {
+            let (files, notes) = form_files_for(path, TableKind::Tir.name())?;
+            notes.iter().for_each(|note| skipped(note));
+            candidates.extend(files);
+        } else {
+            candidates.push(path.clone());
+        }
+    }
+    let is_form_file = |p: &PathBuf| p.extension().is_some_and(|e| e == "toml");
+    // Each form file is fitted into `fits/<form>`: two files of one form name would share it.
+    let form_files: Vec<PathBuf> = candidates.iter().filter(|p| is_form_file(p)).cloned().collect();
+    distinct_form_names(&form_files)?;
+    let mut table_read = None;
+    let mut forms = Vec::with_capacity(candidates.len());
+    for path in candidates {
+        let folder = if is_form_file(&path) {
+            let table_read = match &mut table_read {
+                Some(read) => read,
+                none => none.insert(crate::loader::load_table(table)?),
+            };
+            // Folders tmlut makes inside the given one: never a link planted there.
+            let out = crate::formats::files::create_folders_inside(out, &Path::new("fits").join(form_name(&path)))?;
+            let options = FitOptions {
+                table: table.to_path_buf(),
+                settings,
+                certify: None,
+                ranges: Vec::new(),
+                weights: WeightsSpec::Uniform,
+                scene: None,
+                timing_runs: 0,
+            };
+            let request = FormFitRequest { form: path.clone(), out, options };
+            let report = fit_form_file(table_read, &request)?;
+            fitted(&path, &report);
+            request.out
+        } else {
+            path
+        };
+        forms.push(FittedForm::read(&folder, &folder.display().to_string(), TIR_TABLES)?);
+    }
+    Ok(forms)
+}
 
 /// What `tmlut fit --scene` is asked.
 pub struct FormRankRequest {

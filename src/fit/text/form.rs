@@ -176,6 +176,40 @@ pub fn distinct_form_names(files: &[std::path::PathBuf]) -> Result<Vec<String>> 
     Ok(names)
 }
 
+/// The form files (`.toml`) of the folder `dir` for table `table`, in name order, and a note for
+/// each file skipped as a form of another table (`luts/forms/` holds forms of several tables). A
+/// file whose table cannot be read is kept, so that reading it names the mistake; a folder with
+/// no form for the table is refused.
+pub fn form_files_for(dir: &Path, table: &str) -> Result<(Vec<std::path::PathBuf>, Vec<String>)> {
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .map_err(|source| Error::io(dir, source))?
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    let mut skipped = Vec::new();
+    files.retain(|file| {
+        let named = crate::formats::read_text_at_most(file, MAX_FORM_BYTES, "form file")
+            .ok()
+            .and_then(|text| text.parse::<toml::Table>().ok())
+            .and_then(|t| t.get("table").and_then(|v| v.as_str().map(str::to_string)));
+        match named.as_deref() {
+            Some(other) if other != table => {
+                skipped.push(format!("skipped {}: a form for table `{other}`, not `{table}`", file.display()));
+                false
+            }
+            _ => true,
+        }
+    });
+    if files.is_empty() {
+        return Err(Error::invalid(
+            format!("--form {}", dir.display()),
+            format!("a folder with no form file (.toml) for table `{table}`"),
+        ));
+    }
+    Ok((files, skipped))
+}
+
 impl Form {
     /// Read the form file at `path` against `table` (the table file it is fitted to).
     pub fn read(path: &Path, table: &Table) -> Result<Form> {
