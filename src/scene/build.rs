@@ -211,189 +211,36 @@ impl std::fmt::Display for SceneBuildSummary {
 }
 
 /// Build the plan of `request.scene`; returns the plan, the files written and a summary.
+///
+/// The steps, in order: the options checked, the plan made and its memory checked, the full
+/// tables the slices are compared with built (`--slice-checks full`), the cache or the shards
+/// opened, the slices read from them or integrated together, then either a shard's tables stored
+/// in its folder, or every table written into the output folder as one commit.
 pub fn build_scene(
     request: &SceneBuildRequest,
     progress: &dyn Progress,
 ) -> Result<(Plan, Vec<WrittenFile>, SceneBuildSummary)> {
     let started = std::time::Instant::now();
+    check_options(request)?;
     let config = planning_config(request);
-    let merging = !request.merge_from.is_empty();
-    if (request.shard.is_some() || merging) && request.slice_checks == SliceChecks::Full {
-        return Err(Error::invalid(
-            "--slice-checks full",
-            "checks each slice against the full table, which a shard or a merge does not build; allowed with --shard and merge: sampled, none",
-        ));
-    }
-    if request.shard.is_some() && request.cache.is_none() {
-        return Err(Error::invalid("--shard", "a shard writes its tables into a cache folder: give --cache DIR"));
-    }
     let plan = plan(&request.scene, &config)?;
-    // The slices' builds are held until the arrays are written; the scene's shader follows a
-    // build that is not a shard.
-    let slice_count = plan.tables.iter().filter(|t| matches!(t.build, PlannedBuild::Slices(_))).count();
-    let shader = if request.shard.is_none() { request.scene.materials.len() as u128 } else { 0 };
-    super::memory::check(
-        &format!("scene `{}`", request.scene.name),
-        &format!("building its {slice_count} slices and the shader of its {} materials", request.scene.materials.len()),
-        super::memory::BASE_BYTES
-            + super::memory::BYTES_PER_SLICE * slice_count as u128
-            + super::memory::SHADER_BYTES_PER_MATERIAL * shader,
-        "build fewer materials at a time (split the library, or --shard)",
-    )?;
+    check_memory(request, &plan)?;
     let plan_s = started.elapsed().as_secs_f64();
-    let owned_places = request.shard.map(|shard| shard.owned(&plan));
-    let owned = |place: usize| owned_places.as_ref().is_none_or(|o| o[place]);
     let seed = config.seed;
-    // The full tables the slices are compared with, built once, without their own reference checks.
-    let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(seed, progress)?.table) };
-    let has_slices_of = |fgd: bool| {
-        request.slice_checks == SliceChecks::Full
-            && plan
-                .tables
-                .iter()
-                .any(|t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd))
-    };
-    let full_fgd = if has_slices_of(true) {
-        let mut settings = config.fgd.clone();
-        settings.reference.cells = 0;
-        settings.interpolation.points = 0;
-        settings.replicate_error_columns = 0;
-        Some(full_table(&settings)?)
-    } else {
-        None
-    };
-    let full_tir = if has_slices_of(false) {
-        let mut settings = config.tir.clone();
-        settings.reference.cells = 0;
-        settings.interpolation.points = 0;
-        Some(full_table(&settings)?)
-    } else {
-        None
-    };
+    let full = FullTables::build(request, &plan, &config, progress)?;
+    let cache = open_cache(request)?;
+    let owned = request.shard.map(|shard| shard.owned(&plan));
+    let build = SceneBuild { request, plan: &plan, seed, owned, cache, progress };
 
     // Every slice of the plan in one pass over the nodes they share, unless each is checked alone.
-    let all_slices: Vec<&Slices> = plan
-        .tables
-        .iter()
-        .filter_map(|t| match &t.build {
-            PlannedBuild::Slices(slices) => Some(slices),
-            _ => None,
-        })
-        .collect();
-    let own_slices: Vec<&Slices> = plan
-        .tables
-        .iter()
-        .enumerate()
-        .filter_map(|(place, t)| match &t.build {
-            PlannedBuild::Slices(slices) if owned(place) => Some(slices),
-            _ => None,
-        })
-        .collect();
-    let cache = if merging {
-        Some(SliceCache::shards(&request.merge_from, &request.library_key())?)
-    } else {
-        request.cache.as_deref().map(SliceCache::open).transpose()?
-    };
-    let shard_folder_failed = |cache: &SliceCache| {
-        Error::invalid("--shard", format!("the shard's folder is incomplete: {}", cache.warnings().join("; ")))
-    };
-    if let (Some(_), Some(cache)) = (request.shard, &cache)
-        && cache.failed()
-    {
-        return Err(shard_folder_failed(cache));
-    }
-    let not_in_shards = |table: &str| {
-        // A shard entry read but refused (its values, its inputs) is named: a merge integrates nothing.
-        if let Some(refused) = cache.as_ref().and_then(|c| c.warnings().into_iter().next()) {
-            return Error::invalid("tmlut merge", format!("{refused}: rebuild the shard that holds it"));
-        }
-        Error::invalid(
-            "tmlut merge",
-            format!(
-                "table `{table}` is in none of the {} shard folder(s): run every shard (`tmlut build --shard I/N` for I = 1 to N) \
-                 with the same scenes, configuration and seed",
-                request.merge_from.len()
-            ),
-        )
-    };
+    let all_slices = build.slices(|_| true);
+    let own_slices = build.slices(|place| build.owns(place));
     let slices_started = std::time::Instant::now();
-    let mut slices_from_cache = 0;
-    let mut batch: std::collections::HashMap<String, TableBuild> = std::collections::HashMap::new();
-    if request.slice_checks != SliceChecks::Full && !all_slices.is_empty() {
-        // Slices an earlier build stored are read back; the others are integrated (and checked)
-        // together, then stored.
-        let mut missing: Vec<&Slices> = Vec::new();
-        // Entries are read and verified in parallel: a library's thousands take a while.
-        use rayon::prelude::*;
-        let cached: Vec<Option<TableBuild>> =
-            own_slices.par_iter().map(|slices| cache.as_ref().and_then(|c| c.get(slices, seed))).collect();
-        for (slices, cached) in own_slices.iter().zip(cached) {
-            match cached {
-                Some(build) => {
-                    batch.insert(slices.name.clone(), build);
-                }
-                None => missing.push(slices),
-            }
-        }
-        if let (true, Some(first)) = (merging, missing.first()) {
-            return Err(not_in_shards(&first.name));
-        }
-        if !missing.is_empty() {
-            // Checks are drawn across every slice of the plan, whichever of them are integrated here.
-            let builds = integrate_batch_among(&missing, &all_slices, seed, progress)?;
-            let exact = match request.slice_checks {
-                SliceChecks::Sampled => sampled_exact_values(&missing, &all_slices, seed, progress)?,
-                _ => vec![None; missing.len()],
-            };
-            for ((slices, mut build), exact) in missing.iter().zip(builds).zip(exact) {
-                build.provenance.interpolation.extend(exact);
-                if let Some(cache) = &cache {
-                    cache.put(slices, seed, &build);
-                }
-                batch.insert(slices.name.clone(), build);
-            }
-        }
-        slices_from_cache = own_slices.len() - missing.len();
-    }
-    if let (Some(shard), Some(cache)) = (request.shard, &cache) {
-        let mut tables = own_slices.len();
-        for (place, planned) in plan.tables.iter().enumerate() {
-            let Some(key) = table_key(&planned.build, seed).filter(|_| owned(place)) else { continue };
-            let recipe = planned.build.recipe().expect("a full table");
-            if cache.get_by_key(&key, recipe).is_none() {
-                cache.put_by_key(&key, &recipe.build(seed, progress)?);
-            }
-            tables += 1;
-        }
-        // Which library and part the folder holds, for the merge to hold it to.
-        if let Err(e) = cache.put_shard_record(&request.library_key(), shard) {
-            return Err(Error::invalid("--shard", format!("the shard's folder is incomplete: {e}")));
-        }
-        // The folder is the shard's only output: a table it could not keep is a failed shard.
-        if cache.failed() {
-            return Err(shard_folder_failed(cache));
-        }
-        for warning in cache.warnings() {
-            progress.note(&format!("warning: {warning}"));
-        }
-        progress.note(&format!(
-            "shard {}/{}: {tables} of the plan's {} tables in {} ({} slices from it already)",
-            shard.index,
-            shard.count,
-            plan.tables.len(),
-            cache.dir.display(),
-            slices_from_cache
-        ));
-        let summary = SceneBuildSummary {
-            materials: request.scene.materials.len(),
-            tables,
-            merged_slices: plan.merged_slices,
-            slices: own_slices.len(),
-            slices_from_cache,
-            plan_s,
-            slices_s: slices_started.elapsed().as_secs_f64(),
-            ..SceneBuildSummary::default()
-        };
+    let (mut batch, slices_from_cache) = build.read_or_integrate(&own_slices, &all_slices)?;
+    if let Some(shard) = request.shard {
+        let mut summary = build.store_shard(shard, &own_slices, slices_from_cache)?;
+        summary.plan_s = plan_s;
+        summary.slices_s = slices_started.elapsed().as_secs_f64();
         return Ok((plan, Vec::new(), summary));
     }
     let arrays = match request.slice_layout {
@@ -404,83 +251,25 @@ pub fn build_scene(
     if arrays && request.slice_checks == SliceChecks::Full {
         // An array is written from all its slices at once: each is built and checked on its own first.
         for slices in &all_slices {
-            let full = match slices.of {
-                SliceOf::Fgd(_) => full_fgd.as_ref(),
-                SliceOf::Tir(_) => full_tir.as_ref(),
-            };
-            batch.insert(slices.name.clone(), checked_slice(slices, full, seed, progress)?);
+            batch.insert(slices.name.clone(), checked_slice(slices, full.of(slices), seed, progress)?);
         }
     }
     let array_jobs = if arrays { slice_array_jobs(&all_slices, &batch)? } else { Vec::new() };
-    let batch = &batch;
-    let cache = &cache;
     let slices_s = slices_started.elapsed().as_secs_f64();
     let rest_started = std::time::Instant::now();
 
+    let (batch, full) = (&batch, &full);
     let jobs: Vec<Job> = array_jobs
         .into_iter()
-        .chain(plan.tables.iter().filter(|t| !(arrays && matches!(t.build, PlannedBuild::Slices(_)))).map(|planned| {
-            match &planned.build {
-                PlannedBuild::Slices(slices) if batch.contains_key(&slices.name) => Job {
-                    run: Box::new(move |_| Ok(batch[&slices.name].clone())),
-                    output: slices.output(),
-                    packings: Vec::new(),
-                    packing_formats: Vec::new(),
-                    fit_seed: None,
-                    slice_array: None,
-                },
-                PlannedBuild::Slices(slices) => {
-                    // Built above for every kind of slice planned, where accuracy is reported.
-                    let full = match slices.of {
-                        SliceOf::Fgd(_) => full_fgd.as_ref(),
-                        SliceOf::Tir(_) => full_tir.as_ref(),
-                    };
-                    Job {
-                        run: Box::new(move |progress| checked_slice(slices, full, seed, progress)),
-                        output: slices.output(),
-                        packings: Vec::new(),
-                        packing_formats: Vec::new(),
-                        fit_seed: None,
-                        slice_array: None,
-                    }
-                }
-                other => {
-                    let recipe = other.recipe().expect("every other planned build is a full recipe");
-                    let Companions { packings, packing_formats, .. } = recipe.companions();
-                    // A TIR table over a sub-range is not what the analytic forms are fitted to: only
-                    // the full table of the fitted-form item is, and that table is not written.
-                    let (output, fit_seed) = match other {
-                        PlannedBuild::TirFit(settings) => {
-                            (OutputConfig { formats: Vec::new(), precision: settings.output.precision }, Some(seed))
-                        }
-                        _ => (recipe.output().clone(), None),
-                    };
-                    // A full table is kept in the cache too (GD, read by every 6-flux library, and the
-                    // sub-range tables): a build of an unchanged library then integrates nothing.
-                    let key = cache.as_ref().and(table_key(other, seed));
-                    let not_in_shards = &not_in_shards;
-                    Job {
-                        run: Box::new(move |progress| {
-                            let (Some(cache), Some(key)) = (cache, &key) else { return recipe.build(seed, progress) };
-                            if let Some(build) = cache.get_by_key(key, recipe) {
-                                return Ok(build);
-                            }
-                            if merging {
-                                return Err(not_in_shards(recipe.name()));
-                            }
-                            let build = recipe.build(seed, progress)?;
-                            cache.put_by_key(key, &build);
-                            Ok(build)
-                        }),
-                        output,
-                        packings,
-                        packing_formats,
-                        fit_seed,
-                        slice_array: None,
-                    }
-                }
-            }
-        }))
+        .chain(
+            plan.tables
+                .iter()
+                .filter(|t| !(arrays && matches!(t.build, PlannedBuild::Slices(_))))
+                .map(|planned| match &planned.build {
+                    PlannedBuild::Slices(slices) => slice_job(slices, batch, full.of(slices), seed),
+                    other => build.table_job(other),
+                }),
+        )
         .collect();
     let record = SceneRecord {
         name: request.scene.name.clone(),
@@ -490,7 +279,7 @@ pub fn build_scene(
         plan: plan.record(),
     };
     let written = write_jobs(&request.out, jobs, request.error_maps, Some(record), progress)?;
-    if let Some(cache) = cache {
+    if let Some(cache) = &build.cache {
         progress.note(&format!(
             "table cache {}: {} of {} tables read from it",
             cache.dir.display(),
@@ -515,6 +304,303 @@ pub fn build_scene(
         rest_s: rest_started.elapsed().as_secs_f64(),
     };
     Ok((plan, written, summary))
+}
+
+/// The options a scene build refuses together, before it plans anything.
+fn check_options(request: &SceneBuildRequest) -> Result<()> {
+    let merging = !request.merge_from.is_empty();
+    if (request.shard.is_some() || merging) && request.slice_checks == SliceChecks::Full {
+        return Err(Error::invalid(
+            "--slice-checks full",
+            "checks each slice against the full table, which a shard or a merge does not build; allowed with --shard and merge: sampled, none",
+        ));
+    }
+    if request.shard.is_some() && request.cache.is_none() {
+        return Err(Error::invalid("--shard", "a shard writes its tables into a cache folder: give --cache DIR"));
+    }
+    Ok(())
+}
+
+/// The memory the plan's build needs, checked before it allocates: the slices' builds are held
+/// until the arrays are written, and the scene's shader follows a build that is not a shard.
+fn check_memory(request: &SceneBuildRequest, plan: &Plan) -> Result<()> {
+    let slice_count = plan.tables.iter().filter(|t| matches!(t.build, PlannedBuild::Slices(_))).count();
+    let shader = if request.shard.is_none() { request.scene.materials.len() as u128 } else { 0 };
+    super::memory::check(
+        &format!("scene `{}`", request.scene.name),
+        &format!("building its {slice_count} slices and the shader of its {} materials", request.scene.materials.len()),
+        super::memory::BASE_BYTES
+            + super::memory::BYTES_PER_SLICE * slice_count as u128
+            + super::memory::SHADER_BYTES_PER_MATERIAL * shader,
+        "build fewer materials at a time (split the library, or --shard)",
+    )
+}
+
+/// The full FGD and TIR tables slices are compared with under `--slice-checks full`, each built
+/// once where the plan has slices of it, without its own reference checks.
+struct FullTables {
+    fgd: Option<Table>,
+    tir: Option<Table>,
+}
+
+impl FullTables {
+    fn build(request: &SceneBuildRequest, plan: &Plan, config: &Config, progress: &dyn Progress) -> Result<Self> {
+        let has_slices_of = |fgd: bool| {
+            request.slice_checks == SliceChecks::Full
+                && plan
+                    .tables
+                    .iter()
+                    .any(|t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd))
+        };
+        let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(config.seed, progress)?.table) };
+        let fgd = if has_slices_of(true) {
+            let mut settings = config.fgd.clone();
+            settings.reference.cells = 0;
+            settings.interpolation.points = 0;
+            settings.replicate_error_columns = 0;
+            Some(full_table(&settings)?)
+        } else {
+            None
+        };
+        let tir = if has_slices_of(false) {
+            let mut settings = config.tir.clone();
+            settings.reference.cells = 0;
+            settings.interpolation.points = 0;
+            Some(full_table(&settings)?)
+        } else {
+            None
+        };
+        Ok(FullTables { fgd, tir })
+    }
+
+    /// The full table `slices` specialise, where it was built.
+    fn of(&self, slices: &Slices) -> Option<&Table> {
+        match slices.of {
+            SliceOf::Fgd(_) => self.fgd.as_ref(),
+            SliceOf::Tir(_) => self.tir.as_ref(),
+        }
+    }
+}
+
+/// The cache a build reads and stores tables in: the shard folders a merge joins, or `--cache`.
+/// A shard's folder that cannot be used fails the shard at once.
+fn open_cache(request: &SceneBuildRequest) -> Result<Option<SliceCache>> {
+    let cache = if !request.merge_from.is_empty() {
+        Some(SliceCache::shards(&request.merge_from, &request.library_key())?)
+    } else {
+        request.cache.as_deref().map(SliceCache::open).transpose()?
+    };
+    if let (Some(_), Some(cache)) = (request.shard, &cache)
+        && cache.failed()
+    {
+        return Err(shard_folder_failed(cache));
+    }
+    Ok(cache)
+}
+
+fn shard_folder_failed(cache: &SliceCache) -> Error {
+    Error::invalid("--shard", format!("the shard's folder is incomplete: {}", cache.warnings().join("; ")))
+}
+
+/// One scene build under way: what its steps after planning share.
+struct SceneBuild<'a> {
+    request: &'a SceneBuildRequest,
+    plan: &'a Plan,
+    seed: u64,
+    /// Which of the plan's tables a shard integrates; `None` for every table.
+    owned: Option<Vec<bool>>,
+    cache: Option<SliceCache>,
+    progress: &'a dyn Progress,
+}
+
+impl<'a> SceneBuild<'a> {
+    fn merging(&self) -> bool {
+        !self.request.merge_from.is_empty()
+    }
+
+    fn owns(&self, place: usize) -> bool {
+        self.owned.as_ref().is_none_or(|o| o[place])
+    }
+
+    /// The plan's slices at the places `keep` accepts, in plan order.
+    fn slices(&self, keep: impl Fn(usize) -> bool) -> Vec<&'a Slices> {
+        let plan: &'a Plan = self.plan;
+        plan.tables
+            .iter()
+            .enumerate()
+            .filter_map(|(place, t)| match &t.build {
+                PlannedBuild::Slices(slices) if keep(place) => Some(slices),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The error of a merge that finds no entry for `table`: the first entry a shard held but
+    /// that was refused (its values, its inputs) where there is one, since a merge integrates
+    /// nothing.
+    fn not_in_shards(&self, table: &str) -> Error {
+        if let Some(refused) = self.cache.as_ref().and_then(|c| c.warnings().into_iter().next()) {
+            return Error::invalid("tmlut merge", format!("{refused}: rebuild the shard that holds it"));
+        }
+        Error::invalid(
+            "tmlut merge",
+            format!(
+                "table `{table}` is in none of the {} shard folder(s): run every shard (`tmlut build --shard I/N` for I = 1 to N) \
+                 with the same scenes, configuration and seed",
+                self.request.merge_from.len()
+            ),
+        )
+    }
+
+    /// The builds of `own` (this build's slices among `all`, the plan's), unless each is checked
+    /// alone: those an earlier build stored read back from the cache, the others integrated (and
+    /// checked) together, then stored. Returns them by name, and how many came from the cache.
+    fn read_or_integrate(
+        &self,
+        own: &[&Slices],
+        all: &[&Slices],
+    ) -> Result<(std::collections::HashMap<String, TableBuild>, usize)> {
+        let mut batch = std::collections::HashMap::new();
+        if self.request.slice_checks == SliceChecks::Full || all.is_empty() {
+            return Ok((batch, 0));
+        }
+        let (cache, seed) = (&self.cache, self.seed);
+        // Entries are read and verified in parallel: a library's thousands take a while.
+        use rayon::prelude::*;
+        let cached: Vec<Option<TableBuild>> =
+            own.par_iter().map(|slices| cache.as_ref().and_then(|c| c.get(slices, seed))).collect();
+        let mut missing: Vec<&Slices> = Vec::new();
+        for (slices, cached) in own.iter().zip(cached) {
+            match cached {
+                Some(build) => {
+                    batch.insert(slices.name.clone(), build);
+                }
+                None => missing.push(slices),
+            }
+        }
+        if let (true, Some(first)) = (self.merging(), missing.first()) {
+            return Err(self.not_in_shards(&first.name));
+        }
+        if !missing.is_empty() {
+            // Checks are drawn across every slice of the plan, whichever of them are integrated here.
+            let builds = integrate_batch_among(&missing, all, seed, self.progress)?;
+            let exact = match self.request.slice_checks {
+                SliceChecks::Sampled => sampled_exact_values(&missing, all, seed, self.progress)?,
+                _ => vec![None; missing.len()],
+            };
+            for ((slices, mut build), exact) in missing.iter().zip(builds).zip(exact) {
+                build.provenance.interpolation.extend(exact);
+                if let Some(cache) = cache {
+                    cache.put(slices, seed, &build);
+                }
+                batch.insert(slices.name.clone(), build);
+            }
+        }
+        Ok((batch, own.len() - missing.len()))
+    }
+
+    /// A shard's other tables integrated into its cache folder (those not there already) and its
+    /// record written: the folder is the shard's only output, so a table it could not keep fails
+    /// the shard. Returns the summary without its times.
+    fn store_shard(&self, shard: Shard, own_slices: &[&Slices], slices_from_cache: usize) -> Result<SceneBuildSummary> {
+        let cache = self.cache.as_ref().expect("a shard has a cache folder (check_options)");
+        let mut tables = own_slices.len();
+        for (place, planned) in self.plan.tables.iter().enumerate() {
+            let Some(key) = table_key(&planned.build, self.seed).filter(|_| self.owns(place)) else { continue };
+            let recipe = planned.build.recipe().expect("a full table");
+            if cache.get_by_key(&key, recipe).is_none() {
+                cache.put_by_key(&key, &recipe.build(self.seed, self.progress)?);
+            }
+            tables += 1;
+        }
+        // Which library and part the folder holds, for the merge to hold it to.
+        if let Err(e) = cache.put_shard_record(&self.request.library_key(), shard) {
+            return Err(Error::invalid("--shard", format!("the shard's folder is incomplete: {e}")));
+        }
+        if cache.failed() {
+            return Err(shard_folder_failed(cache));
+        }
+        for warning in cache.warnings() {
+            self.progress.note(&format!("warning: {warning}"));
+        }
+        self.progress.note(&format!(
+            "shard {}/{}: {tables} of the plan's {} tables in {} ({} slices from it already)",
+            shard.index,
+            shard.count,
+            self.plan.tables.len(),
+            cache.dir.display(),
+            slices_from_cache
+        ));
+        Ok(SceneBuildSummary {
+            materials: self.request.scene.materials.len(),
+            tables,
+            merged_slices: self.plan.merged_slices,
+            slices: own_slices.len(),
+            slices_from_cache,
+            ..SceneBuildSummary::default()
+        })
+    }
+
+    /// The job of a planned full table (or the fitted TIR form's table): read from the cache
+    /// where it holds it, integrated otherwise (and stored), never integrated in a merge.
+    fn table_job(&self, planned: &'a PlannedBuild) -> Job<'_> {
+        let seed = self.seed;
+        let recipe = planned.recipe().expect("every other planned build is a full recipe");
+        let Companions { packings, packing_formats, .. } = recipe.companions();
+        // A TIR table over a sub-range is not what the analytic forms are fitted to: only the full
+        // table of the fitted-form item is, and that table is not written.
+        let (output, fit_seed) = match planned {
+            PlannedBuild::TirFit(settings) => {
+                (OutputConfig { formats: Vec::new(), precision: settings.output.precision }, Some(seed))
+            }
+            _ => (recipe.output().clone(), None),
+        };
+        // A full table is kept in the cache too (GD, read by every 6-flux library, and the
+        // sub-range tables): a build of an unchanged library then integrates nothing.
+        let key = self.cache.as_ref().and(table_key(planned, seed));
+        Job {
+            run: Box::new(move |progress| {
+                let (Some(cache), Some(key)) = (&self.cache, &key) else { return recipe.build(seed, progress) };
+                if let Some(build) = cache.get_by_key(key, recipe) {
+                    return Ok(build);
+                }
+                if self.merging() {
+                    return Err(self.not_in_shards(recipe.name()));
+                }
+                let build = recipe.build(seed, progress)?;
+                cache.put_by_key(key, &build);
+                Ok(build)
+            }),
+            output,
+            packings,
+            packing_formats,
+            fit_seed,
+            slice_array: None,
+        }
+    }
+}
+
+/// The job of a slice written as a file of its own: its build from the batch where it is there,
+/// otherwise built and checked on its own (against `full`, the full table it specialises, where
+/// that was built).
+fn slice_job<'a>(
+    slices: &'a Slices,
+    batch: &'a std::collections::HashMap<String, TableBuild>,
+    full: Option<&'a Table>,
+    seed: u64,
+) -> Job<'a> {
+    let run: crate::pipeline::Integration<'a> = match batch.get(&slices.name) {
+        Some(build) => Box::new(move |_| Ok(build.clone())),
+        None => Box::new(move |progress| checked_slice(slices, full, seed, progress)),
+    };
+    Job {
+        run,
+        output: slices.output(),
+        packings: Vec::new(),
+        packing_formats: Vec::new(),
+        fit_seed: None,
+        slice_array: None,
+    }
 }
 
 /// A slice built on its own, and with `full` given, checked against the exact integral where its
