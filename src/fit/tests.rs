@@ -1,9 +1,9 @@
 use std::path::Path;
 
 use super::*;
-use crate::ir::compile::FormEvaluator;
 use crate::fit::text::fitted::tir_shape;
 use crate::fit::text::form::Form;
+use crate::ir::compile::FormEvaluator;
 
 /// splitmix64 numbers uniform in [0, 1).
 fn uniform(mut state: u64) -> impl FnMut() -> f64 {

@@ -27,7 +27,7 @@ use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::integrate::{GRAZING_COSINE, Progress};
 use crate::loader::LutFolder;
-use crate::model::folder::{FgdSource, FolderTables, LibraryTables, MaterialReads};
+use crate::model::folder::{FgdSource, FolderTables, LibraryTables, MaterialReads, Misses};
 use crate::model::{Lookup, Material, Rgb, Tables};
 use crate::random_walk::{self, WalkSettings};
 use crate::scene::Scene;
@@ -251,52 +251,14 @@ const EXACT_PASSES: usize = 8;
 /// set (`crate::commit`): `furnace.json`, and per material pictured `<material>_furnace.exr`,
 /// `.png` and `<material>_albedo.png`. A failed or killed run leaves the previous set as it was.
 pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceReport> {
-    request.settings.validate()?;
+    check_request(request)?;
     let count = request.scene.materials.len();
-    if let Some(scenes) = &request.material_scenes
-        && scenes.len() != count
-    {
-        return Err(Error::invalid(
-            "furnace request",
-            format!("{} scene names for {count} materials; one per material", scenes.len()),
-        ));
-    }
-    crate::scene::memory::check(
-        &format!("scene `{}`", request.scene.name),
-        &format!("the furnace of its {count} materials"),
-        crate::scene::memory::BASE_BYTES + crate::scene::memory::FURNACE_BYTES_PER_MATERIAL * count as u128,
-        "measure fewer materials at a time",
-    )?;
     // Taken before anything is read or built: a second run into the folder waits, and what an
     // interrupted run left (a commit half done, staging folders) is completed or removed first.
     let folder_lock = OutputFolder::take(&request.out, |message| progress.note(message))?;
     let mut times = PhaseTimes::default();
     let started = Instant::now();
-    let luts = match &request.luts {
-        Some(dir) => dir.clone(),
-        None => {
-            let dir = crate::formats::files::create_folders_inside(&request.out, Path::new("luts"))?;
-            // The furnace measures the tables in the material itself: the tables' own reference
-            // checks and the slices' accuracy reports would only repeat it, slower.
-            let mut config = request.config.clone();
-            config.disable_reference_checks();
-            let build = SceneBuildRequest {
-                scene: request.scene.clone(),
-                source: PathBuf::from(&request.source),
-                text: request.text.clone(),
-                config,
-                out: dir.clone(),
-                error_maps: false,
-                slice_checks: SliceChecks::None,
-                cache: None,
-                slice_layout: SliceLayout::Auto,
-                shard: None,
-                merge_from: Vec::new(),
-            };
-            build_scene(&build, progress)?;
-            dir
-        }
-    };
+    let luts = tables_folder(request, progress)?;
     times.tables = started.elapsed().as_secs_f64();
 
     let started = Instant::now();
@@ -315,10 +277,102 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         albedo_form: m.albedo_form.as_ref(),
     });
     let library = LibraryTables::open(&folder, request.settings.fgd_source, reads)?;
-    // The model with the tables, material after material: each material's misses and clamped
-    // lookups are its own (the counts are taken after it).
-    let mut with_tables = Vec::with_capacity(count);
-    for (index, (material, model)) in request.scene.materials.iter().zip(&models).enumerate() {
+    let with_tables = curves_with_tables(request, &models, &library, &mus, &luts)?;
+    // Each material's cost timed on one thread, materials side by side: a library's thousands of
+    // timings would otherwise be the run's longest phase on one core.
+    let costs: Vec<f64> = models
+        .par_iter()
+        .enumerate()
+        .map(|(index, model)| time_model(model, library.of(index), &mus, request.settings.timing_rounds))
+        .collect();
+    times.model_with_tables = started.elapsed().as_secs_f64();
+
+    let started = Instant::now();
+    let proxies: Vec<&FolderTables> = (0..count).map(|index| library.of(index)).collect();
+    let with_exact = exact_curves(&models, &proxies, &mus, &exact, progress);
+    times.exact = started.elapsed().as_secs_f64();
+
+    let started = Instant::now();
+    let walks = walk_curves(request, &models, &mus, progress);
+    times.walk = started.elapsed().as_secs_f64();
+
+    let materials: Vec<MaterialReport> = request
+        .scene
+        .materials
+        .iter()
+        .zip(with_tables)
+        .zip(costs)
+        .zip(with_exact)
+        .zip(walks)
+        .enumerate()
+        .map(|(index, ((((material, (curve, clamped)), cost_ns), exact_curve), walk))| {
+            let scene = request.material_scenes.as_ref().map(|s| s[index].clone());
+            MaterialReport::new(material, scene, &mus, curve, exact_curve, walk, cost_ns, clamped)
+        })
+        .collect();
+    commit_report(request, &folder_lock, &luts, exact.nodes(), materials, times)
+}
+
+/// What a furnace run refuses before it takes its folder: its settings, a scene name per
+/// material where names are given, and the memory its materials need.
+fn check_request(request: &FurnaceRequest) -> Result<()> {
+    request.settings.validate()?;
+    let count = request.scene.materials.len();
+    if let Some(scenes) = &request.material_scenes
+        && scenes.len() != count
+    {
+        return Err(Error::invalid(
+            "furnace request",
+            format!("{} scene names for {count} materials; one per material", scenes.len()),
+        ));
+    }
+    crate::scene::memory::check(
+        &format!("scene `{}`", request.scene.name),
+        &format!("the furnace of its {count} materials"),
+        crate::scene::memory::BASE_BYTES + crate::scene::memory::FURNACE_BYTES_PER_MATERIAL * count as u128,
+        "measure fewer materials at a time",
+    )
+}
+
+/// The folder of tables the model reads: `--luts` as given, or the scene's tables built into
+/// `OUT/luts` without their own checks (the furnace measures the tables in the material itself:
+/// the tables' reference checks and the slices' accuracy reports would only repeat it, slower).
+fn tables_folder(request: &FurnaceRequest, progress: &dyn Progress) -> Result<PathBuf> {
+    if let Some(dir) = &request.luts {
+        return Ok(dir.clone());
+    }
+    let dir = crate::formats::files::create_folders_inside(&request.out, Path::new("luts"))?;
+    let mut config = request.config.clone();
+    config.disable_reference_checks();
+    let build = SceneBuildRequest {
+        scene: request.scene.clone(),
+        source: PathBuf::from(&request.source),
+        text: request.text.clone(),
+        config,
+        out: dir.clone(),
+        error_maps: false,
+        slice_checks: SliceChecks::None,
+        cache: None,
+        slice_layout: SliceLayout::Auto,
+        shard: None,
+        merge_from: Vec::new(),
+    };
+    build_scene(&build, progress)?;
+    Ok(dir)
+}
+
+/// Every material's `A(mu)` with the tables of `luts`, and its clamped lookups, material after
+/// material: each material's misses and clamped lookups are its own (the counts are taken after
+/// it). A lookup the folder cannot answer is refused, naming the material.
+fn curves_with_tables(
+    request: &FurnaceRequest,
+    models: &[Material],
+    library: &LibraryTables,
+    mus: &[f64],
+    luts: &Path,
+) -> Result<Vec<(Vec<Rgb>, Misses)>> {
+    let mut with_tables = Vec::with_capacity(models.len());
+    for (index, (material, model)) in request.scene.materials.iter().zip(models).enumerate() {
         let tables = library.of(index);
         tables.take_counts();
         let curve: Vec<Rgb> = mus.iter().map(|&mu| model.albedo(mu, tables)).collect();
@@ -335,23 +389,19 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         }
         with_tables.push((curve, clamped));
     }
-    // Each material's cost timed on one thread, materials side by side: a library's thousands of
-    // timings would otherwise be the run's longest phase on one core.
-    let costs: Vec<f64> = models
-        .par_iter()
-        .enumerate()
-        .map(|(index, model)| time_model(model, library.of(index), &mus, request.settings.timing_rounds))
-        .collect();
-    times.model_with_tables = started.elapsed().as_secs_f64();
+    Ok(with_tables)
+}
 
-    let started = Instant::now();
-    let proxies: Vec<&FolderTables> = (0..count).map(|index| library.of(index)).collect();
-    let with_exact = exact_curves(&models, &proxies, &mus, &exact, progress);
-    times.exact = started.elapsed().as_secs_f64();
-
-    let started = Instant::now();
-    let walked = request.settings.walk_materials.chosen(count, request.settings.walk.seed);
-    let mut walks = Vec::with_capacity(count);
+/// The random walk's `A(mu)` of the materials the settings choose, each with its wall time;
+/// `None` for the others.
+fn walk_curves(
+    request: &FurnaceRequest,
+    models: &[Material],
+    mus: &[f64],
+    progress: &dyn Progress,
+) -> Vec<Option<(Vec<random_walk::WalkEstimate>, f64)>> {
+    let walked = request.settings.walk_materials.chosen(models.len(), request.settings.walk.seed);
+    let mut walks = Vec::with_capacity(models.len());
     for (index, model) in models.iter().enumerate() {
         if !walked[index] {
             walks.push(None);
@@ -360,30 +410,26 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         let walk_settings =
             WalkSettings { seed: walk_seed(request.settings.walk.seed, index), ..request.settings.walk };
         let started = Instant::now();
-        let walk = random_walk::directional_albedo_curve(&model.stack, &mus, &walk_settings, progress);
+        let walk = random_walk::directional_albedo_curve(&model.stack, mus, &walk_settings, progress);
         walks.push(Some((walk, started.elapsed().as_secs_f64())));
     }
-    times.walk = started.elapsed().as_secs_f64();
+    walks
+}
 
-    let mut materials: Vec<MaterialReport> = request
-        .scene
-        .materials
-        .iter()
-        .zip(with_tables)
-        .zip(costs)
-        .zip(with_exact)
-        .zip(walks)
-        .enumerate()
-        .map(|(index, ((((material, (curve, clamped)), cost_ns), exact_curve), walk))| {
-            let scene = request.material_scenes.as_ref().map(|s| s[index].clone());
-            MaterialReport::new(material, scene, &mus, curve, exact_curve, walk, cost_ns, clamped)
-        })
-        .collect();
-
-    // Every file of the run is written into a staging folder and committed with `furnace.json`,
-    // which lists them, as one set.
+/// The pictures and `furnace.json` written into a staging folder and committed as one set, the
+/// files of the set the folder held before that this one does not replace (a material renamed or
+/// no longer pictured) removed with the commit, so that no picture outlives its report.
+fn commit_report(
+    request: &FurnaceRequest,
+    folder_lock: &OutputFolder,
+    luts: &Path,
+    exact_nodes: usize,
+    mut materials: Vec<MaterialReport>,
+    mut times: PhaseTimes,
+) -> Result<FurnaceReport> {
     let started = Instant::now();
     let mut staging = folder_lock.staging()?;
+    let count = materials.len();
     let pictured = request.settings.pictures.chosen(count, request.settings.walk.seed);
     materials
         .par_iter_mut()
@@ -396,7 +442,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         .collect::<Result<Vec<()>>>()?;
     times.pictures = started.elapsed().as_secs_f64();
 
-    let report = FurnaceReport::new(request, &luts, exact.nodes(), materials, times);
+    let report = FurnaceReport::new(request, luts, exact_nodes, materials, times);
     report.write(&staging.dir)?;
     let moves: Vec<Move> = report
         .materials
@@ -404,8 +450,6 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
         .flat_map(|m| &m.files)
         .map(|file| Move { staged: file.clone(), destination: file.clone() })
         .collect();
-    // The files of the set the folder held before that this one does not replace (a material
-    // renamed or no longer pictured): removed with the commit, so that no picture outlives its report.
     let removals = match FurnaceReport::read(&request.out.join(FURNACE_FILE)) {
         Ok(old) => old
             .materials
@@ -415,7 +459,7 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
             .collect(),
         Err(_) => Vec::new(),
     };
-    crate::commit::commit_set(&folder_lock, &mut staging, moves, removals, FURNACE_FILE)?;
+    crate::commit::commit_set(folder_lock, &mut staging, moves, removals, FURNACE_FILE)?;
     Ok(report)
 }
 

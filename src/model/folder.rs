@@ -25,11 +25,11 @@ use std::sync::Mutex;
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use super::routes::{Answer, Paths, Reader, Routes};
 use crate::error::{Error, Result};
-use crate::ir::compile::FormEvaluator;
 #[cfg(feature = "generator")]
 use crate::fit::text::fitted::{FittedForm, FittedFormExt};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
+use crate::ir::compile::FormEvaluator;
 use crate::loader::texture::SampledTable;
 use crate::loader::{FolderSlice, LutFolder};
 use crate::packing::{Filter, PackedFgd, Packing};

@@ -77,8 +77,8 @@ use factors::{Component, Flux, components};
 pub use lookup::{AlbedoPath, IndexRegion, Lookup, Quantity, Site, StandIn, Tables, TirPath, stand_in, stand_ins};
 pub use stack::{FluxModel, Interface, Layer, MAX_LAYERS, Medium, Rgb, Stack};
 
-use crate::physics::hg_to_ggx;
 use crate::ir::real::{Real, choose_if_any_nonzero};
+use crate::physics::hg_to_ggx;
 
 /// View cosines where the model is stiff: the horizon, a rounding step above it, grazing, the
 /// middle, the normal (the stability matrix evaluates every stiff stack at these; the scene

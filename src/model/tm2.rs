@@ -7,8 +7,8 @@
 use super::factors::{Component, DielectricFactors, average};
 use super::lookup::{Site, Tables};
 use super::{LobeKind, RawLobe, below, first_order_tir};
-use crate::physics::hg_refract;
 use crate::ir::real::{Compare, Real};
+use crate::physics::hg_refract;
 
 /// Transmissions below this are read as this in `1 / t`: a lobe totally reflected (TIR = 1) or an
 /// asymmetry of 0 gives the limit where nothing crosses, where the reference divides by zero

@@ -30,9 +30,9 @@
 
 /// The emulator of a GPU's texture filtering, the loader's.
 pub use tmlut_loader::filter as emulator;
-pub mod shader;
 #[cfg(feature = "generator")]
 pub mod report;
+pub mod shader;
 
 use std::ops::{Add, Mul, Sub};
 
@@ -338,6 +338,136 @@ fn tile_of(program: &mut Program, k: &Expr, columns: usize, suffix: &str) -> (Ex
     (row, column)
 }
 
+/// A packing's node counts (`mu`, `alpha`, `eta`, `kappa`) and its volume's extent.
+#[derive(Clone, Copy)]
+struct Shape {
+    counts: [usize; 4],
+    extent: [usize; 3],
+}
+
+/// The description and axis entries of the two lossless packings' layout: every node kept, kappa
+/// nodes as tiles in x and y, eta along z.
+fn lossless_layout(shape: Shape) -> (Vec<String>, [String; 4], usize) {
+    let [n_mu, n_alpha, n_eta, n_kappa] = shape.counts;
+    let [width, height, depth] = shape.extent;
+    let (columns, _) = tile_grid(n_kappa);
+    let layout = vec![
+        format!(
+            "{width} x {height} x {depth} volume, one channel, every node of the {n_mu} x {n_alpha} x {n_eta} x {n_kappa} table kept."
+        ),
+        format!(
+            "kappa node k is a {n_mu} x {n_alpha} (mu x alpha) tile at tile column k mod {columns} (along x) and tile row floor(k / {columns}) (along y); unused tiles and the padding to {width} x {height} hold 0."
+        ),
+        "eta node e is depth slice e.".into(),
+    ];
+    let stored_along = [
+        format!("x within a kappa tile ({n_mu} texels)"),
+        format!("y within a kappa tile ({n_alpha} texels)"),
+        "z".into(),
+        format!("tile: column k mod {columns} along x, row floor(k / {columns}) along y"),
+    ];
+    (layout, stored_along, columns)
+}
+
+/// [`Packing::Lossless`]: the lookup computes the 4D weights itself and loads the cell's 16 texels.
+fn lossless_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<String>, Vec<AxisEntry>) {
+    let [n_mu, n_alpha, _, _] = shape.counts;
+    let (mut layout, stored_along, columns) = lossless_layout(shape);
+    load_lookup(program, axes, columns);
+    layout.extend([
+            "No hardware filtering: the lookup computes the 4D interpolation weights in f32 (exact to 2^-25 for power-of-two node counts), loads the 16 texels of the cell and lerps them, mu, alpha, eta, then kappa.".to_string(),
+            "So it reproduces 4D multilinear interpolation to f32 rounding on any GPU (no 8-bit filter weights, no coordinate rounding), and needs no sampler; r32float needs no float32-filterable feature in WebGPU.".into(),
+        ]);
+    let addresses = [
+        format!("texel x = column * {n_mu} + k_mu (+ 1), lerp by t_mu"),
+        format!("texel y = row * {n_alpha} + k_alpha (+ 1), lerp by t_alpha"),
+        "texel z = k_eta (+ 1), lerp by t_eta".into(),
+        "tiles of kappa nodes k_kappa and k_kappa + 1, lerp by t_kappa".into(),
+    ];
+    let axis_entries = axis_entries_of(axes, bracket_formula, stored_along, addresses);
+    (layout, axis_entries)
+}
+
+/// [`Packing::LosslessFiltered`]: two trilinear fetches, one in each kappa tile around kappa.
+fn lossless_filtered_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<String>, Vec<AxisEntry>) {
+    let [n_mu, n_alpha, _, n_kappa] = shape.counts;
+    let [width, height, depth] = shape.extent;
+    let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
+    let (mut layout, stored_along, columns) = lossless_layout(shape);
+    let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(program, &axes[d]));
+    // The two kappa nodes around kappa and the weight of the upper one.
+    let k0 = program.local("k0", i_kappa.clone().floor().min(Expr::c((n_kappa - 2) as f32)));
+    let t_kappa = program.local("t_kappa", i_kappa.sub(k0.clone()));
+    let k1 = program.local("k1", k0.clone().add(Expr::c(1.0)));
+    let mut tile = |k: &Expr, suffix: &str| {
+        let (row, column) = tile_of(program, k, columns, suffix);
+        let x = column.mul(Expr::c(n_mu as f32)).add(i_mu.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_w));
+        let y = row.mul(Expr::c(n_alpha as f32)).add(i_alpha.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_h));
+        (program.local(&format!("x{suffix}"), x), program.local(&format!("y{suffix}"), y))
+    };
+    let (x0, y0) = tile(&k0, "0");
+    let (x1, y1) = tile(&k1, "1");
+    let z = program.local("z", i_eta.add(Expr::c(0.5)).mul(Expr::c(inv_d)));
+    let v0 = program.sample("v0", [&x0, &y0, &z]);
+    let v1 = program.sample("v1", [&x1, &y1, &z]);
+    program.result = lerp(v0, v1, t_kappa);
+    layout.extend([
+            "The hardware interpolates mu, alpha and eta inside a tile: two trilinear fetches, one in each kappa tile around kappa, lerped by hand with the kappa weight.".to_string(),
+            "x and y are clamped to the first and last texel centres of the tile, where linear filtering gives the neighbouring tile weight 0: filtering never blends across tiles.".into(),
+            "Hardware filtering limits accuracy: f32 coordinates place the filter to an ulp of the texel index (3e-5 texel at texel 448), and GPUs round filter weights to 8 bits; use `lossless` for 4D interpolation to f32 rounding.".into(),
+        ]);
+    let addresses = [
+        format!("x = (column * {n_mu} + i_mu + 0.5) / {width}"),
+        format!("y = (row * {n_alpha} + i_alpha + 0.5) / {height}"),
+        format!("z = (i_eta + 0.5) / {depth}"),
+        format!("k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0", n_kappa - 2),
+    ];
+    let axis_entries = axis_entries_of(axes, index_formula, stored_along, addresses);
+    (layout, axis_entries)
+}
+
+/// [`Packing::Thesis`]: the thesis renderer's volume, kappa halved, read at the eta nodes around eta.
+fn thesis_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<String>, Vec<AxisEntry>) {
+    let [n_mu, n_alpha, n_eta, n_kappa] = shape.counts;
+    let [width, height, depth] = shape.extent;
+    let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
+    let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(program, &axes[d]));
+    let n_half = n_kappa / 2;
+    let e0 = program.local("e0", i_eta.clone().floor().min(Expr::c((n_eta - 2) as f32)));
+    let t_eta = program.local("t_eta", i_eta.sub(e0.clone()));
+    let e1 = program.local("e1", e0.clone().add(Expr::c(1.0)));
+    // The mean of nodes 2h and 2h + 1 sits halfway between them, at full index 2h + 0.5.
+    let h = program.local("h", i_kappa.sub(Expr::c(0.5)).mul(Expr::c(0.5)).clamp(0.0, (n_half - 1) as f32));
+    let x = program.local("x", i_mu.add(Expr::c(0.5)).mul(Expr::c(inv_w)));
+    let y = program.local("y", i_alpha.add(Expr::c(0.5)).mul(Expr::c(inv_h)));
+    let slice = |e: Expr| e.mul(Expr::c(n_half as f32)).add(h.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_d));
+    let z0 = program.local("z0", slice(e0));
+    let z1 = program.local("z1", slice(e1));
+    let v0 = program.sample("v0", [&x, &y, &z0]);
+    let v1 = program.sample("v1", [&x, &y, &z1]);
+    program.result = lerp(v0, v1, t_eta);
+    let layout = vec![
+        format!("{width} x {height} x {depth} volume, one channel: the thesis renderer's packing of the {n_mu} x {n_alpha} x {n_eta} x {n_kappa} table."),
+        format!("kappa halved to {n_half} nodes by averaging node pairs (2h, 2h + 1); the mean sits at kappa node index 2h + 0.5."),
+        format!("depth slice = eta_index * {n_half} + h: each eta node is a block of {n_half} slices."),
+        "The hardware interpolates mu, alpha and kappa (inside the eta block, h clamped to its first and last slice centres); two fetches, at the eta nodes around eta, lerped by hand.".into(),
+    ];
+    let stored_along = [
+        "x".into(),
+        "y".into(),
+        format!("z, block of {n_half} slices per eta node"),
+        format!("z within an eta block ({n_half} averaged pairs)"),
+    ];
+    let addresses = [
+        format!("x = (i_mu + 0.5) / {width}"),
+        format!("y = (i_alpha + 0.5) / {height}"),
+        format!("e0 = min(floor(i_eta), {}), e1 = e0 + 1, lerp by i_eta - e0", n_eta - 2),
+        format!("h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}", n_half - 1),
+    ];
+    let axis_entries = axis_entries_of(axes, index_formula, stored_along, addresses);
+    (layout, axis_entries)
+}
+
 /// The `lossless` lookup: the bracket and exact weight of every axis ([`node_bracket`]), texel
 /// indices of the cell's 16 corners in the kappa tiles `k_kappa` and `k_kappa + 1` of a grid of
 /// `columns`, 16 `Load`s, and 15 lerps (mu, alpha, eta, then kappa), as `Table::interpolate`.
@@ -454,119 +584,14 @@ impl PackedFgd {
                 ),
             ));
         }
-        let [n_mu, n_alpha, n_eta, n_kappa] = counts;
-        let axes = source_axes;
+        let shape = Shape { counts, extent: [width, height, depth] };
         // The file stem of `lossless-filtered` holds a `-`, which no shading language admits in a name.
         let mut program = Program::new(packing.file_stem().replace('-', "_"), FGD_INPUTS.to_vec());
-        let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
-        let mut layout;
-        let axis_entries;
-        match packing {
-            Packing::Lossless | Packing::LosslessFiltered => {
-                let (columns, _) = tile_grid(n_kappa);
-                layout = vec![
-                    format!(
-                        "{width} x {height} x {depth} volume, one channel, every node of the {n_mu} x {n_alpha} x {n_eta} x {n_kappa} table kept."
-                    ),
-                    format!(
-                        "kappa node k is a {n_mu} x {n_alpha} (mu x alpha) tile at tile column k mod {columns} (along x) and tile row floor(k / {columns}) (along y); unused tiles and the padding to {width} x {height} hold 0."
-                    ),
-                    "eta node e is depth slice e.".into(),
-                ];
-                let stored_along = [
-                    format!("x within a kappa tile ({n_mu} texels)"),
-                    format!("y within a kappa tile ({n_alpha} texels)"),
-                    "z".into(),
-                    format!("tile: column k mod {columns} along x, row floor(k / {columns}) along y"),
-                ];
-                if packing == Packing::Lossless {
-                    load_lookup(&mut program, axes, columns);
-                    layout.extend([
-                        "No hardware filtering: the lookup computes the 4D interpolation weights in f32 (exact to 2^-25 for power-of-two node counts), loads the 16 texels of the cell and lerps them, mu, alpha, eta, then kappa.".to_string(),
-                        "So it reproduces 4D multilinear interpolation to f32 rounding on any GPU (no 8-bit filter weights, no coordinate rounding), and needs no sampler; r32float needs no float32-filterable feature in WebGPU.".into(),
-                    ]);
-                    let addresses = [
-                        format!("texel x = column * {n_mu} + k_mu (+ 1), lerp by t_mu"),
-                        format!("texel y = row * {n_alpha} + k_alpha (+ 1), lerp by t_alpha"),
-                        "texel z = k_eta (+ 1), lerp by t_eta".into(),
-                        "tiles of kappa nodes k_kappa and k_kappa + 1, lerp by t_kappa".into(),
-                    ];
-                    axis_entries = axis_entries_of(axes, bracket_formula, stored_along, addresses);
-                } else {
-                    let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(&mut program, &axes[d]));
-                    // The two kappa nodes around kappa and the weight of the upper one.
-                    let k0 = program.local("k0", i_kappa.clone().floor().min(Expr::c((n_kappa - 2) as f32)));
-                    let t_kappa = program.local("t_kappa", i_kappa.sub(k0.clone()));
-                    let k1 = program.local("k1", k0.clone().add(Expr::c(1.0)));
-                    let mut tile = |k: &Expr, suffix: &str| {
-                        let (row, column) = tile_of(&mut program, k, columns, suffix);
-                        let x =
-                            column.mul(Expr::c(n_mu as f32)).add(i_mu.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_w));
-                        let y =
-                            row.mul(Expr::c(n_alpha as f32)).add(i_alpha.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_h));
-                        (program.local(&format!("x{suffix}"), x), program.local(&format!("y{suffix}"), y))
-                    };
-                    let (x0, y0) = tile(&k0, "0");
-                    let (x1, y1) = tile(&k1, "1");
-                    let z = program.local("z", i_eta.add(Expr::c(0.5)).mul(Expr::c(inv_d)));
-                    let v0 = program.sample("v0", [&x0, &y0, &z]);
-                    let v1 = program.sample("v1", [&x1, &y1, &z]);
-                    program.result = lerp(v0, v1, t_kappa);
-                    layout.extend([
-                        "The hardware interpolates mu, alpha and eta inside a tile: two trilinear fetches, one in each kappa tile around kappa, lerped by hand with the kappa weight.".to_string(),
-                        "x and y are clamped to the first and last texel centres of the tile, where linear filtering gives the neighbouring tile weight 0: filtering never blends across tiles.".into(),
-                        "Hardware filtering limits accuracy: f32 coordinates place the filter to an ulp of the texel index (3e-5 texel at texel 448), and GPUs round filter weights to 8 bits; use `lossless` for 4D interpolation to f32 rounding.".into(),
-                    ]);
-                    let addresses = [
-                        format!("x = (column * {n_mu} + i_mu + 0.5) / {width}"),
-                        format!("y = (row * {n_alpha} + i_alpha + 0.5) / {height}"),
-                        format!("z = (i_eta + 0.5) / {depth}"),
-                        format!("k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0", n_kappa - 2),
-                    ];
-                    axis_entries = axis_entries_of(axes, index_formula, stored_along, addresses);
-                }
-            }
-            Packing::Thesis => {
-                let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(&mut program, &axes[d]));
-                let n_half = n_kappa / 2;
-                let e0 = program.local("e0", i_eta.clone().floor().min(Expr::c((n_eta - 2) as f32)));
-                let t_eta = program.local("t_eta", i_eta.sub(e0.clone()));
-                let e1 = program.local("e1", e0.clone().add(Expr::c(1.0)));
-                // The mean of nodes 2h and 2h + 1 sits halfway between them, at full index 2h + 0.5.
-                let h = program.local("h", i_kappa.sub(Expr::c(0.5)).mul(Expr::c(0.5)).clamp(0.0, (n_half - 1) as f32));
-                let x = program.local("x", i_mu.add(Expr::c(0.5)).mul(Expr::c(inv_w)));
-                let y = program.local("y", i_alpha.add(Expr::c(0.5)).mul(Expr::c(inv_h)));
-                let slice =
-                    |e: Expr| e.mul(Expr::c(n_half as f32)).add(h.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_d));
-                let z0 = program.local("z0", slice(e0));
-                let z1 = program.local("z1", slice(e1));
-                let v0 = program.sample("v0", [&x, &y, &z0]);
-                let v1 = program.sample("v1", [&x, &y, &z1]);
-                program.result = lerp(v0, v1, t_eta);
-                layout = vec![
-                    format!("{width} x {height} x {depth} volume, one channel: the thesis renderer's packing of the {n_mu} x {n_alpha} x {n_eta} x {n_kappa} table."),
-                    format!("kappa halved to {n_half} nodes by averaging node pairs (2h, 2h + 1); the mean sits at kappa node index 2h + 0.5."),
-                    format!("depth slice = eta_index * {n_half} + h: each eta node is a block of {n_half} slices."),
-                    "The hardware interpolates mu, alpha and kappa (inside the eta block, h clamped to its first and last slice centres); two fetches, at the eta nodes around eta, lerped by hand.".into(),
-                ];
-                let stored_along = [
-                    "x".into(),
-                    "y".into(),
-                    format!("z, block of {n_half} slices per eta node"),
-                    format!("z within an eta block ({n_half} averaged pairs)"),
-                ];
-                let addresses = [
-                    format!("x = (i_mu + 0.5) / {width}"),
-                    format!("y = (i_alpha + 0.5) / {height}"),
-                    format!("e0 = min(floor(i_eta), {}), e1 = e0 + 1, lerp by i_eta - e0", n_eta - 2),
-                    format!(
-                        "h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}",
-                        n_half - 1
-                    ),
-                ];
-                axis_entries = axis_entries_of(axes, index_formula, stored_along, addresses);
-            }
-        }
+        let (layout, axis_entries) = match packing {
+            Packing::Lossless => lossless_lookup(&mut program, source_axes, shape),
+            Packing::LosslessFiltered => lossless_filtered_lookup(&mut program, source_axes, shape),
+            Packing::Thesis => thesis_lookup(&mut program, source_axes, shape),
+        };
         Ok(PackedFgd {
             packing,
             precision,

@@ -9,11 +9,6 @@
 pub mod henyey_greenstein;
 pub mod microfacet;
 
-pub use tmlut_loader::physics::{fresnel, fresnel_basis};
-pub use tmlut_loader::physics::{
-    FresnelBasis, critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance,
-    schlick_weight,
-};
 pub use henyey_greenstein::{
     ggx_to_hg, henyey_greenstein_phase, hg_backward_share, hg_refract, hg_to_ggx, sample_henyey_greenstein,
     sample_henyey_greenstein_cosine,
@@ -23,3 +18,8 @@ pub use microfacet::{
     smith_g2_height_correlated, smith_g2_height_correlated_transmission, smith_g2_separable, smith_lambda,
     visible_normal_density,
 };
+pub use tmlut_loader::physics::{
+    FresnelBasis, critical_cosine, fresnel_reflectance, normal_incidence_reflectance, schlick_reflectance,
+    schlick_weight,
+};
+pub use tmlut_loader::physics::{fresnel, fresnel_basis};

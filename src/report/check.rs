@@ -15,8 +15,10 @@ use crate::formats::manifest::{
     COMMIT_JOURNAL, FileEntry, MANIFEST_FILE, Manifest, check_file_name, pending_commit, pending_commit_error,
 };
 use crate::formats::read_bytes;
+use crate::formats::slice_array::SliceArrayEntry;
 use crate::furnace::report::{FURNACE_FILE, FurnaceReport};
 use crate::loader::{sha256_hex, table_disagreements};
+use crate::table::Table;
 
 /// The budgets committed with the project, for the default LUT set (`luts/default.toml`).
 pub const DEFAULT_BUDGETS: &str = include_str!("../../budgets.toml");
@@ -420,25 +422,9 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
     for path in reports {
         let file = path.strip_prefix(dir).unwrap_or(path).display().to_string();
         let folder = path.parent().unwrap_or(dir);
-        // A run killed while committing leaves its journal: the report may not match its pictures.
-        // (The folder checked itself has had its journal reported above.)
-        if let Some(journal) = pending_commit(folder).filter(|_| folder != dir) {
-            let value = match crate::commit::read_journal(folder) {
-                Err(refused) => refused.to_string(),
-                Ok(_) => format!(
-                    "{}: a furnace run was interrupted while committing its outputs; the next run into this folder completes it",
-                    journal.display()
-                ),
-            };
-            findings.push(Finding {
-                file: file.clone(),
-                check: "commit".into(),
-                value,
-                limit: "no run interrupted while committing".into(),
-                pass: false,
-                measured: None,
-                at_most: None,
-            });
+        // The folder checked itself has had its journal reported already.
+        if folder != dir {
+            findings.extend(interrupted_commit(folder, &file));
         }
         let report = match FurnaceReport::read(path) {
             Ok(report) => report,
@@ -465,54 +451,7 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
                 continue;
             };
             let budget = budget.materials.get(&material.name).unwrap_or(budget);
-            let file = format!("{file}: {}", material.name);
-            let mut at_most = |check: &str, value: Option<f64>, limit: Option<f64>| {
-                if let Some(limit) = limit {
-                    findings.push(match value {
-                        Some(value) => Finding {
-                            file: file.clone(),
-                            check: check.into(),
-                            value: format!("{value:.3e}"),
-                            limit: format!("<= {limit:.3e}"),
-                            pass: value <= limit,
-                            measured: Some(value),
-                            at_most: Some(limit),
-                        },
-                        // A budget on a figure the run did not measure is not held: say so.
-                        None => Finding {
-                            file: file.clone(),
-                            check: check.into(),
-                            value: "not measured: the random walk did not run for this material (tmlut furnace --walk)"
-                                .into(),
-                            limit: format!("<= {limit:.3e}"),
-                            pass: false,
-                            measured: None,
-                            at_most: Some(limit),
-                        },
-                    });
-                }
-            };
-            let errors = &material.errors;
-            at_most("table_error_max", Some(errors.table.max_all), budget.max_table_error);
-            at_most("model_error_max", errors.model.as_ref().map(|m| m.max_all), budget.max_model_error);
-            at_most("walk_standard_error_max", material.walk_standard_error_max(), budget.max_walk_standard_error);
-            at_most("total_error_max", errors.total.as_ref().map(|t| t.max_all), budget.max_total_error);
-            for (channel, name) in ["R", "G", "B"].iter().enumerate() {
-                let limit = budget.max_table_error_per_channel.map(|limits| limits[channel]);
-                at_most(&format!("table_error_max ({name})"), Some(errors.table.max[channel]), limit);
-            }
-            findings.push(Finding {
-                file: file.clone(),
-                check: "clamped_lookups".into(),
-                value: match &material.first_clamped_lookup {
-                    Some(first) => format!("{} (first: {first})", material.clamped_lookups),
-                    None => material.clamped_lookups.to_string(),
-                },
-                limit: format!("<= {}", budget.max_clamped_lookups),
-                pass: material.clamped_lookups <= budget.max_clamped_lookups,
-                measured: Some(material.clamped_lookups as f64),
-                at_most: Some(budget.max_clamped_lookups as f64),
-            });
+            check_material(&format!("{file}: {}", material.name), material, budget, findings);
         }
         for scene in unbudgeted {
             findings.push(Finding {
@@ -546,6 +485,84 @@ fn check_furnace(dir: &Path, reports: &[std::path::PathBuf], budgets: &Budgets, 
     }
 }
 
+/// A furnace run killed while committing leaves its journal in `folder`: its report (`file`) may
+/// not match its pictures.
+fn interrupted_commit(folder: &Path, file: &str) -> Option<Finding> {
+    let journal = pending_commit(folder)?;
+    let value = match crate::commit::read_journal(folder) {
+        Err(refused) => refused.to_string(),
+        Ok(_) => format!(
+            "{}: a furnace run was interrupted while committing its outputs; the next run into this folder completes it",
+            journal.display()
+        ),
+    };
+    Some(Finding {
+        file: file.into(),
+        check: "commit".into(),
+        value,
+        limit: "no run interrupted while committing".into(),
+        pass: false,
+        measured: None,
+        at_most: None,
+    })
+}
+
+/// One material of a furnace report held to its budget: its table, model, walk and total errors,
+/// the table error per channel, and its clamped lookups.
+fn check_material(
+    file: &str,
+    material: &crate::furnace::MaterialReport,
+    budget: &FurnaceBudget,
+    findings: &mut Vec<Finding>,
+) {
+    let mut at_most = |check: &str, value: Option<f64>, limit: Option<f64>| {
+        if let Some(limit) = limit {
+            findings.push(match value {
+                Some(value) => Finding {
+                    file: file.into(),
+                    check: check.into(),
+                    value: format!("{value:.3e}"),
+                    limit: format!("<= {limit:.3e}"),
+                    pass: value <= limit,
+                    measured: Some(value),
+                    at_most: Some(limit),
+                },
+                // A budget on a figure the run did not measure is not held: say so.
+                None => Finding {
+                    file: file.into(),
+                    check: check.into(),
+                    value: "not measured: the random walk did not run for this material (tmlut furnace --walk)".into(),
+                    limit: format!("<= {limit:.3e}"),
+                    pass: false,
+                    measured: None,
+                    at_most: Some(limit),
+                },
+            });
+        }
+    };
+    let errors = &material.errors;
+    at_most("table_error_max", Some(errors.table.max_all), budget.max_table_error);
+    at_most("model_error_max", errors.model.as_ref().map(|m| m.max_all), budget.max_model_error);
+    at_most("walk_standard_error_max", material.walk_standard_error_max(), budget.max_walk_standard_error);
+    at_most("total_error_max", errors.total.as_ref().map(|t| t.max_all), budget.max_total_error);
+    for (channel, name) in ["R", "G", "B"].iter().enumerate() {
+        let limit = budget.max_table_error_per_channel.map(|limits| limits[channel]);
+        at_most(&format!("table_error_max ({name})"), Some(errors.table.max[channel]), limit);
+    }
+    findings.push(Finding {
+        file: file.into(),
+        check: "clamped_lookups".into(),
+        value: match &material.first_clamped_lookup {
+            Some(first) => format!("{} (first: {first})", material.clamped_lookups),
+            None => material.clamped_lookups.to_string(),
+        },
+        limit: format!("<= {}", budget.max_clamped_lookups),
+        pass: material.clamped_lookups <= budget.max_clamped_lookups,
+        measured: Some(material.clamped_lookups as f64),
+        at_most: Some(budget.max_clamped_lookups as f64),
+    });
+}
+
 /// The [`WORST_NAMED`] materials of `report` with the largest table error, largest first: where a
 /// library stands against its budget, and which materials to look at. A figure, not a budget (the
 /// budgets are held material by material), so it always passes.
@@ -569,25 +586,21 @@ fn worst_table_errors(file: &str, report: &FurnaceReport) -> Finding {
 }
 
 fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, findings: &mut Vec<Finding>) {
-    // `numbers`: the measured figure and the largest allowed, where both are numbers.
-    let mut record = |check: &str, value: String, limit: String, pass: bool, numbers: Option<(f64, f64)>| {
-        let (measured, at_most) = numbers.map_or((None, None), |(m, l)| (Some(m), Some(l)));
-        findings.push(Finding { file: file.into(), check: check.into(), value, limit, pass, measured, at_most })
-    };
+    let mut record = FileFindings { file, findings };
     if let Err(reason) = check_file_name(file) {
-        record("path", reason, "a file name inside the folder".into(), false, None);
+        record.add("path", reason, "a file name inside the folder".into(), false, None);
         return;
     }
     let path = dir.join(file);
     let bytes = match read_bytes(&path) {
         Ok(bytes) => bytes,
         Err(e) => {
-            record("file", format!("unreadable: {e}"), "present and readable".into(), false, None);
+            record.add("file", format!("unreadable: {e}"), "present and readable".into(), false, None);
             return;
         }
     };
     let actual = sha256_hex(&bytes);
-    record("sha256", actual.clone(), entry.sha256.clone(), actual == entry.sha256, None);
+    record.add("sha256", actual.clone(), entry.sha256.clone(), actual == entry.sha256, None);
     // What the file cannot state about itself (a DDS file's axes, a fit, a packing's lookup, an
     // array's slices) is held to the seal the build put on the entry.
     let claims = match (&entry.claims_sha256, entry.claims_disagreement()) {
@@ -595,103 +608,130 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, f
         (Some(_), Some(disagreement)) => Err(disagreement),
         (Some(sealed), None) => Ok(sealed.clone()),
     };
-    record(
+    record.add(
         "claims",
         claims.clone().unwrap_or_else(|e| e),
         "the entry as the build sealed it (claims_sha256)".into(),
         claims.is_ok(),
         None,
     );
-    record("bytes", bytes.len().to_string(), entry.bytes.to_string(), bytes.len() as u64 == entry.bytes, None);
+    record.add("bytes", bytes.len().to_string(), entry.bytes.to_string(), bytes.len() as u64 == entry.bytes, None);
+    check_file_values(&mut record, &path, &bytes, entry, budget);
+    check_file_figures(&mut record, entry, budget);
+}
 
-    // Values are read back from the file itself, not taken from the manifest; the manifest's own
-    // figures are held to them.
-    let table = crate::loader::format_of_bytes(&path, &bytes)
-        .and_then(|format| Ok((format, crate::loader::decode(&path, &bytes, format, Some(entry))?)));
-    match table {
-        Ok((format, table)) => {
-            let disagreements = table_disagreements(entry, format, &bytes, &table);
-            record(
-                "manifest",
-                if disagreements.is_empty() { "agrees with the file".into() } else { disagreements.join("; ") },
-                "format, axes, channels, value range and NaN count as the file holds them".into(),
-                disagreements.is_empty(),
-                None,
-            );
-            if let Some(array) = &entry.slice_array {
-                // Every slice the manifest places in the array lies inside it, with its own value range.
-                let problems: Vec<String> = array
-                    .slices
-                    .iter()
-                    .filter_map(|slice| match crate::formats::slice_array::unpack(&table, slice) {
-                        Ok(values) => {
-                            let stats = values.stats();
-                            let stated = slice.value_range;
-                            let stored = [stats.min, stats.max];
-                            let rounded = stated.map(|v| entry.precision.round(v));
-                            (rounded != stored).then(|| {
-                                format!(
-                                    "slice `{}` holds [{}, {}], its entry states {stated:?}",
-                                    slice.table, stored[0], stored[1]
-                                )
-                            })
-                        }
-                        Err(e) => Some(e.to_string()),
-                    })
-                    .collect();
-                record(
-                    "slices",
-                    if problems.is_empty() {
-                        format!("{} slices inside the array as placed", array.slices.len())
-                    } else {
-                        problems.join("; ")
-                    },
-                    "every slice inside its layer, with its stated value range".into(),
-                    problems.is_empty(),
-                    None,
-                );
-            }
-            let stats = table.stats();
-            let non_finite = stats.nan_count + stats.infinite_count;
-            record(
-                "nan_count",
-                non_finite.to_string(),
-                format!("<= {}", budget.max_nan),
-                non_finite <= budget.max_nan,
-                Some((non_finite as f64, budget.max_nan as f64)),
-            );
-            if let Some([lo, hi]) = budget.value_range {
-                let inside = stats.min >= lo && stats.max <= hi;
-                record(
-                    "value_range",
-                    format!("[{}, {}]", stats.min, stats.max),
-                    format!("within [{lo}, {hi}]"),
-                    inside,
-                    None,
-                );
-            }
-        }
-        Err(e) => record("readable", format!("{e}"), "a table tmlut reads".into(), false, None),
+/// The findings of one file, as they are recorded.
+struct FileFindings<'a> {
+    file: &'a str,
+    findings: &'a mut Vec<Finding>,
+}
+
+impl FileFindings<'_> {
+    /// A finding; `numbers`: the measured figure and the largest allowed, where both are numbers.
+    fn add(&mut self, check: &str, value: String, limit: String, pass: bool, numbers: Option<(f64, f64)>) {
+        let (measured, at_most) = numbers.map_or((None, None), |(m, l)| (Some(m), Some(l)));
+        let file = self.file.into();
+        self.findings.push(Finding { file, check: check.into(), value, limit, pass, measured, at_most });
     }
-    let mut at_most = |check: &str, value: Option<f64>, limit: Option<f64>| {
+
+    /// A figure held to a largest value where the budget has one; a figure the manifest lacks fails.
+    fn at_most(&mut self, check: &str, value: Option<f64>, limit: Option<f64>) {
         if let Some(limit) = limit {
             match value {
-                Some(v) => record(check, format!("{v:.3e}"), format!("<= {limit:.3e}"), v <= limit, Some((v, limit))),
-                None => record(check, "not in the manifest".into(), format!("<= {limit:.3e}"), false, None),
+                Some(v) => self.add(check, format!("{v:.3e}"), format!("<= {limit:.3e}"), v <= limit, Some((v, limit))),
+                None => self.add(check, "not in the manifest".into(), format!("<= {limit:.3e}"), false, None),
             }
         }
+    }
+}
+
+/// The values read back from the file itself, not taken from the manifest: the manifest's own
+/// figures held to them, an array's slices inside it as placed, non-finite values and the range
+/// held to the budget.
+fn check_file_values(record: &mut FileFindings, path: &Path, bytes: &[u8], entry: &FileEntry, budget: &TableBudget) {
+    let table = crate::loader::format_of_bytes(path, bytes)
+        .and_then(|format| Ok((format, crate::loader::decode(path, bytes, format, Some(entry))?)));
+    let (format, table) = match table {
+        Ok(read) => read,
+        Err(e) => return record.add("readable", format!("{e}"), "a table tmlut reads".into(), false, None),
     };
+    let disagreements = table_disagreements(entry, format, bytes, &table);
+    record.add(
+        "manifest",
+        if disagreements.is_empty() { "agrees with the file".into() } else { disagreements.join("; ") },
+        "format, axes, channels, value range and NaN count as the file holds them".into(),
+        disagreements.is_empty(),
+        None,
+    );
+    if let Some(array) = &entry.slice_array {
+        let problems = slice_problems(entry, array, &table);
+        record.add(
+            "slices",
+            if problems.is_empty() {
+                format!("{} slices inside the array as placed", array.slices.len())
+            } else {
+                problems.join("; ")
+            },
+            "every slice inside its layer, with its stated value range".into(),
+            problems.is_empty(),
+            None,
+        );
+    }
+    let stats = table.stats();
+    let non_finite = stats.nan_count + stats.infinite_count;
+    record.add(
+        "nan_count",
+        non_finite.to_string(),
+        format!("<= {}", budget.max_nan),
+        non_finite <= budget.max_nan,
+        Some((non_finite as f64, budget.max_nan as f64)),
+    );
+    if let Some([lo, hi]) = budget.value_range {
+        let inside = stats.min >= lo && stats.max <= hi;
+        record.add(
+            "value_range",
+            format!("[{}, {}]", stats.min, stats.max),
+            format!("within [{lo}, {hi}]"),
+            inside,
+            None,
+        );
+    }
+}
+
+/// Every slice the manifest places in the array that does not lie inside it with its own value
+/// range, named.
+fn slice_problems(entry: &FileEntry, array: &SliceArrayEntry, table: &Table) -> Vec<String> {
+    array
+        .slices
+        .iter()
+        .filter_map(|slice| match crate::formats::slice_array::unpack(table, slice) {
+            Ok(values) => {
+                let stats = values.stats();
+                let stated = slice.value_range;
+                let stored = [stats.min, stats.max];
+                let rounded = stated.map(|v| entry.precision.round(v));
+                (rounded != stored).then(|| {
+                    format!("slice `{}` holds [{}, {}], its entry states {stated:?}", slice.table, stored[0], stored[1])
+                })
+            }
+            Err(e) => Some(e.to_string()),
+        })
+        .collect()
+}
+
+/// The manifest's error figures of the file held to the budget: the reference and replicate
+/// errors, the fit's figures where the entry states the table's fit (a fit budget with no fit in
+/// the whole manifest fails in check_folder), and the interpolation error per domain.
+fn check_file_figures(record: &mut FileFindings, entry: &FileEntry, budget: &TableBudget) {
     let integration = &entry.error.integration;
     let reference = integration.reference.as_ref().map(|r| r.difference);
-    at_most("reference_rms", reference.map(|d| d.rms), budget.max_reference_rms);
-    at_most("reference_max", reference.map(|d| d.max), budget.max_reference_max);
-    at_most("replicate_rms", Some(integration.replicate_standard_error.rms), budget.max_replicate_rms);
-    at_most("replicate_max", Some(integration.replicate_standard_error.max), budget.max_replicate_max);
-    // The entry that states the table's fit carries its figures (a fit budget with no fit in
-    // the whole manifest fails in check_folder).
+    record.at_most("reference_rms", reference.map(|d| d.rms), budget.max_reference_rms);
+    record.at_most("reference_max", reference.map(|d| d.max), budget.max_reference_max);
+    record.at_most("replicate_rms", Some(integration.replicate_standard_error.rms), budget.max_replicate_rms);
+    record.at_most("replicate_max", Some(integration.replicate_standard_error.max), budget.max_replicate_max);
     if let Some(fit) = entry.fit.as_ref().map(|f| &f.figures) {
-        at_most("fit_rmse", Some(fit.rmse), budget.max_fit_rmse);
-        at_most("fit_max", Some(fit.max_abs_error), budget.max_fit_max);
+        record.at_most("fit_rmse", Some(fit.rmse), budget.max_fit_rmse);
+        record.at_most("fit_max", Some(fit.max_abs_error), budget.max_fit_max);
     }
     for (figure, limits) in [
         ("rms", &budget.max_interpolation_rms),
@@ -705,7 +745,7 @@ fn check_file(dir: &Path, file: &str, entry: &FileEntry, budget: &TableBudget, f
                 "p99" => e.p99,
                 _ => e.error.max,
             });
-            at_most(&format!("interpolation_{figure} ({domain})"), value, Some(limit));
+            record.at_most(&format!("interpolation_{figure} ({domain})"), value, Some(limit));
         }
     }
 }

@@ -261,15 +261,12 @@ pub fn build_scene(
     let (batch, full) = (&batch, &full);
     let jobs: Vec<Job> = array_jobs
         .into_iter()
-        .chain(
-            plan.tables
-                .iter()
-                .filter(|t| !(arrays && matches!(t.build, PlannedBuild::Slices(_))))
-                .map(|planned| match &planned.build {
-                    PlannedBuild::Slices(slices) => slice_job(slices, batch, full.of(slices), seed),
-                    other => build.table_job(other),
-                }),
-        )
+        .chain(plan.tables.iter().filter(|t| !(arrays && matches!(t.build, PlannedBuild::Slices(_)))).map(|planned| {
+            match &planned.build {
+                PlannedBuild::Slices(slices) => slice_job(slices, batch, full.of(slices), seed),
+                other => build.table_job(other),
+            }
+        }))
         .collect();
     let record = SceneRecord {
         name: request.scene.name.clone(),
@@ -352,7 +349,8 @@ impl FullTables {
                     .iter()
                     .any(|t| matches!(&t.build, PlannedBuild::Slices(s) if matches!(s.of, SliceOf::Fgd(_)) == fgd))
         };
-        let full_table = |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(config.seed, progress)?.table) };
+        let full_table =
+            |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(config.seed, progress)?.table) };
         let fgd = if has_slices_of(true) {
             let mut settings = config.fgd.clone();
             settings.reference.cells = 0;

@@ -5,8 +5,8 @@
 
 use std::collections::BTreeMap;
 
-use crate::text::{self, BinOp, ExprError, Node};
 use crate::tape::{Ins, MAX_INTEGER_POWER, Scalar, Tape};
+use crate::text::{self, BinOp, ExprError, Node};
 
 /// The exponent of `x ^ n` when `n` is an integer literal small enough to multiply out.
 pub fn integer_exponent(node: &Node) -> Option<i32> {

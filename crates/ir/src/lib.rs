@@ -21,4 +21,3 @@ pub mod record;
 pub mod shader;
 pub mod tape;
 pub mod text;
-

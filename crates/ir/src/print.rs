@@ -5,9 +5,9 @@
 //! and the functions a language lacks are printed: the [`Leaves`] a caller passes.
 
 use crate::shader::{Builtin, Expr, Op, Stmt, Ty, call, let_, name, select};
-use tmlut_loader::error::{Error, Result};
-use crate::text::{BinOp, Intrinsic};
 use crate::tape::{Ins, Tape, reads};
+use crate::text::{BinOp, Intrinsic};
+use tmlut_loader::error::{Error, Result};
 
 /// How a tape's leaves are printed, and the calls it makes that have no builtin.
 pub trait Leaves {
@@ -156,10 +156,10 @@ pub fn builtin(f: Intrinsic) -> Option<Builtin> {
 #[cfg(test)]
 mod tests {
     use super::{Leaf, Leaves, Printed, print};
-    use tmlut_loader::error::{Error, Result};
-    use crate::text::{BinOp, Compare, Intrinsic};
-    use crate::tape::{Ins, Tape};
     use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, f, func, name};
+    use crate::tape::{Ins, Tape};
+    use crate::text::{BinOp, Compare, Intrinsic};
+    use tmlut_loader::error::{Error, Result};
 
     /// Variables `x0, x1, ...`, instruction 3 named `named`, helpers as plain calls.
     struct Plain;

@@ -12,9 +12,9 @@
 use std::cell::RefCell;
 use std::collections::HashMap;
 
-use crate::text::{BinOp, Intrinsic};
-use crate::tape::{Ins, Tape};
 use crate::real::{Compare, Real};
+use crate::tape::{Ins, Tape};
+use crate::text::{BinOp, Intrinsic};
 
 /// The least transmission a shader's `1 / t` divides by: small enough to leave every physical
 /// transmission as it is, large enough that `1 / t` and products with it stay finite in f32.

@@ -9,13 +9,13 @@
 
 use std::cell::RefCell;
 
-use crate::ir::print::{Leaf, Leaves, Printed, print};
 use super::super::{Expr, Function, Stmt, Ty, assign, f, name, vec3};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
-use crate::ir::text::Intrinsic;
+use crate::ir::print::{Leaf, Leaves, Printed, print};
 use crate::ir::record::{Recorded, record};
 use crate::ir::tape::{Ins, Tape, reads};
+use crate::ir::text::Intrinsic;
 use crate::model::{Evaluation, FluxModel, Lookup, Material, Quantity, Stack, Tables};
 
 /// A material's model as recorded code: its evaluation at the view cosine (the tape's variable 0),
