@@ -1,0 +1,12 @@
+//! `tmlut list`: the names of the tables.
+
+use super::{stdout, tmlut};
+
+#[test]
+fn list_names_every_table() {
+    let output = tmlut(&["list"]);
+    assert!(output.status.success());
+    for table in ["fgd", "gd", "tir", "belcour", "karis"] {
+        assert!(stdout(&output).contains(table), "{}", stdout(&output));
+    }
+}
