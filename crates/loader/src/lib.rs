@@ -26,6 +26,8 @@
 //!   the generator prints the same filter into its shaders);
 //! - [`loader`]: an output folder and its manifest, typed handles, texture descriptors.
 
+#![warn(missing_docs)]
+
 pub mod error;
 pub mod filter;
 pub mod formats;
