@@ -3,32 +3,59 @@
 
 use std::path::PathBuf;
 
+/// What went wrong reading, verifying or sampling a table, with the file or key it concerns.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
     /// The operating system refused a read or a write.
     #[error("{}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        /// The file or folder the operation was on.
+        path: PathBuf,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
 
     /// A file exists but is not what it claims to be (truncated, foreign, unsupported variant).
     #[error("{}: {reason}", path.display())]
-    Format { path: PathBuf, reason: String },
+    Format {
+        /// The file at fault.
+        path: PathBuf,
+        /// What is wrong with it, in words.
+        reason: String,
+    },
 
     /// A text file (a form file) is wrong at one place: its line and column, 1-based, the column
     /// counted in characters, as editors count them.
     #[error("{}:{line}:{column}: {reason}", path.display())]
-    At { path: PathBuf, line: usize, column: usize, reason: String },
+    At {
+        /// The text file at fault.
+        path: PathBuf,
+        /// The line, from 1.
+        line: usize,
+        /// The column in characters, from 1.
+        column: usize,
+        /// What is wrong there, in words.
+        reason: String,
+    },
 
     /// A configuration key or a command-line value is out of what is allowed.
     #[error("{key}: {reason}")]
-    Invalid { key: String, reason: String },
+    Invalid {
+        /// The key, value or argument at fault, as the caller named it.
+        key: String,
+        /// What is wrong and, where it helps, what is allowed.
+        reason: String,
+    },
 }
 
 impl Error {
+    /// An [`Error::Io`] on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io { path: path.into(), source }
     }
 
+    /// An [`Error::Format`]: `path` is not what it claims to be, for `reason`.
     pub fn format(path: impl Into<PathBuf>, reason: impl Into<String>) -> Self {
         Error::Format { path: path.into(), reason: reason.into() }
     }
@@ -45,9 +72,11 @@ impl Error {
         Error::At { path: path.into(), line, column, reason: reason.into() }
     }
 
+    /// An [`Error::Invalid`]: `key` is out of what is allowed, for `reason`.
     pub fn invalid(key: impl Into<String>, reason: impl Into<String>) -> Self {
         Error::Invalid { key: key.into(), reason: reason.into() }
     }
 }
 
+/// The result of the library's fallible operations, [`Error`] unless stated.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -25,7 +25,10 @@ pub enum Filter {
     /// `f` in full f32.
     Exact,
     /// `f` rounded to this many fractional bits (8 on current hardware).
-    QuantisedWeights { bits: u32 },
+    QuantisedWeights {
+        /// Fractional bits kept in `f` (a GPU's sub-texel precision); more than 23 counts as 23.
+        bits: u32,
+    },
 }
 
 impl Filter {
@@ -44,9 +47,13 @@ impl Filter {
 /// fastest, values already rounded to the storage precision.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Texture3D {
+    /// Texels along x.
     pub width: usize,
+    /// Texels along y.
     pub height: usize,
+    /// Texels along z.
     pub depth: usize,
+    /// `width * height * depth` values, x fastest, then y, then z.
     pub texels: Vec<f32>,
 }
 
@@ -98,6 +105,7 @@ pub fn trilinear<A: Arithmetic, I: Clone>(taps: [(I, I, A); 3], texel: impl Fn(I
 }
 
 impl Texture3D {
+    /// The texel at `(x, y, z)`; panics out of range (unlike [`Texture3D::load`]).
     pub fn texel(&self, x: usize, y: usize, z: usize) -> f32 {
         self.texels[x + self.width * (y + self.height * z)]
     }

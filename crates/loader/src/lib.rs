@@ -26,6 +26,8 @@
 //!   the generator prints the same filter into its shaders);
 //! - [`loader`]: an output folder and its manifest, typed handles, texture descriptors.
 
+#![warn(missing_docs)]
+
 pub mod error;
 pub mod filter;
 pub mod formats;
@@ -41,3 +43,9 @@ pub use loader::{
     TextureBinding, TextureData, TextureDescriptor, TextureDimension, TextureFormat, TirLut,
 };
 pub use table::{Axis, Channel, Mapping, Placement, Table};
+
+// The README's example compiles with the doctests (it needs a built folder to run). Kept apart from
+// the crate docs above so that docs.rs does not show the crate's introduction twice.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -11,7 +11,9 @@ use std::path::Path;
 /// The smallest memory limit of this process, in bytes, with where it comes from.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct MemoryLimit {
+    /// The limit, in bytes.
     pub bytes: u64,
+    /// Which limit it is and where it was read, in words (e.g. `ulimit -v`, a control group's file).
     pub source: String,
 }
 

@@ -8,7 +8,9 @@ use serde::{Deserialize, Serialize};
 pub struct ErrorSummary {
     /// Number of values summarised.
     pub count: usize,
+    /// Root mean square of the values (0 for none).
     pub rms: f64,
+    /// Largest absolute value (0 for none).
     pub max: f64,
 }
 
@@ -82,6 +84,7 @@ impl ErrorRecord {
 pub struct AccuracyReport {
     /// What was compared with what, and over which domain.
     pub what: String,
+    /// RMS and maximum of the absolute error over the domain.
     pub error: ErrorSummary,
     /// Where the largest error occurred, in the parameters' own words.
     pub worst_at: String,

@@ -92,10 +92,13 @@ fn orientation(volume: bool) -> &'static str {
 /// What the key/value data of a tmlut KTX2 file states about its table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Description {
+    /// The table's name ([`KEY_TABLE`]).
     pub table: String,
     /// The manifest's axis entries, axis 0 (the width) first.
     pub axes: Vec<AxisEntry>,
+    /// Each channel's name and meaning ([`KEY_CHANNELS`]).
     pub channels: Vec<Channel>,
+    /// The texels' precision ([`KEY_PRECISION`]).
     pub precision: Precision,
     /// `KTXorientation`: `rd` or `rdi`.
     pub orientation: String,
@@ -148,7 +151,9 @@ fn precision_name(precision: Precision) -> &'static str {
 /// A KTX2 file written by tmlut: its texture and what its key/value data states.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ktx2Texture {
+    /// The texels and extents of level 0.
     pub texture: StoredTexture,
+    /// What the file's key/value data states about the table.
     pub description: Description,
 }
 

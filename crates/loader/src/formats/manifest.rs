@@ -15,6 +15,7 @@ use crate::physics::FresnelBasis;
 use crate::stats::{AccuracyReport, ErrorRecord};
 use crate::table::{Axis, Channel};
 
+/// The manifest's file name inside an output folder.
 pub const MANIFEST_FILE: &str = "manifest.json";
 
 /// The journal of a build's commit: it exists only while a build moves its files into place, from
@@ -76,21 +77,27 @@ pub struct Manifest {
 pub struct SceneShaderRecord {
     /// The scene's name.
     pub scene: String,
+    /// Each file of the shader, with its length and SHA-256.
     pub files: Vec<SceneShaderFile>,
 }
 
 /// One file of a scene shader: what it is, its length and its SHA-256.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SceneShaderFile {
+    /// The file's name inside the folder.
     pub file: String,
+    /// What the file holds, in words (the WGSL, the HLSL, the binding description, ...).
     pub what: String,
+    /// The file's length in bytes.
     pub bytes: u64,
+    /// SHA-256 of the file's bytes, in lowercase hex.
     pub sha256: String,
 }
 
 /// A scene a folder was built for, and the plan that was built.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SceneRecord {
+    /// The scene's name.
     pub name: String,
     /// Where the scene file was read from.
     pub source: String,
@@ -98,14 +105,18 @@ pub struct SceneRecord {
     pub sha256: String,
     /// The scene file itself.
     pub text: String,
+    /// The tables the scene's plan built, what it left out, and why.
     pub plan: PlanRecord,
 }
 
 /// What a scene's plan builds, what it leaves out, and why.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlanRecord {
+    /// Each table (or fitted form) the plan builds, with the lookups it answers.
     pub tables: Vec<PlannedTableRecord>,
+    /// The lookups the plan builds nothing for, each with the reason.
     pub left_out: Vec<LeftOutRecord>,
+    /// What the planner warned of, in words.
     pub warnings: Vec<String>,
     /// Texel bytes of the planned tables.
     pub bytes: u64,
@@ -158,26 +169,35 @@ fn is_tir_table(table: &str) -> bool {
     table == "tir"
 }
 
+/// One table of a scene's plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlannedTableRecord {
+    /// The table's name (its files' stem).
     pub name: String,
+    /// What it is, in words (e.g. a kind of slice, or a fitted form that writes no table).
     pub kind: String,
     /// Node counts and ranges of the axes, and channels.
     pub shape: String,
+    /// Its texel bytes (0 for a fitted form, which writes no table).
     pub bytes: u64,
     /// The lookups it answers.
     pub reasons: Vec<String>,
 }
 
+/// Lookups a scene's plan builds no table for.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LeftOutRecord {
+    /// Which lookups, in words (a material's layer, a site's albedo, ...).
     pub what: String,
+    /// Why nothing is built for them (an index-matched interface, a fitted form in place, ...).
     pub reason: String,
 }
 
 /// One axis as a file stores it, with the formula a shader uses to address it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AxisEntry {
+    /// The axis itself: its quantity, range, node count, placement and mapping (flattened into
+    /// the entry).
     #[serde(flatten)]
     pub axis: Axis,
     /// Which dimension of the file the axis runs along: `x`, `y`, `z` of a texture or image, `tile`
@@ -192,6 +212,8 @@ pub struct AxisEntry {
 }
 
 impl AxisEntry {
+    /// The entry of `axis` stored along `stored_along`, with its texture-coordinate formula and,
+    /// where the quantity is derived or the mapping uses `asinh`, its definition.
     pub fn new(axis: &Axis, stored_along: impl Into<String>) -> Self {
         let derived = crate::table::derived::definition(&axis.name).map(|f| format!("{} = {f}", axis.name));
         let asinh = axis
@@ -212,7 +234,9 @@ impl AxisEntry {
 /// Everything known about one file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FileEntry {
+    /// The name of the table the file holds (e.g. `karis`, `gd`, `tir`).
     pub table: String,
+    /// The file's format.
     pub format: FileFormat,
     /// Storage precision (`.bin` files are always f32).
     pub precision: Precision,
@@ -224,19 +248,28 @@ pub struct FileEntry {
     pub vk_format: Option<String>,
     /// Axis 0 varies fastest in storage.
     pub axes: Vec<AxisEntry>,
+    /// Each channel's name and meaning, in storage order.
     pub channels: Vec<Channel>,
+    /// The integral the table tabulates, in words.
     pub integrand: String,
     /// Masking-shadowing model (`smith-separable`, `smith-height-correlated`, `schlick-smith`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub masking: Option<String>,
+    /// Conventions a user must know (orientation, linear data, the grazing limit, ...).
     pub notes: Vec<String>,
+    /// The estimator or quadrature that integrated the table, in words.
     pub method: String,
+    /// The point set it drew from, in words (`none: no random points` for a quadrature).
     pub sampler: String,
+    /// Sample points per cell, replicates together (0 for a quadrature).
     pub samples_per_cell: u64,
+    /// The seed of the point set and of the checks' random points.
     pub seed: u64,
     /// Wall time of the table's integration (not of writing the file), in seconds.
     pub wall_time_s: f64,
+    /// `[min, max]` of the table's finite values in f32, before rounding to the file's precision.
     pub value_range: [f32; 2],
+    /// How many stored values are NaN or infinite (a build refuses any, so 0).
     pub nan_count: usize,
     /// Error of the f32 values; see [`ErrorEntry`].
     pub error: ErrorEntry,
@@ -246,7 +279,9 @@ pub struct FileEntry {
     /// Further measured accuracy figures.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub accuracy: Vec<AccuracyReport>,
+    /// SHA-256 of the file as written, in lowercase hex; every load verifies it.
     pub sha256: String,
+    /// The file's length in bytes.
     pub bytes: u64,
     /// For a packed texture (e.g. `fgd_lossless.dds`, `fgd_lossless.ktx2`): how the source table is laid out in it and
     /// the exact lookup. The entry's `axes` are then the texture's own texel axes.
@@ -311,48 +346,63 @@ pub struct Binding {
     pub sampler: String,
     /// Each texture coordinate, from the axes' `texture_coordinate`.
     pub coordinates: Vec<String>,
-    /// The sample call in HLSL and in WGSL, at those coordinates.
+    /// The sample call in HLSL, at those coordinates.
     pub hlsl: String,
+    /// The same call in WGSL.
     pub wgsl: String,
 }
 
 /// One start of a least-squares search (`tmlut fit`, the build's fit): where it began, where it ended, and what NLopt said.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StartRecord {
+    /// The parameters the search began from.
     pub start: Vec<f64>,
+    /// The parameters it ended at.
     pub parameters: Vec<f64>,
+    /// The least-squares objective there (NaN where it was not finite).
     pub objective: f64,
     /// NLopt's status, e.g. `Success`, `FtolReached`, `MaxEvalReached`, `RoundoffLimited`.
     pub status: String,
+    /// Whether NLopt reported success rather than failure.
     pub succeeded: bool,
+    /// Evaluations of the objective this start took.
     pub evaluations: u64,
 }
 
+/// The outcome of a least-squares search over several starts: the best start's result.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Minimum {
+    /// The NLopt algorithm used, e.g. `Lbfgs` or `Bobyqa`.
     pub algorithm: String,
+    /// The best start's parameters.
     pub parameters: Vec<f64>,
+    /// The best start's objective.
     pub objective: f64,
     /// Index into `starts` of the best start.
     pub best_start: usize,
+    /// Every start, in the order they ran.
     pub starts: Vec<StartRecord>,
 }
 
 /// Error of a form over the table's nodes, evaluated in f32 (what a shader computes).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ErrorFigures {
+    /// Root mean square of the error over the nodes.
     pub rmse: f64,
     /// Mean squared error (the thesis reports MSE 0.0724 for eq. 5.6, against a naive estimator).
     pub mse: f64,
+    /// The largest absolute error over the nodes.
     pub max_abs_error: f64,
     /// `(mu, alpha, eta)` of the largest error.
     pub max_at: [f64; 3],
+    /// How many nodes the figures are over.
     pub nodes: usize,
 }
 
 /// A form fitted to a table by least squares (`crate::fit`), with its shaders.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitEntry {
+    /// The form's name (its form file's stem).
     pub form: String,
     /// The form in words.
     pub formula: String,
@@ -367,7 +417,9 @@ pub struct FitEntry {
     pub definition: Vec<String>,
     /// Why this form: the rule that chose it.
     pub chosen_by: String,
+    /// The names of the form's parameters, in order.
     pub parameter_names: Vec<String>,
+    /// The fitted values, in that order.
     pub parameters: Vec<f64>,
     /// Against this table's nodes, the form evaluated in f32.
     pub figures: ErrorFigures,
@@ -392,6 +444,7 @@ pub struct PackingEntry {
     pub layout: Vec<String>,
     /// The lookup, statement by statement, in f32: exactly what the shader files compute.
     pub lookup: Vec<String>,
+    /// Texel fetches one lookup makes.
     pub fetches_per_lookup: usize,
     /// The shader functions written beside the texture.
     pub shaders: Vec<ShaderFile>,
@@ -402,8 +455,11 @@ pub struct PackingEntry {
 pub struct ShaderFile {
     /// `hlsl` or `wgsl`.
     pub language: String,
+    /// The file's name inside the folder.
     pub file: String,
+    /// The name of the lookup function it defines.
     pub function: String,
+    /// SHA-256 of the file's bytes, in lowercase hex.
     pub sha256: String,
 }
 
@@ -411,6 +467,7 @@ pub struct ShaderFile {
 /// the file's precision adds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ErrorEntry {
+    /// The integration error of the f32 values (flattened into the entry).
     #[serde(flatten)]
     pub integration: ErrorRecord,
     /// The largest change of a value by rounding to the file's precision.
@@ -428,12 +485,15 @@ pub struct ErrorEntry {
 /// an albedo (Karis: `scale + bias`, the albedo at `F0 = 1`), which must not exceed 1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ChannelSumStorage {
+    /// How the channels were rounded.
     pub rounding: super::SumRounding,
-    /// Texels whose stored sum exceeds 1, and the largest excess.
+    /// Texels whose stored sum exceeds 1.
     pub texels_above_one: usize,
+    /// The largest excess of a stored sum over 1.
     pub max_above_one: f64,
-    /// Texels whose stored sum exceeds the integrated (f32) one, and the largest excess.
+    /// Texels whose stored sum exceeds the integrated (f32) one.
     pub texels_above_integral: usize,
+    /// The largest excess of a stored sum over the integrated one.
     pub max_above_integral: f64,
     /// The largest stored sum.
     pub max_sum: f64,
@@ -449,6 +509,8 @@ impl Manifest {
         Self::read(&path)
     }
 
+    /// The manifest at `path`; refused where it is longer than [`MAX_MANIFEST_BYTES`], more than this
+    /// process's memory can parse, or not a tmlut manifest.
     pub fn read(path: &Path) -> Result<Self> {
         // Parsed, a manifest takes about four times its text (`tmlut check` of the largest
         // library's, 89 MB, peaked at 387 MB): a large one is held to the process's memory first.
@@ -475,6 +537,7 @@ impl Manifest {
         write_bytes_atomically(&dir.join(MANIFEST_FILE), text.as_bytes())
     }
 
+    /// The entry of the file named `file`, if the manifest lists it.
     pub fn entry(&self, file: &str) -> Option<&FileEntry> {
         self.files.get(file)
     }

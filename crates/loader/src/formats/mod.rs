@@ -37,6 +37,7 @@ pub enum Precision {
 }
 
 impl Precision {
+    /// Bytes per stored value: 2 for f16, 4 for f32.
     pub fn bytes(self) -> usize {
         match self {
             Precision::F16 => 2,
@@ -71,6 +72,7 @@ pub enum SumRounding {
 }
 
 impl SumRounding {
+    /// Its name as configuration files and the manifest spell it (`nearest`, `no-energy-gain`).
     pub fn name(self) -> &'static str {
         match self {
             SumRounding::Nearest => "nearest",
@@ -151,6 +153,7 @@ impl FileFormat {
         FileFormat::ALL.into_iter().filter(|&f| holds(f)).collect()
     }
 
+    /// The file name extension, lowercase, without the dot.
     pub fn extension(self) -> &'static str {
         match self {
             FileFormat::Dds => "dds",
@@ -191,12 +194,17 @@ pub(crate) fn no_exr_support(path: &Path) -> Error {
 /// axis 2 the depth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StoredTexture {
+    /// Texels along x (axis 0's nodes).
     pub width: u32,
+    /// Texels along y (axis 1's nodes).
     pub height: u32,
     /// 1 for a 2D texture; the layer count of a texture array.
     pub depth: u32,
+    /// Channels per texel: 1, 2 or 4.
     pub channels: usize,
+    /// The precision the texels are stored in.
     pub precision: Precision,
+    /// A volume (3D) texture, `depth` texels deep.
     pub volume: bool,
     /// An array of `depth` 2D textures ([`LAYER_AXIS`]).
     pub layered: bool,
@@ -212,13 +220,16 @@ pub const LAYER_AXIS: &str = "layer";
 /// What kind of texture holds a table of two or three axes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TextureShape {
+    /// A 2D texture: a table of two axes.
     Flat,
+    /// A volume texture: a table of three axes, the third not [`LAYER_AXIS`].
     Volume,
     /// An array of 2D textures: the third axis is [`LAYER_AXIS`].
     Layers,
 }
 
 impl TextureShape {
+    /// The shape of the texture that holds `table`, from its axes.
     pub fn of(table: &Table) -> Self {
         match table.axes.get(2) {
             None => TextureShape::Flat,

@@ -36,7 +36,9 @@ pub const LAYER_HEIGHT: usize = 256;
 pub struct SliceArrayEntry {
     /// Texels per layer, `[width, height]`, and the number of layers.
     pub layer_extent: [u32; 2],
+    /// The number of layers.
     pub layers: u32,
+    /// Every slice the array holds, with where it lies.
     pub slices: Vec<ArraySlice>,
 }
 
@@ -53,15 +55,19 @@ pub struct ArraySlice {
     /// Its axes, with the texture coordinate of each *in the array*: the node position clamped
     /// to the slice, plus the origin and half a texel, over the layer's extent.
     pub axes: Vec<AxisEntry>,
+    /// Each channel's name and meaning, in storage order.
     pub channels: Vec<Channel>,
+    /// `[min, max]` of the slice's finite values in f32, before rounding to the array's precision.
     pub value_range: [f32; 2],
     /// Its integration, storage and interpolation error, as its own file's entry states them.
     pub error: ErrorEntry,
+    /// Further measured accuracy figures, as its own file's entry states them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub accuracy: Vec<AccuracyReport>,
 }
 
 impl ArraySlice {
+    /// Its axes as quantities, without the array's texture-coordinate formulas.
     pub fn axes(&self) -> Vec<Axis> {
         self.axes.iter().map(|a| a.axis.clone()).collect()
     }
@@ -71,7 +77,9 @@ impl ArraySlice {
 /// first node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Slot {
+    /// The layer, from 0.
     pub layer: usize,
+    /// The texel of the slice's first node, `[x, y]`, inside its gutter.
     pub origin: [usize; 2],
 }
 
@@ -80,8 +88,11 @@ pub struct Slot {
 /// and their order only.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Layout {
+    /// Texels per layer, `[width, height]`.
     pub layer_extent: [usize; 2],
+    /// The number of layers.
     pub layers: usize,
+    /// Each slice's slot, in the order the extents were given.
     pub slots: Vec<Slot>,
 }
 

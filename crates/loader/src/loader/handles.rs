@@ -126,6 +126,7 @@ macro_rules! common {
                 $shape.check(table, precision, None, &name).map($handle)
             }
 
+            /// The table the handle samples.
             pub fn table(&self) -> &Table {
                 &self.0.table
             }
@@ -140,6 +141,7 @@ macro_rules! common {
                 self.0.precision
             }
 
+            /// The table the handle samples, the handle consumed.
             pub fn into_table(self) -> Table {
                 self.0.table
             }
@@ -221,6 +223,7 @@ common!(GdLut, GD);
 texture!(GdLut, 1, 2);
 
 impl GdLut {
+    /// The albedo at `mu` (cosine of the view angle) and GGX `alpha`, interpolated in f64.
     pub fn sample(&self, mu: f32, alpha: f32) -> f32 {
         let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64]);
         v
@@ -281,6 +284,8 @@ pub struct FgdLut(Checked);
 common!(FgdLut, FGD);
 
 impl FgdLut {
+    /// The albedo at `mu`, GGX `alpha` and the relative complex index `eta + i kappa`,
+    /// interpolated in f64.
     pub fn sample(&self, mu: f32, alpha: f32, eta: f32, kappa: f32) -> f32 {
         let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64, eta as f64, kappa as f64]);
         v

@@ -61,10 +61,12 @@ impl LutFolder {
         Ok(LutFolder { dir: dir.to_path_buf(), manifest })
     }
 
+    /// The folder's path, as given to [`LutFolder::open`].
     pub fn dir(&self) -> &Path {
         &self.dir
     }
 
+    /// The manifest as read at opening.
     pub fn manifest(&self) -> &Manifest {
         &self.manifest
     }
@@ -224,6 +226,7 @@ pub struct FolderSlice {
     /// Its entry: its own file's or, in a texture array, the array's with the slice's table name,
     /// axes (their `texture_coordinate` in the array), channels, value range and error.
     pub entry: FileEntry,
+    /// The slice's values, cut out of the array where it lies in one.
     pub table: Table,
     /// The file holding it.
     pub file: String,
@@ -235,9 +238,13 @@ pub struct FolderSlice {
 /// extent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ArrayPlace {
+    /// The layer holding the slice, from 0.
     pub layer: u32,
+    /// The texel of its first node, `[x, y]`.
     pub origin: [u32; 2],
+    /// The array's texels per layer, `[width, height]`.
     pub layer_extent: [u32; 2],
+    /// The array's number of layers.
     pub layers: u32,
 }
 
@@ -289,12 +296,17 @@ pub fn load_table(path: impl AsRef<Path>) -> Result<Table> {
 /// The `manifest.json` of the folder a file sits in, if there is one, and the file's name there.
 #[derive(Debug, Clone)]
 pub struct ManifestBeside {
+    /// Where the manifest is or would be: `manifest.json` in the file's folder.
     pub manifest_path: PathBuf,
+    /// The manifest, where the folder has one.
     pub manifest: Option<Manifest>,
+    /// The file's name inside its folder.
     pub file: String,
 }
 
 impl ManifestBeside {
+    /// The manifest beside `path`; refused where a build was interrupted while committing into
+    /// its folder, or the manifest there cannot be read.
     pub fn of(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));

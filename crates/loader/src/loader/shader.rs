@@ -32,9 +32,11 @@ pub const DESCRIPTION_SUFFIX: &str = ".shader.json";
 /// A texture the shader binds: its binding in group 0 and the file it holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TextureBinding {
+    /// The binding number in group 0 (HLSL: register `tN`).
     pub binding: u32,
     /// The variable in the shader.
     pub variable: String,
+    /// The folder's file whose texels it holds.
     pub file: String,
     /// `[width, height, depth]` in texels.
     pub extent: [usize; 3],
@@ -51,8 +53,10 @@ pub struct TextureBinding {
     /// always `unfilterable-float`: the shader loads texels and filters them itself.
     #[serde(default)]
     pub format: String,
+    /// The WebGPU view dimension: `2d`, `3d` or `2d-array`.
     #[serde(default)]
     pub view_dimension: String,
+    /// The WebGPU sample type: `unfilterable-float`.
     #[serde(default)]
     pub sample_type: String,
 }
@@ -60,7 +64,9 @@ pub struct TextureBinding {
 /// A material's function in the shader.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MaterialFunction {
+    /// The material's name, as the scene gives it.
     pub material: String,
+    /// The name of its function in the WGSL and the HLSL, which takes the view cosine `mu = n.v`.
     pub function: String,
     /// Lobes it fills in `TmResult` (the rest are zero).
     pub lobes: usize,
@@ -82,8 +88,11 @@ pub struct ShaderDescription<'a> {
     pub result_struct: Cow<'a, str>,
     /// The length of its lobe arrays.
     pub max_lobes: usize,
+    /// Every texture the shader binds.
     pub textures: Cow<'a, [TextureBinding]>,
+    /// Every material's function.
     pub materials: Cow<'a, [MaterialFunction]>,
+    /// How to create and bind the textures and call the functions, in words.
     pub notes: Cow<'a, str>,
 }
 
@@ -92,8 +101,11 @@ pub struct ShaderDescription<'a> {
 pub struct SceneShaderFiles {
     /// The files' common stem, the scene's name as an identifier (`copper_pot`).
     pub stem: String,
+    /// `<stem>.shader.json`, parsed.
     pub description: ShaderDescription<'static>,
+    /// The text of `<stem>.wgsl`.
     pub wgsl: String,
+    /// The text of `<stem>.hlsl`.
     pub hlsl: String,
 }
 

@@ -31,11 +31,17 @@ use crate::table::{Axis, InterpolationError};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum TextureFormat {
+    /// One f16 channel (DXGI `R16_FLOAT`, Vulkan `R16_SFLOAT`).
     R16Float,
+    /// Two f16 channels (DXGI `R16G16_FLOAT`, Vulkan `R16G16_SFLOAT`).
     Rg16Float,
+    /// Four f16 channels (DXGI `R16G16B16A16_FLOAT`, Vulkan `R16G16B16A16_SFLOAT`).
     Rgba16Float,
+    /// One f32 channel (DXGI `R32_FLOAT`, Vulkan `R32_SFLOAT`).
     R32Float,
+    /// Two f32 channels (DXGI `R32G32_FLOAT`, Vulkan `R32G32_SFLOAT`).
     Rg32Float,
+    /// Four f32 channels (DXGI `R32G32B32A32_FLOAT`, Vulkan `R32G32B32A32_SFLOAT`).
     Rgba32Float,
 }
 
@@ -55,6 +61,7 @@ impl TextureFormat {
         })
     }
 
+    /// Channels per texel: 1, 2 or 4.
     pub fn channels(self) -> usize {
         use TextureFormat::*;
         match self {
@@ -64,6 +71,7 @@ impl TextureFormat {
         }
     }
 
+    /// The precision of each channel.
     pub fn precision(self) -> Precision {
         use TextureFormat::*;
         match self {
@@ -96,7 +104,9 @@ impl TextureFormat {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum TextureDimension {
+    /// A 2D texture (`wgpu::TextureDimension::D2`).
     D2,
+    /// A volume texture (`wgpu::TextureDimension::D3`).
     D3,
 }
 
@@ -109,7 +119,9 @@ pub struct TextureDescriptor {
     pub height: u32,
     /// Texels along axis 2 of a volume texture; 1 for a 2D texture.
     pub depth_or_layers: u32,
+    /// 2D or volume.
     pub dimension: TextureDimension,
+    /// The texel format, in the table's storage precision.
     pub format: TextureFormat,
     /// Always 1: tables are never mip-mapped (a mip level would average unlike parameters).
     pub mip_level_count: u32,
@@ -132,6 +144,7 @@ impl TextureDescriptor {
 pub enum Texels {
     /// IEEE binary16 bit patterns.
     F16(Vec<u16>),
+    /// IEEE binary32 values.
     F32(Vec<f32>),
 }
 
@@ -181,10 +194,12 @@ impl TextureData {
         Ok(TextureData { descriptor, texels })
     }
 
+    /// What the texture is created with, and the layout of [`TextureData::to_bytes`].
     pub fn descriptor(&self) -> &TextureDescriptor {
         &self.descriptor
     }
 
+    /// The texels in their storage precision.
     pub fn texels(&self) -> &Texels {
         &self.texels
     }
@@ -263,7 +278,9 @@ pub fn sample_texture(table: &Table, coordinate: &[f32], out: &mut [f32]) -> Res
 /// sampled by the GPU emulator ([`crate::filter`]) as [`sample_texture`] samples it.
 #[derive(Debug, Clone)]
 pub struct SampledTable {
+    /// The table's name.
     pub name: String,
+    /// The table's axes, which turn a point into texture coordinates.
     pub axes: Vec<Axis>,
     /// One volume per channel, each of the axes' node counts (1 along a missing axis).
     pub channels: Vec<Texture3D>,
@@ -290,6 +307,7 @@ impl SampledTable {
         Ok(SampledTable { name: table.name.clone(), axes: table.axes.clone(), channels })
     }
 
+    /// The number of channels.
     pub fn channel_count(&self) -> usize {
         self.channels.len()
     }

@@ -20,8 +20,11 @@ pub struct FresnelBasis {
     /// Where the samples lie, in words: [`SAMPLE_COSINES`].
     #[serde(default)]
     pub sample_cosines: String,
+    /// Curve `b1` at the `samples` cosines: its coefficient is `c1 = 1 - F(1)`.
     pub b1: Vec<f64>,
+    /// Curve `b2` at the `samples` cosines, its coefficient fitted at the probe cosines.
     pub b2: Vec<f64>,
+    /// Curve `b3` at the `samples` cosines, its coefficient fitted at the probe cosines.
     pub b3: Vec<f64>,
     /// `[ct1, ct2]`: the cosine of the maximum of `b2`, and the extremum of `b3` farthest from it.
     pub probe_cosines: [f64; 2],

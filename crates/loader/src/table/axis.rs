@@ -45,7 +45,9 @@ pub enum Mapping {
     /// logarithmic beyond, so that equal steps of `m` resolve a transition at `centre` of any
     /// width from `scale` up.
     Asinh {
+        /// The width of the linear part, in the quantity's units; finite and above 0.
         scale: f64,
+        /// Where the transition lies (omitted from the manifest where 0).
         #[serde(default, skip_serializing_if = "is_zero")]
         centre: f64,
     },
@@ -53,7 +55,14 @@ pub enum Mapping {
     /// with a ramp below `centre` that keeps nodes there no further apart than `1 / slope_below`
     /// steps of `m`, where the logarithm alone would spread them. A variant of its own, so that a
     /// reader that predates it refuses the manifest rather than read the `asinh` alone.
-    AsinhRampBelow { scale: f64, centre: f64, slope_below: f64 },
+    AsinhRampBelow {
+        /// The width of the linear part, as [`Mapping::Asinh`]'s.
+        scale: f64,
+        /// Where the transition lies.
+        centre: f64,
+        /// The ramp's slope below `centre`, in steps of `m` per unit of the quantity; 0 or above.
+        slope_below: f64,
+    },
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -77,14 +86,21 @@ pub trait Arithmetic:
     /// The precision constants are computed in: the type itself for f64 and f32, f32 for a
     /// shader's expression.
     type Constant: Arithmetic + Copy;
+    /// A constant computed in [`Arithmetic::Constant`], as a value of this type.
     fn constant(value: Self::Constant) -> Self;
     /// `value` rounded to this precision.
     fn of(value: f64) -> Self;
+    /// The larger of `self` and `other`.
     fn max(self, other: Self) -> Self;
+    /// The smaller of `self` and `other`.
     fn min(self, other: Self) -> Self;
+    /// `self` held to `[lo, hi]`.
     fn clamp(self, lo: Self, hi: Self) -> Self;
+    /// The square root.
     fn sqrt(self) -> Self;
+    /// The largest integer not above `self`.
     fn floor(self) -> Self;
+    /// The inverse hyperbolic sine.
     fn asinh(self) -> Self;
     /// `acos(self)` (a shader's is its own polynomial: the builtin's error is loosely bounded).
     fn acos(self) -> Self;
@@ -162,6 +178,7 @@ impl Mapping {
         }
     }
 
+    /// `m(x)`: the mapped value of the quantity `x`, in f64.
     pub fn forward(self, x: f64) -> f64 {
         self.forward_in(x)
     }
@@ -192,6 +209,7 @@ impl Mapping {
         }
     }
 
+    /// The quantity whose mapped value is `m`: the inverse of [`Mapping::forward`].
     pub fn inverse(self, m: f64) -> f64 {
         match self {
             Mapping::Identity => m,
@@ -279,10 +297,15 @@ impl Mapping {
 pub struct Axis {
     /// The quantity sampled, e.g. `mu` (cosine of the incident angle), `alpha`, `eta`, `kappa`.
     pub name: String,
+    /// The quantity's value at axis coordinate 0.
     pub start: f64,
+    /// The quantity's value at axis coordinate 1 (may be below `start`).
     pub end: f64,
+    /// The number of nodes (texels along the axis); at least 2.
     pub count: usize,
+    /// Where the nodes sit in the range: on its ends, or at texel centres.
     pub placement: Placement,
+    /// How the nodes are spaced in the quantity ([`Mapping::Identity`] where the manifest names none).
     #[serde(default)]
     pub mapping: Mapping,
 }
@@ -302,20 +325,25 @@ impl Axis {
         Ok(axis)
     }
 
+    /// A validated axis with nodes on its range's ends, spaced uniformly in the quantity.
     pub fn node_aligned(name: impl Into<String>, start: f64, end: f64, count: usize) -> Result<Self> {
         Self::new(name, start, end, count, Placement::NodeAligned, Mapping::Identity)
     }
 
+    /// A validated axis with nodes at texel centres, spaced uniformly in the quantity.
     pub fn cell_centred(name: impl Into<String>, start: f64, end: f64, count: usize) -> Result<Self> {
         Self::new(name, start, end, count, Placement::CellCentred, Mapping::Identity)
     }
 
+    /// The axis with its nodes spaced by `mapping`, validated again.
     pub fn with_mapping(mut self, mapping: Mapping) -> Result<Self> {
         self.mapping = mapping;
         self.validate()?;
         Ok(self)
     }
 
+    /// Whether the axis is valid: at least two nodes, a valid mapping, and finite ends inside the
+    /// mapping's domain whose mapped values differ.
     pub fn validate(&self) -> Result<()> {
         let key = format!("axis `{}`", self.name);
         if self.count < 2 {

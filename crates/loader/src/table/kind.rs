@@ -28,7 +28,9 @@ pub enum TableKind {
 /// What a reader requires of a table: the names each axis may have, in order, and the channels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TableShape {
+    /// Per axis, in order, the quantity names it may have (e.g. `eta` or `critical_angle_offset`).
     pub axes: &'static [&'static [&'static str]],
+    /// The number of channels.
     pub channels: usize,
 }
 

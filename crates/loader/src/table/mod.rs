@@ -18,7 +18,9 @@ use crate::error::{Error, Result};
 /// One stored channel and what its value means.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Channel {
+    /// A short name (e.g. `scale`, `bias`, `value`).
     pub name: String,
+    /// What the value is, in words.
     pub meaning: String,
     /// Parameters of the integral that this channel holds fixed, by name (a slice's `eta` and
     /// `kappa`): what a reader matches a lookup against.
@@ -27,6 +29,7 @@ pub struct Channel {
 }
 
 impl Channel {
+    /// A channel with nothing held fixed.
     pub fn new(name: impl Into<String>, meaning: impl Into<String>) -> Self {
         Channel { name: name.into(), meaning: meaning.into(), fixed: Default::default() }
     }
@@ -55,14 +58,34 @@ pub const MAX_INTERPOLATED_AXES: usize = 8;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum InterpolationError {
+    /// The point does not have one coordinate per axis.
     #[error("a point of {given} coordinates given; the table has {axes} axes and needs one coordinate per axis")]
-    AxisCount { axes: usize, given: usize },
+    AxisCount {
+        /// The table's axes.
+        axes: usize,
+        /// The coordinates given.
+        given: usize,
+    },
+    /// The output does not have room for exactly one value per channel.
     #[error("room for {given} values given; the table has {channels} channels and needs one per channel")]
-    ChannelCount { channels: usize, given: usize },
+    ChannelCount {
+        /// The table's channels.
+        channels: usize,
+        /// The values the output has room for.
+        given: usize,
+    },
+    /// The table has more than [`MAX_INTERPOLATED_AXES`] axes.
     #[error("the table has {axes} axes; interpolation handles at most {MAX_INTERPOLATED_AXES}")]
-    TooManyAxes { axes: usize },
+    TooManyAxes {
+        /// The table's axes.
+        axes: usize,
+    },
+    /// Sampled as a texture, the table has no texture's shape: it has more than three axes.
     #[error("the table has {axes} axes; a texture has 1 to 3")]
-    NotATexture { axes: usize },
+    NotATexture {
+        /// The table's axes.
+        axes: usize,
+    },
 }
 
 impl From<InterpolationError> for Error {
@@ -74,18 +97,26 @@ impl From<InterpolationError> for Error {
 /// A tabulated function of one to four parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
+    /// The table's name (e.g. `karis`, `gd`), which messages name it by.
     pub name: String,
+    /// One per parameter, axis 0 fastest in `data`.
     pub axes: Vec<Axis>,
+    /// The values stored per node, in storage order.
     pub channels: Vec<Channel>,
+    /// The values: channels interleaved per node, then axis 0 fastest, then axis 1, and so on.
     pub data: Vec<f32>,
 }
 
 /// Minimum, maximum and the count of non-finite values of a table's data.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ValueStats {
+    /// The smallest finite value (+infinity where there is none).
     pub min: f32,
+    /// The largest finite value (-infinity where there is none).
     pub max: f32,
+    /// How many values are NaN.
     pub nan_count: usize,
+    /// How many values are infinite.
     pub infinite_count: usize,
 }
 
@@ -126,10 +157,12 @@ impl Table {
         Self::new(name, axes, channels, vec![0.0; len])
     }
 
+    /// The number of axes.
     pub fn dimension(&self) -> usize {
         self.axes.len()
     }
 
+    /// The number of channels.
     pub fn channel_count(&self) -> usize {
         self.channels.len()
     }
@@ -144,6 +177,7 @@ impl Table {
         self.axes.iter().map(|a| a.count).product()
     }
 
+    /// The axis of the quantity `name` (e.g. `mu`, `alpha`), if the table has one.
     pub fn axis(&self, name: &str) -> Option<&Axis> {
         self.axes.iter().find(|a| a.name == name)
     }
@@ -235,6 +269,7 @@ impl Table {
         Ok(())
     }
 
+    /// The range of the finite values and the count of the others, over all channels.
     pub fn stats(&self) -> ValueStats {
         let mut stats = ValueStats { min: f32::INFINITY, max: f32::NEG_INFINITY, nan_count: 0, infinite_count: 0 };
         for &v in &self.data {
