@@ -16,12 +16,52 @@ pub enum Error {
         source: std::io::Error,
     },
 
-    /// A file exists but is not what it claims to be (truncated, foreign, unsupported variant).
+    /// A file exists but is not what it claims to be (malformed, foreign, an unsupported variant,
+    /// or a format this build of the crate does not read).
     #[error("{}: {reason}", path.display())]
     Format {
         /// The file at fault.
         path: PathBuf,
         /// What is wrong with it, in words.
+        reason: String,
+    },
+
+    /// A file that differs from its entry in `manifest.json` (its length, SHA-256, axes,
+    /// channels, value range or sealed claims): replaced, truncated or edited after its build.
+    /// Rebuild the folder, or restore the file.
+    #[error("{}: {reason}", path.display())]
+    Mismatch {
+        /// The file that differs.
+        path: PathBuf,
+        /// Every way it differs, in words.
+        reason: String,
+    },
+
+    /// A folder whose build was interrupted while it moved its files into place: its files and
+    /// its manifest may disagree until a build into the folder completes the commit.
+    #[error("{}: {reason}", path.display())]
+    Unfinished {
+        /// The journal the interrupted build left.
+        path: PathBuf,
+        /// What happened and how to complete it.
+        reason: String,
+    },
+
+    /// The manifest lists no file (or no table of the kind asked for) by that name.
+    #[error("{}: {reason}", path.display())]
+    Missing {
+        /// The manifest asked.
+        path: PathBuf,
+        /// What is missing, and what the manifest lists instead.
+        reason: String,
+    },
+
+    /// A file holds a table, but not of the shape the handle reads (its axes or channels).
+    #[error("{}: {reason}", path.display())]
+    WrongTable {
+        /// The file opened.
+        path: PathBuf,
+        /// The table it holds and the shape the handle reads.
         reason: String,
     },
 

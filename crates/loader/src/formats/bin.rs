@@ -118,13 +118,13 @@ pub fn read_bin(path: &Path, axis_names: Option<&[&str]>) -> Result<Table> {
 
 /// [`read_bin`] on bytes already in memory; `path` names the file in errors and the table.
 pub fn decode_bin(bytes: &[u8], path: &Path, axis_names: Option<&[&str]>) -> Result<Table> {
-    if let Some(names) = axis_names {
-        if !(1..=MAX_AXES).contains(&names.len()) {
-            return Err(Error::invalid(
-                "axis names",
-                format!("{} names given; a .bin table has 1 to {MAX_AXES} axes", names.len()),
-            ));
-        }
+    if let Some(names) = axis_names
+        && !(1..=MAX_AXES).contains(&names.len())
+    {
+        return Err(Error::invalid(
+            "axis names",
+            format!("{} names given; a .bin table has 1 to {MAX_AXES} axes", names.len()),
+        ));
     }
     let layout = recognise_layout(bytes, path, axis_names.map(<[&str]>::len))?;
 

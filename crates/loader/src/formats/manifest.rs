@@ -31,11 +31,12 @@ pub fn pending_commit(dir: &Path) -> Option<std::path::PathBuf> {
 
 /// The error a reader gives for a folder with a pending commit.
 pub fn pending_commit_error(journal: &Path) -> Error {
-    Error::format(
-        journal,
-        "a build was interrupted while moving its files into this folder, so its files and manifest.json may \
-         disagree; run `tmlut build` into the folder again (any build completes the interrupted one first)",
-    )
+    Error::Unfinished {
+        path: journal.to_path_buf(),
+        reason: "a build was interrupted while moving its files into this folder, so its files and manifest.json may \
+         disagree; run `tmlut build` into the folder again (any build completes the interrupted one first)"
+            .into(),
+    }
 }
 
 /// Whether `name` names a file directly inside the folder: one ordinary path component, no folder,

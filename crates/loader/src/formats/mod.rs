@@ -185,7 +185,10 @@ pub fn write_table(path: &Path, table: &Table, format: FileFormat, precision: Pr
 
 #[cfg(not(feature = "exr"))]
 pub(crate) fn no_exr_support(path: &Path) -> Error {
-    Error::format(path, "this build of tmlut reads no OpenEXR; enable the `exr` feature of the tmlut crate")
+    Error::format(
+        path,
+        "this build reads no OpenEXR; enable the `exr` feature of tmlut-loader (or of tmlut, which passes it on)",
+    )
 }
 
 /// A table's texels as a DDS or KTX2 file stores them: a 2D or volume texture of 1, 2 or 4 float

@@ -63,15 +63,15 @@ impl Shape {
     fn check(&self, table: Table, precision: Precision, entry: Option<FileEntry>, path: &str) -> Result<Checked> {
         if !self.fits(&table) {
             let axes: Vec<&str> = table.axes.iter().map(|a| a.name.as_str()).collect();
-            return Err(Error::format(
-                path,
-                format!(
+            return Err(Error::WrongTable {
+                path: path.into(),
+                reason: format!(
                     "holds a table with the axes ({}) and {} channels; {}",
                     axes.join(", "),
                     table.channel_count(),
                     self.describe()
                 ),
-            ));
+            });
         }
         Ok(Checked { table, precision, entry })
     }
@@ -89,11 +89,9 @@ impl Shape {
     /// `.bin` one.
     fn find<'a>(&self, folder: &'a LutFolder) -> Result<&'a str> {
         const PREFERENCE: [FileFormat; 4] = [FileFormat::Dds, FileFormat::Ktx2, FileFormat::Exr, FileFormat::Bin];
-        folder.table_file(self.0.name(), &PREFERENCE).map(|(file, _)| file).ok_or_else(|| {
-            Error::format(
-                folder.dir().join(MANIFEST_FILE),
-                format!("lists no `{}` table (a file whose entry has \"table\": \"{}\")", self.0, self.0),
-            )
+        folder.table_file(self.0.name(), &PREFERENCE).map(|(file, _)| file).ok_or_else(|| Error::Missing {
+            path: folder.dir().join(MANIFEST_FILE),
+            reason: format!("lists no `{}` table (a file whose entry has \"table\": \"{}\")", self.0, self.0),
         })
     }
 }

@@ -190,10 +190,10 @@ impl LutFolder {
     pub fn entry(&self, file: &str) -> Result<&FileEntry> {
         self.manifest.entry(file).ok_or_else(|| {
             let listed: Vec<&str> = self.manifest.files.keys().map(String::as_str).collect();
-            Error::format(
-                self.dir.join(MANIFEST_FILE),
-                format!("lists no file `{file}`; it lists: {}", listed.join(", ")),
-            )
+            Error::Missing {
+                path: self.dir.join(MANIFEST_FILE),
+                reason: format!("lists no file `{file}`; it lists: {}", listed.join(", ")),
+            }
         })
     }
 
@@ -276,7 +276,10 @@ pub fn load_verified(path: impl AsRef<Path>, entry: &FileEntry) -> Result<Table>
             return Ok(table);
         }
     }
-    Err(Error::format(path, format!("differs from its entry in {MANIFEST_FILE}: {}", disagreements.join("; "))))
+    Err(Error::Mismatch {
+        path: path.to_path_buf(),
+        reason: format!("differs from its entry in {MANIFEST_FILE}: {}", disagreements.join("; ")),
+    })
 }
 
 /// Load a table file, taking its description from the `manifest.json` beside it when there is one

@@ -172,10 +172,10 @@ pub(crate) fn read_text_verified(
         }
     }
     if !disagreements.is_empty() {
-        return Err(Error::format(
-            &path,
-            format!("differs from its entry in {MANIFEST_FILE}: {}", disagreements.join("; ")),
-        ));
+        return Err(Error::Mismatch {
+            path,
+            reason: format!("differs from its entry in {MANIFEST_FILE}: {}", disagreements.join("; ")),
+        });
     }
     String::from_utf8(bytes).map_err(|_| Error::format(&path, "is not UTF-8 text"))
 }

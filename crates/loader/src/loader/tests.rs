@@ -334,6 +334,9 @@ fn a_file_of_another_kind_is_refused_naming_the_file_and_the_axes_allowed() {
     assert!(err.contains("a fgd_rarer table has the axes (mu, alpha, critical_angle_fraction)"), "{err}");
     let err = KarisLut::from_table(gd_table(), Precision::F16).unwrap_err().to_string();
     assert!(err.contains("table `gd`"), "{err}");
+    // A renderer branches on the kind, not on the words.
+    assert!(matches!(GdLut::open(&luts, "karis.dds"), Err(Error::WrongTable { .. })));
+    assert!(matches!(KarisLut::from_table(gd_table(), Precision::F16), Err(Error::WrongTable { .. })));
 }
 
 #[test]
@@ -342,15 +345,30 @@ fn a_folder_without_the_table_or_with_a_changed_file_is_refused() {
     let mut manifest = luts.manifest().clone();
     manifest.files.remove("karis.dds");
     manifest.write(dir.path()).unwrap();
-    let err = KarisLut::from_folder(&LutFolder::open(dir.path()).unwrap()).unwrap_err().to_string();
+    let err = KarisLut::from_folder(&LutFolder::open(dir.path()).unwrap()).unwrap_err();
+    assert!(matches!(err, Error::Missing { .. }), "{err:?}");
+    let err = err.to_string();
     assert!(err.contains(MANIFEST_FILE) && err.contains("lists no `karis` table"), "{err}");
+    let err = LutFolder::open(dir.path()).unwrap().load("karis.dds").unwrap_err();
+    assert!(matches!(err, Error::Missing { .. }) && err.to_string().contains("lists no file `karis.dds`"), "{err}");
     // A file replaced after the build: the handle opens it verified, as `LutFolder::load`.
     let mut bytes = std::fs::read(dir.path().join("gd.dds")).unwrap();
     let last = bytes.len() - 1;
     bytes[last] ^= 1;
     std::fs::write(dir.path().join("gd.dds"), bytes).unwrap();
-    let err = GdLut::open(&luts, "gd.dds").unwrap_err().to_string();
+    let err = GdLut::open(&luts, "gd.dds").unwrap_err();
+    assert!(matches!(err, Error::Mismatch { .. }), "{err:?}");
+    let err = err.to_string();
     assert!(err.contains("gd.dds") && err.contains("SHA-256"), "{err}");
+}
+
+#[test]
+fn a_folder_whose_build_was_interrupted_while_committing_is_refused_as_unfinished() {
+    let (dir, _luts) = folder();
+    std::fs::write(dir.path().join(crate::formats::manifest::COMMIT_JOURNAL), b"{}").unwrap();
+    let err = LutFolder::open(dir.path()).unwrap_err();
+    assert!(matches!(err, Error::Unfinished { .. }), "{err:?}");
+    assert!(err.to_string().contains("interrupted"), "{err}");
 }
 
 #[test]
