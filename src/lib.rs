@@ -65,3 +65,9 @@ pub mod stability;
 
 pub use error::{Error, Result};
 pub use table::{Axis, Channel, Mapping, Placement, Table};
+
+// The examples of `docs/loader.md` compile with this crate's doctests (it depends on the loader),
+// not the loader's own: the guide lives in the repository, outside the loader's package.
+#[cfg(doctest)]
+#[doc = include_str!("../docs/loader.md")]
+pub struct LoaderGuide;

@@ -22,11 +22,6 @@ pub mod shader;
 mod tests;
 pub mod texture;
 
-// The examples of `docs/loader.md` compile with the doctests.
-#[cfg(doctest)]
-#[doc = include_str!("../../../../docs/loader.md")]
-pub struct Guide;
-
 pub use crate::error::{Error, Result};
 pub use crate::formats::manifest::{FileEntry, Manifest, ShaderFile};
 pub use crate::formats::{FileFormat, Precision, sha256_hex};
