@@ -20,7 +20,7 @@ use std::process::ExitCode;
 
 use rand_pcg::Pcg64Mcg;
 use tmlut::fit::text::FormEvaluator;
-use tmlut::loader::{FgdLut, LutFolder};
+use tmlut::loader::{Alpha, FgdLut, LutFolder};
 
 use gpu::Comparison;
 
@@ -84,7 +84,7 @@ fn check_fgd(
     let ranges: Vec<[f64; 2]> = fgd.table().axes.iter().map(|a| [a.start, a.end]).collect();
     let points: Vec<f32> = (0..POINTS).flat_map(|_| ranges.iter().map(|&r| uniform(r)).collect::<Vec<_>>()).collect();
     let on_gpu = gpu.run(&gpu.module(&wgsl), "main", &[texture], &points, POINTS, POINTS);
-    let on_cpu = points.chunks_exact(4).map(|p| fgd.sample(p[0], p[1], p[2], p[3]) as f64);
+    let on_cpu = points.chunks_exact(4).map(|p| fgd.sample(p[0], Alpha(p[1]), p[2], p[3]) as f64);
     let comparison = Comparison::of(&on_gpu, on_cpu);
     println!("{} over {file} vs fgd.exr interpolated: {}", lookup.file, comparison.summary(FGD_TOLERANCE));
     Ok(comparison.passes(FGD_TOLERANCE))

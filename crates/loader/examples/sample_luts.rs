@@ -8,7 +8,7 @@
 
 use std::process::ExitCode;
 
-use tmlut_loader::{KarisLut, LutFolder, TextureData, TirLut};
+use tmlut_loader::{Alpha, KarisLut, LutFolder, Roughness, TextureData, TirLut};
 
 fn describe(name: &str, texture: &TextureData) {
     let descriptor = texture.descriptor();
@@ -30,7 +30,7 @@ fn run(folder: &str) -> tmlut_loader::Result<()> {
         let karis = KarisLut::from_folder(&luts)?;
         println!("Karis split sum (scale, bias) at n.v = 0.5:");
         for roughness in [0.1f32, 0.5, 0.9] {
-            let [scale, bias] = karis.sample(0.5, roughness);
+            let [scale, bias] = karis.sample(0.5, Roughness(roughness));
             println!("  roughness {roughness}: ({scale:.5}, {bias:.5})");
         }
         describe("karis.dds", &karis.texture()?);
@@ -39,7 +39,7 @@ fn run(folder: &str) -> tmlut_loader::Result<()> {
         let tir = TirLut::from_folder(&luts)?;
         println!("TIR: the energy kept inside a dielectric at mu = 0.7, alpha = 0.01:");
         for eta in [0.67f32, 0.9, 1.0] {
-            println!("  eta {eta}: {:.5}", tir.sample(0.7, 0.01, eta));
+            println!("  eta {eta}: {:.5}", tir.sample(0.7, Alpha(0.01), eta));
         }
         describe("tir.dds", &tir.texture()?);
     }

@@ -4,13 +4,13 @@
 //! through it.
 //!
 //! ```no_run
-//! use tmlut_loader::{KarisLut, LutFolder, TirLut};
+//! use tmlut_loader::{Alpha, KarisLut, LutFolder, Roughness, TirLut};
 //!
 //! let luts = LutFolder::open("luts")?;
 //! let karis = KarisLut::from_folder(&luts)?; // karis.dds, verified against manifest.json
-//! let [scale, bias] = karis.sample(0.5, 0.3); // (n.v, perceptual roughness)
+//! let [scale, bias] = karis.sample(0.5, Roughness(0.3)); // (n.v, perceptual roughness)
 //! let tir = TirLut::open(&luts, "tir.dds")?;
-//! let lost = tir.sample(0.7, 0.01, 0.9); // (mu, alpha, eta): the handle computes the axes' quantities
+//! let lost = tir.sample(0.7, Alpha(0.01), 0.9); // (mu, alpha, eta): the handle computes the axes' quantities
 //! let texture = karis.texture()?; // bytes and descriptor of a `rg16float` 2D texture
 //! assert_eq!(texture.to_bytes().len(), texture.descriptor().byte_len());
 //! # Ok::<(), tmlut_loader::Error>(())
@@ -39,8 +39,8 @@ pub mod table;
 
 pub use error::{Error, Result};
 pub use loader::{
-    BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, LutFolder, MaterialFunction, SceneShaderFiles, ShaderDescription,
-    TextureBinding, TextureData, TextureDescriptor, TextureDimension, TextureFormat, TirLut,
+    Alpha, BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, LutFolder, MaterialFunction, Roughness, SceneShaderFiles,
+    ShaderDescription, TextureBinding, TextureData, TextureDescriptor, TextureDimension, TextureFormat, TirLut,
 };
 pub use table::{Axis, Channel, Mapping, Placement, Table};
 

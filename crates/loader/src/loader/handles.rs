@@ -14,6 +14,7 @@
 //! (`alpha = roughness^2`); GD, TIR, FGD and `fgd_rarer` take GGX `alpha`, the quantity of their
 //! axes.
 
+use super::roughness::{Alpha, Roughness};
 use super::texture::{TextureData, sample_texture, texture_coordinate};
 use super::{FileEntry, LutFolder, Precision, Table};
 use crate::error::{Error, Result};
@@ -171,15 +172,15 @@ macro_rules! texture {
 macro_rules! split_sum {
     ($handle:ident, $channels:expr, $values:literal) => {
         impl $handle {
-            #[doc = concat!("`", $values, "` at `n_dot_v` and perceptual `roughness` (`alpha = roughness^2`).")]
-            pub fn sample(&self, n_dot_v: f32, roughness: f32) -> [f32; $channels] {
-                let roughness = roughness as f64;
+            #[doc = concat!("`", $values, "` at `n_dot_v` and perceptual `roughness` (`alpha = roughness^2`; an [`Alpha`] converts).")]
+            pub fn sample(&self, n_dot_v: f32, roughness: impl Into<Roughness>) -> [f32; $channels] {
+                let roughness = roughness.into().0 as f64;
                 interpolate(&self.0.table, [n_dot_v as f64, roughness * roughness])
             }
 
             /// [`Self::sample`] as a shader reads the texture.
-            pub fn sample_gpu(&self, n_dot_v: f32, roughness: f32) -> [f32; $channels] {
-                let roughness = roughness as f64;
+            pub fn sample_gpu(&self, n_dot_v: f32, roughness: impl Into<Roughness>) -> [f32; $channels] {
+                let roughness = roughness.into().0 as f64;
                 self.filter(uv(&self.0.table, n_dot_v as f64, roughness * roughness))
             }
 
@@ -221,14 +222,17 @@ common!(GdLut, GD);
 texture!(GdLut, 1, 2);
 
 impl GdLut {
-    /// The albedo at `mu` (cosine of the view angle) and GGX `alpha`, interpolated in f64.
-    pub fn sample(&self, mu: f32, alpha: f32) -> f32 {
+    /// The albedo at `mu` (cosine of the view angle) and GGX `alpha` (a [`Roughness`] converts),
+    /// interpolated in f64.
+    pub fn sample(&self, mu: f32, alpha: impl Into<Alpha>) -> f32 {
+        let alpha = alpha.into().0;
         let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64]);
         v
     }
 
     /// [`GdLut::sample`] as a shader reads the texture.
-    pub fn sample_gpu(&self, mu: f32, alpha: f32) -> f32 {
+    pub fn sample_gpu(&self, mu: f32, alpha: impl Into<Alpha>) -> f32 {
+        let alpha = alpha.into().0;
         self.filter(uv(&self.0.table, mu as f64, alpha as f64))[0]
     }
 
@@ -253,7 +257,8 @@ impl TirLut {
     }
 
     /// At `mu`, GGX `alpha` and the relative index `eta` (below 1: TIR happens inside the layer).
-    pub fn sample(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+    pub fn sample(&self, mu: f32, alpha: impl Into<Alpha>, eta: f32) -> f32 {
+        let alpha = alpha.into().0;
         let (mu, eta) = (mu as f64, eta as f64);
         let [v] = interpolate(&self.0.table, [mu, alpha as f64, self.third(mu, eta)]);
         v
@@ -261,7 +266,8 @@ impl TirLut {
 
     /// [`TirLut::sample`] as a shader reads the texture: the third axis's quantity computed in f64,
     /// then every texture coordinate in f32 from the manifest's formulas.
-    pub fn sample_gpu(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+    pub fn sample_gpu(&self, mu: f32, alpha: impl Into<Alpha>, eta: f32) -> f32 {
+        let alpha = alpha.into().0;
         let table = &self.0.table;
         let (mu, eta) = (mu as f64, eta as f64);
         let [u, v] = uv(table, mu, alpha as f64);
@@ -284,7 +290,8 @@ common!(FgdLut, FGD);
 impl FgdLut {
     /// The albedo at `mu`, GGX `alpha` and the relative complex index `eta + i kappa`,
     /// interpolated in f64.
-    pub fn sample(&self, mu: f32, alpha: f32, eta: f32, kappa: f32) -> f32 {
+    pub fn sample(&self, mu: f32, alpha: impl Into<Alpha>, eta: f32, kappa: f32) -> f32 {
+        let alpha = alpha.into().0;
         let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64, eta as f64, kappa as f64]);
         v
     }
@@ -301,7 +308,8 @@ texture!(FgdRarerLut, 1, 3);
 
 impl FgdRarerLut {
     /// At `mu`, GGX `alpha` and the relative index `eta` (below 1; clamped to [0, 1]).
-    pub fn sample(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+    pub fn sample(&self, mu: f32, alpha: impl Into<Alpha>, eta: f32) -> f32 {
+        let alpha = alpha.into().0;
         let (mu, eta) = (mu as f64, eta as f64);
         let [v] = interpolate(&self.0.table, [mu, alpha as f64, critical_angle_fraction(mu, eta)]);
         v
@@ -309,7 +317,8 @@ impl FgdRarerLut {
 
     /// [`FgdRarerLut::sample`] as a shader reads the texture: the fraction computed in f64, then
     /// every texture coordinate in f32 from the manifest's formulas.
-    pub fn sample_gpu(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
+    pub fn sample_gpu(&self, mu: f32, alpha: impl Into<Alpha>, eta: f32) -> f32 {
+        let alpha = alpha.into().0;
         let table = &self.0.table;
         let (mu, eta) = (mu as f64, eta as f64);
         let [u, v] = uv(table, mu, alpha as f64);

@@ -17,6 +17,7 @@
 //! names, which the manifest adds when present.
 
 pub mod handles;
+pub mod roughness;
 pub mod shader;
 #[cfg(test)]
 mod tests;
@@ -27,6 +28,7 @@ pub use crate::formats::manifest::{FileEntry, Manifest, ShaderFile};
 pub use crate::formats::{FileFormat, Precision, sha256_hex};
 pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Table};
 pub use handles::{BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, TirLut};
+pub use roughness::{Alpha, Roughness};
 pub use shader::{MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
 pub use texture::{
     Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,

@@ -183,19 +183,19 @@ fn each_handle_samples_as_its_table_interpolates() {
         for &b in &PARAMETERS {
             let at = format!("({a}, {b})");
             let r = b as f64;
-            assert_same(karis.sample(a, b), karis.table().interpolate(&[a as f64, r * r]), &at);
-            assert_same(belcour.sample(a, b), belcour.table().interpolate(&[a as f64, r * r]), &at);
-            assert_same([gd.sample(a, b)], gd.table().interpolate(&[a as f64, b as f64]), &at);
+            assert_same(karis.sample(a, Roughness(b)), karis.table().interpolate(&[a as f64, r * r]), &at);
+            assert_same(belcour.sample(a, Roughness(b)), belcour.table().interpolate(&[a as f64, r * r]), &at);
+            assert_same([gd.sample(a, Alpha(b))], gd.table().interpolate(&[a as f64, b as f64]), &at);
             for eta in [0.3f32, 0.9, 1.0] {
                 let offset = critical_angle_offset(a as f64, eta as f64);
                 let expected = tir.table().interpolate(&[a as f64, b as f64, offset]);
-                assert_same([tir.sample(a, b, eta)], expected, &format!("{at}, eta {eta}"));
+                assert_same([tir.sample(a, Alpha(b), eta)], expected, &format!("{at}, eta {eta}"));
                 let fraction = critical_angle_fraction(a as f64, eta as f64);
                 let expected = rarer.table().interpolate(&[a as f64, b as f64, fraction]);
-                assert_same([rarer.sample(a, b, eta)], expected, &format!("{at}, eta {eta}"));
+                assert_same([rarer.sample(a, Alpha(b), eta)], expected, &format!("{at}, eta {eta}"));
                 let eta = eta * 3.0;
                 let expected = fgd.table().interpolate(&[a as f64, b as f64, eta as f64, 0.5]);
-                assert_same([fgd.sample(a, b, eta, 0.5)], expected, &format!("{at}, eta {eta}"));
+                assert_same([fgd.sample(a, Alpha(b), eta, 0.5)], expected, &format!("{at}, eta {eta}"));
             }
         }
     }
@@ -219,18 +219,22 @@ fn gpu_sampling_is_the_emulators_bit_for_bit() {
             let r = b as f64;
             let point = [a as f64, r * r];
             let expected: Vec<f32> = (0..2).map(|c| karis_gpu.sample(c, &point)).collect();
-            assert_eq!(bits(&karis.sample_gpu(a, b)), bits(&expected), "karis at ({a}, {b})");
+            assert_eq!(bits(&karis.sample_gpu(a, Roughness(b))), bits(&expected), "karis at ({a}, {b})");
             let expected: Vec<f32> = (0..4).map(|c| belcour_gpu.sample(c, &point)).collect();
-            assert_eq!(bits(&belcour.sample_gpu(a, b)), bits(&expected), "belcour at ({a}, {b})");
+            assert_eq!(bits(&belcour.sample_gpu(a, Roughness(b))), bits(&expected), "belcour at ({a}, {b})");
             let point = [a as f64, b as f64];
-            assert_eq!(gd.sample_gpu(a, b).to_bits(), gd_gpu.sample(0, &point).to_bits(), "gd at ({a}, {b})");
+            assert_eq!(gd.sample_gpu(a, Alpha(b)).to_bits(), gd_gpu.sample(0, &point).to_bits(), "gd at ({a}, {b})");
             for eta in [0.3f32, 0.9, 1.0] {
                 let point = [a as f64, b as f64, critical_angle_offset(a as f64, eta as f64)];
                 let expected = tir_gpu.sample(0, &point);
-                assert_eq!(tir.sample_gpu(a, b, eta).to_bits(), expected.to_bits(), "tir at ({a}, {b}, {eta})");
+                assert_eq!(tir.sample_gpu(a, Alpha(b), eta).to_bits(), expected.to_bits(), "tir at ({a}, {b}, {eta})");
                 let point = [a as f64, b as f64, critical_angle_fraction(a as f64, eta as f64)];
                 let expected = rarer_gpu.sample(0, &point);
-                assert_eq!(rarer.sample_gpu(a, b, eta).to_bits(), expected.to_bits(), "fgd_rarer at ({a}, {b}, {eta})");
+                assert_eq!(
+                    rarer.sample_gpu(a, Alpha(b), eta).to_bits(),
+                    expected.to_bits(),
+                    "fgd_rarer at ({a}, {b}, {eta})"
+                );
             }
         }
     }
@@ -434,9 +438,13 @@ fn ktx2_files_open_as_their_dds_twins_with_the_same_texels_and_descriptors() {
     let (tir_dds, tir_ktx) = (TirLut::from_folder(&dds).unwrap(), TirLut::from_folder(&ktx).unwrap());
     for &a in &PARAMETERS {
         for &b in &PARAMETERS {
-            assert_eq!(karis_ktx.sample(a, b), karis_dds.sample(a, b), "karis at ({a}, {b})");
-            assert_eq!(karis_ktx.sample_gpu(a, b), karis_dds.sample_gpu(a, b), "karis at ({a}, {b})");
-            assert_eq!(tir_ktx.sample_gpu(a, b, 0.9), tir_dds.sample_gpu(a, b, 0.9), "tir at ({a}, {b})");
+            assert_eq!(karis_ktx.sample(a, Roughness(b)), karis_dds.sample(a, Roughness(b)), "karis at ({a}, {b})");
+            assert_eq!(
+                karis_ktx.sample_gpu(a, Roughness(b)),
+                karis_dds.sample_gpu(a, Roughness(b)),
+                "karis at ({a}, {b})"
+            );
+            assert_eq!(tir_ktx.sample_gpu(a, Alpha(b), 0.9), tir_dds.sample_gpu(a, Alpha(b), 0.9), "tir at ({a}, {b})");
         }
     }
 }
