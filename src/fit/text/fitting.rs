@@ -19,6 +19,7 @@ use crate::ir::tape::Work;
 use crate::commit::{Move, OutputFolder, commit_set};
 use crate::error::{Error, Result};
 use crate::fit::{FIT_GRID_NODES, FitSettings, Minimum, minimise};
+use crate::integrate::measure::symmetric_eigen;
 use crate::recipes::interpolation::ExactValues;
 use crate::table::Table;
 
@@ -630,56 +631,6 @@ pub fn identifiability(form: &Form, prepared: &Prepared, parameters: &[f64]) -> 
             "columns of the Jacobian scaled by each parameter's bound range; a direction is ill-determined when its singular value is below {ILL_DETERMINED_RATIO} of the largest"
         ),
     }
-}
-
-/// Eigenvalues and eigenvectors (columns of the row-major `n x n` result) of a symmetric matrix,
-/// by cyclic Jacobi rotations (Golub & Van Loan, "Matrix Computations", 4th ed., sec. 8.5): for
-/// the few parameters of a form, simple and accurate to rounding.
-fn symmetric_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut a = a.to_vec();
-    let mut v = vec![0.0; n * n];
-    for i in 0..n {
-        v[i * n + i] = 1.0;
-    }
-    for _sweep in 0..100 {
-        let off: f64 = (0..n)
-            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
-            .map(|(i, j)| a[i * n + j].powi(2))
-            .sum();
-        let total: f64 = a.iter().map(|x| x * x).sum();
-        if off <= 1e-30 * total || off == 0.0 {
-            break;
-        }
-        for p in 0..n {
-            for q in p + 1..n {
-                let apq = a[p * n + q];
-                if apq == 0.0 {
-                    continue;
-                }
-                let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
-                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let c = 1.0 / (t * t + 1.0).sqrt();
-                let s = t * c;
-                for k in 0..n {
-                    let (akp, akq) = (a[k * n + p], a[k * n + q]);
-                    a[k * n + p] = c * akp - s * akq;
-                    a[k * n + q] = s * akp + c * akq;
-                }
-                for k in 0..n {
-                    let (apk, aqk) = (a[p * n + k], a[q * n + k]);
-                    a[p * n + k] = c * apk - s * aqk;
-                    a[q * n + k] = s * apk + c * aqk;
-                }
-                for k in 0..n {
-                    let (vkp, vkq) = (v[k * n + p], v[k * n + q]);
-                    v[k * n + p] = c * vkp - s * vkq;
-                    v[k * n + q] = s * vkp + c * vkq;
-                }
-            }
-        }
-    }
-    ((0..n).map(|i| a[i * n + i]).collect(), v)
 }
 
 /// The form's error against exact integrals at random points of one of the table's check domains
