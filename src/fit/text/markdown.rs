@@ -110,6 +110,53 @@ pub fn markdown(report: &FormReport) -> String {
             fitted.max_channel.as_ref().map(|c| format!(" ({c})")).unwrap_or_default()
         );
     }
+    certified_markdown(&mut s, report);
+    let _ = writeln!(s, "\n| parameter | start | fitted | bounds |\n|---|---:|---:|---|");
+    for name in &report.parameter_order {
+        let [lo, hi] = report.bounds[name];
+        let _ = writeln!(s, "| {name} | {} | {} | [{lo}, {hi}] |", report.start[name], report.parameters[name]);
+    }
+    let id = &report.identifiability;
+    let _ = writeln!(s);
+    if let Some(search) = &report.search {
+        let succeeded = search.starts.iter().filter(|s| s.succeeded).count();
+        let _ = writeln!(
+            s,
+            "Search: {} from {} starts (seed {}), {succeeded} ended with a success status; start {} won, mean squared residual {:.6e}.",
+            search.algorithm,
+            search.starts.len(),
+            report.settings.seed,
+            search.best_start,
+            search.objective
+        );
+    } else {
+        let _ = writeln!(s, "No search (no parameters, or max evaluations 0): the figures are the start values'.");
+    }
+    if id.ill_determined.is_empty() {
+        let _ = writeln!(s, "\nEvery parameter is determined by the data ({}).", id.rule);
+    } else {
+        let ratios: Vec<String> = id.ill_determined.iter().map(|w| format!("{:.1e}", w.singular_value_ratio)).collect();
+        let _ = writeln!(
+            s,
+            "\nIll-determined: {} direction(s) of parameter space, made of {} (singular values {} of the largest; {}): \
+             the data fixes fewer combinations of these than there are parameters.",
+            id.ill_determined.len(),
+            id.ill_determined_parameters.join(", "),
+            ratios.join(", "),
+            id.rule
+        );
+    }
+    if !id.at_bounds.is_empty() {
+        let _ = writeln!(s, "\nAt a bound: {}.", id.at_bounds.join(", "));
+    }
+    cost_and_files_markdown(&mut s, report);
+    s
+}
+
+/// The figures against exact integrals, one table per domain certified
+/// ([`super::certify::Certified`]).
+fn certified_markdown(s: &mut String, report: &FormReport) {
+    use std::fmt::Write as _;
     for c in &report.certified {
         let _ = writeln!(
             s,
@@ -157,44 +204,11 @@ pub fn markdown(report: &FormReport) -> String {
             );
         }
     }
-    let _ = writeln!(s, "\n| parameter | start | fitted | bounds |\n|---|---:|---:|---|");
-    for name in &report.parameter_order {
-        let [lo, hi] = report.bounds[name];
-        let _ = writeln!(s, "| {name} | {} | {} | [{lo}, {hi}] |", report.start[name], report.parameters[name]);
-    }
-    let id = &report.identifiability;
-    let _ = writeln!(s);
-    if let Some(search) = &report.search {
-        let succeeded = search.starts.iter().filter(|s| s.succeeded).count();
-        let _ = writeln!(
-            s,
-            "Search: {} from {} starts (seed {}), {succeeded} ended with a success status; start {} won, mean squared residual {:.6e}.",
-            search.algorithm,
-            search.starts.len(),
-            report.settings.seed,
-            search.best_start,
-            search.objective
-        );
-    } else {
-        let _ = writeln!(s, "No search (no parameters, or max evaluations 0): the figures are the start values'.");
-    }
-    if id.ill_determined.is_empty() {
-        let _ = writeln!(s, "\nEvery parameter is determined by the data ({}).", id.rule);
-    } else {
-        let ratios: Vec<String> = id.ill_determined.iter().map(|w| format!("{:.1e}", w.singular_value_ratio)).collect();
-        let _ = writeln!(
-            s,
-            "\nIll-determined: {} direction(s) of parameter space, made of {} (singular values {} of the largest; {}): \
-             the data fixes fewer combinations of these than there are parameters.",
-            id.ill_determined.len(),
-            id.ill_determined_parameters.join(", "),
-            ratios.join(", "),
-            id.rule
-        );
-    }
-    if !id.at_bounds.is_empty() {
-        let _ = writeln!(s, "\nAt a bound: {}.", id.at_bounds.join(", "));
-    }
+}
+
+/// The form's cost, and the files of its set: the shaders and the pictures.
+fn cost_and_files_markdown(s: &mut String, report: &FormReport) {
+    use std::fmt::Write as _;
     if let Some(cost) = &report.cost {
         let o = &cost.operations;
         let _ = writeln!(
@@ -230,5 +244,4 @@ pub fn markdown(report: &FormReport) -> String {
              with the RMS and 99th percentile of |r| marked."
         );
     }
-    s
 }
