@@ -131,13 +131,13 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
         skipped.iter().for_each(|note| eprintln!("{note}"));
         let request = tmlut::fit::text::FolderFitRequest { files, out: args.out, options };
         let fits = tmlut::fit::text::fit_form_files(&table, &request)?;
-        print!("{}", tmlut::fit::text::fitting::ranking_markdown(&fits));
+        print!("{}", tmlut::fit::text::markdown::ranking_markdown(&fits));
         println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FORMS_FILE).display());
         return Ok(());
     }
     let request = tmlut::fit::text::FormFitRequest { form, out: args.out, options };
     let report = tmlut::fit::text::fit_form_file(&table, &request)?;
-    print!("{}", tmlut::fit::text::fitting::markdown(&report));
+    print!("{}", tmlut::fit::text::markdown::markdown(&report));
     println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FIT_FILE).display());
     Ok(())
 }

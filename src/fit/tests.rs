@@ -161,7 +161,8 @@ fn build_small_tir(out: &Path, fit: crate::recipes::tir::TirFit) -> crate::forma
 #[test]
 fn the_build_fits_its_form_file_reproducibly_and_only_when_asked() {
     use crate::fit::text::build::{BUILD_FORM_TEXT, BUILD_STARTS, build_form};
-    use crate::fit::text::fitting::{FormData, figures};
+    use crate::fit::text::data::FormData;
+    use crate::fit::text::figures::figures;
     use crate::recipes::tir::TirFit;
     let (first, second, off) =
         (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());

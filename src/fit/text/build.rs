@@ -7,9 +7,12 @@
 
 use std::path::{Path, PathBuf};
 
+use super::data::FormData;
+use super::figures::{figures_of, residuals};
 use super::fitted::tir_shape;
-use super::fitting::{FormData, Prepared, figures_of, fit, residuals};
+use super::fitting::fit;
 use super::form::Form;
+use super::prepared::Prepared;
 use crate::error::Result;
 use crate::fit::FitSettings;
 use crate::formats::manifest::{ErrorFigures, FitEntry, ShaderFile};

@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use super::fitting::{FigureSet, FormData};
+use super::data::FormData;
+use super::figures::FigureSet;
 use crate::error::Result;
 use crate::report::error_map::axis_label;
 use crate::report::plot::{Panel, heatmaps_png, histogram_png};

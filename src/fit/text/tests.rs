@@ -1,6 +1,10 @@
 use std::path::Path;
 
-use super::fitting::{FormData, Prepared, figures, fit, identifiability};
+use super::data::FormData;
+use super::figures::figures;
+use super::fitting::fit;
+use super::identifiability::identifiability;
+use super::prepared::Prepared;
 use super::shader::{module, sources};
 use super::*;
 use crate::fit::FitSettings;
@@ -447,7 +451,7 @@ fn the_error_map_is_the_largest_error_at_each_node_of_the_first_two_axes() {
     let form = parse(GOOD).unwrap();
     let data = FormData::from_table(&table, &form).unwrap();
     assert!(data.on_table_nodes);
-    let residuals = super::fitting::residuals(&form, &data, &[0.5, 1.0]).unwrap();
+    let residuals = super::figures::residuals(&form, &data, &[0.5, 1.0]).unwrap();
     let panel = pictures::error_panel(&table, &data, &residuals, 1);
     assert_eq!((panel.nx, panel.ny), (8, 8));
     for n in 0..data.len() {
@@ -458,7 +462,7 @@ fn the_error_map_is_the_largest_error_at_each_node_of_the_first_two_axes() {
     // With a range, the nodes outside it have no value (not an exact 0).
     let region = region(&["mu=0:0.5"], WeightsSpec::Uniform, &table, &form).unwrap();
     let kept = FormData::from_table_in(&table, &form, &region).unwrap();
-    let residuals = super::fitting::residuals(&form, &kept, &[0.5, 1.0]).unwrap();
+    let residuals = super::figures::residuals(&form, &kept, &[0.5, 1.0]).unwrap();
     let panel = pictures::error_panel(&table, &kept, &residuals, 1);
     for j in 0..8 {
         for i in 0..8 {
@@ -577,7 +581,7 @@ fn the_report_records_the_region_the_weights_and_the_cost() {
     // Timed (the values are not asserted: they depend on the machine).
     let timing = cost.timing.as_ref().unwrap();
     assert_eq!((timing.runs, timing.batch), (3, 32));
-    let text = fitting::markdown(&report);
+    let text = markdown::markdown(&report);
     assert!(text.contains("Region: mu in [0, 0.5]; weights: cosine"), "{text}");
     assert!(text.contains("| together, weighted |") && text.contains("Cost: 5 arithmetic"), "{text}");
     let json: FormReport =
@@ -662,7 +666,7 @@ fn a_folder_of_forms_is_fitted_over_a_region_with_weights_and_timed() {
         (&request.options.ranges, &request.options.weights, 2)
     );
     assert!(ranking.rule.contains("weighted"), "{}", ranking.rule);
-    let weighted: Vec<&fitting::Figures> = ranking.forms.iter().map(|f| f.ranked_by()).collect();
+    let weighted: Vec<&figures::Figures> = ranking.forms.iter().map(|f| f.ranked_by()).collect();
     assert!(weighted[0].max <= weighted[1].max, "{weighted:?}");
     for form in &ranking.forms {
         let report: FormReport =
@@ -674,7 +678,7 @@ fn a_folder_of_forms_is_fitted_over_a_region_with_weights_and_timed() {
         assert_eq!(report.cost, form.cost);
         assert_eq!(report.cost.as_ref().and_then(|c| c.timing.as_ref()).map(|t| t.runs), Some(2));
     }
-    let text = fitting::ranking_markdown(&ranking);
+    let text = markdown::ranking_markdown(&ranking);
     assert!(text.contains("Region: mu in [0, 0.5]; weights: cosine"), "{text}");
     assert!(text.contains("weighted RMS") && text.contains("ns, form / lookup"), "{text}");
 }

@@ -1,6 +1,7 @@
 //! The linear algebra of the fast path: dot products of node values with hat moments, the
 //! matrix product that evaluates a whole table at once, and the tridiagonal solve of a projection
-//! onto hat functions.
+//! onto hat functions; and the eigen-decomposition of a small symmetric matrix (a fitted form's
+//! identifiability).
 
 use rayon::prelude::*;
 
@@ -82,6 +83,59 @@ pub fn solve_symmetric_tridiagonal(
     b
 }
 
+/// Eigenvalues and eigenvectors (columns of the row-major `n x n` result) of the symmetric
+/// row-major `n x n` matrix `a`, by the cyclic Jacobi eigenvalue algorithm (Golub & Van Loan,
+/// "Matrix Computations", 4th ed., sec. 8.5): sweeps of a Jacobi rotation per off-diagonal pair,
+/// at most 100, until the off-diagonal part is negligible. For a small matrix (the few parameters
+/// of a fitted form, whose identifiability reads it), simple and accurate to rounding. The
+/// eigenvalues are in no particular order.
+pub fn symmetric_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut a = a.to_vec();
+    let mut v = vec![0.0; n * n];
+    for i in 0..n {
+        v[i * n + i] = 1.0;
+    }
+    for _sweep in 0..100 {
+        let off: f64 = (0..n)
+            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i * n + j].powi(2))
+            .sum();
+        let total: f64 = a.iter().map(|x| x * x).sum();
+        if off <= 1e-30 * total || off == 0.0 {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = a[p * n + q];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..n {
+                    let (akp, akq) = (a[k * n + p], a[k * n + q]);
+                    a[k * n + p] = c * akp - s * akq;
+                    a[k * n + q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let (apk, aqk) = (a[p * n + k], a[q * n + k]);
+                    a[p * n + k] = c * apk - s * aqk;
+                    a[q * n + k] = s * apk + c * aqk;
+                }
+                for k in 0..n {
+                    let (vkp, vkq) = (v[k * n + p], v[k * n + q]);
+                    v[k * n + p] = c * vkp - s * vkq;
+                    v[k * n + q] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    ((0..n).map(|i| a[i * n + i]).collect(), v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -117,6 +171,23 @@ mod tests {
         let solved = solve_symmetric_tridiagonal(diagonal, off, b);
         for k in 0..n {
             assert!((solved[k] - x[k]).abs() < 1e-14, "row {k}: {} vs {}", solved[k], x[k]);
+        }
+    }
+
+    #[test]
+    fn symmetric_eigen_reconstructs_the_matrix_from_orthonormal_eigenvectors() {
+        let n = 6;
+        let b: Vec<f64> = (0..n * n).map(|i| (i as f64 * 0.43).sin()).collect();
+        // A = B B^T: symmetric.
+        let a: Vec<f64> = (0..n * n).map(|ij| (0..n).map(|k| b[ij / n * n + k] * b[ij % n * n + k]).sum()).collect();
+        let (values, vectors) = symmetric_eigen(&a, n);
+        for i in 0..n {
+            for j in 0..n {
+                let rebuilt: f64 = (0..n).map(|k| vectors[i * n + k] * values[k] * vectors[j * n + k]).sum();
+                assert!((rebuilt - a[i * n + j]).abs() < 1e-12, "A[{i}][{j}]: {rebuilt} vs {}", a[i * n + j]);
+                let dot: f64 = (0..n).map(|k| vectors[k * n + i] * vectors[k * n + j]).sum();
+                assert!((dot - if i == j { 1.0 } else { 0.0 }).abs() < 1e-12, "V^T V [{i}][{j}] = {dot}");
+            }
         }
     }
 }

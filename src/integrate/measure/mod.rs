@@ -7,14 +7,15 @@
 //! - [`hats`]: the hat bases (the global uniform one, and a narrow lobe's graded window) and the
 //!   projection of a function onto them (the quadrature);
 //! - this module: the measures themselves, per cell, estimated from visible-normal samples;
-//! - [`linalg`]: dot and matrix products of projected functions with measures, and the
-//!   tridiagonal solve of the projection.
+//! - [`linalg`]: dot and matrix products of projected functions with measures, the tridiagonal
+//!   solve of the projection, and the symmetric eigensolver (cyclic Jacobi) the form fit's
+//!   identifiability uses.
 
 mod hats;
 mod linalg;
 
 pub use hats::{HatBasis, LocalHats, Projection};
-pub use linalg::{MatrixRef, dot, multiply_transposed};
+pub use linalg::{MatrixRef, dot, multiply_transposed, symmetric_eigen};
 
 use super::batch::{CellWarp, for_each_block};
 use super::{Estimate, GRAZING_COSINE, combine_replicates};
