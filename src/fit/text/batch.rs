@@ -8,8 +8,8 @@
 //! skipped where its derivative or the adjoint is 0, a parameter's adjoints added point by point),
 //! so values and gradients are the same to the bit, and a fit is the same whichever evaluates it.
 
-use crate::ir::text::{BinOp, Intrinsic};
 use crate::ir::tape::{Ins, Scalar, Tape, operands, partials, pow_int, value_of};
+use crate::ir::text::{BinOp, Intrinsic};
 
 /// Points per row.
 pub const LANES: usize = 128;

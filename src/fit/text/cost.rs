@@ -9,11 +9,11 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::ir::text::{BinOp, Intrinsic};
 use super::form::Form;
-use crate::ir::tape::{Ins, Tape, reads};
 use crate::error::{Error, Result};
 use crate::filter::{Filter, lerp, linear_taps};
+use crate::ir::tape::{Ins, Tape, reads};
+use crate::ir::text::{BinOp, Intrinsic};
 use crate::table::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
 use crate::table::{Axis, Placement, Table};
 

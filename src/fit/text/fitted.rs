@@ -9,10 +9,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-pub use crate::ir::compile::FormEvaluator;
 use super::form::{Form, TableShape};
 use crate::error::{Error, Result};
 pub use crate::formats::manifest::FittedForm;
+pub use crate::ir::compile::FormEvaluator;
 
 /// The file `tmlut fit --form` lists its set in.
 pub const FIT_FILE: &str = "fit.json";

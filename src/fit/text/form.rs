@@ -10,11 +10,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
+use crate::error::{Error, Result};
 use crate::ir::compile::Scope;
 pub use crate::ir::compile::integer_exponent;
-use crate::ir::text::{self, ExprError, Node};
 use crate::ir::tape::{Ins, Tape};
-use crate::error::{Error, Result};
+use crate::ir::text::{self, ExprError, Node};
 use crate::table::Table;
 
 /// The variables a lookup passes, in this order where a table's axes depend on them.

@@ -8,10 +8,10 @@
 //! model, with the form's names: the derived variables it reads, each parameter as a local holding
 //! its fitted value (f32, shortest round-trip text), each `let`, then the channels.
 
-use crate::ir::text::{Intrinsic, form_name};
 use super::form::Form;
 use crate::error::{Error, Result};
 use crate::ir::print::{Leaf, Leaves, Printed, print};
+use crate::ir::text::{Intrinsic, form_name};
 use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, call, f, func, let_, name};
 
 /// The shading languages a fitted form is written in, with each file's extension.
