@@ -129,6 +129,160 @@ pub fn table_variables(table: &Table) -> Result<Vec<String>> {
     Ok(LOOKUP_VARIABLES.iter().filter(|v| needed.contains(v)).map(|v| v.to_string()).collect())
 }
 
+/// A form file being read: its text, for errors at a place, and the scope its expressions are
+/// compiled in, names in the order the file may use them (variables, derived variables,
+/// parameters, `let` bindings).
+struct FormReader<'a> {
+    path: &'a Path,
+    text: &'a str,
+    scope: Scope,
+}
+
+impl FormReader<'_> {
+    /// The error at byte `offset` of the file.
+    fn at(&self, offset: usize, reason: String) -> Error {
+        Error::at(self.path, self.text, offset, reason)
+    }
+
+    /// An expression of the file, parsed and compiled in the scope so far.
+    fn compile(&mut self, value: &Spanned<String>) -> Result<(Node, usize)> {
+        let (start, exact) = text_start(self.text, value);
+        let place = |e: ExprError| {
+            let offset = if exact { start + e.at } else { start };
+            Error::at(self.path, self.text, offset, e.message)
+        };
+        let node = text::parse(value.get_ref()).map_err(place)?;
+        let slot = self.scope.compile(&node).map_err(place)?;
+        Ok((node, slot))
+    }
+
+    /// A new name, refused where it is not an identifier or is already defined.
+    fn check_name(&self, key: &Spanned<String>) -> Result<()> {
+        text::check_identifier(key.get_ref()).map_err(|reason| self.at(key.span().start, reason))?;
+        if self.scope.names.contains_key(key.get_ref()) {
+            return Err(self.at(
+                key.span().start,
+                format!("`{}` is already defined (a variable, parameter or binding)", key.get_ref()),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The derived variables the table's variables allow, as bindings of the language itself;
+    /// those the form never reads are dropped from the shader later (the tape keeps their few
+    /// instructions).
+    fn derived_variables(&mut self, variables: &[String]) -> Result<Vec<Binding>> {
+        let mut derived = Vec::new();
+        for (name, definition, needs) in DERIVED_VARIABLES {
+            if needs.iter().all(|n| variables.iter().any(|v| v == n)) {
+                let node = text::parse(definition).map_err(|e| Error::invalid("derived variable", e.message))?;
+                let slot = self.scope.compile(&node).map_err(|e| Error::invalid("derived variable", e.message))?;
+                self.scope.names.insert(name.to_string(), slot);
+                derived.push(Binding { name: name.to_string(), text: definition.to_string(), node, slot });
+            }
+        }
+        Ok(derived)
+    }
+
+    /// `[parameters]` in the file's order, each with the byte its key starts at. An empty
+    /// `[parameters]` is a form with nothing to fit (a published baseline, such as thesis eq.
+    /// 5.6): it is measured at its definition, and the table is still required so that every form
+    /// file has the same shape.
+    fn parameters(&mut self, file: &FileText) -> Result<(Vec<Parameter>, Vec<usize>)> {
+        let mut parameters = Vec::new();
+        let mut parameter_keys = Vec::new();
+        let mut entries: Vec<_> = file.parameters.iter().collect();
+        entries.sort_by_key(|(k, _)| k.span().start);
+        if let Some((key, _)) = entries.get(MAX_PARAMETERS) {
+            return Err(self.at(
+                key.span().start,
+                format!("[parameters] holds {} parameters; allowed: at most {MAX_PARAMETERS}", entries.len()),
+            ));
+        }
+        for (k, (key, value)) in entries.into_iter().enumerate() {
+            self.check_name(key)?;
+            let p = value.get_ref();
+            let (start, min, max) = (*p.start.get_ref(), *p.min.get_ref(), *p.max.get_ref());
+            for (what, v) in [("start", &p.start), ("min", &p.min), ("max", &p.max)] {
+                if !v.get_ref().is_finite() {
+                    return Err(self.at(
+                        v.span().start,
+                        format!("`{}`'s {what} is {}; allowed: a finite number", key.get_ref(), v.get_ref()),
+                    ));
+                }
+            }
+            if min >= max {
+                return Err(
+                    self.at(p.min.span().start, format!("`{}`: min {min} is not below max {max}", key.get_ref()))
+                );
+            }
+            if !(min..=max).contains(&start) {
+                return Err(self.at(
+                    p.start.span().start,
+                    format!("`{}`: the bounds [{min}, {max}] exclude its start {start}", key.get_ref()),
+                ));
+            }
+            let slot = self.scope.tape.push(Ins::Param(k));
+            self.scope.names.insert(key.get_ref().clone(), slot);
+            parameters.push(Parameter { name: key.get_ref().clone(), start, min, max });
+            parameter_keys.push(key.span().start);
+        }
+        Ok((parameters, parameter_keys))
+    }
+
+    /// `[let]` in the file's order, each binding in scope for the next, each with the byte its
+    /// key starts at.
+    fn lets(&mut self, file: &FileText) -> Result<(Vec<Binding>, Vec<usize>)> {
+        let mut lets = Vec::new();
+        let mut entries: Vec<_> = file.lets.iter().collect();
+        entries.sort_by_key(|(k, _)| k.span().start);
+        let mut let_keys = Vec::new();
+        for (key, value) in entries {
+            self.check_name(key)?;
+            let (node, slot) = self.compile(value)?;
+            self.scope.names.insert(key.get_ref().clone(), slot);
+            lets.push(Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node, slot });
+            let_keys.push(key.span().start);
+        }
+        Ok((lets, let_keys))
+    }
+
+    /// `[channels]` in the table's channel order: each a channel of the table, 1 to
+    /// [`MAX_CHANNELS`] of them.
+    fn channels(&mut self, file: &FileText, table: &TableShape) -> Result<Vec<Binding>> {
+        let table_channels: Vec<&str> = table.channels.iter().map(String::as_str).collect();
+        let mut channels: Vec<(usize, Binding)> = Vec::new();
+        for (key, value) in &file.channels {
+            let Some(index) = table_channels.iter().position(|c| c == key.get_ref()) else {
+                return Err(self.at(
+                    key.span().start,
+                    format!(
+                        "table `{}` has no channel `{}`; its channels: {}",
+                        table.name,
+                        key.get_ref(),
+                        table_channels.join(", ")
+                    ),
+                ));
+            };
+            let (node, slot) = self.compile(value)?;
+            channels.push((index, Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node, slot }));
+        }
+        if channels.is_empty() || channels.len() > MAX_CHANNELS {
+            return Err(self.at(
+                0,
+                format!(
+                    "[channels] names {} channels; allowed: 1 to {MAX_CHANNELS} of table `{}`'s: {}",
+                    channels.len(),
+                    table.name,
+                    table_channels.join(", ")
+                ),
+            ));
+        }
+        channels.sort_by_key(|(index, ..)| *index);
+        Ok(channels.into_iter().map(|(_, b)| b).collect())
+    }
+}
+
 /// Where an expression's text starts in the file: inside its quotes, where the string has no
 /// escapes (then every byte of the expression is the file's); otherwise at the string itself.
 fn text_start(file: &str, value: &Spanned<String>) -> (usize, bool) {
@@ -230,163 +384,47 @@ impl Form {
     /// A form file's text read against a table's shape alone (no table file at hand: a scene's
     /// fitted TIR form), `path` naming it in errors.
     pub fn parse_for(path: &Path, text: &str, table: &TableShape) -> Result<Form> {
-        let at = |offset: usize, reason: String| Error::at(path, text, offset, reason);
+        let mut reader = FormReader { path, text, scope: Scope { names: BTreeMap::new(), tape: Tape::default() } };
         let file: FileText = toml::from_str(text).map_err(|e| {
-            at(
+            reader.at(
                 e.span().map_or(0, |s| s.start),
                 format!("{} (a form file has `table`, [parameters], optional [let], [channels])", e.message().trim()),
             )
         })?;
-        let name = form_name(path);
         if *file.table.get_ref() != table.name {
-            return Err(at(
+            return Err(reader.at(
                 file.table.span().start,
                 format!("the form is for table `{}`, and the table file holds `{}`", file.table.get_ref(), table.name),
             ));
         }
         let variables = table.variables.clone();
-
-        // An expression of the file, parsed and compiled in the scope so far.
-        let compile = |scope: &mut Scope, value: &Spanned<String>| -> Result<(Node, usize)> {
-            let (start, exact) = text_start(text, value);
-            let place = |e: ExprError| {
-                let offset = if exact { start + e.at } else { start };
-                at(offset, e.message)
-            };
-            let node = text::parse(value.get_ref()).map_err(place)?;
-            let slot = scope.compile(&node).map_err(place)?;
-            Ok((node, slot))
-        };
-
-        let mut scope = Scope { names: BTreeMap::new(), tape: Tape::default() };
         for (k, v) in variables.iter().enumerate() {
-            let slot = scope.tape.push(Ins::Var(k));
-            scope.names.insert(v.clone(), slot);
+            let slot = reader.scope.tape.push(Ins::Var(k));
+            reader.scope.names.insert(v.clone(), slot);
         }
-        // Derived variables go into the scope as bindings of the language itself; those the form
-        // never reads are dropped from the shader below (the tape keeps their few instructions).
-        let mut derived_all = Vec::new();
-        for (name, definition, needs) in DERIVED_VARIABLES {
-            if needs.iter().all(|n| variables.iter().any(|v| v == n)) {
-                let node = text::parse(definition).map_err(|e| Error::invalid("derived variable", e.message))?;
-                let slot = scope.compile(&node).map_err(|e| Error::invalid("derived variable", e.message))?;
-                scope.names.insert(name.to_string(), slot);
-                derived_all.push(Binding { name: name.to_string(), text: definition.to_string(), node, slot });
-            }
-        }
+        let derived_all = reader.derived_variables(&variables)?;
+        let (parameters, parameter_keys) = reader.parameters(&file)?;
+        let (lets, let_keys) = reader.lets(&file)?;
+        let channels = reader.channels(&file, table)?;
+        reader.scope.tape.outputs = channels.iter().map(|b| b.slot).collect();
 
-        let check_name = |key: &Spanned<String>, scope: &Scope| -> Result<()> {
-            text::check_identifier(key.get_ref()).map_err(|reason| at(key.span().start, reason))?;
-            if scope.names.contains_key(key.get_ref()) {
-                return Err(at(
-                    key.span().start,
-                    format!("`{}` is already defined (a variable, parameter or binding)", key.get_ref()),
-                ));
-            }
-            Ok(())
-        };
-
-        let mut parameters = Vec::new();
-        let mut parameter_keys = Vec::new();
-        let mut entries: Vec<_> = file.parameters.iter().collect();
-        entries.sort_by_key(|(k, _)| k.span().start);
-        if let Some((key, _)) = entries.get(MAX_PARAMETERS) {
-            return Err(at(
-                key.span().start,
-                format!("[parameters] holds {} parameters; allowed: at most {MAX_PARAMETERS}", entries.len()),
-            ));
-        }
-        // An empty [parameters] is a form with nothing to fit (a published baseline, such as
-        // thesis eq. 5.6): it is measured at its definition, and the table is still required so
-        // that every form file has the same shape.
-        for (k, (key, value)) in entries.into_iter().enumerate() {
-            check_name(key, &scope)?;
-            let p = value.get_ref();
-            let (start, min, max) = (*p.start.get_ref(), *p.min.get_ref(), *p.max.get_ref());
-            for (what, v) in [("start", &p.start), ("min", &p.min), ("max", &p.max)] {
-                if !v.get_ref().is_finite() {
-                    return Err(at(
-                        v.span().start,
-                        format!("`{}`'s {what} is {}; allowed: a finite number", key.get_ref(), v.get_ref()),
-                    ));
-                }
-            }
-            if min >= max {
-                return Err(at(p.min.span().start, format!("`{}`: min {min} is not below max {max}", key.get_ref())));
-            }
-            if !(min..=max).contains(&start) {
-                return Err(at(
-                    p.start.span().start,
-                    format!("`{}`: the bounds [{min}, {max}] exclude its start {start}", key.get_ref()),
-                ));
-            }
-            let slot = scope.tape.push(Ins::Param(k));
-            scope.names.insert(key.get_ref().clone(), slot);
-            parameters.push(Parameter { name: key.get_ref().clone(), start, min, max });
-            parameter_keys.push(key.span().start);
-        }
-
-        let mut lets = Vec::new();
-        let mut entries: Vec<_> = file.lets.iter().collect();
-        entries.sort_by_key(|(k, _)| k.span().start);
-        let mut let_keys = Vec::new();
-        for (key, value) in entries {
-            check_name(key, &scope)?;
-            let (node, slot) = compile(&mut scope, value)?;
-            scope.names.insert(key.get_ref().clone(), slot);
-            lets.push(Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node, slot });
-            let_keys.push(key.span().start);
-        }
-
-        let table_channels: Vec<&str> = table.channels.iter().map(String::as_str).collect();
-        let mut channels: Vec<(usize, Binding)> = Vec::new();
-        for (key, value) in &file.channels {
-            let Some(index) = table_channels.iter().position(|c| c == key.get_ref()) else {
-                return Err(at(
-                    key.span().start,
-                    format!(
-                        "table `{}` has no channel `{}`; its channels: {}",
-                        table.name,
-                        key.get_ref(),
-                        table_channels.join(", ")
-                    ),
-                ));
-            };
-            let (node, slot) = compile(&mut scope, value)?;
-            channels.push((index, Binding { name: key.get_ref().clone(), text: value.get_ref().clone(), node, slot }));
-        }
-        if channels.is_empty() || channels.len() > MAX_CHANNELS {
-            return Err(at(
-                0,
-                format!(
-                    "[channels] names {} channels; allowed: 1 to {MAX_CHANNELS} of table `{}`'s: {}",
-                    channels.len(),
-                    table.name,
-                    table_channels.join(", ")
-                ),
-            ));
-        }
-        channels.sort_by_key(|(index, ..)| *index);
-        scope.tape.outputs = channels.iter().map(|(_, b)| b.slot).collect();
-
-        for (k, used) in scope.tape.parameters_used(parameters.len()).into_iter().enumerate() {
+        for (k, used) in reader.scope.tape.parameters_used(parameters.len()).into_iter().enumerate() {
             if !used {
-                return Err(at(
+                return Err(reader.at(
                     parameter_keys[k],
                     format!("parameter `{}` is never used by a channel; remove it or use it", parameters[k].name),
                 ));
             }
         }
-
         // The names any binding or channel reads: a binding none reads is a mistake (a channel
         // that was meant to use it), as an unused parameter is.
         let mut read = Vec::new();
-        for binding in lets.iter().chain(channels.iter().map(|(_, b)| b)) {
+        for binding in lets.iter().chain(&channels) {
             binding.node.names(&mut read);
         }
         for (binding, &key) in lets.iter().zip(&let_keys) {
             if !read.iter().any(|(n, _)| *n == binding.name) {
-                return Err(at(
+                return Err(reader.at(
                     key,
                     format!(
                         "`{}` in [let] is never used by a channel or a later binding; remove it or use it",
@@ -400,14 +438,14 @@ impl Form {
 
         Ok(Form {
             path: path.to_path_buf(),
-            name,
+            name: form_name(path),
             table: table.name.clone(),
             variables,
             derived,
             parameters,
             lets,
-            channels: channels.into_iter().map(|(_, b)| b).collect(),
-            tape: scope.tape,
+            channels,
+            tape: reader.scope.tape,
         })
     }
 
