@@ -293,6 +293,45 @@ fn dfd_field(k: usize) -> &'static str {
 /// [`read_ktx2`] on bytes already in memory; `path` names the file in errors.
 pub fn decode_ktx2(bytes: &[u8], path: &Path) -> Result<Ktx2Texture> {
     let refuse = |reason: String| Error::format(path, reason);
+    let (header, format, channels, precision) = supported_header(bytes, path)?;
+    let name = vk_format_name(channels, precision);
+    let (width, height) = (header.pixel_width, header.pixel_height);
+    if height == 0 {
+        return Err(refuse(format!("a 1D texture of {width} texels; only 2D and volume textures are read")));
+    }
+    let layered = header.layer_count != 0;
+    let volume = header.pixel_depth != 0;
+    let depth = if layered { header.layer_count } else { header.pixel_depth.max(1) };
+    let (dfd_end, kvd_end) = sections(bytes, path, &header.index, format, &name)?;
+    let description = read_description(&bytes[dfd_end as usize..kvd_end as usize], path)?;
+    let data_offset = level_data(bytes, path, kvd_end, [width, height, depth], channels * precision.bytes(), &name)?;
+
+    if description.precision != precision {
+        return Err(refuse(format!(
+            "`{KEY_PRECISION}` is {}, the texels are VK_FORMAT_{name}",
+            precision_name(description.precision)
+        )));
+    }
+    if description.orientation != orientation(volume) {
+        return Err(refuse(format!(
+            "`{KEY_ORIENTATION}` is `{}`; tmlut stores a {} texture as `{}` (texture coordinate 0 at the first texel)",
+            description.orientation.escape_debug(),
+            if volume { "volume" } else { "2D" },
+            orientation(volume)
+        )));
+    }
+    let mut texture = StoredTexture { width, height, depth, channels, precision, volume, layered, data: Vec::new() };
+    let axes: Vec<_> = description.axes.iter().map(|entry| entry.axis.clone()).collect();
+    texture.check_shape(&description.table, &axes, description.channels.len()).map_err(|e| as_format_error(e, path))?;
+    texture.data = texel_values(&bytes[data_offset as usize..], precision);
+    Ok(Ktx2Texture { texture, description })
+}
+
+/// The header of a KTX2 file tmlut reads, checked: the identifier, a whole header and level
+/// index, a supported format with its component size, no supercompression, one face, one level,
+/// no array of volumes. Returns the header and the format's channels and precision.
+fn supported_header(bytes: &[u8], path: &Path) -> Result<(Header, Format, usize, Precision)> {
+    let refuse = |reason: String| Error::format(path, reason);
     if !bytes.starts_with(&IDENTIFIER) {
         return Err(refuse(
             "not a KTX2 file: it does not start with the KTX 2.0 identifier «KTX 20»\\r\\n\\x1A\\n".into(),
@@ -348,15 +387,14 @@ pub fn decode_ktx2(bytes: &[u8], path: &Path) -> Result<Ktx2Texture> {
             header.level_count
         )));
     }
-    let (width, height) = (header.pixel_width, header.pixel_height);
-    if height == 0 {
-        return Err(refuse(format!("a 1D texture of {width} texels; only 2D and volume textures are read")));
-    }
-    let volume = header.pixel_depth != 0;
-    let depth = if layered { header.layer_count } else { header.pixel_depth.max(1) };
+    Ok((header, format, channels, precision))
+}
 
-    // The sections in the order the writer puts them, each inside the file.
-    let index = header.index;
+/// The sections between the header and the texels, in the order the writer puts them and each
+/// inside the file: the data format descriptor of `format` exactly, the key/value data after it,
+/// no supercompression global data. Returns where the descriptor and the key/value data end.
+fn sections(bytes: &[u8], path: &Path, index: &Index, format: Format, name: &str) -> Result<(u64, u64)> {
+    let refuse = |reason: String| Error::format(path, reason);
     if index.dfd_byte_offset as usize != DFD_OFFSET {
         return Err(refuse(format!(
             "its data format descriptor starts at byte {}; after the header and one level index entry it starts at \
@@ -403,12 +441,24 @@ pub fn decode_ktx2(bytes: &[u8], path: &Path) -> Result<Ktx2Texture> {
             index.sgd_byte_offset, index.sgd_byte_length
         )));
     }
-    let description = read_description(&bytes[dfd_end as usize..kvd_end as usize], path)?;
+    Ok((dfd_end, kvd_end))
+}
 
+/// The single level's texels of `extent` texels of `texel_bytes` each: where the level index
+/// says, aligned after the key/value data ending at `kvd_end`, whole, nothing after them, zero
+/// padding before them. Returns where they start.
+fn level_data(
+    bytes: &[u8],
+    path: &Path,
+    kvd_end: u64,
+    [width, height, depth]: [u32; 3],
+    texel_bytes: usize,
+    name: &str,
+) -> Result<u64> {
+    let refuse = |reason: String| Error::format(path, reason);
     let level_bytes: &[u8; LevelIndex::LENGTH] =
         bytes[LEVEL_INDEX_OFFSET..DFD_OFFSET].try_into().expect("length checked above");
     let level = LevelIndex::from_bytes(level_bytes);
-    let texel_bytes = channels * precision.bytes();
     // In u128, three u32 extents times 16 bytes per texel cannot overflow whatever the header says.
     let data_len = u128::from(width) * u128::from(height) * u128::from(depth) * texel_bytes as u128;
     let data_offset = kvd_end.next_multiple_of(level_alignment(texel_bytes) as u64);
@@ -443,25 +493,7 @@ pub fn decode_ktx2(bytes: &[u8], path: &Path) -> Result<Ktx2Texture> {
         return Err(refuse("the padding before its level data is not zero".into()));
     }
 
-    if description.precision != precision {
-        return Err(refuse(format!(
-            "`{KEY_PRECISION}` is {}, the texels are VK_FORMAT_{name}",
-            precision_name(description.precision)
-        )));
-    }
-    if description.orientation != orientation(volume) {
-        return Err(refuse(format!(
-            "`{KEY_ORIENTATION}` is `{}`; tmlut stores a {} texture as `{}` (texture coordinate 0 at the first texel)",
-            description.orientation.escape_debug(),
-            if volume { "volume" } else { "2D" },
-            orientation(volume)
-        )));
-    }
-    let mut texture = StoredTexture { width, height, depth, channels, precision, volume, layered, data: Vec::new() };
-    let axes: Vec<_> = description.axes.iter().map(|entry| entry.axis.clone()).collect();
-    texture.check_shape(&description.table, &axes, description.channels.len()).map_err(|e| as_format_error(e, path))?;
-    texture.data = texel_values(&bytes[data_offset as usize..], precision);
-    Ok(Ktx2Texture { texture, description })
+    Ok(data_offset)
 }
 
 /// The key/value pairs of `kvd`, in file order: each key and value with its terminating NUL
