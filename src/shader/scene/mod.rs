@@ -192,9 +192,29 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
     if g.needs.acos {
         helpers::acos(&mut module);
     }
-    // The folder's fitted form (`tmlut_tir`), then the forms materials name, each after the helpers
-    // it needs; a helper two forms share (`tmlut_pow_2`, `tmlut_asinh`: the same code whoever
-    // prints it) is printed once.
+    push_forms(&mut module, &g)?;
+    if let Some(packed) = g.packing {
+        // The packing's lookup prints fully parenthesised; as a function of this module it takes
+        // the module's style, which changes only redundant parentheses, not the operations.
+        module.items.extend(packed.program.module("The lossless FGD packing's exact lookup (docs/packing.md).").items);
+    }
+    for function in g.chooser_functions.drain(..).chain(functions) {
+        module.push(Item::Function(function));
+    }
+    let mut textures = g.textures;
+    for texture in &mut textures {
+        let entry = folder.entry(&texture.file)?;
+        texture.format = crate::loader::TextureFormat::of(texture.channels, entry.precision)
+            .map(|f| f.webgpu_name().to_string())
+            .unwrap_or_default();
+    }
+    Ok(SceneShader { module, textures, materials: described, max_lobes })
+}
+
+/// The folder's fitted form (`tmlut_tir`), then the forms materials name, each after the helpers
+/// it needs; a helper two forms share (`tmlut_pow_2`, `tmlut_asinh`: the same code whoever prints
+/// it) is printed once.
+fn push_forms(module: &mut Module, g: &Generator) -> Result<()> {
     let folder_fit = g.folder_form.map(|fitted| (fitted, true));
     for (fitted, is_folder_fit) in folder_fit.into_iter().chain(g.forms.iter().map(|fitted| (fitted, false))) {
         if !is_folder_fit
@@ -220,22 +240,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             module.items.push(item);
         }
     }
-    if let Some(packed) = g.packing {
-        // The packing's lookup prints fully parenthesised; as a function of this module it takes
-        // the module's style, which changes only redundant parentheses, not the operations.
-        module.items.extend(packed.program.module("The lossless FGD packing's exact lookup (docs/packing.md).").items);
-    }
-    for function in g.chooser_functions.drain(..).chain(functions) {
-        module.push(Item::Function(function));
-    }
-    let mut textures = g.textures;
-    for texture in &mut textures {
-        let entry = folder.entry(&texture.file)?;
-        texture.format = crate::loader::TextureFormat::of(texture.channels, entry.precision)
-            .map(|f| f.webgpu_name().to_string())
-            .unwrap_or_default();
-    }
-    Ok(SceneShader { module, textures, materials: described, max_lobes })
+    Ok(())
 }
 
 struct Generator<'a> {

@@ -659,6 +659,14 @@ impl Printer {
                         write!(out, "select({}, {}, {})", self.expr(otherwise), self.expr(then), self.expr(condition));
                 }
             },
+            Expr::Load { .. } | Expr::SampleLevel { .. } => self.write_texture_read(e, out),
+        }
+    }
+
+    /// A texture read: a texel load or a filtered sample at mip level 0.
+    fn write_texture_read(&self, e: &Expr, out: &mut String) {
+        let lang = self.lang;
+        match e {
             Expr::Load { texture, scalar_texture, coordinates, layer, swizzle } => {
                 let n = coordinates.len() as u8;
                 match lang {
@@ -713,6 +721,7 @@ impl Printer {
                     }
                 }
             }
+            _ => unreachable!("write_texture_read is called with a texture read"),
         }
     }
 }
