@@ -210,7 +210,7 @@ fn the_interpolation_error_in_the_manifest_is_what_an_independent_estimate_finds
     let texture = read_dds(&dir.path().join("luts/gd.dds"));
     let axes = &entry["axes"];
     let mut random = Random(0x9E37_79B9_7F4A_7C15);
-    let (mut sum2, mut max, points) = (0.0, 0.0f64, 1500);
+    let (mut sum2, mut max, mut noise, points) = (0.0, 0.0f64, 0.0f64, 1500);
     for _ in 0..points {
         let (mu, alpha) = (random.uniform(), random.uniform());
         let read = sample(&texture, texture_coordinate(&axes[0], mu), texture_coordinate(&axes[1], alpha), 0);
@@ -220,9 +220,19 @@ fn the_interpolation_error_in_the_manifest_is_what_an_independent_estimate_finds
         let difference = read - 0.5 * (a + b);
         sum2 += difference * difference - 0.25 * (a - b) * (a - b);
         max = max.max(difference.abs());
+        noise = noise.max((a - b).abs());
     }
     let rms = (sum2 / points as f64).sqrt();
     assert!(stated_rms > 3e-3, "a coarse table errs: {stated_rms}");
     assert!((rms / stated_rms - 1.0).abs() < 0.25, "independent RMS {rms:.3e}, manifest {stated_rms:.3e}");
-    assert!(max > 0.3 * stated_max && max < 3.0 * stated_max, "independent max {max:.3e}, manifest {stated_max:.3e}");
+    // The manifest's max is over its random points and the points where the error peaks; no
+    // independent point may exceed it by more than the independent estimate's own noise (the
+    // largest difference of two halves bounds the error of their mean). Its largest error over
+    // random points is a heavy-tailed statistic (1,500 points here found 1.9 times the manifest's
+    // maximum over its 1,024), so it is held from below by three quarters of that maximum.
+    let random_max = stated["random_max"].as_f64().unwrap();
+    assert!(
+        max <= stated_max + noise && max >= 0.75 * random_max,
+        "independent max {max:.3e}; manifest {stated_max:.3e} (random points {random_max:.3e}), noise {noise:.3e}"
+    );
 }
