@@ -22,7 +22,7 @@ pub struct BuildArgs {
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
     /// Output folder.
-    #[arg(long, default_value = "luts")]
+    #[arg(long, default_value = "out/luts")]
     out: PathBuf,
     #[command(flatten)]
     threads: ThreadsArg,

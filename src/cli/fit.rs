@@ -58,7 +58,7 @@ pub struct FitArgs {
     config: super::ConfigArg,
     /// The table: a `.dds` or `.exr` written by `tmlut build` (a DDS reads its axes from the
     /// manifest.json beside it).
-    #[arg(long, default_value = "luts/tir.dds")]
+    #[arg(long, default_value = "out/luts/tir.dds")]
     table: PathBuf,
     #[arg(long, default_value = "fit")]
     out: PathBuf,

@@ -15,7 +15,7 @@ use super::{ConfigArg, Context, ThreadsArg, check_count, check_sample_count, one
 #[derive(Args)]
 pub struct PackReportArgs {
     /// The 4D FGD table (`tmlut build --only fgd` writes it as fgd.exr; the original layout as fgd.bin).
-    #[arg(long, default_value = "luts/fgd.exr")]
+    #[arg(long, default_value = "out/luts/fgd.exr")]
     table: PathBuf,
     #[command(flatten)]
     config: ConfigArg,

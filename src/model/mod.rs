@@ -29,7 +29,7 @@
 //! use tmlut::model::folder::{FgdSource, FolderTables};
 //! use tmlut::model::{AlbedoPath, FluxModel, Interface, Layer, Material, Stack, TirPath};
 //!
-//! let luts = tmlut::loader::LutFolder::open("luts/copper-pot")?; // tmlut build --scene
+//! let luts = tmlut::loader::LutFolder::open("out/copper-pot")?; // tmlut build --scene
 //! let tables = FolderTables::open(&luts, AlbedoPath::Fgd, TirPath::Table, FgdSource::Packing)?;
 //! let varnished_copper = Material::new(
 //!     FluxModel::TwoFlux,

@@ -7,8 +7,8 @@
 //! - in f64: printed, the f32 rounding of the shader and the CPU together.
 //!
 //! ```sh
-//! tmlut fit --form luts/forms --table luts/tir.dds --out fits/tir
-//! tmlut fit --form luts/forms/karis-env-brdf-approx.toml --table luts/karis.dds --out fits/karis
+//! tmlut fit --form luts/forms --table out/luts/tir.dds --out fits/tir
+//! tmlut fit --form luts/forms/karis-env-brdf-approx.toml --table out/luts/karis.dds --out fits/karis
 //! cargo run --example gpu_forms -- --expect 9 fits/tir fits/karis
 //! ```
 //!

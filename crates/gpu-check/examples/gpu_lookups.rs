@@ -7,7 +7,7 @@
 //!   coefficients in the manifest (`FormEvaluator::from_definition`).
 //!
 //! ```sh
-//! tmlut build --out luts      # or --only fgd,tir
+//! tmlut build --out out/luts      # or --only fgd,tir
 //! cargo run --example gpu_lookups -- luts
 //! ```
 //!

@@ -3,8 +3,8 @@
 //! directional albedo back, and compare it with tmlut's CPU evaluator.
 //!
 //! ```sh
-//! tmlut build --scene luts/scenes/copper-pot.toml --out luts/copper-pot   # tables + shader
-//! cargo run --example render_albedo -- luts/copper-pot [SHADER_DIR] [--picture DIR]
+//! tmlut build --scene luts/scenes/copper-pot.toml --out out/copper-pot   # tables + shader
+//! cargo run --example render_albedo -- out/copper-pot [SHADER_DIR] [--picture DIR]
 //! ```
 //!
 //! `SHADER_DIR` is where `tmlut shader --out` wrote the shader, if not beside the tables. With

@@ -2,7 +2,7 @@
 //! tables where they are present, and describe the texture each would be uploaded as.
 //!
 //! ```sh
-//! scripts/build-luts                                              # or: tmlut build --out luts
+//! scripts/build-luts                                              # or: tmlut build --out out/luts
 //! cargo run -p tmlut-loader --example sample_luts -- luts
 //! ```
 

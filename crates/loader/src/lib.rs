@@ -6,7 +6,7 @@
 //! ```no_run
 //! use tmlut_loader::{Alpha, KarisLut, LutFolder, Roughness, TirLut};
 //!
-//! let luts = LutFolder::open("luts")?;
+//! let luts = LutFolder::open("out/luts")?;
 //! let karis = KarisLut::from_folder(&luts)?; // karis.dds, verified against manifest.json
 //! let [scale, bias] = karis.sample(0.5, Roughness(0.3)); // (n.v, perceptual roughness)
 //! let tir = TirLut::open(&luts, "tir.dds")?;

@@ -5,7 +5,7 @@
 //! ```no_run
 //! use tmlut_loader::{LutFolder, SceneShaderFiles};
 //!
-//! let luts = LutFolder::open("luts/copper-pot")?; // tmlut build --scene: the shader lies beside the tables
+//! let luts = LutFolder::open("out/copper-pot")?; // tmlut build --scene: the shader lies beside the tables
 //! let shader = SceneShaderFiles::open(luts.dir())?; // verified against the manifest, which lists it
 //! for texture in shader.description.textures.iter() {
 //!     let data = luts.texture(&texture.file)?; // bound at @group(0) @binding(texture.binding)
