@@ -395,10 +395,7 @@ fn lossless_filtered_lookup(program: &mut Program, axes: &[Axis], shape: Shape) 
     let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
     let (mut layout, stored_along, columns) = lossless_layout(shape);
     let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(program, &axes[d]));
-    // The two kappa nodes around kappa and the weight of the upper one.
-    let k0 = program.local("k0", i_kappa.clone().floor().min(Expr::c((n_kappa - 2) as f32)));
-    let t_kappa = program.local("t_kappa", i_kappa.sub(k0.clone()));
-    let k1 = program.local("k1", k0.clone().add(Expr::c(1.0)));
+    let (k0, t_kappa, k1) = nodes_around(program, i_kappa, n_kappa, ["k0", "t_kappa", "k1"]);
     let mut tile = |k: &Expr, suffix: &str| {
         let (row, column) = tile_of(program, k, columns, suffix);
         let x = column.mul(Expr::c(n_mu as f32)).add(i_mu.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_w));
@@ -426,6 +423,16 @@ fn lossless_filtered_lookup(program: &mut Program, axes: &[Axis], shape: Shape) 
     (layout, axis_entries)
 }
 
+/// The two nodes around node index `index` of an axis of `count` nodes and the weight of the
+/// upper one, as locals named `names`: `lo = min(floor(index), count - 2)`, `t = index - lo`,
+/// `hi = lo + 1`.
+fn nodes_around(program: &mut Program, index: Expr, count: usize, [lo, t, hi]: [&str; 3]) -> (Expr, Expr, Expr) {
+    let lower = program.local(lo, index.clone().floor().min(Expr::c((count - 2) as f32)));
+    let weight = program.local(t, index.sub(lower.clone()));
+    let upper = program.local(hi, lower.clone().add(Expr::c(1.0)));
+    (lower, weight, upper)
+}
+
 /// [`Packing::Thesis`]: the thesis renderer's volume, kappa halved, read at the eta nodes around eta.
 fn thesis_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<String>, Vec<AxisEntry>) {
     let [n_mu, n_alpha, n_eta, n_kappa] = shape.counts;
@@ -433,9 +440,7 @@ fn thesis_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<Str
     let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
     let [i_mu, i_alpha, i_eta, i_kappa] = [0, 1, 2, 3].map(|d| node_index(program, &axes[d]));
     let n_half = n_kappa / 2;
-    let e0 = program.local("e0", i_eta.clone().floor().min(Expr::c((n_eta - 2) as f32)));
-    let t_eta = program.local("t_eta", i_eta.sub(e0.clone()));
-    let e1 = program.local("e1", e0.clone().add(Expr::c(1.0)));
+    let (e0, t_eta, e1) = nodes_around(program, i_eta, n_eta, ["e0", "t_eta", "e1"]);
     // The mean of nodes 2h and 2h + 1 sits halfway between them, at full index 2h + 0.5.
     let h = program.local("h", i_kappa.sub(Expr::c(0.5)).mul(Expr::c(0.5)).clamp(0.0, (n_half - 1) as f32));
     let x = program.local("x", i_mu.add(Expr::c(0.5)).mul(Expr::c(inv_w)));
