@@ -10,9 +10,10 @@
 //!   ([`super::texture::sample_texture`]), the values a shader reads; `sample_uv`/`sample_uvw`
 //!   take the texture coordinates themselves.
 //!
-//! Karis and Belcour take perceptual roughness, as Unreal Engine 4 and Filament pass it
-//! (`alpha = roughness^2`); GD, TIR, FGD and `fgd_rarer` take GGX `alpha`, the quantity of their
-//! axes.
+//! Karis and Belcour are looked up by perceptual roughness, as Unreal Engine 4 and Filament pass
+//! it (`alpha = roughness^2`); GD, TIR, FGD and `fgd_rarer` by GGX `alpha`, the quantity of their
+//! axes. The argument is typed ([`Roughness`], [`Alpha`]): each handle takes either and converts
+//! it, and a bare `f32` does not compile.
 
 use super::roughness::{Alpha, Roughness};
 use super::texture::{TextureData, sample_texture, texture_coordinate};
