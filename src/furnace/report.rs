@@ -178,7 +178,7 @@ impl MaterialReport {
     /// `walk`: the random walk's curve and its wall time, where it ran.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
-        material: &crate::scene::Material,
+        material: &crate::scene::SceneMaterial,
         scene: Option<String>,
         mus: &[f64],
         albedo_tables: Vec<Rgb>,

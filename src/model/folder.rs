@@ -23,7 +23,7 @@
 use std::sync::Mutex;
 
 use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
-use super::routes::{Answer, Paths, Reader, Routes};
+use super::routes::{LookupSource, Paths, Reader, Routes};
 use crate::error::{Error, Result};
 #[cfg(feature = "generator")]
 use crate::fit::text::fitted::{FittedForm, FittedFormExt};
@@ -330,7 +330,7 @@ impl Tables for FolderTables {
     fn value(&self, lookup: &Lookup) -> f64 {
         let point = [lookup.mu, lookup.alpha];
         match self.routes.answer(self.paths, lookup.quantity, lookup.eta, lookup.kappa) {
-            Answer::Slices(candidates) => {
+            LookupSource::Slices(candidates) => {
                 // The first slice whose range holds `(mu, alpha)`, else the nearest.
                 let distance = |slice: &SampledTable| slice_choice_distance(&slice.axes, &point);
                 let (slice, channel) = candidates
@@ -339,7 +339,7 @@ impl Tables for FolderTables {
                     .expect("a lookup's slices are never none");
                 self.sample(slice, channel, &point, lookup)
             }
-            Answer::Table(_, table) => {
+            LookupSource::Table(_, table) => {
                 // Two or three axes, each of a known quantity (checked when the folder was
                 // opened): the point stays off the heap, as GD is read for every lobe.
                 let mut point = [0.0; 3];
@@ -349,16 +349,16 @@ impl Tables for FolderTables {
                 }
                 self.sample(table, 0, &point[..table.axes.len()], lookup)
             }
-            Answer::SplitSum(_, table, c) => {
+            LookupSource::SplitSum(_, table, c) => {
                 (0..table.channel_count().min(4)).map(|k| c[k] * table.sample(k, &point) as f64).sum()
             }
-            Answer::FullFgd(full) => self.full_fgd(full, lookup),
-            Answer::FolderForm(form) => form.tir(lookup.mu, lookup.alpha, lookup.eta),
-            Answer::MaterialForm => self
+            LookupSource::FullFgd(full) => self.full_fgd(full, lookup),
+            LookupSource::FolderForm(form) => form.tir(lookup.mu, lookup.alpha, lookup.eta),
+            LookupSource::MaterialForm => self
                 .material_form(lookup)
                 .unwrap_or_else(|| self.miss(lookup, || "the material names a form for it, and none was given".into())),
-            Answer::Zero => 0.0,
-            Answer::Missing => self.miss(lookup, || {
+            LookupSource::Zero => 0.0,
+            LookupSource::Missing => self.miss(lookup, || {
                 let lacks = Routes::<Sampling>::missing(self.paths, lookup.quantity, lookup.eta, lookup.kappa);
                 format!("the folder lists {lacks}")
             }),

@@ -1,7 +1,7 @@
 //! Which file of a built folder answers each lookup of the model, decided here once for both of
 //! a folder's readers: the CPU evaluator, which samples the files ([`super::folder::FolderTables`]),
 //! and the scene shader, which prints their reads ([`crate::shader::scene`]). Each reader keeps
-//! what it needs of a file (texels, or a name and axes: a [`Reader`]) and turns an [`Answer`]
+//! what it needs of a file (texels, or a name and axes: a [`Reader`]) and turns an [`LookupSource`]
 //! into a value; the order in which files answer is [`Routes::answer`]'s alone:
 //!
 //! - albedo on the FGD path: the slice holding the lookup's index (a scene's), else the stand-in
@@ -70,7 +70,7 @@ impl Paths {
 }
 
 /// What answers one lookup.
-pub enum Answer<'a, R: Reader> {
+pub enum LookupSource<'a, R: Reader> {
     /// The slices with a channel at the lookup's index, each with its first such channel, in the
     /// folder's order (never empty): the one ranked first by
     /// [`super::folder::slice_choice_distance`] at the lookup's `(mu, alpha)` answers, the first
@@ -158,7 +158,7 @@ impl<R: Reader> Routes<R> {
     /// The files of `folder` that materials reading by `paths` look up, kept by `reader`; GD
     /// whatever the paths. A path the folder holds no file for is not refused here:
     /// a scene's plan leaves out what its materials never look up (a bare conductor makes no TIR
-    /// lookup), so its lookups are [`Answer::Missing`] instead, for the reader to refuse. Fails on
+    /// lookup), so its lookups are [`LookupSource::Missing`] instead, for the reader to refuse. Fails on
     /// a file that is listed but cannot be read as its path needs.
     pub fn open(folder: &LutFolder, paths: &[Paths], reader: &R) -> Result<Self> {
         let reads_albedo = |path: AlbedoPath| paths.iter().any(|p| p.albedo == path);
@@ -247,36 +247,39 @@ impl<R: Reader> Routes<R> {
 
     /// What answers a lookup of `quantity` at the relative index `(eta, kappa)` for a material
     /// reading by `paths`: the module's list, in its order.
-    pub fn answer(&self, paths: Paths, quantity: Quantity, eta: f64, kappa: f64) -> Answer<'_, R> {
+    pub fn answer(&self, paths: Paths, quantity: Quantity, eta: f64, kappa: f64) -> LookupSource<'_, R> {
         let answer = match quantity {
-            Quantity::Albedo if paths.albedo_form => Some(Answer::MaterialForm),
+            Quantity::Albedo if paths.albedo_form => Some(LookupSource::MaterialForm),
             Quantity::Albedo => match paths.albedo {
                 AlbedoPath::Fgd => self
                     .slice_or_stand_in(&self.fgd_slices, quantity, eta, kappa)
-                    .or_else(|| self.full_fgd.as_ref().map(Answer::FullFgd)),
-                AlbedoPath::Belcour => self
-                    .belcour
-                    .as_ref()
-                    .map(|(table, basis)| Answer::SplitSum(TableKind::Belcour, table, basis.coefficients(eta, kappa))),
+                    .or_else(|| self.full_fgd.as_ref().map(LookupSource::FullFgd)),
+                AlbedoPath::Belcour => self.belcour.as_ref().map(|(table, basis)| {
+                    LookupSource::SplitSum(TableKind::Belcour, table, basis.coefficients(eta, kappa))
+                }),
                 // FGD ~ F0 scale + bias, with F0 at the relative index.
                 AlbedoPath::Karis => self.karis.as_ref().map(|table| {
-                    Answer::SplitSum(TableKind::Karis, table, [normal_incidence_reflectance(eta, kappa), 1.0, 0.0, 0.0])
+                    LookupSource::SplitSum(
+                        TableKind::Karis,
+                        table,
+                        [normal_incidence_reflectance(eta, kappa), 1.0, 0.0, 0.0],
+                    )
                 }),
             },
             Quantity::Tir => match paths.tir {
                 TirPath::Table => self
                     .slice_or_stand_in(&self.tir_slices, quantity, eta, kappa)
-                    .or_else(|| self.tir.as_ref().map(|table| Answer::Table(TableKind::Tir, table))),
-                TirPath::Fit => self.fit.as_ref().map(Answer::FolderForm),
-                TirPath::Form => Some(Answer::MaterialForm),
-                TirPath::Off => Some(Answer::Zero),
+                    .or_else(|| self.tir.as_ref().map(|table| LookupSource::Table(TableKind::Tir, table))),
+                TirPath::Fit => self.fit.as_ref().map(LookupSource::FolderForm),
+                TirPath::Form => Some(LookupSource::MaterialForm),
+                TirPath::Off => Some(LookupSource::Zero),
             },
-            Quantity::Gd => self.gd.as_ref().map(|table| Answer::Table(TableKind::Gd, table)),
+            Quantity::Gd => self.gd.as_ref().map(|table| LookupSource::Table(TableKind::Gd, table)),
         };
-        answer.unwrap_or(Answer::Missing)
+        answer.unwrap_or(LookupSource::Missing)
     }
 
-    /// What the folder lacks where [`Routes::answer`] finds nothing ([`Answer::Missing`]), in words
+    /// What the folder lacks where [`Routes::answer`] finds nothing ([`LookupSource::Missing`]), in words
     /// ("no ..."): the table the path reads.
     pub fn missing(paths: Paths, quantity: Quantity, eta: f64, kappa: f64) -> String {
         match (quantity, paths.albedo, paths.tir) {
@@ -300,15 +303,15 @@ impl<R: Reader> Routes<R> {
         quantity: Quantity,
         eta: f64,
         kappa: f64,
-    ) -> Option<Answer<'a, R>> {
+    ) -> Option<LookupSource<'a, R>> {
         let candidates = slices.at(eta, kappa);
         if !candidates.is_empty() {
-            return Some(Answer::Slices(candidates));
+            return Some(LookupSource::Slices(candidates));
         }
         self.stand_ins
             .iter()
             .find(|(stand_in, _)| stand_in.answers(quantity, eta, kappa))
-            .map(|(stand_in, table)| Answer::Table(stand_in.table, table))
+            .map(|(stand_in, table)| LookupSource::Table(stand_in.table, table))
     }
 }
 

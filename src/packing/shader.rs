@@ -329,7 +329,7 @@ impl Program {
         match e {
             Expr::Input(i) => shader::name(self.inputs[*i]),
             Expr::Local(i) => shader::name(&self.locals[*i].0),
-            Expr::Const(v) => shader::f(*v),
+            Expr::Const(v) => shader::float(*v),
             Expr::Add(a, b) => self.emitted(a) + self.emitted(b),
             Expr::Sub(a, b) => self.emitted(a) - self.emitted(b),
             Expr::Mul(a, b) => self.emitted(a) * self.emitted(b),
@@ -340,7 +340,7 @@ impl Program {
             Expr::Log(a) => shader::call(Intrinsic::Log, vec![self.emitted(a)]),
             Expr::Abs(a) => shader::call(Intrinsic::Abs, vec![self.emitted(a)]),
             Expr::WithSignOf(a, s) => {
-                let negative = self.emitted(s).lt(shader::f(0.0));
+                let negative = self.emitted(s).lt(shader::float(0.0));
                 shader::select(negative, -self.emitted(a), self.emitted(a))
             }
         }

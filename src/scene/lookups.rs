@@ -8,11 +8,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{AlbedoPath, Interval, Layer, Material, Scene, TirPath};
+use super::{AlbedoPath, Interval, Scene, SceneLayer, SceneMaterial, TirPath};
 use crate::error::{Error, Result};
 use crate::formats::manifest::LeftOutRecord;
 use crate::integrate::GRAZING_COSINE;
-use crate::model::{Lookup as ModelLookup, Quantity, StandIn};
+use crate::model::{Lookup as ModelLookup, Quantity, Site, StandIn};
 use crate::physics::fresnel_reflectance;
 use crate::table::TableKind;
 
@@ -25,16 +25,16 @@ pub enum LookupKind {
     Gd,
 }
 
-/// One lookup the model makes: a site (material, layer, direction), a colour channel, and the
-/// range of every parameter it is made at.
+/// The lookups the model makes at one site (material, layer, direction) and colour channel: the
+/// range of every parameter they are made at.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Lookup {
+pub struct LookupRange {
     pub material: String,
     /// 1-based, top first.
     pub layer: usize,
     pub kind: LookupKind,
-    /// "from above", "from below" (albedo), "down", "up" (TIR crossings) or "internal lobes" (GD).
-    pub direction: &'static str,
+    /// From above (albedo), down or up (TIR crossings), or, with layer 0, every internal lobe (GD).
+    pub site: Site,
     /// 0, 1, 2 for R, G, B.
     pub channel: usize,
     pub mu: Interval,
@@ -43,9 +43,18 @@ pub struct Lookup {
     pub kappa: Interval,
 }
 
-impl Lookup {
-    pub(super) fn site(&self) -> (String, usize, &'static str) {
-        (self.material.clone(), self.layer, self.direction)
+impl LookupRange {
+    pub(super) fn site(&self) -> (String, usize, Site) {
+        (self.material.clone(), self.layer, self.site)
+    }
+
+    /// The site's direction as labels and slice file names spell it.
+    pub fn direction(&self) -> &'static str {
+        match self.site {
+            // One site holds every lobe's GD (layer 0).
+            Site::Lobe => "internal lobes",
+            site => site.name(),
+        }
     }
 
     pub(super) fn fixed_index(&self) -> bool {
@@ -62,11 +71,11 @@ impl Lookup {
 /// channel's parameters are the hull of what was recorded. The lookups' parameters depend on the
 /// stack's geometry and roughness alone, not on the tables' values, except the roughness of a
 /// 2-flux lobe's GD, and GD is kept whole.
-pub fn lookups(scene: &Scene) -> Result<(Vec<Lookup>, Vec<LeftOutRecord>)> {
+pub fn lookups(scene: &Scene) -> Result<(Vec<LookupRange>, Vec<LeftOutRecord>)> {
     check_planning_work(scene)?;
     // Materials are recorded on their own, in parallel, and joined in scene order.
     use rayon::prelude::*;
-    let per_material: Vec<(Vec<Lookup>, Vec<LeftOutRecord>)> =
+    let per_material: Vec<(Vec<LookupRange>, Vec<LeftOutRecord>)> =
         scene.materials.par_iter().map(material_lookups).collect::<Result<_>>()?;
     let mut lookups = Vec::new();
     let mut left_out = Vec::new();
@@ -78,8 +87,8 @@ pub fn lookups(scene: &Scene) -> Result<(Vec<Lookup>, Vec<LeftOutRecord>)> {
 }
 
 /// The lookups of one material, as [`lookups`] records them.
-fn material_lookups(material: &Material) -> Result<(Vec<Lookup>, Vec<LeftOutRecord>)> {
-    let mut lookups: Vec<Lookup> = Vec::new();
+fn material_lookups(material: &SceneMaterial) -> Result<(Vec<LookupRange>, Vec<LeftOutRecord>)> {
+    let mut lookups: Vec<LookupRange> = Vec::new();
     let mut left_out = Vec::new();
     {
         note_index_matched(material, &mut left_out);
@@ -132,7 +141,7 @@ fn material_lookups(material: &Material) -> Result<(Vec<Lookup>, Vec<LeftOutReco
 /// these keys for every lookup the model makes, millions for a library: a multiplicative hash
 /// (Fx, as rustc's) rather than the default SipHash, which took a quarter of planning and whose
 /// resistance to chosen keys these keys do not need.
-type SiteIndex = std::collections::HashMap<(usize, &'static str, LookupKind, usize), usize, FxBuild>;
+type SiteIndex = std::collections::HashMap<(usize, Site, LookupKind, usize), usize, FxBuild>;
 
 #[derive(Default, Clone, Copy)]
 struct FxBuild;
@@ -166,12 +175,17 @@ impl std::hash::Hasher for FxHasher {
 }
 
 /// Add one lookup the model made to the hull of its site and channel.
-fn merge_lookup(material: &Material, recorded: &ModelLookup, lookups: &mut Vec<Lookup>, index: &mut SiteIndex) {
-    let (kind, direction, layer) = match recorded.quantity {
-        Quantity::Albedo => (LookupKind::Albedo(material.albedo), recorded.site.name(), recorded.layer),
-        Quantity::Tir => (LookupKind::Tir(material.tir), recorded.site.name(), recorded.layer),
+fn merge_lookup(
+    material: &SceneMaterial,
+    recorded: &ModelLookup,
+    lookups: &mut Vec<LookupRange>,
+    index: &mut SiteIndex,
+) {
+    let (kind, site, layer) = match recorded.quantity {
+        Quantity::Albedo => (LookupKind::Albedo(material.albedo), recorded.site, recorded.layer),
+        Quantity::Tir => (LookupKind::Tir(material.tir), recorded.site, recorded.layer),
         // One site for every lobe's GD: the table is kept whole anyway.
-        Quantity::Gd => (LookupKind::Gd, "internal lobes", 0),
+        Quantity::Gd => (LookupKind::Gd, Site::Lobe, 0),
     };
     // A value that serves every channel is a lookup of each, except GD, which has none.
     let channels = match (recorded.channel, recorded.quantity) {
@@ -180,7 +194,7 @@ fn merge_lookup(material: &Material, recorded: &ModelLookup, lookups: &mut Vec<L
         (None, _) => 0..3,
     };
     for channel in channels {
-        match index.get(&(layer, direction, kind, channel)) {
+        match index.get(&(layer, site, kind, channel)) {
             Some(&at) => {
                 let l = &mut lookups[at];
                 l.mu = l.mu.hull(Interval::point(recorded.mu));
@@ -189,12 +203,12 @@ fn merge_lookup(material: &Material, recorded: &ModelLookup, lookups: &mut Vec<L
                 l.kappa = l.kappa.hull(Interval::point(recorded.kappa));
             }
             None => {
-                index.insert((layer, direction, kind, channel), lookups.len());
-                lookups.push(Lookup {
+                index.insert((layer, site, kind, channel), lookups.len());
+                lookups.push(LookupRange {
                     material: material.name.clone(),
                     layer,
                     kind,
-                    direction,
+                    site,
                     channel,
                     mu: Interval::point(recorded.mu),
                     alpha: Interval::point(recorded.alpha),
@@ -215,12 +229,12 @@ pub const MAX_PLANNING_WORK: u64 = 1 << 25;
 /// Refuse a scene whose plan would evaluate the model more than [`MAX_PLANNING_WORK`] layers,
 /// naming the materials that cost most.
 fn check_planning_work(scene: &Scene) -> Result<()> {
-    let cost = |m: &Material| (m.variant_count() * PLANNING_VIEWS * m.layers.len()) as u64;
+    let cost = |m: &SceneMaterial| (m.variant_count() * PLANNING_VIEWS * m.layers.len()) as u64;
     let work: u64 = scene.materials.iter().map(cost).sum();
     if work <= MAX_PLANNING_WORK {
         return Ok(());
     }
-    let mut costly: Vec<&Material> = scene.materials.iter().collect();
+    let mut costly: Vec<&SceneMaterial> = scene.materials.iter().collect();
     costly.sort_by_key(|m| std::cmp::Reverse(cost(m)));
     let named: Vec<String> = costly
         .iter()
@@ -240,7 +254,7 @@ fn check_planning_work(scene: &Scene) -> Result<()> {
 }
 
 /// Whether some index of `lookup`'s ranges lies in the region of stand-in `stand_in`.
-pub fn reaches(stand_in: &StandIn, lookup: &Lookup) -> bool {
+pub fn reaches(stand_in: &StandIn, lookup: &LookupRange) -> bool {
     stand_in.region.meets([lookup.eta.lo, lookup.eta.hi], [lookup.kappa.lo, lookup.kappa.hi])
 }
 
@@ -250,10 +264,10 @@ pub const PLANNING_VIEWS: usize = 257;
 
 /// Record each interface of `material` whose indices match the medium above in every channel:
 /// the model skips it and looks nothing up there.
-fn note_index_matched(material: &Material, left_out: &mut Vec<LeftOutRecord>) {
+fn note_index_matched(material: &SceneMaterial, left_out: &mut Vec<LeftOutRecord>) {
     let mut eta_above = [Interval::point(1.0); 3];
     for (k, layer) in material.layers.iter().enumerate() {
-        let Layer::Interface(interface) = layer else { continue };
+        let SceneLayer::Interface(interface) = layer else { continue };
         let matched = (0..3).all(|c| {
             interface.eta[c].divide(eta_above[c]) == Interval::point(1.0) && interface.kappa[c] == Interval::point(0.0)
         });
@@ -282,7 +296,7 @@ pub fn table_lookups(path: &std::path::Path, table: &str) -> Result<crate::fit::
     let (lookups, _) = lookups(&scene)?;
     let stand_in = TableKind::named(table).and_then(crate::model::stand_in);
     let is = |kind: TableKind| table == kind.name() || table.starts_with(&format!("{}_", kind.name()));
-    let reads = |lookup: &Lookup| match (stand_in, lookup.kind) {
+    let reads = |lookup: &LookupRange| match (stand_in, lookup.kind) {
         (Some(s), LookupKind::Albedo(AlbedoPath::Fgd)) => s.quantity == Quantity::Albedo && reaches(&s, lookup),
         (Some(s), LookupKind::Tir(TirPath::Table)) => s.quantity == Quantity::Tir && reaches(&s, lookup),
         (Some(_), _) => false,

@@ -100,9 +100,10 @@ pub fn short(x: f64) -> String {
 /// One value per colour channel (R, G, B).
 pub type Rgb<T> = [T; 3];
 
-/// A rough boundary between two media.
+/// A rough boundary between two media as a scene describes it: each value a range where a texture
+/// varies it. The model evaluates [`crate::model::Interface`] (one value each), `nominal` here.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Interface {
+pub struct SceneInterface {
     /// Absolute real index of the medium below, per channel (a range where a texture varies it).
     pub eta: Rgb<Interval>,
     /// Absolute extinction index of the medium below, per channel; any channel above 0 makes the
@@ -115,21 +116,24 @@ pub struct Interface {
     pub nominal: crate::model::Interface,
 }
 
-impl Interface {
+impl SceneInterface {
     /// Whether light goes no further: the model evaluates nothing below a conductor.
     pub fn is_conductor(&self) -> bool {
         self.kappa.iter().any(|k| k.hi > 0.0)
     }
 }
 
+/// A layer of a scene's material ([`crate::model::Layer`] with the ranges of [`SceneInterface`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Layer {
-    Interface(Interface),
+pub enum SceneLayer {
+    Interface(SceneInterface),
     Medium(Medium),
 }
 
+/// A material as a scene names it: its lookup paths, the forms it reads, and its layers with their
+/// ranges. [`crate::model::Material`] is what evaluates one of its stacks ([`SceneMaterial::variants`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Material {
+pub struct SceneMaterial {
     pub name: String,
     pub model: FluxModel,
     pub albedo: AlbedoPath,
@@ -143,13 +147,13 @@ pub struct Material {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tir_form: Option<crate::fit::text::FittedForm>,
     /// Top first.
-    pub layers: Vec<Layer>,
+    pub layers: Vec<SceneLayer>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Scene {
     pub name: String,
-    pub materials: Vec<Material>,
+    pub materials: Vec<SceneMaterial>,
     /// Nodes of the default grid kept beyond each needed sub-range, so that the lookup at the edge
     /// of the range interpolates inside the table.
     pub margin_nodes: usize,

@@ -8,7 +8,8 @@ use serde::Deserialize;
 use serde::de::{DeserializeOwned, Deserializer};
 
 use super::{
-    AlbedoPath, DEFAULT_MARGIN_NODES, FluxModel, Interface, Interval, Layer, Material, Medium, Rgb, Scene, TirPath,
+    AlbedoPath, DEFAULT_MARGIN_NODES, FluxModel, Interval, Medium, Rgb, Scene, SceneInterface, SceneLayer,
+    SceneMaterial, TirPath,
 };
 use crate::error::{Error, Result};
 use crate::fit::text::fitted::FittedFormExt;
@@ -273,7 +274,7 @@ fn parse_material(
     index: usize,
     defaults: &Paths,
     warnings: &mut Vec<String>,
-) -> Result<Material> {
+) -> Result<SceneMaterial> {
     let name = raw.name.unwrap_or_else(|| format!("material-{}", index + 1));
     check_name(&name, &format!("{where_}: name"), "material")?;
     let where_ = format!("{where_} (`{name}`)");
@@ -308,17 +309,17 @@ fn parse_material(
         let layer_where = format!("{where_}, layer {}", k + 1);
         parsed.push(parse_layer(raw, &layer_where)?);
     }
-    if !parsed.iter().any(|l| matches!(l, Layer::Interface(_))) {
+    if !parsed.iter().any(|l| matches!(l, SceneLayer::Interface(_))) {
         return Err(Error::invalid(&where_, "has no interface layer; a material needs at least one interface"));
     }
-    if matches!(parsed[0], Layer::Medium(_)) {
+    if matches!(parsed[0], SceneLayer::Medium(_)) {
         return Err(Error::invalid(
             format!("{where_}, layer 1"),
             "is a medium; the top layer must be an interface (a medium lies below the interface above it)",
         ));
     }
     // The model stops at the first conductor: what lies below is never evaluated.
-    if let Some(conductor) = parsed.iter().position(|l| matches!(l, Layer::Interface(i) if i.is_conductor())) {
+    if let Some(conductor) = parsed.iter().position(|l| matches!(l, SceneLayer::Interface(i) if i.is_conductor())) {
         let below = parsed.len() - conductor - 1;
         if below > 0 {
             warnings.push(format!(
@@ -333,7 +334,7 @@ fn parse_material(
     }
     if model == FluxModel::TwoFlux {
         for (k, layer) in parsed.iter().enumerate() {
-            if let Layer::Medium(m) = layer
+            if let SceneLayer::Medium(m) = layer
                 && m.sigma_s.iter().any(|&s| s > 0.0)
             {
                 warnings.push(format!(
@@ -344,10 +345,10 @@ fn parse_material(
             }
         }
     }
-    Ok(Material { name, model, albedo, albedo_form, tir, tir_form, layers: parsed })
+    Ok(SceneMaterial { name, model, albedo, albedo_form, tir, tir_form, layers: parsed })
 }
 
-fn parse_layer(raw: Item<RawLayer>, where_: &str) -> Result<Layer> {
+fn parse_layer(raw: Item<RawLayer>, where_: &str) -> Result<SceneLayer> {
     let raw = raw.0.map_err(|reason| {
         let reason = if reason == "missing field `type`" { "has no `type`".to_string() } else { reason };
         // serde names the types allowed only where `type` is a string that names none.
@@ -363,7 +364,7 @@ fn parse_layer(raw: Item<RawLayer>, where_: &str) -> Result<Layer> {
                 rgb_or_range(raw.kappa, vary.kappa, "kappa", Some(0.0), where_, Bound::Extinction)?;
             let (alpha, alpha_nominal) = scalar_or_range(raw.alpha, vary.alpha, "alpha", where_)?;
             let nominal = crate::model::Interface { eta: eta_nominal, kappa: kappa_nominal, alpha: alpha_nominal };
-            Ok(Layer::Interface(Interface { eta, kappa, alpha, nominal }))
+            Ok(SceneLayer::Interface(SceneInterface { eta, kappa, alpha, nominal }))
         }
         RawLayer::Medium(raw) => {
             let raw = raw.at(where_)?;
@@ -396,7 +397,7 @@ fn parse_layer(raw: Item<RawLayer>, where_: &str) -> Result<Layer> {
                     format!("{}; allowed: -1 to 1, 0 or at least {MIN_MAGNITUDE:e} in magnitude", number_text(g)),
                 ));
             }
-            Ok(Layer::Medium(Medium { sigma_s, sigma_k, depth, g }))
+            Ok(SceneLayer::Medium(Medium { sigma_s, sigma_k, depth, g }))
         }
     }
 }

@@ -12,7 +12,7 @@
 use std::collections::HashMap;
 use std::fmt;
 
-use super::lookups::{Lookup, LookupKind, lookups, reaches};
+use super::lookups::{LookupKind, LookupRange, lookups, reaches};
 use super::{AlbedoPath, Interval, Scene, TirPath, short};
 use crate::config::{Config, MAX_NODES_PER_AXIS, TableSettings};
 use crate::error::{Error, Result};
@@ -65,7 +65,7 @@ pub struct PlannedTable {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
     pub scene: String,
-    pub lookups: Vec<Lookup>,
+    pub lookups: Vec<LookupRange>,
     pub tables: Vec<PlannedTable>,
     pub left_out: Vec<LeftOutRecord>,
     pub warnings: Vec<String>,
@@ -164,14 +164,14 @@ pub const PLANNERS: [Planner; 5] = [plan_albedo_forms, plan_fgd, plan_split_sums
 pub struct PlanInputs<'a> {
     scene: &'a Scene,
     config: &'a Config,
-    lookups: &'a [Lookup],
+    lookups: &'a [LookupRange],
     albedo_forms_of: HashMap<&'a str, &'a FittedForm>,
-    albedo_form_users: Vec<&'a Lookup>,
+    albedo_form_users: Vec<&'a LookupRange>,
 }
 
 impl<'a> PlanInputs<'a> {
     /// The lookups of `kind`, those a table answers.
-    fn by_table(&self, kind: LookupKind) -> Vec<&'a Lookup> {
+    fn by_table(&self, kind: LookupKind) -> Vec<&'a LookupRange> {
         self.lookups
             .iter()
             .filter(|l| l.kind == kind && !self.albedo_forms_of.contains_key(l.material.as_str()))
@@ -192,7 +192,7 @@ pub struct PlanParts {
 impl PlanParts {
     /// A slice per site of `fixed` (lookups at fixed indices), identical ones once; returns how
     /// many tables were added.
-    fn add_site_slices(&mut self, fixed: &[&Lookup], prefix: &str, of: &SliceOf) -> Result<usize> {
+    fn add_site_slices(&mut self, fixed: &[&LookupRange], prefix: &str, of: &SliceOf) -> Result<usize> {
         let before = self.tables.len();
         for site in sites(fixed) {
             let slices = slice_of(prefix, of.clone(), &site)?;
@@ -305,8 +305,9 @@ fn plan_split_sums(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
 /// slice per site of a fixed index, the 3D table over the `mu` and `alpha` the rest reach.
 fn plan_tir(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
     let (scene, config, margin) = (inputs.scene, inputs.config, inputs.scene.margin_nodes);
-    let of_path =
-        |path: TirPath| -> Vec<&Lookup> { inputs.lookups.iter().filter(|l| l.kind == LookupKind::Tir(path)).collect() };
+    let of_path = |path: TirPath| -> Vec<&LookupRange> {
+        inputs.lookups.iter().filter(|l| l.kind == LookupKind::Tir(path)).collect()
+    };
     let full = config.tir.axes()?;
     // The fitted form: fitted to the full TIR table, which is integrated but not written.
     let fit_users = of_path(TirPath::Fit);
@@ -386,7 +387,7 @@ fn plan_tir(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
 /// GD: the 6-flux model's lobe normalisation, and the 2-flux lobes' albedo; kept whole.
 fn plan_gd(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
     let config = inputs.config;
-    let gd_users: Vec<&Lookup> = inputs.lookups.iter().filter(|l| l.kind == LookupKind::Gd).collect();
+    let gd_users: Vec<&LookupRange> = inputs.lookups.iter().filter(|l| l.kind == LookupKind::Gd).collect();
     if gd_users.is_empty() {
         parts.left_out.push(LeftOutRecord {
             what: format!("gd ({})", human_bytes(recipe_texel_bytes(&config.gd)?)),
@@ -409,10 +410,10 @@ fn plan_stand_ins(
     tables: &mut Vec<PlannedTable>,
     config: &Config,
     quantity: Quantity,
-    varying: &[&Lookup],
+    varying: &[&LookupRange],
 ) -> Result<()> {
     for stand_in in crate::model::stand_ins().filter(|s| s.quantity == quantity) {
-        let reached: Vec<&Lookup> = varying.iter().copied().filter(|l| reaches(&stand_in, l)).collect();
+        let reached: Vec<&LookupRange> = varying.iter().copied().filter(|l| reaches(&stand_in, l)).collect();
         if reached.is_empty() {
             continue;
         }
@@ -429,7 +430,7 @@ fn plan_stand_ins(
 
 /// Why no table of albedo path `path` is built: its lookups are all read by fitted forms, or there
 /// are none.
-fn by_form_or_none(form_users: &[&Lookup], path: AlbedoPath) -> String {
+fn by_form_or_none(form_users: &[&LookupRange], path: AlbedoPath) -> String {
     let name = if path == AlbedoPath::Fgd { "FGD" } else { path.name() };
     if form_users.iter().any(|l| l.kind == LookupKind::Albedo(path)) {
         format!("every albedo lookup on the {name} path is read by a fitted form (albedo = \"fit:PATH\")")
@@ -473,15 +474,15 @@ fn replaced_by_slices(count: usize) -> String {
 }
 
 /// `lookups` split into those whose site has fixed indices in every lookup, and the others.
-fn split_by_fixed_sites<'a>(lookups: &[&'a Lookup]) -> (Vec<&'a Lookup>, Vec<&'a Lookup>) {
+fn split_by_fixed_sites<'a>(lookups: &[&'a LookupRange]) -> (Vec<&'a LookupRange>, Vec<&'a LookupRange>) {
     let varying_sites: std::collections::HashSet<_> =
         lookups.iter().filter(|l| !l.fixed_index()).map(|l| l.site()).collect();
     lookups.iter().partition(|l| !varying_sites.contains(&l.site()))
 }
 
 /// Lookups grouped by site, in the order the sites first appear.
-fn sites<'a>(lookups: &[&'a Lookup]) -> Vec<Vec<&'a Lookup>> {
-    let mut groups: Vec<Vec<&Lookup>> = Vec::new();
+fn sites<'a>(lookups: &[&'a LookupRange]) -> Vec<Vec<&'a LookupRange>> {
+    let mut groups: Vec<Vec<&LookupRange>> = Vec::new();
     let mut index: std::collections::HashMap<_, usize> = std::collections::HashMap::new();
     for &lookup in lookups {
         match index.get(&lookup.site()) {
@@ -495,7 +496,7 @@ fn sites<'a>(lookups: &[&'a Lookup]) -> Vec<Vec<&'a Lookup>> {
     groups
 }
 
-fn materials_of(lookups: &[&Lookup]) -> Vec<String> {
+fn materials_of(lookups: &[&LookupRange]) -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
     for l in lookups {
         if !names.contains(&l.material) {
@@ -505,33 +506,33 @@ fn materials_of(lookups: &[&Lookup]) -> Vec<String> {
     names
 }
 
-fn site_label(site: &[&Lookup]) -> String {
+fn site_label(site: &[&LookupRange]) -> String {
     let l = site[0];
     if l.layer == 0 {
-        format!("{}, {}", l.material, l.direction)
+        format!("{}, {}", l.material, l.direction())
     } else {
-        format!("{}, layer {} {}", l.material, l.layer, l.direction)
+        format!("{}, layer {} {}", l.material, l.layer, l.direction())
     }
 }
 
 /// The sites of `lookups`, for an error: `scene `s`, FGD lookups of m, layer 2 from above; ...`.
-fn sites_label(scene: &str, lookups: &[&Lookup], what: &str) -> String {
+fn sites_label(scene: &str, lookups: &[&LookupRange], what: &str) -> String {
     let labels: Vec<String> = sites(lookups).iter().map(|site| site_label(site)).collect();
     format!("scene `{scene}`, {what} lookups of {}", labels.join("; "))
 }
 
 /// The smallest interval holding `parameter` of every lookup (not empty).
-fn hull(lookups: &[&Lookup], parameter: fn(&Lookup) -> Interval) -> Interval {
+fn hull(lookups: &[&LookupRange], parameter: fn(&LookupRange) -> Interval) -> Interval {
     lookups.iter().map(|l| parameter(l)).reduce(Interval::hull).expect("at least one lookup")
 }
 
-fn ranges_label(site: &[&Lookup]) -> String {
+fn ranges_label(site: &[&LookupRange]) -> String {
     let h = |parameter| hull(site, parameter);
     format!("mu {}, alpha {}, eta {}, kappa {}", h(|l| l.mu), h(|l| l.alpha), h(|l| l.eta), h(|l| l.kappa))
 }
 
 /// The slice table of one site of fixed indices: one channel per distinct index.
-fn slice_of(prefix: &str, of: SliceOf, site: &[&Lookup]) -> Result<Slices> {
+fn slice_of(prefix: &str, of: SliceOf, site: &[&LookupRange]) -> Result<Slices> {
     let first = site[0];
     let [mu_lattice, alpha_lattice] = of.lattice();
     let mu_needed = hull(site, |l| l.mu);
@@ -548,7 +549,7 @@ fn slice_of(prefix: &str, of: SliceOf, site: &[&Lookup]) -> Result<Slices> {
             }),
         }
     }
-    let direction = first.direction.replace(' ', "-");
+    let direction = first.direction().replace(' ', "-");
     Ok(Slices {
         name: format!("{prefix}_{}_l{}_{direction}", file_safe(&first.material), first.layer),
         of,
@@ -566,7 +567,7 @@ fn add_slices(
     tables: &mut Vec<PlannedTable>,
     planned_slices: &mut std::collections::HashMap<String, usize>,
     slices: Slices,
-    site: &[&Lookup],
+    site: &[&LookupRange],
 ) -> bool {
     let (what, reason) = match slices.of {
         SliceOf::Fgd(_) => {
@@ -731,7 +732,7 @@ impl fmt::Display for Plan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "Plan for scene `{}`", self.scene)?;
         writeln!(f, "\nLookups the transfer-matrix model makes:")?;
-        let refs: Vec<&Lookup> = self.lookups.iter().collect();
+        let refs: Vec<&LookupRange> = self.lookups.iter().collect();
         for site in sites(&refs) {
             let kind = match site[0].kind {
                 LookupKind::Albedo(AlbedoPath::Fgd) => "albedo (FGD)".to_string(),

@@ -1,24 +1,27 @@
 //! A material's layer stacks as the transfer-matrix model takes them: at its nominal values, and
 //! over samples of the ranges its textures vary, where the planner evaluates the model.
 
-use super::{Interface, Interval, Layer, Material};
+use super::{Interval, SceneInterface, SceneLayer, SceneMaterial};
 use crate::error::{Error, Result};
 
-impl Material {
+impl SceneMaterial {
     /// The layer stack at the material's nominal values, as the model and the random walk take it.
     pub fn stack(&self) -> Result<crate::model::Stack> {
         self.stack_with(|_, interface| interface.nominal)
     }
 
     /// The stack with each interface's values given by `values(layer index, interface)`.
-    fn stack_with(&self, values: impl Fn(usize, &Interface) -> crate::model::Interface) -> Result<crate::model::Stack> {
+    fn stack_with(
+        &self,
+        values: impl Fn(usize, &SceneInterface) -> crate::model::Interface,
+    ) -> Result<crate::model::Stack> {
         let layers = self
             .layers
             .iter()
             .enumerate()
             .map(|(k, layer)| match layer {
-                Layer::Interface(interface) => crate::model::Layer::Interface(values(k, interface)),
-                Layer::Medium(medium) => crate::model::Layer::Medium(*medium),
+                SceneLayer::Interface(interface) => crate::model::Layer::Interface(values(k, interface)),
+                SceneLayer::Medium(medium) => crate::model::Layer::Medium(*medium),
             })
             .collect();
         crate::model::Stack::new(layers).map_err(|e| Error::invalid(format!("material `{}`", self.name), e.to_string()))
@@ -60,12 +63,12 @@ impl Material {
     }
 }
 
-impl Material {
+impl SceneMaterial {
     /// (layer index, parameter 0 eta / 1 kappa / 2 alpha, range) of each parameter a texture varies.
     fn varying(&self) -> Vec<(usize, usize, Interval)> {
         let mut varying = Vec::new();
         for (k, layer) in self.layers.iter().enumerate() {
-            if let Layer::Interface(i) = layer {
+            if let SceneLayer::Interface(i) = layer {
                 for (parameter, range) in [(0, i.eta[0]), (1, i.kappa[0]), (2, i.alpha)] {
                     if !range.is_point() {
                         varying.push((k, parameter, range));

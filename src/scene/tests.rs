@@ -33,7 +33,7 @@ fn a_minimal_scene_takes_the_defaults() {
     assert_eq!(scene.margin_nodes, DEFAULT_MARGIN_NODES);
     let material = &scene.materials[0];
     assert_eq!((material.model, material.albedo, material.tir), (FluxModel::TwoFlux, AlbedoPath::Fgd, TirPath::Table));
-    let Layer::Interface(interface) = &material.layers[0] else { panic!("an interface") };
+    let SceneLayer::Interface(interface) = &material.layers[0] else { panic!("an interface") };
     assert_eq!(interface.eta, [Interval::point(1.5); 3]);
     assert_eq!(interface.kappa, [Interval::point(0.0); 3]);
     assert!(!interface.is_conductor());
@@ -250,12 +250,13 @@ fn scattering_stack_reads_the_conductor_at_refracted_cosines_and_gd_for_its_lobe
 fn nothing_comes_back_up_from_a_medium_that_only_absorbs() {
     let text = format!("{ONE_LAYER}[[material.layer]]\ntype = \"medium\"\nsigma_k = 0.5\ndepth = 1.0\n");
     let absorbing = plan(&parse(&text).unwrap(), &Config::default()).unwrap();
-    assert!(absorbing.lookups.iter().all(|l| l.direction == "from above"), "{:?}", absorbing.lookups);
+    assert!(absorbing.lookups.iter().all(|l| l.site == crate::model::Site::FromAbove), "{:?}", absorbing.lookups);
     // The same medium scattering in a 6-flux material sends light back up through the coat.
     let text =
         text.replace("sigma_k = 0.5", "sigma_s = 0.5").replace("name = \"m\"", "name = \"m\"\nmodel = \"6-flux\"");
     let plan = plan(&parse(&text).unwrap(), &Config::default()).unwrap();
-    let up: Vec<&super::lookups::Lookup> = plan.lookups.iter().filter(|l| l.direction == "up").collect();
+    let up: Vec<&super::lookups::LookupRange> =
+        plan.lookups.iter().filter(|l| l.site == crate::model::Site::Up).collect();
     assert_eq!(up.len(), 3);
     assert!(up.iter().all(|l| (l.eta.lo - 1.0 / 1.5).abs() < 1e-15), "{up:?}");
 }
@@ -556,7 +557,7 @@ fn gd_is_planned_for_every_lobe_the_shader_reads_it_for_even_one_without_energy(
     // GD for it all the same, and refused the folder whose plan had left GD out.
     let text = format!("{ONE_LAYER}[[material.layer]]\ntype = \"interface\"\neta = 1.5\nkappa = 1.0\nalpha = 0.2\n");
     let mut scene = parse(&text).unwrap();
-    let Layer::Interface(conductor) = &mut scene.materials[0].layers[1] else { panic!("an interface") };
+    let SceneLayer::Interface(conductor) = &mut scene.materials[0].layers[1] else { panic!("an interface") };
     conductor.kappa = [Interval::point(5e-324); 3];
     conductor.nominal.kappa = [5e-324; 3];
     let plan = plan(&scene, &Config::default()).unwrap();

@@ -2,7 +2,7 @@
 //! scene model (`tmlut::shader::scene`) and of the fitted forms (`tmlut::fit::text::shader`), so that the code a
 //! shader runs is, instruction for instruction, the code [`Tape::values_with`] evaluates on the CPU.
 //! What differs between the two is only how the tape's leaves (constants, variables, parameters)
-//! and the functions a language lacks are printed: the [`Leaves`] a caller passes.
+//! and the functions a language lacks are printed: the [`LeafPrinter`] a caller passes.
 
 use crate::shader::{Builtin, Expr, Op, Stmt, Ty, call, let_, name, select};
 use crate::tape::{Ins, Tape, reads};
@@ -10,7 +10,7 @@ use crate::text::{BinOp, Intrinsic};
 use tmlut_loader::error::{Error, Result};
 
 /// How a tape's leaves are printed, and the calls it makes that have no builtin.
-pub trait Leaves {
+pub trait LeafPrinter {
     /// The instructions `i` reads: its operands ([`reads`]) unless a leaf reads more (a table
     /// lookup reads its coordinates).
     fn operands(&self, tape: &Tape, i: usize) -> Vec<usize> {
@@ -19,7 +19,7 @@ pub trait Leaves {
 
     /// Leaf `i` as an expression over what is printed so far, and the name to bind it with `let`
     /// under, if any.
-    fn leaf(&mut self, i: usize, leaf: Leaf, printed: &Printed) -> Result<(Expr, Option<String>)>;
+    fn leaf(&mut self, i: usize, leaf: Leaf, printed: &PrintedExprs) -> Result<(Expr, Option<String>)>;
 
     /// A call of `function`, which no shading language has as a builtin ([`builtin`]).
     fn helper(&mut self, function: Intrinsic, args: Vec<Expr>) -> Result<Expr>;
@@ -37,7 +37,7 @@ pub trait Leaves {
     fn out_of_order(&self, i: usize) -> Error;
 }
 
-/// An instruction that reads no other: what [`Leaves::leaf`] prints.
+/// An instruction that reads no other: what [`LeafPrinter::leaf`] prints.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Leaf {
     Const(f64),
@@ -49,11 +49,11 @@ pub enum Leaf {
 
 /// The instructions' expressions as printed: a name for each bound with `let`, the expression
 /// itself for those used once, inline; `None` for what no root reads.
-pub struct Printed {
+pub struct PrintedExprs {
     exprs: Vec<Option<Expr>>,
 }
 
-impl Printed {
+impl PrintedExprs {
     /// Instruction `k`, or `None` where it is not printed (yet).
     pub fn get(&self, k: usize) -> Option<Expr> {
         self.exprs.get(k).cloned().flatten()
@@ -62,7 +62,7 @@ impl Printed {
 
 /// Print the instructions `roots` depend on into `body`, in the tape's order; `Ok` holds every
 /// instruction's expression.
-pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut Vec<Stmt>) -> Result<Printed> {
+pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn LeafPrinter, body: &mut Vec<Stmt>) -> Result<PrintedExprs> {
     let n = tape.ins.len();
     let mut uses = vec![0usize; n];
     let mut live = vec![false; n];
@@ -97,7 +97,7 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn Leaves, body: &mut V
         }
         args
     };
-    let mut printed = Printed { exprs: vec![None; n] };
+    let mut printed = PrintedExprs { exprs: vec![None; n] };
     for i in (0..n).filter(|&i| live[i]) {
         let x = |k: usize| printed.get(k).ok_or_else(|| leaves.out_of_order(i));
         let (expr, bound) = match tape.ins[i] {
@@ -155,8 +155,8 @@ pub fn builtin(f: Intrinsic) -> Option<Builtin> {
 
 #[cfg(test)]
 mod tests {
-    use super::{Leaf, Leaves, Printed, print};
-    use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, f, func, name};
+    use super::{Leaf, LeafPrinter, PrintedExprs, print};
+    use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, float, func, name};
     use crate::tape::{Ins, Tape};
     use crate::text::{BinOp, Compare, Intrinsic};
     use tmlut_loader::error::{Error, Result};
@@ -164,11 +164,11 @@ mod tests {
     /// Variables `x0, x1, ...`, instruction 3 named `named`, helpers as plain calls.
     struct Plain;
 
-    impl Leaves for Plain {
-        fn leaf(&mut self, _: usize, leaf: Leaf, _: &Printed) -> Result<(Expr, Option<String>)> {
+    impl LeafPrinter for Plain {
+        fn leaf(&mut self, _: usize, leaf: Leaf, _: &PrintedExprs) -> Result<(Expr, Option<String>)> {
             Ok(match leaf {
                 Leaf::Var(k) => (name(&format!("x{k}")), None),
-                Leaf::Const(v) => (f(v as f32), None),
+                Leaf::Const(v) => (float(v as f32), None),
                 Leaf::Param(_) => return Err(Error::invalid("test tape", "a parameter")),
             })
         }

@@ -186,7 +186,7 @@ impl Tape {
     /// Values and each instruction's derivatives with respect to its operands, at one point: the
     /// derivatives kept as a flat list of `(operand, derivative)` edges per instruction, so that
     /// the backward sweep is one pass over numbers.
-    pub fn forward(&self, vars: &[f64], params: &[f64], work: &mut Work) {
+    pub fn forward(&self, vars: &[f64], params: &[f64], work: &mut EvaluationBuffers) {
         self.values(vars, params, &mut work.values);
         work.edges.clear();
         work.edge_end.clear();
@@ -210,7 +210,7 @@ impl Tape {
 
     /// Add `seed[c] * d channel_c / d parameters` to `gradient`, after [`Tape::forward`] at the
     /// same point: one reverse sweep for every channel at once.
-    pub fn backward(&self, work: &mut Work, seeds: &[f64], gradient: &mut [f64]) {
+    pub fn backward(&self, work: &mut EvaluationBuffers, seeds: &[f64], gradient: &mut [f64]) {
         work.adjoints.clear();
         work.adjoints.resize(self.ins.len(), 0.0);
         for (&k, &s) in self.outputs.iter().zip(seeds) {
@@ -352,7 +352,7 @@ pub fn value_of<T: Scalar>(ins: &Ins, v: impl Fn(usize) -> T, vars: &[T], params
 
 /// Buffers of one thread's evaluations, reused from point to point.
 #[derive(Debug, Default)]
-pub struct Work {
+pub struct EvaluationBuffers {
     values: Vec<f64>,
     /// `(operand, derivative)`; a parameter `k`'s own edge is `(usize::MAX - k, 1)`.
     edges: Vec<(usize, f64)>,
@@ -361,7 +361,7 @@ pub struct Work {
     adjoints: Vec<f64>,
 }
 
-impl Work {
+impl EvaluationBuffers {
     pub fn value(&self, k: usize) -> f64 {
         self.values[k]
     }

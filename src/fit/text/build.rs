@@ -12,7 +12,7 @@ use super::figures::{figures_of, residuals};
 use super::fitted::tir_shape;
 use super::fitting::fit;
 use super::form::Form;
-use super::prepared::Prepared;
+use super::prepared::SearchData;
 use crate::error::Result;
 use crate::fit::FitSettings;
 use crate::formats::manifest::{ErrorFigures, FitEntry, ShaderFile};
@@ -64,7 +64,7 @@ pub fn fit_for_build(table: &Table, seed: u64, dir: &Path) -> Result<(FitEntry, 
     let settings = FitSettings { starts: BUILD_STARTS, seed, ..FitSettings::default() };
     // Fitted on every third point (a 27th of them), judged on all of them.
     let coarse = data.every(table, BUILD_NODE_STRIDE);
-    let fitted = fit(&form, &Prepared::new(&form, &coarse), &settings)?;
+    let fitted = fit(&form, &SearchData::new(&form, &coarse), &settings)?;
     let set = figures_of(&data, &residuals(&form, &data, &fitted.parameters)?);
     let at = |v: &str| set.together.max_at.get(v).copied().unwrap_or(f64::NAN);
     let figures = ErrorFigures {

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::figures::{FigureSet, figure_set};
+use super::figures::{ErrorsByChannel, figure_set};
 use super::form::Form;
 use super::region::Region;
 use crate::error::{Error, Result};
@@ -22,19 +22,19 @@ pub struct Certified {
     /// Gauss–Legendre nodes per panel of each exact value.
     pub exact_nodes: usize,
     /// The fitted form, in f32, against the exact values.
-    pub form: FigureSet,
+    pub form: ErrorsByChannel,
     /// The form at its start values.
-    pub form_at_start: FigureSet,
+    pub form_at_start: ErrorsByChannel,
     /// The table, interpolated multilinearly in its axes (`Table::interpolate`, f64 arithmetic on
     /// its stored values), against the same exact values.
-    pub table: FigureSet,
+    pub table: ErrorsByChannel,
     /// With `--weights` other than uniform: the fitted form's figures with each point weighted
     /// as the fit weighs it ([`Region::weight`] at the point).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub form_weighted: Option<FigureSet>,
+    pub form_weighted: Option<ErrorsByChannel>,
     /// The table's, weighted the same.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub table_weighted: Option<FigureSet>,
+    pub table_weighted: Option<ErrorsByChannel>,
 }
 
 /// [`Certified`] for every domain of `exact` (the exact integrals at random points of the table's

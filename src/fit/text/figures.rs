@@ -1,4 +1,4 @@
-//! The error figures of a form against the data ([`FigureSet`]: the RMS, 99th percentile and max
+//! The error figures of a form against the data ([`ErrorsByChannel`]: the RMS, 99th percentile and max
 //! of each channel and of all together, weighted where the data is): the form evaluated in f32
 //! with f32 parameters, as its shader computes it ([`residuals`]).
 
@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 
 /// Error figures of one channel, or of all together.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Figures {
+pub struct ErrorFigures {
     pub rms: f64,
     /// The 99th percentile of |error| (nearest rank).
     pub p99: f64,
@@ -28,14 +28,14 @@ pub struct Figures {
 
 /// The figures of each channel and of all together.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FigureSet {
-    pub together: Figures,
-    pub channels: BTreeMap<String, Figures>,
+pub struct ErrorsByChannel {
+    pub together: ErrorFigures,
+    pub channels: BTreeMap<String, ErrorFigures>,
 }
 
 /// The form evaluated in f32 with f32 parameters (what its shader computes) against the data.
 /// Refuses a value that is not finite, naming the point.
-pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<FigureSet> {
+pub fn figures(form: &Form, data: &FormData, parameters: &[f64]) -> Result<ErrorsByChannel> {
     let errors = residuals(form, data, parameters)?;
     Ok(figures_of(data, &errors))
 }
@@ -75,14 +75,14 @@ pub fn residuals(form: &Form, data: &FormData, parameters: &[f64]) -> Result<Vec
 }
 
 /// The figures of the residuals of [`residuals`], every point counting once.
-pub(crate) fn figures_of(data: &FormData, errors: &[f64]) -> FigureSet {
+pub(crate) fn figures_of(data: &FormData, errors: &[f64]) -> ErrorsByChannel {
     figure_set(errors, &data.channels, &data.variables, |n| data.point(n).to_vec(), |_| 1.0)
 }
 
 /// The figures of the residuals of [`residuals`] with the data's weights, where they are not
 /// uniform: RMS `sqrt(sum w e^2 / sum w)`, the 99th percentile of the weighted distribution of
 /// |e|, the max over the points of positive weight.
-pub(super) fn weighted_figures_of(data: &FormData, errors: &[f64]) -> Option<FigureSet> {
+pub(super) fn weighted_figures_of(data: &FormData, errors: &[f64]) -> Option<ErrorsByChannel> {
     data.weighted
         .then(|| figure_set(errors, &data.channels, &data.variables, |n| data.point(n).to_vec(), |n| data.weights[n]))
 }
@@ -97,9 +97,9 @@ pub(super) fn figure_set(
     variables: &[String],
     point: impl Fn(usize) -> Vec<f64>,
     weight: impl Fn(usize) -> f64,
-) -> FigureSet {
+) -> ErrorsByChannel {
     let count = channels.len();
-    let summarise = |selected: &dyn Fn(usize) -> bool, name_channel: bool| -> Figures {
+    let summarise = |selected: &dyn Fn(usize) -> bool, name_channel: bool| -> ErrorFigures {
         let mut abs: Vec<(f64, f64)> = Vec::new();
         let (mut sum, mut total, mut max, mut max_index) = (0.0, 0.0, -1.0, 0);
         for (k, &e) in errors.iter().enumerate().filter(|(k, _)| selected(*k)) {
@@ -128,7 +128,7 @@ pub(super) fn figure_set(
             })
             .or(abs.last())
             .map_or(0.0, |a| a.0);
-        Figures {
+        ErrorFigures {
             rms: if total > 0.0 { (sum / total).sqrt() } else { 0.0 },
             p99,
             max: max.max(0.0),
@@ -136,7 +136,7 @@ pub(super) fn figure_set(
             max_channel: name_channel.then(|| channels[max_index % count].clone()),
         }
     };
-    FigureSet {
+    ErrorsByChannel {
         together: summarise(&|_| true, true),
         channels: (0..count).map(|c| (channels[c].clone(), summarise(&|k| k % count == c, false))).collect(),
     }

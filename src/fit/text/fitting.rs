@@ -15,12 +15,12 @@ use serde::{Deserialize, Serialize};
 use super::certify::{Certified, certify};
 use super::cost::{Cost, operations, timing};
 use super::data::FormData;
-use super::figures::{FigureSet, Figures, figures_of, residuals, weighted_figures_of};
+use super::figures::{ErrorFigures, ErrorsByChannel, figures_of, residuals, weighted_figures_of};
 use super::form::{Form, MAX_FORM_BYTES};
 use super::identifiability::{Identifiability, identifiability};
 use super::markdown::markdown;
 use super::pictures::{ERROR_MAP_FILE, RESIDUALS_FILE, write_pictures};
-use super::prepared::Prepared;
+use super::prepared::SearchData;
 use super::region::{Range, Region, SceneLookups, WeightsSpec};
 use super::shader::{LANGUAGES, function_name, sources};
 use crate::commit::{Move, OutputFolder, commit_set};
@@ -40,7 +40,7 @@ pub struct FormFit {
 /// Fit `form` to `data`: the form's start and `settings.starts - 1` seeded uniform points in the
 /// bounds, each searched by L-BFGS with the exact gradient; the best wins. `max_evaluations = 0`
 /// evaluates the form at its start values.
-pub fn fit(form: &Form, prepared: &Prepared, settings: &FitSettings) -> Result<FormFit> {
+pub fn fit(form: &Form, prepared: &SearchData, settings: &FitSettings) -> Result<FormFit> {
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
     // A form without parameters (a published baseline) has nothing to search.
     if settings.max_evaluations == 0 || start.is_empty() {
@@ -85,16 +85,16 @@ pub struct FormReport {
     pub weights_are: String,
     /// At the fitted parameters, the form in f32 against the table's values, every point counting
     /// once.
-    pub figures: FigureSet,
+    pub figures: ErrorsByChannel,
     /// The same at the start values.
-    pub start_figures: FigureSet,
+    pub start_figures: ErrorsByChannel,
     /// With weights other than uniform: the figures with each point counting its weight (the
     /// fit's objective is their RMS squared, in f64).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub weighted_figures: Option<FigureSet>,
+    pub weighted_figures: Option<ErrorsByChannel>,
     /// The same at the start values.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub weighted_start_figures: Option<FigureSet>,
+    pub weighted_start_figures: Option<ErrorsByChannel>,
     /// The form's operations, and its time per evaluation beside the table's lookup.
     #[serde(default)]
     pub cost: Option<Cost>,
@@ -156,8 +156,8 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
     let data = FormData::from_table_in(table, &form, &region)?;
     let start: Vec<f64> = form.parameters.iter().map(|p| p.start).collect();
     let start_residuals = residuals(&form, &data, &start)?;
-    Prepared::check_memory(&form, &data)?;
-    let prepared = Prepared::new(&form, &data);
+    SearchData::check_memory(&form, &data)?;
+    let prepared = SearchData::new(&form, &data);
     let fitted = fit(&form, &prepared, &request.options.settings)?;
     let fitted_residuals = residuals(&form, &data, &fitted.parameters)?;
     let fitted_figures = figures_of(&data, &fitted_residuals);
@@ -221,10 +221,10 @@ pub struct RankedForm {
     pub parameters: usize,
     /// At the fitted parameters, all channels together (the form in f32 against the table), over
     /// the region's points, every point counting once.
-    pub figures: Figures,
+    pub figures: ErrorFigures,
     /// With weights other than uniform: the same with each point counting its weight.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub weighted_figures: Option<Figures>,
+    pub weighted_figures: Option<ErrorFigures>,
     /// The form's operations, and its time per evaluation beside the table's lookup where timed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cost: Option<Cost>,
@@ -232,7 +232,7 @@ pub struct RankedForm {
 
 impl RankedForm {
     /// The figures the ranking reads: the weighted ones where the points are weighted.
-    pub fn ranked_by(&self) -> &Figures {
+    pub fn ranked_by(&self) -> &ErrorFigures {
         self.weighted_figures.as_ref().unwrap_or(&self.figures)
     }
 }

@@ -7,9 +7,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::form::Form;
-use super::prepared::{CHUNK, Prepared};
+use super::prepared::{CHUNK, SearchData};
 use crate::integrate::measure::symmetric_eigen;
-use crate::ir::tape::Work;
+use crate::ir::tape::EvaluationBuffers;
 
 /// What the data leaves undetermined at the optimum, from the Jacobian `J` of the residuals with
 /// respect to the parameters, each column scaled by its parameter's bound range (so that a unit
@@ -44,7 +44,7 @@ pub struct WeakDirection {
 /// than a thousandth of what the best-determined direction does.
 pub const ILL_DETERMINED_RATIO: f64 = 1e-3;
 
-pub fn identifiability(form: &Form, prepared: &Prepared, parameters: &[f64]) -> Identifiability {
+pub fn identifiability(form: &Form, prepared: &SearchData, parameters: &[f64]) -> Identifiability {
     let (data, tape) = (prepared.data, &prepared.tape);
     let p = parameters.len();
     let channels = data.channels.len();
@@ -55,7 +55,7 @@ pub fn identifiability(form: &Form, prepared: &Prepared, parameters: &[f64]) -> 
     let per_chunk: Vec<Vec<f64>> = (0..data.len().div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
-            let mut work = Work::default();
+            let mut work = EvaluationBuffers::default();
             let points = chunk * CHUNK..((chunk + 1) * CHUNK).min(data.len());
             let rows = points.len() * channels;
             let mut jacobian = vec![0.0; rows * p];

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use super::data::FormData;
-use super::figures::FigureSet;
+use super::figures::ErrorsByChannel;
 use crate::error::Result;
 use crate::report::error_map::axis_label;
 use crate::report::plot::{Panel, heatmaps_png, histogram_png};
@@ -92,7 +92,7 @@ pub fn write_pictures(
     table: &Table,
     data: &FormData,
     residuals: &[f64],
-    figures: &FigureSet,
+    figures: &ErrorsByChannel,
 ) -> Result<()> {
     // The channel of the largest error.
     let channel =

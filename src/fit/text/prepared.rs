@@ -1,4 +1,4 @@
-//! The data as the search reads it ([`Prepared`]): the form's tape split so that what does not
+//! The data as the search reads it ([`SearchData`]): the form's tape split so that what does not
 //! depend on the parameters is computed once per point, and the objective the search minimises
 //! (the weighted mean squared residual, with its gradient from the tape), summed over fixed chunks
 //! of points (`CHUNK`) so that it is the same to the bit whatever the number of threads.
@@ -16,7 +16,7 @@ pub(super) const CHUNK: usize = 4096;
 
 /// The data as a search reads it: the form's tape split ([`crate::ir::tape::Tape::split`]) so that
 /// everything that does not depend on the parameters is computed once per point, here.
-pub struct Prepared<'a> {
+pub struct SearchData<'a> {
     pub(super) data: &'a FormData,
     pub(super) tape: crate::ir::tape::Tape,
     /// Per input of the split tape (the variables, then the values of the split-off
@@ -25,7 +25,7 @@ pub struct Prepared<'a> {
     width: usize,
 }
 
-impl<'a> Prepared<'a> {
+impl<'a> SearchData<'a> {
     /// Refuse a form whose prepared data (every point's inputs of the split tape, held three
     /// times while they are gathered and transposed) this process has no memory for, naming the
     /// limit and its source.
@@ -46,7 +46,7 @@ impl<'a> Prepared<'a> {
         Ok(())
     }
 
-    pub fn new(form: &Form, data: &'a FormData) -> Prepared<'a> {
+    pub fn new(form: &Form, data: &'a FormData) -> SearchData<'a> {
         let d = data.variables.len();
         let (tape, split_off) = form.tape.split(d);
         let width = d + split_off.len();
@@ -73,7 +73,7 @@ impl<'a> Prepared<'a> {
                 columns[k * count + n] = v;
             }
         }
-        Prepared { data, tape, columns, width }
+        SearchData { data, tape, columns, width }
     }
 
     /// Point `n`'s inputs of the split tape, into `point`.

@@ -10,9 +10,9 @@
 
 use super::form::Form;
 use crate::error::{Error, Result};
-use crate::ir::print::{Leaf, Leaves, Printed, print};
+use crate::ir::print::{Leaf, LeafPrinter, PrintedExprs, print};
 use crate::ir::text::{Intrinsic, form_name};
-use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, call, f, func, let_, name};
+use crate::shader::{Expr, Lang, Module, Parens, Stmt, Ty, call, float, func, let_, name};
 
 /// The shading languages a fitted form is written in, with each file's extension.
 pub const LANGUAGES: &[(&str, &str)] = &[("WGSL", "wgsl"), ("HLSL", "hlsl"), ("GLSL", "glsl"), ("MSL", "metal")];
@@ -31,19 +31,19 @@ fn power_helper(n: i32) -> String {
 /// The leaves of a form's tape: its variables are the function's arguments, its parameters locals
 /// holding their fitted values, its derived variables and `let` bindings named as written; and the
 /// helpers its expressions need: `asinh`, and `x ^ n` multiplied out.
-struct FormLeaves<'a> {
+struct FormLeafPrinter<'a> {
     form: &'a Form,
     parameters: &'a [f64],
     asinh: bool,
     powers: Vec<i32>,
 }
 
-impl Leaves for FormLeaves<'_> {
-    fn leaf(&mut self, _: usize, leaf: Leaf, _: &Printed) -> Result<(Expr, Option<String>)> {
+impl LeafPrinter for FormLeafPrinter<'_> {
+    fn leaf(&mut self, _: usize, leaf: Leaf, _: &PrintedExprs) -> Result<(Expr, Option<String>)> {
         Ok(match leaf {
             Leaf::Var(k) => (name(&self.form.variables[k]), None),
-            Leaf::Param(k) => (f(self.parameters[k] as f32), Some(self.form.parameters[k].name.clone())),
-            Leaf::Const(v) => (f(v as f32), None),
+            Leaf::Param(k) => (float(self.parameters[k] as f32), Some(self.form.parameters[k].name.clone())),
+            Leaf::Const(v) => (float(v as f32), None),
         })
     }
 
@@ -79,7 +79,7 @@ impl Leaves for FormLeaves<'_> {
 
 /// The fitted form as a module: helpers first, then `tmlut_<form>`.
 pub fn module(form: &Form, parameters: &[f64]) -> Result<Module> {
-    let mut leaves = FormLeaves { form, parameters, asinh: false, powers: Vec::new() };
+    let mut leaves = FormLeafPrinter { form, parameters, asinh: false, powers: Vec::new() };
     let mut body = Vec::new();
     let printed = print(&form.tape, &form.tape.outputs, &mut leaves, &mut body)?;
     let channels: Vec<Expr> = form
@@ -116,18 +116,18 @@ pub fn module(form: &Form, parameters: &[f64]) -> Result<Module> {
                 let_("a", Ty::F32, x.clone().abs()),
                 Stmt::Return(
                     call(Intrinsic::Sign, vec![x])
-                        * call(Intrinsic::Log, vec![a.clone() + (a.clone() * a + f(1.0)).sqrt()]),
+                        * call(Intrinsic::Log, vec![a.clone() + (a.clone() * a + float(1.0)).sqrt()]),
                 ),
             ],
         );
     }
     leaves.powers.sort_unstable();
     for &n in &leaves.powers {
-        let mut product = f(1.0);
+        let mut product = float(1.0);
         for k in 0..n.unsigned_abs() {
             product = if k == 0 { name("x") } else { product * name("x") };
         }
-        let result = if n < 0 { f(1.0) / product } else { product };
+        let result = if n < 0 { float(1.0) / product } else { product };
         m.function(&power_helper(n), vec![("x", Ty::F32)], Ty::F32, vec![Stmt::Return(result)]);
     }
     let params: Vec<(&str, Ty)> = form.variables.iter().map(|v| (v.as_str(), Ty::F32)).collect();

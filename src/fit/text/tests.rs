@@ -4,7 +4,7 @@ use super::data::FormData;
 use super::figures::figures;
 use super::fitting::fit;
 use super::identifiability::identifiability;
-use super::prepared::Prepared;
+use super::prepared::SearchData;
 use super::shader::{module, sources};
 use super::*;
 use crate::fit::FitSettings;
@@ -109,7 +109,7 @@ fn the_gradient_is_the_finite_difference_of_the_value_for_every_function() {
     let table = karis_like(4, |_, _| [0.0, 0.0]);
     let text = ALL_FUNCTIONS;
     let form = Form::parse(Path::new("all.toml"), text, &table).unwrap();
-    let mut work = crate::ir::tape::Work::default();
+    let mut work = crate::ir::tape::EvaluationBuffers::default();
     let mut scratch = Vec::new();
     for (point, params) in
         [([0.3, 0.6], [0.3, 0.7, 1.3]), ([0.9, 0.1], [-0.4, 0.2, 0.6]), ([0.5, 0.5], [1.1, -0.3, 1.7])]
@@ -164,7 +164,7 @@ fn a_builtin_of_literals_alone_prints_as_wgsl_naga_accepts() {
 fn the_mean_squared_residual_s_gradient_matches_finite_differences() {
     let form = parse(GOOD).unwrap();
     let data = FormData::from_table(&table(), &form).unwrap();
-    let prepared = Prepared::new(&form, &data);
+    let prepared = SearchData::new(&form, &data);
     let objective = |p: &[f64], g: Option<&mut [f64]>| prepared.objective(p, g);
     let p = [0.3, 2.5];
     let mut g = [0.0; 2];
@@ -195,7 +195,7 @@ fn a_fit_recovers_the_parameters_the_table_was_made_with_and_reports_redundancy(
     let form = parse(GOOD).unwrap();
     let data = FormData::from_table(&table(), &form).unwrap();
     let settings = FitSettings { starts: 3, ..FitSettings::default() };
-    let fitted = fit(&form, &Prepared::new(&form, &data), &settings).unwrap();
+    let fitted = fit(&form, &SearchData::new(&form, &data), &settings).unwrap();
     assert!(
         (fitted.parameters[0] - 0.5).abs() < 1e-3 && (fitted.parameters[1] - 5.0).abs() < 1e-2,
         "{:?}",
@@ -203,17 +203,17 @@ fn a_fit_recovers_the_parameters_the_table_was_made_with_and_reports_redundancy(
     );
     let f = figures(&form, &data, &fitted.parameters).unwrap();
     assert!(f.together.rms < 1e-5 && f.channels["bias"].max < 1e-5, "{f:?}");
-    assert!(identifiability(&form, &Prepared::new(&form, &data), &fitted.parameters).ill_determined.is_empty());
+    assert!(identifiability(&form, &SearchData::new(&form, &data), &fitted.parameters).ill_determined.is_empty());
     // The same seed gives the same bits, whatever the number of threads.
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    let again = one.install(|| fit(&form, &Prepared::new(&form, &data), &settings).unwrap());
+    let again = one.install(|| fit(&form, &SearchData::new(&form, &data), &settings).unwrap());
     assert_eq!(again.parameters, fitted.parameters);
     // Two parameters that only enter as a sum are one direction of no information.
     let redundant = GOOD
         .replace("1 - p * roughness * mu", "1 - (p + r) * roughness * mu")
         .replace("[let]", "r = { start = 0.0, min = -1.0, max = 1.0 }\n[let]");
     let form = parse(&redundant).unwrap();
-    let prepared = Prepared::new(&form, &data);
+    let prepared = SearchData::new(&form, &data);
     let fitted = fit(&form, &prepared, &settings).unwrap();
     let id = identifiability(&form, &prepared, &fitted.parameters);
     assert_eq!(id.ill_determined.len(), 1, "{id:?}");
@@ -239,7 +239,7 @@ fn tables_with_a_derived_axis_are_fitted_on_a_uniform_grid_of_the_lookup_variabl
     let data = FormData::from_table(&tir, &form).unwrap();
     assert_eq!(data.len(), crate::fit::FIT_GRID_NODES.pow(3));
     let fitted =
-        fit(&form, &Prepared::new(&form, &data), &FitSettings { starts: 1, ..FitSettings::default() }).unwrap();
+        fit(&form, &SearchData::new(&form, &data), &FitSettings { starts: 1, ..FitSettings::default() }).unwrap();
     assert!((fitted.parameters[0] - 0.25).abs() < 1e-4, "{:?}", fitted.parameters);
     let wgsl = module(&form, &fitted.parameters).unwrap().print(crate::shader::Lang::Wgsl);
     assert!(wgsl.contains("fn tmlut_tir_line(mu: f32, alpha: f32, eta: f32) -> f32"), "{wgsl}");
@@ -304,7 +304,7 @@ fn every_tir_form_file_fits_a_tir_shaped_table() {
             assert!(out[0].is_finite(), "{file} at {corner:?}: {}", out[0]);
         }
         let data = FormData::from_table(&tir, &form).unwrap();
-        let fitted = fit(&form, &Prepared::new(&form, &data), &settings).unwrap();
+        let fitted = fit(&form, &SearchData::new(&form, &data), &settings).unwrap();
         assert_eq!(fitted.search.is_none(), form.parameters.is_empty(), "{file}");
         let (at_start, at_end) = (
             figures(&form, &data, &start).unwrap().together.rms,
@@ -324,7 +324,7 @@ fn a_parameter_in_a_select_condition_is_used_and_kept_by_the_split() {
     let text = "table = \"karis\"\n[parameters]\nk = { start = 0.5, min = 0.0, max = 1.0 }\n[channels]\nscale = \"select(0.0, 1.0, mu < k)\"\nbias = \"mu * mu\"\n";
     let form = parse(text).unwrap();
     let data = FormData::from_table(&table(), &form).unwrap();
-    let prepared = Prepared::new(&form, &data);
+    let prepared = SearchData::new(&form, &data);
     // Where the step sits changes the objective: the condition was not split off as a constant.
     assert_ne!(prepared.objective(&[0.2], None), prepared.objective(&[0.8], None));
 }
@@ -348,7 +348,7 @@ fn the_batch_evaluation_is_the_point_by_point_one_to_the_bit() {
         let columns: Vec<Vec<f64>> = (0..d).map(|_| (0..count).map(|_| 1.4 * unit() - 0.2).collect()).collect();
         let params: Vec<f64> = form.parameters.iter().map(|q| q.min + unit() * (q.max - q.min)).collect();
         let seeds: Vec<Vec<f64>> = (0..count).map(|_| (0..channels).map(|_| unit() - 0.5).collect()).collect();
-        let (mut work, mut expected) = (crate::ir::tape::Work::default(), vec![0.0; p]);
+        let (mut work, mut expected) = (crate::ir::tape::EvaluationBuffers::default(), vec![0.0; p]);
         let (mut batch, mut gradient) = (batch::Batch::default(), vec![0.0; p]);
         for first in (0..count).step_by(batch::LANES) {
             let len = batch::LANES.min(count - first);
@@ -500,7 +500,7 @@ fn a_range_keeps_only_its_points_and_fits_the_form_where_it_holds() {
     let rms = |ranges: &[&str]| {
         let region = region(ranges, WeightsSpec::Uniform, &bent, &form).unwrap();
         let data = FormData::from_table_in(&bent, &form, &region).unwrap();
-        let fitted = fit(&form, &Prepared::new(&form, &data), &settings).unwrap();
+        let fitted = fit(&form, &SearchData::new(&form, &data), &settings).unwrap();
         let rms = figures(&form, &data, &fitted.parameters).unwrap().together.rms;
         (data, rms, fitted.parameters)
     };
@@ -529,7 +529,7 @@ fn cosine_weights_pull_a_constant_toward_the_views_near_the_normal() {
     let fitted = |weights: WeightsSpec| {
         let region = region(&[], weights, &table, &form).unwrap();
         let data = FormData::from_table_in(&table, &form, &region).unwrap();
-        let prepared = Prepared::new(&form, &data);
+        let prepared = SearchData::new(&form, &data);
         let fitted = fit(&form, &prepared, &settings).unwrap().parameters;
         let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         assert_eq!(one.install(|| fit(&form, &prepared, &settings).unwrap().parameters), fitted);
@@ -666,7 +666,7 @@ fn a_folder_of_forms_is_fitted_over_a_region_with_weights_and_timed() {
         (&request.options.ranges, &request.options.weights, 2)
     );
     assert!(ranking.rule.contains("weighted"), "{}", ranking.rule);
-    let weighted: Vec<&figures::Figures> = ranking.forms.iter().map(|f| f.ranked_by()).collect();
+    let weighted: Vec<&figures::ErrorFigures> = ranking.forms.iter().map(|f| f.ranked_by()).collect();
     assert!(weighted[0].max <= weighted[1].max, "{weighted:?}");
     for form in &ranking.forms {
         let report: FormReport =

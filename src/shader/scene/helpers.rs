@@ -7,7 +7,7 @@
 //! sampler runs them in f32 on the same texels. A 2D table is filtered by `bilinear`, the plane
 //! the CPU's `trilinear` reads a 2D texture in (a volume one texel deep, whose z weight is 0).
 
-use super::super::{Expr, Intrinsic, Module, Stmt, Ty, call, f, let_, name, select};
+use super::super::{Expr, Intrinsic, Module, Stmt, Ty, call, float, let_, name, select};
 use super::reads::InShader;
 use crate::filter::{self, bilinear, linear_taps_in};
 
@@ -128,8 +128,8 @@ pub(super) fn asinh(module: &mut Module) {
         Ty::F32,
         vec![
             let_("a", Ty::F32, name("x").abs()),
-            let_("r", Ty::F32, call(Intrinsic::Log, vec![a.clone() + (a.clone() * a + f(1.0)).sqrt()])),
-            Stmt::Return(select(name("x").lt(f(0.0)), -name("r"), name("r"))),
+            let_("r", Ty::F32, call(Intrinsic::Log, vec![a.clone() + (a.clone() * a + float(1.0)).sqrt()])),
+            Stmt::Return(select(name("x").lt(float(0.0)), -name("r"), name("r"))),
         ],
     );
 }
@@ -153,11 +153,11 @@ pub(super) fn acos(module: &mut Module) {
     ];
     // Horner's scheme from the highest coefficient.
     let x = name("x");
-    let polynomial = A[..7].iter().rev().fold(f(A[7] as f32), |p, &a| f(a as f32) + x.clone() * p);
+    let polynomial = A[..7].iter().rev().fold(float(A[7] as f32), |p, &a| float(a as f32) + x.clone() * p);
     module.function(
         "tmh_acos",
         vec![("x", Ty::F32)],
         Ty::F32,
-        vec![Stmt::Return((f(1.0) - x.clone()).max(f(0.0)).sqrt() * polynomial)],
+        vec![Stmt::Return((float(1.0) - x.clone()).max(float(0.0)).sqrt() * polynomial)],
     );
 }

@@ -9,10 +9,10 @@
 
 use std::cell::RefCell;
 
-use super::super::{Expr, Function, Stmt, Ty, assign, f, name, vec3};
+use super::super::{Expr, Function, Stmt, Ty, assign, float, name, vec3};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
-use crate::ir::print::{Leaf, Leaves, Printed, print};
+use crate::ir::print::{Leaf, LeafPrinter, PrintedExprs, print};
 use crate::ir::record::{Recorded, record};
 use crate::ir::tape::{Ins, Tape, reads};
 use crate::ir::text::Intrinsic;
@@ -89,7 +89,7 @@ pub(super) fn function(g: &mut Generator, m: &ShaderMaterial) -> Result<(Functio
 }
 
 /// Recorded value `r` as printed: a constant, or its instruction.
-fn value(printed: &Printed, r: Recorded, material: &str) -> Result<Expr> {
+fn value(printed: &PrintedExprs, r: Recorded, material: &str) -> Result<Expr> {
     match r.known_value() {
         Some(v) => constant(v, material),
         None => printed.get(r.instruction()).ok_or_else(|| out_of_order(material, r.instruction())),
@@ -103,7 +103,7 @@ fn out_of_order(material: &str, k: usize) -> Error {
     )
 }
 
-/// A constant as an f32 literal (past f32's range the largest finite f32, as [`f`] prints every
+/// A constant as an f32 literal (past f32's range the largest finite f32, as [`float`] prints every
 /// constant); refused where it is NaN, which no stack of valid layers gives.
 fn constant(v: f64, material: &str) -> Result<Expr> {
     if v.is_nan() {
@@ -112,7 +112,7 @@ fn constant(v: f64, material: &str) -> Result<Expr> {
             "its model computes NaN from the stack's constants alone",
         ));
     }
-    Ok(f(v as f32))
+    Ok(float(v as f32))
 }
 
 /// The leaves of a material's recorded model: the view cosine `mu_in`, each lookup the read of
@@ -123,7 +123,7 @@ struct MaterialLeaves<'a, 'g> {
     recorded: &'a RecordedMaterial,
 }
 
-impl Leaves for MaterialLeaves<'_, '_> {
+impl LeafPrinter for MaterialLeaves<'_, '_> {
     /// A lookup reads its coordinates that depend on the view.
     fn operands(&self, tape: &Tape, i: usize) -> Vec<usize> {
         match tape.ins[i] {
@@ -139,7 +139,7 @@ impl Leaves for MaterialLeaves<'_, '_> {
         }
     }
 
-    fn leaf(&mut self, i: usize, leaf: Leaf, printed: &Printed) -> Result<(Expr, Option<String>)> {
+    fn leaf(&mut self, i: usize, leaf: Leaf, printed: &PrintedExprs) -> Result<(Expr, Option<String>)> {
         let m = self.material;
         match leaf {
             Leaf::Const(v) => Ok((constant(v, &m.name)?, None)),
@@ -167,7 +167,7 @@ impl Leaves for MaterialLeaves<'_, '_> {
 
 /// The read answering lookup `l`, its coordinates as printed so far. The index is the stack's,
 /// and so is an interface's roughness for its albedo; a lobe's roughness may depend on the view.
-fn lookup(g: &mut Generator, m: &ShaderMaterial, l: &Lookup<Recorded>, printed: &Printed) -> Result<Expr> {
+fn lookup(g: &mut Generator, m: &ShaderMaterial, l: &Lookup<Recorded>, printed: &PrintedExprs) -> Result<Expr> {
     let baked = |v: Recorded, what: &str| {
         v.known_value()
             .ok_or_else(|| g.refuse(&m.name, format!("its model reads a table at a {what} that depends on the view")))

@@ -1,5 +1,5 @@
 //! How a material's function reads the folder's tables: the scene shader's [`Reader`] of
-//! [`Routes`], and the read each [`Answer`] prints, as [`crate::model::folder::FolderTables`]
+//! [`Routes`], and the read each [`LookupSource`] prints, as [`crate::model::folder::FolderTables`]
 //! samples it on the CPU. The coordinates are printed from the CPU's own code
 //! ([`Axis::texture_coordinate_in`], [`point_in`], [`slice_choice_distance_in`]) through
 //! [`InShader`], an [`Arithmetic`] of shader expressions.
@@ -14,7 +14,7 @@
 //! from slices, the 3D TIR table (its third axis `eta` or the critical-angle offset), the fitted
 //! form, or off; GD from its 2D table.
 
-use super::super::{Builtin, Expr, Function, Stmt, Ty, assign, call, f, func, let_, name, select, var};
+use super::super::{Builtin, Expr, Function, Stmt, Ty, assign, call, float, func, let_, name, select, var};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
 use crate::fit::text::fitted::{FittedForm, FittedFormExt};
@@ -22,7 +22,7 @@ use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::loader::{ArrayPlace, FolderSlice, LutFolder, TextureBinding};
 use crate::model::folder::{slice_choice_distance, slice_choice_distance_in};
-use crate::model::routes::{Answer, Paths, Reader, Routes};
+use crate::model::routes::{LookupSource, Paths, Reader, Routes};
 use crate::model::{AlbedoPath, Quantity};
 use crate::packing::PackedFgd;
 use crate::physics::normal_incidence_reflectance;
@@ -151,15 +151,15 @@ impl Generator<'_> {
                 let x = if d == 0 { mu.clone() } else { alpha.clone() };
                 array_coordinate(&t.axes[d], place.origin[d], place.layer_extent[d], x)
             });
-            let [width, height] = place.layer_extent.map(|e| f(e as f32));
-            let layer = Expr::Construct(Ty::I32, vec![f(place.layer as f32)]);
+            let [width, height] = place.layer_extent.map(|e| float(e as f32));
+            let layer = Expr::Construct(Ty::I32, vec![float(place.layer as f32)]);
             return func("tmh_bilinear_layer", vec![name(&variable), u, v, width, height, layer]);
         }
         let [u, v] = [0, 1].map(|d| coordinate(&t.axes[d], if d == 0 { mu.clone() } else { alpha.clone() }));
-        func("tmh_bilinear", vec![name(&variable), u, v, f(t.axes[0].count as f32), f(t.axes[1].count as f32)])
+        func("tmh_bilinear", vec![name(&variable), u, v, float(t.axes[0].count as f32), float(t.axes[1].count as f32)])
     }
 
-    /// The value of the slice among `candidates` (a lookup's [`Answer::Slices`]) that
+    /// The value of the slice among `candidates` (a lookup's [`LookupSource::Slices`]) that
     /// [`crate::model::folder::FolderTables`] chooses: the one with the least
     /// [`slice_choice_distance`] (-1 where its `(mu, alpha)` range holds the lookup, else the sum
     /// over both axes of the distance outside the range, in units of the range, less the slack),
@@ -265,58 +265,58 @@ impl Generator<'_> {
     ) -> Result<Expr> {
         let routes = self.routes;
         Ok(match routes.answer(paths(m), quantity, eta, kappa) {
-            Answer::Slices(candidates) => {
+            LookupSource::Slices(candidates) => {
                 self.reads.insert(format!("{} slice", if quantity == Quantity::Tir { "tir" } else { "fgd" }));
                 self.slice(candidates, mu, alpha, known_alpha)
             }
-            Answer::Table(kind, t) => {
+            LookupSource::Table(kind, t) => {
                 let what = if kind == TableKind::Gd { "gd".into() } else { format!("{} table", kind.name()) };
                 self.table(t, (mu, alpha), (eta, kappa), what)
             }
-            Answer::SplitSum(kind, t, coefficients) => {
+            LookupSource::SplitSum(kind, t, coefficients) => {
                 self.reads.insert(kind.name().into());
-                let c = Expr::Construct(Ty::Vec(4), coefficients.iter().map(|&c| f(c as f32)).collect());
+                let c = Expr::Construct(Ty::Vec(4), coefficients.iter().map(|&c| float(c as f32)).collect());
                 call(Builtin::Dot, vec![c, self.read2(t, mu, alpha)])
             }
-            Answer::FullFgd((file, packed)) => {
+            LookupSource::FullFgd((file, packed)) => {
                 let extent = [packed.texture.width, packed.texture.height, packed.texture.depth];
                 let variable = self.bind(file, extent, 3, 1, false);
                 self.packing = Some(packed);
                 self.reads.insert("fgd packing".into());
-                func(&packed.program.function, vec![name(&variable), mu, alpha, f(eta as f32), f(kappa as f32)])
+                func(&packed.program.function, vec![name(&variable), mu, alpha, float(eta as f32), float(kappa as f32)])
             }
-            Answer::FolderForm(fitted) => {
+            LookupSource::FolderForm(fitted) => {
                 self.folder_form = Some(fitted);
                 self.reads.insert("tir fit".into());
-                func("tmlut_tir", vec![mu, alpha, f(eta as f32)])
+                func("tmlut_tir", vec![mu, alpha, float(eta as f32)])
             }
-            Answer::MaterialForm => match (quantity, &m.albedo_form, &m.tir_form) {
+            LookupSource::MaterialForm => match (quantity, &m.albedo_form, &m.tir_form) {
                 (Quantity::Albedo, Some(fitted), _) => {
                     let function = self.form_function(fitted, "albedo form");
                     match m.albedo {
                         // FGD ~ F0 scale + bias, as the Karis table is read.
                         AlbedoPath::Karis => {
                             let f0 = normal_incidence_reflectance(eta, kappa);
-                            let weights = Expr::Construct(Ty::Vec(2), vec![f(f0 as f32), f(1.0)]);
+                            let weights = Expr::Construct(Ty::Vec(2), vec![float(f0 as f32), float(1.0)]);
                             call(Builtin::Dot, vec![weights, func(&function, vec![mu, alpha])])
                         }
                         // A form of the lookup's own variables: the scene parser sets the FGD path
                         // for a form fitted to `fgd`, and no form reads on the Belcour path.
                         AlbedoPath::Fgd | AlbedoPath::Belcour => {
-                            func(&function, vec![mu, alpha, f(eta as f32), f(kappa as f32)])
+                            func(&function, vec![mu, alpha, float(eta as f32), float(kappa as f32)])
                         }
                     }
                 }
                 (Quantity::Tir, _, Some(fitted)) => {
                     let function = self.form_function(fitted, "tir form");
-                    func(&function, vec![mu, alpha, f(eta as f32)])
+                    func(&function, vec![mu, alpha, float(eta as f32)])
                 }
                 _ => {
                     return Err(self.refuse(&m.name, "names a TIR form (tir = \"fit:PATH\") and none was given".into()));
                 }
             },
-            Answer::Zero => f(0.0),
-            Answer::Missing => return Err(self.missing(m, quantity, eta, kappa)),
+            LookupSource::Zero => float(0.0),
+            LookupSource::Missing => return Err(self.missing(m, quantity, eta, kappa)),
         })
     }
 
@@ -344,7 +344,7 @@ impl Generator<'_> {
         self.needs.trilinear = true;
         let mut arguments = vec![name(&variable)];
         arguments.extend(t.axes.iter().zip(point).map(|(axis, x)| coordinate(axis, x.0)));
-        arguments.extend(t.axes.iter().map(|axis| f(axis.count as f32)));
+        arguments.extend(t.axes.iter().map(|axis| float(axis.count as f32)));
         func("tmh_trilinear", arguments)
     }
 }
@@ -397,10 +397,10 @@ in_shader_operator!(Div, div);
 impl Arithmetic for InShader {
     type Constant = f32;
     fn constant(value: f32) -> Self {
-        InShader(f(value))
+        InShader(float(value))
     }
     fn of(value: f64) -> Self {
-        InShader(f(value as f32))
+        InShader(float(value as f32))
     }
     fn max(self, other: Self) -> Self {
         InShader(self.0.max(other.0))
@@ -609,7 +609,7 @@ mod tests {
     fn chosen(slices: &[TableFile], mu: f32, alpha: f32, known_alpha: Option<f64>) -> String {
         let routes = Routes::of_tir_slices(Vec::new());
         let mut g = Generator::new(&routes, String::new());
-        let alpha_expr = if known_alpha.is_some() { f(alpha) } else { name("alpha") };
+        let alpha_expr = if known_alpha.is_some() { float(alpha) } else { name("alpha") };
         let read = g.slice(slices.iter().map(|s| (s, 0)).collect(), name("mu"), alpha_expr, known_alpha);
         let scope = HashMap::from([("mu".to_string(), Value::F(mu)), ("alpha".to_string(), Value::F(alpha))]);
         let binding = evaluate(&read, &scope, &g.chooser_functions).f();

@@ -218,11 +218,11 @@ pub fn name(n: &str) -> Expr {
 /// literal (naga refuses `inf`), and a subnormal becomes 0 of its sign, as GPUs that flush
 /// subnormals read it anyway, so that the CPU side of a program (the packing's emulated lookup)
 /// computes with the value the GPU sees.
-pub fn f(v: f32) -> Expr {
+pub fn float(v: f32) -> Expr {
     Expr::F32(representable(v))
 }
 
-/// `v` as [`f`] stores it.
+/// `v` as [`float`] stores it.
 pub fn representable(v: f32) -> f32 {
     if v.is_infinite() {
         f32::MAX.copysign(v)
@@ -753,7 +753,7 @@ mod tests {
 
     #[test]
     fn selects_and_splats_print_in_each_language() {
-        let e = select(name("x").gt(f(0.0)).and(name("y").lt(f(1.0))), splat3(f(1.0)), splat3(f(-2.0)));
+        let e = select(name("x").gt(float(0.0)).and(name("y").lt(float(1.0))), splat3(float(1.0)), splat3(float(-2.0)));
         let p = |lang| Printer { lang, parens: Parens::Minimal }.expr(&e);
         assert_eq!(p(Lang::Wgsl), "select(vec3<f32>(-2.0), vec3<f32>(1.0), (x > 0.0) && (y < 1.0))");
         assert_eq!(p(Lang::Hlsl), "(x > 0.0) && (y < 1.0) ? float3(1.0, 1.0, 1.0) : float3(-2.0, -2.0, -2.0)");
@@ -773,7 +773,7 @@ mod tests {
             Ty::Named("S".into()),
             vec![
                 Stmt::Var { name: "s".into(), ty: Ty::Named("S".into()), value: None },
-                assign(name("s").member("b").index(1), f(2.0)),
+                assign(name("s").member("b").index(1), float(2.0)),
                 Stmt::Return(name("s")),
             ],
         );
@@ -794,8 +794,8 @@ mod tests {
         // `inf` (no such literal in WGSL or HLSL) or a subnormal a GPU flushes behind the CPU's back.
         let mut m = Module::new(Parens::Minimal);
         let values = [1e39f64 as f32, -1e39f64 as f32, 1e-40f64 as f32, -1e-45f64 as f32, 3.4e38f32];
-        let body = values.iter().enumerate().map(|(k, &v)| let_(&format!("v{k}"), Ty::F32, f(v))).collect();
-        m.function("h", vec![], Ty::F32, [body, vec![Stmt::Return(f(0.0))]].concat());
+        let body = values.iter().enumerate().map(|(k, &v)| let_(&format!("v{k}"), Ty::F32, float(v))).collect();
+        m.function("h", vec![], Ty::F32, [body, vec![Stmt::Return(float(0.0))]].concat());
         let wgsl = m.print(Lang::Wgsl);
         for text in ["inf", "e-40", "e-45"] {
             assert!(!wgsl.contains(text), "{text} in {wgsl}");
