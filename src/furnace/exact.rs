@@ -7,6 +7,10 @@
 //! Each distinct lookup is integrated once, on its own, and remembered: an answer depends only on
 //! the lookup and the rule's node count, never on the order the lookups are asked in, the other
 //! lookups of a batch or the thread asking.
+//!
+//! [`compare_with_monte_carlo`] checks the quadrature against the tables' per-cell Monte Carlo
+//! estimator on the lookups where it is hardest ([`hard_lookups`]): a test at 2^16 samples, and
+//! `tmlut bench quadrature` at 2^20 for the figures `docs/furnace.md` quotes.
 
 use std::collections::{BTreeSet, HashMap};
 use std::sync::RwLock;
@@ -16,10 +20,12 @@ use rayon::prelude::*;
 use crate::config::Config;
 use crate::error::Result;
 use crate::integrate::quadrature::VisibleNormalQuadrature;
-use crate::model::{Lookup, Quantity, Tables};
+use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
+use crate::model::{Lookup, Quantity, Site, Tables};
 use crate::physics::MaskingShadowing;
-use crate::recipes::fgd::fgd_by_quadrature;
-use crate::recipes::tir::tir_by_quadrature;
+use crate::recipes::fgd::{fgd_by_quadrature, fgd_cell};
+use crate::recipes::tir::{tir_by_quadrature, tir_cell};
+use crate::sampling::sequence::{PointSet, SamplePlan};
 
 /// Exact integrals for the model, remembered per lookup.
 pub struct ExactTables {
@@ -107,18 +113,132 @@ impl Tables for ExactTables {
     }
 }
 
+/// The lookups where the exact integrals are hardest: `eta < 1` near the critical angle, `alpha`
+/// near 0, grazing and normal views, large `kappa`, TIR's indicator.
+pub fn hard_lookups() -> Vec<Lookup> {
+    let mut lookups = Vec::new();
+    for (mu, alpha, eta, kappa) in [
+        (0.3, 0.05, 0.66, 0.0),
+        (0.75, 0.02, 0.66, 0.0),
+        (0.75, 0.3, 0.66, 0.0),
+        (0.5, 0.1, 0.8, 0.05),
+        (0.6, 0.001, 1.5, 0.0),
+        (0.6, 1e-4, 0.7, 0.0),
+        (0.0, 0.2, 1.5, 0.0),
+        (0.01, 0.5, 0.27, 3.61),
+        (0.0, 0.02, 0.66, 0.0),
+        (0.4, 0.3, 0.2, 4.0),
+        (0.9, 0.8, 2.5, 3.0),
+        (1.0, 0.4, 0.66, 0.0),
+    ] {
+        lookups.push(lookup(Quantity::Albedo, mu, alpha, eta, kappa));
+    }
+    for (mu, alpha, eta) in [
+        (0.3, 0.05, 0.66),
+        (0.75, 0.02, 0.66),
+        (0.1, 0.5, 0.9),
+        (0.0, 0.3, 0.66),
+        (0.9, 0.001, 0.5),
+        (0.5, 1.0, 0.3),
+        (1.0, 0.2, 0.95),
+        (0.2, 0.0, 0.7),
+    ] {
+        lookups.push(lookup(Quantity::Tir, mu, alpha, eta, 0.0));
+    }
+    for (mu, alpha) in [(0.5, 0.3), (0.0, 0.8), (0.9, 0.01), (0.05, 1.0)] {
+        lookups.push(lookup(Quantity::Gd, mu, alpha, 1.0, 0.0));
+    }
+    lookups
+}
+
+/// A lookup of the top layer from above (what determines its integral: [`key`]).
+fn lookup(quantity: Quantity, mu: f64, alpha: f64, eta: f64, kappa: f64) -> Lookup {
+    Lookup { quantity, site: Site::FromAbove, layer: 1, channel: None, mu, alpha, eta, kappa }
+}
+
+/// Monte Carlo replicates of a comparison's estimates: its standard errors come from their spread.
+pub const MONTE_CARLO_REPLICATES: u32 = 16;
+/// Seed of the Monte Carlo points of a comparison.
+pub const MONTE_CARLO_SEED: u64 = 11;
+/// The quadrature agrees with Monte Carlo within this many of its standard errors ...
+pub const AGREEMENT_STANDARD_ERRORS: f64 = 5.0;
+/// ... plus this, for lookups whose Monte Carlo standard error is (nearly) 0.
+pub const AGREEMENT_SLACK: f64 = 1e-6;
+/// The default rule agrees with the finer one within this.
+pub const FINER_RULE_TOLERANCE: f64 = 1e-5;
+
+/// One lookup by the quadrature, by a rule of four times its nodes, and by per-cell Monte Carlo
+/// (the estimator the exact integrals used before the quadrature, independent of it).
+#[derive(Debug, Clone)]
+pub struct MonteCarloComparison {
+    pub lookup: Lookup,
+    pub quadrature: f64,
+    /// The same integral with four times the Gauss–Legendre nodes per panel.
+    pub finer: f64,
+    pub monte_carlo: f64,
+    pub standard_error: f64,
+}
+
+impl MonteCarloComparison {
+    /// Whether the quadrature lies within [`AGREEMENT_STANDARD_ERRORS`] standard errors (plus
+    /// [`AGREEMENT_SLACK`]) of Monte Carlo.
+    pub fn agrees_with_monte_carlo(&self) -> bool {
+        self.quadrature.is_finite()
+            && (self.quadrature - self.monte_carlo).abs()
+                <= AGREEMENT_STANDARD_ERRORS * self.standard_error + AGREEMENT_SLACK
+    }
+
+    /// Whether the finer rule moves the value by at most [`FINER_RULE_TOLERANCE`].
+    pub fn agrees_with_finer_rule(&self) -> bool {
+        (self.quadrature - self.finer).abs() <= FINER_RULE_TOLERANCE
+    }
+}
+
+/// Every lookup of [`hard_lookups`] by the quadrature of `nodes` Gauss–Legendre nodes per panel,
+/// by one of four times as many, and by per-cell Monte Carlo with `samples` Sobol points in
+/// [`MONTE_CARLO_REPLICATES`] replicates; lookups in parallel, one step of `progress` each.
+pub fn compare_with_monte_carlo(
+    config: &Config,
+    nodes: usize,
+    samples: u64,
+    progress: &dyn Progress,
+) -> Result<Vec<MonteCarloComparison>> {
+    let points = PointSet::new(SamplePlan::new(samples, MONTE_CARLO_REPLICATES)?, MONTE_CARLO_SEED);
+    let exact = ExactTables::new(config, nodes)?;
+    let finer = ExactTables::new(config, 4 * nodes)?;
+    let lookups = hard_lookups();
+    progress.start("quadrature vs MC", lookups.len() as u64);
+    let comparisons = lookups
+        .into_par_iter()
+        .map(|lookup| {
+            let reference = monte_carlo(config, &points, &lookup);
+            let comparison = MonteCarloComparison {
+                lookup,
+                quadrature: exact.value(&lookup),
+                finer: finer.value(&lookup),
+                monte_carlo: reference.mean[0],
+                standard_error: reference.standard_error[0],
+            };
+            progress.advance(1);
+            comparison
+        })
+        .collect();
+    progress.finish();
+    Ok(comparisons)
+}
+
+/// The per-cell Monte Carlo estimate of a lookup with the table recipes' own estimators.
+fn monte_carlo(config: &Config, points: &PointSet, l: &Lookup) -> Estimate {
+    match l.quantity {
+        Quantity::Albedo => fgd_cell(config.fgd.masking, points, &[l.mu, l.alpha, l.eta, l.kappa]),
+        Quantity::Tir => tir_cell(l.mu, l.alpha, l.eta, points),
+        Quantity::Gd => estimate_cosine_functions(l.mu, l.alpha, config.gd.masking, Method::PerCell, points, |_| [1.0]),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrate::{Estimate, Method, estimate_cosine_functions};
-    use crate::model::Site;
-    use crate::recipes::fgd::fgd_cell;
-    use crate::recipes::tir::tir_cell;
-    use crate::sampling::sequence::{PointSet, SamplePlan};
-
-    fn lookup(quantity: Quantity, mu: f64, alpha: f64, eta: f64, kappa: f64) -> Lookup {
-        Lookup { quantity, site: Site::FromAbove, layer: 1, channel: None, mu, alpha, eta, kappa }
-    }
 
     #[test]
     fn integrated_together_each_lookup_has_the_bits_of_its_integral_alone() {
@@ -150,96 +270,13 @@ mod tests {
         assert!(together.knows(&other));
     }
 
-    /// The lookups where the exact integrals are hardest: `eta < 1` near the critical angle, `alpha`
-    /// near 0, grazing and normal views, large `kappa`, TIR's indicator.
-    fn hard_lookups() -> Vec<Lookup> {
-        let mut lookups = Vec::new();
-        for (mu, alpha, eta, kappa) in [
-            (0.3, 0.05, 0.66, 0.0),
-            (0.75, 0.02, 0.66, 0.0),
-            (0.75, 0.3, 0.66, 0.0),
-            (0.5, 0.1, 0.8, 0.05),
-            (0.6, 0.001, 1.5, 0.0),
-            (0.6, 1e-4, 0.7, 0.0),
-            (0.0, 0.2, 1.5, 0.0),
-            (0.01, 0.5, 0.27, 3.61),
-            (0.0, 0.02, 0.66, 0.0),
-            (0.4, 0.3, 0.2, 4.0),
-            (0.9, 0.8, 2.5, 3.0),
-            (1.0, 0.4, 0.66, 0.0),
-        ] {
-            lookups.push(lookup(Quantity::Albedo, mu, alpha, eta, kappa));
-        }
-        for (mu, alpha, eta) in [
-            (0.3, 0.05, 0.66),
-            (0.75, 0.02, 0.66),
-            (0.1, 0.5, 0.9),
-            (0.0, 0.3, 0.66),
-            (0.9, 0.001, 0.5),
-            (0.5, 1.0, 0.3),
-            (1.0, 0.2, 0.95),
-            (0.2, 0.0, 0.7),
-        ] {
-            lookups.push(lookup(Quantity::Tir, mu, alpha, eta, 0.0));
-        }
-        for (mu, alpha) in [(0.5, 0.3), (0.0, 0.8), (0.9, 0.01), (0.05, 1.0)] {
-            lookups.push(lookup(Quantity::Gd, mu, alpha, 1.0, 0.0));
-        }
-        lookups
-    }
-
-    /// The per-cell Monte Carlo estimate of a lookup with `samples` Sobol points in 16 replicates:
-    /// the estimator the exact integrals used before the quadrature, independent of it.
-    fn monte_carlo(config: &Config, points: &PointSet, l: &Lookup) -> Estimate {
-        match l.quantity {
-            Quantity::Albedo => fgd_cell(config.fgd.masking, points, &[l.mu, l.alpha, l.eta, l.kappa]),
-            Quantity::Tir => tir_cell(l.mu, l.alpha, l.eta, points),
-            Quantity::Gd => {
-                estimate_cosine_functions(l.mu, l.alpha, config.gd.masking, Method::PerCell, points, |_| [1.0])
-            }
-        }
-    }
-
-    /// Every hard lookup by the quadrature within 5 standard errors (plus 1e-6) of Monte Carlo with
-    /// `samples` points, and the default rule within `tolerance` of one with four times the nodes.
-    /// Returns the largest difference to Monte Carlo and to the finer rule.
-    fn compare_to_monte_carlo(samples: u64, tolerance: f64) -> (f64, f64) {
-        let config = Config::default();
-        let points = PointSet::new(SamplePlan::new(samples, 16).unwrap(), 11);
-        let exact = ExactTables::new(&config, crate::furnace::DEFAULT_EXACT_NODES).unwrap();
-        let finer = ExactTables::new(&config, 4 * crate::furnace::DEFAULT_EXACT_NODES).unwrap();
-        let (mut to_monte_carlo, mut to_finer) = (0.0f64, 0.0f64);
-        for l in hard_lookups() {
-            let (value, fine) = (exact.value(&l), finer.value(&l));
-            let reference = monte_carlo(&config, &points, &l);
-            let (mean, se) = (reference.mean[0], reference.standard_error[0]);
-            println!(
-                "{:?} mu {} alpha {} eta {} kappa {}: quadrature {value:.9} finer {:+.1e} MC {mean:.9} ± {se:.1e}",
-                l.quantity,
-                l.mu,
-                l.alpha,
-                l.eta,
-                l.kappa,
-                fine - value
-            );
-            assert!(value.is_finite() && (value - mean).abs() <= 5.0 * se + 1e-6, "{l:?}: {value} vs {mean} ± {se}");
-            assert!((value - fine).abs() <= tolerance, "{l:?}: {value} vs {fine}");
-            to_monte_carlo = to_monte_carlo.max((value - mean).abs());
-            to_finer = to_finer.max((value - fine).abs());
-        }
-        println!("max |quadrature - MC| {to_monte_carlo:.2e}, max |default - 4x nodes| {to_finer:.2e}");
-        (to_monte_carlo, to_finer)
-    }
-
     #[test]
     fn the_quadrature_agrees_with_monte_carlo_on_the_hard_lookups() {
-        compare_to_monte_carlo(1 << 16, 1e-5);
-    }
-
-    /// The validation `docs/furnace.md` quotes ("Libraries"), at 2^20 Monte Carlo samples: slow.
-    #[test]
-    #[ignore]
-    fn the_quadrature_agrees_with_monte_carlo_at_2_20_samples() {
-        compare_to_monte_carlo(1 << 20, 1e-5);
+        let comparisons =
+            compare_with_monte_carlo(&Config::default(), crate::furnace::DEFAULT_EXACT_NODES, 1 << 16, &()).unwrap();
+        assert_eq!(comparisons.len(), hard_lookups().len());
+        for c in &comparisons {
+            assert!(c.agrees_with_monte_carlo() && c.agrees_with_finer_rule(), "{c:?}");
+        }
     }
 }

@@ -20,18 +20,13 @@ fn stack(layers: Vec<Layer>) -> Stack {
     Stack::new(layers).unwrap()
 }
 
-/// The rough two-layer stack of the brief: a thin varnish over a coloured conductor.
+/// The two stacks `tmlut bench walk` times, so that what the tests check is what it measures.
 fn varnished_conductor() -> Stack {
-    stack(vec![dielectric(1.1, 0.01), conductor([0.1, 0.4, 1.6], [4.0, 2.4, 1.6], 0.01)])
+    crate::report::bench::walk::varnished_conductor().unwrap()
 }
 
-/// A scattering coat over a conductor: absorption differs between channels, scattering does not.
 fn scattering_coat() -> Stack {
-    stack(vec![
-        dielectric(1.5, 0.4),
-        medium([0.7; 3], [1.0, 0.2, 1.0], 1.0, 0.9),
-        conductor([0.1; 3], [3.8, 3.1, 2.1], 0.01),
-    ])
+    crate::report::bench::walk::scattering_coat().unwrap()
 }
 
 fn settings(target_standard_error: f64) -> WalkSettings {
@@ -549,78 +544,4 @@ fn modelling_choices_name_every_choice() {
     }
     let correlated = modelling_choices(&WalkSettings { masking: Masking::HeightCorrelated, ..WalkSettings::default() });
     assert!(correlated.join(" ").contains("Beta-function"));
-}
-
-/// ns per path on the two stacks of the brief, printed (not asserted). Run with
-/// `cargo test --release --lib random_walk::tests::nanoseconds_per_path -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn nanoseconds_per_path() {
-    let paths = 1 << 20;
-    let s = WalkSettings { min_paths: paths, max_paths: paths, ..WalkSettings::default() };
-    for (name, stack) in [("varnished conductor", varnished_conductor()), ("scattering coat", scattering_coat())] {
-        for threads in [1, 2] {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            for mu in [1.0, 0.5, 0.05] {
-                let mut times: Vec<f64> = (0..5)
-                    .map(|_| {
-                        let start = std::time::Instant::now();
-                        std::hint::black_box(pool.install(|| directional_albedo(&stack, mu, &s)));
-                        start.elapsed().as_secs_f64() * 1e9 / paths as f64
-                    })
-                    .collect();
-                times.sort_by(f64::total_cmp);
-                let e = directional_albedo(&stack, mu, &s);
-                println!(
-                    "{name}, mu {mu}, {threads} thread(s): {:.0} ns/path wall (median of 5: {:.0?}); A = {:.4?}, s.e. {:.1e}, paths for s.e. 8e-4: {:.0}",
-                    times[2],
-                    times,
-                    e.reflected,
-                    e.reflected_standard_error[0],
-                    paths as f64 * (e.reflected_standard_error.iter().fold(0.0f64, |m, &v| m.max(v)) / 8e-4).powi(2)
-                );
-            }
-        }
-    }
-}
-
-/// The furnace's workload: six materials (the example scenes' five and a two-coat stack) at 64 view
-/// cosines with the default settings, timed on two threads (printed, not asserted). Run with
-/// `cargo test --release --lib random_walk::tests::furnace_workload -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn furnace_workload() {
-    let materials = [
-        ("varnished-copper", varnished_conductor()),
-        ("coated-conductor", stack(vec![dielectric(1.5, 0.1), conductor([1.0; 3], [1.0, 0.1, 0.1], 0.01)])),
-        ("scattering-stack", scattering_coat()),
-        ("worn-gold", stack(vec![dielectric(1.5, 0.25), conductor([0.18, 0.42, 1.37], [3.42, 2.35, 1.77], 0.1)])),
-        ("glazed-ceramic", stack(vec![dielectric(1.5, 0.2)])),
-        (
-            "two coats over a medium",
-            stack(vec![
-                dielectric(1.3, 0.05),
-                dielectric(1.6, 0.3),
-                medium([2.0; 3], [0.1, 0.3, 0.6], 0.5, 0.5),
-                conductor([0.18, 0.42, 1.37], [3.42, 2.35, 1.77], 0.2),
-            ]),
-        ),
-    ];
-    let mus: Vec<f64> = (0..64).map(|k| k as f64 / 63.0).collect();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-    let start = std::time::Instant::now();
-    for (name, stack) in &materials {
-        let material_start = std::time::Instant::now();
-        let curve = pool.install(|| directional_albedo_curve(stack, &mus, &WalkSettings::default(), &()));
-        let worst = curve.iter().flat_map(|e| e.reflected_standard_error).fold(0.0f64, f64::max);
-        let paths: u64 = curve.iter().map(|e| e.paths).sum();
-        let most = curve.iter().max_by_key(|e| e.paths).unwrap();
-        println!(
-            "{name}: {:.2} s, {paths} paths, largest s.e. {worst:.2e}, most paths {} at mu {:.3}",
-            material_start.elapsed().as_secs_f64(),
-            most.paths,
-            most.mu
-        );
-    }
-    println!("all: {:.2} s", start.elapsed().as_secs_f64());
 }

@@ -1,4 +1,4 @@
-//! `tmlut bench`: for each table, the fast build's wall time (median of repeats) and throughput,
+//! `tmlut bench` (the `tables` suite, the default): for each table, the fast build's wall time (median of repeats) and throughput,
 //! its error at random nodes against the exact integral (the deterministic quadrature), and the
 //! per-cell method on the same nodes with the same samples per cell, for a side-by-side ratio at
 //! equal error.
@@ -15,7 +15,7 @@ use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Progress, estimate_cells};
 use crate::recipes::driver::TableBuild;
 use crate::recipes::{TableRecipe, random_cells, table_points};
-use crate::stats::ErrorSummary;
+use crate::stats::{ErrorSummary, median};
 
 /// What to measure.
 #[derive(Debug, Clone)]
@@ -77,8 +77,6 @@ impl BenchRow {
         self.per_cell_extrapolated_s() / self.fast_median_s()
     }
 }
-
-pub use crate::stats::median;
 
 /// Benchmark one table. The recipe's own reference checks run as part of each timed build, so the
 /// caller normally disables them ([`Config::disable_reference_checks`]).
@@ -216,23 +214,9 @@ pub fn markdown(rows: &[BenchRow], settings: &BenchSettings, threads: usize) -> 
     out
 }
 
-/// Peak resident memory of this process so far, in bytes, where the system tells (Linux).
-pub fn peak_memory_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kilobytes: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kilobytes * 1024)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn median_of_odd_and_even_counts() {
-        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
-    }
 
     #[test]
     fn a_small_bench_measures_error_and_ratio() {
