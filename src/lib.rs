@@ -31,7 +31,7 @@
 //! `generator` feature this crate is the model and the form language over that loader.
 
 // The loader crate's modules, as this crate's own: the layers every module here builds on.
-pub use tmlut_loader::{error, filter, formats, loader, machine, stats, table};
+pub use tmlut_loader::{error, filter, formats, loader, memory, stats, table};
 // The expression IR every shader and every recorded evaluation lowers to.
 pub use tmlut_ir as ir;
 

@@ -279,7 +279,7 @@ impl JobFiles {
             staged.files.push(file);
         }
         if let Some(seed) = self.fit_seed {
-            let (fit, shaders) = crate::fit::text::build::fit_for_build(&build.table, seed, dir)?;
+            let (fit, shaders) = crate::fit::forms::build::fit_for_build(&build.table, seed, dir)?;
             for file in &mut staged.files {
                 file.entry.fit = Some(fit.clone());
             }

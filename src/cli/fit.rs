@@ -99,11 +99,11 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
     let table = tmlut::loader::load_table(&args.table)?;
     // Each timing run is a pass over up to 4096 points per form and of the table's lookup.
     check_count("--timing-runs", args.timing_runs, 0..=1000)?;
-    let ranges = args.range.iter().map(|r| tmlut::fit::text::Range::parse(r)).collect::<tmlut::Result<Vec<_>>>()?;
-    let weights = tmlut::fit::text::WeightsSpec::parse(&args.weights)?;
+    let ranges = args.range.iter().map(|r| tmlut::fit::forms::Range::parse(r)).collect::<tmlut::Result<Vec<_>>>()?;
+    let weights = tmlut::fit::forms::WeightsSpec::parse(&args.weights)?;
     // The scene's lookups of the table, read once for every form.
     let scene = match &weights {
-        tmlut::fit::text::WeightsSpec::Scene(path) => Some(tmlut::scene::lookups::table_lookups(path, &table.name)?),
+        tmlut::fit::forms::WeightsSpec::Scene(path) => Some(tmlut::scene::lookups::table_lookups(path, &table.name)?),
         _ => None,
     };
     // The exact integrals every form is certified against, computed once.
@@ -117,7 +117,7 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
         )?)),
         false => None,
     };
-    let options = tmlut::fit::text::FitOptions {
+    let options = tmlut::fit::forms::FitOptions {
         table: args.table,
         settings,
         certify,
@@ -127,18 +127,18 @@ pub fn exec(args: FitArgs, context: &Context) -> tmlut::Result<()> {
         timing_runs: args.timing_runs,
     };
     if form.is_dir() {
-        let (files, skipped) = tmlut::fit::text::form::form_files_for(&form, &table.name)?;
+        let (files, skipped) = tmlut::fit::forms::form::form_files_for(&form, &table.name)?;
         skipped.iter().for_each(|note| eprintln!("{note}"));
-        let request = tmlut::fit::text::FolderFitRequest { files, out: args.out, options };
-        let fits = tmlut::fit::text::fit_form_files(&table, &request)?;
-        print!("{}", tmlut::fit::text::markdown::ranking_markdown(&fits));
-        println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FORMS_FILE).display());
+        let request = tmlut::fit::forms::FolderFitRequest { files, out: args.out, options };
+        let fits = tmlut::fit::forms::fit_form_files(&table, &request)?;
+        print!("{}", tmlut::fit::forms::markdown::ranking_markdown(&fits));
+        println!("Wrote {}", request.out.join(tmlut::fit::forms::fitting::FORMS_FILE).display());
         return Ok(());
     }
-    let request = tmlut::fit::text::FormFitRequest { form, out: args.out, options };
-    let report = tmlut::fit::text::fit_form_file(&table, &request)?;
-    print!("{}", tmlut::fit::text::markdown::markdown(&report));
-    println!("Wrote {}", request.out.join(tmlut::fit::text::fitting::FIT_FILE).display());
+    let request = tmlut::fit::forms::FormFitRequest { form, out: args.out, options };
+    let report = tmlut::fit::forms::fit_form_file(&table, &request)?;
+    print!("{}", tmlut::fit::forms::markdown::markdown(&report));
+    println!("Wrote {}", request.out.join(tmlut::fit::forms::fitting::FIT_FILE).display());
     Ok(())
 }
 

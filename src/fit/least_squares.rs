@@ -2,7 +2,7 @@
 //! several deterministic starts, and every start's own status kept in the result, never
 //! discarded; L-BFGS where the objective has a gradient, BOBYQA otherwise), and the uniform grid
 //! a TIR table is fitted and judged on ([`fit_grid`]). The forms and their objectives are
-//! [`super::text`]'s.
+//! [`super::forms`]'s.
 
 use std::cmp::Ordering;
 

@@ -1,8 +1,8 @@
 use std::path::Path;
 
 use super::*;
-use crate::fit::text::fitted::tir_shape;
-use crate::fit::text::form::Form;
+use crate::fit::forms::fitted::tir_shape;
+use crate::fit::forms::form::Form;
 use crate::ir::compile::FormEvaluator;
 
 /// splitmix64 numbers uniform in [0, 1).
@@ -160,9 +160,9 @@ fn build_small_tir(out: &Path, fit: crate::recipes::tir::TirFit) -> crate::forma
 /// are those of the recorded parameters. Same table and seed, same files; `fit = "off"`, none.
 #[test]
 fn the_build_fits_its_form_file_reproducibly_and_only_when_asked() {
-    use crate::fit::text::build::{BUILD_FORM_TEXT, BUILD_STARTS, build_form};
-    use crate::fit::text::data::FormData;
-    use crate::fit::text::figures::figures;
+    use crate::fit::forms::build::{BUILD_FORM_TEXT, BUILD_STARTS, build_form};
+    use crate::fit::forms::data::FormData;
+    use crate::fit::forms::figures::figures;
     use crate::recipes::tir::TirFit;
     let (first, second, off) =
         (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());

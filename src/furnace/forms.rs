@@ -17,10 +17,10 @@ use super::{FurnaceRequest, FurnaceSettings, Selection, run};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::fit::FitSettings;
-use crate::fit::text::fitted::{FittedForm, FittedFormExt, TIR_TABLES};
-use crate::fit::text::fitting::FIT_FILE;
-use crate::fit::text::form::{distinct_form_names, form_files_for, form_name};
-use crate::fit::text::{FitOptions, FormFitRequest, FormReport, WeightsSpec, fit_form_file};
+use crate::fit::forms::fitted::{FittedForm, FittedFormExt, TIR_TABLES};
+use crate::fit::forms::fitting::FIT_FILE;
+use crate::fit::forms::form::{distinct_form_names, form_files_for, form_name};
+use crate::fit::forms::{FitOptions, FormFitRequest, FormReport, WeightsSpec, fit_form_file};
 use crate::integrate::Progress;
 use crate::model::TirPath;
 use crate::scene::Scene;
@@ -266,7 +266,7 @@ mod tests {
     use std::cell::Cell;
 
     use super::*;
-    use crate::fit::text::fitted::FittedFormExt;
+    use crate::fit::forms::fitted::FittedFormExt;
     use crate::loader::LutFolder;
     use crate::model::folder::{FgdSource, FolderTables};
     use crate::model::{AlbedoPath, Lookup, Material, Quantity, Tables};

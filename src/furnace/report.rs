@@ -93,10 +93,10 @@ pub struct MaterialReport {
     /// The fitted form read in place of the TIR table where `tir_path` is `form`: its name, the
     /// path the scene gives, its definition and fitted parameters.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub tir_form: Option<crate::fit::text::FittedForm>,
+    pub tir_form: Option<crate::fit::forms::FittedForm>,
     /// The fitted form read in place of the albedo table (`albedo = "fit:PATH"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub albedo_form: Option<crate::fit::text::FittedForm>,
+    pub albedo_form: Option<crate::fit::forms::FittedForm>,
     /// The stack at the values evaluated (the scene's, or the middle of a range it varies).
     pub stack: Stack,
     /// View cosines, from the normal to grazing.

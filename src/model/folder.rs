@@ -26,7 +26,7 @@ use super::lookup::{AlbedoPath, Lookup, Quantity, Site, Tables, TirPath};
 use super::routes::{LookupSource, Paths, Reader, Routes};
 use crate::error::{Error, Result};
 #[cfg(feature = "generator")]
-use crate::fit::text::fitted::{FittedForm, FittedFormExt};
+use crate::fit::forms::fitted::{FittedForm, FittedFormExt};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::ir::compile::FormEvaluator;

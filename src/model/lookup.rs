@@ -113,7 +113,7 @@ pub enum TirPath {
     /// The fitted analytic form of the folder (`[tir] fit = "best"`, `tir_fit.wgsl`): no table.
     Fit,
     /// A form file fitted by `tmlut fit --form` that the material names (`tir = "fit:PATH"`,
-    /// [`crate::fit::text::fitted::FittedForm`]): no table.
+    /// [`crate::fit::forms::fitted::FittedForm`]): no table.
     Form,
     /// No correction: every TIR lookup reads 0.
     Off,

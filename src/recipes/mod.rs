@@ -346,7 +346,7 @@ pub fn demand(recipe: &dyn TableRecipe) -> crate::error::Result<Demand> {
 }
 
 /// Refuse a table whose build would need more than [`MAX_BUILD_BYTES`] of memory, or more than
-/// this process may use ([`crate::machine::memory_limit`]), or
+/// this process may use ([`crate::memory::memory_limit`]), or
 /// [`MAX_SAMPLE_EVALUATIONS`] samples, naming the keys that make it so.
 pub fn check_demand(recipe: &dyn TableRecipe) -> crate::error::Result<()> {
     let name = recipe.name();
@@ -369,7 +369,7 @@ pub fn check_demand(recipe: &dyn TableRecipe) -> crate::error::Result<()> {
         ));
     }
     // A build the machine cannot hold would be killed, or abort on a failed allocation, minutes in.
-    if let Some(limit) = crate::machine::memory_limit()
+    if let Some(limit) = crate::memory::memory_limit()
         && demand.bytes > limit.bytes as u128
     {
         let (largest, keys) = &demand.parts[0];

@@ -83,7 +83,7 @@ pub const OFFSET_SCALE: f64 = 1e-3;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TirFit {
-    /// The form file `luts/forms/tir-cauchy-slope.toml` ([`crate::fit::text::build`]): the most
+    /// The form file `luts/forms/tir-cauchy-slope.toml` ([`crate::fit::forms::build`]): the most
     /// accurate form measured no costlier than thesis eq. 5.6, written as `tir_fit.hlsl`,
     /// `tir_fit.wgsl` and the table's manifest entry.
     Best,

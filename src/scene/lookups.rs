@@ -291,7 +291,7 @@ fn note_index_matched(material: &SceneMaterial, left_out: &mut Vec<LeftOutRecord
 /// table when its kind does: FGD albedo `fgd` and the scene's `fgd_...` slices; TIR `tir` and
 /// `tir_...`; GD `gd`; the split-sum paths `karis` and `belcour`; a stand-in (`fgd_rarer`,
 /// [`crate::model::stand_in`]) the lookups of its quantity that reach its region.
-pub fn table_lookups(path: &std::path::Path, table: &str) -> Result<crate::fit::text::region::SceneLookups> {
+pub fn table_lookups(path: &std::path::Path, table: &str) -> Result<crate::fit::forms::region::SceneLookups> {
     let (scene, _) = Scene::read(path)?;
     let (lookups, _) = lookups(&scene)?;
     let stand_in = TableKind::named(table).and_then(crate::model::stand_in);
@@ -307,7 +307,7 @@ pub fn table_lookups(path: &std::path::Path, table: &str) -> Result<crate::fit::
         (None, LookupKind::Tir(_)) => is(TableKind::Tir),
         (None, LookupKind::Gd) => is(TableKind::Gd),
     };
-    let mut materials: Vec<(String, Vec<crate::fit::text::region::LookupHull>)> = Vec::new();
+    let mut materials: Vec<(String, Vec<crate::fit::forms::region::LookupHull>)> = Vec::new();
     for lookup in lookups.iter().filter(|l| reads(l)) {
         let hull = [lookup.mu, lookup.alpha, lookup.eta, lookup.kappa].map(|i| (i.lo, i.hi));
         match materials.iter_mut().find(|(m, _)| *m == lookup.material) {
@@ -315,5 +315,5 @@ pub fn table_lookups(path: &std::path::Path, table: &str) -> Result<crate::fit::
             None => materials.push((lookup.material.clone(), vec![hull])),
         }
     }
-    Ok(crate::fit::text::region::SceneLookups { scene: path.to_path_buf(), table: table.to_string(), materials })
+    Ok(crate::fit::forms::region::SceneLookups { scene: path.to_path_buf(), table: table.to_string(), materials })
 }

@@ -25,10 +25,10 @@ pub const SHADER_BYTES_PER_MATERIAL: u128 = 288 << 10;
 /// folder's tables it reads.
 pub const FURNACE_BYTES_PER_MATERIAL: u128 = 192 << 10;
 
-/// Refuse work that needs `bytes` where this process may use less ([`crate::machine::beyond_limit`]):
+/// Refuse work that needs `bytes` where this process may use less ([`crate::memory::beyond_limit`]):
 /// `key` names what is refused (a scene, an option), `what` the work, `lower` what to change.
 pub fn check(key: &str, what: &str, bytes: u128, lower: &str) -> Result<()> {
-    match crate::machine::beyond_limit(bytes, what) {
+    match crate::memory::beyond_limit(bytes, what) {
         Some(words) => Err(Error::invalid(key, format!("{words}: {lower}, or raise the limit"))),
         None => Ok(()),
     }

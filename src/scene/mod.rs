@@ -140,12 +140,12 @@ pub struct SceneMaterial {
     /// The fitted form read in place of the albedo table of `albedo` (`albedo = "fit:PATH"`: a
     /// form fitted to `karis` or `fgd`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub albedo_form: Option<crate::fit::text::FittedForm>,
+    pub albedo_form: Option<crate::fit::forms::FittedForm>,
     pub tir: TirPath,
     /// The fitted form read in place of the TIR table where `tir` is [`TirPath::Form`]
     /// (`tir = "fit:PATH"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub tir_form: Option<crate::fit::text::FittedForm>,
+    pub tir_form: Option<crate::fit::forms::FittedForm>,
     /// Top first.
     pub layers: Vec<SceneLayer>,
 }

@@ -12,8 +12,8 @@ use super::{
     SceneMaterial, TirPath,
 };
 use crate::error::{Error, Result};
-use crate::fit::text::fitted::FittedFormExt;
-use crate::fit::text::{FittedForm, fitted};
+use crate::fit::forms::fitted::FittedFormExt;
+use crate::fit::forms::{FittedForm, fitted};
 use crate::table::TableKind;
 
 impl Scene {

@@ -16,7 +16,7 @@ use super::lookups::{LookupKind, LookupRange, lookups, reaches};
 use super::{AlbedoPath, Interval, Scene, TirPath, short};
 use crate::config::{Config, MAX_NODES_PER_AXIS, TableSettings};
 use crate::error::{Error, Result};
-use crate::fit::text::FittedForm;
+use crate::fit::forms::FittedForm;
 use crate::formats::FileFormat;
 use crate::formats::manifest::{LeftOutRecord, PlanRecord, PlannedTableRecord};
 use crate::integrate::GRAZING_COSINE;
@@ -320,11 +320,11 @@ fn plan_tir(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
             name: "tir_fit".into(),
             kind: format!(
                 "TIR fitted form `{}` (tir_fit.hlsl, .wgsl; no table)",
-                crate::fit::text::build::BUILD_FORM_FILE.trim_end_matches(".toml")
+                crate::fit::forms::build::BUILD_FORM_FILE.trim_end_matches(".toml")
             ),
             shape: format!(
                 "{} coefficients, fitted to the full {} TIR table",
-                crate::fit::text::build::build_form().map_or(0, |form| form.parameters.len()),
+                crate::fit::forms::build::build_form().map_or(0, |form| form.parameters.len()),
                 full.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x ")
             ),
             bytes: 0,

@@ -604,7 +604,7 @@ fn a_stand_in_is_planned_and_weighed_for_the_lookups_of_its_region_only() {
     let weights = super::lookups::table_lookups(&path, TableKind::FgdRarer.name()).unwrap();
     let fgd = super::lookups::table_lookups(&path, TableKind::Fgd.name()).unwrap();
     let names =
-        |l: &crate::fit::text::region::SceneLookups| l.materials.iter().map(|(m, _)| m.clone()).collect::<Vec<_>>();
+        |l: &crate::fit::forms::region::SceneLookups| l.materials.iter().map(|(m, _)| m.clone()).collect::<Vec<_>>();
     assert_eq!(names(&weights), ["lower-index-under-a-coat"]);
     assert_eq!(names(&fgd).len(), 3, "{:?}", names(&fgd));
     for (_, hulls) in &weights.materials {
@@ -612,6 +612,6 @@ fn a_stand_in_is_planned_and_weighed_for_the_lookups_of_its_region_only() {
             assert!(eta.0 < 1.0 && kappa.0 == 0.0, "eta {eta:?}, kappa {kappa:?}");
         }
     }
-    let count = |l: &crate::fit::text::region::SceneLookups| l.materials.iter().map(|(_, h)| h.len()).sum::<usize>();
+    let count = |l: &crate::fit::forms::region::SceneLookups| l.materials.iter().map(|(_, h)| h.len()).sum::<usize>();
     assert!(count(&weights) < count(&fgd));
 }

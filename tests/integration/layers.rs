@@ -16,7 +16,7 @@ const LAYERS: &[&[&str]] = &[
     &["error"],
     // What the process may use of the machine (its memory limits) stands beside them: std alone;
     // and the number type the model is written over.
-    &["stats", "table", "machine", "ir/real"],
+    &["stats", "table", "memory", "ir/real"],
     // The optics: the Fresnel equations (the loader's) and GGX, Smith, Henyey–Greenstein over
     // the model's number type; a GPU's texture filter, emulated over a table's arithmetic.
     &["physics", "filter"],
@@ -30,10 +30,10 @@ const LAYERS: &[&[&str]] = &[
     &["ir/shader", "shader"],
     &["ir/print"],
     // Form files, and a fitted TIR form a scene names: the model evaluates both.
-    &["fit/text/form"],
-    &["fit/text/fitted"],
+    &["fit/forms/form"],
+    &["fit/forms/fitted"],
     // A form printed as a shader: the scene shader prints the forms its materials name.
-    &["fit/text/shader"],
+    &["fit/forms/shader"],
     &["report/plot"],
     &["loader"],
     &["sampling"],
@@ -48,8 +48,8 @@ const LAYERS: &[&[&str]] = &[
     // The build's own steps: the locked output folder, the fit's search, the error maps.
     &["commit", "fit", "report/error_map"],
     // Forms written as text: fitted by the fit's search, certified by the recipes' exact
-    // integrals, written as one set by the commit; the form the build fits (`fit/text/build`).
-    &["fit/text"],
+    // integrals, written as one set by the commit; the form the build fits (`fit/forms/build`).
+    &["fit/forms"],
     &["pipeline"],
     &["scene"],
     &["furnace"],
@@ -61,7 +61,7 @@ fn layer_of(unit: &str) -> Option<usize> {
     LAYERS.iter().position(|layer| layer.contains(&unit))
 }
 
-/// The unit of a module path (`fit/text/form` -> `fit/text/form`, `fit/least_squares` -> `fit`).
+/// The unit of a module path (`fit/forms/form` -> `fit/forms/form`, `fit/least_squares` -> `fit`).
 fn unit_of(module_path: &str) -> Option<&'static str> {
     LAYERS
         .iter()

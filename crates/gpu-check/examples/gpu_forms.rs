@@ -24,7 +24,7 @@ use std::process::ExitCode;
 
 use rand_pcg::Pcg64Mcg;
 use serde::Deserialize;
-use tmlut::fit::text::{FormEvaluator, Range, Region, WeightsSpec};
+use tmlut::fit::forms::{FormEvaluator, Range, Region, WeightsSpec};
 use tmlut::loader::LutFolder;
 
 use gpu::Comparison;

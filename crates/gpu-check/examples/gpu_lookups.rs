@@ -19,7 +19,7 @@ use tmlut_gpu_check as gpu;
 use std::process::ExitCode;
 
 use rand_pcg::Pcg64Mcg;
-use tmlut::fit::text::FormEvaluator;
+use tmlut::fit::forms::FormEvaluator;
 use tmlut::loader::{Alpha, FgdLut, LutFolder};
 
 use gpu::Comparison;

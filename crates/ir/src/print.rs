@@ -1,5 +1,5 @@
 //! A [`Tape`] printed as shader statements ([`crate::shader`]): the one printer of the recorded
-//! scene model (`tmlut::shader::scene`) and of the fitted forms (`tmlut::fit::text::shader`), so that the code a
+//! scene model (`tmlut::shader::scene`) and of the fitted forms (`tmlut::fit::forms::shader`), so that the code a
 //! shader runs is, instruction for instruction, the code [`Tape::values_with`] evaluates on the CPU.
 //! What differs between the two is only how the tape's leaves (constants, variables, parameters)
 //! and the functions a language lacks are printed: the [`LeafPrinter`] a caller passes.

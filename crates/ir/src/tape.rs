@@ -304,7 +304,7 @@ impl Tape {
 
 /// One instruction's value, given the values of earlier ones (`v(k)`), the point's variables and
 /// the parameters: the arithmetic of [`Tape::values`], shared with the evaluation over many points
-/// at once (`tmlut::fit::text::batch`) so that both compute the same bits.
+/// at once (`tmlut::fit::forms::batch`) so that both compute the same bits.
 #[inline]
 pub fn value_of<T: Scalar>(ins: &Ins, v: impl Fn(usize) -> T, vars: &[T], params: &[T]) -> T {
     match *ins {

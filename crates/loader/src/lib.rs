@@ -20,7 +20,7 @@
 //! - [`error`]: the one error type, naming the file or key and what is allowed;
 //! - [`stats`], [`table`], [`physics`]: error records, axes with multilinear interpolation, and
 //!   the Fresnel equations a Belcour table is read with (its Fresnel basis);
-//! - [`machine`]: the memory this process may use, read before a large file is decoded;
+//! - [`memory`]: the memory this process may use, read before a large file is decoded;
 //! - [`formats`]: DDS, KTX2, OpenEXR, the original `.bin` layout and the manifest;
 //! - [`filter`]: a GPU's texture filtering, emulated exactly in f32 (the handles sample with it;
 //!   the generator prints the same filter into its shaders);
@@ -32,7 +32,7 @@ pub mod error;
 pub mod filter;
 pub mod formats;
 pub mod loader;
-pub mod machine;
+pub mod memory;
 pub mod physics;
 pub mod stats;
 pub mod table;

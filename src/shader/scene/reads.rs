@@ -17,7 +17,7 @@
 use super::super::{Builtin, Expr, Function, Stmt, Ty, assign, call, float, func, let_, name, select, var};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
-use crate::fit::text::fitted::{FittedForm, FittedFormExt};
+use crate::fit::forms::fitted::{FittedForm, FittedFormExt};
 use crate::formats::FileFormat;
 use crate::formats::manifest::{FileEntry, FitEntry};
 use crate::loader::{ArrayPlace, FolderSlice, LutFolder, TextureBinding};

@@ -16,8 +16,8 @@ use tmlut::loader::LutFolder;
 
 #[test]
 fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
-    use tmlut::fit::text::FittedForm;
-    use tmlut::fit::text::fitted::FittedFormExt;
+    use tmlut::fit::forms::FittedForm;
+    use tmlut::fit::forms::fitted::FittedFormExt;
     use tmlut::furnace::report::FurnaceReport;
     use tmlut::model::folder::{FgdSource, FolderTables};
     use tmlut::model::{AlbedoPath, Lookup, Material, Quantity, Tables, TirPath};
@@ -45,7 +45,7 @@ fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
     let m = &report.materials[0];
     assert!(m.errors.table.max_all.is_finite() && m.errors.table.max_all > 0.0, "{:?}", m.errors.table);
     let form =
-        FittedForm::read(&dir.path().join("logistic"), "logistic", tmlut::fit::text::fitted::TIR_TABLES).unwrap();
+        FittedForm::read(&dir.path().join("logistic"), "logistic", tmlut::fit::forms::fitted::TIR_TABLES).unwrap();
     assert_eq!(m.tir_form.as_ref(), Some(&form));
     let folder = LutFolder::open(&luts).unwrap();
     let others = FolderTables::open(&folder, AlbedoPath::Fgd, TirPath::Off, FgdSource::Packing).unwrap();
@@ -89,8 +89,8 @@ fn a_scene_naming_a_fitted_form_is_built_furnaced_and_ranked_with_it() {
 
 #[test]
 fn a_scene_naming_an_albedo_form_reads_it_in_place_of_the_karis_table() {
-    use tmlut::fit::text::FittedForm;
-    use tmlut::fit::text::fitted::FittedFormExt;
+    use tmlut::fit::forms::FittedForm;
+    use tmlut::fit::forms::fitted::FittedFormExt;
     use tmlut::furnace::report::FurnaceReport;
     use tmlut::model::folder::{FgdSource, FolderTables};
     use tmlut::model::{AlbedoPath, Lookup, Material, Quantity, Tables, TirPath};
@@ -132,7 +132,7 @@ fn a_scene_naming_an_albedo_form_reads_it_in_place_of_the_karis_table() {
     // The furnace reads the form for every albedo lookup (F0 scale + bias, in f32 as the shader
     // computes it) and the folder for the rest.
     let m = &report.materials[0];
-    let form = FittedForm::read(&fitted, "env-brdf", tmlut::fit::text::fitted::ALBEDO_TABLES).unwrap();
+    let form = FittedForm::read(&fitted, "env-brdf", tmlut::fit::forms::fitted::ALBEDO_TABLES).unwrap();
     assert_eq!((m.albedo_form.as_ref(), m.albedo_path), (Some(&form), AlbedoPath::Karis));
     let folder = LutFolder::open(&luts).unwrap();
     let others = FolderTables::open(&folder, AlbedoPath::Karis, TirPath::Table, FgdSource::Packing).unwrap();

@@ -88,12 +88,12 @@ pub fn read_bytes_at_most(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>
 }
 
 /// Refuse to read `path` where its length is at least `from` bytes and `factor` times it is more
-/// memory than this process may use ([`crate::machine::beyond_limit`]): what reading it, and
+/// memory than this process may use ([`crate::memory::beyond_limit`]): what reading it, and
 /// decoding or parsing what was read, takes. Below `from` the limit is not read at all.
 pub fn hold_to_memory(path: &Path, from: u64, factor: u128, what: &str) -> Result<()> {
     match std::fs::metadata(path) {
         Ok(metadata) if metadata.len() >= from => {
-            match crate::machine::beyond_limit(factor * u128::from(metadata.len()), what) {
+            match crate::memory::beyond_limit(factor * u128::from(metadata.len()), what) {
                 Some(words) => Err(Error::format(path, words)),
                 None => Ok(()),
             }

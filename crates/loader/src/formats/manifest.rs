@@ -140,7 +140,7 @@ pub struct PlanRecord {
 
 /// A form fitted to the TIR table by `tmlut fit --form`, which a scene's material names in place
 /// of the table (`tir = "fit:PATH"`): what the model evaluates, the scene shader prints, and the
-/// manifest and the furnace report record. Read and compiled by `crate::fit::text::fitted`.
+/// manifest and the furnace report record. Read and compiled by `crate::fit::forms::fitted`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FittedForm {
     /// The form's name (its file's stem): its shader function is `tmlut_<name>`.

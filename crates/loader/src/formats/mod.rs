@@ -477,7 +477,7 @@ pub const MAX_TEXT_INPUT_BYTES: u64 = 16 << 20;
 ///
 /// A table is read whole and then decoded to f32 values: up to three times the file's length
 /// (an f16 file's values double). A file above 64 MiB is first held to the memory this process
-/// may use ([`crate::machine::beyond_limit`]), so that a reader under a memory limit refuses it
+/// may use ([`crate::memory::beyond_limit`]), so that a reader under a memory limit refuses it
 /// rather than abort on the allocation.
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     files::hold_to_memory(path, 64 << 20, 3, "reading and decoding it")?;

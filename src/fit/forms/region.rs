@@ -279,7 +279,7 @@ impl Region {
 }
 
 /// The values a variable takes at the data's points, ascending: its axis's nodes where the points
-/// are the table's nodes, otherwise the fit grid's ([`crate::fit::text::data::FormData`]).
+/// are the table's nodes, otherwise the fit grid's ([`crate::fit::forms::data::FormData`]).
 fn point_values(table: &Table, variables: &[String], variable: &str) -> Vec<f64> {
     let plain = table.axes.iter().all(|a| variables.contains(&a.name));
     let mut values = match table.axes.iter().find(|a| a.name == variable) {

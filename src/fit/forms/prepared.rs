@@ -37,7 +37,7 @@ impl<'a> SearchData<'a> {
             data.len(),
             split_off.len()
         );
-        if let Some(words) = crate::machine::beyond_limit(bytes, &what) {
+        if let Some(words) = crate::memory::beyond_limit(bytes, &what) {
             return Err(Error::invalid(
                 format!("form `{}`", form.name),
                 format!("{words}: fit a region (--range) or share sub-expressions in [let]"),
