@@ -17,6 +17,8 @@
 //!   the transfer-matrix evaluation of a scene's materials;
 //! - [`loader`]: what a renderer needs to read and sample the files;
 //! - [`model`]: the transfer-matrix model itself: layer stacks, their lobes and directional albedo;
+//! - [`bake`]: a material's whole model result tabulated over the view cosine, and what that costs
+//!   in accuracy (generator);
 //! - [`random_walk`]: the furnace test's ground truth, a random walk through an explicit layer stack
 //!   (generator);
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
@@ -44,6 +46,8 @@ pub mod report;
 pub mod sampling;
 pub mod shader;
 
+#[cfg(feature = "generator")]
+pub mod bake;
 #[cfg(feature = "generator")]
 pub mod commit;
 #[cfg(feature = "generator")]

@@ -40,7 +40,8 @@ const LAYERS: &[&[&str]] = &[
     &["integrate"],
     &["packing"],
     &["model"],
-    &["random_walk"],
+    // Over the model: its ground truth (the walk) and its result tabulated per material (a bake).
+    &["random_walk", "bake"],
     // A scene's transfer-matrix shader, over the model and a built folder.
     &["shader/scene"],
     &["recipes"],

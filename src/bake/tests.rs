@@ -1,0 +1,190 @@
+use super::errors::{error_views, sample};
+use super::*;
+use crate::config::Config;
+use crate::filter::Filter;
+use crate::furnace::exact::ExactTables;
+use crate::model::{FluxModel, Lookup, Quantity};
+use crate::scene::Scene;
+
+/// The materials of the example scenes that vary nothing, at their own values.
+fn example_materials() -> Vec<(String, Material)> {
+    let scenes = [
+        ("copper-pot", include_str!("../../luts/scenes/copper-pot.toml")),
+        ("scattering", include_str!("../../luts/scenes/scattering.toml")),
+        ("layers", include_str!("../../luts/scenes/thesis/layers.toml")),
+        ("tir", include_str!("../../luts/scenes/thesis/tir.toml")),
+    ];
+    let mut materials = Vec::new();
+    for (name, text) in scenes {
+        let scene = Scene::from_toml(text, name, name).unwrap();
+        for m in &scene.materials {
+            materials.push((format!("{name}/{}", m.name), Material::new(m.model, m.stack().unwrap())));
+        }
+    }
+    materials
+}
+
+fn gold_under_a_coat() -> Material {
+    example_materials().into_iter().find(|(name, _)| name.starts_with("copper-pot/")).unwrap().1
+}
+
+#[test]
+fn the_layout_packs_six_values_and_six_per_lobe_four_to_a_texel() {
+    let texels: Vec<usize> = (0..5).map(|lobes| BakeLayout { lobes }.texels_per_node()).collect();
+    assert_eq!(texels, [2, 3, 5, 6, 8]);
+    let layout = BakeLayout { lobes: 2 };
+    assert_eq!(layout.values(), 18);
+    assert_eq!(layout.value_name(0), "the albedo (R)");
+    assert_eq!(layout.value_name(5), "the top albedo (B)");
+    assert_eq!(layout.value_name(6), "lobe 1 energy (R)");
+    assert_eq!(layout.value_name(9), "lobe 1 roughness");
+    assert_eq!(layout.value_name(16), "lobe 2 mean-direction cosine");
+    assert_eq!(layout.value_name(17), "lobe 2 GD");
+}
+
+#[test]
+fn a_flattened_evaluation_holds_each_value_where_its_name_says() {
+    let material = gold_under_a_coat();
+    let tables = |l: &Lookup| match l.quantity {
+        Quantity::Albedo => 0.25,
+        Quantity::Tir => 0.0,
+        Quantity::Gd => 0.75,
+    };
+    let evaluation = material.evaluate(0.5, &tables);
+    let layout = BakeLayout { lobes: evaluation.lobes.len() };
+    let values = layout.flatten(&evaluation);
+    assert_eq!(values.len(), layout.values());
+    assert_eq!(values[..3], evaluation.albedo);
+    assert_eq!(values[3..6], evaluation.top_albedo);
+    let last = evaluation.lobes.last().unwrap();
+    assert_eq!(values[values.len() - 6..values.len() - 3], last.energy);
+    assert_eq!(values[values.len() - 3..], [last.roughness, last.mean_direction[2], last.gd]);
+}
+
+#[test]
+fn nodes_run_from_grazing_to_the_normal_with_one_on_each_kink() {
+    let uniform = NodePlacement::uniform(17);
+    let mu = |p: &NodePlacement, k: usize| p.node_mu(k);
+    assert_eq!((mu(&uniform, 0), mu(&uniform, 16)), (0.0, 1.0));
+    assert!((1..17).all(|k| mu(&uniform, k) > mu(&uniform, k - 1)));
+    // Denser toward grazing: the first interval is the narrowest.
+    assert!(mu(&uniform, 1) - mu(&uniform, 0) < mu(&uniform, 16) - mu(&uniform, 15));
+    let kinked = NodePlacement::with_breaks(&[0.1, 0.55], 21);
+    assert_eq!(kinked.nodes(), 21);
+    assert_eq!(kinked.breaks(), [0.1, 0.55]);
+    let intervals: Vec<usize> = kinked.segments().iter().map(|s| s.intervals).collect();
+    assert_eq!(intervals, [2, 9, 9]);
+    assert_eq!((kinked.node_u(2), kinked.node_u(11), kinked.node_u(20)), (0.1, 0.55, 1.0));
+    // The f32 coordinate of a node's view cosine is its texel centre, on both sides of a kink.
+    for k in 0..21 {
+        let x = kinked.texture_coordinate(kinked.node_mu(k) as f32);
+        assert!((x * 21.0 - 0.5 - k as f32).abs() < 1e-4, "node {k}: {x}");
+    }
+}
+
+#[test]
+fn a_read_at_a_node_is_that_node() {
+    let nodes = 17;
+    let material = gold_under_a_coat();
+    let tables = |l: &Lookup| match l.quantity {
+        Quantity::Albedo => crate::physics::fresnel_reflectance(l.mu, l.eta, l.kappa),
+        Quantity::Tir => 0.1 * l.mu,
+        Quantity::Gd => 1.0 - 0.2 * l.alpha,
+    };
+    let settings = BakeSettings { nodes, ..BakeSettings::default() };
+    let baked = bake_material("gold", &material, &tables, &settings).unwrap();
+    for k in 0..nodes {
+        let read = sample(&baked, baked.placement.node_mu(k) as f32, Filter::Exact);
+        let stored: Vec<f32> = (0..baked.rows()).flat_map(|r| baked.texel(r, k)).take(read.len()).collect();
+        for (a, b) in read.iter().zip(&stored) {
+            assert!((a - b).abs() <= 2e-6 * b.abs().max(1.0), "node {k}: read {a}, stored {b}");
+        }
+    }
+    // Outside [0, 1] and NaN read the end nodes.
+    assert_eq!(sample(&baked, -0.5, Filter::Exact), sample(&baked, 0.0, Filter::Exact));
+    assert_eq!(sample(&baked, f32::NAN, Filter::Exact), sample(&baked, 0.0, Filter::Exact));
+    assert_eq!(sample(&baked, 7.0, Filter::Exact), sample(&baked, 1.0, Filter::Exact));
+}
+
+#[test]
+fn error_views_hold_the_nodes_and_the_views_between_them() {
+    let placement = NodePlacement::with_breaks(&[0.3], 5);
+    let views = error_views(&placement, 4);
+    assert_eq!(views.len(), 17);
+    assert_eq!((views[0], views[16]), (1.0, 0.0));
+    for k in 0..5 {
+        assert!(views.contains(&placement.node_mu(k)), "node {k}");
+    }
+}
+
+#[test]
+fn a_kink_gets_a_node_and_a_smooth_curve_none() {
+    // |u - 0.3| has a kink at 0.3 (its slope jumps by 2); u^2 has none.
+    let weights = |v: &[f64]| vec![1.0; v.len()];
+    // At 33 nodes a curvature of 9 errs by 1.1e-3 ((1/32)^2 9 / 8), a kink of 2 by 1.6e-2.
+    let kinked = placement::place_nodes(&|u: f64| Ok(vec![(u - 0.3).abs(), u * u]), &weights, 33, 2e-3).unwrap();
+    let kinks = kinked.breaks();
+    assert_eq!(kinks.len(), 1, "{kinks:?}");
+    assert!((kinks[0] - 0.3).abs() < 1e-9, "{kinks:?}");
+    let smooth = placement::place_nodes(&|u: f64| Ok(vec![u * u, (3.0 * u).sin()]), &weights, 33, 2e-3).unwrap();
+    assert!(smooth.breaks().is_empty(), "{:?}", smooth.breaks());
+    // A kink too small to matter at this spacing is left alone.
+    let slight = placement::place_nodes(&|u: f64| Ok(vec![1e-5 * (u - 0.3).abs()]), &weights, 33, 2e-3).unwrap();
+    assert!(slight.breaks().is_empty(), "{:?}", slight.breaks());
+    // Where the curvature is the error, segments are cut to even it out: denser where it is larger.
+    let curved = placement::place_nodes(&|u: f64| Ok(vec![(1.0 - u).powi(4)]), &weights, 33, 1e-4).unwrap();
+    let first = curved.segments().first().unwrap();
+    let last = curved.segments().last().unwrap();
+    assert!(curved.breaks().len() >= 2, "{:?}", curved.breaks());
+    assert!(
+        (first.u_end - first.u_start) / (first.intervals as f64)
+            < (last.u_end - last.u_start) / (last.intervals as f64),
+        "{:?}",
+        curved.segments()
+    );
+}
+
+#[test]
+fn a_model_that_returns_nan_is_refused_naming_the_material_and_the_view() {
+    let material = gold_under_a_coat();
+    let tables = |l: &Lookup| if l.quantity == Quantity::Albedo && l.mu < 0.3 { f64::NAN } else { 0.5 };
+    let settings = BakeSettings { nodes: 9, ..BakeSettings::default() };
+    let e = bake_material("gold", &material, &tables, &settings).unwrap_err().to_string();
+    assert!(e.contains("material `gold`") && e.contains("NaN") && e.contains("mu = 0"), "{e}");
+    let settings = BakeSettings { nodes: 1, ..BakeSettings::default() };
+    let e = bake_material("gold", &material, &|_: &Lookup| 0.5, &settings).unwrap_err().to_string();
+    assert!(e.contains("bake nodes") && e.contains("9 to 8192"), "{e}");
+}
+
+#[test]
+fn a_bake_is_the_same_to_the_bit_on_one_thread_and_on_three() {
+    let material = gold_under_a_coat();
+    let exact = ExactTables::new(&Config::default(), 4).unwrap();
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let settings = BakeSettings { nodes: 24, ..BakeSettings::default() };
+        pool.install(|| bake_material("gold", &material, &exact, &settings).unwrap())
+    };
+    let (one, three) = (on(1), on(3));
+    let bits = |b: &BakedMaterial| b.texels.iter().flatten().map(|v| v.to_bits()).collect::<Vec<u32>>();
+    assert_eq!(bits(&one), bits(&three));
+}
+
+/// The claim `BakeSettings::default` makes: every example material baked from exact integrals and
+/// read through a GPU's filter (8-bit weights) stays within 1e-3 of its model, albedo, lobe
+/// energies and the energy-weighted lobe shape alike, at views between the nodes.
+#[test]
+fn the_example_materials_baked_by_default_stay_within_1e_3_of_their_model() {
+    let exact = ExactTables::new(&Config::default(), crate::furnace::DEFAULT_EXACT_NODES).unwrap();
+    let mut six_flux = 0;
+    for (name, material) in example_materials() {
+        six_flux += usize::from(material.model == FluxModel::SixFlux);
+        let baked = bake_material(&name, &material, &exact, &BakeSettings::default()).unwrap();
+        let errors = baked_errors(&baked, &material, &exact, 4, Filter::QuantisedWeights { bits: 8 });
+        println!("{name}: breaks at u = {:?}, {} views: {:.1e}", baked.placement.breaks(), errors.views, errors.max());
+        assert!(errors.max() <= 1e-3, "{name}: {errors:#?}");
+        // Something was measured: the bake is not the model at every view.
+        assert!(errors.albedo.max > 0.0, "{name}: {errors:#?}");
+    }
+    assert!(six_flux > 0, "no 6-flux material among the examples");
+}
