@@ -314,3 +314,73 @@ mod default_file_tests {
         assert_eq!(Config::from_file(&path).unwrap(), Config::default());
     }
 }
+
+#[cfg(test)]
+mod serialisation_tests {
+    use super::*;
+    use crate::scene::plan::PlannedBuild;
+
+    /// The configurations under `luts/` (the other files there are budgets, scenes and fitted forms).
+    const CONFIGURATIONS: &[&str] = &["luts/ci.toml", "luts/default.toml", "luts/gpu-check.toml", "luts/original.toml"];
+
+    /// Every scene file under `dir`, sorted.
+    fn scene_files(dir: &Path) -> Vec<std::path::PathBuf> {
+        let mut files = Vec::new();
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                files.extend(scene_files(&path));
+            } else if path.extension().is_some_and(|e| e == "toml") {
+                files.push(path);
+            }
+        }
+        files.sort();
+        files
+    }
+
+    /// One line per serialisation the project hashes or reads back: each configuration as TOML
+    /// (what `from_toml` lays a file over) and as JSON (the scene build's key), and the settings of
+    /// every table of every `luts/` scene's plan under each configuration (the table cache's keys),
+    /// each as the SHA-256 of its text.
+    fn serialisations() -> String {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut configurations = vec![("built-in".to_string(), Config::default())];
+        for name in CONFIGURATIONS {
+            configurations.push((name.to_string(), Config::from_file(&root.join(name)).unwrap()));
+        }
+        let scenes = scene_files(&root.join("luts/scenes"));
+        let hash = |text: &str| crate::loader::sha256_hex(text.as_bytes());
+        let mut lines = String::new();
+        for (name, config) in &configurations {
+            lines += &format!("{name} toml {}\n", hash(&toml::to_string(config).unwrap()));
+            lines += &format!("{name} json {}\n", hash(&serde_json::to_string(config).unwrap()));
+            for path in &scenes {
+                let (scene, _) = crate::scene::Scene::read(path).unwrap();
+                let plan = crate::scene::plan::plan(&scene, config).unwrap();
+                let settings: Vec<String> = plan
+                    .tables
+                    .iter()
+                    .map(|table| match &table.build {
+                        PlannedBuild::Table(settings) => serde_json::to_string(settings),
+                        PlannedBuild::Slices(slices) => serde_json::to_string(&slices.of),
+                        PlannedBuild::TirFit(settings) => serde_json::to_string(settings),
+                    })
+                    .collect::<std::result::Result<_, _>>()
+                    .unwrap();
+                let scene = path.strip_prefix(root).unwrap().display();
+                lines += &format!("{name} {scene} {}\n", hash(&settings.join("\n")));
+            }
+        }
+        lines
+    }
+
+    /// The table cache's keys hash the settings as serialised, so a change of their text (a key
+    /// renamed, moved or added) makes every entry a miss; the recorded hashes hold the text as it
+    /// is. Where such a change is meant, the failure prints the lines to record.
+    #[test]
+    fn the_settings_serialise_to_the_recorded_text() {
+        let recorded = include_str!("../tests/data/settings-serialisations.txt");
+        let now = serialisations();
+        assert!(recorded == now, "the settings serialise to other text than recorded; now:\n{now}");
+    }
+}
