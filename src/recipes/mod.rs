@@ -15,12 +15,12 @@ macro_rules! kernel_settings {
             Self::validate(self)
         }
 
-        fn sampling(&self) -> SamplingConfig {
-            self.sampling
+        fn sampling(&self) -> super::settings::SamplingConfig {
+            self.shared.sampling
         }
 
-        fn reference(&self) -> ReferenceConfig {
-            self.reference
+        fn reference(&self) -> super::settings::ReferenceConfig {
+            self.shared.reference
         }
 
         fn method(&self) -> Method {
@@ -52,28 +52,28 @@ macro_rules! table_recipe_accessors {
             &mut self.method
         }
 
-        fn sampling_mut(&mut self) -> &mut SamplingConfig {
-            &mut self.sampling
+        fn sampling_mut(&mut self) -> &mut super::settings::SamplingConfig {
+            &mut self.shared.sampling
         }
 
-        fn reference_mut(&mut self) -> &mut ReferenceConfig {
-            &mut self.reference
+        fn reference_mut(&mut self) -> &mut super::settings::ReferenceConfig {
+            &mut self.shared.reference
         }
 
         fn interpolation_mut(&mut self) -> &mut super::interpolation::InterpolationConfig {
-            &mut self.interpolation
+            &mut self.shared.interpolation
         }
 
         fn axes(&self) -> Result<Vec<Axis>> {
             Self::axes(self)
         }
 
-        fn output(&self) -> &OutputConfig {
-            &self.output
+        fn output(&self) -> &super::settings::OutputConfig {
+            &self.shared.output
         }
 
         fn interpolation(&self) -> super::interpolation::InterpolationConfig {
-            self.interpolation
+            self.shared.interpolation
         }
 
         fn channel_count(&self) -> usize {
@@ -86,10 +86,6 @@ macro_rules! table_recipe_accessors {
     };
 }
 
-// First, for its macro (`table_settings!`).
-#[macro_use]
-pub mod settings;
-
 pub mod belcour;
 pub mod driver;
 pub mod fgd;
@@ -97,6 +93,7 @@ pub mod fgd_rarer;
 pub mod gd;
 pub mod interpolation;
 pub mod karis;
+pub mod settings;
 pub mod slices;
 pub mod spacing;
 pub mod split_sum;
@@ -529,16 +526,16 @@ mod tests {
 
     #[test]
     fn the_reference_check_does_not_depend_on_the_thread_count() {
-        let settings = fgd::FgdSettings {
+        let mut settings = fgd::FgdSettings {
             mu_count: 6,
             alpha_count: 5,
             eta_count: 4,
             kappa_count: 3,
-            sampling: settings::SamplingConfig::replicated(1 << 10),
-            reference: settings::ReferenceConfig { cells: 13, nodes: 4 },
             replicate_error_columns: 4,
             ..fgd::FgdSettings::default()
         };
+        settings.shared.sampling = settings::SamplingConfig::replicated(1 << 10);
+        settings.shared.reference = settings::ReferenceConfig { cells: 13, nodes: 4 };
         let run = |threads| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| driver::build(&settings, 3, &()).unwrap().provenance.error.reference.unwrap())
