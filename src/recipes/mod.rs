@@ -6,8 +6,8 @@
 //! time, error estimates) that the manifest publishes beside every file.
 
 /// The part of a [`driver::Kernel`] impl that every table's settings share: the inherent
-/// `validate`, the `method`, `sampling` and `reference` fields, and the interpolation check over
-/// the recipe's domains. Used inside `impl Kernel for ...Settings`, so that each impl states only
+/// `validate`, the `method` field, `sampling` and `reference` of the `shared` field
+/// ([`settings::SharedSettings`]), and the interpolation check over the recipe's domains. Used inside `impl Kernel for ...Settings`, so that each impl states only
 /// what differs (the table's layout, metadata and kernel).
 macro_rules! kernel_settings {
     () => {
@@ -34,8 +34,8 @@ macro_rules! kernel_settings {
 }
 
 /// The part of a [`TableRecipe`] impl that every table's settings share: the module's `NAME`,
-/// `DESCRIPTION`, `CHANNEL_COUNT` and `COUNT_KEYS`, the inherent `axes`, and the `method`,
-/// `sampling`, `reference`, `interpolation` and `output` fields. Used inside
+/// `DESCRIPTION`, `CHANNEL_COUNT` and `COUNT_KEYS`, the inherent `axes`, the `method` field, and
+/// `sampling`, `reference`, `interpolation` and `output` of the `shared` field. Used inside
 /// `impl TableRecipe for ...Settings`, so that each impl states only what differs
 /// (`companions`, the interpolation check's domains).
 macro_rules! table_recipe_accessors {
