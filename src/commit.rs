@@ -615,7 +615,7 @@ mod tests {
         assert!(dir.path().join("karis.exr").exists());
         // Karis again, in DDS only: its EXR file is an earlier build's and goes; GD stays.
         let mut config = config("bottom-up-image");
-        config.karis.output.formats = vec![crate::formats::FileFormat::Dds];
+        config.karis.shared.output.formats = vec![crate::formats::FileFormat::Dds];
         let request =
             BuildRequest { config, only: Some(vec!["karis".into()]), out: dir.path().to_path_buf(), error_maps: false };
         build(&request, &()).unwrap();

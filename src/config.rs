@@ -37,14 +37,14 @@ impl Config {
         // Parsed to a TOML table first and deserialised from it: that path refuses an array longer
         // than its field (`alpha_range = [0.1, 0.5, 0.9]`), which deserialising from the text
         // directly accepts, dropping the third value.
-        let table: toml::Table = text.parse().map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
+        let file = toml::Value::Table(text.parse().map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?);
         // Every key is optional, in a section given in part too (`[gd.sampling] replicates = 8`):
         // the file is laid over the table's own defaults, key by key, before it is read.
         let defaults = toml::Value::try_from(Config::default()).expect("the defaults are plain data");
-        let config: Config = overlay(defaults, toml::Value::Table(table), "")
-            .map_err(|reason| Error::invalid(origin, reason))?
-            .try_into()
-            .map_err(|e| Error::invalid(origin, clean_toml_error(&e)))?;
+        let laid = overlay(defaults.clone(), file.clone(), "").map_err(|reason| Error::invalid(origin, reason))?;
+        let config: Config = laid.try_into().map_err(|e| {
+            Error::invalid(origin, refused_value(&defaults, &file).unwrap_or_else(|| clean_toml_error(&e)))
+        })?;
         config.validate()?;
         Ok(config)
     }
@@ -124,9 +124,10 @@ pub(crate) fn clean_toml_error(error: &toml::de::Error) -> String {
 /// `over` laid on `under`: tables merge key by key, anything else (a value, an array) replaces.
 /// A key of `over` that the table under it lacks is refused, naming it (`path` is where `over`
 /// sits) and the keys allowed there. The defaults hold every key a section accepts (no setting is
-/// optional or a map of free keys), so this refuses what `deny_unknown_fields` refuses, also in a
-/// section with a flattened part (the split-sum tables' own keys), where serde names no allowed
-/// keys and no full path.
+/// optional or a map of free keys), so this is the check of unknown keys of every table: serde's
+/// `deny_unknown_fields` names neither the allowed keys nor the full path of a key in a section
+/// whose settings flatten in a part of their own (the keys every table shares, the `mu` and
+/// `alpha` axes, a split-sum table's own keys).
 fn overlay(under: toml::Value, over: toml::Value, path: &str) -> std::result::Result<toml::Value, String> {
     match (under, over) {
         (toml::Value::Table(mut under), toml::Value::Table(over)) => {
@@ -142,6 +143,46 @@ fn overlay(under: toml::Value, over: toml::Value, path: &str) -> std::result::Re
             Ok(toml::Value::Table(under))
         }
         (_, over) => Ok(over),
+    }
+}
+
+/// The first value of `file` that its key refuses, as `path: reason`, each value laid alone over
+/// `defaults` and read. serde reads a section's flattened parts from a copy of the section and
+/// names a value refused there by the section alone (`in gd`, for `gd.output.precision`); a value
+/// is refused or not on its own (no key's type depends on another's), so the one refused is found
+/// alone, and its path is known here.
+fn refused_value(defaults: &toml::Value, file: &toml::Value) -> Option<String> {
+    let mut set = Vec::new();
+    values_set(defaults, file, &mut Vec::new(), &mut set);
+    set.into_iter().find_map(|(path, value)| {
+        let mut alone = defaults.clone();
+        let place = path.iter().try_fold(&mut alone, |table, key| table.get_mut(key.as_str()))?;
+        *place = value.clone();
+        let refused = alone.try_into::<Config>().err()?;
+        Some(format!("{}: {}", path.join("."), refused.message()))
+    })
+}
+
+/// The values `over` sets where [`overlay`] lays it on `under`, each with its path below `path`:
+/// a table on a table is walked into, anything else is one value.
+fn values_set<'a>(
+    under: &toml::Value,
+    over: &'a toml::Value,
+    path: &mut Vec<String>,
+    set: &mut Vec<(Vec<String>, &'a toml::Value)>,
+) {
+    match (under, over) {
+        (toml::Value::Table(under), toml::Value::Table(over)) => {
+            for (key, value) in over {
+                path.push(key.clone());
+                match under.get(key) {
+                    Some(below) => values_set(below, value, path, set),
+                    None => set.push((path.clone(), value)),
+                }
+                path.pop();
+            }
+        }
+        _ => set.push((path.clone(), over)),
     }
 }
 
@@ -250,6 +291,42 @@ mod tests {
     }
 
     #[test]
+    fn a_value_or_key_in_a_flattened_part_is_named_by_its_whole_path() {
+        // The keys every table shares, the mu and alpha axes, a split-sum table's own keys: each
+        // read through a flattened struct, where serde names the section alone.
+        let cases: &[(&str, &[&str])] = &[
+            ("[gd.output]\nprecision = \"f8\"\n", &["test.toml: gd.output.precision: unknown variant `f8`", "`f16`"]),
+            ("[fgd]\nmu_range = [0.1, 0.5, 0.9]\n", &["test.toml: fgd.mu_range: invalid length 3"]),
+            ("[tir]\nroughness_axis = \"cubic\"\n", &["tir.roughness_axis: unknown variant `cubic`", "`perceptual`"]),
+            ("[karis.sampling]\nsamples = \"many\"\n", &["karis.sampling.samples: invalid type: string \"many\""]),
+            ("[belcour]\ncosine_intervals = -1\n", &["belcour.cosine_intervals: invalid value: integer `-1`"]),
+            ("[fgd]\nreference = 3\n", &["fgd.reference: invalid type: integer `3`"]),
+            // Beside a good value the refused one is still the one named.
+            ("[gd]\nmu_count = 8\n[gd.interpolation]\npoints = 1.5\n", &["gd.interpolation.points: invalid type"]),
+            ("seed = -1\n", &["test.toml: seed: invalid value: integer `-1`"]),
+            (
+                "[gd.output]\nprecison = \"f32\"\n",
+                &["`gd.output.precison`", "allowed in [gd.output]: formats, precision"],
+            ),
+            ("[fgd]\nmu_rnage = [0.0, 1.0]\n", &["`fgd.mu_rnage`", "alpha_range", "mu_range", "sampling", "packings"]),
+        ];
+        for (text, expected) in cases {
+            let e = error_of(text);
+            assert!(expected.iter().all(|part| e.contains(part)), "{text}: {e}");
+        }
+        // The flattened parts are read where they belong.
+        let config = Config::from_toml(
+            "[fgd]\nmu_range = [0.25, 0.5]\nroughness_axis = \"alpha\"\n[tir.reference]\ncells = 5\n",
+            "t",
+        )
+        .unwrap();
+        assert_eq!(config.fgd.mu_alpha.mu_range, [0.25, 0.5]);
+        assert_eq!(config.fgd.mu_alpha.roughness_axis, crate::recipes::spacing::RoughnessAxis::Alpha);
+        assert_eq!(config.tir.mu_alpha, Config::default().tir.mu_alpha);
+        assert_eq!(config.tir.shared.reference.cells, 5);
+    }
+
+    #[test]
     fn a_build_that_would_not_fit_in_memory_or_time_is_refused_naming_its_keys() {
         // Every FGD count at its maximum: 2^56 values.
         let e = error_of(
@@ -279,13 +356,13 @@ mod tests {
         let config =
             Config::from_toml("[gd.sampling]\nreplicates = 8\n[karis.output]\nprecision = \"f32\"\n", "t").unwrap();
         let defaults = Config::default();
-        assert_eq!(config.gd.sampling.replicates, 8);
-        assert_eq!(config.gd.sampling.samples, defaults.gd.sampling.samples);
-        assert_eq!(config.karis.output.formats, defaults.karis.output.formats);
-        assert_eq!(config.karis.output.precision, crate::formats::Precision::F32);
+        assert_eq!(config.gd.shared.sampling.replicates, 8);
+        assert_eq!(config.gd.shared.sampling.samples, defaults.gd.shared.sampling.samples);
+        assert_eq!(config.karis.shared.output.formats, defaults.karis.shared.output.formats);
+        assert_eq!(config.karis.shared.output.precision, crate::formats::Precision::F32);
         // Tables merge; arrays and values replace whole.
         let config = Config::from_toml("[karis.output]\nformats = [\"exr\"]\n", "t").unwrap();
-        assert_eq!(config.karis.output.formats, [crate::formats::FileFormat::Exr]);
+        assert_eq!(config.karis.shared.output.formats, [crate::formats::FileFormat::Exr]);
         assert_eq!(overlay(toml::Value::Integer(1), toml::Value::Integer(2), "k"), Ok(toml::Value::Integer(2)));
     }
 
@@ -312,5 +389,75 @@ mod default_file_tests {
     fn the_committed_default_configuration_is_the_built_in_default() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/default.toml");
         assert_eq!(Config::from_file(&path).unwrap(), Config::default());
+    }
+}
+
+#[cfg(test)]
+mod serialisation_tests {
+    use super::*;
+    use crate::scene::plan::PlannedBuild;
+
+    /// The configurations under `luts/` (the other files there are budgets, scenes and fitted forms).
+    const CONFIGURATIONS: &[&str] = &["luts/ci.toml", "luts/default.toml", "luts/gpu-check.toml", "luts/original.toml"];
+
+    /// Every scene file under `dir`, sorted.
+    fn scene_files(dir: &Path) -> Vec<std::path::PathBuf> {
+        let mut files = Vec::new();
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                files.extend(scene_files(&path));
+            } else if path.extension().is_some_and(|e| e == "toml") {
+                files.push(path);
+            }
+        }
+        files.sort();
+        files
+    }
+
+    /// One line per serialisation the project hashes or reads back: each configuration as TOML
+    /// (what `from_toml` lays a file over) and as JSON (the scene build's key), and the settings of
+    /// every table of every `luts/` scene's plan under each configuration (the table cache's keys),
+    /// each as the SHA-256 of its text.
+    fn serialisations() -> String {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut configurations = vec![("built-in".to_string(), Config::default())];
+        for name in CONFIGURATIONS {
+            configurations.push((name.to_string(), Config::from_file(&root.join(name)).unwrap()));
+        }
+        let scenes = scene_files(&root.join("luts/scenes"));
+        let hash = |text: &str| crate::loader::sha256_hex(text.as_bytes());
+        let mut lines = String::new();
+        for (name, config) in &configurations {
+            lines += &format!("{name} toml {}\n", hash(&toml::to_string(config).unwrap()));
+            lines += &format!("{name} json {}\n", hash(&serde_json::to_string(config).unwrap()));
+            for path in &scenes {
+                let (scene, _) = crate::scene::Scene::read(path).unwrap();
+                let plan = crate::scene::plan::plan(&scene, config).unwrap();
+                let settings: Vec<String> = plan
+                    .tables
+                    .iter()
+                    .map(|table| match &table.build {
+                        PlannedBuild::Table(settings) => serde_json::to_string(settings),
+                        PlannedBuild::Slices(slices) => serde_json::to_string(&slices.of),
+                        PlannedBuild::TirFit(settings) => serde_json::to_string(settings),
+                    })
+                    .collect::<std::result::Result<_, _>>()
+                    .unwrap();
+                let scene = path.strip_prefix(root).unwrap().display();
+                lines += &format!("{name} {scene} {}\n", hash(&settings.join("\n")));
+            }
+        }
+        lines
+    }
+
+    /// The table cache's keys hash the settings as serialised, so a change of their text (a key
+    /// renamed, moved or added) makes every entry a miss; the recorded hashes hold the text as it
+    /// is. Where such a change is meant, the failure prints the lines to record.
+    #[test]
+    fn the_settings_serialise_to_the_recorded_text() {
+        let recorded = include_str!("../tests/data/settings-serialisations.txt");
+        let now = serialisations();
+        assert!(recorded == now, "the settings serialise to other text than recorded; now:\n{now}");
     }
 }

@@ -144,9 +144,9 @@ fn build_small_tir(out: &Path, fit: crate::recipes::tir::TirFit) -> crate::forma
     config.tir.mu_count = 17;
     config.tir.alpha_count = 9;
     config.tir.eta_count = 17;
-    config.tir.sampling.samples = 1024;
-    config.tir.reference.cells = 0;
-    config.tir.interpolation.points = 0;
+    config.tir.shared.sampling.samples = 1024;
+    config.tir.shared.reference.cells = 0;
+    config.tir.shared.interpolation.points = 0;
     config.tir.fit = fit;
     let request =
         crate::pipeline::BuildRequest { config, only: Some(vec!["tir".into()]), out: out.into(), error_maps: false };

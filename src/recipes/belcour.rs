@@ -13,7 +13,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
+use super::settings::{OutputConfig, SamplingConfig, SharedSettings};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
@@ -65,12 +65,14 @@ impl Default for BelcourSettings {
             orientation: Orientation::SmoothFirst,
             masking: MaskingShadowing::SmithHeightCorrelated,
             method: Method::Fast,
-            sampling: SamplingConfig::replicated(1 << 14),
-            reference: ReferenceConfig::default(),
-            // Height-correlated masking at grazing views of rough lobes needs 8 nodes per panel (6
-            // are 1.7e-4 off 16 there; `docs/integration.md`, "Error estimates").
-            interpolation: super::interpolation::InterpolationConfig { points: 2048, nodes: 8 },
-            output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
+            shared: SharedSettings {
+                sampling: SamplingConfig::replicated(1 << 14),
+                // Height-correlated masking at grazing views of rough lobes needs 8 nodes per panel
+                // (6 are 1.7e-4 off 16 there; `docs/integration.md`, "Error estimates").
+                interpolation: super::interpolation::InterpolationConfig { points: 2048, nodes: 8 },
+                output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
+                ..SharedSettings::default()
+            },
             own: BelcourOwn::default(),
         }
     }
@@ -421,6 +423,7 @@ fn split_sum_accuracy(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::recipes::settings::ReferenceConfig;
 
     #[test]
     fn gulbrandsen_mapping_reproduces_its_reflectivity() {
@@ -460,8 +463,11 @@ mod tests {
         let settings = BelcourSettings {
             mu_count: 8,
             roughness_count: 8,
-            sampling: SamplingConfig::replicated(1 << 14),
-            reference: ReferenceConfig { cells: 64, nodes: 8 },
+            shared: SharedSettings {
+                sampling: SamplingConfig::replicated(1 << 14),
+                reference: ReferenceConfig { cells: 64, nodes: 8 },
+                ..BelcourSettings::default().shared
+            },
             ..BelcourSettings::default()
         };
         let build = settings.build(4, &()).unwrap();

@@ -14,10 +14,13 @@
 //! `mu`, `alpha` over [0, 1], `eta`, `kappa` over [0, 4], separable Smith, f32 `.bin`.
 
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use super::driver::one_channel_table;
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_counts};
-use super::spacing::{CosineAxis, ExtinctionAxis, IndexAxis, RoughnessAxis};
+use super::settings::{
+    MuAlphaAxes, OutputConfig, SamplingConfig, SharedSettings, check_cosine_intervals, check_counts,
+};
+use super::spacing::{ExtinctionAxis, IndexAxis};
 use super::{Integrated, Kernel, Metadata, TableRecipe, random_cells};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
@@ -40,34 +43,36 @@ pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count", "kappa
 /// The interpolation domain of dielectric interfaces onto a rarer medium: `eta < 1`, `kappa = 0`.
 pub const DIELECTRIC_ONTO_RARER: &str = "a dielectric onto a rarer medium (eta < 1, kappa = 0)";
 
-table_settings! {
-    pub struct FgdSettings {
-        pub mu_count: usize,
-        pub alpha_count: usize,
-        pub eta_count: usize,
-        pub kappa_count: usize,
-        ..mu_alpha_axes,
-        pub eta_range: [f64; 2],
-        pub kappa_range: [f64; 2],
-        /// How the `eta` nodes are spaced.
-        pub eta_axis: IndexAxis,
-        /// How the `kappa` nodes are spaced.
-        pub kappa_axis: ExtinctionAxis,
-        pub masking: MaskingShadowing,
-        pub method: Method,
-        /// Intervals of the hat basis in `c = wi.h` (fast method).
-        pub cosine_intervals: usize,
-        /// `(eta, kappa)` columns whose replicate spread is computed (all of them costs one matrix
-        /// product per replicate).
-        pub replicate_error_columns: usize,
-        ..shared,
-        /// Volume-texture packings written beside the 4D table (`fgd_<packing>.dds` or `.ktx2`, see
-        /// `packing_formats`, with its HLSL and WGSL lookup), in the precision of `output.precision`;
-        /// see `docs/packing.md`.
-        pub packings: Vec<Packing>,
-        /// The files each packing's texture is written to: `fgd_<packing>.dds`, `.ktx2` or both.
-        pub packing_formats: Vec<FileFormat>,
-    }
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FgdSettings {
+    pub mu_count: usize,
+    pub alpha_count: usize,
+    pub eta_count: usize,
+    pub kappa_count: usize,
+    #[serde(flatten)]
+    pub mu_alpha: MuAlphaAxes,
+    pub eta_range: [f64; 2],
+    pub kappa_range: [f64; 2],
+    /// How the `eta` nodes are spaced.
+    pub eta_axis: IndexAxis,
+    /// How the `kappa` nodes are spaced.
+    pub kappa_axis: ExtinctionAxis,
+    pub masking: MaskingShadowing,
+    pub method: Method,
+    /// Intervals of the hat basis in `c = wi.h` (fast method).
+    pub cosine_intervals: usize,
+    /// `(eta, kappa)` columns whose replicate spread is computed (all of them costs one matrix
+    /// product per replicate).
+    pub replicate_error_columns: usize,
+    #[serde(flatten)]
+    pub shared: SharedSettings,
+    /// Volume-texture packings written beside the 4D table (`fgd_<packing>.dds` or `.ktx2`, see
+    /// `packing_formats`, with its HLSL and WGSL lookup), in the precision of `output.precision`;
+    /// see `docs/packing.md`.
+    pub packings: Vec<Packing>,
+    /// The files each packing's texture is written to: `fgd_<packing>.dds`, `.ktx2` or both.
+    pub packing_formats: Vec<FileFormat>,
 }
 
 impl Default for FgdSettings {
@@ -77,10 +82,7 @@ impl Default for FgdSettings {
             alpha_count: 64,
             eta_count: 64,
             kappa_count: 64,
-            mu_range: [0.0, 1.0],
-            alpha_range: [0.0, 1.0],
-            mu_axis: CosineAxis::SqrtEnds,
-            roughness_axis: RoughnessAxis::Perceptual,
+            mu_alpha: MuAlphaAxes::default(),
             eta_range: [0.0, 4.0],
             kappa_range: [0.0, 4.0],
             eta_axis: IndexAxis::DenseNearOne,
@@ -89,17 +91,19 @@ impl Default for FgdSettings {
             method: Method::Fast,
             cosine_intervals: 256,
             replicate_error_columns: 256,
-            // 2^17: the worst cell's replicate standard error is 5.5e-5, within the 1e-4 target
-            // (`docs/benchmark.md`); 2^16 reaches 1.01e-4 on the default `eta` nodes.
-            sampling: SamplingConfig::replicated(1 << 17),
-            reference: ReferenceConfig::default(),
-            // Five domains (`interpolation_domains`): half the points of the other tables keeps
-            // the check at the cost of theirs.
-            interpolation: super::interpolation::InterpolationConfig {
-                points: 1024,
-                nodes: super::interpolation::EXACT_NODES,
+            shared: SharedSettings {
+                // 2^17: the worst cell's replicate standard error is 5.5e-5, within the 1e-4 target
+                // (`docs/benchmark.md`); 2^16 reaches 1.01e-4 on the default `eta` nodes.
+                sampling: SamplingConfig::replicated(1 << 17),
+                // Five domains (`interpolation_domains`): half the points of the other tables keeps
+                // the check at the cost of theirs.
+                interpolation: super::interpolation::InterpolationConfig {
+                    points: 1024,
+                    nodes: super::interpolation::EXACT_NODES,
+                },
+                output: OutputConfig { formats: vec![FileFormat::Exr], precision: Precision::F32 },
+                ..SharedSettings::default()
             },
-            output: OutputConfig { formats: vec![FileFormat::Exr], precision: Precision::F32 },
             packings: vec![Packing::Lossless],
             packing_formats: vec![FileFormat::Dds],
         }
@@ -126,11 +130,11 @@ impl FgdSettings {
     pub fn validate(&self) -> Result<()> {
         let counts = [self.mu_count, self.alpha_count, self.eta_count, self.kappa_count];
         check_counts(NAME, COUNT_KEYS, &counts)?;
-        self.validate_mu_alpha_ranges(NAME)?;
+        self.mu_alpha.validate(NAME)?;
         check_index_range("fgd.eta_range", self.eta_range)?;
         check_index_range("fgd.kappa_range", self.kappa_range)?;
         check_cosine_intervals("fgd.cosine_intervals", self.cosine_intervals)?;
-        self.validate_shared(NAME, &FileFormat::for_table(4, true))?;
+        self.shared.validate(NAME, &FileFormat::for_table(4, true))?;
         for (k, packing) in self.packings.iter().enumerate() {
             if self.packings[..k].contains(packing) {
                 return Err(Error::invalid("fgd.packings", format!("`{}` is listed twice", packing.name())));
@@ -146,7 +150,7 @@ impl FgdSettings {
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
-        let [mu, alpha] = self.mu_alpha_axes([self.mu_count, self.alpha_count])?;
+        let [mu, alpha] = self.mu_alpha.axes([self.mu_count, self.alpha_count])?;
         Ok(vec![
             mu,
             alpha,
@@ -291,7 +295,7 @@ impl TableRecipe for FgdSettings {
     /// sharpest (a square-root cusp, no absorption to round it).
     fn interpolation_domains(&self) -> Result<Vec<super::interpolation::Domain>> {
         let names = ["mu", "alpha", "eta", "kappa"];
-        let ranges = [self.mu_range, self.alpha_range, self.eta_range, self.kappa_range];
+        let ranges = [self.mu_alpha.mu_range, self.mu_alpha.alpha_range, self.eta_range, self.kappa_range];
         let mut domains = super::interpolation::standard_domains(&names, &ranges);
         let [lo, hi] = self.eta_range;
         for (name, eta, kappa) in [
@@ -554,19 +558,21 @@ fn standard_errors(
 mod tests {
     use super::*;
     use crate::recipes::driver::build;
+    use crate::recipes::settings::ReferenceConfig;
     use crate::recipes::{random_cells, reference_points};
 
     /// A table of `counts` nodes (mu, alpha, eta, kappa), without the reference check.
     fn small([mu_count, alpha_count, eta_count, kappa_count]: [usize; 4]) -> FgdSettings {
-        FgdSettings {
+        let mut settings = FgdSettings {
             mu_count,
             alpha_count,
             eta_count,
             kappa_count,
-            reference: ReferenceConfig { cells: 0, nodes: 8 },
             replicate_error_columns: 16,
             ..FgdSettings::default()
-        }
+        };
+        settings.shared.reference = ReferenceConfig { cells: 0, nodes: 8 };
+        settings
     }
 
     #[test]
@@ -624,7 +630,8 @@ mod tests {
 
     #[test]
     fn edges_match_their_limits() {
-        let settings = FgdSettings { sampling: SamplingConfig::replicated(1 << 12), ..small([9, 5, 9, 5]) };
+        let mut settings = small([9, 5, 9, 5]);
+        settings.shared.sampling = SamplingConfig::replicated(1 << 12);
         let table = build(&settings, 6, &()).unwrap().table;
         let stats = table.stats();
         assert_eq!(stats.nan_count + stats.infinite_count, 0);
@@ -648,7 +655,8 @@ mod tests {
 
     #[test]
     fn both_methods_agree() {
-        let base = FgdSettings { sampling: SamplingConfig::replicated(1 << 12), ..small([4, 3, 4, 3]) };
+        let mut base = small([4, 3, 4, 3]);
+        base.shared.sampling = SamplingConfig::replicated(1 << 12);
         let fast = build(&base, 7, &()).unwrap().table;
         let per_cell = build(&FgdSettings { method: Method::PerCell, ..base }, 7, &()).unwrap().table;
         for (n, (a, b)) in fast.data.iter().zip(&per_cell.data).enumerate() {

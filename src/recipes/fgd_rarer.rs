@@ -18,17 +18,18 @@
 //! against Fresnel projected per `(mu, fraction)` node.
 
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use super::driver::one_channel_table;
 use super::fgd::{
     fgd_by_quadrature, fgd_cells_at_mu_alpha, fgd_pairs_fast, fgd_pairs_on_measure, mu_alpha_measures,
     projected_fresnel,
 };
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_cosine_intervals, check_counts};
+use super::settings::{SamplingConfig, SharedSettings, check_cosine_intervals, check_counts};
 use super::spacing::{CosineAxis, RoughnessAxis, mu_alpha_axes};
 use super::{Integrated, Kernel, Metadata, TableRecipe, estimate_mu_alpha_columns};
 use crate::error::Result;
-use crate::formats::{FileFormat, Precision};
+use crate::formats::FileFormat;
 use crate::integrate::measure::{HatBasis, Projection};
 use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, GRAZING_COSINE, Method, Progress};
@@ -50,22 +51,23 @@ pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "fraction_count"];
 /// lobes narrower than 0.01 between nodes (max 9.8e-2 at `alpha 0.002`).
 pub const FRACTION_SCALE: f64 = 0.01;
 
-table_settings! {
-    pub struct FgdRarerSettings {
-        pub mu_count: usize,
-        pub alpha_count: usize,
-        /// Nodes of the critical-angle fraction over [-1, 1]; an odd count puts a node on the cusp.
-        pub fraction_count: usize,
-        /// How the `mu` nodes are spaced.
-        pub mu_axis: CosineAxis,
-        /// How the `alpha` nodes are spaced.
-        pub roughness_axis: RoughnessAxis,
-        pub masking: MaskingShadowing,
-        pub method: Method,
-        /// Intervals of the hat basis in `c = wi.h` (fast method).
-        pub cosine_intervals: usize,
-        ..shared,
-    }
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FgdRarerSettings {
+    pub mu_count: usize,
+    pub alpha_count: usize,
+    /// Nodes of the critical-angle fraction over [-1, 1]; an odd count puts a node on the cusp.
+    pub fraction_count: usize,
+    /// How the `mu` nodes are spaced.
+    pub mu_axis: CosineAxis,
+    /// How the `alpha` nodes are spaced.
+    pub roughness_axis: RoughnessAxis,
+    pub masking: MaskingShadowing,
+    pub method: Method,
+    /// Intervals of the hat basis in `c = wi.h` (fast method).
+    pub cosine_intervals: usize,
+    #[serde(flatten)]
+    pub shared: SharedSettings,
 }
 
 impl Default for FgdRarerSettings {
@@ -79,12 +81,12 @@ impl Default for FgdRarerSettings {
             masking: MaskingShadowing::SmithSeparable,
             method: Method::Fast,
             cosine_intervals: 256,
-            // FGD's samples on FGD's (mu, alpha) nodes: a build of both estimates the measures once
-            // ([`mu_alpha_measures`]); 2^16 of its own cost more than sharing 2^17.
-            sampling: SamplingConfig::replicated(1 << 17),
-            reference: ReferenceConfig::default(),
-            interpolation: super::interpolation::InterpolationConfig::default(),
-            output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
+            shared: SharedSettings {
+                // FGD's samples on FGD's (mu, alpha) nodes: a build of both estimates the measures
+                // once ([`mu_alpha_measures`]); 2^16 of its own cost more than sharing 2^17.
+                sampling: SamplingConfig::replicated(1 << 17),
+                ..SharedSettings::default()
+            },
         }
     }
 }
@@ -93,7 +95,7 @@ impl FgdRarerSettings {
     pub fn validate(&self) -> Result<()> {
         check_counts(NAME, COUNT_KEYS, &[self.mu_count, self.alpha_count, self.fraction_count])?;
         check_cosine_intervals("fgd_rarer.cosine_intervals", self.cosine_intervals)?;
-        self.validate_shared(NAME, &FileFormat::for_table(3, false))
+        self.shared.validate(NAME, &FileFormat::for_table(3, false))
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
@@ -226,6 +228,7 @@ impl Kernel for FgdRarerSettings {
 mod tests {
     use super::*;
     use crate::recipes::interpolation::InterpolationConfig;
+    use crate::recipes::settings::ReferenceConfig;
 
     fn small(method: Method) -> FgdRarerSettings {
         FgdRarerSettings {
@@ -233,9 +236,12 @@ mod tests {
             alpha_count: 5,
             fraction_count: 9,
             method,
-            sampling: SamplingConfig::replicated(1 << 12),
-            reference: ReferenceConfig { cells: 0, nodes: 8 },
-            interpolation: InterpolationConfig { points: 0, nodes: 6 },
+            shared: SharedSettings {
+                sampling: SamplingConfig::replicated(1 << 12),
+                reference: ReferenceConfig { cells: 0, nodes: 8 },
+                interpolation: InterpolationConfig { points: 0, nodes: 6 },
+                ..FgdRarerSettings::default().shared
+            },
             ..FgdRarerSettings::default()
         }
     }
@@ -257,16 +263,17 @@ mod tests {
         // where renderers read it, against the exact integral at random points of eta < 1.
         use crate::recipes::fgd::FgdSettings;
         use crate::recipes::interpolation::random_points;
-        let sampling = SamplingConfig::replicated(1 << 12);
-        let quiet = InterpolationConfig { points: 0, nodes: 6 };
-        let no_reference = ReferenceConfig { cells: 0, nodes: 8 };
+        let quick = |shared: SharedSettings| SharedSettings {
+            sampling: SamplingConfig::replicated(1 << 12),
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
+            interpolation: InterpolationConfig { points: 0, nodes: 6 },
+            ..shared
+        };
         let rarer = FgdRarerSettings {
             mu_count: 16,
             alpha_count: 16,
             fraction_count: 33,
-            sampling,
-            reference: no_reference,
-            interpolation: quiet,
+            shared: quick(FgdRarerSettings::default().shared),
             ..FgdRarerSettings::default()
         };
         let four_d = FgdSettings {
@@ -276,9 +283,7 @@ mod tests {
             kappa_count: 2,
             eta_range: [0.0, 1.0],
             kappa_range: [0.0, 0.1],
-            sampling,
-            reference: no_reference,
-            interpolation: quiet,
+            shared: quick(FgdSettings::default().shared),
             packings: Vec::new(),
             ..FgdSettings::default()
         };

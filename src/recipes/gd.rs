@@ -9,12 +9,14 @@
 //! (height-correlated Smith does not). Defaults follow that file: 64 x 64 node-aligned nodes,
 //! `mu` and `alpha` over [0, 1], f32 `.bin`.
 
+use serde::{Deserialize, Serialize};
+
 use super::driver::one_channel_table;
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts};
+use super::settings::{SharedSettings, check_counts};
 use super::spacing::{CosineAxis, RoughnessAxis, mu_alpha_axes};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
-use crate::formats::{FileFormat, Precision};
+use crate::formats::FileFormat;
 use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
@@ -29,18 +31,19 @@ pub const CHANNEL_COUNT: usize = 1;
 /// The configuration keys of the node counts, axis 0 first.
 pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count"];
 
-table_settings! {
-    pub struct GdSettings {
-        pub mu_count: usize,
-        pub alpha_count: usize,
-        /// How the `mu` nodes are spaced.
-        pub mu_axis: CosineAxis,
-        /// How the `alpha` nodes are spaced.
-        pub roughness_axis: RoughnessAxis,
-        pub masking: MaskingShadowing,
-        pub method: Method,
-        ..shared,
-    }
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GdSettings {
+    pub mu_count: usize,
+    pub alpha_count: usize,
+    /// How the `mu` nodes are spaced.
+    pub mu_axis: CosineAxis,
+    /// How the `alpha` nodes are spaced.
+    pub roughness_axis: RoughnessAxis,
+    pub masking: MaskingShadowing,
+    pub method: Method,
+    #[serde(flatten)]
+    pub shared: SharedSettings,
 }
 
 impl Default for GdSettings {
@@ -52,10 +55,7 @@ impl Default for GdSettings {
             roughness_axis: RoughnessAxis::Perceptual,
             masking: MaskingShadowing::SmithSeparable,
             method: Method::Fast,
-            sampling: SamplingConfig::replicated(1 << 16),
-            reference: ReferenceConfig::default(),
-            interpolation: super::interpolation::InterpolationConfig::default(),
-            output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
+            shared: SharedSettings::default(),
         }
     }
 }
@@ -63,7 +63,7 @@ impl Default for GdSettings {
 impl GdSettings {
     pub fn validate(&self) -> Result<()> {
         check_counts(NAME, COUNT_KEYS, &[self.mu_count, self.alpha_count])?;
-        self.validate_shared(NAME, &FileFormat::for_table(2, true))
+        self.shared.validate(NAME, &FileFormat::for_table(2, true))
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
@@ -130,6 +130,7 @@ impl Kernel for GdSettings {
 mod tests {
     use super::*;
     use crate::formats::bin::read_bin;
+    use crate::recipes::settings::{ReferenceConfig, SamplingConfig};
 
     /// A table of `counts` nodes (mu, alpha) with 2^12 samples per node, `reference_cells` of them
     /// checked.
@@ -137,8 +138,11 @@ mod tests {
         GdSettings {
             mu_count,
             alpha_count,
-            sampling: SamplingConfig::replicated(1 << 12),
-            reference: ReferenceConfig { cells: reference_cells, nodes: 8 },
+            shared: SharedSettings {
+                sampling: SamplingConfig::replicated(1 << 12),
+                reference: ReferenceConfig { cells: reference_cells, nodes: 8 },
+                ..GdSettings::default().shared
+            },
             ..GdSettings::default()
         }
     }
@@ -152,12 +156,9 @@ mod tests {
     fn reproduces_the_original_table() {
         // The original layout (luts/original.toml): uniform nodes. Full resolution, fewer samples
         // than the default: the original's own noise is ~1.3e-3.
-        let settings = GdSettings {
-            mu_axis: CosineAxis::Uniform,
-            roughness_axis: RoughnessAxis::Alpha,
-            interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 },
-            ..small([64, 64], 0)
-        };
+        let mut settings =
+            GdSettings { mu_axis: CosineAxis::Uniform, roughness_axis: RoughnessAxis::Alpha, ..small([64, 64], 0) };
+        settings.shared.interpolation = crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 };
         let ours = settings.build(1, &()).unwrap().table;
         let original = original();
         assert_eq!(ours.axes, original.axes);

@@ -15,7 +15,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
+use super::settings::{OutputConfig, SamplingConfig, SharedSettings};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
 use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
 use crate::error::Result;
@@ -63,10 +63,11 @@ impl Default for KarisSettings {
             orientation: Orientation::SmoothFirst,
             masking: MaskingShadowing::SchlickSmith,
             method: Method::Fast,
-            sampling: SamplingConfig::replicated(4096),
-            reference: ReferenceConfig::default(),
-            interpolation: super::interpolation::InterpolationConfig::default(),
-            output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
+            shared: SharedSettings {
+                sampling: SamplingConfig::replicated(4096),
+                output: OutputConfig { formats: vec![FileFormat::Dds, FileFormat::Exr], precision: Precision::F16 },
+                ..SharedSettings::default()
+            },
             own: KarisOwn::default(),
         }
     }
@@ -150,13 +151,17 @@ impl Kernel for KarisSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::recipes::settings::ReferenceConfig;
 
     fn small_settings() -> KarisSettings {
         KarisSettings {
             mu_count: 16,
             roughness_count: 16,
-            sampling: SamplingConfig::replicated(1024),
-            reference: ReferenceConfig { cells: 8, nodes: 8 },
+            shared: SharedSettings {
+                sampling: SamplingConfig::replicated(1024),
+                reference: ReferenceConfig { cells: 8, nodes: 8 },
+                ..KarisSettings::default().shared
+            },
             ..KarisSettings::default()
         }
     }

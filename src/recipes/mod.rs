@@ -6,8 +6,8 @@
 //! time, error estimates) that the manifest publishes beside every file.
 
 /// The part of a [`driver::Kernel`] impl that every table's settings share: the inherent
-/// `validate`, the `method`, `sampling` and `reference` fields, and the interpolation check over
-/// the recipe's domains. Used inside `impl Kernel for ...Settings`, so that each impl states only
+/// `validate`, the `method` field, `sampling` and `reference` of the `shared` field
+/// ([`settings::SharedSettings`]), and the interpolation check over the recipe's domains. Used inside `impl Kernel for ...Settings`, so that each impl states only
 /// what differs (the table's layout, metadata and kernel).
 macro_rules! kernel_settings {
     () => {
@@ -15,12 +15,12 @@ macro_rules! kernel_settings {
             Self::validate(self)
         }
 
-        fn sampling(&self) -> SamplingConfig {
-            self.sampling
+        fn sampling(&self) -> super::settings::SamplingConfig {
+            self.shared.sampling
         }
 
-        fn reference(&self) -> ReferenceConfig {
-            self.reference
+        fn reference(&self) -> super::settings::ReferenceConfig {
+            self.shared.reference
         }
 
         fn method(&self) -> Method {
@@ -34,8 +34,8 @@ macro_rules! kernel_settings {
 }
 
 /// The part of a [`TableRecipe`] impl that every table's settings share: the module's `NAME`,
-/// `DESCRIPTION`, `CHANNEL_COUNT` and `COUNT_KEYS`, the inherent `axes`, and the `method`,
-/// `sampling`, `reference`, `interpolation` and `output` fields. Used inside
+/// `DESCRIPTION`, `CHANNEL_COUNT` and `COUNT_KEYS`, the inherent `axes`, the `method` field, and
+/// `sampling`, `reference`, `interpolation` and `output` of the `shared` field. Used inside
 /// `impl TableRecipe for ...Settings`, so that each impl states only what differs
 /// (`companions`, the interpolation check's domains).
 macro_rules! table_recipe_accessors {
@@ -52,28 +52,28 @@ macro_rules! table_recipe_accessors {
             &mut self.method
         }
 
-        fn sampling_mut(&mut self) -> &mut SamplingConfig {
-            &mut self.sampling
+        fn sampling_mut(&mut self) -> &mut super::settings::SamplingConfig {
+            &mut self.shared.sampling
         }
 
-        fn reference_mut(&mut self) -> &mut ReferenceConfig {
-            &mut self.reference
+        fn reference_mut(&mut self) -> &mut super::settings::ReferenceConfig {
+            &mut self.shared.reference
         }
 
         fn interpolation_mut(&mut self) -> &mut super::interpolation::InterpolationConfig {
-            &mut self.interpolation
+            &mut self.shared.interpolation
         }
 
         fn axes(&self) -> Result<Vec<Axis>> {
             Self::axes(self)
         }
 
-        fn output(&self) -> &OutputConfig {
-            &self.output
+        fn output(&self) -> &super::settings::OutputConfig {
+            &self.shared.output
         }
 
         fn interpolation(&self) -> super::interpolation::InterpolationConfig {
-            self.interpolation
+            self.shared.interpolation
         }
 
         fn channel_count(&self) -> usize {
@@ -86,10 +86,6 @@ macro_rules! table_recipe_accessors {
     };
 }
 
-// First, for its macro (`table_settings!`).
-#[macro_use]
-pub mod settings;
-
 pub mod belcour;
 pub mod driver;
 pub mod fgd;
@@ -97,6 +93,7 @@ pub mod fgd_rarer;
 pub mod gd;
 pub mod interpolation;
 pub mod karis;
+pub mod settings;
 pub mod slices;
 pub mod spacing;
 pub mod split_sum;
@@ -529,16 +526,16 @@ mod tests {
 
     #[test]
     fn the_reference_check_does_not_depend_on_the_thread_count() {
-        let settings = fgd::FgdSettings {
+        let mut settings = fgd::FgdSettings {
             mu_count: 6,
             alpha_count: 5,
             eta_count: 4,
             kappa_count: 3,
-            sampling: settings::SamplingConfig::replicated(1 << 10),
-            reference: settings::ReferenceConfig { cells: 13, nodes: 4 },
             replicate_error_columns: 4,
             ..fgd::FgdSettings::default()
         };
+        settings.shared.sampling = settings::SamplingConfig::replicated(1 << 10);
+        settings.shared.reference = settings::ReferenceConfig { cells: 13, nodes: 4 };
         let run = |threads| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| driver::build(&settings, 3, &()).unwrap().provenance.error.reference.unwrap())

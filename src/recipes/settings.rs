@@ -1,97 +1,97 @@
-//! The settings every table shares: its samples, its reference check, its output files, and the
-//! checks of node counts and ranges that every table's validation uses.
-
-/// A table's settings struct: its own keys, and where `..shared` stands, the keys every table
-/// has (`sampling`, `reference`, `interpolation`, `output`), with the check of those keys
-/// (`validate_shared`); where `..mu_alpha_axes` stands (before `..shared`), the sub-ranges and
-/// spacings of the `mu` and `alpha` axes of a table whose plan may narrow them. The keys stay in
-/// one flat TOML section, in the order written (which the scene cache's keys hash). A macro and
-/// not a flattened struct: serde reports a bad value inside a flattened field under the section's
-/// name alone (`in `gd``, not `in `gd.output.precision``).
-macro_rules! table_settings {
-    (
-        $(#[$attr:meta])*
-        pub struct $name:ident {
-            $($(#[$before_attr:meta])* pub $before:ident: $before_ty:ty,)*
-            ..mu_alpha_axes,
-            $($(#[$between_attr:meta])* pub $between:ident: $between_ty:ty,)*
-            ..shared,
-            $($(#[$after_attr:meta])* pub $after:ident: $after_ty:ty,)*
-        }
-    ) => {
-        table_settings! {
-            $(#[$attr])*
-            pub struct $name {
-                $($(#[$before_attr])* pub $before: $before_ty,)*
-                /// Sub-ranges of the unit axes (a scene's plan narrows them to what its lookups reach).
-                pub mu_range: [f64; 2],
-                pub alpha_range: [f64; 2],
-                /// How the `mu` nodes are spaced.
-                pub mu_axis: $crate::recipes::spacing::CosineAxis,
-                /// How the `alpha` nodes are spaced.
-                pub roughness_axis: $crate::recipes::spacing::RoughnessAxis,
-                $($(#[$between_attr])* pub $between: $between_ty,)*
-                ..shared,
-                $($(#[$after_attr])* pub $after: $after_ty,)*
-            }
-        }
-
-        impl $name {
-            /// Check the sub-ranges of `mu` and `alpha`; `table` names the section in errors.
-            pub fn validate_mu_alpha_ranges(&self, table: &str) -> $crate::error::Result<()> {
-                $crate::recipes::settings::check_unit_range(&format!("{table}.mu_range"), self.mu_range)?;
-                $crate::recipes::settings::check_unit_range(&format!("{table}.alpha_range"), self.alpha_range)
-            }
-
-            /// The `mu` and `alpha` axes of `counts` nodes over their sub-ranges, spaced as set.
-            pub fn mu_alpha_axes(&self, counts: [usize; 2]) -> $crate::error::Result<[$crate::table::Axis; 2]> {
-                let ranges = [self.mu_range, self.alpha_range];
-                $crate::recipes::spacing::mu_alpha_axes(counts, ranges, self.mu_axis, self.roughness_axis)
-            }
-        }
-    };
-    (
-        $(#[$attr:meta])*
-        pub struct $name:ident $(<$param:ident>)? {
-            $($(#[$before_attr:meta])* pub $before:ident: $before_ty:ty,)*
-            ..shared,
-            $($(#[$after_attr:meta])* pub $after:ident: $after_ty:ty,)*
-        }
-    ) => {
-        $(#[$attr])*
-        #[derive(Debug, Clone, PartialEq, ::serde::Serialize, ::serde::Deserialize)]
-        #[serde(deny_unknown_fields, default)]
-        pub struct $name $(<$param>)? {
-            $($(#[$before_attr])* pub $before: $before_ty,)*
-            pub sampling: $crate::recipes::settings::SamplingConfig,
-            pub reference: $crate::recipes::settings::ReferenceConfig,
-            /// The check between nodes: random points against the exact integral.
-            pub interpolation: $crate::recipes::interpolation::InterpolationConfig,
-            pub output: $crate::recipes::settings::OutputConfig,
-            $($(#[$after_attr])* pub $after: $after_ty,)*
-        }
-
-        impl $(<$param>)? $name $(<$param>)? {
-            /// Check the keys every table has; `table` names the section in errors, `formats` are
-            /// the file formats that can hold the table.
-            pub fn validate_shared(&self, table: &str, formats: &[$crate::formats::FileFormat]) -> $crate::error::Result<()> {
-                self.sampling.validate(&format!("{table}.sampling"))?;
-                self.reference.validate(&format!("{table}.reference"))?;
-                self.interpolation.validate(&format!("{table}.interpolation"))?;
-                self.output.validate(&format!("{table}.output"), formats)
-            }
-        }
-    };
-}
+//! The settings every table shares (its samples, its reference and interpolation checks, its
+//! output files), the `mu` and `alpha` axes that a scene's plan may narrow, and the checks of node
+//! counts and ranges that every table's validation uses.
 
 use serde::{Deserialize, Serialize};
 
+use super::interpolation::InterpolationConfig;
+use super::spacing::{CosineAxis, RoughnessAxis};
 use crate::error::{Error, Result};
 use crate::formats::{FileFormat, Precision};
+use crate::table::Axis;
 
 /// Nodes per axis above which a table would not fit a GPU texture dimension (Direct3D 12 allows
 /// 16384 for 2D textures, 2048 for volumes) nor memory.
 pub const MAX_NODES_PER_AXIS: usize = 16384;
+
+/// The keys every table has: its samples, its reference check, its interpolation check and its
+/// files. Each table's settings flatten it in, so that its keys sit in the table's own section
+/// (`[gd.sampling]`, not `[gd.shared.sampling]`) and serialise where the field stands among the
+/// table's keys (the scene cache's keys hash that text). serde names neither the whole path of a
+/// value refused below a flattened field nor the section of an unknown key; `Config::from_toml`
+/// names both.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SharedSettings {
+    pub sampling: SamplingConfig,
+    pub reference: ReferenceConfig,
+    /// The check between nodes: random points against the exact integral.
+    pub interpolation: InterpolationConfig,
+    pub output: OutputConfig,
+}
+
+/// The values each table's defaults start from, stating what differs. Also what a table's settings
+/// read on their own take for a shared key they lack; `Config::from_toml` lays a file over the
+/// table's own defaults instead.
+impl Default for SharedSettings {
+    fn default() -> Self {
+        SharedSettings {
+            sampling: SamplingConfig::replicated(1 << 16),
+            reference: ReferenceConfig::default(),
+            interpolation: InterpolationConfig::default(),
+            output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
+        }
+    }
+}
+
+impl SharedSettings {
+    /// Check the keys every table has; `table` names the section in errors, `formats` are the file
+    /// formats that can hold the table.
+    pub fn validate(&self, table: &str, formats: &[FileFormat]) -> Result<()> {
+        self.sampling.validate(&format!("{table}.sampling"))?;
+        self.reference.validate(&format!("{table}.reference"))?;
+        self.interpolation.validate(&format!("{table}.interpolation"))?;
+        self.output.validate(&format!("{table}.output"), formats)
+    }
+}
+
+/// The `mu` and `alpha` axes of a table that a scene's plan may narrow to what its lookups reach:
+/// their sub-ranges and spacings. Flattened into the table's settings, as [`SharedSettings`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct MuAlphaAxes {
+    pub mu_range: [f64; 2],
+    pub alpha_range: [f64; 2],
+    /// How the `mu` nodes are spaced.
+    pub mu_axis: CosineAxis,
+    /// How the `alpha` nodes are spaced.
+    pub roughness_axis: RoughnessAxis,
+}
+
+/// The whole unit square, dense at both ends of `mu` and at low roughness.
+impl Default for MuAlphaAxes {
+    fn default() -> Self {
+        MuAlphaAxes {
+            mu_range: [0.0, 1.0],
+            alpha_range: [0.0, 1.0],
+            mu_axis: CosineAxis::SqrtEnds,
+            roughness_axis: RoughnessAxis::Perceptual,
+        }
+    }
+}
+
+impl MuAlphaAxes {
+    /// Check the sub-ranges of `mu` and `alpha`; `table` names the section in errors.
+    pub fn validate(&self, table: &str) -> Result<()> {
+        check_unit_range(&format!("{table}.mu_range"), self.mu_range)?;
+        check_unit_range(&format!("{table}.alpha_range"), self.alpha_range)
+    }
+
+    /// The `mu` and `alpha` axes of `counts` nodes over their sub-ranges, spaced as set.
+    pub fn axes(&self, counts: [usize; 2]) -> Result<[Axis; 2]> {
+        super::spacing::mu_alpha_axes(counts, [self.mu_range, self.alpha_range], self.mu_axis, self.roughness_axis)
+    }
+}
 
 /// How many Monte Carlo samples each cell gets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

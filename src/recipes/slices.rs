@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use super::driver::{Provenance, TableBuild};
 use super::fgd::{FgdSettings, fgd_by_quadrature, fgd_pairs_on_measure, projected_fresnel};
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig};
+use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, SharedSettings};
 use super::tir::{
     TIR_LOBE_NODES, TirSettings, deterministic, lobe_quadrature_description, tir_by_quadrature, tir_cell,
     tir_column_by_lobe,
@@ -99,18 +99,21 @@ impl Slices {
         (self.mu.count * self.alpha.count * self.stored_channel_count() * self.output().precision.bytes()) as u64
     }
 
-    pub fn sampling(&self) -> SamplingConfig {
+    /// The shared settings of the full table the slices are cut from: its samples and reference
+    /// check are the slices' too.
+    fn full_table_shared(&self) -> &SharedSettings {
         match &self.of {
-            SliceOf::Fgd(s) => s.sampling,
-            SliceOf::Tir(s) => s.sampling,
+            SliceOf::Fgd(s) => &s.shared,
+            SliceOf::Tir(s) => &s.shared,
         }
     }
 
+    pub fn sampling(&self) -> SamplingConfig {
+        self.full_table_shared().sampling
+    }
+
     pub fn reference(&self) -> ReferenceConfig {
-        match &self.of {
-            SliceOf::Fgd(s) => s.reference,
-            SliceOf::Tir(s) => s.reference,
-        }
+        self.full_table_shared().reference
     }
 
     /// Slices are textures, written in the precision of the full table's output and in the texture
@@ -118,8 +121,8 @@ impl Slices {
     /// texture), TIR's DDS and KTX2 `output.formats`; as DDS where those list neither.
     pub fn output(&self) -> OutputConfig {
         let (texture_formats, precision) = match &self.of {
-            SliceOf::Fgd(s) => (&s.packing_formats, s.output.precision),
-            SliceOf::Tir(s) => (&s.output.formats, s.output.precision),
+            SliceOf::Fgd(s) => (&s.packing_formats, s.shared.output.precision),
+            SliceOf::Tir(s) => (&s.shared.output.formats, s.shared.output.precision),
         };
         let mut formats: Vec<FileFormat> =
             texture_formats.iter().copied().filter(|f| FileFormat::TEXTURES.contains(f)).collect();
@@ -726,10 +729,12 @@ mod tests {
 
     #[test]
     fn a_slice_is_bit_identical_built_alone_or_in_a_batch_that_shares_its_nodes() {
-        let mut fgd = FgdSettings { sampling: SamplingConfig::replicated(1 << 10), ..FgdSettings::default() };
-        fgd.reference.cells = 0;
-        let mut tir = TirSettings { sampling: SamplingConfig::replicated(1 << 10), ..TirSettings::default() };
-        tir.reference.cells = 0;
+        let mut fgd = FgdSettings::default();
+        fgd.shared.sampling = SamplingConfig::replicated(1 << 10);
+        fgd.shared.reference.cells = 0;
+        let mut tir = TirSettings::default();
+        tir.shared.sampling = SamplingConfig::replicated(1 << 10);
+        tir.shared.reference.cells = 0;
         let (fgd, tir) = (SliceOf::Fgd(fgd), SliceOf::Tir(tir));
         let copper = [(0.27, 3.61), (0.68, 2.63), (1.22, 2.29)];
         // Lattice nodes: FGD's in 1/128, TIR's in 1/512 (mu) and 1/128 (sqrt(alpha)).
@@ -763,8 +768,9 @@ mod tests {
     fn an_fgd_slice_stores_no_overshoot_of_its_fast_path_below_0() {
         // A dielectric onto a barely rarer medium seen at grazing views: the fast path's L2
         // projection of Fresnel, whose kink lies at the critical cosine 0.0014, overshoots below 0.
-        let mut settings = FgdSettings { sampling: SamplingConfig::replicated(1 << 10), ..FgdSettings::default() };
-        settings.reference.cells = 0;
+        let mut settings = FgdSettings::default();
+        settings.shared.sampling = SamplingConfig::replicated(1 << 10);
+        settings.shared.reference.cells = 0;
         let slice = lattice_slices("fgd_grazing", SliceOf::Fgd(settings), [0.0, 2.0], [56.0, 60.0], &[(0.999999, 0.0)]);
         let (points, projections) =
             (NodePoints::new(table_points(&slice.sampling(), 7).unwrap()).unwrap(), slice.projections());
@@ -794,7 +800,7 @@ mod tests {
             lookup_alpha: [0.5, 1.0],
             channels: etas.iter().map(|&eta| SliceChannel { eta, kappa: 0.0, used_by: "test".into() }).collect(),
         };
-        let points = NodePoints::new(table_points(&settings.sampling, 11).unwrap()).unwrap();
+        let points = NodePoints::new(table_points(&settings.shared.sampling, 11).unwrap()).unwrap();
         let reference = VisibleNormalQuadrature::new(16).unwrap();
         // scattering-coat-00909's coat from below (eta 1 / 1.627) under a broad lobe, where 2^15
         // Monte Carlo samples left TIR 1.5e-3 off; and a smooth lobe seen past the critical angle.

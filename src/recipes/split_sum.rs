@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::settings::{check_counts, check_unit_range};
+use super::settings::{SharedSettings, check_counts, check_unit_range};
 pub use super::spacing::RoughnessAxis;
 use crate::error::Result;
 use crate::formats::FileFormat;
@@ -36,30 +36,27 @@ pub enum Orientation {
     BottomUpImage,
 }
 
-table_settings! {
-    /// The settings both split-sum tables have, and `Own`, the keys only one of them has (Karis's
-    /// f16 rounding, Belcour's hat intervals). In the TOML file they are one section: `Own`'s keys sit
-    /// beside these (`[karis] storage_rounding`), so `Own` is flattened in. serde cannot refuse
-    /// unknown keys through a flattened field with its own message; `Config::from_toml` refuses them
-    /// before deserialising, naming the key and the section's allowed keys, and serde's
-    /// `deny_unknown_fields` still refuses them (by name only) when these settings are read on
-    /// their own.
-    pub struct SplitSumSettings<Own> {
-        /// Nodes along `x = n.v`, one per texel, at its centre.
-        pub mu_count: usize,
-        /// Nodes along roughness, one per texel, at its centre.
-        pub roughness_count: usize,
-        /// Range of GGX alpha covered, before orientation.
-        pub alpha_range: [f64; 2],
-        pub roughness_axis: RoughnessAxis,
-        pub orientation: Orientation,
-        pub masking: MaskingShadowing,
-        pub method: Method,
-        ..shared,
-        /// The settings of this table only.
-        #[serde(flatten)]
-        pub own: Own,
-    }
+/// The settings both split-sum tables have, and `Own`, the keys only one of them has (Karis's
+/// f16 rounding, Belcour's hat intervals). In the TOML file they are one section: `Own`'s keys sit
+/// beside these (`[karis] storage_rounding`), so `Own` is flattened in, as the shared keys are.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SplitSumSettings<Own> {
+    /// Nodes along `x = n.v`, one per texel, at its centre.
+    pub mu_count: usize,
+    /// Nodes along roughness, one per texel, at its centre.
+    pub roughness_count: usize,
+    /// Range of GGX alpha covered, before orientation.
+    pub alpha_range: [f64; 2],
+    pub roughness_axis: RoughnessAxis,
+    pub orientation: Orientation,
+    pub masking: MaskingShadowing,
+    pub method: Method,
+    #[serde(flatten)]
+    pub shared: SharedSettings,
+    /// The settings of this table only.
+    #[serde(flatten)]
+    pub own: Own,
 }
 
 impl<Own> SplitSumSettings<Own> {
@@ -68,7 +65,7 @@ impl<Own> SplitSumSettings<Own> {
     pub fn validate_split_sum(&self, table: &str, formats: &[FileFormat]) -> Result<()> {
         check_counts(table, COUNT_KEYS, &[self.mu_count, self.roughness_count])?;
         check_unit_range(&format!("{table}.alpha_range"), self.alpha_range)?;
-        self.validate_shared(table, formats)
+        self.shared.validate(table, formats)
     }
 
     /// The table's axes: `mu` cell-centred over [0, 1]; `alpha` cell-centred, spaced and ordered

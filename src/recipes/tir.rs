@@ -19,11 +19,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::driver::{SamplingRecord, one_channel_table};
-use super::settings::{OutputConfig, ReferenceConfig, SamplingConfig, check_counts};
-use super::spacing::{CosineAxis, RoughnessAxis};
+use super::settings::{MuAlphaAxes, SamplingConfig, SharedSettings, check_counts};
 use super::{Integrated, Kernel, Metadata, TableRecipe, estimate_mu_alpha_columns};
 use crate::error::{Error, Result};
-use crate::formats::{FileFormat, Precision};
+use crate::formats::FileFormat;
 use crate::integrate::quadrature::{Cut, VisibleNormalQuadrature};
 use crate::integrate::{
     Estimate, Method, Progress, combine_replicates, estimate_cells, visible_normal_replicate_means,
@@ -40,23 +39,25 @@ pub const CHANNEL_COUNT: usize = 1;
 /// The configuration keys of the node counts, axis 0 first.
 pub const COUNT_KEYS: &[&str] = &["mu_count", "alpha_count", "eta_count"];
 
-table_settings! {
-    pub struct TirSettings {
-        pub mu_count: usize,
-        pub alpha_count: usize,
-        /// Nodes of the third axis: `eta`, or the critical-angle offset that stands for it.
-        pub eta_count: usize,
-        ..mu_alpha_axes,
-        /// What the third axis samples.
-        pub eta_axis: EtaAxis,
-        /// The relative index the last `eta` node (eta = 1) is evaluated at. 1 gives the exact value
-        /// there, 0 (no critical angle); the original `tm_TIR.bin` behaves as if it were 0.999.
-        pub top_eta: f64,
-        pub method: Method,
-        ..shared,
-        /// Fit an analytic approximation to the built table and write it beside the table.
-        pub fit: TirFit,
-    }
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TirSettings {
+    pub mu_count: usize,
+    pub alpha_count: usize,
+    /// Nodes of the third axis: `eta`, or the critical-angle offset that stands for it.
+    pub eta_count: usize,
+    #[serde(flatten)]
+    pub mu_alpha: MuAlphaAxes,
+    /// What the third axis samples.
+    pub eta_axis: EtaAxis,
+    /// The relative index the last `eta` node (eta = 1) is evaluated at. 1 gives the exact value
+    /// there, 0 (no critical angle); the original `tm_TIR.bin` behaves as if it were 0.999.
+    pub top_eta: f64,
+    pub method: Method,
+    #[serde(flatten)]
+    pub shared: SharedSettings,
+    /// Fit an analytic approximation to the built table and write it beside the table.
+    pub fit: TirFit,
 }
 
 /// What the third axis of the TIR table samples.
@@ -96,17 +97,11 @@ impl Default for TirSettings {
             mu_count: 64,
             alpha_count: 64,
             eta_count: 129,
-            mu_range: [0.0, 1.0],
-            alpha_range: [0.0, 1.0],
-            mu_axis: CosineAxis::SqrtEnds,
-            roughness_axis: RoughnessAxis::Perceptual,
+            mu_alpha: MuAlphaAxes::default(),
             eta_axis: EtaAxis::CriticalAngleOffset,
             top_eta: 1.0,
             method: Method::Fast,
-            sampling: SamplingConfig::replicated(1 << 15),
-            reference: ReferenceConfig::default(),
-            interpolation: super::interpolation::InterpolationConfig::default(),
-            output: OutputConfig { formats: vec![FileFormat::Dds], precision: Precision::F32 },
+            shared: SharedSettings { sampling: SamplingConfig::replicated(1 << 15), ..SharedSettings::default() },
             fit: TirFit::Best,
         }
     }
@@ -115,7 +110,7 @@ impl Default for TirSettings {
 impl TirSettings {
     pub fn validate(&self) -> Result<()> {
         check_counts(NAME, COUNT_KEYS, &[self.mu_count, self.alpha_count, self.eta_count])?;
-        self.validate_mu_alpha_ranges(NAME)?;
+        self.mu_alpha.validate(NAME)?;
         match self.eta_axis {
             EtaAxis::Eta => {
                 let below_top = Axis::node_aligned("eta", 0.0, 1.0, self.eta_count)?.node_value(self.eta_count - 2);
@@ -138,7 +133,7 @@ impl TirSettings {
             }
             EtaAxis::CriticalAngleOffset => {}
         }
-        self.validate_shared(NAME, &FileFormat::for_table(3, true))
+        self.shared.validate(NAME, &FileFormat::for_table(3, true))
     }
 
     pub fn axes(&self) -> Result<Vec<Axis>> {
@@ -150,7 +145,7 @@ impl TirSettings {
                     .with_mapping(Mapping::Asinh { scale: OFFSET_SCALE, centre: 0.0 })?
             }
         };
-        let [mu, alpha] = self.mu_alpha_axes([self.mu_count, self.alpha_count])?;
+        let [mu, alpha] = self.mu_alpha.axes([self.mu_count, self.alpha_count])?;
         Ok(vec![mu, alpha, third])
     }
 
@@ -290,7 +285,7 @@ impl TableRecipe for TirSettings {
     fn interpolation_domains(&self) -> Result<Vec<super::interpolation::Domain>> {
         Ok(super::interpolation::standard_domains(
             &["mu", "alpha", "eta"],
-            &[self.mu_range, self.alpha_range, [0.0, 1.0]],
+            &[self.mu_alpha.mu_range, self.mu_alpha.alpha_range, [0.0, 1.0]],
         ))
     }
 
@@ -388,6 +383,7 @@ mod tests {
     use crate::integrate::GRAZING_COSINE;
     use crate::recipes::driver::build;
     use crate::recipes::interpolation::InterpolationConfig;
+    use crate::recipes::settings::ReferenceConfig;
     use crate::sampling::sequence::SamplePlan;
     use crate::stats::ErrorSummary;
 
@@ -428,12 +424,13 @@ mod tests {
     }
 
     fn quick(settings: TirSettings) -> TirSettings {
-        TirSettings {
+        let shared = SharedSettings {
             sampling: SamplingConfig::replicated(1 << 12),
             reference: ReferenceConfig { cells: 0, nodes: 8 },
             interpolation: InterpolationConfig { points: 0, nodes: 6 },
-            ..settings
-        }
+            ..settings.shared.clone()
+        };
+        TirSettings { shared, ..settings }
     }
 
     /// The original layout, as the committed `luts/original.toml` configures it.

@@ -133,13 +133,23 @@ mod tests {
     #[test]
     fn maps_of_a_small_build_are_written_and_read_back() {
         use crate::config::{ReferenceConfig, SamplingConfig};
-        let settings = crate::recipes::gd::GdSettings {
+        use crate::recipes::gd::GdSettings;
+        use crate::recipes::interpolation::InterpolationConfig;
+        use crate::recipes::settings::SharedSettings;
+        use crate::recipes::tir::TirSettings;
+        let unchecked = |shared: SharedSettings| SharedSettings {
+            reference: ReferenceConfig { cells: 0, nodes: 8 },
+            interpolation: InterpolationConfig { points: 0, nodes: 6 },
+            ..shared
+        };
+        let settings = GdSettings {
             mu_count: 6,
             alpha_count: 5,
-            sampling: SamplingConfig::replicated(1024),
-            reference: ReferenceConfig { cells: 0, nodes: 8 },
-            interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 },
-            ..Default::default()
+            shared: SharedSettings {
+                sampling: SamplingConfig::replicated(1024),
+                ..unchecked(GdSettings::default().shared)
+            },
+            ..GdSettings::default()
         };
         let build = crate::recipes::driver::build(&settings, 1, &()).unwrap();
         let dir = tempfile::tempdir().unwrap();
@@ -152,13 +162,12 @@ mod tests {
         assert!(map.data.iter().any(|&s| s > 0.0) && map.data.iter().all(|s| s.is_finite() && *s >= 0.0));
         assert!(image::open(&written[1]).unwrap().width() > 0);
         // A table integrated without random points has no replicate spread to map.
-        let tir = crate::recipes::tir::TirSettings {
+        let tir = TirSettings {
             mu_count: 6,
             alpha_count: 5,
             eta_count: 9,
-            reference: ReferenceConfig { cells: 0, nodes: 8 },
-            interpolation: crate::recipes::interpolation::InterpolationConfig { points: 0, nodes: 6 },
-            ..Default::default()
+            shared: unchecked(TirSettings::default().shared),
+            ..TirSettings::default()
         };
         let build = crate::recipes::driver::build(&tir, 1, &()).unwrap();
         assert!(write_error_maps(dir.path(), &build).unwrap().is_empty());

@@ -353,8 +353,8 @@ impl FullTables {
             |settings: &dyn TableRecipe| -> Result<Table> { Ok(settings.build(config.seed, progress)?.table) };
         let fgd = if has_slices_of(true) {
             let mut settings = config.fgd.clone();
-            settings.reference.cells = 0;
-            settings.interpolation.points = 0;
+            settings.shared.reference.cells = 0;
+            settings.shared.interpolation.points = 0;
             settings.replicate_error_columns = 0;
             Some(full_table(&settings)?)
         } else {
@@ -362,8 +362,8 @@ impl FullTables {
         };
         let tir = if has_slices_of(false) {
             let mut settings = config.tir.clone();
-            settings.reference.cells = 0;
-            settings.interpolation.points = 0;
+            settings.shared.reference.cells = 0;
+            settings.shared.interpolation.points = 0;
             Some(full_table(&settings)?)
         } else {
             None
@@ -549,7 +549,7 @@ impl<'a> SceneBuild<'a> {
         // table of the fitted-form item is, and that table is not written.
         let (output, fit_seed) = match planned {
             PlannedBuild::TirFit(settings) => {
-                (OutputConfig { formats: Vec::new(), precision: settings.output.precision }, Some(seed))
+                (OutputConfig { formats: Vec::new(), precision: settings.shared.output.precision }, Some(seed))
             }
             _ => (recipe.output().clone(), None),
         };

@@ -1004,9 +1004,10 @@ mod tests {
     use crate::table::{Axis, Mapping};
 
     fn slice(name: &str, eta: f64) -> Slices {
-        let mut settings = FgdSettings { sampling: SamplingConfig::replicated(1 << 10), ..FgdSettings::default() };
-        settings.reference.cells = 4;
-        settings.reference.nodes = 4;
+        let mut settings = FgdSettings::default();
+        settings.shared.sampling = SamplingConfig::replicated(1 << 10);
+        settings.shared.reference.cells = 4;
+        settings.shared.reference.nodes = 4;
         let mu = Axis::node_aligned("mu", 0.5, 0.5 + 4.0 / 128.0, 5).unwrap();
         let alpha = Axis::node_aligned("alpha", 0.0625, 0.0625 * (1.0 + 1.0 / 32.0) * (1.0 + 1.0 / 32.0), 2)
             .unwrap()

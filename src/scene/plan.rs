@@ -237,8 +237,8 @@ fn plan_fgd(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
     let eta = covering_axis(&full[2], hull(&varying, |l| l.eta), margin, true, &who)?;
     let kappa = covering_axis(&full[3], hull(&varying, |l| l.kappa), margin, true, &who)?;
     let mut settings = config.fgd.clone();
-    settings.mu_range = [mu.start, mu.end];
-    settings.alpha_range = [alpha.start, alpha.end];
+    settings.mu_alpha.mu_range = [mu.start, mu.end];
+    settings.mu_alpha.alpha_range = [alpha.start, alpha.end];
     settings.eta_range = [eta.start, eta.end];
     settings.kappa_range = [kappa.start, kappa.end];
     settings.mu_count = mu.count;
@@ -371,8 +371,8 @@ fn plan_tir(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
     let mu = covering_axis(&full[0], hull(&varying, |l| l.mu), margin, false, &who)?;
     let alpha = covering_axis(&full[1], hull(&varying, |l| l.alpha), margin, false, &who)?;
     let mut settings = config.tir.clone();
-    settings.mu_range = [mu.start, mu.end];
-    settings.alpha_range = [alpha.start, alpha.end];
+    settings.mu_alpha.mu_range = [mu.start, mu.end];
+    settings.mu_alpha.alpha_range = [alpha.start, alpha.end];
     settings.mu_count = mu.count;
     settings.alpha_count = alpha.count;
     let reasons = sites(&varying)

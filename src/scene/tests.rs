@@ -280,7 +280,7 @@ fn textured_ranges_give_sub_ranges_and_a_varying_index_the_4d_table() {
     assert!(fgd.eta_range[1] >= 1.7 && fgd.eta_range[1] <= node_above(1.7) + 1e-12, "{:?}", fgd.eta_range);
     assert_eq!(fgd.kappa_range[0], 0.0);
     assert_eq!(fgd.kappa_count, 2);
-    assert!((fgd.alpha_range[0]..=fgd.alpha_range[1]).contains(&0.2));
+    assert!((fgd.mu_alpha.alpha_range[0]..=fgd.mu_alpha.alpha_range[1]).contains(&0.2));
     let full = Config::default().fgd;
     assert!(
         fgd.eta_count * fgd.kappa_count * fgd.alpha_count < full.eta_count * full.kappa_count * full.alpha_count / 100
@@ -372,7 +372,9 @@ fn slice_nodes_agree_with_independent_per_cell_estimates() {
                 // replicate (Owen 1997), and a spread over four replicates estimates that poorly,
                 // so it is allowed besides.
                 let discontinuity = match slices.of {
-                    SliceOf::Tir(ref s) => (s.sampling.samples as f64 / s.sampling.replicates as f64).powf(-0.75),
+                    SliceOf::Tir(ref s) => {
+                        (s.shared.sampling.samples as f64 / s.shared.sampling.replicates as f64).powf(-0.75)
+                    }
                     SliceOf::Fgd(_) => 0.0,
                 };
                 let tolerance = 1e-5 + discontinuity + 4.0 * spread;
