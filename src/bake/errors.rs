@@ -54,12 +54,17 @@ pub struct BakedErrors {
 }
 
 impl BakedErrors {
-    /// The largest of the five.
+    /// The largest of the five (the first of equals).
+    pub fn worst(&self) -> &Worst {
+        [&self.lobe_gd, &self.lobe_cos, &self.lobe_roughness, &self.lobe_energy, &self.albedo]
+            .into_iter()
+            .max_by(|a, b| a.max.total_cmp(&b.max))
+            .expect("five kinds")
+    }
+
+    /// The largest difference of the five.
     pub fn max(&self) -> f64 {
-        [&self.albedo, &self.lobe_energy, &self.lobe_roughness, &self.lobe_cos, &self.lobe_gd]
-            .iter()
-            .map(|w| w.max)
-            .fold(0.0, f64::max)
+        self.worst().max
     }
 }
 

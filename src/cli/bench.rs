@@ -1,12 +1,16 @@
 //! `tmlut bench`: the measurements of `docs/benchmark.md`, one suite at a time, each printed as
-//! Markdown: the tables (the default), the random walk, the furnace's walk workload, and the exact
-//! integrals against Monte Carlo.
+//! Markdown: the tables (the default), the random walk, the furnace's walk workload, the exact
+//! integrals against Monte Carlo; and materials baked, against their model.
 
 use clap::{Args, Subcommand};
 
+use std::path::PathBuf;
+
+use tmlut::bake::BakeSettings;
 use tmlut::furnace::exact::MONTE_CARLO_REPLICATES;
 use tmlut::pipeline;
 use tmlut::random_walk::{BATCH_PATHS, MAX_PATHS, WalkSettings};
+use tmlut::report::bench::bake::{self, BakeBenchSettings};
 use tmlut::report::bench::furnace::{self, FurnaceBenchSettings};
 use tmlut::report::bench::peak_memory_bytes;
 use tmlut::report::bench::quadrature::{self, QuadratureBenchSettings};
@@ -39,6 +43,9 @@ enum Suite {
     /// The furnace's exact integrals against Monte Carlo on the hardest lookups; exits non-zero
     /// when any disagrees.
     Quadrature(QuadratureArgs),
+    /// Each material of some scenes baked from exact integrals, timed, with its baked values
+    /// against its model.
+    Bake(BakeArgs),
 }
 
 #[derive(Args)]
@@ -103,6 +110,26 @@ struct QuadratureArgs {
     threads: ThreadsArg,
 }
 
+#[derive(Args)]
+struct BakeArgs {
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Scene files, or folders of them (every `*.toml`, sorted).
+    #[arg(long = "scene", default_value = "luts/scenes")]
+    scenes: Vec<PathBuf>,
+    /// Nodes of mu per material.
+    #[arg(long, default_value_t = BakeSettings::default().nodes)]
+    nodes: usize,
+    /// Views per node interval the errors are measured at (1 to 64).
+    #[arg(long, default_value_t = 4)]
+    error_views: usize,
+    /// Gauss–Legendre nodes per panel of the exact integrals (2 to 64).
+    #[arg(long, default_value_t = tmlut::furnace::DEFAULT_EXACT_NODES)]
+    exact_nodes: usize,
+    #[command(flatten)]
+    threads: ThreadsArg,
+}
+
 /// A suite's runs: beyond this a bench runs for days.
 const REPEATS: std::ops::RangeInclusive<usize> = 1..=100;
 
@@ -113,6 +140,7 @@ pub fn exec(args: BenchArgs, context: &Context) -> tmlut::Result<()> {
         Some(Suite::Walk(walk)) => exec_walk(walk),
         Some(Suite::Furnace(furnace)) => exec_furnace(furnace, context),
         Some(Suite::Quadrature(quadrature)) => exec_quadrature(quadrature, context),
+        Some(Suite::Bake(bake)) => exec_bake(bake, context),
     }
 }
 
@@ -185,4 +213,29 @@ fn exec_quadrature(args: QuadratureArgs, context: &Context) -> tmlut::Result<()>
     let bench = quadrature::bench_quadrature(&config, &settings, &context.progress())?;
     print!("{}", quadrature::markdown(&bench, &settings));
     bench.verdict()
+}
+
+fn exec_bake(args: BakeArgs, context: &Context) -> tmlut::Result<()> {
+    let config = args.config.load()?;
+    args.threads.apply()?;
+    check_count("--nodes", args.nodes, tmlut::bake::NODES)?;
+    check_count("--error-views", args.error_views, 1..=64)?;
+    check_count("--exact-nodes", args.exact_nodes, tmlut::integrate::quadrature::NODES)?;
+    let mut scenes = Vec::new();
+    for path in &args.scenes {
+        if path.is_dir() {
+            scenes.extend(tmlut::furnace::scene_files(path)?);
+        } else {
+            scenes.push(path.clone());
+        }
+    }
+    let settings = BakeBenchSettings {
+        scenes,
+        bake: BakeSettings { nodes: args.nodes, ..BakeSettings::default() },
+        error_views_per_interval: args.error_views,
+        exact_nodes: args.exact_nodes,
+    };
+    let bench = bake::bench_bake(&config, &settings, &context.progress())?;
+    print!("{}", bake::markdown(&bench, &settings, rayon::current_num_threads()));
+    Ok(())
 }

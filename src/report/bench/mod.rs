@@ -3,11 +3,13 @@
 //! - [`tables`]: each table's build time and error beside the per-cell method (the default);
 //! - [`walk`]: the random walk's time per path on two stacks, at one thread and at all of them;
 //! - [`furnace`]: the random walk of the furnace test over six materials, timed;
-//! - [`quadrature`]: the exact integrals against Monte Carlo on the hardest lookups.
+//! - [`quadrature`]: the exact integrals against Monte Carlo on the hardest lookups;
+//! - [`bake`]: each material of some scenes baked, timed, and its baked values against its model.
 //!
 //! Timings on shared machines are noisy: every timing is a median of repeats, and each section
 //! states the settings and the thread count it was measured with.
 
+pub mod bake;
 pub mod furnace;
 pub mod quadrature;
 pub mod tables;

@@ -85,10 +85,43 @@ fn the_suites_refuse_bad_settings_by_name() {
         (&["bench", "furnace", "--repeats", "101"], "--repeats"),
         (&["bench", "quadrature", "--samples", "8"], "--samples"),
         (&["bench", "quadrature", "--samples", "1000"], "--samples"),
+        (&["bench", "bake", "--nodes", "3"], "--nodes"),
+        (&["bench", "bake", "--error-views", "0"], "--error-views"),
+        (&["bench", "bake", "--scene", "luts/scenes/no-such-scene.toml"], "no-such-scene"),
     ] {
         assert_clean_failure(&tmlut(args), &[expected]);
     }
     // The tables' options belong to the tables: given beside another suite they are refused.
     let output = tmlut(&["bench", "--only", "gd", "walk"]);
     assert!(!output.status.success() && stderr(&output).contains("--only"), "{}", stderr(&output));
+}
+
+#[test]
+fn the_bake_suite_bakes_every_material_and_measures_it_against_its_model() {
+    let output = tmlut(&[
+        "bench",
+        "bake",
+        "--scene",
+        "luts/scenes/copper-pot.toml",
+        "--scene",
+        "luts/scenes/textured.toml",
+        "--nodes",
+        "32",
+        "--error-views",
+        "2",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = stdout(&output);
+    assert!(text.contains("3 materials of 2 scene file(s)") && text.contains("at 32 nodes of mu"), "{text}");
+    let rows = table_rows(&text, "## tmlut bench bake");
+    let names: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(names, ["copper-pot/varnished-copper", "textured/worn-gold", "textured/glazed-ceramic"], "{text}");
+    for row in &rows {
+        let [_, lobes, reads, breaks, ms, errors @ ..] = &row[..] else { panic!("{row:?}") };
+        // Six values and six per lobe, four to a texel.
+        assert_eq!(number(reads), ((6.0 + 6.0 * number(lobes)) / 4.0).ceil(), "{row:?}");
+        assert!(number(breaks) <= 7.0 && number(ms) > 0.0, "{row:?}");
+        assert!(errors.iter().all(|e| (0.0..0.1).contains(&number(e))), "{row:?}");
+    }
+    assert!(text.contains("Largest error: ") && text.contains("side by side"), "{text}");
 }
