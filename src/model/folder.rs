@@ -128,7 +128,7 @@ impl Reader for Sampling {
     type FullFgd = FullFgd;
     type Form = FormEvaluator;
     // A renderer uploads the `.bin` tables of up to three axes as textures too.
-    const FORMATS: &'static [FileFormat] = &[FileFormat::Dds, FileFormat::Ktx2, FileFormat::Bin];
+    const FORMATS: &'static [FileFormat] = &FileFormat::textures_then::<3>(&[FileFormat::Bin]);
     const FULL_FGD: &'static str = "4D FGD table or lossless FGD packing";
 
     fn slice(&self, slice: FolderSlice) -> Result<SampledTable> {
@@ -493,6 +493,14 @@ mod tests {
         ];
         let texture = Texture3D { width: 4, height: 3, depth: 1, texels: vec![value; 12] };
         SampledTable { name: "tir".into(), axes, channels: vec![texture] }
+    }
+
+    #[test]
+    fn the_cpu_reads_the_texture_formats_in_their_order_then_a_bin_table() {
+        // The scene shader binds `FileFormat::TEXTURES` in that order: where a table is written
+        // in several, the CPU evaluator reads the file the shader reads.
+        assert!(Sampling::FORMATS.starts_with(&FileFormat::TEXTURES), "{:?}", Sampling::FORMATS);
+        assert_eq!(Sampling::FORMATS[FileFormat::TEXTURES.len()..], [FileFormat::Bin]);
     }
 
     fn folder(slices: Vec<SampledTable>) -> FolderTables {

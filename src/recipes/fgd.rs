@@ -93,7 +93,8 @@ impl Default for FgdSettings {
             replicate_error_columns: 256,
             shared: SharedSettings {
                 // 2^17: the worst cell's replicate standard error is 5.5e-5, within the 1e-4 target
-                // (`docs/benchmark.md`); 2^16 reaches 1.01e-4 on the default `eta` nodes.
+                // (the manifest's `error.replicate_standard_error`, `docs/benchmark.md`, "The
+                // default build's error figures"); 2^16 reaches 1.01e-4 on the default `eta` nodes.
                 sampling: SamplingConfig::replicated(1 << 17),
                 // Five domains (`interpolation_domains`): half the points of the other tables keeps
                 // the check at the cost of theirs.

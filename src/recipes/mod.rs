@@ -273,12 +273,14 @@ fn position_of_eta_lookup(recipe: &dyn TableRecipe, lookup: &[f64]) -> Vec<f64> 
 }
 
 /// The most memory the build of one table may ask for: 16 GiB, two thirds of the project's
-/// machines (`docs/benchmark.md`). Above it a build would be killed or swap for hours.
+/// machines (`docs/benchmark.md` states the memory of the one it ran on). Above it a build would be
+/// killed or swap for hours.
 pub const MAX_BUILD_BYTES: u64 = 16 << 30;
 
 /// The most sample evaluations (one visible normal, weighted) one table's build may make: 2^44,
-/// about five and a half days on a 2-core machine at the per-cell method's rate (`tmlut bench`,
-/// `docs/benchmark.md`: 2^40 for the whole FGD table in an extrapolated 29,761 s).
+/// sixteen times the 2^40 of the whole default FGD table by the per-cell method, days on a 2-core
+/// machine (`tmlut bench` extrapolates that table's time: `docs/benchmark.md`, "The tables: tmlut
+/// bench").
 pub const MAX_SAMPLE_EVALUATIONS: u64 = 1 << 44;
 
 /// Bytes per stored value while a table is built: the f32 value, up to four f64 beside it (FGD's
@@ -304,8 +306,8 @@ pub struct Demand {
 }
 
 /// Estimate what building `recipe`'s table needs, before anything is allocated. The estimate is an
-/// upper bound of the peak resident memory measured (`docs/benchmark.md`, "Memory"): 1,005 MiB
-/// against 882 MiB for the default FGD table with error maps, 93 MiB against 78 MiB for TIR.
+/// upper bound of the peak resident memory measured (`docs/tables.md`, "What a build may ask for",
+/// lists estimates; `docs/benchmark.md`, "Peak memory per table", the peaks of the same builds).
 pub fn demand(recipe: &dyn TableRecipe) -> crate::error::Result<Demand> {
     let name = recipe.name();
     let axes = recipe.axes()?;

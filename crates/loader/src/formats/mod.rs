@@ -141,6 +141,33 @@ impl FileFormat {
     /// is written in several.
     pub const TEXTURES: [FileFormat; 2] = [FileFormat::Dds, FileFormat::Ktx2];
 
+    /// The order a reader looks for a table's file in: the texture formats as
+    /// [`FileFormat::TEXTURES`] lists them, then `others` (formats it takes where no texture is
+    /// written), so that every reader's preference follows that one list. `N` is the count of
+    /// both, and `others` holds no texture format and no format twice; a constant that breaks
+    /// either does not compile.
+    pub const fn textures_then<const N: usize>(others: &[FileFormat]) -> [FileFormat; N] {
+        assert!(N == FileFormat::TEXTURES.len() + others.len(), "N must count the texture formats and `others`");
+        let mut order = [FileFormat::TEXTURES[0]; N];
+        let mut k = 0;
+        while k < FileFormat::TEXTURES.len() {
+            order[k] = FileFormat::TEXTURES[k];
+            k += 1;
+        }
+        let mut j = 0;
+        while j < others.len() {
+            let mut before = 0;
+            while before < k + j {
+                // `==` is not const for an enum; the discriminants compare.
+                assert!(order[before] as u8 != others[j] as u8, "a format listed twice");
+                before += 1;
+            }
+            order[k + j] = others[j];
+            j += 1;
+        }
+        order
+    }
+
     /// The formats that can hold a table of `axes` axes, in [`FileFormat::ALL`]'s order: OpenEXR
     /// any, a texture format 2 or 3, and the original `.bin` layout only a table that has one
     /// (`original_layout`: FGD, GD and TIR).
@@ -528,6 +555,18 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn textures_then_lists_the_texture_formats_first_and_refuses_a_wrong_count_or_a_repeat() {
+        let order: [FileFormat; 3] = FileFormat::textures_then(&[FileFormat::Exr]);
+        assert_eq!(order[..FileFormat::TEXTURES.len()], FileFormat::TEXTURES);
+        assert_eq!(order[FileFormat::TEXTURES.len()..], [FileFormat::Exr]);
+        assert!(std::panic::catch_unwind(|| FileFormat::textures_then::<4>(&[FileFormat::Exr])).is_err());
+        assert!(std::panic::catch_unwind(|| FileFormat::textures_then::<3>(&[FileFormat::Ktx2])).is_err());
+        assert!(
+            std::panic::catch_unwind(|| FileFormat::textures_then::<4>(&[FileFormat::Bin, FileFormat::Bin])).is_err()
+        );
+    }
 
     #[test]
     fn textures_hold_two_or_three_axes_and_bin_only_an_original_layout() {

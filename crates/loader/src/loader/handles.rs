@@ -86,12 +86,14 @@ impl Shape {
         self.check(table, precision, Some(entry), &folder.dir().join(file).to_string_lossy())
     }
 
+    /// The formats [`Shape::find`] takes, in its order: the texture formats (DDS before
+    /// KTX2), then an OpenEXR file, then a `.bin` one.
+    const PREFERENCE: [FileFormat; 4] = FileFormat::textures_then(&[FileFormat::Exr, FileFormat::Bin]);
+
     /// The file of `folder` holding this kind's table: the one its manifest lists under the
-    /// table's name, not a packing; a DDS file before a KTX2 one before an OpenEXR one before a
-    /// `.bin` one.
+    /// table's name, not a packing, in the order of [`Shape::PREFERENCE`].
     fn find<'a>(&self, folder: &'a LutFolder) -> Result<&'a str> {
-        const PREFERENCE: [FileFormat; 4] = [FileFormat::Dds, FileFormat::Ktx2, FileFormat::Exr, FileFormat::Bin];
-        folder.table_file(self.0.name(), &PREFERENCE).map(|(file, _)| file).ok_or_else(|| Error::Missing {
+        folder.table_file(self.0.name(), &Self::PREFERENCE).map(|(file, _)| file).ok_or_else(|| Error::Missing {
             path: folder.dir().join(MANIFEST_FILE),
             reason: format!("lists no `{}` table (a file whose entry has \"table\": \"{}\")", self.0, self.0),
         })
@@ -329,5 +331,20 @@ impl FgdRarerLut {
     /// The texture sampled at texture coordinate `(u, v, w)`.
     pub fn sample_uvw(&self, u: f32, v: f32, w: f32) -> f32 {
         self.filter([u, v, w])[0]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_handle_takes_the_texture_formats_in_their_order_then_every_other_format_once() {
+        let preference = Shape::PREFERENCE;
+        assert!(preference.starts_with(&FileFormat::TEXTURES), "{preference:?}");
+        // A handle opens its table from whichever format a build wrote it in.
+        for format in FileFormat::ALL {
+            assert_eq!(preference.iter().filter(|&&f| f == format).count(), 1, "{format:?} in {preference:?}");
+        }
     }
 }
