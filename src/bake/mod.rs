@@ -24,17 +24,18 @@ pub use placement::NodePlacement;
 pub struct BakeSettings {
     /// Nodes along `mu` per material.
     pub nodes: usize,
-    /// The interpolation error a kink of the model may cause before a node is placed on it
+    /// The interpolation error a kink of the model, or a segment's curvature, may be estimated
+    /// to cause before the nodes are placed on the kink or the segment is cut
     /// ([`placement::place_nodes`]).
-    pub kink_tolerance: f64,
+    pub tolerance: f64,
 }
 
 impl Default for BakeSettings {
-    /// 64 nodes, and a node on every kink that would cost more than a quarter of the 1e-3 a
-    /// baked material is held to: the example scenes' materials then stay within 1e-3 of their
+    /// 64 nodes, and a tolerance of a quarter of the 1e-3 a baked material is held to: the
+    /// example scenes' materials then stay within 1e-3 of their
     /// model (`the_example_materials_baked_by_default_stay_within_1e_3_of_their_model`).
     fn default() -> Self {
-        BakeSettings { nodes: 64, kink_tolerance: 2.5e-4 }
+        BakeSettings { nodes: 64, tolerance: 2.5e-4 }
     }
 }
 
@@ -90,7 +91,7 @@ pub fn bake_material(
     let layout = BakeLayout { lobes: material.evaluate(1.0, tables).lobes.len() };
     let values = |u: f64| finite_values(name, &layout, &material.evaluate(u * u, tables));
     let weights = |values: &[f64]| layout.weights(values);
-    let placement = placement::place_nodes(&values, &weights, nodes, settings.kink_tolerance)?;
+    let placement = placement::place_nodes(&values, &weights, nodes, settings.tolerance)?;
     let node_values: Vec<Vec<f64>> =
         (0..nodes).into_par_iter().map(|k| values(placement.node_u(k))).collect::<Result<_>>()?;
     let rows = layout.texels_per_node();

@@ -110,7 +110,7 @@ pub fn markdown(bench: &BakeBench, settings: &BakeBenchSettings, threads: usize)
         settings.scenes.len(),
         settings.exact_nodes,
         settings.bake.nodes,
-        settings.bake.kink_tolerance,
+        settings.bake.tolerance,
         settings.error_views_per_interval,
     );
     let _ = writeln!(
