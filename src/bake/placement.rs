@@ -160,7 +160,7 @@ fn share_out(total: usize, lengths: &[f64], curvatures: &[f64]) -> Vec<usize> {
 pub const MAX_BREAKS: usize = 7;
 
 /// Points of the fine grid the model is read on to place nodes, per interval between nodes.
-pub const FINE_POINTS_PER_INTERVAL: usize = 8;
+pub const FINE_POINTS_PER_INTERVAL: usize = 4;
 
 /// The nodes of a material whose values at `u` are `values(u)` (its flattened result at
 /// `mu = u^2`), weighed by `weights` (how much an error in each value counts at that point):
