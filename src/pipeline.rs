@@ -14,6 +14,7 @@ use crate::config::{Config, OutputConfig, TableKind};
 use crate::error::{Error, Result};
 use crate::formats::manifest::{
     AxisEntry, ChannelSumStorage, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile,
+    write_manifest,
 };
 use crate::formats::slice_array::{ArraySlice, SliceArrayEntry, Slot};
 use crate::formats::{self, FileFormat, Precision, SumRounding};
@@ -233,7 +234,7 @@ pub fn write_jobs(
     if scene.is_some() {
         manifest.scene = scene;
     }
-    manifest.write(&staging.dir)?;
+    write_manifest(&manifest, &staging.dir)?;
     removals.retain(|file| !moves.iter().any(|m| &m.destination == file));
     removals.sort();
     removals.dedup();
@@ -589,7 +590,7 @@ fn stored_along(table: &Table, format: FileFormat) -> Vec<String> {
 /// `table` with each texel's channels rounded to `precision` by `rounding`.
 fn stored_with_sum(table: &Table, rounding: SumRounding, precision: Precision) -> Result<Table> {
     let channels = table.channel_count();
-    let data = table.data.chunks(channels).flat_map(|texel| rounding.round(texel, precision)).collect();
+    let data = table.data.chunks(channels).flat_map(|texel| formats::round_texel(rounding, texel, precision)).collect();
     Table::new(&table.name, table.axes.clone(), table.channels.clone(), data)
 }
 

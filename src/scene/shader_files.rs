@@ -11,7 +11,7 @@ use serde::Serialize;
 use super::Scene;
 use crate::commit::{Move, OutputFolder};
 use crate::error::{Error, Result};
-use crate::formats::manifest::{MANIFEST_FILE, Manifest, SceneShaderFile, SceneShaderRecord};
+use crate::formats::manifest::{MANIFEST_FILE, Manifest, SceneShaderFile, SceneShaderRecord, write_manifest};
 use crate::formats::write_bytes_atomically;
 use crate::loader::{LutFolder, sha256_hex};
 use crate::model::folder::{FgdSource, LibraryTables};
@@ -253,7 +253,7 @@ fn commit_with_manifest(
         .collect();
     let written = record.files.iter().map(|f| out.join(&f.file)).collect();
     manifest.scene_shader = Some(record);
-    manifest.write(&staging.dir)?;
+    write_manifest(&manifest, &staging.dir)?;
     crate::commit::commit(folder, &mut staging, moves, removals)?;
     Ok(written)
 }

@@ -8,7 +8,7 @@ use super::{assert_clean_failure, build, scene_path, shader_functions, snapshot,
 use crate::common;
 
 use common::SMALL_SET;
-use tmlut::formats::manifest::{MANIFEST_FILE, Manifest};
+use tmlut::formats::manifest::{MANIFEST_FILE, Manifest, write_manifest};
 use tmlut::loader::LutFolder;
 
 #[test]
@@ -98,7 +98,7 @@ fn ktx2_is_written_beside_dds_for_tables_and_packings_and_reads_back_the_same() 
     let from_dds: Vec<f64> = lookups.iter().map(|l| open(&folder).value(l)).collect();
     let mut without_dds = manifest.clone();
     without_dds.files.remove("fgd_lossless.dds");
-    without_dds.write(&out).unwrap();
+    write_manifest(&without_dds, &out).unwrap();
     std::fs::remove_file(out.join("fgd_lossless.dds")).unwrap();
     let only_ktx2 = LutFolder::open(&out).unwrap();
     let from_ktx2: Vec<f64> = lookups.iter().map(|l| open(&only_ktx2).value(l)).collect();
@@ -395,7 +395,7 @@ fn a_library_in_texture_arrays_reads_exactly_as_its_slice_files_do() {
     let name = slice.table.clone();
     // Sealed again, as a writer that placed it wrong would have: the placement itself is checked.
     entry.seal();
-    damaged.write(&arrays).unwrap();
+    write_manifest(&damaged, &arrays).unwrap();
     let error = LutFolder::open(&arrays).unwrap().scene_slices(|_| true).unwrap_err().to_string();
     assert!(error.contains(&name) && error.contains("outside the array"), "{error}");
     let checked = check();
@@ -608,7 +608,7 @@ fn the_model_reads_a_dielectric_onto_a_rarer_medium_from_fgd_rarer_and_everythin
     // Without fgd_rarer the same lookups read the packing; the others read it either way.
     let mut manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
     manifest.files.remove("fgd_rarer.dds");
-    manifest.write(&out).unwrap();
+    write_manifest(&manifest, &out).unwrap();
     std::fs::remove_file(out.join("fgd_rarer.dds")).unwrap();
     let without = open(&LutFolder::open(&out).unwrap());
     for l in &rarer {
@@ -746,7 +746,7 @@ fn a_build_the_cache_keeps_whole_is_restored_only_once_its_tables_agree_with_the
     entry.sha256 = tmlut::loader::sha256_hex(&bytes);
     entry.value_range = entry.value_range.map(|v| v + 0.25);
     entry.seal();
-    manifest.write(&out).unwrap();
+    write_manifest(&manifest, &out).unwrap();
     assert!(LutFolder::open(&out).unwrap().load(&file).is_ok());
     let refused = verify_restored(&request, &out).unwrap_err();
     assert!(refused.contains(&slice) && refused.contains("exact integral"), "{refused}");

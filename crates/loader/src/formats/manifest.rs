@@ -9,7 +9,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{FileFormat, MAX_MANIFEST_BYTES, Precision, read_bytes_at_most, write_bytes_atomically};
+use super::{FileFormat, MAX_MANIFEST_BYTES, Precision, read_bytes_at_most};
 use crate::error::{Error, Result};
 use crate::physics::FresnelBasis;
 use crate::stats::{AccuracyReport, ErrorRecord};
@@ -520,24 +520,6 @@ impl Manifest {
         serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
     }
 
-    /// Write the manifest of `dir` atomically.
-    pub fn write(&self, dir: &Path) -> Result<()> {
-        let mut text = serde_json::to_string_pretty(self).expect("a manifest is plain data and always serialises");
-        text.push('\n');
-        // What every reader refuses is never written.
-        if text.len() as u64 > MAX_MANIFEST_BYTES {
-            return Err(Error::format(
-                dir.join(MANIFEST_FILE),
-                format!(
-                    "would be {} bytes long; a manifest may be at most {MAX_MANIFEST_BYTES} bytes, which tmlut's readers \
-                     hold it to: build fewer materials into one folder",
-                    text.len()
-                ),
-            ));
-        }
-        write_bytes_atomically(&dir.join(MANIFEST_FILE), text.as_bytes())
-    }
-
     /// The entry of the file named `file`, if the manifest lists it.
     pub fn entry(&self, file: &str) -> Option<&FileEntry> {
         self.files.get(file)
@@ -570,60 +552,20 @@ impl Manifest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stats::{ErrorSummary, ReferenceComparison};
+    use crate::formats::test_folder::test_folder;
 
     #[test]
-    fn manifest_round_trips_through_json() {
-        let axis = Axis::node_aligned("mu", 0.0, 1.0, 64).unwrap();
-        let entry = FileEntry {
-            table: "gd".into(),
-            format: FileFormat::Bin,
-            precision: Precision::F32,
-            dxgi_format: None,
-            vk_format: None,
-            axes: vec![AxisEntry::new(&axis, "axis 0")],
-            channels: vec![Channel::new("value", "albedo")],
-            integrand: "E[G1(wo)]".into(),
-            masking: Some("smith-separable".into()),
-            notes: vec![],
-            method: "m".into(),
-            sampler: "s".into(),
-            samples_per_cell: 1024,
-            seed: 1,
-            wall_time_s: 0.5,
-            value_range: [0.3, 1.0],
-            nan_count: 0,
-            error: ErrorEntry {
-                integration: ErrorRecord {
-                    replicate_standard_error: ErrorSummary { count: 4096, rms: 1e-5, max: 1e-4 },
-                    reference: Some(ReferenceComparison {
-                        exact_nodes: 8,
-                        difference: ErrorSummary { count: 10, rms: 1e-5, max: 2e-5 },
-                    }),
-                },
-                storage_rounding_max: 0.0,
-                storage_channel_sum: None,
-                interpolation: vec![],
-            },
-            fresnel_basis: None,
-            accuracy: vec![],
-            sha256: "00".into(),
-            bytes: 16408,
-            packing: None,
-            fit: None,
-            binding: None,
-            slice_array: None,
-            claims_sha256: None,
-        };
-        let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), ..Default::default() };
-        manifest.files.insert("gd.bin".into(), entry);
-        let dir = tempfile::tempdir().unwrap();
-        manifest.write(dir.path()).unwrap();
-        let back = Manifest::read_or_default(dir.path()).unwrap();
-        assert_eq!(back, manifest);
-        let text = std::fs::read_to_string(dir.path().join(MANIFEST_FILE)).unwrap();
-        assert!(text.contains("\"texture_coordinate\": \"(mu) * 63 / 64 + 0.5 / 64\""), "{text}");
-        assert!(text.contains("\"placement\": \"node-aligned\""), "{text}");
+    fn a_written_manifest_reads_back_with_every_entrys_conventions() {
+        let manifest = Manifest::read(&test_folder().join(MANIFEST_FILE)).unwrap();
+        assert_eq!(manifest.generator, "tmlut test");
+        let gd = manifest.entry("gd.dds").unwrap();
+        assert_eq!((gd.table.as_str(), gd.format, gd.precision), ("gd", FileFormat::Dds, Precision::F16));
+        assert_eq!(gd.dxgi_format.as_deref(), Some("R16_FLOAT"));
+        assert_eq!(gd.axes[0].texture_coordinate, gd.axes[0].axis.texture_coordinate_formula());
+        assert_eq!(manifest.entry("tir.ktx2").unwrap().vk_format.as_deref(), Some("R32_SFLOAT"));
+        assert_eq!(manifest.entry("slices.dds").unwrap().axes[2].stored_along, "layer");
+        assert!(manifest.entry("missing.dds").is_none());
+        assert_eq!(manifest.listed_files().len(), manifest.files.len(), "tables only: no shaders listed");
     }
 
     #[test]
@@ -632,5 +574,6 @@ mod tests {
         std::fs::write(dir.path().join(MANIFEST_FILE), b"{\"hello\": 1}").unwrap();
         let err = Manifest::read_or_default(dir.path()).unwrap_err().to_string();
         assert!(err.contains("not a tmlut manifest"), "{err}");
+        assert_eq!(Manifest::read_or_default(&dir.path().join("empty")).unwrap(), Manifest::default());
     }
 }
