@@ -32,52 +32,21 @@ mod tests {
     use crate::formats::{FileFormat, Precision};
     use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
     use crate::table::{Axis, Channel};
-    use std::collections::BTreeMap;
 
     #[test]
     fn manifest_round_trips_through_json() {
         let axis = Axis::node_aligned("mu", 0.0, 1.0, 64).unwrap();
-        let entry = FileEntry {
-            table: "gd".into(),
-            format: FileFormat::Bin,
-            precision: Precision::F32,
-            dxgi_format: None,
-            vk_format: None,
-            axes: vec![AxisEntry::new(&axis, "axis 0")],
-            channels: vec![Channel::new("value", "albedo")],
-            integrand: "E[G1(wo)]".into(),
-            masking: Some("smith-separable".into()),
-            notes: vec![],
-            method: "m".into(),
-            sampler: "s".into(),
-            samples_per_cell: 1024,
-            seed: 1,
-            wall_time_s: 0.5,
-            value_range: [0.3, 1.0],
-            nan_count: 0,
-            error: ErrorEntry {
-                integration: ErrorRecord {
-                    replicate_standard_error: ErrorSummary { count: 4096, rms: 1e-5, max: 1e-4 },
-                    reference: Some(ReferenceComparison {
-                        exact_nodes: 8,
-                        difference: ErrorSummary { count: 10, rms: 1e-5, max: 2e-5 },
-                    }),
-                },
-                storage_rounding_max: 0.0,
-                storage_channel_sum: None,
-                interpolation: vec![],
-            },
-            fresnel_basis: None,
-            accuracy: vec![],
-            sha256: "00".into(),
-            bytes: 16408,
-            packing: None,
-            fit: None,
-            binding: None,
-            slice_array: None,
-            claims_sha256: None,
-        };
-        let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), ..Default::default() };
+        let axes = vec![AxisEntry::new(&axis, "axis 0")];
+        let channels = vec![Channel::new("value", "albedo")];
+        let mut entry = FileEntry::new("gd", FileFormat::Bin, Precision::F32, axes, channels, &[0; 16408]);
+        entry.integrand = "E[G1(wo)]".into();
+        entry.masking = Some("smith-separable".into());
+        (entry.method, entry.sampler) = ("m".into(), "s".into());
+        (entry.samples_per_cell, entry.seed, entry.wall_time_s) = (1024, 1, 0.5);
+        entry.value_range = [0.3, 1.0];
+        let reference = ReferenceComparison::new(8, ErrorSummary::new(10, 1e-5, 2e-5));
+        entry.error = ErrorEntry::new(ErrorRecord::new(ErrorSummary::new(4096, 1e-5, 1e-4), Some(reference)), 0.0);
+        let mut manifest = Manifest::new("tmlut test");
         manifest.files.insert("gd.bin".into(), entry);
         let dir = tempfile::tempdir().unwrap();
         write_manifest(&manifest, dir.path()).unwrap();

@@ -171,36 +171,36 @@ pub fn binding(axes: &[Axis], channels: usize, precision: Precision, format: Fil
     };
     if axes.get(2).is_some_and(|a| a.name == LAYER_AXIS) {
         // An array of slices: each slice states its own coordinates in the array.
-        return Some(manifest::Binding {
-            texture: format!(
+        return Some(manifest::Binding::new(
+            format!(
                 "Texture2DArray<{hlsl_texel}> (HLSL), texture_2d_array<f32> (WGSL) of {} layers; {texel_format}, WebGPU \
                  {webgpu} ({filterable}); one mip level; linear data (not sRGB)",
                 axes[2].count
             ),
-            sampler: "linear min and mag filter, clamp-to-edge addressing, mip level 0".into(),
-            coordinates: vec![
+            "linear min and mag filter, clamp-to-edge addressing, mip level 0",
+            vec![
                 "u = the slice's `texture_coordinate` of mu (slice_array.slices[].axes[0])".into(),
                 "v = the slice's `texture_coordinate` of alpha (slice_array.slices[].axes[1])".into(),
                 "layer = the slice's `layer` (an integer)".into(),
             ],
-            hlsl: "tex.SampleLevel(linear_clamp, float3(u, v, layer), 0)".into(),
-            wgsl: format!("textureSampleLevel(tex, linear_clamp, vec2<f32>(u, v), layer, 0.0).{swizzle}"),
-        });
+            "tex.SampleLevel(linear_clamp, float3(u, v, layer), 0)",
+            format!("textureSampleLevel(tex, linear_clamp, vec2<f32>(u, v), layer, 0.0).{swizzle}"),
+        ));
     }
     let names = ["u", "v", "w"];
     let coordinates =
         axes.iter().zip(names).map(|(a, n)| format!("{n} = {}", a.texture_coordinate_formula())).collect();
     let list = names[..dimension].join(", ");
-    Some(manifest::Binding {
-        texture: format!(
+    Some(manifest::Binding::new(
+        format!(
             "Texture{dimension}D<{hlsl_texel}> (HLSL), texture_{dimension}d<f32> (WGSL); {texel_format}, WebGPU {webgpu} \
              ({filterable}); one mip level; linear data (not sRGB)"
         ),
-        sampler: "linear min and mag filter, clamp-to-edge addressing on every axis, mip level 0".into(),
+        "linear min and mag filter, clamp-to-edge addressing on every axis, mip level 0",
         coordinates,
-        hlsl: format!("tex.SampleLevel(linear_clamp, float{dimension}({list}), 0)"),
-        wgsl: format!("textureSampleLevel(tex, linear_clamp, vec{dimension}<f32>({list}), 0.0).{swizzle}"),
-    })
+        format!("tex.SampleLevel(linear_clamp, float{dimension}({list}), 0)"),
+        format!("textureSampleLevel(tex, linear_clamp, vec{dimension}<f32>({list}), 0.0).{swizzle}"),
+    ))
 }
 
 /// The values of one texel whose channels add up to an albedo as stored in `precision`, rounded

@@ -185,24 +185,15 @@ mod tests {
     }
 
     fn entry_of(table: &Table, slot: Slot) -> ArraySlice {
-        ArraySlice {
-            table: table.name.clone(),
-            layer: slot.layer as u32,
-            origin: slot.origin.map(|o| o as u32),
-            axes: table.axes.iter().map(|a| AxisEntry::new(a, "x")).collect(),
-            channels: table.channels.clone(),
-            value_range: [0.0, 0.0],
-            error: ErrorEntry {
-                integration: crate::stats::ErrorRecord {
-                    replicate_standard_error: crate::stats::ErrorSummary { count: 0, rms: 0.0, max: 0.0 },
-                    reference: None,
-                },
-                storage_rounding_max: 0.0,
-                storage_channel_sum: None,
-                interpolation: Vec::new(),
-            },
-            accuracy: Vec::new(),
-        }
+        ArraySlice::new(
+            table.name.clone(),
+            slot.layer as u32,
+            slot.origin.map(|o| o as u32),
+            table.axes.iter().map(|a| AxisEntry::new(a, "x")).collect(),
+            table.channels.clone(),
+            [0.0, 0.0],
+            ErrorEntry::default(),
+        )
     }
 
     #[test]

@@ -23,6 +23,7 @@ use crate::table::{Arithmetic, Axis, Channel, Table};
 /// The manifest's description of a texture array of slices (`FileEntry::slice_array`). The
 /// entry's own `axes` are the array's texel axes (`x`, `y`, [`super::LAYER_AXIS`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct SliceArrayEntry {
     /// Texels per layer, `[width, height]`, and the number of layers.
     pub layer_extent: [u32; 2],
@@ -34,6 +35,7 @@ pub struct SliceArrayEntry {
 
 /// One slice of a texture array.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ArraySlice {
     /// The slice's table name (what its own file would be called, without the extension).
     pub table: String,
@@ -56,7 +58,28 @@ pub struct ArraySlice {
     pub accuracy: Vec<AccuracyReport>,
 }
 
+impl SliceArrayEntry {
+    /// An array of `layers` layers of `layer_extent` texels holding `slices`.
+    pub fn new(layer_extent: [u32; 2], layers: u32, slices: Vec<ArraySlice>) -> Self {
+        SliceArrayEntry { layer_extent, layers, slices }
+    }
+}
+
 impl ArraySlice {
+    /// The slice `table` at `origin` of `layer`, over `axes` (their coordinates in the array),
+    /// with `channels`, values over `value_range` and `error`; no further accuracy figures yet.
+    pub fn new(
+        table: impl Into<String>,
+        layer: u32,
+        origin: [u32; 2],
+        axes: Vec<AxisEntry>,
+        channels: Vec<Channel>,
+        value_range: [f32; 2],
+        error: ErrorEntry,
+    ) -> Self {
+        ArraySlice { table: table.into(), layer, origin, axes, channels, value_range, error, accuracy: Vec::new() }
+    }
+
     /// Its axes as quantities, without the array's texture-coordinate formulas.
     pub fn axes(&self) -> Vec<Axis> {
         self.axes.iter().map(|a| a.axis.clone()).collect()
