@@ -619,6 +619,52 @@ fn the_model_reads_a_dielectric_onto_a_rarer_medium_from_fgd_rarer_and_everythin
     }
 }
 
+#[test]
+fn the_loader_reads_a_built_folder_from_memory_as_from_disk() {
+    use tmlut::error::Error;
+    use tmlut::loader::{InMemory, TirLut};
+
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let out = dir.path().join("luts");
+    let output = build(&config, &out, &["--only", "karis,tir"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    // Every file of the folder held in memory, named by the folder's path; one byte of `damaged` flipped.
+    let held = |damaged: Option<&str>| {
+        let mut files = InMemory::new(&out);
+        for (name, mut bytes) in snapshot(&out) {
+            if Some(name.as_str()) == damaged {
+                let last = bytes.len() - 1;
+                bytes[last] ^= 1;
+            }
+            files.insert(name, bytes);
+        }
+        files
+    };
+    let on_disk = LutFolder::open(&out).unwrap();
+    let in_memory = LutFolder::from_source(held(None)).unwrap();
+    assert_eq!(in_memory.manifest(), on_disk.manifest());
+    let files: Vec<&str> = on_disk.files().collect();
+    assert!(files.contains(&"tir.dds") && files.contains(&"karis.exr"), "{files:?}");
+    for file in files {
+        assert_eq!(in_memory.load(file).unwrap(), on_disk.load(file).unwrap(), "{file}");
+    }
+    let fit = on_disk.tir_fit().expect("the build's fitted TIR form");
+    for shader in &fit.shaders {
+        assert_eq!(in_memory.shader(shader).unwrap(), on_disk.shader(shader).unwrap(), "{}", shader.file);
+    }
+
+    // A damaged byte: the same error, whether the file is read from memory or from disk.
+    let from_memory = TirLut::from_folder(&LutFolder::from_source(held(Some("tir.dds"))).unwrap()).unwrap_err();
+    assert!(matches!(from_memory, Error::Mismatch { .. }), "{from_memory:?}");
+    let mut bytes = std::fs::read(out.join("tir.dds")).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(out.join("tir.dds"), bytes).unwrap();
+    let from_disk = TirLut::from_folder(&LutFolder::open(&out).unwrap()).unwrap_err();
+    assert_eq!(from_memory.to_string(), from_disk.to_string());
+}
+
 /// An albedo lookup of the first interface from above, as the model makes it.
 fn albedo_lookup(mu: f64, alpha: f64, eta: f64, kappa: f64) -> tmlut::model::Lookup {
     use tmlut::model::{Quantity, Site};

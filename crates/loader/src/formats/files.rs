@@ -8,6 +8,7 @@ use std::fs::{File, OpenOptions};
 use std::io::Read;
 use std::path::Path;
 
+use super::{MAX_MANIFEST_BYTES, MAX_SHADER_FILE_BYTES, MAX_TABLE_FILE_BYTES};
 use crate::error::{Error, Result};
 
 /// What a path names, in words, for an error: "a folder", "a FIFO", ... (the writing side names
@@ -80,7 +81,7 @@ pub fn read_bytes_at_most(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>
 }
 
 /// The error of an input `path` of `length` bytes, longer than the `limit` of `what` it is.
-pub(crate) fn too_long(path: &Path, length: u64, limit: u64, what: &str) -> Error {
+fn too_long(path: &Path, length: u64, limit: u64, what: &str) -> Error {
     Error::format(path, format!("is {length} bytes long; {what} may be at most {limit} bytes"))
 }
 
@@ -96,6 +97,65 @@ pub fn hold_to_memory(path: &Path, from: u64, factor: u128, what: &str) -> Resul
             }
         }
         _ => Ok(()),
+    }
+}
+
+/// The kinds of file a folder of tables holds, each read within its own limits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum FileKind {
+    /// `manifest.json`.
+    Manifest,
+    /// A table file.
+    Table,
+    /// A shader file a manifest lists.
+    Shader,
+}
+
+impl FileKind {
+    /// The longest file of this kind a reader takes: [`MAX_MANIFEST_BYTES`],
+    /// [`MAX_TABLE_FILE_BYTES`] or [`MAX_SHADER_FILE_BYTES`].
+    pub fn limit(self) -> u64 {
+        match self {
+            FileKind::Manifest => MAX_MANIFEST_BYTES,
+            FileKind::Table => MAX_TABLE_FILE_BYTES,
+            FileKind::Shader => MAX_SHADER_FILE_BYTES,
+        }
+    }
+
+    /// The kind in words, for errors: `a manifest`, `a table file`, `a shader file`.
+    pub fn what(self) -> &'static str {
+        match self {
+            FileKind::Manifest => "a manifest",
+            FileKind::Table => "a table file",
+            FileKind::Shader => "a shader file",
+        }
+    }
+
+    /// Read the file at `path` as this kind ([`read_bytes_at_most`] within [`FileKind::limit`]).
+    ///
+    /// A large manifest or table is first held to the memory this process may use
+    /// ([`crate::memory::beyond_limit`]), so that a reader under a memory limit refuses it rather
+    /// than abort on the allocation: a manifest from 16 MiB to six times its length (parsed, it
+    /// takes about four times its text: `tmlut check` of the largest library's, 89 MB, peaked at
+    /// 387 MB), a table from 64 MiB to three times (read whole, then decoded to f32 values: an
+    /// f16 file's values double).
+    pub fn read(self, path: &Path) -> Result<Vec<u8>> {
+        match self {
+            FileKind::Manifest => hold_to_memory(path, 16 << 20, 6, "reading it")?,
+            FileKind::Table => hold_to_memory(path, 64 << 20, 3, "reading and decoding it")?,
+            FileKind::Shader => {}
+        }
+        read_bytes_at_most(path, self.limit(), self.what())
+    }
+
+    /// Refuse `length` bytes of the file `path` of this kind where more than [`FileKind::limit`]:
+    /// bytes that came some other way than [`FileKind::read`], with its error.
+    pub fn check_length(self, path: &Path, length: usize) -> Result<()> {
+        match length as u64 > self.limit() {
+            true => Err(too_long(path, length as u64, self.limit(), self.what())),
+            false => Ok(()),
+        }
     }
 }
 

@@ -9,7 +9,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{FileFormat, MAX_MANIFEST_BYTES, Precision, read_bytes_at_most};
+use super::files::FileKind;
+use super::{FileFormat, Precision};
 use crate::error::{Error, Result};
 use crate::physics::FresnelBasis;
 use crate::stats::{AccuracyReport, ErrorRecord};
@@ -807,14 +808,16 @@ impl Manifest {
         Self::read(&path)
     }
 
-    /// The manifest at `path`; refused where it is longer than [`MAX_MANIFEST_BYTES`], more than this
-    /// process's memory can parse, or not a tmlut manifest.
+    /// The manifest at `path`; refused where it is longer than [`super::MAX_MANIFEST_BYTES`], more than this
+    /// process's memory can parse ([`FileKind::read`]), or not a tmlut manifest.
     pub fn read(path: &Path) -> Result<Self> {
-        // Parsed, a manifest takes about four times its text (`tmlut check` of the largest
-        // library's, 89 MB, peaked at 387 MB): a large one is held to the process's memory first.
-        super::files::hold_to_memory(path, 16 << 20, 6, "reading it")?;
-        let bytes = read_bytes_at_most(path, MAX_MANIFEST_BYTES, "a manifest")?;
-        serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
+        Self::from_bytes(&FileKind::Manifest.read(path)?, path)
+    }
+
+    /// The manifest whose text is `bytes`, read from `path` (which errors name); refused unless a
+    /// tmlut manifest.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self> {
+        serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
     }
 
     /// The entry of the file named `file`, if the manifest lists it.

@@ -299,15 +299,10 @@ pub const MAX_SHADER_FILE_BYTES: u64 = 512 << 20;
 /// The largest configuration, scene or budgets file tmlut reads: 16 MiB.
 pub const MAX_TEXT_INPUT_BYTES: u64 = 16 << 20;
 
-/// Read a table file, naming it in the error. See [`read_bytes_at_most`].
-///
-/// A table is read whole and then decoded to f32 values: up to three times the file's length
-/// (an f16 file's values double). A file above 64 MiB is first held to the memory this process
-/// may use ([`crate::memory::beyond_limit`]), so that a reader under a memory limit refuses it
-/// rather than abort on the allocation.
+/// Read a table file, naming it in the error ([`files::FileKind::read`]: a regular file of at most
+/// [`MAX_TABLE_FILE_BYTES`], held to the memory this process may use where large).
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    files::hold_to_memory(path, 64 << 20, 3, "reading and decoding it")?;
-    read_bytes_at_most(path, MAX_TABLE_FILE_BYTES, "a table file")
+    files::FileKind::Table.read(path)
 }
 
 /// SHA-256 of `bytes` in lowercase hexadecimal, as the manifest states it.

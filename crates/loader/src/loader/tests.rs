@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use super::*;
+use crate::formats::files::FileKind;
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::formats::test_folder::{copy_of_test_folder, test_file, test_folder};
 use crate::loader::texture::SampledTable;
@@ -297,6 +298,7 @@ fn the_loader_uses_only_tables_formats_errors_and_the_gpu_sampler() {
         ("mod.rs", include_str!("mod.rs")),
         ("handles.rs", include_str!("handles.rs")),
         ("texture.rs", include_str!("texture.rs")),
+        ("source.rs", include_str!("source.rs")),
     ];
     for (file, text) in sources {
         for (at, _) in text.match_indices("crate::") {
@@ -370,4 +372,79 @@ fn a_ktx2_file_is_verified_against_what_its_entry_states() {
     let alone = tempfile::tempdir().unwrap();
     std::fs::write(alone.path().join("tir.ktx2"), test_file("tir.ktx2")).unwrap();
     assert_eq!(load_table(alone.path().join("tir.ktx2")).unwrap(), luts.load("tir.ktx2").unwrap());
+}
+
+/// Every file of the folder `dir` held in memory, named `root/file` in errors.
+fn held_in_memory(dir: &Path, root: &Path) -> InMemory {
+    let mut files = InMemory::new(root);
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let entry = entry.unwrap();
+        files.insert(entry.file_name().to_string_lossy(), std::fs::read(entry.path()).unwrap());
+    }
+    files
+}
+
+#[test]
+fn a_folder_held_in_memory_reads_as_on_disk() {
+    let on_disk = folder();
+    let in_memory = LutFolder::from_source(held_in_memory(&test_folder(), Path::new("assets/luts"))).unwrap();
+    assert_eq!(in_memory.dir(), Path::new("assets/luts"));
+    assert_eq!(in_memory.manifest(), on_disk.manifest());
+    let files: Vec<&str> = on_disk.files().collect();
+    assert!(files.len() > 10, "{files:?}");
+    for file in files {
+        #[cfg(not(feature = "exr"))]
+        if file.ends_with(".exr") {
+            continue;
+        }
+        assert_eq!(in_memory.load(file).unwrap(), on_disk.load(file).unwrap(), "{file}");
+    }
+    let (karis, karis_on_disk) = (KarisLut::from_folder(&in_memory).unwrap(), KarisLut::from_folder(&on_disk).unwrap());
+    assert_eq!(karis.entry(), karis_on_disk.entry());
+    assert_eq!(karis.sample_gpu(0.3, Roughness(0.6)), karis_on_disk.sample_gpu(0.3, Roughness(0.6)));
+    assert_eq!(in_memory.texture("tir.ktx2").unwrap(), on_disk.texture("tir.ktx2").unwrap());
+    // Borrowed for the program's life, as `include_bytes!` gives them.
+    let manifest: &'static [u8] = test_file(MANIFEST_FILE).leak();
+    let gd: &'static [u8] = test_file("gd.dds").leak();
+    let borrowed = LutFolder::from_source(InMemory::new("embedded").with(MANIFEST_FILE, manifest).with("gd.dds", gd));
+    assert_eq!(GdLut::from_folder(&borrowed.unwrap()).unwrap().table(), GdLut::from_folder(&on_disk).unwrap().table());
+}
+
+#[test]
+fn a_damaged_byte_is_refused_in_memory_as_on_disk_with_the_same_error() {
+    let dir = copy_of_test_folder();
+    let mut bytes = test_file("gd.dds");
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(dir.path().join("gd.dds"), &bytes).unwrap();
+    // Named by the folder's own path, the files in memory give the very same messages.
+    let in_memory = LutFolder::from_source(held_in_memory(dir.path(), dir.path())).unwrap();
+    let on_disk = LutFolder::open(dir.path()).unwrap();
+    let (from_memory, from_disk) = (in_memory.load("gd.dds").unwrap_err(), on_disk.load("gd.dds").unwrap_err());
+    assert!(matches!(from_memory, Error::Mismatch { .. }), "{from_memory:?}");
+    assert_eq!(from_memory.to_string(), from_disk.to_string());
+    assert!(from_memory.to_string().contains("SHA-256"), "{from_memory}");
+    let err = GdLut::from_folder(&in_memory).unwrap_err();
+    assert!(matches!(err, Error::Mismatch { .. }), "{err:?}");
+}
+
+#[test]
+fn files_missing_from_memory_and_an_unfinished_commit_are_refused_as_on_disk() {
+    let absent = |err: &Error, file: &Path| matches!(err, Error::Io { path, source } if path == file && source.kind() == std::io::ErrorKind::NotFound);
+    let err = LutFolder::from_source(InMemory::new("empty")).unwrap_err();
+    assert!(absent(&err, &Path::new("empty").join(MANIFEST_FILE)), "{err:?}");
+    let without_gd = InMemory::new("luts").with(MANIFEST_FILE, test_file(MANIFEST_FILE));
+    let err = LutFolder::from_source(without_gd).unwrap().load("gd.dds").unwrap_err();
+    assert!(absent(&err, &Path::new("luts").join("gd.dds")), "{err:?}");
+    let unfinished = held_in_memory(&test_folder(), Path::new("luts"))
+        .with(crate::formats::manifest::COMMIT_JOURNAL, b"{}".as_slice());
+    let err = LutFolder::from_source(unfinished).unwrap_err();
+    assert!(matches!(err, Error::Unfinished { .. }), "{err:?}");
+    let err =
+        LutFolder::from_source(InMemory::new("luts").with(MANIFEST_FILE, b"{\"hello\": 1}".as_slice())).unwrap_err();
+    assert!(err.to_string().contains("not a tmlut manifest"), "{err}");
+    // Bytes over a kind's limit are refused whatever their source; checked on the length alone.
+    let too_long = FileKind::Manifest.check_length(Path::new("luts/manifest.json"), 1 << 30).unwrap_err();
+    assert!(too_long.to_string().contains("a manifest may be at most 268435456 bytes"), "{too_long}");
+    assert!(FileKind::Table.check_length(Path::new("t.dds"), 1 << 30).is_ok());
 }
