@@ -8,7 +8,8 @@
 //! - [`integrate`]: Monte Carlo estimators over the visible-normal measure (generator);
 //! - [`table`]: axes, grids and multilinear interpolation;
 //! - [`recipes`]: one file per table, each the integral it computes (generator);
-//! - [`formats`]: DDS, OpenEXR, the original `.bin` layout and the manifest;
+//! - [`formats`]: DDS, KTX2, OpenEXR, the original `.bin` layout and the manifest, written here and
+//!   read by the loader;
 //! - [`pipeline`]: a configuration in, files and a manifest out (generator), committed into a locked
 //!   folder by [`commit`];
 //! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and a
@@ -27,17 +28,20 @@
 //! - [`fit`]: forms written as text, fitted to any table by least squares with NLopt (generator); a
 //!   fitted form compiled from a manifest's definition (loader side).
 //!
-//! The lowest layers (`error`, `stats`, `table`, `physics`, `formats`, the shader emitter, the
-//! packings' lookups and `loader`) are the `tmlut-loader` crate (`crates/loader`), which a renderer
-//! depends on alone; this crate re-exports them under the same names. Without the default
+//! The lowest layers (`error`, `stats`, `table`, `physics`, the reading side of `formats`, the
+//! texture filter and `loader`) are the `tmlut-loader` crate (`crates/loader`), which a renderer
+//! depends on alone; this crate re-exports them under the same names, its own writers beside the
+//! loader's readers in `formats`. Without the default
 //! `generator` feature this crate is the model and the form language over that loader.
 
 // The loader crate's modules, as this crate's own: the layers every module here builds on.
-pub use tmlut_loader::{error, filter, formats, loader, memory, stats, table};
+pub use tmlut_loader::{error, filter, loader, memory, stats, table};
 // The expression IR every shader and every recorded evaluation lowers to.
 pub use tmlut_ir as ir;
 
 pub mod fit;
+// The loader's readers with this crate's writers beside them.
+pub mod formats;
 pub mod model;
 pub mod packing;
 pub mod physics;

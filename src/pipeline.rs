@@ -14,6 +14,7 @@ use crate::config::{Config, OutputConfig, TableKind};
 use crate::error::{Error, Result};
 use crate::formats::manifest::{
     AxisEntry, ChannelSumStorage, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile,
+    write_manifest,
 };
 use crate::formats::slice_array::{ArraySlice, SliceArrayEntry, Slot};
 use crate::formats::{self, FileFormat, Precision, SumRounding};
@@ -233,7 +234,7 @@ pub fn write_jobs(
     if scene.is_some() {
         manifest.scene = scene;
     }
-    manifest.write(&staging.dir)?;
+    write_manifest(&manifest, &staging.dir)?;
     removals.retain(|file| !moves.iter().any(|m| &m.destination == file));
     removals.sort();
     removals.dedup();
@@ -366,24 +367,19 @@ pub fn write_packing_files(
         let file = format!("{stem}.{language}");
         let path = dir.join(&file);
         formats::write_bytes_atomically(&path, text.as_bytes())?;
-        shaders.push(ShaderFile {
-            language: language.into(),
-            file,
-            function: packed.program.function.clone(),
-            sha256: sha256_hex(text.as_bytes()),
-        });
+        shaders.push(ShaderFile::new(language, file, packed.program.function.clone(), text.as_bytes()));
         paths.push(path);
     }
-    let packing_entry = PackingEntry {
-        name: packing.name().into(),
-        lossless: packed.lossless,
-        texture_extent: [packed.texture.width, packed.texture.height, packed.texture.depth],
-        source_axes: packed.axis_entries.clone(),
-        layout: packed.layout.clone(),
-        lookup: packed.program.statements(),
-        fetches_per_lookup: packed.fetches_per_lookup(),
-        shaders,
-    };
+    let mut packing_entry = PackingEntry::new(
+        packing.name(),
+        packed.lossless,
+        [packed.texture.width, packed.texture.height, packed.texture.depth],
+        packed.axis_entries.clone(),
+        packed.layout.clone(),
+        packed.program.statements(),
+        packed.fetches_per_lookup(),
+    );
+    packing_entry.shaders = shaders;
     let mut textures = Vec::new();
     for &format in formats {
         let mut written = write_table_file_named(
@@ -448,21 +444,13 @@ pub fn array_slice_record(
         })
         .collect();
     let stats = table.stats();
-    Ok(ArraySlice {
-        table: table.name.clone(),
-        layer: slot.layer as u32,
-        origin: slot.origin.map(|o| o as u32),
-        axes,
-        channels: table.channels.clone(),
-        value_range: [stats.min, stats.max],
-        error: ErrorEntry {
-            integration: build.provenance.error.clone(),
-            storage_rounding_max: storage_rounding(table, precision),
-            storage_channel_sum: None,
-            interpolation,
-        },
-        accuracy: build.provenance.accuracy.clone(),
-    })
+    let mut error = ErrorEntry::new(build.provenance.error.clone(), storage_rounding(table, precision));
+    error.interpolation = interpolation;
+    let (layer, origin) = (slot.layer as u32, slot.origin.map(|o| o as u32));
+    let mut slice =
+        ArraySlice::new(&table.name, layer, origin, axes, table.channels.clone(), [stats.min, stats.max], error);
+    slice.accuracy = build.provenance.accuracy.clone();
+    Ok(slice)
 }
 
 /// Write one table in one format to `path` and describe the file, with `provenance` saying how
@@ -484,50 +472,28 @@ fn write_table_file_named(
     formats::write_table(&path, stored.as_ref().unwrap_or(table), format, precision)?;
     let bytes = formats::read_bytes(&path)?;
     let stats = table.stats();
-    let entry = FileEntry {
-        table: table.name.clone(),
-        format,
-        precision,
-        dxgi_format: (format == FileFormat::Dds)
-            .then(|| formats::dds::dxgi_format_name(table.channel_count(), precision)),
-        vk_format: (format == FileFormat::Ktx2)
-            .then(|| formats::ktx2::vk_format_name(table.channel_count(), precision)),
-        axes: table.axes.iter().zip(stored_along(table, format)).map(|(a, s)| AxisEntry::new(a, s)).collect(),
-        channels: table.channels.clone(),
-        integrand: provenance.metadata.integrand.clone(),
-        masking: provenance.metadata.masking.map(|m| m.name().to_string()),
-        notes: provenance.metadata.notes.clone(),
-        method: provenance.sampling.method.clone(),
-        sampler: provenance.sampling.sampler.clone(),
-        samples_per_cell: provenance.sampling.samples_per_cell,
-        seed: provenance.sampling.seed,
-        wall_time_s: provenance.wall_time_s,
-        value_range: [stats.min, stats.max],
-        nan_count: stats.nan_count + stats.infinite_count,
-        error: ErrorEntry {
-            integration: provenance.error.clone(),
-            storage_rounding_max: match &stored {
-                Some(stored) => max_difference(&table.data, &stored.data),
-                None => storage_rounding(table, precision),
-            },
-            storage_channel_sum: provenance
-                .metadata
-                .channel_sum
-                .zip(stored.as_ref())
-                .map(|(r, s)| channel_sum_storage(table, s, r)),
-            interpolation: Vec::new(),
-        },
-        fresnel_basis: provenance.metadata.fresnel_basis.clone(),
-        accuracy: provenance.accuracy.clone(),
-        sha256: sha256_hex(&bytes),
-        bytes: bytes.len() as u64,
-        packing: None,
-        fit: None,
-        binding: formats::binding(&table.axes, table.channel_count(), precision, format),
-        slice_array: None,
-        claims_sha256: None,
+    let axes = table.axes.iter().zip(stored_along(table, format)).map(|(a, s)| AxisEntry::new(a, s)).collect();
+    let mut entry = FileEntry::new(&table.name, format, precision, axes, table.channels.clone(), &bytes);
+    entry.integrand = provenance.metadata.integrand.clone();
+    entry.masking = provenance.metadata.masking.map(|m| m.name().to_string());
+    entry.notes = provenance.metadata.notes.clone();
+    entry.method = provenance.sampling.method.clone();
+    entry.sampler = provenance.sampling.sampler.clone();
+    entry.samples_per_cell = provenance.sampling.samples_per_cell;
+    entry.seed = provenance.sampling.seed;
+    entry.wall_time_s = provenance.wall_time_s;
+    entry.value_range = [stats.min, stats.max];
+    entry.nan_count = stats.nan_count + stats.infinite_count;
+    let storage_rounding_max = match &stored {
+        Some(stored) => max_difference(&table.data, &stored.data),
+        None => storage_rounding(table, precision),
     };
-    let mut entry = entry;
+    entry.error = ErrorEntry::new(provenance.error.clone(), storage_rounding_max);
+    entry.error.storage_channel_sum =
+        provenance.metadata.channel_sum.zip(stored.as_ref()).map(|(r, s)| channel_sum_storage(table, s, r));
+    entry.fresnel_basis = provenance.metadata.fresnel_basis.clone();
+    entry.accuracy = provenance.accuracy.clone();
+    entry.binding = formats::binding(&table.axes, table.channel_count(), precision, format);
     entry.error.interpolation = interpolation_errors(&path, &entry, &provenance.interpolation)?;
     Ok(WrittenFile { path, entry })
 }
@@ -589,7 +555,7 @@ fn stored_along(table: &Table, format: FileFormat) -> Vec<String> {
 /// `table` with each texel's channels rounded to `precision` by `rounding`.
 fn stored_with_sum(table: &Table, rounding: SumRounding, precision: Precision) -> Result<Table> {
     let channels = table.channel_count();
-    let data = table.data.chunks(channels).flat_map(|texel| rounding.round(texel, precision)).collect();
+    let data = table.data.chunks(channels).flat_map(|texel| formats::round_texel(rounding, texel, precision)).collect();
     Table::new(&table.name, table.axes.clone(), table.channels.clone(), data)
 }
 
@@ -600,14 +566,7 @@ fn max_difference(a: &[f32], b: &[f32]) -> f64 {
 /// What storing `table` as `stored` did to the sum of each texel's channels.
 fn channel_sum_storage(table: &Table, stored: &Table, rounding: SumRounding) -> ChannelSumStorage {
     let channels = table.channel_count();
-    let mut record = ChannelSumStorage {
-        rounding,
-        texels_above_one: 0,
-        max_above_one: 0.0,
-        texels_above_integral: 0,
-        max_above_integral: 0.0,
-        max_sum: 0.0,
-    };
+    let mut record = ChannelSumStorage::new(rounding);
     for (integrated, kept) in table.data.chunks(channels).zip(stored.data.chunks(channels)) {
         let sum = |values: &[f32]| values.iter().map(|&v| v as f64).sum::<f64>();
         let (integrated, kept) = (sum(integrated), sum(kept));

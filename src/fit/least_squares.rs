@@ -133,13 +133,8 @@ pub fn minimise(
         .filter(|&k| starts[k].objective.is_finite())
         .min_by(|&a, &b| starts[a].objective.total_cmp(&starts[b].objective))
         .ok_or_else(|| Error::invalid("fit", "no start reached a finite objective"))?;
-    Ok(Minimum {
-        algorithm: format!("{algorithm:?}"),
-        parameters: starts[best_start].parameters.clone(),
-        objective: starts[best_start].objective,
-        best_start,
-        starts,
-    })
+    let (parameters, objective) = (starts[best_start].parameters.clone(), starts[best_start].objective);
+    Ok(Minimum::new(format!("{algorithm:?}"), parameters, objective, best_start, starts))
 }
 
 fn run_start(
@@ -174,14 +169,8 @@ fn run_start(
         Err((state, value)) => (format!("{state:?}"), false, value),
     };
     drop(optimiser);
-    Ok(StartRecord {
-        start: x0.to_vec(),
-        parameters: x,
-        objective: if value.is_finite() { value } else { f64::NAN },
-        status,
-        succeeded,
-        evaluations: counter.get(),
-    })
+    let objective = if value.is_finite() { value } else { f64::NAN };
+    Ok(StartRecord::new(x0.to_vec(), x, objective, status, succeeded, counter.get()))
 }
 
 #[cfg(test)]

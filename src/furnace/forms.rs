@@ -280,15 +280,8 @@ mod tests {
     fn logistic(name: &str, scale: f64) -> FittedForm {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/luts/forms/tir-logistic.toml");
         let form_text = std::fs::read_to_string(path).unwrap();
-        let mut fitted = FittedForm {
-            name: name.into(),
-            table: "tir".into(),
-            source: format!("{name}/fit.json"),
-            form_text,
-            definition: Vec::new(),
-            parameter_order: Vec::new(),
-            parameters: Vec::new(),
-        };
+        let mut fitted =
+            FittedForm::new(name, "tir", format!("{name}/fit.json"), form_text, Vec::new(), Vec::new(), Vec::new());
         let form = fitted.form().unwrap();
         fitted.definition = form.definition();
         fitted.parameter_order = form.parameter_names();

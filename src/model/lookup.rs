@@ -8,7 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::table::TableKind;
+use crate::table::{PerKind, TableKind};
 
 /// Which precomputed integral a lookup reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -177,20 +177,26 @@ impl IndexRegion {
 
 /// The stand-in a table of kind `kind` is, or `None` for a quantity's own table (read by its path:
 /// FGD's slices, packing and 4D table, TIR's slices, 3D table and forms, GD, the split-sum
-/// tables). Every kind is decided here: a kind added to the registry does not compile until it is.
+/// tables). Every kind is decided here, in a `PerKind` whose literal names every kind: a kind added
+/// to the loader's list does not compile until it is.
 pub fn stand_in(kind: TableKind) -> Option<StandIn> {
-    match kind {
-        TableKind::Fgd | TableKind::Gd | TableKind::Tir | TableKind::Belcour | TableKind::Karis => None,
+    let stand_ins = PerKind {
+        fgd: None,
+        gd: None,
+        tir: None,
+        belcour: None,
+        karis: None,
         // A dielectric onto a rarer medium: FGD over an axis that follows the critical angle,
         // which the 4D table's separate axes cannot (docs/tables.md).
-        TableKind::FgdRarer => Some(StandIn {
-            table: kind,
+        fgd_rarer: Some(StandIn {
+            table: TableKind::FgdRarer,
             quantity: Quantity::Albedo,
             region: IndexRegion { eta_below: 1.0, kappa_at_most: 0.0 },
             what: "FGD onto a rarer medium (eta < 1, kappa = 0)",
             why: "a dielectric onto a rarer medium",
         }),
-    }
+    };
+    stand_ins.take(kind)
 }
 
 /// The stand-ins among the registry's tables, in its order.

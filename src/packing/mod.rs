@@ -299,11 +299,13 @@ fn axis_entries_of(
     axes.iter()
         .zip(stored_along)
         .zip(addresses)
-        .map(|((axis, stored_along), address)| AxisEntry {
-            axis: axis.clone(),
-            definition: None,
-            stored_along,
-            texture_coordinate: format!("{}; {address}", formula(axis)),
+        .map(|((axis, stored_along), address)| {
+            // The packing's own address in place of the texture coordinate, and no definition:
+            // the lookup statements say how each axis is read.
+            let mut entry = AxisEntry::new(axis, stored_along);
+            entry.texture_coordinate = format!("{}; {address}", formula(axis));
+            entry.definition = None;
+            entry
         })
         .collect()
 }

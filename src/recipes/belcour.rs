@@ -411,11 +411,11 @@ fn split_sum_accuracy(
                 let p = table.node_position(&table.node_index(node));
                 format!("mu {:.4}, alpha {:.4}, eta {eta:.3}, kappa {kappa:.3}", p[0], p[1])
             });
-            AccuracyReport {
-                what: format!("Σ c_k LUT_k against FGD with the same masking, {what}"),
-                error: ErrorSummary::of_differences(differences.iter().map(|d| d.0)),
+            AccuracyReport::new(
+                format!("Σ c_k LUT_k against FGD with the same masking, {what}"),
+                ErrorSummary::of_differences(differences.iter().map(|d| d.0)),
                 worst_at,
-            }
+            )
         })
         .collect()
 }

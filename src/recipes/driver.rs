@@ -214,7 +214,7 @@ pub fn build<K: Kernel + ?Sized>(kernel: &K, seed: u64, progress: &dyn Progress)
     let provenance = Provenance {
         metadata: kernel.metadata(),
         sampling: kernel.sampling_record(&points),
-        error: ErrorRecord { replicate_standard_error: integrated.replicate_standard_error, reference },
+        error: ErrorRecord::new(integrated.replicate_standard_error, reference),
         wall_time_s,
         accuracy: integrated.accuracy,
         standard_error: integrated.standard_error,

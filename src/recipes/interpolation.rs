@@ -342,16 +342,10 @@ pub fn compare(
             exact.peaks.len()
         );
     }
-    InterpolationError {
-        p99: crate::stats::quantile(&magnitudes, 0.99),
-        domain: exact.domain.name.clone(),
-        points,
-        read_as: read_as.into(),
-        exact_nodes: exact.nodes,
-        error,
-        random_max,
-        worst_at: worst.1,
-    }
+    let mut compared = InterpolationError::new(&exact.domain.name, points, read_as, exact.nodes, error, worst.1);
+    compared.p99 = crate::stats::quantile(&magnitudes, 0.99);
+    compared.random_max = random_max;
+    compared
 }
 
 #[cfg(test)]

@@ -109,7 +109,7 @@ pub(crate) use driver::table_points;
 pub use driver::{Integrated, Kernel, Metadata, Provenance, SamplingRecord, TableBuild};
 use serde::{Deserialize, Serialize};
 
-use crate::table::TableKind;
+use crate::table::{PerKind, TableKind};
 
 /// The registry of tables: one line per table, in build order, as `section: Kind => module::Settings`,
 /// pairing each [`TableKind`] of the loader's list (`tmlut_loader::table::kind`, which every reader
@@ -117,8 +117,10 @@ use crate::table::TableKind;
 /// module here, declared beside it.
 ///
 /// From this list come the [`Config`] fields, the recipe of each kind, and [`TableSettings`] (one
-/// table's settings, what a scene's plan builds), in matches that are exhaustive: a kind without a
-/// recipe here does not compile. A test holds the sections to the kinds' names and order.
+/// table's settings, what a scene's plan builds). The recipe of a kind is taken from a `PerKind`
+/// (the loader's value per kind, a field per kind named as the kind is) whose literal names every
+/// section: a kind without a recipe here, or a section that is no kind, does not compile.
+/// A test holds the sections to the kinds' order.
 macro_rules! table_registry {
     ($($section:ident: $kind:ident => $settings:ty),+ $(,)?) => {
         #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -138,16 +140,14 @@ macro_rules! table_registry {
         impl Config {
             /// The settings of one table.
             pub fn recipe(&self, kind: TableKind) -> &dyn TableRecipe {
-                match kind {
-                    $(TableKind::$kind => &self.$section,)+
-                }
+                let recipes: PerKind<&dyn TableRecipe> = PerKind { $($section: &self.$section,)+ };
+                recipes.take(kind)
             }
 
             /// The settings of one table, to change.
             pub fn recipe_mut(&mut self, kind: TableKind) -> &mut dyn TableRecipe {
-                match kind {
-                    $(TableKind::$kind => &mut self.$section,)+
-                }
+                let recipes: PerKind<&mut dyn TableRecipe> = PerKind { $($section: &mut self.$section,)+ };
+                recipes.take(kind)
             }
         }
 
@@ -162,9 +162,9 @@ macro_rules! table_registry {
         impl TableSettings {
             /// The settings of `kind` in `config`.
             pub fn of(config: &Config, kind: TableKind) -> Self {
-                match kind {
-                    $(TableKind::$kind => TableSettings::$kind(config.$section.clone()),)+
-                }
+                let settings: PerKind<fn(&Config) -> TableSettings> =
+                    PerKind { $($section: |config| TableSettings::$kind(config.$section.clone()),)+ };
+                settings.take(kind)(config)
             }
 
             pub fn kind(&self) -> TableKind {
@@ -499,10 +499,7 @@ pub(crate) fn compare_nodes_to_reference(
         let stored = table.node(&table.node_index(cell as usize));
         stored.iter().zip(exact).map(|(&s, &e)| s as f64 - e).collect::<Vec<f64>>()
     });
-    Ok(Some(ReferenceComparison {
-        exact_nodes: reference.nodes,
-        difference: ErrorSummary::of_differences(differences),
-    }))
+    Ok(Some(ReferenceComparison::new(reference.nodes, ErrorSummary::of_differences(differences))))
 }
 
 /// `count` distinct cell numbers below `node_count` (all of them if `count >= node_count`), drawn

@@ -535,10 +535,8 @@ pub fn integrate_batch_among(
             let exact = everyone[p].exact_value(&quadrature, &table.node_position(&index));
             table.node(&index).iter().zip(&exact).map(|(&stored, &e)| stored as f64 - e).collect()
         });
-        let comparison = ReferenceComparison {
-            exact_nodes: reference.nodes,
-            difference: ErrorSummary::of_differences(differences.into_iter().flatten()),
-        };
+        let comparison =
+            ReferenceComparison::new(reference.nodes, ErrorSummary::of_differences(differences.into_iter().flatten()));
         for &s in members {
             references[s] = Some(comparison.clone());
         }
@@ -560,7 +558,7 @@ pub fn integrate_batch_among(
                 provenance: Provenance {
                     metadata,
                     sampling,
-                    error: ErrorRecord { replicate_standard_error: integrated.replicate_standard_error, reference },
+                    error: ErrorRecord::new(integrated.replicate_standard_error, reference),
                     wall_time_s,
                     accuracy: Vec::new(),
                     standard_error: integrated.standard_error,

@@ -631,7 +631,7 @@ mod tests {
                 nodes_per_panel: n,
                 wall_s: 1e-3 * n as f64,
                 wall_kind: "extrapolated from 16 cells".into(),
-                error: ErrorSummary { count: 16, rms, max: 2.0 * rms },
+                error: ErrorSummary::new(16, rms, 2.0 * rms),
                 replicate_standard_error_rms: 0.0,
             })
             .collect();
@@ -661,7 +661,7 @@ mod tests {
                     nodes_per_panel: 0,
                     wall_s: 1e-6 * n as f64,
                     wall_kind: "measured on the whole table".into(),
-                    error: ErrorSummary { count: 16, rms: (n as f64).powf(slope), max: 3.0 * (n as f64).powf(slope) },
+                    error: ErrorSummary::new(16, (n as f64).powf(slope), 3.0 * (n as f64).powf(slope)),
                     replicate_standard_error_rms: 0.0,
                 }
             })

@@ -268,13 +268,8 @@ pub fn build_scene(
             }
         }))
         .collect();
-    let record = SceneRecord {
-        name: request.scene.name.clone(),
-        source: request.source.display().to_string(),
-        sha256: sha256_hex(request.text.as_bytes()),
-        text: request.text.clone(),
-        plan: plan.record(),
-    };
+    let record =
+        SceneRecord::new(&request.scene.name, request.source.display().to_string(), &request.text, plan.record());
     let written = write_jobs(&request.out, jobs, request.error_maps, Some(record), progress)?;
     if let Some(cache) = &build.cache {
         progress.note(&format!(
@@ -694,8 +689,7 @@ fn slice_array_build(
          slice_array.slices; error here pools them.",
         builds.len()
     ));
-    let entry =
-        SliceArrayEntry { layer_extent: layout.layer_extent.map(|e| e as u32), layers: layout.layers as u32, slices };
+    let entry = SliceArrayEntry::new(layout.layer_extent.map(|e| e as u32), layout.layers as u32, slices);
     Ok((TableBuild { table, provenance }, entry))
 }
 
@@ -848,13 +842,13 @@ pub fn slice_accuracy(
             })
             .collect()
     });
-    let report = AccuracyReport {
-        what: format!(
+    let report = AccuracyReport::new(
+        format!(
             "full {full_shape} table interpolated at the points of error.interpolation vs the exact integral ({}; exact: quadrature, {} Gauss–Legendre nodes per panel)",
             compared.points, compared.exact_nodes
         ),
-        error: compared.error,
-        worst_at: compared.worst_at,
-    };
+        compared.error,
+        compared.worst_at,
+    );
     Ok((exact, report))
 }

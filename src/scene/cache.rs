@@ -529,7 +529,7 @@ fn into_build(axes: &[crate::table::Axis], entry: Entry) -> std::result::Result<
         provenance: Provenance {
             metadata: Metadata { integrand: entry.integrand, masking: entry.masking, notes, ..Metadata::default() },
             sampling: entry.sampling,
-            error: ErrorRecord { replicate_standard_error: entry.replicate_standard_error, reference: entry.reference },
+            error: ErrorRecord::new(entry.replicate_standard_error, entry.reference),
             wall_time_s: entry.wall_time_s,
             accuracy: entry.accuracy,
             standard_error: entry.standard_error,

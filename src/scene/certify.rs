@@ -132,22 +132,12 @@ mod tests {
                 SceneFile { path: PathBuf::from(format!("lib/{name}.toml")), text, scene: parsed }
             })
             .collect();
-        let record = SceneRecord {
-            name: "library".into(),
-            source: super::super::library::recorded_source(&files).display().to_string(),
-            sha256: String::new(),
-            text: super::super::library::recorded_text(&files),
-            plan: crate::formats::manifest::PlanRecord {
-                tables: Vec::new(),
-                left_out: Vec::new(),
-                warnings: Vec::new(),
-                bytes: 0,
-                default_set_bytes: 0,
-                tir_fit: None,
-                tir_forms: Vec::new(),
-                albedo_forms: Vec::new(),
-            },
-        };
+        let record = SceneRecord::new(
+            "library",
+            super::super::library::recorded_source(&files).display().to_string(),
+            super::super::library::recorded_text(&files),
+            crate::formats::manifest::PlanRecord::default(),
+        );
         let parsed = recorded_scene(&record).unwrap();
         assert_eq!(parsed, merge(&files).unwrap());
         assert_eq!(parsed.materials.len(), 2);

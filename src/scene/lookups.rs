@@ -272,12 +272,10 @@ fn note_index_matched(material: &SceneMaterial, left_out: &mut Vec<LeftOutRecord
             interface.eta[c].divide(eta_above[c]) == Interval::point(1.0) && interface.kappa[c] == Interval::point(0.0)
         });
         if matched {
-            left_out.push(LeftOutRecord {
-                what: format!("{}, layer {}: albedo and TIR lookups", material.name, k + 1),
-                reason:
-                    "index-matched (relative eta 1, kappa 0): the interface reflects nothing, the model needs no lookup"
-                        .into(),
-            });
+            left_out.push(LeftOutRecord::new(
+                format!("{}, layer {}: albedo and TIR lookups", material.name, k + 1),
+                "index-matched (relative eta 1, kappa 0): the interface reflects nothing, the model needs no lookup",
+            ));
         }
         if interface.is_conductor() {
             break;

@@ -96,16 +96,12 @@ impl Plan {
     }
 
     pub fn record(&self) -> PlanRecord {
-        PlanRecord {
-            tables: self.tables.iter().map(|t| t.record.clone()).collect(),
-            left_out: self.left_out.clone(),
-            warnings: self.warnings.clone(),
-            bytes: self.bytes,
-            default_set_bytes: self.default_set_bytes,
-            tir_fit: None,
-            tir_forms: self.tir_forms.clone(),
-            albedo_forms: self.albedo_forms.clone(),
-        }
+        let tables = self.tables.iter().map(|t| t.record.clone()).collect();
+        let mut record =
+            PlanRecord::new(tables, self.left_out.clone(), self.warnings.clone(), self.bytes, self.default_set_bytes);
+        record.tir_forms = self.tir_forms.clone();
+        record.albedo_forms = self.albedo_forms.clone();
+        record
     }
 }
 
@@ -206,10 +202,10 @@ impl PlanParts {
 fn plan_albedo_forms(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
     for site in sites(&inputs.albedo_form_users) {
         let form = inputs.albedo_forms_of[site[0].material.as_str()];
-        parts.left_out.push(LeftOutRecord {
-            what: format!("albedo lookups of {}", site_label(&site)),
-            reason: format!("albedo = \"fit:{}\": the fitted form `{}` replaces the table", form.source, form.name),
-        });
+        parts.left_out.push(LeftOutRecord::new(
+            format!("albedo lookups of {}", site_label(&site)),
+            format!("albedo = \"fit:{}\": the fitted form `{}` replaces the table", form.source, form.name),
+        ));
     }
     Ok(())
 }
@@ -227,7 +223,7 @@ fn plan_fgd(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
         } else {
             format!("every FGD lookup is at fixed (eta, kappa): {}", replaced_by_slices(slices))
         };
-        parts.left_out.push(LeftOutRecord { what: format!("fgd (4D, {})", human_bytes(bytes)), reason });
+        parts.left_out.push(LeftOutRecord::new(format!("fgd (4D, {})", human_bytes(bytes)), reason));
         return Ok(());
     }
     let full = config.fgd.axes()?;
@@ -249,10 +245,10 @@ fn plan_fgd(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
     let (kept, dropped): (Vec<Packing>, Vec<Packing>) =
         settings.packings.iter().partition(|p| p.extent(counts).is_ok());
     for packing in dropped {
-        parts.left_out.push(LeftOutRecord {
-            what: format!("fgd packing `{}`", packing.name()),
-            reason: format!("does not fit the sub-range table's {counts:?} nodes"),
-        });
+        parts.left_out.push(LeftOutRecord::new(
+            format!("fgd packing `{}`", packing.name()),
+            format!("does not fit the sub-range table's {counts:?} nodes"),
+        ));
     }
     settings.packings = kept;
     let reasons = sites(&varying)
@@ -275,10 +271,10 @@ fn plan_split_sums(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
         let users = inputs.by_table(LookupKind::Albedo(path));
         let settings = config.recipe(kind);
         if users.is_empty() {
-            parts.left_out.push(LeftOutRecord {
-                what: format!("{} ({})", settings.name(), human_bytes(recipe_texel_bytes(settings)?)),
-                reason: by_form_or_none(&inputs.albedo_form_users, path),
-            });
+            parts.left_out.push(LeftOutRecord::new(
+                format!("{} ({})", settings.name(), human_bytes(recipe_texel_bytes(settings)?)),
+                by_form_or_none(&inputs.albedo_form_users, path),
+            ));
             continue;
         }
         let mut reasons: Vec<String> = materials_of(&users)
@@ -316,20 +312,20 @@ fn plan_tir(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
             .iter()
             .map(|site| format!("{}: TIR by the fitted form, {}", site_label(site), ranges_label(site)))
             .collect();
-        let record = PlannedTableRecord {
-            name: "tir_fit".into(),
-            kind: format!(
+        let record = PlannedTableRecord::new(
+            "tir_fit",
+            format!(
                 "TIR fitted form `{}` (tir_fit.hlsl, .wgsl; no table)",
                 crate::fit::forms::build::BUILD_FORM_FILE.trim_end_matches(".toml")
             ),
-            shape: format!(
+            format!(
                 "{} coefficients, fitted to the full {} TIR table",
                 crate::fit::forms::build::build_form().map_or(0, |form| form.parameters.len()),
                 full.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x ")
             ),
-            bytes: 0,
+            0,
             reasons,
-        };
+        );
         parts.tables.push(PlannedTable { record, build: PlannedBuild::TirFit(config.tir.clone()) });
     }
     for (path, why) in [
@@ -337,22 +333,20 @@ fn plan_tir(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
         (TirPath::Off, "tir = \"off\""),
     ] {
         for site in sites(&of_path(path)) {
-            parts
-                .left_out
-                .push(LeftOutRecord { what: format!("TIR lookups of {}", site_label(&site)), reason: why.into() });
+            parts.left_out.push(LeftOutRecord::new(format!("TIR lookups of {}", site_label(&site)), why));
         }
     }
     for site in sites(&of_path(TirPath::Form)) {
         let form = scene.materials.iter().find(|m| m.name == site[0].material).and_then(|m| m.tir_form.as_ref());
-        parts.left_out.push(LeftOutRecord {
-            what: format!("TIR lookups of {}", site_label(&site)),
-            reason: match form {
+        parts.left_out.push(LeftOutRecord::new(
+            format!("TIR lookups of {}", site_label(&site)),
+            match form {
                 Some(form) => {
                     format!("tir = \"fit:{}\": the fitted form `{}` replaces the table", form.source, form.name)
                 }
                 None => "tir names a fitted form".into(),
             },
-        });
+        ));
     }
     let tir_lookups = of_path(TirPath::Table);
     let (fixed, varying) = split_by_fixed_sites(&tir_lookups);
@@ -364,7 +358,7 @@ fn plan_tir(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
         } else {
             format!("every TIR lookup is at a fixed eta: {}", replaced_by_slices(slices))
         };
-        parts.left_out.push(LeftOutRecord { what: format!("tir (3D, {})", human_bytes(bytes)), reason });
+        parts.left_out.push(LeftOutRecord::new(format!("tir (3D, {})", human_bytes(bytes)), reason));
         return Ok(());
     }
     let who = sites_label(&scene.name, &varying, "TIR");
@@ -389,10 +383,10 @@ fn plan_gd(inputs: &PlanInputs, parts: &mut PlanParts) -> Result<()> {
     let config = inputs.config;
     let gd_users: Vec<&LookupRange> = inputs.lookups.iter().filter(|l| l.kind == LookupKind::Gd).collect();
     if gd_users.is_empty() {
-        parts.left_out.push(LeftOutRecord {
-            what: format!("gd ({})", human_bytes(recipe_texel_bytes(&config.gd)?)),
-            reason: "no material uses the 6-flux model".into(),
-        });
+        parts.left_out.push(LeftOutRecord::new(
+            format!("gd ({})", human_bytes(recipe_texel_bytes(&config.gd)?)),
+            "no material uses the 6-flux model",
+        ));
         return Ok(());
     }
     let reasons = materials_of(&gd_users)
@@ -591,10 +585,10 @@ fn add_slices(
     }
     planned_slices.insert(key, tables.len());
     let channel_count = slices.stored_channel_count();
-    let record = PlannedTableRecord {
-        name: slices.name.clone(),
-        kind: format!("{what} slice"),
-        shape: format!(
+    let record = PlannedTableRecord::new(
+        slices.name.clone(),
+        format!("{what} slice"),
+        format!(
             "{} x {} (mu {}, alpha {}), {} channel{}{}",
             slices.mu.count,
             slices.alpha.count,
@@ -604,9 +598,9 @@ fn add_slices(
             if slices.channels.len() == 1 { "" } else { "s" },
             if channel_count > slices.channels.len() { " + 1 padding" } else { "" },
         ),
-        bytes: slices.texel_bytes(),
-        reasons: vec![reason],
-    };
+        slices.texel_bytes(),
+        vec![reason],
+    );
     tables.push(PlannedTable { record, build: PlannedBuild::Slices(slices) });
     false
 }
@@ -614,19 +608,19 @@ fn add_slices(
 fn record_of(recipe: &dyn TableRecipe, kind: &str, reasons: Vec<String>) -> Result<PlannedTableRecord> {
     crate::recipes::check_demand(recipe)?;
     let axes = recipe.axes()?;
-    Ok(PlannedTableRecord {
-        name: recipe.name().into(),
-        kind: kind.into(),
-        shape: format!(
+    Ok(PlannedTableRecord::new(
+        recipe.name(),
+        kind,
+        format!(
             "{} ({}), {} channel{}",
             axes.iter().map(|a| a.count.to_string()).collect::<Vec<_>>().join(" x "),
             axes.iter().map(|a| format!("{} {}", a.name, range_label(a))).collect::<Vec<_>>().join(", "),
             recipe.channel_count(),
             if recipe.channel_count() == 1 { "" } else { "s" },
         ),
-        bytes: recipe_texel_bytes(recipe)?,
+        recipe_texel_bytes(recipe)?,
         reasons,
-    })
+    ))
 }
 
 fn range_label(axis: &Axis) -> String {

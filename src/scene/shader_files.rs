@@ -11,9 +11,9 @@ use serde::Serialize;
 use super::Scene;
 use crate::commit::{Move, OutputFolder};
 use crate::error::{Error, Result};
-use crate::formats::manifest::{MANIFEST_FILE, Manifest, SceneShaderFile, SceneShaderRecord};
+use crate::formats::manifest::{MANIFEST_FILE, Manifest, SceneShaderFile, SceneShaderRecord, write_manifest};
 use crate::formats::write_bytes_atomically;
-use crate::loader::{LutFolder, sha256_hex};
+use crate::loader::LutFolder;
 use crate::model::folder::{FgdSource, LibraryTables};
 use crate::model::{Evaluation, Material, STIFF_VIEWS};
 use crate::shader::scene::{SceneShader, ShaderMaterial, generate, texts};
@@ -232,15 +232,10 @@ fn commit_with_manifest(
     let mut manifest = Manifest::read(&out.join(MANIFEST_FILE))?;
     let mut staging = folder.staging()?;
     let mut moves = Vec::new();
-    let mut record = SceneShaderRecord { scene: scene.name.clone(), files: Vec::new() };
+    let mut record = SceneShaderRecord::new(&scene.name);
     for (file, what, bytes) in files {
         write_bytes_atomically(&staging.dir.join(&file), &bytes)?;
-        record.files.push(SceneShaderFile {
-            file: file.clone(),
-            what,
-            bytes: bytes.len() as u64,
-            sha256: sha256_hex(&bytes),
-        });
+        record.files.push(SceneShaderFile::new(&file, what, &bytes));
         moves.push(Move { staged: file.clone(), destination: file });
     }
     let removals = manifest
@@ -253,7 +248,7 @@ fn commit_with_manifest(
         .collect();
     let written = record.files.iter().map(|f| out.join(&f.file)).collect();
     manifest.scene_shader = Some(record);
-    manifest.write(&staging.dir)?;
+    write_manifest(&manifest, &staging.dir)?;
     crate::commit::commit(folder, &mut staging, moves, removals)?;
     Ok(written)
 }

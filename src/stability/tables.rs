@@ -27,6 +27,7 @@ use crate::recipes::karis::KarisSettings;
 use crate::recipes::tir::{TirSettings, tir_by_quadrature};
 use crate::recipes::{Kernel, TableRecipe};
 use crate::sampling::sequence::{PointSet, SamplePlan};
+use crate::table::PerKind;
 
 /// Samples per stiff node: 4 replicates of 1024 Owen-scrambled Sobol points, shared by both paths.
 pub const SAMPLES: u64 = 1 << 12;
@@ -78,17 +79,11 @@ impl Evaluation {
     }
 }
 
-/// Run the cases of one table. Every table has its own: a table added to the registry does not
-/// compile until its cases are written here.
+/// Run the cases of one table. Every table has its own, named in a `PerKind` whose literal names
+/// every kind: a table added to the loader's list does not compile until its cases are written here.
 pub fn run(kind: TableKind, evaluation: &Evaluation, report: &mut Report) {
-    match kind {
-        TableKind::Fgd => fgd(evaluation, report),
-        TableKind::Gd => gd(evaluation, report),
-        TableKind::Tir => tir(evaluation, report),
-        TableKind::Belcour => belcour(evaluation, report),
-        TableKind::Karis => karis(evaluation, report),
-        TableKind::FgdRarer => fgd_rarer(evaluation, report),
-    }
+    let cases: PerKind<fn(&Evaluation, &mut Report)> = PerKind { fgd, gd, tir, belcour, karis, fgd_rarer };
+    cases.take(kind)(evaluation, report)
 }
 
 /// The view cosine both paths actually evaluate.

@@ -20,7 +20,8 @@ const LAYERS: &[&[&str]] = &[
     // The optics: the Fresnel equations (the loader's) and GGX, Smith, Henyey–Greenstein over
     // the model's number type; a GPU's texture filter, emulated over a table's arithmetic.
     &["physics", "filter"],
-    // Files and the drawing of PNG plots, which are a file format.
+    // Files: the loader's readers (`crates/loader/src/formats/`) and this crate's writers beside
+    // them (`src/formats/`, whose modules re-export the loader's), one unit.
     &["formats"],
     // The IR crate: the form language, its tape, compiled from a form or recorded from code over
     // the model's number type, the shader description and the tape printed into it.

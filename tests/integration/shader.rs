@@ -199,7 +199,7 @@ fn a_table_of_another_shape_than_its_kinds_is_refused_by_both_readers_naming_it(
     entry.table = "tir".into();
     entry.seal();
     manifest.files.insert("tir.dds".into(), entry);
-    manifest.write(&luts).unwrap();
+    tmlut::formats::manifest::write_manifest(&manifest, &luts).unwrap();
     std::fs::rename(luts.join("gd.dds"), luts.join("tir.dds")).unwrap();
     let folder = LutFolder::open(&luts).unwrap();
     folder.load("tir.dds").unwrap();

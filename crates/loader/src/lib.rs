@@ -1,7 +1,7 @@
 //! tmlut-loader: read and sample the lookup tables tmlut writes, for renderer crates. Its
 //! dependencies are few and pure Rust (serde, sha2, half, ktx2; `exr` and `bytemuck` on
-//! request); the generator (`tmlut`) depends on it, never the reverse. `docs/loader.md` walks
-//! through it.
+//! request); the generator (`tmlut`) depends on it, never the reverse, and writes the files this
+//! crate reads. `docs/loader.md` walks through it.
 //!
 //! ```no_run
 //! use tmlut_loader::{Alpha, KarisLut, LutFolder, Roughness, TirLut};
@@ -21,10 +21,12 @@
 //! - [`stats`], [`table`], [`physics`]: error records, axes with multilinear interpolation, and
 //!   the Fresnel equations a Belcour table is read with (its Fresnel basis);
 //! - [`memory`]: the memory this process may use, read before a large file is decoded;
-//! - [`formats`]: DDS, KTX2, OpenEXR, the original `.bin` layout and the manifest;
+//! - [`formats`]: DDS, KTX2, OpenEXR, the original `.bin` layout and the manifest, read (each
+//!   container's `layout` is what tmlut's writer of it follows);
 //! - [`filter`]: a GPU's texture filtering, emulated exactly in f32 (the handles sample with it;
 //!   the generator prints the same filter into its shaders);
-//! - [`loader`]: an output folder and its manifest, typed handles, texture descriptors.
+//! - [`loader`]: an output folder and its manifest, its files read from disk or held in memory
+//!   ([`LutFolder::from_source`]), typed handles, texture descriptors.
 
 #![warn(missing_docs)]
 
@@ -39,8 +41,9 @@ pub mod table;
 
 pub use error::{Error, Result};
 pub use loader::{
-    Alpha, BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, LutFolder, MaterialFunction, Roughness, SceneShaderFiles,
-    ShaderDescription, TextureBinding, TextureData, TextureDescriptor, TextureDimension, TextureFormat, TirLut,
+    Alpha, BelcourLut, FgdLut, FgdRarerLut, GdLut, InMemory, KarisLut, LutFolder, LutSource, MaterialFunction, OnDisk,
+    Roughness, SceneShaderFiles, ShaderDescription, TextureBinding, TextureData, TextureDescriptor, TextureDimension,
+    TextureFormat, TirLut,
 };
 pub use table::{Axis, Channel, Mapping, Placement, Table};
 

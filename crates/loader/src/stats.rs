@@ -4,7 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 /// RMS and maximum of a set of absolute differences or standard errors.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ErrorSummary {
     /// Number of values summarised.
     pub count: usize,
@@ -15,6 +16,11 @@ pub struct ErrorSummary {
 }
 
 impl ErrorSummary {
+    /// The summary of `count` values of root mean square `rms` and largest magnitude `max`.
+    pub fn new(count: usize, rms: f64, max: f64) -> Self {
+        ErrorSummary { count, rms, max }
+    }
+
     /// RMS and maximum of the absolute values.
     pub fn of_differences(differences: impl IntoIterator<Item = f64>) -> Self {
         let (mut count, mut sum2, mut max) = (0usize, 0.0f64, 0.0f64);
@@ -40,6 +46,7 @@ impl ErrorSummary {
 
 /// A table compared, at a subset of its nodes, with the exact integral there.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ReferenceComparison {
     /// Gauss–Legendre nodes per panel of each node's exact integral (the deterministic
     /// visible-normal quadrature).
@@ -49,8 +56,16 @@ pub struct ReferenceComparison {
     pub difference: ErrorSummary,
 }
 
+impl ReferenceComparison {
+    /// The `difference` at nodes integrated exactly with `exact_nodes` nodes per panel.
+    pub fn new(exact_nodes: usize, difference: ErrorSummary) -> Self {
+        ReferenceComparison { exact_nodes, difference }
+    }
+}
+
 /// The integration error of a table, estimated two independent ways.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ErrorRecord {
     /// Standard error of each cell's mean from the spread of its independently scrambled
     /// replicates, summarised over all cells and channels.
@@ -61,6 +76,12 @@ pub struct ErrorRecord {
 }
 
 impl ErrorRecord {
+    /// The error of replicates spread by `replicate_standard_error`, compared with the exact
+    /// integral where `reference` says.
+    pub fn new(replicate_standard_error: ErrorSummary, reference: Option<ReferenceComparison>) -> Self {
+        ErrorRecord { replicate_standard_error, reference }
+    }
+
     /// The error of two tables' values together (the slices of a texture array): replicate errors
     /// pooled, and reference differences pooled where both were compared with the same quadrature.
     pub fn pooled(&self, other: &ErrorRecord) -> Self {
@@ -81,6 +102,7 @@ impl ErrorRecord {
 /// A measured accuracy figure beyond the integration error: for instance how well a split-sum
 /// table with its coefficients reproduces the full FGD integral over a parameter domain.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct AccuracyReport {
     /// What was compared with what, and over which domain.
     pub what: String,
@@ -90,8 +112,16 @@ pub struct AccuracyReport {
     pub worst_at: String,
 }
 
+impl AccuracyReport {
+    /// What was compared, with its `error`, the largest `worst_at`.
+    pub fn new(what: impl Into<String>, error: ErrorSummary, worst_at: impl Into<String>) -> Self {
+        AccuracyReport { what: what.into(), error, worst_at: worst_at.into() }
+    }
+}
+
 /// A file (or a table) read at random points of a domain, against the exact integral there.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct InterpolationError {
     /// The domain's name (`whole domain`, `low roughness`, ...): what budgets refer to.
     pub domain: String,
@@ -116,6 +146,30 @@ pub struct InterpolationError {
     pub random_max: f64,
     /// Where the largest difference is, and both values there.
     pub worst_at: String,
+}
+
+impl InterpolationError {
+    /// The `domain`'s `points` read as `read_as` against exact values of `exact_nodes` nodes per
+    /// panel, with `error` and its largest `worst_at`; no percentile or random-point maximum yet.
+    pub fn new(
+        domain: impl Into<String>,
+        points: impl Into<String>,
+        read_as: impl Into<String>,
+        exact_nodes: usize,
+        error: ErrorSummary,
+        worst_at: impl Into<String>,
+    ) -> Self {
+        InterpolationError {
+            domain: domain.into(),
+            points: points.into(),
+            read_as: read_as.into(),
+            exact_nodes,
+            error,
+            p99: 0.0,
+            random_max: 0.0,
+            worst_at: worst_at.into(),
+        }
+    }
 }
 
 /// The `q`-quantile of `values` (0 <= q <= 1), the nearest rank `ceil(q n)`; 0 for none.

@@ -67,13 +67,13 @@ pub fn fit_for_build(table: &Table, seed: u64, dir: &Path) -> Result<(FitEntry, 
     let fitted = fit(&form, &SearchData::new(&form, &coarse), &settings)?;
     let set = figures_of(&data, &residuals(&form, &data, &fitted.parameters)?);
     let at = |v: &str| set.together.max_at.get(v).copied().unwrap_or(f64::NAN);
-    let figures = ErrorFigures {
-        rmse: set.together.rms,
-        mse: set.together.rms * set.together.rms,
-        max_abs_error: set.together.max,
-        max_at: [at("mu"), at("alpha"), at("eta")],
-        nodes: data.len(),
-    };
+    let figures = ErrorFigures::new(
+        set.together.rms,
+        set.together.rms * set.together.rms,
+        set.together.max,
+        [at("mu"), at("alpha"), at("eta")],
+        data.len(),
+    );
     let sources = super::shader::sources(&form, &fitted.parameters)?;
     let mut shaders = Vec::new();
     let mut paths = Vec::new();
@@ -83,26 +83,21 @@ pub fn fit_for_build(table: &Table, seed: u64, dir: &Path) -> Result<(FitEntry, 
         let file = format!("tir_fit.{extension}");
         let path = dir.join(&file);
         crate::formats::write_bytes_atomically(&path, text.as_bytes())?;
-        shaders.push(ShaderFile {
-            language: extension.into(),
-            file,
-            function: super::shader::function_name(&form),
-            sha256: crate::loader::sha256_hex(text.as_bytes()),
-        });
+        shaders.push(ShaderFile::new(extension, file, super::shader::function_name(&form), text.as_bytes()));
         paths.push(path);
     }
-    let entry = FitEntry {
-        form: form_stem(),
-        formula: formula(BUILD_FORM_TEXT),
-        form_text: BUILD_FORM_TEXT.into(),
-        definition: form.definition(),
-        chosen_by: CHOSEN_BY.into(),
-        parameter_names: form.parameter_names(),
-        parameters: fitted.parameters,
+    let mut entry = FitEntry::new(
+        form_stem(),
+        formula(BUILD_FORM_TEXT),
+        CHOSEN_BY,
+        form.parameter_names(),
+        fitted.parameters,
         figures,
-        search: fitted.search,
-        shaders,
-    };
+    );
+    entry.form_text = BUILD_FORM_TEXT.into();
+    entry.definition = form.definition();
+    entry.search = fitted.search;
+    entry.shaders = shaders;
     Ok((entry, paths))
 }
 

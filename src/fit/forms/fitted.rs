@@ -124,15 +124,15 @@ impl FittedFormExt for FittedForm {
                 None => return Err(refuse(format!("lists parameter `{name}` and gives no value for it"))),
             }
         }
-        let fitted = FittedForm {
-            name: fit.form,
-            table: fit.table,
-            source: source.to_string(),
-            form_text: fit.form_text,
-            definition: fit.definition,
-            parameter_order: fit.parameter_order,
+        let fitted = FittedForm::new(
+            fit.form,
+            fit.table,
+            source,
+            fit.form_text,
+            fit.definition,
+            fit.parameter_order,
             parameters,
-        };
+        );
         let form = fitted.form().map_err(|e| refuse(e.to_string()))?;
         if form.parameter_names() != fitted.parameter_order {
             return Err(refuse(format!(
@@ -145,14 +145,16 @@ impl FittedFormExt for FittedForm {
     }
 
     fn of_build(fit: &crate::formats::manifest::FitEntry) -> Option<FittedForm> {
-        (!fit.form_text.is_empty()).then(|| FittedForm {
-            name: BUILD_FORM_NAME.into(),
-            table: "tir".into(),
-            source: fit.form.clone(),
-            form_text: fit.form_text.clone(),
-            definition: fit.definition.clone(),
-            parameter_order: fit.parameter_names.clone(),
-            parameters: fit.parameters.clone(),
+        (!fit.form_text.is_empty()).then(|| {
+            FittedForm::new(
+                BUILD_FORM_NAME,
+                "tir",
+                fit.form.clone(),
+                fit.form_text.clone(),
+                fit.definition.clone(),
+                fit.parameter_names.clone(),
+                fit.parameters.clone(),
+            )
         })
     }
 

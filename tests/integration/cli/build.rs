@@ -8,7 +8,7 @@ use super::{assert_clean_failure, build, scene_path, shader_functions, snapshot,
 use crate::common;
 
 use common::SMALL_SET;
-use tmlut::formats::manifest::{MANIFEST_FILE, Manifest};
+use tmlut::formats::manifest::{MANIFEST_FILE, Manifest, write_manifest};
 use tmlut::loader::LutFolder;
 
 #[test]
@@ -98,7 +98,7 @@ fn ktx2_is_written_beside_dds_for_tables_and_packings_and_reads_back_the_same() 
     let from_dds: Vec<f64> = lookups.iter().map(|l| open(&folder).value(l)).collect();
     let mut without_dds = manifest.clone();
     without_dds.files.remove("fgd_lossless.dds");
-    without_dds.write(&out).unwrap();
+    write_manifest(&without_dds, &out).unwrap();
     std::fs::remove_file(out.join("fgd_lossless.dds")).unwrap();
     let only_ktx2 = LutFolder::open(&out).unwrap();
     let from_ktx2: Vec<f64> = lookups.iter().map(|l| open(&only_ktx2).value(l)).collect();
@@ -395,7 +395,7 @@ fn a_library_in_texture_arrays_reads_exactly_as_its_slice_files_do() {
     let name = slice.table.clone();
     // Sealed again, as a writer that placed it wrong would have: the placement itself is checked.
     entry.seal();
-    damaged.write(&arrays).unwrap();
+    write_manifest(&damaged, &arrays).unwrap();
     let error = LutFolder::open(&arrays).unwrap().scene_slices(|_| true).unwrap_err().to_string();
     assert!(error.contains(&name) && error.contains("outside the array"), "{error}");
     let checked = check();
@@ -608,7 +608,7 @@ fn the_model_reads_a_dielectric_onto_a_rarer_medium_from_fgd_rarer_and_everythin
     // Without fgd_rarer the same lookups read the packing; the others read it either way.
     let mut manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
     manifest.files.remove("fgd_rarer.dds");
-    manifest.write(&out).unwrap();
+    write_manifest(&manifest, &out).unwrap();
     std::fs::remove_file(out.join("fgd_rarer.dds")).unwrap();
     let without = open(&LutFolder::open(&out).unwrap());
     for l in &rarer {
@@ -617,6 +617,52 @@ fn the_model_reads_a_dielectric_onto_a_rarer_medium_from_fgd_rarer_and_everythin
     for l in &others {
         assert_eq!(with_rarer.value(l), without.value(l), "{l:?}");
     }
+}
+
+#[test]
+fn the_loader_reads_a_built_folder_from_memory_as_from_disk() {
+    use tmlut::error::Error;
+    use tmlut::loader::{InMemory, TirLut};
+
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let out = dir.path().join("luts");
+    let output = build(&config, &out, &["--only", "karis,tir"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    // Every file of the folder held in memory, named by the folder's path; one byte of `damaged` flipped.
+    let held = |damaged: Option<&str>| {
+        let mut files = InMemory::new(&out);
+        for (name, mut bytes) in snapshot(&out) {
+            if Some(name.as_str()) == damaged {
+                let last = bytes.len() - 1;
+                bytes[last] ^= 1;
+            }
+            files.insert(name, bytes);
+        }
+        files
+    };
+    let on_disk = LutFolder::open(&out).unwrap();
+    let in_memory = LutFolder::from_source(held(None)).unwrap();
+    assert_eq!(in_memory.manifest(), on_disk.manifest());
+    let files: Vec<&str> = on_disk.files().collect();
+    assert!(files.contains(&"tir.dds") && files.contains(&"karis.exr"), "{files:?}");
+    for file in files {
+        assert_eq!(in_memory.load(file).unwrap(), on_disk.load(file).unwrap(), "{file}");
+    }
+    let fit = on_disk.tir_fit().expect("the build's fitted TIR form");
+    for shader in &fit.shaders {
+        assert_eq!(in_memory.shader(shader).unwrap(), on_disk.shader(shader).unwrap(), "{}", shader.file);
+    }
+
+    // A damaged byte: the same error, whether the file is read from memory or from disk.
+    let from_memory = TirLut::from_folder(&LutFolder::from_source(held(Some("tir.dds"))).unwrap()).unwrap_err();
+    assert!(matches!(from_memory, Error::Mismatch { .. }), "{from_memory:?}");
+    let mut bytes = std::fs::read(out.join("tir.dds")).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(out.join("tir.dds"), bytes).unwrap();
+    let from_disk = TirLut::from_folder(&LutFolder::open(&out).unwrap()).unwrap_err();
+    assert_eq!(from_memory.to_string(), from_disk.to_string());
 }
 
 /// An albedo lookup of the first interface from above, as the model makes it.
@@ -746,7 +792,7 @@ fn a_build_the_cache_keeps_whole_is_restored_only_once_its_tables_agree_with_the
     entry.sha256 = tmlut::loader::sha256_hex(&bytes);
     entry.value_range = entry.value_range.map(|v| v + 0.25);
     entry.seal();
-    manifest.write(&out).unwrap();
+    write_manifest(&manifest, &out).unwrap();
     assert!(LutFolder::open(&out).unwrap().load(&file).is_ok());
     let refused = verify_restored(&request, &out).unwrap_err();
     assert!(refused.contains(&slice) && refused.contains("exact integral"), "{refused}");

@@ -1,13 +1,13 @@
 //! DDS textures with the DX10 header extension, the format a real-time renderer uploads without
-//! conversion.
+//! conversion: read back here, written by `tmlut` (its `formats::dds`), both by the header's
+//! [`layout`].
 //!
-//! Written by hand rather than through a crate: the fields are few, and the one crate that
+//! Laid out by hand rather than through a crate: the fields are few, and the one crate that
 //! writes them sets a stray `DDPF_RGB` flag next to the `DX10` fourCC that makes other readers
 //! misread the file (Microsoft's `DDS_PIXELFORMAT` reference: with a `DX10` fourCC, `DDPF_FOURCC`
-//! is the only flag). The reader accepts exactly what the writer produces:
-//! uncompressed float formats of 1, 2 or 4 channels, 2D textures, arrays of them, or volume
-//! textures, one mip level. It
-//! exists because no common Linux tool decodes float DDS, so our own files need a checker.
+//! is the only flag). The reader accepts exactly what tmlut writes: uncompressed float formats of
+//! 1, 2 or 4 channels, 2D textures, arrays of them, or volume textures, one mip level. It exists
+//! because no common Linux tool decodes float DDS, so tmlut's own files need a checker.
 //!
 //! File layout (all little-endian): the magic `"DDS "`, the 124-byte `DDS_HEADER` (which embeds
 //! the 32-byte `DDS_PIXELFORMAT`), the 20-byte `DDS_HEADER_DXT10`, then the texels, channels
@@ -17,55 +17,73 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::formats::{
-    Precision, StoredTexture, TextureShape, put_texels, read_bytes, texel_values, texture_extents,
-    write_bytes_atomically,
-};
-use crate::table::Table;
+use crate::formats::{Precision, StoredTexture, read_bytes, texel_values};
+use layout::*;
 
-const MAGIC: &[u8; 4] = b"DDS ";
-const HEADER_SIZE: u32 = 124;
-const PIXEL_FORMAT_SIZE: u32 = 32;
-/// Magic, `DDS_HEADER` and `DDS_HEADER_DXT10`: where the texels start.
-const DATA_OFFSET: usize = 4 + HEADER_SIZE as usize + DXT10_HEADER_SIZE;
-const DXT10_HEADER_SIZE: usize = 20;
+/// The fields and codes of a DDS file's headers, as the reader checks them and tmlut's writer
+/// writes them.
+pub mod layout {
+    use crate::formats::Precision;
 
-// DDS_HEADER.dwFlags
-const DDSD_CAPS: u32 = 0x1;
-const DDSD_HEIGHT: u32 = 0x2;
-const DDSD_WIDTH: u32 = 0x4;
-const DDSD_PITCH: u32 = 0x8;
-const DDSD_PIXELFORMAT: u32 = 0x1000;
-const DDSD_MIPMAPCOUNT: u32 = 0x2_0000;
-const DDSD_DEPTH: u32 = 0x80_0000;
+    /// The file's first four bytes.
+    pub const MAGIC: &[u8; 4] = b"DDS ";
+    /// `DDS_HEADER.dwSize`.
+    pub const HEADER_SIZE: u32 = 124;
+    /// `DDS_PIXELFORMAT.dwSize`.
+    pub const PIXEL_FORMAT_SIZE: u32 = 32;
+    /// The length of `DDS_HEADER_DXT10`.
+    pub const DXT10_HEADER_SIZE: usize = 20;
+    /// Magic, `DDS_HEADER` and `DDS_HEADER_DXT10`: where the texels start.
+    pub const DATA_OFFSET: usize = 4 + HEADER_SIZE as usize + DXT10_HEADER_SIZE;
 
-// DDS_HEADER.dwCaps and dwCaps2
-const DDSCAPS_COMPLEX: u32 = 0x8;
-const DDSCAPS_TEXTURE: u32 = 0x1000;
-const DDSCAPS2_VOLUME: u32 = 0x20_0000;
+    /// `DDS_HEADER.dwFlags`: `dwCaps` is set.
+    pub const DDSD_CAPS: u32 = 0x1;
+    /// `DDS_HEADER.dwFlags`: `dwHeight` is set.
+    pub const DDSD_HEIGHT: u32 = 0x2;
+    /// `DDS_HEADER.dwFlags`: `dwWidth` is set.
+    pub const DDSD_WIDTH: u32 = 0x4;
+    /// `DDS_HEADER.dwFlags`: `dwPitchOrLinearSize` is a row pitch.
+    pub const DDSD_PITCH: u32 = 0x8;
+    /// `DDS_HEADER.dwFlags`: the pixel format is set.
+    pub const DDSD_PIXELFORMAT: u32 = 0x1000;
+    /// `DDS_HEADER.dwFlags`: `dwMipMapCount` is set.
+    pub const DDSD_MIPMAPCOUNT: u32 = 0x2_0000;
+    /// `DDS_HEADER.dwFlags`: `dwDepth` is set (a volume).
+    pub const DDSD_DEPTH: u32 = 0x80_0000;
 
-// DDS_PIXELFORMAT.dwFlags
-const DDPF_FOURCC: u32 = 0x4;
-const FOURCC_DX10: &[u8; 4] = b"DX10";
+    /// `DDS_HEADER.dwCaps`: more than one surface (a volume).
+    pub const DDSCAPS_COMPLEX: u32 = 0x8;
+    /// `DDS_HEADER.dwCaps`: always set.
+    pub const DDSCAPS_TEXTURE: u32 = 0x1000;
+    /// `DDS_HEADER.dwCaps2`: a volume texture.
+    pub const DDSCAPS2_VOLUME: u32 = 0x20_0000;
 
-// DDS_HEADER_DXT10.resourceDimension
-const RESOURCE_DIMENSION_TEXTURE2D: u32 = 3;
-const RESOURCE_DIMENSION_TEXTURE3D: u32 = 4;
-// DDS_HEADER_DXT10.miscFlag
-const RESOURCE_MISC_TEXTURECUBE: u32 = 0x4;
+    /// `DDS_PIXELFORMAT.dwFlags`: the fourCC names the format.
+    pub const DDPF_FOURCC: u32 = 0x4;
+    /// The fourCC of a file whose `DDS_HEADER_DXT10` names its DXGI format.
+    pub const FOURCC_DX10: &[u8; 4] = b"DX10";
 
-/// The DXGI formats written and read, as (DXGI_FORMAT, channels, precision).
-const FORMATS: [(u32, usize, Precision); 6] = [
-    (2, 4, Precision::F32),  // R32G32B32A32_FLOAT
-    (10, 4, Precision::F16), // R16G16B16A16_FLOAT
-    (16, 2, Precision::F32), // R32G32_FLOAT
-    (34, 2, Precision::F16), // R16G16_FLOAT
-    (41, 1, Precision::F32), // R32_FLOAT
-    (54, 1, Precision::F16), // R16_FLOAT
-];
+    /// `DDS_HEADER_DXT10.resourceDimension` of a 2D texture or an array of them.
+    pub const RESOURCE_DIMENSION_TEXTURE2D: u32 = 3;
+    /// `DDS_HEADER_DXT10.resourceDimension` of a volume texture.
+    pub const RESOURCE_DIMENSION_TEXTURE3D: u32 = 4;
+    /// `DDS_HEADER_DXT10.miscFlag` of a cube map.
+    pub const RESOURCE_MISC_TEXTURECUBE: u32 = 0x4;
 
-fn dxgi_format(channels: usize, precision: Precision) -> Option<u32> {
-    FORMATS.iter().find(|&&(_, c, p)| c == channels && p == precision).map(|&(f, _, _)| f)
+    /// The DXGI formats written and read, as (DXGI_FORMAT, channels, precision).
+    pub const FORMATS: [(u32, usize, Precision); 6] = [
+        (2, 4, Precision::F32),  // R32G32B32A32_FLOAT
+        (10, 4, Precision::F16), // R16G16B16A16_FLOAT
+        (16, 2, Precision::F32), // R32G32_FLOAT
+        (34, 2, Precision::F16), // R16G16_FLOAT
+        (41, 1, Precision::F32), // R32_FLOAT
+        (54, 1, Precision::F16), // R16_FLOAT
+    ];
+
+    /// The DXGI format holding `channels` channels in `precision`, if it is one of [`FORMATS`].
+    pub fn dxgi_format(channels: usize, precision: Precision) -> Option<u32> {
+        FORMATS.iter().find(|&&(_, c, p)| c == channels && p == precision).map(|&(f, _, _)| f)
+    }
 }
 
 /// The DXGI name of the format holding `channels` channels in `precision`, e.g. `R16G16_FLOAT`.
@@ -76,72 +94,6 @@ pub fn dxgi_format_name(channels: usize, precision: Precision) -> String {
 /// A texture as stored in a DDS file.
 pub type DdsTexture = StoredTexture;
 
-/// Write a 2-axis table as a 2D texture, a 3-axis table as a volume texture, or as an array of 2D
-/// textures where its third axis is [`crate::formats::LAYER_AXIS`].
-pub fn write_dds(path: &Path, table: &Table, precision: Precision) -> Result<()> {
-    let bytes = encode_dds(table, precision)?;
-    write_bytes_atomically(path, &bytes)
-}
-
-/// The bytes of [`write_dds`]'s file.
-pub fn encode_dds(table: &Table, precision: Precision) -> Result<Vec<u8>> {
-    let key = format!("table `{}`", table.name);
-    let ([width, height, depth], shape, format) = texture_extents(table, precision, "DDS", dxgi_format)?;
-    let volume = shape == TextureShape::Volume;
-
-    let bytes_per_texel = table.channel_count() * precision.bytes();
-    let pitch = u32::try_from(width as usize * bytes_per_texel)
-        .map_err(|_| Error::invalid(&key, format!("a row of {width} texels is too long for a DDS pitch")))?;
-
-    let mut flags = DDSD_CAPS | DDSD_HEIGHT | DDSD_WIDTH | DDSD_PITCH | DDSD_PIXELFORMAT | DDSD_MIPMAPCOUNT;
-    let mut caps = DDSCAPS_TEXTURE;
-    let mut caps2 = 0;
-    if volume {
-        flags |= DDSD_DEPTH;
-        caps |= DDSCAPS_COMPLEX;
-        caps2 |= DDSCAPS2_VOLUME;
-    }
-
-    let mut bytes = Vec::with_capacity(DATA_OFFSET + table.data.len() * precision.bytes());
-    let mut put = |v: u32| bytes.extend_from_slice(&v.to_le_bytes());
-    // DDS_HEADER
-    put(u32::from_le_bytes(*MAGIC));
-    put(HEADER_SIZE);
-    put(flags);
-    put(height);
-    put(width);
-    put(pitch);
-    // The depth field is meaningful only with DDSD_DEPTH; a 2D texture leaves it 0.
-    put(if volume { depth } else { 0 });
-    put(1); // dwMipMapCount: the base level only
-    for _ in 0..11 {
-        put(0); // dwReserved1
-    }
-    // DDS_PIXELFORMAT: only the fourCC is meaningful; the DX10 header below names the format.
-    put(PIXEL_FORMAT_SIZE);
-    put(DDPF_FOURCC);
-    put(u32::from_le_bytes(*FOURCC_DX10));
-    for _ in 0..5 {
-        put(0); // dwRGBBitCount and the four masks
-    }
-    put(caps);
-    put(caps2);
-    put(0); // dwCaps3
-    put(0); // dwCaps4
-    put(0); // dwReserved2
-    // DDS_HEADER_DXT10
-    put(format);
-    put(if volume { RESOURCE_DIMENSION_TEXTURE3D } else { RESOURCE_DIMENSION_TEXTURE2D });
-    put(0); // miscFlag
-    put(if shape == TextureShape::Layers { depth } else { 1 }); // arraySize
-    put(0); // miscFlags2: DDS_ALPHA_MODE_UNKNOWN, the channels are data, not colour and alpha
-    debug_assert_eq!(bytes.len(), DATA_OFFSET);
-
-    // Table storage order is already texel order.
-    put_texels(&mut bytes, &table.data, precision);
-    Ok(bytes)
-}
-
 /// Channels and precision of the DXGI format a DDS file's DX10 header names, if it is one tmlut
 /// writes.
 pub fn stored_format(bytes: &[u8]) -> Option<(usize, Precision)> {
@@ -149,7 +101,7 @@ pub fn stored_format(bytes: &[u8]) -> Option<(usize, Precision)> {
     FORMATS.iter().find(|&&(f, _, _)| f == format).map(|&(_, c, p)| (c, p))
 }
 
-/// Read a DDS texture written by [`write_dds`].
+/// Read a DDS texture as tmlut writes it.
 pub fn read_dds(path: &Path) -> Result<DdsTexture> {
     let bytes = read_bytes(path)?;
     decode_dds(&bytes, path)
@@ -265,222 +217,117 @@ pub fn decode_dds(bytes: &[u8], path: &Path) -> Result<DdsTexture> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::formats::test_tables::{channel_list, check_texture_round_trips, sample_table_over};
-    use crate::table::Axis;
+    use crate::formats::test_folder::{test_axes, test_file};
+    use crate::table::{Axis, Channel};
 
-    fn axes_for(shape: &[usize]) -> Vec<Axis> {
-        shape
-            .iter()
-            .enumerate()
-            .map(|(d, &n)| Axis::cell_centred(format!("a{d}"), 0.0, 1.0 + d as f64, n).unwrap())
-            .collect()
+    fn decode(bytes: &[u8]) -> Result<DdsTexture> {
+        decode_dds(bytes, Path::new("t.dds"))
     }
 
-    fn sample_table(shape: &[usize], channels: usize) -> Table {
-        sample_table_over(axes_for(shape), channels)
+    fn error_of(bytes: &[u8]) -> String {
+        decode(bytes).unwrap_err().to_string()
     }
 
-    fn field(bytes: &[u8], offset: usize) -> u32 {
-        u32::from_le_bytes(bytes[offset..offset + 4].try_into().unwrap())
+    fn channels(n: usize) -> Vec<Channel> {
+        (0..n).map(|c| Channel::new(format!("c{c}"), "")).collect()
     }
 
     #[test]
-    fn an_array_round_trips_and_states_its_layers_in_the_dx10_header() {
-        let mut axes = axes_for(&[5, 3]);
-        axes.push(Axis::node_aligned(crate::formats::LAYER_AXIS, 0.0, 6.0, 7).unwrap());
-        let table = sample_table_over(axes, 2);
-        let bytes = encode_dds(&table, Precision::F32).unwrap();
-        // A 2D resource of 7 layers, with no depth and no volume flag.
-        assert_eq!((field(&bytes, 132), field(&bytes, 140)), (RESOURCE_DIMENSION_TEXTURE2D, 7));
-        assert_eq!((field(&bytes, 8) & DDSD_DEPTH, field(&bytes, 24), field(&bytes, 112)), (0, 0, 0));
-        let texture = decode_dds(&bytes, Path::new("a.dds")).unwrap();
+    fn a_2d_texture_and_a_volume_read_with_their_extents_formats_and_texels() {
+        let karis = test_file("karis.dds");
+        let texture = decode(&karis).unwrap();
+        assert_eq!((texture.width, texture.height, texture.depth), (8, 6, 1));
+        assert_eq!(
+            (texture.channels, texture.precision, texture.volume, texture.layered),
+            (2, Precision::F16, false, false)
+        );
+        assert_eq!(texture.describe(), "2D texture 8 x 6");
+        assert_eq!(texture.data, texel_values(&karis[DATA_OFFSET..], Precision::F16));
+        assert_eq!(stored_format(&karis), Some((2, Precision::F16)));
+
+        let tir = test_file("tir.dds");
+        let texture = decode(&tir).unwrap();
+        assert_eq!((texture.width, texture.height, texture.depth), (7, 5, 6));
+        assert_eq!(
+            (texture.channels, texture.precision, texture.volume, texture.layered),
+            (1, Precision::F32, true, false)
+        );
+        assert_eq!(texture.describe(), "volume texture 7 x 5 x 6");
+        let table = texture.into_table("tir", test_axes("tir.dds"), channels(1)).unwrap();
+        assert_eq!(table.shape(), [7, 5, 6]);
+        // Row 0 holds the first node of axis 1, x fastest: the table's own storage order.
+        assert_eq!(table.data, texel_values(&tir[DATA_OFFSET..], Precision::F32));
+    }
+
+    #[test]
+    fn an_array_reads_its_layers_from_the_dx10_header() {
+        let bytes = test_file("slices.dds");
+        let texture = decode(&bytes).unwrap();
         assert!(texture.layered && !texture.volume);
         assert_eq!((texture.width, texture.height, texture.depth), (5, 3, 7));
         assert_eq!(texture.describe(), "array of 7 2D textures 5 x 3");
-        assert_eq!(texture.clone().into_table("sample", table.axes.clone(), table.channels.clone()).unwrap(), table);
+        let axes = test_axes("slices.dds");
+        assert_eq!(axes[2].name, crate::formats::LAYER_AXIS);
+        assert_eq!(texture.clone().into_table("slices", axes.clone(), channels(2)).unwrap().shape(), [5, 3, 7]);
         // The same texels described as a volume are refused, and an array stated as a volume too.
-        let volume_axes = axes_for(&[5, 3, 7]);
-        let error = texture.into_table("sample", volume_axes, table.channels.clone()).unwrap_err().to_string();
+        let mut volume_axes = axes;
+        volume_axes[2] = Axis::node_aligned("z", 0.0, 1.0, 7).unwrap();
+        let error = texture.into_table("slices", volume_axes, channels(2)).unwrap_err().to_string();
         assert!(error.contains("is an array"), "{error}");
         let mut bytes = bytes;
         bytes[132..136].copy_from_slice(&RESOURCE_DIMENSION_TEXTURE3D.to_le_bytes());
-        let error = decode_dds(&bytes, Path::new("a.dds")).unwrap_err().to_string();
-        assert!(error.contains("array size of 7"), "{error}");
-    }
-
-    #[test]
-    fn round_trips_2d_and_volume_textures_in_both_precisions() {
-        let dir = tempfile::tempdir().unwrap();
-        check_texture_round_trips(sample_table, |table, precision, _| {
-            let path = dir.path().join("t.dds");
-            write_dds(&path, table, precision).unwrap();
-            let texture = read_dds(&path).unwrap();
-            let back = texture.clone().into_table("sample", table.axes.clone(), table.channels.clone()).unwrap();
-            (texture, back)
-        });
-    }
-
-    #[test]
-    fn header_fields_sit_at_their_offsets() {
-        let bytes = encode_dds(&sample_table(&[5, 3], 2), Precision::F16).unwrap();
-        assert_eq!(&bytes[0..4], b"DDS ");
-        assert_eq!(field(&bytes, 4), 124);
-        assert_eq!(field(&bytes, 8), 0x1 | 0x2 | 0x4 | 0x8 | 0x1000 | 0x2_0000);
-        assert_eq!(field(&bytes, 12), 3, "height");
-        assert_eq!(field(&bytes, 16), 5, "width");
-        assert_eq!(field(&bytes, 20), 5 * 2 * 2, "pitch = width * bytes per texel");
-        assert_eq!(field(&bytes, 24), 0, "depth unused in 2D");
-        assert_eq!(field(&bytes, 28), 1, "mip count");
-        assert!(bytes[32..76].iter().all(|&b| b == 0), "reserved");
-        assert_eq!(field(&bytes, 76), 32, "pixel format size");
-        assert_eq!(field(&bytes, 80), 0x4, "pixel format flags: DDPF_FOURCC only");
-        assert_eq!(&bytes[84..88], b"DX10");
-        assert!(bytes[88..108].iter().all(|&b| b == 0), "bit count and masks");
-        assert_eq!(field(&bytes, 108), 0x1000, "caps: DDSCAPS_TEXTURE only");
-        assert_eq!(field(&bytes, 112), 0, "caps2");
-        assert_eq!(field(&bytes, 128), 34, "R16G16_FLOAT");
-        assert_eq!(field(&bytes, 132), 3, "TEXTURE2D");
-        assert_eq!(field(&bytes, 136), 0, "miscFlag");
-        assert_eq!(field(&bytes, 140), 1, "array size");
-        assert_eq!(field(&bytes, 144), 0, "alpha mode unknown");
-        assert_eq!(bytes.len(), 148 + 5 * 3 * 2 * 2);
-    }
-
-    #[test]
-    fn volume_flags_are_set_only_for_volumes() {
-        let volume = encode_dds(&sample_table(&[4, 3, 6], 4), Precision::F32).unwrap();
-        assert_eq!(field(&volume, 8), 0x1 | 0x2 | 0x4 | 0x8 | 0x1000 | 0x2_0000 | 0x80_0000);
-        assert_eq!(field(&volume, 20), 4 * 4 * 4, "pitch");
-        assert_eq!(field(&volume, 24), 6, "depth");
-        assert_eq!(field(&volume, 28), 1, "mip count");
-        assert_eq!(field(&volume, 108), 0x1000 | 0x8, "DDSCAPS_TEXTURE | DDSCAPS_COMPLEX");
-        assert_eq!(field(&volume, 112), 0x20_0000, "DDSCAPS2_VOLUME");
-        assert_eq!(field(&volume, 128), 2, "R32G32B32A32_FLOAT");
-        assert_eq!(field(&volume, 132), 4, "TEXTURE3D");
-        assert_eq!(field(&volume, 140), 1, "array size");
-
-        let flat = encode_dds(&sample_table(&[4, 3], 4), Precision::F32).unwrap();
-        assert_eq!(field(&flat, 8) & 0x80_0000, 0);
-        assert_eq!(field(&flat, 108) & 0x8, 0);
-        assert_eq!(field(&flat, 112), 0);
-    }
-
-    #[test]
-    fn every_channel_count_and_precision_names_its_dxgi_format() {
-        let expected = [(1, Precision::F32, 41), (1, Precision::F16, 54), (2, Precision::F32, 16)];
-        let expected =
-            expected.into_iter().chain([(2, Precision::F16, 34), (4, Precision::F32, 2), (4, Precision::F16, 10)]);
-        for (channels, precision, format) in expected {
-            let bytes = encode_dds(&sample_table(&[2, 2], channels), precision).unwrap();
-            assert_eq!(field(&bytes, 128), format, "{channels} channels {precision:?}");
-            assert_eq!(field(&bytes, 20), (2 * channels * precision.bytes()) as u32, "pitch");
-        }
-    }
-
-    #[test]
-    fn row_zero_holds_the_first_node_of_axis_one() {
-        // f(i, j) = 10 j + i, so each row is recognisable.
-        let axes = vec![Axis::node_aligned("x", 0.0, 1.0, 4).unwrap(), Axis::node_aligned("y", 1.0, 0.0, 3).unwrap()];
-        let data = (0..3).flat_map(|j| (0..4).map(move |i| (10 * j + i) as f32)).collect();
-        let table = Table::new("rows", axes, channel_list(1), data).unwrap();
-        let bytes = encode_dds(&table, Precision::F32).unwrap();
-        let texel = |x: usize, y: usize| {
-            let at = 148 + 4 * (y * 4 + x);
-            f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap())
-        };
-        assert_eq!([texel(0, 0), texel(3, 0)], [0.0, 3.0], "row 0 is y node 0");
-        assert_eq!([texel(0, 2), texel(3, 2)], [20.0, 23.0], "the last row is y node 2");
-    }
-
-    #[test]
-    fn non_finite_values_are_never_written() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("bad.dds");
-        let mut table = sample_table(&[4, 4], 1);
-        table.data[3] = f32::NAN;
-        table.data[7] = f32::INFINITY;
-        let err = write_dds(&path, &table, Precision::F32).unwrap_err().to_string();
-        assert!(err.contains("`sample`") && err.contains("1 NaN and 1 infinite"), "{err}");
-        assert!(!path.exists());
-
-        // Finite in f32 but beyond the f16 range.
-        let mut table = sample_table(&[4, 4], 1);
-        table.data[0] = 1.0e6;
-        let err = encode_dds(&table, Precision::F16).unwrap_err().to_string();
-        assert!(err.contains("f16 range"), "{err}");
-        assert!(encode_dds(&table, Precision::F32).is_ok());
-    }
-
-    #[test]
-    fn three_channels_and_other_dimensions_are_refused() {
-        let err = encode_dds(&sample_table(&[3, 3], 3), Precision::F16).unwrap_err().to_string();
-        assert!(err.contains("3 channels") && err.contains("1, 2 or 4"), "{err}");
-        let err = encode_dds(&sample_table(&[3], 1), Precision::F16).unwrap_err().to_string();
-        assert!(err.contains("1 axes"), "{err}");
-        let err = encode_dds(&sample_table(&[2, 2, 2, 2], 1), Precision::F16).unwrap_err().to_string();
-        assert!(err.contains("4 axes"), "{err}");
+        assert!(error_of(&bytes).contains("array size of 7"), "{}", error_of(&bytes));
     }
 
     #[test]
     fn truncated_file_is_refused_with_the_byte_counts() {
-        let bytes = encode_dds(&sample_table(&[5, 3], 1), Precision::F32).unwrap();
-        let cut = &bytes[..bytes.len() - 1];
-        let err = decode_dds(cut, Path::new("cut.dds")).unwrap_err().to_string();
-        assert!(err.contains("truncated") && err.contains("need 60 data bytes") && err.contains("has 59"), "{err}");
-        let err = decode_dds(&bytes[..100], Path::new("cut.dds")).unwrap_err().to_string();
+        let bytes = test_file("karis.dds");
+        let err = error_of(&bytes[..bytes.len() - 1]);
+        assert!(err.contains("truncated") && err.contains("need 192 data bytes") && err.contains("has 191"), "{err}");
+        let err = error_of(&bytes[..100]);
         assert!(err.contains("truncated") && err.contains("148"), "{err}");
     }
 
     #[test]
     fn foreign_files_are_refused() {
-        let err = decode_dds(b"\x89PNG\r\n\x1a\n0000", Path::new("image.png")).unwrap_err();
+        let err = decode(b"\x89PNG\r\n\x1a\n0000").unwrap_err();
         assert!(matches!(err, Error::Format { .. }));
         assert!(err.to_string().contains("not a DDS file"), "{err}");
-        assert!(decode_dds(b"", Path::new("empty.dds")).unwrap_err().to_string().contains("not a DDS file"));
+        assert!(error_of(b"").contains("not a DDS file"));
 
-        let good = encode_dds(&sample_table(&[5, 3], 1), Precision::F32).unwrap();
-        let mut mipped = good.clone();
-        mipped[28..32].copy_from_slice(&3u32.to_le_bytes());
-        let err = decode_dds(&mipped, Path::new("m.dds")).unwrap_err().to_string();
-        assert!(err.contains("mip maps are not supported"), "{err}");
-
-        let mut legacy = good.clone();
-        legacy[84..88].copy_from_slice(b"DXT1");
-        let err = decode_dds(&legacy, Path::new("l.dds")).unwrap_err().to_string();
-        assert!(err.contains("DX10"), "{err}");
-
-        let mut unsupported = good.clone();
-        unsupported[128..132].copy_from_slice(&28u32.to_le_bytes()); // R8G8B8A8_UNORM
-        let err = decode_dds(&unsupported, Path::new("u.dds")).unwrap_err().to_string();
+        let good = test_file("karis.dds");
+        let lie = |offset: usize, value: &[u8]| {
+            let mut bytes = good.clone();
+            bytes[offset..offset + value.len()].copy_from_slice(value);
+            error_of(&bytes)
+        };
+        assert!(lie(28, &3u32.to_le_bytes()).contains("mip maps are not supported"));
+        assert!(lie(84, b"DXT1").contains("DX10"));
+        let err = lie(128, &28u32.to_le_bytes()); // R8G8B8A8_UNORM
         assert!(err.contains("DXGI_FORMAT 28") && err.contains("R16_FLOAT (54)"), "{err}");
-
         let mut huge = good.clone();
         for offset in [12, 16] {
             huge[offset..offset + 4].copy_from_slice(&u32::MAX.to_le_bytes());
         }
-        let err = decode_dds(&huge, Path::new("h.dds")).unwrap_err().to_string();
-        assert!(err.contains("truncated"), "{err}");
-
-        let mut array = good;
-        array[140..144].copy_from_slice(&6u32.to_le_bytes());
+        assert!(error_of(&huge).contains("truncated"), "{}", error_of(&huge));
         // A 2D texture stated as an array of 6 layers lacks the texels of five of them.
-        let err = decode_dds(&array, Path::new("a.dds")).unwrap_err().to_string();
-        assert!(err.contains("truncated"), "{err}");
-        array[140..144].copy_from_slice(&0u32.to_le_bytes());
-        let err = decode_dds(&array, Path::new("a.dds")).unwrap_err().to_string();
-        assert!(err.contains("array size of 0"), "{err}");
+        assert!(lie(140, &6u32.to_le_bytes()).contains("truncated"));
+        assert!(lie(140, &0u32.to_le_bytes()).contains("array size of 0"));
+        assert!(lie(136, &RESOURCE_MISC_TEXTURECUBE.to_le_bytes()).contains("cube map"));
+        assert!(lie(112, &DDSCAPS2_VOLUME.to_le_bytes()).contains("DDSCAPS2_VOLUME"));
     }
 
     #[test]
     fn into_table_checks_axes_and_channels() {
-        let table = sample_table(&[5, 3], 2);
-        let bytes = encode_dds(&table, Precision::F32).unwrap();
-        let texture = decode_dds(&bytes, Path::new("t.dds")).unwrap();
-        let err = texture.clone().into_table("t", axes_for(&[3, 5]), channel_list(2)).unwrap_err().to_string();
-        assert!(err.contains("width is 5"), "{err}");
-        let err = texture.clone().into_table("t", axes_for(&[5, 3, 2]), channel_list(2)).unwrap_err().to_string();
+        let texture = decode(&test_file("karis.dds")).unwrap();
+        let axes = test_axes("karis.dds");
+        let swapped = vec![axes[1].clone(), axes[0].clone()];
+        let err = texture.clone().into_table("t", swapped, channels(2)).unwrap_err().to_string();
+        assert!(err.contains("width is 8"), "{err}");
+        let three = vec![axes[0].clone(), axes[1].clone(), axes[1].clone()];
+        let err = texture.clone().into_table("t", three, channels(2)).unwrap_err().to_string();
         assert!(err.contains("needs 2"), "{err}");
-        let err = texture.into_table("t", axes_for(&[5, 3]), channel_list(1)).unwrap_err().to_string();
+        let err = texture.into_table("t", axes, channels(1)).unwrap_err().to_string();
         assert!(err.contains("holds 2"), "{err}");
     }
 }

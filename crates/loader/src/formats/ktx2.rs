@@ -1,5 +1,6 @@
 //! KTX 2.0 textures (Khronos, <https://registry.khronos.org/KTX/specs/2.0/ktxspec.v2.html>), the
-//! container that Bevy, three.js, glTF tool chains and wgpu-based renderers load.
+//! container that Bevy, three.js, glTF tool chains and wgpu-based renderers load: read back here,
+//! written by `tmlut` (its `formats::ktx2`), both by the file's [`layout`].
 //!
 //! A table is stored as a DDS file stores it ([`super::dds`]): 2 axes make a 2D texture, 3 a
 //! volume texture, with 1, 2 or 4 channels in `VK_FORMAT_R16_SFLOAT`, `R16G16_SFLOAT`,
@@ -21,32 +22,26 @@
 //! entries as JSON: quantity, range, node count, placement, mapping, the texture coordinate
 //! formula), `tmlut.channels` (JSON: name and meaning of each) and `tmlut.precision`.
 //!
-//! The reader accepts what the writer produces, nothing else, and checks every offset and length
+//! The reader accepts what tmlut writes, nothing else, and checks every offset and length
 //! the header states against the file's length before reading or allocating. It does not hand the
 //! file to the crate's `Reader`: ktx2 0.5.0 parses a descriptor's texel block dimensions with an
 //! overflowing `+ 1` that panics on the byte 255; the descriptor is compared byte for byte with
-//! the one the writer makes instead.
+//! the one tmlut writes ([`layout::data_format_descriptor`]) instead.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
-use ::ktx2::dfd;
 use ::ktx2::{Format, Header, Index, LevelIndex};
 
 use crate::error::{Error, Result};
 use crate::formats::manifest::AxisEntry;
-use crate::formats::{
-    LAYER_AXIS, Precision, StoredTexture, TextureShape, as_format_error, put_texels, read_bytes, texel_values,
-    texture_extents, write_bytes_atomically,
-};
+use crate::formats::{Precision, StoredTexture, as_format_error, read_bytes, texel_values};
 use crate::table::{Channel, Table};
+use layout::*;
 
 /// The 12-byte file identifier `«KTX 20»\r\n\x1A\n`.
 const IDENTIFIER: [u8; 12] = ::ktx2::MAGIC;
 /// Where the level index starts: right after the header.
 const LEVEL_INDEX_OFFSET: usize = Header::LENGTH;
-/// Where the data format descriptor starts: after the level index of one level.
-const DFD_OFFSET: usize = LEVEL_INDEX_OFFSET + LevelIndex::LENGTH;
 
 // The keys of the key/value data (`docs/formats.md`, "KTX2"): two standard keys of KTX 2.0, and
 // tmlut's own under the prefix `tmlut.` (the prefixes `KTX` and `ktx` are reserved to the
@@ -64,29 +59,84 @@ pub const KEY_CHANNELS: &str = "tmlut.channels";
 /// `f16` or `f32`.
 pub const KEY_PRECISION: &str = "tmlut.precision";
 
-/// The Vulkan formats written and read, as (VkFormat, channels, precision).
-const FORMATS: [(Format, usize, Precision); 6] = [
-    (Format::R16_SFLOAT, 1, Precision::F16),
-    (Format::R16G16_SFLOAT, 2, Precision::F16),
-    (Format::R16G16B16A16_SFLOAT, 4, Precision::F16),
-    (Format::R32_SFLOAT, 1, Precision::F32),
-    (Format::R32G32_SFLOAT, 2, Precision::F32),
-    (Format::R32G32B32A32_SFLOAT, 4, Precision::F32),
-];
-
-fn vk_format(channels: usize, precision: Precision) -> Option<Format> {
-    FORMATS.iter().find(|&&(_, c, p)| c == channels && p == precision).map(|&(f, _, _)| f)
-}
-
 /// The Vulkan name, without its `VK_FORMAT_` prefix, of the format holding `channels` channels in
 /// `precision`, e.g. `R16G16_SFLOAT`.
 pub fn vk_format_name(channels: usize, precision: Precision) -> String {
     format!("{}_SFLOAT", super::component_layout(channels, precision))
 }
 
-/// The orientation a texture of `volume` or not is written in: `KTXorientation`'s value.
-fn orientation(volume: bool) -> &'static str {
-    if volume { "rdi" } else { "rd" }
+/// The facts of a KTX2 file that tmlut's writer writes and the reader checks: where its sections
+/// start, its formats, the data format descriptor of each, its alignment and orientation, and how
+/// its key/value data names an axis's dimension and a precision.
+pub mod layout {
+    use ::ktx2::dfd;
+    use ::ktx2::{Format, Header, LevelIndex};
+
+    use crate::error::{Error, Result};
+    use crate::formats::{LAYER_AXIS, Precision};
+    use crate::table::Axis;
+
+    /// Where the data format descriptor starts: after the header and the level index of one level.
+    pub const DFD_OFFSET: usize = Header::LENGTH + LevelIndex::LENGTH;
+
+    /// The Vulkan formats written and read, as (VkFormat, channels, precision).
+    pub const FORMATS: [(Format, usize, Precision); 6] = [
+        (Format::R16_SFLOAT, 1, Precision::F16),
+        (Format::R16G16_SFLOAT, 2, Precision::F16),
+        (Format::R16G16B16A16_SFLOAT, 4, Precision::F16),
+        (Format::R32_SFLOAT, 1, Precision::F32),
+        (Format::R32G32_SFLOAT, 2, Precision::F32),
+        (Format::R32G32B32A32_SFLOAT, 4, Precision::F32),
+    ];
+
+    /// The Vulkan format holding `channels` channels in `precision`, if it is one of [`FORMATS`].
+    pub fn vk_format(channels: usize, precision: Precision) -> Option<Format> {
+        FORMATS.iter().find(|&&(_, c, p)| c == channels && p == precision).map(|&(f, _, _)| f)
+    }
+
+    /// The orientation a texture of `volume` or not is written in: `KTXorientation`'s value.
+    pub fn orientation(volume: bool) -> &'static str {
+        if volume { "rdi" } else { "rd" }
+    }
+
+    /// The texture dimension axis `d` runs along: `x`, `y`, `z`, or the layers of an array.
+    pub fn stored_along(axis: &Axis, d: usize) -> &'static str {
+        if d == 2 && axis.name == LAYER_AXIS { LAYER_AXIS } else { ["x", "y", "z", "w"].get(d).copied().unwrap_or("w") }
+    }
+
+    /// A precision as `tmlut.precision` states it: `f16` or `f32`.
+    pub fn precision_name(precision: Precision) -> &'static str {
+        match precision {
+            Precision::F16 => "f16",
+            Precision::F32 => "f32",
+        }
+    }
+
+    /// The data format descriptor of `format` as tmlut writes it: its total size, then one Basic
+    /// block (RGBSDA, linear, straight alpha) with the colour primaries unspecified; and the
+    /// format's component size (the header's `typeSize`).
+    pub fn data_format_descriptor(format: Format) -> Result<(Vec<u8>, u32)> {
+        let (mut basic, type_size) = dfd::Basic::from_format(format)
+            .map_err(|e| Error::invalid("KTX2 data format descriptor", format!("{format:?}: {e}")))?;
+        basic.color_primaries = None;
+        let block = dfd::Block::Basic(basic).to_vec();
+        let total = 4 + block.len();
+        let mut bytes = Vec::with_capacity(total);
+        bytes.extend_from_slice(&(total as u32).to_le_bytes());
+        bytes.extend_from_slice(&block);
+        Ok((bytes, type_size))
+    }
+
+    /// The alignment of the level data: `lcm(texel size, 4)` (KTX 2.0, "mipPadding").
+    pub fn level_alignment(texel_bytes: usize) -> usize {
+        let gcd = |mut a: usize, mut b: usize| {
+            while b != 0 {
+                (a, b) = (b, a % b);
+            }
+            a
+        };
+        texel_bytes * 4 / gcd(texel_bytes, 4)
+    }
 }
 
 /// What the key/value data of a tmlut KTX2 file states about its table.
@@ -106,48 +156,6 @@ pub struct Description {
     pub writer: String,
 }
 
-impl Description {
-    fn of(table: &Table, precision: Precision, volume: bool) -> Self {
-        Description {
-            table: table.name.clone(),
-            axes: table.axes.iter().enumerate().map(|(d, axis)| AxisEntry::new(axis, stored_along(axis, d))).collect(),
-            channels: table.channels.clone(),
-            precision,
-            orientation: orientation(volume).into(),
-            writer: format!("tmlut {}", env!("CARGO_PKG_VERSION")),
-        }
-    }
-
-    /// The key/value pairs, sorted by key as KTX 2.0 requires (a `BTreeMap` of UTF-8 keys sorts by
-    /// code point).
-    fn pairs(&self) -> Result<BTreeMap<&'static str, String>> {
-        Ok(BTreeMap::from([
-            (KEY_ORIENTATION, self.orientation.clone()),
-            (KEY_WRITER, self.writer.clone()),
-            (KEY_TABLE, self.table.clone()),
-            (KEY_AXES, to_json(&self.axes)?),
-            (KEY_CHANNELS, to_json(&self.channels)?),
-            (KEY_PRECISION, precision_name(self.precision).into()),
-        ]))
-    }
-}
-
-/// The texture dimension axis `d` runs along: `x`, `y`, `z`, or the layers of an array.
-fn stored_along(axis: &crate::table::Axis, d: usize) -> &'static str {
-    if d == 2 && axis.name == LAYER_AXIS { LAYER_AXIS } else { ["x", "y", "z", "w"].get(d).copied().unwrap_or("w") }
-}
-
-fn to_json<T: serde::Serialize>(value: &T) -> Result<String> {
-    serde_json::to_string(value).map_err(|e| Error::invalid("KTX2 key/value data", e.to_string()))
-}
-
-fn precision_name(precision: Precision) -> &'static str {
-    match precision {
-        Precision::F16 => "f16",
-        Precision::F32 => "f32",
-    }
-}
-
 /// A KTX2 file written by tmlut: its texture and what its key/value data states.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ktx2Texture {
@@ -165,111 +173,13 @@ impl Ktx2Texture {
     }
 }
 
-/// Write a 2-axis table as a 2D texture or a 3-axis table as a volume texture.
-pub fn write_ktx2(path: &Path, table: &Table, precision: Precision) -> Result<()> {
-    let bytes = encode_ktx2(table, precision)?;
-    write_bytes_atomically(path, &bytes)
-}
-
-/// The data format descriptor of `format` as tmlut writes it: its total size, then one Basic
-/// block (RGBSDA, linear, straight alpha) with the colour primaries unspecified.
-fn data_format_descriptor(format: Format) -> Result<(Vec<u8>, u32)> {
-    let (mut basic, type_size) = dfd::Basic::from_format(format)
-        .map_err(|e| Error::invalid("KTX2 data format descriptor", format!("{format:?}: {e}")))?;
-    basic.color_primaries = None;
-    let block = dfd::Block::Basic(basic).to_vec();
-    let total = 4 + block.len();
-    let mut bytes = Vec::with_capacity(total);
-    bytes.extend_from_slice(&(total as u32).to_le_bytes());
-    bytes.extend_from_slice(&block);
-    Ok((bytes, type_size))
-}
-
-/// Key/value data: for each pair, its byte length, the key, NUL, the value, NUL, zero padding to
-/// a multiple of 4.
-fn key_value_bytes(pairs: &BTreeMap<&str, String>) -> Vec<u8> {
-    let mut bytes = Vec::new();
-    for (key, value) in pairs {
-        let length = key.len() + 1 + value.len() + 1;
-        bytes.extend_from_slice(&(length as u32).to_le_bytes());
-        bytes.extend_from_slice(key.as_bytes());
-        bytes.push(0);
-        bytes.extend_from_slice(value.as_bytes());
-        bytes.push(0);
-        bytes.resize(bytes.len().next_multiple_of(4), 0);
-    }
-    bytes
-}
-
-/// The alignment of the level data: `lcm(texel size, 4)` (KTX 2.0, "mipPadding").
-fn level_alignment(texel_bytes: usize) -> usize {
-    let gcd = |mut a: usize, mut b: usize| {
-        while b != 0 {
-            (a, b) = (b, a % b);
-        }
-        a
-    };
-    texel_bytes * 4 / gcd(texel_bytes, 4)
-}
-
-/// The bytes of [`write_ktx2`]'s file.
-pub fn encode_ktx2(table: &Table, precision: Precision) -> Result<Vec<u8>> {
-    let key = format!("table `{}`", table.name);
-    let ([width, height, depth], shape, format) = texture_extents(table, precision, "KTX2", vk_format)?;
-    let volume = shape == TextureShape::Volume;
-
-    let (dfd, type_size) = data_format_descriptor(format)?;
-    let kvd = key_value_bytes(&Description::of(table, precision, volume).pairs()?);
-    let kvd_offset = DFD_OFFSET + dfd.len();
-    let texel_bytes = table.channel_count() * precision.bytes();
-    let data_offset = (kvd_offset + kvd.len()).next_multiple_of(level_alignment(texel_bytes));
-    let data_len = table.data.len() * precision.bytes();
-    let too_long = || Error::invalid(&key, "its key/value data exceeds the 4 GiB a KTX2 index addresses");
-    let header = Header {
-        format: Some(format),
-        type_size,
-        pixel_width: width,
-        pixel_height: height,
-        // 0 makes a 2D texture; a volume states its depth.
-        pixel_depth: if volume { depth } else { 0 },
-        // 0 makes a single texture; an array states its layers (KTX 2.0 section 3.4).
-        layer_count: if shape == TextureShape::Layers { depth } else { 0 },
-        face_count: 1,
-        level_count: 1,
-        supercompression_scheme: None,
-        index: Index {
-            dfd_byte_offset: DFD_OFFSET as u32,
-            dfd_byte_length: dfd.len() as u32,
-            kvd_byte_offset: u32::try_from(kvd_offset).map_err(|_| too_long())?,
-            kvd_byte_length: u32::try_from(kvd.len()).map_err(|_| too_long())?,
-            sgd_byte_offset: 0,
-            sgd_byte_length: 0,
-        },
-    };
-    let level = LevelIndex {
-        byte_offset: data_offset as u64,
-        byte_length: data_len as u64,
-        uncompressed_byte_length: data_len as u64,
-    };
-
-    let mut bytes = Vec::with_capacity(data_offset + data_len);
-    bytes.extend_from_slice(&header.as_bytes());
-    bytes.extend_from_slice(&level.as_bytes());
-    bytes.extend_from_slice(&dfd);
-    bytes.extend_from_slice(&kvd);
-    bytes.resize(data_offset, 0);
-    // Table storage order is already texel order.
-    put_texels(&mut bytes, &table.data, precision);
-    Ok(bytes)
-}
-
 /// Channels and precision of the `VkFormat` a KTX2 file's header names, if it is one tmlut writes.
 pub fn stored_format(bytes: &[u8]) -> Option<(usize, Precision)> {
     let format = u32::from_le_bytes(bytes.get(12..16)?.try_into().ok()?);
     FORMATS.iter().find(|&&(f, _, _)| f.value() == format).map(|&(_, c, p)| (c, p))
 }
 
-/// Read a KTX2 file written by [`write_ktx2`].
+/// Read a KTX2 file as tmlut writes it.
 pub fn read_ktx2(path: &Path) -> Result<Ktx2Texture> {
     let bytes = read_bytes(path)?;
     decode_ktx2(&bytes, path)

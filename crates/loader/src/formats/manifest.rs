@@ -9,7 +9,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{FileFormat, MAX_MANIFEST_BYTES, Precision, read_bytes_at_most, write_bytes_atomically};
+use super::files::FileKind;
+use super::{FileFormat, Precision};
 use crate::error::{Error, Result};
 use crate::physics::FresnelBasis;
 use crate::stats::{AccuracyReport, ErrorRecord};
@@ -59,6 +60,7 @@ pub fn check_file_name(name: &str) -> std::result::Result<(), String> {
 
 /// The manifest of an output folder.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct Manifest {
     /// The tool and version that last wrote the folder.
     pub generator: String,
@@ -75,6 +77,7 @@ pub struct Manifest {
 
 /// The files of a scene shader (`docs/shaders.md`), each verified by `tmlut check` and the loader.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct SceneShaderRecord {
     /// The scene's name.
     pub scene: String,
@@ -82,8 +85,16 @@ pub struct SceneShaderRecord {
     pub files: Vec<SceneShaderFile>,
 }
 
+impl SceneShaderRecord {
+    /// The record of `scene`'s shader, its files to be added.
+    pub fn new(scene: impl Into<String>) -> Self {
+        SceneShaderRecord { scene: scene.into(), files: Vec::new() }
+    }
+}
+
 /// One file of a scene shader: what it is, its length and its SHA-256.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct SceneShaderFile {
     /// The file's name inside the folder.
     pub file: String,
@@ -95,8 +106,21 @@ pub struct SceneShaderFile {
     pub sha256: String,
 }
 
+impl SceneShaderFile {
+    /// The record of the file `file`, holding `what`, of `contents`: its length and SHA-256.
+    pub fn new(file: impl Into<String>, what: impl Into<String>, contents: &[u8]) -> Self {
+        SceneShaderFile {
+            file: file.into(),
+            what: what.into(),
+            bytes: contents.len() as u64,
+            sha256: super::sha256_hex(contents),
+        }
+    }
+}
+
 /// A scene a folder was built for, and the plan that was built.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct SceneRecord {
     /// The scene's name.
     pub name: String,
@@ -110,8 +134,18 @@ pub struct SceneRecord {
     pub plan: PlanRecord,
 }
 
+impl SceneRecord {
+    /// The record of the scene `name`, read from `source` as `text` (its SHA-256 taken here),
+    /// built by `plan`.
+    pub fn new(name: impl Into<String>, source: impl Into<String>, text: impl Into<String>, plan: PlanRecord) -> Self {
+        let text = text.into();
+        SceneRecord { name: name.into(), source: source.into(), sha256: super::sha256_hex(text.as_bytes()), text, plan }
+    }
+}
+
 /// What a scene's plan builds, what it leaves out, and why.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct PlanRecord {
     /// Each table (or fitted form) the plan builds, with the lookups it answers.
     pub tables: Vec<PlannedTableRecord>,
@@ -138,10 +172,25 @@ pub struct PlanRecord {
     pub albedo_forms: Vec<FittedForm>,
 }
 
+impl PlanRecord {
+    /// A plan of `tables` of `bytes` texel bytes (the default set's `default_set_bytes`), leaving
+    /// `left_out` out, with its `warnings`; no fitted form yet.
+    pub fn new(
+        tables: Vec<PlannedTableRecord>,
+        left_out: Vec<LeftOutRecord>,
+        warnings: Vec<String>,
+        bytes: u64,
+        default_set_bytes: u64,
+    ) -> Self {
+        PlanRecord { tables, left_out, warnings, bytes, default_set_bytes, ..PlanRecord::default() }
+    }
+}
+
 /// A form fitted to the TIR table by `tmlut fit --form`, which a scene's material names in place
 /// of the table (`tir = "fit:PATH"`): what the model evaluates, the scene shader prints, and the
 /// manifest and the furnace report record. Read and compiled by `crate::fit::forms::fitted`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct FittedForm {
     /// The form's name (its file's stem): its shader function is `tmlut_<name>`.
     pub name: String,
@@ -161,6 +210,30 @@ pub struct FittedForm {
     pub parameters: Vec<f64>,
 }
 
+impl FittedForm {
+    /// The form `name` fitted to `table`, read from `source` (`form_text`, its `definition`
+    /// statement by statement), with its `parameters` in `parameter_order`.
+    pub fn new(
+        name: impl Into<String>,
+        table: impl Into<String>,
+        source: impl Into<String>,
+        form_text: impl Into<String>,
+        definition: Vec<String>,
+        parameter_order: Vec<String>,
+        parameters: Vec<f64>,
+    ) -> Self {
+        FittedForm {
+            name: name.into(),
+            table: table.into(),
+            source: source.into(),
+            form_text: form_text.into(),
+            definition,
+            parameter_order,
+            parameters,
+        }
+    }
+}
+
 /// The table of a [`FittedForm`] recorded before forms replaced albedo tables: TIR.
 fn tir_table() -> String {
     "tir".into()
@@ -172,6 +245,7 @@ fn is_tir_table(table: &str) -> bool {
 
 /// One table of a scene's plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct PlannedTableRecord {
     /// The table's name (its files' stem).
     pub name: String,
@@ -185,8 +259,22 @@ pub struct PlannedTableRecord {
     pub reasons: Vec<String>,
 }
 
+impl PlannedTableRecord {
+    /// The planned table `name`, a `kind` of `shape` and `bytes` texel bytes, for `reasons`.
+    pub fn new(
+        name: impl Into<String>,
+        kind: impl Into<String>,
+        shape: impl Into<String>,
+        bytes: u64,
+        reasons: Vec<String>,
+    ) -> Self {
+        PlannedTableRecord { name: name.into(), kind: kind.into(), shape: shape.into(), bytes, reasons }
+    }
+}
+
 /// Lookups a scene's plan builds no table for.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct LeftOutRecord {
     /// Which lookups, in words (a material's layer, a site's albedo, ...).
     pub what: String,
@@ -194,8 +282,16 @@ pub struct LeftOutRecord {
     pub reason: String,
 }
 
+impl LeftOutRecord {
+    /// `what` a plan leaves out, and why.
+    pub fn new(what: impl Into<String>, reason: impl Into<String>) -> Self {
+        LeftOutRecord { what: what.into(), reason: reason.into() }
+    }
+}
+
 /// One axis as a file stores it, with the formula a shader uses to address it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct AxisEntry {
     /// The axis itself: its quantity, range, node count, placement and mapping (flattened into
     /// the entry).
@@ -234,6 +330,7 @@ impl AxisEntry {
 
 /// Everything known about one file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct FileEntry {
     /// The name of the table the file holds (e.g. `karis`, `gd`, `tir`).
     pub table: String,
@@ -308,6 +405,52 @@ pub struct FileEntry {
 }
 
 impl FileEntry {
+    /// The entry of a file of `contents` (its length and SHA-256 taken here) holding table `table`
+    /// in `format` and `precision`, over `axes`, with `channels`; the texel format a DDS or KTX2
+    /// file states, from those. What the build knows of the table (its integrand, sampling, error,
+    /// value range, ...) is empty, zero or absent, for the build to fill in.
+    pub fn new(
+        table: impl Into<String>,
+        format: FileFormat,
+        precision: Precision,
+        axes: Vec<AxisEntry>,
+        channels: Vec<Channel>,
+        contents: &[u8],
+    ) -> Self {
+        let texel_format = |wanted: FileFormat, name: fn(usize, Precision) -> String| {
+            (format == wanted).then(|| name(channels.len(), precision))
+        };
+        FileEntry {
+            table: table.into(),
+            format,
+            precision,
+            dxgi_format: texel_format(FileFormat::Dds, super::dds::dxgi_format_name),
+            vk_format: texel_format(FileFormat::Ktx2, super::ktx2::vk_format_name),
+            axes,
+            channels,
+            integrand: String::new(),
+            masking: None,
+            notes: Vec::new(),
+            method: String::new(),
+            sampler: String::new(),
+            samples_per_cell: 0,
+            seed: 0,
+            wall_time_s: 0.0,
+            value_range: [0.0, 0.0],
+            nan_count: 0,
+            error: ErrorEntry::default(),
+            fresnel_basis: None,
+            accuracy: Vec::new(),
+            sha256: super::sha256_hex(contents),
+            bytes: contents.len() as u64,
+            packing: None,
+            fit: None,
+            binding: None,
+            slice_array: None,
+            claims_sha256: None,
+        }
+    }
+
     /// SHA-256 of the entry's JSON without `claims_sha256` and with no wall time: how long a build
     /// took is no claim about the file, and two builds of one configuration seal alike.
     pub fn claims_hash(&self) -> String {
@@ -340,6 +483,7 @@ pub const UNSEALED: &str = "no `claims_sha256`, so its claims cannot be verified
 
 /// The texture, the sampler and the call that reproduce the table's interpolation on a GPU.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct Binding {
     /// Texture type in HLSL and WGSL, texel format (DXGI and WebGPU), mips, colour space.
     pub texture: String,
@@ -353,8 +497,23 @@ pub struct Binding {
     pub wgsl: String,
 }
 
+impl Binding {
+    /// The binding of a `texture` sampled with `sampler` at `coordinates` by the calls `hlsl` and
+    /// `wgsl`.
+    pub fn new(
+        texture: impl Into<String>,
+        sampler: impl Into<String>,
+        coordinates: Vec<String>,
+        hlsl: impl Into<String>,
+        wgsl: impl Into<String>,
+    ) -> Self {
+        Binding { texture: texture.into(), sampler: sampler.into(), coordinates, hlsl: hlsl.into(), wgsl: wgsl.into() }
+    }
+}
+
 /// One start of a least-squares search (`tmlut fit`, the build's fit): where it began, where it ended, and what NLopt said.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct StartRecord {
     /// The parameters the search began from.
     pub start: Vec<f64>,
@@ -370,8 +529,24 @@ pub struct StartRecord {
     pub evaluations: u64,
 }
 
+impl StartRecord {
+    /// A start from `start` that ended at `parameters` with `objective` after `evaluations`, as
+    /// NLopt's `status` said, a success or not.
+    pub fn new(
+        start: Vec<f64>,
+        parameters: Vec<f64>,
+        objective: f64,
+        status: impl Into<String>,
+        succeeded: bool,
+        evaluations: u64,
+    ) -> Self {
+        StartRecord { start, parameters, objective, status: status.into(), succeeded, evaluations }
+    }
+}
+
 /// The outcome of a least-squares search over several starts: the best start's result.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct Minimum {
     /// The NLopt algorithm used, e.g. `Lbfgs` or `Bobyqa`.
     pub algorithm: String,
@@ -385,8 +560,23 @@ pub struct Minimum {
     pub starts: Vec<StartRecord>,
 }
 
+impl Minimum {
+    /// The search by `algorithm` over `starts`, the best of them `best_start` with its
+    /// `parameters` and `objective`.
+    pub fn new(
+        algorithm: impl Into<String>,
+        parameters: Vec<f64>,
+        objective: f64,
+        best_start: usize,
+        starts: Vec<StartRecord>,
+    ) -> Self {
+        Minimum { algorithm: algorithm.into(), parameters, objective, best_start, starts }
+    }
+}
+
 /// Error of a form over the table's nodes, evaluated in f32 (what a shader computes).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ErrorFigures {
     /// Root mean square of the error over the nodes.
     pub rmse: f64,
@@ -400,8 +590,16 @@ pub struct ErrorFigures {
     pub nodes: usize,
 }
 
+impl ErrorFigures {
+    /// The figures over `nodes` nodes, the largest error at `max_at`.
+    pub fn new(rmse: f64, mse: f64, max_abs_error: f64, max_at: [f64; 3], nodes: usize) -> Self {
+        ErrorFigures { rmse, mse, max_abs_error, max_at, nodes }
+    }
+}
+
 /// A form fitted to a table by least squares (`crate::fit`), with its shaders.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct FitEntry {
     /// The form's name (its form file's stem).
     pub form: String,
@@ -430,8 +628,35 @@ pub struct FitEntry {
     pub shaders: Vec<ShaderFile>,
 }
 
+impl FitEntry {
+    /// The form `form` (`formula` in words) with its fitted `parameters` by `parameter_names`, its
+    /// `figures`, chosen by the rule `chosen_by`; no form text, definition, search or shader yet.
+    pub fn new(
+        form: impl Into<String>,
+        formula: impl Into<String>,
+        chosen_by: impl Into<String>,
+        parameter_names: Vec<String>,
+        parameters: Vec<f64>,
+        figures: ErrorFigures,
+    ) -> Self {
+        FitEntry {
+            form: form.into(),
+            formula: formula.into(),
+            form_text: String::new(),
+            definition: Vec::new(),
+            chosen_by: chosen_by.into(),
+            parameter_names,
+            parameters,
+            figures,
+            search: None,
+            shaders: Vec::new(),
+        }
+    }
+}
+
 /// How a table of more axes than a texture has is packed into one, and how to read it back.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct PackingEntry {
     /// The packing's name (`lossless`, `lossless-filtered`, `thesis`).
     pub name: String,
@@ -451,8 +676,35 @@ pub struct PackingEntry {
     pub shaders: Vec<ShaderFile>,
 }
 
+impl PackingEntry {
+    /// The packing `name` into a texture of `texture_extent` texels, `lossless` or not, of a
+    /// table over `source_axes`, laid out as `layout` says and read by `lookup` in
+    /// `fetches_per_lookup` fetches; its shaders to be added.
+    pub fn new(
+        name: impl Into<String>,
+        lossless: bool,
+        texture_extent: [usize; 3],
+        source_axes: Vec<AxisEntry>,
+        layout: Vec<String>,
+        lookup: Vec<String>,
+        fetches_per_lookup: usize,
+    ) -> Self {
+        PackingEntry {
+            name: name.into(),
+            lossless,
+            texture_extent,
+            source_axes,
+            layout,
+            lookup,
+            fetches_per_lookup,
+            shaders: Vec::new(),
+        }
+    }
+}
+
 /// A shader source file holding a lookup function.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ShaderFile {
     /// `hlsl` or `wgsl`.
     pub language: String,
@@ -464,9 +716,27 @@ pub struct ShaderFile {
     pub sha256: String,
 }
 
+impl ShaderFile {
+    /// The `language` file `file` of `contents` (its SHA-256 taken here), defining `function`.
+    pub fn new(
+        language: impl Into<String>,
+        file: impl Into<String>,
+        function: impl Into<String>,
+        contents: &[u8],
+    ) -> Self {
+        ShaderFile {
+            language: language.into(),
+            file: file.into(),
+            function: function.into(),
+            sha256: super::sha256_hex(contents),
+        }
+    }
+}
+
 /// The error of a file's values: the integration error of the f32 table, and what storing it in
 /// the file's precision adds.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ErrorEntry {
     /// The integration error of the f32 values (flattened into the entry).
     #[serde(flatten)]
@@ -482,9 +752,18 @@ pub struct ErrorEntry {
     pub interpolation: Vec<crate::stats::InterpolationError>,
 }
 
+impl ErrorEntry {
+    /// The error of values integrated with `integration`, changed by at most
+    /// `storage_rounding_max` by storage; no channel sum or interpolation figures yet.
+    pub fn new(integration: ErrorRecord, storage_rounding_max: f64) -> Self {
+        ErrorEntry { integration, storage_rounding_max, ..ErrorEntry::default() }
+    }
+}
+
 /// What rounding to the storage precision did to the sum of a texel's channels, where that sum is
 /// an albedo (Karis: `scale + bias`, the albedo at `F0 = 1`), which must not exceed 1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ChannelSumStorage {
     /// How the channels were rounded.
     pub rounding: super::SumRounding,
@@ -500,7 +779,26 @@ pub struct ChannelSumStorage {
     pub max_sum: f64,
 }
 
+impl ChannelSumStorage {
+    /// What `rounding` did, before any texel is counted: nothing.
+    pub fn new(rounding: super::SumRounding) -> Self {
+        ChannelSumStorage {
+            rounding,
+            texels_above_one: 0,
+            max_above_one: 0.0,
+            texels_above_integral: 0,
+            max_above_integral: 0.0,
+            max_sum: 0.0,
+        }
+    }
+}
+
 impl Manifest {
+    /// A manifest written by `generator` (the tool and its version), listing no file yet.
+    pub fn new(generator: impl Into<String>) -> Self {
+        Manifest { generator: generator.into(), ..Manifest::default() }
+    }
+
     /// The manifest of `dir`, or an empty one if the folder has none yet.
     pub fn read_or_default(dir: &Path) -> Result<Self> {
         let path = dir.join(MANIFEST_FILE);
@@ -510,32 +808,16 @@ impl Manifest {
         Self::read(&path)
     }
 
-    /// The manifest at `path`; refused where it is longer than [`MAX_MANIFEST_BYTES`], more than this
-    /// process's memory can parse, or not a tmlut manifest.
+    /// The manifest at `path`; refused where it is longer than [`super::MAX_MANIFEST_BYTES`], more than this
+    /// process's memory can parse ([`FileKind::read`]), or not a tmlut manifest.
     pub fn read(path: &Path) -> Result<Self> {
-        // Parsed, a manifest takes about four times its text (`tmlut check` of the largest
-        // library's, 89 MB, peaked at 387 MB): a large one is held to the process's memory first.
-        super::files::hold_to_memory(path, 16 << 20, 6, "reading it")?;
-        let bytes = read_bytes_at_most(path, MAX_MANIFEST_BYTES, "a manifest")?;
-        serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
+        Self::from_bytes(&FileKind::Manifest.read(path)?, path)
     }
 
-    /// Write the manifest of `dir` atomically.
-    pub fn write(&self, dir: &Path) -> Result<()> {
-        let mut text = serde_json::to_string_pretty(self).expect("a manifest is plain data and always serialises");
-        text.push('\n');
-        // What every reader refuses is never written.
-        if text.len() as u64 > MAX_MANIFEST_BYTES {
-            return Err(Error::format(
-                dir.join(MANIFEST_FILE),
-                format!(
-                    "would be {} bytes long; a manifest may be at most {MAX_MANIFEST_BYTES} bytes, which tmlut's readers \
-                     hold it to: build fewer materials into one folder",
-                    text.len()
-                ),
-            ));
-        }
-        write_bytes_atomically(&dir.join(MANIFEST_FILE), text.as_bytes())
+    /// The manifest whose text is `bytes`, read from `path` (which errors name); refused unless a
+    /// tmlut manifest.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self> {
+        serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("not a tmlut manifest: {e}")))
     }
 
     /// The entry of the file named `file`, if the manifest lists it.
@@ -570,60 +852,20 @@ impl Manifest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stats::{ErrorSummary, ReferenceComparison};
+    use crate::formats::test_folder::test_folder;
 
     #[test]
-    fn manifest_round_trips_through_json() {
-        let axis = Axis::node_aligned("mu", 0.0, 1.0, 64).unwrap();
-        let entry = FileEntry {
-            table: "gd".into(),
-            format: FileFormat::Bin,
-            precision: Precision::F32,
-            dxgi_format: None,
-            vk_format: None,
-            axes: vec![AxisEntry::new(&axis, "axis 0")],
-            channels: vec![Channel::new("value", "albedo")],
-            integrand: "E[G1(wo)]".into(),
-            masking: Some("smith-separable".into()),
-            notes: vec![],
-            method: "m".into(),
-            sampler: "s".into(),
-            samples_per_cell: 1024,
-            seed: 1,
-            wall_time_s: 0.5,
-            value_range: [0.3, 1.0],
-            nan_count: 0,
-            error: ErrorEntry {
-                integration: ErrorRecord {
-                    replicate_standard_error: ErrorSummary { count: 4096, rms: 1e-5, max: 1e-4 },
-                    reference: Some(ReferenceComparison {
-                        exact_nodes: 8,
-                        difference: ErrorSummary { count: 10, rms: 1e-5, max: 2e-5 },
-                    }),
-                },
-                storage_rounding_max: 0.0,
-                storage_channel_sum: None,
-                interpolation: vec![],
-            },
-            fresnel_basis: None,
-            accuracy: vec![],
-            sha256: "00".into(),
-            bytes: 16408,
-            packing: None,
-            fit: None,
-            binding: None,
-            slice_array: None,
-            claims_sha256: None,
-        };
-        let mut manifest = Manifest { generator: "tmlut test".into(), files: BTreeMap::new(), ..Default::default() };
-        manifest.files.insert("gd.bin".into(), entry);
-        let dir = tempfile::tempdir().unwrap();
-        manifest.write(dir.path()).unwrap();
-        let back = Manifest::read_or_default(dir.path()).unwrap();
-        assert_eq!(back, manifest);
-        let text = std::fs::read_to_string(dir.path().join(MANIFEST_FILE)).unwrap();
-        assert!(text.contains("\"texture_coordinate\": \"(mu) * 63 / 64 + 0.5 / 64\""), "{text}");
-        assert!(text.contains("\"placement\": \"node-aligned\""), "{text}");
+    fn a_written_manifest_reads_back_with_every_entrys_conventions() {
+        let manifest = Manifest::read(&test_folder().join(MANIFEST_FILE)).unwrap();
+        assert_eq!(manifest.generator, "tmlut test");
+        let gd = manifest.entry("gd.dds").unwrap();
+        assert_eq!((gd.table.as_str(), gd.format, gd.precision), ("gd", FileFormat::Dds, Precision::F16));
+        assert_eq!(gd.dxgi_format.as_deref(), Some("R16_FLOAT"));
+        assert_eq!(gd.axes[0].texture_coordinate, gd.axes[0].axis.texture_coordinate_formula());
+        assert_eq!(manifest.entry("tir.ktx2").unwrap().vk_format.as_deref(), Some("R32_SFLOAT"));
+        assert_eq!(manifest.entry("slices.dds").unwrap().axes[2].stored_along, "layer");
+        assert!(manifest.entry("missing.dds").is_none());
+        assert_eq!(manifest.listed_files().len(), manifest.files.len(), "tables only: no shaders listed");
     }
 
     #[test]
@@ -632,5 +874,6 @@ mod tests {
         std::fs::write(dir.path().join(MANIFEST_FILE), b"{\"hello\": 1}").unwrap();
         let err = Manifest::read_or_default(dir.path()).unwrap_err().to_string();
         assert!(err.contains("not a tmlut manifest"), "{err}");
+        assert_eq!(Manifest::read_or_default(&dir.path().join("empty")).unwrap(), Manifest::default());
     }
 }

@@ -2,37 +2,28 @@
 //! "What a renderer binds") packed into a few arrays of 2D textures, so that a renderer binds a
 //! handful of textures, not one per slice.
 //!
-//! Slices of one kind, channel count and precision share an array. Each layer is a fixed
-//! `width x height` texels; slices are placed on shelves (rows of slices, tallest first, left to
-//! right), each inside a gutter of one texel that repeats its edge. Read with its coordinate
-//! clamped to its own nodes, a slice then filters exactly as it would as a texture of its own
-//! with clamp addressing, by the hardware sampler as by explicit texel loads: a bilinear footprint
-//! that reaches past the last node reaches a copy of it. Layers hold at most
-//! [`MAX_LAYERS`] per array, the layer count every WebGPU device supports.
+//! Slices of one kind, channel count and precision share an array. Each slice lies inside a
+//! gutter of one texel that repeats its edge. Read with its coordinate clamped to its own nodes,
+//! a slice then filters exactly as it would as a texture of its own with clamp addressing, by the
+//! hardware sampler as by explicit texel loads: a bilinear footprint that reaches past the last
+//! node reaches a copy of it. How tmlut places the slices in layers (shelves, tallest first) is
+//! the writing side's, tmlut's `formats::slice_array`.
 //!
 //! The manifest entry of an array lists each slice it holds ([`ArraySlice`]): its name, layer, the
 //! texel of its first node, its axes and channels as its own file would state them, and the
-//! texture coordinate of each axis in the array.
+//! texture coordinate of each axis in the array. [`unpack`] cuts a slice back out.
 
 use serde::{Deserialize, Serialize};
 
-use super::LAYER_AXIS;
 use super::manifest::{AxisEntry, ErrorEntry};
 use crate::error::{Error, Result};
 use crate::stats::AccuracyReport;
 use crate::table::{Arithmetic, Axis, Channel, Table};
 
-/// Layers per array: WebGPU's default `maxTextureArrayLayers`, which every adapter supports
-/// (Direct3D 11 allows 2048, Vulkan at least 256).
-pub const MAX_LAYERS: usize = 256;
-
-/// The height of a layer where the slices fill more than one: 256 texels (at most 129 nodes of
-/// `alpha` plus gutters fit any slice).
-pub const LAYER_HEIGHT: usize = 256;
-
 /// The manifest's description of a texture array of slices (`FileEntry::slice_array`). The
-/// entry's own `axes` are the array's texel axes (`x`, `y`, [`LAYER_AXIS`]).
+/// entry's own `axes` are the array's texel axes (`x`, `y`, [`super::LAYER_AXIS`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct SliceArrayEntry {
     /// Texels per layer, `[width, height]`, and the number of layers.
     pub layer_extent: [u32; 2],
@@ -44,6 +35,7 @@ pub struct SliceArrayEntry {
 
 /// One slice of a texture array.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct ArraySlice {
     /// The slice's table name (what its own file would be called, without the extension).
     pub table: String,
@@ -66,151 +58,35 @@ pub struct ArraySlice {
     pub accuracy: Vec<AccuracyReport>,
 }
 
+impl SliceArrayEntry {
+    /// An array of `layers` layers of `layer_extent` texels holding `slices`.
+    pub fn new(layer_extent: [u32; 2], layers: u32, slices: Vec<ArraySlice>) -> Self {
+        SliceArrayEntry { layer_extent, layers, slices }
+    }
+}
+
 impl ArraySlice {
+    /// The slice `table` at `origin` of `layer`, over `axes` (their coordinates in the array),
+    /// with `channels`, values over `value_range` and `error`; no further accuracy figures yet.
+    pub fn new(
+        table: impl Into<String>,
+        layer: u32,
+        origin: [u32; 2],
+        axes: Vec<AxisEntry>,
+        channels: Vec<Channel>,
+        value_range: [f32; 2],
+        error: ErrorEntry,
+    ) -> Self {
+        ArraySlice { table: table.into(), layer, origin, axes, channels, value_range, error, accuracy: Vec::new() }
+    }
+
     /// Its axes as quantities, without the array's texture-coordinate formulas.
     pub fn axes(&self) -> Vec<Axis> {
         self.axes.iter().map(|a| a.axis.clone()).collect()
     }
 }
 
-/// Where a slice of `extent` texels (`[mu nodes, alpha nodes]`) goes: its layer and the texel of its
-/// first node.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Slot {
-    /// The layer, from 0.
-    pub layer: usize,
-    /// The texel of the slice's first node, `[x, y]`, inside its gutter.
-    pub origin: [usize; 2],
-}
-
-/// The layout of slices of the given extents in layers of one extent: the layer extent, the number
-/// of layers and each slice's slot, in input order. Deterministic: it depends on the extents
-/// and their order only.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Layout {
-    /// Texels per layer, `[width, height]`.
-    pub layer_extent: [usize; 2],
-    /// The number of layers.
-    pub layers: usize,
-    /// Each slice's slot, in the order the extents were given.
-    pub slots: Vec<Slot>,
-}
-
-/// Shelf packing (next fit by decreasing height): slices sorted tallest first (input order among
-/// equals) fill a shelf left to right; a shelf as tall as its first slice opens below the last
-/// where one does not fit across; a layer opens where a shelf does not fit below. Each slice takes
-/// its extent plus a gutter of one texel on every side. Layers are [`LAYER_HEIGHT`] tall and of the
-/// width among [`LAYER_WIDTHS`] (or the widest slice's, or twice it) that takes the fewest texels.
-/// An array has at least two layers (its layer axis, like every axis, at least two nodes): the
-/// shelves of one layer are split over two lower ones where they allow it, else the second
-/// layer stays empty.
-pub fn layout(extents: &[[usize; 2]]) -> Layout {
-    let widest = extents.iter().map(|e| e[0] + 2).max().unwrap_or(1);
-    let tallest = extents.iter().map(|e| e[1] + 2).max().unwrap_or(1);
-    let mut widths: Vec<usize> =
-        [widest, 2 * widest].into_iter().chain(LAYER_WIDTHS).filter(|&w| w >= widest).collect();
-    widths.sort_unstable();
-    widths.dedup();
-    let (best, used) = widths
-        .into_iter()
-        .map(|width| shelf_pack(extents, width, LAYER_HEIGHT.max(tallest)))
-        .min_by_key(|(l, used)| l.layer_extent[0] * if l.layers == 1 { *used } else { l.layer_extent[1] * l.layers })
-        .expect("at least one width");
-    if best.layers != 1 {
-        return best;
-    }
-    let width = best.layer_extent[0];
-    (tallest.max(used.div_ceil(2))..=used)
-        .map(|height| shelf_pack(extents, width, height).0)
-        .find(|l| l.layers == 2)
-        .unwrap_or(Layout { layer_extent: [width, used], layers: 2, slots: best.slots })
-}
-
-/// Layer widths [`layout`] tries beside the widest slice's.
-pub const LAYER_WIDTHS: [usize; 4] = [256, 512, 1024, 2048];
-
-/// The shelves of [`layout`] in layers `width x height`, and the rows the last layer uses.
-fn shelf_pack(extents: &[[usize; 2]], width: usize, height: usize) -> (Layout, usize) {
-    let mut order: Vec<usize> = (0..extents.len()).collect();
-    order.sort_by_key(|&k| std::cmp::Reverse(extents[k][1]));
-    let mut slots = vec![Slot { layer: 0, origin: [0, 0] }; extents.len()];
-    let (mut layer, mut shelf_y, mut shelf_height, mut x) = (0, 0, 0, 0);
-    for k in order {
-        let [w, h] = [extents[k][0] + 2, extents[k][1] + 2];
-        if x + w > width {
-            shelf_y += shelf_height;
-            x = 0;
-            shelf_height = 0;
-        }
-        if shelf_y + h > height {
-            layer += 1;
-            shelf_y = 0;
-            x = 0;
-            shelf_height = 0;
-        }
-        slots[k] = Slot { layer, origin: [x + 1, shelf_y + 1] };
-        x += w;
-        shelf_height = shelf_height.max(h);
-    }
-    let layers = if extents.is_empty() { 0 } else { layer + 1 };
-    (Layout { layer_extent: [width, height], layers, slots }, shelf_y + shelf_height)
-}
-
-/// The texel axes of an array: `x` and `y` of a layer, then the layers.
-pub fn texel_axes(layer_extent: [usize; 2], layers: usize) -> Result<Vec<Axis>> {
-    let axis = |name: &str, count: usize| Axis::node_aligned(name, 0.0, (count - 1) as f64, count);
-    Ok(vec![axis("x", layer_extent[0])?, axis("y", layer_extent[1])?, axis(LAYER_AXIS, layers)?])
-}
-
-/// The slices (each a table of two axes with the same channel count) laid out by [`layout`] into
-/// one array table named `name`, gutters repeating each slice's edge, texels of no slice zero.
-/// Fails where the layout needs more than [`MAX_LAYERS`] layers: the caller splits the slices.
-pub fn pack(name: &str, slices: &[&Table], channels: Vec<Channel>) -> Result<(Table, Layout)> {
-    let extents: Vec<[usize; 2]> = slices.iter().map(|t| [t.axes[0].count, t.axes[1].count]).collect();
-    let layout = layout(&extents);
-    if layout.layers > MAX_LAYERS {
-        return Err(Error::invalid(
-            format!("texture array `{name}`"),
-            format!("needs {} layers; allowed: at most {MAX_LAYERS}", layout.layers),
-        ));
-    }
-    let c = channels.len();
-    let [width, height] = layout.layer_extent;
-    if slices.is_empty() {
-        return Err(Error::invalid(format!("texture array `{name}`"), "holds no slice"));
-    }
-    let mut data = vec![0f32; width * height * layout.layers * c];
-    for (slice, slot) in slices.iter().zip(&layout.slots) {
-        if slice.channels.len() != c || slice.axes.len() != 2 {
-            return Err(Error::invalid(
-                format!("texture array `{name}`"),
-                format!(
-                    "slice `{}` has {} axes and {} channels; it needs 2 and {c}",
-                    slice.name,
-                    slice.axes.len(),
-                    slice.channels.len()
-                ),
-            ));
-        }
-        let [nx, ny] = [slice.axes[0].count, slice.axes[1].count];
-        // The gutter rows and columns (-1 and n) read the nearest node: clamp addressing.
-        for gy in -1..=ny as isize {
-            let sy = gy.clamp(0, ny as isize - 1) as usize;
-            let ty = (slot.origin[1] as isize + gy) as usize;
-            for gx in -1..=nx as isize {
-                let sx = gx.clamp(0, nx as isize - 1) as usize;
-                let tx = (slot.origin[0] as isize + gx) as usize;
-                let from = (sy * nx + sx) * c;
-                let to = ((slot.layer * height + ty) * width + tx) * c;
-                data[to..to + c].copy_from_slice(&slice.data[from..from + c]);
-            }
-        }
-    }
-    let table = Table::new(name, texel_axes(layout.layer_extent, layout.layers)?, channels, data)?;
-    Ok((table, layout))
-}
-
-/// The slice `slice` of `array` (as [`pack`] wrote it): its nodes copied out of their layer, as a
+/// The slice `slice` of `array` (as tmlut packs it): its nodes copied out of their layer, as a
 /// table of its own axes and channels. Fails, naming the slice, where the manifest places it
 /// outside the array.
 pub fn unpack(array: &Table, slice: &ArraySlice) -> Result<Table> {
@@ -244,19 +120,10 @@ pub fn unpack(array: &Table, slice: &ArraySlice) -> Result<Table> {
     Table::new(&slice.table, axes, slice.channels.clone(), data)
 }
 
-/// The texture coordinate of `axis` of a slice in an array whose layers are `extent` texels along
-/// it, the slice's first node at texel `origin`: the node position clamped to the slice, shifted
-/// to its texels. As a formula over the axis's quantity, for the manifest.
-pub fn texture_coordinate_formula(axis: &Axis, origin: u32, extent: usize) -> String {
-    let m0 = axis.mapping.forward(axis.start);
-    let m1 = axis.mapping.forward(axis.end);
-    let mapped = axis.mapping.formula(&axis.name);
-    let minus_m0 = if m0 < 0.0 { format!("+ {}", -m0) } else { format!("- {m0}") };
-    format!("({origin} + 0.5 + clamp(({mapped} {minus_m0}) / ({m1} {minus_m0}), 0, 1) * {}) / {extent}", axis.count - 1)
-}
-
-/// The texture coordinate of value `x` along `axis` of a slice in an array, as
-/// [`texture_coordinate_formula`] states it, in f32 as a shader computes it.
+/// The texture coordinate of value `x` along `axis` of a slice in an array whose layers are
+/// `extent` texels along it, the slice's first node at texel `origin`: the node position clamped
+/// to the slice, shifted to its texels, in f32 as a shader computes it (the formula the manifest
+/// states for the axis, `texture_coordinate`).
 pub fn texture_coordinate(axis: &Axis, origin: u32, extent: usize, x: f64) -> f32 {
     texture_coordinate_in(axis, origin, extent, x as f32)
 }
@@ -270,31 +137,34 @@ pub fn texture_coordinate_in<T: Arithmetic>(axis: &Axis, origin: u32, extent: us
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stats::{ErrorRecord, ErrorSummary};
     use crate::table::Mapping;
 
-    fn slice(name: &str, nx: usize, ny: usize, channels: usize, seed: f32) -> Table {
+    /// An array of 2 layers of 8 x 5 texels, 2 channels, each texel holding its own index.
+    fn array() -> Table {
         let axes = vec![
-            Axis::node_aligned("mu", 0.25, 1.0, nx).unwrap().with_mapping(Mapping::Sqrt).unwrap(),
-            Axis::node_aligned("alpha", 0.1, 0.2, ny).unwrap(),
+            Axis::node_aligned("x", 0.0, 7.0, 8).unwrap(),
+            Axis::node_aligned("y", 0.0, 4.0, 5).unwrap(),
+            Axis::node_aligned(crate::formats::LAYER_AXIS, 0.0, 1.0, 2).unwrap(),
         ];
-        let data = (0..nx * ny * channels).map(|i| seed + i as f32 * 0.5).collect();
-        let channels = (0..channels).map(|c| Channel::new(format!("c{c}"), "")).collect();
-        Table::new(name, axes, channels, data).unwrap()
+        let data = (0..8 * 5 * 2 * 2).map(|i| i as f32).collect();
+        Table::new("fgd_array_rg", axes, vec![Channel::new("c0", ""), Channel::new("c1", "")], data).unwrap()
     }
 
-    fn entry_of(table: &Table, slot: Slot) -> ArraySlice {
+    /// The entry of a slice of `nx` x `ny` nodes at `origin` of `layer`.
+    fn slice(layer: u32, origin: [u32; 2], [nx, ny]: [usize; 2]) -> ArraySlice {
+        let axes =
+            [Axis::node_aligned("mu", 0.25, 1.0, nx).unwrap(), Axis::node_aligned("alpha", 0.1, 0.2, ny).unwrap()];
+        let no_error = ErrorSummary { count: 0, rms: 0.0, max: 0.0 };
         ArraySlice {
-            table: table.name.clone(),
-            layer: slot.layer as u32,
-            origin: slot.origin.map(|o| o as u32),
-            axes: table.axes.iter().map(|a| AxisEntry::new(a, "x")).collect(),
-            channels: table.channels.clone(),
+            table: "fgd_a".into(),
+            layer,
+            origin,
+            axes: axes.iter().zip(["x", "y"]).map(|(a, along)| AxisEntry::new(a, along)).collect(),
+            channels: array().channels,
             value_range: [0.0, 0.0],
             error: ErrorEntry {
-                integration: crate::stats::ErrorRecord {
-                    replicate_standard_error: crate::stats::ErrorSummary { count: 0, rms: 0.0, max: 0.0 },
-                    reference: None,
-                },
+                integration: ErrorRecord { replicate_standard_error: no_error, reference: None },
                 storage_rounding_max: 0.0,
                 storage_channel_sum: None,
                 interpolation: Vec::new(),
@@ -304,81 +174,35 @@ mod tests {
     }
 
     #[test]
-    fn slices_never_overlap_with_their_gutters_and_stay_inside_their_layer() {
-        // Extents as a library's FGD and TIR slices have them, enough to need several layers.
-        let extents: Vec<[usize; 2]> =
-            (0..900).map(|k| [20 + (k * 37) % 110, 2 + (k * 13) % 12]).chain([[129, 2], [513, 129]]).collect();
-        let layout = layout(&extents);
-        assert!(layout.layers > 1);
-        let [width, height] = layout.layer_extent;
-        let mut owner = vec![usize::MAX; width * height * layout.layers];
-        for (k, (slot, e)) in layout.slots.iter().zip(&extents).enumerate() {
-            assert!(slot.origin[0] >= 1 && slot.origin[1] >= 1, "{k}");
-            assert!(slot.origin[0] + e[0] < width && slot.origin[1] + e[1] < height, "{k}: {slot:?} {e:?}");
-            for y in slot.origin[1] - 1..=slot.origin[1] + e[1] {
-                for x in slot.origin[0] - 1..=slot.origin[0] + e[0] {
-                    let texel = &mut owner[(slot.layer * height + y) * width + x];
-                    assert_eq!(*texel, usize::MAX, "slices {} and {k} overlap at {x}, {y}", *texel);
-                    *texel = k;
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn the_shelves_of_one_layer_are_split_over_two() {
-        let layout = layout(&[[129, 2], [129, 2], [33, 3]]);
-        // Three shelves of 5, 4 and 4 rows in 131 columns (256 columns would take more texels): the
-        // first in one layer, the other two in the second.
-        assert_eq!((layout.layers, layout.layer_extent), (2, [131, 8]));
-        assert_eq!(layout.slots[2], Slot { layer: 0, origin: [1, 1] });
-        assert_eq!(layout.slots[1], Slot { layer: 1, origin: [1, 5] });
-        // One shelf cannot be split: the second layer stays empty.
-        let single = super::layout(&[[10, 2]]);
-        assert_eq!((single.layers, single.layer_extent), (2, [12, 4]));
-    }
-
-    #[test]
-    fn every_slice_unpacks_to_itself_and_its_gutter_repeats_its_edge() {
-        let slices: Vec<Table> =
-            (0..40).map(|k| slice(&format!("s{k}"), 5 + k % 7, 2 + k % 3, 2, k as f32 * 100.0)).collect();
-        let refs: Vec<&Table> = slices.iter().collect();
-        let (array, layout) = pack("fgd_slices", &refs, slices[0].channels.clone()).unwrap();
-        let [width, height] = layout.layer_extent;
-        for (table, slot) in slices.iter().zip(&layout.slots) {
-            assert_eq!(&unpack(&array, &entry_of(table, *slot)).unwrap(), table);
-            // The texel left of the first node and the one below the last node hold copies.
-            let at = |x: usize, y: usize, c: usize| array.data[((slot.layer * height + y) * width + x) * 2 + c];
-            let [x0, y0] = slot.origin;
-            let [nx, ny] = [table.axes[0].count, table.axes[1].count];
-            assert_eq!(at(x0 - 1, y0, 1), table.data[1]);
-            assert_eq!(at(x0 + nx, y0 + ny, 0), table.data[(ny * nx - 1) * 2]);
-        }
+    fn a_slice_unpacks_to_its_nodes_inside_its_gutter() {
+        let unpacked = unpack(&array(), &slice(1, [2, 1], [3, 2])).unwrap();
+        assert_eq!(unpacked.name, "fgd_a");
+        assert_eq!(unpacked.shape(), [3, 2]);
+        // Texel (x, y) of layer 1 is node (x - 2, y - 1); its index is ((1 * 5 + y) * 8 + x) * 2 + c.
+        let index = |x: usize, y: usize, c: usize| (((5 + y) * 8 + x) * 2 + c) as f32;
+        assert_eq!(unpacked.node(&[0, 0]), [index(2, 1, 0), index(2, 1, 1)]);
+        assert_eq!(unpacked.node(&[2, 1]), [index(4, 2, 0), index(4, 2, 1)]);
     }
 
     #[test]
     fn a_slice_placed_outside_its_array_is_refused_with_its_name() {
-        let table = slice("fgd_a", 5, 2, 1, 0.0);
-        let (array, layout) = pack("fgd_slices", &[&table], table.channels.clone()).unwrap();
-        let mut entry = entry_of(&table, layout.slots[0]);
-        entry.origin = [3, 0];
-        let error = unpack(&array, &entry).unwrap_err().to_string();
-        assert!(error.contains("fgd_a") && error.contains("outside the array"), "{error}");
-        entry.origin = [1, 1];
-        entry.layer = 2;
-        assert!(unpack(&array, &entry).is_err());
+        for (layer, origin) in [(0, [3, 0]), (2, [1, 1]), (0, [5, 1]), (0, [1, 3])] {
+            let error = unpack(&array(), &slice(layer, origin, [3, 2])).unwrap_err().to_string();
+            assert!(error.contains("fgd_a") && error.contains("outside the array"), "{layer} {origin:?}: {error}");
+        }
+        let mut one_channel = slice(0, [1, 1], [3, 2]);
+        one_channel.channels.pop();
+        assert!(unpack(&array(), &one_channel).unwrap_err().to_string().contains("a slice has 2 axes"));
     }
 
     #[test]
-    fn the_coordinate_formula_and_its_f32_evaluation_agree_on_the_nodes() {
+    fn the_coordinate_lies_on_the_slices_texels_and_stays_on_its_end_nodes() {
         let axis = Axis::node_aligned("mu", 0.25, 1.0, 9).unwrap().with_mapping(Mapping::Sqrt).unwrap();
-        let formula = texture_coordinate_formula(&axis, 7, 64);
-        assert!(formula.starts_with("(7 + 0.5 + clamp((sqrt(mu) - 0.5) / (1 - 0.5), 0, 1) * 8) / 64"), "{formula}");
         for k in 0..9 {
             let u = texture_coordinate(&axis, 7, 64, axis.node_value(k));
             assert!((u * 64.0 - (7.5 + k as f32)).abs() < 1e-4, "node {k}: {u}");
         }
-        // Outside the slice the coordinate stays on its end nodes.
         assert_eq!(texture_coordinate(&axis, 7, 64, 0.0), 7.5 / 64.0);
+        assert_eq!(texture_coordinate(&axis, 7, 64, 2.0), 15.5 / 64.0);
     }
 }

@@ -3,7 +3,10 @@
 //! texel bytes without a copy). `docs/loader.md` walks through it.
 //!
 //! - [`LutFolder`]: an output folder and its read-only manifest; every file is loaded verified
-//!   against its entry (length, SHA-256, axes, channels, value range).
+//!   against its entry (length, SHA-256, axes, channels, value range). The folder's files are
+//!   read from disk ([`LutFolder::open`]) or from anywhere else that hands over their bytes by
+//!   name ([`LutFolder::from_source`]: files held in memory, [`InMemory`], or a [`LutSource`] of
+//!   one's own), with the same checks.
 //! - Typed handles ([`KarisLut`], [`BelcourLut`], [`GdLut`], [`TirLut`], [`FgdLut`],
 //!   [`FgdRarerLut`]): sampled with plain arguments, allocation-free, as the CPU interpolates or
 //!   as a GPU filters.
@@ -19,6 +22,7 @@
 pub mod handles;
 pub mod roughness;
 pub mod shader;
+pub mod source;
 #[cfg(test)]
 mod tests;
 pub mod texture;
@@ -30,37 +34,61 @@ pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Ta
 pub use handles::{BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, TirLut};
 pub use roughness::{Alpha, Roughness};
 pub use shader::{MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
+pub use source::{InMemory, LutSource, OnDisk};
 pub use texture::{
     Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,
 };
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
-use crate::formats::manifest::{FitEntry, MANIFEST_FILE, check_file_name, pending_commit, pending_commit_error};
+use crate::formats::files::FileKind;
+use crate::formats::manifest::{
+    COMMIT_JOURNAL, FitEntry, MANIFEST_FILE, check_file_name, pending_commit, pending_commit_error,
+};
 use crate::formats::{bin, dds, ktx2, read_bytes};
 
 /// An output folder of tmlut and its manifest, read once and never changed: every file loaded
-/// through it is verified against the entry read here.
+/// through it is verified against the entry read here. Its files are read from a [`LutSource`]:
+/// a folder on disk ([`LutFolder::open`]) or files held in memory ([`InMemory`]).
 #[derive(Debug, Clone)]
 pub struct LutFolder {
-    dir: PathBuf,
+    source: Arc<dyn LutSource>,
     manifest: Manifest,
 }
 
 impl LutFolder {
-    /// Open a folder: its manifest, refused if a build was interrupted while committing into it.
+    /// Open the folder `dir` on disk: its manifest, refused if a build was interrupted while
+    /// committing into it.
     pub fn open(dir: impl AsRef<Path>) -> Result<Self> {
-        let dir = dir.as_ref();
-        if let Some(journal) = pending_commit(dir) {
-            return Err(pending_commit_error(&journal));
-        }
-        let manifest = Manifest::read(&dir.join(MANIFEST_FILE))?;
-        Ok(LutFolder { dir: dir.to_path_buf(), manifest })
+        Self::from_source(OnDisk::new(dir.as_ref()))
     }
 
-    /// The folder's path, as given to [`LutFolder::open`].
+    /// Open the folder whose files `source` holds (files held in memory: [`InMemory`]): its
+    /// manifest, refused if it holds the journal of a commit that was interrupted. Every file is
+    /// then loaded and verified as [`LutFolder::open`]'s are, with the same errors, each naming a
+    /// file by [`LutSource::root`] and its name.
+    pub fn from_source(source: impl LutSource + 'static) -> Result<Self> {
+        if source.contains(COMMIT_JOURNAL) {
+            return Err(pending_commit_error(&source.root().join(COMMIT_JOURNAL)));
+        }
+        let manifest = {
+            let bytes = read_checked(&source, MANIFEST_FILE, FileKind::Manifest)?;
+            Manifest::from_bytes(&bytes, &source.root().join(MANIFEST_FILE))?
+        };
+        Ok(LutFolder { source: Arc::new(source), manifest })
+    }
+
+    /// The folder's path, as given to [`LutFolder::open`]; for files held elsewhere, the root
+    /// their source names them by ([`LutSource::root`]).
     pub fn dir(&self) -> &Path {
-        &self.dir
+        self.source.root()
+    }
+
+    /// Where the folder's files are read from.
+    pub fn source(&self) -> &dyn LutSource {
+        self.source.as_ref()
     }
 
     /// The manifest as read at opening.
@@ -166,7 +194,7 @@ impl LutFolder {
             let texels = self.load(file)?;
             for (member, slice) in members {
                 let table = crate::formats::slice_array::unpack(&texels, slice)
-                    .map_err(|e| Error::format(self.dir.join(file), e.to_string()))?;
+                    .map_err(|e| Error::format(self.dir().join(file), e.to_string()))?;
                 slices.push(FolderSlice {
                     entry: member,
                     table,
@@ -188,7 +216,7 @@ impl LutFolder {
         self.manifest.entry(file).ok_or_else(|| {
             let listed: Vec<&str> = self.manifest.files.keys().map(String::as_str).collect();
             Error::Missing {
-                path: self.dir.join(MANIFEST_FILE),
+                path: self.dir().join(MANIFEST_FILE),
                 reason: format!("lists no file `{file}`; it lists: {}", listed.join(", ")),
             }
         })
@@ -197,8 +225,10 @@ impl LutFolder {
     /// Load a file of this folder as a table with the manifest's axes and channels, verified
     /// against its entry ([`load_verified`]).
     pub fn load(&self, file: &str) -> Result<Table> {
-        check_file_name(file).map_err(|reason| Error::format(self.dir.join(MANIFEST_FILE), reason))?;
-        load_verified(self.dir.join(file), self.entry(file)?)
+        check_file_name(file).map_err(|reason| Error::format(self.dir().join(MANIFEST_FILE), reason))?;
+        let entry = self.entry(file)?;
+        let bytes = read_checked(self.source.as_ref(), file, FileKind::Table)?;
+        decode_verified(&self.dir().join(file), &bytes, entry)
     }
 
     /// The texel bytes and texture descriptor of a file of this folder, in the precision it is
@@ -213,8 +243,19 @@ impl LutFolder {
     /// function: `FileEntry::packing` and `FileEntry::fit` name them), verified against the
     /// SHA-256 stated for it.
     pub fn shader(&self, shader: &ShaderFile) -> Result<String> {
-        shader::read_text_verified(&self.dir, &shader.file, None, Some(&shader.sha256))
+        let file = &shader.file;
+        check_file_name(file).map_err(|reason| Error::format(self.dir().join(MANIFEST_FILE), reason))?;
+        let bytes = read_checked(self.source.as_ref(), file, FileKind::Shader)?;
+        shader::text_verified(&self.dir().join(file), &bytes, None, Some(&shader.sha256))
     }
+}
+
+/// The bytes of `file` of `source`, refused beyond the limit of their `kind` however the source
+/// came by them.
+fn read_checked<'a>(source: &'a dyn LutSource, file: &str, kind: FileKind) -> Result<Cow<'a, [u8]>> {
+    let bytes = source.read(file, kind)?;
+    kind.check_length(&source.root().join(file), bytes.len())?;
+    Ok(bytes)
 }
 
 /// A slice of a scene build as [`LutFolder::scene_slices`] finds it.
@@ -262,13 +303,18 @@ fn stored_precision(entry: &FileEntry) -> Precision {
 /// without any other sign.
 pub fn load_verified(path: impl AsRef<Path>, entry: &FileEntry) -> Result<Table> {
     let path = path.as_ref();
-    let bytes = read_bytes(path)?;
-    let format = format_of_bytes(path, &bytes)?;
-    let mut disagreements = byte_disagreements(entry, &bytes);
+    decode_verified(path, &read_bytes(path)?, entry)
+}
+
+/// The table a file's `bytes` hold, verified against its entry as [`load_verified`] verifies a
+/// file it reads; `path` names the file in errors.
+pub fn decode_verified(path: &Path, bytes: &[u8], entry: &FileEntry) -> Result<Table> {
+    let format = format_of_bytes(path, bytes)?;
+    let mut disagreements = byte_disagreements(entry, bytes);
     disagreements.extend(entry.claims_disagreement());
     if disagreements.is_empty() {
-        let table = decode(path, &bytes, format, Some(entry))?;
-        disagreements = table_disagreements(entry, format, &bytes, &table);
+        let table = decode(path, bytes, format, Some(entry))?;
+        disagreements = table_disagreements(entry, format, bytes, &table);
         if disagreements.is_empty() {
             return Ok(table);
         }

@@ -23,8 +23,8 @@ use serde::{Deserialize, Serialize};
 
 use super::{Manifest, sha256_hex};
 use crate::error::{Error, Result};
+use crate::formats::files::FileKind;
 use crate::formats::manifest::{MANIFEST_FILE, check_file_name};
-use crate::formats::{MAX_SHADER_FILE_BYTES, read_bytes_at_most};
 
 /// The suffix of a scene shader's description file: `<scene>.shader.json`.
 pub const DESCRIPTION_SUFFIX: &str = ".shader.json";
@@ -150,7 +150,7 @@ impl SceneShaderFiles {
 
 /// The text of the shader file `file` of `dir` (a plain file name), verified against the length
 /// and SHA-256 a manifest states for it, where it states them.
-pub(crate) fn read_text_verified(
+fn read_text_verified(
     dir: &Path,
     file: &str,
     stated_bytes: Option<u64>,
@@ -158,7 +158,17 @@ pub(crate) fn read_text_verified(
 ) -> Result<String> {
     check_file_name(file).map_err(|reason| Error::format(dir.join(MANIFEST_FILE), reason))?;
     let path = dir.join(file);
-    let bytes = read_bytes_at_most(&path, MAX_SHADER_FILE_BYTES, "a shader file")?;
+    text_verified(&path, &FileKind::Shader.read(&path)?, stated_bytes, stated_sha256)
+}
+
+/// The text of a shader file's `bytes`, verified against the length and SHA-256 a manifest states
+/// for it, where it states them; `path` names the file in errors.
+pub(crate) fn text_verified(
+    path: &Path,
+    bytes: &[u8],
+    stated_bytes: Option<u64>,
+    stated_sha256: Option<&str>,
+) -> Result<String> {
     let mut disagreements = Vec::new();
     if let Some(stated) = stated_bytes
         && stated != bytes.len() as u64
@@ -166,18 +176,18 @@ pub(crate) fn read_text_verified(
         disagreements.push(format!("the file has {} bytes, the manifest states {stated}", bytes.len()));
     }
     if let Some(stated) = stated_sha256 {
-        let sha256 = sha256_hex(&bytes);
+        let sha256 = sha256_hex(bytes);
         if sha256 != stated {
             disagreements.push(format!("its SHA-256 is {sha256}, the manifest states {stated}"));
         }
     }
     if !disagreements.is_empty() {
         return Err(Error::Mismatch {
-            path,
+            path: path.to_path_buf(),
             reason: format!("differs from its entry in {MANIFEST_FILE}: {}", disagreements.join("; ")),
         });
     }
-    String::from_utf8(bytes).map_err(|_| Error::format(&path, "is not UTF-8 text"))
+    String::from_utf8(bytes.to_vec()).map_err(|_| Error::format(path, "is not UTF-8 text"))
 }
 
 /// The stem of the one `*.shader.json` in `dir`.

@@ -1,20 +1,15 @@
 //! The typed handles against the table they wrap and the GPU emulator, the texture descriptor
-//! against the DDS and KTX2 files' own texel bytes, and the errors a renderer meets.
+//! against the DDS and KTX2 files' own texel bytes, and the errors a renderer meets, on the
+//! loader's test folder (`testdata/luts`) and tables made here.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::*;
-use crate::formats::manifest::{AxisEntry, ErrorEntry, MANIFEST_FILE};
-use crate::formats::{dds, ktx2};
+use crate::formats::files::FileKind;
+use crate::formats::manifest::MANIFEST_FILE;
+use crate::formats::test_folder::{copy_of_test_folder, test_file, test_folder};
 use crate::loader::texture::SampledTable;
-use crate::stats::{ErrorRecord, ErrorSummary};
-use crate::table::derived::{
-    CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET, critical_angle_fraction, critical_angle_offset,
-};
-
-/// Length of a DDS file's headers: magic, `DDS_HEADER`, `DDS_HEADER_DXT10`.
-const DDS_HEADERS: usize = 4 + 124 + 20;
+use crate::table::derived::{critical_angle_fraction, critical_angle_offset};
 
 /// A smooth, non-separable function of a node's position, different per channel.
 fn fill(axes: Vec<Axis>, channels: usize, name: &str) -> Table {
@@ -36,36 +31,10 @@ fn karis_table() -> Table {
     fill(vec![mu, alpha], 2, "karis")
 }
 
-fn belcour_table() -> Table {
-    let mu = Axis::cell_centred("mu", 0.0, 1.0, 5).unwrap();
-    let alpha = Axis::cell_centred("alpha", 1.0, 0.0, 7).unwrap().with_mapping(Mapping::Sqrt).unwrap();
-    fill(vec![mu, alpha], 4, "belcour")
-}
-
 fn gd_table() -> Table {
     let mu = Axis::node_aligned("mu", 0.0, 1.0, 9).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
     let alpha = Axis::node_aligned("alpha", 0.0, 1.0, 6).unwrap().with_mapping(Mapping::Sqrt).unwrap();
     fill(vec![mu, alpha], 1, "gd")
-}
-
-/// A table over `(mu, alpha)` and a third axis `third` over `[lo, hi]` spaced as the critical-angle
-/// axes are (asinh about 0): TIR's and `fgd_rarer`'s shape.
-fn critical_axis_table(name: &str, counts: [usize; 3], third: &str, [lo, hi]: [f64; 2]) -> Table {
-    let mu = Axis::node_aligned("mu", 0.0, 1.0, counts[0]).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
-    let alpha = Axis::node_aligned("alpha", 0.0, 1.0, counts[1]).unwrap().with_mapping(Mapping::Sqrt).unwrap();
-    let third = Axis::node_aligned(third, lo, hi, counts[2])
-        .unwrap()
-        .with_mapping(Mapping::Asinh { scale: 0.05, centre: 0.0 })
-        .unwrap();
-    fill(vec![mu, alpha, third], 1, name)
-}
-
-fn tir_table() -> Table {
-    critical_axis_table("tir", [7, 5, 6], CRITICAL_ANGLE_OFFSET, [-1.5, 1.5])
-}
-
-fn fgd_rarer_table() -> Table {
-    critical_axis_table("fgd_rarer", [6, 5, 7], CRITICAL_ANGLE_FRACTION, [-1.0, 1.0])
 }
 
 fn fgd_table() -> Table {
@@ -78,88 +47,9 @@ fn fgd_table() -> Table {
     fill(axes, 1, "fgd")
 }
 
-/// Write `table` as `file` into `dir` and return its manifest entry, as a build states it.
-fn write(dir: &Path, file: &str, table: &Table, format: FileFormat, precision: Precision) -> (String, FileEntry) {
-    crate::formats::write_table(&dir.join(file), table, format, precision).unwrap();
-    let bytes = std::fs::read(dir.join(file)).unwrap();
-    let stored: Vec<f32> = table.data.iter().map(|&v| precision.round(v)).collect();
-    let min = stored.iter().copied().fold(f32::INFINITY, f32::min);
-    let max = stored.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-    let along = ["x", "y", "z", "w"];
-    let entry = FileEntry {
-        table: table.name.clone(),
-        format,
-        precision,
-        dxgi_format: (format == FileFormat::Dds).then(|| dds::dxgi_format_name(table.channel_count(), precision)),
-        vk_format: (format == FileFormat::Ktx2).then(|| ktx2::vk_format_name(table.channel_count(), precision)),
-        axes: table.axes.iter().zip(along).map(|(a, s)| AxisEntry::new(a, s)).collect(),
-        channels: table.channels.clone(),
-        integrand: "test".into(),
-        masking: None,
-        notes: vec![],
-        method: "test".into(),
-        sampler: "test".into(),
-        samples_per_cell: 1,
-        seed: 0,
-        wall_time_s: 0.0,
-        value_range: [min, max],
-        nan_count: 0,
-        error: ErrorEntry {
-            integration: ErrorRecord {
-                replicate_standard_error: ErrorSummary { count: 0, rms: 0.0, max: 0.0 },
-                reference: None,
-            },
-            storage_rounding_max: 0.0,
-            storage_channel_sum: None,
-            interpolation: vec![],
-        },
-        fresnel_basis: None,
-        accuracy: vec![],
-        sha256: sha256_hex(&bytes),
-        bytes: bytes.len() as u64,
-        packing: None,
-        fit: None,
-        binding: None,
-        slice_array: None,
-        claims_sha256: None,
-    };
-    (file.to_string(), entry)
-}
-
-/// A folder with one table of each kind, its files in the formats and precisions a build writes.
-fn folder() -> (tempfile::TempDir, LutFolder) {
-    let fgd = [("fgd.bin", fgd_table(), FileFormat::Bin), ("fgd_rarer.dds", fgd_rarer_table(), FileFormat::Dds)];
-    folder_of(FileFormat::Dds, fgd.into_iter().map(|(file, table, format)| (file, table, format, Precision::F32)))
-}
-
-/// A folder of the same tables as KTX2 files only, as `[T.output] formats = ["ktx2"]` builds it.
-fn ktx2_folder() -> (tempfile::TempDir, LutFolder) {
-    folder_of(FileFormat::Ktx2, [])
-}
-
-/// A folder of the 2D tables and TIR as `textures` files in a build's precisions, and `others`.
-fn folder_of(
-    textures: FileFormat,
-    others: impl IntoIterator<Item = (&'static str, Table, FileFormat, Precision)>,
-) -> (tempfile::TempDir, LutFolder) {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let tables = [
-        ("karis", karis_table(), Precision::F16),
-        ("belcour", belcour_table(), Precision::F16),
-        ("gd", gd_table(), Precision::F16),
-        ("tir", tir_table(), Precision::F32),
-    ];
-    let mut files: BTreeMap<String, FileEntry> = tables
-        .into_iter()
-        .map(|(name, table, precision)| {
-            write(d, &format!("{name}.{}", textures.extension()), &table, textures, precision)
-        })
-        .collect();
-    files.extend(others.into_iter().map(|(file, table, format, precision)| write(d, file, &table, format, precision)));
-    Manifest { generator: "tmlut test".into(), files, ..Default::default() }.write(d).unwrap();
-    let folder = LutFolder::open(d).unwrap();
-    (dir, folder)
+/// The loader's test folder, opened.
+fn folder() -> LutFolder {
+    LutFolder::open(test_folder()).unwrap()
 }
 
 /// Lookup parameters inside, at and past the ends of the unit range.
@@ -172,7 +62,7 @@ fn assert_same<const N: usize>(handle: [f32; N], table: Vec<f64>, at: &str) {
 
 #[test]
 fn each_handle_samples_as_its_table_interpolates() {
-    let (_dir, luts) = folder();
+    let luts = folder();
     let karis = KarisLut::from_folder(&luts).unwrap();
     let belcour = BelcourLut::open(&luts, "belcour.dds").unwrap();
     let gd = GdLut::from_folder(&luts).unwrap();
@@ -203,7 +93,7 @@ fn each_handle_samples_as_its_table_interpolates() {
 
 #[test]
 fn gpu_sampling_is_the_emulators_bit_for_bit() {
-    let (_dir, luts) = folder();
+    let luts = folder();
     let karis = KarisLut::from_folder(&luts).unwrap();
     let belcour = BelcourLut::from_folder(&luts).unwrap();
     let gd = GdLut::from_folder(&luts).unwrap();
@@ -242,7 +132,7 @@ fn gpu_sampling_is_the_emulators_bit_for_bit() {
 
 #[test]
 fn texel_centres_read_their_texel() {
-    let (_dir, luts) = folder();
+    let luts = folder();
     let karis = KarisLut::from_folder(&luts).unwrap();
     let tir = TirLut::from_folder(&luts).unwrap();
     let centre = |k: usize, n: usize| (k as f32 + 0.5) / n as f32;
@@ -254,7 +144,7 @@ fn texel_centres_read_their_texel() {
 
 #[test]
 fn texture_bytes_are_the_dds_files_texels_with_their_descriptor() {
-    let (dir, luts) = folder();
+    let luts = folder();
     let cases = [
         ("karis.dds", KarisLut::from_folder(&luts).unwrap().texture().unwrap(), (8, 6, 1), TextureFormat::Rg16Float),
         (
@@ -277,8 +167,12 @@ fn texture_bytes_are_the_dds_files_texels_with_their_descriptor() {
         let bytes = texture.to_bytes();
         assert_eq!(bytes.len(), (w * h * d * format.bytes_per_texel()) as usize, "{file}");
         assert_eq!(bytes.len(), desc.byte_len(), "{file}");
-        let file_bytes = std::fs::read(dir.path().join(file)).unwrap();
-        assert_eq!(&bytes[..], &file_bytes[DDS_HEADERS..], "{file}: the texels as the DDS file stores them");
+        let file_bytes = test_file(file);
+        assert_eq!(
+            &bytes[..],
+            &file_bytes[crate::formats::dds::layout::DATA_OFFSET..],
+            "{file}: the texels as the DDS file stores them"
+        );
         let texel_count = (w * h * d) as usize * format.channels();
         match format.precision() {
             Precision::F16 => assert_eq!(texture.texels_f16().unwrap().len(), texel_count),
@@ -328,7 +222,7 @@ fn a_wrong_number_of_coordinates_is_an_error_not_a_panic() {
 
 #[test]
 fn a_file_of_another_kind_is_refused_naming_the_file_and_the_axes_allowed() {
-    let (_dir, luts) = folder();
+    let luts = folder();
     let err = GdLut::open(&luts, "karis.dds").unwrap_err().to_string();
     assert!(err.contains("karis.dds"), "{err}");
     assert!(err.contains("2 channels; a gd table has the axes (mu, alpha) and 1 channel"), "{err}");
@@ -343,12 +237,20 @@ fn a_file_of_another_kind_is_refused_naming_the_file_and_the_axes_allowed() {
     assert!(matches!(KarisLut::from_table(gd_table(), Precision::F16), Err(Error::WrongTable { .. })));
 }
 
+/// The manifest of `dir` replaced by `manifest`, written as a build writes it.
+fn rewrite_manifest(dir: &Path, manifest: &Manifest) {
+    let text = serde_json::to_string_pretty(manifest).unwrap() + "\n";
+    std::fs::write(dir.join(MANIFEST_FILE), text).unwrap();
+}
+
 #[test]
 fn a_folder_without_the_table_or_with_a_changed_file_is_refused() {
-    let (dir, luts) = folder();
+    let dir = copy_of_test_folder();
+    let luts = LutFolder::open(dir.path()).unwrap();
     let mut manifest = luts.manifest().clone();
     manifest.files.remove("karis.dds");
-    manifest.write(dir.path()).unwrap();
+    manifest.files.remove("karis.ktx2");
+    rewrite_manifest(dir.path(), &manifest);
     let err = KarisLut::from_folder(&LutFolder::open(dir.path()).unwrap()).unwrap_err();
     assert!(matches!(err, Error::Missing { .. }), "{err:?}");
     let err = err.to_string();
@@ -368,7 +270,7 @@ fn a_folder_without_the_table_or_with_a_changed_file_is_refused() {
 
 #[test]
 fn a_folder_whose_build_was_interrupted_while_committing_is_refused_as_unfinished() {
-    let (dir, _luts) = folder();
+    let dir = copy_of_test_folder();
     std::fs::write(dir.path().join(crate::formats::manifest::COMMIT_JOURNAL), b"{}").unwrap();
     let err = LutFolder::open(dir.path()).unwrap_err();
     assert!(matches!(err, Error::Unfinished { .. }), "{err:?}");
@@ -377,17 +279,15 @@ fn a_folder_whose_build_was_interrupted_while_committing_is_refused_as_unfinishe
 
 #[test]
 fn paths_are_taken_as_any_path_like_value() {
-    let (dir, _) = folder();
-    let as_str = dir.path().to_str().unwrap();
+    let dir = test_folder();
+    let as_str = dir.to_str().unwrap();
     let as_string = as_str.to_string();
-    let as_path_buf = dir.path().to_path_buf();
+    let as_path_buf = dir.clone();
     for folder in [LutFolder::open(as_str), LutFolder::open(&as_string), LutFolder::open(as_path_buf)] {
-        assert_eq!(
-            folder.unwrap().files().collect::<Vec<_>>(),
-            ["belcour.dds", "fgd.bin", "fgd_rarer.dds", "gd.dds", "karis.dds", "tir.dds"]
-        );
+        let files = folder.unwrap().files().map(str::to_string).collect::<Vec<_>>();
+        assert_eq!(files[..4], ["belcour.dds", "belcour.ktx2", "fgd.bin", "fgd_rarer.dds"]);
     }
-    assert_eq!(load_table(dir.path().join("gd.dds")).unwrap(), load_table(format!("{as_str}/gd.dds")).unwrap());
+    assert_eq!(load_table(dir.join("gd.dds")).unwrap(), load_table(format!("{as_str}/gd.dds")).unwrap());
 }
 
 #[test]
@@ -398,6 +298,7 @@ fn the_loader_uses_only_tables_formats_errors_and_the_gpu_sampler() {
         ("mod.rs", include_str!("mod.rs")),
         ("handles.rs", include_str!("handles.rs")),
         ("texture.rs", include_str!("texture.rs")),
+        ("source.rs", include_str!("source.rs")),
     ];
     for (file, text) in sources {
         for (at, _) in text.match_indices("crate::") {
@@ -409,13 +310,12 @@ fn the_loader_uses_only_tables_formats_errors_and_the_gpu_sampler() {
 
 #[test]
 fn ktx2_files_open_as_their_dds_twins_with_the_same_texels_and_descriptors() {
-    let (_dds_dir, dds) = folder();
-    let (dir, ktx) = ktx2_folder();
+    let luts = folder();
     macro_rules! textures {
         ($handle:ident, $file:literal) => {
             (
-                $handle::from_folder(&dds).unwrap().texture().unwrap(),
-                $handle::from_folder(&ktx).unwrap().texture().unwrap(),
+                $handle::from_folder(&luts).unwrap().texture().unwrap(),
+                $handle::open(&luts, $file).unwrap().texture().unwrap(),
                 $file,
             )
         };
@@ -430,12 +330,13 @@ fn ktx2_files_open_as_their_dds_twins_with_the_same_texels_and_descriptors() {
         assert_eq!(from_ktx2.descriptor(), from_dds.descriptor(), "{file}");
         assert_eq!(from_ktx2.texels(), from_dds.texels(), "{file}");
         // The texel bytes are the file's level 0, where its level index says.
-        let bytes = std::fs::read(dir.path().join(file)).unwrap();
+        let bytes = test_file(file);
         let level = u64::from_le_bytes(bytes[80..88].try_into().unwrap()) as usize;
         assert_eq!(&bytes[level..], &from_ktx2.to_bytes()[..], "{file}");
     }
-    let (karis_dds, karis_ktx) = (KarisLut::from_folder(&dds).unwrap(), KarisLut::from_folder(&ktx).unwrap());
-    let (tir_dds, tir_ktx) = (TirLut::from_folder(&dds).unwrap(), TirLut::from_folder(&ktx).unwrap());
+    let (karis_dds, karis_ktx) = (KarisLut::from_folder(&luts).unwrap(), KarisLut::open(&luts, "karis.ktx2").unwrap());
+    let (tir_dds, tir_ktx) = (TirLut::from_folder(&luts).unwrap(), TirLut::open(&luts, "tir.ktx2").unwrap());
+    assert_eq!(karis_dds.entry().unwrap().format, FileFormat::Dds, "DDS first");
     for &a in &PARAMETERS {
         for &b in &PARAMETERS {
             assert_eq!(karis_ktx.sample(a, Roughness(b)), karis_dds.sample(a, Roughness(b)), "karis at ({a}, {b})");
@@ -451,11 +352,11 @@ fn ktx2_files_open_as_their_dds_twins_with_the_same_texels_and_descriptors() {
 
 #[test]
 fn a_ktx2_file_is_verified_against_what_its_entry_states() {
-    let (dir, luts) = ktx2_folder();
+    let luts = folder();
     let verify = |change: &dyn Fn(&mut FileEntry)| {
         let mut entry = luts.entry("tir.ktx2").unwrap().clone();
         change(&mut entry);
-        load_verified(dir.path().join("tir.ktx2"), &entry).map(|_| ()).map_err(|e| e.to_string())
+        load_verified(test_folder().join("tir.ktx2"), &entry).map(|_| ()).map_err(|e| e.to_string())
     };
     assert_eq!(verify(&|_| {}), Ok(()));
     // The file states its axes and channels: a manifest that disagrees is refuted by the file.
@@ -469,6 +370,81 @@ fn a_ktx2_file_is_verified_against_what_its_entry_states() {
     assert!(err.contains("the file is Ktx2, the manifest states Dds"), "{err}");
     // Without a manifest the file alone describes its table.
     let alone = tempfile::tempdir().unwrap();
-    std::fs::copy(dir.path().join("tir.ktx2"), alone.path().join("tir.ktx2")).unwrap();
+    std::fs::write(alone.path().join("tir.ktx2"), test_file("tir.ktx2")).unwrap();
     assert_eq!(load_table(alone.path().join("tir.ktx2")).unwrap(), luts.load("tir.ktx2").unwrap());
+}
+
+/// Every file of the folder `dir` held in memory, named `root/file` in errors.
+fn held_in_memory(dir: &Path, root: &Path) -> InMemory {
+    let mut files = InMemory::new(root);
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let entry = entry.unwrap();
+        files.insert(entry.file_name().to_string_lossy(), std::fs::read(entry.path()).unwrap());
+    }
+    files
+}
+
+#[test]
+fn a_folder_held_in_memory_reads_as_on_disk() {
+    let on_disk = folder();
+    let in_memory = LutFolder::from_source(held_in_memory(&test_folder(), Path::new("assets/luts"))).unwrap();
+    assert_eq!(in_memory.dir(), Path::new("assets/luts"));
+    assert_eq!(in_memory.manifest(), on_disk.manifest());
+    let files: Vec<&str> = on_disk.files().collect();
+    assert!(files.len() > 10, "{files:?}");
+    for file in files {
+        #[cfg(not(feature = "exr"))]
+        if file.ends_with(".exr") {
+            continue;
+        }
+        assert_eq!(in_memory.load(file).unwrap(), on_disk.load(file).unwrap(), "{file}");
+    }
+    let (karis, karis_on_disk) = (KarisLut::from_folder(&in_memory).unwrap(), KarisLut::from_folder(&on_disk).unwrap());
+    assert_eq!(karis.entry(), karis_on_disk.entry());
+    assert_eq!(karis.sample_gpu(0.3, Roughness(0.6)), karis_on_disk.sample_gpu(0.3, Roughness(0.6)));
+    assert_eq!(in_memory.texture("tir.ktx2").unwrap(), on_disk.texture("tir.ktx2").unwrap());
+    // Borrowed for the program's life, as `include_bytes!` gives them.
+    let manifest: &'static [u8] = test_file(MANIFEST_FILE).leak();
+    let gd: &'static [u8] = test_file("gd.dds").leak();
+    let borrowed = LutFolder::from_source(InMemory::new("embedded").with(MANIFEST_FILE, manifest).with("gd.dds", gd));
+    assert_eq!(GdLut::from_folder(&borrowed.unwrap()).unwrap().table(), GdLut::from_folder(&on_disk).unwrap().table());
+}
+
+#[test]
+fn a_damaged_byte_is_refused_in_memory_as_on_disk_with_the_same_error() {
+    let dir = copy_of_test_folder();
+    let mut bytes = test_file("gd.dds");
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(dir.path().join("gd.dds"), &bytes).unwrap();
+    // Named by the folder's own path, the files in memory give the very same messages.
+    let in_memory = LutFolder::from_source(held_in_memory(dir.path(), dir.path())).unwrap();
+    let on_disk = LutFolder::open(dir.path()).unwrap();
+    let (from_memory, from_disk) = (in_memory.load("gd.dds").unwrap_err(), on_disk.load("gd.dds").unwrap_err());
+    assert!(matches!(from_memory, Error::Mismatch { .. }), "{from_memory:?}");
+    assert_eq!(from_memory.to_string(), from_disk.to_string());
+    assert!(from_memory.to_string().contains("SHA-256"), "{from_memory}");
+    let err = GdLut::from_folder(&in_memory).unwrap_err();
+    assert!(matches!(err, Error::Mismatch { .. }), "{err:?}");
+}
+
+#[test]
+fn files_missing_from_memory_and_an_unfinished_commit_are_refused_as_on_disk() {
+    let absent = |err: &Error, file: &Path| matches!(err, Error::Io { path, source } if path == file && source.kind() == std::io::ErrorKind::NotFound);
+    let err = LutFolder::from_source(InMemory::new("empty")).unwrap_err();
+    assert!(absent(&err, &Path::new("empty").join(MANIFEST_FILE)), "{err:?}");
+    let without_gd = InMemory::new("luts").with(MANIFEST_FILE, test_file(MANIFEST_FILE));
+    let err = LutFolder::from_source(without_gd).unwrap().load("gd.dds").unwrap_err();
+    assert!(absent(&err, &Path::new("luts").join("gd.dds")), "{err:?}");
+    let unfinished = held_in_memory(&test_folder(), Path::new("luts"))
+        .with(crate::formats::manifest::COMMIT_JOURNAL, b"{}".as_slice());
+    let err = LutFolder::from_source(unfinished).unwrap_err();
+    assert!(matches!(err, Error::Unfinished { .. }), "{err:?}");
+    let err =
+        LutFolder::from_source(InMemory::new("luts").with(MANIFEST_FILE, b"{\"hello\": 1}".as_slice())).unwrap_err();
+    assert!(err.to_string().contains("not a tmlut manifest"), "{err}");
+    // Bytes over a kind's limit are refused whatever their source; checked on the length alone.
+    let too_long = FileKind::Manifest.check_length(Path::new("luts/manifest.json"), 1 << 30).unwrap_err();
+    assert!(too_long.to_string().contains("a manifest may be at most 268435456 bytes"), "{too_long}");
+    assert!(FileKind::Table.check_length(Path::new("t.dds"), 1 << 30).is_ok());
 }

@@ -14,6 +14,7 @@ use super::fresnel_reflectance;
 /// Three basis curves tabulated on uniform cosines over [0, 1] (`b0 = 1` is implicit), and the two
 /// probe cosines where the coefficients of `b2` and `b3` are fitted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct FresnelBasis {
     /// Number of uniform samples `c_i = i / (samples - 1)` of each curve.
     pub samples: usize,

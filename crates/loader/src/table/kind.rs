@@ -1,15 +1,19 @@
 //! The tables tmlut builds, as every reader knows them: one list, [`TableKind::ALL`], with each
 //! table's name (its manifest `table`, its file stem, its TOML section) and the shape a reader
-//! requires of it (axis names and channel count). The generator's registry (`tmlut::recipes`)
-//! pairs each kind with its recipe in an exhaustive `match`, so a kind without a recipe, or a
-//! recipe without a kind, does not compile; the loader's handles, the model's folder tables and
-//! the scene shader's sources find each table by its kind, and the model decides for every kind
-//! whether it stands in for a quantity's own table (`tmlut::model::stand_in`).
+//! requires of it (axis names and channel count). [`TableKind`] is `#[non_exhaustive]`: a table
+//! added is no breaking change to a renderer's `match`, which keeps a wildcard arm. The generator,
+//! which must decide something for every kind, does so through `PerKind`, a value per kind whose
+//! literal names every kind: its registry (`tmlut::recipes`) pairs each kind with its recipe that
+//! way, so a kind without a recipe, or a recipe without a kind, does not compile; the loader's
+//! handles, the model's folder tables and the scene shader's sources find each table by its kind,
+//! and the model decides for every kind whether it stands in for a quantity's own table
+//! (`tmlut::model::stand_in`).
 
 use super::derived::{CRITICAL_ANGLE_FRACTION, CRITICAL_ANGLE_OFFSET};
 
 /// One table tmlut knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum TableKind {
     /// `FGD(mu, alpha, eta, kappa)`: an interface's directional albedo, the 4D table.
     Fgd,
@@ -76,8 +80,61 @@ impl TableKind {
     }
 }
 
+/// A value for each table kind, a field per kind named as the kind is ([`TableKind::name`]).
+///
+/// Outside this crate a `match` on [`TableKind`] needs a wildcard arm, so it no longer says that
+/// every kind was decided; a literal of this struct does, and [`PerKind::take`] is the exhaustive
+/// `match`, here. The generator decides each kind through it (its registry of recipes, its stiff
+/// cases, the model's stand-ins): a kind added here does not compile there until it is decided.
+/// Hidden from the documentation because it gains a field with each kind, on purpose: a renderer
+/// matches [`TableKind`] with a wildcard arm instead.
+#[doc(hidden)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PerKind<T> {
+    /// [`TableKind::Fgd`]'s value.
+    pub fgd: T,
+    /// [`TableKind::Gd`]'s value.
+    pub gd: T,
+    /// [`TableKind::Tir`]'s value.
+    pub tir: T,
+    /// [`TableKind::Belcour`]'s value.
+    pub belcour: T,
+    /// [`TableKind::Karis`]'s value.
+    pub karis: T,
+    /// [`TableKind::FgdRarer`]'s value.
+    pub fgd_rarer: T,
+}
+
+impl<T> PerKind<T> {
+    /// The value of `kind`, the others dropped.
+    pub fn take(self, kind: TableKind) -> T {
+        match kind {
+            TableKind::Fgd => self.fgd,
+            TableKind::Gd => self.gd,
+            TableKind::Tir => self.tir,
+            TableKind::Belcour => self.belcour,
+            TableKind::Karis => self.karis,
+            TableKind::FgdRarer => self.fgd_rarer,
+        }
+    }
+}
+
 impl std::fmt::Display for TableKind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_kind_takes_the_field_of_its_name() {
+        let names =
+            PerKind { fgd: "fgd", gd: "gd", tir: "tir", belcour: "belcour", karis: "karis", fgd_rarer: "fgd_rarer" };
+        for &kind in TableKind::ALL {
+            assert_eq!(names.take(kind), kind.name());
+        }
     }
 }

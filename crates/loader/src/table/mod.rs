@@ -9,7 +9,7 @@ pub mod derived;
 pub mod kind;
 
 pub use axis::{Arithmetic, Axis, Mapping, Placement};
-pub use kind::{TableKind, TableShape};
+pub use kind::{PerKind, TableKind, TableShape};
 
 use serde::{Deserialize, Serialize};
 

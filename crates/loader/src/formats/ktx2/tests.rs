@@ -1,24 +1,6 @@
 use super::*;
 use crate::formats::dds;
-use crate::formats::test_tables::{check_texture_round_trips, sample_table_over};
-use crate::table::{Axis, Mapping};
-
-/// Axes of every placement and a mapping, one descending.
-fn axes_for(shape: &[usize]) -> Vec<Axis> {
-    shape
-        .iter()
-        .enumerate()
-        .map(|(d, &n)| match d {
-            0 => Axis::node_aligned("a0", 0.0, 1.0, n).unwrap().with_mapping(Mapping::SqrtEnds).unwrap(),
-            1 => Axis::cell_centred("a1", 1.0, 0.25, n).unwrap(),
-            _ => Axis::node_aligned(format!("a{d}"), -1.5, 2.0 + d as f64, n).unwrap(),
-        })
-        .collect()
-}
-
-fn sample_table(shape: &[usize], channels: usize) -> Table {
-    sample_table_over(axes_for(shape), channels)
-}
+use crate::formats::test_folder::{test_entry, test_file};
 
 fn decode(bytes: &[u8]) -> Result<Ktx2Texture> {
     decode_ktx2(bytes, Path::new("t.ktx2"))
@@ -45,192 +27,71 @@ fn data_offset(bytes: &[u8]) -> usize {
     u64::from_le_bytes(bytes[80..88].try_into().unwrap()) as usize
 }
 
-/// Replace the bytes `from` (which occur once) by `to` of the same length.
-fn replace_once(bytes: &mut [u8], from: &[u8], to: &[u8]) {
+/// The test folder's `file` with the bytes `from` (which occur once) replaced by `to` of the same
+/// length, and the error reading it gives.
+fn edited(file: &str, from: &[u8], to: &[u8]) -> String {
+    let mut bytes = test_file(file);
     assert_eq!(from.len(), to.len());
     let at = bytes.windows(from.len()).position(|w| w == from).expect("present");
     assert!(bytes[at + 1..].windows(from.len()).all(|w| w != from), "once");
     bytes[at..at + from.len()].copy_from_slice(to);
+    error_of(&bytes)
 }
 
 #[test]
-fn an_array_round_trips_with_its_layer_count_and_the_independent_reader_agrees() {
-    let mut axes = axes_for(&[5, 3]);
-    axes.push(Axis::node_aligned(crate::formats::LAYER_AXIS, 0.0, 5.0, 6).unwrap());
-    let table = sample_table_over(axes, 4);
-    let bytes = encode_ktx2(&table, Precision::F16).unwrap();
-    let reader = ::ktx2::Reader::new(bytes.as_slice()).unwrap();
-    let header = reader.header();
-    assert_eq!((header.layer_count, header.pixel_depth), (6, 0));
-    let file = decode(&bytes).unwrap();
-    assert!(file.texture.layered && !file.texture.volume);
-    assert_eq!(file.texture.depth, 6);
-    assert_eq!(file.description.axes[2].stored_along, "layer");
-    let back = file.into_table().unwrap();
-    assert_eq!(back.data, table.data.iter().map(|&v| Precision::F16.round(v)).collect::<Vec<_>>());
-    // An array of volumes is not something tmlut writes.
-    let mut bytes = bytes;
-    set(&mut bytes, 28, 2);
-    assert!(error_of(&bytes).contains("array of 6 volume textures"), "{}", error_of(&bytes));
-}
-
-#[test]
-fn round_trips_2d_and_volume_textures_in_both_precisions() {
-    let dir = tempfile::tempdir().unwrap();
-    check_texture_round_trips(sample_table, |table, precision, context| {
-        let path = dir.path().join("t.ktx2");
-        write_ktx2(&path, table, precision).unwrap();
-        let file = read_ktx2(&path).unwrap();
-        // The independent reader parses every kind of file too, and finds the same texels.
-        let bytes = std::fs::read(&path).unwrap();
-        let reader = ::ktx2::Reader::new(bytes.as_slice()).unwrap();
-        let level = reader.levels().next().unwrap();
-        assert_eq!(texel_values(level.data, precision), file.texture.data, "{context}");
-        (file.texture.clone(), file.into_table().unwrap())
-    });
-}
-
-#[test]
-fn the_ktx2_crate_reads_what_is_written() {
-    for (shape, channels, precision) in [(&[5, 3][..], 2, Precision::F16), (&[4, 3, 6][..], 4, Precision::F32)] {
-        let table = sample_table(shape, channels);
-        let bytes = encode_ktx2(&table, precision).unwrap();
-        let reader = ::ktx2::Reader::new(bytes.as_slice()).unwrap();
-        let header = reader.header();
-        let format = vk_format(channels, precision).unwrap();
-        assert_eq!(header.format, Some(format));
-        assert_eq!(header.type_size as usize, precision.bytes());
-        assert_eq!((header.pixel_width, header.pixel_height), (shape[0] as u32, shape[1] as u32));
-        assert_eq!(header.pixel_depth, shape.get(2).map_or(0, |&d| d as u32), "0 for a 2D texture");
-        assert_eq!((header.layer_count, header.face_count, header.level_count), (0, 1, 1));
-        assert_eq!(header.supercompression_scheme, None);
-
-        let basic = reader.basic_dfd().unwrap();
-        assert_eq!(reader.dfd_blocks().len(), 1);
-        assert_eq!(basic.color_model, Some(::ktx2::ColorModel::RGBSDA));
-        assert_eq!(basic.transfer_function, Some(::ktx2::TransferFunction::Linear), "linear data, never sRGB");
-        assert_eq!(basic.color_primaries, None, "data, not colours");
-        assert_eq!(reader.is_alpha_premultiplied(), Some(false));
-        assert_eq!(basic.sample_information.len(), channels);
-        assert_eq!(basic.bytes_planes[0] as usize, channels * precision.bytes());
-
-        let pairs: Vec<(&str, &[u8])> = reader.key_value_data().collect();
-        let keys: Vec<&str> = pairs.iter().map(|(k, _)| *k).collect();
-        assert_eq!(keys, [KEY_ORIENTATION, KEY_WRITER, KEY_AXES, KEY_CHANNELS, KEY_PRECISION, KEY_TABLE]);
-        let value = |key: &str| pairs.iter().find(|(k, _)| *k == key).unwrap().1;
-        assert_eq!(value(KEY_ORIENTATION), if shape.len() == 3 { &b"rdi\0"[..] } else { b"rd\0" });
-        assert_eq!(value(KEY_TABLE), b"sample\0");
-        assert_eq!(reader.writer(), Some(format!("tmlut {}\0", env!("CARGO_PKG_VERSION")).as_str()));
-
-        let levels: Vec<_> = reader.levels().collect();
-        assert_eq!(levels.len(), 1);
-        let mut texels = Vec::new();
-        put_texels(&mut texels, &table.data, precision);
-        assert_eq!(levels[0].data, texels.as_slice());
-        assert_eq!(levels[0].uncompressed_byte_length, texels.len() as u64);
-    }
-}
-
-#[test]
-fn level_data_is_the_dds_twins_texels_aligned_as_the_format_requires() {
-    for (channels, precision, alignment) in
-        [(1, Precision::F16, 4), (2, Precision::F16, 4), (4, Precision::F16, 8), (4, Precision::F32, 16)]
-    {
-        let table = sample_table(&[3, 5, 2], channels);
-        let ktx = encode_ktx2(&table, precision).unwrap();
-        let dds = dds::encode_dds(&table, precision).unwrap();
-        let at = data_offset(&ktx);
-        assert_eq!(at % alignment, 0, "{channels} channels {precision:?}");
-        assert!(
-            at >= kvd_offset(&ktx) + field(&ktx, 60) as usize
-                && at < kvd_offset(&ktx) + field(&ktx, 60) as usize + alignment
+fn each_file_reads_as_its_dds_twin_with_the_description_its_manifest_entry_states() {
+    for (name, volume) in [("karis", false), ("belcour", false), ("gd", false), ("tir", true), ("slices", false)] {
+        let ktx2 = format!("{name}.ktx2");
+        let file = decode(&test_file(&ktx2)).unwrap();
+        let twin = dds::decode_dds(&test_file(&format!("{name}.dds")), Path::new("t.dds")).unwrap();
+        assert_eq!(file.texture, twin, "{ktx2}");
+        assert_eq!(file.texture.volume, volume, "{ktx2}");
+        let entry = test_entry(&ktx2);
+        let description = &file.description;
+        assert_eq!(
+            (&description.table, &description.axes, &description.channels),
+            (&entry.table, &entry.axes, &entry.channels)
         );
-        assert_eq!(&ktx[at..], &dds[148..], "the same texels in the same order");
+        assert_eq!(description.precision, entry.precision, "{ktx2}");
+        assert_eq!(description.orientation, if volume { "rdi" } else { "rd" }, "{ktx2}");
+        assert!(description.writer.starts_with("tmlut "), "{}", description.writer);
+        assert_eq!(stored_format(&test_file(&ktx2)), Some((entry.channels.len(), entry.precision)));
+        // The texels are the file's level 0, where its level index says.
+        let bytes = test_file(&ktx2);
+        assert_eq!(file.texture.data, texel_values(&bytes[data_offset(&bytes)..], entry.precision), "{ktx2}");
+        assert_eq!(file.into_table().unwrap().shape(), entry.axes.iter().map(|a| a.axis.count).collect::<Vec<_>>());
     }
 }
 
 #[test]
-fn the_data_format_descriptor_is_the_khronos_one_for_each_float_format() {
-    // KTX 2.0 section 3.10 and the Khronos Data Format specification: one Basic block of 24 bytes
-    // plus 16 per sample; RGBSDA (1), primaries unspecified (0), linear (1), straight alpha (0);
-    // each sample FLOAT | SIGNED, bit length - 1, channel R, G, B, A = 0, 1, 2, 15, with the
-    // float bounds -1.0 and 1.0.
-    for (channels, precision) in [(1, Precision::F16), (2, Precision::F32), (4, Precision::F16), (4, Precision::F32)] {
-        let bytes = encode_ktx2(&sample_table(&[2, 2], channels), precision).unwrap();
-        let dfd = &bytes[DFD_OFFSET..kvd_offset(&bytes)];
-        let bits = 8 * precision.bytes();
-        assert_eq!(field(dfd, 0) as usize, 4 + 24 + 16 * channels, "total size");
-        assert_eq!(field(dfd, 4), 0, "vendor Khronos, descriptor type basic");
-        assert_eq!(field(dfd, 8), 2 | ((24 + 16 * channels as u32) << 16), "version 2, block size");
-        assert_eq!(dfd[12..16], [1, 0, 1, 0]);
-        assert_eq!(dfd[16..20], [0, 0, 0, 0], "1 x 1 x 1 x 1 texel blocks");
-        assert_eq!(dfd[20] as usize, channels * precision.bytes());
-        assert!(dfd[21..28].iter().all(|&b| b == 0));
-        let ids: &[u8] = match channels {
-            1 => &[0],
-            2 => &[0, 1],
-            _ => &[0, 1, 2, 15],
-        };
-        for (k, &id) in ids.iter().enumerate() {
-            let sample = &dfd[28 + 16 * k..44 + 16 * k];
-            assert_eq!(u16::from_le_bytes([sample[0], sample[1]]) as usize, k * bits, "bit offset");
-            assert_eq!(sample[2] as usize, bits - 1, "bit length - 1");
-            assert_eq!(sample[3], 0xC0 | id, "FLOAT | SIGNED, channel {id}");
-            assert_eq!(sample[4..8], [0, 0, 0, 0], "sample position");
-            assert_eq!(field(sample, 8), (-1.0f32).to_bits());
-            assert_eq!(field(sample, 12), 1.0f32.to_bits());
-        }
-    }
+fn an_array_reads_its_layer_count() {
+    let file = decode(&test_file("slices.ktx2")).unwrap();
+    assert!(file.texture.layered && !file.texture.volume);
+    assert_eq!(file.texture.depth, 7);
+    assert_eq!(file.description.axes[2].stored_along, "layer");
+    // An array of volumes is not something tmlut writes.
+    let mut bytes = test_file("slices.ktx2");
+    set(&mut bytes, 28, 2);
+    assert!(error_of(&bytes).contains("array of 7 volume textures"), "{}", error_of(&bytes));
 }
 
 #[test]
-fn the_key_value_data_states_the_manifest_facts() {
-    let table = sample_table(&[4, 3, 6], 2);
-    let bytes = encode_ktx2(&table, Precision::F16).unwrap();
-    let file = decode(&bytes).unwrap();
-    let description = &file.description;
-    assert_eq!(description.table, "sample");
-    assert_eq!(description.precision, Precision::F16);
-    assert_eq!(description.orientation, "rdi");
-    assert_eq!(description.channels, table.channels);
-    let expected: Vec<AxisEntry> =
-        table.axes.iter().zip(["x", "y", "z"]).map(|(a, along)| AxisEntry::new(a, along)).collect();
-    assert_eq!(description.axes, expected);
-    // The texture coordinate formula is spelled out per axis, as in the manifest.
-    assert_eq!(description.axes[2].texture_coordinate, table.axes[2].texture_coordinate_formula());
-    let kvd = &bytes[kvd_offset(&bytes)..kvd_offset(&bytes) + field(&bytes, 60) as usize];
+fn the_key_value_data_spells_out_each_axis() {
+    let karis = test_file("karis.ktx2");
+    let kvd = &karis[kvd_offset(&karis)..kvd_offset(&karis) + field(&karis, 60) as usize];
     let text = String::from_utf8_lossy(kvd);
-    assert!(text.contains("\"placement\":\"cell-centred\"") && text.contains("sqrt-ends"), "{text}");
-}
-
-#[test]
-fn non_finite_values_and_shapes_no_texture_holds_are_refused() {
-    let mut table = sample_table(&[4, 4], 1);
-    table.data[3] = f32::NAN;
-    let err = encode_ktx2(&table, Precision::F32).unwrap_err().to_string();
-    assert!(err.contains("`sample`") && err.contains("1 NaN"), "{err}");
-    let mut table = sample_table(&[4, 4], 1);
-    table.data[0] = 1.0e6;
-    assert!(encode_ktx2(&table, Precision::F16).unwrap_err().to_string().contains("f16 range"));
-
-    let err = encode_ktx2(&sample_table(&[3, 3], 3), Precision::F16).unwrap_err().to_string();
-    assert!(err.contains("3 channels") && err.contains("KTX2") && err.contains("1, 2 or 4"), "{err}");
-    for shape in [&[3][..], &[2, 2, 2, 2]] {
-        let err = encode_ktx2(&sample_table(shape, 1), Precision::F16).unwrap_err().to_string();
-        assert!(err.contains(&format!("{} axes", shape.len())) && err.contains("KTX2"), "{err}");
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("bad.ktx2");
-    assert!(write_ktx2(&path, &sample_table(&[2, 2, 2, 2], 1), Precision::F32).is_err());
-    assert!(!path.exists(), "nothing written");
+    assert!(text.contains("\"placement\":\"cell-centred\"") && text.contains("\"mapping\":\"sqrt\""), "{text}");
+    let tir = decode(&test_file("tir.ktx2")).unwrap();
+    // The texture coordinate formula is spelled out per axis, as in the manifest.
+    let axis = &tir.description.axes[2];
+    assert_eq!(axis.texture_coordinate, axis.axis.texture_coordinate_formula());
 }
 
 #[test]
 fn foreign_and_truncated_files_are_refused() {
-    let good = encode_ktx2(&sample_table(&[5, 3], 1), Precision::F32).unwrap();
+    let good = test_file("karis.ktx2");
     assert!(error_of(b"").contains("not a KTX2 file"));
-    let dds = dds::encode_dds(&sample_table(&[5, 3], 1), Precision::F32).unwrap();
-    assert!(error_of(&dds).contains("not a KTX2 file"));
+    assert!(error_of(&test_file("karis.dds")).contains("not a KTX2 file"));
     let mut ktx1 = good.clone();
     ktx1[5..7].copy_from_slice(b"11");
     assert!(error_of(&ktx1).contains("not a KTX2 file"));
@@ -240,7 +101,7 @@ fn foreign_and_truncated_files_are_refused() {
         assert!(err.contains("truncated") || err.contains("stated as"), "cut at {cut}: {err}");
     }
     let err = error_of(&good[..good.len() - 1]);
-    assert!(err.contains("need 60 bytes") && err.contains("has 59"), "{err}");
+    assert!(err.contains("need 192 bytes") && err.contains("has 191"), "{err}");
     let mut longer = good.clone();
     longer.push(0);
     assert!(error_of(&longer).contains("1 bytes follow"));
@@ -248,7 +109,7 @@ fn foreign_and_truncated_files_are_refused() {
 
 #[test]
 fn header_fields_tmlut_does_not_write_are_refused_naming_them() {
-    let good = encode_ktx2(&sample_table(&[5, 3], 1), Precision::F32).unwrap();
+    let good = test_file("karis.ktx2");
     let lie = |offset: usize, value: u32| {
         let mut bytes = good.clone();
         set(&mut bytes, offset, value);
@@ -257,11 +118,11 @@ fn header_fields_tmlut_does_not_write_are_refused_naming_them() {
     let err = lie(12, 37); // VK_FORMAT_R8G8B8A8_UNORM
     assert!(err.contains("vkFormat 37") && err.contains("VK_FORMAT_R16_SFLOAT (76)"), "{err}");
     assert!(lie(12, 0).contains("vkFormat 0"));
-    assert!(lie(16, 2).contains("typeSize 2"));
+    assert!(lie(16, 4).contains("typeSize 4"));
     assert!(lie(20, 0).contains("zero pixel width"));
     assert!(lie(24, 0).contains("1D texture"));
     // A 2D texture stated as an array of 6 layers lacks the texels of five of them.
-    assert!(lie(32, 6).contains("5 × 3 × 6 VK_FORMAT_R32_SFLOAT texels are 360 bytes"), "{}", lie(32, 6));
+    assert!(lie(32, 6).contains("8 × 6 × 6 VK_FORMAT_R16G16_SFLOAT texels are 1152 bytes"), "{}", lie(32, 6));
     assert!(lie(36, 6).contains("cube map"));
     assert!(lie(40, 3).contains("3 mip levels"));
     assert!(lie(44, 2).contains("supercompression scheme 2"));
@@ -284,7 +145,7 @@ fn header_fields_tmlut_does_not_write_are_refused_naming_them() {
 
 #[test]
 fn a_descriptor_other_than_the_writers_is_refused_naming_the_field() {
-    let good = encode_ktx2(&sample_table(&[5, 3], 2), Precision::F16).unwrap();
+    let good = test_file("karis.ktx2");
     for (byte, value, field_name) in [(14, 2u8, "transfer function"), (15, 1, "flags"), (13, 1, "colour primaries")] {
         let mut bytes = good.clone();
         bytes[DFD_OFFSET + byte] = value;
@@ -299,31 +160,26 @@ fn a_descriptor_other_than_the_writers_is_refused_naming_the_field() {
 
 #[test]
 fn key_value_data_that_disagrees_with_the_texels_or_is_malformed_is_refused() {
-    let good = encode_ktx2(&sample_table(&[5, 3], 1), Precision::F16).unwrap();
-    let edited = |from: &[u8], to: &[u8]| {
-        let mut bytes = good.clone();
-        replace_once(&mut bytes, from, to);
-        error_of(&bytes)
-    };
-    let err = edited(b"tmlut.precision\0f16", b"tmlut.precision\0f32");
-    assert!(err.contains("`tmlut.precision` is f32") && err.contains("R16_SFLOAT"), "{err}");
-    let err = edited(b"KTXorientation\0rd", b"KTXorientation\0ru");
+    let err = edited("karis.ktx2", b"tmlut.precision\0f16", b"tmlut.precision\0f32");
+    assert!(err.contains("`tmlut.precision` is f32") && err.contains("R16G16_SFLOAT"), "{err}");
+    let err = edited("karis.ktx2", b"KTXorientation\0rd", b"KTXorientation\0ru");
     assert!(err.contains("`ru`") && err.contains("`rd`"), "{err}");
-    let err = edited(b"tmlut.axes\0", b"tmlut.axez\0");
+    let err = edited("karis.ktx2", b"tmlut.axes\0", b"tmlut.axez\0");
     assert!(err.contains("lacks `tmlut.axes`") && err.contains("not written by tmlut"), "{err}");
-    let err = edited(b"KTXwriter\0", b"zTXwriter\0");
+    let err = edited("karis.ktx2", b"KTXwriter\0", b"zTXwriter\0");
     assert!(err.contains("keys are sorted"), "{err}");
-    // The cell-centred axis's formula does not depend on its count: the extents catch it.
-    let err = edited(b"\"count\":3", b"\"count\":4");
-    assert!(err.contains("axis `a1` has 4 nodes, the texture height is 3"), "{err}");
-    let err = edited(b"\"count\":5", b"\"count\":6");
+    // A cell-centred axis's formula does not depend on its count: the extents catch it.
+    let err = edited("karis.ktx2", b"\"count\":6", b"\"count\":7");
+    assert!(err.contains("axis `alpha` has 7 nodes, the texture height is 6"), "{err}");
+    // A node-aligned axis's formula does.
+    let err = edited("gd.ktx2", b"\"count\":9", b"\"count\":8");
     assert!(err.contains("texture coordinate"), "{err}");
-    let err = edited(b"\"start\":0.0", b"\"start\":0.5");
+    let err = edited("tir.ktx2", b"\"start\":-1.5", b"\"start\":-1.4");
     assert!(err.contains("texture coordinate"), "{err}");
-    let err = edited(b"\"name\":\"c0\"", b"\"name\":7777");
+    let err = edited("karis.ktx2", b"\"name\":\"c0\"", b"\"name\":7777");
     assert!(err.contains("`tmlut.channels` is not valid"), "{err}");
     // A pair claiming more bytes than the key/value data holds.
-    let mut bytes = good.clone();
+    let mut bytes = test_file("karis.ktx2");
     let at = kvd_offset(&bytes);
     set(&mut bytes, at, u32::MAX);
     assert!(error_of(&bytes).contains("more than remain"));
