@@ -71,7 +71,7 @@ impl BakedErrors {
 /// The baked values of `baked` at view cosine `mu`, as a GPU's linear filter reads them from its
 /// rows ([`texture_coordinate`], then the filter of `crate::filter`), in the layout's order.
 pub fn sample(baked: &BakedMaterial, mu: f32, filter: Filter) -> Vec<f32> {
-    let (lower, upper, weight) = linear_taps(baked.placement.texture_coordinate(mu), baked.nodes, filter);
+    let (lower, upper, weight) = linear_taps(baked.placement.texture_coordinate(mu), baked.nodes(), filter);
     let mut values: Vec<f32> = (0..baked.rows())
         .flat_map(|row| {
             let (a, b) = (baked.texel(row, lower), baked.texel(row, upper));

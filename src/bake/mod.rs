@@ -52,9 +52,7 @@ pub struct BakedMaterial {
     pub layout: BakeLayout,
     /// Where the nodes sit along `mu`.
     pub placement: NodePlacement,
-    /// Nodes along `mu`: `placement.nodes()`.
-    pub nodes: usize,
-    /// `rows() * nodes` texels, node fastest: row `r`, node `k` is `texels[r * nodes + k]`.
+    /// `rows() * nodes()` texels, node fastest: row `r`, node `k` is `texels[r * nodes() + k]`.
     pub texels: Vec<[f32; 4]>,
 }
 
@@ -64,9 +62,14 @@ impl BakedMaterial {
         self.layout.texels_per_node()
     }
 
+    /// Nodes along `mu`.
+    pub fn nodes(&self) -> usize {
+        self.placement.nodes()
+    }
+
     /// The texel of row `row` at node `k`.
     pub fn texel(&self, row: usize, k: usize) -> [f32; 4] {
-        self.texels[row * self.nodes + k]
+        self.texels[row * self.nodes() + k]
     }
 }
 
@@ -101,7 +104,7 @@ pub fn bake_material(
             texels[(i / 4) * nodes + k][i % 4] = value as f32;
         }
     }
-    Ok(BakedMaterial { name: name.to_string(), layout, placement, nodes, texels })
+    Ok(BakedMaterial { name: name.to_string(), layout, placement, texels })
 }
 
 /// An evaluation's values in `layout`'s order, refused where one is not finite, naming the

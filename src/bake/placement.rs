@@ -107,27 +107,27 @@ impl NodePlacement {
     /// Each segment's map from `u` to the texel coordinate, in f32: node `k`'s texel centre is
     /// `(k + 0.5) / nodes`.
     pub fn segment_maps(&self) -> Vec<SegmentMap> {
+        self.segments.iter().map(|s| self.segment_map(s)).collect()
+    }
+
+    fn segment_map(&self, s: &Segment) -> SegmentMap {
         let nodes = self.nodes() as f64;
-        self.segments
-            .iter()
-            .map(|s| {
-                let per_u = s.intervals as f64 / (s.u_end - s.u_start);
-                SegmentMap {
-                    u_start: s.u_start as f32,
-                    slope: (per_u / nodes) as f32,
-                    offset: ((s.first_node as f64 - s.u_start * per_u + 0.5) / nodes) as f32,
-                }
-            })
-            .collect()
+        let per_u = s.intervals as f64 / (s.u_end - s.u_start);
+        SegmentMap {
+            u_start: s.u_start as f32,
+            slope: (per_u / nodes) as f32,
+            offset: ((s.first_node as f64 - s.u_start * per_u + 0.5) / nodes) as f32,
+        }
     }
 
     /// The texel coordinate of view cosine `mu` (clamped to [0, 1]; NaN reads as grazing, as the
-    /// model reads it), in f32 as a shader computes it from [`NodePlacement::segment_maps`].
+    /// model reads it), in f32 as a shader computes it from [`NodePlacement::segment_maps`]: the
+    /// last segment whose f32 start `u` reaches.
     pub fn texture_coordinate(&self, mu: f32) -> f32 {
         let mu = if mu.is_nan() { 0.0 } else { mu.clamp(0.0, 1.0) };
         let u = mu.sqrt();
-        let maps = self.segment_maps();
-        let map = maps.iter().rev().find(|m| u >= m.u_start).unwrap_or(&maps[0]);
+        let segment = self.segments.iter().rev().find(|s| u >= s.u_start as f32).unwrap_or(&self.segments[0]);
+        let map = self.segment_map(segment);
         u * map.slope + map.offset
     }
 }
@@ -214,6 +214,17 @@ pub fn place_nodes(
     }
 }
 
+/// Where the line through `(u[0], v[0])` and `(u[1], v[1])` meets the line through
+/// `(u[2], v[2])` and `(u[3], v[3])`, kept within `[u[1], u[2]]`; `None` where the lines are
+/// parallel (no kink shows between them).
+fn lines_meet(u: [f64; 4], v: [f64; 4]) -> Option<f64> {
+    let left_slope = (v[1] - v[0]) / (u[1] - u[0]);
+    let right_slope = (v[3] - v[2]) / (u[3] - u[2]);
+    // v[1] + left (x - u[1]) = v[2] + right (x - u[2])
+    let meet = (v[2] - v[1] + left_slope * u[1] - right_slope * u[2]) / (left_slope - right_slope);
+    meet.is_finite().then(|| meet.clamp(u[1], u[2]))
+}
+
 /// The kink of value `c` found near `u` on the fine grid of spacing `h`, located more closely: the
 /// meeting of the lines through two points on either side, at a quarter of the spacing before,
 /// three times over (to `h / 64`), each time about the last estimate.
@@ -222,14 +233,14 @@ fn refine_kink(values: &(dyn Fn(f64) -> Result<Vec<f64>> + Sync), u: f64, c: usi
     let mut step = h / 4.0;
     for _ in 0..3 {
         let at = [-2.0, -1.0, 1.0, 2.0].map(|k| (estimate + k * step).clamp(0.0, 1.0));
-        let v: Vec<f64> = at.iter().map(|&u| values(u).map(|v| v[c])).collect::<Result<_>>()?;
-        let left_slope = (v[1] - v[0]) / (at[1] - at[0]);
-        let right_slope = (v[3] - v[2]) / (at[3] - at[2]);
-        let meet = (v[2] - v[1] + left_slope * at[1] - right_slope * at[2]) / (left_slope - right_slope);
-        if !meet.is_finite() {
-            break;
+        let mut v = [0.0; 4];
+        for (v, &u) in v.iter_mut().zip(&at) {
+            *v = values(u)?[c];
         }
-        estimate = meet.clamp(at[1], at[2]);
+        match lines_meet(at, v) {
+            Some(meet) => estimate = meet,
+            None => break,
+        }
         step /= 4.0;
     }
     Ok(estimate)
@@ -288,13 +299,8 @@ impl FineGrid<'_> {
     fn kink_near(&self, i: usize, c: usize) -> f64 {
         let (fine, h) = (self.fine, self.h);
         let i = i.clamp(2, fine.len() - 3);
-        let at = |j: usize| fine[j][c];
-        let left_slope = (at(i - 1) - at(i - 2)) / h;
-        let right_slope = (at(i + 2) - at(i + 1)) / h;
-        let (u_left, u_right) = ((i - 1) as f64 * h, (i + 1) as f64 * h);
-        // at(i-1) + left (u - u_left) = at(i+1) + right (u - u_right)
-        let meet = (at(i + 1) - at(i - 1) + left_slope * u_left - right_slope * u_right) / (left_slope - right_slope);
-        if meet.is_finite() { meet.clamp(u_left, u_right) } else { i as f64 * h }
+        let points = [i - 2, i - 1, i + 1, i + 2];
+        lines_meet(points.map(|j| j as f64 * h), points.map(|j| fine[j][c])).unwrap_or(i as f64 * h)
     }
 
     /// The weighed curvature `|f''|` at each grid point strictly inside `(a, b)` and two points
