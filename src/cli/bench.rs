@@ -221,16 +221,8 @@ fn exec_bake(args: BakeArgs, context: &Context) -> tmlut::Result<()> {
     check_count("--nodes", args.nodes, tmlut::bake::NODES)?;
     check_count("--error-views", args.error_views, 1..=64)?;
     check_count("--exact-nodes", args.exact_nodes, tmlut::integrate::quadrature::NODES)?;
-    let mut scenes = Vec::new();
-    for path in &args.scenes {
-        if path.is_dir() {
-            scenes.extend(tmlut::furnace::scene_files(path)?);
-        } else {
-            scenes.push(path.clone());
-        }
-    }
     let settings = BakeBenchSettings {
-        scenes,
+        scenes: args.scenes,
         bake: BakeSettings { nodes: args.nodes, ..BakeSettings::default() },
         error_views_per_interval: args.error_views,
         exact_nodes: args.exact_nodes,

@@ -16,11 +16,12 @@ use crate::filter::Filter;
 use crate::furnace::exact::ExactTables;
 use crate::integrate::Progress;
 use crate::model::Material;
-use crate::scene::Scene;
+use crate::scene::library::read_scene_files;
 
 /// What to measure.
 #[derive(Debug, Clone)]
 pub struct BakeBenchSettings {
+    /// Scene files, or folders of them (`library::read_scene_files`).
     pub scenes: Vec<PathBuf>,
     pub bake: BakeSettings,
     /// Views per node interval the errors are measured at.
@@ -44,6 +45,8 @@ pub struct BakedMaterialFigures {
 /// Every material's figures, and the whole bake's time.
 #[derive(Debug, Clone)]
 pub struct BakeBench {
+    /// Scene files read.
+    pub scene_files: usize,
     pub materials: Vec<BakedMaterialFigures>,
     /// Seconds to bake them all, materials side by side.
     pub all_seconds: f64,
@@ -52,9 +55,9 @@ pub struct BakeBench {
 /// Bake every material (at its scene's values; a range a scene varies at its middle) of the
 /// scenes of `settings`, timed, then measure each one's errors.
 pub fn bench_bake(config: &Config, settings: &BakeBenchSettings, progress: &dyn Progress) -> Result<BakeBench> {
+    let files = read_scene_files(&settings.scenes)?;
     let mut materials: Vec<(String, Material)> = Vec::new();
-    for path in &settings.scenes {
-        let (scene, _) = Scene::read(path)?;
+    for scene in files.iter().map(|f| &f.scene) {
         for m in &scene.materials {
             materials.push((format!("{}/{}", scene.name, m.name), Material::new(m.model, m.stack()?)));
         }
@@ -93,7 +96,7 @@ pub fn bench_bake(config: &Config, settings: &BakeBenchSettings, progress: &dyn 
         materials.par_iter().map(|(name, m)| bake_material(name, m, &exact, &settings.bake)).collect::<Result<Vec<_>>>()
     });
     baked?;
-    Ok(BakeBench { materials: figures, all_seconds })
+    Ok(BakeBench { scene_files: files.len(), materials: figures, all_seconds })
 }
 
 /// The bench as a Markdown section.
@@ -107,7 +110,7 @@ pub fn markdown(bench: &BakeBench, settings: &BakeBenchSettings, threads: usize)
          filter (8-bit weights) against the model at {} views per node interval; lobe roughness, cosine and GD weighted by \
          the lobe's largest energy.\n",
         bench.materials.len(),
-        settings.scenes.len(),
+        bench.scene_files,
         settings.exact_nodes,
         settings.bake.nodes,
         settings.bake.tolerance,
