@@ -7,79 +7,27 @@
 //! lobe's largest channel of energy; the albedo and the lobe energies are compared as they are.
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 use super::layout::ValueKind;
 use super::{BakeLayout, BakedMaterial, NodePlacement};
-use crate::filter::{Filter, lerp, linear_taps};
+use crate::filter::Filter;
 use crate::model::{Material, Tables};
-
-/// The largest difference of one kind, with where it is.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Worst {
-    pub max: f64,
-    /// The view cosine of the largest difference.
-    pub at_mu: f64,
-    /// The value it is of (`lobe 2 roughness`), in words.
-    pub value: String,
-}
-
-impl Worst {
-    fn none() -> Self {
-        Worst { max: 0.0, at_mu: 1.0, value: String::new() }
-    }
-
-    fn take(&mut self, difference: f64, mu: f64, value: impl FnOnce() -> String) {
-        if difference > self.max {
-            *self = Worst { max: difference, at_mu: mu, value: value() };
-        }
-    }
-}
-
-/// A baked material's errors against its model, over `views` view cosines.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BakedErrors {
-    /// The albedo and the top albedo, per channel.
-    pub albedo: Worst,
-    /// Each lobe's energy, per channel.
-    pub lobe_energy: Worst,
-    /// Each lobe's roughness, weighted by the lobe's largest energy.
-    pub lobe_roughness: Worst,
-    /// Each lobe's mean-direction cosine, weighted by the lobe's largest energy.
-    pub lobe_cos: Worst,
-    /// Each lobe's GD, weighted by the lobe's largest energy.
-    pub lobe_gd: Worst,
-    /// View cosines compared.
-    pub views: usize,
-}
-
-impl BakedErrors {
-    /// The largest of the five (the first of equals).
-    pub fn worst(&self) -> &Worst {
-        [&self.lobe_gd, &self.lobe_cos, &self.lobe_roughness, &self.lobe_energy, &self.albedo]
-            .into_iter()
-            .max_by(|a, b| a.max.total_cmp(&b.max))
-            .expect("five kinds")
-    }
-
-    /// The largest difference of the five.
-    pub fn max(&self) -> f64 {
-        self.worst().max
-    }
-}
+pub use tmlut_loader::formats::baked::{BakedErrors, Worst};
 
 /// The baked values of `baked` at view cosine `mu`, as a GPU's linear filter reads them from its
 /// rows ([`texture_coordinate`], then the filter of `crate::filter`), in the layout's order.
 pub fn sample(baked: &BakedMaterial, mu: f32, filter: Filter) -> Vec<f32> {
-    let (lower, upper, weight) = linear_taps(baked.placement.texture_coordinate(mu), baked.nodes(), filter);
-    let mut values: Vec<f32> = (0..baked.rows())
-        .flat_map(|row| {
-            let (a, b) = (baked.texel(row, lower), baked.texel(row, upper));
-            (0..4).map(move |c| lerp(a[c], b[c], weight))
-        })
-        .collect();
-    values.truncate(baked.layout.values());
-    values
+    let texel = |row: usize, k: usize| baked.texel(row, k);
+    let segments = baked.placement.segment_maps();
+    tmlut_loader::formats::baked::sample(
+        &segments,
+        baked.nodes(),
+        baked.rows(),
+        baked.layout.values(),
+        mu,
+        filter,
+        texel,
+    )
 }
 
 /// The view cosines the errors are measured at: `per_interval` views in each interval between
@@ -110,19 +58,22 @@ pub fn baked_errors(
     filter: Filter,
 ) -> BakedErrors {
     let views = error_views(&baked.placement, per_interval.max(1));
-    let layout = baked.layout;
+    reading_errors(&baked.layout, &views, material, tables, |mu| sample(baked, mu, filter))
+}
+
+/// The errors of the baked values `read` returns at a view cosine (a material of `layout`, read
+/// from memory or from its file) against `material` evaluated with `tables`, at `views`.
+pub fn reading_errors(
+    layout: &BakeLayout,
+    views: &[f64],
+    material: &Material,
+    tables: &(dyn Tables + Sync),
+    read: impl Fn(f32) -> Vec<f32>,
+) -> BakedErrors {
     let model: Vec<Vec<f64>> = views.par_iter().map(|&mu| layout.flatten(&material.evaluate(mu, tables))).collect();
-    let mut errors = BakedErrors {
-        albedo: Worst::none(),
-        lobe_energy: Worst::none(),
-        lobe_roughness: Worst::none(),
-        lobe_cos: Worst::none(),
-        lobe_gd: Worst::none(),
-        views: views.len(),
-    };
+    let mut errors = BakedErrors { views: views.len(), ..BakedErrors::none("") };
     for (&mu, exact) in views.iter().zip(&model) {
-        let read = sample(baked, mu as f32, filter);
-        compare(&layout, exact, &read, mu, &mut errors);
+        compare(layout, exact, &read(mu as f32), mu, &mut errors);
     }
     errors
 }

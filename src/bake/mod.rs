@@ -7,6 +7,7 @@
 //! of its matrices and table lookups. What the baking costs in accuracy is measured against the
 //! model itself, read between the nodes exactly as a GPU filters them ([`errors`]).
 
+pub mod array;
 pub mod errors;
 pub mod layout;
 pub mod placement;

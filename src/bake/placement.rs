@@ -39,13 +39,8 @@ pub struct NodePlacement {
 }
 
 /// What a shader holds per segment, in f32: where it starts in `u`, and the affine map from `u`
-/// to the texel coordinate, `x = u * slope + offset`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SegmentMap {
-    pub u_start: f32,
-    pub slope: f32,
-    pub offset: f32,
-}
+/// to the texel coordinate, `x = u * slope + offset` (the manifest states it as it is here).
+pub use tmlut_loader::formats::baked::BakedSegment as SegmentMap;
 
 impl NodePlacement {
     /// `nodes` nodes uniform in `u`.
@@ -124,11 +119,7 @@ impl NodePlacement {
     /// model reads it), in f32 as a shader computes it from [`NodePlacement::segment_maps`]: the
     /// last segment whose f32 start `u` reaches.
     pub fn texture_coordinate(&self, mu: f32) -> f32 {
-        let mu = if mu.is_nan() { 0.0 } else { mu.clamp(0.0, 1.0) };
-        let u = mu.sqrt();
-        let segment = self.segments.iter().rev().find(|s| u >= s.u_start as f32).unwrap_or(&self.segments[0]);
-        let map = self.segment_map(segment);
-        u * map.slope + map.offset
+        tmlut_loader::formats::baked::texture_coordinate(&self.segment_maps(), mu)
     }
 }
 

@@ -396,6 +396,11 @@ pub struct FileEntry {
     /// error ([`super::slice_array`]). The entry's `axes` are then the array's texel axes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slice_array: Option<super::slice_array::SliceArrayEntry>,
+    /// For a texture array of baked materials: the materials it holds, where, how their nodes are
+    /// placed and how far they are from their model ([`super::baked`]). The entry's `axes` are
+    /// then the array's texel axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baked: Option<super::baked::BakedArrayEntry>,
     /// SHA-256 of every other field of this entry as the build wrote it ([`FileEntry::claims_hash`]):
     /// what a file cannot say about itself (a DDS file's axes, a fit's parameters, a packing's
     /// lookup, an array's slices) is held to it, so that an entry edited after the build is found
@@ -447,6 +452,7 @@ impl FileEntry {
             fit: None,
             binding: None,
             slice_array: None,
+            baked: None,
             claims_sha256: None,
         }
     }

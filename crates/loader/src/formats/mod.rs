@@ -7,6 +7,7 @@
 //! module. Every reader goes through [`read_bytes_at_most`]; [`files`] says how it meets the file
 //! system.
 
+pub mod baked;
 pub mod bin;
 pub mod dds;
 #[cfg(feature = "exr")]
