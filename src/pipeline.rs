@@ -223,6 +223,17 @@ pub fn write_jobs(
     // A scene shader is specialised to the tables it was written over: it leaves with them, and
     // `build --scene` writes it again over the new ones.
     removals.extend(manifest.scene_shader.take().into_iter().flat_map(|s| s.files).map(|f| f.file));
+    // So is a bake of the scene's materials, which a scene build may have changed: it leaves too,
+    // and `build --scene --bake` (or `tmlut bake`) makes it again.
+    if scene.is_some() {
+        manifest.files.retain(|name, entry| {
+            let baked = entry.baked.is_some();
+            if baked {
+                removals.push(name.clone());
+            }
+            !baked
+        });
+    }
     let mut written = Vec::new();
     for mut file in staged {
         file.entry.seal();

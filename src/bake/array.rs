@@ -122,6 +122,48 @@ pub fn array_entry(
     BakedArrayEntry::new(scene, source, tolerance, extent, arrangement.layers as u32, materials)
 }
 
+/// Most materials [`summary`] lists one by one (the largest errors first).
+const MATERIALS_LISTED: usize = 16;
+
+/// What a bake wrote, in a few lines: the array's size, and the materials of the largest error
+/// with their lobes, rows and breaks.
+pub fn summary(array: &BakedArrayEntry) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let materials = &array.materials;
+    let _ = writeln!(
+        out,
+        "baked {} material(s) from {}: {} layer(s) of {} x {} RGBA texels",
+        materials.len(),
+        array.source,
+        array.layers,
+        array.layer_extent[0],
+        array.layer_extent[1]
+    );
+    let mut by_error: Vec<&BakedMaterialEntry> = materials.iter().collect();
+    by_error.sort_by(|a, b| b.error.max().total_cmp(&a.error.max()));
+    for m in by_error.iter().take(MATERIALS_LISTED) {
+        let worst = m.error.worst();
+        let _ = writeln!(
+            out,
+            "  {}: {} lobe(s), {} texel reads, {} break(s); largest error {:.1e} ({} at mu {:.4})",
+            m.material,
+            m.lobes,
+            m.rows,
+            m.segments.len().saturating_sub(1),
+            worst.max,
+            if worst.value.is_empty() { "none" } else { &worst.value },
+            worst.at_mu
+        );
+    }
+    if materials.len() > MATERIALS_LISTED {
+        let _ = writeln!(out, "  ... and {} more, each within {:.1e}", materials.len() - MATERIALS_LISTED, {
+            by_error.get(MATERIALS_LISTED).map_or(0.0, |m| m.error.max())
+        });
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

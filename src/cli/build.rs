@@ -66,6 +66,12 @@ pub struct BuildArgs {
     /// given to each.
     #[arg(long, value_parser = Shard::parse, requires = "cache")]
     shard: Option<Shard>,
+    /// After the build, bake every material of the scene into the folder (as `tmlut bake` does,
+    /// with the --bake-* options).
+    #[arg(long, requires = "scene", conflicts_with = "shard")]
+    bake: bool,
+    #[command(flatten)]
+    bake_options: super::bake::BakeOptions,
 }
 
 pub fn parse_slice_layout(text: &str) -> Result<SliceLayout, String> {
@@ -117,7 +123,12 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
                 shard: args.shard,
                 ..library::build_request(&files, config, args.out)?
             };
-            return build_and_report(&request, context);
+            build_and_report(&request, context)?;
+            if args.bake {
+                let scene = &request.scene;
+                super::bake::bake_and_report(scene, &request.out, &request.config, &args.bake_options, context)?;
+            }
+            return Ok(());
         }
         true => {
             let request = BuildRequest { config, only: args.only, out: args.out, error_maps: args.error_maps };

@@ -12,6 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tmlut::config::Config;
 use tmlut::integrate::Progress;
 
+mod bake;
 mod bench;
 mod build;
 mod cache;
@@ -44,6 +45,7 @@ pub struct Cli {
 #[derive(Subcommand)]
 enum Command {
     Build(build::BuildArgs),
+    Bake(bake::BakeArgs),
     Merge(merge::MergeArgs),
     Plan(plan::PlanArgs),
     Cache(cache::CacheArgs),
@@ -89,6 +91,7 @@ pub fn run(cli: Cli) -> ExitCode {
         Command::Fit(args) => fit::exec(args, &context),
         Command::Furnace(args) => furnace::exec(args, &context),
         Command::Shader(args) => shader::exec(args, &context),
+        Command::Bake(args) => bake::exec(args, &context),
         Command::List(args) => list::exec(args, &context),
         Command::Inspect(args) => inspect::exec(args, &context),
     };

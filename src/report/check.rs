@@ -11,6 +11,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::formats::baked::BakedArrayEntry;
 use crate::formats::manifest::{
     COMMIT_JOURNAL, FileEntry, MANIFEST_FILE, Manifest, check_file_name, pending_commit, pending_commit_error,
 };
@@ -52,7 +53,14 @@ pub struct TableBudget {
     /// `fit.figures`: TIR with `fit = "best"`).
     pub max_fit_rmse: Option<f64>,
     pub max_fit_max: Option<f64>,
+    /// Largest error of any material of a baked array against its model (manifest
+    /// `baked.materials[].error`, the largest of its kinds); [`DEFAULT_MAX_BAKED_ERROR`] unless stated.
+    pub max_baked_error: Option<f64>,
 }
+
+/// The error every baked material is held to where no budget states one: the 1e-3 a baked
+/// material is made to meet (`docs/bake.md`).
+pub const DEFAULT_MAX_BAKED_ERROR: f64 = 1e-3;
 
 /// The furnace budget of one scene (`[furnace.<scene>]`), over every material of it; a missing key
 /// sets no limit.
@@ -677,6 +685,9 @@ fn check_file_values(record: &mut FileFindings, path: &Path, bytes: &[u8], entry
             None,
         );
     }
+    if let Some(baked) = &entry.baked {
+        check_baked(record, baked, &table, budget);
+    }
     let stats = table.stats();
     let non_finite = stats.nan_count + stats.infinite_count;
     record.add(
@@ -694,6 +705,34 @@ fn check_file_values(record: &mut FileFindings, path: &Path, bytes: &[u8], entry
             format!("within [{lo}, {hi}]"),
             inside,
             None,
+        );
+    }
+}
+
+/// A baked array: every material inside it as placed, and each one's error against its model
+/// held to the budget (by default [`DEFAULT_MAX_BAKED_ERROR`]), the worst named.
+fn check_baked(record: &mut FileFindings, baked: &BakedArrayEntry, table: &Table, budget: &TableBudget) {
+    let placed = baked.check(table);
+    record.add(
+        "baked materials",
+        match &placed {
+            Ok(()) => format!("{} materials inside the array as placed", baked.materials.len()),
+            Err(e) => e.to_string(),
+        },
+        "every material's rows inside one layer, its segments in order".into(),
+        placed.is_ok(),
+        None,
+    );
+    let limit = budget.max_baked_error.unwrap_or(DEFAULT_MAX_BAKED_ERROR);
+    let worst = baked.materials.iter().max_by(|a, b| a.error.max().total_cmp(&b.error.max()));
+    if let Some(m) = worst {
+        let (error, at) = (m.error.max(), m.error.worst());
+        record.add(
+            "max_baked_error",
+            format!("{error:.3e} (material `{}`, {} at mu {:.4})", m.material, at.value, at.at_mu),
+            format!("<= {limit:.3e} for every material"),
+            error <= limit,
+            Some((error, limit)),
         );
     }
 }

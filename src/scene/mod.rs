@@ -28,6 +28,7 @@
 //! A medium layer (`type = "medium"`, 6-flux model) has `sigma_s`, `sigma_k` (RGB), `depth` and
 //! the phase asymmetry `g`. Every error names the material and layer it is about.
 
+pub mod bake_files;
 pub mod build;
 pub mod cache;
 pub mod certify;

@@ -19,6 +19,7 @@
 //! and KTX2 files written by tmlut carry their own; `.bin` files carry ranges and node counts but not axis
 //! names, which the manifest adds when present.
 
+pub mod baked;
 pub mod handles;
 pub mod roughness;
 pub mod shader;
@@ -31,6 +32,7 @@ pub use crate::error::{Error, Result};
 pub use crate::formats::manifest::{FileEntry, Manifest, ShaderFile};
 pub use crate::formats::{FileFormat, Precision, sha256_hex};
 pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Table};
+pub use baked::BakedLut;
 pub use handles::{BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, TirLut};
 pub use roughness::{Alpha, Roughness};
 pub use shader::{MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};

@@ -1,0 +1,106 @@
+//! `tmlut bake`: a scene's materials baked into the folder built for it, as one texture array of
+//! rows along the view cosine (docs/bake.md); `tmlut build --scene --bake` does it after the build.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use tmlut::bake::BakeSettings;
+use tmlut::formats::{FileFormat, Precision};
+use tmlut::scene::Scene;
+use tmlut::scene::bake_files::{BakeRequest, BakeSource, write_baked};
+use tmlut::scene::library;
+
+use super::{ConfigArg, Context, ThreadsArg, one_of};
+
+/// Bake every material of a scene (or library) into the folder built for it: its whole
+/// transfer-matrix result tabulated along the view cosine, all materials as rows of one RGBA
+/// texture array (baked.dds), each material's error against its model with exact integrals in the
+/// manifest (docs/bake.md).
+#[derive(Args)]
+pub struct BakeArgs {
+    /// Scene files, or folders of them, as the folder was built for (tmlut build --scene).
+    #[arg(required = true)]
+    scene: Vec<PathBuf>,
+    /// The folder built for the scene.
+    #[arg(long)]
+    luts: PathBuf,
+    #[command(flatten)]
+    options: BakeOptions,
+    #[command(flatten)]
+    config: ConfigArg,
+    #[command(flatten)]
+    threads: ThreadsArg,
+}
+
+/// How a bake is made: the options `tmlut bake` and `tmlut build --scene --bake` share.
+#[derive(Args, Clone)]
+pub struct BakeOptions {
+    /// What the model reads its integrals from: `exact` (quadrature; the bake's error replaces the
+    /// tables') or `tables` (the folder's own, as the scene shader reads them).
+    #[arg(long, value_parser = parse_source, default_value = "exact")]
+    bake_source: BakeSource,
+    /// Nodes of mu per material (9 to 8192).
+    #[arg(long, default_value_t = BakeSettings::default().nodes)]
+    bake_nodes: usize,
+    /// The interpolation error a kink or a segment's curvature may be estimated to cause before
+    /// nodes are placed on it.
+    #[arg(long, default_value_t = BakeSettings::default().tolerance)]
+    bake_tolerance: f64,
+    /// Comma-separated files of the array: dds, ktx2, exr.
+    #[arg(long, value_delimiter = ',', value_parser = parse_format, default_value = "dds")]
+    bake_formats: Vec<FileFormat>,
+    /// Storage precision of the array: f32 or f16 (f16 adds up to 2.4e-4 near 1).
+    #[arg(long, value_parser = parse_precision, default_value = "f32")]
+    bake_precision: Precision,
+}
+
+impl BakeOptions {
+    fn request(&self) -> BakeRequest {
+        BakeRequest {
+            settings: BakeSettings { nodes: self.bake_nodes, tolerance: self.bake_tolerance },
+            source: self.bake_source,
+            formats: self.bake_formats.clone(),
+            precision: self.bake_precision,
+            ..BakeRequest::default()
+        }
+    }
+}
+
+fn parse_source(text: &str) -> Result<BakeSource, String> {
+    one_of(text, &[("exact", BakeSource::Exact), ("tables", BakeSource::Tables)])
+}
+
+fn parse_format(text: &str) -> Result<FileFormat, String> {
+    one_of(text, &[("dds", FileFormat::Dds), ("ktx2", FileFormat::Ktx2), ("exr", FileFormat::Exr)])
+}
+
+fn parse_precision(text: &str) -> Result<Precision, String> {
+    one_of(text, &[("f32", Precision::F32), ("f16", Precision::F16)])
+}
+
+pub fn exec(args: BakeArgs, context: &Context) -> tmlut::Result<()> {
+    let config = args.config.load()?;
+    args.threads.apply()?;
+    let files = library::read_scene_files(&args.scene)?;
+    let scene = library::merge(&files)?;
+    bake_and_report(&scene, &args.luts, &config, &args.options, context)
+}
+
+/// Bake `scene` into `luts` and print the files and each material's largest error.
+pub fn bake_and_report(
+    scene: &Scene,
+    luts: &Path,
+    config: &tmlut::config::Config,
+    options: &BakeOptions,
+    context: &Context,
+) -> tmlut::Result<()> {
+    let written = write_baked(scene, luts, config, &options.request(), &context.progress())?;
+    for file in &written {
+        println!("{}", file.path.display());
+    }
+    if let Some(baked) = written.first().and_then(|f| f.entry.baked.as_ref()) {
+        print!("{}", tmlut::bake::array::summary(baked));
+    }
+    Ok(())
+}

@@ -1,0 +1,319 @@
+//! Baking a scene's materials into the folder built for it (`tmlut bake`, `tmlut build --scene
+//! --bake`): every material's model evaluated at its nodes of `mu` ([`crate::bake`]), the rows of
+//! all of them written as one texture array with its manifest entry (`FileEntry::baked`), each
+//! material's error measured on the file as written, read as a GPU filters it, against its model
+//! with exact integrals.
+
+use std::path::Path;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::Scene;
+use super::shader_files::shader_materials;
+use crate::bake::array::{arrange, array_entry, baked_table, material_entry};
+use crate::bake::errors::{error_views, reading_errors};
+use crate::bake::{BakeSettings, BakedMaterial, bake_material};
+use crate::commit::{Move, OutputFolder};
+use crate::config::Config;
+use crate::error::{Error, Result};
+use crate::filter::Filter;
+use crate::formats::baked::{BakedErrors, BakedMaterialEntry, sample_array};
+use crate::formats::manifest::{MANIFEST_FILE, Manifest, write_manifest};
+use crate::formats::{FileFormat, Precision};
+use crate::furnace::exact::ExactTables;
+use crate::integrate::Progress;
+use crate::loader::LutFolder;
+use crate::model::folder::{FgdSource, LibraryTables};
+use crate::model::{Material, Tables};
+use crate::pipeline::{WrittenFile, write_table_file};
+use crate::recipes::driver::{Metadata, Provenance, SamplingRecord, TableBuild};
+use crate::stats::{ErrorRecord, ErrorSummary};
+
+/// The name of the baked array's table (its files are `baked.dds`, `baked.ktx2`, ...).
+pub const BAKED_TABLE: &str = "baked";
+
+/// Views per node interval a material's error is measured at when it is baked: the nodes and the
+/// midpoints between them, where linear interpolation errs most.
+pub const ERROR_VIEWS_PER_INTERVAL: usize = 2;
+
+/// The filter the errors are read through: a GPU's, with 8-bit filter weights.
+const GPU_FILTER: Filter = Filter::QuantisedWeights { bits: 8 };
+
+/// What the model reads its integrals from while a material is baked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BakeSource {
+    /// Exact integrals (Gauss–Legendre quadrature): the bake's error replaces the tables'.
+    #[default]
+    Exact,
+    /// The folder's own tables, as the scene shader reads them.
+    Tables,
+}
+
+impl BakeSource {
+    /// Its name as the command line spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            BakeSource::Exact => "exact",
+            BakeSource::Tables => "tables",
+        }
+    }
+}
+
+/// How a scene is baked.
+#[derive(Debug, Clone)]
+pub struct BakeRequest {
+    pub settings: BakeSettings,
+    pub source: BakeSource,
+    /// The files the array is written as (DDS, KTX2, EXR).
+    pub formats: Vec<FileFormat>,
+    pub precision: Precision,
+    /// Gauss–Legendre nodes per panel of the exact integrals (the bake's, where its source is
+    /// exact, and its errors' always).
+    pub exact_nodes: usize,
+}
+
+impl Default for BakeRequest {
+    fn default() -> Self {
+        BakeRequest {
+            settings: BakeSettings::default(),
+            source: BakeSource::Exact,
+            formats: vec![FileFormat::Dds],
+            precision: Precision::F32,
+            exact_nodes: crate::furnace::DEFAULT_EXACT_NODES,
+        }
+    }
+}
+
+/// Bake the materials of `scene` into `luts`, the folder built for it, and commit the array's
+/// files with the folder's manifest (replacing an earlier bake). Refused where the folder was
+/// built for another scene, and where a material's model returns a value that is not finite.
+/// Returns the files written.
+pub fn write_baked(
+    scene: &Scene,
+    luts: &Path,
+    config: &Config,
+    request: &BakeRequest,
+    progress: &dyn Progress,
+) -> Result<Vec<WrittenFile>> {
+    check_request(request)?;
+    let folder_lock = OutputFolder::take(luts, |holder| progress.note(&format!("waiting for {holder}")))?;
+    let folder = LutFolder::open(luts)?;
+    check_scene(&folder, scene)?;
+    let materials: Vec<Material> =
+        scene.materials.iter().map(|m| Ok(Material::new(m.model, m.stack()?))).collect::<Result<_>>()?;
+    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+    let exact = ExactTables::new(config, request.exact_nodes)?;
+    let started = Instant::now();
+    progress.start("bake", materials.len() as u64);
+    let baked = match request.source {
+        BakeSource::Exact => bake_all(&names, &materials, |_| &exact, &request.settings, progress)?,
+        BakeSource::Tables => {
+            let shader_materials = shader_materials(scene)?;
+            let library = LibraryTables::open(&folder, FgdSource::Packing, shader_materials.iter().map(|m| m.reads()))?;
+            let baked = bake_all(&names, &materials, |i| library.of(i), &request.settings, progress)?;
+            for (index, name) in names.iter().enumerate() {
+                let (misses, _) = library.of(index).take_counts();
+                if misses.count > 0 {
+                    return Err(Error::invalid(
+                        format!("material `{name}`"),
+                        format!(
+                            "{} lookup(s) the folder {} holds no table for, first: {}; build the scene's tables into it \
+                             (tmlut build --scene) or bake from exact integrals",
+                            misses.count,
+                            luts.display(),
+                            misses.first.unwrap_or_default()
+                        ),
+                    ));
+                }
+            }
+            baked
+        }
+    };
+    progress.finish();
+    let wall_time_s = started.elapsed().as_secs_f64();
+    let arrangement = arrange(&baked.iter().map(BakedMaterial::rows).collect::<Vec<_>>())?;
+    let table = baked_table(BAKED_TABLE, &baked, &arrangement)?;
+    let build = TableBuild { table, provenance: provenance(request, &exact, wall_time_s) };
+
+    let mut manifest = Manifest::read(&luts.join(MANIFEST_FILE))?;
+    let mut staging = folder_lock.staging()?;
+    let mut written = Vec::new();
+    for &format in &request.formats {
+        let mut file = write_table_file(&staging.dir, &build, format, request.precision)?;
+        let stored = crate::loader::load_verified(&file.path, &file.entry)?;
+        let entries = measured_entries(&baked, &materials, &arrangement.places, &stored, &exact);
+        let source = source_words(request, &exact);
+        let entry =
+            array_entry(&scene.name, &source, request.settings.tolerance, baked[0].nodes(), &arrangement, entries);
+        file.entry.baked = Some(entry);
+        file.entry.seal();
+        written.push(file);
+    }
+    // An earlier bake leaves with its files: the new array replaces it whole.
+    let mut removals = Vec::new();
+    manifest.files.retain(|name, entry| {
+        let earlier = entry.baked.is_some();
+        if earlier {
+            removals.push(name.clone());
+        }
+        !earlier
+    });
+    let mut moves = Vec::new();
+    for file in &written {
+        let name = file_name(&file.path);
+        manifest.files.insert(name.clone(), file.entry.clone());
+        moves.push(Move { staged: name.clone(), destination: name });
+    }
+    removals.retain(|file| !moves.iter().any(|m| &m.destination == file));
+    write_manifest(&manifest, &staging.dir)?;
+    crate::commit::commit(&folder_lock, &mut staging, moves, removals)?;
+    Ok(written
+        .into_iter()
+        .map(|file| WrittenFile { path: luts.join(file_name(&file.path)), entry: file.entry })
+        .collect())
+}
+
+/// Refuse settings no bake could use, before any work.
+fn check_request(request: &BakeRequest) -> Result<()> {
+    if request.formats.is_empty() || request.formats.contains(&FileFormat::Bin) {
+        return Err(Error::invalid(
+            "bake formats",
+            format!(
+                "{:?}; allowed: one or more of dds, ktx2, exr (a baked array is RGBA: .bin holds one channel)",
+                request.formats
+            ),
+        ));
+    }
+    if !crate::bake::NODES.contains(&request.settings.nodes) {
+        return Err(Error::invalid(
+            "bake nodes",
+            format!(
+                "{} is not allowed: a bake has {} to {} nodes of mu",
+                request.settings.nodes,
+                crate::bake::NODES.start(),
+                crate::bake::NODES.end()
+            ),
+        ));
+    }
+    let tolerance = request.settings.tolerance;
+    if !(tolerance.is_finite() && tolerance > 0.0) {
+        return Err(Error::invalid("bake tolerance", format!("{tolerance}; allowed: a positive number")));
+    }
+    Ok(())
+}
+
+/// Refuse a folder built for another scene (or for none): its tables, and the plan its manifest
+/// records, are not this scene's.
+fn check_scene(folder: &LutFolder, scene: &Scene) -> Result<()> {
+    match &folder.manifest().scene {
+        Some(record) if record.name == scene.name => Ok(()),
+        Some(record) => Err(Error::invalid(
+            folder.dir().display().to_string(),
+            format!(
+                "was built for scene `{}`, not `{}`; bake the folder built for this scene (tmlut build --scene)",
+                record.name, scene.name
+            ),
+        )),
+        None => Err(Error::invalid(
+            folder.dir().display().to_string(),
+            format!("was built for no scene; build scene `{}` into it first (tmlut build --scene)", scene.name),
+        )),
+    }
+}
+
+/// Every material baked, materials side by side, each with the tables `tables_of` gives its index.
+fn bake_all<'t>(
+    names: &[&str],
+    materials: &[Material],
+    tables_of: impl Fn(usize) -> &'t (dyn Tables + Sync) + Sync,
+    settings: &BakeSettings,
+    progress: &dyn Progress,
+) -> Result<Vec<BakedMaterial>> {
+    (0..materials.len())
+        .into_par_iter()
+        .map(|i| {
+            let baked = bake_material(names[i], &materials[i], tables_of(i), settings);
+            progress.advance(1);
+            baked
+        })
+        .collect()
+}
+
+/// Each material's entry, its error measured on `stored` (the array as written, read back) read
+/// through a GPU's filter, against its model with exact integrals.
+fn measured_entries(
+    baked: &[BakedMaterial],
+    materials: &[Material],
+    places: &[(usize, usize)],
+    stored: &crate::table::Table,
+    exact: &ExactTables,
+) -> Vec<BakedMaterialEntry> {
+    let against = format!(
+        "the model with exact integrals ({} Gauss–Legendre nodes per panel), at the nodes and midway between them; \
+         the array read as stored through a linear filter with 8-bit weights; lobe roughness, cosine and GD weighted \
+         by the lobe's largest energy",
+        exact.nodes()
+    );
+    baked
+        .par_iter()
+        .zip(materials)
+        .zip(places)
+        .map(|((material, model), &place)| {
+            // Placed first: the error is read through the entry's own segments and rows.
+            let mut entry = material_entry(material, place, BakedErrors::none(against.as_str()));
+            let views = error_views(&material.placement, ERROR_VIEWS_PER_INTERVAL);
+            let error = reading_errors(&material.layout, &views, model, exact, |mu| {
+                sample_array(stored, &entry, mu, GPU_FILTER)
+            });
+            entry.error = BakedErrors { against: against.clone(), ..error };
+            entry
+        })
+        .collect()
+}
+
+/// The integral source in words, for the manifest.
+fn source_words(request: &BakeRequest, exact: &ExactTables) -> String {
+    match request.source {
+        BakeSource::Exact => format!("exact integrals ({} Gauss–Legendre nodes per panel)", exact.nodes()),
+        BakeSource::Tables => "the folder's tables, read as the scene shader reads them".into(),
+    }
+}
+
+/// How the array was made, for its manifest entry.
+fn provenance(request: &BakeRequest, exact: &ExactTables, wall_time_s: f64) -> Provenance {
+    Provenance {
+        metadata: Metadata {
+            integrand: "each material's transfer-matrix result TmResult(mu) (albedo, top albedo, and per lobe energy, \
+                        GGX roughness, mean-direction cosine and GD) at its nodes of mu: baked.materials[]"
+                .into(),
+            masking: None,
+            notes: vec![
+                "An array of RGBA rows: a material's value i is channel i % 4 of its row first_row + i / 4 of its layer; \
+                 baked.materials[].values names them."
+                    .into(),
+                "Read it as baked.lookup states; each material's error against its model: baked.materials[].error.".into(),
+            ],
+            sampler: "none: the model evaluated at each node".into(),
+            fresnel_basis: None,
+            channel_sum: None,
+        },
+        sampling: SamplingRecord {
+            method: format!("the transfer-matrix model evaluated from {}", source_words(request, exact)),
+            sampler: "none: no random points".into(),
+            samples_per_cell: 0,
+            replicates: 0,
+            seed: 0,
+        },
+        error: ErrorRecord::new(ErrorSummary::new(0, 0.0, 0.0), None),
+        wall_time_s,
+        accuracy: Vec::new(),
+        standard_error: None,
+        interpolation: Vec::new(),
+    }
+}
+
+/// The file name of `path`.
+fn file_name(path: &Path) -> String {
+    path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+}

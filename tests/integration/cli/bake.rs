@@ -1,0 +1,77 @@
+//! `tmlut bake` and `tmlut build --scene --bake`: a scene's materials baked into the folder built
+//! for it, read back by the loader as the model gives them, budgeted by `check`, and refused for a
+//! folder built for another scene.
+
+use super::{assert_clean_failure, build, scene_path, stdout, tmlut, write_config};
+
+use crate::common::SMALL_SET;
+use tmlut::furnace::exact::ExactTables;
+use tmlut::loader::{BakedLut, LutFolder};
+use tmlut::model::Material;
+use tmlut::scene::Scene;
+
+#[test]
+fn a_baked_scene_reads_back_as_its_model_at_the_nodes_and_check_holds_its_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let luts = dir.path().join("luts");
+    let scene_file = scene_path("copper-pot");
+    let built = build(&config, &luts, &["--scene", &scene_file, "--bake"]);
+    assert!(built.status.success(), "{}", super::stderr(&built));
+    assert!(stdout(&built).contains("baked 1 material(s)"), "{}", stdout(&built));
+
+    let folder = LutFolder::open(&luts).unwrap();
+    let baked = BakedLut::from_folder(&folder).unwrap();
+    assert_eq!(baked.file(), "baked.dds");
+    let index = baked.material_index("varnished-copper").unwrap();
+    let entry = baked.material(index).unwrap();
+    assert_eq!((entry.lobes, entry.rows), (2, 5));
+    assert!(entry.error.max() > 0.0 && entry.error.max() <= 1e-3, "{:?}", entry.error);
+    // At the normal, a node, the array holds the model's values in f32.
+    let (scene, _) = Scene::read(std::path::Path::new(&scene_file)).unwrap();
+    let m = &scene.materials[0];
+    let model = Material::new(m.model, m.stack().unwrap());
+    let exact = ExactTables::new(&tmlut::config::Config::default(), 8).unwrap();
+    let at_normal = model.evaluate(1.0, &exact);
+    let read = baked.sample_gpu(index, 1.0);
+    assert_eq!(read.len(), 18);
+    for (c, (&read, exact)) in read.iter().zip(at_normal.albedo).enumerate() {
+        assert!((read as f64 - exact).abs() < 1e-6, "albedo {c}: read {read}, the model {exact}");
+    }
+    assert!(baked.sample_gpu(index + 1, 0.5).is_empty(), "no material past the last");
+
+    // `check` holds every material to 1e-3 by default and to a stated budget.
+    let no_budgets = write_config(dir.path(), "");
+    let checked = tmlut(&["check", luts.to_str().unwrap(), "--budgets", no_budgets.to_str().unwrap()]);
+    assert!(checked.status.success(), "{}", stdout(&checked));
+    assert!(stdout(&checked).contains("baked.dds: max_baked_error"), "{}", stdout(&checked));
+    let tight = dir.path().join("tight.toml");
+    std::fs::write(&tight, "[baked]\nmax_baked_error = 1e-9\n").unwrap();
+    let failed = tmlut(&["check", luts.to_str().unwrap(), "--budgets", tight.to_str().unwrap()]);
+    assert_eq!(failed.status.code(), Some(1), "{}", stdout(&failed));
+    assert!(stdout(&failed).contains("FAIL baked.dds: max_baked_error"), "{}", stdout(&failed));
+
+    // A build of the scene again leaves no bake of the scene it replaced.
+    assert!(build(&config, &luts, &["--scene", &scene_file]).status.success());
+    assert!(!luts.join("baked.dds").exists());
+    assert!(
+        BakedLut::from_folder(&LutFolder::open(&luts).unwrap()).unwrap_err().to_string().contains("no baked array")
+    );
+}
+
+#[test]
+fn bake_refuses_a_folder_built_for_another_scene_and_bad_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let luts = dir.path().join("luts");
+    assert!(build(&config, &luts, &["--scene", &scene_path("copper-pot")]).status.success());
+    let luts_arg = luts.to_str().unwrap();
+    let other = tmlut(&["bake", &scene_path("textured"), "--luts", luts_arg]);
+    assert_clean_failure(&other, &["was built for scene `copper-pot`", "textured"]);
+    let nodes = tmlut(&["bake", &scene_path("copper-pot"), "--luts", luts_arg, "--bake-nodes", "3"]);
+    assert_clean_failure(&nodes, &["bake nodes", "9 to 8192"]);
+    let format = tmlut(&["bake", &scene_path("copper-pot"), "--luts", luts_arg, "--bake-formats", "bin"]);
+    assert!(!format.status.success());
+    assert!(super::stderr(&format).contains("allowed: dds, ktx2, exr"), "{}", super::stderr(&format));
+    assert!(!luts.join("baked.dds").exists(), "nothing written by a refused bake");
+}
