@@ -25,6 +25,7 @@ use rayon::prelude::*;
 use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
 use crate::error::{Error, Result};
+use crate::formats::baked::BakedErrors;
 use crate::integrate::{GRAZING_COSINE, Progress};
 use crate::loader::LutFolder;
 use crate::model::folder::{FgdSource, FolderTables, LibraryTables, MaterialReads, Misses};
@@ -296,7 +297,11 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
     let walks = walk_curves(request, &models, &mus, progress);
     times.walk = started.elapsed().as_secs_f64();
 
-    let materials: Vec<MaterialReport> = request
+    let started = Instant::now();
+    let baked = baked_curves(&folder, &request.scene, &models, &mus, &exact)?;
+    times.baked = started.elapsed().as_secs_f64();
+
+    let mut materials: Vec<MaterialReport> = request
         .scene
         .materials
         .iter()
@@ -310,7 +315,70 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
             MaterialReport::new(material, scene, &mus, curve, exact_curve, walk, cost_ns, clamped)
         })
         .collect();
+    for (report, baked) in materials.iter_mut().zip(baked) {
+        if let Some((errors, albedo)) = baked {
+            report.add_baked(errors, albedo);
+        }
+    }
     commit_report(request, &folder_lock, &luts, exact.nodes(), materials, times)
+}
+
+/// A baked material's errors against its model and its baked albedo curve.
+type BakedCurve = (BakedErrors, Vec<Rgb>);
+
+/// Where `folder` holds a bake of `scene` (`tmlut bake`): each baked material's values at `mus`,
+/// read as a GPU filters them, against its model with `exact` integrals, and its baked albedo
+/// curve; `None` for a material the bake does not hold. A bake of another scene, or one whose
+/// material no longer returns the lobes it was baked with, is refused: it is stale.
+fn baked_curves(
+    folder: &LutFolder,
+    scene: &crate::scene::Scene,
+    models: &[Material],
+    mus: &[f64],
+    exact: &ExactTables,
+) -> Result<Vec<Option<BakedCurve>>> {
+    if !folder.manifest().files.values().any(|e| e.baked.is_some()) {
+        return Ok(vec![None; models.len()]);
+    }
+    let baked = crate::loader::BakedLut::from_folder(folder)?;
+    let stale = |what: String| {
+        Error::invalid(
+            format!("the bake in {}", folder.dir().display()),
+            format!("{what}; bake the scene again (tmlut bake, or tmlut build --scene --bake)"),
+        )
+    };
+    if baked.baked().scene != scene.name {
+        return Err(stale(format!("is of scene `{}`, not `{}`", baked.baked().scene, scene.name)));
+    }
+    let against = "the model with exact integrals, at the furnace's views; the bake read as stored through a linear \
+                   filter with 8-bit weights; lobe roughness, cosine and GD weighted by the lobe's largest energy";
+    scene
+        .materials
+        .par_iter()
+        .zip(models)
+        .map(|(material, model)| {
+            let Some(index) = baked.material_index(&material.name) else { return Ok(None) };
+            let lobes = model.evaluate(1.0, exact).lobes.len();
+            let entry = baked.material(index).expect("indexed above");
+            if entry.lobes as usize != lobes {
+                return Err(stale(format!(
+                    "holds material `{}` with {} lobes, where its model returns {lobes}",
+                    material.name, entry.lobes
+                )));
+            }
+            let layout = crate::bake::BakeLayout { lobes };
+            let read = |mu: f32| baked.sample_gpu(index, mu);
+            let errors = crate::bake::errors::reading_errors(&layout, mus, model, exact, read);
+            let albedo = mus
+                .iter()
+                .map(|&mu| {
+                    let values = read(mu as f32);
+                    [values[0], values[1], values[2]].map(f64::from)
+                })
+                .collect();
+            Ok(Some((BakedErrors { against: against.into(), ..errors }, albedo)))
+        })
+        .collect()
 }
 
 /// What a furnace run refuses before it takes its folder: its settings, a scene name per

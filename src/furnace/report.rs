@@ -78,6 +78,13 @@ pub struct Errors {
     /// Views where the model error exceeds three of the walk's standard errors, per channel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_error_beyond_3_standard_errors: Option<[usize; 3]>,
+    /// Where the folder holds a bake of the material (`tmlut bake`): its baked values, read as a
+    /// GPU filters them, against the model with exact integrals, at every view of the run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baked: Option<crate::formats::baked::BakedErrors>,
+    /// `A(baked) - A(walk)`: what a baked material shows, bake and model together.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baked_total: Option<ErrorFigures>,
 }
 
 /// One material's curves and errors.
@@ -129,6 +136,9 @@ pub struct MaterialReport {
     /// Wall time of the material's random walk, in seconds (all threads).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub walk_wall_time_s: Option<f64>,
+    /// `A(mu)` read from the folder's bake of the material, where it holds one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo_baked: Option<Vec<Rgb>>,
     pub errors: Errors,
     /// One model evaluation with the scene's tables on one CPU core, every lookup included:
     /// nanoseconds, median of the timed rounds.
@@ -154,11 +164,25 @@ pub struct PhaseTimes {
     pub exact: f64,
     /// The random walks.
     pub walk: f64,
+    /// Reading the folder's bake and measuring it (0 without one).
+    #[serde(default)]
+    pub baked: f64,
     /// Drawing the pictures and plots.
     pub pictures: f64,
 }
 
 impl MaterialReport {
+    /// Record the folder's bake of the material: its errors against the model with exact
+    /// integrals, its albedo curve at the run's views, and that curve against the walk where the
+    /// walk ran.
+    pub fn add_baked(&mut self, errors: crate::formats::baked::BakedErrors, albedo_baked: Vec<Rgb>) {
+        if let Some(walk) = &self.albedo_walk {
+            self.errors.baked_total = Some(ErrorFigures::of(&self.mu, &albedo_baked, walk));
+        }
+        self.errors.baked = Some(errors);
+        self.albedo_baked = Some(albedo_baked);
+    }
+
     /// The TIR path as the scene writes it: `fit:PATH` for a named form.
     pub fn tir_label(&self) -> String {
         match &self.tir_form {
@@ -209,7 +233,15 @@ impl MaterialReport {
             walk_truncated_paths: None,
             walk_per_channel: None,
             walk_wall_time_s: None,
-            errors: Errors { table, model: None, total: None, model_error_beyond_3_standard_errors: None },
+            albedo_baked: None,
+            errors: Errors {
+                table,
+                model: None,
+                total: None,
+                model_error_beyond_3_standard_errors: None,
+                baked: None,
+                baked_total: None,
+            },
             model_cost_ns,
             clamped_lookups: clamped.count,
             first_clamped_lookup: clamped.first,
@@ -368,10 +400,11 @@ impl FurnaceReport {
 }
 
 /// The header of [`markdown_rows`].
-pub const MARKDOWN_HEADER: &str = "| scene | material | model | albedo / TIR | table error max (RMS) | at mu | model error max (RMS) | total max | walk s.e. max | ns/eval |\n|---|---|---|---|---|---|---|---|---|---|\n";
+pub const MARKDOWN_HEADER: &str = "| scene | material | model | albedo / TIR | table error max (RMS) | at mu | model error max (RMS) | total max | walk s.e. max | baked error max | ns/eval |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
 
 /// One Markdown row per material of `report`; the model error, the total and the walk's
-/// standard error read `not walked` where the random walk did not run.
+/// standard error read `not walked` where the random walk did not run, the baked error `not
+/// baked` where the folder holds no bake of the material.
 pub fn markdown_rows(report: &FurnaceReport) -> String {
     let mut out = String::new();
     for m in &report.materials {
@@ -384,8 +417,9 @@ pub fn markdown_rows(report: &FurnaceReport) -> String {
             ),
             _ => ("not walked".into(), "not walked".into(), "not walked".into()),
         };
+        let baked = e.baked.as_ref().map_or("not baked".into(), |b| format!("{:.2e}", b.max()));
         out.push_str(&format!(
-            "| {} | {} | {} | {} / {} | {:.2e} ({:.1e}) | {:.3} | {model} | {total} | {walk_se} | {:.0} |\n",
+            "| {} | {} | {} | {} / {} | {:.2e} ({:.1e}) | {:.3} | {model} | {total} | {walk_se} | {baked} | {:.0} |\n",
             m.scene_or(&report.scene),
             m.name,
             m.model.name(),

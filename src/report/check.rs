@@ -81,6 +81,9 @@ pub struct FurnaceBudget {
     /// Lookups read clamped outside their table's range (0 unless stated).
     #[serde(default)]
     pub max_clamped_lookups: u64,
+    /// Largest error of a baked material against its model (`errors.baked`, the largest of its
+    /// kinds), where the folder holds a bake; [`DEFAULT_MAX_BAKED_ERROR`] unless stated.
+    pub max_baked_error: Option<f64>,
     /// Budgets of single materials by name (`[furnace.<scene>.materials.<name>]`), each in place of
     /// the scene's for that material.
     #[serde(default)]
@@ -553,6 +556,9 @@ fn check_material(
     at_most("model_error_max", errors.model.as_ref().map(|m| m.max_all), budget.max_model_error);
     at_most("walk_standard_error_max", material.walk_standard_error_max(), budget.max_walk_standard_error);
     at_most("total_error_max", errors.total.as_ref().map(|t| t.max_all), budget.max_total_error);
+    if let Some(baked) = &errors.baked {
+        at_most("baked_error_max", Some(baked.max()), Some(budget.max_baked_error.unwrap_or(DEFAULT_MAX_BAKED_ERROR)));
+    }
     for (channel, name) in ["R", "G", "B"].iter().enumerate() {
         let limit = budget.max_table_error_per_channel.map(|limits| limits[channel]);
         at_most(&format!("table_error_max ({name})"), Some(errors.table.max[channel]), limit);

@@ -51,6 +51,32 @@ fn a_baked_scene_reads_back_as_its_model_at_the_nodes_and_check_holds_its_error(
     assert_eq!(failed.status.code(), Some(1), "{}", stdout(&failed));
     assert!(stdout(&failed).contains("FAIL baked.dds: max_baked_error"), "{}", stdout(&failed));
 
+    // The furnace measures the bake at its own views, and `check` holds it there too.
+    let furnace_out = dir.path().join("furnace");
+    let furnace = tmlut(&[
+        "furnace",
+        &scene_file,
+        "--luts",
+        luts.to_str().unwrap(),
+        "--walk",
+        "none",
+        "--pictures",
+        "none",
+        "--quiet",
+        "--out",
+        furnace_out.to_str().unwrap(),
+    ]);
+    assert!(furnace.status.success(), "{}", super::stderr(&furnace));
+    assert!(stdout(&furnace).contains("| baked error max |"), "{}", stdout(&furnace));
+    let report = tmlut::furnace::report::FurnaceReport::read(&furnace_out.join("copper-pot/furnace.json")).unwrap();
+    let measured = report.materials[0].errors.baked.as_ref().expect("the folder holds a bake of the material");
+    assert!(measured.views > 0 && measured.max() <= 1e-3, "{measured:?}");
+    assert_eq!(report.materials[0].albedo_baked.as_ref().map(Vec::len), Some(report.materials[0].mu.len()));
+    std::fs::write(&tight, "[furnace_every_material]\nmax_baked_error = 1e-9\n").unwrap();
+    let failed = tmlut(&["check", furnace_out.to_str().unwrap(), "--budgets", tight.to_str().unwrap()]);
+    assert_eq!(failed.status.code(), Some(1), "{}", stdout(&failed));
+    assert!(stdout(&failed).contains("varnished-copper: baked_error_max"), "{}", stdout(&failed));
+
     // A build of the scene again leaves no bake of the scene it replaced.
     assert!(build(&config, &luts, &["--scene", &scene_file]).status.success());
     assert!(!luts.join("baked.dds").exists());
