@@ -24,6 +24,8 @@
 //!   (generator);
 //! - [`stability`]: the stiff-case matrix over every physics function and table (generator);
 //! - [`scene`]: scene files of layer stacks and the plan of the tables they need (generator);
+//! - [`exact`]: the model's lookups answered by quadrature, with no table (what the furnace, the
+//!   bake and the checks compare with) (generator);
 //! - [`furnace`]: the furnace test: the model with tables, with exact integrals, and a random walk (generator);
 //! - [`fit`]: forms written as text, fitted to any table by least squares with NLopt (generator); a
 //!   fitted form compiled from a manifest's definition (loader side).
@@ -56,6 +58,8 @@ pub mod bake;
 pub mod commit;
 #[cfg(feature = "generator")]
 pub mod config;
+#[cfg(feature = "generator")]
+pub mod exact;
 #[cfg(feature = "generator")]
 pub mod furnace;
 #[cfg(feature = "generator")]

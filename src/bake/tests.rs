@@ -1,8 +1,8 @@
 use super::errors::{error_views, sample};
 use super::*;
 use crate::config::Config;
+use crate::exact::ExactTables;
 use crate::filter::Filter;
-use crate::furnace::exact::ExactTables;
 use crate::model::{FluxModel, Lookup, Quantity};
 use crate::scene::Scene;
 
@@ -175,7 +175,7 @@ fn a_bake_is_the_same_to_the_bit_on_one_thread_and_on_three() {
 /// energies and the energy-weighted lobe shape alike, at views between the nodes.
 #[test]
 fn the_example_materials_baked_by_default_stay_within_1e_3_of_their_model() {
-    let exact = ExactTables::new(&Config::default(), crate::furnace::DEFAULT_EXACT_NODES).unwrap();
+    let exact = ExactTables::new(&Config::default(), crate::exact::DEFAULT_NODES).unwrap();
     let mut six_flux = 0;
     for (name, material) in example_materials() {
         six_flux += usize::from(material.model == FluxModel::SixFlux);

@@ -7,7 +7,7 @@ use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
 use tmlut::bake::BakeSettings;
-use tmlut::furnace::exact::MONTE_CARLO_REPLICATES;
+use tmlut::exact::MONTE_CARLO_REPLICATES;
 use tmlut::pipeline;
 use tmlut::random_walk::{BATCH_PATHS, MAX_PATHS, WalkSettings};
 use tmlut::report::bench::bake::{self, BakeBenchSettings};
@@ -124,7 +124,7 @@ struct BakeArgs {
     #[arg(long, default_value_t = 4)]
     error_views: usize,
     /// Gauss–Legendre nodes per panel of the exact integrals (2 to 64).
-    #[arg(long, default_value_t = tmlut::furnace::DEFAULT_EXACT_NODES)]
+    #[arg(long, default_value_t = tmlut::exact::DEFAULT_NODES)]
     exact_nodes: usize,
     #[command(flatten)]
     threads: ThreadsArg,

@@ -47,7 +47,7 @@ pub struct FurnaceArgs {
     #[arg(long, default_value_t = 64)]
     views: usize,
     /// Gauss–Legendre nodes per panel of each exact integral's quadrature.
-    #[arg(long, default_value_t = tmlut::furnace::DEFAULT_EXACT_NODES)]
+    #[arg(long, default_value_t = tmlut::exact::DEFAULT_NODES)]
     exact_nodes: usize,
     /// The random walk stops at this standard error of A in every channel ...
     #[arg(long, default_value_t = WalkSettings::default().target_standard_error)]

@@ -3,7 +3,7 @@
 //! (`docs/furnace.md`):
 //! - the transfer-matrix model reading the scene's tables as a renderer does
 //!   ([`crate::model::folder::FolderTables`]);
-//! - the same model reading exact integrals instead ([`exact::ExactTables`]);
+//! - the same model reading exact integrals instead ([`crate::exact::ExactTables`]);
 //! - a random walk through the explicit stack, which shares none of the model's approximations
 //!   ([`crate::random_walk`]).
 //!
@@ -11,7 +11,6 @@
 //! total. A uniform environment of radiance `L` seen at view cosine `mu` returns `L A(mu)`
 //! (reciprocity), so a furnace sphere is `A` drawn over the sphere's view cosines ([`picture`]).
 
-pub mod exact;
 pub mod forms;
 pub mod picture;
 pub mod report;
@@ -25,6 +24,7 @@ use rayon::prelude::*;
 use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
 use crate::error::{Error, Result};
+use crate::exact::ExactTables;
 use crate::formats::baked::BakedErrors;
 use crate::integrate::{GRAZING_COSINE, Progress};
 use crate::loader::LutFolder;
@@ -33,7 +33,6 @@ use crate::model::{Lookup, Material, Rgb, Tables};
 use crate::random_walk::{self, WalkSettings};
 use crate::scene::Scene;
 use crate::scene::build::{SceneBuildRequest, SliceChecks, SliceLayout, build_scene};
-use exact::ExactTables;
 pub use report::{ErrorFigures, FURNACE_FILE, FurnaceReport, MaterialReport, PhaseTimes};
 
 /// Radiance of the uniform environment of the furnace pictures: the thesis's 0.42 (its §5.2), about
@@ -139,7 +138,7 @@ impl Default for FurnaceSettings {
     fn default() -> Self {
         FurnaceSettings {
             views: 64,
-            exact_nodes: DEFAULT_EXACT_NODES,
+            exact_nodes: crate::exact::DEFAULT_NODES,
             walk: WalkSettings::default(),
             fgd_source: FgdSource::default(),
             timing_rounds: 21,
@@ -149,10 +148,6 @@ impl Default for FurnaceSettings {
         }
     }
 }
-
-/// Gauss–Legendre nodes per panel of the exact integrals by default (`docs/furnace.md`,
-/// "Libraries", measures what more would change).
-pub const DEFAULT_EXACT_NODES: usize = 8;
 
 /// View cosines a furnace run allows per material.
 pub const VIEWS: std::ops::RangeInclusive<usize> = 2..=4096;

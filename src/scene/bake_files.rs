@@ -17,11 +17,11 @@ use crate::bake::{BakeSettings, BakedMaterial, bake_material};
 use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
 use crate::error::{Error, Result};
+use crate::exact::ExactTables;
 use crate::filter::Filter;
 use crate::formats::baked::{BakedErrors, BakedMaterialEntry, sample_array};
 use crate::formats::manifest::{MANIFEST_FILE, Manifest, write_manifest};
 use crate::formats::{FileFormat, Precision};
-use crate::furnace::exact::ExactTables;
 use crate::integrate::Progress;
 use crate::loader::LutFolder;
 use crate::model::folder::{FgdSource, LibraryTables};
@@ -80,7 +80,7 @@ impl Default for BakeRequest {
             source: BakeSource::Exact,
             formats: vec![FileFormat::Dds],
             precision: Precision::F32,
-            exact_nodes: crate::furnace::DEFAULT_EXACT_NODES,
+            exact_nodes: crate::exact::DEFAULT_NODES,
         }
     }
 }

@@ -7,7 +7,7 @@
 
 use super::properties::{Check, at_most, finite, within};
 use super::{Case, Report};
-use crate::furnace::exact::ExactTables;
+use crate::exact::ExactTables;
 use crate::model::{FluxModel, Interface, Layer, Lookup, Material, Medium, Quantity, Stack, Tables};
 use crate::random_walk::{WalkSettings, directional_albedo};
 
@@ -70,7 +70,7 @@ fn stiff_tables(albedo: f64, tir: f64, gd: f64) -> impl Fn(&Lookup) -> f64 {
 /// Evaluate the model at every stiff stack, view and flux model, with exact integrals and with
 /// tables at their edges; and the random walk (with few paths) at every stack and view.
 pub fn run(report: &mut Report) -> crate::error::Result<()> {
-    let exact = ExactTables::new(&crate::config::Config::default(), crate::furnace::DEFAULT_EXACT_NODES)?;
+    let exact = ExactTables::new(&crate::config::Config::default(), crate::exact::DEFAULT_NODES)?;
     let edges: [(&str, Box<dyn Tables>); 3] = [
         ("TIR = 1, FGD = 1, GD = 0", Box::new(stiff_tables(1.0, 1.0, 0.0))),
         ("TIR = 1, FGD = 0, GD = 1", Box::new(stiff_tables(0.0, 1.0, 1.0))),

@@ -47,8 +47,9 @@ const LAYERS: &[&[&str]] = &[
     &["shader/scene"],
     &["recipes"],
     &["config"],
-    // The build's own steps: the locked output folder, the fit's search, the error maps.
-    &["commit", "fit", "report/error_map"],
+    // The build's own steps: the locked output folder, the fit's search, the error maps; the
+    // model's lookups answered by quadrature (what the furnace, the bake and the checks compare with).
+    &["commit", "fit", "report/error_map", "exact"],
     // Forms written as text: fitted by the fit's search, certified by the recipes' exact
     // integrals, written as one set by the commit; the form the build fits (`fit/forms/build`).
     &["fit/forms"],

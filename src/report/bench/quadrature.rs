@@ -7,7 +7,7 @@ use std::fmt::Write;
 
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::furnace::exact::{
+use crate::exact::{
     AGREEMENT_SLACK, AGREEMENT_STANDARD_ERRORS, FINER_RULE_TOLERANCE, MONTE_CARLO_REPLICATES, MONTE_CARLO_SEED,
     MonteCarloComparison, compare_with_monte_carlo,
 };
@@ -25,7 +25,7 @@ pub struct QuadratureBenchSettings {
 
 impl Default for QuadratureBenchSettings {
     fn default() -> Self {
-        QuadratureBenchSettings { nodes: crate::furnace::DEFAULT_EXACT_NODES, samples: 1 << 20 }
+        QuadratureBenchSettings { nodes: crate::exact::DEFAULT_NODES, samples: 1 << 20 }
     }
 }
 
@@ -168,7 +168,7 @@ pub fn markdown(bench: &QuadratureBench, settings: &QuadratureBenchSettings) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::furnace::exact::hard_lookups;
+    use crate::exact::hard_lookups;
 
     #[test]
     fn a_lookup_off_monte_carlo_fails_the_verdict_by_name() {

@@ -5,7 +5,7 @@
 use super::{assert_clean_failure, build, scene_path, stdout, tmlut, write_config};
 
 use crate::common::SMALL_SET;
-use tmlut::furnace::exact::ExactTables;
+use tmlut::exact::ExactTables;
 use tmlut::loader::{BakedLut, LutFolder};
 use tmlut::model::Material;
 use tmlut::scene::Scene;

@@ -27,6 +27,10 @@ use crate::recipes::fgd::{fgd_by_quadrature, fgd_cell};
 use crate::recipes::tir::{tir_by_quadrature, tir_cell};
 use crate::sampling::sequence::{PointSet, SamplePlan};
 
+/// Gauss–Legendre nodes per panel of the exact integrals by default (`docs/furnace.md`,
+/// "Libraries", measures what more would change).
+pub const DEFAULT_NODES: usize = 8;
+
 /// Exact integrals for the model, remembered per lookup.
 pub struct ExactTables {
     quadrature: VisibleNormalQuadrature,
@@ -273,7 +277,7 @@ mod tests {
     #[test]
     fn the_quadrature_agrees_with_monte_carlo_on_the_hard_lookups() {
         let comparisons =
-            compare_with_monte_carlo(&Config::default(), crate::furnace::DEFAULT_EXACT_NODES, 1 << 16, &()).unwrap();
+            compare_with_monte_carlo(&Config::default(), crate::exact::DEFAULT_NODES, 1 << 16, &()).unwrap();
         assert_eq!(comparisons.len(), hard_lookups().len());
         for c in &comparisons {
             assert!(c.agrees_with_monte_carlo() && c.agrees_with_finer_rule(), "{c:?}");
