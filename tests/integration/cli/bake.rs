@@ -100,4 +100,28 @@ fn bake_refuses_a_folder_built_for_another_scene_and_bad_options() {
     assert!(!format.status.success());
     assert!(super::stderr(&format).contains("allowed: dds, ktx2, exr"), "{}", super::stderr(&format));
     assert!(!luts.join("baked.dds").exists(), "nothing written by a refused bake");
+
+    // From the folder's own tables, in two containers at f16: one bake, listed twice.
+    let from_tables = tmlut(&[
+        "bake",
+        &scene_path("copper-pot"),
+        "--luts",
+        luts_arg,
+        "--bake-source",
+        "tables",
+        "--bake-formats",
+        "dds,ktx2",
+        "--bake-precision",
+        "f16",
+        "--quiet",
+    ]);
+    assert!(from_tables.status.success(), "{}", super::stderr(&from_tables));
+    assert!(stdout(&from_tables).contains("from the folder's tables"), "{}", stdout(&from_tables));
+    let manifest = tmlut::formats::manifest::Manifest::read(&luts.join("manifest.json")).unwrap();
+    let [dds, ktx2] = ["baked.dds", "baked.ktx2"].map(|f| manifest.entry(f).unwrap().baked.clone().unwrap());
+    assert_eq!(dds.materials.len(), 1);
+    assert_eq!(dds.materials[0].segments, ktx2.materials[0].segments, "one placement in both files");
+    // Measured against exact integrals all the same: the small test tables' own error shows.
+    let error = &dds.materials[0].error;
+    assert!(dds.source.contains("tables") && error.views > 0 && error.against.contains("exact"), "{dds:?}");
 }
