@@ -156,6 +156,9 @@ pub fn summary(array: &BakedArrayEntry) -> String {
             worst.at_mu
         );
     }
+    for left_out in &array.left_out {
+        let _ = writeln!(out, "  not baked: {}: {}", left_out.what, left_out.reason);
+    }
     if materials.len() > MATERIALS_LISTED {
         let _ = writeln!(out, "  ... and {} more, each within {:.1e}", materials.len() - MATERIALS_LISTED, {
             by_error.get(MATERIALS_LISTED).map_or(0.0, |m| m.error.max())

@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 use crate::exact::ExactTables;
 use crate::filter::Filter;
 use crate::formats::baked::{BakedErrors, BakedMaterialEntry, sample_array};
-use crate::formats::manifest::{MANIFEST_FILE, Manifest, write_manifest};
+use crate::formats::manifest::{LeftOutRecord, MANIFEST_FILE, Manifest, write_manifest};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::Progress;
 use crate::loader::LutFolder;
@@ -100,9 +100,12 @@ pub fn write_baked(
     let folder_lock = OutputFolder::take(luts, |holder| progress.note(&format!("waiting for {holder}")))?;
     let folder = LutFolder::open(luts)?;
     check_scene(&folder, scene)?;
-    let materials: Vec<Material> =
-        scene.materials.iter().map(|m| Ok(Material::new(m.model, m.stack()?))).collect::<Result<_>>()?;
-    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+    let (kept, left_out) = bakeable(scene)?;
+    let materials: Vec<Material> = kept
+        .iter()
+        .map(|&i| Ok(Material::new(scene.materials[i].model, scene.materials[i].stack()?)))
+        .collect::<Result<_>>()?;
+    let names: Vec<&str> = kept.iter().map(|&i| scene.materials[i].name.as_str()).collect();
     let exact = ExactTables::new(config, request.exact_nodes)?;
     let started = Instant::now();
     progress.start("bake", materials.len() as u64);
@@ -111,8 +114,8 @@ pub fn write_baked(
         BakeSource::Tables => {
             let shader_materials = shader_materials(scene)?;
             let library = LibraryTables::open(&folder, FgdSource::Packing, shader_materials.iter().map(|m| m.reads()))?;
-            let baked = bake_all(&names, &materials, |i| library.of(i), &request.settings, progress)?;
-            for (index, name) in names.iter().enumerate() {
+            let baked = bake_all(&names, &materials, |i| library.of(kept[i]), &request.settings, progress)?;
+            for (&index, name) in kept.iter().zip(&names) {
                 let (misses, _) = library.of(index).take_counts();
                 if misses.count > 0 {
                     return Err(Error::invalid(
@@ -144,8 +147,9 @@ pub fn write_baked(
         let stored = crate::loader::load_verified(&file.path, &file.entry)?;
         let entries = measured_entries(&baked, &materials, &arrangement.places, &stored, &exact);
         let source = source_words(request, &exact);
-        let entry =
+        let mut entry =
             array_entry(&scene.name, &source, request.settings.tolerance, baked[0].nodes(), &arrangement, entries);
+        entry.left_out = left_out.clone();
         file.entry.baked = Some(entry);
         file.entry.seal();
         written.push(file);
@@ -172,6 +176,36 @@ pub fn write_baked(
         .into_iter()
         .map(|file| WrittenFile { path: luts.join(file_name(&file.path)), entry: file.entry })
         .collect())
+}
+
+/// The indices of the scene's materials a bake holds, and those it leaves out with why: a
+/// material a texture varies has no one curve along `mu`, and a baked array has no axis for the
+/// varied parameter. Refused where no material is left.
+fn bakeable(scene: &Scene) -> Result<(Vec<usize>, Vec<LeftOutRecord>)> {
+    let (mut kept, mut left_out) = (Vec::new(), Vec::new());
+    for (index, material) in scene.materials.iter().enumerate() {
+        let varied = material.varied_parameters();
+        if varied.is_empty() {
+            kept.push(index);
+        } else {
+            left_out.push(LeftOutRecord::new(
+                format!("material `{}`", material.name),
+                format!(
+                    "its textures vary {}: a baked array has no axis for a varied parameter, and one curve along \
+                     mu at its nominal values would be wrong across the texture; its scene shader evaluates it",
+                    varied.join(", ")
+                ),
+            ));
+        }
+    }
+    if kept.is_empty() {
+        let reasons: Vec<String> = left_out.iter().map(|l| format!("{} ({})", l.what, l.reason)).collect();
+        return Err(Error::invalid(
+            format!("scene `{}`", scene.name),
+            format!("has no material a bake can hold: {}", reasons.join("; ")),
+        ));
+    }
+    Ok((kept, left_out))
 }
 
 /// Refuse settings no bake could use, before any work.

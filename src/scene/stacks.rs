@@ -79,6 +79,17 @@ impl SceneMaterial {
         varying
     }
 
+    /// Each parameter a texture varies, in words (`layer 2 alpha in [0.1, 0.4]`, layers from 1).
+    pub fn varied_parameters(&self) -> Vec<String> {
+        self.varying()
+            .into_iter()
+            .map(|(layer, parameter, range)| {
+                let name = ["eta", "kappa", "alpha"][parameter];
+                format!("layer {} {name} in [{}, {}]", layer + 1, super::short(range.lo), super::short(range.hi))
+            })
+            .collect()
+    }
+
     /// How many stacks [`Material::variants`] gives, without building them.
     pub fn variant_count(&self) -> usize {
         1 + 3usize.saturating_pow(self.varying().len() as u32).min(MAX_VARIANTS)

@@ -125,3 +125,29 @@ fn bake_refuses_a_folder_built_for_another_scene_and_bad_options() {
     let error = &dds.materials[0].error;
     assert!(dds.source.contains("tables") && error.views > 0 && error.against.contains("exact"), "{dds:?}");
 }
+
+#[test]
+fn a_material_a_texture_varies_is_left_out_of_the_bake_and_said_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let scene = dir.path().join("mixed.toml");
+    let copper = std::fs::read_to_string(scene_path("copper-pot")).unwrap().replace("copper-pot", "mixed");
+    let varied = "\n[[material]]\nname = \"rough-coat\"\n\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\n\
+                  alpha = 0.2\nvary = { alpha = [0.1, 0.3] }\n";
+    std::fs::write(&scene, copper + varied).unwrap();
+    let luts = dir.path().join("luts");
+    let built = build(&config, &luts, &["--scene", scene.to_str().unwrap(), "--bake"]);
+    assert!(built.status.success(), "{}", super::stderr(&built));
+    assert!(stdout(&built).contains("not baked: material `rough-coat`"), "{}", stdout(&built));
+    let baked = BakedLut::from_folder(&LutFolder::open(&luts).unwrap()).unwrap();
+    assert_eq!(baked.baked().materials.len(), 1);
+    assert!(baked.material_index("rough-coat").is_none());
+    let left_out = &baked.baked().left_out;
+    assert!(left_out.len() == 1 && left_out[0].reason.contains("layer 1 alpha in [0.1, 0.3]"), "{left_out:?}");
+
+    // A scene of varied materials alone has nothing to bake: refused, naming each.
+    let textured = dir.path().join("textured");
+    assert!(build(&config, &textured, &["--scene", &scene_path("textured")]).status.success());
+    let refused = tmlut(&["bake", &scene_path("textured"), "--luts", textured.to_str().unwrap()]);
+    assert_clean_failure(&refused, &["has no material a bake can hold", "worn-gold", "glazed-ceramic"]);
+}

@@ -37,6 +37,9 @@ pub struct BakedArrayEntry {
     pub lookup: String,
     /// Every material, with where it lies.
     pub materials: Vec<BakedMaterialEntry>,
+    /// The scene's materials the array does not hold, and why (a parameter a texture varies).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub left_out: Vec<super::manifest::LeftOutRecord>,
 }
 
 /// One baked material.
@@ -184,6 +187,7 @@ impl BakedArrayEntry {
             layers,
             lookup: LOOKUP.into(),
             materials,
+            left_out: Vec::new(),
         }
     }
 
