@@ -98,6 +98,14 @@ impl SceneShader {
     }
 }
 
+impl SceneShader {
+    /// What one call of each material's function costs ([`super::cost`]: its texture reads and
+    /// operations, the helpers it calls included), in the order of `materials`.
+    pub fn costs(&self) -> Result<Vec<super::ShaderCost>> {
+        self.materials.iter().map(|m| super::cost(&self.module, &m.function)).collect()
+    }
+}
+
 /// What the generated functions call beyond the helpers every scene shader has.
 #[derive(Debug, Clone, Copy, Default)]
 struct Needs {

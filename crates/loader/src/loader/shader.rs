@@ -80,6 +80,17 @@ pub struct MaterialFunction {
     pub reads: Vec<String>,
 }
 
+/// What one call of a shader function costs a GPU, counted on the shader's description rather than
+/// its text (tmlut-ir's `shader::cost`, which states what counts), the functions it calls included
+/// where they are called.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ShaderCost {
+    /// Texture reads: texel loads and filtered samples.
+    pub texture_reads: u32,
+    /// Arithmetic operations: each operator, builtin call, `select` and scalar conversion.
+    pub operations: u32,
+}
+
 /// `<scene>.shader.json`: what a renderer binds and calls. Borrowed where the generator writes it,
 /// owned where it is read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
