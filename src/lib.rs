@@ -15,7 +15,7 @@
 //! - [`packing`]: the 4D FGD table packed into volume textures, with the exact shader lookup and a
 //!   GPU sampling emulator to measure it;
 //! - [`shader`]: one emitter that writes every shader as HLSL and WGSL from one description, and
-//!   the transfer-matrix evaluation of a scene's materials;
+//!   the transfer-matrix evaluation of a scene's materials, and the read of baked ones;
 //! - [`loader`]: what a renderer needs to read and sample the files;
 //! - [`model`]: the transfer-matrix model itself: layer stacks, their lobes and directional albedo;
 //! - [`bake`]: a material's whole model result tabulated over the view cosine, and what that costs

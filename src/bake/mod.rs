@@ -127,4 +127,4 @@ fn finite_values(name: &str, layout: &BakeLayout, evaluation: &Evaluation) -> Re
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

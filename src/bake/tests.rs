@@ -7,7 +7,7 @@ use crate::model::{FluxModel, Lookup, Quantity};
 use crate::scene::Scene;
 
 /// The materials of the example scenes that vary nothing, at their own values.
-fn example_materials() -> Vec<(String, Material)> {
+pub(crate) fn example_materials() -> Vec<(String, Material)> {
     let scenes = [
         ("copper-pot", include_str!("../../luts/scenes/copper-pot.toml")),
         ("scattering", include_str!("../../luts/scenes/scattering.toml")),

@@ -299,6 +299,7 @@ impl Program {
                             scalar_texture: true,
                             sampler: "linear_clamp".into(),
                             coordinates: c.iter().map(|&i| local(i)).collect(),
+                            layer: None,
                             swizzle: "r",
                         },
                         false,

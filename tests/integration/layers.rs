@@ -45,6 +45,8 @@ const LAYERS: &[&[&str]] = &[
     &["random_walk", "bake"],
     // A scene's transfer-matrix shader, over the model and a built folder.
     &["shader/scene"],
+    // The read of baked materials, returning the scene shader's result.
+    &["shader/baked"],
     &["recipes"],
     &["config"],
     // The build's own steps: the locked output folder, the fit's search, the error maps; the

@@ -71,31 +71,59 @@ pub fn shader_against_the_cpu(luts: &Path, scenes: &[PathBuf], views: usize) -> 
             worst[k] = (difference, at);
         }
     };
+    // The count of each material's function bounds what any of its runs reads and computes.
+    let costs = shader.costs().unwrap();
     for point in &points {
         let e = &point.evaluation;
-        let result = emulator.call(&point.function, vec![Value::F(e.mu as f32)]);
+        let run = emulator.run(&point.function, vec![Value::F32(e.mu as f32)]);
+        let counted = costs[shader.materials.iter().position(|m| m.function == point.function).unwrap()];
+        assert!(
+            run.cost.texture_reads <= counted.texture_reads && run.cost.operations <= counted.operations,
+            "{} at mu {}: ran {:?}, counted {counted:?}",
+            point.material,
+            e.mu,
+            run.cost
+        );
+        let result = run.value;
         let at = |what: &str| format!("{} at mu {}: {what}", point.material, e.mu);
         for (name, expected) in [("albedo", e.albedo), ("top_albedo", e.top_albedo)] {
-            for (c, got) in result.field(name).v().into_iter().enumerate() {
+            for (c, got) in result.field(name).and_then(Value::components).unwrap().into_iter().enumerate() {
                 record(0, got, expected[c], 1.0, at(&format!("{name}[{c}]")));
             }
         }
-        let field = |name: &str, k: usize| match result.field(name) {
-            Value::Array(lobes) => lobes[k].clone(),
-            other => panic!("{name} is {other:?}"),
+        let field = |name: &str, k: usize| {
+            result.field(name).and_then(|lobes| lobes.element(k)).unwrap_or_else(|| panic!("{name}[{k}]")).clone()
         };
         for (k, lobe) in e.lobes.iter().enumerate() {
-            for (c, got) in field("lobe_energy", k).v().into_iter().enumerate() {
+            for (c, got) in field("lobe_energy", k).components().unwrap().into_iter().enumerate() {
                 record(0, got, lobe.energy[c], 1.0, at(&format!("lobe {k} energy[{c}]")));
             }
-            record(0, field("lobe_cos", k).f(), lobe.mean_direction[2], 1.0, at(&format!("lobe {k} cosine")));
+            record(
+                0,
+                field("lobe_cos", k).f32().unwrap(),
+                lobe.mean_direction[2],
+                1.0,
+                at(&format!("lobe {k} cosine")),
+            );
             let energy = lobe.energy.into_iter().fold(0.0, f64::max);
-            record(1, field("lobe_roughness", k).f(), lobe.roughness, energy, at(&format!("lobe {k} roughness")));
-            record(1, field("lobe_gd", k).f(), lobe.gd, energy, at(&format!("lobe {k} GD")));
+            record(
+                1,
+                field("lobe_roughness", k).f32().unwrap(),
+                lobe.roughness,
+                energy,
+                at(&format!("lobe {k} roughness")),
+            );
+            record(1, field("lobe_gd", k).f32().unwrap(), lobe.gd, energy, at(&format!("lobe {k} GD")));
         }
     }
     let [values, shapes] = worst;
     eprintln!("{}: {} points, largest differences {values:?}, {shapes:?}", luts.display(), points.len());
+    for (m, cost) in shader.materials.iter().zip(&costs) {
+        eprintln!(
+            "  {}: {} lobes, {} texture reads, {} operations",
+            m.material, m.lobes, cost.texture_reads, cost.operations
+        );
+    }
     let reads = shader.materials.iter().flat_map(|m| m.reads.iter().cloned()).collect();
     Comparison { values, shapes, reads }
 }
@@ -129,10 +157,10 @@ fn assert_filters_are_the_cpu_samplers(shader: &SceneShader, folder: &LutFolder,
         for point in points {
             let mut expected = vec![0.0; table.channel_count()];
             sample_texture(&table, &point, &mut expected).unwrap();
-            let mut arguments = vec![Value::Texture(binding.variable.clone())];
-            arguments.extend(point.iter().map(|&x| Value::F(x)));
-            arguments.extend(binding.extent[..dimension].iter().map(|&n| Value::F(n as f32)));
-            let got = emulator.call(helper, arguments).v();
+            let mut arguments = vec![Value::Resource(binding.variable.clone())];
+            arguments.extend(point.iter().map(|&x| Value::F32(x)));
+            arguments.extend(binding.extent[..dimension].iter().map(|&n| Value::F32(n as f32)));
+            let got = emulator.call(helper, arguments).components().unwrap();
             for (c, value) in expected.iter().enumerate() {
                 assert_eq!(got[c].to_bits(), value.to_bits(), "{helper} of {} at {point:?}, channel {c}", binding.file);
             }

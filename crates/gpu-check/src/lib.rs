@@ -13,6 +13,9 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     /// The adapter, as wgpu names it (`llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)` on lavapipe).
     pub adapter: String,
+    /// Whether the device filters 32-bit float textures (WebGPU's `float32-filterable`, asked for
+    /// where the adapter has it).
+    pub float32_filterable: bool,
 }
 
 /// GPU values against the CPU's: the largest difference, where it is, and the values (on either
@@ -80,11 +83,17 @@ pub fn exit_code(example: &str, result: Result<bool, Box<dyn std::error::Error>>
     }
 }
 
-/// A texture bound in group 0 at `binding`.
+/// A texture or a sampler bound in group 0 at `binding`.
 pub struct Bound {
     pub binding: u32,
-    pub view: wgpu::TextureView,
-    pub dimension: wgpu::TextureViewDimension,
+    pub resource: Resource,
+}
+
+pub enum Resource {
+    /// A texture, read by `textureLoad` or, where `filterable`, sampled through a sampler.
+    Texture { view: wgpu::TextureView, dimension: wgpu::TextureViewDimension, filterable: bool },
+    /// A filtering sampler.
+    Sampler(wgpu::Sampler),
 }
 
 impl Gpu {
@@ -95,18 +104,37 @@ impl Gpu {
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
             .map_err(|e| format!("no GPU adapter (install a Vulkan driver, e.g. mesa-vulkan-drivers): {e}"))?;
         let info = adapter.get_info();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+        let float32_filterable = adapter.features().contains(wgpu::Features::FLOAT32_FILTERABLE);
+        let descriptor = wgpu::DeviceDescriptor {
+            required_features: match float32_filterable {
+                true => wgpu::Features::FLOAT32_FILTERABLE,
+                false => wgpu::Features::empty(),
+            },
+            ..Default::default()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
             .map_err(|e| format!("{}: no device: {e}", info.name))?;
-        Ok(Gpu { device, queue, adapter: format!("{} ({:?})", info.name, info.backend) })
+        Ok(Gpu { device, queue, adapter: format!("{} ({:?})", info.name, info.backend), float32_filterable })
     }
 
     /// A texture holding a table, created and filled from the loader's descriptor, whose fields
     /// are named as wgpu names them (docs/loader.md). Bound at `binding` of group 0.
     pub fn upload(&self, binding: u32, data: &TextureData) -> Result<Bound, String> {
+        self.upload_as(binding, data, false)
+    }
+
+    /// A texture array holding a table of three axes, its third the layers, bound at `binding` of
+    /// group 0 to be filtered by a sampler.
+    pub fn upload_array(&self, binding: u32, data: &TextureData) -> Result<Bound, String> {
+        self.upload_as(binding, data, true)
+    }
+
+    fn upload_as(&self, binding: u32, data: &TextureData, layered: bool) -> Result<Bound, String> {
         let d = data.descriptor();
         let size = wgpu::Extent3d { width: d.width, height: d.height, depth_or_array_layers: d.depth_or_layers };
-        let (dimension, view_dimension) = match d.dimension {
-            TextureDimension::D3 => (wgpu::TextureDimension::D3, wgpu::TextureViewDimension::D3),
+        let (dimension, view_dimension) = match (layered, d.dimension) {
+            (true, _) => (wgpu::TextureDimension::D2, wgpu::TextureViewDimension::D2Array),
+            (false, TextureDimension::D3) => (wgpu::TextureDimension::D3, wgpu::TextureViewDimension::D3),
             _ => (wgpu::TextureDimension::D2, wgpu::TextureViewDimension::D2),
         };
         let texture = self.device.create_texture(&wgpu::TextureDescriptor {
@@ -130,7 +158,20 @@ impl Gpu {
             },
             size,
         );
-        Ok(Bound { binding, view: texture.create_view(&Default::default()), dimension: view_dimension })
+        let view =
+            texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(view_dimension), ..Default::default() });
+        Ok(Bound { binding, resource: Resource::Texture { view, dimension: view_dimension, filterable: layered } })
+    }
+
+    /// A sampler of linear magnification and minification and clamp-to-edge addressing (the
+    /// default), bound at `binding` of group 0.
+    pub fn linear_clamp_sampler(&self, binding: u32) -> Bound {
+        let sampler = self.device.create_sampler(&wgpu::SamplerDescriptor {
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        Bound { binding, resource: Resource::Sampler(sampler) }
     }
 
     /// Run the compute entry point `entry` of `module` over `items` items of `inputs` (an
@@ -145,17 +186,20 @@ impl Gpu {
         items: usize,
         outputs: usize,
     ) -> Vec<f32> {
-        // The tables are read with textureLoad: no sampler, unfilterable float (r32float needs no
-        // feature), visible to compute only.
+        // The scene shaders' tables are read with textureLoad: no sampler, unfilterable float
+        // (r32float needs no feature); a baked array is filtered by its sampler. Compute only.
         let texture_entries: Vec<_> = textures
             .iter()
             .map(|t| wgpu::BindGroupLayoutEntry {
                 binding: t.binding,
                 visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                    view_dimension: t.dimension,
-                    multisampled: false,
+                ty: match &t.resource {
+                    Resource::Texture { dimension, filterable, .. } => wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: *filterable },
+                        view_dimension: *dimension,
+                        multisampled: false,
+                    },
+                    Resource::Sampler(_) => wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                 },
                 count: None,
             })
@@ -214,7 +258,10 @@ impl Gpu {
                     .iter()
                     .map(|t| wgpu::BindGroupEntry {
                         binding: t.binding,
-                        resource: wgpu::BindingResource::TextureView(&t.view),
+                        resource: match &t.resource {
+                            Resource::Texture { view, .. } => wgpu::BindingResource::TextureView(view),
+                            Resource::Sampler(sampler) => wgpu::BindingResource::Sampler(sampler),
+                        },
                     })
                     .collect::<Vec<_>>(),
             }),

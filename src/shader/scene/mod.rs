@@ -85,7 +85,7 @@ pub struct SceneShader {
 impl SceneShader {
     pub fn description(&self) -> ShaderDescription<'_> {
         ShaderDescription {
-            result_struct: "TmResult".into(),
+            result_struct: RESULT_STRUCT.into(),
             max_lobes: self.max_lobes,
             textures: Cow::Borrowed(&self.textures),
             materials: Cow::Borrowed(&self.materials),
@@ -95,6 +95,14 @@ impl SceneShader {
                     itself. Call the material's function with the view cosine mu = n.v."
                 .into(),
         }
+    }
+}
+
+impl SceneShader {
+    /// What one call of each material's function costs ([`super::cost`]: its texture reads and
+    /// operations, the helpers it calls included), in the order of `materials`.
+    pub fn costs(&self) -> Result<Vec<super::ShaderCost>> {
+        self.materials.iter().map(|m| super::cost(&self.module, &m.function)).collect()
     }
 }
 
@@ -156,17 +164,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
          Bindings: group 0, one texture per table file (see the .shader.json beside this file).",
         if models.is_empty() { "2-flux".to_string() } else { models.join(" and ") }
     ));
-    module.push(Item::Struct {
-        name: "TmResult".into(),
-        fields: vec![
-            ("albedo".into(), Ty::Vec(3)),
-            ("top_albedo".into(), Ty::Vec(3)),
-            ("lobe_energy".into(), Ty::Array(Box::new(Ty::Vec(3)), max_lobes)),
-            ("lobe_roughness".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
-            ("lobe_cos".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
-            ("lobe_gd".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
-        ],
-    });
+    module.push(result_struct(max_lobes));
     for t in &g.textures {
         module.push(Item::Binding {
             group: 0,
@@ -287,6 +285,25 @@ impl<'a> Generator<'a> {
         Error::invalid(format!("tmlut shader, material `{material}`"), what)
     }
 }
+
+/// The struct every material's function returns, `TmResult`, with lobe arrays `max_lobes` long:
+/// the baked shader's too ([`super::baked`]), so that a renderer calls either alike.
+pub fn result_struct(max_lobes: usize) -> Item {
+    Item::Struct {
+        name: RESULT_STRUCT.into(),
+        fields: vec![
+            ("albedo".into(), Ty::Vec(3)),
+            ("top_albedo".into(), Ty::Vec(3)),
+            ("lobe_energy".into(), Ty::Array(Box::new(Ty::Vec(3)), max_lobes)),
+            ("lobe_roughness".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
+            ("lobe_cos".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
+            ("lobe_gd".into(), Ty::Array(Box::new(Ty::F32), max_lobes)),
+        ],
+    }
+}
+
+/// The name of the struct material functions return.
+pub const RESULT_STRUCT: &str = "TmResult";
 
 /// The function of material `name`: `tm_` and its [`identifier`]. Nothing else the generator
 /// makes begins with `tm_` (the module docs), so material names collide only with each other.

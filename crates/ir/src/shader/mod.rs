@@ -4,9 +4,11 @@
 //! (all in `tmlut`) — is built as one [`Module`] and printed
 //! twice, so the two languages cannot drift apart: a change is made once, in the description.
 //!
-//! The description holds only what both languages spell the same way up to syntax: f32/i32
+//! The description holds only what both languages spell the same way up to syntax: f32/i32/u32
 //! arithmetic, comparisons, a fixed list of builtins ([`Builtin`]), vectors, structs, fixed-size
-//! arrays, `select`, texel loads and filtered samples. Where they differ in meaning the emitter
+//! arrays and module constants of them, `select`, texel loads and filtered samples (of texture
+//! arrays too). [`eval`] runs a module on the CPU with WGSL's meaning and counts what a function
+//! costs ([`cost`]). Where they differ in meaning the emitter
 //! does not paper over it: HLSL's `precise` has no WGSL counterpart (WGSL forbids reassociation
 //! anyway), and WGSL has no `isnan`, so the evaluation code tests finiteness with comparisons.
 
@@ -35,6 +37,7 @@ impl Lang {
 pub enum Ty {
     F32,
     I32,
+    U32,
     Bool,
     /// `vecN<f32>` / `floatN`, N in 2..=4.
     Vec(u8),
@@ -62,6 +65,8 @@ impl Ty {
             (Ty::F32, Lang::Wgsl) => "f32".into(),
             (Ty::I32, Lang::Hlsl) => "int".into(),
             (Ty::I32, Lang::Wgsl) => "i32".into(),
+            (Ty::U32, Lang::Hlsl) => "uint".into(),
+            (Ty::U32, Lang::Wgsl) => "u32".into(),
             (Ty::Bool, _) => "bool".into(),
             (Ty::Vec(n), Lang::Hlsl) => format!("float{n}"),
             (Ty::Vec(n), Lang::Wgsl) => format!("vec{n}<f32>"),
@@ -167,6 +172,8 @@ pub enum Expr {
     Name(String),
     F32(f32),
     I32(i32),
+    /// A `u32` literal: `3u` in both languages.
+    U32(u32),
     Binary(Op, Box<Expr>, Box<Expr>),
     Neg(Box<Expr>),
     Call(Builtin, Vec<Expr>),
@@ -181,6 +188,12 @@ pub enum Expr {
     Member(Box<Expr>, String),
     /// An array element at a constant index.
     Index(Box<Expr>, usize),
+    /// An array element at an index computed in the shader (an `i32` or `u32`).
+    Element(Box<Expr>, Box<Expr>),
+    /// The value of a struct or an array from its fields or elements, in a module constant's
+    /// initialiser only (HLSL's brace list is no expression elsewhere): `T(a, b)` /
+    /// `array<T, N>(a, b)` in WGSL, `{a, b}` in HLSL.
+    Aggregate(Ty, Vec<Expr>),
     /// `condition ? then : otherwise` / `select(otherwise, then, condition)`.
     Select {
         condition: Box<Expr>,
@@ -205,6 +218,9 @@ pub enum Expr {
         scalar_texture: bool,
         sampler: String,
         coordinates: Vec<Expr>,
+        /// The layer of a texture array (an `i32` or `u32`): `textureSampleLevel(t, s, c, layer,
+        /// 0.0)` / `t.SampleLevel(s, floatN(c, layer), 0)`.
+        layer: Option<Box<Expr>>,
         swizzle: &'static str,
     },
 }
@@ -283,6 +299,9 @@ impl Expr {
     pub fn le(self, o: Expr) -> Expr {
         self.op(Op::Compare(Compare::Le), o)
     }
+    pub fn ge(self, o: Expr) -> Expr {
+        self.op(Op::Compare(Compare::Ge), o)
+    }
     pub fn ne(self, o: Expr) -> Expr {
         self.op(Op::Compare(Compare::Ne), o)
     }
@@ -312,6 +331,9 @@ impl Expr {
     }
     pub fn index(self, i: usize) -> Expr {
         Expr::Index(Box::new(self), i)
+    }
+    pub fn element(self, i: Expr) -> Expr {
+        Expr::Element(Box::new(self), Box::new(i))
     }
 
     fn precedence(&self) -> u8 {
@@ -406,6 +428,12 @@ pub enum Item {
         name: String,
         fields: Vec<(String, Ty)>,
     },
+    /// A module constant: WGSL `const name: T = value;`, HLSL `static const T name = value;`.
+    Constant {
+        name: String,
+        ty: Ty,
+        value: Expr,
+    },
     /// A resource: WGSL `@group(G) @binding(B) var name: T;`, HLSL `T name : register(tB[, spaceG]);`.
     Binding {
         group: u32,
@@ -466,6 +494,12 @@ impl Module {
                         };
                     }
                     s.push_str(if lang == Lang::Hlsl { "};\n" } else { "}\n" });
+                }
+                Item::Constant { name, ty, value } => {
+                    let _ = match lang {
+                        Lang::Wgsl => writeln!(s, "const {name}: {} = {};", ty.text(lang), p.expr(value)),
+                        Lang::Hlsl => writeln!(s, "static const {} = {};", ty.declare(name, lang), p.expr(value)),
+                    };
                 }
                 Item::Binding { group, binding, name, ty } => {
                     let _ = match lang {
@@ -602,6 +636,9 @@ impl Printer {
             Expr::I32(v) => {
                 let _ = write!(out, "{v}");
             }
+            Expr::U32(v) => {
+                let _ = write!(out, "{v}u");
+            }
             Expr::Binary(op, a, b) => {
                 let full = self.parens == Parens::Full;
                 if full {
@@ -650,6 +687,24 @@ impl Printer {
                 self.operand(a, 7, false, out);
                 let _ = write!(out, "[{i}]");
             }
+            Expr::Element(a, i) => {
+                self.operand(a, 7, false, out);
+                let _ = write!(out, "[{}]", self.expr(i));
+            }
+            Expr::Aggregate(ty, parts) => {
+                // An aggregate of aggregates (a table of structs) puts each on a line of its own.
+                let nested = parts.iter().all(|p| matches!(p, Expr::Aggregate(..))) && !parts.is_empty();
+                let list = match nested {
+                    true => {
+                        format!("\n    {}\n", parts.iter().map(|p| self.expr(p)).collect::<Vec<_>>().join(",\n    "))
+                    }
+                    false => self.list(parts),
+                };
+                let _ = match lang {
+                    Lang::Wgsl => write!(out, "{}({list})", ty.text(lang)),
+                    Lang::Hlsl => write!(out, "{{{list}}}"),
+                };
+            }
             Expr::Select { condition, then, otherwise } => match lang {
                 Lang::Hlsl => {
                     let _ = write!(out, "{} ? {} : {}", self.expr(condition), self.expr(then), self.expr(otherwise));
@@ -697,23 +752,27 @@ impl Printer {
                     }
                 }
             }
-            Expr::SampleLevel { texture, scalar_texture, sampler, coordinates, swizzle } => {
+            Expr::SampleLevel { texture, scalar_texture, sampler, coordinates, layer, swizzle } => {
                 let n = coordinates.len() as u8;
                 match lang {
                     Lang::Wgsl => {
+                        let layer = layer.as_ref().map(|l| format!("{}, ", self.expr(l))).unwrap_or_default();
                         let _ = write!(
                             out,
-                            "textureSampleLevel({texture}, {sampler}, {}({}), 0.0).{swizzle}",
+                            "textureSampleLevel({texture}, {sampler}, {}({}), {layer}0.0).{swizzle}",
                             Ty::Vec(n).text(lang),
                             self.list(coordinates)
                         );
                     }
                     Lang::Hlsl => {
+                        // A texture array's layer is the coordinate after the others, as a float.
+                        let mut all = coordinates.clone();
+                        all.extend(layer.iter().map(|l| (**l).clone()));
                         let _ = write!(
                             out,
                             "{texture}.SampleLevel({sampler}, {}({}), 0)",
-                            Ty::Vec(n).text(lang),
-                            self.list(coordinates)
+                            Ty::Vec(all.len() as u8).text(lang),
+                            self.list(&all)
                         );
                         if !scalar_texture {
                             let _ = write!(out, ".{swizzle}");
@@ -730,6 +789,9 @@ impl Printer {
 pub fn comment_block(prefix: &str, text: &str) -> String {
     text.lines().map(|l| if l.is_empty() { format!("{prefix}\n") } else { format!("{prefix} {l}\n") }).collect()
 }
+
+pub mod eval;
+pub use eval::{ShaderCost, cost};
 
 // The tests of every crate that emits shaders validate them (tmlut's through the `validate` feature).
 #[cfg(any(test, feature = "validate"))]

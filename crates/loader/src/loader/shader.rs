@@ -80,6 +80,70 @@ pub struct MaterialFunction {
     pub reads: Vec<String>,
 }
 
+/// What one call of a shader function costs a GPU, counted on the shader's description rather than
+/// its text (tmlut-ir's `shader::cost`, which states what counts), the functions it calls included
+/// where they are called.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ShaderCost {
+    /// Texture reads: texel loads and filtered samples.
+    pub texture_reads: u32,
+    /// Arithmetic operations: each operator, builtin call, `select` and scalar conversion.
+    pub operations: u32,
+}
+
+/// The suffix of a baked shader's description file: `<stem>.baked.shader.json`.
+pub const BAKED_DESCRIPTION_SUFFIX: &str = ".baked.shader.json";
+
+/// `<stem>.baked.shader.json`: what a renderer binds and calls to read the baked materials of a
+/// texture array (tmlut's `shader::baked`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BakedShaderDescription {
+    /// The struct every function returns (`TmResult`, as the scene shader's).
+    pub result_struct: String,
+    /// The length of its lobe arrays.
+    pub max_lobes: usize,
+    /// The function every material's is a call of: `(material index, mu) -> TmResult`, for a
+    /// renderer that has a material's index rather than its name.
+    pub function: String,
+    /// The texture array of baked rows: `view_dimension` `2d-array`, `sample_type` `float` (the
+    /// sampler filters it).
+    pub texture: TextureBinding,
+    /// The sampler the rows are read with.
+    pub sampler: SamplerBinding,
+    /// Every material's function, by index.
+    pub materials: Vec<BakedMaterialFunction>,
+    /// How to create and bind the texture and the sampler and call the functions, in words.
+    pub notes: String,
+}
+
+/// A sampler the shader binds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SamplerBinding {
+    /// The binding number in group 0 (HLSL: register `sN`).
+    pub binding: u32,
+    /// The variable in the shader.
+    pub variable: String,
+    /// The WebGPU filter of magnification and minification: `linear`.
+    pub filter: String,
+    /// The WebGPU address mode of every axis: `clamp-to-edge`.
+    pub address_mode: String,
+}
+
+/// A baked material's function.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BakedMaterialFunction {
+    /// The material's name, as the scene gives it.
+    pub material: String,
+    /// Its function, which takes the view cosine `mu = n.v` (the scene shader's name for it).
+    pub function: String,
+    /// Its index: the first argument of the shared function.
+    pub index: u32,
+    /// Lobes it fills in the result (the rest are zero).
+    pub lobes: usize,
+    /// What one call costs.
+    pub cost: ShaderCost,
+}
+
 /// `<scene>.shader.json`: what a renderer binds and calls. Borrowed where the generator writes it,
 /// owned where it is read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
