@@ -227,11 +227,10 @@ pub fn write_jobs(
     // and `build --scene --bake` (or `tmlut bake`) makes it again.
     if scene.is_some() {
         manifest.files.retain(|name, entry| {
-            let baked = entry.baked.is_some();
-            if baked {
-                removals.push(name.clone());
-            }
-            !baked
+            let Some(baked) = &entry.baked else { return true };
+            removals.push(name.clone());
+            removals.extend(baked.shader_files.iter().map(|f| f.file.clone()));
+            false
         });
     }
     let mut written = Vec::new();

@@ -7,6 +7,7 @@ use clap::Args;
 
 use tmlut::bake::BakeSettings;
 use tmlut::formats::{FileFormat, Precision};
+use tmlut::loader::shader::{BAKED_DESCRIPTION_SUFFIX, BakedShaderDescription};
 use tmlut::scene::Scene;
 use tmlut::scene::bake_files::{BakeRequest, BakeSource, write_baked};
 use tmlut::scene::library;
@@ -99,8 +100,17 @@ pub fn bake_and_report(
     for file in &written {
         println!("{}", file.path.display());
     }
-    if let Some(baked) = written.first().and_then(|f| f.entry.baked.as_ref()) {
-        print!("{}", tmlut::bake::array::summary(baked));
+    let Some(baked) = written.first().and_then(|f| f.entry.baked.as_ref()) else { return Ok(()) };
+    print!("{}", tmlut::bake::array::summary(baked));
+    // What the baked shader costs per call, as its description just written states it.
+    let description = baked.shader_files.iter().find(|f| f.file.ends_with(BAKED_DESCRIPTION_SUFFIX));
+    if let Some(file) = description {
+        let path = luts.join(&file.file);
+        println!("{}", path.display());
+        let bytes = std::fs::read(&path).map_err(|source| tmlut::Error::io(&path, source))?;
+        let description: BakedShaderDescription = serde_json::from_slice(&bytes)
+            .map_err(|e| tmlut::Error::format(&path, format!("not a baked shader description: {e}")))?;
+        print!("{}", tmlut::shader::baked::cost_summary(&description));
     }
     Ok(())
 }

@@ -30,8 +30,18 @@ pub fn exec(args: ShaderArgs, _: &Context) -> tmlut::Result<()> {
     // Bounded before the scene is read: a count past memory aborted on its allocation.
     tmlut::scene::shader_files::check_reference_views(args.reference_views, 1)?;
     let (scene, _) = Scene::read(&args.scene)?;
-    for path in tmlut::scene::shader_files::write_scene_shader(&scene, &args.luts, &args.out, args.reference_views)? {
+    let written = tmlut::scene::shader_files::write_scene_shader(&scene, &args.luts, &args.out, args.reference_views)?;
+    for path in &written {
         println!("{}", path.display());
+    }
+    // What each material costs, as the description just written states it.
+    if let Some(json) =
+        written.iter().find(|p| p.to_string_lossy().ends_with(tmlut::loader::shader::DESCRIPTION_SUFFIX))
+    {
+        let bytes = std::fs::read(json).map_err(|source| tmlut::Error::io(json, source))?;
+        let description: tmlut::loader::ShaderDescription = serde_json::from_slice(&bytes)
+            .map_err(|e| tmlut::Error::format(json, format!("not a scene shader description: {e}")))?;
+        print!("{}", tmlut::scene::shader_files::cost_summary(&description.materials));
     }
     Ok(())
 }

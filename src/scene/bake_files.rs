@@ -20,10 +20,11 @@ use crate::error::{Error, Result};
 use crate::exact::ExactTables;
 use crate::filter::Filter;
 use crate::formats::baked::{BakedErrors, BakedMaterialEntry, sample_array};
-use crate::formats::manifest::{LeftOutRecord, MANIFEST_FILE, Manifest, write_manifest};
+use crate::formats::manifest::{LeftOutRecord, MANIFEST_FILE, Manifest, SceneShaderFile, write_manifest};
 use crate::formats::{FileFormat, Precision};
 use crate::integrate::Progress;
 use crate::loader::LutFolder;
+use crate::loader::shader::BAKED_DESCRIPTION_SUFFIX;
 use crate::model::folder::{FgdSource, LibraryTables};
 use crate::model::{Material, Tables};
 use crate::pipeline::{WrittenFile, write_table_file};
@@ -151,17 +152,22 @@ pub fn write_baked(
             array_entry(&scene.name, &source, request.settings.tolerance, baked[0].nodes(), &arrangement, entries);
         entry.left_out = left_out.clone();
         file.entry.baked = Some(entry);
-        file.entry.seal();
         written.push(file);
+    }
+    let shader_files = write_baked_shader(&scene.name, &written, request.precision, &staging.dir)?;
+    for file in &mut written {
+        if let Some(baked) = file.entry.baked.as_mut() {
+            baked.shader_files = shader_files.clone();
+        }
+        file.entry.seal();
     }
     // An earlier bake leaves with its files: the new array replaces it whole.
     let mut removals = Vec::new();
     manifest.files.retain(|name, entry| {
-        let earlier = entry.baked.is_some();
-        if earlier {
-            removals.push(name.clone());
-        }
-        !earlier
+        let Some(earlier) = &entry.baked else { return true };
+        removals.push(name.clone());
+        removals.extend(earlier.shader_files.iter().map(|f| f.file.clone()));
+        false
     });
     let mut moves = Vec::new();
     for file in &written {
@@ -169,6 +175,7 @@ pub fn write_baked(
         manifest.files.insert(name.clone(), file.entry.clone());
         moves.push(Move { staged: name.clone(), destination: name });
     }
+    moves.extend(shader_files.iter().map(|f| Move { staged: f.file.clone(), destination: f.file.clone() }));
     removals.retain(|file| !moves.iter().any(|m| &m.destination == file));
     write_manifest(&manifest, &staging.dir)?;
     crate::commit::commit(&folder_lock, &mut staging, moves, removals)?;
@@ -176,6 +183,52 @@ pub fn write_baked(
         .into_iter()
         .map(|file| WrittenFile { path: luts.join(file_name(&file.path)), entry: file.entry })
         .collect())
+}
+
+/// The baked shader over the array as `written` (bound from its first texture file, DDS before
+/// KTX2), written into `dir` as `<scene>.baked.wgsl`, `.baked.hlsl` and `.baked.shader.json`;
+/// none where only EXR was written, which a GPU does not bind.
+fn write_baked_shader(
+    scene: &str,
+    written: &[WrittenFile],
+    precision: crate::formats::Precision,
+    dir: &Path,
+) -> Result<Vec<SceneShaderFile>> {
+    let bound = FileFormat::TEXTURES.iter().find_map(|&format| written.iter().find(|f| f.entry.format == format));
+    let Some(array) = bound else { return Ok(Vec::new()) };
+    let entry = array.entry.baked.as_ref().expect("every written file has its baked entry");
+    let array_file = file_name(&array.path);
+    let shader = crate::shader::baked::baked_shader(entry, &array_file, precision)?;
+    let stem = crate::shader::scene::identifier(scene);
+    let functions = format!("tm_<material>(mu) for each of its {} materials", entry.materials.len());
+    let mut files: Vec<(String, String, Vec<u8>)> = shader
+        .texts
+        .iter()
+        .map(|(lang, text)| {
+            let what = format!(
+                "{}: the baked materials of {array_file} read by one filtered sample per row, {} and \
+                 {functions}; bound as {stem}{BAKED_DESCRIPTION_SUFFIX} states",
+                lang.extension().to_uppercase(),
+                shader.description.function
+            );
+            (format!("{stem}.baked.{}", lang.extension()), what, text.clone().into_bytes())
+        })
+        .collect();
+    let mut json = serde_json::to_string_pretty(&shader.description).expect("a shader description is plain data");
+    json.push('\n');
+    files.push((
+        format!("{stem}{BAKED_DESCRIPTION_SUFFIX}"),
+        "what the baked shader binds (the array and a linear sampler) and each material's function, index and cost"
+            .into(),
+        json.into_bytes(),
+    ));
+    files
+        .into_iter()
+        .map(|(file, what, bytes)| {
+            crate::formats::write_bytes_atomically(&dir.join(&file), &bytes)?;
+            Ok(SceneShaderFile::new(file, what, &bytes))
+        })
+        .collect()
 }
 
 /// The indices of the scene's materials a bake holds, and those it leaves out with why: a

@@ -216,6 +216,40 @@ pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_view
     }
 }
 
+/// Most materials [`cost_summary`] lists one by one.
+const COSTS_LISTED: usize = 16;
+
+/// What each material's function costs a GPU per call, in a few lines: the first materials one by
+/// one, then the range over all of them.
+pub fn cost_summary(materials: &[crate::loader::MaterialFunction]) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    for m in materials.iter().take(COSTS_LISTED) {
+        let _ = writeln!(
+            out,
+            "  {}: {} lobe(s), {} texture reads, {} operations per call",
+            m.function, m.lobes, m.cost.texture_reads, m.cost.operations
+        );
+    }
+    if materials.len() > COSTS_LISTED {
+        let range = |of: fn(&crate::loader::MaterialFunction) -> u32| {
+            let values = materials.iter().map(of);
+            (values.clone().min().unwrap_or(0), values.max().unwrap_or(0))
+        };
+        let (reads, operations) = (range(|m| m.cost.texture_reads), range(|m| m.cost.operations));
+        let _ = writeln!(
+            out,
+            "  ... {} materials in all: {} to {} texture reads, {} to {} operations per call",
+            materials.len(),
+            reads.0,
+            reads.1,
+            operations.0,
+            operations.1
+        );
+    }
+    out
+}
+
 /// Whether two paths name one folder (both exist here: `luts` was opened, `out` created).
 fn same_folder(a: &Path, b: &Path) -> bool {
     matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)

@@ -410,3 +410,22 @@ fn description(
 
 #[cfg(test)]
 mod tests;
+
+/// What the baked shader's functions cost per call, in one line: the range over its materials.
+pub fn cost_summary(description: &BakedShaderDescription) -> String {
+    let materials = &description.materials;
+    let range = |of: fn(&ShaderCost) -> u32| {
+        let values = materials.iter().map(|m| of(&m.cost));
+        (values.clone().min().unwrap_or(0), values.max().unwrap_or(0))
+    };
+    let (reads, operations) = (range(|c| c.texture_reads), range(|c| c.operations));
+    format!(
+        "  the baked shader per call: {} to {} texture reads, {} to {} operations ({} materials; {}(index, mu) reads any)\n",
+        reads.0,
+        reads.1,
+        operations.0,
+        operations.1,
+        materials.len(),
+        description.function
+    )
+}

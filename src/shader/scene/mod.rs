@@ -146,6 +146,8 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             textures: g.reading.iter().copied().collect(),
             model: material.model.name().to_string(),
             reads: g.reads.iter().cloned().collect(),
+            // Counted once the module holds every helper it calls.
+            cost: Default::default(),
         });
         functions.push(function);
     }
@@ -206,7 +208,12 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             .map(|f| f.webgpu_name().to_string())
             .unwrap_or_default();
     }
-    Ok(SceneShader { module, textures, materials: described, max_lobes })
+    let mut shader = SceneShader { module, textures, materials: described, max_lobes };
+    let costs = shader.costs()?;
+    for (material, cost) in shader.materials.iter_mut().zip(costs) {
+        material.cost = cost;
+    }
+    Ok(shader)
 }
 
 /// The folder's fitted form (`tmlut_tir`), then the forms materials name, each after the helpers

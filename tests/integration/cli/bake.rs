@@ -40,6 +40,17 @@ fn a_baked_scene_reads_back_as_its_model_at_the_nodes_and_check_holds_its_error(
     }
     assert!(baked.sample_gpu(index + 1, 0.5).is_empty(), "no material past the last");
 
+    // The baked shader beside the array, listed with it, and verified by `check` below.
+    let listed: Vec<&str> = baked.baked().shader_files.iter().map(|f| f.file.as_str()).collect();
+    assert_eq!(listed, ["copper_pot.baked.hlsl", "copper_pot.baked.wgsl", "copper_pot.baked.shader.json"]);
+    let wgsl = std::fs::read_to_string(luts.join("copper_pot.baked.wgsl")).unwrap();
+    assert!(wgsl.contains("fn tm_varnished_copper(") && wgsl.contains("textureSampleLevel"), "{wgsl}");
+    let description: tmlut::loader::shader::BakedShaderDescription =
+        serde_json::from_slice(&std::fs::read(luts.join("copper_pot.baked.shader.json")).unwrap()).unwrap();
+    assert_eq!(description.texture.file, "baked.dds");
+    let cost = description.materials[0].cost;
+    assert!(cost.texture_reads == 5 && cost.operations <= 40, "{cost:?}");
+
     // `check` holds every material to 1e-3 by default and to a stated budget.
     let no_budgets = write_config(dir.path(), "");
     let checked = tmlut(&["check", luts.to_str().unwrap(), "--budgets", no_budgets.to_str().unwrap()]);
@@ -79,7 +90,7 @@ fn a_baked_scene_reads_back_as_its_model_at_the_nodes_and_check_holds_its_error(
 
     // A build of the scene again leaves no bake of the scene it replaced.
     assert!(build(&config, &luts, &["--scene", &scene_file]).status.success());
-    assert!(!luts.join("baked.dds").exists());
+    assert!(!luts.join("baked.dds").exists() && !luts.join("copper_pot.baked.wgsl").exists());
     assert!(
         BakedLut::from_folder(&LutFolder::open(&luts).unwrap()).unwrap_err().to_string().contains("no baked array")
     );

@@ -40,6 +40,10 @@ pub struct BakedArrayEntry {
     /// The scene's materials the array does not hold, and why (a parameter a texture varies).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub left_out: Vec<super::manifest::LeftOutRecord>,
+    /// The baked shader's files (`<stem>.baked.wgsl`, `.baked.hlsl`, `.baked.shader.json`), each
+    /// with its length and SHA-256, verified by `tmlut check` and the loader.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shader_files: Vec<super::manifest::SceneShaderFile>,
 }
 
 /// One baked material.
@@ -188,6 +192,7 @@ impl BakedArrayEntry {
             lookup: LOOKUP.into(),
             materials,
             left_out: Vec::new(),
+            shader_files: Vec::new(),
         }
     }
 

@@ -832,7 +832,7 @@ impl Manifest {
     }
 
     /// Every shader file the manifest lists (a packing's lookups, a fitted form's functions, a
-    /// scene's fitted TIR form, a scene shader's files) with the SHA-256 stated for it and, where
+    /// scene's fitted TIR form, a scene shader's files, a baked shader's files) with the SHA-256 stated for it and, where
     /// the manifest states it, its length; a file listed by several entries once per statement.
     pub fn shader_files(&self) -> std::collections::BTreeSet<(&str, &str, Option<u64>)> {
         let listed = self
@@ -845,7 +845,9 @@ impl Manifest {
             .chain(self.scene.iter().flat_map(|s| s.plan.tir_fit.iter().flat_map(|f| &f.shaders)))
             .map(|shader| (shader.file.as_str(), shader.sha256.as_str(), None));
         let scene_shader = self.scene_shader.iter().flat_map(|s| &s.files);
-        listed.chain(scene_shader.map(|f| (f.file.as_str(), f.sha256.as_str(), Some(f.bytes)))).collect()
+        let baked_shader = self.files.values().flat_map(|e| e.baked.iter().flat_map(|b| &b.shader_files));
+        let with_lengths = scene_shader.chain(baked_shader);
+        listed.chain(with_lengths.map(|f| (f.file.as_str(), f.sha256.as_str(), Some(f.bytes)))).collect()
     }
 
     /// Every file the manifest lists, tables and shaders, with the SHA-256 stated for it.

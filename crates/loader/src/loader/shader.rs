@@ -78,6 +78,9 @@ pub struct MaterialFunction {
     /// What its lookups read: `fgd slice`, `fgd packing`, `fgd_rarer table`, `belcour`, `karis`,
     /// `tir slice`, `tir table` (3D), `tir fit`, `gd`.
     pub reads: Vec<String>,
+    /// What one call of it costs, counted on the shader's description (helpers included).
+    #[serde(default)]
+    pub cost: ShaderCost,
 }
 
 /// What one call of a shader function costs a GPU, counted on the shader's description rather than
@@ -259,7 +262,10 @@ fn only_description(dir: &Path) -> Result<String> {
     let entries = std::fs::read_dir(dir).map_err(|source| Error::io(dir, source))?;
     let mut stems: Vec<String> = entries
         .filter_map(|e| e.ok())
-        .filter_map(|e| e.file_name().to_str().and_then(|n| n.strip_suffix(DESCRIPTION_SUFFIX)).map(str::to_owned))
+        .filter_map(|e| e.file_name().to_str().map(str::to_owned))
+        // A baked shader's description is not a scene shader's.
+        .filter(|name| !name.ends_with(BAKED_DESCRIPTION_SUFFIX))
+        .filter_map(|name| name.strip_suffix(DESCRIPTION_SUFFIX).map(str::to_owned))
         .collect();
     stems.sort();
     match stems.as_slice() {
@@ -313,6 +319,7 @@ mod tests {
                 textures: vec![0],
                 model: "2-flux".into(),
                 reads: vec!["gd".into()],
+                cost: ShaderCost { texture_reads: 4, operations: 30 },
             }]),
             notes: "".into(),
         };
