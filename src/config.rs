@@ -87,6 +87,13 @@ impl Config {
         }
     }
 
+    /// Clear what decides only how every table is written ([`TableRecipe::clear_written_settings`]).
+    pub fn clear_written_settings(&mut self) {
+        for &kind in TableKind::ALL {
+            self.recipe_mut(kind).clear_written_settings();
+        }
+    }
+
     /// Use `method` for every table.
     pub fn set_method(&mut self, method: crate::integrate::Method) {
         for &kind in TableKind::ALL {

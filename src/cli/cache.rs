@@ -46,8 +46,8 @@ pub fn exec(args: CacheArgs, context: &Context) -> tmlut::Result<()> {
     if args.verify {
         let verified = cache::verify(&dir, &context.progress())?;
         println!(
-            "table cache {}: {} entries integrated again, {} identical to the bit, {} of another tmlut version (not \
-             compared), {} refused",
+            "table cache {}: {} entries integrated again, {} identical to the bit, {} of another tmlut version or \
+             cache format (not compared), {} refused",
             dir.display(),
             verified.identical + verified.refused.len() + verified.other_version,
             verified.identical,

@@ -282,6 +282,11 @@ impl TableRecipe for FgdSettings {
         }
     }
 
+    fn clear_companions(&mut self) {
+        self.packings.clear();
+        self.packing_formats.clear();
+    }
+
     fn kept_measure_intervals(&self) -> Option<usize> {
         (self.method == Method::Fast).then_some(self.cosine_intervals)
     }

@@ -72,6 +72,10 @@ macro_rules! table_recipe_accessors {
             &self.shared.output
         }
 
+        fn output_mut(&mut self) -> &mut super::settings::OutputConfig {
+            &mut self.shared.output
+        }
+
         fn interpolation(&self) -> super::interpolation::InterpolationConfig {
             self.shared.interpolation
         }
@@ -178,6 +182,12 @@ macro_rules! table_registry {
                     $(TableSettings::$kind(s) => s,)+
                 }
             }
+
+            pub fn recipe_mut(&mut self) -> &mut dyn TableRecipe {
+                match self {
+                    $(TableSettings::$kind(s) => s,)+
+                }
+            }
         }
 
         /// The registry's sections, in its order.
@@ -231,6 +241,16 @@ pub trait TableRecipe: Kernel {
     /// The axes of the table these settings describe.
     fn axes(&self) -> crate::error::Result<Vec<crate::table::Axis>>;
     fn output(&self) -> &settings::OutputConfig;
+    fn output_mut(&mut self) -> &mut settings::OutputConfig;
+    /// Write no files beside the table ([`TableRecipe::companions`]).
+    fn clear_companions(&mut self) {}
+    /// Clear what decides only how the table is written (its files' formats and precision, the
+    /// files beside it), keeping what its values depend on: the settings the table cache keys a
+    /// table by (`scene::cache`), so that one integration serves every container and precision.
+    fn clear_written_settings(&mut self) {
+        *self.output_mut() = settings::OutputConfig { formats: Vec::new(), precision: crate::formats::Precision::F32 };
+        self.clear_companions();
+    }
     /// Channels of the table.
     fn channel_count(&self) -> usize;
     /// The configuration keys of the node counts, axis 0 first (`mu_count`, ...).

@@ -281,6 +281,10 @@ impl TableRecipe for TirSettings {
         Companions { fitted_form: self.fit == TirFit::Best, ..Companions::default() }
     }
 
+    fn clear_companions(&mut self) {
+        self.fit = TirFit::Off;
+    }
+
     /// A lookup passes `(mu, alpha, eta)` whatever the third axis samples.
     fn interpolation_domains(&self) -> Result<Vec<super::interpolation::Domain>> {
         Ok(super::interpolation::standard_domains(

@@ -49,31 +49,35 @@ pub struct SceneBuildRequest {
 impl SceneBuildRequest {
     /// The key under which the table cache keeps this build whole ([`super::cache::store_build`]):
     /// the SHA-256 of everything its output folder's files depend on (the scenes as parsed, their
-    /// sources and texts as the manifest records them, the configuration with its seed, the
-    /// options, the cache format and the version). None where a build is not kept whole: no
-    /// cache, a shard or a merge, or error maps (files outside the manifest's list).
+    /// sources and texts as the manifest records them, the configuration with its seed, its files'
+    /// formats and precision among it, the options, the cache format and the version). None where
+    /// a build is not kept whole: no cache, a shard or a merge, or error maps (files outside the
+    /// manifest's list).
     pub fn whole_build_key(&self) -> Option<String> {
         if self.cache.is_none() || self.shard.is_some() || !self.merge_from.is_empty() || self.error_maps {
             return None;
         }
-        Some(self.key_with(format!("{:?} {:?}", self.slice_checks, self.slice_layout)))
+        Some(self.key_with(&self.config, format!("{:?} {:?}", self.slice_checks, self.slice_layout)))
     }
 
     /// The key of the library a shard holds part of, which `tmlut merge` must be given again:
-    /// the SHA-256 of the scenes as parsed and as written, the configuration with its seed, the
-    /// slice checks (which decide what each slice's entry holds), the cache format and the
-    /// version; not the slice layout, which only the merged folder has.
+    /// the SHA-256 of the scenes as parsed and as written, the configuration with its seed as it
+    /// integrates (its files' formats and precision are the merge's to choose, as its slice layout
+    /// is), the slice checks (which decide what each slice's entry holds), the cache format and the
+    /// version.
     pub fn library_key(&self) -> String {
-        self.key_with(format!("{:?}", self.slice_checks))
+        let mut integrated = self.config.clone();
+        integrated.clear_written_settings();
+        self.key_with(&integrated, format!("{:?}", self.slice_checks))
     }
 
-    /// The SHA-256 of the scenes as parsed and as written, the configuration with its seed,
-    /// `options` (what of the request's options the key covers), the cache format and the version.
-    fn key_with(&self, options: String) -> String {
+    /// The SHA-256 of the scenes as parsed and as written, `config` with its seed, `options` (what
+    /// of the request's options the key covers), the cache format and the version.
+    fn key_with(&self, config: &Config, options: String) -> String {
         let scene = format!("{:?}", self.scene);
         let source = self.source.display().to_string();
         let fields =
-            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, &self.config, options);
+            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, config, options);
         sha256_hex(&serde_json::to_vec(&fields).expect("plain data"))
     }
 }
@@ -748,7 +752,7 @@ pub fn verify_restored(request: &SceneBuildRequest, staged: &Path) -> std::resul
 /// the cache does not keep.
 fn table_key(build: &PlannedBuild, seed: u64) -> Option<CacheKey> {
     match build {
-        PlannedBuild::Table(settings) => Some(CacheKey::of_table(settings.kind().name(), settings, seed)),
+        PlannedBuild::Table(settings) => Some(CacheKey::of_table(settings, seed)),
         PlannedBuild::TirFit(_) | PlannedBuild::Slices(_) => None,
     }
 }

@@ -4,12 +4,17 @@
 //! A slice's stored values depend on its table and settings (samples, replicates, masking, basis,
 //! top index), its `(mu, alpha)` axes, the indices of its channels, the seed and the recipe's code,
 //! and on nothing else: not on its name, the materials that read it, or the other slices of the
-//! build (`recipes::slices::integrate_batch` makes it so). The SHA-256 of those, with
-//! [`CACHE_FORMAT`] and the crate's version, is its key. A full or sub-range table of a plan (GD,
-//! a sub-range FGD or TIR) is keyed by its table's name and every setting. The entry
-//! `<key>.slice` holds the inputs its key was computed from (as hashed), the table's layout,
-//! values, replicate standard errors, provenance and the checks of the run that built it, after
-//! one line with the cache's marker and the SHA-256 of the rest.
+//! build (`recipes::slices::integrate_batch` makes it so), nor on the files it is written to:
+//! their container and precision are applied when a build writes them, so an entry holds the f32
+//! values as integrated and serves a DDS, KTX2 or EXR build, f32 or f16, alike. The SHA-256 of
+//! those, with [`CACHE_FORMAT`] and the crate's version, is its key. A full or sub-range table of
+//! a plan (GD, a sub-range FGD or TIR) is keyed by its table's name and every setting its values
+//! depend on (all but `output` and the files written beside it:
+//! [`TableRecipe::clear_written_settings`]). The entry `<key>.slice` holds the inputs its key was
+//! computed from (as hashed), the table's layout, values, replicate standard errors, provenance
+//! and the checks of the run that built it (for the interpolation check, the exact integrals that
+//! each build compares its own files with), after one line with the cache's marker, the format
+//! and the SHA-256 of the rest; an entry of another format is never read.
 //!
 //! - **Its own folder.** A cache folder carries a `CACHEDIR.TAG` (the Cache Directory Tagging
 //!   Specification's, so that backups skip it) naming tmlut. A folder without one is taken as a
@@ -30,14 +35,15 @@
 //! A whole build is kept too ([`store_build`], [`restore_build`]): the record `<key>.build` lists
 //! every file of the output folder it left (tables, shaders, the manifest) by SHA-256, and each
 //! file is kept once as `<sha256>.object`. Its key covers everything the files depend on (the
-//! scenes as parsed and as written, the configuration, the seed, the options, [`CACHE_FORMAT`] and
-//! the version), so a build of an unchanged library restores that folder whole, every file
-//! verified by its hash, without planning or reading a table: the slices' entries serve a library
-//! that changed.
+//! scenes as parsed and as written, the configuration with its containers and precision, the
+//! seed, the options, [`CACHE_FORMAT`] and the version), so a build of an unchanged library
+//! restores that folder whole, every file verified by its hash, without integrating a table: the
+//! entries serve a library that changed, or the same library written to other files.
 //!
 //! A shard of a library build (`--shard I/N`) leaves beside its entries a record naming the
-//! library it was planned for and its part, `<sha256>.shard`; `tmlut merge` joins only the shards
-//! of the library it is given, all N of them.
+//! library it was planned for (its configuration as integrated: the merge chooses the files) and
+//! its part, `<sha256>.shard`; `tmlut merge` joins only the shards of the library it is given,
+//! all N of them.
 //!
 //! tmlut touches nothing outside the folders it is given, so the cache is used only when asked
 //! for: `--cache DIR`, or `--cache` alone for the default folder ([`default_dir`]).
@@ -51,17 +57,17 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::loader::sha256_hex;
-use crate::recipes::Kernel;
 use crate::recipes::driver::{Metadata, Provenance, SamplingRecord, TableBuild};
 use crate::recipes::interpolation::ExactValues;
-use crate::recipes::slices::Slices;
+use crate::recipes::slices::{SliceOf, Slices};
+use crate::recipes::{Kernel, TableRecipe, TableSettings};
 use crate::scene::build::Shard;
 use crate::stats::{ErrorRecord, ErrorSummary, ReferenceComparison};
 use crate::table::Table;
 
 /// The layout of an entry and of what its key covers; a change to either, or to how a slice is
 /// integrated, changes it (and the crate's version is in every key besides).
-pub const CACHE_FORMAT: u32 = 8;
+pub const CACHE_FORMAT: u32 = 9;
 
 /// The extension of an entry.
 pub const ENTRY_EXTENSION: &str = "slice";
@@ -90,7 +96,7 @@ pub const VERIFIED_NODES: usize = 2;
 const ABANDONED_AFTER: std::time::Duration = std::time::Duration::from_secs(60);
 
 /// The note a slice from the cache carries in the manifest.
-pub const FROM_CACHE_NOTE: &str = "From the table cache: built in an earlier run with the same settings, axes, indices and seed (the same bytes); its checks are those of that run.";
+pub const FROM_CACHE_NOTE: &str = "From the table cache: integrated in an earlier run with the same settings, axes, indices and seed (the same values, whatever files that run wrote them to); its checks are those of that run.";
 
 /// The default cache folder: `$XDG_CACHE_HOME/tmlut`, else `$HOME/.cache/tmlut`
 /// (`%LOCALAPPDATA%\tmlut\cache` on Windows).
@@ -152,12 +158,18 @@ impl CacheKey {
         CacheKey { hex: sha256_hex(inputs.as_bytes()), inputs }
     }
 
-    /// The key of `slices` built with `seed`.
+    /// The key of `slices` built with `seed`: of what is integrated, not of the files it is
+    /// written to ([`TableRecipe::clear_written_settings`]).
     pub fn of_slices(slices: &Slices, seed: u64) -> CacheKey {
+        let mut of = slices.of.clone();
+        match &mut of {
+            SliceOf::Fgd(settings) => settings.clear_written_settings(),
+            SliceOf::Tir(settings) => settings.clear_written_settings(),
+        }
         let fields = SliceInputs {
             format: CACHE_FORMAT,
             version: env!("CARGO_PKG_VERSION").into(),
-            of: slices.of.clone(),
+            of,
             mu: slices.mu.clone(),
             alpha: slices.alpha.clone(),
             indices: slices.channels.iter().map(|c| (c.eta.to_bits(), c.kappa.to_bits())).collect(),
@@ -166,10 +178,13 @@ impl CacheKey {
         CacheKey::of_inputs(serde_json::to_string(&fields).expect("plain data"))
     }
 
-    /// The key of a full (or sub-range) table of a scene plan: its table and settings (every key,
-    /// sub-ranges and counts included) and the seed.
-    pub fn of_table(table: &str, settings: &impl Serialize, seed: u64) -> CacheKey {
-        let fields = (CACHE_FORMAT, env!("CARGO_PKG_VERSION"), table, settings, seed);
+    /// The key of a full (or sub-range) table of a scene plan: its table and the settings it is
+    /// integrated with (every key, sub-ranges and counts included; not its files' formats and
+    /// precision, nor the files beside it) and the seed.
+    pub fn of_table(settings: &TableSettings, seed: u64) -> CacheKey {
+        let mut integrated = settings.clone();
+        integrated.recipe_mut().clear_written_settings();
+        let fields = (CACHE_FORMAT, env!("CARGO_PKG_VERSION"), settings.kind().name(), integrated, seed);
         CacheKey::of_inputs(serde_json::to_string(&fields).expect("plain data"))
     }
 }
@@ -479,6 +494,13 @@ fn sealed_bytes(body: &[u8]) -> Vec<u8> {
     let mut bytes = format!("{MARKER} {CACHE_FORMAT} {}\n", sha256_hex(body)).into_bytes();
     bytes.extend_from_slice(body);
     bytes
+}
+
+/// The cache format a file of the cache states on its first line: an entry of another format is
+/// laid out and keyed otherwise, neither read nor audited by this one.
+fn sealed_format(bytes: &[u8]) -> Option<u32> {
+    let line = bytes.split(|&b| b == b'\n').next()?.strip_prefix(format!("{MARKER} ").as_bytes())?;
+    std::str::from_utf8(line).ok()?.split(' ').next()?.parse().ok()
 }
 
 /// The body of [`sealed_bytes`] `bytes`, if its first line is the cache's and its hash matches.
@@ -833,7 +855,8 @@ fn decode_record(bytes: &[u8], key: &str) -> std::result::Result<BuildRecord, St
 pub struct Verified {
     /// Entries integrated again from their recorded inputs, equal to the bit.
     pub identical: usize,
-    /// Entries of another cache format or tmlut version, which this one does not integrate alike.
+    /// Entries of another cache format or tmlut version, which this one does not integrate alike
+    /// (nor, for another format, read).
     pub other_version: usize,
     /// Each entry refused, with why: damaged, or integrated to other values.
     pub refused: Vec<String>,
@@ -857,6 +880,9 @@ pub fn verify(dir: &Path, progress: &dyn crate::integrate::Progress) -> Result<V
             let named = |why: String| format!("{}: {why}", path.display());
             let bytes = crate::formats::read_bytes(path).map_err(|e| e.to_string())?;
             let key = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            if sealed_format(&bytes).is_some_and(|format| format != CACHE_FORMAT) {
+                return Ok(false);
+            }
             let entry = decode(&bytes, &key).map_err(named)?;
             let Some(built) = rebuild(&entry.inputs, progress).map_err(named)? else { return Ok(false) };
             let differing = built.data.iter().zip(&entry.values).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
@@ -1058,6 +1084,47 @@ mod tests {
         std::fs::write(&old_format, format!("{}\n{{}}", "b".repeat(64))).unwrap();
         assert_eq!(prune(dir.path(), 0).unwrap(), CacheUsage { unmarked: 1, ..CacheUsage::default() });
         assert!(old_format.exists());
+    }
+
+    #[test]
+    fn a_key_covers_what_is_integrated_not_the_files_it_is_written_to() {
+        use crate::formats::{FileFormat, Precision};
+        let dir = tempfile::tempdir().unwrap();
+        let cache = SliceCache::open(dir.path()).unwrap();
+        let dds = slice("a", 1.5);
+        let built = integrate_batch(&[&dds], 3, &()).unwrap().remove(0);
+        cache.put(&dds, 3, &built);
+        let mut ktx2_f16 = dds.clone();
+        let SliceOf::Fgd(settings) = &mut ktx2_f16.of else { unreachable!("an FGD slice") };
+        settings.packing_formats = vec![FileFormat::Ktx2];
+        settings.packings.clear();
+        settings.shared.output =
+            crate::config::OutputConfig { formats: vec![FileFormat::Exr], precision: Precision::F16 };
+        assert_eq!(CacheKey::of_slices(&dds, 3), CacheKey::of_slices(&ktx2_f16, 3));
+        assert_eq!(cache.get(&ktx2_f16, 3).expect("a hit").table.data, built.table.data);
+        let mut resampled = dds.clone();
+        let SliceOf::Fgd(settings) = &mut resampled.of else { unreachable!("an FGD slice") };
+        settings.shared.sampling.samples *= 2;
+        assert_ne!(CacheKey::of_slices(&dds, 3), CacheKey::of_slices(&resampled, 3));
+
+        // A whole table: its output and companions aside, every setting is in its key.
+        let tir = crate::recipes::tir::TirSettings::default();
+        let mut written_otherwise = tir.clone();
+        written_otherwise.shared.output =
+            crate::config::OutputConfig { formats: vec![FileFormat::Ktx2], precision: Precision::F16 };
+        written_otherwise.fit = crate::recipes::tir::TirFit::Off;
+        let key =
+            |settings: &crate::recipes::tir::TirSettings| CacheKey::of_table(&TableSettings::Tir(settings.clone()), 3);
+        assert_eq!(key(&tir), key(&written_otherwise));
+        written_otherwise.top_eta = 0.999;
+        assert_ne!(key(&tir), key(&written_otherwise));
+
+        // The full audit integrates the entry again from the inputs it records, output cleared;
+        // an entry of another cache format is neither read nor refused.
+        let other_format = dir.path().join(format!("{}.slice", "c".repeat(64)));
+        std::fs::write(&other_format, format!("{MARKER} {} {}\n{{}}", CACHE_FORMAT - 1, "d".repeat(64))).unwrap();
+        let verified = verify(dir.path(), &()).unwrap();
+        assert_eq!(verified, Verified { identical: 1, other_version: 1, refused: Vec::new() });
     }
 
     #[test]

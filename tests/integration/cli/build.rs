@@ -4,7 +4,10 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use super::{assert_clean_failure, build, scene_path, shader_functions, snapshot, stderr, stdout, tmlut, write_config};
+use super::{
+    assert_clean_failure, build, scene_path, shader_functions, small_library_args, small_set_written_as, snapshot,
+    stderr, stdout, tmlut, write_config,
+};
 use crate::common;
 
 use common::SMALL_SET;
@@ -760,6 +763,68 @@ fn an_unchanged_scene_build_is_restored_whole_from_the_cache_and_a_damaged_one_i
         assert_eq!(stdout(&output).contains("restored whole"), restored, "{out}: {}", stdout(&output));
         assert!(stderr(&output).contains("below the opaque conductor"), "{out}: {}", stderr(&output));
     }
+}
+
+#[test]
+fn a_build_in_another_container_or_precision_reads_every_table_from_the_cache_and_writes_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let scenes = small_library_args();
+    let cached_args: Vec<&str> =
+        scenes.iter().map(String::as_str).chain(["--cache", cache.to_str().unwrap()]).collect();
+    let uncached_args: Vec<&str> = scenes.iter().map(String::as_str).collect();
+    let configuration = |name: &str, text: &str| {
+        let path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    // (slices read from the cache, slices) from the build's summary; (tables read from the cache,
+    // tables) from its note on the cache.
+    let from_cache = |output: &std::process::Output| {
+        let (out, err) = (stdout(output), stderr(output));
+        let slices = out.split(" tables (").nth(1).and_then(|rest| rest.split_once(" of them from the cache")).map(
+            |(head, _)| {
+                let (total, read) = head.split_once(" slices, ").unwrap();
+                (read.parse::<usize>().unwrap(), total.parse::<usize>().unwrap())
+            },
+        );
+        let tables = err.lines().find_map(|line| line.strip_suffix(" tables read from it")).map(|head| {
+            let (read, total) = head.rsplit_once(": ").unwrap().1.split_once(" of ").unwrap();
+            (read.parse::<usize>().unwrap(), total.parse::<usize>().unwrap())
+        });
+        (slices.unwrap_or_else(|| panic!("no summary in {out}")), tables.unwrap_or_else(|| panic!("no note in {err}")))
+    };
+
+    let dds_f32 = configuration("dds-f32", &small_set_written_as("dds", "f32"));
+    let output = build(&dds_f32, &dir.path().join("dds-f32"), &cached_args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let ((read, slices), (_, tables)) = from_cache(&output);
+    assert_eq!(read, 0);
+    assert!(slices > 16 && tables > slices, "{slices} slices in arrays and full tables besides: {tables} tables");
+    // Another container, then another precision: every slice and table from the cache, and the
+    // files (the manifest aside: it says where the tables came from) those of a build without it.
+    for (name, container, precision) in [("ktx2-f32", "ktx2", "f32"), ("ktx2-f16", "ktx2", "f16")] {
+        let config = configuration(name, &small_set_written_as(container, precision));
+        let cached = dir.path().join(format!("{name}-cached"));
+        let output = build(&config, &cached, &cached_args);
+        assert!(output.status.success(), "{}", stderr(&output));
+        assert_eq!(from_cache(&output), ((slices, slices), (tables, tables)), "{name}");
+        let uncached = dir.path().join(format!("{name}-uncached"));
+        let output = build(&config, &uncached, &uncached_args);
+        assert!(output.status.success(), "{}", stderr(&output));
+        let (with, without) = (snapshot(&cached), snapshot(&uncached));
+        assert_eq!(with.iter().map(|f| &f.0).collect::<Vec<_>>(), without.iter().map(|f| &f.0).collect::<Vec<_>>());
+        assert!(
+            with.iter().any(|(file, _)| file.ends_with(".ktx2"))
+                && !with.iter().any(|(file, _)| file.ends_with(".dds"))
+        );
+        for ((file, a), (_, b)) in with.iter().zip(&without) {
+            assert!(file == MANIFEST_FILE || a == b, "{name}: {file} differs");
+        }
+    }
+    // Each container's build is kept whole under its own key: the first is restored, not rewritten.
+    let output = build(&dds_f32, &dir.path().join("dds-f32-again"), &cached_args);
+    assert!(stdout(&output).contains("restored whole from the table cache"), "{}", stdout(&output));
 }
 
 #[test]

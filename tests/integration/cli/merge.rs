@@ -3,7 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{assert_clean_failure, build, scene_path, snapshot, stderr, stdout, tmlut, write_config};
+use super::{
+    assert_clean_failure, build, scene_path, small_set_written_as, snapshot, stderr, stdout, tmlut, write_config,
+};
 use crate::common;
 
 use common::SMALL_SET;
@@ -78,25 +80,40 @@ fn shards_merged_give_the_files_of_one_build_and_a_missing_or_damaged_shard_is_r
         &build(&config, &dir.path().join("unused"), &args),
         &["--shard", "the shard's folder is incomplete"],
     );
-    let merge = |shards: &[PathBuf], out: &Path| {
+    let merge_as = |config: &Path, shards: &[PathBuf], out: &Path| {
         let mut args = vec!["merge", "--quiet", "--config", config.to_str().unwrap(), "--out", out.to_str().unwrap()];
         args.extend(scene_args.iter().copied());
         args.extend(shards.iter().map(|s| s.to_str().unwrap()));
         tmlut(&args)
     };
+    let merge = |shards: &[PathBuf], out: &Path| merge_as(&config, shards, out);
+    // Every file byte for byte, the manifest apart from wall times.
+    let assert_same_files = |whole: &Path, merged: &Path| {
+        let (a, b) = (snapshot(whole), snapshot(merged));
+        let names = |files: &[(String, Vec<u8>)]| files.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&a), names(&b));
+        for ((name, x), (_, y)) in a.iter().zip(&b) {
+            if name != MANIFEST_FILE {
+                assert!(x == y, "{name} differs");
+            }
+        }
+        assert_eq!(manifest_without_wall_times(whole), manifest_without_wall_times(merged));
+    };
     let merged = dir.path().join("merged");
     let output = merge(&shard_dirs, &merged);
     assert!(output.status.success(), "{}", stderr(&output));
-    // Every file byte for byte, the manifest apart from wall times.
-    let (a, b) = (snapshot(&whole), snapshot(&merged));
-    let names = |files: &[(String, Vec<u8>)]| files.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
-    assert_eq!(names(&a), names(&b));
-    for ((name, x), (_, y)) in a.iter().zip(&b) {
-        if name != MANIFEST_FILE {
-            assert!(x == y, "{name} differs");
-        }
-    }
-    assert_eq!(manifest_without_wall_times(&whole), manifest_without_wall_times(&merged));
+    assert_same_files(&whole, &merged);
+    // The shards hold what was integrated, not files: merged in another container and precision,
+    // they give the files of one build written so.
+    let ktx2_f16 = dir.path().join("ktx2-f16.toml");
+    std::fs::write(&ktx2_f16, small_set_written_as("ktx2", "f16")).unwrap();
+    let whole_ktx2_f16 = dir.path().join("whole-ktx2-f16");
+    let output = build(&ktx2_f16, &whole_ktx2_f16, &scene_args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let merged_ktx2_f16 = dir.path().join("merged-ktx2-f16");
+    let output = merge_as(&ktx2_f16, &shard_dirs, &merged_ktx2_f16);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert_same_files(&whole_ktx2_f16, &merged_ktx2_f16);
 
     // Without one shard, the merge names the missing part and writes nothing.
     let incomplete = dir.path().join("incomplete");

@@ -18,6 +18,8 @@ mod workflows;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use crate::common::SMALL_SET;
+
 pub(super) fn tmlut(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_tmlut")).args(args).output().expect("the tmlut binary runs")
 }
@@ -107,4 +109,22 @@ pub(super) fn copper_pot_with_tir(dir: &Path, name: &str, tir: &str) -> PathBuf 
     let text = std::fs::read_to_string(scene_path("copper-pot")).unwrap();
     std::fs::write(&scene, text.replace("tir = \"table\"", &format!("tir = \"{tir}\""))).unwrap();
     scene
+}
+
+/// `SMALL_SET` with every texture a scene build writes in `container`, at `precision`.
+pub(super) fn small_set_written_as(container: &str, precision: &str) -> String {
+    let mut text = SMALL_SET.replacen("[fgd]\n", &format!("[fgd]\npacking_formats = [\"{container}\"]\n"), 1);
+    text.push_str(&format!("[fgd.output]\nformats = [\"exr\"]\nprecision = \"{precision}\"\n"));
+    for table in ["gd", "tir", "fgd_rarer"] {
+        text.push_str(&format!("[{table}.output]\nformats = [\"{container}\"]\nprecision = \"{precision}\"\n"));
+    }
+    text
+}
+
+/// The scenes of a small library: slices in texture arrays, full and sub-range tables, packings.
+pub(super) fn small_library_args() -> Vec<String> {
+    ["copper-pot", "gpu-check/varied-coats", "gpu-check/stiff-stacks"]
+        .iter()
+        .flat_map(|scene| ["--scene".to_string(), scene_path(scene)])
+        .collect()
 }
