@@ -7,20 +7,24 @@
 //! asymmetry's own bounds) a quantity has a kink, and linear interpolation across a kink errs in
 //! proportion to the node spacing instead of its square: 1.2e-2 at 128 nodes for a varnished
 //! copper, where the smooth parts are within 1e-4; and just past such a kink a quantity may turn
-//! far faster than anywhere else. So a material's `u` axis is cut into segments ([`place_nodes`],
-//! on a fine grid of the model): at its kinks, so that a node sits on each, shared by the two
-//! segments, and where its curvature changes, so that each segment's nodes, uniform in `u`, are as
-//! dense as its own curvature needs.
+//! far faster than anywhere else. Where a lobe's asymmetry averages its channels' ratios and one
+//! channel's energy crosses the threshold below which its ratio counts as 0, the lobe's roughness
+//! and GD even jump, and linear interpolation across a jump errs by up to the jump whatever the
+//! spacing. So a material's `u` axis is cut into segments ([`place_nodes`], on a grid of the
+//! model): at its kinks, so that a node sits on each, shared by the two segments; around its jumps,
+//! by a segment of one interval so short that its two nodes are the two sides of the jump; and
+//! where its curvature changes, so that each segment's nodes, uniform in `u`, are as dense as its
+//! own curvature needs.
 //!
 //! A shader finds the coordinate of `mu` as `x = u * slope_s + offset_s` for the segment `s`
 //! holding `u` (one compare and select per kink): [`NodePlacement::texture_coordinate`] computes
 //! it in f32 exactly as the shader does, from the same f32 constants ([`NodePlacement::segments`]).
 
-use rayon::prelude::*;
+use std::collections::BTreeMap;
 
 use crate::error::{Error, Result};
 
-/// One stretch of `u` between kinks, uniform in `u`.
+/// One stretch of `u` between breaks, uniform in `u`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {
     /// Where it starts and ends in `u = sqrt(mu)`.
@@ -30,6 +34,9 @@ pub struct Segment {
     pub first_node: usize,
     /// Intervals between its nodes (at least 1).
     pub intervals: usize,
+    /// Whether the model jumps inside it: then it is one interval no longer than [`JUMP_WIDTH`],
+    /// its two nodes the two sides of the jump, and a read inside blends them.
+    pub jump: bool,
 }
 
 /// The nodes of one material: segments that cover `u` in [0, 1] end to end.
@@ -53,18 +60,20 @@ impl NodePlacement {
     /// must exceed `breaks.len() + 1`.
     pub fn with_breaks(breaks: &[f64], nodes: usize) -> Self {
         let lengths: Vec<f64> = segment_ends(breaks).windows(2).map(|w| w[1] - w[0]).collect();
-        Self::with_intervals(breaks, &share_out(nodes - 1, &lengths, &vec![0.0; lengths.len()]))
+        Self::with_intervals(breaks, &[], &share_out(nodes - 1, &lengths, &vec![0.0; lengths.len()]))
     }
 
-    /// Segments between `breaks` with `intervals` intervals each.
-    fn with_intervals(breaks: &[f64], intervals: &[usize]) -> Self {
+    /// Segments between `breaks` with `intervals` intervals each, those starting at a break of
+    /// `jumps` marked as jumps.
+    fn with_intervals(breaks: &[f64], jumps: &[f64], intervals: &[usize]) -> Self {
         let ends = segment_ends(breaks);
         let mut first_node = 0;
         let segments = ends
             .windows(2)
             .zip(intervals.iter().copied())
             .map(|(w, intervals)| {
-                let segment = Segment { u_start: w[0], u_end: w[1], first_node, intervals };
+                let jump = jumps.contains(&w[0]);
+                let segment = Segment { u_start: w[0], u_end: w[1], first_node, intervals, jump };
                 first_node += intervals;
                 segment
             })
@@ -76,7 +85,8 @@ impl NodePlacement {
         &self.segments
     }
 
-    /// Where the segments meet, in `u`: the kinks, and where the curvature changes.
+    /// Where the segments meet, in `u`: the kinks, the two sides of each jump, and where the
+    /// curvature changes.
     pub fn breaks(&self) -> Vec<f64> {
         self.segments[1..].iter().map(|s| s.u_start).collect()
     }
@@ -147,25 +157,70 @@ fn share_out(total: usize, lengths: &[f64], curvatures: &[f64]) -> Vec<usize> {
     shares
 }
 
-/// Most breaks between segments: each costs a shader a compare and two selects.
+/// Most breaks between segments: each costs a shader a compare and two selects. A kink takes one,
+/// a jump two.
 pub const MAX_BREAKS: usize = 7;
 
-/// Points of the fine grid the model is read on to place nodes, per interval between nodes.
-pub const FINE_POINTS_PER_INTERVAL: usize = 4;
+/// Points of the grid the model is read on to place nodes, per interval between nodes: the grid
+/// holds the nodes of the uniform placement, so that a material that needs no break reads no
+/// other point.
+pub const GRID_POINTS_PER_INTERVAL: usize = 2;
 
-/// The nodes of a material whose values at `u` are `values(u)` (its flattened result at
-/// `mu = u^2`), weighed by `weights` (how much an error in each value counts at that point):
-/// `nodes` nodes in at most [`MAX_BREAKS`]` + 1` segments, read on a fine grid of
-/// [`FINE_POINTS_PER_INTERVAL`] points per node interval.
+/// The most a kink's location is off once located ([`locate`]): 1/64 of a grid spacing.
+const KINK_STEPS: usize = 7;
+
+/// How closely a jump is located: the width of the segment whose two nodes are its two sides.
+/// Far above f32's resolution in `u` (6e-8 at 1), so that the reads at those nodes fall on their
+/// own sides, and far below any node spacing.
+pub const JUMP_WIDTH: f64 = 1.0 / 65536.0;
+
+/// The model's values read so far, by `u`: each point is read once, however often placement and
+/// baking ask for it, and the points asked together are read together (`read` evaluates many at
+/// once, computing what they share once).
+pub struct Samples<'a> {
+    read: &'a (dyn Fn(&[f64]) -> Result<Vec<Vec<f64>>> + Sync),
+    known: BTreeMap<u64, Vec<f64>>,
+}
+
+impl<'a> Samples<'a> {
+    /// No point read yet; `read(us)` returns the values at each of `us`.
+    pub fn new(read: &'a (dyn Fn(&[f64]) -> Result<Vec<Vec<f64>>> + Sync)) -> Self {
+        Samples { read, known: BTreeMap::new() }
+    }
+
+    /// The values at each of `us` (in [0, 1]), those not yet read read together.
+    pub fn at(&mut self, us: &[f64]) -> Result<Vec<Vec<f64>>> {
+        let mut missing: Vec<f64> = us.iter().copied().filter(|u| !self.known.contains_key(&u.to_bits())).collect();
+        missing.sort_by(f64::total_cmp);
+        missing.dedup();
+        if !missing.is_empty() {
+            let values = (self.read)(&missing)?;
+            self.known.extend(missing.iter().map(|u| u.to_bits()).zip(values));
+        }
+        Ok(us.iter().map(|u| self.known[&u.to_bits()].clone()).collect())
+    }
+
+    /// Points read so far.
+    pub fn reads(&self) -> usize {
+        self.known.len()
+    }
+}
+
+/// The nodes of a material whose values at `u` (its flattened result at `mu = u^2`) `samples`
+/// reads, weighed by `weights` (how much an error in each value counts at that point): `nodes`
+/// nodes in at most [`MAX_BREAKS`]` + 1` segments, read on a grid of [`GRID_POINTS_PER_INTERVAL`]
+/// points per node interval and, around what the grid shows of a kink or a jump, where
+/// [`locate`] reads.
 ///
-/// First the kinks: a break on each where linear interpolation across it at the uniform node
-/// spacing would err by more than `tolerance` (a quarter of the jump in slope times the spacing),
-/// the largest first. Then, while the segment of the largest estimated error (its largest
-/// curvature, [`share_out`]) errs by more than `tolerance`, it is cut where half of its
-/// `∫ sqrt(curvature)` lies on either side (the density of nodes that evens out linear
-/// interpolation's error goes as the square root of the curvature).
+/// First the kinks and jumps, the largest first: a break on each kink where linear interpolation
+/// across it at the uniform node spacing would err by more than `tolerance` (a quarter of the
+/// jump in slope times the spacing), and two breaks around each jump larger than `tolerance`.
+/// Then, while the segment of the largest estimated error (its largest curvature, [`share_out`])
+/// errs by more than `tolerance`, it is cut where half of its `∫ sqrt(curvature)` lies on either
+/// side (the density of nodes that evens out linear interpolation's error goes as the square root
+/// of the curvature).
 pub fn place_nodes(
-    values: &(dyn Fn(f64) -> Result<Vec<f64>> + Sync),
+    samples: &mut Samples,
     weights: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
     nodes: usize,
     tolerance: f64,
@@ -176,20 +231,34 @@ pub fn place_nodes(
             format!("{nodes} is too few: a bake has at least {}", MAX_BREAKS + 2),
         ));
     }
-    let points = FINE_POINTS_PER_INTERVAL * (nodes - 1) + 1;
+    let points = GRID_POINTS_PER_INTERVAL * (nodes - 1) + 1;
     let h = 1.0 / (points - 1) as f64;
-    let fine: Vec<Vec<f64>> = (0..points).into_par_iter().map(|i| values(i as f64 * h)).collect::<Result<_>>()?;
+    // The uniform placement's nodes are among these to the bit: `k / (nodes - 1)` and
+    // `(G k) / (G (nodes - 1))` are the same correctly rounded quotient.
+    let us: Vec<f64> = (0..points).map(|i| i as f64 / (points - 1) as f64).collect();
+    let fine = samples.at(&us)?;
     let weight: Vec<Vec<f64>> = fine.iter().map(|v| weights(v)).collect();
-    let grid = FineGrid { fine: &fine, weight: &weight, h };
+    let grid = Grid { fine: &fine, weight: &weight, h };
+    let spacing = 1.0 / (nodes - 1) as f64;
     let mut breaks = Vec::new();
-    for (u, c) in grid.kinks(1.0 / (nodes - 1) as f64, tolerance) {
-        breaks.push(refine_kink(values, u, c, h)?);
+    let mut jumps = Vec::new();
+    for feature in locate(samples, &grid, &grid.candidates(spacing, tolerance), spacing, tolerance)? {
+        match feature {
+            Feature::Kink(u) if breaks.len() < MAX_BREAKS => breaks.push(u),
+            Feature::Jump(left, right) if breaks.len() + 1 < MAX_BREAKS => {
+                breaks.extend([left, right]);
+                jumps.push(left);
+            }
+            _ => {}
+        }
     }
     breaks.sort_by(f64::total_cmp);
     loop {
         let ends = segment_ends(&breaks);
         let lengths: Vec<f64> = ends.windows(2).map(|w| w[1] - w[0]).collect();
         let curvatures: Vec<f64> = ends.windows(2).map(|w| grid.largest_curvature(w[0], w[1], &breaks)).collect();
+        // A jump's segment has no point of the grid inside, so no curvature, and is far shorter
+        // than any other: it keeps its one interval.
         let intervals = share_out(nodes - 1, &lengths, &curvatures);
         let errors: Vec<f64> =
             (0..lengths.len()).map(|s| (lengths[s] / intervals[s] as f64).powi(2) * curvatures[s] / 8.0).collect();
@@ -200,7 +269,7 @@ pub fn place_nodes(
                 breaks.push(u);
                 breaks.sort_by(f64::total_cmp);
             }
-            _ => return Ok(NodePlacement::with_intervals(&breaks, &intervals)),
+            _ => return Ok(NodePlacement::with_intervals(&breaks, &jumps, &intervals)),
         }
     }
 }
@@ -209,98 +278,207 @@ pub fn place_nodes(
 /// `(u[2], v[2])` and `(u[3], v[3])`, kept within `[u[1], u[2]]`; `None` where the lines are
 /// parallel (no kink shows between them).
 fn lines_meet(u: [f64; 4], v: [f64; 4]) -> Option<f64> {
+    meeting(u, v).map(|meet| meet.clamp(u[1], u[2]))
+}
+
+/// Where the two lines of [`lines_meet`] meet, wherever that is.
+fn meeting(u: [f64; 4], v: [f64; 4]) -> Option<f64> {
     let left_slope = (v[1] - v[0]) / (u[1] - u[0]);
     let right_slope = (v[3] - v[2]) / (u[3] - u[2]);
     // v[1] + left (x - u[1]) = v[2] + right (x - u[2])
     let meet = (v[2] - v[1] + left_slope * u[1] - right_slope * u[2]) / (left_slope - right_slope);
-    meet.is_finite().then(|| meet.clamp(u[1], u[2]))
+    meet.is_finite().then_some(meet)
 }
 
-/// The kink of value `c` found near `u` on the fine grid of spacing `h`, located more closely: the
-/// meeting of the lines through two points on either side, at a quarter of the spacing before,
-/// three times over (to `h / 64`), each time about the last estimate.
-fn refine_kink(values: &(dyn Fn(f64) -> Result<Vec<f64>> + Sync), u: f64, c: usize, h: f64) -> Result<f64> {
-    let mut estimate = u;
-    let mut step = h / 4.0;
-    for _ in 0..3 {
-        let at = [-2.0, -1.0, 1.0, 2.0].map(|k| (estimate + k * step).clamp(0.0, 1.0));
-        let mut v = [0.0; 4];
-        for (v, &u) in v.iter_mut().zip(&at) {
-            *v = values(u)?[c];
-        }
-        match lines_meet(at, v) {
-            Some(meet) => estimate = meet,
-            None => break,
-        }
-        step /= 4.0;
+/// What the model does at a place where it is not smooth, located on the model itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Feature {
+    /// Its slope jumps at `u`.
+    Kink(f64),
+    /// It jumps between these two `u`, at most [`JUMP_WIDTH`] apart.
+    Jump(f64, f64),
+}
+
+/// Value `c` of the model around a kink or jump: two points on either side, `(u, value)`, the
+/// kink or jump between the inner two.
+#[derive(Debug, Clone, Copy)]
+struct Bracket {
+    c: usize,
+    /// How much an error in value `c` counts there.
+    weight: f64,
+    left: [(f64, f64); 2],
+    right: [(f64, f64); 2],
+}
+
+impl Bracket {
+    fn width(&self) -> f64 {
+        self.right[0].0 - self.left[1].0
     }
-    Ok(estimate)
+
+    fn middle(&self) -> f64 {
+        0.5 * (self.left[1].0 + self.right[0].0)
+    }
+
+    fn slope(side: [(f64, f64); 2]) -> f64 {
+        (side[1].1 - side[0].1) / (side[1].0 - side[0].0)
+    }
+
+    /// The line through two points of one side, at `u`.
+    fn line(side: [(f64, f64); 2], u: f64) -> f64 {
+        side[1].1 + Self::slope(side) * (u - side[1].0)
+    }
+
+    /// Keep the point `(u, v)` between the sides on the side it belongs to: the side whose line it
+    /// lies far nearer; where neither is far nearer (a kink with a stretch of large curvature
+    /// beside it, where the farther side's line is off), the side that puts the kink where the
+    /// lines through the new point meet: the kink lies between `u` and the right side where the
+    /// line through the left side's nearer point and `u` meets the right side's line there, and
+    /// between the left side and `u` where the left side's line meets the line through `u` and the
+    /// right side's nearer point there.
+    fn narrow(&mut self, u: f64, v: f64) {
+        let (to_left, to_right) = ((v - Self::line(self.left, u)).abs(), (v - Self::line(self.right, u)).abs());
+        let [(a, fa), (b, fb)] = self.left;
+        let [(c, fc), (d, fd)] = self.right;
+        let kink_right = meeting([b, u, c, d], [fb, v, fc, fd]).is_some_and(|k| k > u && k < c);
+        let kink_left = meeting([a, b, u, c], [fa, fb, v, fc]).is_some_and(|k| k > b && k < u);
+        let on_left = if to_left <= to_right / 4.0 || to_right <= to_left / 4.0 || kink_left == kink_right {
+            to_left <= to_right
+        } else {
+            kink_right
+        };
+        if on_left {
+            self.left = [self.left[1], (u, v)];
+        } else {
+            self.right = [(u, v), self.right[0]];
+        }
+    }
+
+    /// The weighed gap between the two sides' lines at the middle: a jump's size; for a kink, its
+    /// jump in slope times at most half the width.
+    fn gap(&self) -> f64 {
+        let u = self.middle();
+        (Self::line(self.right, u) - Self::line(self.left, u)).abs() * self.weight
+    }
+
+    /// The weighed jump in slope.
+    fn slope_jump(&self) -> f64 {
+        (Self::slope(self.right) - Self::slope(self.left)).abs() * self.weight
+    }
+
+    fn kink(&self) -> f64 {
+        let [a, b, c, d] = [self.left[0], self.left[1], self.right[0], self.right[1]];
+        lines_meet([a.0, b.0, c.0, d.0], [a.1, b.1, c.1, d.1]).unwrap_or_else(|| self.middle())
+    }
 }
 
-/// The model's values on the fine grid, with their weights.
-struct FineGrid<'a> {
+/// Each candidate of [`Grid::candidates`] located on the model, by bisection between the two
+/// points of the grid around it: the midpoint is read and kept on the side whose line (through the
+/// side's two nearest points) it lies nearer, [`KINK_STEPS`] times for every candidate, and on to
+/// [`JUMP_WIDTH`] for those whose sides still lie more than `tolerance` apart. A jump is what is
+/// still that far apart then; a kink lies where the sides' lines meet, kept if its interpolation
+/// error at the node spacing `spacing` would exceed `tolerance`. The candidates are bisected side
+/// by side, one read of each per step, in their order.
+fn locate(
+    samples: &mut Samples,
+    grid: &Grid,
+    candidates: &[(usize, usize)],
+    spacing: f64,
+    tolerance: f64,
+) -> Result<Vec<Feature>> {
+    let point = |i: usize, c: usize| (i as f64 * grid.h, grid.fine[i][c]);
+    let mut brackets: Vec<Bracket> = candidates
+        .iter()
+        .map(|&(i, c)| Bracket {
+            c,
+            weight: grid.weight[i - 1][c].max(grid.weight[i + 1][c]),
+            left: [point(i - 2, c), point(i - 1, c)],
+            right: [point(i + 1, c), point(i + 2, c)],
+        })
+        .collect();
+    let kink_width = 2.0 * grid.h / (1 << KINK_STEPS) as f64;
+    let unsettled = |b: &Bracket| b.width() > kink_width * 1.5 || (b.width() > JUMP_WIDTH && b.gap() > tolerance);
+    loop {
+        let open: Vec<usize> = (0..brackets.len()).filter(|&k| unsettled(&brackets[k])).collect();
+        if open.is_empty() {
+            break;
+        }
+        let middles: Vec<f64> = open.iter().map(|&k| brackets[k].middle()).collect();
+        for ((&k, u), values) in open.iter().zip(&middles).zip(samples.at(&middles)?) {
+            let c = brackets[k].c;
+            brackets[k].narrow(*u, values[c]);
+        }
+    }
+    Ok(brackets
+        .iter()
+        .filter_map(|b| {
+            if b.gap() > tolerance {
+                Some(Feature::Jump(b.left[1].0, b.right[0].0))
+            } else {
+                (b.slope_jump() * spacing / 4.0 > tolerance).then(|| Feature::Kink(b.kink()))
+            }
+        })
+        .collect())
+}
+
+/// The model's values on the grid, with their weights.
+struct Grid<'a> {
     fine: &'a [Vec<f64>],
     weight: &'a [Vec<f64>],
     h: f64,
 }
 
-impl FineGrid<'_> {
+impl Grid<'_> {
     /// `|f(i-1) - 2 f(i) + f(i+1)| / h` of value `c`, weighed.
     fn second(&self, i: usize, c: usize) -> f64 {
         let f = self.fine;
         (f[i - 1][c] - 2.0 * f[i][c] + f[i + 1][c]).abs() / self.h * self.weight[i][c]
     }
 
-    /// The kinks whose interpolation error at node spacing `spacing` would exceed `tolerance`,
-    /// at most [`MAX_BREAKS`], the largest first, none within two node spacings of another or of
-    /// an end: where each lies to within a grid spacing, and the value that shows it most.
-    fn kinks(&self, spacing: f64, tolerance: f64) -> Vec<(f64, usize)> {
+    /// Grid points and values where a kink or jump shows whose interpolation error at node
+    /// spacing `spacing` may exceed `tolerance`, at most [`MAX_BREAKS`], the largest first, none
+    /// within two node spacings of another or of an end.
+    fn candidates(&self, spacing: f64, tolerance: f64) -> Vec<(usize, usize)> {
         // A kink between grid points i and i + 1 shows in the second difference at both (the
-        // jump in slope), a smooth stretch as h f'' at every point: the second difference two
-        // points away on either side, where a kink does not reach, is the curvature's share, and
-        // only what exceeds it counts.
-        let jump = |i: usize, c: usize| (self.second(i, c) - self.second(i - 2, c).max(self.second(i + 2, c))).max(0.0);
+        // jump in slope, times up to h), a jump as the jump itself, a smooth stretch as h f'' at
+        // every point: the second difference two points away on either side, where neither
+        // reaches, is the curvature's share, and only what exceeds it counts. Linear interpolation
+        // across a kink errs by up to a quarter of the jump in slope times the node spacing, and
+        // across a jump by up to the jump.
+        let excess =
+            |i: usize, c: usize| (self.second(i, c) - self.second(i - 2, c).max(self.second(i + 2, c))).max(0.0);
+        let scale = (spacing / 4.0).max(self.h);
         let (points, channels) = (self.fine.len(), self.fine[0].len());
         let mut candidates: Vec<(f64, usize, usize)> = (3..points - 3)
             .map(|i| {
-                let (c, j) =
-                    (0..channels).map(|c| (c, jump(i, c))).fold((0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
-                (j, i, c)
+                let (c, e) =
+                    (0..channels).map(|c| (c, excess(i, c))).fold((0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+                (e * scale, i, c)
             })
             .collect();
         candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        let mut kinks: Vec<(f64, usize)> = Vec::new();
-        for (jump, i, c) in candidates {
-            // Linear interpolation across a kink errs by up to a quarter of the jump in slope
-            // times the node spacing.
-            if kinks.len() == MAX_BREAKS || jump * spacing / 4.0 <= tolerance {
+        let mut chosen: Vec<(usize, usize)> = Vec::new();
+        for (error, i, c) in candidates {
+            if chosen.len() == MAX_BREAKS || error <= tolerance {
                 break;
             }
-            let u = self.kink_near(i, c);
-            if u < 2.0 * spacing || u > 1.0 - 2.0 * spacing || kinks.iter().any(|k| (k.0 - u).abs() < 2.0 * spacing) {
+            let u = i as f64 * self.h;
+            let near = |v: f64| (v - u).abs() < 2.0 * spacing;
+            if near(0.0) || near(1.0) || chosen.iter().any(|&(j, _)| near(j as f64 * self.h)) {
                 continue;
             }
-            kinks.push((u, c));
+            chosen.push((i, c));
         }
-        kinks
+        chosen
     }
 
-    /// Where the kink near grid point `i` of value `c` lies: the meeting of the line through the
-    /// two points before it and the line through the two after, kept within the points around `i`.
-    fn kink_near(&self, i: usize, c: usize) -> f64 {
-        let (fine, h) = (self.fine, self.h);
-        let i = i.clamp(2, fine.len() - 3);
-        let points = [i - 2, i - 1, i + 1, i + 2];
-        lines_meet(points.map(|j| j as f64 * h), points.map(|j| fine[j][c])).unwrap_or(i as f64 * h)
-    }
-
-    /// The weighed curvature `|f''|` at each grid point strictly inside `(a, b)` and two points
-    /// clear of every break (a kink's own jump is not curvature), with the point's `u`.
+    /// The weighed curvature `|f''|` at each grid point strictly inside `(a, b)` whose second
+    /// difference reaches no break (a kink's own jump in slope is not curvature), with the point's
+    /// `u`.
     fn curvatures(&self, a: f64, b: f64, breaks: &[f64]) -> Vec<(f64, f64)> {
         let (points, channels, h) = (self.fine.len(), self.fine[0].len(), self.h);
         (1..points - 1)
             .map(|i| (i as f64 * h, i))
-            .filter(|&(u, _)| u > a && u < b && breaks.iter().chain([&0.0, &1.0]).all(|k| (u - k).abs() > 2.0 * h))
+            .filter(|&(u, _)| u > a && u < b && breaks.iter().all(|k| (u - k).abs() >= h))
             .map(|(u, i)| (u, (0..channels).map(|c| self.second(i, c) / h).fold(0.0f64, f64::max)))
             .collect()
     }
