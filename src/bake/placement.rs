@@ -161,10 +161,16 @@ fn share_out(total: usize, lengths: &[f64], curvatures: &[f64]) -> Vec<usize> {
 /// a jump two.
 pub const MAX_BREAKS: usize = 7;
 
-/// Points of the grid the model is read on to place nodes, per interval between nodes: the grid
-/// holds the nodes of the uniform placement, so that a material that needs no break reads no
-/// other point.
+/// The grid the model is read on to place nodes has two points per node interval: the nodes of
+/// the uniform placement, always read (a material that needs no break reads no other point), and
+/// the midpoints between them, read where the nodes show that the finer grid is needed
+/// ([`Grid::needs_midpoints`]): around a kink or a jump, and where the curvature is large enough
+/// that where it changes decides where nodes go.
 pub const GRID_POINTS_PER_INTERVAL: usize = 2;
+
+/// Midpoints are read in a node interval whose curvature (read on the nodes) would err by more
+/// than this share of the tolerance at the uniform node spacing.
+const MIDPOINT_SHARE: f64 = 0.5;
 
 /// The most a kink's location is off once located ([`locate`]): 1/64 of a grid spacing.
 const KINK_STEPS: usize = 7;
@@ -231,18 +237,14 @@ pub fn place_nodes(
             format!("{nodes} is too few: a bake has at least {}", MAX_BREAKS + 2),
         ));
     }
-    let points = GRID_POINTS_PER_INTERVAL * (nodes - 1) + 1;
-    let h = 1.0 / (points - 1) as f64;
-    // The uniform placement's nodes are among these to the bit: `k / (nodes - 1)` and
-    // `(G k) / (G (nodes - 1))` are the same correctly rounded quotient.
-    let us: Vec<f64> = (0..points).map(|i| i as f64 / (points - 1) as f64).collect();
-    let fine = samples.at(&us)?;
-    let weight: Vec<Vec<f64>> = fine.iter().map(|v| weights(v)).collect();
-    let grid = Grid { fine: &fine, weight: &weight, h };
     let spacing = 1.0 / (nodes - 1) as f64;
+    let mut grid = Grid::new(GRID_POINTS_PER_INTERVAL * (nodes - 1) + 1);
+    grid.read(samples, weights, &(0..grid.points()).step_by(GRID_POINTS_PER_INTERVAL).collect::<Vec<_>>())?;
+    let candidates = grid.candidates(spacing, tolerance);
+    grid.read(samples, weights, &grid.needs_midpoints(&candidates, tolerance))?;
     let mut breaks = Vec::new();
     let mut jumps = Vec::new();
-    for feature in locate(samples, &grid, &grid.candidates(spacing, tolerance), spacing, tolerance)? {
+    for feature in locate(samples, &grid, &candidates, spacing, tolerance)? {
         match feature {
             Feature::Kink(u) if breaks.len() < MAX_BREAKS => breaks.push(u),
             Feature::Jump(left, right) if breaks.len() + 1 < MAX_BREAKS => {
@@ -372,12 +374,15 @@ impl Bracket {
 }
 
 /// Each candidate of [`Grid::candidates`] located on the model, by bisection between the two
-/// points of the grid around it: the midpoint is read and kept on the side whose line (through the
-/// side's two nearest points) it lies nearer, [`KINK_STEPS`] times for every candidate, and on to
-/// [`JUMP_WIDTH`] for those whose sides still lie more than `tolerance` apart. A jump is what is
-/// still that far apart then; a kink lies where the sides' lines meet, kept if its interpolation
-/// error at the node spacing `spacing` would exceed `tolerance`. The candidates are bisected side
-/// by side, one read of each per step, in their order.
+/// nodes of the uniform placement around it: the midpoint is read and kept on the side it belongs
+/// to ([`Bracket::narrow`]), [`KINK_STEPS`] times for every candidate, and on to [`JUMP_WIDTH`] for
+/// those whose sides still lie more than `tolerance` apart. Then each side's line is drawn afresh
+/// through the side's nearer point and one read as far again beyond it, so that neither is off by
+/// the curvature of a stretch the bisection left long ago. A jump is what is still more than
+/// `tolerance` apart; a kink lies where the sides' lines meet, kept if its interpolation error at
+/// the node spacing `spacing` would exceed `tolerance` (where the model is smooth, the fresh lines
+/// have nearly the same slope). The candidates are bisected side by side, one read of each per
+/// step, in their order.
 fn locate(
     samples: &mut Samples,
     grid: &Grid,
@@ -385,17 +390,18 @@ fn locate(
     spacing: f64,
     tolerance: f64,
 ) -> Result<Vec<Feature>> {
-    let point = |i: usize, c: usize| (i as f64 * grid.h, grid.fine[i][c]);
+    let step = GRID_POINTS_PER_INTERVAL;
+    let point = |i: usize, c: usize| (grid.u(i), grid.value(i, c));
     let mut brackets: Vec<Bracket> = candidates
         .iter()
         .map(|&(i, c)| Bracket {
             c,
-            weight: grid.weight[i - 1][c].max(grid.weight[i + 1][c]),
-            left: [point(i - 2, c), point(i - 1, c)],
-            right: [point(i + 1, c), point(i + 2, c)],
+            weight: grid.weight(i - step, c).max(grid.weight(i + step, c)),
+            left: [point(i - 2 * step, c), point(i - step, c)],
+            right: [point(i + step, c), point(i + 2 * step, c)],
         })
         .collect();
-    let kink_width = 2.0 * grid.h / (1 << KINK_STEPS) as f64;
+    let kink_width = 2.0 * spacing / (1 << KINK_STEPS) as f64;
     let unsettled = |b: &Bracket| b.width() > kink_width * 1.5 || (b.width() > JUMP_WIDTH && b.gap() > tolerance);
     loop {
         let open: Vec<usize> = (0..brackets.len()).filter(|&k| unsettled(&brackets[k])).collect();
@@ -407,6 +413,15 @@ fn locate(
             let c = brackets[k].c;
             brackets[k].narrow(*u, values[c]);
         }
+    }
+    let beyond: Vec<f64> = brackets
+        .iter()
+        .flat_map(|b| [(b.left[1].0 - b.width()).max(0.0), (b.right[0].0 + b.width()).min(1.0)])
+        .collect();
+    let values = samples.at(&beyond)?;
+    for (k, b) in brackets.iter_mut().enumerate() {
+        b.left[0] = (beyond[2 * k], values[2 * k][b.c]);
+        b.right[1] = (beyond[2 * k + 1], values[2 * k + 1][b.c]);
     }
     Ok(brackets
         .iter()
@@ -420,39 +435,91 @@ fn locate(
         .collect())
 }
 
-/// The model's values on the grid, with their weights.
-struct Grid<'a> {
-    fine: &'a [Vec<f64>],
-    weight: &'a [Vec<f64>],
+/// The model's values on the grid `u = i h` of [`GRID_POINTS_PER_INTERVAL`] points per node
+/// interval, with their weights, where read.
+struct Grid {
     h: f64,
+    values: Vec<Option<Vec<f64>>>,
+    weights: Vec<Option<Vec<f64>>>,
 }
 
-impl Grid<'_> {
-    /// `|f(i-1) - 2 f(i) + f(i+1)| / h` of value `c`, weighed.
-    fn second(&self, i: usize, c: usize) -> f64 {
-        let f = self.fine;
-        (f[i - 1][c] - 2.0 * f[i][c] + f[i + 1][c]).abs() / self.h * self.weight[i][c]
+impl Grid {
+    /// `points` points from 0 to 1, none read.
+    fn new(points: usize) -> Self {
+        Grid { h: 1.0 / (points - 1) as f64, values: vec![None; points], weights: vec![None; points] }
     }
 
-    /// Grid points and values where a kink or jump shows whose interpolation error at node
-    /// spacing `spacing` may exceed `tolerance`, at most [`MAX_BREAKS`], the largest first, none
-    /// within two node spacings of another or of an end.
+    fn points(&self) -> usize {
+        self.values.len()
+    }
+
+    /// `u` of point `i`: `i / (points - 1)`, so that node `k` of the uniform placement,
+    /// `k / (nodes - 1)`, is point `G k` to the bit (the same correctly rounded quotient).
+    fn u(&self, i: usize) -> f64 {
+        i as f64 / (self.points() - 1) as f64
+    }
+
+    /// Read the points `indices` not read yet.
+    fn read(
+        &mut self,
+        samples: &mut Samples,
+        weights: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+        indices: &[usize],
+    ) -> Result<()> {
+        let us: Vec<f64> = indices.iter().map(|&i| self.u(i)).collect();
+        for (&i, values) in indices.iter().zip(samples.at(&us)?) {
+            self.weights[i] = Some(weights(&values));
+            self.values[i] = Some(values);
+        }
+        Ok(())
+    }
+
+    /// Value `c` at point `i`, which must have been read.
+    fn value(&self, i: usize, c: usize) -> f64 {
+        self.values[i].as_ref().expect("a point read")[c]
+    }
+
+    fn weight(&self, i: usize, c: usize) -> f64 {
+        self.weights[i].as_ref().expect("a point read")[c]
+    }
+
+    fn read_at(&self, i: usize) -> bool {
+        self.values.get(i).is_some_and(Option::is_some)
+    }
+
+    fn channels(&self) -> usize {
+        self.values[0].as_ref().map_or(0, Vec::len)
+    }
+
+    /// The weighed `|f(i - s) - 2 f(i) + f(i + s)|` of value `c`: the second difference at point
+    /// `i` with a step of `s` points.
+    fn second(&self, i: usize, s: usize, c: usize) -> f64 {
+        (self.value(i - s, c) - 2.0 * self.value(i, c) + self.value(i + s, c)).abs() * self.weight(i, c)
+    }
+
+    /// Points (on the nodes of the uniform placement) and values where a kink or jump shows whose
+    /// interpolation error at the node spacing `spacing` may exceed `tolerance`, at most
+    /// [`MAX_BREAKS`], the largest first, none within two node spacings of another or of an end.
     fn candidates(&self, spacing: f64, tolerance: f64) -> Vec<(usize, usize)> {
-        // A kink between grid points i and i + 1 shows in the second difference at both (the
-        // jump in slope, times up to h), a jump as the jump itself, a smooth stretch as h f'' at
-        // every point: the second difference two points away on either side, where neither
-        // reaches, is the curvature's share, and only what exceeds it counts. Linear interpolation
-        // across a kink errs by up to a quarter of the jump in slope times the node spacing, and
-        // across a jump by up to the jump.
-        let excess =
-            |i: usize, c: usize| (self.second(i, c) - self.second(i - 2, c).max(self.second(i + 2, c))).max(0.0);
-        let scale = (spacing / 4.0).max(self.h);
-        let (points, channels) = (self.fine.len(), self.fine[0].len());
-        let mut candidates: Vec<(f64, usize, usize)> = (3..points - 3)
+        // On the nodes, a kink between two nodes shows in the second difference at both (the jump
+        // in slope times up to the spacing), a jump as the jump itself, a smooth stretch as
+        // spacing^2 f'' at every node: the second difference two nodes away on either side, where
+        // neither reaches, is the curvature's share, and only what exceeds it counts. Linear
+        // interpolation across a kink errs by up to a quarter of the jump in slope times the node
+        // spacing, and across a jump by up to the jump.
+        let step = GRID_POINTS_PER_INTERVAL;
+        let excess = |i: usize, c: usize| {
+            (self.second(i, step, c) - self.second(i - 2 * step, step, c).max(self.second(i + 2 * step, step, c)))
+                .max(0.0)
+        };
+        let mut candidates: Vec<(f64, usize, usize)> = (3 * step..self.points() - 3 * step)
+            .step_by(step)
             .map(|i| {
-                let (c, e) =
-                    (0..channels).map(|c| (c, excess(i, c))).fold((0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
-                (e * scale, i, c)
+                let (c, e) = (0..self.channels())
+                    .map(|c| (c, excess(i, c)))
+                    .fold((0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+                // A kink's error is at least a quarter of its excess, a jump's up to all of it.
+                (e, i, c)
             })
             .collect();
         candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
@@ -461,9 +528,8 @@ impl Grid<'_> {
             if chosen.len() == MAX_BREAKS || error <= tolerance {
                 break;
             }
-            let u = i as f64 * self.h;
-            let near = |v: f64| (v - u).abs() < 2.0 * spacing;
-            if near(0.0) || near(1.0) || chosen.iter().any(|&(j, _)| near(j as f64 * self.h)) {
+            let near = |v: f64| (v - self.u(i)).abs() < 2.0 * spacing;
+            if near(0.0) || near(1.0) || chosen.iter().any(|&(j, _)| near(self.u(j))) {
                 continue;
             }
             chosen.push((i, c));
@@ -471,20 +537,54 @@ impl Grid<'_> {
         chosen
     }
 
-    /// The weighed curvature `|f''|` at each grid point strictly inside `(a, b)` whose second
-    /// difference reaches no break (a kink's own jump in slope is not curvature), with the point's
-    /// `u`.
-    fn curvatures(&self, a: f64, b: f64, breaks: &[f64]) -> Vec<(f64, f64)> {
-        let (points, channels, h) = (self.fine.len(), self.fine[0].len(), self.h);
-        (1..points - 1)
-            .map(|i| (i as f64 * h, i))
-            .filter(|&(u, _)| u > a && u < b && breaks.iter().all(|k| (u - k).abs() >= h))
-            .map(|(u, i)| (u, (0..channels).map(|c| self.second(i, c) / h).fold(0.0f64, f64::max)))
+    /// The midpoints to read: those of the two node intervals on either side of each candidate,
+    /// and of every node interval whose curvature on the nodes (at either end) would err by more
+    /// than [`MIDPOINT_SHARE`] of `tolerance` at the uniform node spacing.
+    fn needs_midpoints(&self, candidates: &[(usize, usize)], tolerance: f64) -> Vec<usize> {
+        let step = GRID_POINTS_PER_INTERVAL;
+        let last = self.points() - 1;
+        // The weighed spacing^2 |f''| / 8 at node i, from the second difference over the nodes
+        // (at the ends, that of the node next to it).
+        let error = |i: usize| {
+            let i = i.clamp(step, last - step);
+            (0..self.channels()).map(|c| self.second(i, step, c)).fold(0.0f64, f64::max) / 8.0
+        };
+        (0..last)
+            .step_by(step)
+            .filter(|&i| {
+                let near_candidate = candidates.iter().any(|&(j, _)| i + 2 * step > j && i < j + 2 * step);
+                near_candidate || error(i).max(error(i + step)) > MIDPOINT_SHARE * tolerance
+            })
+            .flat_map(|i| (1..step).map(move |j| i + j))
+            .collect()
+    }
+
+    /// The weighed curvature `|f''|` at each read point strictly inside `(a, b)`, from its second
+    /// difference over its nearest read neighbours at equal distance (a midpoint's nodes; a node's
+    /// midpoints where read, else its neighbouring nodes) where that reaches no break (a kink's own
+    /// jump in slope is not curvature), with the point's `u` and its share of `u` (half the
+    /// distance between the read points on either side).
+    fn curvatures(&self, a: f64, b: f64, breaks: &[f64]) -> Vec<(f64, f64, f64)> {
+        let last = self.points() - 1;
+        let read: Vec<usize> = (0..=last).filter(|&i| self.read_at(i)).collect();
+        read.windows(3)
+            .filter_map(|w| {
+                let i = w[1];
+                let u = self.u(i);
+                let s = if self.read_at(i - 1) && self.read_at(i + 1) { 1 } else { GRID_POINTS_PER_INTERVAL };
+                let reach = s as f64 * self.h;
+                let clear = u > a && u < b && i >= s && i + s <= last && breaks.iter().all(|k| (u - k).abs() >= reach);
+                clear.then(|| {
+                    let curvature =
+                        (0..self.channels()).map(|c| self.second(i, s, c)).fold(0.0f64, f64::max) / reach.powi(2);
+                    (u, 0.5 * (self.u(w[2]) - self.u(w[0])), curvature)
+                })
+            })
             .collect()
     }
 
     fn largest_curvature(&self, a: f64, b: f64, breaks: &[f64]) -> f64 {
-        self.curvatures(a, b, breaks).iter().map(|&(_, c)| c).fold(0.0, f64::max)
+        self.curvatures(a, b, breaks).iter().map(|&(_, _, c)| c).fold(0.0, f64::max)
     }
 
     /// The point of `(a, b)` with half of the segment's `∫ sqrt(curvature)` on either side, at
@@ -495,10 +595,10 @@ impl Grid<'_> {
             return None;
         }
         let curvatures = self.curvatures(a, b, breaks);
-        let total: f64 = curvatures.iter().map(|&(_, c)| c.sqrt()).sum();
+        let total: f64 = curvatures.iter().map(|&(_, du, c)| c.sqrt() * du).sum();
         let mut sum = 0.0;
-        let median = curvatures.iter().find(|&&(_, c)| {
-            sum += c.sqrt();
+        let median = curvatures.iter().find(|&&(_, du, c)| {
+            sum += c.sqrt() * du;
             sum >= total / 2.0
         })?;
         (total > 0.0).then_some(median.0.clamp(a + margin, b - margin))
