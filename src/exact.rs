@@ -4,15 +4,17 @@
 //! Gauss–Legendre with every jump and kink of the integrand a panel edge). `A(tables) - A(exact)`
 //! is then the error the tables themselves cost a material.
 //!
-//! Each distinct lookup is integrated once, on its own, and remembered: an answer depends only on
-//! the lookup and the rule's node count, never on the order the lookups are asked in, the other
-//! lookups of a batch or the thread asking.
+//! Each distinct lookup is integrated once and remembered: an answer depends only on the lookup
+//! and the rule's node count, never on the order the lookups are asked in, the other lookups of a
+//! batch or the thread asking. Albedos integrated together that differ only in their indices (a
+//! conductor's channels) share one pass over the quadrature's nodes, each answer with the bits of
+//! its integral alone ([`ExactTables::integrate_all`]).
 //!
 //! [`compare_with_monte_carlo`] checks the quadrature against the tables' per-cell Monte Carlo
 //! estimator on the lookups where it is hardest ([`hard_lookups`]): a test at 2^16 samples, and
 //! `tmlut bench quadrature` at 2^20 for the figures `docs/furnace.md` quotes.
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::RwLock;
 
 use rayon::prelude::*;
@@ -23,7 +25,7 @@ use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
 use crate::model::{Lookup, Quantity, Site, Tables};
 use crate::physics::MaskingShadowing;
-use crate::recipes::fgd::{fgd_by_quadrature, fgd_cell};
+use crate::recipes::fgd::{fgd_by_quadrature, fgd_cell, fgd_kink, fgd_pairs_by_quadrature};
 use crate::recipes::tir::{tir_by_quadrature, tir_cell};
 use crate::sampling::sequence::{PointSet, SamplePlan};
 
@@ -61,7 +63,9 @@ impl ExactTables {
         self.known.read().unwrap_or_else(|p| p.into_inner()).contains_key(&key(lookup))
     }
 
-    /// Integrate every lookup of `lookups` not yet known, in parallel.
+    /// Integrate every lookup of `lookups` not yet known, in parallel; albedos that share `mu`,
+    /// `alpha` and their kink (a conductor's channels) three at a time in one pass over the
+    /// quadrature ([`fgd_pairs_by_quadrature`]), each answer still the bits of its integral alone.
     pub fn integrate_all(&self, lookups: &[Lookup]) {
         // Sorted, so that the work is split the same way on every run (the answers would not
         // change otherwise; the order of the work would).
@@ -69,9 +73,33 @@ impl ExactTables {
             let known = self.known.read().unwrap_or_else(|p| p.into_inner());
             lookups.iter().map(key).filter(|k| !known.contains_key(k)).collect()
         };
-        let missing: Vec<[u64; 5]> = missing.into_iter().collect();
-        let answers: Vec<([u64; 5], f64)> = missing.par_iter().map(|&k| (k, self.integrate(k))).collect();
+        let mut albedos: BTreeMap<[u64; 3], Vec<[u64; 5]>> = BTreeMap::new();
+        let mut work: Vec<Vec<[u64; 5]>> = Vec::new();
+        for k in missing {
+            if k[0] == ALBEDO {
+                let kink = fgd_kink((f64::from_bits(k[3]), f64::from_bits(k[4])));
+                albedos.entry([k[1], k[2], kink.map_or(u64::MAX, f64::to_bits)]).or_default().push(k);
+            } else {
+                work.push(vec![k]);
+            }
+        }
+        work.extend(albedos.into_values().flat_map(|group| group.chunks(3).map(<[_]>::to_vec).collect::<Vec<_>>()));
+        let answers: Vec<([u64; 5], f64)> =
+            work.par_iter().flat_map_iter(|keys| self.integrate_together(keys)).collect();
         self.known.write().unwrap_or_else(|p| p.into_inner()).extend(answers);
+    }
+
+    /// The integrals of `keys`: one lookup, or up to three albedos of one `mu`, `alpha` and kink.
+    fn integrate_together(&self, keys: &[[u64; 5]]) -> Vec<([u64; 5], f64)> {
+        let pair = |k: &[u64; 5]| (f64::from_bits(k[3]), f64::from_bits(k[4]));
+        let [mu, alpha] = [keys[0][1], keys[0][2]].map(f64::from_bits);
+        let (masking, quadrature) = (self.fgd_masking, &self.quadrature);
+        let answers = match keys {
+            [a, b] => fgd_pairs_by_quadrature(masking, quadrature, mu, alpha, [pair(a), pair(b)]).to_vec(),
+            [a, b, c] => fgd_pairs_by_quadrature(masking, quadrature, mu, alpha, [pair(a), pair(b), pair(c)]).to_vec(),
+            _ => keys.iter().map(|&k| self.integrate(k)).collect(),
+        };
+        keys.iter().copied().zip(answers).collect()
     }
 
     /// The integral of the lookup with key `k`.
@@ -104,6 +132,14 @@ fn key(lookup: &Lookup) -> [u64; 5] {
 }
 
 impl Tables for ExactTables {
+    fn knows(&self, lookup: &Lookup) -> bool {
+        ExactTables::knows(self, lookup)
+    }
+
+    fn prepare(&self, lookups: &[Lookup]) {
+        self.integrate_all(lookups);
+    }
+
     fn value(&self, lookup: &Lookup) -> f64 {
         let key = key(lookup);
         if let Some(&value) = self.known.read().unwrap_or_else(|p| p.into_inner()).get(&key) {
@@ -254,6 +290,9 @@ mod tests {
             lookup(Quantity::Albedo, 0.7, 0.1, 1.5, 0.0),
             lookup(Quantity::Albedo, 0.7, 0.1, 0.27, 3.61),
             lookup(Quantity::Albedo, 0.7, 0.1, 0.68, 2.63),
+            lookup(Quantity::Albedo, 0.7, 0.1, 0.2, 4.0),
+            // Below eta = 1 Fresnel kinks: a pass of its own.
+            lookup(Quantity::Albedo, 0.7, 0.1, 0.66, 0.0),
             lookup(Quantity::Albedo, 0.3, 0.1, 1.5, 0.0),
             lookup(Quantity::Tir, 0.7, 0.1, 0.66, 0.0),
             lookup(Quantity::Tir, 0.7, 0.1, 0.8, 0.0),

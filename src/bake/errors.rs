@@ -32,13 +32,18 @@ pub fn sample(baked: &BakedMaterial, mu: f32, filter: Filter) -> Vec<f32> {
 
 /// The view cosines the errors are measured at: `per_interval` views in each interval between
 /// nodes, uniform in `sqrt(mu)` as the nodes are (the nodes themselves among them), from the
-/// normal to grazing.
+/// normal to grazing; in the interval of a jump (`Segment::jump`) only its nodes, since the model
+/// jumps somewhere between them and no texel row follows it there.
 pub fn error_views(placement: &NodePlacement, per_interval: usize) -> Vec<f64> {
-    let nodes = placement.nodes();
-    let mut views: Vec<f64> = (0..nodes - 1)
-        .flat_map(|k| {
-            let (a, b) = (placement.node_u(k), placement.node_u(k + 1));
-            (0..per_interval).map(move |j| a + (b - a) * j as f64 / per_interval as f64)
+    let mut views: Vec<f64> = placement
+        .segments()
+        .iter()
+        .flat_map(|s| {
+            let per_interval = if s.jump { 1 } else { per_interval };
+            (s.first_node..s.first_node + s.intervals).flat_map(move |k| {
+                let (a, b) = (placement.node_u(k), placement.node_u(k + 1));
+                (0..per_interval).map(move |j| a + (b - a) * j as f64 / per_interval as f64)
+            })
         })
         .chain(std::iter::once(1.0))
         .map(|u| u * u)

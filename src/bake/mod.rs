@@ -12,10 +12,12 @@ pub mod errors;
 pub mod layout;
 pub mod placement;
 
+use std::cell::RefCell;
+
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::model::{Evaluation, Material, Tables};
+use crate::model::{Evaluation, Lookup, Material, Tables};
 pub use errors::{BakedErrors, Worst, baked_errors};
 pub use layout::BakeLayout;
 pub use placement::NodePlacement;
@@ -76,8 +78,11 @@ impl BakedMaterial {
 
 /// Bake `material` (named `name` in errors), every integral read from `tables` (exact
 /// integrals, or a built folder's tables): its nodes placed ([`placement::place_nodes`]), then
-/// the model evaluated at each. Refuses a node count outside [`NODES`] and a model that returns a
-/// value that is not finite, naming the material and the view: no NaN enters a baked texel.
+/// the model evaluated at each, a point the placement has read already not read again. Where
+/// `tables` computes its answers on demand, those the model will ask at a batch of points are
+/// computed ahead, together ([`prepare`]). Refuses a node count outside [`NODES`] and a model that
+/// returns a value that is not finite, naming the material and the view: no NaN enters a baked
+/// texel.
 pub fn bake_material(
     name: &str,
     material: &Material,
@@ -93,11 +98,15 @@ pub fn bake_material(
     }
     // The lobe count is the stack's and the flux model's, the same at every view.
     let layout = BakeLayout { lobes: material.evaluate(1.0, tables).lobes.len() };
-    let values = |u: f64| finite_values(name, &layout, &material.evaluate(u * u, tables));
+    let read = |us: &[f64]| -> Result<Vec<Vec<f64>>> {
+        prepare(material, tables, us);
+        us.par_iter().map(|&u| finite_values(name, &layout, &material.evaluate(u * u, tables))).collect()
+    };
+    let mut samples = placement::Samples::new(&read);
     let weights = |values: &[f64]| layout.weights(values);
-    let placement = placement::place_nodes(&values, &weights, nodes, settings.tolerance)?;
-    let node_values: Vec<Vec<f64>> =
-        (0..nodes).into_par_iter().map(|k| values(placement.node_u(k))).collect::<Result<_>>()?;
+    let placement = placement::place_nodes(&mut samples, &weights, nodes, settings.tolerance)?;
+    let node_u: Vec<f64> = (0..nodes).map(|k| placement.node_u(k)).collect();
+    let node_values = samples.at(&node_u)?;
     let rows = layout.texels_per_node();
     let mut texels = vec![[0.0f32; 4]; rows * nodes];
     for (k, values) in node_values.iter().enumerate() {
@@ -106,6 +115,67 @@ pub fn bake_material(
         }
     }
     Ok(BakedMaterial { name: name.to_string(), layout, placement, texels })
+}
+
+/// [`bake_material`] for each of `materials` (name, material), side by side on the threads of the
+/// pool, sharing `tables` (exact integrals one material has computed serve another that asks the
+/// same). The first error refuses the whole bake.
+pub fn bake_materials(
+    materials: &[(&str, &Material)],
+    tables: &(dyn Tables + Sync),
+    settings: &BakeSettings,
+) -> Result<Vec<BakedMaterial>> {
+    materials.par_iter().map(|&(name, material)| bake_material(name, material, tables, settings)).collect()
+}
+
+/// The most passes [`prepare`] makes: each computes the lookups the one before made known, as
+/// deep as the model's lookups depend on each other's answers.
+const PREPARE_PASSES: usize = 8;
+
+/// Have `tables` compute, together ([`Tables::prepare`]), the answers `material` will read at
+/// `u = sqrt(mu)` of each of `us`, where they are computed on demand ([`Tables::knows`]): a
+/// pass evaluates the model at every point, answering what is not known yet by a stand-in, and
+/// hands over the lookups asked whatever the stand-in ([`lookups_to_come`]); the next pass, with
+/// those known, reaches the lookups that depend on them. What is left (a lookup whose parameters
+/// the stand-ins moved) is computed when the model reads it.
+fn prepare(material: &Material, tables: &(dyn Tables + Sync), us: &[f64]) {
+    for _ in 0..PREPARE_PASSES {
+        let missing: Vec<Lookup> = us.par_iter().flat_map_iter(|&u| lookups_to_come(material, tables, u * u)).collect();
+        if missing.is_empty() {
+            return;
+        }
+        tables.prepare(&missing);
+    }
+}
+
+/// The lookups `material` asks at `mu` that `tables` does not know yet and that it asks at the
+/// same parameters whether an unknown answer reads as 0.25 or as 0.75: those whose parameters do
+/// not depend on an answer still unknown.
+fn lookups_to_come(material: &Material, tables: &dyn Tables, mu: f64) -> Vec<Lookup> {
+    let asked = |stand_in: f64| {
+        let recording = Unknown { tables, stand_in, asked: RefCell::new(Vec::new()) };
+        material.evaluate(mu, &recording);
+        recording.asked.into_inner()
+    };
+    let (low, high) = (asked(0.25), asked(0.75));
+    low.into_iter().filter(|l| high.contains(l)).collect()
+}
+
+/// `tables` where it knows the answer; elsewhere the lookup is noted and read as `stand_in`.
+struct Unknown<'a> {
+    tables: &'a dyn Tables,
+    stand_in: f64,
+    asked: RefCell<Vec<Lookup>>,
+}
+
+impl Tables for Unknown<'_> {
+    fn value(&self, lookup: &Lookup) -> f64 {
+        if self.tables.knows(lookup) {
+            return self.tables.value(lookup);
+        }
+        self.asked.borrow_mut().push(*lookup);
+        self.stand_in
+    }
 }
 
 /// An evaluation's values in `layout`'s order, refused where one is not finite, naming the

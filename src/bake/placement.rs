@@ -7,20 +7,24 @@
 //! asymmetry's own bounds) a quantity has a kink, and linear interpolation across a kink errs in
 //! proportion to the node spacing instead of its square: 1.2e-2 at 128 nodes for a varnished
 //! copper, where the smooth parts are within 1e-4; and just past such a kink a quantity may turn
-//! far faster than anywhere else. So a material's `u` axis is cut into segments ([`place_nodes`],
-//! on a fine grid of the model): at its kinks, so that a node sits on each, shared by the two
-//! segments, and where its curvature changes, so that each segment's nodes, uniform in `u`, are as
-//! dense as its own curvature needs.
+//! far faster than anywhere else. Where a lobe's asymmetry averages its channels' ratios and one
+//! channel's energy crosses the threshold below which its ratio counts as 0, the lobe's roughness
+//! and GD even jump, and linear interpolation across a jump errs by up to the jump whatever the
+//! spacing. So a material's `u` axis is cut into segments ([`place_nodes`], on a grid of the
+//! model): at its kinks, so that a node sits on each, shared by the two segments; around its jumps,
+//! by a segment of one interval so short that its two nodes are the two sides of the jump; and
+//! where its curvature changes, so that each segment's nodes, uniform in `u`, are as dense as its
+//! own curvature needs.
 //!
 //! A shader finds the coordinate of `mu` as `x = u * slope_s + offset_s` for the segment `s`
 //! holding `u` (one compare and select per kink): [`NodePlacement::texture_coordinate`] computes
 //! it in f32 exactly as the shader does, from the same f32 constants ([`NodePlacement::segments`]).
 
-use rayon::prelude::*;
+use std::collections::BTreeMap;
 
 use crate::error::{Error, Result};
 
-/// One stretch of `u` between kinks, uniform in `u`.
+/// One stretch of `u` between breaks, uniform in `u`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {
     /// Where it starts and ends in `u = sqrt(mu)`.
@@ -30,6 +34,9 @@ pub struct Segment {
     pub first_node: usize,
     /// Intervals between its nodes (at least 1).
     pub intervals: usize,
+    /// Whether the model jumps inside it: then it is one interval no longer than [`JUMP_WIDTH`],
+    /// its two nodes the two sides of the jump, and a read inside blends them.
+    pub jump: bool,
 }
 
 /// The nodes of one material: segments that cover `u` in [0, 1] end to end.
@@ -53,18 +60,20 @@ impl NodePlacement {
     /// must exceed `breaks.len() + 1`.
     pub fn with_breaks(breaks: &[f64], nodes: usize) -> Self {
         let lengths: Vec<f64> = segment_ends(breaks).windows(2).map(|w| w[1] - w[0]).collect();
-        Self::with_intervals(breaks, &share_out(nodes - 1, &lengths, &vec![0.0; lengths.len()]))
+        Self::with_intervals(breaks, &[], &share_out(nodes - 1, &lengths, &vec![0.0; lengths.len()]))
     }
 
-    /// Segments between `breaks` with `intervals` intervals each.
-    fn with_intervals(breaks: &[f64], intervals: &[usize]) -> Self {
+    /// Segments between `breaks` with `intervals` intervals each, those starting at a break of
+    /// `jumps` marked as jumps.
+    fn with_intervals(breaks: &[f64], jumps: &[f64], intervals: &[usize]) -> Self {
         let ends = segment_ends(breaks);
         let mut first_node = 0;
         let segments = ends
             .windows(2)
             .zip(intervals.iter().copied())
             .map(|(w, intervals)| {
-                let segment = Segment { u_start: w[0], u_end: w[1], first_node, intervals };
+                let jump = jumps.contains(&w[0]);
+                let segment = Segment { u_start: w[0], u_end: w[1], first_node, intervals, jump };
                 first_node += intervals;
                 segment
             })
@@ -76,7 +85,8 @@ impl NodePlacement {
         &self.segments
     }
 
-    /// Where the segments meet, in `u`: the kinks, and where the curvature changes.
+    /// Where the segments meet, in `u`: the kinks, the two sides of each jump, and where the
+    /// curvature changes.
     pub fn breaks(&self) -> Vec<f64> {
         self.segments[1..].iter().map(|s| s.u_start).collect()
     }
@@ -147,25 +157,76 @@ fn share_out(total: usize, lengths: &[f64], curvatures: &[f64]) -> Vec<usize> {
     shares
 }
 
-/// Most breaks between segments: each costs a shader a compare and two selects.
+/// Most breaks between segments: each costs a shader a compare and two selects. A kink takes one,
+/// a jump two.
 pub const MAX_BREAKS: usize = 7;
 
-/// Points of the fine grid the model is read on to place nodes, per interval between nodes.
-pub const FINE_POINTS_PER_INTERVAL: usize = 4;
+/// The grid the model is read on to place nodes has two points per node interval: the nodes of
+/// the uniform placement, always read (a material that needs no break reads no other point), and
+/// the midpoints between them, read where the nodes show that the finer grid is needed
+/// ([`Grid::needs_midpoints`]): around a kink or a jump, and where the curvature is large enough
+/// that where it changes decides where nodes go.
+pub const GRID_POINTS_PER_INTERVAL: usize = 2;
 
-/// The nodes of a material whose values at `u` are `values(u)` (its flattened result at
-/// `mu = u^2`), weighed by `weights` (how much an error in each value counts at that point):
-/// `nodes` nodes in at most [`MAX_BREAKS`]` + 1` segments, read on a fine grid of
-/// [`FINE_POINTS_PER_INTERVAL`] points per node interval.
+/// Midpoints are read in a node interval whose curvature (read on the nodes) would err by more
+/// than this share of the tolerance at the uniform node spacing.
+const MIDPOINT_SHARE: f64 = 0.5;
+
+/// The most a kink's location is off once located ([`locate`]): 1/64 of a grid spacing.
+const KINK_STEPS: usize = 7;
+
+/// How closely a jump is located: the width of the segment whose two nodes are its two sides.
+/// Far above f32's resolution in `u` (6e-8 at 1), so that the reads at those nodes fall on their
+/// own sides, and far below any node spacing.
+pub const JUMP_WIDTH: f64 = 1.0 / 65536.0;
+
+/// The model's values read so far, by `u`: each point is read once, however often placement and
+/// baking ask for it, and the points asked together are read together (`read` evaluates many at
+/// once, computing what they share once).
+pub struct Samples<'a> {
+    read: &'a (dyn Fn(&[f64]) -> Result<Vec<Vec<f64>>> + Sync),
+    known: BTreeMap<u64, Vec<f64>>,
+}
+
+impl<'a> Samples<'a> {
+    /// No point read yet; `read(us)` returns the values at each of `us`.
+    pub fn new(read: &'a (dyn Fn(&[f64]) -> Result<Vec<Vec<f64>>> + Sync)) -> Self {
+        Samples { read, known: BTreeMap::new() }
+    }
+
+    /// The values at each of `us` (in [0, 1]), those not yet read read together.
+    pub fn at(&mut self, us: &[f64]) -> Result<Vec<Vec<f64>>> {
+        let mut missing: Vec<f64> = us.iter().copied().filter(|u| !self.known.contains_key(&u.to_bits())).collect();
+        missing.sort_by(f64::total_cmp);
+        missing.dedup();
+        if !missing.is_empty() {
+            let values = (self.read)(&missing)?;
+            self.known.extend(missing.iter().map(|u| u.to_bits()).zip(values));
+        }
+        Ok(us.iter().map(|u| self.known[&u.to_bits()].clone()).collect())
+    }
+
+    /// Points read so far.
+    pub fn reads(&self) -> usize {
+        self.known.len()
+    }
+}
+
+/// The nodes of a material whose values at `u` (its flattened result at `mu = u^2`) `samples`
+/// reads, weighed by `weights` (how much an error in each value counts at that point): `nodes`
+/// nodes in at most [`MAX_BREAKS`]` + 1` segments, read on a grid of [`GRID_POINTS_PER_INTERVAL`]
+/// points per node interval and, around what the grid shows of a kink or a jump, where
+/// [`locate`] reads.
 ///
-/// First the kinks: a break on each where linear interpolation across it at the uniform node
-/// spacing would err by more than `tolerance` (a quarter of the jump in slope times the spacing),
-/// the largest first. Then, while the segment of the largest estimated error (its largest
-/// curvature, [`share_out`]) errs by more than `tolerance`, it is cut where half of its
-/// `∫ sqrt(curvature)` lies on either side (the density of nodes that evens out linear
-/// interpolation's error goes as the square root of the curvature).
+/// First the kinks and jumps, the largest first: a break on each kink where linear interpolation
+/// across it at the uniform node spacing would err by more than `tolerance` (a quarter of the
+/// jump in slope times the spacing), and two breaks around each jump larger than `tolerance`.
+/// Then, while the segment of the largest estimated error (its largest curvature, [`share_out`])
+/// errs by more than `tolerance`, it is cut where half of its `∫ sqrt(curvature)` lies on either
+/// side (the density of nodes that evens out linear interpolation's error goes as the square root
+/// of the curvature).
 pub fn place_nodes(
-    values: &(dyn Fn(f64) -> Result<Vec<f64>> + Sync),
+    samples: &mut Samples,
     weights: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
     nodes: usize,
     tolerance: f64,
@@ -176,20 +237,30 @@ pub fn place_nodes(
             format!("{nodes} is too few: a bake has at least {}", MAX_BREAKS + 2),
         ));
     }
-    let points = FINE_POINTS_PER_INTERVAL * (nodes - 1) + 1;
-    let h = 1.0 / (points - 1) as f64;
-    let fine: Vec<Vec<f64>> = (0..points).into_par_iter().map(|i| values(i as f64 * h)).collect::<Result<_>>()?;
-    let weight: Vec<Vec<f64>> = fine.iter().map(|v| weights(v)).collect();
-    let grid = FineGrid { fine: &fine, weight: &weight, h };
+    let spacing = 1.0 / (nodes - 1) as f64;
+    let mut grid = Grid::new(GRID_POINTS_PER_INTERVAL * (nodes - 1) + 1);
+    grid.read(samples, weights, &(0..grid.points()).step_by(GRID_POINTS_PER_INTERVAL).collect::<Vec<_>>())?;
+    let candidates = grid.candidates(spacing, tolerance);
+    grid.read(samples, weights, &grid.needs_midpoints(&candidates, tolerance))?;
     let mut breaks = Vec::new();
-    for (u, c) in grid.kinks(1.0 / (nodes - 1) as f64, tolerance) {
-        breaks.push(refine_kink(values, u, c, h)?);
+    let mut jumps = Vec::new();
+    for feature in locate(samples, &grid, &candidates, spacing, tolerance)? {
+        match feature {
+            Feature::Kink(u) if breaks.len() < MAX_BREAKS => breaks.push(u),
+            Feature::Jump(left, right) if breaks.len() + 1 < MAX_BREAKS => {
+                breaks.extend([left, right]);
+                jumps.push(left);
+            }
+            _ => {}
+        }
     }
     breaks.sort_by(f64::total_cmp);
     loop {
         let ends = segment_ends(&breaks);
         let lengths: Vec<f64> = ends.windows(2).map(|w| w[1] - w[0]).collect();
         let curvatures: Vec<f64> = ends.windows(2).map(|w| grid.largest_curvature(w[0], w[1], &breaks)).collect();
+        // A jump's segment has no point of the grid inside, so no curvature, and is far shorter
+        // than any other: it keeps its one interval.
         let intervals = share_out(nodes - 1, &lengths, &curvatures);
         let errors: Vec<f64> =
             (0..lengths.len()).map(|s| (lengths[s] / intervals[s] as f64).powi(2) * curvatures[s] / 8.0).collect();
@@ -200,7 +271,7 @@ pub fn place_nodes(
                 breaks.push(u);
                 breaks.sort_by(f64::total_cmp);
             }
-            _ => return Ok(NodePlacement::with_intervals(&breaks, &intervals)),
+            _ => return Ok(NodePlacement::with_intervals(&breaks, &jumps, &intervals)),
         }
     }
 }
@@ -209,104 +280,311 @@ pub fn place_nodes(
 /// `(u[2], v[2])` and `(u[3], v[3])`, kept within `[u[1], u[2]]`; `None` where the lines are
 /// parallel (no kink shows between them).
 fn lines_meet(u: [f64; 4], v: [f64; 4]) -> Option<f64> {
+    meeting(u, v).map(|meet| meet.clamp(u[1], u[2]))
+}
+
+/// Where the two lines of [`lines_meet`] meet, wherever that is.
+fn meeting(u: [f64; 4], v: [f64; 4]) -> Option<f64> {
     let left_slope = (v[1] - v[0]) / (u[1] - u[0]);
     let right_slope = (v[3] - v[2]) / (u[3] - u[2]);
     // v[1] + left (x - u[1]) = v[2] + right (x - u[2])
     let meet = (v[2] - v[1] + left_slope * u[1] - right_slope * u[2]) / (left_slope - right_slope);
-    meet.is_finite().then(|| meet.clamp(u[1], u[2]))
+    meet.is_finite().then_some(meet)
 }
 
-/// The kink of value `c` found near `u` on the fine grid of spacing `h`, located more closely: the
-/// meeting of the lines through two points on either side, at a quarter of the spacing before,
-/// three times over (to `h / 64`), each time about the last estimate.
-fn refine_kink(values: &(dyn Fn(f64) -> Result<Vec<f64>> + Sync), u: f64, c: usize, h: f64) -> Result<f64> {
-    let mut estimate = u;
-    let mut step = h / 4.0;
-    for _ in 0..3 {
-        let at = [-2.0, -1.0, 1.0, 2.0].map(|k| (estimate + k * step).clamp(0.0, 1.0));
-        let mut v = [0.0; 4];
-        for (v, &u) in v.iter_mut().zip(&at) {
-            *v = values(u)?[c];
-        }
-        match lines_meet(at, v) {
-            Some(meet) => estimate = meet,
-            None => break,
-        }
-        step /= 4.0;
+/// What the model does at a place where it is not smooth, located on the model itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Feature {
+    /// Its slope jumps at `u`.
+    Kink(f64),
+    /// It jumps between these two `u`, at most [`JUMP_WIDTH`] apart.
+    Jump(f64, f64),
+}
+
+/// Value `c` of the model around a kink or jump: two points on either side, `(u, value)`, the
+/// kink or jump between the inner two.
+#[derive(Debug, Clone, Copy)]
+struct Bracket {
+    c: usize,
+    /// How much an error in value `c` counts there.
+    weight: f64,
+    left: [(f64, f64); 2],
+    right: [(f64, f64); 2],
+}
+
+impl Bracket {
+    fn width(&self) -> f64 {
+        self.right[0].0 - self.left[1].0
     }
-    Ok(estimate)
+
+    fn middle(&self) -> f64 {
+        0.5 * (self.left[1].0 + self.right[0].0)
+    }
+
+    fn slope(side: [(f64, f64); 2]) -> f64 {
+        (side[1].1 - side[0].1) / (side[1].0 - side[0].0)
+    }
+
+    /// The line through two points of one side, at `u`.
+    fn line(side: [(f64, f64); 2], u: f64) -> f64 {
+        side[1].1 + Self::slope(side) * (u - side[1].0)
+    }
+
+    /// Keep the point `(u, v)` between the sides on the side it belongs to: the side whose line it
+    /// lies far nearer; where neither is far nearer (a kink with a stretch of large curvature
+    /// beside it, where the farther side's line is off), the side that puts the kink where the
+    /// lines through the new point meet: the kink lies between `u` and the right side where the
+    /// line through the left side's nearer point and `u` meets the right side's line there, and
+    /// between the left side and `u` where the left side's line meets the line through `u` and the
+    /// right side's nearer point there.
+    fn narrow(&mut self, u: f64, v: f64) {
+        let (to_left, to_right) = ((v - Self::line(self.left, u)).abs(), (v - Self::line(self.right, u)).abs());
+        let [(a, fa), (b, fb)] = self.left;
+        let [(c, fc), (d, fd)] = self.right;
+        let kink_right = meeting([b, u, c, d], [fb, v, fc, fd]).is_some_and(|k| k > u && k < c);
+        let kink_left = meeting([a, b, u, c], [fa, fb, v, fc]).is_some_and(|k| k > b && k < u);
+        let on_left = if to_left <= to_right / 4.0 || to_right <= to_left / 4.0 || kink_left == kink_right {
+            to_left <= to_right
+        } else {
+            kink_right
+        };
+        if on_left {
+            self.left = [self.left[1], (u, v)];
+        } else {
+            self.right = [(u, v), self.right[0]];
+        }
+    }
+
+    /// The weighed gap between the two sides' lines at the middle: a jump's size; for a kink, its
+    /// jump in slope times at most half the width.
+    fn gap(&self) -> f64 {
+        let u = self.middle();
+        (Self::line(self.right, u) - Self::line(self.left, u)).abs() * self.weight
+    }
+
+    /// The weighed jump in slope.
+    fn slope_jump(&self) -> f64 {
+        (Self::slope(self.right) - Self::slope(self.left)).abs() * self.weight
+    }
+
+    fn kink(&self) -> f64 {
+        let [a, b, c, d] = [self.left[0], self.left[1], self.right[0], self.right[1]];
+        lines_meet([a.0, b.0, c.0, d.0], [a.1, b.1, c.1, d.1]).unwrap_or_else(|| self.middle())
+    }
 }
 
-/// The model's values on the fine grid, with their weights.
-struct FineGrid<'a> {
-    fine: &'a [Vec<f64>],
-    weight: &'a [Vec<f64>],
+/// Each candidate of [`Grid::candidates`] located on the model, by bisection between the two
+/// nodes of the uniform placement around it: the midpoint is read and kept on the side it belongs
+/// to ([`Bracket::narrow`]), [`KINK_STEPS`] times for every candidate, and on to [`JUMP_WIDTH`] for
+/// those whose sides still lie more than `tolerance` apart. Then each side's line is drawn afresh
+/// through the side's nearer point and one read as far again beyond it, so that neither is off by
+/// the curvature of a stretch the bisection left long ago. A jump is what is still more than
+/// `tolerance` apart; a kink lies where the sides' lines meet, kept if its interpolation error at
+/// the node spacing `spacing` would exceed `tolerance` (where the model is smooth, the fresh lines
+/// have nearly the same slope). The candidates are bisected side by side, one read of each per
+/// step, in their order.
+fn locate(
+    samples: &mut Samples,
+    grid: &Grid,
+    candidates: &[(usize, usize)],
+    spacing: f64,
+    tolerance: f64,
+) -> Result<Vec<Feature>> {
+    let step = GRID_POINTS_PER_INTERVAL;
+    let point = |i: usize, c: usize| (grid.u(i), grid.value(i, c));
+    let mut brackets: Vec<Bracket> = candidates
+        .iter()
+        .map(|&(i, c)| Bracket {
+            c,
+            weight: grid.weight(i - step, c).max(grid.weight(i + step, c)),
+            left: [point(i - 2 * step, c), point(i - step, c)],
+            right: [point(i + step, c), point(i + 2 * step, c)],
+        })
+        .collect();
+    let kink_width = 2.0 * spacing / (1 << KINK_STEPS) as f64;
+    let unsettled = |b: &Bracket| b.width() > kink_width * 1.5 || (b.width() > JUMP_WIDTH && b.gap() > tolerance);
+    loop {
+        let open: Vec<usize> = (0..brackets.len()).filter(|&k| unsettled(&brackets[k])).collect();
+        if open.is_empty() {
+            break;
+        }
+        let middles: Vec<f64> = open.iter().map(|&k| brackets[k].middle()).collect();
+        for ((&k, u), values) in open.iter().zip(&middles).zip(samples.at(&middles)?) {
+            let c = brackets[k].c;
+            brackets[k].narrow(*u, values[c]);
+        }
+    }
+    let beyond: Vec<f64> = brackets
+        .iter()
+        .flat_map(|b| [(b.left[1].0 - b.width()).max(0.0), (b.right[0].0 + b.width()).min(1.0)])
+        .collect();
+    let values = samples.at(&beyond)?;
+    for (k, b) in brackets.iter_mut().enumerate() {
+        b.left[0] = (beyond[2 * k], values[2 * k][b.c]);
+        b.right[1] = (beyond[2 * k + 1], values[2 * k + 1][b.c]);
+    }
+    Ok(brackets
+        .iter()
+        .filter_map(|b| {
+            if b.gap() > tolerance {
+                Some(Feature::Jump(b.left[1].0, b.right[0].0))
+            } else {
+                (b.slope_jump() * spacing / 4.0 > tolerance).then(|| Feature::Kink(b.kink()))
+            }
+        })
+        .collect())
+}
+
+/// The model's values on the grid `u = i h` of [`GRID_POINTS_PER_INTERVAL`] points per node
+/// interval, with their weights, where read.
+struct Grid {
     h: f64,
+    values: Vec<Option<Vec<f64>>>,
+    weights: Vec<Option<Vec<f64>>>,
 }
 
-impl FineGrid<'_> {
-    /// `|f(i-1) - 2 f(i) + f(i+1)| / h` of value `c`, weighed.
-    fn second(&self, i: usize, c: usize) -> f64 {
-        let f = self.fine;
-        (f[i - 1][c] - 2.0 * f[i][c] + f[i + 1][c]).abs() / self.h * self.weight[i][c]
+impl Grid {
+    /// `points` points from 0 to 1, none read.
+    fn new(points: usize) -> Self {
+        Grid { h: 1.0 / (points - 1) as f64, values: vec![None; points], weights: vec![None; points] }
     }
 
-    /// The kinks whose interpolation error at node spacing `spacing` would exceed `tolerance`,
-    /// at most [`MAX_BREAKS`], the largest first, none within two node spacings of another or of
-    /// an end: where each lies to within a grid spacing, and the value that shows it most.
-    fn kinks(&self, spacing: f64, tolerance: f64) -> Vec<(f64, usize)> {
-        // A kink between grid points i and i + 1 shows in the second difference at both (the
-        // jump in slope), a smooth stretch as h f'' at every point: the second difference two
-        // points away on either side, where a kink does not reach, is the curvature's share, and
-        // only what exceeds it counts.
-        let jump = |i: usize, c: usize| (self.second(i, c) - self.second(i - 2, c).max(self.second(i + 2, c))).max(0.0);
-        let (points, channels) = (self.fine.len(), self.fine[0].len());
-        let mut candidates: Vec<(f64, usize, usize)> = (3..points - 3)
+    fn points(&self) -> usize {
+        self.values.len()
+    }
+
+    /// `u` of point `i`: `i / (points - 1)`, so that node `k` of the uniform placement,
+    /// `k / (nodes - 1)`, is point `G k` to the bit (the same correctly rounded quotient).
+    fn u(&self, i: usize) -> f64 {
+        i as f64 / (self.points() - 1) as f64
+    }
+
+    /// Read the points `indices` not read yet.
+    fn read(
+        &mut self,
+        samples: &mut Samples,
+        weights: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+        indices: &[usize],
+    ) -> Result<()> {
+        let us: Vec<f64> = indices.iter().map(|&i| self.u(i)).collect();
+        for (&i, values) in indices.iter().zip(samples.at(&us)?) {
+            self.weights[i] = Some(weights(&values));
+            self.values[i] = Some(values);
+        }
+        Ok(())
+    }
+
+    /// Value `c` at point `i`, which must have been read.
+    fn value(&self, i: usize, c: usize) -> f64 {
+        self.values[i].as_ref().expect("a point read")[c]
+    }
+
+    fn weight(&self, i: usize, c: usize) -> f64 {
+        self.weights[i].as_ref().expect("a point read")[c]
+    }
+
+    fn read_at(&self, i: usize) -> bool {
+        self.values.get(i).is_some_and(Option::is_some)
+    }
+
+    fn channels(&self) -> usize {
+        self.values[0].as_ref().map_or(0, Vec::len)
+    }
+
+    /// The weighed `|f(i - s) - 2 f(i) + f(i + s)|` of value `c`: the second difference at point
+    /// `i` with a step of `s` points.
+    fn second(&self, i: usize, s: usize, c: usize) -> f64 {
+        (self.value(i - s, c) - 2.0 * self.value(i, c) + self.value(i + s, c)).abs() * self.weight(i, c)
+    }
+
+    /// Points (on the nodes of the uniform placement) and values where a kink or jump shows whose
+    /// interpolation error at the node spacing `spacing` may exceed `tolerance`, at most
+    /// [`MAX_BREAKS`], the largest first, none within two node spacings of another or of an end.
+    fn candidates(&self, spacing: f64, tolerance: f64) -> Vec<(usize, usize)> {
+        // On the nodes, a kink between two nodes shows in the second difference at both (the jump
+        // in slope times up to the spacing), a jump as the jump itself, a smooth stretch as
+        // spacing^2 f'' at every node: the second difference two nodes away on either side, where
+        // neither reaches, is the curvature's share, and only what exceeds it counts. Linear
+        // interpolation across a kink errs by up to a quarter of the jump in slope times the node
+        // spacing, and across a jump by up to the jump.
+        let step = GRID_POINTS_PER_INTERVAL;
+        let excess = |i: usize, c: usize| {
+            (self.second(i, step, c) - self.second(i - 2 * step, step, c).max(self.second(i + 2 * step, step, c)))
+                .max(0.0)
+        };
+        let mut candidates: Vec<(f64, usize, usize)> = (3 * step..self.points() - 3 * step)
+            .step_by(step)
             .map(|i| {
-                let (c, j) =
-                    (0..channels).map(|c| (c, jump(i, c))).fold((0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
-                (j, i, c)
+                let (c, e) = (0..self.channels())
+                    .map(|c| (c, excess(i, c)))
+                    .fold((0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+                // A kink's error is at least a quarter of its excess, a jump's up to all of it.
+                (e, i, c)
             })
             .collect();
         candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        let mut kinks: Vec<(f64, usize)> = Vec::new();
-        for (jump, i, c) in candidates {
-            // Linear interpolation across a kink errs by up to a quarter of the jump in slope
-            // times the node spacing.
-            if kinks.len() == MAX_BREAKS || jump * spacing / 4.0 <= tolerance {
+        let mut chosen: Vec<(usize, usize)> = Vec::new();
+        for (error, i, c) in candidates {
+            if chosen.len() == MAX_BREAKS || error <= tolerance {
                 break;
             }
-            let u = self.kink_near(i, c);
-            if u < 2.0 * spacing || u > 1.0 - 2.0 * spacing || kinks.iter().any(|k| (k.0 - u).abs() < 2.0 * spacing) {
+            let near = |v: f64| (v - self.u(i)).abs() < 2.0 * spacing;
+            if near(0.0) || near(1.0) || chosen.iter().any(|&(j, _)| near(self.u(j))) {
                 continue;
             }
-            kinks.push((u, c));
+            chosen.push((i, c));
         }
-        kinks
+        chosen
     }
 
-    /// Where the kink near grid point `i` of value `c` lies: the meeting of the line through the
-    /// two points before it and the line through the two after, kept within the points around `i`.
-    fn kink_near(&self, i: usize, c: usize) -> f64 {
-        let (fine, h) = (self.fine, self.h);
-        let i = i.clamp(2, fine.len() - 3);
-        let points = [i - 2, i - 1, i + 1, i + 2];
-        lines_meet(points.map(|j| j as f64 * h), points.map(|j| fine[j][c])).unwrap_or(i as f64 * h)
+    /// The midpoints to read: those of the two node intervals on either side of each candidate,
+    /// and of every node interval whose curvature on the nodes (at either end) would err by more
+    /// than [`MIDPOINT_SHARE`] of `tolerance` at the uniform node spacing.
+    fn needs_midpoints(&self, candidates: &[(usize, usize)], tolerance: f64) -> Vec<usize> {
+        let step = GRID_POINTS_PER_INTERVAL;
+        let last = self.points() - 1;
+        // The weighed spacing^2 |f''| / 8 at node i, from the second difference over the nodes
+        // (at the ends, that of the node next to it).
+        let error = |i: usize| {
+            let i = i.clamp(step, last - step);
+            (0..self.channels()).map(|c| self.second(i, step, c)).fold(0.0f64, f64::max) / 8.0
+        };
+        (0..last)
+            .step_by(step)
+            .filter(|&i| {
+                let near_candidate = candidates.iter().any(|&(j, _)| i + 2 * step > j && i < j + 2 * step);
+                near_candidate || error(i).max(error(i + step)) > MIDPOINT_SHARE * tolerance
+            })
+            .flat_map(|i| (1..step).map(move |j| i + j))
+            .collect()
     }
 
-    /// The weighed curvature `|f''|` at each grid point strictly inside `(a, b)` and two points
-    /// clear of every break (a kink's own jump is not curvature), with the point's `u`.
-    fn curvatures(&self, a: f64, b: f64, breaks: &[f64]) -> Vec<(f64, f64)> {
-        let (points, channels, h) = (self.fine.len(), self.fine[0].len(), self.h);
-        (1..points - 1)
-            .map(|i| (i as f64 * h, i))
-            .filter(|&(u, _)| u > a && u < b && breaks.iter().chain([&0.0, &1.0]).all(|k| (u - k).abs() > 2.0 * h))
-            .map(|(u, i)| (u, (0..channels).map(|c| self.second(i, c) / h).fold(0.0f64, f64::max)))
+    /// The weighed curvature `|f''|` at each read point strictly inside `(a, b)`, from its second
+    /// difference over its nearest read neighbours at equal distance (a midpoint's nodes; a node's
+    /// midpoints where read, else its neighbouring nodes) where that reaches no break (a kink's own
+    /// jump in slope is not curvature), with the point's `u` and its share of `u` (half the
+    /// distance between the read points on either side).
+    fn curvatures(&self, a: f64, b: f64, breaks: &[f64]) -> Vec<(f64, f64, f64)> {
+        let last = self.points() - 1;
+        let read: Vec<usize> = (0..=last).filter(|&i| self.read_at(i)).collect();
+        read.windows(3)
+            .filter_map(|w| {
+                let i = w[1];
+                let u = self.u(i);
+                let s = if self.read_at(i - 1) && self.read_at(i + 1) { 1 } else { GRID_POINTS_PER_INTERVAL };
+                let reach = s as f64 * self.h;
+                let clear = u > a && u < b && i >= s && i + s <= last && breaks.iter().all(|k| (u - k).abs() >= reach);
+                clear.then(|| {
+                    let curvature =
+                        (0..self.channels()).map(|c| self.second(i, s, c)).fold(0.0f64, f64::max) / reach.powi(2);
+                    (u, 0.5 * (self.u(w[2]) - self.u(w[0])), curvature)
+                })
+            })
             .collect()
     }
 
     fn largest_curvature(&self, a: f64, b: f64, breaks: &[f64]) -> f64 {
-        self.curvatures(a, b, breaks).iter().map(|&(_, c)| c).fold(0.0, f64::max)
+        self.curvatures(a, b, breaks).iter().map(|&(_, _, c)| c).fold(0.0, f64::max)
     }
 
     /// The point of `(a, b)` with half of the segment's `∫ sqrt(curvature)` on either side, at
@@ -317,10 +595,10 @@ impl FineGrid<'_> {
             return None;
         }
         let curvatures = self.curvatures(a, b, breaks);
-        let total: f64 = curvatures.iter().map(|&(_, c)| c.sqrt()).sum();
+        let total: f64 = curvatures.iter().map(|&(_, du, c)| c.sqrt() * du).sum();
         let mut sum = 0.0;
-        let median = curvatures.iter().find(|&&(_, c)| {
-            sum += c.sqrt();
+        let median = curvatures.iter().find(|&&(_, du, c)| {
+            sum += c.sqrt() * du;
             sum >= total / 2.0
         })?;
         (total > 0.0).then_some(median.0.clamp(a + margin, b - margin))

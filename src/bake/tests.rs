@@ -13,6 +13,9 @@ pub(crate) fn example_materials() -> Vec<(String, Material)> {
         ("scattering", include_str!("../../luts/scenes/scattering.toml")),
         ("layers", include_str!("../../luts/scenes/thesis/layers.toml")),
         ("tir", include_str!("../../luts/scenes/thesis/tir.toml")),
+        // Its `no-coat` jumps: a lobe's roughness and GD where one channel's energy crosses the
+        // threshold below which the lobe's asymmetry counts that channel as 0.
+        ("scattering-variants", include_str!("../../luts/scenes/thesis/scattering-variants.toml")),
     ];
     let mut materials = Vec::new();
     for (name, text) in scenes {
@@ -117,22 +120,28 @@ fn error_views_hold_the_nodes_and_the_views_between_them() {
     }
 }
 
+/// The nodes [`placement::place_nodes`] places for the values `f(u)`, every value weighed 1.
+fn place(f: impl Fn(f64) -> Vec<f64> + Sync, nodes: usize, tolerance: f64) -> NodePlacement {
+    let read = |us: &[f64]| Ok(us.iter().map(|&u| f(u)).collect());
+    let weights = |v: &[f64]| vec![1.0; v.len()];
+    placement::place_nodes(&mut placement::Samples::new(&read), &weights, nodes, tolerance).unwrap()
+}
+
 #[test]
 fn a_kink_gets_a_node_and_a_smooth_curve_none() {
     // |u - 0.3| has a kink at 0.3 (its slope jumps by 2); u^2 has none.
-    let weights = |v: &[f64]| vec![1.0; v.len()];
     // At 33 nodes a curvature of 9 errs by 1.1e-3 ((1/32)^2 9 / 8), a kink of 2 by 1.6e-2.
-    let kinked = placement::place_nodes(&|u: f64| Ok(vec![(u - 0.3).abs(), u * u]), &weights, 33, 2e-3).unwrap();
+    let kinked = place(|u| vec![(u - 0.3).abs(), u * u], 33, 2e-3);
     let kinks = kinked.breaks();
     assert_eq!(kinks.len(), 1, "{kinks:?}");
     assert!((kinks[0] - 0.3).abs() < 1e-9, "{kinks:?}");
-    let smooth = placement::place_nodes(&|u: f64| Ok(vec![u * u, (3.0 * u).sin()]), &weights, 33, 2e-3).unwrap();
+    let smooth = place(|u| vec![u * u, (3.0 * u).sin()], 33, 2e-3);
     assert!(smooth.breaks().is_empty(), "{:?}", smooth.breaks());
     // A kink too small to matter at this spacing is left alone.
-    let slight = placement::place_nodes(&|u: f64| Ok(vec![1e-5 * (u - 0.3).abs()]), &weights, 33, 2e-3).unwrap();
+    let slight = place(|u| vec![1e-5 * (u - 0.3).abs()], 33, 2e-3);
     assert!(slight.breaks().is_empty(), "{:?}", slight.breaks());
     // Where the curvature is the error, segments are cut to even it out: denser where it is larger.
-    let curved = placement::place_nodes(&|u: f64| Ok(vec![(1.0 - u).powi(4)]), &weights, 33, 1e-4).unwrap();
+    let curved = place(|u| vec![(1.0 - u).powi(4)], 33, 1e-4);
     let first = curved.segments().first().unwrap();
     let last = curved.segments().last().unwrap();
     assert!(curved.breaks().len() >= 2, "{:?}", curved.breaks());
@@ -142,6 +151,34 @@ fn a_kink_gets_a_node_and_a_smooth_curve_none() {
         "{:?}",
         curved.segments()
     );
+    assert!(curved.segments().iter().all(|s| !s.jump));
+}
+
+#[test]
+fn a_jump_gets_a_segment_of_one_interval_whose_nodes_are_its_two_sides() {
+    // A step of 0.05 at u = 0.4137 on a gentle slope, and a kink of 2 at 0.7: linear interpolation
+    // across the step errs by up to the step at any spacing.
+    let step = 0.4137;
+    let f = |u: f64| vec![0.2 * u + if u > step { 0.05 } else { 0.0 }, (u - 0.7).abs()];
+    let placed = place(f, 33, 1e-3);
+    let jumps: Vec<&placement::Segment> = placed.segments().iter().filter(|s| s.jump).collect();
+    assert_eq!(jumps.len(), 1, "{:?}", placed.segments());
+    let jump = jumps[0];
+    assert_eq!(jump.intervals, 1);
+    assert!(jump.u_start <= step && step < jump.u_end, "{jump:?}");
+    assert!(jump.u_end - jump.u_start <= placement::JUMP_WIDTH, "{jump:?}");
+    // The kink is a break of its own, not a jump.
+    assert!(placed.breaks().iter().any(|&u| (u - 0.7).abs() < 1e-9), "{:?}", placed.breaks());
+    assert_eq!(placed.nodes(), 33);
+    // Read through the filter, the two nodes of the jump are its two sides, and the views the
+    // errors are measured at skip the inside of the jump.
+    let views = error_views(&placed, 4);
+    let inside = |mu: f64| mu.sqrt() > jump.u_start && mu.sqrt() < jump.u_end;
+    assert!(!views.iter().any(|&mu| inside(mu)), "a view inside the jump");
+    for (k, u) in [(jump.first_node, jump.u_start), (jump.first_node + 1, jump.u_end)] {
+        let x = placed.texture_coordinate((u * u) as f32);
+        assert!((x * 33.0 - 0.5 - k as f32).abs() < 0.02, "node {k}: {}", x * 33.0 - 0.5);
+    }
 }
 
 #[test]

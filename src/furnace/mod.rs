@@ -528,8 +528,8 @@ fn commit_report(
 
 /// `A(mu)` of every material at every view with exact integrals. The lookups of every material
 /// are collected first, by passes of the model that read a lookup not yet integrated from the
-/// material's tables (`proxies`), and integrated together ([`ExactTables::integrate_all`]: one
-/// pass over the samples per `(quantity, mu, alpha)`, shared across materials and channels); the
+/// material's tables (`proxies`), and integrated together ([`ExactTables::integrate_all`]: in
+/// parallel, albedos of one `(mu, alpha)` sharing a pass, across materials and channels); the
 /// last pass reads exact integrals only. The curves are those of the model reading
 /// [`ExactTables`] alone, to the bit: every lookup's answer is its own integral, however it was
 /// batched.

@@ -73,6 +73,16 @@ pub struct Lookup<R = f64> {
 /// The answers to the model's lookups.
 pub trait Tables<R = f64> {
     fn value(&self, lookup: &Lookup<R>) -> R;
+
+    /// Whether [`Tables::value`] has `lookup`'s answer at hand: false only where answers are
+    /// computed on demand at a cost (exact integrals) and this one has not been yet.
+    fn knows(&self, _lookup: &Lookup<R>) -> bool {
+        true
+    }
+
+    /// Compute the answers to `lookups` ahead of their reads, together (in parallel, sharing what
+    /// they share), for tables that compute answers on demand; nothing to do for the others.
+    fn prepare(&self, _lookups: &[Lookup<R>]) {}
 }
 
 /// A closure answers lookups: `|lookup: &Lookup| ...` is a [`Tables`].

@@ -253,21 +253,44 @@ pub fn fgd_cells_at_mu_alpha(
 
 /// FGD at one cell `(mu, alpha, eta, kappa)` in f64 by the deterministic visible-normal quadrature
 /// ([`VisibleNormalQuadrature`]), cut at the horizon and, below `eta = 1`, where Fresnel turns
-/// total: where `t0 = eta^2 - 1 - kappa^2 + c^2` of [`fresnel_reflectance`] changes sign, at
-/// `c = sqrt(1 - eta^2 + kappa^2)` (the critical cosine when `kappa = 0`, a rounded kink
-/// otherwise). The furnace's exact integrals.
+/// total ([`fgd_kink`]). The furnace's exact integrals.
 pub fn fgd_by_quadrature(
     masking: MaskingShadowing,
     quadrature: &VisibleNormalQuadrature,
     mu: f64,
     alpha: f64,
-    (eta, kappa): (f64, f64),
+    pair: (f64, f64),
 ) -> f64 {
+    let [fgd] = fgd_pairs_by_quadrature(masking, quadrature, mu, alpha, [pair]);
+    fgd
+}
+
+/// Where FGD's integrand kinks in `c = wi.h` for the pair `(eta, kappa)`, if it does inside
+/// (0, 1): below `eta = 1`, where `t0 = eta^2 - 1 - kappa^2 + c^2` of [`fresnel_reflectance`]
+/// changes sign, at `c = sqrt(1 - eta^2 + kappa^2)` (the critical cosine when `kappa = 0`, a
+/// rounded kink otherwise).
+pub fn fgd_kink((eta, kappa): (f64, f64)) -> Option<f64> {
     let total_reflection_cosine2 = (1.0 - eta) * (1.0 + eta) + kappa * kappa;
     let kink = eta < 1.0 && total_reflection_cosine2 > 0.0 && total_reflection_cosine2 < 1.0;
-    let kinks = if kink { vec![total_reflection_cosine2.sqrt()] } else { Vec::new() };
-    let [fgd] = quadrature.cosine_functions(mu, alpha, masking, &kinks, |c| [fresnel_reflectance(c, eta, kappa)]);
-    fgd
+    kink.then(|| total_reflection_cosine2.sqrt())
+}
+
+/// [`fgd_by_quadrature`] of `N` pairs at one `(mu, alpha)` in one pass over the quadrature's
+/// nodes (a conductor's three channels): the directions, masking and weights are computed once and
+/// only Fresnel per pair. The pairs must share their kink ([`fgd_kink`]); each answer then has the
+/// bits of its pair's integral alone, since every pair's sum takes the same terms in the same order.
+pub fn fgd_pairs_by_quadrature<const N: usize>(
+    masking: MaskingShadowing,
+    quadrature: &VisibleNormalQuadrature,
+    mu: f64,
+    alpha: f64,
+    pairs: [(f64, f64); N],
+) -> [f64; N] {
+    let kink = pairs.first().and_then(|&p| fgd_kink(p));
+    debug_assert!(pairs.iter().all(|&p| fgd_kink(p).map(f64::to_bits) == kink.map(f64::to_bits)), "{pairs:?}");
+    let kinks: Vec<f64> = kink.into_iter().collect();
+    quadrature
+        .cosine_functions(mu, alpha, masking, &kinks, |c| pairs.map(|(eta, kappa)| fresnel_reflectance(c, eta, kappa)))
 }
 
 impl TableRecipe for FgdSettings {
