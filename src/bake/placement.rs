@@ -180,17 +180,20 @@ const KINK_STEPS: usize = 7;
 /// own sides, and far below any node spacing.
 pub const JUMP_WIDTH: f64 = 1.0 / 65536.0;
 
+/// What reads the model at many points of `u` at once: the values at each.
+pub type ReadPoints<'a> = dyn Fn(&[f64]) -> Result<Vec<Vec<f64>>> + Sync + 'a;
+
 /// The model's values read so far, by `u`: each point is read once, however often placement and
 /// baking ask for it, and the points asked together are read together (`read` evaluates many at
 /// once, computing what they share once).
 pub struct Samples<'a> {
-    read: &'a (dyn Fn(&[f64]) -> Result<Vec<Vec<f64>>> + Sync),
+    read: &'a ReadPoints<'a>,
     known: BTreeMap<u64, Vec<f64>>,
 }
 
 impl<'a> Samples<'a> {
     /// No point read yet; `read(us)` returns the values at each of `us`.
-    pub fn new(read: &'a (dyn Fn(&[f64]) -> Result<Vec<Vec<f64>>> + Sync)) -> Self {
+    pub fn new(read: &'a ReadPoints<'a>) -> Self {
         Samples { read, known: BTreeMap::new() }
     }
 
