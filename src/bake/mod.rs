@@ -157,7 +157,11 @@ fn lookups_to_come(material: &Material, tables: &dyn Tables, mu: f64) -> Vec<Loo
         material.evaluate(mu, &recording);
         recording.asked.into_inner()
     };
-    let (low, high) = (asked(0.25), asked(0.75));
+    let low = asked(0.25);
+    if low.is_empty() {
+        return low;
+    }
+    let high = asked(0.75);
     low.into_iter().filter(|l| high.contains(l)).collect()
 }
 

@@ -217,17 +217,19 @@ impl<'a> Samples<'a> {
 
 /// The nodes of a material whose values at `u` (its flattened result at `mu = u^2`) `samples`
 /// reads, weighed by `weights` (how much an error in each value counts at that point): `nodes`
-/// nodes in at most [`MAX_BREAKS`]` + 1` segments, read on a grid of [`GRID_POINTS_PER_INTERVAL`]
-/// points per node interval and, around what the grid shows of a kink or a jump, where
-/// [`locate`] reads.
+/// nodes in at most [`MAX_BREAKS`]` + 1` segments.
 ///
-/// First the kinks and jumps, the largest first: a break on each kink where linear interpolation
-/// across it at the uniform node spacing would err by more than `tolerance` (a quarter of the
-/// jump in slope times the spacing), and two breaks around each jump larger than `tolerance`.
-/// Then, while the segment of the largest estimated error (its largest curvature, [`share_out`])
-/// errs by more than `tolerance`, it is cut where half of its `∫ sqrt(curvature)` lies on either
-/// side (the density of nodes that evens out linear interpolation's error goes as the square root
-/// of the curvature).
+/// The model is read on the nodes of the uniform placement, where they show a kink or jump
+/// ([`Grid::candidates`]) also on the midpoints around it and where their curvature is large
+/// ([`Grid::needs_midpoints`]). First the kinks and jumps, the largest first ([`Grid::sharpen`],
+/// [`locate`]): a break on each kink where linear interpolation across it at the uniform node
+/// spacing would err by more than `tolerance` (a quarter of the jump in slope times the spacing),
+/// and two breaks around each jump larger than `tolerance`. Then the curvature, from the grid's
+/// second differences and right beside each kink and jump ([`beside_curvatures`]): while the
+/// segment of the largest estimated error (its largest curvature, [`share_out`]) errs by more than
+/// `tolerance`, it is cut where half of its `∫ sqrt(curvature)` lies on either side (the density
+/// of nodes that evens out linear interpolation's error goes as the square root of the
+/// curvature).
 pub fn place_nodes(
     samples: &mut Samples,
     weights: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
@@ -245,30 +247,41 @@ pub fn place_nodes(
     grid.read(samples, weights, &(0..grid.points()).step_by(GRID_POINTS_PER_INTERVAL).collect::<Vec<_>>())?;
     let candidates = grid.candidates(spacing, tolerance);
     grid.read(samples, weights, &grid.needs_midpoints(&candidates, tolerance))?;
+    let candidates = grid.sharpen(&candidates);
     let mut breaks = Vec::new();
     let mut jumps = Vec::new();
+    let mut besides = Vec::new();
     for feature in locate(samples, &grid, &candidates, spacing, tolerance)? {
         match feature {
-            Feature::Kink(u) if breaks.len() < MAX_BREAKS => breaks.push(u),
-            Feature::Jump(left, right) if breaks.len() + 1 < MAX_BREAKS => {
-                breaks.extend([left, right]);
-                jumps.push(left);
+            Feature::Kink(u, beside) if breaks.len() < MAX_BREAKS => {
+                breaks.push(u);
+                besides.push(beside);
+            }
+            Feature::Jump(beside) if breaks.len() + 1 < MAX_BREAKS => {
+                breaks.extend([beside.left[0], beside.right[0]]);
+                jumps.push(beside.left[0]);
+                besides.push(beside);
             }
             _ => {}
         }
     }
     breaks.sort_by(f64::total_cmp);
+    let mut curvature = grid.curvatures(&breaks);
+    curvature.extend(beside_curvatures(samples, weights, &besides, &breaks, grid.h / 2.0)?);
+    curvature.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let curvature = Curvature { points: curvature };
+    let margin = 2.0 * grid.h;
     loop {
         let ends = segment_ends(&breaks);
         let lengths: Vec<f64> = ends.windows(2).map(|w| w[1] - w[0]).collect();
-        let curvatures: Vec<f64> = ends.windows(2).map(|w| grid.largest_curvature(w[0], w[1], &breaks)).collect();
-        // A jump's segment has no point of the grid inside, so no curvature, and is far shorter
-        // than any other: it keeps its one interval.
+        // A jump's segment has no curvature, and is far shorter than any other: it keeps its
+        // one interval.
+        let curvatures: Vec<f64> = ends.windows(2).map(|w| curvature.largest(w[0], w[1])).collect();
         let intervals = share_out(nodes - 1, &lengths, &curvatures);
         let errors: Vec<f64> =
             (0..lengths.len()).map(|s| (lengths[s] / intervals[s] as f64).powi(2) * curvatures[s] / 8.0).collect();
         let worst = (0..errors.len()).max_by(|&a, &b| errors[a].total_cmp(&errors[b]).then(b.cmp(&a))).unwrap_or(0);
-        let cut = grid.curvature_median(ends[worst], ends[worst + 1], &breaks);
+        let cut = curvature.median(ends[worst], ends[worst + 1], margin);
         match cut {
             Some(u) if errors[worst] > tolerance && breaks.len() < MAX_BREAKS => {
                 breaks.push(u);
@@ -279,113 +292,191 @@ pub fn place_nodes(
     }
 }
 
-/// Where the line through `(u[0], v[0])` and `(u[1], v[1])` meets the line through
-/// `(u[2], v[2])` and `(u[3], v[3])`, kept within `[u[1], u[2]]`; `None` where the lines are
-/// parallel (no kink shows between them).
-fn lines_meet(u: [f64; 4], v: [f64; 4]) -> Option<f64> {
-    meeting(u, v).map(|meet| meet.clamp(u[1], u[2]))
+/// The curvature right beside each kink and jump, where a clamp's release turns fastest and the
+/// grid's second differences, which must not reach across it, say nothing: on each side, from the
+/// value and slope read nearest it (`Beside`) and one read `reach` farther, `f'' = 2 (f(x) -
+/// f(u) - f'(u) (x - u)) / (x - u)^2`, the mean over that stretch, standing for it. A stretch that
+/// would reach another break is shortened to half the way.
+fn beside_curvatures(
+    samples: &mut Samples,
+    weights: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+    besides: &[Beside],
+    breaks: &[f64],
+    reach: f64,
+) -> Result<Vec<(f64, f64, f64)>> {
+    let room = |u: f64, toward: f64| {
+        let other = breaks.iter().filter(|&&b| (b - u) * toward > 0.0).map(|&b| (b - u).abs()).fold(f64::MAX, f64::min);
+        reach.min(0.5 * other).min(if toward > 0.0 { 1.0 - u } else { u })
+    };
+    let sides: Vec<([f64; 2], f64)> = besides
+        .iter()
+        .flat_map(|b| [(b.left, -room(b.left[0], -1.0)), (b.right, room(b.right[0], 1.0))])
+        .filter(|&(_, d)| d.abs() > 0.0)
+        .collect();
+    let us: Vec<f64> = sides.iter().flat_map(|&(side, d)| [side[0], side[1], side[0] + d]).collect();
+    let values = samples.at(&us)?;
+    Ok(sides
+        .iter()
+        .zip(values.chunks(3))
+        .map(|(&(side, d), v)| {
+            let (near, step, far) = (&v[0], &v[1], &v[2]);
+            let weight = weights(near);
+            let curvature = (0..near.len())
+                .map(|c| {
+                    let slope = (step[c] - near[c]) / (side[1] - side[0]);
+                    (2.0 * (far[c] - near[c] - slope * d) / (d * d)).abs() * weight[c]
+                })
+                .fold(0.0f64, f64::max);
+            (side[0] + d / 2.0, d.abs(), curvature)
+        })
+        .collect())
 }
 
-/// Where the two lines of [`lines_meet`] meet, wherever that is.
-fn meeting(u: [f64; 4], v: [f64; 4]) -> Option<f64> {
-    let left_slope = (v[1] - v[0]) / (u[1] - u[0]);
-    let right_slope = (v[3] - v[2]) / (u[3] - u[2]);
-    // v[1] + left (x - u[1]) = v[2] + right (x - u[2])
-    let meet = (v[2] - v[1] + left_slope * u[1] - right_slope * u[2]) / (left_slope - right_slope);
-    meet.is_finite().then_some(meet)
+/// The model's curvature where it has been read: `(u, the share of u it stands for, the weighed
+/// |f''| of its largest value)`, in increasing `u`.
+struct Curvature {
+    points: Vec<(f64, f64, f64)>,
+}
+
+impl Curvature {
+    /// The points strictly inside `(a, b)`.
+    fn within(&self, a: f64, b: f64) -> impl Iterator<Item = &(f64, f64, f64)> {
+        self.points.iter().filter(move |p| p.0 > a && p.0 < b)
+    }
+
+    /// The largest curvature inside `(a, b)`.
+    fn largest(&self, a: f64, b: f64) -> f64 {
+        self.within(a, b).map(|p| p.2).fold(0.0, f64::max)
+    }
+
+    /// The point of `(a, b)` with half of its `∫ sqrt(curvature)` on either side, kept `margin`
+    /// from either end; `None` where the stretch is too short to cut or flat.
+    fn median(&self, a: f64, b: f64, margin: f64) -> Option<f64> {
+        if b - a <= 2.0 * margin {
+            return None;
+        }
+        let total: f64 = self.within(a, b).map(|&(_, du, c)| c.sqrt() * du).sum();
+        let mut sum = 0.0;
+        let median = self.within(a, b).find(|&&(_, du, c)| {
+            sum += c.sqrt() * du;
+            sum >= total / 2.0
+        })?;
+        (total > 0.0).then_some(median.0.clamp(a + margin, b - margin))
+    }
 }
 
 /// What the model does at a place where it is not smooth, located on the model itself.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Feature {
     /// Its slope jumps at `u`.
-    Kink(f64),
-    /// It jumps between these two `u`, at most [`JUMP_WIDTH`] apart.
-    Jump(f64, f64),
+    Kink(f64, Beside),
+    /// It jumps between its two sides, at most [`JUMP_WIDTH`] apart.
+    Jump(Beside),
 }
 
-/// Value `c` of the model around a kink or jump: two points on either side, `(u, value)`, the
-/// kink or jump between the inner two.
+/// The points read on either side of a kink or jump nearest it, each with the point a slope step
+/// farther from it: `[nearest, farther]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Beside {
+    left: [f64; 2],
+    right: [f64; 2],
+}
+
+/// One side of a kink or jump: its point nearest the other side and the slope there.
+#[derive(Debug, Clone, Copy)]
+struct Side {
+    u: f64,
+    value: f64,
+    slope: f64,
+}
+
+impl Side {
+    /// The side's tangent line at `u`.
+    fn line(&self, u: f64) -> f64 {
+        self.value + self.slope * (u - self.u)
+    }
+}
+
+/// Value `c` of the model around a kink or jump, which lies between the two sides.
 #[derive(Debug, Clone, Copy)]
 struct Bracket {
     c: usize,
     /// How much an error in value `c` counts there.
     weight: f64,
-    left: [(f64, f64); 2],
-    right: [(f64, f64); 2],
+    left: Side,
+    right: Side,
 }
 
 impl Bracket {
     fn width(&self) -> f64 {
-        self.right[0].0 - self.left[1].0
+        self.right.u - self.left.u
     }
 
     fn middle(&self) -> f64 {
-        0.5 * (self.left[1].0 + self.right[0].0)
+        0.5 * (self.left.u + self.right.u)
     }
 
-    fn slope(side: [(f64, f64); 2]) -> f64 {
-        (side[1].1 - side[0].1) / (side[1].0 - side[0].0)
-    }
-
-    /// The line through two points of one side, at `u`.
-    fn line(side: [(f64, f64); 2], u: f64) -> f64 {
-        side[1].1 + Self::slope(side) * (u - side[1].0)
-    }
-
-    /// Keep the point `(u, v)` between the sides on the side it belongs to: the side whose line it
-    /// lies far nearer; where neither is far nearer (a kink with a stretch of large curvature
-    /// beside it, where the farther side's line is off), the side that puts the kink where the
-    /// lines through the new point meet: the kink lies between `u` and the right side where the
-    /// line through the left side's nearer point and `u` meets the right side's line there, and
-    /// between the left side and `u` where the left side's line meets the line through `u` and the
-    /// right side's nearer point there.
-    fn narrow(&mut self, u: f64, v: f64) {
-        let (to_left, to_right) = ((v - Self::line(self.left, u)).abs(), (v - Self::line(self.right, u)).abs());
-        let [(a, fa), (b, fb)] = self.left;
-        let [(c, fc), (d, fd)] = self.right;
-        let kink_right = meeting([b, u, c, d], [fb, v, fc, fd]).is_some_and(|k| k > u && k < c);
-        let kink_left = meeting([a, b, u, c], [fa, fb, v, fc]).is_some_and(|k| k > b && k < u);
-        let on_left = if to_left <= to_right / 4.0 || to_right <= to_left / 4.0 || kink_left == kink_right {
-            to_left <= to_right
+    /// Keep the point `(u, value)`, where the model's slope is `slope`, on the side it belongs to.
+    /// Beside a kink, the side whose slope is nearer its own: the two differ by the kink's jump
+    /// in slope however near it `u` lies, while a point just past a kink lies nearly on the far
+    /// side's tangent, and the near side's is off by the curvature beside the kink (a clamp's
+    /// release turns fastest right past it). Where the sides' tangents lie farther apart at `u` than
+    /// any kink between them could put them (a jump), the side whose tangent it lies nearer.
+    fn narrow(&mut self, u: f64, value: f64, slope: f64) {
+        let (on_left_line, on_right_line) = (self.left.line(u), self.right.line(u));
+        let kink_gap = (self.right.slope - self.left.slope).abs() * self.width() / 2.0;
+        let jump = (on_right_line - on_left_line).abs() > 2.0 * kink_gap;
+        let on_left = if jump {
+            (value - on_left_line).abs() <= (value - on_right_line).abs()
         } else {
-            kink_right
+            (slope - self.left.slope).abs() <= (slope - self.right.slope).abs()
         };
+        // Beside a jump the slope is read across it where the jump lies within the step: the side
+        // keeps its own.
+        let kept = if on_left { self.left.slope } else { self.right.slope };
+        let side = Side { u, value, slope: if jump { kept } else { slope } };
         if on_left {
-            self.left = [self.left[1], (u, v)];
+            self.left = side;
         } else {
-            self.right = [(u, v), self.right[0]];
+            self.right = side;
         }
     }
 
-    /// The weighed gap between the two sides' lines at the middle: a jump's size; for a kink, its
-    /// jump in slope times at most half the width.
+    /// The weighed gap between the two sides' tangents at the middle: a jump's size; for a kink,
+    /// its jump in slope times at most half the width.
     fn gap(&self) -> f64 {
         let u = self.middle();
-        (Self::line(self.right, u) - Self::line(self.left, u)).abs() * self.weight
+        (self.right.line(u) - self.left.line(u)).abs() * self.weight
     }
 
     /// The weighed jump in slope.
     fn slope_jump(&self) -> f64 {
-        (Self::slope(self.right) - Self::slope(self.left)).abs() * self.weight
+        (self.right.slope - self.left.slope).abs() * self.weight
     }
 
+    /// Where the sides' tangents meet, kept within the bracket.
     fn kink(&self) -> f64 {
-        let [a, b, c, d] = [self.left[0], self.left[1], self.right[0], self.right[1]];
-        lines_meet([a.0, b.0, c.0, d.0], [a.1, b.1, c.1, d.1]).unwrap_or_else(|| self.middle())
+        let meet = (self.right.value - self.left.value + self.left.slope * self.left.u
+            - self.right.slope * self.right.u)
+            / (self.left.slope - self.right.slope);
+        if meet.is_finite() { meet.clamp(self.left.u, self.right.u) } else { self.middle() }
     }
 }
 
-/// Each candidate of [`Grid::candidates`] located on the model, by bisection between the two
-/// nodes of the uniform placement around it: the midpoint is read and kept on the side it belongs
-/// to ([`Bracket::narrow`]), [`KINK_STEPS`] times for every candidate, and on to [`JUMP_WIDTH`] for
-/// those whose sides still lie more than `tolerance` apart. Then each side's line is drawn afresh
-/// through the side's nearer point and one read as far again beyond it, so that neither is off by
-/// the curvature of a stretch the bisection left long ago. A jump is what is still more than
-/// `tolerance` apart; a kink lies where the sides' lines meet, kept if its interpolation error at
-/// the node spacing `spacing` would exceed `tolerance` (where the model is smooth, the fresh lines
-/// have nearly the same slope). The candidates are bisected side by side, one read of each per
-/// step, in their order.
+/// The share of a bracket's width between the two points a slope is read from: small, so that
+/// the two seldom lie on either side of the kink (a slope read across it mixes both sides'), and a
+/// misread one puts the kink no farther off than this.
+const SLOPE_STEP: f64 = 1.0 / 1024.0;
+
+/// Each candidate of [`Grid::sharpen`] located on the model, by bisection between the two grid
+/// points around it: the midpoint and a point [`SLOPE_STEP`] of the width beyond it are read, for
+/// the value and slope there, and the midpoint kept on its side ([`Bracket::narrow`]),
+/// [`KINK_STEPS`] times for every candidate, and on to [`JUMP_WIDTH`] for those whose sides'
+/// tangents still lie more than `tolerance` apart. Then each side's slope is read afresh, looking
+/// away from the other side. A jump is what is still more than `tolerance` apart; a kink lies where
+/// the sides' tangents meet, kept if its interpolation error at the node spacing `spacing` would
+/// exceed `tolerance` (where the model is smooth, the two sides' slopes are nearly the same). The
+/// candidates are bisected side by side, their reads of each step read together, in their order.
 fn locate(
     samples: &mut Samples,
     grid: &Grid,
@@ -393,46 +484,66 @@ fn locate(
     spacing: f64,
     tolerance: f64,
 ) -> Result<Vec<Feature>> {
-    let step = GRID_POINTS_PER_INTERVAL;
-    let point = |i: usize, c: usize| (grid.u(i), grid.value(i, c));
+    // On the grid, a side's slope is the one between its two nodes nearest the candidate.
+    let side = |near: usize, far: usize, c: usize| Side {
+        u: grid.u(near),
+        value: grid.value(near, c),
+        slope: (grid.value(near, c) - grid.value(far, c)) / (grid.u(near) - grid.u(far)),
+    };
     let mut brackets: Vec<Bracket> = candidates
         .iter()
         .map(|&(i, c)| Bracket {
             c,
-            weight: grid.weight(i - step, c).max(grid.weight(i + step, c)),
-            left: [point(i - 2 * step, c), point(i - step, c)],
-            right: [point(i + step, c), point(i + 2 * step, c)],
+            weight: grid.weight(i - 1, c).max(grid.weight(i + 1, c)),
+            left: side(i - 1, i - 2, c),
+            right: side(i + 1, i + 2, c),
         })
         .collect();
-    let kink_width = 2.0 * spacing / (1 << KINK_STEPS) as f64;
+    let kink_width = 2.0 * grid.h / (1 << KINK_STEPS) as f64;
     let unsettled = |b: &Bracket| b.width() > kink_width * 1.5 || (b.width() > JUMP_WIDTH && b.gap() > tolerance);
     loop {
         let open: Vec<usize> = (0..brackets.len()).filter(|&k| unsettled(&brackets[k])).collect();
         if open.is_empty() {
             break;
         }
-        let middles: Vec<f64> = open.iter().map(|&k| brackets[k].middle()).collect();
-        for ((&k, u), values) in open.iter().zip(&middles).zip(samples.at(&middles)?) {
+        let us: Vec<f64> = open
+            .iter()
+            .flat_map(|&k| {
+                let (u, w) = (brackets[k].middle(), brackets[k].width());
+                [u, u + SLOPE_STEP * w]
+            })
+            .collect();
+        let values = samples.at(&us)?;
+        for (j, &k) in open.iter().enumerate() {
             let c = brackets[k].c;
-            brackets[k].narrow(*u, values[c]);
+            let (u, beyond) = (us[2 * j], us[2 * j + 1]);
+            let (value, next) = (values[2 * j][c], values[2 * j + 1][c]);
+            brackets[k].narrow(u, value, (next - value) / (beyond - u));
         }
     }
-    let beyond: Vec<f64> = brackets
+    // A side the bisection never moved holds the grid's slope over a node spacing, off by the
+    // curvature there: each side's slope is read afresh, looking away from the other side.
+    let besides: Vec<Beside> = brackets
         .iter()
-        .flat_map(|b| [(b.left[1].0 - b.width()).max(0.0), (b.right[0].0 + b.width()).min(1.0)])
+        .map(|b| {
+            let step = SLOPE_STEP * b.width();
+            Beside { left: [b.left.u, (b.left.u - step).max(0.0)], right: [b.right.u, (b.right.u + step).min(1.0)] }
+        })
         .collect();
-    let values = samples.at(&beyond)?;
-    for (k, b) in brackets.iter_mut().enumerate() {
-        b.left[0] = (beyond[2 * k], values[2 * k][b.c]);
-        b.right[1] = (beyond[2 * k + 1], values[2 * k + 1][b.c]);
+    let us: Vec<f64> = besides.iter().flat_map(|b| [b.left[1], b.right[1]]).collect();
+    let values = samples.at(&us)?;
+    for ((b, beside), v) in brackets.iter_mut().zip(&besides).zip(values.chunks(2)) {
+        b.left.slope = (b.left.value - v[0][b.c]) / (beside.left[0] - beside.left[1]);
+        b.right.slope = (v[1][b.c] - b.right.value) / (beside.right[1] - beside.right[0]);
     }
     Ok(brackets
         .iter()
-        .filter_map(|b| {
+        .zip(besides)
+        .filter_map(|(b, beside)| {
             if b.gap() > tolerance {
-                Some(Feature::Jump(b.left[1].0, b.right[0].0))
+                Some(Feature::Jump(beside))
             } else {
-                (b.slope_jump() * spacing / 4.0 > tolerance).then(|| Feature::Kink(b.kink()))
+                (b.slope_jump() * spacing / 4.0 > tolerance).then(|| Feature::Kink(b.kink(), beside))
             }
         })
         .collect())
@@ -502,7 +613,8 @@ impl Grid {
 
     /// Points (on the nodes of the uniform placement) and values where a kink or jump shows whose
     /// interpolation error at the node spacing `spacing` may exceed `tolerance`, at most
-    /// [`MAX_BREAKS`], the largest first, none within two node spacings of another or of an end.
+    /// [`MAX_BREAKS`], the largest first: at each point the value where it shows most, none
+    /// within two node spacings of another or of an end.
     fn candidates(&self, spacing: f64, tolerance: f64) -> Vec<(usize, usize)> {
         // On the nodes, a kink between two nodes shows in the second difference at both (the jump
         // in slope times up to the spacing), a jump as the jump itself, a smooth stretch as
@@ -540,6 +652,28 @@ impl Grid {
         chosen
     }
 
+    /// Each candidate of [`Grid::candidates`] (on the nodes) moved to the grid point beside it, and
+    /// the value, where a kink or jump shows most on the grid read around it (its midpoints): on
+    /// the nodes, a value whose curvature changes fast may show more than another's kink in the
+    /// next interval (a top albedo's beside a lobe's roughness leaving its clamp), but a kink's
+    /// second difference shrinks as the spacing, curvature's as its square.
+    fn sharpen(&self, candidates: &[(usize, usize)]) -> Vec<(usize, usize)> {
+        let excess = |j: usize, c: usize| {
+            (self.second(j, 1, c) - self.second(j - 2, 1, c).max(self.second(j + 2, 1, c))).max(0.0)
+        };
+        candidates
+            .iter()
+            .map(|&(i, c)| {
+                let around = (i - 1..=i + 1).filter(|&j| (j - 3..=j + 3).all(|k| self.read_at(k)));
+                around
+                    .flat_map(|j| (0..self.channels()).map(move |d| (j, d)))
+                    .map(|(j, d)| (excess(j, d), j, d))
+                    .fold((0.0, i, c), |best, x| if x.0 > best.0 { x } else { best })
+            })
+            .map(|(_, j, d)| (j, d))
+            .collect()
+    }
+
     /// The midpoints to read: those of the two node intervals on either side of each candidate,
     /// and of every node interval whose curvature on the nodes (at either end) would err by more
     /// than [`MIDPOINT_SHARE`] of `tolerance` at the uniform node spacing.
@@ -561,13 +695,12 @@ impl Grid {
             .flat_map(|i| (1..step).map(move |j| i + j))
             .collect()
     }
-
-    /// The weighed curvature `|f''|` at each read point strictly inside `(a, b)`, from its second
-    /// difference over its nearest read neighbours at equal distance (a midpoint's nodes; a node's
-    /// midpoints where read, else its neighbouring nodes) where that reaches no break (a kink's own
-    /// jump in slope is not curvature), with the point's `u` and its share of `u` (half the
-    /// distance between the read points on either side).
-    fn curvatures(&self, a: f64, b: f64, breaks: &[f64]) -> Vec<(f64, f64, f64)> {
+    /// The weighed curvature `|f''|` at each read point, from its second difference over its
+    /// nearest read neighbours at equal distance (a midpoint's nodes; a node's midpoints where
+    /// read, else its neighbouring nodes) where that reaches no break (a kink's own jump in slope is
+    /// not curvature), with the point's `u` and its share of `u` (half the distance between the
+    /// read points on either side).
+    fn curvatures(&self, breaks: &[f64]) -> Vec<(f64, f64, f64)> {
         let last = self.points() - 1;
         let read: Vec<usize> = (0..=last).filter(|&i| self.read_at(i)).collect();
         read.windows(3)
@@ -576,7 +709,7 @@ impl Grid {
                 let u = self.u(i);
                 let s = if self.read_at(i - 1) && self.read_at(i + 1) { 1 } else { GRID_POINTS_PER_INTERVAL };
                 let reach = s as f64 * self.h;
-                let clear = u > a && u < b && i >= s && i + s <= last && breaks.iter().all(|k| (u - k).abs() >= reach);
+                let clear = i >= s && i + s <= last && breaks.iter().all(|k| (u - k).abs() >= reach);
                 clear.then(|| {
                     let curvature =
                         (0..self.channels()).map(|c| self.second(i, s, c)).fold(0.0f64, f64::max) / reach.powi(2);
@@ -584,26 +717,5 @@ impl Grid {
                 })
             })
             .collect()
-    }
-
-    fn largest_curvature(&self, a: f64, b: f64, breaks: &[f64]) -> f64 {
-        self.curvatures(a, b, breaks).iter().map(|&(_, _, c)| c).fold(0.0, f64::max)
-    }
-
-    /// The point of `(a, b)` with half of the segment's `∫ sqrt(curvature)` on either side, at
-    /// least four grid points from either end; `None` where the segment is too short to cut.
-    fn curvature_median(&self, a: f64, b: f64, breaks: &[f64]) -> Option<f64> {
-        let margin = 4.0 * self.h;
-        if b - a <= 2.0 * margin {
-            return None;
-        }
-        let curvatures = self.curvatures(a, b, breaks);
-        let total: f64 = curvatures.iter().map(|&(_, du, c)| c.sqrt() * du).sum();
-        let mut sum = 0.0;
-        let median = curvatures.iter().find(|&&(_, du, c)| {
-            sum += c.sqrt() * du;
-            sum >= total / 2.0
-        })?;
-        (total > 0.0).then_some(median.0.clamp(a + margin, b - margin))
     }
 }
