@@ -126,6 +126,10 @@ struct BakeArgs {
     /// Gauss–Legendre nodes per panel of the exact integrals (2 to 64).
     #[arg(long, default_value_t = tmlut::exact::DEFAULT_NODES)]
     exact_nodes: usize,
+    /// Materials also baked alone, each with exact integrals of its own, and timed: the first
+    /// this many (0 to all).
+    #[arg(long, default_value_t = 32)]
+    alone: usize,
     #[command(flatten)]
     threads: ThreadsArg,
 }
@@ -226,6 +230,7 @@ fn exec_bake(args: BakeArgs, context: &Context) -> tmlut::Result<()> {
         bake: BakeSettings { nodes: args.nodes, ..BakeSettings::default() },
         error_views_per_interval: args.error_views,
         exact_nodes: args.exact_nodes,
+        alone: args.alone,
     };
     let bench = bake::bench_bake(&config, &settings, &context.progress())?;
     print!("{}", bake::markdown(&bench, &settings, rayon::current_num_threads()));
