@@ -21,6 +21,8 @@
 //! formats = ["dds", "exr"]
 //! precision = "f16"               # or "f32"
 //! ```
+//!
+//! and a `[bake]` section for `tmlut bake` ([`crate::bake::config`]).
 
 use std::path::Path;
 
@@ -119,7 +121,7 @@ impl Config {
                 ));
             }
         }
-        Ok(())
+        self.bake.validate()
     }
 }
 
@@ -224,6 +226,25 @@ mod tests {
     }
 
     #[test]
+    fn the_bake_section_is_read_key_by_key_and_bad_values_name_their_key() {
+        let config = Config::from_toml("[bake]\nsource = \"tables\"\nnodes = 128\n", "t").unwrap();
+        let bake = &config.bake;
+        assert_eq!((bake.source, bake.nodes), (crate::bake::BakeSource::Tables, 128));
+        assert_eq!(bake.formats, crate::bake::BakeConfig::default().formats, "the other keys keep their defaults");
+        for (text, named) in [
+            ("[bake]\nnodes = 4\n", "bake.nodes"),
+            ("[bake]\ntolerance = 0.0\n", "bake.tolerance"),
+            ("[bake]\nformats = [\"bin\"]\n", "bake.formats"),
+            ("[bake]\nformats = []\n", "bake.formats"),
+            ("[bake]\nexact_nodes = 1\n", "bake.exact_nodes"),
+            ("[bake]\nsource = \"walk\"\n", "bake.source"),
+        ] {
+            let e = error_of(text);
+            assert!(e.contains(named) && (e.contains("allowed") || e.contains("expected")), "{text}: {e}");
+        }
+    }
+
+    #[test]
     fn unknown_keys_are_named() {
         let e = error_of("[karis]\nmu_cuont = 32\n");
         assert!(e.contains("test.toml") && e.contains("mu_cuont"), "{e}");
@@ -249,7 +270,7 @@ mod tests {
             "{e}"
         );
         let e = error_of("fgdd = 1\n");
-        assert!(e.contains("`fgdd`") && e.contains("allowed at the top level: belcour, fgd"), "{e}");
+        assert!(e.contains("`fgdd`") && e.contains("allowed at the top level: bake, belcour, fgd"), "{e}");
         // The own keys are read where they belong, and a bad value names what is allowed.
         let config =
             Config::from_toml("[karis]\nstorage_rounding = \"nearest\"\n[belcour]\ncosine_intervals = 64\n", "t")

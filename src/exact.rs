@@ -29,9 +29,7 @@ use crate::recipes::fgd::{fgd_by_quadrature, fgd_cell, fgd_kink, fgd_pairs_by_qu
 use crate::recipes::tir::{tir_by_quadrature, tir_cell};
 use crate::sampling::sequence::{PointSet, SamplePlan};
 
-/// Gauss–Legendre nodes per panel of the exact integrals by default (`docs/furnace.md`,
-/// "Libraries", measures what more would change).
-pub const DEFAULT_NODES: usize = 8;
+pub use crate::integrate::quadrature::DEFAULT_NODES;
 
 /// Exact integrals for the model, remembered per lookup.
 pub struct ExactTables {

@@ -226,12 +226,7 @@ pub fn write_jobs(
     // So is a bake of the scene's materials, which a scene build may have changed: it leaves too,
     // and `build --scene --bake` (or `tmlut bake`) makes it again.
     if scene.is_some() {
-        manifest.files.retain(|name, entry| {
-            let Some(baked) = &entry.baked else { return true };
-            removals.push(name.clone());
-            removals.extend(baked.shader_files.iter().map(|f| f.file.clone()));
-            false
-        });
+        removals.extend(crate::formats::manifest::take_bake(&mut manifest));
     }
     let mut written = Vec::new();
     for mut file in staged {

@@ -8,6 +8,7 @@
 //! model itself, read between the nodes exactly as a GPU filters them ([`errors`]).
 
 pub mod array;
+pub mod config;
 pub mod errors;
 pub mod layout;
 pub mod placement;
@@ -17,7 +18,9 @@ use std::cell::RefCell;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::integrate::Progress;
 use crate::model::{Evaluation, Lookup, Material, Tables};
+pub use config::{BakeConfig, BakeSource};
 pub use errors::{BakedErrors, Worst, baked_errors};
 pub use layout::BakeLayout;
 pub use placement::NodePlacement;
@@ -39,6 +42,22 @@ impl Default for BakeSettings {
     /// model (`the_example_materials_baked_by_default_stay_within_1e_3_of_their_model`).
     fn default() -> Self {
         BakeSettings { nodes: 64, tolerance: 2.5e-4 }
+    }
+}
+
+impl BakeSettings {
+    /// Refuses a node count outside [`NODES`] and a tolerance that is not a positive number.
+    pub fn check(&self) -> Result<()> {
+        if !NODES.contains(&self.nodes) {
+            return Err(Error::invalid(
+                "bake.nodes",
+                format!("{} is not allowed: a bake has {} to {} nodes of mu", self.nodes, NODES.start(), NODES.end()),
+            ));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(Error::invalid("bake.tolerance", format!("{}; allowed: a positive number", self.tolerance)));
+        }
+        Ok(())
     }
 }
 
@@ -80,7 +99,7 @@ impl BakedMaterial {
 /// integrals, or a built folder's tables): its nodes placed ([`placement::place_nodes`]), then
 /// the model evaluated at each, a point the placement has read already not read again. Where
 /// `tables` computes its answers on demand, those the model will ask at a batch of points are
-/// computed ahead, together ([`prepare`]). Refuses a node count outside [`NODES`] and a model that
+/// computed ahead, together ([`prepare`]). Refuses settings [`BakeSettings::check`] refuses and a model that
 /// returns a value that is not finite, naming the material and the view: no NaN enters a baked
 /// texel.
 pub fn bake_material(
@@ -89,13 +108,8 @@ pub fn bake_material(
     tables: &(dyn Tables + Sync),
     settings: &BakeSettings,
 ) -> Result<BakedMaterial> {
+    settings.check()?;
     let nodes = settings.nodes;
-    if !NODES.contains(&nodes) {
-        return Err(Error::invalid(
-            "bake nodes",
-            format!("{nodes} is not allowed: a bake has {} to {} nodes of mu", NODES.start(), NODES.end()),
-        ));
-    }
     // The lobe count is the stack's and the flux model's, the same at every view.
     let layout = BakeLayout { lobes: material.evaluate(1.0, tables).lobes.len() };
     let read = |us: &[f64]| -> Result<Vec<Vec<f64>>> {
@@ -118,14 +132,24 @@ pub fn bake_material(
 }
 
 /// [`bake_material`] for each of `materials` (name, material), side by side on the threads of the
-/// pool, sharing `tables` (exact integrals one material has computed serve another that asks the
-/// same). The first error refuses the whole bake.
-pub fn bake_materials(
+/// pool, material `i` reading `tables_of(i)` (one set of exact integrals for all of them, so that
+/// what one material has computed serves another that asks the same; or each material's own
+/// tables), advancing `progress` by one per material. The first error refuses the whole bake.
+pub fn bake_materials<'t>(
     materials: &[(&str, &Material)],
-    tables: &(dyn Tables + Sync),
+    tables_of: impl Fn(usize) -> &'t (dyn Tables + Sync) + Sync,
     settings: &BakeSettings,
+    progress: &dyn Progress,
 ) -> Result<Vec<BakedMaterial>> {
-    materials.par_iter().map(|&(name, material)| bake_material(name, material, tables, settings)).collect()
+    (0..materials.len())
+        .into_par_iter()
+        .map(|i| {
+            let (name, material) = materials[i];
+            let baked = bake_material(name, material, tables_of(i), settings);
+            progress.advance(1);
+            baked
+        })
+        .collect()
 }
 
 /// The most passes [`prepare`] makes: each computes the lookups the one before made known, as

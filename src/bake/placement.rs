@@ -238,7 +238,7 @@ pub fn place_nodes(
 ) -> Result<NodePlacement> {
     if nodes < MAX_BREAKS + 2 {
         return Err(Error::invalid(
-            "bake nodes",
+            "bake.nodes",
             format!("{nodes} is too few: a bake has at least {}", MAX_BREAKS + 2),
         ));
     }

@@ -190,7 +190,7 @@ fn a_model_that_returns_nan_is_refused_naming_the_material_and_the_view() {
     assert!(e.contains("material `gold`") && e.contains("NaN") && e.contains("mu = 0"), "{e}");
     let settings = BakeSettings { nodes: 1, ..BakeSettings::default() };
     let e = bake_material("gold", &material, &|_: &Lookup| 0.5, &settings).unwrap_err().to_string();
-    assert!(e.contains("bake nodes") && e.contains("9 to 8192"), "{e}");
+    assert!(e.contains("bake.nodes") && e.contains("9 to 8192"), "{e}");
 }
 
 #[test]

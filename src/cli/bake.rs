@@ -5,11 +5,11 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use tmlut::bake::BakeSettings;
+use tmlut::bake::{BakeConfig, BakeSource};
 use tmlut::formats::{FileFormat, Precision};
 use tmlut::loader::shader::{BAKED_DESCRIPTION_SUFFIX, BakedShaderDescription};
 use tmlut::scene::Scene;
-use tmlut::scene::bake_files::{BakeRequest, BakeSource, write_baked};
+use tmlut::scene::bake_files::write_baked;
 use tmlut::scene::library;
 
 use super::{ConfigArg, Context, ThreadsArg, one_of};
@@ -34,37 +34,40 @@ pub struct BakeArgs {
     threads: ThreadsArg,
 }
 
-/// How a bake is made: the options `tmlut bake` and `tmlut build --scene --bake` share.
+/// How a bake is made: the options `tmlut bake` and `tmlut build --scene --bake` share. Each one
+/// given overrides the configuration's `[bake]` key of its name (docs/bake.md); the defaults
+/// below are the section's.
 #[derive(Args, Clone)]
 pub struct BakeOptions {
     /// What the model reads its integrals from: `exact` (quadrature; the bake's error replaces the
-    /// tables') or `tables` (the folder's own, as the scene shader reads them).
-    #[arg(long, value_parser = parse_source, default_value = "exact")]
-    bake_source: BakeSource,
-    /// Nodes of mu per material (9 to 8192).
-    #[arg(long, default_value_t = BakeSettings::default().nodes)]
-    bake_nodes: usize,
+    /// tables') or `tables` (the folder's own, as the scene shader reads them). [default: exact]
+    #[arg(long, value_parser = parse_source)]
+    bake_source: Option<BakeSource>,
+    /// Nodes of mu per material (9 to 8192). [default: 64]
+    #[arg(long)]
+    bake_nodes: Option<usize>,
     /// The interpolation error a kink or a segment's curvature may be estimated to cause before
-    /// nodes are placed on it.
-    #[arg(long, default_value_t = BakeSettings::default().tolerance)]
-    bake_tolerance: f64,
-    /// Comma-separated files of the array: dds, ktx2, exr.
-    #[arg(long, value_delimiter = ',', value_parser = parse_format, default_value = "dds")]
-    bake_formats: Vec<FileFormat>,
-    /// Storage precision of the array: f32 or f16 (f16 adds up to 2.4e-4 near 1).
-    #[arg(long, value_parser = parse_precision, default_value = "f32")]
-    bake_precision: Precision,
+    /// nodes are placed on it. [default: 2.5e-4]
+    #[arg(long)]
+    bake_tolerance: Option<f64>,
+    /// Comma-separated files of the array: dds, ktx2, exr. [default: dds]
+    #[arg(long, value_delimiter = ',', value_parser = parse_format)]
+    bake_formats: Option<Vec<FileFormat>>,
+    /// Storage precision of the array: f32 or f16 (f16 adds up to 2.4e-4 near 1). [default: f32]
+    #[arg(long, value_parser = parse_precision)]
+    bake_precision: Option<Precision>,
 }
 
 impl BakeOptions {
-    fn request(&self) -> BakeRequest {
-        BakeRequest {
-            settings: BakeSettings { nodes: self.bake_nodes, tolerance: self.bake_tolerance },
-            source: self.bake_source,
-            formats: self.bake_formats.clone(),
-            precision: self.bake_precision,
-            ..BakeRequest::default()
-        }
+    /// `section` with every option given in its place.
+    fn over(&self, section: &BakeConfig) -> BakeConfig {
+        let mut bake = section.clone();
+        bake.source = self.bake_source.unwrap_or(bake.source);
+        bake.nodes = self.bake_nodes.unwrap_or(bake.nodes);
+        bake.tolerance = self.bake_tolerance.unwrap_or(bake.tolerance);
+        bake.formats = self.bake_formats.clone().unwrap_or(bake.formats);
+        bake.precision = self.bake_precision.unwrap_or(bake.precision);
+        bake
     }
 }
 
@@ -96,7 +99,7 @@ pub fn bake_and_report(
     options: &BakeOptions,
     context: &Context,
 ) -> tmlut::Result<()> {
-    let written = write_baked(scene, luts, config, &options.request(), &context.progress())?;
+    let written = write_baked(scene, luts, config, &options.over(&config.bake), &context.progress())?;
     for file in &written {
         println!("{}", file.path.display());
     }

@@ -26,6 +26,20 @@ pub fn write_manifest(manifest: &Manifest, dir: &Path) -> Result<()> {
     write_bytes_atomically(&dir.join(MANIFEST_FILE), text.as_bytes())
 }
 
+/// Takes every baked array's entry out of `manifest` and returns the files that leave with them:
+/// the arrays and their baked shader's files. A bake is replaced whole or not at all, so whoever
+/// writes a new one (or changes what the old one was baked from) removes all of these together.
+pub fn take_bake(manifest: &mut Manifest) -> Vec<String> {
+    let mut leaving = Vec::new();
+    manifest.files.retain(|name, entry| {
+        let Some(baked) = &entry.baked else { return true };
+        leaving.push(name.clone());
+        leaving.extend(baked.shader_files.iter().map(|f| f.file.clone()));
+        false
+    });
+    leaving
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -50,6 +50,10 @@ const MAX_PANEL_WIDTH: f64 = 0.4;
 /// The widest inner (`phi`) panel, in radians.
 const MAX_INNER_PANEL_WIDTH: f64 = 0.8;
 
+/// Gauss–Legendre nodes per panel of the exact integrals by default (`docs/furnace.md`,
+/// "Libraries", measures what more would change).
+pub const DEFAULT_NODES: usize = 8;
+
 /// The fewest and most Gauss–Legendre nodes per panel a rule accepts.
 pub const NODES: std::ops::RangeInclusive<usize> = 2..=64;
 

@@ -133,11 +133,13 @@ macro_rules! table_registry {
             /// Seed of every Monte Carlo estimate: the same configuration and seed give bit-identical files.
             pub seed: u64,
             $(pub $section: $settings,)+
+            /// How `tmlut bake` and `build --scene --bake` bake a scene's materials: no table's.
+            pub bake: crate::bake::BakeConfig,
         }
 
         impl Default for Config {
             fn default() -> Self {
-                Config { seed: DEFAULT_SEED, $($section: <$settings>::default(),)+ }
+                Config { seed: DEFAULT_SEED, $($section: <$settings>::default(),)+ bake: Default::default() }
             }
         }
 

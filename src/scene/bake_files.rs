@@ -13,20 +13,20 @@ use super::Scene;
 use super::shader_files::shader_materials;
 use crate::bake::array::{arrange, array_entry, baked_table, material_entry};
 use crate::bake::errors::{error_views, reading_errors};
-use crate::bake::{BakeSettings, BakedMaterial, bake_material};
+use crate::bake::{BakeConfig, BakeSource, BakedMaterial, bake_materials};
 use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::exact::ExactTables;
 use crate::filter::Filter;
+use crate::formats::FileFormat;
 use crate::formats::baked::{BakedErrors, BakedMaterialEntry, sample_array};
 use crate::formats::manifest::{LeftOutRecord, MANIFEST_FILE, Manifest, SceneShaderFile, write_manifest};
-use crate::formats::{FileFormat, Precision};
 use crate::integrate::Progress;
 use crate::loader::LutFolder;
 use crate::loader::shader::BAKED_DESCRIPTION_SUFFIX;
+use crate::model::Material;
 use crate::model::folder::{FgdSource, LibraryTables};
-use crate::model::{Material, Tables};
 use crate::pipeline::{WrittenFile, write_table_file};
 use crate::recipes::driver::{Metadata, Provenance, SamplingRecord, TableBuild};
 use crate::stats::{ErrorRecord, ErrorSummary};
@@ -41,51 +41,6 @@ pub const ERROR_VIEWS_PER_INTERVAL: usize = 2;
 /// The filter the errors are read through: a GPU's, with 8-bit filter weights.
 const GPU_FILTER: Filter = Filter::QuantisedWeights { bits: 8 };
 
-/// What the model reads its integrals from while a material is baked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum BakeSource {
-    /// Exact integrals (Gauss–Legendre quadrature): the bake's error replaces the tables'.
-    #[default]
-    Exact,
-    /// The folder's own tables, as the scene shader reads them.
-    Tables,
-}
-
-impl BakeSource {
-    /// Its name as the command line spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            BakeSource::Exact => "exact",
-            BakeSource::Tables => "tables",
-        }
-    }
-}
-
-/// How a scene is baked.
-#[derive(Debug, Clone)]
-pub struct BakeRequest {
-    pub settings: BakeSettings,
-    pub source: BakeSource,
-    /// The files the array is written as (DDS, KTX2, EXR).
-    pub formats: Vec<FileFormat>,
-    pub precision: Precision,
-    /// Gauss–Legendre nodes per panel of the exact integrals (the bake's, where its source is
-    /// exact, and its errors' always).
-    pub exact_nodes: usize,
-}
-
-impl Default for BakeRequest {
-    fn default() -> Self {
-        BakeRequest {
-            settings: BakeSettings::default(),
-            source: BakeSource::Exact,
-            formats: vec![FileFormat::Dds],
-            precision: Precision::F32,
-            exact_nodes: crate::exact::DEFAULT_NODES,
-        }
-    }
-}
-
 /// Bake the materials of `scene` into `luts`, the folder built for it, and commit the array's
 /// files with the folder's manifest (replacing an earlier bake). Refused where the folder was
 /// built for another scene, and where a material's model returns a value that is not finite.
@@ -94,10 +49,10 @@ pub fn write_baked(
     scene: &Scene,
     luts: &Path,
     config: &Config,
-    request: &BakeRequest,
+    request: &BakeConfig,
     progress: &dyn Progress,
 ) -> Result<Vec<WrittenFile>> {
-    check_request(request)?;
+    request.validate()?;
     let folder_lock = OutputFolder::take(luts, |holder| progress.note(&format!("waiting for {holder}")))?;
     let folder = LutFolder::open(luts)?;
     check_scene(&folder, scene)?;
@@ -106,17 +61,18 @@ pub fn write_baked(
         .iter()
         .map(|&i| Ok(Material::new(scene.materials[i].model, scene.materials[i].stack()?)))
         .collect::<Result<_>>()?;
-    let names: Vec<&str> = kept.iter().map(|&i| scene.materials[i].name.as_str()).collect();
+    let named: Vec<(&str, &Material)> =
+        kept.iter().zip(&materials).map(|(&i, material)| (scene.materials[i].name.as_str(), material)).collect();
     let exact = ExactTables::new(config, request.exact_nodes)?;
     let started = Instant::now();
     progress.start("bake", materials.len() as u64);
     let baked = match request.source {
-        BakeSource::Exact => bake_all(&names, &materials, |_| &exact, &request.settings, progress)?,
+        BakeSource::Exact => bake_materials(&named, |_| &exact, &request.settings(), progress)?,
         BakeSource::Tables => {
             let shader_materials = shader_materials(scene)?;
             let library = LibraryTables::open(&folder, FgdSource::Packing, shader_materials.iter().map(|m| m.reads()))?;
-            let baked = bake_all(&names, &materials, |i| library.of(kept[i]), &request.settings, progress)?;
-            for (&index, name) in kept.iter().zip(&names) {
+            let baked = bake_materials(&named, |i| library.of(kept[i]), &request.settings(), progress)?;
+            for (&index, (name, _)) in kept.iter().zip(&named) {
                 let (misses, _) = library.of(index).take_counts();
                 if misses.count > 0 {
                     return Err(Error::invalid(
@@ -148,8 +104,7 @@ pub fn write_baked(
         let stored = crate::loader::load_verified(&file.path, &file.entry)?;
         let entries = measured_entries(&baked, &materials, &arrangement.places, &stored, &exact);
         let source = source_words(request, &exact);
-        let mut entry =
-            array_entry(&scene.name, &source, request.settings.tolerance, baked[0].nodes(), &arrangement, entries);
+        let mut entry = array_entry(&scene.name, &source, request.tolerance, baked[0].nodes(), &arrangement, entries);
         entry.left_out = left_out.clone();
         file.entry.baked = Some(entry);
         written.push(file);
@@ -162,13 +117,7 @@ pub fn write_baked(
         file.entry.seal();
     }
     // An earlier bake leaves with its files: the new array replaces it whole.
-    let mut removals = Vec::new();
-    manifest.files.retain(|name, entry| {
-        let Some(earlier) = &entry.baked else { return true };
-        removals.push(name.clone());
-        removals.extend(earlier.shader_files.iter().map(|f| f.file.clone()));
-        false
-    });
+    let mut removals = crate::formats::manifest::take_bake(&mut manifest);
     let mut moves = Vec::new();
     for file in &written {
         let name = file_name(&file.path);
@@ -261,35 +210,6 @@ fn bakeable(scene: &Scene) -> Result<(Vec<usize>, Vec<LeftOutRecord>)> {
     Ok((kept, left_out))
 }
 
-/// Refuse settings no bake could use, before any work.
-fn check_request(request: &BakeRequest) -> Result<()> {
-    if request.formats.is_empty() || request.formats.contains(&FileFormat::Bin) {
-        return Err(Error::invalid(
-            "bake formats",
-            format!(
-                "{:?}; allowed: one or more of dds, ktx2, exr (a baked array is RGBA: .bin holds one channel)",
-                request.formats
-            ),
-        ));
-    }
-    if !crate::bake::NODES.contains(&request.settings.nodes) {
-        return Err(Error::invalid(
-            "bake nodes",
-            format!(
-                "{} is not allowed: a bake has {} to {} nodes of mu",
-                request.settings.nodes,
-                crate::bake::NODES.start(),
-                crate::bake::NODES.end()
-            ),
-        ));
-    }
-    let tolerance = request.settings.tolerance;
-    if !(tolerance.is_finite() && tolerance > 0.0) {
-        return Err(Error::invalid("bake tolerance", format!("{tolerance}; allowed: a positive number")));
-    }
-    Ok(())
-}
-
 /// Refuse a folder built for another scene (or for none): its tables, and the plan its manifest
 /// records, are not this scene's.
 fn check_scene(folder: &LutFolder, scene: &Scene) -> Result<()> {
@@ -307,24 +227,6 @@ fn check_scene(folder: &LutFolder, scene: &Scene) -> Result<()> {
             format!("was built for no scene; build scene `{}` into it first (tmlut build --scene)", scene.name),
         )),
     }
-}
-
-/// Every material baked, materials side by side, each with the tables `tables_of` gives its index.
-fn bake_all<'t>(
-    names: &[&str],
-    materials: &[Material],
-    tables_of: impl Fn(usize) -> &'t (dyn Tables + Sync) + Sync,
-    settings: &BakeSettings,
-    progress: &dyn Progress,
-) -> Result<Vec<BakedMaterial>> {
-    (0..materials.len())
-        .into_par_iter()
-        .map(|i| {
-            let baked = bake_material(names[i], &materials[i], tables_of(i), settings);
-            progress.advance(1);
-            baked
-        })
-        .collect()
 }
 
 /// Each material's entry, its error measured on `stored` (the array as written, read back) read
@@ -360,7 +262,7 @@ fn measured_entries(
 }
 
 /// The integral source in words, for the manifest.
-fn source_words(request: &BakeRequest, exact: &ExactTables) -> String {
+fn source_words(request: &BakeConfig, exact: &ExactTables) -> String {
     match request.source {
         BakeSource::Exact => format!("exact integrals ({} Gauss–Legendre nodes per panel)", exact.nodes()),
         BakeSource::Tables => "the folder's tables, read as the scene shader reads them".into(),
@@ -368,7 +270,7 @@ fn source_words(request: &BakeRequest, exact: &ExactTables) -> String {
 }
 
 /// How the array was made, for its manifest entry.
-fn provenance(request: &BakeRequest, exact: &ExactTables, wall_time_s: f64) -> Provenance {
+fn provenance(request: &BakeConfig, exact: &ExactTables, wall_time_s: f64) -> Provenance {
     Provenance {
         metadata: Metadata {
             integrand: "each material's transfer-matrix result TmResult(mu) (albedo, top albedo, and per lobe energy, \

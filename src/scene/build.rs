@@ -74,10 +74,12 @@ impl SceneBuildRequest {
     /// The SHA-256 of the scenes as parsed and as written, `config` with its seed, `options` (what
     /// of the request's options the key covers), the cache format and the version.
     fn key_with(&self, config: &Config, options: String) -> String {
+        // A bake comes after the tables and is made again whole: its settings decide none of them.
+        let config = Config { bake: Default::default(), ..config.clone() };
         let scene = format!("{:?}", self.scene);
         let source = self.source.display().to_string();
         let fields =
-            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, config, options);
+            (super::cache::CACHE_FORMAT, env!("CARGO_PKG_VERSION"), scene, source, &self.text, &config, options);
         sha256_hex(&serde_json::to_vec(&fields).expect("plain data"))
     }
 }

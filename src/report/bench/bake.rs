@@ -87,7 +87,7 @@ pub fn bench_bake(config: &Config, settings: &BakeBenchSettings, progress: &dyn 
     progress.finish();
     let exact = ExactTables::new(config, settings.exact_nodes)?;
     let named: Vec<(&str, &Material)> = materials.iter().map(|(name, m)| (name.as_str(), m)).collect();
-    let (all_seconds, baked) = timed(|| bake_materials(&named, &exact, &settings.bake));
+    let (all_seconds, baked) = timed(|| bake_materials(&named, |_| &exact, &settings.bake, &()));
     let baked = baked?;
     progress.start("errors of the baked materials", materials.len() as u64);
     let figures = baked

@@ -106,22 +106,31 @@ fn bake_refuses_a_folder_built_for_another_scene_and_bad_options() {
     let other = tmlut(&["bake", &scene_path("textured"), "--luts", luts_arg]);
     assert_clean_failure(&other, &["was built for scene `copper-pot`", "textured"]);
     let nodes = tmlut(&["bake", &scene_path("copper-pot"), "--luts", luts_arg, "--bake-nodes", "3"]);
-    assert_clean_failure(&nodes, &["bake nodes", "9 to 8192"]);
+    assert_clean_failure(&nodes, &["bake.nodes", "9 to 8192"]);
     let format = tmlut(&["bake", &scene_path("copper-pot"), "--luts", luts_arg, "--bake-formats", "bin"]);
     assert!(!format.status.success());
     assert!(super::stderr(&format).contains("allowed: dds, ktx2, exr"), "{}", super::stderr(&format));
     assert!(!luts.join("baked.dds").exists(), "nothing written by a refused bake");
 
-    // From the folder's own tables, in two containers at f16: one bake, listed twice.
+    // The configuration's [bake] section names its keys as any section does.
+    let misspelt = dir.path().join("misspelt.toml");
+    std::fs::write(&misspelt, "[bake]\nnode = 64\n").unwrap();
+    let refused =
+        tmlut(&["bake", &scene_path("copper-pot"), "--luts", luts_arg, "--config", misspelt.to_str().unwrap()]);
+    assert_clean_failure(&refused, &["unknown key `bake.node`", "nodes, "]);
+
+    // From the folder's own tables, in two containers at f16: one bake, listed twice. The source
+    // and the containers come from the [bake] section, the precision from the option over it.
+    let section = dir.path().join("bake.toml");
+    std::fs::write(&section, "[bake]\nsource = \"tables\"\nformats = [\"dds\", \"ktx2\"]\nprecision = \"f32\"\n")
+        .unwrap();
     let from_tables = tmlut(&[
         "bake",
         &scene_path("copper-pot"),
         "--luts",
         luts_arg,
-        "--bake-source",
-        "tables",
-        "--bake-formats",
-        "dds,ktx2",
+        "--config",
+        section.to_str().unwrap(),
         "--bake-precision",
         "f16",
         "--quiet",
@@ -129,6 +138,9 @@ fn bake_refuses_a_folder_built_for_another_scene_and_bad_options() {
     assert!(from_tables.status.success(), "{}", super::stderr(&from_tables));
     assert!(stdout(&from_tables).contains("from the folder's tables"), "{}", stdout(&from_tables));
     let manifest = tmlut::formats::manifest::Manifest::read(&luts.join("manifest.json")).unwrap();
+    for file in ["baked.dds", "baked.ktx2"] {
+        assert_eq!(manifest.entry(file).unwrap().precision, tmlut::formats::Precision::F16, "{file}");
+    }
     let [dds, ktx2] = ["baked.dds", "baked.ktx2"].map(|f| manifest.entry(f).unwrap().baked.clone().unwrap());
     assert_eq!(dds.materials.len(), 1);
     assert_eq!(dds.materials[0].segments, ktx2.materials[0].segments, "one placement in both files");
