@@ -6,7 +6,7 @@
 //! texture from the loader's texel bytes and descriptor, and one compute pass from an f32 input
 //! array to an f32 output array.
 
-use tmlut::loader::{TextureData, TextureDimension, TextureFormat};
+use tmlut::loader::{DeviceLimits, TextureBinding, TextureData, TextureDimension, TextureFormat};
 
 pub struct Gpu {
     pub device: wgpu::Device,
@@ -83,6 +83,17 @@ pub fn exit_code(example: &str, result: Result<bool, Box<dyn std::error::Error>>
     }
 }
 
+/// What `limits` grant, as a shader description names the limits it needs.
+fn device_limits(limits: &wgpu::Limits) -> DeviceLimits {
+    DeviceLimits {
+        max_sampled_textures_per_shader_stage: limits.max_sampled_textures_per_shader_stage,
+        max_samplers_per_shader_stage: limits.max_samplers_per_shader_stage,
+        max_texture_array_layers: limits.max_texture_array_layers,
+        max_texture_dimension_2d: limits.max_texture_dimension_2d,
+        max_texture_dimension_3d: limits.max_texture_dimension_3d,
+    }
+}
+
 /// A texture or a sampler bound in group 0 at `binding`.
 pub struct Bound {
     pub binding: u32,
@@ -98,18 +109,41 @@ pub enum Resource {
 
 impl Gpu {
     /// A device on the first adapter wgpu finds: the machine's GPU, or a software one (Mesa's
-    /// lavapipe) where there is none. No window, no surface.
+    /// lavapipe) where there is none. No window, no surface. WebGPU's default limits.
     pub fn new() -> Result<Gpu, String> {
+        Self::with_limits(&DeviceLimits::WEBGPU_DEFAULTS)
+    }
+
+    /// A device granting at least `needed` (a shader description's `limits`) and WebGPU's
+    /// defaults, as a renderer asks for them; refused, naming the limit, where the adapter has less.
+    pub fn with_limits(needed: &DeviceLimits) -> Result<Gpu, String> {
         let instance = wgpu::Instance::new(&wgpu::InstanceDescriptor::from_env_or_default());
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
             .map_err(|e| format!("no GPU adapter (install a Vulkan driver, e.g. mesa-vulkan-drivers): {e}"))?;
         let info = adapter.get_info();
         let float32_filterable = adapter.features().contains(wgpu::Features::FLOAT32_FILTERABLE);
+        let beyond = needed.beyond(&device_limits(&adapter.limits()));
+        if !beyond.is_empty() {
+            let named: Vec<String> =
+                beyond.iter().map(|(name, need, has)| format!("{name} {need} (the adapter has {has})")).collect();
+            return Err(format!("{}: the shader needs {}", info.name, named.join(", ")));
+        }
+        let mut required_limits = wgpu::Limits::default();
+        for (limit, need) in [
+            (&mut required_limits.max_sampled_textures_per_shader_stage, needed.max_sampled_textures_per_shader_stage),
+            (&mut required_limits.max_samplers_per_shader_stage, needed.max_samplers_per_shader_stage),
+            (&mut required_limits.max_texture_array_layers, needed.max_texture_array_layers),
+            (&mut required_limits.max_texture_dimension_2d, needed.max_texture_dimension_2d),
+            (&mut required_limits.max_texture_dimension_3d, needed.max_texture_dimension_3d),
+        ] {
+            *limit = (*limit).max(need);
+        }
         let descriptor = wgpu::DeviceDescriptor {
             required_features: match float32_filterable {
                 true => wgpu::Features::FLOAT32_FILTERABLE,
                 false => wgpu::Features::empty(),
             },
+            required_limits,
             ..Default::default()
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
@@ -120,16 +154,22 @@ impl Gpu {
     /// A texture holding a table, created and filled from the loader's descriptor, whose fields
     /// are named as wgpu names them (docs/loader.md). Bound at `binding` of group 0.
     pub fn upload(&self, binding: u32, data: &TextureData) -> Result<Bound, String> {
-        self.upload_as(binding, data, false)
+        self.upload_as(binding, data, false, false)
     }
 
     /// A texture array holding a table of three axes, its third the layers, bound at `binding` of
     /// group 0 to be filtered by a sampler.
     pub fn upload_array(&self, binding: u32, data: &TextureData) -> Result<Bound, String> {
-        self.upload_as(binding, data, true)
+        self.upload_as(binding, data, true, true)
     }
 
-    fn upload_as(&self, binding: u32, data: &TextureData, layered: bool) -> Result<Bound, String> {
+    /// A table's texture as a scene shader's description binds it: at its binding, an array of
+    /// 2D textures where it is `layered`, its texels loaded rather than filtered.
+    pub fn upload_bound(&self, bound: &TextureBinding, data: &TextureData) -> Result<Bound, String> {
+        self.upload_as(bound.binding, data, bound.layered, false)
+    }
+
+    fn upload_as(&self, binding: u32, data: &TextureData, layered: bool, filterable: bool) -> Result<Bound, String> {
         let d = data.descriptor();
         let size = wgpu::Extent3d { width: d.width, height: d.height, depth_or_array_layers: d.depth_or_layers };
         let (dimension, view_dimension) = match (layered, d.dimension) {
@@ -160,7 +200,7 @@ impl Gpu {
         );
         let view =
             texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(view_dimension), ..Default::default() });
-        Ok(Bound { binding, resource: Resource::Texture { view, dimension: view_dimension, filterable: layered } })
+        Ok(Bound { binding, resource: Resource::Texture { view, dimension: view_dimension, filterable } })
     }
 
     /// A sampler of linear magnification and minification and clamp-to-edge addressing (the

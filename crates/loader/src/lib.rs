@@ -41,7 +41,7 @@ pub mod table;
 
 pub use error::{Error, Result};
 pub use loader::{
-    Alpha, BakedLut, BelcourLut, FgdLut, FgdRarerLut, GdLut, InMemory, KarisLut, LutFolder, LutSource,
+    Alpha, BakedLut, BelcourLut, DeviceLimits, FgdLut, FgdRarerLut, GdLut, InMemory, KarisLut, LutFolder, LutSource,
     MaterialFunction, OnDisk, Roughness, SceneShaderFiles, ShaderDescription, TextureBinding, TextureData,
     TextureDescriptor, TextureDimension, TextureFormat, TirLut,
 };

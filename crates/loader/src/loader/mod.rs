@@ -35,7 +35,7 @@ pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Ta
 pub use baked::BakedLut;
 pub use handles::{BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, TirLut};
 pub use roughness::{Alpha, Roughness};
-pub use shader::{MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
+pub use shader::{DeviceLimits, MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
 pub use source::{InMemory, LutSource, OnDisk};
 pub use texture::{
     Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,
