@@ -206,8 +206,8 @@ pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut
 /// not (the tables are built either way).
 fn write_scene_shader(scene: &Scene, out: &std::path::Path, max_textures: usize) {
     match tmlut::scene::shader_files::write_scene_shader(scene, out, out, 0, max_textures) {
-        Ok(paths) => {
-            for path in paths {
+        Ok(written) => {
+            for path in written.files {
                 println!("{}", path.display());
             }
         }

@@ -51,17 +51,9 @@ pub fn exec(args: ShaderArgs, _: &Context) -> tmlut::Result<()> {
         args.reference_views,
         args.max_textures,
     )?;
-    for path in &written {
+    for path in &written.files {
         println!("{}", path.display());
     }
-    // What each material costs, as the description just written states it.
-    if let Some(json) =
-        written.iter().find(|p| p.to_string_lossy().ends_with(tmlut::loader::shader::DESCRIPTION_SUFFIX))
-    {
-        let bytes = std::fs::read(json).map_err(|source| tmlut::Error::io(json, source))?;
-        let description: tmlut::loader::ShaderDescription = serde_json::from_slice(&bytes)
-            .map_err(|e| tmlut::Error::format(json, format!("not a scene shader description: {e}")))?;
-        print!("{}", tmlut::scene::shader_files::cost_summary(&description.materials));
-    }
+    print!("{}", tmlut::scene::shader_files::cost_summary(&written.materials));
     Ok(())
 }

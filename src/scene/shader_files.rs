@@ -136,7 +136,7 @@ pub fn write_scene_shader(
     out: &Path,
     reference_views: usize,
     max_textures: usize,
-) -> Result<Vec<PathBuf>> {
+) -> Result<WrittenShader> {
     check_reference_views(reference_views, scene.materials.len())?;
     super::memory::check(
         &format!("scene `{}`", scene.name),
@@ -203,8 +203,8 @@ pub fn write_scene_shader(
         );
         files.push((format!("{stem}.reference.json"), what, json(&points)));
     }
-    if same_folder(luts, out) {
-        commit_with_manifest(&folder_lock, scene, files)
+    let files = if same_folder(luts, out) {
+        commit_with_manifest(&folder_lock, scene, files)?
     } else {
         // Committed as one set, `.shader.json` (which describes the others) last: a failed or
         // killed run leaves the earlier set, or a journal the next run completes, never a new
@@ -220,8 +220,17 @@ pub fn write_scene_shader(
             written.push(out.join(file));
         }
         crate::commit::commit_set(&folder_lock, &mut staging, moves, Vec::new(), &last)?;
-        Ok(written)
-    }
+        written
+    };
+    Ok(WrittenShader { files, materials: shader.materials })
+}
+
+/// What [`write_scene_shader`] wrote: its files, and each material's function as its
+/// `.shader.json` describes it (what it costs among it).
+#[derive(Debug)]
+pub struct WrittenShader {
+    pub files: Vec<PathBuf>,
+    pub materials: Vec<crate::loader::MaterialFunction>,
 }
 
 /// Most materials [`cost_summary`] lists one by one.
