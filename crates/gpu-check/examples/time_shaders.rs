@@ -248,7 +248,7 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     );
     let timer = Timer::new(&gpu);
     println!(
-        "timed: {}; median of {} dispatches per material and shader after one warm-up, the shaders alternating",
+        "timed: {}; the median of --runs {} per material and shader after one warm-up, the shaders alternating",
         match &timer.timestamps {
             Some(_) =>
                 "timestamp queries at the start and end of each compute pass (GPU ms), and the wall clock \
@@ -480,7 +480,7 @@ fn table(timed: &[Timed]) -> String {
     for (model, materials) in by_model {
         let [scene, baked] = [0, 1].map(|k| Time::sum(materials.iter().map(|t| t.times[k])));
         text += &format!(
-            "| the {} {model} materials, summed | {model} | | | | {scene} | {baked} | {:.1} |\n",
+            "| {model} materials summed ({}) | {model} | | | | {scene} | {baked} | {:.1} |\n",
             materials.len(),
             scene.compared() / baked.compared()
         );
