@@ -231,7 +231,7 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
         // A material binds only the tables its function reads, as a renderer's pipeline of it would.
         let mut tables = Vec::new();
         for t in scene_shader.description.textures.iter().filter(|t| m.textures.contains(&t.binding)) {
-            tables.push(gpu.upload(t.binding, &luts.texture(&t.file)?)?);
+            tables.push(gpu.upload_bound(t, &luts.texture(&t.file)?)?);
         }
         let (layout, textures) = gpu.texture_group(&tables);
         let scene = Dispatch {
