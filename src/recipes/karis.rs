@@ -196,41 +196,6 @@ mod tests {
         }
     }
 
-    /// Karis's own estimator (2013, p. 7): normals drawn from `D(h) h.z`, weight
-    /// `G (v.h) / ((n.h)(n.v))`, pseudo-random points. Independent of the visible-normal path.
-    fn karis_importance_sampled(mu: f64, alpha: f64, samples: u32) -> [f64; 2] {
-        use crate::physics::reflect;
-        use glam::DVec3;
-        let v = crate::physics::direction_from_cosine(mu);
-        let mut state = 0x853c_49e6_748f_ea9b_u64;
-        let mut uniform = || {
-            // xorshift64*: enough for a test, and unrelated to the Sobol points of the table.
-            state ^= state >> 12;
-            state ^= state << 25;
-            state ^= state >> 27;
-            (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let (mut scale, mut bias) = (0.0, 0.0);
-        for _ in 0..samples {
-            let (u1, u2) = (uniform(), uniform());
-            let cos_h = ((1.0 - u1) / (1.0 + (alpha * alpha - 1.0) * u1)).sqrt();
-            let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
-            let phi = 2.0 * std::f64::consts::PI * u2;
-            let h = DVec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
-            let l = reflect(v, h);
-            let v_h = v.dot(h);
-            if l.z <= 0.0 || v_h <= 0.0 {
-                continue;
-            }
-            let g = MaskingShadowing::SchlickSmith.g2(v, l, alpha);
-            let weight = g * v_h / (h.z * v.z);
-            let fc = schlick_weight(v_h);
-            scale += (1.0 - fc) * weight;
-            bias += fc * weight;
-        }
-        [scale / samples as f64, bias / samples as f64]
-    }
-
     #[test]
     fn agrees_with_karis_own_estimator() {
         let build = small_settings().build(7, &()).unwrap();
@@ -239,7 +204,12 @@ mod tests {
         assert!(stats.min >= 0.0 && stats.max <= 1.0, "{stats:?}");
         for index in [[0, 0], [15, 0], [7, 7], [3, 12], [12, 3], [15, 15]] {
             let position = build.table.node_position(&index);
-            let expected = karis_importance_sampled(position[0], position[1], 1 << 20);
+            let expected = crate::recipes::test_estimators::d_importance_sampled(
+                MaskingShadowing::SchlickSmith,
+                position[0],
+                position[1],
+                1 << 20,
+            );
             let stored = build.table.node(&index);
             for c in 0..2 {
                 assert!(

@@ -90,17 +90,43 @@ macro_rules! table_recipe_accessors {
     };
 }
 
+/// The kernel of a table of the GGX albedo without Fresnel, `E[G2 / G1(wi)]` over `(mu, alpha)`
+/// with the settings' `masking` and `method`: GD and Kulla & Conty's E (`ggx_e`) integrate the same
+/// integral ([`gd::albedo`], [`gd::exact_albedo`]). Used inside `impl Kernel for ...Settings`.
+macro_rules! albedo_kernel {
+    () => {
+        fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
+            let estimates = super::fill_mu_alpha_nodes(table, progress, |_, mu, alpha| {
+                super::gd::albedo(self.masking, self.method, points, mu, alpha)
+            });
+            Ok(Integrated::of(&estimates))
+        }
+
+        fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+            super::gd::albedo(self.masking, Method::PerCell, points, position[0], position[1])
+        }
+
+        fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+            vec![super::gd::exact_albedo(quadrature, self.masking, position[0], position[1])]
+        }
+    };
+}
+
 pub mod belcour;
 pub mod driver;
 pub mod fgd;
 pub mod fgd_rarer;
 pub mod gd;
+pub mod ggx_e;
+pub mod ggx_e_avg;
 pub mod interpolation;
 pub mod karis;
 pub mod settings;
 pub mod slices;
 pub mod spacing;
 pub mod split_sum;
+#[cfg(test)]
+pub(crate) mod test_estimators;
 pub mod tir;
 
 pub use crate::integrate::Method;
@@ -203,6 +229,8 @@ table_registry! {
     belcour: Belcour => belcour::BelcourSettings,
     karis: Karis => karis::KarisSettings,
     fgd_rarer: FgdRarer => fgd_rarer::FgdRarerSettings,
+    ggx_e: GgxE => ggx_e::GgxESettings,
+    ggx_e_avg: GgxEAvg => ggx_e_avg::GgxEAvgSettings,
 }
 
 /// The seed of a configuration that names none.
@@ -234,6 +262,11 @@ pub trait TableRecipe: Kernel {
     fn name(&self) -> &'static str;
     /// One line for `tmlut list`.
     fn description(&self) -> &'static str;
+    /// Whether a build that names no tables makes this one: every table of the default set does;
+    /// an engine's table only where its `build` key is `always` ([`settings::BuildWhen`]).
+    fn built_unnamed(&self) -> bool {
+        true
+    }
     /// Files written beside the table's own: none unless a table's settings ask for some.
     fn companions(&self) -> Companions {
         Companions::default()

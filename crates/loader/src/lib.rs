@@ -41,8 +41,8 @@ pub mod table;
 
 pub use error::{Error, Result};
 pub use loader::{
-    Alpha, BakedLut, BelcourLut, FgdLut, FgdRarerLut, GdLut, InMemory, KarisLut, LutFolder, LutSource,
-    MaterialFunction, OnDisk, Roughness, SceneShaderFiles, ShaderDescription, TextureBinding, TextureData,
+    Alpha, BakedLut, BelcourLut, FgdLut, FgdRarerLut, GdLut, GgxEAvgLut, GgxELut, InMemory, KarisLut, LutFolder,
+    LutSource, MaterialFunction, OnDisk, Roughness, SceneShaderFiles, ShaderDescription, TextureBinding, TextureData,
     TextureDescriptor, TextureDimension, TextureFormat, TirLut,
 };
 pub use table::{Axis, Channel, Mapping, Placement, Table};
