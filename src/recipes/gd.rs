@@ -81,7 +81,7 @@ impl GdSettings {
 
 /// The integrand of GD, of Kulla & Conty's `E` (`ggx_e`: the same integral) and of its average
 /// (`ggx_e_avg`): no Fresnel, `f(wi.h) = 1`.
-fn without_fresnel(_cos_wi_h: f64) -> [f64; 1] {
+pub(crate) fn without_fresnel(_cos_wi_h: f64) -> [f64; 1] {
     [1.0]
 }
 
@@ -139,7 +139,7 @@ impl Kernel for GdSettings {
         }
     }
 
-    albedo_kernel!();
+    cosine_function_kernel!(without_fresnel);
 }
 
 #[cfg(test)]

@@ -129,7 +129,7 @@ impl Kernel for GgxESettings {
         }
     }
 
-    albedo_kernel!();
+    cosine_function_kernel!(super::gd::without_fresnel);
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, SamplingConfig, SharedSettings};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
-use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
+use super::{Integrated, Kernel, Metadata, TableRecipe};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision, SumRounding};
 use crate::integrate::quadrature::VisibleNormalQuadrature;
@@ -97,6 +97,15 @@ fn split_sum_weights(c: f64) -> [f64; 2] {
     [1.0 - fc, fc]
 }
 
+/// What the manifest says of Unreal Engine 4's masking, where a split-sum table takes it.
+pub(crate) fn schlick_smith_note(masking: MaskingShadowing) -> Option<String> {
+    (masking == MaskingShadowing::SchlickSmith).then(|| {
+        "Masking `schlick-smith`: G1(w) = w.z / (w.z (1 - k) + k) with k = alpha / 2, as Unreal Engine 4's \
+         image-based lighting (Karis 2013, eq. 4); G2 is G1(v) G1(l)."
+            .into()
+    })
+}
+
 impl TableRecipe for KarisSettings {
     table_recipe_accessors!();
 }
@@ -114,13 +123,7 @@ impl Kernel for KarisSettings {
 
     fn metadata(&self) -> Metadata {
         let mut notes = vec!["Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string()];
-        if self.masking == MaskingShadowing::SchlickSmith {
-            notes.push(
-                "Masking `schlick-smith`: G1(w) = w.z / (w.z (1 - k) + k) with k = alpha / 2, as Unreal Engine 4's \
-                 image-based lighting (Karis 2013, eq. 4); G2 is G1(v) G1(l)."
-                    .into(),
-            );
-        }
+        notes.extend(schlick_smith_note(self.masking));
         notes.extend(self.layout_notes());
         Metadata {
             integrand: "scale = E_{h~VNDF(v)}[(1 - (1 - v.h)^5) G2(v,l) / G1(v)], bias = E_{h~VNDF(v)}[(1 - v.h)^5 G2(v,l) / G1(v)], l = reflect(v, h)".into(),
@@ -132,20 +135,7 @@ impl Kernel for KarisSettings {
         }
     }
 
-    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
-        let estimates = fill_mu_alpha_nodes(table, progress, |_, mu, alpha| {
-            split_sum_terms(self.masking, self.method, points, mu, alpha)
-        });
-        Ok(Integrated::of(&estimates))
-    }
-
-    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        split_sum_terms(self.masking, Method::PerCell, points, position[0], position[1])
-    }
-
-    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
-        quadrature.cosine_functions(position[0], position[1], self.masking, &[], split_sum_weights).to_vec()
-    }
+    cosine_function_kernel!(split_sum_weights);
 }
 
 #[cfg(test)]

@@ -90,24 +90,27 @@ macro_rules! table_recipe_accessors {
     };
 }
 
-/// The kernel of a table of the GGX albedo without Fresnel, `E[G2 / G1(wi)]` over `(mu, alpha)`
-/// with the settings' `masking` and `method`: GD and Kulla & Conty's E (`ggx_e`) integrate the same
-/// integral ([`gd::albedo`], [`gd::exact_albedo`]). Used inside `impl Kernel for ...Settings`.
-macro_rules! albedo_kernel {
-    () => {
+/// The kernel of a table over `(mu, alpha)` whose channels are `E[f_j(wi.h) W]` for the channel
+/// functions `$f` of the cosine (`W = G2 / G1(wi)` of the settings' `masking`, by their `method`):
+/// GD and Kulla & Conty's E (`ggx_e`) integrate the same albedo ([`gd::without_fresnel`]), Karis's
+/// table and its multiple-scattering arrangement Schlick's weights. Used inside
+/// `impl Kernel for ...Settings`, so that each states only its channel functions.
+macro_rules! cosine_function_kernel {
+    ($f:path) => {
         fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
             let estimates = super::fill_mu_alpha_nodes(table, progress, |_, mu, alpha| {
-                super::gd::albedo(self.masking, self.method, points, mu, alpha)
+                crate::integrate::estimate_cosine_functions(mu, alpha, self.masking, self.method, points, $f)
             });
             Ok(Integrated::of(&estimates))
         }
 
         fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
-            super::gd::albedo(self.masking, Method::PerCell, points, position[0], position[1])
+            let (mu, alpha) = (position[0], position[1]);
+            crate::integrate::estimate_cosine_functions(mu, alpha, self.masking, Method::PerCell, points, $f)
         }
 
         fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
-            vec![super::gd::exact_albedo(quadrature, self.masking, position[0], position[1])]
+            quadrature.cosine_functions(position[0], position[1], self.masking, &[], $f).to_vec()
         }
     };
 }
@@ -121,6 +124,7 @@ pub mod ggx_e;
 pub mod ggx_e_avg;
 pub mod interpolation;
 pub mod karis;
+pub mod karis_multiscatter;
 pub mod settings;
 pub mod slices;
 pub mod spacing;
@@ -231,6 +235,7 @@ table_registry! {
     fgd_rarer: FgdRarer => fgd_rarer::FgdRarerSettings,
     ggx_e: GgxE => ggx_e::GgxESettings,
     ggx_e_avg: GgxEAvg => ggx_e_avg::GgxEAvgSettings,
+    karis_multiscatter: KarisMultiscatter => karis_multiscatter::KarisMultiscatterSettings,
 }
 
 /// The seed of a configuration that names none.

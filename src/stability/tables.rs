@@ -28,6 +28,7 @@ use crate::recipes::gd::GdSettings;
 use crate::recipes::ggx_e::GgxESettings;
 use crate::recipes::ggx_e_avg::GgxEAvgSettings;
 use crate::recipes::karis::KarisSettings;
+use crate::recipes::karis_multiscatter::KarisMultiscatterSettings;
 use crate::recipes::tir::{TirSettings, tir_by_quadrature};
 use crate::recipes::{Kernel, TableRecipe};
 use crate::sampling::sequence::{PointSet, SamplePlan};
@@ -67,6 +68,7 @@ pub struct Evaluation {
     karis: KarisSettings,
     ggx_e: GgxESettings,
     ggx_e_avg: GgxEAvgSettings,
+    karis_multiscatter: KarisMultiscatterSettings,
 }
 
 impl Evaluation {
@@ -83,6 +85,7 @@ impl Evaluation {
             karis: KarisSettings::default(),
             ggx_e: GgxESettings::default(),
             ggx_e_avg: GgxEAvgSettings::default(),
+            karis_multiscatter: KarisMultiscatterSettings::default(),
         })
     }
 }
@@ -91,7 +94,7 @@ impl Evaluation {
 /// every kind: a table added to the loader's list does not compile until its cases are written here.
 pub fn run(kind: TableKind, evaluation: &Evaluation, report: &mut Report) {
     let cases: PerKind<fn(&Evaluation, &mut Report)> =
-        PerKind { fgd, gd, tir, belcour, karis, fgd_rarer, ggx_e, ggx_e_avg };
+        PerKind { fgd, gd, tir, belcour, karis, fgd_rarer, ggx_e, ggx_e_avg, karis_multiscatter };
     cases.take(kind)(evaluation, report)
 }
 
@@ -573,6 +576,28 @@ fn karis(evaluation: &Evaluation, report: &mut Report) {
                     path,
                 ));
                 case.checks.push(named(p::close("alpha = 0: Fc(mu)", estimate.mean[1], fc, tolerance), "bias", path));
+            }
+        }
+    });
+}
+
+/// The multiple-scattering split sum: the split-sum cases, `bias <= albedo` (`Fc <= 1` sample by
+/// sample), and at `alpha = 0` the mirror's `(Fc(mu), 1)`.
+fn karis_multiscatter(evaluation: &Evaluation, report: &mut Report) {
+    let settings = &evaluation.karis_multiscatter;
+    let fast = |pts: &PointSet, pos: &[f64]| settings.estimate_node_fast(pts, pos);
+    let names = ["bias", "albedo"];
+    split_sum_cases(evaluation, report, settings, fast, &names, &[true, true], |case, node, mu, alpha| {
+        let (bias, albedo) = (node.per_cell.mean[0], node.per_cell.mean[1]);
+        case.checks.push(named(p::at_most("bias <= albedo (Fc <= 1)", bias, albedo, 1e-12), "bias", "f64"));
+        if alpha == 0.0 {
+            let fc = schlick_weight(evaluated_cosine(mu));
+            // The f32 kernel rounds c = wi.h to f32: 1e-6 is what that allows.
+            for (path, estimate, tolerance) in [("f64", &node.per_cell, 1e-12), ("f32", &node.fast, 1e-6)] {
+                let bias = p::close("alpha = 0: Fc(mu)", estimate.mean[0], fc, tolerance);
+                case.checks.push(named(bias, "bias", path));
+                let albedo = p::close("alpha = 0: a mirror loses nothing", estimate.mean[1], 1.0, tolerance);
+                case.checks.push(named(albedo, "albedo", path));
             }
         }
     });

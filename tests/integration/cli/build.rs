@@ -84,21 +84,36 @@ nodes = 6
 [ggx_e_avg.interpolation]
 points = 8
 nodes = 6
+[karis_multiscatter]
+mu_count = 8
+roughness_count = 6
+[karis_multiscatter.sampling]
+samples = 1024
+replicates = 4
+[karis_multiscatter.reference]
+cells = 4
+nodes = 8
+[karis_multiscatter.interpolation]
+points = 16
+nodes = 8
 ";
 
 #[test]
 fn the_energy_compensation_tables_are_built_when_named_and_read_by_their_handles() {
-    use tmlut::loader::{Alpha, GgxEAvgLut, GgxELut};
+    use tmlut::loader::{Alpha, GgxEAvgLut, GgxELut, KarisMultiscatterLut, Roughness};
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), ENERGY_COMPENSATION);
     let out = dir.path().join("luts");
-    let output = build(&config, &out, &["--only", "ggx_e,ggx_e_avg"]);
+    let output = build(&config, &out, &["--only", "ggx_e,ggx_e_avg,karis_multiscatter"]);
     assert!(output.status.success(), "{}", stderr(&output));
     let manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
-    for file in ["ggx_e.dds", "ggx_e_avg.exr"] {
+    for file in ["ggx_e.dds", "ggx_e_avg.exr", "karis_multiscatter.dds"] {
         let entry = manifest.entry(file).unwrap_or_else(|| panic!("{file} in the manifest"));
         assert_eq!(entry.masking.as_deref(), Some("smith-height-correlated"), "{file}");
-        assert!(entry.notes.iter().any(|n| n.starts_with("Node-aligned")), "{file}: {:?}", entry.notes);
+    }
+    for file in ["ggx_e.dds", "ggx_e_avg.exr"] {
+        let notes = &manifest.entry(file).unwrap().notes;
+        assert!(notes.iter().any(|n| n.starts_with("Node-aligned")), "{file}: {notes:?}");
     }
     let folder = LutFolder::open(&out).unwrap();
     let (e, average) = (GgxELut::from_folder(&folder).unwrap(), GgxEAvgLut::from_folder(&folder).unwrap());
@@ -112,6 +127,14 @@ fn the_energy_compensation_tables_are_built_when_named_and_read_by_their_handles
         let (low, high) = views.iter().fold((f32::MAX, f32::MIN), |(l, h), &v| (l.min(v), h.max(v)));
         let value = average.sample(Alpha(alpha));
         assert!(low <= value && value <= high && value < 1.0, "alpha {alpha}: {value} outside [{low}, {high}]");
+    }
+    // The multiple-scattering split sum: its F90 part never above its albedo, as stored in f16.
+    let multiscatter = KarisMultiscatterLut::from_folder(&folder).unwrap();
+    for j in 0..=16 {
+        for k in 0..=16 {
+            let [bias, albedo] = multiscatter.sample_gpu(j as f32 / 16.0, Roughness(k as f32 / 16.0));
+            assert!(0.0 <= bias && bias <= albedo && albedo <= 1.0, "({j}, {k}): bias {bias}, albedo {albedo}");
+        }
     }
 }
 

@@ -10,7 +10,7 @@
 //!   ([`super::texture::sample_texture`]), the values a shader reads; `sample_uv`/`sample_uvw`
 //!   take the texture coordinates themselves.
 //!
-//! Karis and Belcour are looked up by perceptual roughness, as Unreal Engine 4 and Filament pass
+//! Karis (both arrangements) and Belcour are looked up by perceptual roughness, as Unreal Engine 4 and Filament pass
 //! it (`alpha = roughness^2`); GD, TIR, FGD, `fgd_rarer`, `ggx_e` and `ggx_e_avg` by GGX `alpha`,
 //! the quantity of their axes. The argument is typed ([`Roughness`], [`Alpha`]): each handle takes either and converts
 //! it, and a bare `f32` does not compile.
@@ -43,6 +43,7 @@ const FGD: Shape = Shape(TableKind::Fgd);
 const FGD_RARER: Shape = Shape(TableKind::FgdRarer);
 const GGX_E: Shape = Shape(TableKind::GgxE);
 const GGX_E_AVG: Shape = Shape(TableKind::GgxEAvg);
+const KARIS_MULTISCATTER: Shape = Shape(TableKind::KarisMultiscatter);
 
 impl Shape {
     fn describe(&self) -> String {
@@ -211,6 +212,15 @@ pub struct KarisLut(Checked);
 common!(KarisLut, KARIS);
 texture!(KarisLut, 2, 2);
 split_sum!(KarisLut, 2, "[scale, bias]");
+
+/// The Karis split sum for multiple-scattering compensation (Filament's multiscatter `DFG`):
+/// `(bias, albedo)` with `F0 * albedo + (1 - F0) * bias` the specular albedo and `albedo` the one
+/// with `F = 1`, over `(n.v, roughness)`.
+#[derive(Debug, Clone)]
+pub struct KarisMultiscatterLut(Checked);
+common!(KarisMultiscatterLut, KARIS_MULTISCATTER);
+texture!(KarisMultiscatterLut, 2, 2);
+split_sum!(KarisMultiscatterLut, 2, "[bias, albedo]");
 
 /// Belcour's Fresnel-basis split sum: four channels `b0..b3` over `(n.v, roughness)`; the albedo
 /// is `Σ c_k b_k` with the coefficients of the manifest's `fresnel_basis`.

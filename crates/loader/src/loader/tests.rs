@@ -152,6 +152,18 @@ fn the_energy_compensation_handles_sample_as_their_tables_interpolate_and_as_the
     let texture = average.texture().unwrap();
     let descriptor = texture.descriptor();
     assert_eq!((descriptor.width, descriptor.height, descriptor.depth_or_layers), (6, 1, 1));
+    // The multiple-scattering split sum, looked up by perceptual roughness as Karis's table.
+    let mu = Axis::cell_centred("mu", 0.0, 1.0, 8).unwrap();
+    let alpha = Axis::cell_centred("alpha", 0.0, 1.0, 6).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+    let table = fill(vec![mu, alpha], 2, "karis_multiscatter");
+    let multiscatter = KarisMultiscatterLut::from_table(table, Precision::F16).unwrap();
+    for &a in &PARAMETERS {
+        for &b in &PARAMETERS {
+            let r = b as f64;
+            let expected = multiscatter.table().interpolate(&[a as f64, r * r]);
+            assert_same(multiscatter.sample(a, Roughness(b)), expected, &format!("({a}, {b})"));
+        }
+    }
     // E's shape is not E_avg's.
     let err = GgxEAvgLut::from_table(e.into_table(), Precision::F32).unwrap_err().to_string();
     assert!(err.contains("a ggx_e_avg table has the axes (alpha) and 1 channel"), "{err}");

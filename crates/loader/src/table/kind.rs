@@ -32,6 +32,9 @@ pub enum TableKind {
     GgxE,
     /// `E_avg(alpha) = 2 ∫ E(mu, alpha) mu dmu`: the hemispherical average of [`TableKind::GgxE`].
     GgxEAvg,
+    /// The Karis split sum arranged for multiple-scattering compensation: `(bias, albedo)`, the
+    /// `F90` part and the albedo with `F = 1` (Filament's `DFG` multiscatter pair).
+    KarisMultiscatter,
 }
 
 /// What a reader requires of a table: the names each axis may have, in order, and the channels.
@@ -54,6 +57,7 @@ impl TableKind {
         TableKind::FgdRarer,
         TableKind::GgxE,
         TableKind::GgxEAvg,
+        TableKind::KarisMultiscatter,
     ];
 
     /// The table's name: its manifest `table`, its file stem, its TOML section and `--only` name.
@@ -67,6 +71,7 @@ impl TableKind {
             TableKind::FgdRarer => "fgd_rarer",
             TableKind::GgxE => "ggx_e",
             TableKind::GgxEAvg => "ggx_e_avg",
+            TableKind::KarisMultiscatter => "karis_multiscatter",
         }
     }
 
@@ -93,6 +98,7 @@ impl TableKind {
             TableKind::FgdRarer => TableShape { axes: &[&["mu"], &["alpha"], &[CRITICAL_ANGLE_FRACTION]], channels: 1 },
             TableKind::GgxE => TableShape { axes: &MU_ALPHA, channels: 1 },
             TableKind::GgxEAvg => TableShape { axes: &[&["alpha"]], channels: 1 },
+            TableKind::KarisMultiscatter => TableShape { axes: &MU_ALPHA, channels: 2 },
         }
     }
 }
@@ -124,6 +130,8 @@ pub struct PerKind<T> {
     pub ggx_e: T,
     /// [`TableKind::GgxEAvg`]'s value.
     pub ggx_e_avg: T,
+    /// [`TableKind::KarisMultiscatter`]'s value.
+    pub karis_multiscatter: T,
 }
 
 impl<T> PerKind<T> {
@@ -138,6 +146,7 @@ impl<T> PerKind<T> {
             TableKind::FgdRarer => self.fgd_rarer,
             TableKind::GgxE => self.ggx_e,
             TableKind::GgxEAvg => self.ggx_e_avg,
+            TableKind::KarisMultiscatter => self.karis_multiscatter,
         }
     }
 }
@@ -163,6 +172,7 @@ mod tests {
             fgd_rarer: "fgd_rarer",
             ggx_e: "ggx_e",
             ggx_e_avg: "ggx_e_avg",
+            karis_multiscatter: "karis_multiscatter",
         };
         for &kind in TableKind::ALL {
             assert_eq!(names.take(kind), kind.name());
