@@ -901,7 +901,8 @@ pub fn comment_block(prefix: &str, text: &str) -> String {
 pub mod eval;
 pub use eval::{ShaderCost, cost};
 
-// The tests of every crate that emits shaders validate them (tmlut's through the `validate` feature).
+// The tests of every crate that emits shaders validate them, and so does `tmlut fit` its forms'
+// (tmlut's through the `validate` feature).
 #[cfg(any(test, feature = "validate"))]
 pub mod validate;
 
