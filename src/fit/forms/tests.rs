@@ -214,44 +214,48 @@ fn a_signature_s_mistakes_name_the_key_and_what_is_allowed() {
         assert!(e.starts_with(&place) && e.contains(says), "expected {place}... {says}, got: {e}");
     };
     let args = |list: &str| format!("arguments = [{list}]");
-    refused(
-        &args(r#"{ name = "NoV", axis = "mu" }, { name = "r", axis = "rough" }"#),
-        r#""rough""#,
-        "`axis` of [function] argument 2: unknown axis `rough`; allowed for table `karis`: mu, alpha, roughness",
-    );
-    refused(
-        &args(r#"{ name = "NoV", axis = "mu" }, { name = "NoV", axis = "roughness" }"#),
-        r#""NoV", axis = "roughness""#,
-        "`name` of [function] argument 2: `NoV` names argument 1 too",
-    );
-    for bad in ["2x", "float", "gl_x", "x__y"] {
-        refused(
-            &args(&format!(r#"{{ name = "{bad}", axis = "mu" }}, {{ name = "r", axis = "roughness" }}"#)),
-            &format!("\"{bad}\""),
-            "`name` of [function] argument 1: ",
-        );
+    let (nov, r) = (r#"{ name = "NoV", axis = "mu" }"#, r#"{ name = "r", axis = "roughness" }"#);
+    let bad_names =
+        ["2x", "float", "gl_x", "x__y"].map(|bad| (format!(r#"{{ name = "{bad}", axis = "mu" }}, {r}"#), bad));
+    let bad_names =
+        bad_names.iter().map(|(list, bad)| (list.clone(), format!("\"{bad}\""), "`name` of [function] argument 1: "));
+    let cases = [
+        (
+            format!(r#"{nov}, {{ name = "r", axis = "rough" }}"#),
+            r#""rough""#.to_string(),
+            "`axis` of [function] argument 2: unknown axis `rough`; allowed for table `karis`: mu, alpha, roughness",
+        ),
+        (
+            format!(r#"{nov}, {{ name = "NoV", axis = "roughness" }}"#),
+            r#""NoV", axis = "roughness""#.to_string(),
+            "`name` of [function] argument 2: `NoV` names argument 1 too",
+        ),
+        (
+            nov.to_string(),
+            "[{".to_string(),
+            "no argument carries `alpha`; every variable of table `karis` needs one: mu, alpha (alpha may be passed as \
+             roughness)",
+        ),
+        (r.to_string(), "[{".to_string(), "no argument carries `mu`"),
+        (
+            format!(r#"{nov}, {{ name = "a", axis = "alpha" }}, {r}"#),
+            r#""roughness" }]"#.to_string(),
+            "`axis` of [function] argument 3: `roughness` is what argument 2 (`a`) carries as `alpha`",
+        ),
+        (
+            format!(r#"{{ name = "p", axis = "mu" }}, {r}"#),
+            r#""p""#.to_string(),
+            "`name` of [function] argument 1: `p` is a variable, parameter or binding of the form",
+        ),
+        (
+            format!(r#"{{ name = "alpha", axis = "mu" }}, {r}"#),
+            r#""alpha""#.to_string(),
+            "named after its own axis (`mu`)",
+        ),
+    ];
+    for (list, needle, says) in cases.into_iter().chain(bad_names) {
+        refused(&args(&list), &needle, says);
     }
-    refused(
-        &args(r#"{ name = "NoV", axis = "mu" }"#),
-        "[{",
-        "no argument carries `alpha`; every variable of table `karis` needs one: mu, alpha (alpha may be passed as roughness)",
-    );
-    refused(&args(r#"{ name = "r", axis = "roughness" }"#), "[{", "no argument carries `mu`");
-    refused(
-        &args(r#"{ name = "NoV", axis = "mu" }, { name = "a", axis = "alpha" }, { name = "r", axis = "roughness" }"#),
-        r#""roughness""#,
-        "`axis` of [function] argument 3: `roughness` is what argument 2 (`a`) carries as `alpha`",
-    );
-    refused(
-        &args(r#"{ name = "p", axis = "mu" }, { name = "r", axis = "roughness" }"#),
-        r#""p""#,
-        "`name` of [function] argument 1: `p` is a variable, parameter or binding of the form",
-    );
-    refused(
-        &args(r#"{ name = "alpha", axis = "mu" }, { name = "r", axis = "roughness" }"#),
-        r#""alpha""#,
-        "named after its own axis (`mu`)",
-    );
     refused("name = \"main\"", "\"main\"", "`name` of [function]: `main` is reserved");
     refused("name = \"p\"", "\"p\"", "`name` of [function]: `p` is already a variable, parameter, binding or argument");
     refused("name = \"f\"\nargs = []", "args", "unknown field `args`");

@@ -817,8 +817,7 @@ impl Printer {
                         );
                     }
                     Lang::Hlsl => {
-                        let mut all = coordinates.clone();
-                        all.extend(layer.iter().map(|l| (**l).clone()));
+                        let all = with_layer(coordinates, layer);
                         let _ = write!(
                             out,
                             "{texture}.Load({}({}, 0))",
@@ -832,8 +831,7 @@ impl Printer {
                     // A texture read without a sampler (GL_EXT_samplerless_texture_functions);
                     // like WGSL's, the load returns four channels.
                     Lang::Glsl => {
-                        let mut all = coordinates.clone();
-                        all.extend(layer.iter().map(|l| (**l).clone()));
+                        let all = with_layer(coordinates, layer);
                         let _ = write!(
                             out,
                             "texelFetch({texture}, {}({}), 0).{swizzle}",
@@ -857,8 +855,7 @@ impl Printer {
                     }
                     Lang::Hlsl => {
                         // A texture array's layer is the coordinate after the others, as a float.
-                        let mut all = coordinates.clone();
-                        all.extend(layer.iter().map(|l| (**l).clone()));
+                        let all = with_layer(coordinates, layer);
                         let _ = write!(
                             out,
                             "{texture}.SampleLevel({sampler}, {}({}), 0)",
@@ -891,6 +888,11 @@ impl Printer {
             _ => unreachable!("write_texture_read is called with a texture read"),
         }
     }
+}
+
+/// A texture read's coordinates, then its layer where it reads an array.
+fn with_layer(coordinates: &[Expr], layer: &Option<Box<Expr>>) -> Vec<Expr> {
+    coordinates.iter().cloned().chain(layer.iter().map(|l| (**l).clone())).collect()
 }
 
 /// `text` as comment lines with `prefix`; an empty line prints as the bare prefix.
