@@ -1,7 +1,11 @@
 //! Forms fitted by `tmlut fit --form` on wgpu: each output folder's WGSL function at random points
 //! over the region the form was fitted over (the table's range of each variable, narrowed by the
 //! `--range`s fit.json records), every channel against the CPU's evaluation of the same form from
-//! fit.json's definition and parameters (`FormEvaluator::from_definition`):
+//! fit.json's definition and parameters (`FormEvaluator::from_definition`). The function is passed
+//! its arguments as fit.json's `shader_arguments` say: a variable as drawn, `roughness` as the f32
+//! square root of alpha, alpha being first moved to the square of that root, so that the function
+//! (which squares a roughness argument where the form reads alpha) and the CPU (which takes the
+//! square root where it reads roughness) compute from the same numbers:
 //!
 //! - in f32, the shader's operations in its order: held to [`TOLERANCE`];
 //! - in f64: printed, the f32 rounding of the shader and the CPU together.
@@ -58,7 +62,39 @@ struct Fit {
     parameter_order: Vec<String>,
     ranges: Vec<Range>,
     shader_function: String,
+    /// Empty in a fit.json written before the arguments were recorded: the variables then.
+    #[serde(default)]
+    shader_arguments: Vec<Argument>,
     files: Vec<String>,
+}
+
+/// An argument of the form's function and the quantity it carries.
+#[derive(Deserialize)]
+struct Argument {
+    axis: String,
+}
+
+/// The point (the variables' values) moved where the function's arguments carry it exactly, and
+/// those arguments: each variable as it is, `roughness` the f32 square root of alpha, alpha then
+/// that root squared (the f32 square root of an f32 square is the number squared).
+fn arguments_at(fit: &Fit, point: &mut [f32]) -> Result<Vec<f32>, String> {
+    if fit.shader_arguments.is_empty() {
+        return Ok(point.to_vec());
+    }
+    let index =
+        |name: &str| fit.variables.iter().position(|v| v == name).ok_or(format!("{}: no variable `{name}`", fit.form));
+    let mut arguments = Vec::with_capacity(fit.shader_arguments.len());
+    for argument in &fit.shader_arguments {
+        if argument.axis == "roughness" {
+            let alpha = index("alpha")?;
+            let roughness = point[alpha].sqrt();
+            point[alpha] = roughness * roughness;
+            arguments.push(roughness);
+        } else {
+            arguments.push(point[index(&argument.axis)?]);
+        }
+    }
+    Ok(arguments)
 }
 
 fn main() -> ExitCode {
@@ -129,11 +165,16 @@ fn check_form(gpu: &gpu::Gpu, folder: &Path, random: &mut Pcg64Mcg) -> Result<bo
     let wgsl_file = fit.files.iter().find(|f| f.ends_with(".wgsl")).ok_or("fit.json lists no WGSL file")?;
     let wgsl = std::fs::read_to_string(folder.join(wgsl_file))?;
 
-    let points: Vec<f32> = (0..POINTS)
+    let mut points: Vec<f32> = (0..POINTS)
         .flat_map(|_| extent.iter().map(|&(lo, hi)| gpu::uniform_f32(random, lo, hi)).collect::<Vec<_>>())
         .collect();
     let (variables, channels) = (fit.variables.len(), fit.channels.len());
-    let on_gpu = gpu.run_form(&wgsl, &fit.shader_function, variables, channels, &points);
+    let mut arguments = Vec::with_capacity(points.len());
+    for point in points.chunks_exact_mut(variables) {
+        arguments.extend(arguments_at(&fit, point)?);
+    }
+    let arity = arguments.len() / POINTS;
+    let on_gpu = gpu.run_form(&wgsl, &fit.shader_function, arity, channels, &arguments);
     let on_f32: Vec<f32> = points.chunks_exact(variables).flat_map(|p| form.channels(p)).collect();
     let on_f64: Vec<f64> = points
         .chunks_exact(variables)

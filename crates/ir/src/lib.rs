@@ -7,7 +7,7 @@
 //!   model, the optics it reads) is recorded onto a tape ([`record`]); a form's expressions,
 //!   written in the small language of [`text`], are compiled onto one ([`compile`]).
 //! - Back ends: the tape is printed ([`mod@print`]) as the statements of one shader description
-//!   ([`shader`]), which prints itself as HLSL and WGSL (and, through naga, GLSL and MSL in
+//!   ([`shader`]), which prints itself as HLSL, WGSL and GLSL (and, through naga, MSL in
 //!   `tmlut`); the same tape is what the CPU evaluates, so what a shader computes is checked
 //!   without a GPU.
 //!

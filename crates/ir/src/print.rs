@@ -27,6 +27,13 @@ pub trait LeafPrinter {
     /// `x ^ n` multiplied out (`Ins::PowInt`).
     fn power(&mut self, x: Expr, n: i32) -> Result<Expr>;
 
+    /// Instruction `i` as a value the caller already holds, printed as that expression in place of
+    /// what it computes, which is then not printed for it (a form's `roughness`, `sqrt(alpha)` on
+    /// the tape, where the function is passed roughness itself).
+    fn given(&self, _i: usize) -> Option<Expr> {
+        None
+    }
+
     /// The name instruction `i` is bound with, where the tape's author named it (a form's `let`);
     /// otherwise an instruction read more than once is bound as `v<i>`.
     fn named(&self, _i: usize) -> Option<String> {
@@ -71,7 +78,7 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn LeafPrinter, body: &
         uses[r] += 1;
     }
     for i in (0..n).rev() {
-        if live[i] {
+        if live[i] && leaves.given(i).is_none() {
             for k in leaves.operands(tape, i) {
                 live[k] = true;
                 uses[k] += 1;
@@ -99,6 +106,10 @@ pub fn print(tape: &Tape, roots: &[usize], leaves: &mut dyn LeafPrinter, body: &
     };
     let mut printed = PrintedExprs { exprs: vec![None; n] };
     for i in (0..n).filter(|&i| live[i]) {
+        if let Some(given) = leaves.given(i) {
+            printed.exprs[i] = Some(given);
+            continue;
+        }
         let x = |k: usize| printed.get(k).ok_or_else(|| leaves.out_of_order(i));
         let (expr, bound) = match tape.ins[i] {
             Ins::Const(v) => leaves.leaf(i, Leaf::Const(v), &printed)?,

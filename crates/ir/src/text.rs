@@ -410,7 +410,8 @@ pub fn check_identifier(name: &str) -> Result<(), String> {
     if Intrinsic::ALL.iter().any(|&(f, ..)| form_name(f) == name) || name == SELECT {
         return Err(format!("`{name}` is a function of the language"));
     }
-    if RESERVED.contains(&name) || name.starts_with("tmlut") {
+    // GLSL reserves every name that starts with `gl_`.
+    if RESERVED.contains(&name) || name.starts_with("tmlut") || name.starts_with("gl_") {
         return Err(format!("`{name}` is reserved in a shading language (or by tmlut's shaders)"));
     }
     Ok(())
@@ -526,6 +527,55 @@ const RESERVED: &[&str] = &[
     "mediump",
     "lowp",
     "precision",
+    // GLSL's own, since its text is printed as it is (no longer translated by naga, which renamed).
+    "layout",
+    "invariant",
+    "centroid",
+    "flat",
+    "smooth",
+    "noperspective",
+    "patch",
+    "subroutine",
+    "coherent",
+    "volatile",
+    "restrict",
+    "readonly",
+    "writeonly",
+    "common",
+    "partition",
+    "active",
+    "filter",
+    "sizeof",
+    "input",
+    "output",
+    "superp",
+    "external",
+    "interface",
+    "goto",
+    "extern",
+    "union",
+    "class",
+    "inversesqrt",
+    "ivec2",
+    "ivec3",
+    "ivec4",
+    "uvec2",
+    "uvec3",
+    "uvec4",
+    "bvec2",
+    "bvec3",
+    "bvec4",
+    "dvec2",
+    "dvec3",
+    "dvec4",
+    "texelFetch",
+    "textureLod",
+    "texture2D",
+    "texture3D",
+    "texture2DArray",
+    "sampler2D",
+    "sampler3D",
+    "sampler2DArray",
 ];
 
 #[cfg(test)]

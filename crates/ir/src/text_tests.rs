@@ -66,7 +66,8 @@ fn every_function_parses_with_its_argument_count() {
 fn names_that_shaders_refuse_are_refused() {
     assert!(check_identifier("rx").is_ok());
     assert!(check_identifier("a004").is_ok());
-    for bad in ["let", "float", "min", "select", "2x", "x__y", "tmlut_x", "_x", "frac"] {
+    for bad in ["let", "float", "min", "select", "2x", "x__y", "tmlut_x", "_x", "frac", "gl_x", "inversesqrt", "layout"]
+    {
         assert!(check_identifier(bad).is_err(), "{bad}");
     }
 }

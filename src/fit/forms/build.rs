@@ -78,8 +78,7 @@ pub fn fit_for_build(table: &Table, seed: u64, dir: &Path) -> Result<(FitEntry, 
     let mut shaders = Vec::new();
     let mut paths = Vec::new();
     for extension in ["hlsl", "wgsl"] {
-        let k = super::shader::LANGUAGES.iter().position(|(_, e)| *e == extension).expect("a language of the emitter");
-        let text = &sources[k];
+        let text = sources.text(extension).unwrap_or_default();
         let file = format!("tir_fit.{extension}");
         let path = dir.join(&file);
         crate::formats::write_bytes_atomically(&path, text.as_bytes())?;
@@ -98,6 +97,7 @@ pub fn fit_for_build(table: &Table, seed: u64, dir: &Path) -> Result<(FitEntry, 
     entry.definition = form.definition();
     entry.search = fitted.search;
     entry.shaders = shaders;
+    entry.shader_arguments = form.arguments.clone();
     Ok((entry, paths))
 }
 

@@ -29,7 +29,8 @@ pub const TIR_TABLES: &[&str] = &["tir"];
 pub const ALBEDO_TABLES: &[&str] = &["karis", "fgd"];
 
 /// The variables and channels of a table a scene's form may replace, in the order the model and
-/// the scene shader pass and read them; `None` for another table.
+/// the scene shader pass and read them (the scene shader calls the form by them, whatever its
+/// `[function]` declares: [`super::shader::lookup_module`]); `None` for another table.
 pub fn shape_of(table: &str) -> Option<TableShape> {
     let (variables, channels): (&[&str], &[&str]) = match table {
         "tir" => (&["mu", "alpha", "eta"], &["tir"]),
@@ -38,7 +39,7 @@ pub fn shape_of(table: &str) -> Option<TableShape> {
         _ => return None,
     };
     let strings = |v: &[&str]| v.iter().map(|s| s.to_string()).collect();
-    Some(TableShape { name: table.to_string(), variables: strings(variables), channels: strings(channels) })
+    Some(TableShape::of_variables(table, strings(variables), strings(channels)))
 }
 
 /// The name of the form a build fits (`[tir] fit = "best"`): its shader function is `tmlut_tir`,

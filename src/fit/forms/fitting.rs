@@ -16,13 +16,13 @@ use super::certify::{Certified, certify};
 use super::cost::{Cost, operations, timing};
 use super::data::FormData;
 use super::figures::{ErrorFigures, ErrorsByChannel, figures_of, residuals, weighted_figures_of};
-use super::form::{Form, MAX_FORM_BYTES};
+use super::form::{Form, MAX_FORM_BYTES, ShaderArgument};
 use super::identifiability::{Identifiability, identifiability};
 use super::markdown::markdown;
 use super::pictures::{ERROR_MAP_FILE, RESIDUALS_FILE, write_pictures};
 use super::prepared::SearchData;
 use super::region::{Range, Region, SceneLookups, WeightsSpec};
-use super::shader::{LANGUAGES, function_name, sources};
+use super::shader::{function_name, sources};
 use crate::commit::{Move, OutputFolder, commit_set};
 use crate::error::{Error, Result};
 use crate::fit::{FitSettings, Minimum, minimise};
@@ -104,6 +104,10 @@ pub struct FormReport {
     /// Against exact integrals at random points, per check domain; empty when not asked for.
     pub certified: Vec<Certified>,
     pub shader_function: String,
+    /// The shader function's arguments in order, each with the quantity it carries
+    /// ([`Form::arguments`]). Empty in files written before it was recorded: the variables then.
+    #[serde(default)]
+    pub shader_arguments: Vec<ShaderArgument>,
     /// Every file of the set, `fit.json` and `report.md` included.
     pub files: Vec<String>,
 }
@@ -140,8 +144,8 @@ pub struct FitOptions {
     pub timing_runs: usize,
 }
 
-/// Read the form against the table, fit it, and write `fit.json`, `report.md` and the shader
-/// files into `out` as one set ([`commit_set`]: every file staged, `fit.json` moved last; files of
+/// Read the form against the table, fit it, and write `fit.json`, `report.md`, the shader
+/// files and the GLSL validation harness into `out` as one set ([`commit_set`]: every file staged, `fit.json` moved last; files of
 /// an earlier set that this one does not replace are removed with the commit).
 pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormReport> {
     let form_text = crate::formats::read_text_at_most(&request.form, MAX_FORM_BYTES, "form file")?;
@@ -166,8 +170,8 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
         runs => Some(timing(&form, &fitted.parameters, table, &data.coordinates, runs)?),
     };
     let shaders = sources(&form, &fitted.parameters)?;
-    let shader_files: Vec<String> = LANGUAGES.iter().map(|(_, ext)| format!("{}.{ext}", form.name)).collect();
-    let mut files = shader_files.clone();
+    let shader_files = shaders.files(&form.name);
+    let mut files: Vec<String> = shader_files.iter().map(|(file, _)| file.clone()).collect();
     files.extend([ERROR_MAP_FILE, RESIDUALS_FILE, REPORT_FILE, FIT_FILE].map(String::from));
     let names = form.parameter_names();
     let report = FormReport {
@@ -201,10 +205,11 @@ pub fn fit_form_file(table: &Table, request: &FormFitRequest) -> Result<FormRepo
             None => Vec::new(),
         },
         shader_function: function_name(&form),
+        shader_arguments: form.arguments.clone(),
         files,
     };
     let pictures = |dir: &Path| write_pictures(dir, &report.form, table, &data, &fitted_residuals, &report.figures);
-    write_set(&request.out, &report, &shader_files, &shaders, pictures)?;
+    write_set(&request.out, &report, &shader_files, pictures)?;
     Ok(report)
 }
 
@@ -319,15 +324,15 @@ pub fn fit_form_files(table: &Table, request: &FolderFitRequest) -> Result<Folde
 fn write_set(
     out: &Path,
     report: &FormReport,
-    shader_files: &[String],
-    shaders: &[String],
+    shader_files: &[(String, &str)],
     pictures: impl FnOnce(&Path) -> Result<()>,
 ) -> Result<()> {
     let folder = OutputFolder::take(out, |_| {})?;
     let staging = &mut folder.staging()?;
     pictures(&staging.dir)?;
     let json = serde_json::to_string_pretty(report).map_err(|e| Error::format(out, e.to_string()))?;
-    let mut texts: Vec<(&str, String)> = shader_files.iter().map(String::as_str).zip(shaders.iter().cloned()).collect();
+    let mut texts: Vec<(&str, String)> =
+        shader_files.iter().map(|(file, text)| (file.as_str(), text.to_string())).collect();
     texts.push((REPORT_FILE, markdown(report)));
     texts.push((FIT_FILE, json));
     for (file, text) in &texts {

@@ -1,8 +1,10 @@
 //! Form files: a TOML file that names the table a form approximates, its parameters (start and
-//! bounds), optional `let` bindings (in file order, each over the ones before it) and one
-//! expression per fitted channel ([`crate::ir::text`]). Read against a table, a form file becomes a
-//! [`Form`]: the expressions with every name resolved and compiled ([`crate::ir::tape`]). Every
-//! mistake is an [`Error::At`] naming the file, line and column.
+//! bounds), optional `let` bindings (in file order, each over the ones before it), one
+//! expression per fitted channel ([`crate::ir::text`]) and, optionally, its shader function's
+//! signature (`[function]`: its name and its arguments, each with the quantity it carries). Read
+//! against a table, a form file becomes a [`Form`]: the expressions with every name resolved and
+//! compiled ([`crate::ir::tape`]). Every mistake is an [`Error::At`] naming the file, line and
+//! column.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -11,11 +13,12 @@ use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 use crate::error::{Error, Result};
+pub use crate::formats::manifest::ShaderArgument;
 use crate::ir::compile::Scope;
 pub use crate::ir::compile::integer_exponent;
 use crate::ir::tape::{Ins, Tape};
 use crate::ir::text::{self, ExprError, Node};
-use crate::table::Table;
+use crate::table::{Mapping, Table, TableKind};
 
 /// The variables a lookup passes, in this order where a table's axes depend on them.
 pub const LOOKUP_VARIABLES: &[&str] = &["mu", "alpha", "eta", "kappa"];
@@ -76,6 +79,12 @@ pub struct Form {
     /// In the table's channel order.
     pub channels: Vec<Binding>,
     pub tape: Tape,
+    /// The shader function's name where `[function] name` gives one; otherwise it is
+    /// `tmlut_<name>` ([`Form::function_name`]).
+    pub function: Option<String>,
+    /// The shader function's arguments in order (`[function] arguments`, or the table's
+    /// [`TableShape::sampling`]): every variable carried by one, `alpha` possibly as `roughness`.
+    pub arguments: Vec<ShaderArgument>,
 }
 
 #[derive(Deserialize)]
@@ -86,7 +95,28 @@ struct FileText {
     #[serde(rename = "let", default)]
     lets: BTreeMap<Spanned<String>, Spanned<String>>,
     channels: BTreeMap<Spanned<String>, Spanned<String>>,
+    function: Option<Spanned<FunctionText>>,
 }
+
+/// `[function]`: the shader function's name and arguments, each optional.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FunctionText {
+    name: Option<Spanned<String>>,
+    arguments: Option<Spanned<Vec<Spanned<ArgumentText>>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ArgumentText {
+    name: Spanned<String>,
+    axis: Spanned<String>,
+}
+
+/// The quantity an argument may carry besides the form's variables: perceptual roughness,
+/// `sqrt(alpha)` (`DERIVED_VARIABLES`; the split-sum recipes' `roughness_axis = "perceptual"`
+/// spaces their rows evenly in it, `crate::recipes::spacing::RoughnessAxis`).
+pub const ROUGHNESS: &str = "roughness";
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -96,13 +126,43 @@ struct ParameterText {
     max: Spanned<f64>,
 }
 
-/// What a form is read against: a table's name, its lookup variables ([`table_variables`]) and
-/// its channels' names, in order.
+/// What a form is read against: a table's name, its lookup variables ([`table_variables`]), its
+/// channels' names, in order, and the arguments a form's shader function takes where its file
+/// declares none ([`sampling_arguments`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TableShape {
     pub name: String,
     pub variables: Vec<String>,
     pub channels: Vec<String>,
+    pub sampling: Vec<ShaderArgument>,
+}
+
+impl TableShape {
+    /// A table read by its lookup variables: the default function takes them as they are named.
+    pub fn of_variables(name: &str, variables: Vec<String>, channels: Vec<String>) -> Self {
+        let sampling = variables.iter().map(|v| ShaderArgument::new(v, v)).collect();
+        TableShape { name: name.to_string(), variables, channels, sampling }
+    }
+}
+
+/// What a renderer passes to look the table up, as the default arguments of a form's function. A
+/// split-sum table (Karis, Belcour) is a texture sampled directly at `(NoV, roughness)`
+/// (`docs/tables.md`; its recipes' `roughness_axis = "perceptual"`, the default, spaces its rows
+/// evenly in `roughness = sqrt(alpha)`, `crate::recipes::split_sum::SplitSumSettings::layout_notes`),
+/// or at `(NoV, alpha)` where `roughness_axis = "alpha"` spaces them in alpha. Every other table
+/// (FGD, GD, TIR and their slices) is read through a lookup of its variables, `mu`, `alpha`,
+/// `eta`, `kappa` (whatever its axes' spacing: GD's and TIR's alpha axes are spaced in
+/// `sqrt(alpha)` too, and their lookups take alpha).
+pub fn sampling_arguments(table: &Table, variables: &[String]) -> Vec<ShaderArgument> {
+    let split_sum = matches!(TableKind::named(&table.name), Some(TableKind::Karis | TableKind::Belcour));
+    let alpha_axis = table.axes.iter().find(|a| a.name == "alpha");
+    match (split_sum, alpha_axis) {
+        (true, Some(alpha)) if table.axes.len() == 2 && table.axes[0].name == "mu" => {
+            let roughness = if alpha.mapping == Mapping::Sqrt { ROUGHNESS } else { "alpha" };
+            vec![ShaderArgument::new("NoV", "mu"), ShaderArgument::new(roughness, roughness)]
+        }
+        _ => variables.iter().map(|v| ShaderArgument::new(v, v)).collect(),
+    }
 }
 
 /// The lookup variables of a table: the quantities of [`LOOKUP_VARIABLES`] its axes are or are
@@ -154,6 +214,113 @@ impl FormReader<'_> {
         let node = text::parse(value.get_ref()).map_err(place)?;
         let slot = self.scope.compile(&node).map_err(place)?;
         Ok((node, slot))
+    }
+
+    /// The error at `key`'s place of the file.
+    fn at_key<T>(&self, key: &Spanned<T>, reason: String) -> Error {
+        self.at(key.span().start, reason)
+    }
+
+    /// `[function]`, read once every name of the form is known: its name where given, and its
+    /// arguments (or the table's [`TableShape::sampling`]). Refused: a name that is no identifier
+    /// of every shading language, two arguments of one name, a name the form defines for
+    /// something else, an axis the table has not, an axis carried twice (`alpha` and `roughness`
+    /// are one), a variable no argument carries.
+    fn function(&self, file: &FileText, table: &TableShape) -> Result<(Option<String>, Vec<ShaderArgument>)> {
+        let Some(function) = &file.function else {
+            return Ok((None, table.sampling.clone()));
+        };
+        let function = function.get_ref();
+        let mut axes: Vec<String> = table.variables.clone();
+        if table.variables.iter().any(|v| v == "alpha") {
+            axes.push(ROUGHNESS.into());
+        }
+        let arguments = match &function.arguments {
+            None => table.sampling.clone(),
+            Some(list) => {
+                let mut arguments: Vec<ShaderArgument> = Vec::new();
+                for (k, argument) in list.get_ref().iter().enumerate() {
+                    let (key, axis) = (&argument.get_ref().name, &argument.get_ref().axis);
+                    let which = format!("[function] argument {}", k + 1);
+                    let name = key.get_ref();
+                    text::check_identifier(name)
+                        .map_err(|reason| self.at_key(key, format!("`name` of {which}: {reason}")))?;
+                    if let Some(j) = arguments.iter().position(|a| a.name == *name) {
+                        return Err(self.at_key(
+                            key,
+                            format!("`name` of {which}: `{name}` names argument {} too; each argument has a name of its own", j + 1),
+                        ));
+                    }
+                    if !axes.contains(axis.get_ref()) {
+                        return Err(self.at_key(
+                            axis,
+                            format!(
+                                "`axis` of {which}: unknown axis `{}`; allowed for table `{}`: {}{}",
+                                axis.get_ref(),
+                                table.name,
+                                axes.join(", "),
+                                if axes.iter().any(|a| a == ROUGHNESS) { " (alpha = roughness^2)" } else { "" }
+                            ),
+                        ));
+                    }
+                    let quantity = |a: &str| if a == ROUGHNESS { "alpha".to_string() } else { a.to_string() };
+                    if let Some(j) = arguments.iter().position(|a| quantity(&a.axis) == quantity(axis.get_ref())) {
+                        return Err(self.at_key(
+                            axis,
+                            format!(
+                                "`axis` of {which}: `{}` is what argument {} (`{}`) carries as `{}`; each axis has one argument{}",
+                                axis.get_ref(),
+                                j + 1,
+                                arguments[j].name,
+                                arguments[j].axis,
+                                if quantity(axis.get_ref()) == "alpha" { " (alpha = roughness^2: give one of them)" } else { "" }
+                            ),
+                        ));
+                    }
+                    if self.scope.names.contains_key(name) && name != axis.get_ref() {
+                        return Err(self.at_key(
+                            key,
+                            format!(
+                                "`name` of {which}: `{name}` is a variable, parameter or binding of the form; an argument is                                  named after its own axis (`{}`) or by a name the form does not define",
+                                axis.get_ref()
+                            ),
+                        ));
+                    }
+                    arguments.push(ShaderArgument::new(name, axis.get_ref()));
+                }
+                let carried = |v: &str| arguments.iter().any(|a| a.axis == v || (v == "alpha" && a.axis == ROUGHNESS));
+                if let Some(missing) = table.variables.iter().find(|v| !carried(v)) {
+                    return Err(self.at_key(
+                        list,
+                        format!(
+                            "[function] arguments: no argument carries `{missing}`; every variable of table `{}` needs one: {}{}",
+                            table.name,
+                            table.variables.join(", "),
+                            if missing == "alpha" { " (alpha may be passed as roughness)" } else { "" }
+                        ),
+                    ));
+                }
+                arguments
+            }
+        };
+        let name = match &function.name {
+            None => None,
+            Some(key) => {
+                let name = key.get_ref();
+                text::check_identifier(name)
+                    .map_err(|reason| self.at_key(key, format!("`name` of [function]: {reason}")))?;
+                if self.scope.names.contains_key(name) || arguments.iter().any(|a| a.name == *name) {
+                    return Err(self.at_key(
+                        key,
+                        format!(
+                            "`name` of [function]: `{name}` is already a variable, parameter, binding or argument of the                              form; the function needs a name of its own"
+                        ),
+                    ));
+                }
+                Some(name.clone())
+            }
+        };
+        Ok((name, arguments))
     }
 
     /// A new name, refused where it is not an identifier or is already defined.
@@ -373,9 +540,11 @@ impl Form {
 
     /// A form file's text, `path` naming it in errors.
     pub fn parse(path: &Path, text: &str, table: &Table) -> Result<Form> {
+        let variables = table_variables(table)?;
         let shape = TableShape {
             name: table.name.clone(),
-            variables: table_variables(table)?,
+            sampling: sampling_arguments(table, &variables),
+            variables,
             channels: table.channels.iter().map(|c| c.name.clone()).collect(),
         };
         Form::parse_for(path, text, &shape)
@@ -388,7 +557,11 @@ impl Form {
         let file: FileText = toml::from_str(text).map_err(|e| {
             reader.at(
                 e.span().map_or(0, |s| s.start),
-                format!("{} (a form file has `table`, [parameters], optional [let], [channels])", e.message().trim()),
+                format!(
+                    "{} (a form file has `table`, [parameters], optional [let], [channels], optional [function] with \
+                     optional `name` and `arguments = [{{ name = \"...\", axis = \"...\" }}, ...]`)",
+                    e.message().trim()
+                ),
             )
         })?;
         if *file.table.get_ref() != table.name {
@@ -435,6 +608,7 @@ impl Form {
         }
         // The derived variables any binding or channel reads.
         let derived = derived_all.into_iter().filter(|d| read.iter().any(|(n, _)| *n == d.name)).collect();
+        let (function, arguments) = reader.function(&file, table)?;
 
         Ok(Form {
             path: path.to_path_buf(),
@@ -446,7 +620,14 @@ impl Form {
             lets,
             channels,
             tape: reader.scope.tape,
+            function,
+            arguments,
         })
+    }
+
+    /// The shader function's name: `[function] name`, or `tmlut_<name>`.
+    pub fn function_name(&self) -> String {
+        self.function.clone().unwrap_or_else(|| format!("tmlut_{}", self.name))
     }
 
     /// The form as text, one statement a line: what the manifest and `fit.json` state as its

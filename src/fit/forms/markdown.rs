@@ -4,7 +4,7 @@
 
 use super::fitting::{FolderFits, FormReport};
 use super::pictures::{ERROR_MAP_FILE, RESIDUALS_FILE};
-use super::shader::LANGUAGES;
+use super::shader::{GLSL_HARNESS_EXTENSION, LANGUAGES};
 
 /// The ranking as a table, best first, with each form's cost.
 pub fn ranking_markdown(ranking: &FolderFits) -> String {
@@ -226,12 +226,32 @@ fn cost_and_files_markdown(s: &mut String, report: &FormReport) {
             );
         }
     }
-    let _ = writeln!(
+    let arguments: Vec<String> = report
+        .shader_arguments
+        .iter()
+        .map(|a| if a.name == a.axis { a.name.clone() } else { format!("{} ({})", a.name, a.axis) })
+        .collect();
+    let (languages, harness): (Vec<&String>, Vec<&String>) = report
+        .files
+        .iter()
+        .filter(|f| {
+            LANGUAGES.iter().any(|(_, ext)| f.ends_with(&format!(".{ext}"))) || f.ends_with(GLSL_HARNESS_EXTENSION)
+        })
+        .partition(|f| !f.ends_with(GLSL_HARNESS_EXTENSION));
+    let languages: Vec<&str> = languages.into_iter().map(String::as_str).collect();
+    let _ = write!(
         s,
-        "\nShader function `{}` in: {}.",
+        "\nShader function `{}({})` in: {}",
         report.shader_function,
-        report.files[..LANGUAGES.len()].join(", ")
+        arguments.join(", "),
+        languages.join(", ")
     );
+    match harness.first() {
+        Some(harness) => {
+            let _ = writeln!(s, "; the GLSL is an include file of the functions, validated inside {harness}.");
+        }
+        None => s.push_str(".\n"),
+    }
     if report.files.iter().any(|f| f == ERROR_MAP_FILE) {
         let _ = writeln!(
             s,

@@ -3,9 +3,10 @@ use std::path::Path;
 use super::data::FormData;
 use super::figures::figures;
 use super::fitting::fit;
+use super::form::ShaderArgument;
 use super::identifiability::identifiability;
 use super::prepared::SearchData;
-use super::shader::{module, sources};
+use super::shader::{lookup_module, module, sources};
 use super::*;
 use crate::fit::FitSettings;
 use crate::table::{Axis, Channel, Table};
@@ -88,6 +89,179 @@ fn each_kind_of_mistake_names_file_line_and_column() {
     error_at(&GOOD.replace("0.1 * t ^ q", "t ^ q < 1"), 9, 15, "only allowed as the condition of select");
 }
 
+/// A form over the Karis table that reads both `alpha` and `roughness`, for its function's
+/// signatures.
+const BOTH: &str = r#"table = "karis"
+[parameters]
+p = { start = 0.5, min = -2.0, max = 2.0 }
+[channels]
+scale = "1 - p * alpha * mu"
+bias = "0.1 * sqrt(1 - mu) + p * roughness"
+"#;
+
+/// `text`'s line and column (1-based, in characters) of the first `needle`: where an error about
+/// the key or value that starts with it points.
+fn place_of(text: &str, needle: &str) -> (usize, usize) {
+    let offset = text.find(needle).unwrap_or_else(|| panic!("`{needle}` in {text}"));
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().unwrap_or_default().chars().count() + 1;
+    (line, column)
+}
+
+/// The function of `form` at `parameters`, run on the CPU as a shader computes it (the IR's
+/// evaluator, with WGSL's meaning), at `arguments`.
+fn run_function(form: &Form, parameters: &[f64], arguments: &[f32]) -> Vec<f32> {
+    let m = module(form, parameters).unwrap();
+    let machine = crate::shader::eval::Machine::new(&m).unwrap();
+    let arguments = arguments.iter().map(|&v| crate::shader::eval::Value::F32(v)).collect();
+    let run = machine.call(&form.function_name(), arguments, &crate::shader::eval::NoTexels).unwrap();
+    run.value.components().unwrap()
+}
+
+#[test]
+fn a_function_of_roughness_or_alpha_is_the_form_at_the_alpha_it_converts_to() {
+    let parameters = [0.7];
+    let cpu = |form: &Form, mu: f32, alpha: f32| {
+        FormEvaluator::new(form.tape.clone(), form.variables.clone(), &parameters).channels(&[mu, alpha])
+    };
+    let views: Vec<f32> = (0..=16).map(|k| k as f32 / 16.0).collect();
+    let mut next = uniform(7);
+    let roughnesses: Vec<f32> = (0..=16).map(|k| k as f32 / 16.0).chain((0..64).map(|_| next() as f32)).collect();
+
+    // Passed roughness, the form reading alpha too: `alpha` is its square, at the top.
+    let declared = format!(
+        "{BOTH}[function]\nname = \"EnvBRDFApprox\"\n\
+         arguments = [{{ name = \"NoV\", axis = \"mu\" }}, {{ name = \"Roughness\", axis = \"roughness\" }}]\n"
+    );
+    let form = parse(&declared).unwrap();
+    assert_eq!(form.arguments, [ShaderArgument::new("NoV", "mu"), ShaderArgument::new("Roughness", "roughness")]);
+    let texts = sources(&form, &parameters).unwrap();
+    let wgsl = &texts.wgsl;
+    assert!(wgsl.contains("fn EnvBRDFApprox(NoV: f32, Roughness: f32) -> vec2<f32> {\n"), "{wgsl}");
+    assert!(wgsl.contains("    let alpha: f32 = Roughness * Roughness;\n"), "{wgsl}");
+    assert!(!wgsl.contains("let roughness") && wgsl.contains("p * Roughness"), "{wgsl}");
+    assert!(wgsl.contains("// Arguments: NoV is mu, Roughness is sqrt(alpha).\n"), "{wgsl}");
+    assert!(texts.glsl.contains("vec2 EnvBRDFApprox(float NoV, float Roughness) {\n"), "{}", texts.glsl);
+    crate::shader::validate::glsl(&texts.glsl_harness, naga::ShaderStage::Compute).unwrap();
+    for &mu in &views {
+        for &r in &roughnesses {
+            // The f32 square root of an f32 square is the number squared: the form's own
+            // `roughness = sqrt(alpha)` is `r` there, as the function is passed.
+            let alpha = r * r;
+            assert_eq!(alpha.sqrt(), r);
+            assert_eq!(run_function(&form, &parameters, &[mu, r]), cpu(&form, mu, alpha), "mu {mu}, roughness {r}");
+        }
+    }
+
+    // Passed alpha, the form reading roughness too: `roughness = sqrt(alpha)` at the top.
+    let form = parse(&format!(
+        "{BOTH}[function]\narguments = [{{ name = \"NoV\", axis = \"mu\" }}, {{ name = \"a\", axis = \"alpha\" }}]\n"
+    ))
+    .unwrap();
+    assert_eq!(form.function_name(), "tmlut_test_form");
+    let wgsl = module(&form, &parameters).unwrap().print(crate::shader::Lang::Wgsl);
+    assert!(
+        wgsl.contains("fn tmlut_test_form(NoV: f32, a: f32) -> vec2<f32> {\n    let roughness: f32 = sqrt(a);\n"),
+        "{wgsl}"
+    );
+    for &mu in &views {
+        for &a in &roughnesses {
+            assert_eq!(run_function(&form, &parameters, &[mu, a]), cpu(&form, mu, a), "mu {mu}, alpha {a}");
+        }
+    }
+}
+
+#[test]
+fn without_a_signature_the_function_takes_what_the_table_is_sampled_at() {
+    // The Karis table as built: rows spaced evenly in roughness = sqrt(alpha), sampled at
+    // (NoV, roughness); spaced in alpha, at (NoV, alpha).
+    let axes = |mapping| {
+        vec![
+            Axis::cell_centred("mu", 0.0, 1.0, 8).unwrap(),
+            Axis::cell_centred("alpha", 0.0, 1.0, 8).unwrap().with_mapping(mapping).unwrap(),
+        ]
+    };
+    let channels = || vec![Channel::new("scale", "test"), Channel::new("bias", "test")];
+    let perceptual = Table::zeros("karis", axes(crate::table::Mapping::Sqrt), channels()).unwrap();
+    let form = Form::parse(Path::new("karis-form.toml"), BOTH, &perceptual).unwrap();
+    assert_eq!(form.arguments, [ShaderArgument::new("NoV", "mu"), ShaderArgument::new("roughness", "roughness")]);
+    let wgsl = module(&form, &[0.7]).unwrap().print(crate::shader::Lang::Wgsl);
+    assert!(wgsl.contains("fn tmlut_karis_form(NoV: f32, roughness: f32) -> vec2<f32> {\n"), "{wgsl}");
+    assert!(wgsl.contains("let alpha: f32 = roughness * roughness;") && !wgsl.contains("let roughness"), "{wgsl}");
+    let linear = Table::zeros("karis", axes(crate::table::Mapping::Identity), channels()).unwrap();
+    let form = Form::parse(Path::new("karis-form.toml"), BOTH, &linear).unwrap();
+    assert_eq!(form.arguments, [ShaderArgument::new("NoV", "mu"), ShaderArgument::new("alpha", "alpha")]);
+    // A table read through a lookup of its variables (GD here) keeps them, named as they are.
+    let gd = Table::zeros("gd", axes(crate::table::Mapping::Sqrt), vec![Channel::new("gd", "test")]).unwrap();
+    let text = "table = \"gd\"\n[parameters]\n[channels]\ngd = \"mu * roughness\"\n";
+    let form = Form::parse(Path::new("gd-form.toml"), text, &gd).unwrap();
+    assert_eq!(form.arguments, [ShaderArgument::new("mu", "mu"), ShaderArgument::new("alpha", "alpha")]);
+    // A scene shader calls a form by the lookup's variables whatever it declares.
+    let form = parse(&format!("{BOTH}[function]\nname = \"EnvBRDFApprox\"\n")).unwrap();
+    let scene = lookup_module(&form, &[0.7]).unwrap().print(crate::shader::Lang::Wgsl);
+    let lookup = "fn tmlut_test_form(mu: f32, alpha: f32) -> vec2<f32> {\n    let roughness: f32 = sqrt(alpha);";
+    assert!(scene.contains(lookup), "{scene}");
+}
+
+#[test]
+fn a_signature_s_mistakes_name_the_key_and_what_is_allowed() {
+    let refused = |function: &str, needle: &str, says: &str| {
+        let text = format!("{BOTH}[function]\n{function}\n");
+        let (line, column) = place_of(&text, needle);
+        let e = parse(&text).expect_err("refused").to_string();
+        let place = format!("forms/test-form.toml:{line}:{column}: ");
+        assert!(e.starts_with(&place) && e.contains(says), "expected {place}... {says}, got: {e}");
+    };
+    let args = |list: &str| format!("arguments = [{list}]");
+    let (nov, r) = (r#"{ name = "NoV", axis = "mu" }"#, r#"{ name = "r", axis = "roughness" }"#);
+    let bad_names =
+        ["2x", "float", "gl_x", "x__y"].map(|bad| (format!(r#"{{ name = "{bad}", axis = "mu" }}, {r}"#), bad));
+    let bad_names =
+        bad_names.iter().map(|(list, bad)| (list.clone(), format!("\"{bad}\""), "`name` of [function] argument 1: "));
+    let cases = [
+        (
+            format!(r#"{nov}, {{ name = "r", axis = "rough" }}"#),
+            r#""rough""#.to_string(),
+            "`axis` of [function] argument 2: unknown axis `rough`; allowed for table `karis`: mu, alpha, roughness",
+        ),
+        (
+            format!(r#"{nov}, {{ name = "NoV", axis = "roughness" }}"#),
+            r#""NoV", axis = "roughness""#.to_string(),
+            "`name` of [function] argument 2: `NoV` names argument 1 too",
+        ),
+        (
+            nov.to_string(),
+            "[{".to_string(),
+            "no argument carries `alpha`; every variable of table `karis` needs one: mu, alpha (alpha may be passed as \
+             roughness)",
+        ),
+        (r.to_string(), "[{".to_string(), "no argument carries `mu`"),
+        (
+            format!(r#"{nov}, {{ name = "a", axis = "alpha" }}, {r}"#),
+            r#""roughness" }]"#.to_string(),
+            "`axis` of [function] argument 3: `roughness` is what argument 2 (`a`) carries as `alpha`",
+        ),
+        (
+            format!(r#"{{ name = "p", axis = "mu" }}, {r}"#),
+            r#""p""#.to_string(),
+            "`name` of [function] argument 1: `p` is a variable, parameter or binding of the form",
+        ),
+        (
+            format!(r#"{{ name = "alpha", axis = "mu" }}, {r}"#),
+            r#""alpha""#.to_string(),
+            "named after its own axis (`mu`)",
+        ),
+    ];
+    for (list, needle, says) in cases.into_iter().chain(bad_names) {
+        refused(&args(&list), &needle, says);
+    }
+    refused("name = \"main\"", "\"main\"", "`name` of [function]: `main` is reserved");
+    refused("name = \"p\"", "\"p\"", "`name` of [function]: `p` is already a variable, parameter, binding or argument");
+    refused("name = \"f\"\nargs = []", "args", "unknown field `args`");
+    refused(&args(r#"{ name = "NoV", axis = "mu", type = "f32" }"#), "type", "unknown field `type`");
+}
+
 /// A form that calls every function of the language and every operator.
 const ALL_FUNCTIONS: &str = r#"table = "karis"
 [parameters]
@@ -138,13 +312,29 @@ fn the_gradient_is_the_finite_difference_of_the_value_for_every_function() {
             }
         }
     }
-    // Every language: the WGSL validates with naga, GLSL and MSL are naga's.
+    // Every language: the WGSL and the GLSL (in its harness) validate with naga, MSL is naga's.
     let texts = sources(&form, &[0.3, 0.7, 1.3]).unwrap();
-    assert!(texts[0].contains("fn tmlut_asinh") && texts[0].contains("fn tmlut_pow_m2"), "{}", texts[0]);
-    assert!(texts[1].contains("frac(") && texts[1].contains("lerp(") && texts[1].contains("rsqrt("), "{}", texts[1]);
-    assert!(texts[2].contains("vec2 tmlut_all("), "{}", texts[2]);
-    assert!(texts[3].contains("tmlut_all("), "{}", texts[3]);
-    crate::shader::validate::wgsl(&texts[0]).unwrap();
+    assert!(texts.wgsl.contains("fn tmlut_asinh") && texts.wgsl.contains("fn tmlut_pow_m2"), "{}", texts.wgsl);
+    assert!(
+        texts.hlsl.contains("frac(") && texts.hlsl.contains("lerp(") && texts.hlsl.contains("rsqrt("),
+        "{}",
+        texts.hlsl
+    );
+    // The GLSL is the functions alone, named as the form names them (the table's default
+    // arguments: `karis_like`'s alpha axis is spaced in alpha), in GLSL's own spellings.
+    let glsl = &texts.glsl;
+    assert!(glsl.contains("vec2 tmlut_all(float NoV, float alpha) {"), "{glsl}");
+    assert!(
+        glsl.contains("inversesqrt(") && glsl.contains("clamp(u, 0.0, 1.0)") && glsl.contains("atan(a, c)"),
+        "{glsl}"
+    );
+    assert!(!glsl.contains("#version") && !glsl.contains("main"), "{glsl}");
+    let harness = &texts.glsl_harness;
+    assert!(harness.starts_with("#version 450\n") && harness.contains(glsl.as_str()), "{harness}");
+    assert!(harness.contains("void main() {\n    vec2 value = tmlut_all(0.5, 0.5);\n}"), "{harness}");
+    assert!(texts.msl.contains("tmlut_all("), "{}", texts.msl);
+    crate::shader::validate::wgsl(&texts.wgsl).unwrap();
+    crate::shader::validate::glsl(harness, naga::ShaderStage::Compute).unwrap();
 }
 
 #[test]
@@ -156,8 +346,8 @@ fn a_builtin_of_literals_alone_prints_as_wgsl_naga_accepts() {
                 scale = \"a + mix(3, 4, 0.5) + pow(2, 0.5) + atan2(1, 2 ^ 3)\"\nbias = \"a * max(1, min(2, 3))\"\n";
     let form = Form::parse(Path::new("literals.toml"), text, &table).unwrap();
     let texts = sources(&form, &[0.1]).unwrap();
-    assert!(texts[0].contains("mix(f32(3.0), 4.0, 0.5)"), "{}", texts[0]);
-    crate::shader::validate::wgsl(&texts[0]).unwrap();
+    assert!(texts.wgsl.contains("mix(f32(3.0), 4.0, 0.5)"), "{}", texts.wgsl);
+    crate::shader::validate::wgsl(&texts.wgsl).unwrap();
 }
 
 #[test]

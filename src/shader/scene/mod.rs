@@ -309,7 +309,7 @@ fn push_forms(module: &mut Module, g: &Generator) -> Result<()> {
     for (fitted, is_folder_fit) in folder_fit.into_iter().chain(g.forms.iter().map(|fitted| (fitted, false))) {
         if !is_folder_fit
             && g.folder_form.is_some()
-            && crate::fit::forms::shader::function_name(&fitted.form()?) == "tmlut_tir"
+            && crate::fit::forms::shader::lookup_function_name(&fitted.form()?) == "tmlut_tir"
         {
             return Err(Error::invalid(
                 format!("fit:{}", fitted.source),
@@ -317,7 +317,7 @@ fn push_forms(module: &mut Module, g: &Generator) -> Result<()> {
                  tir = \"fit\" reads; rename the form file",
             ));
         }
-        let items = crate::fit::forms::shader::module(&fitted.form()?, &fitted.parameters)?.items;
+        let items = crate::fit::forms::shader::lookup_module(&fitted.form()?, &fitted.parameters)?.items;
         for item in items {
             let printed = |name: &str| {
                 module.items.iter().any(|i| matches!(i, Item::Function(function) if function.name == name))

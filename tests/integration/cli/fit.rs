@@ -84,6 +84,7 @@ fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
             "error_map.png",
             "fit.json",
             &format!("{stem}.glsl"),
+            &format!("{stem}.harness.comp"),
             &format!("{stem}.hlsl"),
             &format!("{stem}.metal"),
             &format!("{stem}.wgsl"),
@@ -101,7 +102,19 @@ fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .unwrap();
-    assert!(wgsl.contains("fn tmlut_karis_env_brdf_approx(mu: f32, alpha: f32) -> vec2<f32>"), "{wgsl}");
+    // No [function] in the form file: the table's sampling, (NoV, roughness) for the Karis table as
+    // built (rows spaced in roughness), the form's `roughness` the argument itself.
+    assert!(wgsl.contains("fn tmlut_karis_env_brdf_approx(NoV: f32, roughness: f32) -> vec2<f32>"), "{wgsl}");
+    assert!(!wgsl.contains("let roughness"), "{wgsl}");
+    let arguments = serde_json::json!([{ "name": "NoV", "axis": "mu" }, { "name": "roughness", "axis": "roughness" }]);
+    assert_eq!(fitted["shader_arguments"], arguments);
+    // The GLSL is the functions alone; the harness beside it holds them and calls the form.
+    let glsl = std::fs::read_to_string(out.join(format!("{stem}.glsl"))).unwrap();
+    assert!(glsl.contains("vec2 tmlut_karis_env_brdf_approx(float NoV, float roughness) {"), "{glsl}");
+    assert!(!glsl.contains("#version") && !glsl.contains("main("), "{glsl}");
+    let harness = std::fs::read_to_string(out.join(format!("{stem}.harness.comp"))).unwrap();
+    assert!(harness.starts_with("#version 450\n") && harness.contains(&glsl), "{harness}");
+    tmlut::ir::shader::validate::glsl(&harness, naga::ShaderStage::Compute).unwrap_or_else(|e| panic!("{e}"));
     // The same seed: the same bytes, on one thread as on all.
     let again = dir.path().join("again");
     let output = Command::new(env!("CARGO_BIN_EXE_tmlut"))
@@ -111,7 +124,7 @@ fn fit_form_refits_the_env_brdf_approx_form_to_a_karis_table() {
         .output()
         .unwrap();
     assert!(output.status.success(), "{}", stderr(&output));
-    for file in ["fit.json", &format!("{stem}.wgsl"), &format!("{stem}.metal")] {
+    for file in ["fit.json", &format!("{stem}.wgsl"), &format!("{stem}.glsl"), &format!("{stem}.metal")] {
         let (a, b) =
             (std::fs::read_to_string(out.join(file)).unwrap(), std::fs::read_to_string(again.join(file)).unwrap());
         let (mut a, mut b) = (a.replace(out.to_str().unwrap(), ""), b.replace(again.to_str().unwrap(), ""));

@@ -1,16 +1,22 @@
 //! One shader emitter: a small typed description of shader code (types, expressions, statements,
-//! functions, structs, bindings) printed as HLSL and as WGSL. Every shader tmlut writes — the
+//! functions, structs, bindings) printed as HLSL, WGSL and GLSL. Every shader tmlut writes — the
 //! lookups of the GPU packings, the fitted forms and the transfer-matrix evaluation of a scene
 //! (all in `tmlut`) — is built as one [`Module`] and printed
-//! twice, so the two languages cannot drift apart: a change is made once, in the description.
+//! in each language it ships in, so the languages cannot drift apart: a change is made once, in
+//! the description.
 //!
-//! The description holds only what both languages spell the same way up to syntax: f32/i32/u32
+//! The description holds only what the languages spell the same way up to syntax: f32/i32/u32
 //! arithmetic, comparisons, a fixed list of builtins ([`Builtin`]), vectors, structs, fixed-size
 //! arrays and module constants of them, `select`, texel loads and filtered samples (of texture
 //! arrays too). [`eval`] runs a module on the CPU with WGSL's meaning and counts what a function
 //! costs ([`cost`]). Where they differ in meaning the emitter
 //! does not paper over it: HLSL's `precise` has no WGSL counterpart (WGSL forbids reassociation
 //! anyway), and WGSL has no `isnan`, so the evaluation code tests finiteness with comparisons.
+//!
+//! GLSL is printed for Vulkan (`#version 450`, which the module itself does not state: its text is
+//! meant to be included): textures and samplers are separate objects, combined at each filtered
+//! sample (`sampler2D(t, s)`), and a texel load reads the texture alone, which needs
+//! `GL_EXT_samplerless_texture_functions` in the including shader.
 
 use std::fmt::Write as _;
 
@@ -21,6 +27,8 @@ pub use crate::real::{Compare, Intrinsic};
 pub enum Lang {
     Hlsl,
     Wgsl,
+    /// GLSL 4.50 for Vulkan.
+    Glsl,
 }
 
 impl Lang {
@@ -28,6 +36,7 @@ impl Lang {
         match self {
             Lang::Hlsl => "hlsl",
             Lang::Wgsl => "wgsl",
+            Lang::Glsl => "glsl",
         }
     }
 }
@@ -61,39 +70,54 @@ pub enum Ty {
 impl Ty {
     fn text(&self, lang: Lang) -> String {
         match (self, lang) {
-            (Ty::F32, Lang::Hlsl) => "float".into(),
+            (Ty::F32, Lang::Hlsl | Lang::Glsl) => "float".into(),
             (Ty::F32, Lang::Wgsl) => "f32".into(),
-            (Ty::I32, Lang::Hlsl) => "int".into(),
+            (Ty::I32, Lang::Hlsl | Lang::Glsl) => "int".into(),
             (Ty::I32, Lang::Wgsl) => "i32".into(),
-            (Ty::U32, Lang::Hlsl) => "uint".into(),
+            (Ty::U32, Lang::Hlsl | Lang::Glsl) => "uint".into(),
             (Ty::U32, Lang::Wgsl) => "u32".into(),
             (Ty::Bool, _) => "bool".into(),
             (Ty::Vec(n), Lang::Hlsl) => format!("float{n}"),
             (Ty::Vec(n), Lang::Wgsl) => format!("vec{n}<f32>"),
+            (Ty::Vec(n), Lang::Glsl) => format!("vec{n}"),
             (Ty::IVec(n), Lang::Hlsl) => format!("int{n}"),
             (Ty::IVec(n), Lang::Wgsl) => format!("vec{n}<i32>"),
+            (Ty::IVec(n), Lang::Glsl) => format!("ivec{n}"),
             (Ty::Named(name), _) => name.clone(),
             (Ty::Array(t, n), Lang::Wgsl) => format!("array<{}, {n}>", t.text(lang)),
             (Ty::Array(t, _), Lang::Hlsl) => t.text(lang),
+            // The type as a constructor names it (`float[2](a, b)`); a declaration puts the extent
+            // after the name instead ([`Ty::declare`]).
+            (Ty::Array(t, n), Lang::Glsl) => format!("{}[{n}]", t.text(lang)),
             (Ty::Texture { dims, scalar }, Lang::Hlsl) => {
                 format!("Texture{dims}D<{}>", if *scalar { "float" } else { "float4" })
             }
             (Ty::Texture { dims, .. }, Lang::Wgsl) => format!("texture_{dims}d<f32>"),
+            (Ty::Texture { dims, .. }, Lang::Glsl) => format!("texture{dims}D"),
             (Ty::TextureArray, Lang::Hlsl) => "Texture2DArray<float4>".into(),
             (Ty::TextureArray, Lang::Wgsl) => "texture_2d_array<f32>".into(),
+            (Ty::TextureArray, Lang::Glsl) => "texture2DArray".into(),
             (Ty::Sampler, Lang::Hlsl) => "SamplerState".into(),
-            (Ty::Sampler, Lang::Wgsl) => "sampler".into(),
+            (Ty::Sampler, Lang::Wgsl | Lang::Glsl) => "sampler".into(),
         }
     }
 
-    /// `TYPE name` (HLSL, with an array's extent after the name) or `name: TYPE` (WGSL).
+    /// `TYPE name` (HLSL and GLSL, with an array's extent after the name) or `name: TYPE` (WGSL).
     fn declare(&self, name: &str, lang: Lang) -> String {
-        match lang {
-            Lang::Hlsl => match self {
-                Ty::Array(_, n) => format!("{} {name}[{n}]", self.text(lang)),
-                _ => format!("{} {name}", self.text(lang)),
-            },
-            Lang::Wgsl => format!("{name}: {}", self.text(lang)),
+        match (lang, self) {
+            (Lang::Hlsl, Ty::Array(_, n)) => format!("{} {name}[{n}]", self.text(lang)),
+            (Lang::Glsl, Ty::Array(t, n)) => format!("{} {name}[{n}]", t.text(lang)),
+            (Lang::Hlsl | Lang::Glsl, _) => format!("{} {name}", self.text(lang)),
+            (Lang::Wgsl, _) => format!("{name}: {}", self.text(lang)),
+        }
+    }
+
+    /// The sampler type a GLSL texture of this type is combined into for a filtered sample.
+    fn glsl_sampler(&self) -> String {
+        match self {
+            Ty::TextureArray => "sampler2DArray".into(),
+            Ty::Texture { dims, .. } => format!("sampler{dims}D"),
+            _ => "sampler2D".into(),
         }
     }
 }
@@ -114,13 +138,16 @@ impl From<Intrinsic> for Builtin {
 
 impl Builtin {
     /// Its name in `lang`. HLSL has no `asinh`: the printers of tapes call a helper for it
-    /// (`tmlut::shader::tape`), and a call of it here would print WGSL's name.
+    /// (`tmlut::shader::tape`), and a call of it here would print WGSL's name. GLSL has no
+    /// `saturate`: the printer writes it as a `clamp` ([`Printer::write`]).
     fn name(self, lang: Lang) -> &'static str {
         match (self, lang) {
             (Builtin::Dot, _) => "dot",
             (Builtin::Intrinsic(Intrinsic::Fract), Lang::Hlsl) => "frac",
             (Builtin::Intrinsic(Intrinsic::InverseSqrt), Lang::Hlsl) => "rsqrt",
             (Builtin::Intrinsic(Intrinsic::Mix), Lang::Hlsl) => "lerp",
+            (Builtin::Intrinsic(Intrinsic::InverseSqrt), Lang::Glsl) => "inversesqrt",
+            (Builtin::Intrinsic(Intrinsic::Atan2), Lang::Glsl) => "atan",
             (Builtin::Intrinsic(intrinsic), _) => intrinsic.wgsl_name(),
         }
     }
@@ -479,7 +506,7 @@ impl Module {
 
     /// The module's text in `lang`.
     pub fn print(&self, lang: Lang) -> String {
-        let p = Printer { lang, parens: self.parens };
+        let p = Printer { lang, parens: self.parens, structs: self.structs() };
         let mut s = String::new();
         for item in &self.items {
             match item {
@@ -489,16 +516,17 @@ impl Module {
                     let _ = writeln!(s, "struct {name} {{");
                     for (field, ty) in fields {
                         let _ = match lang {
-                            Lang::Hlsl => writeln!(s, "    {};", ty.declare(field, lang)),
+                            Lang::Hlsl | Lang::Glsl => writeln!(s, "    {};", ty.declare(field, lang)),
                             Lang::Wgsl => writeln!(s, "    {},", ty.declare(field, lang)),
                         };
                     }
-                    s.push_str(if lang == Lang::Hlsl { "};\n" } else { "}\n" });
+                    s.push_str(if lang == Lang::Wgsl { "}\n" } else { "};\n" });
                 }
                 Item::Constant { name, ty, value } => {
                     let _ = match lang {
                         Lang::Wgsl => writeln!(s, "const {name}: {} = {};", ty.text(lang), p.expr(value)),
                         Lang::Hlsl => writeln!(s, "static const {} = {};", ty.declare(name, lang), p.expr(value)),
+                        Lang::Glsl => writeln!(s, "const {} = {};", ty.declare(name, lang), p.expr(value)),
                     };
                 }
                 Item::Binding { group, binding, name, ty } => {
@@ -509,13 +537,19 @@ impl Module {
                             let space = if *group == 0 { String::new() } else { format!(", space{group}") };
                             writeln!(s, "{} : register({register}{binding}{space});", ty.declare(name, lang))
                         }
+                        Lang::Glsl => writeln!(
+                            s,
+                            "layout(set = {group}, binding = {binding}) uniform {};",
+                            ty.declare(name, lang)
+                        ),
                     };
                 }
                 Item::Function(function) => {
                     let params: Vec<String> = function.params.iter().map(|(n, t)| t.declare(n, lang)).collect();
                     let _ = match lang {
-                        Lang::Hlsl => {
-                            let brace = if self.hlsl_brace_on_next_line { "\n{" } else { " {" };
+                        Lang::Hlsl | Lang::Glsl => {
+                            let next_line = self.hlsl_brace_on_next_line && lang == Lang::Hlsl;
+                            let brace = if next_line { "\n{" } else { " {" };
                             writeln!(
                                 s,
                                 "{} {}({}){brace}",
@@ -543,9 +577,22 @@ impl Module {
     }
 }
 
+impl Module {
+    /// The fields of each struct the module declares, by name: what a GLSL zero value spells out.
+    fn structs(&self) -> std::collections::BTreeMap<String, Vec<Ty>> {
+        let declared = self.items.iter().filter_map(|item| match item {
+            Item::Struct { name, fields } => Some((name.clone(), fields.iter().map(|(_, ty)| ty.clone()).collect())),
+            _ => None,
+        });
+        declared.collect()
+    }
+}
+
 struct Printer {
     lang: Lang,
     parens: Parens,
+    /// The module's structs' field types ([`Module::structs`]).
+    structs: std::collections::BTreeMap<String, Vec<Ty>>,
 }
 
 impl Printer {
@@ -556,7 +603,8 @@ impl Printer {
             Stmt::Let { name, ty, value, typed, precise } => {
                 let value = self.expr(value);
                 let _ = match lang {
-                    Lang::Hlsl => {
+                    // GLSL 4.00 and later have HLSL's `precise`, with the same meaning.
+                    Lang::Hlsl | Lang::Glsl => {
                         let precise = if *precise { "precise " } else { "" };
                         writeln!(s, "{pad}{precise}{} = {value};", ty.declare(name, lang))
                     }
@@ -572,6 +620,10 @@ impl Printer {
                     }
                     (Lang::Wgsl, Some(v)) => writeln!(s, "{pad}var {name}: {} = {};", ty.text(lang), self.expr(v)),
                     (Lang::Wgsl, None) => writeln!(s, "{pad}var {name}: {};", ty.text(lang)),
+                    (Lang::Glsl, Some(v)) => writeln!(s, "{pad}{} = {};", ty.declare(name, lang), self.expr(v)),
+                    // GLSL leaves a local without an initialiser undefined, where WGSL and HLSL
+                    // zero it: the zero value is spelt out.
+                    (Lang::Glsl, None) => writeln!(s, "{pad}{} = {};", ty.declare(name, lang), self.glsl_zero(ty)),
                 };
             }
             Stmt::Assign(target, value) => {
@@ -596,6 +648,30 @@ impl Printer {
                 let _ = writeln!(s, "{pad}return {};", self.expr(e));
             }
             Stmt::Comment(text) => s.push_str(&comment_block(&format!("{pad}//"), text)),
+        }
+    }
+
+    /// The zero value of `ty` as a GLSL expression: what WGSL's `var x: T;` and HLSL's `(T)0`
+    /// hold.
+    fn glsl_zero(&self, ty: &Ty) -> String {
+        match ty {
+            Ty::F32 => "0.0".into(),
+            Ty::I32 => "0".into(),
+            Ty::U32 => "0u".into(),
+            Ty::Bool => "false".into(),
+            Ty::Vec(n) => format!("vec{n}(0.0)"),
+            Ty::IVec(n) => format!("ivec{n}(0)"),
+            Ty::Array(t, n) => {
+                let zero = self.glsl_zero(t);
+                format!("{}({})", ty.text(Lang::Glsl), vec![zero; *n].join(", "))
+            }
+            Ty::Named(name) => {
+                let fields = self.structs.get(name).map(Vec::as_slice).unwrap_or_default();
+                let zeros: Vec<String> = fields.iter().map(|t| self.glsl_zero(t)).collect();
+                format!("{name}({})", zeros.join(", "))
+            }
+            // Opaque types are never locals.
+            Ty::Texture { .. } | Ty::TextureArray | Ty::Sampler => ty.text(Lang::Glsl),
         }
     }
 
@@ -655,6 +731,9 @@ impl Printer {
                 out.push('-');
                 self.operand(a, 6, true, out);
             }
+            Expr::Call(Builtin::Intrinsic(Intrinsic::Saturate), args) if lang == Lang::Glsl => {
+                let _ = write!(out, "clamp({}, 0.0, 1.0)", self.list(args));
+            }
             Expr::Call(b, args) => {
                 let _ = write!(out, "{}({})", b.name(lang), self.list(args));
             }
@@ -701,12 +780,12 @@ impl Printer {
                     false => self.list(parts),
                 };
                 let _ = match lang {
-                    Lang::Wgsl => write!(out, "{}({list})", ty.text(lang)),
+                    Lang::Wgsl | Lang::Glsl => write!(out, "{}({list})", ty.text(lang)),
                     Lang::Hlsl => write!(out, "{{{list}}}"),
                 };
             }
             Expr::Select { condition, then, otherwise } => match lang {
-                Lang::Hlsl => {
+                Lang::Hlsl | Lang::Glsl => {
                     let _ = write!(out, "{} ? {} : {}", self.expr(condition), self.expr(then), self.expr(otherwise));
                 }
                 Lang::Wgsl => {
@@ -738,8 +817,7 @@ impl Printer {
                         );
                     }
                     Lang::Hlsl => {
-                        let mut all = coordinates.clone();
-                        all.extend(layer.iter().map(|l| (**l).clone()));
+                        let all = with_layer(coordinates, layer);
                         let _ = write!(
                             out,
                             "{texture}.Load({}({}, 0))",
@@ -749,6 +827,17 @@ impl Printer {
                         if !scalar_texture {
                             let _ = write!(out, ".{swizzle}");
                         }
+                    }
+                    // A texture read without a sampler (GL_EXT_samplerless_texture_functions);
+                    // like WGSL's, the load returns four channels.
+                    Lang::Glsl => {
+                        let all = with_layer(coordinates, layer);
+                        let _ = write!(
+                            out,
+                            "texelFetch({texture}, {}({}), 0).{swizzle}",
+                            Ty::IVec(all.len() as u8).text(lang),
+                            self.list(&all)
+                        );
                     }
                 }
             }
@@ -766,8 +855,7 @@ impl Printer {
                     }
                     Lang::Hlsl => {
                         // A texture array's layer is the coordinate after the others, as a float.
-                        let mut all = coordinates.clone();
-                        all.extend(layer.iter().map(|l| (**l).clone()));
+                        let all = with_layer(coordinates, layer);
                         let _ = write!(
                             out,
                             "{texture}.SampleLevel({sampler}, {}({}), 0)",
@@ -778,11 +866,33 @@ impl Printer {
                             let _ = write!(out, ".{swizzle}");
                         }
                     }
+                    // The texture and the sampler combined at the read; a texture array's layer is
+                    // the coordinate after the others, as a float (as HLSL's).
+                    Lang::Glsl => {
+                        let mut all = coordinates.clone();
+                        all.extend(layer.iter().map(|l| Expr::Construct(Ty::F32, vec![(**l).clone()])));
+                        let combined = match (&layer, n) {
+                            (Some(_), _) => Ty::TextureArray,
+                            (None, dims) => Ty::Texture { dims, scalar: false },
+                        };
+                        let _ = write!(
+                            out,
+                            "textureLod({}({texture}, {sampler}), {}({}), 0.0).{swizzle}",
+                            combined.glsl_sampler(),
+                            Ty::Vec(all.len() as u8).text(lang),
+                            self.list(&all)
+                        );
+                    }
                 }
             }
             _ => unreachable!("write_texture_read is called with a texture read"),
         }
     }
+}
+
+/// A texture read's coordinates, then its layer where it reads an array.
+fn with_layer(coordinates: &[Expr], layer: &Option<Box<Expr>>) -> Vec<Expr> {
+    coordinates.iter().cloned().chain(layer.iter().map(|l| (**l).clone())).collect()
 }
 
 /// `text` as comment lines with `prefix`; an empty line prints as the bare prefix.
@@ -793,7 +903,8 @@ pub fn comment_block(prefix: &str, text: &str) -> String {
 pub mod eval;
 pub use eval::{ShaderCost, cost};
 
-// The tests of every crate that emits shaders validate them (tmlut's through the `validate` feature).
+// The tests of every crate that emits shaders validate them, and so does `tmlut fit` its forms'
+// (tmlut's through the `validate` feature).
 #[cfg(any(test, feature = "validate"))]
 pub mod validate;
 
@@ -811,14 +922,57 @@ mod tests {
         assert!(wgsl.contains("return a * (b + c) - (a - b * c);"), "{wgsl}");
         let hlsl = m.print(Lang::Hlsl);
         assert!(hlsl.starts_with("float g(float a, float b, float c) {\n"), "{hlsl}");
+        let glsl = m.print(Lang::Glsl);
+        assert!(glsl.starts_with("float g(float a, float b, float c) {\n"), "{glsl}");
+        assert!(glsl.contains("return a * (b + c) - (a - b * c);"), "{glsl}");
     }
 
     #[test]
     fn selects_and_splats_print_in_each_language() {
         let e = select(name("x").gt(float(0.0)).and(name("y").lt(float(1.0))), splat3(float(1.0)), splat3(float(-2.0)));
-        let p = |lang| Printer { lang, parens: Parens::Minimal }.expr(&e);
+        let p = |lang| Printer { lang, parens: Parens::Minimal, structs: Default::default() }.expr(&e);
         assert_eq!(p(Lang::Wgsl), "select(vec3<f32>(-2.0), vec3<f32>(1.0), (x > 0.0) && (y < 1.0))");
         assert_eq!(p(Lang::Hlsl), "(x > 0.0) && (y < 1.0) ? float3(1.0, 1.0, 1.0) : float3(-2.0, -2.0, -2.0)");
+        assert_eq!(p(Lang::Glsl), "(x > 0.0) && (y < 1.0) ? vec3(1.0) : vec3(-2.0)");
+    }
+
+    /// A GLSL module inside the compute shader that includes it, as a renderer's would.
+    fn glsl_shader(module: &str, main_body: &str) -> String {
+        format!(
+            "#version 450\n#extension GL_EXT_samplerless_texture_functions : require\n{module}\n\
+             layout(local_size_x = 1) in;\nvoid main() {{\n{main_body}\n}}\n"
+        )
+    }
+
+    #[test]
+    fn glsl_spells_what_wgsl_spells_differently() {
+        let mut m = Module::new(Parens::Minimal);
+        let x = name("x");
+        let body = vec![
+            let_("a", Ty::F32, call(Intrinsic::Saturate, vec![x.clone()])),
+            let_("b", Ty::F32, call(Intrinsic::InverseSqrt, vec![x.clone() + float(1.0)])),
+            let_("c", Ty::F32, call(Intrinsic::Atan2, vec![x.clone(), float(2.0)])),
+            let_("d", Ty::F32, call(Intrinsic::Mix, vec![name("a"), name("b"), name("c")])),
+            Stmt::Return(call(Intrinsic::Fract, vec![name("d")])),
+        ];
+        m.function("f", vec![("x", Ty::F32)], Ty::F32, body);
+        let glsl = m.print(Lang::Glsl);
+        for line in [
+            "    float a = clamp(x, 0.0, 1.0);",
+            "    float b = inversesqrt(x + 1.0);",
+            "    float c = atan(x, 2.0);",
+            "    float d = mix(a, b, c);",
+            "    return fract(d);",
+        ] {
+            assert!(glsl.contains(line), "{line} in {glsl}");
+        }
+        let shader = glsl_shader(&glsl, "    float r = f(0.5);");
+        super::validate::glsl(&shader, naga::ShaderStage::Compute).unwrap_or_else(|e| panic!("{e}\n{shader}"));
+        // GLSL 4.00 has HLSL's `precise` (glslang takes it; naga's GLSL front end does not know it).
+        let precise = Stmt::Let { name: "p".into(), ty: Ty::F32, value: name("x"), typed: true, precise: true };
+        let mut s = String::new();
+        Printer { lang: Lang::Glsl, parens: Parens::Minimal, structs: Default::default() }.stmt(&precise, 0, &mut s);
+        assert_eq!(s, "precise float p = x;\n");
     }
 
     #[test]
@@ -848,6 +1002,57 @@ mod tests {
         assert!(hlsl.contains("Texture2D<float4> t : register(t3);"), "{hlsl}");
         assert!(hlsl.contains("    S s = (S)0;\n"), "{hlsl}");
         super::validate::wgsl(&wgsl).unwrap();
+        let glsl = m.print(Lang::Glsl);
+        assert!(glsl.contains("struct S {\n    vec3 a;\n    float b[2];\n};\n"), "{glsl}");
+        assert!(glsl.contains("layout(set = 0, binding = 3) uniform texture2D t;"), "{glsl}");
+        // GLSL leaves an uninitialised local undefined: the zero WGSL and HLSL give is spelt out.
+        assert!(glsl.contains("    S s = S(vec3(0.0), float[2](0.0, 0.0));\n    s.b[1] = 2.0;\n"), "{glsl}");
+        // naga's GLSL front end refuses a struct constructed with an array member (it types the
+        // member apart from the array constructed), which glslang takes: validated without one.
+        let mut plain = Module::new(Parens::Minimal);
+        plain.push(Item::Struct { name: "P".into(), fields: vec![("a".into(), Ty::Vec(3)), ("n".into(), Ty::I32)] });
+        let zeroed = Stmt::Var { name: "p".into(), ty: Ty::Named("P".into()), value: None };
+        plain.function("z", vec![], Ty::Named("P".into()), vec![zeroed, Stmt::Return(name("p"))]);
+        let glsl = plain.print(Lang::Glsl);
+        assert!(glsl.contains("    P p = P(vec3(0.0), 0);\n"), "{glsl}");
+        let shader = glsl_shader(&glsl, "    P p = z();");
+        super::validate::glsl(&shader, naga::ShaderStage::Compute).unwrap_or_else(|e| panic!("{e}\n{shader}"));
+    }
+
+    #[test]
+    fn texture_reads_print_in_glsl_with_textures_and_samplers_apart() {
+        let mut m = Module::new(Parens::Minimal);
+        m.push(Item::Binding { group: 0, binding: 0, name: "t".into(), ty: Ty::Texture { dims: 2, scalar: false } });
+        m.push(Item::Binding { group: 0, binding: 1, name: "a".into(), ty: Ty::TextureArray });
+        m.push(Item::Binding { group: 0, binding: 2, name: "s".into(), ty: Ty::Sampler });
+        let load = Expr::Load {
+            texture: "t".into(),
+            scalar_texture: false,
+            coordinates: vec![Expr::I32(1), Expr::I32(2)],
+            layer: None,
+            swizzle: "x",
+        };
+        let sample = Expr::SampleLevel {
+            texture: "a".into(),
+            scalar_texture: false,
+            sampler: "s".into(),
+            coordinates: vec![name("u"), float(0.5)],
+            layer: Some(Box::new(Expr::I32(3))),
+            swizzle: "xy",
+        };
+        m.function(
+            "r",
+            vec![("u", Ty::F32)],
+            Ty::Vec(2),
+            vec![Stmt::Return(sample + Expr::Construct(Ty::Vec(2), vec![load]))],
+        );
+        let glsl = m.print(Lang::Glsl);
+        assert!(glsl.contains("textureLod(sampler2DArray(a, s), vec3(u, 0.5, float(3)), 0.0).xy"), "{glsl}");
+        assert!(glsl.contains("texelFetch(t, ivec2(1, 2), 0).x"), "{glsl}");
+        assert!(glsl.contains("layout(set = 0, binding = 2) uniform sampler s;"), "{glsl}");
+        let shader = glsl_shader(&glsl, "    vec2 v = r(0.25);");
+        super::validate::glsl(&shader, naga::ShaderStage::Compute).unwrap_or_else(|e| panic!("{e}\n{shader}"));
+        super::validate::wgsl(&m.print(Lang::Wgsl)).unwrap();
     }
 
     #[test]

@@ -632,6 +632,9 @@ pub struct FitEntry {
     pub search: Option<Minimum>,
     /// `tmlut_tir(mu, alpha, eta)` with the coefficients baked in.
     pub shaders: Vec<ShaderFile>,
+    /// The shader function's arguments, in order: each one's name and the quantity it carries.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shader_arguments: Vec<ShaderArgument>,
 }
 
 impl FitEntry {
@@ -656,6 +659,7 @@ impl FitEntry {
             figures,
             search: None,
             shaders: Vec::new(),
+            shader_arguments: Vec::new(),
         }
     }
 }
@@ -736,6 +740,25 @@ impl ShaderFile {
             function: function.into(),
             sha256: super::sha256_hex(contents),
         }
+    }
+}
+
+/// An argument of a fitted form's shader function: its name in the function, and the quantity it
+/// carries (`axis`): a lookup variable of the table (`mu`, `alpha`, `eta`, `kappa`), or `roughness`,
+/// `sqrt(alpha)`, the function squaring it where the form reads `alpha`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub struct ShaderArgument {
+    /// The argument's name in the function.
+    pub name: String,
+    /// The quantity it carries.
+    pub axis: String,
+}
+
+impl ShaderArgument {
+    /// The argument `name`, carrying `axis`.
+    pub fn new(name: impl Into<String>, axis: impl Into<String>) -> Self {
+        ShaderArgument { name: name.into(), axis: axis.into() }
     }
 }
 
