@@ -112,7 +112,7 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     for (p, &(index, mu)) in points.iter().enumerate() {
         let m = &entry.materials[index];
         let got = &on_gpu[p * stride..(p + 1) * stride];
-        let expected = sample_array(&table, m, mu, Filter::QuantisedWeights { bits: 8 });
+        let expected = sample_array(&table, m, mu, &[], Filter::QuantisedWeights { bits: 8 });
         let steps = steps(&table, &entry, m, mu);
         for (v, (&g, &e)) in got.iter().zip(&expected).enumerate() {
             let allowed = WEIGHT_TOLERANCE * steps[v] + ABSOLUTE_TOLERANCE;
