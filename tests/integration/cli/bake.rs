@@ -201,6 +201,15 @@ fn a_material_a_texture_varies_is_baked_across_its_range_and_one_beyond_the_limi
         assert!(left_out[0].reason.contains(says), "{says}: {}", left_out[0].reason);
     }
 
+    // The baked shader takes the glaze's index by name, and says what it costs.
+    let wgsl = std::fs::read_to_string(luts.join("mixed.baked.wgsl")).unwrap();
+    assert!(wgsl.contains("fn tm_glaze(mu: f32, layer_1_eta: f32) -> TmResult"), "{wgsl}");
+    assert!(wgsl.contains("fn tm_varnished_copper(mu: f32) -> TmResult"), "{wgsl}");
+    let description: tmlut::loader::shader::BakedShaderDescription =
+        serde_json::from_slice(&std::fs::read(luts.join("mixed.baked.shader.json")).unwrap()).unwrap();
+    let glaze_cost = description.materials.iter().find(|m| m.material == "glaze").unwrap().cost;
+    assert_eq!(glaze_cost.texture_reads, 2 * entry.rows, "{glaze_cost:?}");
+
     // `check` holds the varied material to 1e-3 as any other; the furnace reads it at its nominal.
     let no_budgets = write_config(dir.path(), "");
     let checked = tmlut(&["check", luts.to_str().unwrap(), "--budgets", no_budgets.to_str().unwrap()]);
