@@ -105,6 +105,7 @@ pub fn material_entry(
         (layer as u32, first_row as u32),
         material.placement.segment_maps(),
         (0..layout.values()).map(|i| layout.value_name(i)).collect(),
+        material.axes.clone(),
         error,
     )
 }
@@ -144,16 +145,21 @@ pub fn summary(array: &BakedArrayEntry) -> String {
     by_error.sort_by(|a, b| b.error.max().total_cmp(&a.error.max()));
     for m in by_error.iter().take(MATERIALS_LISTED) {
         let worst = m.error.worst();
+        let varied: Vec<String> = m.varied.iter().map(|a| format!("{} ({} nodes)", a.parameter, a.nodes)).collect();
+        let at_varied: Vec<String> =
+            m.varied.iter().zip(&worst.at_varied).map(|(a, v)| format!(", {} {v:.4}", a.parameter)).collect();
         let _ = writeln!(
             out,
-            "  {}: {} lobe(s), {} texel reads, {} break(s); largest error {:.1e} ({} at mu {:.4})",
+            "  {}: {} lobe(s), {} texel reads, {} break(s){}; largest error {:.1e} ({} at mu {:.4}{})",
             m.material,
             m.lobes,
-            m.rows,
+            m.rows << m.varied.len(),
             m.segments.len().saturating_sub(1),
+            if varied.is_empty() { String::new() } else { format!(", varied: {}", varied.join(", ")) },
             worst.max,
             if worst.value.is_empty() { "none" } else { &worst.value },
-            worst.at_mu
+            worst.at_mu,
+            at_varied.concat()
         );
     }
     for left_out in &array.left_out {

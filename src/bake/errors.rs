@@ -9,25 +9,27 @@
 use rayon::prelude::*;
 
 use super::layout::ValueKind;
-use super::{BakeLayout, BakedMaterial, NodePlacement};
+use super::varied::error_values;
+use super::{BakeLayout, BakedMaterial, MaterialFamily, NodePlacement};
+use crate::error::Result;
 use crate::filter::Filter;
+use crate::formats::baked::{BakedAxis, BakedShape};
 use crate::model::{Material, Tables};
 pub use tmlut_loader::formats::baked::{BakedErrors, Worst};
 
-/// The baked values of `baked` at view cosine `mu`, as a GPU's linear filter reads them from its
-/// rows ([`texture_coordinate`], then the filter of `crate::filter`), in the layout's order.
-pub fn sample(baked: &BakedMaterial, mu: f32, filter: Filter) -> Vec<f32> {
-    let texel = |row: usize, k: usize| baked.texel(row, k);
+/// The baked values of `baked` at view cosine `mu` and the values `varied` of its varied
+/// parameters (those not given at their nominal values), as a GPU's linear filter reads them from
+/// its rows ([`texture_coordinate`], then the filter of `crate::filter`), in the layout's order.
+pub fn sample(baked: &BakedMaterial, mu: f32, varied: &[f32], filter: Filter) -> Vec<f32> {
     let segments = baked.placement.segment_maps();
-    tmlut_loader::formats::baked::sample(
-        &segments,
-        baked.nodes(),
-        baked.rows(),
-        baked.layout.values(),
-        mu,
-        filter,
-        texel,
-    )
+    let shape = BakedShape {
+        segments: &segments,
+        axes: &baked.axes,
+        nodes: baked.nodes(),
+        rows: baked.block_rows(),
+        values: baked.layout.values(),
+    };
+    tmlut_loader::formats::baked::sample(&shape, mu, varied, filter, |row, k| baked.texel(row, k))
 }
 
 /// The view cosines the errors are measured at: `per_interval` views in each interval between
@@ -52,18 +54,39 @@ pub fn error_views(placement: &NodePlacement, per_interval: usize) -> Vec<f64> {
     views
 }
 
-/// The errors of `baked` against `material` evaluated with `tables` (the exact integrals, for
-/// the error the bake adds to the model) at `per_interval` views per interval between nodes,
-/// read through `filter`.
+/// The errors of `baked` against `family` evaluated with `tables` (the exact integrals, for the
+/// error the bake adds to the model) at `per_interval` views per interval between nodes, and at
+/// the nodes of its varied parameters and midway between them, read through `filter`.
 pub fn baked_errors(
     baked: &BakedMaterial,
-    material: &Material,
+    family: &MaterialFamily,
     tables: &(dyn Tables + Sync),
     per_interval: usize,
     filter: Filter,
-) -> BakedErrors {
+) -> Result<BakedErrors> {
     let views = error_views(&baked.placement, per_interval.max(1));
-    reading_errors(&baked.layout, &views, material, tables, |mu| sample(baked, mu, filter))
+    errors_across(&baked.layout, &baked.axes, &views, family, tables, |mu, varied| sample(baked, mu, varied, filter))
+}
+
+/// The errors of the baked values `read` returns at a view cosine and values of the varied
+/// parameters of `axes` (a material of `layout`, read from memory or from its file) against
+/// `family` evaluated with `tables`, at `views` and at every point of [`error_values`]: the largest
+/// of each kind, with the parameters' values where it is.
+pub fn errors_across(
+    layout: &BakeLayout,
+    axes: &[BakedAxis],
+    views: &[f64],
+    family: &MaterialFamily,
+    tables: &(dyn Tables + Sync),
+    read: impl Fn(f32, &[f32]) -> Vec<f32>,
+) -> Result<BakedErrors> {
+    let mut errors = BakedErrors::none("");
+    for values in error_values(axes) {
+        let material = family.at(&values)?;
+        let at: Vec<f32> = values.iter().map(|&v| v as f32).collect();
+        errors.fold(reading_errors(layout, views, &material, tables, |mu| read(mu, &at)), &values);
+    }
+    Ok(errors)
 }
 
 /// The errors of the baked values `read` returns at a view cosine (a material of `layout`, read

@@ -5,25 +5,30 @@
 //! the view cosine `mu` alone. Evaluated once at nodes of `mu` ([`bake_material`]) and stored as
 //! rows of RGBA texels ([`layout`]), the model costs a shader a few filtered texel reads instead
 //! of its matrices and table lookups. What the baking costs in accuracy is measured against the
-//! model itself, read between the nodes exactly as a GPU filters them ([`errors`]).
+//! model itself, read between the nodes exactly as a GPU filters them ([`errors`]). A material
+//! whose textures vary parameters is baked at nodes of each, a block of rows per node
+//! ([`varied`]).
 
 pub mod array;
 pub mod config;
 pub mod errors;
 pub mod layout;
 pub mod placement;
+pub mod varied;
 
 use std::cell::RefCell;
 
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::formats::baked::BakedAxis;
 use crate::integrate::Progress;
-use crate::model::{Evaluation, Lookup, Material, Tables};
+use crate::model::{Lookup, Material, Tables};
 pub use config::{BakeConfig, BakeSource};
 pub use errors::{BakedErrors, Worst, baked_errors};
 pub use layout::BakeLayout;
 pub use placement::NodePlacement;
+pub use varied::{MaterialFamily, VariedParameter};
 
 /// How a material is baked.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,6 +39,19 @@ pub struct BakeSettings {
     /// to cause before the nodes are placed on the kink or the segment is cut
     /// ([`placement::place_nodes`]).
     pub tolerance: f64,
+}
+
+/// The error a baked material is held to, in tolerances: 1e-3 at the default tolerance, the
+/// limit `tmlut check` holds a bake to unless a budget says otherwise.
+pub const HELD_TO_TOLERANCES: f64 = 4.0;
+
+impl BakeSettings {
+    /// The error a baked material is held to: [`HELD_TO_TOLERANCES`] times the tolerance. A
+    /// material whose textures vary parameters and which errs by more at the most nodes it may
+    /// take is left out of a scene's bake (`scene::bake_files`).
+    pub fn held_to(&self) -> f64 {
+        HELD_TO_TOLERANCES * self.tolerance
+    }
 }
 
 impl Default for BakeSettings {
@@ -65,23 +83,36 @@ impl BakeSettings {
 /// WebGPU device supports. The fewest: one interval per segment for the most segments.
 pub const NODES: std::ops::RangeInclusive<usize> = placement::MAX_BREAKS + 2..=8192;
 
-/// One material's baked rows: `layout.texels_per_node()` rows of `placement.nodes()` RGBA texels
-/// each, row `r` holding values `4r..4r + 4` of every node's [`BakeLayout::flatten`] (zeros past
-/// the last).
+/// One material's baked rows: a block per combination of its varied parameters' nodes (one where
+/// nothing varies; [`varied::block_values`] orders them), each of `layout.texels_per_node()` rows
+/// of `placement.nodes()` RGBA texels, row `r` of a block holding values `4r..4r + 4` of every
+/// node's [`BakeLayout::flatten`] (zeros past the last).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BakedMaterial {
     pub name: String,
     pub layout: BakeLayout,
-    /// Where the nodes sit along `mu`.
+    /// Where the nodes sit along `mu`, the same in every block.
     pub placement: NodePlacement,
+    /// The parameters its textures vary, with their nodes.
+    pub axes: Vec<BakedAxis>,
     /// `rows() * nodes()` texels, node fastest: row `r`, node `k` is `texels[r * nodes() + k]`.
     pub texels: Vec<[f32; 4]>,
 }
 
 impl BakedMaterial {
-    /// Rows of texels the material takes.
+    /// Rows of texels the material takes: its blocks' rows.
     pub fn rows(&self) -> usize {
+        self.block_rows() * self.blocks()
+    }
+
+    /// Rows of one block: the texels of one node.
+    pub fn block_rows(&self) -> usize {
         self.layout.texels_per_node()
+    }
+
+    /// Blocks of rows, one per combination of its varied parameters' nodes.
+    pub fn blocks(&self) -> usize {
+        self.axes.iter().map(|a| a.nodes as usize).product()
     }
 
     /// Nodes along `mu`.
@@ -95,48 +126,82 @@ impl BakedMaterial {
     }
 }
 
-/// Bake `material` (named `name` in errors), every integral read from `tables` (exact
-/// integrals, or a built folder's tables): its nodes placed ([`placement::place_nodes`]), then
-/// the model evaluated at each, a point the placement has read already not read again. Where
-/// `tables` computes its answers on demand, those the model will ask at a batch of points are
-/// computed ahead, together ([`prepare`]). Refuses settings [`BakeSettings::check`] refuses and a model that
-/// returns a value that is not finite, naming the material and the view: no NaN enters a baked
-/// texel.
+/// Bake `material` (named `name` in errors), which varies nothing: [`bake_family`].
 pub fn bake_material(
     name: &str,
     material: &Material,
     tables: &(dyn Tables + Sync),
     settings: &BakeSettings,
 ) -> Result<BakedMaterial> {
+    bake_family(name, &MaterialFamily::fixed(material), tables, settings)
+}
+
+/// Bake `family` (named `name` in errors), every integral read from `tables` (exact integrals, or
+/// a built folder's tables): the nodes of its varied parameters chosen ([`varied::node_counts`]),
+/// then its nodes along `mu` placed ([`placement::place_nodes`]) on the values of every block
+/// together, so that one placement serves them all, then the model evaluated at each node of each
+/// block, a point the placement has read already not read again. Where `tables` computes its
+/// answers on demand, those the model will ask at a batch of points are computed ahead, together
+/// ([`prepare`]). Refuses settings [`BakeSettings::check`] refuses, more than [`varied::MAX_VARIED`] varied
+/// parameters, and a model that returns a value that is not finite (naming the material, the view
+/// and the parameters' values: no NaN enters a baked texel) or, somewhere in its parameters'
+/// ranges, another lobe count than at its own values.
+pub fn bake_family(
+    name: &str,
+    family: &MaterialFamily,
+    tables: &(dyn Tables + Sync),
+    settings: &BakeSettings,
+) -> Result<BakedMaterial> {
     settings.check()?;
     let nodes = settings.nodes;
-    // The lobe count is the stack's and the flux model's, the same at every view.
-    let layout = BakeLayout { lobes: material.evaluate(1.0, tables).lobes.len() };
+    let parameters = family.parameters();
+    if parameters.len() > varied::MAX_VARIED {
+        return Err(Error::invalid(
+            format!("material `{name}`"),
+            format!(
+                "its textures vary {} parameters; a baked material varies at most {}",
+                parameters.len(),
+                varied::MAX_VARIED
+            ),
+        ));
+    }
+    // The lobe count is the stack's and the flux model's, the same at every view; every block
+    // must have the nominal material's.
+    let layout = BakeLayout { lobes: family.nominal()?.evaluate(1.0, tables).lobes.len() };
+    let counts = varied::node_counts(name, family, &layout, tables, settings)?;
+    let axes = varied::axes(parameters, &counts);
+    let blocks: Vec<(Vec<f64>, Material)> = varied::block_values(&axes)
+        .into_iter()
+        .map(|values| Ok((values.clone(), family.at(&values)?)))
+        .collect::<Result<_>>()?;
+    // A point of `u` reads every block: its values are theirs, one after the other.
     let read = |us: &[f64]| -> Result<Vec<Vec<f64>>> {
-        prepare(material, tables, us);
-        us.par_iter().map(|&u| finite_values(name, &layout, &material.evaluate(u * u, tables))).collect()
+        let per_block = varied::read_points(name, parameters, &layout, &blocks, tables, us)?;
+        Ok((0..us.len()).map(|k| per_block.iter().flat_map(|block| block[k].iter().copied()).collect()).collect())
     };
     let mut samples = placement::Samples::new(&read);
-    let weights = |values: &[f64]| layout.weights(values);
+    let weights = |values: &[f64]| values.chunks(layout.values()).flat_map(|block| layout.weights(block)).collect();
     let placement = placement::place_nodes(&mut samples, &weights, nodes, settings.tolerance)?;
     let node_u: Vec<f64> = (0..nodes).map(|k| placement.node_u(k)).collect();
     let node_values = samples.at(&node_u)?;
     let rows = layout.texels_per_node();
-    let mut texels = vec![[0.0f32; 4]; rows * nodes];
+    let mut texels = vec![[0.0f32; 4]; rows * blocks.len() * nodes];
     for (k, values) in node_values.iter().enumerate() {
-        for (i, &value) in values.iter().enumerate() {
-            texels[(i / 4) * nodes + k][i % 4] = value as f32;
+        for (b, block) in values.chunks(layout.values()).enumerate() {
+            for (i, &value) in block.iter().enumerate() {
+                texels[(b * rows + i / 4) * nodes + k][i % 4] = value as f32;
+            }
         }
     }
-    Ok(BakedMaterial { name: name.to_string(), layout, placement, texels })
+    Ok(BakedMaterial { name: name.to_string(), layout, placement, axes, texels })
 }
 
-/// [`bake_material`] for each of `materials` (name, material), side by side on the threads of the
+/// [`bake_family`] for each of `materials` (name, material), side by side on the threads of the
 /// pool, material `i` reading `tables_of(i)` (one set of exact integrals for all of them, so that
 /// what one material has computed serves another that asks the same; or each material's own
 /// tables), advancing `progress` by one per material. The first error refuses the whole bake.
 pub fn bake_materials<'t>(
-    materials: &[(&str, &Material)],
+    materials: &[(&str, &MaterialFamily)],
     tables_of: impl Fn(usize) -> &'t (dyn Tables + Sync) + Sync,
     settings: &BakeSettings,
     progress: &dyn Progress,
@@ -145,7 +210,7 @@ pub fn bake_materials<'t>(
         .into_par_iter()
         .map(|i| {
             let (name, material) = materials[i];
-            let baked = bake_material(name, material, tables_of(i), settings);
+            let baked = bake_family(name, material, tables_of(i), settings);
             progress.advance(1);
             baked
         })
@@ -156,15 +221,20 @@ pub fn bake_materials<'t>(
 /// deep as the model's lookups depend on each other's answers.
 const PREPARE_PASSES: usize = 8;
 
-/// Have `tables` compute, together ([`Tables::prepare`]), the answers `material` will read at
-/// `u = sqrt(mu)` of each of `us`, where they are computed on demand ([`Tables::knows`]): a
-/// pass evaluates the model at every point, answering what is not known yet by a stand-in, and
+/// Have `tables` compute, together ([`Tables::prepare`]), the answers each of `materials` will
+/// read at `u = sqrt(mu)` of each of `us`, where they are computed on demand ([`Tables::knows`]): a
+/// pass evaluates the models at every point, answering what is not known yet by a stand-in, and
 /// hands over the lookups asked whatever the stand-in ([`lookups_to_come`]); the next pass, with
 /// those known, reaches the lookups that depend on them. What is left (a lookup whose parameters
 /// the stand-ins moved) is computed when the model reads it.
-fn prepare(material: &Material, tables: &(dyn Tables + Sync), us: &[f64]) {
+fn prepare(materials: &[&Material], tables: &(dyn Tables + Sync), us: &[f64]) {
     for _ in 0..PREPARE_PASSES {
-        let missing: Vec<Lookup> = us.par_iter().flat_map_iter(|&u| lookups_to_come(material, tables, u * u)).collect();
+        let missing: Vec<Lookup> = materials
+            .iter()
+            .flat_map(|&material| {
+                us.par_iter().flat_map_iter(|&u| lookups_to_come(material, tables, u * u)).collect::<Vec<_>>()
+            })
+            .collect();
         if missing.is_empty() {
             return;
         }
@@ -203,24 +273,6 @@ impl Tables for Unknown<'_> {
         }
         self.asked.borrow_mut().push(*lookup);
         self.stand_in
-    }
-}
-
-/// An evaluation's values in `layout`'s order, refused where one is not finite, naming the
-/// material, the value and the view.
-fn finite_values(name: &str, layout: &BakeLayout, evaluation: &Evaluation) -> Result<Vec<f64>> {
-    let values = layout.flatten(evaluation);
-    match values.iter().position(|v| !v.is_finite()) {
-        None => Ok(values),
-        Some(at) => Err(Error::invalid(
-            format!("material `{name}`"),
-            format!(
-                "its model returns {} for {} at the view cosine mu = {}: nothing is baked",
-                values[at],
-                layout.value_name(at),
-                evaluation.mu
-            ),
-        )),
     }
 }
 

@@ -97,16 +97,16 @@ fn a_read_at_a_node_is_that_node() {
     let settings = BakeSettings { nodes, ..BakeSettings::default() };
     let baked = bake_material("gold", &material, &tables, &settings).unwrap();
     for k in 0..nodes {
-        let read = sample(&baked, baked.placement.node_mu(k) as f32, Filter::Exact);
+        let read = sample(&baked, baked.placement.node_mu(k) as f32, &[], Filter::Exact);
         let stored: Vec<f32> = (0..baked.rows()).flat_map(|r| baked.texel(r, k)).take(read.len()).collect();
         for (a, b) in read.iter().zip(&stored) {
             assert!((a - b).abs() <= 2e-6 * b.abs().max(1.0), "node {k}: read {a}, stored {b}");
         }
     }
     // Outside [0, 1] and NaN read the end nodes.
-    assert_eq!(sample(&baked, -0.5, Filter::Exact), sample(&baked, 0.0, Filter::Exact));
-    assert_eq!(sample(&baked, f32::NAN, Filter::Exact), sample(&baked, 0.0, Filter::Exact));
-    assert_eq!(sample(&baked, 7.0, Filter::Exact), sample(&baked, 1.0, Filter::Exact));
+    assert_eq!(sample(&baked, -0.5, &[], Filter::Exact), sample(&baked, 0.0, &[], Filter::Exact));
+    assert_eq!(sample(&baked, f32::NAN, &[], Filter::Exact), sample(&baked, 0.0, &[], Filter::Exact));
+    assert_eq!(sample(&baked, 7.0, &[], Filter::Exact), sample(&baked, 1.0, &[], Filter::Exact));
 }
 
 #[test]
@@ -217,11 +217,81 @@ fn the_example_materials_baked_by_default_stay_within_1e_3_of_their_model() {
     for (name, material) in example_materials() {
         six_flux += usize::from(material.model == FluxModel::SixFlux);
         let baked = bake_material(&name, &material, &exact, &BakeSettings::default()).unwrap();
-        let errors = baked_errors(&baked, &material, &exact, 4, Filter::QuantisedWeights { bits: 8 });
+        let errors =
+            baked_errors(&baked, &MaterialFamily::fixed(&material), &exact, 4, Filter::QuantisedWeights { bits: 8 })
+                .unwrap();
         println!("{name}: breaks at u = {:?}, {} views: {:.1e}", baked.placement.breaks(), errors.views, errors.max());
         assert!(errors.max() <= 1e-3, "{name}: {errors:#?}");
         // Something was measured: the bake is not the model at every view.
         assert!(errors.albedo.max > 0.0, "{name}: {errors:#?}");
     }
     assert!(six_flux > 0, "no 6-flux material among the examples");
+}
+
+/// The example scene's material whose texture varies its glaze's index over [1.4, 1.7].
+fn glazed_ceramic() -> crate::scene::SceneMaterial {
+    let scene = Scene::from_toml(include_str!("../../luts/scenes/textured.toml"), "textured", "textured").unwrap();
+    scene.materials.into_iter().find(|m| m.name == "glazed-ceramic").unwrap()
+}
+
+/// A varied material baked by default: at a node of its parameter and of `mu` the read is its
+/// model there; midway between its parameter's nodes, where linear interpolation across the
+/// parameter errs most, and between the nodes of `mu` it stays within the 1e-3 it is held to; and
+/// at the nodes of `mu`, where nothing but the parameter's interpolation errs, within the bake's
+/// tolerance, as its parameter's nodes were chosen to be.
+#[test]
+fn a_varied_material_reads_its_model_at_its_nodes_and_stays_within_1e_3_between_them() {
+    let exact = ExactTables::new(&Config::default(), crate::exact::DEFAULT_NODES).unwrap();
+    let settings = BakeSettings::default();
+    let material = glazed_ceramic();
+    let family = material.family();
+    let baked = bake_family("glazed-ceramic", &family, &exact, &settings).unwrap();
+    let axis = &baked.axes[0];
+    assert_eq!((baked.axes.len(), axis.parameter.as_str(), axis.range), (1, "layer 1 eta", [1.4, 1.7]));
+    assert!(axis.nodes > 2 && axis.nodes <= varied::MAX_PARAMETER_NODES, "{axis:?}");
+    assert_eq!(baked.rows(), baked.block_rows() * axis.nodes as usize);
+    let filter = Filter::QuantisedWeights { bits: 8 };
+    for j in [0, axis.nodes as usize / 2, axis.nodes as usize - 1] {
+        let model = family.at(&[axis.node(j)]).unwrap();
+        for k in [0, baked.nodes() / 3, baked.nodes() - 1] {
+            let mu = baked.placement.node_mu(k);
+            let exact_values = baked.layout.flatten(&model.evaluate(mu, &exact));
+            let read = sample(&baked, mu as f32, &[axis.node(j) as f32], filter);
+            for (i, (&r, &e)) in read.iter().zip(&exact_values).enumerate() {
+                assert!((f64::from(r) - e).abs() <= 1e-5 * e.abs().max(1.0), "node {j}, mu {mu}: value {i} {r} vs {e}");
+            }
+        }
+    }
+    let errors = baked_errors(&baked, &family, &exact, 4, filter).unwrap();
+    let views = error_views(&baked.placement, 4).len();
+    assert_eq!(errors.views, views * (2 * axis.nodes as usize - 1), "every view at every node and midpoint");
+    assert!(errors.max() > 0.0 && errors.max() <= settings.held_to(), "{errors:#?}");
+    let midpoints: Vec<f64> = (0..axis.nodes as usize - 1).map(|j| 0.5 * (axis.node(j) + axis.node(j + 1))).collect();
+    let node_views: Vec<f64> = (0..baked.nodes()).map(|k| baked.placement.node_mu(k)).collect();
+    for &eta in &midpoints {
+        let model = family.at(&[eta]).unwrap();
+        let across = errors::reading_errors(&baked.layout, &node_views, &model, &exact, |mu| {
+            sample(&baked, mu, &[eta as f32], filter)
+        });
+        assert!(across.max() > 0.0 && across.max() <= settings.tolerance, "eta {eta}: {across:#?}");
+    }
+    println!(
+        "glazed-ceramic: {} nodes of eta, {} views: {:.1e} at {:?}",
+        axis.nodes,
+        errors.views,
+        errors.max(),
+        errors.worst()
+    );
+}
+
+#[test]
+fn more_varied_parameters_than_a_baked_material_takes_are_refused_naming_them() {
+    let text = "name = \"three\"\n[[material]]\nname = \"m\"\n[[material.layer]]\ntype = \"interface\"\n\
+                vary = { eta = [1.4, 1.6], alpha = [0.1, 0.2] }\n[[material.layer]]\ntype = \"interface\"\n\
+                eta = 2.0\nvary = { alpha = [0.1, 0.3] }\n";
+    let scene = Scene::from_toml(text, "three", "three").unwrap();
+    let family = scene.materials[0].family();
+    assert_eq!(family.parameters().len(), 3);
+    let e = bake_family("m", &family, &|_: &Lookup| 0.5, &BakeSettings::default()).unwrap_err().to_string();
+    assert!(e.contains("material `m`") && e.contains("vary 3 parameters") && e.contains("at most 2"), "{e}");
 }

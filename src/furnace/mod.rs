@@ -321,9 +321,9 @@ pub fn run(request: &FurnaceRequest, progress: &dyn Progress) -> Result<FurnaceR
 /// A baked material's errors against its model and its baked albedo curve.
 type BakedCurve = (BakedErrors, Vec<Rgb>);
 
-/// Where `folder` holds a bake of `scene` (`tmlut bake`): each baked material's values at `mus`,
-/// read as a GPU filters them, against its model with `exact` integrals, and its baked albedo
-/// curve; `None` for a material the bake does not hold. A bake of another scene, or one whose
+/// Where `folder` holds a bake of `scene` (`tmlut bake`): each baked material's values at `mus`
+/// (and at its varied parameters' nominal values), read as a GPU filters them, against its model
+/// with `exact` integrals, and its baked albedo curve; `None` for a material the bake does not hold. A bake of another scene, or one whose
 /// material no longer returns the lobes it was baked with, is refused: it is stale.
 fn baked_curves(
     folder: &LutFolder,
@@ -362,7 +362,13 @@ fn baked_curves(
                 )));
             }
             let layout = crate::bake::BakeLayout { lobes };
-            let read = |mu: f32| baked.sample_gpu(index, mu);
+            // Read at the varied parameters' own values (none given), against the model there.
+            let read = |mu: f32| baked.sample_gpu(index, mu, &[]);
+            let varied_model = match entry.varied.is_empty() {
+                true => None,
+                false => Some(material.family().nominal()?),
+            };
+            let model = varied_model.as_ref().unwrap_or(model);
             let errors = crate::bake::errors::reading_errors(&layout, mus, model, exact, read);
             let albedo = mus
                 .iter()

@@ -12,8 +12,11 @@ use rayon::prelude::*;
 use super::Scene;
 use super::shader_files::shader_materials;
 use crate::bake::array::{arrange, array_entry, baked_table, material_entry};
-use crate::bake::errors::{error_views, reading_errors};
-use crate::bake::{BakeConfig, BakeSource, BakedMaterial, bake_materials};
+use crate::bake::errors::{baked_errors, error_views, errors_across};
+use crate::bake::varied::{MAX_BLOCKS, MAX_PARAMETER_NODES, MAX_VARIED, values_in_words};
+use crate::bake::{
+    BakeConfig, BakeLayout, BakeSettings, BakeSource, BakedMaterial, HELD_TO_TOLERANCES, MaterialFamily, bake_materials,
+};
 use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
 use crate::error::{Error, Result};
@@ -56,12 +59,9 @@ pub fn write_baked(
     let folder_lock = OutputFolder::take(luts, |holder| progress.note(&format!("waiting for {holder}")))?;
     let folder = LutFolder::open(luts)?;
     check_scene(&folder, scene)?;
-    let (kept, left_out) = bakeable(scene)?;
-    let materials: Vec<Material> = kept
-        .iter()
-        .map(|&i| Ok(Material::new(scene.materials[i].model, scene.materials[i].stack()?)))
-        .collect::<Result<_>>()?;
-    let named: Vec<(&str, &Material)> =
+    let (kept, mut left_out) = bakeable(scene)?;
+    let materials: Vec<MaterialFamily> = kept.iter().map(|&i| scene.materials[i].family()).collect();
+    let named: Vec<(&str, &MaterialFamily)> =
         kept.iter().zip(&materials).map(|(&i, material)| (scene.materials[i].name.as_str(), material)).collect();
     let exact = ExactTables::new(config, request.exact_nodes)?;
     let started = Instant::now();
@@ -91,6 +91,7 @@ pub fn write_baked(
         }
     };
     progress.finish();
+    let (baked, materials) = hold_varied(scene, baked, materials, &exact, &request.settings(), &mut left_out)?;
     let wall_time_s = started.elapsed().as_secs_f64();
     let arrangement = arrange(&baked.iter().map(BakedMaterial::rows).collect::<Vec<_>>())?;
     let table = baked_table(BAKED_TABLE, &baked, &arrangement)?;
@@ -102,7 +103,7 @@ pub fn write_baked(
     for &format in &request.formats {
         let mut file = write_table_file(&staging.dir, &build, format, request.precision)?;
         let stored = crate::loader::load_verified(&file.path, &file.entry)?;
-        let entries = measured_entries(&baked, &materials, &arrangement.places, &stored, &exact);
+        let entries = measured_entries(&baked, &materials, &arrangement.places, &stored, &exact)?;
         let source = source_words(request, &exact);
         let mut entry = array_entry(&scene.name, &source, request.tolerance, baked[0].nodes(), &arrangement, entries);
         entry.left_out = left_out.clone();
@@ -149,7 +150,15 @@ fn write_baked_shader(
     let array_file = file_name(&array.path);
     let shader = crate::shader::baked::baked_shader(entry, &array_file, precision)?;
     let stem = crate::shader::scene::identifier(scene);
-    let functions = format!("tm_<material>(mu) for each of its {} materials", entry.materials.len());
+    let varied = entry.materials.iter().filter(|m| !m.varied.is_empty()).count();
+    let functions = match varied {
+        0 => format!("tm_<material>(mu) for each of its {} materials", entry.materials.len()),
+        _ => format!(
+            "tm_<material>(mu), or (mu, varied...) for the {varied} whose textures vary parameters, for each of its {} \
+             materials",
+            entry.materials.len()
+        ),
+    };
     let mut files: Vec<(String, String, Vec<u8>)> = shader
         .texts
         .iter()
@@ -181,24 +190,35 @@ fn write_baked_shader(
 }
 
 /// The indices of the scene's materials a bake holds, and those it leaves out with why: a
-/// material a texture varies has no one curve along `mu`, and a baked array has no axis for the
-/// varied parameter. Refused where no material is left.
+/// material whose textures vary more parameters than a baked material may ([`MAX_VARIED`]), named
+/// with its parameters and the size its table would take at the fewest nodes. Refused where no
+/// material is left.
 fn bakeable(scene: &Scene) -> Result<(Vec<usize>, Vec<LeftOutRecord>)> {
     let (mut kept, mut left_out) = (Vec::new(), Vec::new());
     for (index, material) in scene.materials.iter().enumerate() {
         let varied = material.varied_parameters();
-        if varied.is_empty() {
+        if varied.len() <= MAX_VARIED {
             kept.push(index);
-        } else {
-            left_out.push(LeftOutRecord::new(
-                format!("material `{}`", material.name),
-                format!(
-                    "its textures vary {}: a baked array has no axis for a varied parameter, and one curve along \
-                     mu at its nominal values would be wrong across the texture; its scene shader evaluates it",
-                    varied.join(", ")
-                ),
-            ));
+            continue;
         }
+        // The lobe count is the stack's: any answer to the lookups gives it.
+        let lobes =
+            Material::new(material.model, material.stack()?).evaluate(1.0, &|_: &crate::model::Lookup| 0.5).lobes.len();
+        let rows = BakeLayout { lobes }.texels_per_node();
+        let blocks = 1usize << varied.len();
+        left_out.push(LeftOutRecord::new(
+            format!("material `{}`", material.name),
+            format!(
+                "its textures vary {} parameters ({}): baked at the fewest nodes, the ends of each range, its table \
+                 would take {blocks} blocks of {rows} rows ({} rows, {} texture reads per call; up to {MAX_BLOCKS} \
+                 blocks where the ranges need more nodes), and a baked material varies at most {MAX_VARIED}; its \
+                 scene shader evaluates it",
+                varied.len(),
+                varied.join(", "),
+                blocks * rows,
+                blocks * rows,
+            ),
+        ));
     }
     if kept.is_empty() {
         let reasons: Vec<String> = left_out.iter().map(|l| format!("{} ({})", l.what, l.reason)).collect();
@@ -208,6 +228,83 @@ fn bakeable(scene: &Scene) -> Result<(Vec<usize>, Vec<LeftOutRecord>)> {
         ));
     }
     Ok((kept, left_out))
+}
+
+/// The baked materials and their models without those whose textures vary parameters and which,
+/// baked, err by more than a baked material is held to (`BakeSettings::held_to`; measured as the
+/// file's errors are, on the texels before they are stored): left out, with the parameters, the
+/// size their table took and the error, since at the most nodes a material may take its table
+/// cannot hold them within the limit (a kink of the model that moves with the parameter, such as a
+/// lobe's roughness reaching its clamp, errs in proportion to the node spacing). Refused where no
+/// material is left.
+fn hold_varied<'a>(
+    scene: &Scene,
+    baked: Vec<BakedMaterial>,
+    materials: Vec<MaterialFamily<'a>>,
+    exact: &ExactTables,
+    settings: &BakeSettings,
+    left_out: &mut Vec<LeftOutRecord>,
+) -> Result<(Vec<BakedMaterial>, Vec<MaterialFamily<'a>>)> {
+    let errors: Vec<Option<BakedErrors>> = baked
+        .par_iter()
+        .zip(&materials)
+        .map(|(b, family)| match b.axes.is_empty() {
+            true => Ok(None),
+            false => baked_errors(b, family, exact, ERROR_VIEWS_PER_INTERVAL, GPU_FILTER).map(Some),
+        })
+        .collect::<Result<_>>()?;
+    let (mut held, mut held_materials) = (Vec::new(), Vec::new());
+    for ((b, family), error) in baked.into_iter().zip(materials).zip(errors) {
+        match error {
+            Some(error) if error.max() > settings.held_to() => left_out.push(too_coarse(&b, &family, &error, settings)),
+            _ => {
+                held.push(b);
+                held_materials.push(family);
+            }
+        }
+    }
+    if held.is_empty() {
+        let reasons: Vec<String> = left_out.iter().map(|l| format!("{} ({})", l.what, l.reason)).collect();
+        return Err(Error::invalid(
+            format!("scene `{}`", scene.name),
+            format!("has no material a bake can hold: {}", reasons.join("; ")),
+        ));
+    }
+    Ok((held, held_materials))
+}
+
+/// Why the varied material `baked` is left out: its parameters, its size, and `error`, beyond
+/// what `settings` hold a baked material to.
+fn too_coarse(
+    baked: &BakedMaterial,
+    family: &MaterialFamily,
+    error: &BakedErrors,
+    settings: &BakeSettings,
+) -> LeftOutRecord {
+    let worst = error.worst();
+    let parameters: Vec<String> =
+        family.parameters().iter().map(|p| format!("{} in [{}, {}]", p.name, p.range[0], p.range[1])).collect();
+    let nodes: Vec<String> = baked.axes.iter().map(|a| a.nodes.to_string()).collect();
+    LeftOutRecord::new(
+        format!("material `{}`", baked.name),
+        format!(
+            "its textures vary {}: baked at {} nodes ({} blocks of {} rows: {} rows, {} texture reads per call; a \
+             baked material takes at most {MAX_PARAMETER_NODES} nodes a parameter and {MAX_BLOCKS} blocks), it errs \
+             by {:.1e} ({} at mu {:.4}, {}), more than the {:.1e} a baked material is held to ({HELD_TO_TOLERANCES} times the bake \
+             tolerance); its scene shader evaluates it",
+            parameters.join(", "),
+            nodes.join(" x "),
+            baked.blocks(),
+            baked.block_rows(),
+            baked.rows(),
+            baked.block_rows() << baked.axes.len(),
+            worst.max,
+            worst.value,
+            worst.at_mu,
+            values_in_words(family.parameters(), &worst.at_varied),
+            settings.held_to()
+        ),
+    )
 }
 
 /// Refuse a folder built for another scene (or for none): its tables, and the plan its manifest
@@ -230,15 +327,22 @@ fn check_scene(folder: &LutFolder, scene: &Scene) -> Result<()> {
 }
 
 /// Each material's entry, its error measured on `stored` (the array as written, read back) read
-/// through a GPU's filter, against its model with exact integrals.
+/// through a GPU's filter, against its model with exact integrals, at views along `mu` and at the
+/// nodes of its varied parameters and midway between them.
 fn measured_entries(
     baked: &[BakedMaterial],
-    materials: &[Material],
+    materials: &[MaterialFamily],
     places: &[(usize, usize)],
     stored: &crate::table::Table,
     exact: &ExactTables,
-) -> Vec<BakedMaterialEntry> {
+) -> Result<Vec<BakedMaterialEntry>> {
     let against = format!(
+        "the model with exact integrals ({} Gauss–Legendre nodes per panel), at the nodes and midway between them \
+         (along mu, and across each varied parameter); the array read as stored through a linear filter with 8-bit \
+         weights; lobe roughness, cosine and GD weighted by the lobe's largest energy",
+        exact.nodes()
+    );
+    let against_nothing_varied = format!(
         "the model with exact integrals ({} Gauss–Legendre nodes per panel), at the nodes and midway between them; \
          the array read as stored through a linear filter with 8-bit weights; lobe roughness, cosine and GD weighted \
          by the lobe's largest energy",
@@ -249,14 +353,15 @@ fn measured_entries(
         .zip(materials)
         .zip(places)
         .map(|((material, model), &place)| {
+            let against = if material.axes.is_empty() { &against_nothing_varied } else { &against };
             // Placed first: the error is read through the entry's own segments and rows.
             let mut entry = material_entry(material, place, BakedErrors::none(against.as_str()));
             let views = error_views(&material.placement, ERROR_VIEWS_PER_INTERVAL);
-            let error = reading_errors(&material.layout, &views, model, exact, |mu| {
-                sample_array(stored, &entry, mu, GPU_FILTER)
-            });
+            let error = errors_across(&material.layout, &material.axes, &views, model, exact, |mu, varied| {
+                sample_array(stored, &entry, mu, varied, GPU_FILTER)
+            })?;
             entry.error = BakedErrors { against: against.clone(), ..error };
-            entry
+            Ok(entry)
         })
         .collect()
 }

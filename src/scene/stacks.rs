@@ -42,36 +42,86 @@ impl SceneMaterial {
         let mut stacks = vec![self.stack()?];
         for combination in chosen {
             let level = |which: usize| (combination / 3usize.pow(which as u32)) % 3;
-            let stack = self.stack_with(|k, interface| {
-                let mut values = interface.nominal;
-                for (which, &(layer, parameter, range)) in varying.iter().enumerate() {
-                    if layer != k {
-                        continue;
-                    }
-                    let x = [range.lo, 0.5 * (range.lo + range.hi), range.hi][level(which)];
-                    match parameter {
-                        0 => values.eta = [x; 3],
-                        1 => values.kappa = [x; 3],
-                        _ => values.alpha = x,
-                    }
-                }
-                values
-            });
-            stacks.push(stack?);
+            let values: Vec<f64> = varying
+                .iter()
+                .enumerate()
+                .map(|(which, &(_, _, range, _))| [range.lo, 0.5 * (range.lo + range.hi), range.hi][level(which)])
+                .collect();
+            stacks.push(self.stack_at(&values)?);
         }
         Ok(stacks)
+    }
+
+    /// The stack with each parameter its textures vary at `values` (in the order of
+    /// [`SceneMaterial::varied`]; an index for every channel), its nominal values elsewhere.
+    pub fn stack_at(&self, values: &[f64]) -> Result<crate::model::Stack> {
+        let varying = self.varying();
+        self.stack_with(|k, interface| {
+            let mut at = interface.nominal;
+            for (&(layer, parameter, _, _), &x) in varying.iter().zip(values) {
+                if layer != k {
+                    continue;
+                }
+                match parameter {
+                    0 => at.eta = [x; 3],
+                    1 => at.kappa = [x; 3],
+                    _ => at.alpha = x,
+                }
+            }
+            at
+        })
+    }
+
+    /// The parameters its textures vary, as a bake takes them: each named (`layer 1 alpha`), with
+    /// its range and its nominal value.
+    pub fn varied(&self) -> Vec<crate::bake::VariedParameter> {
+        self.varying()
+            .into_iter()
+            .map(|(layer, parameter, range, nominal)| crate::bake::VariedParameter {
+                name: format!("layer {} {}", layer + 1, PARAMETERS[parameter]),
+                range: [range.lo, range.hi],
+                nominal,
+            })
+            .collect()
+    }
+
+    /// Its model at each value of the parameters its textures vary ([`SceneMaterial::stack_at`]),
+    /// for a bake.
+    pub fn family(&self) -> crate::bake::MaterialFamily<'_> {
+        crate::bake::MaterialFamily::varied(
+            self.varied(),
+            Box::new(move |values| Ok(crate::model::Material::new(self.model, self.stack_at(values)?))),
+        )
+    }
+}
+
+/// The names of an interface's parameters, by [`SceneMaterial::varying`]'s number.
+const PARAMETERS: [&str; 3] = ["eta", "kappa", "alpha"];
+
+/// A channel value where every channel holds it, else their mean.
+fn one_value(channels: [f64; 3]) -> f64 {
+    match channels {
+        [r, g, b] if r == g && g == b => r,
+        [r, g, b] => (r + g + b) / 3.0,
     }
 }
 
 impl SceneMaterial {
-    /// (layer index, parameter 0 eta / 1 kappa / 2 alpha, range) of each parameter a texture varies.
-    fn varying(&self) -> Vec<(usize, usize, Interval)> {
+    /// (layer index, parameter 0 eta / 1 kappa / 2 alpha, range, nominal value) of each parameter a
+    /// texture varies; an index's nominal value is its channels' mean where they differ (a texture
+    /// sets every channel to one value).
+    fn varying(&self) -> Vec<(usize, usize, Interval, f64)> {
         let mut varying = Vec::new();
         for (k, layer) in self.layers.iter().enumerate() {
             if let SceneLayer::Interface(i) = layer {
-                for (parameter, range) in [(0, i.eta[0]), (1, i.kappa[0]), (2, i.alpha)] {
+                let nominal = i.nominal;
+                for (parameter, range, value) in [
+                    (0, i.eta[0], one_value(nominal.eta)),
+                    (1, i.kappa[0], one_value(nominal.kappa)),
+                    (2, i.alpha, nominal.alpha),
+                ] {
                     if !range.is_point() {
-                        varying.push((k, parameter, range));
+                        varying.push((k, parameter, range, value));
                     }
                 }
             }
@@ -83,8 +133,8 @@ impl SceneMaterial {
     pub fn varied_parameters(&self) -> Vec<String> {
         self.varying()
             .into_iter()
-            .map(|(layer, parameter, range)| {
-                let name = ["eta", "kappa", "alpha"][parameter];
+            .map(|(layer, parameter, range, _)| {
+                let name = PARAMETERS[parameter];
                 format!("layer {} {name} in [{}, {}]", layer + 1, super::short(range.lo), super::short(range.hi))
             })
             .collect()

@@ -12,7 +12,9 @@
 //! `SHADER_DIR` is where `tmlut shader --out` wrote the scene shader, if not beside the tables (the
 //! baked shader is always the folder's). Each invocation `(x, y)` of the `--width` x `--height`
 //! grid (3840 x 2160 by default, in workgroups of 8 x 8) evaluates one material at the view cosine
-//! `mu = (x + 0.5) / width` and writes the sum of every value of its `TmResult` to a storage buffer,
+//! `mu = (x + 0.5) / width` (a material whose textures vary parameters, its baked function at their
+//! nominal values, as its scene shader function evaluates it) and writes the sum of every value of
+//! its `TmResult` to a storage buffer,
 //! so that no part of either shader is left out by the compiler. Every pipeline is compiled, and
 //! every table uploaded, before any dispatch is timed. Per material and shader, one warm-up
 //! dispatch (whose output is read back: every invocation must have written a finite value), then
@@ -208,8 +210,17 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
         layout: &output_layout,
         entries: &[wgpu::BindGroupEntry { binding: 0, resource: output.as_entire_binding() }],
     });
-    let scene_functions: Vec<&str> = pairs.iter().map(|(m, _)| m.function.as_str()).collect();
-    let baked_functions: Vec<&str> = pairs.iter().map(|(_, b)| b.function.as_str()).collect();
+    let scene_functions: Vec<(&str, String)> =
+        pairs.iter().map(|(m, _)| (m.function.as_str(), String::new())).collect();
+    // A material whose textures vary parameters, at their nominal values, as its scene shader
+    // function evaluates it.
+    let baked_functions: Vec<(&str, String)> = pairs
+        .iter()
+        .map(|(_, b)| {
+            let nominal = b.parameters.iter().map(|p| format!(", {}", tmlut::shader::literal(p.nominal as f32)));
+            (b.function.as_str(), nominal.collect())
+        })
+        .collect();
     let scene_module = gpu.module(
         &(scene_shader.wgsl.clone()
             + &timing_entry_points(&scene_functions, scene_shader.description.max_lobes, options.grid)),
@@ -326,11 +337,12 @@ fn entry_point(function: &str) -> String {
     format!("timing_{function}")
 }
 
-/// WGSL appended to a shader module defining `functions` (each `(mu: f32) -> TmResult`): the
+/// WGSL appended to a shader module defining `functions` (each `(mu: f32, ...) -> TmResult`, called
+/// with `mu` and the WGSL arguments after it, each beginning `, `): the
 /// output buffer in group 1, per function an entry point over the grid writing the sum of its
 /// result's values, and [`GRID_ALONE`]. The names begin `timing_`, which neither generated shader
 /// uses.
-fn timing_entry_points(functions: &[&str], max_lobes: usize, [width, height]: [u32; 2]) -> String {
+fn timing_entry_points(functions: &[(&str, String)], max_lobes: usize, [width, height]: [u32; 2]) -> String {
     let mut sum = String::from("dot(r.albedo, vec3<f32>(1.0)) + dot(r.top_albedo, vec3<f32>(1.0))");
     for lobe in 0..max_lobes {
         sum += &format!(
@@ -348,7 +360,7 @@ fn timing_sum(r: TmResult) -> f32 {{
 "
     );
     // The grid alone: the view written as it is, no material evaluated.
-    let calls = functions.iter().map(|&f| (entry_point(f), format!("timing_sum({f}(mu))")));
+    let calls = functions.iter().map(|(f, arguments)| (entry_point(f), format!("timing_sum({f}(mu{arguments}))")));
     for (entry, value) in calls.chain([(GRID_ALONE.to_owned(), "mu".to_owned())]) {
         wgsl += &format!(
             "

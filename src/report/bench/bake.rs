@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use rayon::prelude::*;
 
 use super::timed;
-use crate::bake::{BakeSettings, BakedErrors, bake_material, bake_materials, baked_errors};
+use crate::bake::{BakeSettings, BakedErrors, MaterialFamily, bake_material, bake_materials, baked_errors};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::exact::ExactTables;
@@ -86,7 +86,9 @@ pub fn bench_bake(config: &Config, settings: &BakeBenchSettings, progress: &dyn 
     }
     progress.finish();
     let exact = ExactTables::new(config, settings.exact_nodes)?;
-    let named: Vec<(&str, &Material)> = materials.iter().map(|(name, m)| (name.as_str(), m)).collect();
+    let families: Vec<MaterialFamily> = materials.iter().map(|(_, m)| MaterialFamily::fixed(m)).collect();
+    let named: Vec<(&str, &MaterialFamily)> =
+        materials.iter().zip(&families).map(|((name, _), family)| (name.as_str(), family)).collect();
     let (all_seconds, baked) = timed(|| bake_materials(&named, |_| &exact, &settings.bake, &()));
     let baked = baked?;
     progress.start("errors of the baked materials", materials.len() as u64);
@@ -97,13 +99,13 @@ pub fn bench_bake(config: &Config, settings: &BakeBenchSettings, progress: &dyn 
         .map(|(k, (baked, (name, material)))| {
             let errors = baked_errors(
                 baked,
-                material,
+                &MaterialFamily::fixed(material),
                 &exact,
                 settings.error_views_per_interval,
                 Filter::QuantisedWeights { bits: 8 },
-            );
+            )?;
             progress.advance(1);
-            BakedMaterialFigures {
+            Ok(BakedMaterialFigures {
                 name: name.clone(),
                 lobes: baked.layout.lobes,
                 texel_reads: baked.rows(),
@@ -111,9 +113,9 @@ pub fn bench_bake(config: &Config, settings: &BakeBenchSettings, progress: &dyn 
                 jumps: baked.placement.segments().iter().filter(|s| s.jump).count(),
                 seconds: seconds.get(k).copied(),
                 errors,
-            }
+            })
         })
-        .collect();
+        .collect::<Result<_>>()?;
     progress.finish();
     Ok(BakeBench { scene_files: files.len(), materials: figures, all_seconds })
 }

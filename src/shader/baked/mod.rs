@@ -26,15 +26,15 @@
 
 use std::collections::BTreeSet;
 
-use super::scene::{RESULT_STRUCT, material_function, result_struct};
+use super::scene::{RESULT_STRUCT, identifier, material_function, result_struct};
 use super::{
     Expr, Item, Lang, Module, Parens, ShaderCost, Stmt, Ty, assign, float, func, let_, name, select, var, vec3,
 };
 use crate::error::{Error, Result};
 use crate::formats::baked::{BakedArrayEntry, BakedMaterialEntry, row_coordinate};
 use crate::loader::shader::{
-    BakedMaterialFunction, BakedShaderDescription, DeviceLimits, SHADER_DESCRIPTION_FORMAT, SamplerBinding,
-    TextureBinding,
+    BakedMaterialFunction, BakedParameter, BakedShaderDescription, DeviceLimits, SHADER_DESCRIPTION_FORMAT,
+    SamplerBinding, TextureBinding,
 };
 use crate::loader::{Precision, TextureFormat};
 
@@ -51,6 +51,16 @@ const NEVER: f32 = 2.0;
 /// Values before the first lobe's (the albedo and the top albedo, RGB each), then per lobe.
 const HEAD_VALUES: usize = 6;
 const LOBE_VALUES: usize = 6;
+/// A table row's fields per varied parameter, each an array over the array's most parameters: the
+/// map of a value to its node coordinate (`t = (value - start) * scale`), the last node's
+/// coordinate, and the texture coordinate from one node's block to the next.
+const AXIS_FIELDS: [&str; 4] = ["start", "scale", "last", "stride"];
+
+/// `tmh_baked`'s argument for the value of varied parameter `a` (in the order of the material's
+/// entry).
+fn parameter_argument(a: usize) -> String {
+    format!("parameter{a}")
+}
 
 /// The baked shader of one texture array: its module, its text in each language, and what a
 /// renderer binds and calls (`<stem>.baked.shader.json`), each material's cost included.
@@ -91,18 +101,21 @@ pub fn baked_shader(entry: &BakedArrayEntry, array_file: &str, precision: Precis
         entry.scene
     ));
     module.push(result_struct(max_lobes));
+    let varied = entry.materials.iter().map(|m| m.varied.len()).max().unwrap_or(0);
     let segment_array = || Ty::Array(Box::new(Ty::F32), segments);
-    module.push(Item::Struct {
-        name: ROW_STRUCT.into(),
-        fields: vec![
-            ("layer".into(), Ty::U32),
-            ("lobes".into(), Ty::U32),
-            ("row".into(), Ty::F32),
-            ("u_start".into(), segment_array()),
-            ("slope".into(), segment_array()),
-            ("offset".into(), segment_array()),
-        ],
-    });
+    let mut fields = vec![
+        ("layer".into(), Ty::U32),
+        ("lobes".into(), Ty::U32),
+        ("row".into(), Ty::F32),
+        ("u_start".into(), segment_array()),
+        ("slope".into(), segment_array()),
+        ("offset".into(), segment_array()),
+    ];
+    if varied > 0 {
+        fields.push(("varied".into(), Ty::U32));
+        fields.extend(AXIS_FIELDS.iter().map(|f| (f.to_string(), Ty::Array(Box::new(Ty::F32), varied))));
+    }
+    module.push(Item::Struct { name: ROW_STRUCT.into(), fields });
     let listing: Vec<String> =
         entry.materials.iter().enumerate().map(|(k, m)| format!("{k}: {}", m.material)).collect();
     module.comment(&format!(
@@ -114,21 +127,31 @@ pub fn baked_shader(entry: &BakedArrayEntry, array_file: &str, precision: Precis
         ty: Ty::Array(Box::new(Ty::Named(ROW_STRUCT.into())), entry.materials.len()),
         value: Expr::Aggregate(
             Ty::Array(Box::new(Ty::Named(ROW_STRUCT.into())), entry.materials.len()),
-            entry.materials.iter().map(|m| table_row(m, entry.layer_extent[1], segments)).collect(),
+            entry.materials.iter().map(|m| table_row(m, entry.layer_extent[1], segments, varied)).collect(),
         ),
     });
     module.push(Item::Binding { group: 0, binding: 0, name: ARRAY.into(), ty: Ty::TextureArray });
     module.push(Item::Binding { group: 0, binding: 1, name: SAMPLER.into(), ty: Ty::Sampler });
-    module.comment(
-        "The baked values of material `material` at view cosine mu: the rows of its lobes only, each\n\
-         read at u = sqrt(mu) mapped by its segment, as tmlut-loader's formats::baked::sample reads them.",
-    );
+    module.comment(&match varied {
+        0 => "The baked values of material `material` at view cosine mu: the rows of its lobes only, each\n\
+              read at u = sqrt(mu) mapped by its segment, as tmlut-loader's formats::baked::sample reads them."
+            .to_string(),
+        _ => format!(
+            "The baked values of material `material` at view cosine mu and the values {} of the\n\
+             parameters its textures vary (its own count of them, the rest ignored): the rows of its lobes\n\
+             only, each read at u = sqrt(mu) mapped by its segment, in the blocks of the nodes around each\n\
+             parameter's value and blended between them, as tmlut-loader's formats::baked::sample reads them.",
+            (0..varied).map(parameter_argument).collect::<Vec<_>>().join(", ")
+        ),
+    });
     let lobes = Lobes { min: min_lobes, max: max_lobes };
+    let mut params = vec![("material".to_string(), Ty::U32), ("mu".to_string(), Ty::F32)];
+    params.extend((0..varied).map(|a| (parameter_argument(a), Ty::F32)));
     module.function(
         FUNCTION,
-        vec![("material", Ty::U32), ("mu", Ty::F32)],
+        params.iter().map(|(n, ty)| (n.as_str(), ty.clone())).collect(),
         Ty::Named(RESULT_STRUCT.into()),
-        body(segments, entry.layer_extent[1], lobes),
+        body(segments, entry.layer_extent[1], lobes, varied),
     );
     let mut functions = BTreeSet::new();
     for (index, m) in entry.materials.iter().enumerate() {
@@ -142,11 +165,17 @@ pub fn baked_shader(entry: &BakedArrayEntry, array_file: &str, precision: Precis
                 ),
             ));
         }
+        // Its own parameters by name, the array's others as 0 (which its read ignores).
+        let own: Vec<String> = m.varied.iter().map(|a| identifier(&a.parameter)).collect();
+        let mut params = vec![("mu", Ty::F32)];
+        params.extend(own.iter().map(|n| (n.as_str(), Ty::F32)));
+        let mut arguments = vec![Expr::U32(index as u32), name("mu")];
+        arguments.extend((0..varied).map(|a| own.get(a).map_or(float(0.0), |n| name(n))));
         module.function(
             &function,
-            vec![("mu", Ty::F32)],
+            params,
             Ty::Named(RESULT_STRUCT.into()),
-            vec![Stmt::Return(func(FUNCTION, vec![Expr::U32(index as u32), name("mu")]))],
+            vec![Stmt::Return(func(FUNCTION, arguments))],
         );
     }
     let materials = entry
@@ -161,6 +190,16 @@ pub fn baked_shader(entry: &BakedArrayEntry, array_file: &str, precision: Precis
                 function,
                 index: index as u32,
                 lobes: m.lobes as usize,
+                parameters: m
+                    .varied
+                    .iter()
+                    .map(|a| BakedParameter {
+                        argument: identifier(&a.parameter),
+                        parameter: a.parameter.clone(),
+                        range: a.range,
+                        nominal: a.nominal,
+                    })
+                    .collect(),
             })
         })
         .collect::<Result<Vec<_>>>()?;
@@ -210,15 +249,28 @@ fn check(entry: &BakedArrayEntry) -> Result<()> {
                 ),
             ));
         }
-        if m.layer >= entry.layers || m.first_row + m.rows > height {
+        if m.varied.len() > crate::bake::varied::MAX_VARIED || m.varied.iter().any(|a| a.nodes < 2) {
             return Err(refuse(
                 &m.material,
                 format!(
-                    "its rows {} to {} of layer {} lie outside the {} layers of {height} rows",
-                    m.first_row,
-                    m.first_row + m.rows,
-                    m.layer,
-                    entry.layers
+                    "it varies {} parameters ({}); a baked material varies at most {}, each over 2 nodes or more",
+                    m.varied.len(),
+                    m.varied
+                        .iter()
+                        .map(|a| format!("{} over {} nodes", a.parameter, a.nodes))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    crate::bake::varied::MAX_VARIED
+                ),
+            ));
+        }
+        let last_row = u64::from(m.first_row).saturating_add(m.rows_taken());
+        if m.layer >= entry.layers || last_row > u64::from(height) {
+            return Err(refuse(
+                &m.material,
+                format!(
+                    "its rows {} to {last_row} of layer {} lie outside the {} layers of {height} rows",
+                    m.first_row, m.layer, entry.layers
                 ),
             ));
         }
@@ -227,23 +279,46 @@ fn check(entry: &BakedArrayEntry) -> Result<()> {
 }
 
 /// Material `m`'s row of the constant table, its segments padded to `segments` with starts no `u`
-/// reaches.
-fn table_row(m: &BakedMaterialEntry, height: u32, segments: usize) -> Expr {
+/// reaches, and where the array's materials vary up to `varied` parameters, its own parameters'
+/// maps padded with zeros (never read: its read blends as many parameters as it has).
+fn table_row(m: &BakedMaterialEntry, height: u32, segments: usize, varied: usize) -> Expr {
     let padded = |value: fn(&crate::formats::baked::BakedSegment) -> f32, padding: f32| {
         let values = (0..segments).map(|k| float(m.segments.get(k).map_or(padding, value))).collect();
         Expr::Aggregate(Ty::Array(Box::new(Ty::F32), segments), values)
     };
-    Expr::Aggregate(
-        Ty::Named(ROW_STRUCT.into()),
-        vec![
-            Expr::U32(m.layer),
-            Expr::U32(m.lobes),
-            float(row_coordinate(m.first_row, height)),
-            padded(|s| s.u_start, NEVER),
-            padded(|s| s.slope, 0.0),
-            padded(|s| s.offset, 0.0),
-        ],
-    )
+    let mut fields = vec![
+        Expr::U32(m.layer),
+        Expr::U32(m.lobes),
+        float(row_coordinate(m.first_row, height)),
+        padded(|s| s.u_start, NEVER),
+        padded(|s| s.slope, 0.0),
+        padded(|s| s.offset, 0.0),
+    ];
+    if varied > 0 {
+        // Rows from one node's block to the next: a block for the first parameter, all of the
+        // first's blocks for the second; in texture coordinates, exact in f32 as multiples of
+        // 1 / height below 1.
+        let mut rows_per_step = m.rows;
+        let strides: Vec<f32> = m
+            .varied
+            .iter()
+            .map(|a| {
+                let stride = rows_per_step as f32 / height as f32;
+                rows_per_step *= a.nodes;
+                stride
+            })
+            .collect();
+        let per_axis = |value: &dyn Fn(usize) -> f32| {
+            let values = (0..varied).map(|a| float(if a < m.varied.len() { value(a) } else { 0.0 })).collect();
+            Expr::Aggregate(Ty::Array(Box::new(Ty::F32), varied), values)
+        };
+        fields.push(Expr::U32(m.varied.len() as u32));
+        fields.push(per_axis(&|a| m.varied[a].start));
+        fields.push(per_axis(&|a| m.varied[a].scale));
+        fields.push(per_axis(&|a| (m.varied[a].nodes - 1) as f32));
+        fields.push(per_axis(&|a| strides[a]));
+    }
+    Expr::Aggregate(Ty::Named(ROW_STRUCT.into()), fields)
 }
 
 /// The lobe counts of the array's materials: lobes below `min` are read outright, the others
@@ -254,8 +329,9 @@ struct Lobes {
     max: usize,
 }
 
-/// `tmh_baked`'s body over `segments` segments in layers `height` rows high.
-fn body(segments: usize, height: u32, lobes: Lobes) -> Vec<Stmt> {
+/// `tmh_baked`'s body over `segments` segments in layers `height` rows high, for materials of up
+/// to `varied` varied parameters.
+fn body(segments: usize, height: u32, lobes: Lobes, varied: usize) -> Vec<Stmt> {
     let constants = || name("constants");
     let mu = || name("mu");
     let mut body = vec![
@@ -280,8 +356,9 @@ fn body(segments: usize, height: u32, lobes: Lobes) -> Vec<Stmt> {
         typed: true,
         precise: true,
     });
+    body.extend(parameter_taps(varied));
     body.push(Stmt::Var { name: "result".into(), ty: Ty::Named(RESULT_STRUCT.into()), value: None });
-    let mut reader = RowReader { height, read: 0 };
+    let mut reader = RowReader { height, read: 0, varied };
     for (field, first) in [("albedo", 0), ("top_albedo", 3)] {
         let value = reader.triple(first, &mut body);
         body.push(assign(name("result").member(field), value));
@@ -289,6 +366,45 @@ fn body(segments: usize, height: u32, lobes: Lobes) -> Vec<Stmt> {
     body.extend(lobe_blocks(0, lobes, &mut reader));
     body.push(Stmt::Return(name("result")));
     body
+}
+
+/// Where a material varies parameters, the blocks it reads: for each parameter `a` it has (under
+/// `blends<a>`, which holds where it has that many), the node below its value and the weights of
+/// that node's block and the next, `formats::baked::parameter_taps` in the same f32 operations,
+/// and `base`, the centre of the first row of the block of the nodes below every value. Nothing
+/// where no material of the array varies a parameter.
+fn parameter_taps(varied: usize) -> Vec<Stmt> {
+    if varied == 0 {
+        return Vec::new();
+    }
+    let constants = || name("constants");
+    let mut statements = vec![var("base", Ty::F32, constants().member("row"))];
+    for a in 0..varied {
+        statements.push(Stmt::Var { name: format!("w{a}"), ty: Ty::F32, value: None });
+        statements.push(Stmt::Var { name: format!("k{a}"), ty: Ty::F32, value: None });
+        statements.push(Stmt::Var { name: format!("blends{a}"), ty: Ty::Bool, value: None });
+    }
+    let mut nested: Vec<Stmt> = Vec::new();
+    for a in (0..varied).rev() {
+        let field = |f: &str| constants().member(f).index(a);
+        let [t, c, j] = [format!("t{a}"), format!("c{a}"), format!("j{a}")];
+        let mut block = vec![
+            let_(&t, Ty::F32, (name(&parameter_argument(a)) - field("start")) * field("scale")),
+            Stmt::Comment("NaN reads as the range's start, as mu's NaN reads as grazing.".into()),
+            let_(&c, Ty::F32, select(name(&t).gt(float(0.0)), name(&t).min(field("last")), float(0.0))),
+            let_(&j, Ty::F32, name(&c).floor().min(field("last") - float(1.0))),
+            assign(name(&format!("w{a}")), name(&c) - name(&j)),
+            assign(name(&format!("k{a}")), float(1.0) - name(&format!("w{a}"))),
+            assign(name("base"), name("base") + name(&j) * field("stride")),
+        ];
+        block.extend(nested);
+        nested = vec![
+            assign(name(&format!("blends{a}")), constants().member("varied").gt(Expr::U32(a as u32))),
+            Stmt::If { condition: name(&format!("blends{a}")), then: block, otherwise: Vec::new() },
+        ];
+    }
+    statements.extend(nested);
+    statements
 }
 
 /// The statements filling lobe `k` and those after it: outright below `lobes.min`, else under a
@@ -322,6 +438,8 @@ struct RowReader {
     height: u32,
     /// Rows read so far (rows `0..read`), in this block or one around it.
     read: usize,
+    /// The most parameters a material of the array varies.
+    varied: usize,
 }
 
 impl RowReader {
@@ -329,10 +447,49 @@ impl RowReader {
     fn value(&mut self, i: usize, block: &mut Vec<Stmt>) -> Expr {
         let row = i / 4;
         while self.read <= row {
-            block.push(let_(&format!("t{}", self.read), Ty::Vec(4), self.sample(self.read)));
+            block.extend(self.read_row(self.read));
             self.read += 1;
         }
         name(&format!("t{row}")).member(&"xyzw"[i % 4..i % 4 + 1])
+    }
+
+    /// Row `r` into `t<r>`: one sample where no material varies a parameter; else the sample of
+    /// the block at `base`, then under `blends0` blended with the next node's block as
+    /// `k0 a + w0 b`, and under `blends1` with the blend of the two blocks of the second
+    /// parameter's next node likewise, as `formats::baked::sample` blends them.
+    fn read_row(&self, r: usize) -> Vec<Stmt> {
+        let t = format!("t{r}");
+        if self.varied == 0 {
+            return vec![let_(&t, Ty::Vec(4), self.sample(r, name("constants").member("row")))];
+        }
+        let y = format!("y{r}");
+        let stride = |a: usize| name("constants").member("stride").index(a);
+        let blend = |a: usize, low: Expr, high: Expr| name(&format!("k{a}")) * low + name(&format!("w{a}")) * high;
+        let mut statements =
+            vec![let_(&y, Ty::F32, self.row_offset(name("base"), r)), var(&t, Ty::Vec(4), self.sample_at(name(&y)))];
+        let mut inner: Vec<Stmt> = Vec::new();
+        for a in (0..self.varied).rev() {
+            // The blocks of parameter a's next node: the sample beside y, blended across the
+            // parameters before a at their own nodes.
+            let far = name(&y) + stride(a);
+            let next = (0..a).fold(self.sample_at(far.clone()), |low, inner_axis| {
+                let high = self.sample_at(far.clone() + stride(inner_axis));
+                blend(inner_axis, low, high)
+            });
+            let mut then = vec![assign(name(&t), blend(a, name(&t), next))];
+            then.extend(inner);
+            inner = vec![Stmt::If { condition: name(&format!("blends{a}")), then, otherwise: Vec::new() }];
+        }
+        statements.extend(inner);
+        statements
+    }
+
+    /// The centre of row `r` below the row whose centre is `first`.
+    fn row_offset(&self, first: Expr, r: usize) -> Expr {
+        match r {
+            0 => first,
+            _ => first + float(r as f32 / self.height as f32),
+        }
     }
 
     /// Values `i..i + 3`: a swizzle of one row where they lie in one.
@@ -344,14 +501,14 @@ impl RowReader {
         }
     }
 
-    /// The filtered sample of row `r` of the material: at its centre `row + r / height`, exact in
-    /// f32 as [`row_coordinate`]'s, so the filter reads that row alone.
-    fn sample(&self, r: usize) -> Expr {
-        let row = name("constants").member("row");
-        let y = match r {
-            0 => row,
-            _ => row + float(r as f32 / self.height as f32),
-        };
+    /// The filtered sample of row `r` below the row centred at `first`: at its centre
+    /// `first + r / height`, exact in f32 as [`row_coordinate`]'s, so the filter reads that row alone.
+    fn sample(&self, r: usize, first: Expr) -> Expr {
+        self.sample_at(self.row_offset(first, r))
+    }
+
+    /// The filtered sample at `x` of the row centred at `y`.
+    fn sample_at(&self, y: Expr) -> Expr {
         Expr::SampleLevel {
             texture: ARRAY.into(),
             scalar_texture: false,

@@ -38,6 +38,51 @@ fn example_array() -> &'static (BakedArrayEntry, Table) {
     })
 }
 
+/// An array of materials whose textures vary one parameter and two, beside one that varies
+/// nothing, baked coarsely (the values only need to be some model's).
+fn varied_array() -> &'static (BakedArrayEntry, Table) {
+    static ARRAY: OnceLock<(BakedArrayEntry, Table)> = OnceLock::new();
+    ARRAY.get_or_init(|| {
+        let exact = ExactTables::new(&Config::default(), 4).unwrap();
+        let settings = BakeSettings { nodes: 16, tolerance: 1e-2 };
+        let text = "name = \"varied\"\n\
+            [[material]]\nname = \"glaze\"\n[[material.layer]]\ntype = \"interface\"\nalpha = 0.2\n\
+            vary = { eta = [1.4, 1.7] }\n\
+            [[material]]\nname = \"rough-glaze\"\n[[material.layer]]\ntype = \"interface\"\n\
+            vary = { eta = [1.4, 1.6], alpha = [0.1, 0.3] }\n\
+            [[material]]\nname = \"plain\"\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\nalpha = 0.1\n\
+            [[material.layer]]\ntype = \"interface\"\neta = [0.2, 0.4, 1.4]\nkappa = [3.4, 2.4, 1.8]\nalpha = 0.1\n";
+        let scene = crate::scene::Scene::from_toml(text, "varied", "varied").unwrap();
+        let baked: Vec<_> = scene
+            .materials
+            .iter()
+            .map(|m| crate::bake::bake_family(&m.name, &m.family(), &exact, &settings).unwrap())
+            .collect();
+        let arrangement = arrange(&baked.iter().map(|b| b.rows()).collect::<Vec<_>>()).unwrap();
+        let table = baked_table("baked", &baked, &arrangement).unwrap();
+        let entries = baked
+            .iter()
+            .zip(&arrangement.places)
+            .map(|(b, &place)| material_entry(b, place, BakedErrors::none("not measured")))
+            .collect();
+        let entry = array_entry("varied", "exact integrals", settings.tolerance, settings.nodes, &arrangement, entries);
+        entry.check(&table).unwrap();
+        (entry, table)
+    })
+}
+
+/// The values a varied parameter is read at: its range's ends, outside it, NaN, each node and the
+/// f32 values beside it, and values between.
+fn parameter_values(axis: &crate::formats::baked::BakedAxis) -> Vec<f32> {
+    let [lo, hi] = axis.range.map(|v| v as f32);
+    let mut values = vec![lo, hi, lo - 1.0, hi + 1.0, f32::NAN, f32::INFINITY, 0.37 * lo + 0.63 * hi];
+    for j in 0..axis.nodes as usize {
+        let node = axis.node(j) as f32;
+        values.extend([node, f32::from_bits(node.to_bits() - 1), f32::from_bits(node.to_bits() + 1)]);
+    }
+    values
+}
+
 fn example_shader() -> BakedShader {
     baked_shader(&example_array().0, "baked.dds", Precision::F32).unwrap()
 }
@@ -112,7 +157,7 @@ fn the_shader_run_on_the_cpu_reads_what_the_loader_samples_for_every_material() 
             let function = &shader.description.materials.iter().find(|f| f.material == m.material).unwrap().function;
             let run = machine.call(function, vec![Value::F32(mu)], &Sampled(table)).unwrap();
             let read = flattened(&run.value, m.lobes as usize);
-            let expected = sample_array(table, m, mu, GPU);
+            let expected = sample_array(table, m, mu, &[], GPU);
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&read), bits(&expected), "{} at mu = {mu}: {read:?} against {expected:?}", m.material);
             runs += 1;
@@ -214,4 +259,85 @@ fn an_entry_the_shader_cannot_read_is_refused_naming_the_material() {
     outside.materials[0].first_row = entry.layer_extent[1];
     let error = baked_shader(&outside, "baked.dds", Precision::F16).unwrap_err().to_string();
     assert!(error.contains("outside"), "{error}");
+}
+
+#[test]
+fn the_shader_run_on_the_cpu_reads_what_the_loader_samples_at_varied_parameters() {
+    let (entry, table) = varied_array();
+    let counts: Vec<usize> = entry.materials.iter().map(|m| m.varied.len()).collect();
+    assert_eq!(counts, [1, 2, 0], "{entry:?}");
+    let shader = baked_shader(entry, "baked.dds", Precision::F32).unwrap();
+    let machine = Machine::new(&shader.module).unwrap();
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let mut runs = 0;
+    for m in &entry.materials {
+        let function = &shader.description.materials.iter().find(|f| f.material == m.material).unwrap().function;
+        // Every value of the first parameter with the second at each of its own, and the reverse.
+        let mut points: Vec<Vec<f32>> = vec![Vec::new()];
+        for (a, axis) in m.varied.iter().enumerate() {
+            let others: Vec<f32> = m.varied.iter().map(|x| x.nominal as f32).collect();
+            points = parameter_values(axis)
+                .into_iter()
+                .flat_map(|v| {
+                    let mut p = others.clone();
+                    p[a] = v;
+                    [p]
+                })
+                .chain(points.into_iter().filter(|p| p.len() == m.varied.len()))
+                .collect();
+        }
+        if let [first, second] = m.varied.as_slice() {
+            for a in parameter_values(first) {
+                for b in parameter_values(second).into_iter().step_by(3) {
+                    points.push(vec![a, b]);
+                }
+            }
+        }
+        for varied in &points {
+            for mu in [0.0, 1.0, 0.3, f32::NAN, 0.77, m.segments.last().unwrap().u_start.powi(2)] {
+                let mut arguments = vec![Value::F32(mu)];
+                arguments.extend(varied.iter().map(|&v| Value::F32(v)));
+                let run = machine.call(function, arguments, &Sampled(table)).unwrap();
+                let read = flattened(&run.value, m.lobes as usize);
+                let expected = sample_array(table, m, mu, varied, GPU);
+                assert_eq!(
+                    bits(&read),
+                    bits(&expected),
+                    "{} at mu = {mu}, {varied:?}: {read:?} against {expected:?}",
+                    m.material
+                );
+                runs += 1;
+            }
+        }
+    }
+    assert!(runs > 200, "{runs}");
+}
+
+#[test]
+fn a_varied_material_reads_twice_its_rows_per_parameter_and_the_shader_validates() {
+    let (entry, _) = varied_array();
+    let shader = baked_shader(entry, "baked.dds", Precision::F32).unwrap();
+    let wgsl = shader.text(Lang::Wgsl);
+    crate::shader::validate::wgsl(wgsl).unwrap_or_else(|e| panic!("{e}\n{wgsl}"));
+    assert!(wgsl.contains("fn tm_glaze(mu: f32, layer_1_eta: f32) -> TmResult"), "{wgsl}");
+    assert!(wgsl.contains("fn tm_rough_glaze(mu: f32, layer_1_eta: f32, layer_1_alpha: f32) -> TmResult"), "{wgsl}");
+    assert!(wgsl.contains("fn tm_plain(mu: f32) -> TmResult"), "{wgsl}");
+    let hlsl = shader.text(Lang::Hlsl);
+    assert!(hlsl.contains("TmResult tm_rough_glaze(float mu, float layer_1_eta, float layer_1_alpha)"), "{hlsl}");
+    // What each material costs more than in the same array with every parameter taken away.
+    let mut unvaried = entry.clone();
+    unvaried.materials.iter_mut().for_each(|m| m.varied.clear());
+    let unvaried_shader = baked_shader(&unvaried, "baked.dds", Precision::F32).unwrap();
+    let unvaried_costs = unvaried_shader.costs();
+    for ((m, (_, cost)), (_, without)) in entry.materials.iter().zip(shader.costs()).zip(unvaried_costs) {
+        assert_eq!(cost.texture_reads, m.rows << m.varied.len(), "{}: {cost:?}", m.material);
+        // Every material: the compare of its count of parameters. Per parameter it has: 12 to map
+        // its value and move to its block, the compare of the next parameter's count where the
+        // array has one, and per row the next block's read and its blend (4; the second's, 9).
+        let (rows, n) = (m.rows, m.varied.len() as u32);
+        let next_compare = u32::from(entry.materials.iter().any(|m| m.varied.len() > 1));
+        let expected = 1 + n.min(1) * (12 + next_compare + 4 * rows) + n.saturating_sub(1) * (12 + 9 * rows);
+        assert_eq!(cost.operations - without.operations, expected, "{}: {cost:?} against {without:?}", m.material);
+        println!("{}: {} lobes, {rows} rows, {n} varied: {cost:?}", m.material, m.lobes);
+    }
 }

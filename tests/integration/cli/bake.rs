@@ -33,12 +33,12 @@ fn a_baked_scene_reads_back_as_its_model_at_the_nodes_and_check_holds_its_error(
     let model = Material::new(m.model, m.stack().unwrap());
     let exact = ExactTables::new(&tmlut::config::Config::default(), 8).unwrap();
     let at_normal = model.evaluate(1.0, &exact);
-    let read = baked.sample_gpu(index, 1.0);
+    let read = baked.sample_gpu(index, 1.0, &[]);
     assert_eq!(read.len(), 18);
     for (c, (&read, exact)) in read.iter().zip(at_normal.albedo).enumerate() {
         assert!((read as f64 - exact).abs() < 1e-6, "albedo {c}: read {read}, the model {exact}");
     }
-    assert!(baked.sample_gpu(index + 1, 0.5).is_empty(), "no material past the last");
+    assert!(baked.sample_gpu(index + 1, 0.5, &[]).is_empty(), "no material past the last");
 
     // The baked shader beside the array, listed with it, and verified by `check` below.
     let listed: Vec<&str> = baked.baked().shader_files.iter().map(|f| f.file.as_str()).collect();
@@ -150,27 +150,121 @@ fn bake_refuses_a_folder_built_for_another_scene_and_bad_options() {
 }
 
 #[test]
-fn a_material_a_texture_varies_is_left_out_of_the_bake_and_said_so() {
+fn a_material_a_texture_varies_is_baked_across_its_range_and_one_beyond_the_limits_left_out() {
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), SMALL_SET);
     let scene = dir.path().join("mixed.toml");
     let copper = std::fs::read_to_string(scene_path("copper-pot")).unwrap().replace("copper-pot", "mixed");
-    let varied = "\n[[material]]\nname = \"rough-coat\"\n\n[[material.layer]]\ntype = \"interface\"\neta = 1.5\n\
-                  alpha = 0.2\nvary = { alpha = [0.1, 0.3] }\n";
-    std::fs::write(&scene, copper + varied).unwrap();
+    let glaze = "\n[[material]]\nname = \"glaze\"\n\n[[material.layer]]\ntype = \"interface\"\nalpha = 0.2\n\
+                 vary = { eta = [1.4, 1.7] }\n";
+    let three = "\n[[material]]\nname = \"three-maps\"\n\n[[material.layer]]\ntype = \"interface\"\n\
+                 vary = { eta = [1.4, 1.6], alpha = [0.1, 0.2] }\n[[material.layer]]\ntype = \"interface\"\n\
+                 eta = 2.0\nvary = { alpha = [0.1, 0.3] }\n";
+    std::fs::write(&scene, copper + glaze + three).unwrap();
     let luts = dir.path().join("luts");
     let built = build(&config, &luts, &["--scene", scene.to_str().unwrap(), "--bake"]);
     assert!(built.status.success(), "{}", super::stderr(&built));
-    assert!(stdout(&built).contains("not baked: material `rough-coat`"), "{}", stdout(&built));
-    let baked = BakedLut::from_folder(&LutFolder::open(&luts).unwrap()).unwrap();
-    assert_eq!(baked.baked().materials.len(), 1);
-    assert!(baked.material_index("rough-coat").is_none());
-    let left_out = &baked.baked().left_out;
-    assert!(left_out.len() == 1 && left_out[0].reason.contains("layer 1 alpha in [0.1, 0.3]"), "{left_out:?}");
+    assert!(stdout(&built).contains("baked 2 material(s)"), "{}", stdout(&built));
+    assert!(stdout(&built).contains("not baked: material `three-maps`"), "{}", stdout(&built));
 
-    // A scene of varied materials alone has nothing to bake: refused, naming each.
+    let baked = BakedLut::from_folder(&LutFolder::open(&luts).unwrap()).unwrap();
+    let index = baked.material_index("glaze").expect("the glaze is baked across its index");
+    let entry = baked.material(index).unwrap();
+    let axis = &entry.varied[0];
+    assert_eq!((entry.varied.len(), axis.parameter.as_str(), axis.range), (1, "layer 1 eta", [1.4, 1.7]));
+    assert_eq!((axis.spacing.as_str(), axis.nominal), ("uniform", 0.5 * (1.4 + 1.7)), "the range's middle");
+    assert!(axis.nodes > 2 && entry.error.max() > 0.0 && entry.error.max() <= 1e-3, "{entry:?}");
+    assert!(baked.baked().lookup.contains("varied"), "{}", baked.baked().lookup);
+    // The worst error is where the parameter lies between nodes or on one, within its range.
+    let at = &entry.error.worst().at_varied;
+    assert!(at.len() == 1 && (1.4..=1.7).contains(&at[0]), "{:?}", entry.error);
+    // At the normal, a node along mu, and at each end of the range, the array holds the model there.
+    let (scene_read, _) = Scene::read(&scene).unwrap();
+    let glaze_material = scene_read.materials.iter().find(|m| m.name == "glaze").unwrap();
+    let exact = ExactTables::new(&tmlut::config::Config::default(), 8).unwrap();
+    for eta in [1.4, 1.7] {
+        let model = Material::new(glaze_material.model, glaze_material.stack_at(&[eta]).unwrap());
+        let albedo = model.evaluate(1.0, &exact).albedo;
+        let read = baked.sample_gpu(index, 1.0, &[eta as f32]);
+        for (c, (&read, exact)) in read.iter().zip(albedo).enumerate() {
+            assert!((read as f64 - exact).abs() < 1e-6, "eta {eta}, albedo {c}: read {read}, the model {exact}");
+        }
+    }
+    let nominal = [axis.nominal as f32];
+    assert_eq!(baked.sample_gpu(index, 0.4, &[]), baked.sample_gpu(index, 0.4, &nominal), "none given: the nominal");
+
+    // The material of three varied parameters, named with them and the size it would take.
+    let left_out = &baked.baked().left_out;
+    assert_eq!(left_out.len(), 1, "{left_out:?}");
+    for says in ["layer 1 eta in [1.4, 1.6]", "layer 1 alpha in [0.1, 0.2]", "layer 2 alpha in [0.1, 0.3]", "8 blocks"]
+    {
+        assert!(left_out[0].reason.contains(says), "{says}: {}", left_out[0].reason);
+    }
+
+    // The baked shader takes the glaze's index by name, and says what it costs.
+    let wgsl = std::fs::read_to_string(luts.join("mixed.baked.wgsl")).unwrap();
+    assert!(wgsl.contains("fn tm_glaze(mu: f32, layer_1_eta: f32) -> TmResult"), "{wgsl}");
+    assert!(wgsl.contains("fn tm_varnished_copper(mu: f32) -> TmResult"), "{wgsl}");
+    let description: tmlut::loader::shader::BakedShaderDescription =
+        serde_json::from_slice(&std::fs::read(luts.join("mixed.baked.shader.json")).unwrap()).unwrap();
+    let glaze_cost = description.materials.iter().find(|m| m.material == "glaze").unwrap().cost;
+    assert_eq!(glaze_cost.texture_reads, 2 * entry.rows, "{glaze_cost:?}");
+
+    // `check` holds the varied material to 1e-3 as any other; the furnace reads it at its nominal.
+    let no_budgets = write_config(dir.path(), "");
+    let checked = tmlut(&["check", luts.to_str().unwrap(), "--budgets", no_budgets.to_str().unwrap()]);
+    assert!(checked.status.success(), "{}", stdout(&checked));
+    let furnace_out = dir.path().join("furnace");
+    let furnace = tmlut(&[
+        "furnace",
+        scene.to_str().unwrap(),
+        "--luts",
+        luts.to_str().unwrap(),
+        "--walk",
+        "none",
+        "--pictures",
+        "none",
+        "--quiet",
+        "--out",
+        furnace_out.to_str().unwrap(),
+    ]);
+    assert!(furnace.status.success(), "{}", super::stderr(&furnace));
+    let report = tmlut::furnace::report::FurnaceReport::read(&furnace_out.join("mixed/furnace.json")).unwrap();
+    let glaze_report = report.materials.iter().find(|m| m.name == "glaze").unwrap();
+    let measured = glaze_report.errors.baked.as_ref().expect("the folder holds a bake of the glaze");
+    assert!(measured.views > 0 && measured.max() <= 1e-3, "{measured:?}");
+    let three_report = report.materials.iter().find(|m| m.name == "three-maps").unwrap();
+    assert!(three_report.errors.baked.is_none(), "a material left out has no baked error");
+
+    // A scene of such materials alone has nothing to bake: refused, naming each.
+    let alone = dir.path().join("alone.toml");
+    std::fs::write(&alone, format!("name = \"alone\"\n{three}")).unwrap();
+    let alone_luts = dir.path().join("alone");
+    assert!(build(&config, &alone_luts, &["--scene", alone.to_str().unwrap()]).status.success());
+    let refused = tmlut(&["bake", alone.to_str().unwrap(), "--luts", alone_luts.to_str().unwrap()]);
+    assert_clean_failure(&refused, &["has no material a bake can hold", "three-maps", "at most 2"]);
+}
+
+/// A material whose model kinks across its parameter (the textured scene's worn gold: a lobe's
+/// roughness reaching its clamp of 1 somewhere in its roughness maps' ranges, at a place that moves
+/// with the view) errs in proportion to the parameter's node spacing: beyond 1e-3 at the most
+/// nodes a baked material takes, it is left out naming its parameters, its size and its error.
+#[test]
+fn a_varied_material_that_errs_beyond_the_limit_at_the_most_nodes_is_left_out_saying_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
     let textured = dir.path().join("textured");
-    assert!(build(&config, &textured, &["--scene", &scene_path("textured")]).status.success());
-    let refused = tmlut(&["bake", &scene_path("textured"), "--luts", textured.to_str().unwrap()]);
-    assert_clean_failure(&refused, &["has no material a bake can hold", "worn-gold", "glazed-ceramic"]);
+    let built = build(&config, &textured, &["--scene", &scene_path("textured"), "--bake"]);
+    assert!(built.status.success(), "{}", super::stderr(&built));
+    let baked = BakedLut::from_folder(&LutFolder::open(&textured).unwrap()).unwrap();
+    assert!(baked.material_index("glazed-ceramic").is_some());
+    assert!(baked.material_index("worn-gold").is_none());
+    let left_out = &baked.baked().left_out;
+    assert!(left_out.len() == 1 && left_out[0].what == "material `worn-gold`", "{left_out:?}");
+    for says in
+        ["layer 1 alpha in [0.1, 0.4]", "layer 2 alpha in [0.05, 0.3]", "blocks of 5 rows", "errs by", "held to"]
+    {
+        assert!(left_out[0].reason.contains(says), "{says}: {}", left_out[0].reason);
+    }
+    assert!(stdout(&built).contains("not baked: material `worn-gold`"), "{}", stdout(&built));
 }

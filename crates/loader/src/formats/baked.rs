@@ -8,6 +8,11 @@
 //! gives the rows above and below it a weight of exactly 0: one filtered sample reads one row.
 //! Along the row the nodes are placed segment by segment, and a shader finds the texture
 //! coordinate of `mu` from `u = sqrt(mu)` by its segment's affine map ([`texture_coordinate`]).
+//!
+//! A material whose textures vary parameters ([`BakedMaterialEntry::varied`]) has one block of
+//! those rows per node of its parameters, blocks one under the other, the first parameter's
+//! nodes fastest; a read blends the blocks of the two nodes around each parameter's value, in f32,
+//! the first parameter first ([`parameter_taps`], [`sample`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -65,8 +70,59 @@ pub struct BakedMaterialEntry {
     pub segments: Vec<BakedSegment>,
     /// What each stored value is, in storage order: value `i` is channel `i % 4` of row `i / 4`.
     pub values: Vec<String>,
+    /// The parameters its textures vary, each an axis of blocks of its rows; none where nothing
+    /// varies (one block).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub varied: Vec<BakedAxis>,
     /// How far the stored rows, read as a GPU filters them, are from the model.
     pub error: BakedErrors,
+}
+
+/// A parameter a material's textures vary, baked as an axis: one block of the material's rows per
+/// node, uniform across the range the scene declares.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BakedAxis {
+    /// The parameter, in words: `layer 1 alpha` (layers counted from 1 at the top).
+    pub parameter: String,
+    /// The range a texture varies it over, `[lo, hi]`, as the scene declares it.
+    pub range: [f64; 2],
+    /// The value read where a caller gives none: the material's own.
+    pub nominal: f64,
+    /// Nodes across the range (at least 2), each a block of the material's rows.
+    pub nodes: u32,
+    /// Where the nodes lie: `uniform`, node `j` at `lo + j (hi - lo) / (nodes - 1)`.
+    pub spacing: String,
+    /// The map from a value to its node coordinate in the f32 a shader holds,
+    /// `t = (value - start) * scale`: node `j` at `t = j`. `start` is the range's `lo`.
+    pub start: f32,
+    /// Node coordinate per unit of the value: `(nodes - 1) / (hi - lo)`.
+    pub scale: f32,
+}
+
+/// [`BakedAxis::spacing`] of nodes evenly spread across the range.
+pub const UNIFORM_SPACING: &str = "uniform";
+
+impl BakedAxis {
+    /// The axis of `parameter` over `range`, read at `nominal` where no value is given, with
+    /// `nodes` nodes uniform across the range.
+    pub fn uniform(parameter: impl Into<String>, range: [f64; 2], nominal: f64, nodes: u32) -> Self {
+        let [lo, hi] = range;
+        BakedAxis {
+            parameter: parameter.into(),
+            range,
+            nominal,
+            nodes,
+            spacing: UNIFORM_SPACING.into(),
+            start: lo as f32,
+            scale: ((f64::from(nodes) - 1.0) / (hi - lo)) as f32,
+        }
+    }
+
+    /// The value of node `j`.
+    pub fn node(&self, j: usize) -> f64 {
+        let [lo, hi] = self.range;
+        lo + (hi - lo) * j as f64 / (f64::from(self.nodes) - 1.0)
+    }
 }
 
 /// One segment of a baked material's nodes, in the f32 a shader holds: where it starts in `u`,
@@ -90,18 +146,21 @@ pub struct Worst {
     pub at_mu: f64,
     /// The value it is of (`lobe 2 roughness`), in words.
     pub value: String,
+    /// The values of the material's varied parameters there ([`BakedMaterialEntry::varied`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub at_varied: Vec<f64>,
 }
 
 impl Worst {
     /// No difference yet.
     pub fn none() -> Self {
-        Worst { max: 0.0, at_mu: 1.0, value: String::new() }
+        Worst { max: 0.0, at_mu: 1.0, value: String::new(), at_varied: Vec::new() }
     }
 
     /// Keep `difference` at `mu`, of the value `value` names, where it is the largest so far.
     pub fn take(&mut self, difference: f64, mu: f64, value: impl FnOnce() -> String) {
         if difference > self.max {
-            *self = Worst { max: difference, at_mu: mu, value: value() };
+            *self = Worst { max: difference, at_mu: mu, value: value(), at_varied: Vec::new() };
         }
     }
 }
@@ -152,22 +211,59 @@ impl BakedErrors {
     pub fn max(&self) -> f64 {
         self.worst().max
     }
+
+    /// These errors, measured with the varied parameters at `varied`, folded into `self`: the
+    /// larger of each kind kept, with the values it was measured at, and the views added up.
+    pub fn fold(&mut self, mut other: BakedErrors, varied: &[f64]) {
+        self.views += other.views;
+        for (mine, theirs) in self.kinds_mut().into_iter().zip(other.kinds_mut()) {
+            if theirs.max > mine.max {
+                *mine = Worst { at_varied: varied.to_vec(), ..theirs.clone() };
+            }
+        }
+    }
+
+    fn kinds_mut(&mut self) -> [&mut Worst; 5] {
+        [&mut self.albedo, &mut self.lobe_energy, &mut self.lobe_roughness, &mut self.lobe_cos, &mut self.lobe_gd]
+    }
 }
 
 impl BakedMaterialEntry {
     /// The entry of `material`, of `lobes` lobes, its rows from `first_row` of `layer` holding
-    /// `values` (named in storage order, four to a row) at nodes placed by `segments`, `error`
-    /// from its model.
+    /// `values` (named in storage order, four to a row) at nodes placed by `segments`, a block of
+    /// them per node of the `varied` axes, `error` from its model.
     pub fn new(
         material: impl Into<String>,
         lobes: u32,
         (layer, first_row): (u32, u32),
         segments: Vec<BakedSegment>,
         values: Vec<String>,
+        varied: Vec<BakedAxis>,
         error: BakedErrors,
     ) -> Self {
         let rows = values.len().div_ceil(4) as u32;
-        BakedMaterialEntry { material: material.into(), lobes, layer, first_row, rows, segments, values, error }
+        BakedMaterialEntry { material: material.into(), lobes, layer, first_row, rows, segments, values, varied, error }
+    }
+
+    /// Blocks of rows: one per combination of the varied parameters' nodes (1 where none varies).
+    pub fn blocks(&self) -> u64 {
+        self.varied.iter().fold(1u64, |blocks, a| blocks.saturating_mul(u64::from(a.nodes)))
+    }
+
+    /// Rows the material takes in its layer: `rows` per block.
+    pub fn rows_taken(&self) -> u64 {
+        u64::from(self.rows).saturating_mul(self.blocks())
+    }
+
+    /// Where its values lie and how they are read, for [`sample`], in rows `nodes` texels wide.
+    pub fn shape(&self, nodes: usize) -> BakedShape<'_> {
+        BakedShape {
+            segments: &self.segments,
+            axes: &self.varied,
+            nodes,
+            rows: self.rows as usize,
+            values: self.values.len(),
+        }
     }
 }
 
@@ -189,7 +285,10 @@ impl BakedArrayEntry {
             tolerance,
             layer_extent,
             layers,
-            lookup: LOOKUP.into(),
+            lookup: match materials.iter().any(|m| !m.varied.is_empty()) {
+                false => LOOKUP.into(),
+                true => format!("{LOOKUP}{VARIED_LOOKUP}"),
+            },
             materials,
             left_out: Vec::new(),
             shader_files: Vec::new(),
@@ -219,21 +318,24 @@ impl BakedArrayEntry {
             return Err(refuse(format!("has layers {height} rows high; a baked array's are a power of two")));
         }
         for m in &self.materials {
-            let fits = (m.layer as usize) < layers && (m.first_row + m.rows) as usize <= height;
+            let axes_hold_nodes = m.varied.iter().all(|a| a.nodes >= 2 && a.scale.is_finite() && a.start.is_finite());
+            let taken = u64::from(m.first_row).saturating_add(m.rows_taken());
+            let fits = (m.layer as usize) < layers && taken <= height as u64;
             let rows_hold_values = m.values.len().div_ceil(4) == m.rows as usize && m.rows > 0;
             let segments_start_at_0 = m.segments.first().is_some_and(|s| s.u_start == 0.0)
                 && m.segments.windows(2).all(|w| w[0].u_start < w[1].u_start);
-            if !fits || !rows_hold_values || !segments_start_at_0 {
+            if !fits || !rows_hold_values || !segments_start_at_0 || !axes_hold_nodes {
                 return Err(refuse(format!(
-                    "places material `{}` at layer {}, rows {} to {} with {} values and {} segments: its rows must lie \
-                     in one of the {layers} layers of {height} rows, hold its values four to a row, and its segments \
-                     start at u = 0 in increasing order",
+                    "places material `{}` at layer {}, rows {} to {taken} with {} values, {} segments and {} varied \
+                     parameters: its rows must lie in one of the {layers} layers of {height} rows, hold its values four \
+                     to a row, its segments start at u = 0 in increasing order, and each varied parameter have 2 nodes \
+                     or more and a finite map",
                     m.material,
                     m.layer,
                     m.first_row,
-                    m.first_row + m.rows,
                     m.values.len(),
-                    m.segments.len()
+                    m.segments.len(),
+                    m.varied.len()
                 )));
             }
         }
@@ -245,6 +347,12 @@ impl BakedArrayEntry {
 pub const LOOKUP: &str = "u = sqrt(clamp(mu, 0, 1)); s = the last segment with u >= u_start; \
     x = u * slope_s + offset_s; for each row r: texel = textureSampleLevel(array, linear clamp sampler, \
     (x, (first_row + r + 0.5) / height), layer, 0); value 4r + c = texel[c]";
+
+/// What [`LOOKUP`] adds where a material of the array varies parameters.
+pub const VARIED_LOOKUP: &str = ". A material with varied parameters: per parameter a (value v, its varied \
+    entry's start, scale and nodes n), t = (v - start) * scale clamped to [0, n - 1] (NaN as 0), \
+    j = min(floor(t), n - 2), w = t - j; block (j_0, j_1) holds rows from first_row + rows * (j_0 + n_0 j_1); \
+    the texels of blocks j and j + 1 blended as (1 - w) a + w b, the first parameter first";
 
 /// The texture coordinate along a baked row of view cosine `mu` (clamped to [0, 1]; NaN reads as
 /// grazing, as the model reads it), in f32 as a shader computes it: `u = sqrt(mu)`, then the map
@@ -264,38 +372,97 @@ pub fn row_coordinate(row: u32, height: u32) -> f32 {
     (row as f32 + 0.5) / height as f32
 }
 
-/// The values of the material at `rows` (its first row and count) and `segments`, read at view
-/// cosine `mu` from `texel(row, node)` as a GPU's linear filter reads the array: along the row
-/// only (a row's centre gives its neighbours no weight), `values` of them.
+/// The node below a varied parameter's `value` and the weight of the node above, in f32 as a
+/// shader computes them: `t = (value - start) * scale` clamped to `[0, nodes - 1]` (NaN reads as
+/// 0, the range's start), `j = min(floor(t), nodes - 2)`, `w = t - j`.
+pub fn parameter_taps(axis: &BakedAxis, value: f32) -> (usize, f32) {
+    let last = (axis.nodes.max(2) - 1) as f32;
+    let t = (value - axis.start) * axis.scale;
+    let t = if t > 0.0 { t.min(last) } else { 0.0 };
+    let node = t.floor().min(last - 1.0);
+    (node as usize, t - node)
+}
+
+/// What [`sample`] needs of a material: where its nodes lie along `mu` and across its varied
+/// parameters, and its rows.
+#[derive(Debug, Clone, Copy)]
+pub struct BakedShape<'a> {
+    /// Its segments along `u = sqrt(mu)`.
+    pub segments: &'a [BakedSegment],
+    /// Its varied parameters, the first blended first.
+    pub axes: &'a [BakedAxis],
+    /// Nodes along a row.
+    pub nodes: usize,
+    /// Rows of one block.
+    pub rows: usize,
+    /// Values it stores, `rows` four to a row at most.
+    pub values: usize,
+}
+
+/// The values of a material of `shape` read at view cosine `mu` and at `varied`, one value per
+/// varied parameter (a parameter past those given read at its nominal value), from `texel(row,
+/// node)` (rows counted from the material's first, blocks one under the other) as a GPU's linear
+/// filter reads the array: along the row only (a row's centre gives its neighbours no weight),
+/// then blended between the blocks of the nodes around each parameter's value ([`parameter_taps`]),
+/// the first parameter first, `values` of them.
 pub fn sample(
-    segments: &[BakedSegment],
-    nodes: usize,
-    rows: usize,
-    values: usize,
+    shape: &BakedShape,
     mu: f32,
+    varied: &[f32],
     filter: Filter,
     texel: impl Fn(usize, usize) -> [f32; 4],
 ) -> Vec<f32> {
-    let (lower, upper, weight) = linear_taps(texture_coordinate(segments, mu), nodes, filter);
-    let mut read: Vec<f32> = (0..rows)
-        .flat_map(|row| {
-            let (a, b) = (texel(row, lower), texel(row, upper));
-            (0..4).map(move |c| lerp(a[c], b[c], weight))
+    let (lower, upper, weight) = linear_taps(texture_coordinate(shape.segments, mu), shape.nodes, filter);
+    let block = |first_row: usize| -> Vec<f32> {
+        (0..shape.rows)
+            .flat_map(|row| {
+                let (a, b) = (texel(first_row + row, lower), texel(first_row + row, upper));
+                (0..4).map(move |c| lerp(a[c], b[c], weight))
+            })
+            .collect()
+    };
+    let taps: Vec<(usize, f32)> = shape
+        .axes
+        .iter()
+        .enumerate()
+        .map(|(a, axis)| parameter_taps(axis, varied.get(a).copied().unwrap_or(axis.nominal as f32)))
+        .collect();
+    // Rows from one node of a parameter to the next: a block for the first, the first's blocks
+    // for the second.
+    let strides: Vec<usize> = shape
+        .axes
+        .iter()
+        .scan(shape.rows, |stride, axis| {
+            let this = *stride;
+            *stride = stride.saturating_mul(axis.nodes as usize);
+            Some(this)
         })
         .collect();
-    read.truncate(values);
+    let mut read = blend(&taps, &strides, 0, &block);
+    read.truncate(shape.values);
     read
 }
 
-/// The baked values of `material` at `mu` from `array` (a loaded baked file, checked with
+/// The rows from `first_row` blended across parameters `..taps.len()`, the last outermost: the
+/// blocks of its two nodes around the value, each blended across the parameters before it.
+fn blend(taps: &[(usize, f32)], strides: &[usize], first_row: usize, block: &dyn Fn(usize) -> Vec<f32>) -> Vec<f32> {
+    let Some((&(node, weight), inner)) = taps.split_last() else { return block(first_row) };
+    let stride = strides[inner.len()];
+    let below = blend(inner, strides, first_row + node * stride, block);
+    let above = blend(inner, strides, first_row + (node + 1) * stride, block);
+    below.iter().zip(&above).map(|(&a, &b)| lerp(a, b, weight)).collect()
+}
+
+/// The baked values of `material` at `mu` and `varied` (one value per varied parameter, those not
+/// given at their nominal values) from `array` (a loaded baked file, checked with
 /// [`BakedArrayEntry::check`]).
-pub fn sample_array(array: &Table, material: &BakedMaterialEntry, mu: f32, filter: Filter) -> Vec<f32> {
+pub fn sample_array(array: &Table, material: &BakedMaterialEntry, mu: f32, varied: &[f32], filter: Filter) -> Vec<f32> {
     let [width, height] = [array.axes[0].count, array.axes[1].count];
     let texel = |row: usize, node: usize| {
         let at = ((material.layer as usize * height + material.first_row as usize + row) * width + node) * 4;
         [array.data[at], array.data[at + 1], array.data[at + 2], array.data[at + 3]]
     };
-    sample(&material.segments, width, material.rows as usize, material.values.len(), mu, filter, texel)
+    sample(&material.shape(width), mu, varied, filter, texel)
 }
 
 #[cfg(test)]
@@ -334,11 +501,69 @@ mod tests {
         let segments = [BakedSegment { u_start: 0.0, slope: 2.0 / 3.0, offset: 0.5 / 3.0 }];
         // Node k of row r holds (10 r + k) in every channel.
         let texel = |row: usize, node: usize| [(10 * row + node) as f32; 4];
-        let read = sample(&segments, 3, 2, 6, 0.25, Filter::Exact, texel);
+        let shape = |rows: usize, values: usize| BakedShape { segments: &segments, axes: &[], nodes: 3, rows, values };
+        let read = sample(&shape(2, 6), 0.25, &[], Filter::Exact, texel);
         assert_eq!(read.len(), 6, "the values past the last are not returned");
         // u = 0.5 is node 1 exactly.
         assert_eq!(read, vec![1.0, 1.0, 1.0, 1.0, 11.0, 11.0]);
-        let between = sample(&segments, 3, 1, 4, 0.75f32.powi(2), Filter::Exact, texel);
+        let between = sample(&shape(1, 4), 0.75f32.powi(2), &[], Filter::Exact, texel);
         assert!((between[0] - 1.5).abs() < 1e-6, "{between:?}");
+    }
+
+    /// Blocks of one row, node `k` of block `b` holding `100 b + k` in every channel: a read is
+    /// `100 (block coordinate) + (node coordinate)`.
+    fn block_texel(row: usize, node: usize) -> [f32; 4] {
+        [(100 * row + node) as f32; 4]
+    }
+
+    #[test]
+    fn a_varied_parameter_reads_its_nodes_blocks_and_blends_between_them() {
+        let segments = [BakedSegment { u_start: 0.0, slope: 2.0 / 3.0, offset: 0.5 / 3.0 }];
+        let axis = BakedAxis::uniform("layer 1 alpha", [0.1, 0.5], 0.25, 3);
+        let axes = [axis.clone()];
+        let shape = BakedShape { segments: &segments, axes: &axes, nodes: 3, rows: 1, values: 4 };
+        let read = |alpha: f32| sample(&shape, 0.25, &[alpha], Filter::Exact, block_texel)[0];
+        // The ends of the range are their blocks to the bit; beyond and NaN, the nearer end.
+        assert_eq!(read(0.1), 1.0);
+        assert_eq!(read(0.5), 201.0, "the last node is the upper block at weight 1");
+        assert_eq!(read(-3.0), 1.0);
+        assert_eq!(read(f32::NAN), 1.0, "NaN reads the range's start");
+        assert_eq!(read(9.0), 201.0);
+        // The middle node, from either side of it in f32, is its block within f32's rounding of t.
+        for alpha in [0.3f32, f32::from_bits(0.3f32.to_bits() - 1), f32::from_bits(0.3f32.to_bits() + 1)] {
+            assert!((read(alpha) - 101.0).abs() < 1e-3, "{alpha}: {}", read(alpha));
+        }
+        assert!((read(0.2) - 51.0).abs() < 1e-3, "midway between the first two nodes: {}", read(0.2));
+        assert!((read(0.45) - 176.0).abs() < 1e-3, "a quarter before the last: {}", read(0.45));
+        // No value given: the nominal one.
+        assert_eq!(
+            sample(&shape, 0.25, &[], Filter::Exact, block_texel),
+            sample(&shape, 0.25, &[0.25], Filter::Exact, block_texel)
+        );
+        assert_eq!(parameter_taps(&axis, 0.5), (1, 1.0));
+        assert_eq!(parameter_taps(&axis, 0.1), (0, 0.0));
+    }
+
+    #[test]
+    fn two_varied_parameters_read_the_block_of_each_pair_of_nodes_the_first_fastest() {
+        let segments = [BakedSegment { u_start: 0.0, slope: 2.0 / 3.0, offset: 0.5 / 3.0 }];
+        let axes = [
+            BakedAxis::uniform("layer 1 alpha", [0.0, 1.0], 0.5, 3),
+            BakedAxis::uniform("layer 2 eta", [1.0, 2.0], 1.5, 2),
+        ];
+        // Two rows a block: block (j0, j1) starts at row 2 (j0 + 3 j1).
+        let shape = BakedShape { segments: &segments, axes: &axes, nodes: 3, rows: 2, values: 8 };
+        for (j0, alpha) in [(0, 0.0), (1, 0.5), (2, 1.0)] {
+            for (j1, eta) in [(0, 1.0), (1, 2.0)] {
+                let read = sample(&shape, 0.25, &[alpha, eta], Filter::Exact, block_texel);
+                let first_row = 2 * (j0 + 3 * j1);
+                let expected = [first_row, first_row + 1].map(|row| (100 * row + 1) as f32);
+                assert_eq!([read[0], read[4]], expected, "alpha {alpha}, eta {eta}");
+            }
+        }
+        // Between nodes of both: the blend of the four blocks around.
+        let read = sample(&shape, 0.25, &[0.25, 1.5], Filter::Exact, block_texel);
+        let expected = 100.0 * 2.0 * (0.5 + 3.0 * 0.5) + 1.0;
+        assert!((read[0] - expected).abs() < 1e-3, "{read:?} against {expected}");
     }
 }

@@ -58,12 +58,14 @@ impl BakedLut {
         self.baked().materials.get(index)
     }
 
-    /// Material `index`'s values at view cosine `mu`, in the order its entry names them
+    /// Material `index`'s values at view cosine `mu` and the values `varied` of its varied
+    /// parameters, in the order of its entry's `varied` (those not given at their nominal values;
+    /// none for a material whose textures vary nothing), in the order its entry names them
     /// ([`BakedMaterialEntry::values`]), read as a GPU filters the array (8-bit filter weights);
     /// empty for an index past the last material.
-    pub fn sample_gpu(&self, index: usize, mu: f32) -> Vec<f32> {
+    pub fn sample_gpu(&self, index: usize, mu: f32, varied: &[f32]) -> Vec<f32> {
         match self.material(index) {
-            Some(material) => sample_array(&self.table, material, mu, Filter::QuantisedWeights { bits: 8 }),
+            Some(material) => sample_array(&self.table, material, mu, varied, Filter::QuantisedWeights { bits: 8 }),
             None => Vec::new(),
         }
     }

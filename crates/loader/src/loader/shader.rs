@@ -351,6 +351,23 @@ pub struct BakedMaterialFunction {
     pub lobes: usize,
     /// What one call costs.
     pub cost: ShaderCost,
+    /// The parameters its textures vary, its function's arguments after `mu`, in order; none for
+    /// a material that varies nothing.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parameters: Vec<BakedParameter>,
+}
+
+/// A varied parameter of a baked material's function.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BakedParameter {
+    /// The function's argument (`layer_1_alpha`).
+    pub argument: String,
+    /// The parameter in words (`layer 1 alpha`, layers counted from 1 at the top).
+    pub parameter: String,
+    /// The range its texture varies it over, `[lo, hi]`: a value outside reads the nearer end.
+    pub range: [f64; 2],
+    /// The material's own value, where no texture gives one.
+    pub nominal: f64,
 }
 
 /// `<scene>.shader.json`: what a renderer binds and calls (`docs/shaders.md` has its schema).
