@@ -7,7 +7,6 @@ use clap::Args;
 
 use tmlut::bake::{BakeConfig, BakeSource};
 use tmlut::formats::{FileFormat, Precision};
-use tmlut::loader::shader::{BAKED_DESCRIPTION_SUFFIX, BakedShaderDescription};
 use tmlut::scene::Scene;
 use tmlut::scene::bake_files::write_baked;
 use tmlut::scene::library;
@@ -100,20 +99,15 @@ pub fn bake_and_report(
     context: &Context,
 ) -> tmlut::Result<()> {
     let written = write_baked(scene, luts, config, &options.over(&config.bake), &context.progress())?;
-    for file in &written {
+    for file in &written.files {
         println!("{}", file.path.display());
     }
-    let Some(baked) = written.first().and_then(|f| f.entry.baked.as_ref()) else { return Ok(()) };
+    let Some(baked) = written.files.first().and_then(|f| f.entry.baked.as_ref()) else { return Ok(()) };
     print!("{}", tmlut::bake::array::summary(baked));
-    // What the baked shader costs per call, as its description just written states it.
-    let description = baked.shader_files.iter().find(|f| f.file.ends_with(BAKED_DESCRIPTION_SUFFIX));
-    if let Some(file) = description {
-        let path = luts.join(&file.file);
+    // What the baked shader costs per call, as the description the bake just wrote states it.
+    if let Some((path, description)) = &written.shader {
         println!("{}", path.display());
-        let bytes = std::fs::read(&path).map_err(|source| tmlut::Error::io(&path, source))?;
-        let description: BakedShaderDescription = serde_json::from_slice(&bytes)
-            .map_err(|e| tmlut::Error::format(&path, format!("not a baked shader description: {e}")))?;
-        print!("{}", tmlut::shader::baked::cost_summary(&description));
+        print!("{}", tmlut::shader::baked::cost_summary(description));
     }
     Ok(())
 }

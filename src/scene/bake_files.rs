@@ -4,7 +4,7 @@
 //! material's error measured on the file as written, read as a GPU filters it, against its model
 //! with exact integrals.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -27,7 +27,7 @@ use crate::formats::baked::{BakedErrors, BakedMaterialEntry, sample_array};
 use crate::formats::manifest::{LeftOutRecord, MANIFEST_FILE, Manifest, SceneShaderFile, write_manifest};
 use crate::integrate::Progress;
 use crate::loader::LutFolder;
-use crate::loader::shader::BAKED_DESCRIPTION_SUFFIX;
+use crate::loader::shader::{BAKED_DESCRIPTION_SUFFIX, BakedShaderDescription};
 use crate::model::Material;
 use crate::model::folder::{FgdSource, LibraryTables};
 use crate::pipeline::{WrittenFile, write_table_file};
@@ -47,14 +47,13 @@ const GPU_FILTER: Filter = Filter::QuantisedWeights { bits: 8 };
 /// Bake the materials of `scene` into `luts`, the folder built for it, and commit the array's
 /// files with the folder's manifest (replacing an earlier bake). Refused where the folder was
 /// built for another scene, and where a material's model returns a value that is not finite.
-/// Returns the files written.
 pub fn write_baked(
     scene: &Scene,
     luts: &Path,
     config: &Config,
     request: &BakeConfig,
     progress: &dyn Progress,
-) -> Result<Vec<WrittenFile>> {
+) -> Result<WrittenBake> {
     request.validate()?;
     let folder_lock = OutputFolder::take(luts, |holder| progress.note(&format!("waiting for {holder}")))?;
     let folder = LutFolder::open(luts)?;
@@ -110,7 +109,7 @@ pub fn write_baked(
         file.entry.baked = Some(entry);
         written.push(file);
     }
-    let shader_files = write_baked_shader(&scene.name, &written, request.precision, &staging.dir)?;
+    let (shader_files, shader) = write_baked_shader(&scene.name, &written, request.precision, &staging.dir)?;
     for file in &mut written {
         if let Some(baked) = file.entry.baked.as_mut() {
             baked.shader_files = shader_files.clone();
@@ -129,23 +128,35 @@ pub fn write_baked(
     removals.retain(|file| !moves.iter().any(|m| &m.destination == file));
     write_manifest(&manifest, &staging.dir)?;
     crate::commit::commit(&folder_lock, &mut staging, moves, removals)?;
-    Ok(written
+    let files = written
         .into_iter()
         .map(|file| WrittenFile { path: luts.join(file_name(&file.path)), entry: file.entry })
-        .collect())
+        .collect();
+    let description_file = shader_files.iter().find(|f| f.file.ends_with(BAKED_DESCRIPTION_SUFFIX));
+    let shader = description_file.zip(shader).map(|(file, description)| (luts.join(&file.file), description));
+    Ok(WrittenBake { files, shader })
+}
+
+/// What a bake committed: the array's files with their manifest entries, and the baked shader's
+/// description with the path it was written to (none where only EXR was written), so that a
+/// caller reports what it wrote without reading it back.
+pub struct WrittenBake {
+    pub files: Vec<WrittenFile>,
+    pub shader: Option<(PathBuf, BakedShaderDescription)>,
 }
 
 /// The baked shader over the array as `written` (bound from its first texture file, DDS before
 /// KTX2), written into `dir` as `<scene>.baked.wgsl`, `.baked.hlsl` and `.baked.shader.json`;
-/// none where only EXR was written, which a GPU does not bind.
+/// none where only EXR was written, which a GPU does not bind. Returns the files and the
+/// description written.
 fn write_baked_shader(
     scene: &str,
     written: &[WrittenFile],
     precision: crate::formats::Precision,
     dir: &Path,
-) -> Result<Vec<SceneShaderFile>> {
+) -> Result<(Vec<SceneShaderFile>, Option<BakedShaderDescription>)> {
     let bound = FileFormat::TEXTURES.iter().find_map(|&format| written.iter().find(|f| f.entry.format == format));
-    let Some(array) = bound else { return Ok(Vec::new()) };
+    let Some(array) = bound else { return Ok((Vec::new(), None)) };
     let entry = array.entry.baked.as_ref().expect("every written file has its baked entry");
     let array_file = file_name(&array.path);
     let shader = crate::shader::baked::baked_shader(entry, &array_file, precision)?;
@@ -180,13 +191,14 @@ fn write_baked_shader(
             .into(),
         json.into_bytes(),
     ));
-    files
+    let files = files
         .into_iter()
         .map(|(file, what, bytes)| {
             crate::formats::write_bytes_atomically(&dir.join(&file), &bytes)?;
             Ok(SceneShaderFile::new(file, what, &bytes))
         })
-        .collect()
+        .collect::<Result<_>>()?;
+    Ok((files, Some(shader.description)))
 }
 
 /// The indices of the scene's materials a bake holds, and those it leaves out with why: a
