@@ -792,6 +792,7 @@ pub fn comment_block(prefix: &str, text: &str) -> String {
 
 pub mod eval;
 pub use eval::{ShaderCost, cost};
+pub mod lower;
 
 // The tests of every crate that emits shaders validate them (tmlut's through the `validate` feature).
 #[cfg(any(test, feature = "validate"))]
