@@ -8,7 +8,8 @@
 //! arithmetic, comparisons, a fixed list of builtins ([`Builtin`]), vectors, structs, fixed-size
 //! arrays and module constants of them, `select`, texel loads and filtered samples (of texture
 //! arrays too). [`eval`] runs a module on the CPU with WGSL's meaning and counts what a function
-//! costs ([`cost`]). Where they differ in meaning the emitter
+//! costs ([`cost`]); [`Function::statements`] writes a function in no language, a line per
+//! statement, for a manifest. Where they differ in meaning the emitter
 //! does not paper over it: HLSL's `precise` has no WGSL counterpart (WGSL forbids reassociation
 //! anyway), and WGSL has no `isnan`, so the evaluation code tests finiteness with comparisons.
 
@@ -479,7 +480,7 @@ impl Module {
 
     /// The module's text in `lang`.
     pub fn print(&self, lang: Lang) -> String {
-        let p = Printer { lang, parens: self.parens };
+        let p = Printer { lang, parens: self.parens, notation: false };
         let mut s = String::new();
         for item in &self.items {
             match item {
@@ -544,8 +545,11 @@ impl Module {
 }
 
 struct Printer {
+    /// The language whose names the expressions take; in the notation WGSL's.
     lang: Lang,
     parens: Parens,
+    /// Printing [`Function::statements`]' notation, not a shading language.
+    notation: bool,
 }
 
 impl Printer {
@@ -705,15 +709,17 @@ impl Printer {
                     Lang::Hlsl => write!(out, "{{{list}}}"),
                 };
             }
+            // The notation takes C's conditional, which reads in the order it chooses.
             Expr::Select { condition, then, otherwise } => match lang {
-                Lang::Hlsl => {
-                    let _ = write!(out, "{} ? {} : {}", self.expr(condition), self.expr(then), self.expr(otherwise));
-                }
-                Lang::Wgsl => {
+                Lang::Wgsl if !self.notation => {
                     let _ =
                         write!(out, "select({}, {}, {})", self.expr(otherwise), self.expr(then), self.expr(condition));
                 }
+                _ => {
+                    let _ = write!(out, "{} ? {} : {}", self.expr(condition), self.expr(then), self.expr(otherwise));
+                }
             },
+            Expr::Load { .. } | Expr::SampleLevel { .. } if self.notation => self.write_read_in_notation(e, out),
             Expr::Load { .. } | Expr::SampleLevel { .. } => self.write_texture_read(e, out),
         }
     }
@@ -793,6 +799,7 @@ pub fn comment_block(prefix: &str, text: &str) -> String {
 pub mod eval;
 pub use eval::{ShaderCost, cost};
 pub mod lower;
+mod notation;
 
 // The tests of every crate that emits shaders validate them (tmlut's through the `validate` feature).
 #[cfg(any(test, feature = "validate"))]
@@ -817,7 +824,7 @@ mod tests {
     #[test]
     fn selects_and_splats_print_in_each_language() {
         let e = select(name("x").gt(float(0.0)).and(name("y").lt(float(1.0))), splat3(float(1.0)), splat3(float(-2.0)));
-        let p = |lang| Printer { lang, parens: Parens::Minimal }.expr(&e);
+        let p = |lang| Printer { lang, parens: Parens::Minimal, notation: false }.expr(&e);
         assert_eq!(p(Lang::Wgsl), "select(vec3<f32>(-2.0), vec3<f32>(1.0), (x > 0.0) && (y < 1.0))");
         assert_eq!(p(Lang::Hlsl), "(x > 0.0) && (y < 1.0) ? float3(1.0, 1.0, 1.0) : float3(-2.0, -2.0, -2.0)");
     }
