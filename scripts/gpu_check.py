@@ -11,7 +11,8 @@ once per reference view in a compute shader: one module and one dispatch per run
 whose textures a shader stage can bind together (a whole library is one run), which compiles a
 scene's text a few times rather than once per material. With `--hlsl`, the same again with <scene>.hlsl:
 compiled by glslang's HLSL front end to SPIR-V (`register(tN)` becomes binding N of set 0, as the
-WGSL's group 0), which wgpu takes as the shader module. Prints the largest |GPU - CPU| over albedo, top
+WGSL's group 0; any error line glslang prints fails, whatever its exit status), which wgpu takes as
+the shader module. Prints the largest |GPU - CPU| over albedo, top
 albedo, lobe energies and cosines; over lobe roughnesses and GD, each weighted by its lobe's
 energy (largest channel); and the NaN count; exits non-zero where either is above 1e-5, or on any
 NaN.
@@ -27,13 +28,14 @@ import json
 import logging
 import math
 import struct
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import wgpu
+
+from glslang_diagnostics import compile_checked
 
 TOLERANCE = 1e-5
 
@@ -154,13 +156,10 @@ void harness_main(uint3 id : SV_DispatchThreadID) {{
     with tempfile.TemporaryDirectory() as work:
         source, spirv = Path(work) / "scene.hlsl", Path(work) / "scene.spv"
         source.write_text(text + entry)
-        result = subprocess.run(
-            [glslang, "-D", "-V", "-S", "comp", "-e", "harness_main", str(source), "-o", str(spirv)],
-            capture_output=True,
-            text=True,
-        )
-        if result.returncode != 0:
-            raise SystemExit(f"glslang could not compile the HLSL of {', '.join(functions)}:\n{result.stdout}{result.stderr}")
+        arguments = ["-D", "-V", "-S", "comp", "-e", "harness_main", str(source), "-o", str(spirv)]
+        failure = compile_checked(glslang, arguments)
+        if failure is not None:
+            raise SystemExit(f"glslang could not compile the HLSL of {', '.join(functions)}:\n{failure}")
         quiet = logging.getLogger("wgpu")
         level = quiet.level
         quiet.setLevel(logging.ERROR)

@@ -9,17 +9,20 @@ compute entry point appended that calls the functions a renderer calls and store
     cosine per thread, every field of its TmResult;
   - any other file (a packing's lookup, a fitted form): every function whose parameters are floats
     or textures, with a texture of the parameter's type bound for each texture.
-The compile goes through code generation (`-V`), so a texture load, a swizzle or an overload that
-HLSL refuses fails here. Exits non-zero when any file fails to compile, printing the compiler's
-messages.
+The compile goes through code generation (`-V`) and SPIRV-Tools' legalisation, so a texture load,
+a swizzle or an overload that HLSL refuses fails here, and so does a module too large for SPIR-V:
+a file fails on any error line glslang prints, whatever its exit status
+(scripts/glslang_diagnostics.py, which names the limit an error is). Exits non-zero when any file
+fails, printing the compiler's messages.
 """
 
 import json
 import pathlib
 import re
-import subprocess
 import sys
 import tempfile
+
+from glslang_diagnostics import compile_checked
 
 ENTRY = "tmlut_compile_check"
 FUNCTION = re.compile(r"^(float[234]?|TmResult)\s+(\w+)\s*\(([^)]*)\)\s*\{", re.MULTILINE)
@@ -78,14 +81,7 @@ def compile_one(validator: str, path: pathlib.Path, work: pathlib.Path) -> str |
         f"[numthreads(64, 1, 1)]\nvoid {ENTRY}(uint3 id : SV_DispatchThreadID) {{\n{body}\n"
         "    tmlut_check_out[id.x] = sum;\n}\n"
     )
-    result = subprocess.run(
-        [validator, "-D", "-V", "-S", "comp", "-e", ENTRY, str(source), "-o", str(work / "out.spv")],
-        capture_output=True,
-        text=True,
-    )
-    if result.returncode != 0:
-        return result.stdout + result.stderr
-    return None
+    return compile_checked(validator, ["-D", "-V", "-S", "comp", "-e", ENTRY, str(source), "-o", str(work / "out.spv")])
 
 
 def main() -> int:

@@ -45,10 +45,14 @@ pub struct WrittenFile {
     pub entry: FileEntry,
 }
 
-/// Check table names against the tables tmlut knows; `None` selects every table.
-pub fn resolve_tables(only: Option<&[String]>) -> Result<Vec<TableKind>> {
+/// Check table names against the tables tmlut knows; `None` selects every table `config` builds
+/// unnamed ([`crate::recipes::TableRecipe::built_unnamed`]: the default set, and an engine's table
+/// whose `build` is `always`).
+pub fn resolve_tables(config: &Config, only: Option<&[String]>) -> Result<Vec<TableKind>> {
     let known = || TableKind::names().join(", ");
-    let Some(only) = only else { return Ok(TableKind::ALL.to_vec()) };
+    let Some(only) = only else {
+        return Ok(TableKind::ALL.iter().copied().filter(|&kind| config.recipe(kind).built_unnamed()).collect());
+    };
     let mut selected = Vec::new();
     for name in only {
         let name = name.trim();
@@ -125,7 +129,7 @@ pub struct Job<'a> {
 /// Integrate, write and describe every requested table.
 pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<WrittenFile>> {
     request.config.validate()?;
-    let tables = resolve_tables(request.only.as_deref())?;
+    let tables = resolve_tables(&request.config, request.only.as_deref())?;
     let mut config = request.config.clone();
     if request.error_maps {
         // A map needs every node's replicate spread; FGD computes it for a subset by default.
@@ -601,9 +605,10 @@ mod tests {
 
     #[test]
     fn unknown_tables_are_named_with_the_known_ones() {
-        let err = resolve_tables(Some(&["karis".into(), "fdg".into()])).unwrap_err().to_string();
+        let config = Config::default();
+        let err = resolve_tables(&config, Some(&["karis".into(), "fdg".into()])).unwrap_err().to_string();
         assert!(err.contains("unknown table `fdg`") && err.contains("karis"), "{err}");
-        assert_eq!(resolve_tables(Some(&["karis".into(), "karis".into()])).unwrap(), vec![TableKind::Karis]);
+        assert_eq!(resolve_tables(&config, Some(&["karis".into(), "karis".into()])).unwrap(), vec![TableKind::Karis]);
     }
 
     #[test]

@@ -157,7 +157,7 @@ fn exec_tables(args: TablesArgs, context: &Context) -> tmlut::Result<()> {
     check_count("--repeats", args.repeats, REPEATS)?;
     check_count("--nodes", args.nodes, 1..=100_000)?;
     check_count("--per-cell-nodes", args.per_cell_nodes, 0..=100_000)?;
-    let tables = pipeline::resolve_tables(args.only.as_deref())?;
+    let tables = pipeline::resolve_tables(&config, args.only.as_deref())?;
     let settings = BenchSettings {
         repeats: args.repeats,
         nodes: args.nodes,

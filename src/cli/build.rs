@@ -10,6 +10,7 @@ use tmlut::scene::Scene;
 use tmlut::scene::build::{SceneBuildRequest, Shard, SliceChecks, SliceLayout, build_scene};
 use tmlut::scene::library;
 use tmlut::scene::{cache, plan::human_bytes};
+use tmlut::shader::scene::DEFAULT_MAX_TEXTURES;
 
 use super::{ConfigArg, Context, ThreadsArg, one_of};
 
@@ -57,9 +58,14 @@ pub struct BuildArgs {
     cache: Option<PathBuf>,
     /// How a scene's slices are written: `arrays` (a few texture arrays, each slice a region of a
     /// layer, listed in the array's manifest entry), `files` (a texture file per slice) or `auto`
-    /// (arrays above 16 slices, the textures a WebGPU shader stage binds by default).
+    /// (arrays where files of their own would make the shader bind more than --max-textures).
     #[arg(long, value_parser = parse_slice_layout, default_value = "auto", requires = "scene")]
     slice_layout: SliceLayout,
+    /// The most textures the scene's shader may bind; a shader binding more is not written (a note
+    /// names the lookups that read them). WebGPU binds 16 per shader stage unless a device asks for
+    /// more; the default leaves a renderer half of them.
+    #[arg(long, default_value_t = DEFAULT_MAX_TEXTURES, value_parser = super::shader::parse_max_textures, requires = "scene")]
+    max_textures: usize,
     /// Build only part I of N of the scene's tables (I from 1), into the cache folder (`--cache
     /// DIR`, required), and write no output folder; `tmlut merge` joins the shards' folders.
     /// Every shard plans the whole library, so the same scenes, configuration and seed must be
@@ -120,6 +126,7 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
                 slice_checks: args.slice_checks,
                 cache: cache_folder(args.cache)?,
                 slice_layout: args.slice_layout,
+                max_textures: args.max_textures,
                 shard: args.shard,
                 ..library::build_request(&files, config, args.out)?
             };
@@ -178,7 +185,7 @@ pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut
         eprintln!("warning: {warning}");
     }
     if request.shard.is_none() {
-        write_scene_shader(&request.scene, &request.out);
+        write_scene_shader(&request.scene, &request.out, request.max_textures);
         if let Some((key, cache)) = &whole
             && let Err(e) = cache::store_build(cache, key, &request.out)
         {
@@ -197,10 +204,10 @@ pub fn build_and_report(request: &SceneBuildRequest, context: &Context) -> tmlut
 
 /// The scene's shader beside its tables, where the shader covers the scene; a note where it does
 /// not (the tables are built either way).
-fn write_scene_shader(scene: &Scene, out: &std::path::Path) {
-    match tmlut::scene::shader_files::write_scene_shader(scene, out, out, 0) {
-        Ok(paths) => {
-            for path in paths {
+fn write_scene_shader(scene: &Scene, out: &std::path::Path, max_textures: usize) {
+    match tmlut::scene::shader_files::write_scene_shader(scene, out, out, 0, max_textures) {
+        Ok(written) => {
+            for path in written.files {
                 println!("{}", path.display());
             }
         }

@@ -6,6 +6,7 @@ use clap::Args;
 
 use tmlut::scene::build::{SceneBuildRequest, SliceChecks, SliceLayout};
 use tmlut::scene::library;
+use tmlut::shader::scene::DEFAULT_MAX_TEXTURES;
 
 use super::build::{build_and_report, parse_slice_checks, parse_slice_layout};
 use super::{ConfigArg, Context, ThreadsArg};
@@ -36,6 +37,9 @@ pub struct MergeArgs {
     /// How the slices are written, as `tmlut build --slice-layout`.
     #[arg(long, value_parser = parse_slice_layout, default_value = "auto")]
     slice_layout: SliceLayout,
+    /// The most textures the library's shader may bind, as `tmlut build --max-textures`.
+    #[arg(long, default_value_t = DEFAULT_MAX_TEXTURES, value_parser = super::shader::parse_max_textures)]
+    max_textures: usize,
     #[command(flatten)]
     threads: ThreadsArg,
 }
@@ -50,6 +54,7 @@ pub fn exec(args: MergeArgs, context: &Context) -> tmlut::Result<()> {
     let request = SceneBuildRequest {
         slice_checks: args.slice_checks,
         slice_layout: args.slice_layout,
+        max_textures: args.max_textures,
         merge_from: args.shards,
         ..library::build_request(&files, config, args.out)?
     };

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use tmlut::scene::Scene;
+use tmlut::shader::scene::DEFAULT_MAX_TEXTURES;
 
 use super::Context;
 
@@ -24,24 +25,35 @@ pub struct ShaderArgs {
     /// Also write <scene>.reference.json: the CPU evaluator at this many views per material.
     #[arg(long, default_value_t = 0)]
     reference_views: usize,
+    /// The most textures the shader may bind; more are refused, naming the lookups that read them.
+    /// WebGPU binds 16 per shader stage unless a device asks for more; the default leaves a
+    /// renderer half of them. The .shader.json states what the shader needs (`limits`).
+    #[arg(long, default_value_t = DEFAULT_MAX_TEXTURES, value_parser = parse_max_textures)]
+    max_textures: usize,
+}
+
+/// A count of textures: at least 1.
+pub fn parse_max_textures(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("`{text}` is not a count of textures: give a whole number, at least 1")),
+    }
 }
 
 pub fn exec(args: ShaderArgs, _: &Context) -> tmlut::Result<()> {
     // Bounded before the scene is read: a count past memory aborted on its allocation.
     tmlut::scene::shader_files::check_reference_views(args.reference_views, 1)?;
     let (scene, _) = Scene::read(&args.scene)?;
-    let written = tmlut::scene::shader_files::write_scene_shader(&scene, &args.luts, &args.out, args.reference_views)?;
-    for path in &written {
+    let written = tmlut::scene::shader_files::write_scene_shader(
+        &scene,
+        &args.luts,
+        &args.out,
+        args.reference_views,
+        args.max_textures,
+    )?;
+    for path in &written.files {
         println!("{}", path.display());
     }
-    // What each material costs, as the description just written states it.
-    if let Some(json) =
-        written.iter().find(|p| p.to_string_lossy().ends_with(tmlut::loader::shader::DESCRIPTION_SUFFIX))
-    {
-        let bytes = std::fs::read(json).map_err(|source| tmlut::Error::io(json, source))?;
-        let description: tmlut::loader::ShaderDescription = serde_json::from_slice(&bytes)
-            .map_err(|e| tmlut::Error::format(json, format!("not a scene shader description: {e}")))?;
-        print!("{}", tmlut::scene::shader_files::cost_summary(&description.materials));
-    }
+    print!("{}", tmlut::scene::shader_files::cost_summary(&written.materials));
     Ok(())
 }

@@ -417,6 +417,7 @@ fn tables_folder(request: &FurnaceRequest, progress: &dyn Progress) -> Result<Pa
         slice_checks: SliceChecks::None,
         cache: None,
         slice_layout: SliceLayout::Auto,
+        max_textures: crate::shader::scene::DEFAULT_MAX_TEXTURES,
         shard: None,
         merge_from: Vec::new(),
     };

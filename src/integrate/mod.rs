@@ -193,8 +193,20 @@ pub fn estimate_per_cell_blocks(
     masking: MaskingShadowing,
     points: &PointSet,
     channels: usize,
-    mut accumulate: impl FnMut(&[f64], &[f64], &mut [f64]),
+    accumulate: impl FnMut(&[f64], &[f64], &mut [f64]),
 ) -> Estimate {
+    combine_replicates(&per_cell_block_replicates(mu, alpha, masking, points, channels, accumulate), channels)
+}
+
+/// The per-replicate means behind [`estimate_per_cell_blocks`].
+fn per_cell_block_replicates(
+    mu: f64,
+    alpha: f64,
+    masking: MaskingShadowing,
+    points: &PointSet,
+    channels: usize,
+    mut accumulate: impl FnMut(&[f64], &[f64], &mut [f64]),
+) -> Vec<Vec<f64>> {
     let wi = direction_from_cosine(mu.max(GRAZING_COSINE));
     let sampler = VisibleNormalSampler::new(wi, alpha);
     let lobe = CellLobe { wi, sampler: &sampler, alpha, masking };
@@ -209,7 +221,7 @@ pub fn estimate_per_cell_blocks(
         }
         means.push(sums.iter().map(|s| s / replicate.len() as f64).collect());
     }
-    combine_replicates(&means, channels)
+    means
 }
 
 /// What every sample of one cell shares: its view direction, the sampler of its visible normals,
@@ -270,8 +282,21 @@ pub fn estimate_cosine_functions<const N: usize>(
     points: &PointSet,
     f: impl Fn(f64) -> [f64; N],
 ) -> Estimate {
+    combine_replicates(&cosine_function_replicates(mu, alpha, masking, method, points, f), N)
+}
+
+/// The per-replicate means behind [`estimate_cosine_functions`], for an estimate that adds up
+/// several of them (an average over view cosines) and takes its spread from the replicates' sums.
+pub fn cosine_function_replicates<const N: usize>(
+    mu: f64,
+    alpha: f64,
+    masking: MaskingShadowing,
+    method: Method,
+    points: &PointSet,
+    f: impl Fn(f64) -> [f64; N],
+) -> Vec<Vec<f64>> {
     match method {
-        Method::PerCell => estimate_per_cell_blocks(mu, alpha, masking, points, N, |cos_wi_h, weight, sums| {
+        Method::PerCell => per_cell_block_replicates(mu, alpha, masking, points, N, |cos_wi_h, weight, sums| {
             for (&c, &w) in cos_wi_h.iter().zip(weight) {
                 for (s, v) in sums.iter_mut().zip(f(c)) {
                     *s += w * v;
@@ -280,19 +305,19 @@ pub fn estimate_cosine_functions<const N: usize>(
         }),
         Method::Fast => {
             let warp = batch::CellWarp::new(mu.max(GRAZING_COSINE), alpha);
-            fast_cosine_functions(&warp, masking, points, &f)
+            fast_cosine_function_replicates(&warp, masking, points, &f)
         }
     }
 }
 
-/// The fast method of [`estimate_cosine_functions`].
-fn fast_cosine_functions<const N: usize>(
+/// The fast method of [`cosine_function_replicates`].
+fn fast_cosine_function_replicates<const N: usize>(
     warp: &batch::CellWarp,
     masking: MaskingShadowing,
     points: &PointSet,
     f: &impl Fn(f64) -> [f64; N],
-) -> Estimate {
-    let replicate_means: Vec<Vec<f64>> = points
+) -> Vec<Vec<f64>> {
+    points
         .replicates_f32()
         .iter()
         .map(|replicate| {
@@ -312,8 +337,7 @@ fn fast_cosine_functions<const N: usize>(
             });
             (0..N).map(|j| lanes.iter().map(|l| l[j]).sum::<f64>() / replicate.len() as f64).collect()
         })
-        .collect();
-    combine_replicates(&replicate_means, N)
+        .collect()
 }
 
 /// Mean and standard error over replicate means.

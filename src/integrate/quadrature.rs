@@ -412,7 +412,7 @@ fn legendre_polynomials(t: f64, count: usize) -> Vec<f64> {
 /// polynomial `P_n` by Newton's method from `cos(pi (k - 1/4) / (n + 1/2))`, weights
 /// `2 / ((1 - x^2) P_n'(x)^2)` on `[-1, 1]` (Press et al., Numerical Recipes, 3rd ed., §4.6.1,
 /// `gauleg`), halved for the unit interval.
-fn gauss_legendre_unit(n: usize) -> Vec<(f64, f64)> {
+pub fn gauss_legendre_unit(n: usize) -> Vec<(f64, f64)> {
     let mut nodes = Vec::with_capacity(n);
     for k in 1..=n {
         let mut x = (PI * (k as f64 - 0.25) / (n as f64 + 0.5)).cos();

@@ -187,7 +187,8 @@ impl IndexRegion {
 
 /// The stand-in a table of kind `kind` is, or `None` for a quantity's own table (read by its path:
 /// FGD's slices, packing and 4D table, TIR's slices, 3D table and forms, GD, the split-sum
-/// tables). Every kind is decided here, in a `PerKind` whose literal names every kind: a kind added
+/// tables) and for a table the model does not read (an engine's: `ggx_e`, `ggx_e_avg`,
+/// `karis_multiscatter`). Every kind is decided here, in a `PerKind` whose literal names every kind: a kind added
 /// to the loader's list does not compile until it is.
 pub fn stand_in(kind: TableKind) -> Option<StandIn> {
     let stand_ins = PerKind {
@@ -205,6 +206,11 @@ pub fn stand_in(kind: TableKind) -> Option<StandIn> {
             what: "FGD onto a rarer medium (eta < 1, kappa = 0)",
             why: "a dielectric onto a rarer medium",
         }),
+        // An engine's energy-compensation tables: the model reads GD for a lobe's albedo, whose
+        // masking and axes it was written for, and nothing of E's average.
+        ggx_e: None,
+        ggx_e_avg: None,
+        karis_multiscatter: None,
     };
     stand_ins.take(kind)
 }

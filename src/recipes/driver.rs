@@ -75,6 +75,17 @@ pub trait Kernel: Sync {
 pub const NODE_ALIGNED_NOTE: &str =
     "Node-aligned: node k of N at (k / (N - 1)); a GPU sampler needs the half-texel correction given per axis.";
 
+/// The note of a table whose axes are all placed as `placement` says: [`NODE_ALIGNED_NOTE`], or
+/// where cell-centred nodes sit.
+pub fn placement_note(placement: crate::table::Placement) -> String {
+    match placement {
+        crate::table::Placement::NodeAligned => NODE_ALIGNED_NOTE.into(),
+        crate::table::Placement::CellCentred => {
+            "Cell-centred: node k of N at (k + 0.5) / N of each axis, as a GPU texture places its texels.".into()
+        }
+    }
+}
+
 /// The note of every table with a `mu` axis from 0: its grazing nodes are not evaluated at 0.
 pub fn grazing_note() -> String {
     format!("The mu = 0 nodes are the limit mu -> 0+, evaluated at mu = {}.", crate::integrate::GRAZING_COSINE)

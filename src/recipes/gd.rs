@@ -14,11 +14,11 @@ use serde::{Deserialize, Serialize};
 use super::driver::one_channel_table;
 use super::settings::{SharedSettings, check_counts};
 use super::spacing::{CosineAxis, RoughnessAxis, mu_alpha_axes};
-use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
+use super::{Integrated, Kernel, Metadata, TableRecipe};
 use crate::error::Result;
 use crate::formats::FileFormat;
 use crate::integrate::quadrature::VisibleNormalQuadrature;
-use crate::integrate::{Estimate, Method, Progress, estimate_cosine_functions};
+use crate::integrate::{Estimate, Method, Progress, cosine_function_replicates, estimate_cosine_functions};
 use crate::physics::MaskingShadowing;
 use crate::sampling::sequence::PointSet;
 use crate::table::{Axis, Table};
@@ -75,13 +75,41 @@ impl GdSettings {
 impl GdSettings {
     /// One node by the fast method (the f32 kernel), as [`Kernel::integrate`] computes it.
     pub fn estimate_node_fast(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        albedo(self, Method::Fast, points, position[0], position[1])
+        albedo(self.masking, Method::Fast, points, position[0], position[1])
     }
 }
 
-/// `E[G2 / G1(wi)]` at one `(mu, alpha)`.
-fn albedo(settings: &GdSettings, method: Method, points: &PointSet, mu: f64, alpha: f64) -> Estimate {
-    estimate_cosine_functions(mu, alpha, settings.masking, method, points, |_| [1.0])
+/// The integrand of GD, of Kulla & Conty's `E` (`ggx_e`: the same integral) and of its average
+/// (`ggx_e_avg`): no Fresnel, `f(wi.h) = 1`.
+pub(crate) fn without_fresnel(_cos_wi_h: f64) -> [f64; 1] {
+    [1.0]
+}
+
+/// `E[G2 / G1(wi)]` at one `(mu, alpha)` with `masking`.
+pub(crate) fn albedo(masking: MaskingShadowing, method: Method, points: &PointSet, mu: f64, alpha: f64) -> Estimate {
+    estimate_cosine_functions(mu, alpha, masking, method, points, without_fresnel)
+}
+
+/// [`albedo`] per replicate, for an estimate that adds albedos of several views.
+pub(crate) fn albedo_replicates(
+    masking: MaskingShadowing,
+    method: Method,
+    points: &PointSet,
+    mu: f64,
+    alpha: f64,
+) -> Vec<Vec<f64>> {
+    cosine_function_replicates(mu, alpha, masking, method, points, without_fresnel)
+}
+
+/// [`albedo`] exactly, by the deterministic `quadrature`.
+pub(crate) fn exact_albedo(
+    quadrature: &VisibleNormalQuadrature,
+    masking: MaskingShadowing,
+    mu: f64,
+    alpha: f64,
+) -> f64 {
+    let [albedo] = quadrature.cosine_functions(mu, alpha, masking, &[], without_fresnel);
+    albedo
 }
 
 impl TableRecipe for GdSettings {
@@ -111,19 +139,7 @@ impl Kernel for GdSettings {
         }
     }
 
-    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
-        let estimates =
-            fill_mu_alpha_nodes(table, progress, |_, mu, alpha| albedo(self, self.method, points, mu, alpha));
-        Ok(Integrated::of(&estimates))
-    }
-
-    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        albedo(self, Method::PerCell, points, position[0], position[1])
-    }
-
-    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
-        quadrature.cosine_functions(position[0], position[1], self.masking, &[], |_| [1.0]).to_vec()
-    }
+    cosine_function_kernel!(without_fresnel);
 }
 
 #[cfg(test)]

@@ -465,7 +465,9 @@ mod tests {
             let (check, reference) = (quadrature(check_nodes), quadrature(reference_nodes));
             let (mut check_max, mut reference_max) = (0.0f64, 0.0f64);
             let domains = recipe.interpolation_domains().unwrap();
-            let per_domain = 200 / domains.len();
+            // A table over one axis (`ggx_e_avg`, whose exact value integrates E at some 50 views)
+            // is covered by a dozen points per domain.
+            let per_domain = if recipe.axes().unwrap().len() == 1 { 12 } else { 200 / domains.len() };
             for (d, domain) in domains.iter().enumerate() {
                 let mut lookups = random_points(&domain.ranges, per_domain, 11, d as u64);
                 lookups.extend(peak_lookups(domain).into_iter().step_by(4));

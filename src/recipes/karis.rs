@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use super::settings::{OutputConfig, SamplingConfig, SharedSettings};
 use super::split_sum::{Orientation, RoughnessAxis, SplitSumSettings};
-use super::{Integrated, Kernel, Metadata, TableRecipe, fill_mu_alpha_nodes};
+use super::{Integrated, Kernel, Metadata, TableRecipe};
 use crate::error::Result;
 use crate::formats::{FileFormat, Precision, SumRounding};
 use crate::integrate::quadrature::VisibleNormalQuadrature;
@@ -97,6 +97,15 @@ fn split_sum_weights(c: f64) -> [f64; 2] {
     [1.0 - fc, fc]
 }
 
+/// What the manifest says of Unreal Engine 4's masking, where a split-sum table takes it.
+pub(crate) fn schlick_smith_note(masking: MaskingShadowing) -> Option<String> {
+    (masking == MaskingShadowing::SchlickSmith).then(|| {
+        "Masking `schlick-smith`: G1(w) = w.z / (w.z (1 - k) + k) with k = alpha / 2, as Unreal Engine 4's \
+         image-based lighting (Karis 2013, eq. 4); G2 is G1(v) G1(l)."
+            .into()
+    })
+}
+
 impl TableRecipe for KarisSettings {
     table_recipe_accessors!();
 }
@@ -114,13 +123,7 @@ impl Kernel for KarisSettings {
 
     fn metadata(&self) -> Metadata {
         let mut notes = vec!["Runtime: FGD ≈ F0 * scale + bias (Schlick Fresnel).".to_string()];
-        if self.masking == MaskingShadowing::SchlickSmith {
-            notes.push(
-                "Masking `schlick-smith`: G1(w) = w.z / (w.z (1 - k) + k) with k = alpha / 2, as Unreal Engine 4's \
-                 image-based lighting (Karis 2013, eq. 4); G2 is G1(v) G1(l)."
-                    .into(),
-            );
-        }
+        notes.extend(schlick_smith_note(self.masking));
         notes.extend(self.layout_notes());
         Metadata {
             integrand: "scale = E_{h~VNDF(v)}[(1 - (1 - v.h)^5) G2(v,l) / G1(v)], bias = E_{h~VNDF(v)}[(1 - v.h)^5 G2(v,l) / G1(v)], l = reflect(v, h)".into(),
@@ -132,20 +135,7 @@ impl Kernel for KarisSettings {
         }
     }
 
-    fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
-        let estimates = fill_mu_alpha_nodes(table, progress, |_, mu, alpha| {
-            split_sum_terms(self.masking, self.method, points, mu, alpha)
-        });
-        Ok(Integrated::of(&estimates))
-    }
-
-    fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
-        split_sum_terms(self.masking, Method::PerCell, points, position[0], position[1])
-    }
-
-    fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
-        quadrature.cosine_functions(position[0], position[1], self.masking, &[], split_sum_weights).to_vec()
-    }
+    cosine_function_kernel!(split_sum_weights);
 }
 
 #[cfg(test)]
@@ -196,41 +186,6 @@ mod tests {
         }
     }
 
-    /// Karis's own estimator (2013, p. 7): normals drawn from `D(h) h.z`, weight
-    /// `G (v.h) / ((n.h)(n.v))`, pseudo-random points. Independent of the visible-normal path.
-    fn karis_importance_sampled(mu: f64, alpha: f64, samples: u32) -> [f64; 2] {
-        use crate::physics::reflect;
-        use glam::DVec3;
-        let v = crate::physics::direction_from_cosine(mu);
-        let mut state = 0x853c_49e6_748f_ea9b_u64;
-        let mut uniform = || {
-            // xorshift64*: enough for a test, and unrelated to the Sobol points of the table.
-            state ^= state >> 12;
-            state ^= state << 25;
-            state ^= state >> 27;
-            (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let (mut scale, mut bias) = (0.0, 0.0);
-        for _ in 0..samples {
-            let (u1, u2) = (uniform(), uniform());
-            let cos_h = ((1.0 - u1) / (1.0 + (alpha * alpha - 1.0) * u1)).sqrt();
-            let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
-            let phi = 2.0 * std::f64::consts::PI * u2;
-            let h = DVec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
-            let l = reflect(v, h);
-            let v_h = v.dot(h);
-            if l.z <= 0.0 || v_h <= 0.0 {
-                continue;
-            }
-            let g = MaskingShadowing::SchlickSmith.g2(v, l, alpha);
-            let weight = g * v_h / (h.z * v.z);
-            let fc = schlick_weight(v_h);
-            scale += (1.0 - fc) * weight;
-            bias += fc * weight;
-        }
-        [scale / samples as f64, bias / samples as f64]
-    }
-
     #[test]
     fn agrees_with_karis_own_estimator() {
         let build = small_settings().build(7, &()).unwrap();
@@ -239,7 +194,12 @@ mod tests {
         assert!(stats.min >= 0.0 && stats.max <= 1.0, "{stats:?}");
         for index in [[0, 0], [15, 0], [7, 7], [3, 12], [12, 3], [15, 15]] {
             let position = build.table.node_position(&index);
-            let expected = karis_importance_sampled(position[0], position[1], 1 << 20);
+            let expected = crate::recipes::test_estimators::d_importance_sampled(
+                MaskingShadowing::SchlickSmith,
+                position[0],
+                position[1],
+                1 << 20,
+            );
             let stored = build.table.node(&index);
             for c in 0..2 {
                 assert!(

@@ -90,17 +90,47 @@ macro_rules! table_recipe_accessors {
     };
 }
 
+/// The kernel of a table over `(mu, alpha)` whose channels are `E[f_j(wi.h) W]` for the channel
+/// functions `$f` of the cosine (`W = G2 / G1(wi)` of the settings' `masking`, by their `method`):
+/// GD and Kulla & Conty's E (`ggx_e`) integrate the same albedo ([`gd::without_fresnel`]), Karis's
+/// table and its multiple-scattering arrangement Schlick's weights. Used inside
+/// `impl Kernel for ...Settings`, so that each states only its channel functions.
+macro_rules! cosine_function_kernel {
+    ($f:path) => {
+        fn integrate(&self, table: &mut Table, points: &PointSet, progress: &dyn Progress) -> Result<Integrated> {
+            let estimates = super::fill_mu_alpha_nodes(table, progress, |_, mu, alpha| {
+                crate::integrate::estimate_cosine_functions(mu, alpha, self.masking, self.method, points, $f)
+            });
+            Ok(Integrated::of(&estimates))
+        }
+
+        fn estimate_node(&self, points: &PointSet, position: &[f64]) -> Estimate {
+            let (mu, alpha) = (position[0], position[1]);
+            crate::integrate::estimate_cosine_functions(mu, alpha, self.masking, Method::PerCell, points, $f)
+        }
+
+        fn exact_value(&self, quadrature: &VisibleNormalQuadrature, position: &[f64]) -> Vec<f64> {
+            quadrature.cosine_functions(position[0], position[1], self.masking, &[], $f).to_vec()
+        }
+    };
+}
+
 pub mod belcour;
 pub mod driver;
 pub mod fgd;
 pub mod fgd_rarer;
 pub mod gd;
+pub mod ggx_e;
+pub mod ggx_e_avg;
 pub mod interpolation;
 pub mod karis;
+pub mod karis_multiscatter;
 pub mod settings;
 pub mod slices;
 pub mod spacing;
 pub mod split_sum;
+#[cfg(test)]
+pub(crate) mod test_estimators;
 pub mod tir;
 
 pub use crate::integrate::Method;
@@ -205,6 +235,9 @@ table_registry! {
     belcour: Belcour => belcour::BelcourSettings,
     karis: Karis => karis::KarisSettings,
     fgd_rarer: FgdRarer => fgd_rarer::FgdRarerSettings,
+    ggx_e: GgxE => ggx_e::GgxESettings,
+    ggx_e_avg: GgxEAvg => ggx_e_avg::GgxEAvgSettings,
+    karis_multiscatter: KarisMultiscatter => karis_multiscatter::KarisMultiscatterSettings,
 }
 
 /// The seed of a configuration that names none.
@@ -236,6 +269,11 @@ pub trait TableRecipe: Kernel {
     fn name(&self) -> &'static str;
     /// One line for `tmlut list`.
     fn description(&self) -> &'static str;
+    /// Whether a build that names no tables makes this one: every table of the default set does;
+    /// an engine's table only where its `build` key is `always` ([`settings::BuildWhen`]).
+    fn built_unnamed(&self) -> bool {
+        true
+    }
     /// Files written beside the table's own: none unless a table's settings ask for some.
     fn companions(&self) -> Companions {
         Companions::default()

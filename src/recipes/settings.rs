@@ -93,6 +93,18 @@ impl MuAlphaAxes {
     }
 }
 
+/// Which builds make a table that is not part of the default set (an engine's table, which a
+/// preset or a user asks for by name): a build that names its tables (`--only`) makes those named,
+/// whatever this says; a build that names none makes every table whose `build` is `always`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BuildWhen {
+    /// Only when named (`--only ggx_e`).
+    Named,
+    /// In every build of the configuration, as the default set's tables are.
+    Always,
+}
+
 /// How many Monte Carlo samples each cell gets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

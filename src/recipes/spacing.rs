@@ -5,21 +5,37 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
-use crate::table::{Axis, Mapping};
+use crate::table::{Axis, Mapping, Placement};
 
 /// The first two axes of a table over `(mu, alpha, ...)`: `counts` nodes, node-aligned over
 /// `ranges`, spaced as `mu_axis` and `roughness_axis` say.
 pub fn mu_alpha_axes(
+    counts: [usize; 2],
+    ranges: [[f64; 2]; 2],
+    mu_axis: CosineAxis,
+    roughness_axis: RoughnessAxis,
+) -> Result<[Axis; 2]> {
+    placed_mu_alpha_axes(Placement::NodeAligned, counts, ranges, mu_axis, roughness_axis)
+}
+
+/// [`mu_alpha_axes`] with the nodes placed as `placement` says: on the range ends, or at the
+/// centres of equal cells (a GPU texture's texels), as engines differ on it.
+pub fn placed_mu_alpha_axes(
+    placement: Placement,
     counts: [usize; 2],
     [mu_range, alpha_range]: [[f64; 2]; 2],
     mu_axis: CosineAxis,
     roughness_axis: RoughnessAxis,
 ) -> Result<[Axis; 2]> {
     Ok([
-        Axis::node_aligned("mu", mu_range[0], mu_range[1], counts[0])?.with_mapping(mu_axis.mapping())?,
-        Axis::node_aligned("alpha", alpha_range[0], alpha_range[1], counts[1])?
-            .with_mapping(roughness_axis.mapping())?,
+        Axis::new("mu", mu_range[0], mu_range[1], counts[0], placement, mu_axis.mapping())?,
+        alpha_axis(placement, counts[1], alpha_range, roughness_axis)?,
     ])
+}
+
+/// An `alpha` axis of `count` nodes over `range`, placed and spaced as given.
+pub fn alpha_axis(placement: Placement, count: usize, range: [f64; 2], roughness_axis: RoughnessAxis) -> Result<Axis> {
+    Axis::new("alpha", range[0], range[1], count, placement, roughness_axis.mapping())
 }
 
 /// How the nodes of an `alpha` axis follow roughness.

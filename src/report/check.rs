@@ -337,7 +337,11 @@ pub fn check_folder(dir: &Path, budgets: &Budgets) -> Result<Vec<Finding>> {
                 });
             }
             let kind_built = kinds.values().any(|k| k == table);
-            if !kind_built && !manifest.files.values().any(|e| &e.table == table) {
+            // An engine's table is built when named, not with the default set: held to its budget
+            // where a build made it.
+            let named_only = crate::config::TableKind::named(table)
+                .is_some_and(|kind| !crate::config::Config::default().recipe(kind).built_unnamed());
+            if !kind_built && !named_only && !manifest.files.values().any(|e| &e.table == table) {
                 findings.push(Finding {
                     file: "-".into(),
                     check: format!("{table} present"),

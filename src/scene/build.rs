@@ -39,6 +39,9 @@ pub struct SceneBuildRequest {
     /// The table cache to read built tables from and store new ones in ([`super::cache`]).
     pub cache: Option<PathBuf>,
     pub slice_layout: SliceLayout,
+    /// The most textures the scene's shader may bind: [`SliceLayout::Auto`] writes the slices as
+    /// arrays where files of their own would make more, and a shader binding more is refused.
+    pub max_textures: usize,
     /// Build only this shard's tables, into `cache`, and write no folder.
     pub shard: Option<Shard>,
     /// The shard folders a merge joins (`tmlut merge`): every table is read from them (verified),
@@ -57,7 +60,8 @@ impl SceneBuildRequest {
         if self.cache.is_none() || self.shard.is_some() || !self.merge_from.is_empty() || self.error_maps {
             return None;
         }
-        Some(self.key_with(&self.config, format!("{:?} {:?}", self.slice_checks, self.slice_layout)))
+        let options = format!("{:?} {:?} {}", self.slice_checks, self.slice_layout, self.max_textures);
+        Some(self.key_with(&self.config, options))
     }
 
     /// The key of the library a shard holds part of, which `tmlut merge` must be given again:
@@ -152,13 +156,10 @@ pub enum SliceLayout {
     /// Texture arrays of slices ([`crate::formats::slice_array`]): a few files, whatever the
     /// number of materials.
     Arrays,
-    /// Arrays where a build has more than [`MAX_SLICE_FILES`] slices, a file per slice otherwise.
+    /// A file per slice where the shader then binds at most the request's `max_textures`
+    /// textures (the slices and the plan's other tables), arrays otherwise.
     Auto,
 }
-
-/// The most slices [`SliceLayout::Auto`] writes as files of their own: WebGPU binds 16 sampled
-/// textures per shader stage by default.
-pub const MAX_SLICE_FILES: usize = 16;
 
 /// How the slices of a scene build are checked against the exact integral.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -252,7 +253,7 @@ pub fn build_scene(
     let arrays = match request.slice_layout {
         SliceLayout::Files => false,
         SliceLayout::Arrays => !all_slices.is_empty(),
-        SliceLayout::Auto => all_slices.len() > MAX_SLICE_FILES,
+        SliceLayout::Auto => !all_slices.is_empty() && textures_with_slice_files(&plan) > request.max_textures,
     };
     if arrays && request.slice_checks == SliceChecks::Full {
         // An array is written from all its slices at once: each is built and checked on its own first.
@@ -302,6 +303,13 @@ pub fn build_scene(
         rest_s: rest_started.elapsed().as_secs_f64(),
     };
     Ok((plan, written, summary))
+}
+
+/// The textures a scene shader binds at most over the plan's tables with a file per slice: each
+/// slice, and each other table but the fitted TIR form (a function, not a texture; the 4D FGD
+/// table is bound as its packing).
+fn textures_with_slice_files(plan: &Plan) -> usize {
+    plan.tables.iter().filter(|t| !matches!(t.build, PlannedBuild::TirFit(_))).count()
 }
 
 /// The options a scene build refuses together, before it plans anything.

@@ -166,6 +166,7 @@ pub fn build_request(
         slice_checks: SliceChecks::Sampled,
         cache: None,
         slice_layout: SliceLayout::Auto,
+        max_textures: crate::shader::scene::DEFAULT_MAX_TEXTURES,
         shard: None,
         merge_from: Vec::new(),
     })

@@ -133,7 +133,8 @@ pub fn plan(scene: &Scene, config: &Config) -> Result<Plan> {
     }
     let (tir_forms, albedo_forms) = named_forms(scene)?;
     let bytes = parts.tables.iter().map(|t| t.record.bytes).sum();
-    let default_set_bytes = config.recipes().map(recipe_texel_bytes).sum::<Result<u64>>()?;
+    let default_set_bytes =
+        config.recipes().filter(|r| r.built_unnamed()).map(recipe_texel_bytes).sum::<Result<u64>>()?;
     Ok(Plan {
         scene: scene.name.clone(),
         lookups,

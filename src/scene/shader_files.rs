@@ -123,13 +123,20 @@ pub fn reference(
 }
 
 /// Write the shader of `scene` over the folder `luts` into `out` (created; locked while written),
-/// with `reference_views` CPU reference views per material (0: no reference file). Returns the
+/// with `reference_views` CPU reference views per material (0: no reference file); refused where
+/// it would bind more than `max_textures` textures, naming the lookups that read them. Returns the
 /// paths written.
 ///
 /// Into the folder of `luts` itself, the files are committed with its manifest, which lists them
 /// (`scene_shader`: length and SHA-256 of each, as `tmlut check` verifies them) in place of the
 /// scene shader it listed before; elsewhere the files are committed as one set, `.shader.json` last.
-pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_views: usize) -> Result<Vec<PathBuf>> {
+pub fn write_scene_shader(
+    scene: &Scene,
+    luts: &Path,
+    out: &Path,
+    reference_views: usize,
+    max_textures: usize,
+) -> Result<WrittenShader> {
     check_reference_views(reference_views, scene.materials.len())?;
     super::memory::check(
         &format!("scene `{}`", scene.name),
@@ -145,6 +152,7 @@ pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_view
     let folder = LutFolder::open(luts)?;
     let materials = shader_materials(scene)?;
     let shader = generate(&folder, &materials)?;
+    shader.check_texture_count(&scene.name, max_textures)?;
     // A shader is only as right as the files it binds: each is verified against the manifest
     // (SHA-256, header against its description), as the furnace and the loader verify them, so
     // that a swapped, truncated or deleted table is refused here rather than bound.
@@ -168,8 +176,8 @@ pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_view
     let json = |v: &dyn erased::Json| v.bytes();
     files.push((
         format!("{stem}.shader.json"),
-        "what the shader binds (one texture per table file: binding, file, extent, channels) and each material's \
-         function"
+        "what the shader binds (one texture per table file: binding, file, extent, channels), the device limits it \
+         needs, and each material's function"
             .into(),
         json(&shader.description()),
     ));
@@ -195,8 +203,8 @@ pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_view
         );
         files.push((format!("{stem}.reference.json"), what, json(&points)));
     }
-    if same_folder(luts, out) {
-        commit_with_manifest(&folder_lock, scene, files)
+    let files = if same_folder(luts, out) {
+        commit_with_manifest(&folder_lock, scene, files)?
     } else {
         // Committed as one set, `.shader.json` (which describes the others) last: a failed or
         // killed run leaves the earlier set, or a journal the next run completes, never a new
@@ -212,8 +220,17 @@ pub fn write_scene_shader(scene: &Scene, luts: &Path, out: &Path, reference_view
             written.push(out.join(file));
         }
         crate::commit::commit_set(&folder_lock, &mut staging, moves, Vec::new(), &last)?;
-        Ok(written)
-    }
+        written
+    };
+    Ok(WrittenShader { files, materials: shader.materials })
+}
+
+/// What [`write_scene_shader`] wrote: its files, and each material's function as its
+/// `.shader.json` describes it (what it costs among it).
+#[derive(Debug)]
+pub struct WrittenShader {
+    pub files: Vec<PathBuf>,
+    pub materials: Vec<crate::loader::MaterialFunction>,
 }
 
 /// Most materials [`cost_summary`] lists one by one.

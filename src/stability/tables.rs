@@ -18,12 +18,17 @@ use crate::error::Result;
 use crate::formats::Precision;
 use crate::integrate::quadrature::VisibleNormalQuadrature;
 use crate::integrate::{Estimate, GRAZING_COSINE};
-use crate::physics::{critical_cosine, direction_from_cosine, fresnel_reflectance, reflect, schlick_weight};
+use crate::physics::{
+    MaskingShadowing, critical_cosine, direction_from_cosine, fresnel_reflectance, reflect, schlick_weight,
+};
 use crate::recipes::belcour::{self, BelcourSettings};
 use crate::recipes::fgd::FgdSettings;
 use crate::recipes::fgd_rarer::FgdRarerSettings;
 use crate::recipes::gd::GdSettings;
+use crate::recipes::ggx_e::GgxESettings;
+use crate::recipes::ggx_e_avg::GgxEAvgSettings;
 use crate::recipes::karis::KarisSettings;
+use crate::recipes::karis_multiscatter::KarisMultiscatterSettings;
 use crate::recipes::tir::{TirSettings, tir_by_quadrature};
 use crate::recipes::{Kernel, TableRecipe};
 use crate::sampling::sequence::{PointSet, SamplePlan};
@@ -61,6 +66,9 @@ pub struct Evaluation {
     tir: TirSettings,
     belcour: BelcourSettings,
     karis: KarisSettings,
+    ggx_e: GgxESettings,
+    ggx_e_avg: GgxEAvgSettings,
+    karis_multiscatter: KarisMultiscatterSettings,
 }
 
 impl Evaluation {
@@ -75,6 +83,9 @@ impl Evaluation {
             tir: TirSettings { eta_axis: crate::recipes::tir::EtaAxis::Eta, ..TirSettings::default() },
             belcour: BelcourSettings::default(),
             karis: KarisSettings::default(),
+            ggx_e: GgxESettings::default(),
+            ggx_e_avg: GgxEAvgSettings::default(),
+            karis_multiscatter: KarisMultiscatterSettings::default(),
         })
     }
 }
@@ -82,7 +93,8 @@ impl Evaluation {
 /// Run the cases of one table. Every table has its own, named in a `PerKind` whose literal names
 /// every kind: a table added to the loader's list does not compile until its cases are written here.
 pub fn run(kind: TableKind, evaluation: &Evaluation, report: &mut Report) {
-    let cases: PerKind<fn(&Evaluation, &mut Report)> = PerKind { fgd, gd, tir, belcour, karis, fgd_rarer };
+    let cases: PerKind<fn(&Evaluation, &mut Report)> =
+        PerKind { fgd, gd, tir, belcour, karis, fgd_rarer, ggx_e, ggx_e_avg, karis_multiscatter };
     cases.take(kind)(evaluation, report)
 }
 
@@ -266,33 +278,98 @@ fn near_mirror(mu: f64, alpha: f64, value: f64, mirror: f64) -> Check {
     }
 }
 
-fn gd(evaluation: &Evaluation, report: &mut Report) {
-    let settings = &evaluation.gd;
-    let points = &evaluation.points;
-    let mut paths = PrecisionDifference::new("gd: fast f32 kernel vs per-cell f64", 1e-3);
+/// The cases of a table of the GGX albedo without Fresnel (GD, `ggx_e`; channel `channel`) at every
+/// stiff `(mu, alpha)`: both paths (`fast` the f32 kernel), the checks every table has, a mirror's
+/// 1 and its limit, and the table's own (`own_checks(case, node, position)`).
+fn albedo_cases(
+    evaluation: &Evaluation,
+    report: &mut Report,
+    recipe: &dyn TableRecipe,
+    fast: impl Fn(&PointSet, &[f64]) -> Estimate,
+    channel: &str,
+    own_checks: impl Fn(&mut Case, &NodeResult, &[f64]),
+) {
+    let table = recipe.name();
+    let mut paths = PrecisionDifference::new(format!("{table}: fast f32 kernel vs per-cell f64"), 1e-3);
     for &alpha in &ALPHAS {
         for &mu in &COSINES {
             let position = [mu, alpha];
-            let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
+            let node = both_paths(recipe, &fast, &evaluation.points, &position);
             let at = format!("mu={} alpha={}", label(mu), label(alpha));
-            let mut case = Case::new("gd", &at, values(&node));
-            case.checks = common_checks(&node, &["gd"], &[true], &mut paths, &at);
+            let mut case = Case::new(table, &at, values(&node));
+            case.checks = common_checks(&node, &[channel], &[true], &mut paths, &at);
+            own_checks(&mut case, &node, &position);
             if alpha == 0.0 {
-                case.checks.push(named(
-                    p::exact("alpha = 0: a mirror loses nothing", node.per_cell.mean[0], 1.0),
-                    "gd",
-                    "f64",
-                ));
-                case.checks.push(named(
-                    p::exact("alpha = 0: a mirror loses nothing", node.fast.mean[0], 1.0),
-                    "gd",
-                    "f32",
-                ));
+                for (path, estimate) in [("f64", &node.per_cell), ("f32", &node.fast)] {
+                    let check = p::exact("alpha = 0: a mirror loses nothing", estimate.mean[0], 1.0);
+                    case.checks.push(named(check, channel, path));
+                }
             } else if alpha <= 1e-4 {
                 case.checks.push(near_mirror(mu, alpha, node.per_cell.mean[0], 1.0));
             }
             report.cases.push(case);
         }
+    }
+    report.precision.push(paths);
+}
+
+fn gd(evaluation: &Evaluation, report: &mut Report) {
+    let settings = &evaluation.gd;
+    let fast = |pts: &PointSet, pos: &[f64]| settings.estimate_node_fast(pts, pos);
+    albedo_cases(evaluation, report, settings, fast, "gd", |_, _, _| {});
+}
+
+/// E with F = 1: GD's cases, and never below GD on the same points where it is height-correlated
+/// (that masking hides less than separable: `1 / (1 + Λ(wi) + Λ(wo)) >= 1 / ((1 + Λ(wi)) (1 +
+/// Λ(wo)))` sample by sample).
+fn ggx_e(evaluation: &Evaluation, report: &mut Report) {
+    let settings = &evaluation.ggx_e;
+    let fast = |pts: &PointSet, pos: &[f64]| settings.estimate_node_fast(pts, pos);
+    albedo_cases(evaluation, report, settings, fast, "e", |case, node, position| {
+        if settings.masking == MaskingShadowing::SmithHeightCorrelated {
+            let gd = evaluation.gd.estimate_node(&evaluation.points, position).mean[0];
+            let check =
+                p::at_most("height-correlated E >= separable GD, same points", gd, node.per_cell.mean[0], 1e-12);
+            case.checks.push(named(check, "e", "f64"));
+        }
+    });
+}
+
+/// How close to 1 the average over the hemisphere of a lobe of `alpha <= 1e-4` must be: only views
+/// within `mu ~ alpha` of grazing lose energy, and they weigh `alpha^2` in the average.
+const SMOOTH_AVERAGE_TOLERANCE: f64 = 1e-6;
+
+/// E_avg at every stiff `alpha`: both paths (each the rule over views of E estimated on the same
+/// points), a mirror's 1 and its limit, and the exact average.
+fn ggx_e_avg(evaluation: &Evaluation, report: &mut Report) {
+    let settings = &evaluation.ggx_e_avg;
+    let points = &evaluation.points;
+    let mut paths = PrecisionDifference::new("ggx_e_avg: fast f32 kernel vs per-cell f64", 1e-3);
+    // Within 3e-7 of 16 nodes per panel (`ggx_e_avg::tests`), at an eighth of their cost: the rule
+    // over views has panels down to alpha / 2, some 200 views at alpha = 1e-7.
+    let quadrature = VisibleNormalQuadrature::new(8).expect("8 nodes per panel");
+    for &alpha in &ALPHAS {
+        let position = [alpha];
+        let node = both_paths(settings, |pts, pos| settings.estimate_node_fast(pts, pos), points, &position);
+        let at = format!("alpha={}", label(alpha));
+        let mut case = Case::new("ggx_e_avg", &at, values(&node));
+        case.checks = common_checks(&node, &["e_avg"], &[true], &mut paths, &at);
+        let (v64, v32) = (node.per_cell.mean[0], node.fast.mean[0]);
+        let exact = settings.exact_value(&quadrature, &position)[0];
+        let tolerance = PATH_STANDARD_ERRORS * node.per_cell.standard_error[0] + PATH_ABSOLUTE_TOLERANCE;
+        case.checks.push(named(p::close("the exact average (quadrature)", v64, exact, tolerance), "e_avg", "f64"));
+        if alpha == 0.0 {
+            for (path, value) in [("f64", v64), ("f32", v32)] {
+                case.checks.push(named(
+                    p::close("alpha = 0: a mirror loses nothing", value, 1.0, 1e-12),
+                    "e_avg",
+                    path,
+                ));
+            }
+        } else if alpha <= 1e-4 {
+            case.checks.push(named(p::close("alpha -> 0: near 1", v64, 1.0, SMOOTH_AVERAGE_TOLERANCE), "e_avg", "f64"));
+        }
+        report.cases.push(case);
     }
     report.precision.push(paths);
 }
@@ -499,6 +576,28 @@ fn karis(evaluation: &Evaluation, report: &mut Report) {
                     path,
                 ));
                 case.checks.push(named(p::close("alpha = 0: Fc(mu)", estimate.mean[1], fc, tolerance), "bias", path));
+            }
+        }
+    });
+}
+
+/// The multiple-scattering split sum: the split-sum cases, `bias <= albedo` (`Fc <= 1` sample by
+/// sample), and at `alpha = 0` the mirror's `(Fc(mu), 1)`.
+fn karis_multiscatter(evaluation: &Evaluation, report: &mut Report) {
+    let settings = &evaluation.karis_multiscatter;
+    let fast = |pts: &PointSet, pos: &[f64]| settings.estimate_node_fast(pts, pos);
+    let names = ["bias", "albedo"];
+    split_sum_cases(evaluation, report, settings, fast, &names, &[true, true], |case, node, mu, alpha| {
+        let (bias, albedo) = (node.per_cell.mean[0], node.per_cell.mean[1]);
+        case.checks.push(named(p::at_most("bias <= albedo (Fc <= 1)", bias, albedo, 1e-12), "bias", "f64"));
+        if alpha == 0.0 {
+            let fc = schlick_weight(evaluated_cosine(mu));
+            // The f32 kernel rounds c = wi.h to f32: 1e-6 is what that allows.
+            for (path, estimate, tolerance) in [("f64", &node.per_cell, 1e-12), ("f32", &node.fast, 1e-6)] {
+                let bias = p::close("alpha = 0: Fc(mu)", estimate.mean[0], fc, tolerance);
+                case.checks.push(named(bias, "bias", path));
+                let albedo = p::close("alpha = 0: a mirror loses nothing", estimate.mean[1], 1.0, tolerance);
+                case.checks.push(named(albedo, "albedo", path));
             }
         }
     });

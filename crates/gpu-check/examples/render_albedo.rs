@@ -48,14 +48,16 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     // Every file is verified against the manifest as it loads (length, SHA-256, shape).
     let luts = LutFolder::open(luts_dir)?;
     let shader = SceneShaderFiles::open(shader_dir)?;
-    let gpu = gpu::Gpu::new()?;
+    // A device granting what the description says the shader needs (textures per stage, array
+    // layers, texture sizes), as a renderer asks for it beside its own needs.
+    let gpu = gpu::Gpu::with_limits(&shader.description.limits)?;
     println!("adapter: {}", gpu.adapter);
 
     // One texture per table file, created from its texels as stored, at the binding the shader's
-    // description gives.
+    // description gives: a texture array where it is `layered`.
     let mut textures = Vec::new();
     for t in shader.description.textures.iter() {
-        textures.push(gpu.upload(t.binding, &luts.texture(&t.file)?)?);
+        textures.push(gpu.upload_bound(t, &luts.texture(&t.file)?)?);
     }
 
     // The generated WGSL as written, and one entry point per material: A(mu), RGB, per view.

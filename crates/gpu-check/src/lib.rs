@@ -6,16 +6,21 @@
 //! texture from the loader's texel bytes and descriptor, and one compute pass from an f32 input
 //! array to an f32 output array.
 
-use tmlut::loader::{TextureData, TextureDimension, TextureFormat};
+use tmlut::loader::{DeviceLimits, TextureBinding, TextureData, TextureDimension, TextureFormat};
 
 pub struct Gpu {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     /// The adapter, as wgpu names it (`llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)` on lavapipe).
     pub adapter: String,
+    /// What the adapter says of itself: its name, backend, device type and driver.
+    pub info: wgpu::AdapterInfo,
     /// Whether the device filters 32-bit float textures (WebGPU's `float32-filterable`, asked for
     /// where the adapter has it).
     pub float32_filterable: bool,
+    /// Whether compute passes may write timestamps (`timestamp-query`, asked for by
+    /// [`Gpu::for_timing`] where the adapter has it).
+    pub timestamps: bool,
 }
 
 /// GPU values against the CPU's: the largest difference, where it is, and the values (on either
@@ -83,6 +88,17 @@ pub fn exit_code(example: &str, result: Result<bool, Box<dyn std::error::Error>>
     }
 }
 
+/// What `limits` grant, as a shader description names the limits it needs.
+fn device_limits(limits: &wgpu::Limits) -> DeviceLimits {
+    DeviceLimits {
+        max_sampled_textures_per_shader_stage: limits.max_sampled_textures_per_shader_stage,
+        max_samplers_per_shader_stage: limits.max_samplers_per_shader_stage,
+        max_texture_array_layers: limits.max_texture_array_layers,
+        max_texture_dimension_2d: limits.max_texture_dimension_2d,
+        max_texture_dimension_3d: limits.max_texture_dimension_3d,
+    }
+}
+
 /// A texture or a sampler bound in group 0 at `binding`.
 pub struct Bound {
     pub binding: u32,
@@ -98,38 +114,78 @@ pub enum Resource {
 
 impl Gpu {
     /// A device on the first adapter wgpu finds: the machine's GPU, or a software one (Mesa's
-    /// lavapipe) where there is none. No window, no surface.
+    /// lavapipe) where there is none. No window, no surface. WebGPU's default limits.
     pub fn new() -> Result<Gpu, String> {
+        Self::with_limits(&DeviceLimits::WEBGPU_DEFAULTS)
+    }
+
+    /// A device granting at least `needed` (a shader description's `limits`) and WebGPU's
+    /// defaults, as a renderer asks for them; refused, naming the limit, where the adapter has less.
+    pub fn with_limits(needed: &DeviceLimits) -> Result<Gpu, String> {
+        Self::open(needed, wgpu::Features::FLOAT32_FILTERABLE)
+    }
+
+    /// As [`Gpu::new`], with timestamp queries where the adapter has them: a device to time
+    /// dispatches on.
+    pub fn for_timing() -> Result<Gpu, String> {
+        Self::open(&DeviceLimits::WEBGPU_DEFAULTS, wgpu::Features::FLOAT32_FILTERABLE | wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// A device granting `needed`, with those of `optional` the adapter has.
+    fn open(needed: &DeviceLimits, optional: wgpu::Features) -> Result<Gpu, String> {
         let instance = wgpu::Instance::new(&wgpu::InstanceDescriptor::from_env_or_default());
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
             .map_err(|e| format!("no GPU adapter (install a Vulkan driver, e.g. mesa-vulkan-drivers): {e}"))?;
         let info = adapter.get_info();
-        let float32_filterable = adapter.features().contains(wgpu::Features::FLOAT32_FILTERABLE);
-        let descriptor = wgpu::DeviceDescriptor {
-            required_features: match float32_filterable {
-                true => wgpu::Features::FLOAT32_FILTERABLE,
-                false => wgpu::Features::empty(),
-            },
-            ..Default::default()
-        };
+        let features = adapter.features() & optional;
+        let beyond = needed.beyond(&device_limits(&adapter.limits()));
+        if !beyond.is_empty() {
+            let named: Vec<String> =
+                beyond.iter().map(|(name, need, has)| format!("{name} {need} (the adapter has {has})")).collect();
+            return Err(format!("{}: the shader needs {}", info.name, named.join(", ")));
+        }
+        let mut required_limits = wgpu::Limits::default();
+        for (limit, need) in [
+            (&mut required_limits.max_sampled_textures_per_shader_stage, needed.max_sampled_textures_per_shader_stage),
+            (&mut required_limits.max_samplers_per_shader_stage, needed.max_samplers_per_shader_stage),
+            (&mut required_limits.max_texture_array_layers, needed.max_texture_array_layers),
+            (&mut required_limits.max_texture_dimension_2d, needed.max_texture_dimension_2d),
+            (&mut required_limits.max_texture_dimension_3d, needed.max_texture_dimension_3d),
+        ] {
+            *limit = (*limit).max(need);
+        }
+        let descriptor = wgpu::DeviceDescriptor { required_features: features, required_limits, ..Default::default() };
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
             .map_err(|e| format!("{}: no device: {e}", info.name))?;
-        Ok(Gpu { device, queue, adapter: format!("{} ({:?})", info.name, info.backend), float32_filterable })
+        Ok(Gpu {
+            device,
+            queue,
+            adapter: format!("{} ({:?})", info.name, info.backend),
+            info,
+            float32_filterable: features.contains(wgpu::Features::FLOAT32_FILTERABLE),
+            timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
+        })
     }
 
     /// A texture holding a table, created and filled from the loader's descriptor, whose fields
     /// are named as wgpu names them (docs/loader.md). Bound at `binding` of group 0.
     pub fn upload(&self, binding: u32, data: &TextureData) -> Result<Bound, String> {
-        self.upload_as(binding, data, false)
+        self.upload_as(binding, data, false, false)
     }
 
     /// A texture array holding a table of three axes, its third the layers, bound at `binding` of
     /// group 0 to be filtered by a sampler.
     pub fn upload_array(&self, binding: u32, data: &TextureData) -> Result<Bound, String> {
-        self.upload_as(binding, data, true)
+        self.upload_as(binding, data, true, true)
     }
 
-    fn upload_as(&self, binding: u32, data: &TextureData, layered: bool) -> Result<Bound, String> {
+    /// A table's texture as a scene shader's description binds it: at its binding, an array of
+    /// 2D textures where it is `layered`, its texels loaded rather than filtered.
+    pub fn upload_bound(&self, bound: &TextureBinding, data: &TextureData) -> Result<Bound, String> {
+        self.upload_as(bound.binding, data, bound.layered, false)
+    }
+
+    fn upload_as(&self, binding: u32, data: &TextureData, layered: bool, filterable: bool) -> Result<Bound, String> {
         let d = data.descriptor();
         let size = wgpu::Extent3d { width: d.width, height: d.height, depth_or_array_layers: d.depth_or_layers };
         let (dimension, view_dimension) = match (layered, d.dimension) {
@@ -160,7 +216,7 @@ impl Gpu {
         );
         let view =
             texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(view_dimension), ..Default::default() });
-        Ok(Bound { binding, resource: Resource::Texture { view, dimension: view_dimension, filterable: layered } })
+        Ok(Bound { binding, resource: Resource::Texture { view, dimension: view_dimension, filterable } })
     }
 
     /// A sampler of linear magnification and minification and clamp-to-edge addressing (the
@@ -186,88 +242,24 @@ impl Gpu {
         items: usize,
         outputs: usize,
     ) -> Vec<f32> {
-        // The scene shaders' tables are read with textureLoad: no sampler, unfilterable float
-        // (r32float needs no feature); a baked array is filtered by its sampler. Compute only.
-        let texture_entries: Vec<_> = textures
-            .iter()
-            .map(|t| wgpu::BindGroupLayoutEntry {
-                binding: t.binding,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: match &t.resource {
-                    Resource::Texture { dimension, filterable, .. } => wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: *filterable },
-                        view_dimension: *dimension,
-                        multisampled: false,
-                    },
-                    Resource::Sampler(_) => wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                },
-                count: None,
-            })
-            .collect();
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        // An explicit layout: a layout derived from the shader would leave out the tables this
-        // entry point does not read, and binding them would then fail.
         let device = &self.device;
-        let layouts = [
-            device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &texture_entries }),
-            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: None,
-                entries: &[storage(0, true), storage(1, false)],
-            }),
-        ];
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry),
-            layout: Some(&device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: None,
-                bind_group_layouts: &[&layouts[0], &layouts[1]],
-                push_constant_ranges: &[],
-            })),
-            module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
+        let buffers_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &[storage_entry(0, true), storage_entry(1, false)],
         });
-        let buffer = |size: usize, usage| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: None,
-                size: size as u64,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
+        let (textures_layout, textures_group) = self.texture_group(textures);
+        let pipeline = self.compute_pipeline(module, entry, &[&textures_layout, &buffers_layout]);
+        let buffer = |size: usize, usage| self.buffer(size as u64, usage);
         let input = buffer(size_of_val(inputs), wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST);
         self.queue.write_buffer(&input, 0, &f32_bytes(inputs));
         let out_size = outputs * size_of::<f32>();
         let output = buffer(out_size, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
         let readback = buffer(out_size, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
         let groups = [
+            textures_group,
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: None,
-                layout: &layouts[0],
-                entries: &textures
-                    .iter()
-                    .map(|t| wgpu::BindGroupEntry {
-                        binding: t.binding,
-                        resource: match &t.resource {
-                            Resource::Texture { view, .. } => wgpu::BindingResource::TextureView(view),
-                            Resource::Sampler(sampler) => wgpu::BindingResource::Sampler(sampler),
-                        },
-                    })
-                    .collect::<Vec<_>>(),
-            }),
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: None,
-                layout: &layouts[1],
+                layout: &buffers_layout,
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
@@ -284,10 +276,85 @@ impl Gpu {
         }
         encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, out_size as u64);
         self.queue.submit([encoder.finish()]);
-        readback.map_async(wgpu::MapMode::Read, .., |mapped| mapped.expect("mapping the read-back buffer"));
-        device.poll(wgpu::PollType::wait_indefinitely()).expect("the GPU finishes the compute pass");
-        let bytes = readback.get_mapped_range(..);
-        bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+        self.read_back(&readback).chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+    }
+
+    /// A buffer of `size` bytes, unmapped.
+    pub fn buffer(&self, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor { label: None, size, usage, mapped_at_creation: false })
+    }
+
+    /// The bytes of a buffer of `MAP_READ` usage, once the work submitted before has finished.
+    pub fn read_back(&self, buffer: &wgpu::Buffer) -> Vec<u8> {
+        buffer.map_async(wgpu::MapMode::Read, .., |mapped| mapped.expect("mapping the read-back buffer"));
+        self.device.poll(wgpu::PollType::wait_indefinitely()).expect("the GPU finishes the work submitted");
+        let bytes = buffer.get_mapped_range(..).to_vec();
+        buffer.unmap();
+        bytes
+    }
+
+    /// The layout of group 0 holding `textures`, and the group binding them.
+    pub fn texture_group(&self, textures: &[Bound]) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
+        // The scene shaders' tables are read with textureLoad: no sampler, unfilterable float
+        // (r32float needs no feature); a baked array is filtered by its sampler. Compute only.
+        let entries: Vec<_> = textures
+            .iter()
+            .map(|t| wgpu::BindGroupLayoutEntry {
+                binding: t.binding,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: match &t.resource {
+                    Resource::Texture { dimension, filterable, .. } => wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: *filterable },
+                        view_dimension: *dimension,
+                        multisampled: false,
+                    },
+                    Resource::Sampler(_) => wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                },
+                count: None,
+            })
+            .collect();
+        let layout =
+            self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &entries });
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &layout,
+            entries: &textures
+                .iter()
+                .map(|t| wgpu::BindGroupEntry {
+                    binding: t.binding,
+                    resource: match &t.resource {
+                        Resource::Texture { view, .. } => wgpu::BindingResource::TextureView(view),
+                        Resource::Sampler(sampler) => wgpu::BindingResource::Sampler(sampler),
+                    },
+                })
+                .collect::<Vec<_>>(),
+        });
+        (layout, group)
+    }
+
+    /// The compute pipeline of entry point `entry` of `module`, its groups laid out as `layouts`
+    /// (an explicit layout: a layout derived from the shader would leave out the tables this entry
+    /// point does not read, and binding them would then fail). Compiled here, so that a dispatch
+    /// timed later pays no compilation.
+    pub fn compute_pipeline(
+        &self,
+        module: &wgpu::ShaderModule,
+        entry: &str,
+        layouts: &[&wgpu::BindGroupLayout],
+    ) -> wgpu::ComputePipeline {
+        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: layouts,
+            push_constant_ranges: &[],
+        });
+        self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&layout),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
     }
 
     /// The WGSL function `function` of a fitted form (`source`, its file), of `variables` f32
@@ -336,6 +403,20 @@ fn texture_format(format: TextureFormat) -> Result<wgpu::TextureFormat, String> 
         TextureFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
         other => return Err(format!("texture format {} is not mapped to wgpu here", other.webgpu_name())),
     })
+}
+
+/// A storage buffer at `binding`, read by compute shaders (and written, unless `read_only`).
+pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
 }
 
 fn f32_bytes(values: &[f32]) -> Vec<u8> {

@@ -41,9 +41,9 @@ pub mod table;
 
 pub use error::{Error, Result};
 pub use loader::{
-    Alpha, BakedLut, BelcourLut, FgdLut, FgdRarerLut, GdLut, InMemory, KarisLut, LutFolder, LutSource,
-    MaterialFunction, OnDisk, Roughness, SceneShaderFiles, ShaderDescription, TextureBinding, TextureData,
-    TextureDescriptor, TextureDimension, TextureFormat, TirLut,
+    Alpha, BakedLut, BelcourLut, DeviceLimits, FgdLut, FgdRarerLut, GdLut, GgxEAvgLut, GgxELut, InMemory, KarisLut,
+    KarisMultiscatterLut, LutFolder, LutSource, MaterialFunction, OnDisk, Roughness, SceneShaderFiles,
+    ShaderDescription, TextureBinding, TextureData, TextureDescriptor, TextureDimension, TextureFormat, TirLut,
 };
 pub use table::{Axis, Channel, Mapping, Placement, Table};
 

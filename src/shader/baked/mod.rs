@@ -32,7 +32,10 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::formats::baked::{BakedArrayEntry, BakedMaterialEntry, row_coordinate};
-use crate::loader::shader::{BakedMaterialFunction, BakedShaderDescription, SamplerBinding, TextureBinding};
+use crate::loader::shader::{
+    BakedMaterialFunction, BakedShaderDescription, DeviceLimits, SHADER_DESCRIPTION_FORMAT, SamplerBinding,
+    TextureBinding,
+};
 use crate::loader::{Precision, TextureFormat};
 
 /// The function every material's calls: `(material index, mu) -> TmResult`.
@@ -370,22 +373,27 @@ fn description(
 ) -> Result<BakedShaderDescription> {
     let format = TextureFormat::of(4, precision).expect("four channels have a format in every precision");
     let [width, height] = entry.layer_extent;
+    let texture = TextureBinding {
+        binding: 0,
+        variable: ARRAY.into(),
+        file: array_file.into(),
+        extent: [width as usize, height as usize, entry.layers as usize],
+        dimension: 2,
+        depth: 1,
+        array_layers: entry.layers as usize,
+        channels: 4,
+        layered: true,
+        format: format.webgpu_name().into(),
+        view_dimension: "2d-array".into(),
+        sample_type: "float".into(),
+    };
     Ok(BakedShaderDescription {
+        format_version: SHADER_DESCRIPTION_FORMAT,
         result_struct: RESULT_STRUCT.into(),
         max_lobes,
         function: FUNCTION.into(),
-        texture: TextureBinding {
-            binding: 0,
-            variable: ARRAY.into(),
-            file: array_file.into(),
-            extent: [width as usize, height as usize, entry.layers as usize],
-            dimension: 2,
-            channels: 4,
-            layered: true,
-            format: format.webgpu_name().into(),
-            view_dimension: "2d-array".into(),
-            sample_type: "float".into(),
-        },
+        limits: DeviceLimits::of(std::slice::from_ref(&texture), 1),
+        texture,
         sampler: SamplerBinding {
             binding: 1,
             variable: SAMPLER.into(),

@@ -35,7 +35,9 @@ use crate::error::{Error, Result};
 use crate::fit::forms::fitted::{FittedForm, FittedFormExt};
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::LutFolder;
-pub use crate::loader::shader::{MaterialFunction, ShaderDescription, TextureBinding};
+pub use crate::loader::shader::{
+    DeviceLimits, MaterialFunction, SHADER_DESCRIPTION_FORMAT, ShaderDescription, TextureBinding,
+};
 use crate::model::folder::MaterialReads;
 use crate::model::routes::Routes;
 use crate::model::{AlbedoPath, FluxModel, Stack, TirPath};
@@ -80,21 +82,95 @@ pub struct SceneShader {
     pub materials: Vec<MaterialFunction>,
     /// The length of the lobe arrays of `TmResult`.
     pub max_lobes: usize,
+    /// Of each binding, in the order of `textures`, what reads it, for the message refusing more
+    /// textures than a renderer allows.
+    pub readers: Vec<BindingReaders>,
 }
+
+/// What reads one of a shader's textures.
+#[derive(Debug, Clone, Default)]
+pub struct BindingReaders {
+    /// The lookups, as `FGD of `copper``.
+    pub lookups: Vec<String>,
+    /// Whether the texture is a slice in a file of its own (not a full table, a packing or an
+    /// array).
+    pub slice_file: bool,
+}
+
+/// The most textures a scene shader binds unless told otherwise (`--max-textures`): half of the 16
+/// a WebGPU shader stage binds by default, so that a renderer has the other half for its own.
+pub const DEFAULT_MAX_TEXTURES: usize = 8;
 
 impl SceneShader {
     pub fn description(&self) -> ShaderDescription<'_> {
         ShaderDescription {
+            format_version: SHADER_DESCRIPTION_FORMAT,
             result_struct: RESULT_STRUCT.into(),
             max_lobes: self.max_lobes,
+            dispatch_function: None,
+            limits: DeviceLimits::of(&self.textures, 0),
             textures: Cow::Borrowed(&self.textures),
             materials: Cow::Borrowed(&self.materials),
-            notes: "Each texture is bound in group 0 (HLSL: register tN) at `binding`, created from the file's texels as \
-                    stored (`format`: the WebGPU name of the file's DXGI or Vulkan format), one mip level, linear data, \
+            notes:
+                "Each texture is bound in group 0 (HLSL: register tN) at `binding`, created from the file's texels as \
+                    stored (`format`: the WebGPU name of the file's DXGI or Vulkan format) with WebGPU's `size` \
+                    `extent` ([width, height, depth or array layers]) and `dimension`, one mip level, linear data, \
                     bound with `view_dimension` and `sample_type`; no sampler: the shader loads and filters texels \
-                    itself. Call the material's function with the view cosine mu = n.v."
-                .into(),
+                    itself. A device needs at least `limits` (WebGPU's names), the renderer's own bindings added. \
+                    Call the material's function with the view cosine mu = n.v; `dispatch_function`, where not null, \
+                    takes a material's index in `materials` and mu."
+                    .into(),
         }
+    }
+
+    /// Refuse a shader that binds more than `max_textures` textures, naming each texture with the
+    /// lookups that read it.
+    pub fn check_texture_count(&self, scene: &str, max_textures: usize) -> Result<()> {
+        if self.textures.len() <= max_textures {
+            return Ok(());
+        }
+        let slice_files = self.readers.iter().filter(|r| r.slice_file).count();
+        let listed: Vec<String> = self
+            .textures
+            .iter()
+            .zip(&self.readers)
+            .take(TEXTURES_NAMED)
+            .map(|(t, readers)| format!("{} ({})", t.file, first_of(&readers.lookups, LOOKUPS_NAMED)))
+            .collect();
+        let more = match self.textures.len().saturating_sub(TEXTURES_NAMED) {
+            0 => String::new(),
+            n => format!("; and {n} more"),
+        };
+        let hint = match slice_files {
+            0 => String::new(),
+            n => format!(
+                "; {n} of them are slices in files of their own, which a build with `--slice-layout arrays` puts in \
+                 a few texture arrays"
+            ),
+        };
+        Err(Error::invalid(
+            format!("scene `{scene}`"),
+            format!(
+                "its shader binds {} textures, more than --max-textures {max_textures} allows{hint}; raise \
+                 --max-textures where the renderer's device binds that many per shader stage. The textures and the \
+                 lookups reading them: {}{more}",
+                self.textures.len(),
+                listed.join("; ")
+            ),
+        ))
+    }
+}
+
+/// The most textures, and lookups of one texture, a refusal names: a library's array is read by
+/// every material.
+const TEXTURES_NAMED: usize = 32;
+const LOOKUPS_NAMED: usize = 4;
+
+/// The first `count` of `items`, and how many more there are.
+fn first_of(items: &[String], count: usize) -> String {
+    match items.len().checked_sub(count) {
+        Some(more) if more > 0 => format!("{}, and {more} more", items[..count].join(", ")),
+        _ => items.join(", "),
     }
 }
 
@@ -206,9 +282,18 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
         let entry = folder.entry(&texture.file)?;
         texture.format = crate::loader::TextureFormat::of(texture.channels, entry.precision)
             .map(|f| f.webgpu_name().to_string())
-            .unwrap_or_default();
+            .ok_or_else(|| {
+                Error::format(
+                    &manifest_path,
+                    format!(
+                        "lists `{}` with {} channels in {:?}, which no WebGPU texel format holds",
+                        texture.file, texture.channels, entry.precision
+                    ),
+                )
+            })?;
     }
-    let mut shader = SceneShader { module, textures, materials: described, max_lobes };
+    let readers = g.readers;
+    let mut shader = SceneShader { module, textures, materials: described, max_lobes, readers };
     let costs = shader.costs()?;
     for (material, cost) in shader.materials.iter_mut().zip(costs) {
         material.cost = cost;
@@ -253,6 +338,12 @@ struct Generator<'a> {
     textures: Vec<TextureBinding>,
     /// File -> binding of the textures bound so far.
     used: BTreeMap<String, u32>,
+    /// Of each binding, what reads it.
+    readers: Vec<BindingReaders>,
+    /// The lookup being printed, as [`BindingReaders::lookups`] names it, and whether it reads
+    /// slices.
+    lookup: String,
+    lookup_reads_slices: bool,
     /// The bindings the material being generated reads, and what kinds of table.
     reading: std::collections::BTreeSet<u32>,
     reads: std::collections::BTreeSet<String>,
@@ -276,6 +367,9 @@ impl<'a> Generator<'a> {
             routes,
             textures: Vec::new(),
             used: BTreeMap::new(),
+            readers: Vec::new(),
+            lookup: String::new(),
+            lookup_reads_slices: false,
             reading: Default::default(),
             reads: Default::default(),
             manifest_path,

@@ -96,18 +96,29 @@ pub(super) fn paths(m: &ShaderMaterial) -> Paths {
 impl Generator<'_> {
     /// The texture variable of `file`, binding it on first use.
     fn bind(&mut self, file: &str, extent: [usize; 3], dimension: u8, channels: usize, layered: bool) -> String {
-        if let Some(&binding) = self.used.get(file) {
-            self.reading.insert(binding);
-            return self.textures[binding as usize].variable.clone();
+        let binding = match self.used.get(file) {
+            Some(&binding) => binding,
+            None => self.bind_new(file, extent, dimension, channels, layered),
+        };
+        self.reading.insert(binding);
+        let readers = &mut self.readers[binding as usize];
+        if !readers.lookups.contains(&self.lookup) {
+            readers.lookups.push(self.lookup.clone());
         }
+        self.textures[binding as usize].variable.clone()
+    }
+
+    /// The next binding, for `file`.
+    fn bind_new(&mut self, file: &str, extent: [usize; 3], dimension: u8, channels: usize, layered: bool) -> u32 {
         let binding = self.textures.len() as u32;
-        let variable = format!("tmh_table{binding}");
         self.textures.push(TextureBinding {
             binding,
-            variable: variable.clone(),
+            variable: format!("tmh_table{binding}"),
             file: file.to_string(),
             extent,
             dimension,
+            depth: if dimension == 3 { extent[2] } else { 1 },
+            array_layers: if layered { extent[2] } else { 1 },
             channels,
             layered,
             format: String::new(),
@@ -119,9 +130,10 @@ impl Generator<'_> {
             .into(),
             sample_type: "unfilterable-float".into(),
         });
+        let slice_file = self.lookup_reads_slices && !layered;
+        self.readers.push(super::BindingReaders { lookups: Vec::new(), slice_file });
         self.used.insert(file.to_string(), binding);
-        self.reading.insert(binding);
-        variable
+        binding
     }
 
     /// The texture variable of a table of two or three axes, one texel per node.
@@ -264,7 +276,10 @@ impl Generator<'_> {
         (eta, kappa): (f64, f64),
     ) -> Result<Expr> {
         let routes = self.routes;
-        Ok(match routes.answer(paths(m), quantity, eta, kappa) {
+        self.lookup = format!("{} of `{}`", quantity_name(quantity), m.name);
+        let source = routes.answer(paths(m), quantity, eta, kappa);
+        self.lookup_reads_slices = matches!(source, LookupSource::Slices(_));
+        Ok(match source {
             LookupSource::Slices(candidates) => {
                 self.reads.insert(format!("{} slice", if quantity == Quantity::Tir { "tir" } else { "fgd" }));
                 self.slice(candidates, mu, alpha, known_alpha)
@@ -350,6 +365,15 @@ impl Generator<'_> {
 }
 
 const CHANNELS: [&str; 4] = ["x", "y", "z", "w"];
+
+/// What a lookup of `quantity` reads, in the words of the tables' names.
+fn quantity_name(quantity: Quantity) -> &'static str {
+    match quantity {
+        Quantity::Albedo => "FGD",
+        Quantity::Tir => "TIR",
+        Quantity::Gd => "GD",
+    }
+}
 
 /// Channels as stored: DDS holds 1, 2 or 4.
 fn padded(n: usize) -> usize {

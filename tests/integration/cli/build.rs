@@ -58,6 +58,86 @@ fn build_writes_dds_exr_and_a_manifest_that_a_renderer_can_load() {
     );
 }
 
+/// The energy-compensation tables at a few nodes and samples.
+const ENERGY_COMPENSATION: &str = "
+[ggx_e]
+mu_count = 8
+alpha_count = 6
+[ggx_e.sampling]
+samples = 1024
+replicates = 4
+[ggx_e.reference]
+cells = 4
+nodes = 12
+[ggx_e.interpolation]
+points = 16
+nodes = 8
+[ggx_e_avg]
+alpha_count = 6
+mu_nodes = 4
+[ggx_e_avg.sampling]
+samples = 1024
+replicates = 4
+[ggx_e_avg.reference]
+cells = 2
+nodes = 6
+[ggx_e_avg.interpolation]
+points = 8
+nodes = 6
+[karis_multiscatter]
+mu_count = 8
+roughness_count = 6
+[karis_multiscatter.sampling]
+samples = 1024
+replicates = 4
+[karis_multiscatter.reference]
+cells = 4
+nodes = 8
+[karis_multiscatter.interpolation]
+points = 16
+nodes = 8
+";
+
+#[test]
+fn the_energy_compensation_tables_are_built_when_named_and_read_by_their_handles() {
+    use tmlut::loader::{Alpha, GgxEAvgLut, GgxELut, KarisMultiscatterLut, Roughness};
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), ENERGY_COMPENSATION);
+    let out = dir.path().join("luts");
+    let output = build(&config, &out, &["--only", "ggx_e,ggx_e_avg,karis_multiscatter"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let manifest = Manifest::read(&out.join(MANIFEST_FILE)).unwrap();
+    for file in ["ggx_e.dds", "ggx_e_avg.exr", "karis_multiscatter.dds"] {
+        let entry = manifest.entry(file).unwrap_or_else(|| panic!("{file} in the manifest"));
+        assert_eq!(entry.masking.as_deref(), Some("smith-height-correlated"), "{file}");
+    }
+    for file in ["ggx_e.dds", "ggx_e_avg.exr"] {
+        let notes = &manifest.entry(file).unwrap().notes;
+        assert!(notes.iter().any(|n| n.starts_with("Node-aligned")), "{file}: {notes:?}");
+    }
+    let folder = LutFolder::open(&out).unwrap();
+    let (e, average) = (GgxELut::from_folder(&folder).unwrap(), GgxEAvgLut::from_folder(&folder).unwrap());
+    // A mirror keeps everything, at every view and on average.
+    assert_eq!((e.sample(0.3, Alpha(0.0)), average.sample(Alpha(0.0))), (1.0, 1.0));
+    // The average over views lies between the views' albedos, at every roughness node.
+    let alpha_axis = &average.table().axes[0];
+    for k in 1..alpha_axis.count {
+        let alpha = alpha_axis.node_value(k) as f32;
+        let views: Vec<f32> = (0..=32).map(|j| e.sample(j as f32 / 32.0, Alpha(alpha))).collect();
+        let (low, high) = views.iter().fold((f32::MAX, f32::MIN), |(l, h), &v| (l.min(v), h.max(v)));
+        let value = average.sample(Alpha(alpha));
+        assert!(low <= value && value <= high && value < 1.0, "alpha {alpha}: {value} outside [{low}, {high}]");
+    }
+    // The multiple-scattering split sum: its F90 part never above its albedo, as stored in f16.
+    let multiscatter = KarisMultiscatterLut::from_folder(&folder).unwrap();
+    for j in 0..=16 {
+        for k in 0..=16 {
+            let [bias, albedo] = multiscatter.sample_gpu(j as f32 / 16.0, Roughness(k as f32 / 16.0));
+            assert!(0.0 <= bias && bias <= albedo && albedo <= 1.0, "({j}, {k}): bias {bias}, albedo {albedo}");
+        }
+    }
+}
+
 #[test]
 fn ktx2_is_written_beside_dds_for_tables_and_packings_and_reads_back_the_same() {
     use tmlut::loader::TirLut;

@@ -6,7 +6,7 @@ use super::{stdout, tmlut};
 fn list_names_every_table() {
     let output = tmlut(&["list"]);
     assert!(output.status.success());
-    for table in ["fgd", "gd", "tir", "belcour", "karis"] {
+    for table in ["fgd", "gd", "tir", "belcour", "karis", "fgd_rarer", "ggx_e", "ggx_e_avg", "karis_multiscatter"] {
         assert!(stdout(&output).contains(table), "{}", stdout(&output));
     }
 }

@@ -150,3 +150,136 @@ fn a_scene_shader_is_written_as_one_set_or_not_at_all() {
     assert_ne!(after.iter().find(|f| f.0.ends_with(".wgsl")), before.iter().find(|f| f.0.ends_with(".wgsl")));
     assert!(std::fs::read_dir(&out).unwrap().flatten().all(|e| e.path().is_file()), "{after:?}");
 }
+
+/// The fields `docs/shaders.md` documents in the schema table under `heading`: each row's first
+/// cell, a path such as `textures[].layered`.
+fn documented_fields(heading: &str) -> std::collections::BTreeSet<String> {
+    let docs = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/shaders.md")).unwrap();
+    let section = docs.split_once(heading).unwrap_or_else(|| panic!("docs/shaders.md has no `{heading}`")).1;
+    let table = section.lines().skip_while(|l| !l.starts_with("| field")).take_while(|l| l.starts_with('|'));
+    table.filter_map(|row| row.strip_prefix("| `")?.split_once('`').map(|(field, _)| field.to_string())).collect()
+}
+
+/// Every field of a JSON value by path (`a.b`, `list[].c`), each element of an array of objects
+/// required to have the same fields as the first, so that no element leaves one out.
+fn written_fields(value: &serde_json::Value, path: &str, out: &mut std::collections::BTreeSet<String>) {
+    let join = |key: &str| if path.is_empty() { key.to_string() } else { format!("{path}.{key}") };
+    match value {
+        serde_json::Value::Object(map) => {
+            for (key, field) in map {
+                out.insert(join(key));
+                written_fields(field, &join(key), out);
+            }
+        }
+        serde_json::Value::Array(elements) if elements.iter().any(|e| e.is_object()) => {
+            let each: Vec<_> = elements
+                .iter()
+                .map(|e| {
+                    let mut fields = Default::default();
+                    written_fields(e, &format!("{path}[]"), &mut fields);
+                    fields
+                })
+                .collect();
+            assert!(each.iter().all(|f| f == &each[0]), "`{path}`: elements with different fields: {each:?}");
+            out.extend(each.into_iter().next().unwrap_or_default());
+        }
+        _ => {}
+    }
+}
+
+/// Every example scene built alone with the default slice layout binds at most the default
+/// number of textures (with a file per slice `thesis/layers` bound 12 and `thesis/split-sum` 9:
+/// their slices now go into arrays), and its `.shader.json` writes every field `docs/shaders.md`
+/// documents, in every texture and material, and no other; its `limits` are those of its
+/// bindings, within WebGPU's defaults.
+#[test]
+fn every_example_scene_binds_at_most_the_default_textures_and_describes_every_field() {
+    use tmlut::loader::{DeviceLimits, SceneShaderFiles};
+    use tmlut::shader::scene::{DEFAULT_MAX_TEXTURES, SHADER_DESCRIPTION_FORMAT};
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let documented = documented_fields("### `<scene>.shader.json`");
+    let scenes_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("luts/scenes");
+    let mut scenes: Vec<_> = walk_tomls(&scenes_dir);
+    scenes.sort();
+    assert!(scenes.len() >= 10, "{scenes:?}");
+    let mut arrays = 0;
+    for scene in &scenes {
+        let name = scene.strip_prefix(&scenes_dir).unwrap().display().to_string();
+        let out = dir.path().join(name.replace(['/', '.'], "-"));
+        let output = build(&config, &out, &["--scene", scene.to_str().unwrap()]);
+        assert!(output.status.success() && !stderr(&output).contains("no shader"), "{name}: {}", stderr(&output));
+        let shader = SceneShaderFiles::open(&out).unwrap();
+        let description = &shader.description;
+        assert!(description.textures.len() <= DEFAULT_MAX_TEXTURES, "{name}: {:?}", description.textures);
+        assert_eq!(description.format_version, SHADER_DESCRIPTION_FORMAT, "{name}");
+        assert_eq!(description.limits, DeviceLimits::of(&description.textures, 0), "{name}");
+        assert!(description.limits.beyond(&DeviceLimits::WEBGPU_DEFAULTS).is_empty(), "{name}");
+        arrays += description.textures.iter().filter(|t| t.layered).count();
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join(format!("{}.shader.json", shader.stem))).unwrap()).unwrap();
+        let mut written = Default::default();
+        written_fields(&json, "", &mut written);
+        assert_eq!(written, documented, "{name}: the fields written against those docs/shaders.md documents");
+    }
+    assert!(arrays > 0, "some scene reads texture arrays");
+}
+
+/// The scene files under `dir`, recursively.
+fn walk_tomls(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap().flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            found.extend(walk_tomls(&path));
+        } else if path.extension().is_some_and(|e| e == "toml") {
+            found.push(path);
+        }
+    }
+    found
+}
+
+/// More textures than `--max-textures` allows are refused, naming each texture and the lookups
+/// that read it: by `tmlut shader`, and by `tmlut build --scene` as a note, with no shader
+/// written; the build's default layout stays within the limit by writing arrays.
+#[test]
+fn a_shader_binding_more_textures_than_allowed_is_refused_naming_the_lookups() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), SMALL_SET);
+    let scene = scene_path("thesis/layers");
+    let files = dir.path().join("files");
+    let built = build(&config, &files, &["--scene", &scene, "--slice-layout", "files"]);
+    assert!(built.status.success(), "{}", stderr(&built));
+    // A file per slice: 11 slices and GD, more than the default 8; the build says so and names
+    // the way out.
+    assert!(stderr(&built).contains("note: no shader written for scene `thesis-layers`"), "{}", stderr(&built));
+    for text in ["binds 12 textures, more than --max-textures 8", "11 of them are slices", "--slice-layout arrays"] {
+        assert!(stderr(&built).contains(text), "expected `{text}` in {}", stderr(&built));
+    }
+    assert!(!files.join("thesis_layers.wgsl").exists());
+    let shader = |max: &str| {
+        let (luts, out) = (files.to_str().unwrap(), dir.path().join("shader"));
+        tmlut(&["shader", &scene, "--luts", luts, "--out", out.to_str().unwrap(), "--max-textures", max])
+    };
+    let refused = shader("11");
+    assert!(!refused.status.success());
+    for text in
+        ["more than --max-textures 11", "fgd_copper-bare_l1_from-above.dds (FGD of `copper-bare`)", "gd.dds (GD of"]
+    {
+        assert!(stderr(&refused).contains(text), "expected `{text}` in {}", stderr(&refused));
+    }
+    assert!(!dir.path().join("shader/thesis_layers.wgsl").exists());
+    // Allowed as many, it is written and states what it needs.
+    assert!(shader("12").status.success());
+    let written = tmlut::loader::SceneShaderFiles::open(dir.path().join("shader")).unwrap();
+    assert_eq!(written.description.limits.max_sampled_textures_per_shader_stage, 12);
+    let zero = shader("0");
+    assert!(!zero.status.success() && stderr(&zero).contains("at least 1"), "{}", stderr(&zero));
+    // The default layout puts the slices in arrays: within the default limit.
+    let auto = dir.path().join("auto");
+    let built = build(&config, &auto, &["--scene", &scene]);
+    assert!(built.status.success() && !stderr(&built).contains("no shader"), "{}", stderr(&built));
+    let written = tmlut::loader::SceneShaderFiles::open(&auto).unwrap();
+    assert!(written.description.textures.iter().any(|t| t.layered), "{:?}", written.description.textures);
+    assert!(written.description.textures.len() <= 8);
+}

@@ -10,9 +10,9 @@
 //!   ([`super::texture::sample_texture`]), the values a shader reads; `sample_uv`/`sample_uvw`
 //!   take the texture coordinates themselves.
 //!
-//! Karis and Belcour are looked up by perceptual roughness, as Unreal Engine 4 and Filament pass
-//! it (`alpha = roughness^2`); GD, TIR, FGD and `fgd_rarer` by GGX `alpha`, the quantity of their
-//! axes. The argument is typed ([`Roughness`], [`Alpha`]): each handle takes either and converts
+//! Karis (both arrangements) and Belcour are looked up by perceptual roughness, as Unreal Engine 4 and Filament pass
+//! it (`alpha = roughness^2`); GD, TIR, FGD, `fgd_rarer`, `ggx_e` and `ggx_e_avg` by GGX `alpha`,
+//! the quantity of their axes. The argument is typed ([`Roughness`], [`Alpha`]): each handle takes either and converts
 //! it, and a bare `f32` does not compile.
 
 use super::roughness::{Alpha, Roughness};
@@ -41,6 +41,9 @@ const GD: Shape = Shape(TableKind::Gd);
 const TIR: Shape = Shape(TableKind::Tir);
 const FGD: Shape = Shape(TableKind::Fgd);
 const FGD_RARER: Shape = Shape(TableKind::FgdRarer);
+const GGX_E: Shape = Shape(TableKind::GgxE);
+const GGX_E_AVG: Shape = Shape(TableKind::GgxEAvg);
+const KARIS_MULTISCATTER: Shape = Shape(TableKind::KarisMultiscatter);
 
 impl Shape {
     fn describe(&self) -> String {
@@ -210,6 +213,15 @@ common!(KarisLut, KARIS);
 texture!(KarisLut, 2, 2);
 split_sum!(KarisLut, 2, "[scale, bias]");
 
+/// The Karis split sum for multiple-scattering compensation (Filament's multiscatter `DFG`):
+/// `(bias, albedo)` with `F0 * albedo + (1 - F0) * bias` the specular albedo and `albedo` the one
+/// with `F = 1`, over `(n.v, roughness)`.
+#[derive(Debug, Clone)]
+pub struct KarisMultiscatterLut(Checked);
+common!(KarisMultiscatterLut, KARIS_MULTISCATTER);
+texture!(KarisMultiscatterLut, 2, 2);
+split_sum!(KarisMultiscatterLut, 2, "[bias, albedo]");
+
 /// Belcour's Fresnel-basis split sum: four channels `b0..b3` over `(n.v, roughness)`; the albedo
 /// is `Σ c_k b_k` with the coefficients of the manifest's `fresnel_basis`.
 #[derive(Debug, Clone)]
@@ -218,30 +230,64 @@ common!(BelcourLut, BELCOUR);
 texture!(BelcourLut, 4, 2);
 split_sum!(BelcourLut, 4, "[b0, b1, b2, b3]");
 
+/// The sampling methods of a handle whose one channel lies over `(mu, alpha)` and is looked up by
+/// GGX `alpha`.
+macro_rules! mu_alpha {
+    ($handle:ident) => {
+        impl $handle {
+            /// The value at `mu` (cosine of the view angle) and GGX `alpha` (a [`Roughness`]
+            /// converts), interpolated in f64.
+            pub fn sample(&self, mu: f32, alpha: impl Into<Alpha>) -> f32 {
+                let alpha = alpha.into().0;
+                let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64]);
+                v
+            }
+
+            /// [`Self::sample`] as a shader reads the texture.
+            pub fn sample_gpu(&self, mu: f32, alpha: impl Into<Alpha>) -> f32 {
+                let alpha = alpha.into().0;
+                self.filter(uv(&self.0.table, mu as f64, alpha as f64))[0]
+            }
+
+            /// The texture sampled at texture coordinate `(u, v)`.
+            pub fn sample_uv(&self, u: f32, v: f32) -> f32 {
+                self.filter([u, v])[0]
+            }
+        }
+    };
+}
+
 /// The albedo of the GGX lobe without Fresnel, over `(mu, alpha)`.
 #[derive(Debug, Clone)]
 pub struct GdLut(Checked);
 common!(GdLut, GD);
 texture!(GdLut, 1, 2);
+mu_alpha!(GdLut);
 
-impl GdLut {
-    /// The albedo at `mu` (cosine of the view angle) and GGX `alpha` (a [`Roughness`] converts),
-    /// interpolated in f64.
-    pub fn sample(&self, mu: f32, alpha: impl Into<Alpha>) -> f32 {
-        let alpha = alpha.into().0;
-        let [v] = interpolate(&self.0.table, [mu as f64, alpha as f64]);
+/// Kulla & Conty's `E`: the albedo of the GGX lobe with `F = 1` (GD's integral, with the masking
+/// model its manifest entry states), over `(mu, alpha)`.
+#[derive(Debug, Clone)]
+pub struct GgxELut(Checked);
+common!(GgxELut, GGX_E);
+texture!(GgxELut, 1, 2);
+mu_alpha!(GgxELut);
+
+/// Kulla & Conty's `E_avg = 2 ∫ E mu dmu`, over `alpha` alone: a texture of one row.
+#[derive(Debug, Clone)]
+pub struct GgxEAvgLut(Checked);
+common!(GgxEAvgLut, GGX_E_AVG);
+texture!(GgxEAvgLut, 1, 1);
+
+impl GgxEAvgLut {
+    /// The average at GGX `alpha` (a [`Roughness`] converts), interpolated in f64.
+    pub fn sample(&self, alpha: impl Into<Alpha>) -> f32 {
+        let [v] = interpolate(&self.0.table, [alpha.into().0 as f64]);
         v
     }
 
-    /// [`GdLut::sample`] as a shader reads the texture.
-    pub fn sample_gpu(&self, mu: f32, alpha: impl Into<Alpha>) -> f32 {
-        let alpha = alpha.into().0;
-        self.filter(uv(&self.0.table, mu as f64, alpha as f64))[0]
-    }
-
-    /// The texture sampled at texture coordinate `(u, v)`.
-    pub fn sample_uv(&self, u: f32, v: f32) -> f32 {
-        self.filter([u, v])[0]
+    /// [`GgxEAvgLut::sample`] as a shader reads the texture (a row, sampled at its centre).
+    pub fn sample_gpu(&self, alpha: impl Into<Alpha>) -> f32 {
+        self.filter([texture_coordinate(&self.0.table.axes[0], alpha.into().0 as f64)])[0]
     }
 }
 

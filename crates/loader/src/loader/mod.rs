@@ -8,7 +8,7 @@
 //!   name ([`LutFolder::from_source`]: files held in memory, [`InMemory`], or a [`LutSource`] of
 //!   one's own), with the same checks.
 //! - Typed handles ([`KarisLut`], [`BelcourLut`], [`GdLut`], [`TirLut`], [`FgdLut`],
-//!   [`FgdRarerLut`]): sampled with plain arguments, allocation-free, as the CPU interpolates or
+//!   [`FgdRarerLut`], [`GgxELut`], [`GgxEAvgLut`], [`KarisMultiscatterLut`]): sampled with plain arguments, allocation-free, as the CPU interpolates or
 //!   as a GPU filters.
 //! - [`TextureData`]: a table's texel bytes with the extent, dimension and format of the texture
 //!   that holds them, named as WebGPU names them.
@@ -33,9 +33,11 @@ pub use crate::formats::manifest::{FileEntry, Manifest, ShaderFile};
 pub use crate::formats::{FileFormat, Precision, sha256_hex};
 pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Table};
 pub use baked::BakedLut;
-pub use handles::{BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, TirLut};
+pub use handles::{
+    BelcourLut, FgdLut, FgdRarerLut, GdLut, GgxEAvgLut, GgxELut, KarisLut, KarisMultiscatterLut, TirLut,
+};
 pub use roughness::{Alpha, Roughness};
-pub use shader::{MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
+pub use shader::{DeviceLimits, MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
 pub use source::{InMemory, LutSource, OnDisk};
 pub use texture::{
     Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,

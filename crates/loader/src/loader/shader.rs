@@ -29,8 +29,15 @@ use crate::formats::manifest::{MANIFEST_FILE, check_file_name};
 /// The suffix of a scene shader's description file: `<scene>.shader.json`.
 pub const DESCRIPTION_SUFFIX: &str = ".shader.json";
 
+/// The format of the shader descriptions this loader writes (`format_version` in `*.shader.json`),
+/// and the newest it reads. Version 1, the descriptions written before the field existed, stated no
+/// device limits, no dispatch function and no texture's depth or layers apart from `extent`, and
+/// left `layered` out where it was false; the loader reads it, deriving them.
+pub const SHADER_DESCRIPTION_FORMAT: u32 = 2;
+
 /// A texture the shader binds: its binding in group 0 and the file it holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "TextureBindingFields")]
 pub struct TextureBinding {
     /// The binding number in group 0 (HLSL: register `tN`).
     pub binding: u32,
@@ -38,27 +45,187 @@ pub struct TextureBinding {
     pub variable: String,
     /// The folder's file whose texels it holds.
     pub file: String,
-    /// `[width, height, depth]` in texels.
+    /// The texture's size as WebGPU's `createTexture` takes it: `[width, height,
+    /// depth_or_array_layers]` in texels, the third the volume's depth or the array's layers
+    /// (`depth` times `array_layers`).
     pub extent: [usize; 3],
-    /// 2 or 3.
+    /// The texture's dimension: 2 (a 2D texture, or an array of them) or 3 (a volume).
     pub dimension: u8,
+    /// Texels along the third axis of a volume; 1 for a 2D texture or array.
+    pub depth: usize,
+    /// Layers of a texture array, each `extent[0] x extent[1]` texels; 1 for a texture that is no
+    /// array.
+    pub array_layers: usize,
     /// Channels per texel as stored (1, 2 or 4).
     pub channels: usize,
-    /// An array of 2D textures (slices of a library; `extent[2]` is its layer count), bound as
-    /// `texture_2d_array<f32>` / `Texture2DArray<float4>`.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    /// An array of 2D textures (a library's slices, a baked array), bound as
+    /// `texture_2d_array<f32>` / `Texture2DArray<float4>`; always written, `false` included.
     pub layered: bool,
     /// How WebGPU creates and binds it: the texel format as stored (`r32float`, ...: the file's
     /// DXGI or Vulkan format), the view dimension (`2d`, `3d`, `2d-array`) and the sample type,
     /// always `unfilterable-float`: the shader loads texels and filters them itself.
-    #[serde(default)]
     pub format: String,
     /// The WebGPU view dimension: `2d`, `3d` or `2d-array`.
-    #[serde(default)]
     pub view_dimension: String,
-    /// The WebGPU sample type: `unfilterable-float`.
-    #[serde(default)]
+    /// The WebGPU sample type: `unfilterable-float` (`float` for a baked array, which a sampler
+    /// filters).
     pub sample_type: String,
+}
+
+/// A [`TextureBinding`] as a description of any format version states it.
+#[derive(Deserialize)]
+struct TextureBindingFields {
+    binding: u32,
+    variable: String,
+    file: String,
+    extent: [usize; 3],
+    dimension: u8,
+    depth: Option<usize>,
+    array_layers: Option<usize>,
+    channels: usize,
+    #[serde(default)]
+    layered: bool,
+    #[serde(default)]
+    format: String,
+    #[serde(default)]
+    view_dimension: String,
+    #[serde(default)]
+    sample_type: String,
+}
+
+impl TryFrom<TextureBindingFields> for TextureBinding {
+    type Error = String;
+
+    /// Version 1's texture, its depth and layers read from `extent`; in any version, a depth and
+    /// layer count that do not make `extent[2]`, or a third dimension where there is none, refused.
+    fn try_from(f: TextureBindingFields) -> std::result::Result<Self, String> {
+        let what = format!("texture binding {} (`{}`)", f.binding, f.file);
+        match (f.dimension, f.layered) {
+            (2, _) | (3, false) => {}
+            (3, true) => return Err(format!("{what}: a texture array is of 2D textures; it states dimension 3")),
+            (d, _) => return Err(format!("{what}: dimension {d}; allowed: 2 or 3")),
+        }
+        let depth = f.depth.unwrap_or(if f.dimension == 3 { f.extent[2] } else { 1 });
+        let array_layers = f.array_layers.unwrap_or(if f.layered { f.extent[2] } else { 1 });
+        if (f.dimension == 2 && depth != 1) || (!f.layered && array_layers != 1) {
+            return Err(format!(
+                "{what}: depth {depth} and {array_layers} array layers; only a volume has a depth, only an array layers"
+            ));
+        }
+        if depth.checked_mul(array_layers) != Some(f.extent[2]) {
+            return Err(format!(
+                "{what}: extent {:?} against depth {depth} times {array_layers} array layers",
+                f.extent
+            ));
+        }
+        Ok(TextureBinding {
+            binding: f.binding,
+            variable: f.variable,
+            file: f.file,
+            extent: f.extent,
+            dimension: f.dimension,
+            depth,
+            array_layers,
+            channels: f.channels,
+            layered: f.layered,
+            format: f.format,
+            view_dimension: f.view_dimension,
+            sample_type: f.sample_type,
+        })
+    }
+}
+
+/// The device limits a shader needs, named as WebGPU's limits are in wgpu's `Limits`, so that a
+/// renderer requests at least these when it creates its device (and adds its own textures and
+/// samplers to the first two). WebGPU grants [`DeviceLimits::WEBGPU_DEFAULTS`] unless asked for more.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DeviceLimits {
+    /// Textures the shader binds, all in one stage: every binding, not only one material's.
+    pub max_sampled_textures_per_shader_stage: u32,
+    /// Samplers it binds (0 where it loads texels itself).
+    pub max_samplers_per_shader_stage: u32,
+    /// The most layers of one 2D texture or array (1 for a plain 2D texture; 0 where it binds no
+    /// 2D texture).
+    pub max_texture_array_layers: u32,
+    /// The largest width or height of a 2D texture or array (0 where it binds none).
+    pub max_texture_dimension_2d: u32,
+    /// The largest width, height or depth of a volume (0 where it binds none).
+    pub max_texture_dimension_3d: u32,
+}
+
+impl DeviceLimits {
+    /// What WebGPU grants a device that asks for nothing more (the specification's defaults).
+    pub const WEBGPU_DEFAULTS: DeviceLimits = DeviceLimits {
+        max_sampled_textures_per_shader_stage: 16,
+        max_samplers_per_shader_stage: 16,
+        max_texture_array_layers: 256,
+        max_texture_dimension_2d: 8192,
+        max_texture_dimension_3d: 2048,
+    };
+
+    /// What binding `textures` and `samplers` samplers in one shader stage needs.
+    pub fn of(textures: &[TextureBinding], samplers: u32) -> Self {
+        let count = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+        let planar = textures.iter().filter(|t| t.dimension == 2);
+        let volumes = textures.iter().filter(|t| t.dimension == 3);
+        DeviceLimits {
+            max_sampled_textures_per_shader_stage: count(textures.len()),
+            max_samplers_per_shader_stage: samplers,
+            max_texture_array_layers: count(planar.clone().map(|t| t.array_layers).max().unwrap_or(0)),
+            max_texture_dimension_2d: count(planar.map(|t| t.extent[0].max(t.extent[1])).max().unwrap_or(0)),
+            max_texture_dimension_3d: count(
+                volumes.map(|t| t.extent[0].max(t.extent[1]).max(t.depth)).max().unwrap_or(0),
+            ),
+        }
+    }
+
+    /// Each limit as WebGPU names it, with its value.
+    pub fn named(&self) -> [(&'static str, u32); 5] {
+        [
+            ("maxSampledTexturesPerShaderStage", self.max_sampled_textures_per_shader_stage),
+            ("maxSamplersPerShaderStage", self.max_samplers_per_shader_stage),
+            ("maxTextureArrayLayers", self.max_texture_array_layers),
+            ("maxTextureDimension2D", self.max_texture_dimension_2d),
+            ("maxTextureDimension3D", self.max_texture_dimension_3d),
+        ]
+    }
+
+    /// The limits these needs exceed in `granted`: each as WebGPU names it, needed and granted.
+    pub fn beyond(&self, granted: &DeviceLimits) -> Vec<(&'static str, u32, u32)> {
+        self.named()
+            .into_iter()
+            .zip(granted.named())
+            .filter(|((_, needed), (_, allowed))| needed > allowed)
+            .map(|((name, needed), (_, allowed))| (name, needed, allowed))
+            .collect()
+    }
+}
+
+/// The format version a description states, or 1 where it states none (it predates the field);
+/// refused where it is newer than this loader reads.
+fn format_version(stated: Option<u32>) -> std::result::Result<u32, String> {
+    match stated.unwrap_or(1) {
+        0 => Err("format_version 0; versions begin at 1".into()),
+        v if v > SHADER_DESCRIPTION_FORMAT => Err(format!(
+            "format_version {v} is newer than this loader reads (1 to {SHADER_DESCRIPTION_FORMAT}): update tmlut-loader"
+        )),
+        v => Ok(v),
+    }
+}
+
+/// The device limits a description states: required from version 2 on, derived from its
+/// bindings in version 1.
+fn stated_limits(
+    version: u32,
+    stated: Option<DeviceLimits>,
+    textures: &[TextureBinding],
+    samplers: u32,
+) -> std::result::Result<DeviceLimits, String> {
+    match (stated, version) {
+        (Some(limits), _) => Ok(limits),
+        (None, 1) => Ok(DeviceLimits::of(textures, samplers)),
+        (None, v) => Err(format!("format_version {v} states `limits`, the device limits the shader needs; none here")),
+    }
 }
 
 /// A material's function in the shader.
@@ -100,7 +267,10 @@ pub const BAKED_DESCRIPTION_SUFFIX: &str = ".baked.shader.json";
 /// `<stem>.baked.shader.json`: what a renderer binds and calls to read the baked materials of a
 /// texture array (tmlut's `shader::baked`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "BakedShaderDescriptionFields")]
 pub struct BakedShaderDescription {
+    /// The description's format ([`SHADER_DESCRIPTION_FORMAT`] where tmlut writes it).
+    pub format_version: u32,
     /// The struct every function returns (`TmResult`, as the scene shader's).
     pub result_struct: String,
     /// The length of its lobe arrays.
@@ -108,6 +278,8 @@ pub struct BakedShaderDescription {
     /// The function every material's is a call of: `(material index, mu) -> TmResult`, for a
     /// renderer that has a material's index rather than its name.
     pub function: String,
+    /// The device limits the shader needs: one texture array and one sampler.
+    pub limits: DeviceLimits,
     /// The texture array of baked rows: `view_dimension` `2d-array`, `sample_type` `float` (the
     /// sampler filters it).
     pub texture: TextureBinding,
@@ -117,6 +289,40 @@ pub struct BakedShaderDescription {
     pub materials: Vec<BakedMaterialFunction>,
     /// How to create and bind the texture and the sampler and call the functions, in words.
     pub notes: String,
+}
+
+/// A [`BakedShaderDescription`] as a description of any format version states it.
+#[derive(Deserialize)]
+struct BakedShaderDescriptionFields {
+    format_version: Option<u32>,
+    result_struct: String,
+    max_lobes: usize,
+    function: String,
+    limits: Option<DeviceLimits>,
+    texture: TextureBinding,
+    sampler: SamplerBinding,
+    materials: Vec<BakedMaterialFunction>,
+    notes: String,
+}
+
+impl TryFrom<BakedShaderDescriptionFields> for BakedShaderDescription {
+    type Error = String;
+
+    fn try_from(f: BakedShaderDescriptionFields) -> std::result::Result<Self, String> {
+        let format_version = format_version(f.format_version)?;
+        let limits = stated_limits(format_version, f.limits, std::slice::from_ref(&f.texture), 1)?;
+        Ok(BakedShaderDescription {
+            format_version,
+            result_struct: f.result_struct,
+            max_lobes: f.max_lobes,
+            function: f.function,
+            limits,
+            texture: f.texture,
+            sampler: f.sampler,
+            materials: f.materials,
+            notes: f.notes,
+        })
+    }
 }
 
 /// A sampler the shader binds.
@@ -147,20 +353,62 @@ pub struct BakedMaterialFunction {
     pub cost: ShaderCost,
 }
 
-/// `<scene>.shader.json`: what a renderer binds and calls. Borrowed where the generator writes it,
-/// owned where it is read.
+/// `<scene>.shader.json`: what a renderer binds and calls (`docs/shaders.md` has its schema).
+/// Borrowed where the generator writes it, owned where it is read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ShaderDescriptionFields")]
 pub struct ShaderDescription<'a> {
+    /// The description's format ([`SHADER_DESCRIPTION_FORMAT`] where tmlut writes it; 1 where
+    /// a description older than the field was read).
+    pub format_version: u32,
     /// The struct each material's function returns (`TmResult`).
     pub result_struct: Cow<'a, str>,
     /// The length of its lobe arrays.
     pub max_lobes: usize,
+    /// The function `(material index, mu) -> TmResult` that evaluates any material, where the
+    /// shader has one; `None` (written `null`) where each material has only its own function.
+    pub dispatch_function: Option<Cow<'a, str>>,
+    /// The device limits the shader needs, all its textures bound in one stage.
+    pub limits: DeviceLimits,
     /// Every texture the shader binds.
     pub textures: Cow<'a, [TextureBinding]>,
     /// Every material's function.
     pub materials: Cow<'a, [MaterialFunction]>,
     /// How to create and bind the textures and call the functions, in words.
     pub notes: Cow<'a, str>,
+}
+
+/// A [`ShaderDescription`] as a description of any format version states it.
+#[derive(Deserialize)]
+struct ShaderDescriptionFields {
+    format_version: Option<u32>,
+    result_struct: String,
+    max_lobes: usize,
+    #[serde(default)]
+    dispatch_function: Option<String>,
+    limits: Option<DeviceLimits>,
+    textures: Vec<TextureBinding>,
+    materials: Vec<MaterialFunction>,
+    notes: String,
+}
+
+impl TryFrom<ShaderDescriptionFields> for ShaderDescription<'_> {
+    type Error = String;
+
+    fn try_from(f: ShaderDescriptionFields) -> std::result::Result<Self, String> {
+        let format_version = format_version(f.format_version)?;
+        let limits = stated_limits(format_version, f.limits, &f.textures, 0)?;
+        Ok(ShaderDescription {
+            format_version,
+            result_struct: f.result_struct.into(),
+            max_lobes: f.max_lobes,
+            dispatch_function: f.dispatch_function.map(Cow::Owned),
+            limits,
+            textures: f.textures.into(),
+            materials: f.materials.into(),
+            notes: f.notes.into(),
+        })
+    }
 }
 
 /// The scene shader of a folder: its description and its WGSL and HLSL text.
@@ -291,38 +539,124 @@ fn only_description(dir: &Path) -> Result<String> {
 mod tests {
     use super::*;
 
+    /// A 2D texture, bound at `binding`, of `extent[2]` layers where `layered`.
+    fn texture(binding: u32, extent: [usize; 3], layered: bool) -> TextureBinding {
+        TextureBinding {
+            binding,
+            variable: format!("tmh_table{binding}"),
+            file: format!("table{binding}.dds"),
+            extent,
+            dimension: 2,
+            depth: 1,
+            array_layers: if layered { extent[2] } else { 1 },
+            channels: 1,
+            layered,
+            format: "r32float".into(),
+            view_dimension: if layered { "2d-array" } else { "2d" }.into(),
+            sample_type: "unfilterable-float".into(),
+        }
+    }
+
+    /// A description of one material reading a plain texture, an array and a volume.
+    fn example_description() -> ShaderDescription<'static> {
+        let mut volume = texture(2, [33, 17, 9], false);
+        (volume.dimension, volume.depth, volume.view_dimension) = (3, 9, "3d".into());
+        let textures = vec![texture(0, [64, 64, 1], false), texture(1, [262, 256, 9], true), volume];
+        ShaderDescription {
+            format_version: SHADER_DESCRIPTION_FORMAT,
+            result_struct: "TmResult".into(),
+            max_lobes: 1,
+            dispatch_function: None,
+            limits: DeviceLimits::of(&textures, 0),
+            textures: Cow::Owned(textures),
+            materials: Cow::Owned(vec![MaterialFunction {
+                material: "m".into(),
+                function: "tm_m".into(),
+                lobes: 1,
+                textures: vec![0, 1, 2],
+                model: "2-flux".into(),
+                reads: vec!["gd".into(), "fgd slice".into(), "tir table".into()],
+                cost: ShaderCost { texture_reads: 16, operations: 30 },
+            }]),
+            notes: "".into(),
+        }
+    }
+
+    #[test]
+    fn the_limits_are_those_of_the_bindings() {
+        let description = example_description();
+        let expected = DeviceLimits {
+            max_sampled_textures_per_shader_stage: 3,
+            max_samplers_per_shader_stage: 0,
+            max_texture_array_layers: 9,
+            max_texture_dimension_2d: 262,
+            max_texture_dimension_3d: 33,
+        };
+        assert_eq!(description.limits, expected);
+        assert!(expected.beyond(&DeviceLimits::WEBGPU_DEFAULTS).is_empty());
+        let granted = DeviceLimits { max_texture_array_layers: 4, ..DeviceLimits::WEBGPU_DEFAULTS };
+        assert_eq!(expected.beyond(&granted), [("maxTextureArrayLayers", 9, 4)]);
+    }
+
+    #[test]
+    fn every_field_is_written_false_and_none_included() {
+        let json = serde_json::to_value(example_description()).unwrap();
+        assert_eq!(json["format_version"], SHADER_DESCRIPTION_FORMAT);
+        assert!(json["dispatch_function"].is_null() && json.as_object().unwrap().contains_key("dispatch_function"));
+        assert_eq!(json["textures"][0]["layered"], false);
+        assert_eq!((&json["textures"][1]["array_layers"], &json["textures"][1]["depth"]), (&9.into(), &1.into()));
+        assert_eq!(json["limits"]["max_texture_array_layers"], 9);
+    }
+
+    #[test]
+    fn a_version_1_description_is_read_with_what_it_left_out_derived() {
+        // As tmlut wrote it before `format_version`: no limits, depth or layers, `layered` only
+        // where true.
+        let mut json = serde_json::to_value(example_description()).unwrap();
+        let object = json.as_object_mut().unwrap();
+        for field in ["format_version", "dispatch_function", "limits"] {
+            object.remove(field);
+        }
+        for texture in object["textures"].as_array_mut().unwrap() {
+            let texture = texture.as_object_mut().unwrap();
+            texture.remove("depth");
+            texture.remove("array_layers");
+            if texture["layered"] == false {
+                texture.remove("layered");
+            }
+        }
+        let read: ShaderDescription = serde_json::from_value(json).unwrap();
+        assert_eq!(read, ShaderDescription { format_version: 1, ..example_description() });
+    }
+
+    #[test]
+    fn a_description_that_contradicts_itself_or_is_too_new_is_refused() {
+        let refused = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut json = serde_json::to_value(example_description()).unwrap();
+            edit(&mut json);
+            serde_json::from_value::<ShaderDescription>(json).unwrap_err().to_string()
+        };
+        let error = refused(&|j| j["format_version"] = (SHADER_DESCRIPTION_FORMAT + 1).into());
+        assert!(error.contains("newer than this loader reads"), "{error}");
+        let error = refused(&|j| {
+            j.as_object_mut().unwrap().remove("limits");
+        });
+        assert!(error.contains("states `limits`"), "{error}");
+        let error = refused(&|j| j["textures"][1]["array_layers"] = 8.into());
+        assert!(error.contains("table1.dds") && error.contains("8 array layers"), "{error}");
+        let error = refused(&|j| j["textures"][0]["depth"] = 2.into());
+        assert!(error.contains("only a volume has a depth"), "{error}");
+        let error = refused(&|j| j["textures"][2]["layered"] = true.into());
+        assert!(error.contains("dimension 3"), "{error}");
+    }
+
     #[test]
     fn a_folder_without_a_manifest_holds_exactly_one_scene_shader() {
         let dir = tempfile::tempdir().unwrap();
         let err = SceneShaderFiles::open(dir.path()).unwrap_err().to_string();
         assert!(err.contains("holds no scene shader (*.shader.json)"), "{err}");
 
-        let description = ShaderDescription {
-            result_struct: "TmResult".into(),
-            max_lobes: 1,
-            textures: Cow::Owned(vec![TextureBinding {
-                binding: 0,
-                variable: "tm_table0".into(),
-                file: "gd.dds".into(),
-                extent: [64, 64, 1],
-                dimension: 2,
-                channels: 1,
-                layered: false,
-                format: "r32float".into(),
-                view_dimension: "2d".into(),
-                sample_type: "unfilterable-float".into(),
-            }]),
-            materials: Cow::Owned(vec![MaterialFunction {
-                material: "m".into(),
-                function: "tm_m".into(),
-                lobes: 1,
-                textures: vec![0],
-                model: "2-flux".into(),
-                reads: vec!["gd".into()],
-                cost: ShaderCost { texture_reads: 4, operations: 30 },
-            }]),
-            notes: "".into(),
-        };
+        let description = example_description();
         std::fs::write(dir.path().join("a.shader.json"), serde_json::to_string(&description).unwrap()).unwrap();
         std::fs::write(dir.path().join("a.wgsl"), "fn tm_m() {}").unwrap();
         std::fs::write(dir.path().join("a.hlsl"), "").unwrap();

@@ -131,6 +131,45 @@ fn gpu_sampling_is_the_emulators_bit_for_bit() {
 }
 
 #[test]
+fn the_energy_compensation_handles_sample_as_their_tables_interpolate_and_as_the_emulator_filters() {
+    let mu = Axis::node_aligned("mu", 0.0, 1.0, 9).unwrap().with_mapping(Mapping::SqrtEnds).unwrap();
+    let alpha = Axis::cell_centred("alpha", 0.0, 1.0, 6).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+    let e = GgxELut::from_table(fill(vec![mu, alpha.clone()], 1, "ggx_e"), Precision::F32).unwrap();
+    let average = GgxEAvgLut::from_table(fill(vec![alpha], 1, "ggx_e_avg"), Precision::F32).unwrap();
+    let (e_gpu, average_gpu) = (SampledTable::new(e.table()).unwrap(), SampledTable::new(average.table()).unwrap());
+    for &b in &PARAMETERS {
+        let at = format!("alpha {b}");
+        assert_same([average.sample(Alpha(b))], average.table().interpolate(&[b as f64]), &at);
+        assert_eq!(average.sample_gpu(Alpha(b)).to_bits(), average_gpu.sample(0, &[b as f64]).to_bits(), "{at}");
+        for &a in &PARAMETERS {
+            let at = format!("({a}, {b})");
+            assert_same([e.sample(a, Alpha(b))], e.table().interpolate(&[a as f64, b as f64]), &at);
+            let expected = e_gpu.sample(0, &[a as f64, b as f64]);
+            assert_eq!(e.sample_gpu(a, Alpha(b)).to_bits(), expected.to_bits(), "{at}");
+        }
+    }
+    // One row: a texture of height 1.
+    let texture = average.texture().unwrap();
+    let descriptor = texture.descriptor();
+    assert_eq!((descriptor.width, descriptor.height, descriptor.depth_or_layers), (6, 1, 1));
+    // The multiple-scattering split sum, looked up by perceptual roughness as Karis's table.
+    let mu = Axis::cell_centred("mu", 0.0, 1.0, 8).unwrap();
+    let alpha = Axis::cell_centred("alpha", 0.0, 1.0, 6).unwrap().with_mapping(Mapping::Sqrt).unwrap();
+    let table = fill(vec![mu, alpha], 2, "karis_multiscatter");
+    let multiscatter = KarisMultiscatterLut::from_table(table, Precision::F16).unwrap();
+    for &a in &PARAMETERS {
+        for &b in &PARAMETERS {
+            let r = b as f64;
+            let expected = multiscatter.table().interpolate(&[a as f64, r * r]);
+            assert_same(multiscatter.sample(a, Roughness(b)), expected, &format!("({a}, {b})"));
+        }
+    }
+    // E's shape is not E_avg's.
+    let err = GgxEAvgLut::from_table(e.into_table(), Precision::F32).unwrap_err().to_string();
+    assert!(err.contains("a ggx_e_avg table has the axes (alpha) and 1 channel"), "{err}");
+}
+
+#[test]
 fn texel_centres_read_their_texel() {
     let luts = folder();
     let karis = KarisLut::from_folder(&luts).unwrap();

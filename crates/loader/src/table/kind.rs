@@ -27,6 +27,14 @@ pub enum TableKind {
     Karis,
     /// FGD of a dielectric onto a rarer medium, over the critical-angle fraction.
     FgdRarer,
+    /// `E(mu, alpha)`: a GGX lobe's directional albedo with `F = 1`, the energy-compensation
+    /// table of Kulla & Conty 2017 (GD's integral, with the masking model a setting).
+    GgxE,
+    /// `E_avg(alpha) = 2 ∫ E(mu, alpha) mu dmu`: the hemispherical average of [`TableKind::GgxE`].
+    GgxEAvg,
+    /// The Karis split sum arranged for multiple-scattering compensation: `(bias, albedo)`, the
+    /// `F90` part and the albedo with `F = 1` (Filament's `DFG` multiscatter pair).
+    KarisMultiscatter,
 }
 
 /// What a reader requires of a table: the names each axis may have, in order, and the channels.
@@ -40,8 +48,17 @@ pub struct TableShape {
 
 impl TableKind {
     /// Every table, in build order.
-    pub const ALL: &'static [TableKind] =
-        &[TableKind::Fgd, TableKind::Gd, TableKind::Tir, TableKind::Belcour, TableKind::Karis, TableKind::FgdRarer];
+    pub const ALL: &'static [TableKind] = &[
+        TableKind::Fgd,
+        TableKind::Gd,
+        TableKind::Tir,
+        TableKind::Belcour,
+        TableKind::Karis,
+        TableKind::FgdRarer,
+        TableKind::GgxE,
+        TableKind::GgxEAvg,
+        TableKind::KarisMultiscatter,
+    ];
 
     /// The table's name: its manifest `table`, its file stem, its TOML section and `--only` name.
     pub const fn name(self) -> &'static str {
@@ -52,6 +69,9 @@ impl TableKind {
             TableKind::Belcour => "belcour",
             TableKind::Karis => "karis",
             TableKind::FgdRarer => "fgd_rarer",
+            TableKind::GgxE => "ggx_e",
+            TableKind::GgxEAvg => "ggx_e_avg",
+            TableKind::KarisMultiscatter => "karis_multiscatter",
         }
     }
 
@@ -76,6 +96,9 @@ impl TableKind {
             TableKind::Belcour => TableShape { axes: &MU_ALPHA, channels: 4 },
             TableKind::Karis => TableShape { axes: &MU_ALPHA, channels: 2 },
             TableKind::FgdRarer => TableShape { axes: &[&["mu"], &["alpha"], &[CRITICAL_ANGLE_FRACTION]], channels: 1 },
+            TableKind::GgxE => TableShape { axes: &MU_ALPHA, channels: 1 },
+            TableKind::GgxEAvg => TableShape { axes: &[&["alpha"]], channels: 1 },
+            TableKind::KarisMultiscatter => TableShape { axes: &MU_ALPHA, channels: 2 },
         }
     }
 }
@@ -103,6 +126,12 @@ pub struct PerKind<T> {
     pub karis: T,
     /// [`TableKind::FgdRarer`]'s value.
     pub fgd_rarer: T,
+    /// [`TableKind::GgxE`]'s value.
+    pub ggx_e: T,
+    /// [`TableKind::GgxEAvg`]'s value.
+    pub ggx_e_avg: T,
+    /// [`TableKind::KarisMultiscatter`]'s value.
+    pub karis_multiscatter: T,
 }
 
 impl<T> PerKind<T> {
@@ -115,6 +144,9 @@ impl<T> PerKind<T> {
             TableKind::Belcour => self.belcour,
             TableKind::Karis => self.karis,
             TableKind::FgdRarer => self.fgd_rarer,
+            TableKind::GgxE => self.ggx_e,
+            TableKind::GgxEAvg => self.ggx_e_avg,
+            TableKind::KarisMultiscatter => self.karis_multiscatter,
         }
     }
 }
@@ -131,8 +163,17 @@ mod tests {
 
     #[test]
     fn each_kind_takes_the_field_of_its_name() {
-        let names =
-            PerKind { fgd: "fgd", gd: "gd", tir: "tir", belcour: "belcour", karis: "karis", fgd_rarer: "fgd_rarer" };
+        let names = PerKind {
+            fgd: "fgd",
+            gd: "gd",
+            tir: "tir",
+            belcour: "belcour",
+            karis: "karis",
+            fgd_rarer: "fgd_rarer",
+            ggx_e: "ggx_e",
+            ggx_e_avg: "ggx_e_avg",
+            karis_multiscatter: "karis_multiscatter",
+        };
         for &kind in TableKind::ALL {
             assert_eq!(names.take(kind), kind.name());
         }
