@@ -376,7 +376,7 @@ pub fn write_packing_files(
         let file = format!("{stem}.{language}");
         let path = dir.join(&file);
         formats::write_bytes_atomically(&path, text.as_bytes())?;
-        shaders.push(ShaderFile::new(language, file, packed.program.function.clone(), text.as_bytes()));
+        shaders.push(ShaderFile::new(language, file, packed.program.name().to_string(), text.as_bytes()));
         paths.push(path);
     }
     let mut packing_entry = PackingEntry::new(

@@ -3,9 +3,10 @@
 //!
 //! A 64^4 table has no 4D texture to live in, and a volume texture holds at most 2048 texels per
 //! dimension (Direct3D 12, `D3D12_REQ_TEXTURE3D_U_V_OR_W_DIMENSION`). Every packing here is a
-//! [`PackedFgd`]: the texels as stored, and one [`Program`] that is at once the HLSL and WGSL
-//! lookup written beside the texture and the code the [`emulator`] runs to measure it, so the
-//! error figures are those of the shader a renderer pastes.
+//! [`PackedFgd`]: the texels as stored, and one [`Program`], a function of the IR's shader
+//! description that is at once the HLSL and WGSL lookup written beside the texture and the code
+//! the IR runs on the CPU to measure it, its reads answered by the [`emulator`], so the error
+//! figures are those of the shader a renderer pastes.
 //!
 //! - [`Packing::Lossless`] (the default): every node kept. Each kappa node is one `mu x alpha`
 //!   tile, tiles in a near-square grid in x and y, eta along z. The lookup computes the 4D
@@ -41,9 +42,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::formats::Precision;
 use crate::formats::manifest::AxisEntry;
+use crate::shader::{Expr, float};
 use crate::table::{Axis, Channel, Mapping, Placement, Table};
 pub use emulator::{Filter, Texture3D};
-pub use shader::{Expr, Program, Step, lerp};
+pub use shader::{Program, ProgramBuilder, clamp, lerp, log, with_sign_of};
 
 /// Texels per dimension a volume texture may have (Direct3D 12; Vulkan guarantees at least 256,
 /// desktop GPUs 2048).
@@ -205,39 +207,39 @@ fn fgd_counts(name: &str, axes: &[Axis], channel_count: usize) -> Result<[usize;
 /// `log(|y| + sqrt(y * y + 1))` with the sign of `y`
 /// (HLSL has no `asinh`; the odd symmetry keeps the sum from cancelling where `y < 0`: without
 /// it, at FGD's `y = -5` the logarithm's argument loses 50 ulps and lookups move by 5.4e-6).
-fn unit_coordinate(program: &mut Program, axis: &Axis) -> Expr {
+fn unit_coordinate(program: &mut ProgramBuilder, axis: &Axis) -> Expr {
     let x = program.input(&axis.name);
     let mapped = match axis.mapping {
-        Mapping::Sqrt => x.max(Expr::c(0.0)).sqrt(),
+        Mapping::Sqrt => x.max(float(0.0)).sqrt(),
         Mapping::SqrtEnds => {
-            let c = program.local(&format!("c_{}", axis.name), x.clamp(0.0, 1.0));
-            (c.clone().sqrt() - (Expr::c(1.0) - c).sqrt() + Expr::c(1.0)).mul(Expr::c(0.5))
+            let c = program.local(&format!("c_{}", axis.name), clamp(x, 0.0, 1.0));
+            (c.clone().sqrt() - (float(1.0) - c).sqrt() + float(1.0)).mul(float(0.5))
         }
         Mapping::Asinh { .. } | Mapping::AsinhRampBelow { .. } => {
             let (scale, centre, slope_below) = axis.mapping.asinh_parts().unwrap_or_default();
-            let from_centre = program.local(&format!("d_{}", axis.name), x.sub(Expr::c(centre as f32)));
-            let y = program.local(&format!("y_{}", axis.name), from_centre.clone().mul(Expr::c((1.0 / scale) as f32)));
-            let magnitude = y.clone().abs().add(y.clone().mul(y.clone()).add(Expr::c(1.0)).sqrt()).log();
-            let asinh = magnitude.with_sign_of(y);
+            let from_centre = program.local(&format!("d_{}", axis.name), x.sub(float(centre as f32)));
+            let y = program.local(&format!("y_{}", axis.name), from_centre.clone().mul(float((1.0 / scale) as f32)));
+            let magnitude = log(y.clone().abs().add(y.clone().mul(y.clone()).add(float(1.0)).sqrt()));
+            let asinh = with_sign_of(magnitude, y);
             if slope_below == 0.0 {
                 asinh
             } else {
-                asinh.add(from_centre.min(Expr::c(0.0)).mul(Expr::c(slope_below as f32)))
+                asinh.add(from_centre.min(float(0.0)).mul(float(slope_below as f32)))
             }
         }
         Mapping::Identity | Mapping::SqrtOneMinus => x,
     };
     let (m0, m1) = (axis.mapping.forward(axis.start), axis.mapping.forward(axis.end));
-    let u = mapped.sub(Expr::c(m0 as f32)).mul(Expr::c((1.0 / (m1 - m0)) as f32)).clamp(0.0, 1.0);
+    let u = clamp(mapped.sub(float(m0 as f32)).mul(float((1.0 / (m1 - m0)) as f32)), 0.0, 1.0);
     program.local(&format!("u_{}", axis.name), u)
 }
 
 /// `i = u * (N - 1)`: the continuous node index of a node-aligned axis, in f32, as a local named
 /// `i_<axis>`. One rounding: up to half an ulp of `i` (1.9e-6 node for `i` in [32, 64)), which a
 /// hardware-filtered lookup cannot avoid, since the filter takes one coordinate.
-fn node_index(program: &mut Program, axis: &Axis) -> Expr {
+fn node_index(program: &mut ProgramBuilder, axis: &Axis) -> Expr {
     let u = unit_coordinate(program, axis);
-    program.local(&format!("i_{}", axis.name), u.mul(Expr::c((axis.count - 1) as f32)))
+    program.local(&format!("i_{}", axis.name), u.mul(float((axis.count - 1) as f32)))
 }
 
 /// The lower node `k` of the cell around `x` and the weight `t` of the upper one, as f32 locals
@@ -251,21 +253,21 @@ fn node_index(program: &mut Program, axis: &Axis) -> Expr {
 /// [32, 64): times the steepest FGD node step (0.74 along mu at the critical angle) that alone is
 /// 1.4e-6. `k` is first taken from the rounded product; when that rounding crossed a node, the
 /// exact residual lies just outside [0, 1] and `floor` of it moves `k` by one.
-fn node_bracket(program: &mut Program, axis: &Axis) -> (Expr, Expr) {
+fn node_bracket(program: &mut ProgramBuilder, axis: &Axis) -> (Expr, Expr) {
     let name = &axis.name;
     let last_cell = (axis.count - 2) as f32;
     let u = unit_coordinate(program, axis);
-    let rounded = u.clone().mul(Expr::c((axis.count - 1) as f32));
+    let rounded = u.clone().mul(float((axis.count - 1) as f32));
     if !axis.count.is_power_of_two() {
         let i = program.local(&format!("i_{name}"), rounded);
-        let k = program.local(&format!("k_{name}"), i.clone().floor().min(Expr::c(last_cell)));
+        let k = program.local(&format!("k_{name}"), i.clone().floor().min(float(last_cell)));
         let t = program.local(&format!("t_{name}"), i.sub(k.clone()));
         return (k, t);
     }
-    let guess = program.local(&format!("guess_{name}"), rounded.floor().min(Expr::c(last_cell)));
+    let guess = program.local(&format!("guess_{name}"), rounded.floor().min(float(last_cell)));
     let residual =
-        program.local(&format!("r_{name}"), u.clone().mul(Expr::c(axis.count as f32)).sub(guess.clone()).sub(u));
-    let k = program.local(&format!("k_{name}"), guess.clone().add(residual.clone().floor()).clamp(0.0, last_cell));
+        program.local(&format!("r_{name}"), u.clone().mul(float(axis.count as f32)).sub(guess.clone()).sub(u));
+    let k = program.local(&format!("k_{name}"), clamp(guess.clone().add(residual.clone().floor()), 0.0, last_cell));
     let t = program.local(&format!("t_{name}"), residual.sub(k.clone().sub(guess)));
     (k, t)
 }
@@ -333,11 +335,19 @@ fn corners3() -> impl Iterator<Item = (usize, usize, usize)> {
 
 /// Tile row and column of kappa node `k` (an integer-valued local) in a grid of `columns`, as
 /// locals `row<suffix>`, `column<suffix>`; `+ 0.5` keeps `floor` away from a rounding edge.
-fn tile_of(program: &mut Program, k: &Expr, columns: usize, suffix: &str) -> (Expr, Expr) {
+fn tile_of(program: &mut ProgramBuilder, k: &Expr, columns: usize, suffix: &str) -> (Expr, Expr) {
     let inv_columns = 1.0 / columns as f32;
-    let row = program.local(&format!("row{suffix}"), k.clone().add(Expr::c(0.5)).mul(Expr::c(inv_columns)).floor());
-    let column = program.local(&format!("column{suffix}"), k.clone().sub(row.clone().mul(Expr::c(columns as f32))));
+    let row = program.local(&format!("row{suffix}"), k.clone().add(float(0.5)).mul(float(inv_columns)).floor());
+    let column = program.local(&format!("column{suffix}"), k.clone().sub(row.clone().mul(float(columns as f32))));
     (row, column)
+}
+
+/// A packing's lookup as written: the value it returns (its locals are the builder's), its layout
+/// in words and its source axes' manifest entries.
+struct WrittenLookup {
+    result: Expr,
+    layout: Vec<String>,
+    axis_entries: Vec<AxisEntry>,
 }
 
 /// A packing's node counts (`mu`, `alpha`, `eta`, `kappa`) and its volume's extent.
@@ -372,10 +382,10 @@ fn lossless_layout(shape: Shape) -> (Vec<String>, [String; 4], usize) {
 }
 
 /// [`Packing::Lossless`]: the lookup computes the 4D weights itself and loads the cell's 16 texels.
-fn lossless_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<String>, Vec<AxisEntry>) {
+fn lossless_lookup(program: &mut ProgramBuilder, axes: &[Axis], shape: Shape) -> WrittenLookup {
     let [n_mu, n_alpha, _, _] = shape.counts;
     let (mut layout, stored_along, columns) = lossless_layout(shape);
-    load_lookup(program, axes, columns);
+    let result = load_lookup(program, axes, columns);
     layout.extend([
             "No hardware filtering: the lookup computes the 4D interpolation weights in f32 (exact to 2^-25 for power-of-two node counts), loads the 16 texels of the cell and lerps them, mu, alpha, eta, then kappa.".to_string(),
             "So it reproduces 4D multilinear interpolation to f32 rounding on any GPU (no 8-bit filter weights, no coordinate rounding), and needs no sampler; r32float needs no float32-filterable feature in WebGPU.".into(),
@@ -387,11 +397,11 @@ fn lossless_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<S
         "tiles of kappa nodes k_kappa and k_kappa + 1, lerp by t_kappa".into(),
     ];
     let axis_entries = axis_entries_of(axes, bracket_formula, stored_along, addresses);
-    (layout, axis_entries)
+    WrittenLookup { result, layout, axis_entries }
 }
 
 /// [`Packing::LosslessFiltered`]: two trilinear fetches, one in each kappa tile around kappa.
-fn lossless_filtered_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<String>, Vec<AxisEntry>) {
+fn lossless_filtered_lookup(program: &mut ProgramBuilder, axes: &[Axis], shape: Shape) -> WrittenLookup {
     let [n_mu, n_alpha, _, n_kappa] = shape.counts;
     let [width, height, depth] = shape.extent;
     let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
@@ -400,16 +410,16 @@ fn lossless_filtered_lookup(program: &mut Program, axes: &[Axis], shape: Shape) 
     let (k0, t_kappa, k1) = nodes_around(program, i_kappa, n_kappa, ["k0", "t_kappa", "k1"]);
     let mut tile = |k: &Expr, suffix: &str| {
         let (row, column) = tile_of(program, k, columns, suffix);
-        let x = column.mul(Expr::c(n_mu as f32)).add(i_mu.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_w));
-        let y = row.mul(Expr::c(n_alpha as f32)).add(i_alpha.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_h));
+        let x = column.mul(float(n_mu as f32)).add(i_mu.clone()).add(float(0.5)).mul(float(inv_w));
+        let y = row.mul(float(n_alpha as f32)).add(i_alpha.clone()).add(float(0.5)).mul(float(inv_h));
         (program.local(&format!("x{suffix}"), x), program.local(&format!("y{suffix}"), y))
     };
     let (x0, y0) = tile(&k0, "0");
     let (x1, y1) = tile(&k1, "1");
-    let z = program.local("z", i_eta.add(Expr::c(0.5)).mul(Expr::c(inv_d)));
+    let z = program.local("z", i_eta.add(float(0.5)).mul(float(inv_d)));
     let v0 = program.sample("v0", [&x0, &y0, &z]);
     let v1 = program.sample("v1", [&x1, &y1, &z]);
-    program.result = lerp(v0, v1, t_kappa);
+    let result = lerp(v0, v1, t_kappa);
     layout.extend([
             "The hardware interpolates mu, alpha and eta inside a tile: two trilinear fetches, one in each kappa tile around kappa, lerped by hand with the kappa weight.".to_string(),
             "x and y are clamped to the first and last texel centres of the tile, where linear filtering gives the neighbouring tile weight 0: filtering never blends across tiles.".into(),
@@ -422,21 +432,21 @@ fn lossless_filtered_lookup(program: &mut Program, axes: &[Axis], shape: Shape) 
         format!("k0 = min(floor(i_kappa), {}), k1 = k0 + 1, lerp by i_kappa - k0", n_kappa - 2),
     ];
     let axis_entries = axis_entries_of(axes, index_formula, stored_along, addresses);
-    (layout, axis_entries)
+    WrittenLookup { result, layout, axis_entries }
 }
 
 /// The two nodes around node index `index` of an axis of `count` nodes and the weight of the
 /// upper one, as locals named `names`: `lo = min(floor(index), count - 2)`, `t = index - lo`,
 /// `hi = lo + 1`.
-fn nodes_around(program: &mut Program, index: Expr, count: usize, [lo, t, hi]: [&str; 3]) -> (Expr, Expr, Expr) {
-    let lower = program.local(lo, index.clone().floor().min(Expr::c((count - 2) as f32)));
+fn nodes_around(program: &mut ProgramBuilder, index: Expr, count: usize, [lo, t, hi]: [&str; 3]) -> (Expr, Expr, Expr) {
+    let lower = program.local(lo, index.clone().floor().min(float((count - 2) as f32)));
     let weight = program.local(t, index.sub(lower.clone()));
-    let upper = program.local(hi, lower.clone().add(Expr::c(1.0)));
+    let upper = program.local(hi, lower.clone().add(float(1.0)));
     (lower, weight, upper)
 }
 
 /// [`Packing::Thesis`]: the thesis renderer's volume, kappa halved, read at the eta nodes around eta.
-fn thesis_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<String>, Vec<AxisEntry>) {
+fn thesis_lookup(program: &mut ProgramBuilder, axes: &[Axis], shape: Shape) -> WrittenLookup {
     let [n_mu, n_alpha, n_eta, n_kappa] = shape.counts;
     let [width, height, depth] = shape.extent;
     let (inv_w, inv_h, inv_d) = (1.0 / width as f32, 1.0 / height as f32, 1.0 / depth as f32);
@@ -444,15 +454,15 @@ fn thesis_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<Str
     let n_half = n_kappa / 2;
     let (e0, t_eta, e1) = nodes_around(program, i_eta, n_eta, ["e0", "t_eta", "e1"]);
     // The mean of nodes 2h and 2h + 1 sits halfway between them, at full index 2h + 0.5.
-    let h = program.local("h", i_kappa.sub(Expr::c(0.5)).mul(Expr::c(0.5)).clamp(0.0, (n_half - 1) as f32));
-    let x = program.local("x", i_mu.add(Expr::c(0.5)).mul(Expr::c(inv_w)));
-    let y = program.local("y", i_alpha.add(Expr::c(0.5)).mul(Expr::c(inv_h)));
-    let slice = |e: Expr| e.mul(Expr::c(n_half as f32)).add(h.clone()).add(Expr::c(0.5)).mul(Expr::c(inv_d));
+    let h = program.local("h", clamp(i_kappa.sub(float(0.5)).mul(float(0.5)), 0.0, (n_half - 1) as f32));
+    let x = program.local("x", i_mu.add(float(0.5)).mul(float(inv_w)));
+    let y = program.local("y", i_alpha.add(float(0.5)).mul(float(inv_h)));
+    let slice = |e: Expr| e.mul(float(n_half as f32)).add(h.clone()).add(float(0.5)).mul(float(inv_d));
     let z0 = program.local("z0", slice(e0));
     let z1 = program.local("z1", slice(e1));
     let v0 = program.sample("v0", [&x, &y, &z0]);
     let v1 = program.sample("v1", [&x, &y, &z1]);
-    program.result = lerp(v0, v1, t_eta);
+    let result = lerp(v0, v1, t_eta);
     let layout = vec![
         format!("{width} x {height} x {depth} volume, one channel: the thesis renderer's packing of the {n_mu} x {n_alpha} x {n_eta} x {n_kappa} table."),
         format!("kappa halved to {n_half} nodes by averaging node pairs (2h, 2h + 1); the mean sits at kappa node index 2h + 0.5."),
@@ -472,26 +482,26 @@ fn thesis_lookup(program: &mut Program, axes: &[Axis], shape: Shape) -> (Vec<Str
         format!("h = clamp((i_kappa - 0.5) / 2, 0, {}); z = (e * {n_half} + h + 0.5) / {depth}", n_half - 1),
     ];
     let axis_entries = axis_entries_of(axes, index_formula, stored_along, addresses);
-    (layout, axis_entries)
+    WrittenLookup { result, layout, axis_entries }
 }
 
 /// The `lossless` lookup: the bracket and exact weight of every axis ([`node_bracket`]), texel
 /// indices of the cell's 16 corners in the kappa tiles `k_kappa` and `k_kappa + 1` of a grid of
 /// `columns`, 16 `Load`s, and 15 lerps (mu, alpha, eta, then kappa), as `Table::interpolate`.
-fn load_lookup(program: &mut Program, axes: &[Axis], columns: usize) {
+fn load_lookup(program: &mut ProgramBuilder, axes: &[Axis], columns: usize) -> Expr {
     let (n_mu, n_alpha) = (axes[0].count, axes[1].count);
     let [(k_mu, t_mu), (k_alpha, t_alpha), (k_eta, t_eta), (k_kappa, t_kappa)] =
         [0, 1, 2, 3].map(|d| node_bracket(program, &axes[d]));
-    let one = || Expr::c(1.0);
+    let one = || float(1.0);
     // Texel indices of the cell's corners: integers, exact in f32.
     let z = [k_eta.clone(), program.local("z1", k_eta.add(one()))];
     let mut x = Vec::new();
     let mut y = Vec::new();
     for (j, k) in [k_kappa.clone(), program.local("kappa1", k_kappa.add(one()))].iter().enumerate() {
         let (row, column) = tile_of(program, k, columns, &j.to_string());
-        let x0 = program.local(&format!("x{j}0"), column.mul(Expr::c(n_mu as f32)).add(k_mu.clone()));
+        let x0 = program.local(&format!("x{j}0"), column.mul(float(n_mu as f32)).add(k_mu.clone()));
         let x1 = program.local(&format!("x{j}1"), x0.clone().add(one()));
-        let y0 = program.local(&format!("y{j}0"), row.mul(Expr::c(n_alpha as f32)).add(k_alpha.clone()));
+        let y0 = program.local(&format!("y{j}0"), row.mul(float(n_alpha as f32)).add(k_alpha.clone()));
         let y1 = program.local(&format!("y{j}1"), y0.clone().add(one()));
         x.push([x0, x1]);
         y.push([y0, y1]);
@@ -523,7 +533,7 @@ fn load_lookup(program: &mut Program, axes: &[Axis], columns: usize) {
             program.local(&format!("mae{kappa}"), lerp(a, b, t_eta.clone()))
         })
         .collect();
-    program.result = lerp(along_eta[0].clone(), along_eta[1].clone(), t_kappa);
+    lerp(along_eta[0].clone(), along_eta[1].clone(), t_kappa)
 }
 
 impl PackedFgd {
@@ -593,17 +603,17 @@ impl PackedFgd {
         }
         let shape = Shape { counts, extent: [width, height, depth] };
         // The file stem of `lossless-filtered` holds a `-`, which no shading language admits in a name.
-        let mut program = Program::new(packing.file_stem().replace('-', "_"), FGD_INPUTS.to_vec());
-        let (layout, axis_entries) = match packing {
-            Packing::Lossless => lossless_lookup(&mut program, source_axes, shape),
-            Packing::LosslessFiltered => lossless_filtered_lookup(&mut program, source_axes, shape),
-            Packing::Thesis => thesis_lookup(&mut program, source_axes, shape),
+        let mut builder = ProgramBuilder::new(packing.file_stem().replace('-', "_"), FGD_INPUTS.to_vec());
+        let WrittenLookup { result, layout, axis_entries } = match packing {
+            Packing::Lossless => lossless_lookup(&mut builder, source_axes, shape),
+            Packing::LosslessFiltered => lossless_filtered_lookup(&mut builder, source_axes, shape),
+            Packing::Thesis => thesis_lookup(&mut builder, source_axes, shape),
         };
         Ok(PackedFgd {
             packing,
             precision,
             texture,
-            program,
+            program: builder.finish(result)?,
             source_axes: source_axes.to_vec(),
             axis_entries,
             layout,
@@ -643,7 +653,7 @@ impl PackedFgd {
     fn shader_header(&self) -> String {
         let mut h = format!(
             "{}: generated by tmlut {} for {} ({:?} texels).\n",
-            self.program.function,
+            self.program.name(),
             env!("CARGO_PKG_VERSION"),
             self.packing.file_stem() + ".dds",
             self.precision

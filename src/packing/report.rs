@@ -6,12 +6,13 @@ use std::ops::{Add, Mul};
 
 use rayon::prelude::*;
 
-use super::{Filter, PackedFgd, Packing, Program, Texture3D};
+use super::{Filter, PackedFgd, Packing, Program, ProgramBuilder, Texture3D};
 use crate::error::Result;
 use crate::formats::Precision;
 use crate::integrate::Progress;
 use crate::recipes::Kernel;
 use crate::recipes::fgd::FgdSettings;
+use crate::shader::float;
 use crate::table::Table;
 
 /// What the report measures.
@@ -129,18 +130,18 @@ fn widen(p: [f32; 4]) -> [f64; 4] {
 /// The thesis renderer's shader as shipped (`docs/packing.md`, `thesis`): one trilinear fetch of the thesis
 /// texture at `(mu, alpha, (eta / 4 * 2047 + kappa / 4 * 31) / 2047)`, no half-texel correction.
 /// Measured beside the packings to separate the shader's error from the packing's.
-pub fn thesis_as_shipped(thesis: &PackedFgd) -> Program {
+pub fn thesis_as_shipped(thesis: &PackedFgd) -> Result<Program> {
     let [_, _, eta_axis, kappa_axis] = [0, 1, 2, 3].map(|d| &thesis.source_axes[d]);
     let depth = thesis.texture.depth as f32;
     let halves = (kappa_axis.count / 2) as f32;
-    let mut p = Program::new("fgd_thesis_as_shipped", super::FGD_INPUTS.to_vec());
+    let mut p = ProgramBuilder::new("fgd_thesis_as_shipped", super::FGD_INPUTS.to_vec());
     let x = p.local("x", p.input("mu"));
     let y = p.local("y", p.input("alpha"));
-    let eta = p.input("eta").mul(super::Expr::c(1.0 / eta_axis.end as f32)).mul(super::Expr::c(depth - 1.0));
-    let kappa = p.input("kappa").mul(super::Expr::c(1.0 / kappa_axis.end as f32)).mul(super::Expr::c(halves - 1.0));
-    let z = p.local("z", eta.add(kappa).mul(super::Expr::c(1.0 / (depth - 1.0))));
-    p.result = p.sample("v0", [&x, &y, &z]);
-    p
+    let eta = p.input("eta").mul(float(1.0 / eta_axis.end as f32)).mul(float(depth - 1.0));
+    let kappa = p.input("kappa").mul(float(1.0 / kappa_axis.end as f32)).mul(float(halves - 1.0));
+    let z = p.local("z", eta.add(kappa).mul(float(1.0 / (depth - 1.0))));
+    let sampled = p.sample("v0", [&x, &y, &z]);
+    p.finish(sampled)
 }
 
 /// Measure every packing of `table` (the full-precision FGD table built with `fgd`).
@@ -206,7 +207,7 @@ pub fn report(
             precision,
         ));
         if packing == Packing::Thesis && include_thesis_as_shipped {
-            let shipped = thesis_as_shipped(&packed);
+            let shipped = thesis_as_shipped(&packed)?;
             rows.push(measure(
                 "thesis, shader as shipped".into(),
                 &packed.texture,
@@ -304,7 +305,7 @@ mod tests {
             t.data[n] = f([p[0], p[1], p[2], p[3]]) as f32;
         }
         let packed = PackedFgd::pack(&t, Packing::Thesis, Precision::F32).unwrap();
-        let shipped = thesis_as_shipped(&packed);
+        let shipped = thesis_as_shipped(&packed).unwrap();
         let q = [0.37f32, 0.61, 1.3, 2.2];
         let shipped_error =
             (shipped.evaluate(&q, &packed.texture, Filter::Exact) as f64 - f(q.map(|v| v as f64))).abs();

@@ -298,7 +298,7 @@ impl Generator<'_> {
                 let variable = self.bind(file, extent, 3, 1, false);
                 self.packing = Some(packed);
                 self.reads.insert("fgd packing".into());
-                func(&packed.program.function, vec![name(&variable), mu, alpha, float(eta as f32), float(kappa as f32)])
+                func(packed.program.name(), vec![name(&variable), mu, alpha, float(eta as f32), float(kappa as f32)])
             }
             LookupSource::FolderForm(fitted) => {
                 self.folder_form = Some(fitted);

@@ -146,12 +146,21 @@ impl Context<'_> {
 }
 
 /// The cost of one call of `function` of `module` (the module docs state what counts), its
-/// arguments unknown: the branches constants decide are followed, the others counted at their
+/// arguments unknown (a texture or sampler it takes is the one of its parameter's name, its
+/// texels unknown too): the branches constants decide are followed, the others counted at their
 /// larger branch.
 pub fn cost(module: &Module, function: &str) -> Result<ShaderCost> {
     let machine = Machine::new(module)?;
-    let params = machine.function(function)?.params.len();
-    Ok(machine.call(function, vec![Value::Unknown; params], &NoTexels)?.cost)
+    let arguments = machine
+        .function(function)?
+        .params
+        .iter()
+        .map(|(name, ty)| match ty {
+            Ty::Texture { .. } | Ty::TextureArray | Ty::Sampler => Value::Resource(name.clone()),
+            _ => Value::Unknown,
+        })
+        .collect();
+    Ok(machine.call(function, arguments, &NoTexels)?.cost)
 }
 
 fn refuse(reason: impl Into<String>) -> Error {
@@ -764,6 +773,21 @@ mod tests {
         assert!(hlsl.contains("static const Row rows[2] = {\n    {3u, 0.25},\n    {5u, 0.75}\n};"), "{hlsl}");
         assert!(hlsl.contains("tex.SampleLevel(smp, float3(x, r.y, r.layer), 0).zyx"), "{hlsl}");
         assert!(hlsl.contains("float3 f(uint i, float x) {"), "{hlsl}");
+    }
+
+    #[test]
+    fn the_cost_of_a_function_taking_its_texture_counts_its_reads() {
+        let mut m = Module::new(Parens::Minimal);
+        let load = |x: i32| Expr::Load {
+            texture: "t".into(),
+            scalar_texture: true,
+            coordinates: vec![Expr::I32(x), name("k")],
+            layer: None,
+            swizzle: "r",
+        };
+        let params = vec![("t", Ty::Texture { dims: 2, scalar: true }), ("k", Ty::I32)];
+        m.function("f", params, Ty::F32, vec![Stmt::Return(load(0) + load(1))]);
+        assert_eq!(cost(&m, "f").unwrap(), ShaderCost { texture_reads: 2, operations: 1 });
     }
 
     #[test]

@@ -9,7 +9,8 @@
 //! arithmetic, comparisons, a fixed list of builtins ([`Builtin`]), vectors, structs, fixed-size
 //! arrays and module constants of them, `select`, texel loads and filtered samples (of texture
 //! arrays too). [`eval`] runs a module on the CPU with WGSL's meaning and counts what a function
-//! costs ([`cost`]). Where they differ in meaning the emitter
+//! costs ([`cost`]); [`Function::statements`] writes a function in no language, a line per
+//! statement, for a manifest. Where they differ in meaning the emitter
 //! does not paper over it: HLSL's `precise` has no WGSL counterpart (WGSL forbids reassociation
 //! anyway), and WGSL has no `isnan`, so the evaluation code tests finiteness with comparisons.
 //!
@@ -506,7 +507,7 @@ impl Module {
 
     /// The module's text in `lang`.
     pub fn print(&self, lang: Lang) -> String {
-        let p = Printer { lang, parens: self.parens, structs: self.structs() };
+        let p = Printer { lang, parens: self.parens, structs: self.structs(), notation: false };
         let mut s = String::new();
         for item in &self.items {
             match item {
@@ -589,10 +590,13 @@ impl Module {
 }
 
 struct Printer {
+    /// The language whose names the expressions take; in the notation WGSL's.
     lang: Lang,
     parens: Parens,
     /// The module's structs' field types ([`Module::structs`]).
     structs: std::collections::BTreeMap<String, Vec<Ty>>,
+    /// Printing [`Function::statements`]' notation, not a shading language.
+    notation: bool,
 }
 
 impl Printer {
@@ -784,15 +788,17 @@ impl Printer {
                     Lang::Hlsl => write!(out, "{{{list}}}"),
                 };
             }
+            // The notation takes C's conditional, which reads in the order it chooses.
             Expr::Select { condition, then, otherwise } => match lang {
-                Lang::Hlsl | Lang::Glsl => {
-                    let _ = write!(out, "{} ? {} : {}", self.expr(condition), self.expr(then), self.expr(otherwise));
-                }
-                Lang::Wgsl => {
+                Lang::Wgsl if !self.notation => {
                     let _ =
                         write!(out, "select({}, {}, {})", self.expr(otherwise), self.expr(then), self.expr(condition));
                 }
+                Lang::Wgsl | Lang::Hlsl | Lang::Glsl => {
+                    let _ = write!(out, "{} ? {} : {}", self.expr(condition), self.expr(then), self.expr(otherwise));
+                }
             },
+            Expr::Load { .. } | Expr::SampleLevel { .. } if self.notation => self.write_read_in_notation(e, out),
             Expr::Load { .. } | Expr::SampleLevel { .. } => self.write_texture_read(e, out),
         }
     }
@@ -902,6 +908,8 @@ pub fn comment_block(prefix: &str, text: &str) -> String {
 
 pub mod eval;
 pub use eval::{ShaderCost, cost};
+pub mod lower;
+mod notation;
 
 // The tests of every crate that emits shaders validate them, and so does `tmlut fit` its forms'
 // (tmlut's through the `validate` feature).
@@ -930,7 +938,7 @@ mod tests {
     #[test]
     fn selects_and_splats_print_in_each_language() {
         let e = select(name("x").gt(float(0.0)).and(name("y").lt(float(1.0))), splat3(float(1.0)), splat3(float(-2.0)));
-        let p = |lang| Printer { lang, parens: Parens::Minimal, structs: Default::default() }.expr(&e);
+        let p = |lang| Printer { lang, parens: Parens::Minimal, structs: Default::default(), notation: false }.expr(&e);
         assert_eq!(p(Lang::Wgsl), "select(vec3<f32>(-2.0), vec3<f32>(1.0), (x > 0.0) && (y < 1.0))");
         assert_eq!(p(Lang::Hlsl), "(x > 0.0) && (y < 1.0) ? float3(1.0, 1.0, 1.0) : float3(-2.0, -2.0, -2.0)");
         assert_eq!(p(Lang::Glsl), "(x > 0.0) && (y < 1.0) ? vec3(1.0) : vec3(-2.0)");
@@ -971,7 +979,8 @@ mod tests {
         // GLSL 4.00 has HLSL's `precise` (glslang takes it; naga's GLSL front end does not know it).
         let precise = Stmt::Let { name: "p".into(), ty: Ty::F32, value: name("x"), typed: true, precise: true };
         let mut s = String::new();
-        Printer { lang: Lang::Glsl, parens: Parens::Minimal, structs: Default::default() }.stmt(&precise, 0, &mut s);
+        Printer { lang: Lang::Glsl, parens: Parens::Minimal, structs: Default::default(), notation: false }
+            .stmt(&precise, 0, &mut s);
         assert_eq!(s, "precise float p = x;\n");
     }
 
