@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::plot::{Panel, heatmaps_png};
+use super::plot::{Line, LineStyle, Panel, heatmaps_png, lines_png, viridis};
 use crate::error::Result;
 use crate::formats::{Precision, exr::write_exr};
 use crate::recipes::TableBuild;
@@ -31,18 +31,42 @@ pub fn write_error_maps(dir: &Path, build: &TableBuild) -> Result<Vec<PathBuf>> 
     let exr = dir.join(format!("{}.exr", table.name));
     write_exr(&exr, &table, Precision::F32)?;
     let png = dir.join(format!("{}.png", table.name));
-    let (panels, columns) = panels(&table);
-
     let mut title = format!(
         "{}: replicate standard error ({} samples per cell, {} replicates)",
         build.table.name, build.provenance.sampling.samples_per_cell, build.provenance.sampling.replicates
     );
+    if table.dimension() == 1 {
+        // A table of one axis (an average over the other, as E_avg) has no plane to colour: its
+        // error reads as a line per channel.
+        error_lines_png(&png, &title, &table)?;
+        return Ok(vec![exr, png]);
+    }
+    let (panels, columns) = panels(&table);
     if panels.len() > 16 {
         let (ax, ay) = (&table.axes[0], &table.axes[1]);
         title.push_str(&format!("; each panel: x = {}, y = {}", axis_label(ax), axis_label(ay)));
     }
     heatmaps_png(&png, &title, "standard error", &panels, columns)?;
     Ok(vec![exr, png])
+}
+
+/// The standard error of a one-axis table against its axis, a line per channel.
+fn error_lines_png(path: &Path, title: &str, table: &Table) -> Result<()> {
+    let axis = &table.axes[0];
+    let channels = table.channels.len();
+    let lines: Vec<Line> = (0..channels)
+        .map(|c| Line {
+            name: table.channels[c].name.clone(),
+            points: (0..axis.count).map(|k| (axis.node_value(k), table.node(&[k])[c] as f64)).collect(),
+            colour: viridis(c as f64 / channels.max(2).saturating_sub(1) as f64),
+            style: LineStyle::Solid,
+        })
+        .collect();
+    let largest = table.data.iter().copied().filter(|v| v.is_finite()).fold(0.0f32, f32::max) as f64;
+    // A range of some height where every error is 0 (a table whose nodes are exact).
+    let top = if largest > 0.0 { largest * 1.1 } else { 1.0 };
+    let (low, high) = (axis.start.min(axis.end), axis.start.max(axis.end));
+    lines_png(path, title, (&axis_label(axis), low..high), ("standard error", 0.0..top), &lines)
 }
 
 /// How an axis reads on a plot: its quantity, direction and spacing.
@@ -171,5 +195,34 @@ mod tests {
         };
         let build = crate::recipes::driver::build(&tir, 1, &()).unwrap();
         assert!(write_error_maps(dir.path(), &build).unwrap().is_empty());
+    }
+
+    /// A table of one axis (E_avg over alpha) maps its error as lines, not as a plane.
+    #[test]
+    fn a_one_axis_table_maps_its_error_as_a_line() {
+        use crate::config::{ReferenceConfig, SamplingConfig};
+        use crate::recipes::ggx_e_avg::GgxEAvgSettings;
+        use crate::recipes::interpolation::InterpolationConfig;
+        use crate::recipes::settings::SharedSettings;
+        let defaults = GgxEAvgSettings::default();
+        let settings = GgxEAvgSettings {
+            alpha_count: 6,
+            shared: SharedSettings {
+                sampling: SamplingConfig::replicated(1024),
+                reference: ReferenceConfig { cells: 0, nodes: 8 },
+                interpolation: InterpolationConfig { points: 0, nodes: 6 },
+                ..defaults.shared.clone()
+            },
+            ..defaults
+        };
+        let build = crate::recipes::driver::build(&settings, 1, &()).unwrap();
+        assert_eq!(build.table.dimension(), 1);
+        let dir = tempfile::tempdir().unwrap();
+        let written = write_error_maps(dir.path(), &build).unwrap();
+        assert_eq!(written.len(), 2);
+        let map = crate::formats::exr::read_exr(&written[0]).unwrap();
+        assert_eq!(&map.data, build.provenance.standard_error.as_ref().unwrap());
+        assert!(map.data.iter().any(|&s| s > 0.0), "{:?}", map.data);
+        assert!(image::open(&written[1]).unwrap().width() > 0);
     }
 }
