@@ -56,6 +56,10 @@ pub enum Ty {
     /// An array of 2D float textures of four channels, addressed by an integer layer.
     TextureArray,
     Sampler,
+    /// A read-only storage buffer of f32 whose length the bound buffer gives (bindings only):
+    /// WGSL `var<storage, read> name: array<f32>`, HLSL `StructuredBuffer<float>`, read with
+    /// [`Expr::Element`].
+    StorageArray,
 }
 
 impl Ty {
@@ -83,6 +87,8 @@ impl Ty {
             (Ty::TextureArray, Lang::Wgsl) => "texture_2d_array<f32>".into(),
             (Ty::Sampler, Lang::Hlsl) => "SamplerState".into(),
             (Ty::Sampler, Lang::Wgsl) => "sampler".into(),
+            (Ty::StorageArray, Lang::Hlsl) => "StructuredBuffer<float>".into(),
+            (Ty::StorageArray, Lang::Wgsl) => "array<f32>".into(),
         }
     }
 
@@ -396,6 +402,13 @@ pub enum Stmt {
         otherwise: Vec<Stmt>,
     },
     Return(Expr),
+    /// `switch selector { case K: {...} ... default: {...} }` over a `u32` selector, no case falling
+    /// through (HLSL's cases end in `break`).
+    Switch {
+        selector: Expr,
+        cases: Vec<(u32, Vec<Stmt>)>,
+        default: Vec<Stmt>,
+    },
     Comment(String),
 }
 
@@ -503,7 +516,10 @@ impl Module {
                 }
                 Item::Binding { group, binding, name, ty } => {
                     let _ = match lang {
-                        Lang::Wgsl => writeln!(s, "@group({group}) @binding({binding}) var {name}: {};", ty.text(lang)),
+                        Lang::Wgsl => {
+                            let space = if *ty == Ty::StorageArray { "<storage, read>" } else { "" };
+                            writeln!(s, "@group({group}) @binding({binding}) var{space} {name}: {};", ty.text(lang))
+                        }
                         Lang::Hlsl => {
                             let register = if *ty == Ty::Sampler { 's' } else { 't' };
                             let space = if *group == 0 { String::new() } else { format!(", space{group}") };
@@ -594,6 +610,31 @@ impl Printer {
             }
             Stmt::Return(e) => {
                 let _ = writeln!(s, "{pad}return {};", self.expr(e));
+            }
+            Stmt::Switch { selector, cases, default } => {
+                let selector = self.expr(selector);
+                let _ = match lang {
+                    Lang::Wgsl => writeln!(s, "{pad}switch {selector} {{"),
+                    Lang::Hlsl => writeln!(s, "{pad}switch ({selector}) {{"),
+                };
+                let labelled = cases.iter().map(|(k, body)| {
+                    let label = match lang {
+                        Lang::Wgsl => format!("case {k}u"),
+                        Lang::Hlsl => format!("case {k}"),
+                    };
+                    (label, body)
+                });
+                for (label, body) in labelled.chain(std::iter::once(("default".to_string(), default))) {
+                    let _ = writeln!(s, "{pad}    {label}: {{");
+                    for t in body {
+                        self.stmt(t, depth + 2, s);
+                    }
+                    if lang == Lang::Hlsl {
+                        let _ = writeln!(s, "{pad}        break;");
+                    }
+                    let _ = writeln!(s, "{pad}    }}");
+                }
+                let _ = writeln!(s, "{pad}}}");
             }
             Stmt::Comment(text) => s.push_str(&comment_block(&format!("{pad}//"), text)),
         }
