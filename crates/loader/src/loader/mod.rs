@@ -35,7 +35,9 @@ pub use crate::table::{Axis, Channel, InterpolationError, Mapping, Placement, Ta
 pub use baked::BakedLut;
 pub use handles::{BelcourLut, FgdLut, FgdRarerLut, GdLut, KarisLut, TirLut};
 pub use roughness::{Alpha, Roughness};
-pub use shader::{DeviceLimits, MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
+pub use shader::{
+    ConstantsBuffer, DeviceLimits, MaterialFunction, SceneShaderFiles, ShaderDescription, ShapeFunction, TextureBinding,
+};
 pub use source::{InMemory, LutSource, OnDisk};
 pub use texture::{
     Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,
