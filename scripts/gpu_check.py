@@ -4,12 +4,15 @@ CPU evaluation.
 
     python scripts/gpu_check.py [--hlsl GLSLANG_VALIDATOR] SHADER_DIR LUTS_DIR [SHADER_DIR LUTS_DIR ...]
 
-For each scene shader (<scene>.wgsl, <scene>.shader.json, <scene>.reference.json from
-`tmlut shader --reference-views N`), every texture of the shader is created from the table file's
-texels as stored (the DDS header gives format and extent) and each material's function is run
-once per reference view in a compute shader: one module and one dispatch per run of materials
-whose textures a shader stage can bind together (a whole library is one run), which compiles a
-scene's text a few times rather than once per material. With `--hlsl`, the same again with <scene>.hlsl:
+For each scene shader (<scene>.wgsl, <scene>.shader.json, <scene>.constants.bin,
+<scene>.reference.json from `tmlut shader --reference-views N`), every texture of the shader is
+created from the table file's texels as stored (the DDS header gives format and extent), the
+constants buffer from its file, and each material is run once per reference view in a compute
+shader. Where a shader stage can bind all of the scene's textures, every material is run through
+the dispatch function, `tm_material(index, mu)`, in one module and one dispatch; otherwise each
+material's own function, one module and one dispatch per run of materials whose textures a
+shader stage can bind together, which compiles a scene's text a few times rather than once per
+material. With `--hlsl`, the same again with <scene>.hlsl:
 compiled by glslang's HLSL front end to SPIR-V (`register(tN)` becomes binding N of set 0, as the
 WGSL's group 0; any error line glslang prints fails, whatever its exit status), which wgpu takes as
 the shader module. Prints the largest |GPU - CPU| over albedo, top
@@ -89,13 +92,18 @@ class Worst:
         self.record(other.difference, other.where)
 
 
-def wgsl_module(dev, text, functions, stride, lobes):
+def wgsl_module(dev, text, functions, stride, lobes, dispatch):
     """The scene's WGSL with an entry point that runs, at point `i`, material
-    `harness_material[i]` (an index into `functions`) at view cosine `harness_views[i]`."""
-    cases = "\n".join(
-        f"        case {k}u{', default' if k == len(functions) - 1 else ''}: {{ r = {function}(harness_views[i]); }}"
-        for k, function in enumerate(functions)
-    )
+    `harness_material[i]` at view cosine `harness_views[i]`: with `dispatch` the material's index
+    in the description passed to that function, else an index into `functions`."""
+    if dispatch:
+        call = f"r = {dispatch}(harness_material[i], harness_views[i]);"
+    else:
+        cases = "\n".join(
+            f"        case {k}u{', default' if k == len(functions) - 1 else ''}: {{ r = {function}(harness_views[i]); }}"
+            for k, function in enumerate(functions)
+        )
+        call = f"switch harness_material[i] {{\n{cases}\n    }}"
     entry = f"""
 @group(1) @binding(0) var<storage, read> harness_views: array<f32>;
 @group(1) @binding(1) var<storage, read_write> harness_out: array<f32>;
@@ -105,9 +113,7 @@ fn harness_main(@builtin(global_invocation_id) id: vec3<u32>) {{
     let i = id.x;
     if (i >= arrayLength(&harness_views)) {{ return; }}
     var r: TmResult;
-    switch harness_material[i] {{
-{cases}
-    }}
+    {call}
     let o = i * {stride}u;
     harness_out[o + 0u] = r.albedo.x; harness_out[o + 1u] = r.albedo.y; harness_out[o + 2u] = r.albedo.z;
     harness_out[o + 3u] = r.top_albedo.x; harness_out[o + 4u] = r.top_albedo.y; harness_out[o + 5u] = r.top_albedo.z;
@@ -121,14 +127,18 @@ fn harness_main(@builtin(global_invocation_id) id: vec3<u32>) {{
     return dev.create_shader_module(code=text + entry)
 
 
-def hlsl_module(dev, text, functions, stride, lobes, glslang):
+def hlsl_module(dev, text, functions, stride, lobes, dispatch, glslang):
     """The same entry point in HLSL, compiled to SPIR-V by glslang. wgpu's SPIR-V reader (naga)
     warns once per `precise` value (the SPIR-V decoration NoContraction) that it does not keep
     the decoration; the warnings are silenced and `main` says so once."""
-    cases = "\n".join(
-        f"        {'default' if k == len(functions) - 1 else f'case {k}'}: r = {function}(harness_views[i]); break;"
-        for k, function in enumerate(functions)
-    )
+    if dispatch:
+        call = f"r = {dispatch}(harness_material[i], harness_views[i]);"
+    else:
+        cases = "\n".join(
+            f"        {'default' if k == len(functions) - 1 else f'case {k}'}: r = {function}(harness_views[i]); break;"
+            for k, function in enumerate(functions)
+        )
+        call = f"switch (harness_material[i]) {{\n{cases}\n    }}"
     entry = f"""
 StructuredBuffer<float> harness_views : register(t0, space1);
 RWStructuredBuffer<float> harness_out : register(u1, space1);
@@ -140,9 +150,7 @@ void harness_main(uint3 id : SV_DispatchThreadID) {{
     uint i = id.x;
     if (i >= count) {{ return; }}
     TmResult r;
-    switch (harness_material[i]) {{
-{cases}
-    }}
+    {call}
     uint o = i * {stride};
     harness_out[o + 0] = r.albedo.x; harness_out[o + 1] = r.albedo.y; harness_out[o + 2] = r.albedo.z;
     harness_out[o + 3] = r.top_albedo.x; harness_out[o + 4] = r.top_albedo.y; harness_out[o + 5] = r.top_albedo.z;
@@ -169,10 +177,26 @@ void harness_main(uint3 id : SV_DispatchThreadID) {{
             quiet.setLevel(level)
 
 
-def batches(materials, limit):
+def run_harness(dev, pipeline, group0, group1, points, out_buffer):
+    """One dispatch of the harness entry point over `points` points; what it wrote, as f32."""
+    encoder = dev.create_command_encoder()
+    compute = encoder.begin_compute_pass()
+    compute.set_pipeline(pipeline)
+    compute.set_bind_group(0, group0)
+    compute.set_bind_group(1, group1)
+    compute.dispatch_workgroups((points + 63) // 64)
+    compute.end()
+    dev.queue.submit([encoder.finish()])
+    return np.frombuffer(dev.queue.read_buffer(out_buffer), dtype=np.float32)
+
+
+def batches(materials, limit, textures_bound):
     """The materials in order, in runs whose functions read at most `limit` textures together
     (the device's textures per shader stage): one module and one dispatch per run, so that a
-    scene's text is compiled once per run rather than once per material."""
+    scene's text is compiled once per run rather than once per material. Where the stage binds
+    all `textures_bound` of the scene, one run of every material (through the dispatch function)."""
+    if textures_bound <= limit:
+        return [materials]
     runs, run, textures = [], [], set()
     for material in materials:
         reads = set(material["textures"])
@@ -212,13 +236,22 @@ def check_scene(dev, shader_dir, luts, language, glslang):
             )
             view_dimension = "2d-array" if t.get("layered") else dimension
             textures[t["binding"]] = (view_dimension, texture.create_view(dimension=view_dimension))
+        constants = description["constants"]
+        constants_data = (shader_dir / constants["file"]).read_bytes()
+        if len(constants_data) != constants["elements"] * constants["element_stride"]:
+            raise SystemExit(f"{shader_dir / constants['file']}: {len(constants_data)} bytes, not {constants['elements']} f32")
+        constants_buffer = dev.create_buffer_with_data(data=constants_data, usage=wgpu.BufferUsage.STORAGE)
+        dispatch = description["dispatch_function"]
         group1_layout = dev.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.read_only_storage}},
             {"binding": 1, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.storage}},
             {"binding": 2, "visibility": wgpu.ShaderStage.COMPUTE, "buffer": {"type": wgpu.BufferBindingType.read_only_storage}},
         ])
-        for run in batches(description["materials"], dev.limits["max-sampled-textures-per-shader-stage"]):
-            bindings = sorted({b for material in run for b in material["textures"]})
+        limit = dev.limits["max-sampled-textures-per-shader-stage"]
+        for run in batches(description["materials"], limit, len(description["textures"])):
+            whole_scene = len(run) == len(description["materials"]) and len(description["textures"]) <= limit
+            run_dispatch = dispatch if whole_scene else None
+            bindings = sorted(textures) if run_dispatch else sorted({b for material in run for b in material["textures"]})
             group0_layout = dev.create_bind_group_layout(entries=[
                 {
                     "binding": b,
@@ -226,7 +259,11 @@ def check_scene(dev, shader_dir, luts, language, glslang):
                     "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float, "view_dimension": textures[b][0]},
                 }
                 for b in bindings
-            ])
+            ] + [{
+                "binding": constants["binding"],
+                "visibility": wgpu.ShaderStage.COMPUTE,
+                "buffer": {"type": wgpu.BufferBindingType.read_only_storage},
+            }])
             layout = dev.create_pipeline_layout(bind_group_layouts=[group0_layout, group1_layout])
             functions = [material["function"] for material in run]
             views = {function: [] for function in functions}
@@ -234,20 +271,24 @@ def check_scene(dev, shader_dir, luts, language, glslang):
                 if p["function"] in views:
                     views[p["function"]].append(p["evaluation"])
             mus = np.array([v["mu"] for f in functions for v in views[f]], dtype=np.float32)
-            which = np.array([k for k, f in enumerate(functions) for _ in views[f]], dtype=np.uint32)
+            index = {m["function"]: k for k, m in enumerate(description["materials"])}
+            which = np.array(
+                [index[f] if run_dispatch else k for k, f in enumerate(functions) for _ in views[f]], dtype=np.uint32
+            )
             if language == "wgsl":
-                module = wgsl_module(dev, text, functions, stride, lobes)
+                module = wgsl_module(dev, text, functions, stride, lobes, run_dispatch)
             else:
-                module = hlsl_module(dev, text, functions, stride, lobes, glslang)
+                module = hlsl_module(dev, text, functions, stride, lobes, run_dispatch, glslang)
             pipeline = dev.create_compute_pipeline(layout=layout, compute={"module": module, "entry_point": "harness_main"})
             views_buffer = dev.create_buffer_with_data(data=mus.tobytes(), usage=wgpu.BufferUsage.STORAGE)
             material_buffer = dev.create_buffer_with_data(data=which.tobytes(), usage=wgpu.BufferUsage.STORAGE)
             out_buffer = dev.create_buffer(size=len(mus) * stride * 4, usage=wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_SRC)
+            whole = lambda buffer: {"buffer": buffer, "offset": 0, "size": buffer.size}
             group0 = dev.create_bind_group(
                 layout=group0_layout,
-                entries=[{"binding": b, "resource": textures[b][1]} for b in bindings],
+                entries=[{"binding": b, "resource": textures[b][1]} for b in bindings]
+                + [{"binding": constants["binding"], "resource": whole(constants_buffer)}],
             )
-            whole = lambda buffer: {"buffer": buffer, "offset": 0, "size": buffer.size}
             group1 = dev.create_bind_group(
                 layout=group1_layout,
                 entries=[
@@ -256,15 +297,7 @@ def check_scene(dev, shader_dir, luts, language, glslang):
                     {"binding": 2, "resource": whole(material_buffer)},
                 ],
             )
-            encoder = dev.create_command_encoder()
-            compute = encoder.begin_compute_pass()
-            compute.set_pipeline(pipeline)
-            compute.set_bind_group(0, group0)
-            compute.set_bind_group(1, group1)
-            compute.dispatch_workgroups((len(mus) + 63) // 64)
-            compute.end()
-            dev.queue.submit([encoder.finish()])
-            out = np.frombuffer(dev.queue.read_buffer(out_buffer), dtype=np.float32).reshape(len(mus), stride)
+            out = run_harness(dev, pipeline, group0, group1, len(mus), out_buffer).reshape(len(mus), stride)
             nans += int(np.count_nonzero(~np.isfinite(out)))
             start = 0
             for material in run:
@@ -295,7 +328,8 @@ def check_scene(dev, shader_dir, luts, language, glslang):
                     values.merge(mine["values"])
                     weighted.merge(mine["weighted shape"])
                     groups[group] = (count + len(material_views), values, weighted)
-                print(f"  {language}: {stem} / {material['material']}: {len(material_views)} views")
+                through = f"{dispatch}({index[material['function']]}, mu)" if run_dispatch else material["function"]
+                print(f"  {language}: {stem} / {material['material']}: {len(material_views)} views, through {through}")
     return worst, nans, points, groups
 
 

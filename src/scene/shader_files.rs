@@ -1,5 +1,5 @@
 //! `tmlut shader`: a scene's transfer-matrix shader ([`crate::shader::scene`]) over a built folder,
-//! written as `<scene>.wgsl`, `<scene>.hlsl` and `<scene>.shader.json` (what to bind), and on
+//! written as `<scene>.wgsl`, `<scene>.hlsl`, `<scene>.constants.bin` (the buffer the functions read) and `<scene>.shader.json` (what to bind), and on
 //! request `<scene>.reference.json`: the CPU evaluator's lobes and albedo at evenly spaced views
 //! and the model's stiff ones, the values the shader must reproduce (the GPU-API test holds it to
 //! 1e-5).
@@ -166,20 +166,32 @@ pub fn write_scene_shader(
         .map(|(lang, text)| {
             let what = format!(
                 "{}: the transfer-matrix evaluation of the scene's materials over this folder's tables, one function \
-                 per material ({}) returning TmResult; bound as {stem}.shader.json states",
+                 per stack shape ({} shapes), tm_material(index, mu) and one function per material ({}) returning \
+                 TmResult; bound as {stem}.shader.json states",
                 lang.extension().to_uppercase(),
+                shader.shapes.len(),
                 functions.join(", ")
             );
             (format!("{stem}.{}", lang.extension()), what, text.into_bytes())
         })
         .collect();
     let json = |v: &dyn erased::Json| v.bytes();
+    let constants_file = format!("{stem}.constants.bin");
+    files.push((
+        constants_file.clone(),
+        format!(
+            "the constants buffer the shader's functions read ({} little-endian f32: each material's shape and first \
+             constant, then the constants of its stack that its shape's function reads)",
+            shader.constants.len()
+        ),
+        shader.constants_bytes(),
+    ));
     files.push((
         format!("{stem}.shader.json"),
-        "what the shader binds (one texture per table file: binding, file, extent, channels), the device limits it \
-         needs, and each material's function"
+        "what the shader binds (one texture per table file: binding, file, extent, channels; the constants buffer), \
+         the device limits it needs, the functions stack shapes share and each material's function"
             .into(),
-        json(&shader.description()),
+        json(&shader.description(&constants_file)),
     ));
     // What every reader refuses is never written.
     if let Some((file, _, bytes)) =

@@ -9,9 +9,10 @@ use std::collections::HashMap;
 
 use tmlut::error::Result;
 use tmlut::loader::LutFolder;
+use tmlut::shader::Module;
 pub use tmlut::shader::eval::Value;
 use tmlut::shader::eval::{Machine, Run, Textures};
-use tmlut::shader::scene::SceneShader;
+use tmlut::shader::scene::{CONSTANTS, SceneShader};
 
 /// A texture's texels as stored (f16 widened exactly), channels interleaved, x fastest.
 struct Texels {
@@ -29,8 +30,15 @@ pub struct Emulator<'a> {
 }
 
 impl<'a> Emulator<'a> {
-    /// The emulator of `shader`, its textures read from `folder`.
+    /// The emulator of `shader`, its textures read from `folder`, its constants buffer bound.
     pub fn new(shader: &'a SceneShader, folder: &LutFolder) -> Self {
+        let mut emulator = Self::of_module(&shader.module, shader, folder);
+        emulator.machine.bind_buffer(CONSTANTS, shader.constants.clone()).unwrap();
+        emulator
+    }
+
+    /// The emulator of `module`, which binds the textures of `shader`, read from `folder`.
+    pub fn of_module(module: &'a Module, shader: &SceneShader, folder: &LutFolder) -> Self {
         let textures = shader
             .textures
             .iter()
@@ -42,7 +50,7 @@ impl<'a> Emulator<'a> {
                 (binding.variable.clone(), Texels { extent, channels, data: table.data })
             })
             .collect();
-        Emulator { machine: Machine::new(&shader.module).unwrap(), textures: Folder(textures) }
+        Emulator { machine: Machine::new(module).unwrap(), textures: Folder(textures) }
     }
 
     /// Function `name` called with `arguments`: what it returns, every value known.

@@ -12,7 +12,7 @@ use tmlut::model::folder::{FgdSource, FolderTables};
 use tmlut::model::{AlbedoPath, TirPath};
 use tmlut::scene::library::{merge, read_scene_files};
 use tmlut::scene::shader_files::{reference, shader_materials};
-use tmlut::shader::scene::{SceneShader, generate};
+use tmlut::shader::scene::{DISPATCH, SceneShader, generate, per_material_module};
 use tmlut::shader::{Item, Lang};
 
 /// The largest difference `gpu_check.py` allows: of the albedo, top albedo, lobe energies and
@@ -60,8 +60,13 @@ pub fn shader_against_the_cpu(luts: &Path, scenes: &[PathBuf], views: usize) -> 
     let [description] = &described[..] else { panic!("{described:?}: one scene shader") };
     let written = description.to_string_lossy().replace(".shader.json", ".wgsl");
     assert_eq!(std::fs::read_to_string(&written).unwrap(), shader.module.print(Lang::Wgsl), "{written}");
+    let constants = description.to_string_lossy().replace(".shader.json", ".constants.bin");
+    assert_eq!(std::fs::read(&constants).unwrap(), shader.constants_bytes(), "{constants}");
     let points = reference(&folder, &shader, &materials, views).unwrap();
     let emulator = Emulator::new(&shader, &folder);
+    // Each material's own function, its constants literals: what the shared ones must compute.
+    let own = per_material_module(&folder, &materials).unwrap();
+    let own_emulator = Emulator::of_module(&own, &shader, &folder);
     assert_filters_are_the_cpu_samplers(&shader, &folder, &emulator);
     let mut worst = [(0.0, String::new()), (0.0, String::new())];
     let mut record = |k: usize, got: f32, expected: f64, weight: f64, at: String| {
@@ -76,7 +81,13 @@ pub fn shader_against_the_cpu(luts: &Path, scenes: &[PathBuf], views: usize) -> 
     for point in &points {
         let e = &point.evaluation;
         let run = emulator.run(&point.function, vec![Value::F32(e.mu as f32)]);
-        let counted = costs[shader.materials.iter().position(|m| m.function == point.function).unwrap()];
+        let index = shader.materials.iter().position(|m| m.function == point.function).unwrap();
+        let counted = costs[index];
+        let mu = Value::F32(e.mu as f32);
+        let dispatched = emulator.call(DISPATCH, vec![Value::U32(index as u32), mu.clone()]);
+        assert_eq!(dispatched, run.value, "{DISPATCH}({index}, {}) against {}", e.mu, point.function);
+        let unshared = own_emulator.call(&point.function, vec![mu]);
+        assert_eq!(unshared, run.value, "{} at mu {}: its own function against its shape's", point.function, e.mu);
         assert!(
             run.cost.texture_reads <= counted.texture_reads && run.cost.operations <= counted.operations,
             "{} at mu {}: ran {:?}, counted {counted:?}",
@@ -117,7 +128,13 @@ pub fn shader_against_the_cpu(luts: &Path, scenes: &[PathBuf], views: usize) -> 
         }
     }
     let [values, shapes] = worst;
-    eprintln!("{}: {} points, largest differences {values:?}, {shapes:?}", luts.display(), points.len());
+    eprintln!(
+        "{}: {} points ({} materials of {} stack shapes), largest differences {values:?}, {shapes:?}",
+        luts.display(),
+        points.len(),
+        shader.materials.len(),
+        shader.shapes.len()
+    );
     for (m, cost) in shader.materials.iter().zip(&costs) {
         eprintln!(
             "  {}: {} lobes, {} texture reads, {} operations",
@@ -202,6 +219,60 @@ fn a_library_shader_run_on_the_cpu_gives_the_cpu_evaluators_values() {
     ];
     let reads = ["fgd slice", "tir slice", "fgd packing", "belcour", "karis", "tir fit", "gd"];
     built_and_emulated(&scenes, "arrays", 16).assert_agrees(&reads);
+}
+
+/// A library whose materials share stack shapes, as a studio's does (coated metals, absorbing and
+/// scattering coats of several indices, roughnesses and depths): their functions are one per
+/// shape, the constants that differ read from the buffer, and each material's values are those of
+/// its own function (`shader_against_the_cpu` compares the two bit for bit, and `tm_material` with
+/// both) and of the CPU evaluator.
+#[test]
+fn materials_of_one_stack_shape_share_a_function_and_keep_their_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let metals = [([0.27, 0.68, 1.22], [3.61, 2.63, 2.29]), ([1.66, 0.96, 0.62], [8.07, 6.69, 5.25])];
+    let mut scene = String::from("name = \"shapes\"\nalbedo = \"fgd\"\ntir = \"table\"\n");
+    let interface = |eta: String, kappa: String, alpha: f64| {
+        format!("[[material.layer]]\ntype = \"interface\"\neta = {eta}\nkappa = {kappa}\nalpha = {alpha}\n")
+    };
+    let metal = |k: usize, alpha: f64| {
+        let (eta, kappa) = metals[k % 2];
+        interface(format!("{eta:?}"), format!("{kappa:?}"), alpha)
+    };
+    for k in 0..4 {
+        let coat = interface(format!("{}", 1.35 + 0.07 * k as f64), "0.0".into(), 0.05 + 0.04 * k as f64);
+        scene += &format!("\n[[material]]\nname = \"coated-{k}\"\nmodel = \"2-flux\"\n{coat}{}", metal(k, 0.2));
+    }
+    for k in 0..3 {
+        let coat = interface(format!("{}", 1.4 + 0.1 * k as f64), "0.0".into(), 0.1);
+        let medium = format!(
+            "[[material.layer]]\ntype = \"medium\"\nsigma_k = [{}, 1.0, 0.3]\ndepth = {}\n",
+            0.5 + k as f64,
+            0.2 + 0.3 * k as f64
+        );
+        scene +=
+            &format!("\n[[material]]\nname = \"absorbing-{k}\"\nmodel = \"2-flux\"\n{coat}{medium}{}", metal(k, 0.3));
+    }
+    for k in 0..2 {
+        let coat = interface(format!("{}", 1.45 + 0.1 * k as f64), "0.0".into(), 0.15);
+        let medium = format!(
+            "[[material.layer]]\ntype = \"medium\"\nsigma_s = [{}, 0.8, 0.6]\nsigma_k = [0.1, 0.2, 0.3]\ndepth = 0.5\ng = {}\n",
+            1.0 + k as f64,
+            0.3 + 0.2 * k as f64
+        );
+        scene +=
+            &format!("\n[[material]]\nname = \"scattering-{k}\"\nmodel = \"6-flux\"\n{coat}{medium}{}", metal(k, 0.25));
+    }
+    let path = dir.path().join("shapes.toml");
+    std::fs::write(&path, scene).unwrap();
+    let luts = build_config(dir.path(), SMALL_SET, &["--slice-layout", "arrays", "--scene", path.to_str().unwrap()]);
+    let comparison = shader_against_the_cpu(&luts, std::slice::from_ref(&path), 8);
+    comparison.assert_agrees(&["fgd slice", "tir slice"]);
+    let description: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(luts.join("shapes.shader.json")).unwrap()).unwrap();
+    let shapes = description["shapes"].as_array().unwrap();
+    let shared: Vec<&serde_json::Value> = shapes.iter().filter(|s| s["materials"].as_u64().unwrap() > 1).collect();
+    assert!(shapes.len() < 9, "9 materials, {} shapes: {shapes:?}", shapes.len());
+    assert!(shared.iter().any(|s| s["constants"].as_u64().unwrap() > 0), "{shapes:?}");
 }
 
 /// A scene whose lookups its slices do not hold, each slice a file: the 3D TIR table at its

@@ -59,6 +59,10 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     for t in shader.description.textures.iter() {
         textures.push(gpu.upload_bound(t, &luts.texture(&t.file)?)?);
     }
+    // Then the constants buffer every function reads, from its file beside the shader.
+    if let Some(constants) = &shader.description.constants {
+        textures.push(gpu.constants(constants.binding, &shader.constants));
+    }
 
     // The generated WGSL as written, and one entry point per material: A(mu), RGB, per view.
     let mut wgsl = shader.wgsl.clone() + gpu::BUFFERS;

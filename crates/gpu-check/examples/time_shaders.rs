@@ -244,6 +244,10 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
         for t in scene_shader.description.textures.iter().filter(|t| m.textures.contains(&t.binding)) {
             tables.push(gpu.upload_bound(t, &luts.texture(&t.file)?)?);
         }
+        // And the constants, which every function of the scene shader reads.
+        if let Some(constants) = &scene_shader.description.constants {
+            tables.push(gpu.constants(constants.binding, &scene_shader.constants));
+        }
         let (layout, textures) = gpu.texture_group(&tables);
         let scene = Dispatch {
             pipeline: gpu.compute_pipeline(&scene_module, &entry_point(&m.function), &[&layout, &output_layout]),

@@ -96,10 +96,12 @@ fn device_limits(limits: &wgpu::Limits) -> DeviceLimits {
         max_texture_array_layers: limits.max_texture_array_layers,
         max_texture_dimension_2d: limits.max_texture_dimension_2d,
         max_texture_dimension_3d: limits.max_texture_dimension_3d,
+        max_storage_buffers_per_shader_stage: limits.max_storage_buffers_per_shader_stage,
+        max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
     }
 }
 
-/// A texture or a sampler bound in group 0 at `binding`.
+/// A texture, a sampler or a read-only storage buffer bound in group 0 at `binding`.
 pub struct Bound {
     pub binding: u32,
     pub resource: Resource,
@@ -110,6 +112,8 @@ pub enum Resource {
     Texture { view: wgpu::TextureView, dimension: wgpu::TextureViewDimension, filterable: bool },
     /// A filtering sampler.
     Sampler(wgpu::Sampler),
+    /// A read-only storage buffer (a scene shader's constants).
+    Buffer(wgpu::Buffer),
 }
 
 impl Gpu {
@@ -151,6 +155,8 @@ impl Gpu {
             (&mut required_limits.max_texture_array_layers, needed.max_texture_array_layers),
             (&mut required_limits.max_texture_dimension_2d, needed.max_texture_dimension_2d),
             (&mut required_limits.max_texture_dimension_3d, needed.max_texture_dimension_3d),
+            (&mut required_limits.max_storage_buffers_per_shader_stage, needed.max_storage_buffers_per_shader_stage),
+            (&mut required_limits.max_storage_buffer_binding_size, needed.max_storage_buffer_binding_size),
         ] {
             *limit = (*limit).max(need);
         }
@@ -279,6 +285,14 @@ impl Gpu {
         self.read_back(&readback).chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
     }
 
+    /// A scene shader's constants buffer holding `values`, bound at `binding`.
+    pub fn constants(&self, binding: u32, values: &[f32]) -> Bound {
+        let bytes = f32_bytes(values);
+        let buffer = self.buffer(bytes.len() as u64, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST);
+        self.queue.write_buffer(&buffer, 0, &bytes);
+        Bound { binding, resource: Resource::Buffer(buffer) }
+    }
+
     /// A buffer of `size` bytes, unmapped.
     pub fn buffer(&self, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
         self.device.create_buffer(&wgpu::BufferDescriptor { label: None, size, usage, mapped_at_creation: false })
@@ -309,6 +323,7 @@ impl Gpu {
                         multisampled: false,
                     },
                     Resource::Sampler(_) => wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    Resource::Buffer(_) => storage_entry(t.binding, true).ty,
                 },
                 count: None,
             })
@@ -325,6 +340,7 @@ impl Gpu {
                     resource: match &t.resource {
                         Resource::Texture { view, .. } => wgpu::BindingResource::TextureView(view),
                         Resource::Sampler(sampler) => wgpu::BindingResource::Sampler(sampler),
+                        Resource::Buffer(buffer) => buffer.as_entire_binding(),
                     },
                 })
                 .collect::<Vec<_>>(),

@@ -26,6 +26,7 @@
 mod helpers;
 mod material;
 mod reads;
+mod shapes;
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -36,7 +37,8 @@ use crate::fit::forms::fitted::{FittedForm, FittedFormExt};
 use crate::formats::manifest::MANIFEST_FILE;
 use crate::loader::LutFolder;
 pub use crate::loader::shader::{
-    DeviceLimits, MaterialFunction, SHADER_DESCRIPTION_FORMAT, ShaderDescription, TextureBinding,
+    ConstantsBuffer, DeviceLimits, MaterialFunction, SHADER_DESCRIPTION_FORMAT, ShaderDescription, ShapeFunction,
+    TextureBinding,
 };
 use crate::model::folder::MaterialReads;
 use crate::model::routes::Routes;
@@ -45,6 +47,7 @@ use crate::packing::PackedFgd;
 use reads::{Printing, paths};
 
 pub use material::RecordedMaterial;
+pub use shapes::{CONSTANTS, DISPATCH, HEADER_STRIDE};
 
 /// A material the shader evaluates.
 #[derive(Debug, Clone)]
@@ -85,6 +88,13 @@ pub struct SceneShader {
     /// Of each binding, in the order of `textures`, what reads it, for the message refusing more
     /// textures than a renderer allows.
     pub readers: Vec<BindingReaders>,
+    /// The shared functions, one per stack shape ([`shapes`]), in the order of their ids.
+    pub shapes: Vec<ShapeFunction>,
+    /// The contents of the storage buffer [`CONSTANTS`]: each material's shape and first constant
+    /// ([`HEADER_STRIDE`] elements per material), then the constants the shared functions read.
+    pub constants: Vec<f32>,
+    /// Its binding in group 0: the one after the textures'.
+    pub constants_binding: u32,
 }
 
 /// What reads one of a shader's textures.
@@ -102,25 +112,46 @@ pub struct BindingReaders {
 pub const DEFAULT_MAX_TEXTURES: usize = 8;
 
 impl SceneShader {
-    pub fn description(&self) -> ShaderDescription<'_> {
+    /// What a renderer binds and calls, the constants buffer's contents in `constants_file`.
+    pub fn description(&self, constants_file: &str) -> ShaderDescription<'_> {
+        let constants_bytes = self.constants.len() * 4;
         ShaderDescription {
             format_version: SHADER_DESCRIPTION_FORMAT,
             result_struct: RESULT_STRUCT.into(),
             max_lobes: self.max_lobes,
-            dispatch_function: None,
-            limits: DeviceLimits::of(&self.textures, 0),
+            dispatch_function: Some(DISPATCH.into()),
+            limits: DeviceLimits::of(&self.textures, 0).with_storage_buffer(constants_bytes),
             textures: Cow::Borrowed(&self.textures),
+            constants: Some(ConstantsBuffer {
+                binding: self.constants_binding,
+                variable: CONSTANTS.into(),
+                file: constants_file.into(),
+                buffer_type: "read-only-storage".into(),
+                element_type: "f32".into(),
+                element_stride: 4,
+                byte_order: "little-endian".into(),
+                elements: self.constants.len(),
+                header_stride: HEADER_STRIDE,
+            }),
+            shapes: Cow::Borrowed(&self.shapes),
             materials: Cow::Borrowed(&self.materials),
             notes:
                 "Each texture is bound in group 0 (HLSL: register tN) at `binding`, created from the file's texels as \
                     stored (`format`: the WebGPU name of the file's DXGI or Vulkan format) with WebGPU's `size` \
                     `extent` ([width, height, depth or array layers]) and `dimension`, one mip level, linear data, \
                     bound with `view_dimension` and `sample_type`; no sampler: the shader loads and filters texels \
-                    itself. A device needs at least `limits` (WebGPU's names), the renderer's own bindings added. \
-                    Call the material's function with the view cosine mu = n.v; `dispatch_function`, where not null, \
-                    takes a material's index in `materials` and mu."
+                    itself. The constants buffer is bound in group 0 at `constants.binding` as a read-only storage \
+                    buffer holding `constants.file` (little-endian f32) whole; every function reads it. A device \
+                    needs at least `limits` (WebGPU's names), the renderer's own bindings added. Call \
+                    `dispatch_function` with a material's index in `materials` and the view cosine mu = n.v, or the \
+                    material's own `function` with mu."
                     .into(),
         }
+    }
+
+    /// The constants buffer's contents as its file holds them: little-endian f32.
+    pub fn constants_bytes(&self) -> Vec<u8> {
+        self.constants.iter().flat_map(|v| v.to_le_bytes()).collect()
     }
 
     /// Refuse a shader that binds more than `max_textures` textures, naming each texture with the
@@ -192,8 +223,93 @@ struct Needs {
     acos: bool,
 }
 
-/// The shader of `materials` over the tables of `folder`.
+/// The shader of `materials` over the tables of `folder`: the materials of each stack shape share
+/// one function, their constants in the buffer [`CONSTANTS`] ([`shapes`]), each material's own
+/// function a call of it, and [`DISPATCH`] evaluates any material by its index.
 pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<SceneShader> {
+    let Parts { mut module, bindings_end, textures, mut described, max_lobes, readers, choosers, functions } =
+        parts(folder, materials)?;
+    let constants_binding = textures.len() as u32;
+    module.items.insert(
+        bindings_end,
+        Item::Binding { group: 0, binding: constants_binding, name: CONSTANTS.into(), ty: Ty::StorageArray },
+    );
+    let mut constants = vec![0.0f32; HEADER_STRIDE * materials.len()];
+    let chooser_names: Vec<String> = choosers.iter().map(|f| f.name.clone()).collect();
+    let choosers = shapes::share(choosers, "slice choosers", |k| format!("tmh_slices{k}"), &mut constants)?;
+    let renamed: std::collections::HashMap<String, (String, u32)> = chooser_names
+        .into_iter()
+        .zip(&choosers.members)
+        .map(|(old, &(shape, base))| (old, (choosers.functions[shape].name.clone(), base)))
+        .collect();
+    let mut functions = functions;
+    for function in &mut functions {
+        shapes::rename_calls(function, &renamed);
+    }
+    let shared = shapes::share(functions, "materials", |k| format!("tmh_shape{k}"), &mut constants)?;
+    let shape_names: Vec<String> = shared.functions.iter().map(|f| f.name.clone()).collect();
+    let mut wrappers = Vec::with_capacity(materials.len());
+    for (k, (material, &(shape, base))) in described.iter_mut().zip(&shared.members).enumerate() {
+        constants[HEADER_STRIDE * k] = shape as f32;
+        constants[HEADER_STRIDE * k + 1] = base as f32;
+        material.shape = shape;
+        material.constants_offset = base;
+        wrappers.push(shapes::material_function(&material.function, &shape_names[shape], base));
+    }
+    let shape_functions = shared
+        .shapes
+        .iter()
+        .zip(&shape_names)
+        .map(|(&(materials, constants), function)| ShapeFunction { function: function.clone(), materials, constants })
+        .collect();
+    let dispatch = shapes::dispatch_function(materials.len(), &shape_names);
+    for function in choosers.functions.into_iter().chain(shared.functions).chain(wrappers).chain([dispatch]) {
+        module.push(Item::Function(function));
+    }
+    let mut shader = SceneShader {
+        module,
+        textures,
+        materials: described,
+        max_lobes,
+        readers,
+        shapes: shape_functions,
+        constants,
+        constants_binding,
+    };
+    let costs = shader.costs()?;
+    for (material, cost) in shader.materials.iter_mut().zip(costs) {
+        material.cost = cost;
+    }
+    Ok(shader)
+}
+
+/// The module of `materials` with a function of its own per material, its constants literals, as
+/// [`generate`] shares them: no buffer, no dispatch. What the shared functions are held to (bit for
+/// bit, run by the emulator).
+pub fn per_material_module(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Module> {
+    let Parts { mut module, choosers, functions, .. } = parts(folder, materials)?;
+    for function in choosers.into_iter().chain(functions) {
+        module.push(Item::Function(function));
+    }
+    Ok(module)
+}
+
+/// What the shader of `materials` is made of before its materials' functions are shared: the
+/// module up to them (the struct, the bindings, the helpers and forms), the slice choosers and each
+/// material's function.
+struct Parts {
+    module: Module,
+    /// Where the module's bindings end, for the buffer's.
+    bindings_end: usize,
+    textures: Vec<TextureBinding>,
+    described: Vec<MaterialFunction>,
+    max_lobes: usize,
+    readers: Vec<BindingReaders>,
+    choosers: Vec<super::Function>,
+    functions: Vec<super::Function>,
+}
+
+fn parts(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Parts> {
     let manifest_path = folder.dir().join(MANIFEST_FILE);
     let routes = Routes::open(folder, &materials.iter().map(paths).collect::<Vec<_>>(), &Printing)?;
     let mut g = Generator::new(&routes, manifest_path.display().to_string());
@@ -204,6 +320,15 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
         g.reading.clear();
         g.reads.clear();
         let (function, lobes) = material::function(&mut g, material)?;
+        if function.name == DISPATCH {
+            return Err(g.refuse(
+                &material.name,
+                format!(
+                    "its function name `{DISPATCH}` is that of the function evaluating any material by its index; \
+                     rename the material"
+                ),
+            ));
+        }
         if let Some(other) = described.iter().find(|d: &&MaterialFunction| d.function == function.name) {
             return Err(g.refuse(
                 &material.name,
@@ -224,6 +349,9 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             reads: g.reads.iter().cloned().collect(),
             // Counted once the module holds every helper it calls.
             cost: Default::default(),
+            // Known once the functions are shared.
+            shape: 0,
+            constants_offset: 0,
         });
         functions.push(function);
     }
@@ -239,7 +367,8 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
          Generated; each material's function computes what tmlut's CPU evaluator computes, in f32.\n\
          \"The reference's\" names a function of the paper authors' reference implementation that\n\
          a helper follows (tmlut's docs/furnace.md pairs each with the CPU evaluator's).\n\
-         Bindings: group 0, one texture per table file (see the .shader.json beside this file).",
+         Bindings: group 0, one texture per table file, then the materials' constants (see the\n\
+         .shader.json beside this file).",
         if models.is_empty() { "2-flux".to_string() } else { models.join(" and ") }
     ));
     module.push(result_struct(max_lobes));
@@ -255,6 +384,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
             },
         });
     }
+    let bindings_end = module.items.len();
     helpers::common(&mut module);
     if g.needs.trilinear {
         helpers::trilinear(&mut module);
@@ -274,9 +404,6 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
         // the module's style, which changes only redundant parentheses, not the operations.
         module.items.extend(packed.program.module("The lossless FGD packing's exact lookup (docs/packing.md).").items);
     }
-    for function in g.chooser_functions.drain(..).chain(functions) {
-        module.push(Item::Function(function));
-    }
     let mut textures = g.textures;
     for texture in &mut textures {
         let entry = folder.entry(&texture.file)?;
@@ -292,13 +419,16 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
                 )
             })?;
     }
-    let readers = g.readers;
-    let mut shader = SceneShader { module, textures, materials: described, max_lobes, readers };
-    let costs = shader.costs()?;
-    for (material, cost) in shader.materials.iter_mut().zip(costs) {
-        material.cost = cost;
-    }
-    Ok(shader)
+    Ok(Parts {
+        module,
+        bindings_end,
+        textures,
+        described,
+        max_lobes,
+        readers: g.readers,
+        choosers: g.chooser_functions,
+        functions,
+    })
 }
 
 /// The folder's fitted form (`tmlut_tir`), then the forms materials name, each after the helpers

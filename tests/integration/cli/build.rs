@@ -564,7 +564,7 @@ fn scene_shaders_cover_the_6_flux_model_the_split_sum_tables_and_the_3d_tir_tabl
         ("scattering", "scattering", &["fn tm_scattering_stack(", "sinh("][..]),
         ("thesis/split-sum", "thesis_split_sum", &["fn tm_varnished_copper_belcour(", "dot(vec4<f32>("]),
         ("gpu-check/varied-coats", "varied_coats", &["tmh_trilinear(", "tmh_acos(", "fn fgd_lossless("]),
-        ("gpu-check/stiff-stacks", "stiff_stacks", &["fn tm_bare_conductor_2_flux(", "fn tmh_slice0("]),
+        ("gpu-check/stiff-stacks", "stiff_stacks", &["fn tm_bare_conductor_2_flux(", "fn tmh_slices0("]),
     ] {
         let out = dir.path().join(stem);
         let output = build(&config, &out, &["--scene", &scene_path(scene)]);

@@ -70,9 +70,16 @@ fn the_scene_shader_is_listed_in_the_manifest_and_checked() {
         }
         record.files.into_iter().map(|f| f.file).collect()
     };
-    assert_eq!(listed(&out), ["copper_pot.hlsl", "copper_pot.wgsl", "copper_pot.shader.json"]);
+    assert_eq!(
+        listed(&out),
+        ["copper_pot.hlsl", "copper_pot.wgsl", "copper_pot.constants.bin", "copper_pot.shader.json"]
+    );
     let shader = tmlut::loader::SceneShaderFiles::open(&out).unwrap();
     assert_eq!(shader.wgsl, std::fs::read_to_string(out.join("copper_pot.wgsl")).unwrap());
+    let constants = std::fs::read(out.join("copper_pot.constants.bin")).unwrap();
+    assert_eq!(shader.constants.len() * 4, constants.len());
+    // The header: each material's shape, then the first of its constants.
+    assert_eq!(shader.constants[0] as usize, shader.description.materials[0].shape);
     assert_eq!(shader.description.materials[0].function, "tm_varnished_copper");
     let output = check();
     assert!(output.status.success(), "{}{}", stdout(&output), stderr(&output));
@@ -134,10 +141,11 @@ fn a_scene_shader_is_written_as_one_set_or_not_at_all() {
     let first = shader(&files, "0");
     assert!(first.status.success(), "{}", stderr(&first));
     let before = snapshot(&out);
-    assert_eq!(before.len(), 3, "{:?}", before.iter().map(|f| &f.0).collect::<Vec<_>>());
+    assert_eq!(before.len(), 4, "{:?}", before.iter().map(|f| &f.0).collect::<Vec<_>>());
     // A second run whose last file cannot be put in place (a folder holds its name) fails and
     // changes nothing: not the shaders it would have written before that file.
-    let reference = before[0].0.replace(".hlsl", ".reference.json");
+    let hlsl = before.iter().find(|f| f.0.ends_with(".hlsl")).expect("the HLSL is written");
+    let reference = hlsl.0.replace(".hlsl", ".reference.json");
     std::fs::create_dir(out.join(&reference)).unwrap();
     let failed = shader(&arrays, "3");
     assert_clean_failure(&failed, &[&reference]);
@@ -146,7 +154,7 @@ fn a_scene_shader_is_written_as_one_set_or_not_at_all() {
     // Without the obstacle the set is replaced whole, and no staging folder is left.
     assert!(shader(&arrays, "3").status.success());
     let after = snapshot(&out);
-    assert_eq!(after.len(), 4);
+    assert_eq!(after.len(), 5);
     assert_ne!(after.iter().find(|f| f.0.ends_with(".wgsl")), before.iter().find(|f| f.0.ends_with(".wgsl")));
     assert!(std::fs::read_dir(&out).unwrap().flatten().all(|e| e.path().is_file()), "{after:?}");
 }
@@ -213,7 +221,9 @@ fn every_example_scene_binds_at_most_the_default_textures_and_describes_every_fi
         let description = &shader.description;
         assert!(description.textures.len() <= DEFAULT_MAX_TEXTURES, "{name}: {:?}", description.textures);
         assert_eq!(description.format_version, SHADER_DESCRIPTION_FORMAT, "{name}");
-        assert_eq!(description.limits, DeviceLimits::of(&description.textures, 0), "{name}");
+        let constants_bytes = shader.constants.len() * 4;
+        let limits = DeviceLimits::of(&description.textures, 0).with_storage_buffer(constants_bytes);
+        assert_eq!(description.limits, limits, "{name}");
         assert!(description.limits.beyond(&DeviceLimits::WEBGPU_DEFAULTS).is_empty(), "{name}");
         arrays += description.textures.iter().filter(|t| t.layered).count();
         let json: serde_json::Value =

@@ -128,6 +128,9 @@ pub struct Machine<'m> {
     functions: HashMap<&'m str, &'m Function>,
     structs: HashMap<&'m str, &'m [(String, Ty)]>,
     globals: HashMap<&'m str, Value>,
+    /// The storage buffers the module binds, by name: their contents where the caller gave them
+    /// ([`Machine::bind_buffer`]), else `None` and every read of them unknown.
+    buffers: HashMap<&'m str, Option<Vec<f32>>>,
 }
 
 type Scope = HashMap<String, Value>;
@@ -170,7 +173,12 @@ fn refuse(reason: impl Into<String>) -> Error {
 impl<'m> Machine<'m> {
     /// The machine of `module`, its constants evaluated (refused where one cannot be).
     pub fn new(module: &'m Module) -> Result<Self> {
-        let mut machine = Machine { functions: HashMap::new(), structs: HashMap::new(), globals: HashMap::new() };
+        let mut machine = Machine {
+            functions: HashMap::new(),
+            structs: HashMap::new(),
+            globals: HashMap::new(),
+            buffers: HashMap::new(),
+        };
         for item in &module.items {
             match item {
                 Item::Function(function) => {
@@ -178,6 +186,9 @@ impl<'m> Machine<'m> {
                 }
                 Item::Struct { name, fields } => {
                     machine.structs.insert(name.as_str(), fields.as_slice());
+                }
+                Item::Binding { name, ty: Ty::StorageArray, .. } => {
+                    machine.buffers.insert(name.as_str(), None);
                 }
                 Item::Binding { name, .. } => {
                     machine.globals.insert(name.as_str(), Value::Resource(name.clone()));
@@ -191,6 +202,18 @@ impl<'m> Machine<'m> {
             }
         }
         Ok(machine)
+    }
+
+    /// Bind `values` as the contents of the module's storage buffer `name`, which runs then read
+    /// (a read past its end refused, where a GPU would read some element or 0).
+    pub fn bind_buffer(&mut self, name: &str, values: Vec<f32>) -> Result<()> {
+        match self.buffers.get_mut(name) {
+            Some(contents) => {
+                *contents = Some(values);
+                Ok(())
+            }
+            None => Err(refuse(format!("the module binds no storage buffer `{name}`"))),
+        }
     }
 
     /// A module constant's value (a binding's is its name), or `None` where there is none.
@@ -250,22 +273,41 @@ impl<'m> Machine<'m> {
                             return Ok(Some(returned));
                         }
                     }
-                    Value::Unknown => self.either(then, otherwise, scope, cx)?,
+                    Value::Unknown => self.either(&[then, otherwise], scope, cx)?,
                     other => return Err(refuse(format!("a branch on {other:?}, not a bool"))),
                 },
                 Stmt::Return(value) => return Ok(Some(self.eval(value, scope, cx)?)),
+                Stmt::Switch { selector, cases, default } => {
+                    let chosen = match self.eval(selector, scope, cx)? {
+                        Value::U32(k) => Some(cases.iter().find(|(label, _)| *label == k).map_or(default, |(_, b)| b)),
+                        Value::Unknown => None,
+                        other => return Err(refuse(format!("a switch on {other:?}, not a u32"))),
+                    };
+                    match chosen {
+                        Some(body) => {
+                            if let Some(returned) = self.run(body, scope, cx)? {
+                                return Ok(Some(returned));
+                            }
+                        }
+                        None => {
+                            let branches: Vec<&[Stmt]> =
+                                cases.iter().map(|(_, b)| b.as_slice()).chain([default.as_slice()]).collect();
+                            self.either(&branches, scope, cx)?;
+                        }
+                    }
+                }
                 Stmt::Comment(_) => {}
             }
         }
         Ok(None)
     }
 
-    /// Two branches no constant decides between: each run from `scope`, the larger count of the
-    /// two kept, and what they leave unlike unknown after them.
-    fn either(&self, then: &[Stmt], otherwise: &[Stmt], scope: &mut Scope, cx: &mut Context) -> Result<()> {
+    /// Branches no constant decides between: each run from `scope`, the largest count of them
+    /// kept, and what they leave unlike unknown after them.
+    fn either(&self, branches: &[&[Stmt]], scope: &mut Scope, cx: &mut Context) -> Result<()> {
         let before = cx.cost;
         let mut ends = Vec::new();
-        for branch in [then, otherwise] {
+        for branch in branches {
             let mut inner = scope.clone();
             cx.cost = ShaderCost::default();
             if self.run(branch, &mut inner, cx)?.is_some() {
@@ -273,14 +315,15 @@ impl<'m> Machine<'m> {
             }
             ends.push((inner, cx.cost));
         }
-        let [(a, cost_a), (b, cost_b)] = <[_; 2]>::try_from(ends).expect("two branches");
         cx.cost = ShaderCost {
-            texture_reads: before.texture_reads + cost_a.texture_reads.max(cost_b.texture_reads),
-            operations: before.operations + cost_a.operations.max(cost_b.operations),
+            texture_reads: before.texture_reads + ends.iter().map(|(_, c)| c.texture_reads).max().unwrap_or(0),
+            operations: before.operations + ends.iter().map(|(_, c)| c.operations).max().unwrap_or(0),
         };
         for (name, value) in scope.iter_mut() {
-            *value = match (a.get(name), b.get(name)) {
-                (Some(x), Some(y)) if x == y => x.clone(),
+            let mut after = ends.iter().map(|(end, _)| end.get(name));
+            let first = after.next().flatten();
+            *value = match first {
+                Some(x) if after.all(|other| other == Some(x)) => x.clone(),
                 _ => Value::Unknown,
             };
         }
@@ -398,10 +441,21 @@ impl<'m> Machine<'m> {
                 },
             },
             Expr::Index(base, k) => element(self.eval(base, scope, cx)?, Some(*k))?,
-            Expr::Element(base, index) => {
-                let base = self.eval(base, scope, cx)?;
-                element(base, index_of(&self.eval(index, scope, cx)?)?)?
-            }
+            Expr::Element(base, index) => match &**base {
+                Expr::Name(buffer) if !scope.contains_key(buffer) && self.buffers.contains_key(buffer.as_str()) => {
+                    let k = index_of(&self.eval(index, scope, cx)?)?;
+                    match (&self.buffers[buffer.as_str()], k) {
+                        (Some(values), Some(k)) => Value::F32(*values.get(k).ok_or_else(|| {
+                            refuse(format!("element {k} of storage buffer `{buffer}` of {}", values.len()))
+                        })?),
+                        _ => Value::Unknown,
+                    }
+                }
+                _ => {
+                    let base = self.eval(base, scope, cx)?;
+                    element(base, index_of(&self.eval(index, scope, cx)?)?)?
+                }
+            },
             Expr::Select { condition, then, otherwise } => {
                 cx.operation();
                 let condition = self.eval(condition, scope, cx)?;
@@ -773,6 +827,69 @@ mod tests {
         assert!(hlsl.contains("static const Row rows[2] = {\n    {3u, 0.25},\n    {5u, 0.75}\n};"), "{hlsl}");
         assert!(hlsl.contains("tex.SampleLevel(smp, float3(x, r.y, r.layer), 0).zyx"), "{hlsl}");
         assert!(hlsl.contains("float3 f(uint i, float x) {"), "{hlsl}");
+    }
+
+    /// `pick(k, x)`: the shape `u32(c[k])` of a storage buffer `c` picks `x * c[2]`, `x + c[3]`,
+    /// or 0.
+    fn switching() -> Module {
+        let mut m = Module::new(Parens::Minimal);
+        m.push(Item::Binding { group: 0, binding: 4, name: "c".into(), ty: Ty::StorageArray });
+        let read = |k: Expr| name("c").element(k);
+        let body = vec![
+            var("r", Ty::F32, float(0.0)),
+            Stmt::Switch {
+                selector: Expr::Construct(Ty::U32, vec![read(name("k"))]),
+                cases: vec![
+                    (0, vec![super::super::assign(name("r"), name("x") * read(Expr::U32(2)))]),
+                    (1, vec![super::super::assign(name("r"), name("x") + read(Expr::U32(3)) * name("x"))]),
+                ],
+                default: Vec::new(),
+            },
+            Stmt::Return(name("r")),
+        ];
+        m.function("pick", vec![("k", Ty::U32), ("x", Ty::F32)], Ty::F32, body);
+        m
+    }
+
+    #[test]
+    fn a_switch_on_a_storage_buffer_runs_the_case_its_contents_choose() {
+        let module = switching();
+        let mut machine = Machine::new(&module).unwrap();
+        let unbound = machine.call("pick", vec![Value::U32(0), Value::F32(2.0)], &NoTexels).unwrap();
+        assert_eq!(unbound.value, Value::Unknown, "an unbound buffer reads unknown");
+        // The conversion, then the larger case: `+` and `*`.
+        assert_eq!(unbound.cost, ShaderCost { texture_reads: 0, operations: 3 });
+        machine.bind_buffer("c", vec![1.0, 0.0, 3.0, 0.5, 7.0]).unwrap();
+        let at = |k: u32| machine.call("pick", vec![Value::U32(k), Value::F32(2.0)], &NoTexels).unwrap().value;
+        assert_eq!((at(0), at(1), at(4)), (Value::F32(3.0), Value::F32(6.0), Value::F32(0.0)));
+        let past = machine.call("pick", vec![Value::U32(5), Value::F32(2.0)], &NoTexels).unwrap_err().to_string();
+        assert!(past.contains("element 5 of storage buffer `c` of 5"), "{past}");
+        assert!(machine.bind_buffer("d", Vec::new()).unwrap_err().to_string().contains("no storage buffer `d`"));
+        let wgsl = module.print(Lang::Wgsl);
+        assert!(wgsl.contains("@group(0) @binding(4) var<storage, read> c: array<f32>;"), "{wgsl}");
+        assert!(
+            wgsl.contains("    switch u32(c[k]) {\n        case 0u: {\n            r = x * c[2u];\n        }\n"),
+            "{wgsl}"
+        );
+        assert!(wgsl.contains("        default: {\n        }\n    }\n"), "{wgsl}");
+        super::super::validate::wgsl(&wgsl).unwrap_or_else(|e| panic!("{e}\n{wgsl}"));
+        let hlsl = module.print(Lang::Hlsl);
+        assert!(hlsl.contains("StructuredBuffer<float> c : register(t4);"), "{hlsl}");
+        assert!(hlsl.contains("    switch (uint(c[k])) {\n        case 0: {"), "{hlsl}");
+        assert!(
+            hlsl.contains("        case 1: {\n            r = x + c[3u] * x;\n            break;\n        }\n"),
+            "{hlsl}"
+        );
+        let glsl = module.print(Lang::Glsl);
+        assert!(
+            glsl.contains("layout(std430, set = 0, binding = 4) readonly buffer c_block { float c[]; };"),
+            "{glsl}"
+        );
+        assert!(glsl.contains("    switch (uint(c[k])) {\n        case 0u: {"), "{glsl}");
+        let shader = format!(
+            "#version 450\n{glsl}\nlayout(local_size_x = 1) in;\nvoid main() {{\n    float r = pick(1u, 2.0);\n}}\n"
+        );
+        super::super::validate::glsl(&shader, naga::ShaderStage::Compute).unwrap_or_else(|e| panic!("{e}\n{shader}"));
     }
 
     #[test]

@@ -66,6 +66,10 @@ pub enum Ty {
     /// An array of 2D float textures of four channels, addressed by an integer layer.
     TextureArray,
     Sampler,
+    /// A read-only storage buffer of f32 whose length the bound buffer gives (bindings only):
+    /// WGSL `var<storage, read> name: array<f32>`, HLSL `StructuredBuffer<float>`, read with
+    /// [`Expr::Element`].
+    StorageArray,
 }
 
 impl Ty {
@@ -100,6 +104,9 @@ impl Ty {
             (Ty::TextureArray, Lang::Glsl) => "texture2DArray".into(),
             (Ty::Sampler, Lang::Hlsl) => "SamplerState".into(),
             (Ty::Sampler, Lang::Wgsl | Lang::Glsl) => "sampler".into(),
+            (Ty::StorageArray, Lang::Hlsl) => "StructuredBuffer<float>".into(),
+            (Ty::StorageArray, Lang::Wgsl) => "array<f32>".into(),
+            (Ty::StorageArray, Lang::Glsl) => "float[]".into(),
         }
     }
 
@@ -424,6 +431,13 @@ pub enum Stmt {
         otherwise: Vec<Stmt>,
     },
     Return(Expr),
+    /// `switch selector { case K: {...} ... default: {...} }` over a `u32` selector, no case falling
+    /// through (HLSL's cases end in `break`).
+    Switch {
+        selector: Expr,
+        cases: Vec<(u32, Vec<Stmt>)>,
+        default: Vec<Stmt>,
+    },
     Comment(String),
 }
 
@@ -532,12 +546,22 @@ impl Module {
                 }
                 Item::Binding { group, binding, name, ty } => {
                     let _ = match lang {
-                        Lang::Wgsl => writeln!(s, "@group({group}) @binding({binding}) var {name}: {};", ty.text(lang)),
+                        Lang::Wgsl => {
+                            let space = if *ty == Ty::StorageArray { "<storage, read>" } else { "" };
+                            writeln!(s, "@group({group}) @binding({binding}) var{space} {name}: {};", ty.text(lang))
+                        }
                         Lang::Hlsl => {
                             let register = if *ty == Ty::Sampler { 's' } else { 't' };
                             let space = if *group == 0 { String::new() } else { format!(", space{group}") };
                             writeln!(s, "{} : register({register}{binding}{space});", ty.declare(name, lang))
                         }
+                        // A storage buffer is a block in GLSL; declared without an instance
+                        // name, its array reads by the binding's name as in WGSL and HLSL.
+                        Lang::Glsl if *ty == Ty::StorageArray => writeln!(
+                            s,
+                            "layout(std430, set = {group}, binding = {binding}) readonly buffer {name}_block {{ float \
+                             {name}[]; }};"
+                        ),
                         Lang::Glsl => writeln!(
                             s,
                             "layout(set = {group}, binding = {binding}) uniform {};",
@@ -651,6 +675,31 @@ impl Printer {
             Stmt::Return(e) => {
                 let _ = writeln!(s, "{pad}return {};", self.expr(e));
             }
+            Stmt::Switch { selector, cases, default } => {
+                let selector = self.expr(selector);
+                let _ = match lang {
+                    Lang::Wgsl => writeln!(s, "{pad}switch {selector} {{"),
+                    Lang::Hlsl | Lang::Glsl => writeln!(s, "{pad}switch ({selector}) {{"),
+                };
+                let labelled = cases.iter().map(|(k, body)| {
+                    let label = match lang {
+                        Lang::Wgsl | Lang::Glsl => format!("case {k}u"),
+                        Lang::Hlsl => format!("case {k}"),
+                    };
+                    (label, body)
+                });
+                for (label, body) in labelled.chain(std::iter::once(("default".to_string(), default))) {
+                    let _ = writeln!(s, "{pad}    {label}: {{");
+                    for t in body {
+                        self.stmt(t, depth + 2, s);
+                    }
+                    if lang != Lang::Wgsl {
+                        let _ = writeln!(s, "{pad}        break;");
+                    }
+                    let _ = writeln!(s, "{pad}    }}");
+                }
+                let _ = writeln!(s, "{pad}}}");
+            }
             Stmt::Comment(text) => s.push_str(&comment_block(&format!("{pad}//"), text)),
         }
     }
@@ -675,7 +724,7 @@ impl Printer {
                 format!("{name}({})", zeros.join(", "))
             }
             // Opaque types are never locals.
-            Ty::Texture { .. } | Ty::TextureArray | Ty::Sampler => ty.text(Lang::Glsl),
+            Ty::Texture { .. } | Ty::TextureArray | Ty::Sampler | Ty::StorageArray => ty.text(Lang::Glsl),
         }
     }
 

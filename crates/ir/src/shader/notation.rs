@@ -7,7 +7,8 @@ use super::{Expr, Function, Lang, Parens, Printer, Stmt};
 impl Function {
     /// The body as lines: `name = value` for a local or an assignment (a `var` without a value is
     /// its type's zero, `T()`), `result = value` for the return, `if condition {`, `} else {` and
-    /// `}` around a branch's lines (indented four spaces), `// text` for a comment.
+    /// `}` around a branch's lines (indented four spaces), `switch selector {`, `case k:` and
+    /// `default:` before each case's lines, `// text` for a comment.
     ///
     /// Expressions are parenthesised as `parens` says and name builtins, types and conversions as
     /// WGSL does (`min(a, b)`, `i32(x)`, `vec3<f32>(a, b, c)`); a selection reads `condition ?
@@ -39,6 +40,17 @@ impl Printer {
                         lines.push(format!("{pad}}} else {{"));
                         self.notation_lines(otherwise, &inner, lines);
                     }
+                    lines.push(format!("{pad}}}"));
+                }
+                Stmt::Switch { selector, cases, default } => {
+                    let inner = format!("{pad}    ");
+                    lines.push(format!("{pad}switch {} {{", self.expr(selector)));
+                    for (label, body) in cases.iter().map(|(k, body)| (format!("case {k}"), body)) {
+                        lines.push(format!("{pad}{label}:"));
+                        self.notation_lines(body, &inner, lines);
+                    }
+                    lines.push(format!("{pad}default:"));
+                    self.notation_lines(default, &inner, lines);
                     lines.push(format!("{pad}}}"));
                 }
                 Stmt::Return(value) => lines.push(format!("{pad}result = {}", self.expr(value))),

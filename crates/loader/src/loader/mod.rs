@@ -37,7 +37,9 @@ pub use handles::{
     BelcourLut, FgdLut, FgdRarerLut, GdLut, GgxEAvgLut, GgxELut, KarisLut, KarisMultiscatterLut, TirLut,
 };
 pub use roughness::{Alpha, Roughness};
-pub use shader::{DeviceLimits, MaterialFunction, SceneShaderFiles, ShaderDescription, TextureBinding};
+pub use shader::{
+    ConstantsBuffer, DeviceLimits, MaterialFunction, SceneShaderFiles, ShaderDescription, ShapeFunction, TextureBinding,
+};
 pub use source::{InMemory, LutSource, OnDisk};
 pub use texture::{
     Texels, TextureData, TextureDescriptor, TextureDimension, TextureFormat, sample_texture, texture_coordinate,

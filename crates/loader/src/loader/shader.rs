@@ -32,8 +32,11 @@ pub const DESCRIPTION_SUFFIX: &str = ".shader.json";
 /// The format of the shader descriptions this loader writes (`format_version` in `*.shader.json`),
 /// and the newest it reads. Version 1, the descriptions written before the field existed, stated no
 /// device limits, no dispatch function and no texture's depth or layers apart from `extent`, and
-/// left `layered` out where it was false; the loader reads it, deriving them.
-pub const SHADER_DESCRIPTION_FORMAT: u32 = 2;
+/// left `layered` out where it was false; the loader reads it, deriving them. Version 2's scene
+/// shaders bound textures only, a function of its own per material; version 3's share one function
+/// per stack shape, their constants in a storage buffer (`constants`, `shapes`, each material's
+/// `shape` and `constants_offset`, the storage limits), and name the dispatch function.
+pub const SHADER_DESCRIPTION_FORMAT: u32 = 3;
 
 /// A texture the shader binds: its binding in group 0 and the file it holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -151,6 +154,12 @@ pub struct DeviceLimits {
     pub max_texture_dimension_2d: u32,
     /// The largest width, height or depth of a volume (0 where it binds none).
     pub max_texture_dimension_3d: u32,
+    /// Storage buffers it binds: 1 for a scene shader's constants (0 before format version 3).
+    #[serde(default)]
+    pub max_storage_buffers_per_shader_stage: u32,
+    /// The bytes of its largest storage buffer (0 where it binds none).
+    #[serde(default)]
+    pub max_storage_buffer_binding_size: u32,
 }
 
 impl DeviceLimits {
@@ -161,6 +170,8 @@ impl DeviceLimits {
         max_texture_array_layers: 256,
         max_texture_dimension_2d: 8192,
         max_texture_dimension_3d: 2048,
+        max_storage_buffers_per_shader_stage: 8,
+        max_storage_buffer_binding_size: 1 << 27,
     };
 
     /// What binding `textures` and `samplers` samplers in one shader stage needs.
@@ -176,17 +187,32 @@ impl DeviceLimits {
             max_texture_dimension_3d: count(
                 volumes.map(|t| t.extent[0].max(t.extent[1]).max(t.depth)).max().unwrap_or(0),
             ),
+            max_storage_buffers_per_shader_stage: 0,
+            max_storage_buffer_binding_size: 0,
+        }
+    }
+
+    /// These needs with a storage buffer of `bytes` bound too.
+    pub fn with_storage_buffer(self, bytes: usize) -> Self {
+        DeviceLimits {
+            max_storage_buffers_per_shader_stage: self.max_storage_buffers_per_shader_stage + 1,
+            max_storage_buffer_binding_size: self
+                .max_storage_buffer_binding_size
+                .max(u32::try_from(bytes).unwrap_or(u32::MAX)),
+            ..self
         }
     }
 
     /// Each limit as WebGPU names it, with its value.
-    pub fn named(&self) -> [(&'static str, u32); 5] {
+    pub fn named(&self) -> [(&'static str, u32); 7] {
         [
             ("maxSampledTexturesPerShaderStage", self.max_sampled_textures_per_shader_stage),
             ("maxSamplersPerShaderStage", self.max_samplers_per_shader_stage),
             ("maxTextureArrayLayers", self.max_texture_array_layers),
             ("maxTextureDimension2D", self.max_texture_dimension_2d),
             ("maxTextureDimension3D", self.max_texture_dimension_3d),
+            ("maxStorageBuffersPerShaderStage", self.max_storage_buffers_per_shader_stage),
+            ("maxStorageBufferBindingSize", self.max_storage_buffer_binding_size),
         ]
     }
 
@@ -248,6 +274,51 @@ pub struct MaterialFunction {
     /// What one call of it costs, counted on the shader's description (helpers included).
     #[serde(default)]
     pub cost: ShaderCost,
+    /// Its stack shape: the index in `shapes` of the function its own calls (0 before format
+    /// version 3).
+    #[serde(default)]
+    pub shape: usize,
+    /// The first of its constants in the constants buffer, the first argument of its shape's
+    /// function (0 where the shape's function reads none, and before format version 3).
+    #[serde(default)]
+    pub constants_offset: u32,
+}
+
+/// A function that materials of one stack shape share, their constants read from the constants
+/// buffer from the first argument on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShapeFunction {
+    /// Its name: `(first constant, mu) -> TmResult`.
+    pub function: String,
+    /// How many materials share it.
+    pub materials: usize,
+    /// How many constants each of them stores in the buffer (0: it reads none).
+    pub constants: usize,
+}
+
+/// The storage buffer of a scene shader's constants: little-endian f32 in a file beside the
+/// shader, uploaded whole and bound read-only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ConstantsBuffer {
+    /// The binding number in group 0 (HLSL: register `tN`, a `StructuredBuffer<float>`).
+    pub binding: u32,
+    /// The variable in the shader.
+    pub variable: String,
+    /// The file beside the shader holding its contents.
+    pub file: String,
+    /// The WebGPU buffer binding type: `read-only-storage`.
+    pub buffer_type: String,
+    /// The element type: `f32`.
+    pub element_type: String,
+    /// Bytes per element: 4.
+    pub element_stride: usize,
+    /// The byte order of the file: `little-endian`.
+    pub byte_order: String,
+    /// Elements in the buffer (the file's length over `element_stride`).
+    pub elements: usize,
+    /// Elements per material at the buffer's start: material `i`'s shape at `header_stride * i`,
+    /// the first of its constants after it, integers stored exactly as f32.
+    pub header_stride: usize,
 }
 
 /// What one call of a shader function costs a GPU, counted on the shader's description rather than
@@ -389,6 +460,10 @@ pub struct ShaderDescription<'a> {
     pub limits: DeviceLimits,
     /// Every texture the shader binds.
     pub textures: Cow<'a, [TextureBinding]>,
+    /// The storage buffer of the materials' constants (from format version 3 on).
+    pub constants: Option<ConstantsBuffer>,
+    /// The functions materials of one stack shape share, by shape (empty before version 3).
+    pub shapes: Cow<'a, [ShapeFunction]>,
     /// Every material's function.
     pub materials: Cow<'a, [MaterialFunction]>,
     /// How to create and bind the textures and call the functions, in words.
@@ -405,6 +480,9 @@ struct ShaderDescriptionFields {
     dispatch_function: Option<String>,
     limits: Option<DeviceLimits>,
     textures: Vec<TextureBinding>,
+    constants: Option<ConstantsBuffer>,
+    #[serde(default)]
+    shapes: Vec<ShapeFunction>,
     materials: Vec<MaterialFunction>,
     notes: String,
 }
@@ -415,6 +493,14 @@ impl TryFrom<ShaderDescriptionFields> for ShaderDescription<'_> {
     fn try_from(f: ShaderDescriptionFields) -> std::result::Result<Self, String> {
         let format_version = format_version(f.format_version)?;
         let limits = stated_limits(format_version, f.limits, &f.textures, 0)?;
+        if format_version >= 3 && f.constants.is_none() {
+            return Err(format!(
+                "format_version {format_version} states `constants`, the buffer the shader's functions read; none here"
+            ));
+        }
+        if let Some(m) = f.materials.iter().find(|m| format_version >= 3 && m.shape >= f.shapes.len()) {
+            return Err(format!("material `{}`: shape {} of {} shapes", m.material, m.shape, f.shapes.len()));
+        }
         Ok(ShaderDescription {
             format_version,
             result_struct: f.result_struct.into(),
@@ -422,6 +508,8 @@ impl TryFrom<ShaderDescriptionFields> for ShaderDescription<'_> {
             dispatch_function: f.dispatch_function.map(Cow::Owned),
             limits,
             textures: f.textures.into(),
+            constants: f.constants,
+            shapes: f.shapes.into(),
             materials: f.materials.into(),
             notes: f.notes.into(),
         })
@@ -439,6 +527,9 @@ pub struct SceneShaderFiles {
     pub wgsl: String,
     /// The text of `<stem>.hlsl`.
     pub hlsl: String,
+    /// The contents of the constants buffer (`description.constants`), read from its file; empty
+    /// before format version 3.
+    pub constants: Vec<f32>,
 }
 
 impl SceneShaderFiles {
@@ -462,35 +553,55 @@ impl SceneShaderFiles {
             Some(stem) => stem,
             None => only_description(dir)?,
         };
-        let read = |file: String| -> Result<String> {
+        let read_bytes = |file: &str| -> Result<Vec<u8>> {
             match listed.as_ref().and_then(|r| r.files.iter().find(|f| f.file == file)) {
-                Some(entry) => read_text_verified(dir, &file, Some(entry.bytes), Some(&entry.sha256)),
-                None => read_text_verified(dir, &file, None, None),
+                Some(entry) => read_verified(dir, file, Some(entry.bytes), Some(&entry.sha256)),
+                None => read_verified(dir, file, None, None),
             }
         };
+        let read = |file: String| -> Result<String> {
+            String::from_utf8(read_bytes(&file)?).map_err(|_| Error::format(dir.join(&file), "is not UTF-8 text"))
+        };
         let description_path = dir.join(format!("{stem}{DESCRIPTION_SUFFIX}"));
-        let description = serde_json::from_str(&read(format!("{stem}{DESCRIPTION_SUFFIX}"))?)
+        let description: ShaderDescription = serde_json::from_str(&read(format!("{stem}{DESCRIPTION_SUFFIX}"))?)
             .map_err(|e| Error::format(&description_path, format!("not a scene shader description: {e}")))?;
+        let constants = match &description.constants {
+            Some(buffer) => {
+                check_file_name(&buffer.file).map_err(|reason| Error::format(&description_path, reason))?;
+                let bytes = read_bytes(&buffer.file)?;
+                if buffer.element_stride != 4 || bytes.len() != buffer.elements.saturating_mul(4) {
+                    return Err(Error::format(
+                        dir.join(&buffer.file),
+                        format!(
+                            "holds {} bytes; its description states {} elements of {} bytes (little-endian f32: 4)",
+                            bytes.len(),
+                            buffer.elements,
+                            buffer.element_stride
+                        ),
+                    ));
+                }
+                bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+            }
+            None => Vec::new(),
+        };
         Ok(SceneShaderFiles {
             wgsl: read(format!("{stem}.wgsl"))?,
             hlsl: read(format!("{stem}.hlsl"))?,
             description,
+            constants,
             stem,
         })
     }
 }
 
-/// The text of the shader file `file` of `dir` (a plain file name), verified against the length
+/// The bytes of the shader file `file` of `dir` (a plain file name), verified against the length
 /// and SHA-256 a manifest states for it, where it states them.
-fn read_text_verified(
-    dir: &Path,
-    file: &str,
-    stated_bytes: Option<u64>,
-    stated_sha256: Option<&str>,
-) -> Result<String> {
+fn read_verified(dir: &Path, file: &str, stated_bytes: Option<u64>, stated_sha256: Option<&str>) -> Result<Vec<u8>> {
     check_file_name(file).map_err(|reason| Error::format(dir.join(MANIFEST_FILE), reason))?;
     let path = dir.join(file);
-    text_verified(&path, &FileKind::Shader.read(&path)?, stated_bytes, stated_sha256)
+    let bytes = FileKind::Shader.read(&path)?;
+    verify(&path, &bytes, stated_bytes, stated_sha256)?;
+    Ok(bytes)
 }
 
 /// The text of a shader file's `bytes`, verified against the length and SHA-256 a manifest states
@@ -501,6 +612,12 @@ pub(crate) fn text_verified(
     stated_bytes: Option<u64>,
     stated_sha256: Option<&str>,
 ) -> Result<String> {
+    verify(path, bytes, stated_bytes, stated_sha256)?;
+    String::from_utf8(bytes.to_vec()).map_err(|_| Error::format(path, "is not UTF-8 text"))
+}
+
+/// `bytes` of the file at `path` against the length and SHA-256 a manifest states for it.
+fn verify(path: &Path, bytes: &[u8], stated_bytes: Option<u64>, stated_sha256: Option<&str>) -> Result<()> {
     let mut disagreements = Vec::new();
     if let Some(stated) = stated_bytes
         && stated != bytes.len() as u64
@@ -519,7 +636,7 @@ pub(crate) fn text_verified(
             reason: format!("differs from its entry in {MANIFEST_FILE}: {}", disagreements.join("; ")),
         });
     }
-    String::from_utf8(bytes.to_vec()).map_err(|_| Error::format(path, "is not UTF-8 text"))
+    Ok(())
 }
 
 /// The stem of the one `*.shader.json` in `dir`.
@@ -583,9 +700,21 @@ mod tests {
             format_version: SHADER_DESCRIPTION_FORMAT,
             result_struct: "TmResult".into(),
             max_lobes: 1,
-            dispatch_function: None,
-            limits: DeviceLimits::of(&textures, 0),
+            dispatch_function: Some("tm_material".into()),
+            limits: DeviceLimits::of(&textures, 0).with_storage_buffer(16),
             textures: Cow::Owned(textures),
+            constants: Some(ConstantsBuffer {
+                binding: 3,
+                variable: "tmh_constants".into(),
+                file: "a.constants.bin".into(),
+                buffer_type: "read-only-storage".into(),
+                element_type: "f32".into(),
+                element_stride: 4,
+                byte_order: "little-endian".into(),
+                elements: 4,
+                header_stride: 2,
+            }),
+            shapes: Cow::Owned(vec![ShapeFunction { function: "tmh_shape0".into(), materials: 1, constants: 2 }]),
             materials: Cow::Owned(vec![MaterialFunction {
                 material: "m".into(),
                 function: "tm_m".into(),
@@ -594,6 +723,8 @@ mod tests {
                 model: "2-flux".into(),
                 reads: vec!["gd".into(), "fgd slice".into(), "tir table".into()],
                 cost: ShaderCost { texture_reads: 16, operations: 30 },
+                shape: 0,
+                constants_offset: 2,
             }]),
             notes: "".into(),
         }
@@ -608,6 +739,8 @@ mod tests {
             max_texture_array_layers: 9,
             max_texture_dimension_2d: 262,
             max_texture_dimension_3d: 33,
+            max_storage_buffers_per_shader_stage: 1,
+            max_storage_buffer_binding_size: 16,
         };
         assert_eq!(description.limits, expected);
         assert!(expected.beyond(&DeviceLimits::WEBGPU_DEFAULTS).is_empty());
@@ -619,7 +752,9 @@ mod tests {
     fn every_field_is_written_false_and_none_included() {
         let json = serde_json::to_value(example_description()).unwrap();
         assert_eq!(json["format_version"], SHADER_DESCRIPTION_FORMAT);
-        assert!(json["dispatch_function"].is_null() && json.as_object().unwrap().contains_key("dispatch_function"));
+        assert_eq!(json["dispatch_function"], "tm_material");
+        assert_eq!(json["constants"]["header_stride"], 2);
+        assert_eq!((&json["materials"][0]["shape"], &json["materials"][0]["constants_offset"]), (&0.into(), &2.into()));
         assert_eq!(json["textures"][0]["layered"], false);
         assert_eq!((&json["textures"][1]["array_layers"], &json["textures"][1]["depth"]), (&9.into(), &1.into()));
         assert_eq!(json["limits"]["max_texture_array_layers"], 9);
@@ -631,8 +766,13 @@ mod tests {
         // where true.
         let mut json = serde_json::to_value(example_description()).unwrap();
         let object = json.as_object_mut().unwrap();
-        for field in ["format_version", "dispatch_function", "limits"] {
+        for field in ["format_version", "dispatch_function", "limits", "constants", "shapes"] {
             object.remove(field);
+        }
+        for material in object["materials"].as_array_mut().unwrap() {
+            let material = material.as_object_mut().unwrap();
+            material.remove("shape");
+            material.remove("constants_offset");
         }
         for texture in object["textures"].as_array_mut().unwrap() {
             let texture = texture.as_object_mut().unwrap();
@@ -643,7 +783,19 @@ mod tests {
             }
         }
         let read: ShaderDescription = serde_json::from_value(json).unwrap();
-        assert_eq!(read, ShaderDescription { format_version: 1, ..example_description() });
+        let example = example_description();
+        let mut materials = example.materials.to_vec();
+        materials[0].constants_offset = 0;
+        let expected = ShaderDescription {
+            format_version: 1,
+            dispatch_function: None,
+            limits: DeviceLimits::of(&example.textures, 0),
+            constants: None,
+            shapes: Cow::Owned(Vec::new()),
+            materials: Cow::Owned(materials),
+            ..example
+        };
+        assert_eq!(read, expected);
     }
 
     #[test]
@@ -659,6 +811,12 @@ mod tests {
             j.as_object_mut().unwrap().remove("limits");
         });
         assert!(error.contains("states `limits`"), "{error}");
+        let error = refused(&|j| {
+            j.as_object_mut().unwrap().remove("constants");
+        });
+        assert!(error.contains("format_version 3 states `constants`"), "{error}");
+        let error = refused(&|j| j["materials"][0]["shape"] = 1.into());
+        assert!(error.contains("material `m`: shape 1 of 1 shapes"), "{error}");
         let error = refused(&|j| j["textures"][1]["array_layers"] = 8.into());
         assert!(error.contains("table1.dds") && error.contains("8 array layers"), "{error}");
         let error = refused(&|j| j["textures"][0]["depth"] = 2.into());
@@ -677,9 +835,15 @@ mod tests {
         std::fs::write(dir.path().join("a.shader.json"), serde_json::to_string(&description).unwrap()).unwrap();
         std::fs::write(dir.path().join("a.wgsl"), "fn tm_m() {}").unwrap();
         std::fs::write(dir.path().join("a.hlsl"), "").unwrap();
+        std::fs::write(dir.path().join("a.constants.bin"), [0u8; 12]).unwrap();
+        let err = SceneShaderFiles::open(dir.path()).unwrap_err().to_string();
+        assert!(err.contains("holds 12 bytes; its description states 4 elements of 4 bytes"), "{err}");
+        let constants: Vec<u8> = [0.0f32, 2.0, 1.5, -0.25].iter().flat_map(|v| v.to_le_bytes()).collect();
+        std::fs::write(dir.path().join("a.constants.bin"), constants).unwrap();
         let read = SceneShaderFiles::open(dir.path()).unwrap();
         assert_eq!((read.stem.as_str(), read.wgsl.as_str()), ("a", "fn tm_m() {}"));
         assert_eq!(read.description, description);
+        assert_eq!(read.constants, [0.0, 2.0, 1.5, -0.25]);
 
         std::fs::write(dir.path().join("b.shader.json"), "{}").unwrap();
         let err = SceneShaderFiles::open(dir.path()).unwrap_err().to_string();
