@@ -67,6 +67,8 @@ pub mod integrate;
 #[cfg(feature = "generator")]
 pub mod pipeline;
 #[cfg(feature = "generator")]
+pub mod presets;
+#[cfg(feature = "generator")]
 pub mod random_walk;
 #[cfg(feature = "generator")]
 pub mod recipes;

@@ -8,12 +8,13 @@
 //! ([`crate::commit`]).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use crate::commit::{Move, OutputFolder};
 use crate::config::{Config, OutputConfig, TableKind};
 use crate::error::{Error, Result};
 use crate::formats::manifest::{
-    AxisEntry, ChannelSumStorage, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile,
+    AxisEntry, ChannelSumStorage, DropInEntry, ErrorEntry, FileEntry, Manifest, PackingEntry, SceneRecord, ShaderFile,
     write_manifest,
 };
 use crate::formats::slice_array::{ArraySlice, SliceArrayEntry, Slot};
@@ -21,6 +22,7 @@ use crate::formats::{self, FileFormat, Precision, SumRounding};
 use crate::integrate::Progress;
 use crate::loader::texture::SampledTable;
 use crate::packing::{Filter, PackedFgd, Packing};
+use crate::presets::Preset;
 use crate::recipes::{Provenance, TableBuild, interpolation};
 use crate::stats::InterpolationError;
 use crate::table::Table;
@@ -124,12 +126,36 @@ pub struct Job<'a> {
     pub fit_seed: Option<u64>,
     /// For a texture array of slices: the slices it holds, recorded in its entries.
     pub slice_array: Option<SliceArrayEntry>,
+    /// The preset whose engine file is written from this table's stored values, if it writes one.
+    pub preset: Option<Arc<Preset>>,
 }
 
 /// Integrate, write and describe every requested table.
 pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<WrittenFile>> {
     request.config.validate()?;
     let tables = resolve_tables(&request.config, request.only.as_deref())?;
+    build_tables(request, tables, None, progress)
+}
+
+/// Build a preset's tables into `out` as [`build`] builds tables, with the engine's own file
+/// beside them in the same commit. Returns the tables' files and the engine files written.
+pub fn build_preset(preset: Preset, out: &Path, progress: &dyn Progress) -> Result<(Vec<WrittenFile>, Vec<PathBuf>)> {
+    let tables = preset.tables()?;
+    let request = BuildRequest { config: preset.config.clone(), only: None, out: out.to_path_buf(), error_maps: false };
+    let written = build_tables(&request, tables, Some(Arc::new(preset)), progress)?;
+    let manifest = Manifest::read(&out.join(crate::formats::manifest::MANIFEST_FILE))?;
+    let built: std::collections::BTreeSet<&str> = written.iter().map(|f| f.entry.table.as_str()).collect();
+    let drop_ins = manifest.drop_ins.iter().filter(|(_, e)| built.contains(e.table.as_str()));
+    let drop_ins = drop_ins.map(|(name, _)| out.join(name)).collect();
+    Ok((written, drop_ins))
+}
+
+fn build_tables(
+    request: &BuildRequest,
+    tables: Vec<TableKind>,
+    preset: Option<Arc<Preset>>,
+    progress: &dyn Progress,
+) -> Result<Vec<WrittenFile>> {
     let mut config = request.config.clone();
     if request.error_maps {
         // A map needs every node's replicate spread; FGD computes it for a subset by default.
@@ -148,6 +174,7 @@ pub fn build(request: &BuildRequest, progress: &dyn Progress) -> Result<Vec<Writ
                 packing_formats: companions.packing_formats,
                 fit_seed: companions.fitted_form.then_some(seed),
                 slice_array: None,
+                preset: preset.clone(),
             }
         })
         .collect();
@@ -176,6 +203,7 @@ pub fn write_jobs(
     let mut staged = Vec::new();
     let mut moves = Vec::new();
     let mut rebuilt = std::collections::BTreeSet::new();
+    let mut drop_ins = Vec::new();
     // Each table's files are written, hashed, read back for the interpolation check and (TIR)
     // fitted on a thread of their own while the next tables integrate: that work runs on one core
     // and would otherwise leave the integration's other core idle. Tables are still collected in
@@ -188,13 +216,14 @@ pub fn write_jobs(
             }
             staged.extend(files.files);
             moves.extend(files.moves);
+            drop_ins.extend(files.drop_ins);
         };
         let join = |writing: std::thread::ScopedJoinHandle<'_, Result<StagedFiles>>| {
             writing.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
         };
         let mut writing = std::collections::VecDeque::new();
         for job in jobs {
-            let Job { run, output, packings, packing_formats, fit_seed, slice_array } = job;
+            let Job { run, output, packings, packing_formats, fit_seed, slice_array, preset } = job;
             let build = run(progress)?;
             rebuilt.insert(build.table.name.clone());
             // A large table's files can take longer to write than the next small tables take to
@@ -203,7 +232,8 @@ pub fn write_jobs(
                 collect(join(writing.pop_front().expect("a writing is in flight"))?);
             }
             let (dir, maps) = (&staging.dir, &staged_maps);
-            let files = JobFiles { build, output, packings, packing_formats, fit_seed, slice_array, error_maps };
+            let files =
+                JobFiles { build, output, packings, packing_formats, fit_seed, slice_array, error_maps, preset };
             writing.push_back(scope.spawn(move || files.write(dir, maps)));
         }
         for previous in writing {
@@ -224,6 +254,14 @@ pub fn write_jobs(
         removals.extend(shaders.map(|shader| shader.file.clone()));
         false
     });
+    // So do the engine files written from them: a build without the preset leaves none stale.
+    manifest.drop_ins.retain(|name, entry| {
+        let stays = !rebuilt.contains(&entry.table);
+        if !stays {
+            removals.push(name.clone());
+        }
+        stays
+    });
     // A scene shader is specialised to the tables it was written over: it leaves with them, and
     // `build --scene` writes it again over the new ones.
     removals.extend(manifest.scene_shader.take().into_iter().flat_map(|s| s.files).map(|f| f.file));
@@ -239,6 +277,10 @@ pub fn write_jobs(
         moves.push(same_name(&file.path, None));
         manifest.files.insert(name.clone(), file.entry.clone());
         written.push(WrittenFile { path: out.join(&name), entry: file.entry });
+    }
+    for (name, entry) in drop_ins {
+        moves.push(Move { staged: name.clone(), destination: name.clone() });
+        manifest.drop_ins.insert(name, entry);
     }
     if scene.is_some() {
         manifest.scene = scene;
@@ -265,6 +307,7 @@ struct JobFiles {
     fit_seed: Option<u64>,
     slice_array: Option<SliceArrayEntry>,
     error_maps: bool,
+    preset: Option<Arc<Preset>>,
 }
 
 /// What [`JobFiles::write`] staged.
@@ -275,6 +318,8 @@ struct StagedFiles {
     moves: Vec<Move>,
     /// The fitted form of a table none of whose own files is written (a scene's `tir = "fit"`).
     unwritten_fit: Option<crate::formats::manifest::FitEntry>,
+    /// Engine files written from the table (a preset's), by name with their manifest entries.
+    drop_ins: Vec<(String, DropInEntry)>,
 }
 
 impl JobFiles {
@@ -282,11 +327,19 @@ impl JobFiles {
     /// packings, maps order.
     fn write(self, dir: &Path, maps: &Path) -> Result<StagedFiles> {
         let (build, output) = (&self.build, &self.output);
-        let mut staged = StagedFiles { files: Vec::new(), moves: Vec::new(), unwritten_fit: None };
+        let mut staged =
+            StagedFiles { files: Vec::new(), moves: Vec::new(), unwritten_fit: None, drop_ins: Vec::new() };
         for &format in &output.formats {
             let mut file = write_table_file(dir, build, format, output.precision)?;
             file.entry.slice_array = self.slice_array.clone();
             staged.files.push(file);
+        }
+        if let (Some(preset), Some(source)) = (&self.preset, staged.files.first()) {
+            let stored = stored_values(&build.table, &build.provenance, output.precision)?;
+            if let Some((name, bytes, entry)) = preset.drop_in_of(&stored, &file_name(&source.path)) {
+                formats::write_bytes_atomically(&dir.join(&name), &bytes)?;
+                staged.drop_ins.push((name, entry));
+            }
         }
         if let Some(seed) = self.fit_seed {
             let (fit, shaders) = crate::fit::forms::build::fit_for_build(&build.table, seed, dir)?;
@@ -559,6 +612,19 @@ fn stored_along(table: &Table, format: FileFormat) -> Vec<String> {
             (FileFormat::Exr, d) => format!("tile number (digit {} of the slice index, fastest first)", d - 2),
         })
         .collect()
+}
+
+/// The values the files of `table` hold at `precision`: rounded as its texture files round them.
+pub fn stored_values(table: &Table, provenance: &Provenance, precision: Precision) -> Result<Table> {
+    match provenance.metadata.channel_sum {
+        Some(rounding) => stored_with_sum(table, rounding, precision),
+        None => Table::new(
+            &table.name,
+            table.axes.clone(),
+            table.channels.clone(),
+            table.data.iter().map(|&v| precision.round(v)).collect(),
+        ),
+    }
 }
 
 /// `table` with each texel's channels rounded to `precision` by `rounding`.

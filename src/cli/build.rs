@@ -22,6 +22,11 @@ pub struct BuildArgs {
     /// Comma-separated tables to build (default: all). See `tmlut list`.
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
+    /// Build an engine's tables with its conventions and write its own file beside them: a preset
+    /// of luts/presets/ by name (`tmlut list`), or the path of a preset file (`.toml`). See
+    /// docs/engines.md.
+    #[arg(long, conflicts_with_all = ["config", "only", "scene", "error_maps"])]
+    preset: Option<String>,
     /// Output folder.
     #[arg(long, default_value = "out/luts")]
     out: PathBuf,
@@ -109,6 +114,9 @@ fn parse_method(text: &str) -> Result<Method, String> {
 }
 
 pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
+    if let Some(name) = &args.preset {
+        return build_preset(name, &args, context);
+    }
     let mut config = args.config.load()?;
     if let Some(seed) = args.seed {
         config.seed = seed;
@@ -143,6 +151,24 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
         }
     };
     print!("{}", pipeline::summary(&written));
+    Ok(())
+}
+
+/// `--preset`: the preset's tables and its engine's file, with `--seed`, `--method` and `--threads`.
+fn build_preset(name: &str, args: &BuildArgs, context: &Context) -> tmlut::Result<()> {
+    let mut preset = tmlut::presets::Preset::load(name)?;
+    if let Some(seed) = args.seed {
+        preset.config.seed = seed;
+    }
+    if let Some(method) = args.method {
+        preset.config.set_method(method);
+    }
+    args.threads.apply()?;
+    let (written, drop_ins) = pipeline::build_preset(preset, &args.out, &context.progress())?;
+    print!("{}", pipeline::summary(&written));
+    for path in drop_ins {
+        println!("{}  (engine file; see the manifest's drop_ins)", path.display());
+    }
     Ok(())
 }
 

@@ -583,6 +583,7 @@ impl<'a> SceneBuild<'a> {
             packing_formats,
             fit_seed,
             slice_array: None,
+            preset: None,
         }
     }
 }
@@ -607,6 +608,7 @@ fn slice_job<'a>(
         packing_formats: Vec::new(),
         fit_seed: None,
         slice_array: None,
+        preset: None,
     }
 }
 
@@ -667,6 +669,7 @@ fn slice_array_jobs<'a>(
                 packing_formats: Vec::new(),
                 fit_seed: None,
                 slice_array: Some(entry),
+                preset: None,
             });
         }
     }

@@ -73,6 +73,53 @@ pub struct Manifest {
     /// `tmlut shader` with `--out` the folder of `--luts`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scene_shader: Option<SceneShaderRecord>,
+    /// Engines' own files written by a preset build (`tmlut build --preset`), keyed by file name:
+    /// a table rewritten in the layout and encoding of the file that engine ships.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub drop_ins: BTreeMap<String, DropInEntry>,
+}
+
+/// An engine's own file, holding a table of this folder in that engine's layout
+/// (`docs/engines.md`): what it replaces, how it is laid out, and its length and SHA-256.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub struct DropInEntry {
+    /// The engine, e.g. `three.js`.
+    pub engine: String,
+    /// The file of the engine's source tree it replaces.
+    pub replaces: String,
+    /// The table whose stored values it holds.
+    pub table: String,
+    /// The file of this folder whose values it repeats.
+    pub source_file: String,
+    /// Its layout: identifiers, shape, order, encoding, and the conventions the engine samples it with.
+    pub layout: Vec<String>,
+    /// The file's length in bytes.
+    pub bytes: u64,
+    /// SHA-256 of the file's bytes, in lowercase hex.
+    pub sha256: String,
+}
+
+impl DropInEntry {
+    /// The entry of a drop-in file of `contents` for `engine`.
+    pub fn new(
+        engine: impl Into<String>,
+        replaces: impl Into<String>,
+        table: impl Into<String>,
+        source_file: impl Into<String>,
+        layout: Vec<String>,
+        contents: &[u8],
+    ) -> Self {
+        DropInEntry {
+            engine: engine.into(),
+            replaces: replaces.into(),
+            table: table.into(),
+            source_file: source_file.into(),
+            layout,
+            bytes: contents.len() as u64,
+            sha256: super::sha256_hex(contents),
+        }
+    }
 }
 
 /// The files of a scene shader (`docs/shaders.md`), each verified by `tmlut check` and the loader.
@@ -855,7 +902,7 @@ impl Manifest {
     }
 
     /// Every shader file the manifest lists (a packing's lookups, a fitted form's functions, a
-    /// scene's fitted TIR form, a scene shader's files, a baked shader's files) with the SHA-256 stated for it and, where
+    /// scene's fitted TIR form, a scene shader's files, a baked shader's files, an engine's drop-in files) with the SHA-256 stated for it and, where
     /// the manifest states it, its length; a file listed by several entries once per statement.
     pub fn shader_files(&self) -> std::collections::BTreeSet<(&str, &str, Option<u64>)> {
         let listed = self
@@ -870,7 +917,11 @@ impl Manifest {
         let scene_shader = self.scene_shader.iter().flat_map(|s| &s.files);
         let baked_shader = self.files.values().flat_map(|e| e.baked.iter().flat_map(|b| &b.shader_files));
         let with_lengths = scene_shader.chain(baked_shader);
-        listed.chain(with_lengths.map(|f| (f.file.as_str(), f.sha256.as_str(), Some(f.bytes)))).collect()
+        let drop_ins = self.drop_ins.iter().map(|(file, e)| (file.as_str(), e.sha256.as_str(), Some(e.bytes)));
+        listed
+            .chain(with_lengths.map(|f| (f.file.as_str(), f.sha256.as_str(), Some(f.bytes))))
+            .chain(drop_ins)
+            .collect()
     }
 
     /// Every file the manifest lists, tables and shaders, with the SHA-256 stated for it.
