@@ -222,17 +222,17 @@ pub fn bake_materials<'t>(
 const PREPARE_PASSES: usize = 8;
 
 /// Have `tables` compute, together ([`Tables::prepare`]), the answers each of `materials` will
-/// read at `u = sqrt(mu)` of each of `us`, where they are computed on demand ([`Tables::knows`]): a
+/// read at each view cosine of `mus`, where they are computed on demand ([`Tables::knows`]): a
 /// pass evaluates the models at every point, answering what is not known yet by a stand-in, and
 /// hands over the lookups asked whatever the stand-in ([`lookups_to_come`]); the next pass, with
 /// those known, reaches the lookups that depend on them. What is left (a lookup whose parameters
 /// the stand-ins moved) is computed when the model reads it.
-fn prepare(materials: &[&Material], tables: &(dyn Tables + Sync), us: &[f64]) {
+pub(crate) fn prepare(materials: &[&Material], tables: &(dyn Tables + Sync), mus: &[f64]) {
     for _ in 0..PREPARE_PASSES {
         let missing: Vec<Lookup> = materials
             .iter()
             .flat_map(|&material| {
-                us.par_iter().flat_map_iter(|&u| lookups_to_come(material, tables, u * u)).collect::<Vec<_>>()
+                mus.par_iter().flat_map_iter(|&mu| lookups_to_come(material, tables, mu)).collect::<Vec<_>>()
             })
             .collect();
         if missing.is_empty() {

@@ -128,7 +128,7 @@ pub fn read_points(
     us: &[f64],
 ) -> Result<Vec<Vec<Vec<f64>>>> {
     let models: Vec<&Material> = materials.iter().map(|(_, m)| m).collect();
-    prepare(&models, tables, us);
+    prepare(&models, tables, &us.iter().map(|u| u * u).collect::<Vec<_>>());
     materials
         .iter()
         .map(|(values, material)| {

@@ -78,6 +78,18 @@ pub struct VisibleNormalQuadrature {
     /// Per node of the plain rule, `P_k(2u - 1)` for `k` below the node count: a panel's terms
     /// projected on the Legendre polynomials ([`ReflectedLobe::share_beyond`]).
     legendre_at_nodes: Vec<Vec<f64>>,
+    /// The inner nodes over the whole half circle `[0, pi]`: the piece of every line of constant
+    /// `theta` that no cut crosses and that sees the whole visible half, common near the normal
+    /// and the same at each, so that its sines and cosines are computed once.
+    half_circle: InnerNodes,
+}
+
+/// The inner (`phi`) nodes of one piece between split points: its panels' width, and per node in
+/// order `(sin(phi), cos(phi), w(u) S'(u))`.
+#[derive(Debug, Clone, Default)]
+struct InnerNodes {
+    width: f64,
+    nodes: Vec<(f64, f64, f64)>,
 }
 
 impl VisibleNormalQuadrature {
@@ -92,7 +104,27 @@ impl VisibleNormalQuadrature {
         let plain_panel = gauss_legendre_unit(nodes);
         let unit_panel = plain_panel.iter().map(|&(u, w)| (u * u * (3.0 - 2.0 * u), w * 6.0 * u * (1.0 - u))).collect();
         let legendre_at_nodes = plain_panel.iter().map(|&(u, _)| legendre_polynomials(2.0 * u - 1.0, nodes)).collect();
-        Ok(VisibleNormalQuadrature { unit_panel, plain_panel, legendre_at_nodes })
+        let mut quadrature =
+            VisibleNormalQuadrature { unit_panel, plain_panel, legendre_at_nodes, half_circle: InnerNodes::default() };
+        let mut half_circle = InnerNodes::default();
+        quadrature.inner_nodes(0.0, PI, &mut half_circle);
+        quadrature.half_circle = half_circle;
+        Ok(quadrature)
+    }
+
+    /// The inner nodes of the piece `[c, d]`, in panels no wider than [`MAX_INNER_PANEL_WIDTH`],
+    /// into `out`.
+    fn inner_nodes(&self, c: f64, d: f64, out: &mut InnerNodes) {
+        let panels = ((d - c) / MAX_INNER_PANEL_WIDTH).ceil().max(1.0);
+        out.width = (d - c) / panels;
+        out.nodes.clear();
+        for p in 0..panels as usize {
+            let start = c + out.width * p as f64;
+            out.nodes.extend(self.unit_panel.iter().map(|&(s, v)| {
+                let (sin_p, cos_p) = (start + out.width * s).sin_cos();
+                (sin_p, cos_p, v)
+            }));
+        }
     }
 
     /// Nodes per panel.
@@ -126,6 +158,7 @@ impl VisibleNormalQuadrature {
         let mut sums = [0.0; N];
         let mut total = 0.0;
         let mut inner = Vec::with_capacity(8);
+        let mut piece_nodes = InnerNodes::default();
         for edges in outer.windows(2) {
             let (a, b) = (edges[0], edges[1]);
             for &(s, w) in &self.unit_panel {
@@ -138,22 +171,23 @@ impl VisibleNormalQuadrature {
                 inner_edges(sin_t, cos_t, sin_i, cos_i, cuts, &mut inner);
                 for piece in inner.windows(2) {
                     let (c, d) = (piece[0], piece[1]);
-                    let panels = ((d - c) / MAX_INNER_PANEL_WIDTH).ceil().max(1.0);
-                    let width = (d - c) / panels;
-                    for p in 0..panels as usize {
-                        let start = c + width * p as f64;
-                        for &(s, v) in &self.unit_panel {
-                            let (sin_p, cos_p) = (start + width * s).sin_cos();
-                            let h = DVec3::new(sin_t * cos_p, sin_t * sin_p, cos_t);
-                            let visible = wi.dot(h).max(0.0);
-                            let weight = theta_weight * v * width * visible;
-                            if weight == 0.0 {
-                                continue;
-                            }
-                            total += weight;
-                            for (sum, value) in sums.iter_mut().zip(f(&sample(h))) {
-                                *sum += weight * value;
-                            }
+                    let nodes = if c == 0.0 && d == PI {
+                        &self.half_circle
+                    } else {
+                        self.inner_nodes(c, d, &mut piece_nodes);
+                        &piece_nodes
+                    };
+                    let width = nodes.width;
+                    for &(sin_p, cos_p, v) in &nodes.nodes {
+                        let h = DVec3::new(sin_t * cos_p, sin_t * sin_p, cos_t);
+                        let visible = wi.dot(h).max(0.0);
+                        let weight = theta_weight * v * width * visible;
+                        if weight == 0.0 {
+                            continue;
+                        }
+                        total += weight;
+                        for (sum, value) in sums.iter_mut().zip(f(&sample(h))) {
+                            *sum += weight * value;
                         }
                     }
                 }
