@@ -50,8 +50,9 @@ const LAYERS: &[&[&str]] = &[
     &["recipes"],
     &["config"],
     // The build's own steps: the locked output folder, the fit's search, the error maps; the
-    // model's lookups answered by quadrature (what the furnace, the bake and the checks compare with).
-    &["commit", "fit", "report/error_map", "exact"],
+    // model's lookups answered by quadrature (what the furnace, the bake and the checks compare with);
+    // the engine presets, a configuration and the engine file written from its table.
+    &["commit", "fit", "report/error_map", "exact", "presets"],
     // Forms written as text: fitted by the fit's search, certified by the recipes' exact
     // integrals, written as one set by the commit; the form the build fits (`fit/forms/build`).
     &["fit/forms"],
