@@ -5,8 +5,9 @@ Usage: hlsl_check.py GLSLANG_VALIDATOR DIR [DIR ...]
 glslangValidator (Khronos; the Debian package glslang-tools) compiles HLSL to SPIR-V for Vulkan. A
 tmlut HLSL file is a library of functions without an entry point, so each is compiled with a small
 compute entry point appended that calls the functions a renderer calls and stores their results:
-  - a scene shader (a `<stem>.shader.json` beside it): every material's function and the dispatch
-    function, at a view cosine per thread, every field of its TmResult;
+  - a scene shader (a `<stem>.shader.json` beside it): every material's function (a varied baked
+    material's at its parameters' nominal values) and the dispatch function, at a view cosine per
+    thread, every field of its TmResult;
   - any other file (a packing's lookup, a fitted form): every function whose parameters are floats
     or textures, with a texture of the parameter's type bound for each texture.
 The compile goes through code generation (`-V`) and SPIRV-Tools' legalisation, so a texture load,
@@ -31,7 +32,11 @@ FUNCTION = re.compile(r"^(float[234]?|TmResult)\s+(\w+)\s*\(([^)]*)\)\s*\{", re.
 def scene_entry(description: dict) -> str:
     lobes = description["max_lobes"]
     lines = [f"    float mu = float(id.x) / 63.0;", "    float sum = 0.0;"]
-    calls = [f"{material['function']}(mu)" for material in description["materials"]]
+    # A material whose textures vary parameters (a baked one) takes them after mu: its nominal values.
+    calls = [
+        f"{material['function']}({', '.join(['mu'] + [repr(float(p['nominal'])) for p in material.get('parameters', [])])})"
+        for material in description["materials"]
+    ]
     # The dispatch function too, at an index the invocation decides, so that no case is folded away.
     if description.get("dispatch_function"):
         calls.append(f"{description['dispatch_function']}(id.x % {len(description['materials'])}u, mu)")
