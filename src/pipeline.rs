@@ -192,6 +192,10 @@ pub fn write_jobs(
     mut scene: Option<SceneRecord>,
     progress: &dyn Progress,
 ) -> Result<Vec<WrittenFile>> {
+    // Every job of a preset's build carries the preset; a build without one leaves the folder
+    // another build's, held to the default budgets again.
+    let preset = jobs.iter().find_map(|job| job.preset.as_ref());
+    let preset = preset.map(|p| crate::formats::manifest::PresetRecord::new(&p.name, p.built_in));
     let folder = OutputFolder::take(out, |message| progress.note(message))?;
     // Read the old manifest before integrating, so that a foreign or damaged one stops the build
     // before minutes of work rather than after.
@@ -285,6 +289,7 @@ pub fn write_jobs(
     if scene.is_some() {
         manifest.scene = scene;
     }
+    manifest.preset = preset;
     write_manifest(&manifest, &staging.dir)?;
     removals.retain(|file| !moves.iter().any(|m| &m.destination == file));
     removals.sort();

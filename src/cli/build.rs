@@ -157,6 +157,8 @@ pub fn exec(args: BuildArgs, context: &Context) -> tmlut::Result<()> {
 /// `--preset`: the preset's tables and its engine's file, with `--seed`, `--method` and `--threads`.
 fn build_preset(name: &str, args: &BuildArgs, context: &Context) -> tmlut::Result<()> {
     let mut preset = tmlut::presets::Preset::load(name)?;
+    // A misspelt budget would otherwise surface only when `check` reads it, after the build.
+    tmlut::report::check::Budgets::of_preset(&preset)?;
     if let Some(seed) = args.seed {
         preset.config.seed = seed;
     }

@@ -23,9 +23,13 @@ pub const COULD_NOT_RUN: u8 = 2;
 pub struct CheckArgs {
     /// The output folder (with its manifest.json).
     dir: PathBuf,
-    /// Budgets file (default: the committed budgets.toml, for the default LUT set).
+    /// Budgets file (default: the budgets of the preset the folder was built with, `tmlut build
+    /// --preset`, else the committed budgets.toml, for the default LUT set).
     #[arg(long)]
     budgets: Option<PathBuf>,
+    /// Hold the folder to this preset's budgets: a name (`tmlut list`) or a preset file.
+    #[arg(long, value_name = "NAME|FILE", conflicts_with = "budgets")]
+    preset: Option<String>,
     /// How findings are printed: lines; json (one report: status, summary, findings with numbers
     /// as numbers, printed even when the folder cannot be checked); github (workflow commands: an
     /// error annotation per exceeded budget and a notice with the counts).
@@ -91,9 +95,10 @@ pub fn exec(args: CheckArgs, _: &Context) -> ExitCode {
 
 /// Every finding, or why the folder could not be checked.
 fn findings(args: &CheckArgs) -> tmlut::Result<Vec<check::Finding>> {
-    let mut budgets = match &args.budgets {
-        Some(path) => check::Budgets::from_file(path)?,
-        None => check::Budgets::from_toml(check::DEFAULT_BUDGETS, "budgets.toml (built in)")?,
+    let mut budgets = match (&args.budgets, &args.preset) {
+        (Some(path), _) => check::Budgets::from_file(path)?,
+        (None, Some(preset)) => check::Budgets::of_preset(&tmlut::presets::Preset::load(preset)?)?,
+        (None, None) => check::Budgets::for_folder(&args.dir)?,
     };
     budgets.strict = args.strict;
     check::check_folder(&args.dir, &budgets)

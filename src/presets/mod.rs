@@ -14,6 +14,11 @@
 //!
 //! The presets of `luts/presets/` are built into the binary, so `--preset threejs` works from any
 //! folder; `--preset path/to/edited.toml` reads a copy a user changed.
+//!
+//! A preset may hold the error budgets of its tables, as `[budgets.<table>]` sections with the keys
+//! of `budgets.toml`: an engine's tables are smaller than the default set's, so the default budgets
+//! (meant for 512 x 512 split sums) would fail them. The build records the preset in the folder's
+//! manifest, and `tmlut check` holds the folder to those budgets.
 
 pub mod threejs;
 
@@ -38,8 +43,12 @@ pub fn names() -> Vec<&'static str> {
 #[derive(Debug, Clone)]
 pub struct Preset {
     pub name: String,
+    /// Whether it is one of `luts/presets/`, found by name.
+    pub built_in: bool,
     pub section: PresetSection,
     pub config: Config,
+    /// The `[budgets]` section as written, for `tmlut check` to read as a budgets file.
+    pub budgets: Option<String>,
 }
 
 /// The `[preset]` section.
@@ -82,7 +91,10 @@ impl Preset {
             return Preset::from_toml(&stem, &text, name);
         }
         match BUILT_IN.iter().find(|(known, _)| *known == name) {
-            Some((_, text)) => Preset::from_toml(name, text, &format!("luts/presets/{name}.toml")),
+            Some((_, text)) => {
+                let preset = Preset::from_toml(name, text, &format!("luts/presets/{name}.toml"))?;
+                Ok(Preset { built_in: true, ..preset })
+            }
             None => Err(Error::invalid(
                 "--preset",
                 format!(
@@ -103,8 +115,13 @@ impl Preset {
         let section: PresetSection = section
             .try_into()
             .map_err(|e: toml::de::Error| Error::invalid(format!("{origin}: [preset]"), e.message().to_string()))?;
+        let budgets = match file.remove("budgets") {
+            Some(toml::Value::Table(budgets)) => Some(toml::to_string(&budgets).expect("a parsed TOML table prints")),
+            Some(_) => return Err(Error::invalid(format!("{origin}: budgets"), "must be sections, [budgets.<table>]")),
+            None => None,
+        };
         let config = Config::from_toml(&toml::to_string(&file).expect("a parsed TOML table prints"), origin)?;
-        let preset = Preset { name: name.to_string(), section, config };
+        let preset = Preset { name: name.to_string(), built_in: false, section, config, budgets };
         preset.validate()?;
         Ok(preset)
     }

@@ -19,6 +19,7 @@ use crate::formats::read_bytes;
 use crate::formats::slice_array::SliceArrayEntry;
 use crate::furnace::report::{FURNACE_FILE, FurnaceReport};
 use crate::loader::{sha256_hex, table_disagreements};
+use crate::presets::Preset;
 use crate::table::Table;
 
 /// The budgets committed with the project, for the default LUT set (`luts/default.toml`).
@@ -204,6 +205,34 @@ impl Budgets {
     pub fn from_file(path: &Path) -> Result<Self> {
         let text = crate::formats::read_text_at_most(path, crate::formats::MAX_TEXT_INPUT_BYTES, "a budgets file")?;
         Self::from_toml(&text, &path.display().to_string())
+    }
+}
+
+impl Budgets {
+    /// The budgets a preset states for its tables (`[budgets.<table>]`; `presets`): none budgeted
+    /// where it states none.
+    pub fn of_preset(preset: &Preset) -> Result<Self> {
+        let origin = format!("the [budgets] of preset `{}`", preset.name);
+        Self::from_toml(preset.budgets.as_deref().unwrap_or_default(), &origin)
+    }
+
+    /// What `check` holds `dir` to when given no budgets: the budgets of the preset its manifest
+    /// says built it, else the default set's.
+    pub fn for_folder(dir: &Path) -> Result<Self> {
+        // A manifest that cannot be read is `check_folder`'s finding to report, not this one's.
+        let record = Manifest::read(&dir.join(MANIFEST_FILE)).ok().and_then(|manifest| manifest.preset);
+        match record {
+            None => Self::from_toml(DEFAULT_BUDGETS, "budgets.toml (built in)"),
+            Some(record) if record.built_in => Self::of_preset(&Preset::load(&record.name)?),
+            Some(record) => Err(Error::invalid(
+                dir.display().to_string(),
+                format!(
+                    "was built with the edited preset `{}`, which check cannot find by name: pass its file with \
+                     --preset FILE.toml, or a budgets file with --budgets",
+                    record.name
+                ),
+            )),
+        }
     }
 }
 

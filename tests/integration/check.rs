@@ -499,3 +499,58 @@ fn fits_and_every_slice_of_a_kind_are_budgeted_and_strict_mode_fails_what_no_bud
     assert!(text.contains("FAIL gd.dds: budget is no [gd] section"), "{text}");
     assert!(!text.lines().any(|l| l.starts_with("FAIL fgd_") || l.starts_with("FAIL tir_")), "{text}");
 }
+
+#[test]
+fn a_preset_folder_is_held_to_the_presets_budgets() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("threejs");
+    let output = tmlut(&["build", "--quiet", "--preset", "threejs", "--out", out.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let folder = out.to_str().unwrap();
+
+    // The manifest names the preset, and check finds its budgets by that name.
+    let passed = tmlut(&["check", folder, "--json"]);
+    let report = json_report(&String::from_utf8_lossy(&passed.stdout));
+    assert_eq!(passed.status.code(), Some(0), "{report}");
+    let budgeted = report["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["check"].as_str().is_some_and(|c| c.starts_with("interpolation_rms")));
+    assert_eq!(budgeted.count(), 4, "both karis files, both domains: {report}");
+
+    // The default set's budgets are a 512 x 512 table's: the 16 x 16 one fails them by name.
+    let (held, text) = check(&out, &repo("budgets.toml"), &[]);
+    assert!(!held && text.contains("FAIL karis.dds: interpolation_rms (whole domain)"), "{text}");
+
+    // An edited preset is recorded by its file's stem, which check cannot look up: it says so
+    // (exit 2), and holds the folder to the file's budgets when given it.
+    let edited = dir.path().join("my-threejs.toml");
+    let text = std::fs::read_to_string(repo("luts/presets/threejs.toml")).unwrap();
+    std::fs::write(&edited, text.replace("max_reference_rms = 1e-5", "max_reference_rms = 1e-7")).unwrap();
+    let mine = dir.path().join("mine");
+    let output = tmlut(&["build", "-q", "--preset", edited.to_str().unwrap(), "--out", mine.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let unknown = tmlut(&["check", mine.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&unknown.stderr);
+    assert_eq!(unknown.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("edited preset `my-threejs`") && stderr.contains("--preset FILE.toml"), "{stderr}");
+    let tightened = tmlut(&["check", mine.to_str().unwrap(), "--preset", edited.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&tightened.stdout);
+    assert_eq!(tightened.status.code(), Some(1), "{stdout}");
+    assert!(stdout.contains("FAIL karis.dds: reference_rms") && stdout.contains("budget <= 1.000e-7"), "{stdout}");
+
+    // A misspelt budget is refused before the build, by its key.
+    std::fs::write(&edited, text.replace("max_reference_rms = 1e-5", "max_refrence_rms = 1e-5")).unwrap();
+    let misspelt = dir.path().join("misspelt");
+    let output = tmlut(&["build", "-q", "--preset", edited.to_str().unwrap(), "--out", misspelt.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success() && stderr.contains("max_refrence_rms"), "{stderr}");
+    assert!(!misspelt.exists());
+
+    // A build of another configuration into the folder makes it no preset's any more.
+    let output = tmlut(&["build", "-q", "--config", &repo("luts/ci.toml"), "--only", "karis", "--out", folder]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let manifest = std::fs::read_to_string(out.join("manifest.json")).unwrap();
+    assert!(!manifest.contains("\"preset\""), "{manifest}");
+}

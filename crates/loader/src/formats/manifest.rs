@@ -77,6 +77,27 @@ pub struct Manifest {
     /// a table rewritten in the layout and encoding of the file that engine ships.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub drop_ins: BTreeMap<String, DropInEntry>,
+    /// The engine preset of the last build into this folder, where that build was a preset's
+    /// (`tmlut build --preset`): `tmlut check` holds the folder to that preset's budgets.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<PresetRecord>,
+}
+
+/// The preset a folder was built with.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub struct PresetRecord {
+    /// Its name: a preset of `luts/presets/` (`built_in`), or the stem of the file a user edited.
+    pub name: String,
+    /// Whether it is one of tmlut's own presets, which `check` can find by name.
+    pub built_in: bool,
+}
+
+impl PresetRecord {
+    /// The record of preset `name`.
+    pub fn new(name: impl Into<String>, built_in: bool) -> Self {
+        PresetRecord { name: name.into(), built_in }
+    }
 }
 
 /// An engine's own file, holding a table of this folder in that engine's layout
