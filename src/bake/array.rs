@@ -141,6 +141,9 @@ pub fn summary(array: &BakedArrayEntry) -> String {
         array.layer_extent[0],
         array.layer_extent[1]
     );
+    if super::measured_against_its_tables(array) {
+        let _ = writeln!(out, "  errors against {}", super::TABLES_REFERENCE);
+    }
     let mut by_error: Vec<&BakedMaterialEntry> = materials.iter().collect();
     by_error.sort_by(|a, b| b.error.max().total_cmp(&a.error.max()));
     for m in by_error.iter().take(MATERIALS_LISTED) {

@@ -38,6 +38,20 @@ impl BakeSource {
     }
 }
 
+/// The source of a bake from the folder's tables, in the manifest's words (`baked.source`).
+pub const TABLES_SOURCE: &str = "the folder's tables, read as the scene shader reads them";
+
+/// What a bake from the folder's tables measures its materials' errors against (the start of
+/// `baked.materials[].error.against`): its own source, so that the error is the bake's alone.
+pub const TABLES_REFERENCE: &str = "the model with the folder's tables it was baked from (against the model with exact \
+                                    integrals: tmlut furnace's errors.baked)";
+
+/// Whether a baked array's errors are measured against the folder's tables it was baked from, not
+/// against the model with exact integrals.
+pub fn measured_against_its_tables(array: &tmlut_loader::formats::baked::BakedArrayEntry) -> bool {
+    array.source == TABLES_SOURCE
+}
+
 /// How a scene is baked (the `[bake]` section).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -47,8 +61,8 @@ pub struct BakeConfig {
     pub nodes: usize,
     /// [`BakeSettings::tolerance`].
     pub tolerance: f64,
-    /// Gauss–Legendre nodes per panel of the exact integrals (the bake's, where its source is
-    /// exact, and its errors' always).
+    /// Gauss–Legendre nodes per panel of the exact integrals (the bake's and its errors', where its
+    /// source is exact).
     pub exact_nodes: usize,
     /// The files the array is written as.
     pub formats: Vec<FileFormat>,

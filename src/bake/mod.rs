@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use crate::formats::baked::BakedAxis;
 use crate::integrate::Progress;
 use crate::model::{Lookup, Material, Tables};
-pub use config::{BakeConfig, BakeSource};
+pub use config::{BakeConfig, BakeSource, TABLES_REFERENCE, TABLES_SOURCE, measured_against_its_tables};
 pub use errors::{BakedErrors, Worst, baked_errors};
 pub use layout::BakeLayout;
 pub use placement::NodePlacement;

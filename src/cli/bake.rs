@@ -39,7 +39,9 @@ pub struct BakeArgs {
 #[derive(Args, Clone)]
 pub struct BakeOptions {
     /// What the model reads its integrals from: `exact` (quadrature; the bake's error replaces the
-    /// tables') or `tables` (the folder's own, as the scene shader reads them). [default: exact]
+    /// tables') or `tables` (the folder's own, as the scene shader reads them; each material's
+    /// error is then measured against them, and `tmlut furnace` measures it against exact
+    /// integrals). [default: exact]
     #[arg(long, value_parser = parse_source)]
     bake_source: Option<BakeSource>,
     /// Nodes of mu per material (9 to 8192). [default: 64]

@@ -84,6 +84,14 @@ pub struct VisibleNormalQuadrature {
     half_circle: InnerNodes,
 }
 
+/// Whether an integrand reads the components of `h` and `wo` across the plane of incidence, which
+/// need the sine of each azimuth node.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum AzimuthSine {
+    Used,
+    Unused,
+}
+
 /// The inner (`phi`) nodes of one piece between split points: its panels' width, and per node in
 /// order `(sin(phi), cos(phi), w(u) S'(u))`.
 #[derive(Debug, Clone, Default)]
@@ -107,23 +115,30 @@ impl VisibleNormalQuadrature {
         let mut quadrature =
             VisibleNormalQuadrature { unit_panel, plain_panel, legendre_at_nodes, half_circle: InnerNodes::default() };
         let mut half_circle = InnerNodes::default();
-        quadrature.inner_nodes(0.0, PI, &mut half_circle);
+        quadrature.inner_nodes(0.0, PI, AzimuthSine::Used, &mut half_circle);
         quadrature.half_circle = half_circle;
         Ok(quadrature)
     }
 
     /// The inner nodes of the piece `[c, d]`, in panels no wider than [`MAX_INNER_PANEL_WIDTH`],
-    /// into `out`.
-    fn inner_nodes(&self, c: f64, d: f64, out: &mut InnerNodes) {
+    /// into `out`; with `sine` [`AzimuthSine::Unused`], every node's `sin(phi)` is left 0.
+    fn inner_nodes(&self, c: f64, d: f64, sine: AzimuthSine, out: &mut InnerNodes) {
         let panels = ((d - c) / MAX_INNER_PANEL_WIDTH).ceil().max(1.0);
         out.width = (d - c) / panels;
         out.nodes.clear();
         for p in 0..panels as usize {
             let start = c + out.width * p as f64;
-            out.nodes.extend(self.unit_panel.iter().map(|&(s, v)| {
-                let (sin_p, cos_p) = (start + out.width * s).sin_cos();
-                (sin_p, cos_p, v)
-            }));
+            let width = out.width;
+            // Two loops, not a choice per node: within one, the compiler computes both anyway.
+            match sine {
+                AzimuthSine::Used => out.nodes.extend(self.unit_panel.iter().map(|&(s, v)| {
+                    let (sin_p, cos_p) = (start + width * s).sin_cos();
+                    (sin_p, cos_p, v)
+                })),
+                AzimuthSine::Unused => {
+                    out.nodes.extend(self.unit_panel.iter().map(|&(s, v)| (0.0, (start + width * s).cos(), v)))
+                }
+            }
         }
     }
 
@@ -141,6 +156,21 @@ impl VisibleNormalQuadrature {
         mu: f64,
         alpha: f64,
         cuts: &[Cut],
+        f: impl Fn(&MicrofacetSample) -> [f64; N],
+    ) -> [f64; N] {
+        self.integrate_with(mu, alpha, cuts, AzimuthSine::Used, f)
+    }
+
+    /// [`VisibleNormalQuadrature::integrate`], where with `sine` [`AzimuthSine::Unused`] the
+    /// samples' `h.y` and `wo.y` are 0 instead of their values: for an integrand of `wi.h`, `h.z`,
+    /// `wo.z` alone, which then has the same bits while no node of a cut piece computes its sine.
+    /// (`wi.y` is 0, so `wi.h` and everything built from it but those two components are the same.)
+    fn integrate_with<const N: usize>(
+        &self,
+        mu: f64,
+        alpha: f64,
+        cuts: &[Cut],
+        sine: AzimuthSine,
         f: impl Fn(&MicrofacetSample) -> [f64; N],
     ) -> [f64; N] {
         let wi = direction_from_cosine(mu.max(GRAZING_COSINE));
@@ -174,7 +204,7 @@ impl VisibleNormalQuadrature {
                     let nodes = if c == 0.0 && d == PI {
                         &self.half_circle
                     } else {
-                        self.inner_nodes(c, d, &mut piece_nodes);
+                        self.inner_nodes(c, d, sine, &mut piece_nodes);
                         &piece_nodes
                     };
                     let width = nodes.width;
@@ -211,8 +241,14 @@ impl VisibleNormalQuadrature {
     ) -> [f64; N] {
         let mut cuts = vec![Cut::MirrorCosine(0.0)];
         cuts.extend(kinks.iter().map(|&c| Cut::HalfCosine(c)));
-        self.integrate(mu, alpha, &cuts, |s| {
+        // Every masking model's weight reads `wo.z` alone (the `tan^2` of Smith's Lambda, or the
+        // cosine of Schlick's G1), and `f` reads `wi.h`: the sines of `phi` go unused. Below the
+        // horizon the weight is 0 and so is every term (`f` is finite there), whatever `f` says.
+        self.integrate_with(mu, alpha, &cuts, AzimuthSine::Unused, |s| {
             let weight = masking.visible_normal_weight(s.wi, s.wo, alpha);
+            if weight == 0.0 {
+                return [0.0; N];
+            }
             f(s.cos_wi_h).map(|v| weight * v)
         })
     }
@@ -481,6 +517,31 @@ mod tests {
     use crate::integrate::estimate_visible_normal_integral;
     use crate::physics::MaskingShadowing;
     use crate::sampling::sequence::{PointSet, SamplePlan};
+
+    #[test]
+    fn cosine_functions_have_the_bits_of_the_integral_with_every_sine_and_term() {
+        // `cosine_functions` leaves the azimuths' sines out and skips the terms below the horizon;
+        // the exact integrals (and every table built from them) rely on that changing no bit.
+        let rule = VisibleNormalQuadrature::new(8).unwrap();
+        let fresnel = |c: f64| [crate::physics::fresnel_reflectance(c, 0.66, 0.0), c * c];
+        for masking in MaskingShadowing::ALL {
+            for (mu, alpha) in [(0.02, 0.3), (0.3, 0.05), (0.75, 0.6), (1.0, 0.2), (0.0, 1.0)] {
+                let kinks = [(1.0f64 - 0.66 * 0.66).sqrt()];
+                let mut cuts = vec![Cut::MirrorCosine(0.0)];
+                cuts.extend(kinks.iter().map(|&c| Cut::HalfCosine(c)));
+                let every_term = rule.integrate(mu, alpha, &cuts, |s| {
+                    let weight = masking.visible_normal_weight(s.wi, s.wo, alpha);
+                    fresnel(s.cos_wi_h).map(|v| weight * v)
+                });
+                let fast = rule.cosine_functions(mu, alpha, masking, &kinks, fresnel);
+                assert_eq!(
+                    fast.map(f64::to_bits),
+                    every_term.map(f64::to_bits),
+                    "{masking:?} at mu {mu}, alpha {alpha}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn gauss_legendre_integrates_polynomials_of_degree_2n_minus_1_exactly() {

@@ -15,7 +15,8 @@ use crate::bake::array::{arrange, array_entry, baked_table, material_entry};
 use crate::bake::errors::{baked_errors, error_views, errors_across};
 use crate::bake::varied::{MAX_BLOCKS, MAX_PARAMETER_NODES, MAX_VARIED, values_in_words};
 use crate::bake::{
-    BakeConfig, BakeLayout, BakeSettings, BakeSource, BakedMaterial, HELD_TO_TOLERANCES, MaterialFamily, bake_materials,
+    BakeConfig, BakeLayout, BakeSettings, BakeSource, BakedMaterial, HELD_TO_TOLERANCES, MaterialFamily,
+    TABLES_REFERENCE, TABLES_SOURCE, bake_materials,
 };
 use crate::commit::{Move, OutputFolder};
 use crate::config::Config;
@@ -28,8 +29,8 @@ use crate::formats::manifest::{LeftOutRecord, MANIFEST_FILE, Manifest, SceneShad
 use crate::integrate::Progress;
 use crate::loader::LutFolder;
 use crate::loader::shader::{BAKED_DESCRIPTION_SUFFIX, BakedShaderDescription};
-use crate::model::Material;
 use crate::model::folder::{FgdSource, LibraryTables};
+use crate::model::{Material, Tables};
 use crate::pipeline::{WrittenFile, write_table_file};
 use crate::recipes::driver::{Metadata, Provenance, SamplingRecord, TableBuild};
 use crate::stats::{ErrorRecord, ErrorSummary};
@@ -63,34 +64,45 @@ pub fn write_baked(
     let named: Vec<(&str, &MaterialFamily)> =
         kept.iter().zip(&materials).map(|(&i, material)| (scene.materials[i].name.as_str(), material)).collect();
     let exact = ExactTables::new(config, request.exact_nodes)?;
-    let started = Instant::now();
-    progress.start("bake", materials.len() as u64);
-    let baked = match request.source {
-        BakeSource::Exact => bake_materials(&named, |_| &exact, &request.settings(), progress)?,
+    // Baked from the folder's tables, a material is measured against its source: the error the
+    // bake adds to what it tabulates (`tmlut furnace` measures the baked file against the model
+    // with exact integrals, errors.baked).
+    let library = match request.source {
+        BakeSource::Exact => None,
         BakeSource::Tables => {
             let shader_materials = shader_materials(scene)?;
-            let library = LibraryTables::open(&folder, FgdSource::Packing, shader_materials.iter().map(|m| m.reads()))?;
-            let baked = bake_materials(&named, |i| library.of(kept[i]), &request.settings(), progress)?;
-            for (&index, (name, _)) in kept.iter().zip(&named) {
-                let (misses, _) = library.of(index).take_counts();
-                if misses.count > 0 {
-                    return Err(Error::invalid(
-                        format!("material `{name}`"),
-                        format!(
-                            "{} lookup(s) the folder {} holds no table for, first: {}; build the scene's tables into it \
-                             (tmlut build --scene) or bake from exact integrals",
-                            misses.count,
-                            luts.display(),
-                            misses.first.unwrap_or_default()
-                        ),
-                    ));
-                }
-            }
-            baked
+            Some(LibraryTables::open(&folder, FgdSource::Packing, shader_materials.iter().map(|m| m.reads()))?)
         }
     };
+    let source_of = |scene_index: usize| -> &(dyn Tables + Sync) {
+        match &library {
+            Some(library) => library.of(scene_index),
+            None => &exact,
+        }
+    };
+    let started = Instant::now();
+    progress.start("bake", materials.len() as u64);
+    let baked = bake_materials(&named, |i| source_of(kept[i]), &request.settings(), progress)?;
+    if let Some(library) = &library {
+        for (&index, (name, _)) in kept.iter().zip(&named) {
+            let (misses, _) = library.of(index).take_counts();
+            if misses.count > 0 {
+                return Err(Error::invalid(
+                    format!("material `{name}`"),
+                    format!(
+                        "{} lookup(s) the folder {} holds no table for, first: {}; build the scene's tables into it \
+                         (tmlut build --scene) or bake from exact integrals",
+                        misses.count,
+                        luts.display(),
+                        misses.first.unwrap_or_default()
+                    ),
+                ));
+            }
+        }
+    }
     progress.finish();
-    let (baked, materials) = hold_varied(scene, baked, materials, &exact, &request.settings(), &mut left_out)?;
+    let (baked, materials, kept) =
+        hold_varied(scene, baked, materials, kept, &source_of, &request.settings(), &mut left_out)?;
     let wall_time_s = started.elapsed().as_secs_f64();
     let arrangement = arrange(&baked.iter().map(BakedMaterial::rows).collect::<Vec<_>>())?;
     let table = baked_table(BAKED_TABLE, &baked, &arrangement)?;
@@ -102,7 +114,9 @@ pub fn write_baked(
     for &format in &request.formats {
         let mut file = write_table_file(&staging.dir, &build, format, request.precision)?;
         let stored = crate::loader::load_verified(&file.path, &file.entry)?;
-        let entries = measured_entries(&baked, &materials, &arrangement.places, &stored, &exact)?;
+        let references: Vec<&(dyn Tables + Sync)> = kept.iter().map(|&i| source_of(i)).collect();
+        let against = reference_words(request, &exact);
+        let entries = measured_entries(&baked, &materials, &arrangement.places, &stored, &references, &against)?;
         let source = source_words(request, &exact);
         let mut entry = array_entry(&scene.name, &source, request.tolerance, baked[0].nodes(), &arrangement, entries);
         entry.left_out = left_out.clone();
@@ -242,36 +256,41 @@ fn bakeable(scene: &Scene) -> Result<(Vec<usize>, Vec<LeftOutRecord>)> {
     Ok((kept, left_out))
 }
 
-/// The baked materials and their models without those whose textures vary parameters and which,
-/// baked, err by more than a baked material is held to (`BakeSettings::held_to`; measured as the
-/// file's errors are, on the texels before they are stored): left out, with the parameters, the
-/// size their table took and the error, since at the most nodes a material may take its table
-/// cannot hold them within the limit (a kink of the model that moves with the parameter, such as a
-/// lobe's roughness reaching its clamp, errs in proportion to the node spacing). Refused where no
-/// material is left.
-fn hold_varied<'a>(
+/// The baked materials, their models and their indices in the scene without those whose textures
+/// vary parameters and which, baked, err by more than a baked material is held to
+/// (`BakeSettings::held_to`; measured as the file's errors are, against the source material `i` was
+/// baked from, `source_of(kept[i])`, on the texels before they are stored): left out, with the
+/// parameters, the size their table took and the error, since at the most nodes a material may take
+/// its table cannot hold them within the limit (a kink of the model that moves with the parameter,
+/// such as a lobe's roughness reaching its clamp, errs in proportion to the node spacing). Refused
+/// where no material is left.
+#[allow(clippy::too_many_arguments)]
+fn hold_varied<'a, 't>(
     scene: &Scene,
     baked: Vec<BakedMaterial>,
     materials: Vec<MaterialFamily<'a>>,
-    exact: &ExactTables,
+    kept: Vec<usize>,
+    source_of: &(dyn Fn(usize) -> &'t (dyn Tables + Sync) + Sync),
     settings: &BakeSettings,
     left_out: &mut Vec<LeftOutRecord>,
-) -> Result<(Vec<BakedMaterial>, Vec<MaterialFamily<'a>>)> {
+) -> Result<(Vec<BakedMaterial>, Vec<MaterialFamily<'a>>, Vec<usize>)> {
     let errors: Vec<Option<BakedErrors>> = baked
         .par_iter()
         .zip(&materials)
-        .map(|(b, family)| match b.axes.is_empty() {
+        .zip(&kept)
+        .map(|((b, family), &index)| match b.axes.is_empty() {
             true => Ok(None),
-            false => baked_errors(b, family, exact, ERROR_VIEWS_PER_INTERVAL, GPU_FILTER).map(Some),
+            false => baked_errors(b, family, source_of(index), ERROR_VIEWS_PER_INTERVAL, GPU_FILTER).map(Some),
         })
         .collect::<Result<_>>()?;
-    let (mut held, mut held_materials) = (Vec::new(), Vec::new());
-    for ((b, family), error) in baked.into_iter().zip(materials).zip(errors) {
+    let (mut held, mut held_materials, mut held_indices) = (Vec::new(), Vec::new(), Vec::new());
+    for (((b, family), index), error) in baked.into_iter().zip(materials).zip(kept).zip(errors) {
         match error {
             Some(error) if error.max() > settings.held_to() => left_out.push(too_coarse(&b, &family, &error, settings)),
             _ => {
                 held.push(b);
                 held_materials.push(family);
+                held_indices.push(index);
             }
         }
     }
@@ -282,7 +301,7 @@ fn hold_varied<'a>(
             format!("has no material a bake can hold: {}", reasons.join("; ")),
         ));
     }
-    Ok((held, held_materials))
+    Ok((held, held_materials, held_indices))
 }
 
 /// Why the varied material `baked` is left out: its parameters, its size, and `error`, beyond
@@ -339,37 +358,33 @@ fn check_scene(folder: &LutFolder, scene: &Scene) -> Result<()> {
 }
 
 /// Each material's entry, its error measured on `stored` (the array as written, read back) read
-/// through a GPU's filter, against its model with exact integrals, at views along `mu` and at the
-/// nodes of its varied parameters and midway between them.
+/// through a GPU's filter, against its model evaluated with `references[i]` (what `against`
+/// says), at views along `mu` and at the nodes of its varied parameters and midway between them.
 fn measured_entries(
     baked: &[BakedMaterial],
     materials: &[MaterialFamily],
     places: &[(usize, usize)],
     stored: &crate::table::Table,
-    exact: &ExactTables,
+    references: &[&(dyn Tables + Sync)],
+    against: &str,
 ) -> Result<Vec<BakedMaterialEntry>> {
-    let against = format!(
-        "the model with exact integrals ({} Gauss–Legendre nodes per panel), at the nodes and midway between them \
-         (along mu, and across each varied parameter); the array read as stored through a linear filter with 8-bit \
-         weights; lobe roughness, cosine and GD weighted by the lobe's largest energy",
-        exact.nodes()
+    let where_read = "the array read as stored through a linear filter with 8-bit weights; lobe roughness, cosine and \
+                      GD weighted by the lobe's largest energy";
+    let against_varied = format!(
+        "{against}, at the nodes and midway between them (along mu, and across each varied parameter); {where_read}"
     );
-    let against_nothing_varied = format!(
-        "the model with exact integrals ({} Gauss–Legendre nodes per panel), at the nodes and midway between them; \
-         the array read as stored through a linear filter with 8-bit weights; lobe roughness, cosine and GD weighted \
-         by the lobe's largest energy",
-        exact.nodes()
-    );
+    let against_nothing_varied = format!("{against}, at the nodes and midway between them; {where_read}");
     baked
         .par_iter()
         .zip(materials)
         .zip(places)
-        .map(|((material, model), &place)| {
-            let against = if material.axes.is_empty() { &against_nothing_varied } else { &against };
+        .zip(references)
+        .map(|(((material, model), &place), &reference)| {
+            let against = if material.axes.is_empty() { &against_nothing_varied } else { &against_varied };
             // Placed first: the error is read through the entry's own segments and rows.
             let mut entry = material_entry(material, place, BakedErrors::none(against.as_str()));
             let views = error_views(&material.placement, ERROR_VIEWS_PER_INTERVAL);
-            let error = errors_across(&material.layout, &material.axes, &views, model, exact, |mu, varied| {
+            let error = errors_across(&material.layout, &material.axes, &views, model, reference, |mu, varied| {
                 sample_array(stored, &entry, mu, varied, GPU_FILTER)
             })?;
             entry.error = BakedErrors { against: against.clone(), ..error };
@@ -378,11 +393,22 @@ fn measured_entries(
         .collect()
 }
 
+/// What a bake's errors are measured against, in words: the model with exact integrals, or, baked
+/// from the folder's tables, the model with those tables.
+fn reference_words(request: &BakeConfig, exact: &ExactTables) -> String {
+    match request.source {
+        BakeSource::Exact => {
+            format!("the model with exact integrals ({} Gauss–Legendre nodes per panel)", exact.nodes())
+        }
+        BakeSource::Tables => TABLES_REFERENCE.into(),
+    }
+}
+
 /// The integral source in words, for the manifest.
 fn source_words(request: &BakeConfig, exact: &ExactTables) -> String {
     match request.source {
         BakeSource::Exact => format!("exact integrals ({} Gauss–Legendre nodes per panel)", exact.nodes()),
-        BakeSource::Tables => "the folder's tables, read as the scene shader reads them".into(),
+        BakeSource::Tables => TABLES_SOURCE.into(),
     }
 }
 

@@ -88,6 +88,20 @@ fn a_baked_scene_reads_back_as_its_model_at_the_nodes_and_check_holds_its_error(
     assert_eq!(failed.status.code(), Some(1), "{}", stdout(&failed));
     assert!(stdout(&failed).contains("varnished-copper: baked_error_max"), "{}", stdout(&failed));
 
+    // Baked from the folder's tables, each material's error is measured against those tables, and
+    // the summary, the manifest and `check` say so (the furnace above measures against exact
+    // integrals whatever the source).
+    let from_tables = tmlut(&["bake", &scene_file, "--luts", luts.to_str().unwrap(), "--bake-source", "tables"]);
+    assert!(from_tables.status.success(), "{}", super::stderr(&from_tables));
+    assert!(stdout(&from_tables).contains(&format!("errors against {}", tmlut::bake::TABLES_REFERENCE)));
+    let folder = LutFolder::open(&luts).unwrap();
+    let baked = BakedLut::from_folder(&folder).unwrap();
+    let entry = baked.material(baked.material_index("varnished-copper").unwrap()).unwrap();
+    assert!(entry.error.against.starts_with(tmlut::bake::TABLES_REFERENCE), "{}", entry.error.against);
+    assert!(entry.error.max() > 0.0, "{:?}", entry.error);
+    let checked = tmlut(&["check", luts.to_str().unwrap(), "--budgets", no_budgets.to_str().unwrap()]);
+    assert!(stdout(&checked).contains("baked.dds: max_baked_error (against its tables)"), "{}", stdout(&checked));
+
     // A build of the scene again leaves no bake of the scene it replaced.
     assert!(build(&config, &luts, &["--scene", &scene_file]).status.success());
     assert!(!luts.join("baked.dds").exists() && !luts.join("copper_pot.baked.wgsl").exists());
