@@ -8,8 +8,9 @@ compute entry point appended that calls the functions a renderer calls and store
   - a scene shader (a `<stem>.shader.json` beside it): every material's function (a varied baked
     material's at its parameters' nominal values) and the dispatch function, at a view cosine per
     thread, every field of its TmResult;
-  - any other file (a packing's lookup, a fitted form): every function whose parameters are floats
-    or textures, with a texture of the parameter's type bound for each texture.
+  - any other file (a packing's lookup, a fitted form, an engine preset's functions): every function
+    whose parameters are floats or textures and that returns floats or a struct of them, with a
+    texture of the parameter's type bound for each texture.
 The compile goes through code generation (`-V`) and SPIRV-Tools' legalisation, so a texture load,
 a swizzle or an overload that HLSL refuses fails here, and so does a module too large for SPIR-V:
 a file fails on any error line glslang prints, whatever its exit status
@@ -26,7 +27,9 @@ import tempfile
 from glslang_diagnostics import compile_checked
 
 ENTRY = "tmlut_compile_check"
-FUNCTION = re.compile(r"^(float[234]?|TmResult)\s+(\w+)\s*\(([^)]*)\)\s*\{", re.MULTILINE)
+FUNCTION = re.compile(r"^(\w+)\s+(\w+)\s*\(([^)]*)\)\s*\{", re.MULTILINE)
+# A struct the file declares, with its first field (what a call returning it is summed by).
+STRUCT = re.compile(r"^struct\s+(\w+)\s*\{\s*(float[234]?)\s+(\w+);", re.MULTILINE)
 
 
 def scene_entry(description: dict) -> str:
@@ -55,8 +58,16 @@ def library_entry(text: str) -> tuple[str, str]:
     """The globals and the body calling every function of float and texture parameters."""
     globals_, body = [], ["    float v = float(id.x) / 63.0;", "    float sum = 0.0;"]
     textures: dict[str, str] = {}
+    # A function returning a struct (an engine preset's) is summed by the struct's first field.
+    fields = {struct: f".{field}" + ("" if kind == "float" else ".x") for struct, kind, field in STRUCT.findall(text)}
     for returned, name, parameters in FUNCTION.findall(text):
         if name == ENTRY or returned == "TmResult":
+            continue
+        if returned in ("float", "float2", "float3", "float4"):
+            read = "" if returned == "float" else ".x"
+        elif returned in fields:
+            read = fields[returned]
+        else:
             continue
         arguments = []
         for parameter in filter(None, (p.strip() for p in parameters.split(","))):
@@ -72,7 +83,7 @@ def library_entry(text: str) -> tuple[str, str]:
                 break
         else:
             call = f"{name}({', '.join(arguments)})"
-            body.append(f"    sum += {call}{'.x' if returned != 'float' else ''};")
+            body.append(f"    sum += {call}{read};")
     return "\n".join(globals_), "\n".join(body)
 
 

@@ -263,6 +263,7 @@ pub fn write_jobs(
         let stays = !rebuilt.contains(&entry.table);
         if !stays {
             removals.push(name.clone());
+            removals.extend(entry.shaders.iter().map(|shader| shader.file.clone()));
         }
         stays
     });
@@ -283,6 +284,8 @@ pub fn write_jobs(
         written.push(WrittenFile { path: out.join(&name), entry: file.entry });
     }
     for (name, entry) in drop_ins {
+        let shaders = entry.shaders.iter().map(|shader| &shader.file);
+        moves.extend(shaders.map(|file| Move { staged: file.clone(), destination: file.clone() }));
         moves.push(Move { staged: name.clone(), destination: name.clone() });
         manifest.drop_ins.insert(name, entry);
     }
@@ -341,9 +344,12 @@ impl JobFiles {
         }
         if let (Some(preset), Some(source)) = (&self.preset, staged.files.first()) {
             let stored = stored_values(&build.table, &build.provenance, output.precision)?;
-            if let Some((name, bytes, entry)) = preset.drop_in_of(&stored, &file_name(&source.path)) {
-                formats::write_bytes_atomically(&dir.join(&name), &bytes)?;
-                staged.drop_ins.push((name, entry));
+            if let Some(files) = preset.drop_in_of(&stored, &file_name(&source.path))? {
+                formats::write_bytes_atomically(&dir.join(&files.name), &files.bytes)?;
+                for (name, bytes) in &files.shaders {
+                    formats::write_bytes_atomically(&dir.join(name), bytes)?;
+                }
+                staged.drop_ins.push((files.name, files.entry));
             }
         }
         if let Some(seed) = self.fit_seed {

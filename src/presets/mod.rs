@@ -21,6 +21,7 @@
 //! manifest, and `tmlut check` holds the folder to those budgets.
 
 pub mod threejs;
+pub mod threejs_shader;
 
 use std::path::Path;
 
@@ -28,7 +29,7 @@ use serde::Deserialize;
 
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::formats::manifest::DropInEntry;
+use crate::formats::manifest::{DropInEntry, ShaderFile};
 use crate::table::{Table, TableKind};
 
 /// The presets shipped in `luts/presets/`: name and text.
@@ -164,14 +165,16 @@ impl Preset {
     }
 
     /// The engine file of `table` as stored (`stored`: the values of the table's files), named
-    /// `source_file` in this folder: its name, bytes and manifest entry. None where the preset
-    /// writes no file of this table.
-    pub fn drop_in_of(&self, stored: &Table, source_file: &str) -> Option<(String, Vec<u8>, DropInEntry)> {
-        let drop_in = self.section.drop_in.as_ref().filter(|d| d.table == stored.name)?;
-        Some(match drop_in.format {
+    /// `source_file` in this folder, with the shader functions written beside it. None where the
+    /// preset writes no file of this table.
+    pub fn drop_in_of(&self, stored: &Table, source_file: &str) -> Result<Option<DropInFiles>> {
+        let Some(drop_in) = self.section.drop_in.as_ref().filter(|d| d.table == stored.name) else {
+            return Ok(None);
+        };
+        Ok(Some(match drop_in.format {
             DropInFormat::ThreejsDfgLut => {
                 let text = threejs::dfg_lut_js(stored);
-                let entry = DropInEntry::new(
+                let mut entry = DropInEntry::new(
                     &self.section.engine,
                     threejs::REPLACES,
                     &stored.name,
@@ -179,10 +182,27 @@ impl Preset {
                     threejs::layout_notes(stored),
                     text.as_bytes(),
                 );
-                (threejs::FILE.to_string(), text.into_bytes(), entry)
+                let shaders = threejs_shader::files(&stored.axes)?;
+                entry.shaders = shaders
+                    .iter()
+                    .map(|(lang, file, text)| {
+                        ShaderFile::new(lang.extension(), file, threejs_shader::MULTISCATTERING, text.as_bytes())
+                    })
+                    .collect();
+                let shaders = shaders.into_iter().map(|(_, file, text)| (file, text.into_bytes())).collect();
+                DropInFiles { name: threejs::FILE.to_string(), bytes: text.into_bytes(), entry, shaders }
             }
-        })
+        }))
     }
+}
+
+/// What a preset writes from one table: the engine's file and the shaders beside it.
+pub struct DropInFiles {
+    pub name: String,
+    pub bytes: Vec<u8>,
+    pub entry: DropInEntry,
+    /// The shader files, by name, listed in `entry.shaders`.
+    pub shaders: Vec<(String, Vec<u8>)>,
 }
 
 #[cfg(test)]

@@ -47,6 +47,7 @@ use crate::packing::PackedFgd;
 use reads::{Printing, paths};
 
 pub use material::RecordedMaterial;
+pub use reads::coordinate as texture_coordinate;
 pub use shapes::{CONSTANTS, DISPATCH, HEADER_STRIDE};
 
 /// A material the shader evaluates.

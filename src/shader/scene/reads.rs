@@ -386,7 +386,7 @@ fn padded(n: usize) -> usize {
 
 /// The manifest's texture coordinate of `x` along `axis`, as the CPU's f32 sampler computes it
 /// ([`Axis::texture_coordinate_in`]), printed.
-fn coordinate(axis: &Axis, x: Expr) -> Expr {
+pub fn coordinate(axis: &Axis, x: Expr) -> Expr {
     axis.texture_coordinate_in(InShader(x)).0
 }
 

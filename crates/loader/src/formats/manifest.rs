@@ -119,6 +119,10 @@ pub struct DropInEntry {
     pub bytes: u64,
     /// SHA-256 of the file's bytes, in lowercase hex.
     pub sha256: String,
+    /// Shader functions written beside it that read the table as the engine reads it and apply
+    /// what the engine applies to it (`docs/engines.md`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shaders: Vec<ShaderFile>,
 }
 
 impl DropInEntry {
@@ -139,6 +143,7 @@ impl DropInEntry {
             layout,
             bytes: contents.len() as u64,
             sha256: super::sha256_hex(contents),
+            shaders: Vec::new(),
         }
     }
 }
@@ -939,6 +944,8 @@ impl Manifest {
         let baked_shader = self.files.values().flat_map(|e| e.baked.iter().flat_map(|b| &b.shader_files));
         let with_lengths = scene_shader.chain(baked_shader);
         let drop_ins = self.drop_ins.iter().map(|(file, e)| (file.as_str(), e.sha256.as_str(), Some(e.bytes)));
+        let drop_in_shaders = self.drop_ins.values().flat_map(|e| &e.shaders);
+        let listed = listed.chain(drop_in_shaders.map(|shader| (shader.file.as_str(), shader.sha256.as_str(), None)));
         listed
             .chain(with_lengths.map(|f| (f.file.as_str(), f.sha256.as_str(), Some(f.bytes))))
             .chain(drop_ins)
