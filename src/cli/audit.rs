@@ -8,9 +8,10 @@ use clap::Args;
 use super::Context;
 use super::check::{COULD_NOT_RUN, EXCEEDED};
 
-/// Measure a table an engine ships against exact integrals, at the texels of that engine's layout
-/// and with its conventions (the preset's): per channel the RMS, 99th percentile and largest
-/// |error| and where, NaN or infinity in the file as a finding, and the cause where one is
+/// Measure a table an engine ships against exact integrals, with the engine's conventions (a preset).
+///
+/// At the texels of the engine's layout: per channel the RMS, 99th percentile and largest |error|
+/// and where, NaN or infinity in the file as a finding, and the cause where one is
 /// recognisable (half-float rounding, the sample noise of N samples, a line or the table shifted
 /// by one texel, swapped axes, a flipped axis, the other masking model). Reads the preset's engine
 /// file (threejs: DFGLUTData.js) or a DDS, KTX2 or OpenEXR table of its shape in tmlut's layout.
