@@ -12,6 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tmlut::config::Config;
 use tmlut::integrate::Progress;
 
+mod audit;
 mod bake;
 mod bench;
 mod build;
@@ -59,6 +60,7 @@ enum Command {
     Shader(shader::ShaderArgs),
     List(list::ListArgs),
     Inspect(inspect::InspectArgs),
+    Audit(audit::AuditArgs),
 }
 
 /// What every command may use besides its own arguments.
@@ -74,8 +76,8 @@ impl Context {
 }
 
 /// Run a command and give its exit status: 0 when it did what was asked, 1 when it failed. `check`
-/// tells a budget exceeded (1) from a folder it could not check (2; see `check::exec`), so that CI
-/// tells a worse table from a broken job.
+/// and `audit` tell a budget exceeded (1) from a folder or file they could not check (2; see
+/// `check::exec`), so that CI tells a worse table from a broken job.
 pub fn run(cli: Cli) -> ExitCode {
     let context = Context { quiet: cli.quiet };
     let result = match cli.command {
@@ -85,6 +87,7 @@ pub fn run(cli: Cli) -> ExitCode {
         Command::Cache(args) => cache::exec(args, &context),
         Command::Bench(args) => bench::exec(args, &context),
         Command::Check(args) => return check::exec(args, &context),
+        Command::Audit(args) => return audit::exec(args, &context),
         Command::Stability(args) => stability::exec(args, &context),
         Command::PackReport(args) => pack_report::exec(args, &context),
         Command::Converge(args) => converge::exec(args, &context),

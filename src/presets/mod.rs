@@ -82,6 +82,15 @@ pub enum DropInFormat {
     ThreejsDfgLut,
 }
 
+impl DropInFormat {
+    /// The name of the engine's file.
+    pub fn file_name(self) -> &'static str {
+        match self {
+            DropInFormat::ThreejsDfgLut => threejs::FILE,
+        }
+    }
+}
+
 impl Preset {
     /// The built-in preset `name`, or the preset file at `name` where it names a `.toml` file.
     pub fn load(name: &str) -> Result<Preset> {
@@ -161,6 +170,47 @@ impl Preset {
         })?;
         match drop_in.format {
             DropInFormat::ThreejsDfgLut => threejs::check_settings(&self.config, kind),
+        }
+    }
+
+    /// The table `tmlut audit` measures with this preset (the one its engine file holds) and that
+    /// file's format; refused, saying so, where the preset writes no engine file.
+    pub fn audited_table(&self) -> Result<(TableKind, DropInFormat)> {
+        let drop_in = self.section.drop_in.as_ref().ok_or_else(|| {
+            Error::invalid(
+                "--preset",
+                format!(
+                    "preset `{}` writes no engine file ([preset] drop_in), so it names no shipped table to audit",
+                    self.name
+                ),
+            )
+        })?;
+        let kind = TableKind::named(&drop_in.table).expect("a preset's drop-in table is checked when it is read");
+        Ok((kind, drop_in.format))
+    }
+
+    /// The shape of the engine file's table, in words, for errors.
+    pub fn drop_in_shape(&self) -> Result<String> {
+        let (kind, format) = self.audited_table()?;
+        let template = self.config.recipe(kind).empty_table()?;
+        Ok(match format {
+            DropInFormat::ThreejsDfgLut => threejs::expected_shape(&template),
+        })
+    }
+
+    /// The engine file at `path`, in the preset's drop-in format, as a table on the axes and
+    /// channels the preset builds (read bounded in size; a file of another shape is refused,
+    /// naming the shape expected).
+    pub fn read_drop_in(&self, path: &Path) -> Result<Table> {
+        let (kind, format) = self.audited_table()?;
+        let template = self.config.recipe(kind).empty_table()?;
+        match format {
+            DropInFormat::ThreejsDfgLut => {
+                let text =
+                    crate::formats::read_text_at_most(path, threejs::MAX_FILE_BYTES, "a three.js DFGLUTData.js")?;
+                threejs::table_of_file(&text, &template)
+                    .map_err(|e| Error::invalid(path.display().to_string(), e.to_string()))
+            }
         }
     }
 

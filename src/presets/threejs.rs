@@ -141,22 +141,97 @@ pub fn layout_notes(stored: &Table) -> Vec<String> {
     ]
 }
 
-/// The `DATA` array of a `DFGLUTData.js` text, as half-float bit patterns in file order.
+/// The most bytes of a `DFGLUTData.js` read: three.js's file is a few kilobytes, and a table of
+/// 512 x 512 texels written this way is about 4 MiB.
+pub const MAX_FILE_BYTES: u64 = 8 << 20;
+
+/// The `DATA` array of a `DFGLUTData.js` text, as half-float bit patterns in file order. Spaces and
+/// line breaks may fall anywhere around `new Uint16Array( [`, and comments inside the array are
+/// skipped; each word is a 16-bit integer literal, hexadecimal (`0x3c00`) or decimal.
 pub fn parse_data(text: &str) -> Result<Vec<u16>> {
-    let start = text
-        .find("const DATA = new Uint16Array( [")
-        .ok_or_else(|| Error::invalid(FILE, "no `const DATA = new Uint16Array( [` in the file"))?;
-    let body = &text[start..];
-    let open = body.find('[').expect("the marker holds a bracket") + 1;
-    let close = body.find(']').ok_or_else(|| Error::invalid(FILE, "the DATA array is not closed (`]`)"))?;
-    body[open..close]
-        .split(',')
+    let body = data_array_body(text)?;
+    body.split(',')
         .map(str::trim)
         .filter(|word| !word.is_empty())
         .map(|word| {
-            word.strip_prefix("0x")
-                .and_then(|hex| u16::from_str_radix(hex, 16).ok())
-                .ok_or_else(|| Error::invalid(FILE, format!("`{word}` in DATA is not a 16-bit hex literal (0x....)")))
+            let value = match word.strip_prefix("0x").or_else(|| word.strip_prefix("0X")) {
+                Some(hex) => u16::from_str_radix(hex, 16).ok(),
+                None => word.parse::<u16>().ok(),
+            };
+            value.ok_or_else(|| {
+                let shown: String = word.chars().take(40).collect();
+                Error::invalid(
+                    FILE,
+                    format!("`{shown}` in DATA is not a 16-bit integer literal (0x.... or 0 to 65535)"),
+                )
+            })
         })
         .collect()
+}
+
+/// The text between `new Uint16Array( [` and its `]` after `const DATA =`, comments removed.
+fn data_array_body(text: &str) -> Result<String> {
+    let missing = || Error::invalid(FILE, "no `const DATA = new Uint16Array( [ ... ] )` in the file");
+    let declaration = text.find("const DATA").ok_or_else(missing)?;
+    let rest = text[declaration + "const DATA".len()..].trim_start();
+    let rest = rest.strip_prefix('=').ok_or_else(missing)?.trim_start();
+    let rest = rest.strip_prefix("new").ok_or_else(missing)?.trim_start();
+    let rest = rest.strip_prefix("Uint16Array").ok_or_else(missing)?.trim_start();
+    let rest = rest.strip_prefix('(').ok_or_else(missing)?.trim_start();
+    let rest = rest.strip_prefix('[').ok_or_else(missing)?;
+    let mut body = String::with_capacity(rest.len().min(1 << 20));
+    let mut chars = rest.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, chars.peek()) {
+            (']', _) => return Ok(body),
+            ('/', Some('/')) => {
+                chars.by_ref().find(|&c| c == '\n');
+                body.push(' ');
+            }
+            ('/', Some('*')) => {
+                chars.next();
+                let mut last = ' ';
+                if !chars.by_ref().any(|c| std::mem::replace(&mut last, c) == '*' && c == '/') {
+                    return Err(Error::invalid(FILE, "a comment inside the DATA array is not closed (`*/`)"));
+                }
+                body.push(' ');
+            }
+            _ => body.push(c),
+        }
+    }
+    Err(Error::invalid(FILE, "the DATA array is not closed (`]`)"))
+}
+
+/// The shape a `DFGLUTData.js` of `template`'s axes holds, in words, for errors.
+pub fn expected_shape(template: &Table) -> String {
+    let [height, width] = [template.axes[0].count, template.axes[1].count];
+    format!(
+        "{width} x {height} x {CHANNELS} = {} half floats ({height} rows of n.v, {width} roughness texels each, \
+         (scale, bias) per texel)",
+        width * height * CHANNELS
+    )
+}
+
+/// The table a `DFGLUTData.js` text holds, on the axes and channels of `template` (the preset's
+/// `karis` table): the inverse of [`texels_in_file_order`], every value read from its bit pattern
+/// (NaN and infinity included, for the caller to report). A `DATA` array of any other length is
+/// refused, naming the shape expected.
+pub fn table_of_file(text: &str, template: &Table) -> Result<Table> {
+    let words = parse_data(text)?;
+    let [mu_count, roughness_count] = [template.axes[0].count, template.axes[1].count];
+    if words.len() != mu_count * roughness_count * CHANNELS {
+        return Err(Error::invalid(
+            FILE,
+            format!("DATA holds {} half floats; expected {}", words.len(), expected_shape(template)),
+        ));
+    }
+    let mut table = template.clone();
+    for (texel, pair) in words.chunks(CHANNELS).enumerate() {
+        let (mu, roughness) = (texel / roughness_count, texel % roughness_count);
+        let start = table.node_number(&[mu, roughness]) * CHANNELS;
+        for (value, &bits) in table.data[start..start + CHANNELS].iter_mut().zip(pair) {
+            *value = half::f16::from_bits(bits).to_f32();
+        }
+    }
+    Ok(table)
 }

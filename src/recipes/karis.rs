@@ -97,6 +97,25 @@ fn split_sum_weights(c: f64) -> [f64; 2] {
     [1.0 - fc, fc]
 }
 
+/// The exact `(scale, bias)` at `(mu, alpha)` under `masking`, with the second moment of each
+/// channel's integrand over the visible normals, `E[(W f_j)^2]`: the variance of one
+/// visible-normal sample, which sets the noise of a Monte Carlo table of N samples
+/// (`tmlut audit`). One pass of the quadrature gives both.
+pub fn exact_with_second_moments(
+    quadrature: &VisibleNormalQuadrature,
+    masking: MaskingShadowing,
+    mu: f64,
+    alpha: f64,
+) -> ([f64; CHANNEL_COUNT], [f64; CHANNEL_COUNT]) {
+    let horizon = [crate::integrate::quadrature::Cut::MirrorCosine(0.0)];
+    let [scale, bias, scale_squared, bias_squared] = quadrature.integrate(mu, alpha, &horizon, |s| {
+        let weight = masking.visible_normal_weight(s.wi, s.wo, alpha);
+        let [a, b] = split_sum_weights(s.cos_wi_h).map(|v| weight * v);
+        [a, b, a * a, b * b]
+    });
+    ([scale, bias], [scale_squared, bias_squared])
+}
+
 /// What the manifest says of Unreal Engine 4's masking, where a split-sum table takes it.
 pub(crate) fn schlick_smith_note(masking: MaskingShadowing) -> Option<String> {
     (masking == MaskingShadowing::SchlickSmith).then(|| {

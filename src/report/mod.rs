@@ -1,5 +1,6 @@
 //! Reports a person reads: what a table file holds and under which conventions.
 
+pub mod audit;
 pub mod bench;
 pub mod check;
 pub mod ci;

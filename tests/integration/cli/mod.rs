@@ -3,6 +3,7 @@
 //! `workflows.rs` for tests that run several commands with none dominating; here the helpers the
 //! files share (those the whole binary shares are in `common.rs`).
 
+mod audit;
 mod bake;
 mod bench;
 mod build;
