@@ -696,8 +696,23 @@ mod tests {
             })
             .collect();
         let below = |x: f64| f32::from_bits((x as f32).to_bits() - 1);
-        let mus = [0.0, 0.3, 0.5, below(0.701171875), 0.701171875, 0.723594, 0.9, 1.0, 1.0 + 2.0 * f32::EPSILON];
-        let alphas = [0.0, 0.04, 0.05, 0.1, 0.15, 0.2, 0.3, 0.32525634765625, below(NODE), NODE as f32, 0.42, 0.5, 1.0];
+        let mus =
+            [0.0, 0.3, 0.5, below(0.701171875), 0.701171875_f64 as f32, 0.723594, 0.9, 1.0, 1.0 + 2.0 * f32::EPSILON];
+        let alphas = [
+            0.0,
+            0.04,
+            0.05,
+            0.1,
+            0.15,
+            0.2,
+            0.3,
+            0.32525634765625_f64 as f32,
+            below(NODE),
+            NODE as f32,
+            0.42,
+            0.5,
+            1.0,
+        ];
         for mu in mus {
             for alpha in alphas {
                 let scope = HashMap::from([("mu".to_string(), Value::F(mu)), ("alpha".to_string(), Value::F(alpha))]);
