@@ -21,8 +21,10 @@
 //! other name the generator makes at module scope begins otherwise (`tmh_` for helpers, texture
 //! bindings and slice choosers, `tmlut_` for the fitted TIR form, `fgd_lossless` for the packing's
 //! lookup, `TmResult`), so that no material name can give the name of a helper (`finite-or` once
-//! redefined `tm_finite_or`). A function's locals are `result` and `v<instruction>`.
+//! redefined `tm_finite_or`). A function's locals are `result` and `v<instruction>` (in a shared
+//! function, `v<k>` for the k-th defined: `shapes.rs`).
 
+mod choosers;
 mod helpers;
 mod material;
 mod reads;
@@ -208,9 +210,12 @@ fn first_of(items: &[String], count: usize) -> String {
 
 impl SceneShader {
     /// What one call of each material's function costs ([`super::cost`]: its texture reads and
-    /// operations, the helpers it calls included), in the order of `materials`.
+    /// operations, the helpers it calls included), in the order of `materials`, with its constants
+    /// as the buffer holds them: a shared slice chooser counts the candidates of the material's own
+    /// lookup ([`choosers`]).
     pub fn costs(&self) -> Result<Vec<super::ShaderCost>> {
-        self.materials.iter().map(|m| super::cost(&self.module, &m.function)).collect()
+        let functions: Vec<&str> = self.materials.iter().map(|m| m.function.as_str()).collect();
+        super::costs_with_buffer(&self.module, &functions, (CONSTANTS, self.constants.clone()))
     }
 }
 
@@ -229,7 +234,7 @@ struct Needs {
 /// function a call of it, and [`DISPATCH`] evaluates any material by its index.
 pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<SceneShader> {
     let Parts { mut module, bindings_end, textures, mut described, max_lobes, readers, choosers, functions } =
-        parts(folder, materials)?;
+        parts(folder, materials, true)?;
     let constants_binding = textures.len() as u32;
     module.items.insert(
         bindings_end,
@@ -288,7 +293,7 @@ pub fn generate(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Scen
 /// [`generate`] shares them: no buffer, no dispatch. What the shared functions are held to (bit for
 /// bit, run by the emulator).
 pub fn per_material_module(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Module> {
-    let Parts { mut module, choosers, functions, .. } = parts(folder, materials)?;
+    let Parts { mut module, choosers, functions, .. } = parts(folder, materials, false)?;
     for function in choosers.into_iter().chain(functions) {
         module.push(Item::Function(function));
     }
@@ -297,7 +302,8 @@ pub fn per_material_module(folder: &LutFolder, materials: &[ShaderMaterial]) -> 
 
 /// What the shader of `materials` is made of before its materials' functions are shared: the
 /// module up to them (the struct, the bindings, the helpers and forms), the slice choosers and each
-/// material's function.
+/// material's function. `to_share`: every slice read through a chooser, padded for sharing
+/// ([`choosers::padded`]), else each chooser reading every candidate and one slice read directly.
 struct Parts {
     module: Module,
     /// Where the module's bindings end, for the buffer's.
@@ -310,10 +316,11 @@ struct Parts {
     functions: Vec<super::Function>,
 }
 
-fn parts(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Parts> {
+fn parts(folder: &LutFolder, materials: &[ShaderMaterial], to_share: bool) -> Result<Parts> {
     let manifest_path = folder.dir().join(MANIFEST_FILE);
     let routes = Routes::open(folder, &materials.iter().map(paths).collect::<Vec<_>>(), &Printing)?;
     let mut g = Generator::new(&routes, manifest_path.display().to_string());
+    g.slices_through_choosers = to_share;
     let mut functions = Vec::new();
     let mut described = Vec::new();
     let mut max_lobes = 1;
@@ -427,7 +434,11 @@ fn parts(folder: &LutFolder, materials: &[ShaderMaterial]) -> Result<Parts> {
         described,
         max_lobes,
         readers: g.readers,
-        choosers: g.chooser_functions,
+        choosers: if to_share {
+            choosers::padded(&g.slice_choosers)
+        } else {
+            choosers::reading_each(&g.slice_choosers)
+        },
         functions,
     })
 }
@@ -482,7 +493,9 @@ struct Generator<'a> {
     needs: Needs,
     /// The functions choosing among slices ([`Self::slice`]), by their candidates.
     choosers: BTreeMap<String, String>,
-    chooser_functions: Vec<super::Function>,
+    slice_choosers: Vec<choosers::Chooser>,
+    /// Whether a lookup of one slice is read through a chooser too ([`choosers`]).
+    slices_through_choosers: bool,
     /// The fitted forms the materials name (`tir = "fit:PATH"`), in first use.
     forms: Vec<FittedForm>,
     /// The folder's fitted TIR form, printed as `tmlut_tir` where a material reads it.
@@ -506,7 +519,8 @@ impl<'a> Generator<'a> {
             manifest_path,
             needs: Needs::default(),
             choosers: BTreeMap::new(),
-            chooser_functions: Vec::new(),
+            slice_choosers: Vec::new(),
+            slices_through_choosers: false,
             forms: Vec::new(),
             folder_form: None,
             packing: None,

@@ -14,7 +14,8 @@
 //! from slices, the 3D TIR table (its third axis `eta` or the critical-angle offset), the fitted
 //! form, or off; GD from its 2D table.
 
-use super::super::{Builtin, Expr, Function, Stmt, Ty, assign, call, float, func, let_, name, select, var};
+use super::super::{Builtin, Expr, Ty, call, float, func, name, select};
+use super::choosers::{Candidate, Chooser};
 use super::{Generator, ShaderMaterial};
 use crate::error::{Error, Result};
 use crate::fit::forms::fitted::{FittedForm, FittedFormExt};
@@ -177,10 +178,11 @@ impl Generator<'_> {
     /// over both axes of the distance outside the range, in units of the range, less the slack),
     /// the first of equals: the first that holds it, else the nearest.
     ///
-    /// One candidate is read directly. Where several are, the ones that can never be chosen are
-    /// dropped when `alpha` is known here (a slice whose alpha range misses it by more than the
-    /// slack loses to one that holds it and every `mu`, and so does any slice after that one); the
-    /// rest are compared in a function of their own, `tmh_slice<N>(mu, alpha)`.
+    /// One candidate is read directly, unless slices are read through choosers alone
+    /// ([`super::choosers`]). Where several are, the ones that can never be chosen are dropped
+    /// when `alpha` is known here (a slice whose alpha range misses it by more than the slack loses
+    /// to one that holds it and every `mu`, and so does any slice after that one); the rest are
+    /// compared in a function of their own, `tmh_slice<N>(mu, alpha)`.
     fn slice(&mut self, candidates: Vec<(&TableFile, usize)>, mu: Expr, alpha: Expr, known_alpha: Option<f64>) -> Expr {
         let candidates = match known_alpha {
             Some(alpha) => {
@@ -207,7 +209,7 @@ impl Generator<'_> {
             None => candidates,
         };
         match &candidates[..] {
-            [(t, c)] => self.read2(t, mu, alpha).member(CHANNELS[*c]),
+            [(t, c)] if !self.slices_through_choosers => self.read2(t, mu, alpha).member(CHANNELS[*c]),
             _ => func(&self.slice_chooser(&candidates), vec![mu, alpha]),
         }
     }
@@ -222,33 +224,16 @@ impl Generator<'_> {
             return function;
         }
         let function = format!("tmh_slice{}", self.choosers.len());
-        let mut body = Vec::new();
-        for (k, (t, c)) in candidates.iter().enumerate() {
-            // `slice_choice_distance` in f32: -1 where the range holds (mu, alpha), so that such a
-            // slice beats one the lookup merely lies within the slack of.
-            let distance = slice_choice_distance_in(&t.axes[..2], &[InShader(name("mu")), InShader(name("alpha"))]).0;
-            let value = self.read2(t, name("mu"), name("alpha")).member(CHANNELS[*c]);
-            if k == 0 {
-                body.push(var("nearest", Ty::F32, distance));
-                body.push(var("value", Ty::F32, value));
-            } else {
-                let (d, v) = (format!("distance{k}"), format!("value{k}"));
-                body.push(let_(&d, Ty::F32, distance));
-                body.push(let_(&v, Ty::F32, value));
-                body.push(Stmt::If {
-                    condition: name(&d).lt(name("nearest")),
-                    then: vec![assign(name("nearest"), name(&d)), assign(name("value"), name(&v))],
-                    otherwise: Vec::new(),
-                });
-            }
-        }
-        body.push(Stmt::Return(name("value")));
-        self.chooser_functions.push(Function {
-            name: function.clone(),
-            params: vec![("mu".into(), Ty::F32), ("alpha".into(), Ty::F32)],
-            returns: Ty::F32,
-            body,
-        });
+        let candidates = candidates
+            .iter()
+            .map(|(t, c)| Candidate {
+                // `slice_choice_distance` in f32: -1 where the range holds (mu, alpha), so that such a
+                // slice beats one the lookup merely lies within the slack of.
+                distance: slice_choice_distance_in(&t.axes[..2], &[InShader(name("mu")), InShader(name("alpha"))]).0,
+                value: self.read2(t, name("mu"), name("alpha")).member(CHANNELS[*c]),
+            })
+            .collect();
+        self.slice_choosers.push(Chooser { name: function.clone(), candidates });
         self.choosers.insert(key, function.clone());
         function
     }
@@ -467,28 +452,41 @@ mod tests {
     use std::collections::HashMap;
 
     use super::super::super::{Function, Intrinsic, Op, Stmt};
+    use super::super::choosers::{padded, reading_each};
     use super::*;
+    use crate::loader::ArrayPlace;
     use crate::model::routes::Routes;
+    use crate::shader::scene::shapes;
     use crate::table::Mapping;
 
     /// A value of the chooser functions' f32 arithmetic.
-    #[derive(Debug, Clone, Copy)]
+    #[derive(Debug, Clone, Copy, PartialEq)]
     enum Value {
         F(f32),
         B(bool),
+        U(u32),
+        /// A read of a texture array: the bits of its coordinates and layer.
+        Read([u32; 3]),
     }
 
     impl Value {
         fn f(self) -> f32 {
             match self {
                 Value::F(x) => x,
-                Value::B(_) => panic!("a bool where an f32 is read"),
+                _ => panic!("{self:?} where an f32 is read"),
+            }
+        }
+        /// An f32 or a u32 as compared.
+        fn number(self) -> f64 {
+            match self {
+                Value::U(k) => f64::from(k),
+                _ => f64::from(self.f()),
             }
         }
         fn b(self) -> bool {
             match self {
                 Value::B(b) => b,
-                Value::F(_) => panic!("an f32 where a bool is read"),
+                _ => panic!("{self:?} where a bool is read"),
             }
         }
     }
@@ -506,6 +504,12 @@ mod tests {
                 Expr::Name(texture) => Value::F(texture.trim_start_matches("tmh_table").parse::<f32>().unwrap()),
                 other => panic!("a texture read of {other:?}"),
             },
+            Expr::Function(function, args) if function == "tmh_bilinear_layer" => {
+                let bits = |k: usize| eval(&args[k]).f().to_bits();
+                Value::Read([bits(1), bits(2), bits(5)])
+            }
+            Expr::Construct(Ty::I32, args) => eval(&args[0]),
+            Expr::U32(k) => Value::U(*k),
             // The axis arithmetic's helper, as the CPU's f32 arithmetic computes it (the helper's
             // own body is the GPU's, which the GPU check runs).
             Expr::Function(function, args) if function == "tmh_asinh" => Value::F(eval(&args[0]).f().asinh()),
@@ -539,7 +543,7 @@ mod tests {
                     Op::Sub => Value::F(a.f() - b.f()),
                     Op::Mul => Value::F(a.f() * b.f()),
                     Op::Div => Value::F(a.f() / b.f()),
-                    Op::Compare(compare) => Value::B(compare.holds(f64::from(a.f()), f64::from(b.f()))),
+                    Op::Compare(compare) => Value::B(compare.holds(a.number(), b.number())),
                     Op::And => Value::B(a.b() && b.b()),
                     Op::Or => Value::B(a.b() || b.b()),
                 }
@@ -636,8 +640,89 @@ mod tests {
         let alpha_expr = if known_alpha.is_some() { float(alpha) } else { name("alpha") };
         let read = g.slice(slices.iter().map(|s| (s, 0)).collect(), name("mu"), alpha_expr, known_alpha);
         let scope = HashMap::from([("mu".to_string(), Value::F(mu)), ("alpha".to_string(), Value::F(alpha))]);
-        let binding = evaluate(&read, &scope, &g.chooser_functions).f();
+        let binding = evaluate(&read, &scope, &reading_each(&g.slice_choosers)).f();
         g.textures[binding as usize].file.clone()
+    }
+
+    /// Slice `layer` of one texture array, over `mu` from `mu_start` to 1 and `alpha` in `alpha`.
+    fn array_slice(layer: u32, mu_start: f64, alpha: (f64, f64)) -> TableFile {
+        let place = ArrayPlace { layer, origin: [160 * layer, 12 * layer], layer_extent: [1024, 256], layers: 4 };
+        TableFile {
+            file: "array.dds".into(),
+            table: format!("slice{layer}"),
+            place: Some(place),
+            ..slice_file("", mu_start, alpha)
+        }
+    }
+
+    /// Choosers of one, two and four slices of one array are printed alike, the shorter ones
+    /// padded to four candidates, so they share one function; each reads the slice its own
+    /// candidates choose, and never enters a padding candidate's comparison.
+    #[test]
+    fn a_padded_chooser_never_chooses_a_padding_candidate() {
+        let routes = Routes::of_tir_slices(Vec::new());
+        let mut g = Generator::new(&routes, String::new());
+        g.slices_through_choosers = true;
+        let slices = [
+            array_slice(0, 0.701171875, (NODE, 1.0)),
+            array_slice(1, 0.701171875, (0.32525634765625, 0.4306640625)),
+            array_slice(2, 0.0, (0.1, 0.2)),
+            array_slice(3, 0.5, (0.0, 0.05)),
+        ];
+        let reads: Vec<Expr> = [&slices[..1], &slices[..2], &slices[..]]
+            .map(|some| g.slice(some.iter().map(|t| (t, 0)).collect(), name("mu"), name("alpha"), None))
+            .into();
+        let own = reading_each(&g.slice_choosers);
+        let shared = padded(&g.slice_choosers);
+        let merged = shapes::share(shared.clone(), "slice choosers", |k| format!("shape{k}"), &mut Vec::new()).unwrap();
+        assert_eq!(merged.functions.len(), 1, "the padded choosers are one shape");
+        // A padding candidate chosen would return this instead of a read.
+        const PADDING_CHOSEN: f32 = -7.0;
+        let marked: Vec<Function> = shared
+            .into_iter()
+            .zip(&g.slice_choosers)
+            .map(|(mut function, chooser)| {
+                let candidates = function.body.iter_mut().filter_map(|s| match s {
+                    Stmt::If { then, .. } => Some(then),
+                    _ => None,
+                });
+                // Candidate k is compared in the (k - 1)th.
+                let padding = candidates.skip(chooser.candidates.len() - 1).collect::<Vec<_>>();
+                assert_eq!(padding.len(), slices.len() - chooser.candidates.len(), "{}: padded to 4", chooser.name);
+                for then in padding {
+                    *then = vec![Stmt::Return(float(PADDING_CHOSEN))];
+                }
+                function
+            })
+            .collect();
+        let below = |x: f64| f32::from_bits((x as f32).to_bits() - 1);
+        let mus =
+            [0.0, 0.3, 0.5, below(0.701171875), 0.701171875_f64 as f32, 0.723594, 0.9, 1.0, 1.0 + 2.0 * f32::EPSILON];
+        let alphas = [
+            0.0,
+            0.04,
+            0.05,
+            0.1,
+            0.15,
+            0.2,
+            0.3,
+            0.32525634765625_f64 as f32,
+            below(NODE),
+            NODE as f32,
+            0.42,
+            0.5,
+            1.0,
+        ];
+        for mu in mus {
+            for alpha in alphas {
+                let scope = HashMap::from([("mu".to_string(), Value::F(mu)), ("alpha".to_string(), Value::F(alpha))]);
+                for read in &reads {
+                    let expected = evaluate(read, &scope, &own);
+                    assert!(matches!(expected, Value::Read(_)), "{expected:?}");
+                    assert_eq!(evaluate(read, &scope, &marked), expected, "{read:?} at mu {mu}, alpha {alpha}");
+                }
+            }
+        }
     }
 
     #[test]

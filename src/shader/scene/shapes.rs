@@ -73,6 +73,7 @@ pub(super) fn share(
     let mut shapes: Vec<(Function, Vec<Vec<Literal>>)> = Vec::new();
     let mut member_shapes = Vec::with_capacity(functions.len());
     for mut function in functions {
+        number_locals(&mut function);
         let mut literals = Vec::new();
         let mut abstracted = function.clone();
         abstracted.name.clear();
@@ -150,6 +151,45 @@ pub(super) fn share(
         next[shape] += 1;
     }
     Ok(shared)
+}
+
+/// The locals a recorded function names by their instruction on the tape (`v<instruction>`)
+/// renumbered in the order they are defined, so that two functions whose tapes differ only in
+/// instructions folded away while recording name their locals alike.
+fn number_locals(function: &mut Function) {
+    fn numbered(local: &str) -> bool {
+        local.len() > 1 && local.starts_with('v') && local[1..].bytes().all(|b| b.is_ascii_digit())
+    }
+    fn rename_definitions(body: &mut [Stmt], renamed: &mut HashMap<String, String>) {
+        for stmt in body {
+            match stmt {
+                Stmt::Let { name, .. } | Stmt::Var { name, .. } if numbered(name) => {
+                    let next = format!("v{}", renamed.len());
+                    *name = renamed.entry(std::mem::take(name)).or_insert(next).clone();
+                }
+                Stmt::If { then, otherwise, .. } => {
+                    rename_definitions(then, renamed);
+                    rename_definitions(otherwise, renamed);
+                }
+                Stmt::Switch { cases, default, .. } => {
+                    for (_, case) in cases.iter_mut() {
+                        rename_definitions(case, renamed);
+                    }
+                    rename_definitions(default, renamed);
+                }
+                _ => {}
+            }
+        }
+    }
+    let mut renamed = HashMap::new();
+    rename_definitions(&mut function.body, &mut renamed);
+    walk_stmts(&mut function.body, &mut |e| {
+        if let Expr::Name(local) = e
+            && let Some(new) = renamed.get(local.as_str())
+        {
+            *local = new.clone();
+        }
+    });
 }
 
 /// `literal`'s value as read from constant `k` of the caller's.
@@ -277,7 +317,7 @@ fn walk_stmts(body: &mut [Stmt], f: &mut dyn FnMut(&mut Expr)) {
     }
 }
 
-fn walk(e: &mut Expr, f: &mut dyn FnMut(&mut Expr)) {
+pub(super) fn walk(e: &mut Expr, f: &mut dyn FnMut(&mut Expr)) {
     match e {
         Expr::Name(_) | Expr::F32(_) | Expr::I32(_) | Expr::U32(_) => {}
         Expr::Binary(_, a, b) | Expr::Element(a, b) => {

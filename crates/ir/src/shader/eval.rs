@@ -153,7 +153,22 @@ impl Context<'_> {
 /// texels unknown too): the branches constants decide are followed, the others counted at their
 /// larger branch.
 pub fn cost(module: &Module, function: &str) -> Result<ShaderCost> {
-    let machine = Machine::new(module)?;
+    cost_on(&Machine::new(module)?, function)
+}
+
+/// [`cost`] of each of `functions`, the module's storage buffer `buffer` holding `values`: the
+/// branches its contents decide are followed too.
+pub fn costs_with_buffer(
+    module: &Module,
+    functions: &[&str],
+    (buffer, values): (&str, Vec<f32>),
+) -> Result<Vec<ShaderCost>> {
+    let mut machine = Machine::new(module)?;
+    machine.bind_buffer(buffer, values)?;
+    functions.iter().map(|function| cost_on(&machine, function)).collect()
+}
+
+fn cost_on(machine: &Machine, function: &str) -> Result<ShaderCost> {
     let arguments = machine
         .function(function)?
         .params

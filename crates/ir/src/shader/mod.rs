@@ -956,7 +956,7 @@ pub fn comment_block(prefix: &str, text: &str) -> String {
 }
 
 pub mod eval;
-pub use eval::{ShaderCost, cost};
+pub use eval::{ShaderCost, cost, costs_with_buffer};
 pub mod lower;
 mod notation;
 
