@@ -6,9 +6,10 @@
 //! is read from the storage buffer `tmh_constants` at `base + k`, where `base` is the first of the
 //! material's constants there. The slice choosers a material calls are shared the same way first
 //! (`tmh_slices<N>(base, mu, alpha)`), a chooser's `base` a literal of its caller's. So the module
-//! grows with the number of shapes, not of materials (a generated library of 1,000 materials has
-//! 34), and a material's constants are data: `(shape, base)` of material `i` are elements `2i` and
-//! `2i + 1` of the buffer, which `tm_material(index, mu)` reads to call its shape.
+//! grows with the number of shapes, not of materials (docs/benchmark.md, "The library shader",
+//! counts them for a generated library of 1,000), and a material's constants are data: `(shape,
+//! base)` of material `i` are elements `2i` and `2i + 1` of the buffer, which `tm_material(index,
+//! mu)` reads to call its shape.
 //!
 //! The shape function computes what the material's own function computes, in the same operations
 //! and order, each literal read as the f32 it was printed as: the same bits (the emulator's
