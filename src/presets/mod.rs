@@ -100,6 +100,12 @@ impl Preset {
             let stem = path.file_stem().map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
             return Preset::from_toml(&stem, &text, name);
         }
+        Preset::built_in(name)
+    }
+
+    /// The built-in preset `name`, never a file: what a folder's manifest names is looked up here,
+    /// so that a manifest cannot make `check` read a path it states.
+    pub fn built_in(name: &str) -> Result<Preset> {
         match BUILT_IN.iter().find(|(known, _)| *known == name) {
             Some((_, text)) => {
                 let preset = Preset::from_toml(name, text, &format!("luts/presets/{name}.toml"))?;

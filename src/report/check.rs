@@ -224,7 +224,7 @@ impl Budgets {
         let record = Manifest::read(&dir.join(MANIFEST_FILE)).ok().and_then(|manifest| manifest.preset);
         match record {
             None => Self::from_toml(DEFAULT_BUDGETS, "budgets.toml (built in)"),
-            Some(record) if record.built_in => Self::of_preset(&Preset::load(&record.name)?),
+            Some(record) if record.built_in => Self::of_preset(&Preset::built_in(&record.name)?),
             Some(record) => Err(Error::invalid(
                 dir.display().to_string(),
                 format!(

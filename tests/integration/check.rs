@@ -548,6 +548,18 @@ fn a_preset_folder_is_held_to_the_presets_budgets() {
     assert!(!output.status.success() && stderr.contains("max_refrence_rms"), "{stderr}");
     assert!(!misspelt.exists());
 
+    // A manifest naming a path as its built-in preset is refused by name, the path never read.
+    let manifest_path = out.join("manifest.json");
+    let manifest = std::fs::read_to_string(&manifest_path).unwrap();
+    let outside = edited.to_str().unwrap().replace('\\', "/");
+    std::fs::write(&manifest_path, manifest.replace("\"name\": \"threejs\"", &format!("\"name\": \"{outside}\"")))
+        .unwrap();
+    let refused = tmlut(&["check", folder]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("unknown preset"), "{stderr}");
+    std::fs::write(&manifest_path, manifest).unwrap();
+
     // A build of another configuration into the folder makes it no preset's any more.
     let output = tmlut(&["build", "-q", "--config", &repo("luts/ci.toml"), "--only", "karis", "--out", folder]);
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
